@@ -1,0 +1,1 @@
+"""benchmarks: the harness - references, sweeps, metrics, timing, gate, results store, CLI."""

@@ -1,0 +1,59 @@
+"""``rtbench``: the command-line entry point.
+
+Each subcommand lives in its own module under ``benchmarks.commands`` and defines
+``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int`` (exit code).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+#: subcommand -> module; listed in the order ``rtbench --help`` shows them.
+COMMANDS = {
+    "run": "benchmarks.commands.run",
+    "render": "benchmarks.commands.render",
+    "reference": "benchmarks.commands.reference",
+    "curves": "benchmarks.commands.curves",
+    "report": "benchmarks.commands.report",
+    "gate": "benchmarks.commands.gate",
+    "stress": "benchmarks.commands.stress",
+    "speed": "benchmarks.commands.speed",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="rtbench", description="Validate and benchmark the reference path tracer against Mitsuba 3.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, module_name in COMMANDS.items():
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as exc:
+            if exc.name != module_name:
+                raise
+            continue  # subcommand not part of this build
+        p = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        module.add_arguments(p)
+        p.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "_run", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args._run(args) or 0)
+    except KeyboardInterrupt:
+        print("\ninterrupted", file=sys.stderr)
+        return 130
+    except ValueError as exc:  # bad user input: one clear line, no traceback
+        print(f"rtbench {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

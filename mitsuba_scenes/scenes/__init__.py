@@ -1,0 +1,1 @@
+"""The scene suite: one module per scene, each exposing ``build(**params) -> rt.Scene``."""

@@ -1,0 +1,26 @@
+"""reference_tracer: a from-scratch BRDF path tracer with a Python API over a C++17 core.
+
+Examples
+--------
+>>> import reference_tracer as rt
+>>> cam = rt.Camera(lookfrom=(0, 0, -3), lookat=(0, 0, 0), width=16, height=16)
+>>> scene = rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1, rt.Lambertian(0.5))],
+...                  background=1.0)
+>>> result = rt.render(scene, spp=4, strategy="mis", seed=0)
+>>> result.mean.shape
+(16, 16, 3)
+"""
+from .imageio import write_exr, write_png, read_exr, to_display
+from .materials import Dielectric, DiffuseLight, Lambertian, Material, Metal, RoughConductor
+from .render import STRATEGIES, TRIANGLE_TESTS, RenderResult, render
+from .scene import MAX_DEPTH_CAP, Camera, Scene
+from .shapes import Box, Mesh, Quad, Shape, Sphere, Triangle
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Camera", "Scene", "Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh",
+    "Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "DiffuseLight",
+    "render", "RenderResult", "STRATEGIES", "TRIANGLE_TESTS", "MAX_DEPTH_CAP",
+    "write_exr", "read_exr", "write_png", "to_display", "__version__",
+]

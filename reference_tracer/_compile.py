@@ -1,0 +1,76 @@
+"""Flatten a :class:`Scene` into the world-space arrays the C++ core consumes.
+
+Boxes become six quads, meshes become triangles, transforms are applied and
+``flip_normals`` is baked into the winding (quads: u and v swapped; triangles: b and c
+swapped; spheres: a flag). Materials are deduplicated into a table.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .materials import Dielectric, DiffuseLight, Lambertian, Metal, RoughConductor
+from .scene import Scene
+from .shapes import Box, Mesh, Quad, Sphere, Triangle
+
+# Material table columns; must match MaterialType and read_materials() in cpp/scene.cpp.
+MATERIAL_CODES = {Lambertian: 0, Metal: 1, Dielectric: 2, RoughConductor: 3, DiffuseLight: 4}
+MATERIAL_COLUMNS = 10  # type, albedo rgb, radiance rgb, param, two_sided, reflects
+
+
+def _material_row(m) -> list:
+    code = MATERIAL_CODES[type(m)]
+    albedo = getattr(m, "albedo", None) or (0.0, 0.0, 0.0)
+    radiance = m.radiance if isinstance(m, DiffuseLight) else (0.0, 0.0, 0.0)
+    param = {Metal: lambda: m.fuzz, Dielectric: lambda: m.ior,
+             RoughConductor: lambda: m.alpha}.get(type(m), lambda: 0.0)()
+    two_sided = float(getattr(m, "two_sided", False))
+    reflects = 0.0 if isinstance(m, DiffuseLight) and m.albedo is None else 1.0
+    return [code, *albedo, *radiance, param, two_sided, reflects]
+
+
+def compile_scene(scene: Scene) -> dict:
+    """Return the keyword arguments of ``_core.Scene`` for ``scene``."""
+    materials: list = []
+    index: dict = {}
+
+    def mat_id(m) -> int:
+        key = (type(m), tuple(sorted(m.__dict__.items())))
+        if key not in index:
+            index[key] = len(materials)
+            materials.append(_material_row(m))
+        return index[key]
+
+    spheres, quads, tris, tri_mats = [], [], [], []
+    for s in scene.shapes:
+        mid = mat_id(s.material)
+        if isinstance(s, Sphere):
+            spheres.append([*s.world_center(), s.world_radius(), mid, float(s.flip_normals)])
+        elif isinstance(s, Quad):
+            Q, u, v = s.world_corners()
+            quads.append([*Q, *u, *v, mid])
+        elif isinstance(s, Box):
+            for Q, u, v in s.world_quads():
+                quads.append([*Q, *u, *v, mid])
+        elif isinstance(s, Triangle):
+            tris.append(s.world_vertices().reshape(1, 9))
+            tri_mats.append(np.array([mid], dtype=np.int32))
+        elif isinstance(s, Mesh):
+            t = s.world_triangles().reshape(-1, 9)
+            tris.append(t)
+            tri_mats.append(np.full(len(t), mid, dtype=np.int32))
+        else:  # pragma: no cover - Scene validation admits only these
+            raise ValueError(f"unsupported shape {type(s).__name__}")
+
+    c = scene.camera
+    return dict(
+        lookfrom=np.asarray(c.lookfrom), lookat=np.asarray(c.lookat), vup=np.asarray(c.vup),
+        vfov=float(c.vfov), width=int(c.width), height=int(c.height),
+        materials=np.asarray(materials, dtype=np.float64).reshape(-1, MATERIAL_COLUMNS),
+        spheres=np.asarray(spheres, dtype=np.float64).reshape(-1, 6),
+        quads=np.asarray(quads, dtype=np.float64).reshape(-1, 10),
+        triangles=(np.concatenate(tris) if tris else np.zeros((0, 9))).astype(np.float64),
+        triangle_materials=(np.concatenate(tri_mats) if tri_mats else np.zeros(0, np.int32)),
+        background=np.asarray(scene.background, dtype=np.float64),
+        max_depth=int(scene.effective_max_depth),
+        rr_depth=int(scene.rr_depth) if scene.rr_depth is not None else -1,
+    )

@@ -1,0 +1,86 @@
+"""Image output: linear EXR (OpenEXR) and display PNG (sRGB transfer, Pillow)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["write_exr", "read_exr", "write_png", "to_display"]
+
+
+def _check_image(name: str, array) -> np.ndarray:
+    a = np.asarray(array)
+    if a.ndim == 2:
+        a = a[..., None]
+    if a.ndim != 3 or a.shape[2] not in (1, 3, 4) or a.shape[0] == 0 or a.shape[1] == 0:
+        raise ValueError(f"{name}: expected an (H, W), (H, W, 1), (H, W, 3) or (H, W, 4) array, got {a.shape}")
+    if not np.issubdtype(a.dtype, np.number):
+        raise ValueError(f"{name}: expected a numeric array, got dtype {a.dtype}")
+    return a
+
+
+def write_exr(path, array) -> Path:
+    """Write a linear float32 image as OpenEXR (channels R, G, B[, A] or Y).
+
+    Examples
+    --------
+    >>> write_exr("/tmp/out.exr", np.zeros((4, 4, 3)))  # doctest: +SKIP
+    """
+    import OpenEXR
+
+    a = _check_image("write_exr", array).astype(np.float32)
+    names = {1: "Y", 3: "RGB", 4: "RGBA"}[a.shape[2]]
+    channels = {names: a if a.shape[2] > 1 else a[..., 0]}
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with OpenEXR.File(header, channels) as f:
+        f.write(str(path))
+    return path
+
+
+def read_exr(path) -> np.ndarray:
+    """Read an EXR written by :func:`write_exr` (or Mitsuba) as an (H, W, C) float32 array."""
+    import OpenEXR
+
+    with OpenEXR.File(str(path), separate_channels=False) as f:
+        channels = f.channels()
+        for key in ("RGB", "RGBA", "Y"):
+            if key in channels:
+                px = np.asarray(channels[key].pixels, dtype=np.float32)
+                return px if px.ndim == 3 else px[..., None]
+        key = next(iter(channels))
+        px = np.asarray(channels[key].pixels, dtype=np.float32)
+        return px if px.ndim == 3 else px[..., None]
+
+
+def to_display(array, exposure: float = 0.0) -> np.ndarray:
+    """Linear radiance -> display values in [0, 1]: scale by 2**exposure, clip, sRGB transfer.
+
+    Uses colour-science's sRGB inverse EOTF (the piecewise sRGB curve, not gamma 2.2).
+    Non-finite values display as 0.
+    """
+    import colour
+
+    a = np.nan_to_num(np.asarray(array, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+    a = np.clip(a * (2.0 ** float(exposure)), 0.0, 1.0)
+    return np.clip(colour.models.eotf_inverse_sRGB(a), 0.0, 1.0)
+
+
+def write_png(path, array, exposure: float = 0.0) -> Path:
+    """Write linear radiance as an 8-bit sRGB PNG after scaling by ``2**exposure``.
+
+    Examples
+    --------
+    >>> write_png("/tmp/out.png", np.full((4, 4, 3), 0.5), exposure=0.0)  # doctest: +SKIP
+    """
+    from PIL import Image
+
+    a = _check_image("write_png", array)
+    if not np.isfinite(float(exposure)):
+        raise ValueError(f"write_png: exposure must be finite, got {exposure!r}")
+    d = to_display(a[..., :3] if a.shape[2] >= 3 else np.repeat(a, 3, axis=2), exposure)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(np.round(d * 255.0).astype(np.uint8), mode="RGB").save(path)
+    return path

@@ -1,0 +1,142 @@
+"""``render``: run the C++ path tracer on a :class:`Scene`."""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import _core
+from ._compile import compile_scene
+from ._validate import positive_int
+from .scene import Scene
+
+__all__ = ["render", "RenderResult", "STRATEGIES", "TRIANGLE_TESTS", "core_scene"]
+
+#: Sampling strategies at non-specular bounces (``shared/DESIGN.md`` section 2).
+#: ``light`` is biased on purpose: it sees only light arriving straight from an emitter.
+STRATEGIES = ("uniform", "cosine", "light", "mixture", "mis")
+
+#: Ray-triangle tests: ``watertight`` (Woop, Benthin and Wald 2013, the default: no ray
+#: leaks through shared edges), ``cramer`` (the seed's Cramer's-rule barycentric test in
+#: double precision) and ``cramer32`` (the same in single precision).
+TRIANGLE_TESTS = ("watertight", "cramer", "cramer32")
+
+
+@dataclass
+class RenderResult:
+    """The output of :func:`render`.
+
+    Attributes
+    ----------
+    mean : (H, W, 3) float32
+        Per-pixel mean radiance (linear).
+    variance : (H, W, 3) float32
+        Per-pixel *per-sample* variance, ``E[x^2] - E[x]^2`` over the pixel's samples
+        (divide by ``spp`` for the variance of ``mean``).
+    seconds : float
+        Wall time of the render itself (scene compilation and BVH build excluded; see
+        ``build_seconds``).
+    spp, strategy, seed : the render's settings.
+    rays : int
+        Rays cast (camera, continuation and shadow rays).
+    nonfinite_samples : int
+        Samples discarded because their value was NaN or Inf (0 in a correct render).
+    """
+
+    mean: np.ndarray
+    variance: np.ndarray
+    seconds: float
+    spp: int
+    strategy: str
+    seed: int
+    rays: int = 0
+    nonfinite_samples: int = 0
+    build_seconds: float = 0.0
+    threads: int = 1
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def paths_per_second(self) -> float:
+        h, w, _ = self.mean.shape
+        return h * w * self.spp / self.seconds if self.seconds > 0 else float("inf")
+
+
+def core_scene(scene: Scene, *, triangle_test: str = "watertight"):
+    """Return the compiled C++ scene (BVH built), cached on the Scene object."""
+    if triangle_test not in TRIANGLE_TESTS:
+        raise ValueError(f"triangle_test must be one of {TRIANGLE_TESTS}, got {triangle_test!r}")
+    cache = scene._core_cache
+    if triangle_test not in cache:
+        cache[triangle_test] = _core.Scene(**compile_scene(scene),
+                                           triangle_test=TRIANGLE_TESTS.index(triangle_test))
+    return cache[triangle_test]
+
+
+def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int = 0,
+           threads: int | None = None, triangle_test: str = "watertight",
+           progress=None) -> RenderResult:
+    """Render ``scene`` with the C++ path tracer.
+
+    The image for a given (scene, spp, strategy, seed) is bit-identical whatever the
+    thread count: every pixel draws from its own PCG32 stream seeded from ``seed`` and
+    the pixel index. Ctrl-C stops the render promptly with ``KeyboardInterrupt``.
+
+    Parameters
+    ----------
+    scene : Scene
+    spp : int, keyword-only
+        Samples per pixel, >= 1.
+    strategy : {'uniform', 'cosine', 'light', 'mixture', 'mis'}, keyword-only
+        Direction sampling at non-specular bounces. ``light`` is biased on purpose: it
+        samples only directions toward emitters and so sees only light that arrives
+        straight from an emitter (no indirect light at diffuse surfaces).
+    seed : int, keyword-only
+        Seed of the random streams, 0 <= seed < 2**64.
+    threads : int or None, keyword-only
+        Worker threads; None uses all cores.
+    triangle_test : {'watertight', 'cramer', 'cramer32'}, keyword-only
+        Ray-triangle intersection test (see ``TRIANGLE_TESTS``).
+    progress : callable or None, keyword-only
+        Called as ``progress(done_rows, total_rows)`` from the calling thread while the
+        render runs.
+
+    Returns
+    -------
+    RenderResult
+
+    Examples
+    --------
+    >>> import reference_tracer as rt
+    >>> from mitsuba_scenes import get_scene  # doctest: +SKIP
+    >>> result = rt.render(get_scene("cornell_box", width=64, height=64), spp=16,
+    ...                    strategy="mis", seed=1)  # doctest: +SKIP
+    >>> result.mean.shape  # doctest: +SKIP
+    (64, 64, 3)
+    """
+    if not isinstance(scene, Scene):
+        raise ValueError(f"scene must be a reference_tracer.Scene, got {scene!r}")
+    spp = positive_int("spp", spp)
+    if strategy not in STRATEGIES:
+        raise ValueError(f"strategy must be one of {STRATEGIES}, got {strategy!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**64:
+        raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
+    if threads is None:
+        threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    threads = positive_int("threads", threads)
+    if progress is not None and not callable(progress):
+        raise ValueError("progress must be callable or None")
+
+    import time
+
+    t0 = time.perf_counter()
+    core = core_scene(scene, triangle_test=triangle_test)
+    build = time.perf_counter() - t0
+    out = core.render(spp, STRATEGIES.index(strategy), int(seed), threads, progress)
+    n = float(spp)
+    mean = out["sum"] / n
+    variance = np.maximum(out["sum_sq"] / n - mean * mean, 0.0)
+    return RenderResult(mean=mean.astype(np.float32), variance=variance.astype(np.float32),
+                        seconds=out["seconds"], spp=spp, strategy=strategy, seed=int(seed),
+                        rays=int(out["rays"]), nonfinite_samples=int(out["nonfinite"]),
+                        build_seconds=build, threads=threads)

@@ -1,0 +1,162 @@
+"""Camera and Scene: the description that both renderers consume."""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._validate import colour, finite_scalar, positive_int, vector3
+from .shapes import Shape
+
+__all__ = ["Camera", "Scene", "MAX_DEPTH_CAP"]
+
+#: Safety cap on path length when ``max_depth=-1`` (unlimited). A path that survives
+#: this many segments carries a throughput so small (or Russian roulette has long ended
+#: it) that truncating it changes no pixel at float32 precision in the suite scenes.
+MAX_DEPTH_CAP = 1024
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Pinhole camera; ``vfov`` is the vertical field of view in degrees.
+
+    Pixel (0, 0) is the top-left corner of the image; each pixel is the plain mean of
+    samples jittered uniformly inside it (Mitsuba: box filter, independent sampler).
+
+    Examples
+    --------
+    >>> Camera(lookfrom=(278, 278, -800), lookat=(278, 278, 0), vup=(0, 1, 0),
+    ...        vfov=40.0, width=64, height=64).aspect
+    1.0
+    """
+
+    lookfrom: tuple
+    lookat: tuple
+    vup: tuple = (0.0, 1.0, 0.0)
+    vfov: float = 40.0
+    width: int = 400
+    height: int = 400
+
+    def __post_init__(self):
+        for name in ("lookfrom", "lookat", "vup"):
+            object.__setattr__(self, name, vector3(f"Camera.{name}", getattr(self, name)))
+        object.__setattr__(self, "vfov", finite_scalar("Camera.vfov", self.vfov, lo=0.0, lo_open=True, hi=179.0))
+        object.__setattr__(self, "width", positive_int("Camera.width", self.width))
+        object.__setattr__(self, "height", positive_int("Camera.height", self.height))
+        d = np.subtract(self.lookat, self.lookfrom)
+        if np.linalg.norm(d) == 0:
+            raise ValueError("Camera.lookat must differ from Camera.lookfrom")
+        if np.linalg.norm(np.cross(d / np.linalg.norm(d), self.vup)) < 1e-9 * max(np.linalg.norm(self.vup), 1e-300):
+            raise ValueError("Camera.vup must not be parallel to the viewing direction (lookat - lookfrom)")
+
+    @property
+    def aspect(self) -> float:
+        return self.width / self.height
+
+    def basis(self):
+        """(forward, right, up) unit vectors of the camera in world space."""
+        w = np.subtract(self.lookat, self.lookfrom)
+        w = w / np.linalg.norm(w)
+        right = np.cross(w, self.vup)
+        right /= np.linalg.norm(right)
+        up = np.cross(right, w)
+        return w, right, up
+
+    def with_size(self, width: int, height: int) -> "Camera":
+        return Camera(self.lookfrom, self.lookat, self.vup, self.vfov, width, height)
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A camera, a list of shapes and the integrator settings.
+
+    Parameters
+    ----------
+    camera : Camera
+    shapes : sequence of Shape
+    max_depth : int
+        Path segments as Mitsuba's ``path`` counts them: 1 = only directly visible
+        emitters, 2 = direct lighting, -1 = unlimited (capped at ``MAX_DEPTH_CAP``).
+    rr_depth : int or None
+        Depth from which Russian roulette runs (Mitsuba's rule); None disables it.
+    background : float or (3,) array_like
+        Constant radiance of every ray that escapes (Mitsuba ``constant`` emitter).
+
+    Examples
+    --------
+    >>> import reference_tracer as rt
+    >>> cam = rt.Camera(lookfrom=(0, 0, -3), lookat=(0, 0, 0), width=8, height=8)
+    >>> scene = rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1, rt.Lambertian(0.5))],
+    ...                  background=1.0)
+    >>> scene.max_depth
+    50
+    """
+
+    camera: Camera
+    shapes: tuple = ()
+    max_depth: int = 50
+    rr_depth: int | None = None
+    background: tuple = (0.0, 0.0, 0.0)
+    _core_cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self):
+        if not isinstance(self.camera, Camera):
+            raise ValueError(f"Scene.camera must be a reference_tracer.Camera, got {self.camera!r}")
+        try:
+            shapes = tuple(self.shapes)
+        except TypeError:
+            raise ValueError("Scene.shapes must be a sequence of shapes") from None
+        for i, s in enumerate(shapes):
+            if not isinstance(s, Shape):
+                raise ValueError(f"Scene.shapes[{i}] must be a reference_tracer shape, got {s!r}")
+        object.__setattr__(self, "shapes", shapes)
+        md = self.max_depth
+        if isinstance(md, bool) or not isinstance(md, (int, np.integer)) or not (md == -1 or md >= 1):
+            raise ValueError(f"Scene.max_depth must be an integer >= 1 or -1 (unlimited), got {md!r}")
+        object.__setattr__(self, "max_depth", int(md))
+        if self.rr_depth is not None:
+            object.__setattr__(self, "rr_depth", positive_int("Scene.rr_depth", self.rr_depth))
+        object.__setattr__(self, "background", colour("Scene.background", self.background, upper=None))
+
+    @property
+    def effective_max_depth(self) -> int:
+        return MAX_DEPTH_CAP if self.max_depth == -1 else min(self.max_depth, MAX_DEPTH_CAP)
+
+    def describe(self) -> dict:
+        """A JSON-able description of everything that determines the image."""
+        c = self.camera
+        return {
+            "camera": {"lookfrom": c.lookfrom, "lookat": c.lookat, "vup": c.vup, "vfov": c.vfov,
+                       "width": c.width, "height": c.height},
+            "shapes": [s.describe() for s in self.shapes],
+            "max_depth": self.max_depth, "rr_depth": self.rr_depth,
+            "background": self.background,
+        }
+
+    def content_hash(self) -> str:
+        """SHA-256 of :meth:`describe` (stable across runs; used as a cache key)."""
+        text = json.dumps(self.describe(), sort_keys=True, default=_json_default)
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def with_camera_size(self, width: int, height: int) -> "Scene":
+        return Scene(self.camera.with_size(width, height), self.shapes, self.max_depth,
+                     self.rr_depth, self.background)
+
+    @property
+    def emitters(self):
+        return [s for s in self.shapes if s.material.emits]
+
+    @property
+    def has_background(self) -> bool:
+        return max(self.background) > 0.0
+
+
+def _json_default(x):
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    if isinstance(x, float) and not math.isfinite(x):
+        return str(x)
+    raise TypeError(f"not JSON-serialisable: {type(x)}")

@@ -1,0 +1,365 @@
+"""Shapes of the scene model: Sphere, Quad, Box, Triangle, Mesh.
+
+Each shape is immutable and carries a similarity transform (rotation, uniform scale,
+translation) that the transform methods compose; ``world_*`` methods return the
+geometry after the transform, which is what both renderers consume.
+
+Orientation conventions (``shared/DESIGN.md`` section 3): a quad's normal is
+``u x v``; a triangle's front face is counter-clockwise (``(b - a) x (c - a)``);
+a box's faces point outward; ``flip_normals=True`` reverses the front side.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ._validate import finite_scalar, vector3
+from .materials import Material
+
+__all__ = ["Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh", "rotation_matrix"]
+
+_IDENTITY = tuple(map(tuple, np.eye(4)))
+
+
+def rotation_matrix(axis, degrees: float) -> np.ndarray:
+    """4x4 rotation about ``axis`` (through the origin) by ``degrees``, right-handed."""
+    a = np.asarray(vector3("rotate.axis", axis))
+    n = np.linalg.norm(a)
+    if n == 0:
+        raise ValueError("rotate.axis must be a non-zero vector")
+    x, y, z = a / n
+    t = math.radians(finite_scalar("rotate.degrees", degrees))
+    c, s, C = math.cos(t), math.sin(t), 1.0 - math.cos(t)
+    m = np.eye(4)
+    m[:3, :3] = [[c + x * x * C, x * y * C - z * s, x * z * C + y * s],
+                 [y * x * C + z * s, c + y * y * C, y * z * C - x * s],
+                 [z * x * C - y * s, z * y * C + x * s, c + z * z * C]]
+    return m
+
+
+def _check_material(owner: str, material) -> Material:
+    if not isinstance(material, Material):
+        raise ValueError(f"{owner}.material must be a reference_tracer material, got {material!r}")
+    return material
+
+
+@dataclass(frozen=True, eq=False)
+class Shape:
+    """Base of all shapes: a material, a front-side flag and a similarity transform."""
+
+    def _post(self):
+        object.__setattr__(self, "material", _check_material(type(self).__name__, self.material))
+        object.__setattr__(self, "flip_normals", bool(self.flip_normals))
+        m = np.asarray(self.transform, dtype=np.float64)
+        if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+            raise ValueError(f"{type(self).__name__}.transform must be a finite 4x4 matrix")
+        object.__setattr__(self, "transform", tuple(map(tuple, m)))
+
+    # -- transforms ---------------------------------------------------------
+    @property
+    def matrix(self) -> np.ndarray:
+        """The object-to-world 4x4 matrix."""
+        return np.array(self.transform)
+
+    @property
+    def scale_factor(self) -> float:
+        """The uniform scale of the transform (cube root of the linear part's determinant)."""
+        return float(np.cbrt(np.linalg.det(self.matrix[:3, :3])))
+
+    def _compose(self, m: np.ndarray):
+        return replace(self, transform=tuple(map(tuple, m @ self.matrix)))
+
+    def translate(self, offset):
+        """Return a copy moved by ``offset`` (applied after the existing transform)."""
+        m = np.eye(4)
+        m[:3, 3] = vector3("translate.offset", offset)
+        return self._compose(m)
+
+    def rotate(self, axis, degrees: float):
+        """Return a copy rotated by ``degrees`` about ``axis`` through the origin."""
+        return self._compose(rotation_matrix(axis, degrees))
+
+    def rotate_x(self, degrees: float):
+        return self.rotate((1, 0, 0), degrees)
+
+    def rotate_y(self, degrees: float):
+        return self.rotate((0, 1, 0), degrees)
+
+    def rotate_z(self, degrees: float):
+        return self.rotate((0, 0, 1), degrees)
+
+    def scale(self, factor: float):
+        """Return a copy scaled uniformly by ``factor`` > 0 about the origin."""
+        f = finite_scalar("scale.factor", factor, lo=0.0, lo_open=True)
+        m = np.eye(4)
+        m[:3, :3] *= f
+        return self._compose(m)
+
+    def _point(self, p) -> np.ndarray:
+        m = self.matrix
+        return m[:3, :3] @ np.asarray(p, dtype=np.float64) + m[:3, 3]
+
+    def _vector(self, v) -> np.ndarray:
+        return self.matrix[:3, :3] @ np.asarray(v, dtype=np.float64)
+
+    def describe(self) -> dict:
+        """A JSON-able description (used for hashing scenes)."""
+        d = {"type": type(self).__name__, "material": _describe_material(self.material),
+             "flip_normals": self.flip_normals, "transform": [list(r) for r in self.transform]}
+        d.update(self._describe_geometry())
+        return d
+
+
+def _describe_material(m: Material) -> dict:
+    d = {"type": type(m).__name__}
+    d.update({k: v for k, v in m.__dict__.items()})
+    return d
+
+
+@dataclass(frozen=True, eq=False)
+class Sphere(Shape):
+    """Sphere of ``radius`` > 0 about ``center``; outward normals unless flipped.
+
+    Examples
+    --------
+    >>> from reference_tracer import Lambertian
+    >>> Sphere((0, 0, 0), 1.0, Lambertian(0.5)).translate((0, 1, 0)).world_center()
+    array([0., 1., 0.])
+    """
+
+    center: tuple
+    radius: float
+    material: Material
+    flip_normals: bool = False
+    transform: tuple = field(default=_IDENTITY, repr=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "center", vector3("Sphere.center", self.center))
+        object.__setattr__(self, "radius", finite_scalar("Sphere.radius", self.radius, lo=0.0, lo_open=True))
+        self._post()
+
+    def world_center(self) -> np.ndarray:
+        return self._point(self.center)
+
+    def world_radius(self) -> float:
+        return self.radius * self.scale_factor
+
+    def _describe_geometry(self):
+        return {"center": self.center, "radius": self.radius}
+
+
+@dataclass(frozen=True, eq=False)
+class Quad(Shape):
+    """Parallelogram ``Q + s u + t v`` for s, t in [0, 1]; normal ``u x v``.
+
+    Examples
+    --------
+    >>> from reference_tracer import DiffuseLight
+    >>> q = Quad((213, 554, 227), (130, 0, 0), (0, 0, 105), DiffuseLight(15))
+    >>> q.world_normal()
+    array([ 0., -1.,  0.])
+    """
+
+    Q: tuple
+    u: tuple
+    v: tuple
+    material: Material
+    flip_normals: bool = False
+    transform: tuple = field(default=_IDENTITY, repr=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "Q", vector3("Quad.Q", self.Q))
+        object.__setattr__(self, "u", vector3("Quad.u", self.u))
+        object.__setattr__(self, "v", vector3("Quad.v", self.v))
+        n = np.cross(self.u, self.v)
+        scale = max(np.linalg.norm(self.u) * np.linalg.norm(self.v), 1e-300)
+        if np.linalg.norm(n) <= 1e-12 * scale or np.linalg.norm(n) == 0.0:
+            kind = "light " if isinstance(self.material, Material) and self.material.emits else ""
+            raise ValueError(f"Quad {kind}has zero area: Quad.u x Quad.v is zero (u={self.u}, v={self.v})")
+        self._post()
+
+    def world_corners(self):
+        """(Q, u, v) in world space, with u and v swapped when the normal is flipped."""
+        Q, u, v = self._point(self.Q), self._vector(self.u), self._vector(self.v)
+        return (Q, v, u) if self.flip_normals else (Q, u, v)
+
+    def world_normal(self) -> np.ndarray:
+        _, u, v = self.world_corners()
+        n = np.cross(u, v)
+        return n / np.linalg.norm(n)
+
+    def area(self) -> float:
+        _, u, v = self.world_corners()
+        return float(np.linalg.norm(np.cross(u, v)))
+
+    def _describe_geometry(self):
+        return {"Q": self.Q, "u": self.u, "v": self.v}
+
+
+@dataclass(frozen=True, eq=False)
+class Box(Shape):
+    """Axis-aligned box ``[pmin, pmax]`` (before its transform) of six outward quads.
+
+    Examples
+    --------
+    >>> from reference_tracer import Lambertian
+    >>> b = Box((0, 0, 0), (165, 330, 165), Lambertian(0.73)).rotate_y(15).translate((265, 0, 295))
+    >>> len(b.world_quads())
+    6
+    """
+
+    pmin: tuple
+    pmax: tuple
+    material: Material
+    flip_normals: bool = False
+    transform: tuple = field(default=_IDENTITY, repr=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "pmin", vector3("Box.pmin", self.pmin))
+        object.__setattr__(self, "pmax", vector3("Box.pmax", self.pmax))
+        if any(a >= b for a, b in zip(self.pmin, self.pmax)):
+            raise ValueError(f"Box.pmin must be < Box.pmax in every axis, got {self.pmin} and {self.pmax}")
+        self._post()
+
+    def local_quads(self):
+        """The six faces as (Q, u, v) in object space, each with an outward normal u x v."""
+        (x0, y0, z0), (x1, y1, z1) = self.pmin, self.pmax
+        dx, dy, dz = x1 - x0, y1 - y0, z1 - z0
+        return [
+            ((x0, y0, z1), (dx, 0, 0), (0, dy, 0)),    # +z
+            ((x1, y0, z0), (-dx, 0, 0), (0, dy, 0)),   # -z
+            ((x1, y0, z1), (0, 0, -dz), (0, dy, 0)),   # +x
+            ((x0, y0, z0), (0, 0, dz), (0, dy, 0)),    # -x
+            ((x0, y1, z1), (dx, 0, 0), (0, 0, -dz)),   # +y
+            ((x0, y0, z0), (dx, 0, 0), (0, 0, dz)),    # -y
+        ]
+
+    def world_quads(self):
+        out = []
+        for Q, u, v in self.local_quads():
+            Qw, uw, vw = self._point(Q), self._vector(u), self._vector(v)
+            out.append((Qw, vw, uw) if self.flip_normals else (Qw, uw, vw))
+        return out
+
+    def _describe_geometry(self):
+        return {"pmin": self.pmin, "pmax": self.pmax}
+
+
+@dataclass(frozen=True, eq=False)
+class Triangle(Shape):
+    """Triangle ``a, b, c``; counter-clockwise (``(b-a) x (c-a)``) is the front face.
+
+    Examples
+    --------
+    >>> from reference_tracer import Lambertian
+    >>> Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0), Lambertian(0.5)).world_vertices()[2]
+    array([0., 1., 0.])
+    """
+
+    a: tuple
+    b: tuple
+    c: tuple
+    material: Material
+    flip_normals: bool = False
+    transform: tuple = field(default=_IDENTITY, repr=False)
+
+    def __post_init__(self):
+        for name in "abc":
+            object.__setattr__(self, name, vector3(f"Triangle.{name}", getattr(self, name)))
+        n = np.cross(np.subtract(self.b, self.a), np.subtract(self.c, self.a))
+        if np.linalg.norm(n) == 0.0:
+            raise ValueError(f"Triangle has zero area (collinear or repeated vertices): {self.a}, {self.b}, {self.c}")
+        self._post()
+
+    def world_vertices(self) -> np.ndarray:
+        a, b, c = (self._point(p) for p in (self.a, self.b, self.c))
+        return np.array([a, c, b] if self.flip_normals else [a, b, c])
+
+    def _describe_geometry(self):
+        return {"a": self.a, "b": self.b, "c": self.c}
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh(Shape):
+    """Triangle mesh from an (N, 3) vertex array and an (M, 3) integer face array.
+
+    Faces are counter-clockwise seen from the front, as in OBJ and PLY. Shading is
+    flat (Mitsuba shades meshes without vertex normals flat). Degenerate (zero-area)
+    faces are allowed and never hit.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from reference_tracer import Lambertian
+    >>> m = Mesh(np.eye(3), [[0, 1, 2]], Lambertian(0.5))
+    >>> m.world_vertices().shape
+    (3, 3)
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    material: Material
+    flip_normals: bool = False
+    transform: tuple = field(default=_IDENTITY, repr=False)
+
+    def __post_init__(self):
+        try:
+            v = np.array(self.vertices, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError("Mesh.vertices must be an (N, 3) array of numbers") from None
+        if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] == 0:
+            raise ValueError(f"Mesh.vertices must have shape (N, 3) with N > 0, got {v.shape}")
+        if not np.all(np.isfinite(v)):
+            bad = int(np.argwhere(~np.isfinite(v))[0][0])
+            raise ValueError(f"Mesh.vertices must be finite; vertex {bad} is {v[bad].tolist()}")
+        f = np.asarray(self.faces)
+        if f.ndim != 2 or f.shape[1] != 3 or f.shape[0] == 0:
+            raise ValueError(f"Mesh.faces must have shape (M, 3) with M > 0, got {f.shape}")
+        if not np.issubdtype(f.dtype, np.integer):
+            if np.issubdtype(f.dtype, np.floating) and np.all(np.isfinite(f)) and np.all(f == np.round(f)):
+                f = f.astype(np.int64)
+            else:
+                raise ValueError(f"Mesh.faces must hold integer vertex indices, got dtype {f.dtype}")
+        f = f.astype(np.int64)
+        if f.min() < 0 or f.max() >= v.shape[0]:
+            bad = int(np.argwhere((f < 0) | (f >= v.shape[0]))[0][0])
+            raise ValueError(f"Mesh.faces index out of range [0, {v.shape[0]}): face {bad} is {f[bad].tolist()}")
+        v.setflags(write=False)
+        f.setflags(write=False)
+        object.__setattr__(self, "vertices", v)
+        object.__setattr__(self, "faces", f)
+        self._post()
+
+    @classmethod
+    def load(cls, path, material: Material, *, flip_normals: bool = False) -> "Mesh":
+        """Read an OBJ or PLY file with trimesh (no processing: vertex order kept).
+
+        Examples
+        --------
+        >>> Mesh.load("bunny.ply", Lambertian(0.5))  # doctest: +SKIP
+        """
+        import trimesh
+
+        try:
+            tm = trimesh.load(str(path), process=False, force="mesh")
+        except Exception as exc:  # trimesh raises many types; name the file in all cases
+            raise ValueError(f"Mesh.load could not read {path!s}: {exc}") from exc
+        if len(tm.faces) == 0:
+            raise ValueError(f"Mesh.load: {path!s} holds no triangles")
+        return cls(np.asarray(tm.vertices), np.asarray(tm.faces), material, flip_normals=flip_normals)
+
+    def world_vertices(self) -> np.ndarray:
+        m = self.matrix
+        return self.vertices @ m[:3, :3].T + m[:3, 3]
+
+    def world_triangles(self) -> np.ndarray:
+        """(M, 3, 3) world-space triangles, winding reversed when the normals are flipped."""
+        f = self.faces[:, [0, 2, 1]] if self.flip_normals else self.faces
+        return self.world_vertices()[f]
+
+    def _describe_geometry(self):
+        h = hashlib.sha256(self.vertices.tobytes() + self.faces.tobytes()).hexdigest()
+        return {"mesh_sha256": h, "n_vertices": int(len(self.vertices)), "n_faces": int(len(self.faces))}
