@@ -1,0 +1,248 @@
+// Python bindings (nanobind): the compiled scene, rendering with the GIL released, and
+// ray queries used by tests and benchmarks. Input arrays are validated by the Python
+// layer (reference_tracer/_compile.py); the checks here guard the C++ invariants only.
+#include <chrono>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+
+#include "render.h"
+
+namespace nb = nanobind;
+using namespace nb::literals;
+
+namespace {
+
+using Matrix = nb::ndarray<const double, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
+using Vector = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using IndexVector = nb::ndarray<const int32_t, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+rt::Vec3 vec3(const Vector& a) {
+    if (a.shape(0) != 3) throw std::invalid_argument("expected a 3-vector");
+    return {a(0), a(1), a(2)};
+}
+rt::Vec3 row3(const Matrix& m, size_t i, size_t col) { return {m(i, col), m(i, col + 1), m(i, col + 2)}; }
+
+void require_columns(const Matrix& m, size_t cols, const char* name) {
+    if (m.shape(1) != cols)
+        throw std::invalid_argument(std::string(name) + ": expected " + std::to_string(cols) + " columns");
+}
+
+uint32_t material_id(double value, size_t n_materials, const char* name) {
+    if (!(value >= 0.0) || value >= double(n_materials) || value != double(uint32_t(value)))
+        throw std::invalid_argument(std::string(name) + ": material index out of range");
+    return uint32_t(value);
+}
+
+template <typename T>
+nb::ndarray<nb::numpy, T> to_numpy(std::vector<T>&& data, std::initializer_list<size_t> shape) {
+    auto* heap = new std::vector<T>(std::move(data));
+    nb::capsule owner(heap, [](void* p) noexcept { delete static_cast<std::vector<T>*>(p); });
+    return nb::ndarray<nb::numpy, T>(heap->data(), shape, owner);
+}
+
+class PyScene {
+public:
+    PyScene(const Vector& lookfrom, const Vector& lookat, const Vector& vup, double vfov, int width, int height,
+            const Matrix& materials, const Matrix& spheres, const Matrix& quads, const Matrix& triangles,
+            const IndexVector& triangle_materials, const Vector& background, int max_depth, int rr_depth,
+            int triangle_test) {
+        if (width < 1 || height < 1) throw std::invalid_argument("image size must be positive");
+        if (max_depth < 1) throw std::invalid_argument("max_depth must be >= 1 here (the Python layer maps -1)");
+        if (triangle_test < 0 || triangle_test > 2) throw std::invalid_argument("unknown triangle test");
+        require_columns(materials, 10, "materials");
+        require_columns(spheres, 6, "spheres");
+        require_columns(quads, 10, "quads");
+        require_columns(triangles, 9, "triangles");
+        if (triangle_materials.shape(0) != triangles.shape(0))
+            throw std::invalid_argument("triangle_materials: one entry per triangle expected");
+
+        std::vector<rt::Material> mats;
+        for (size_t i = 0; i < materials.shape(0); ++i) {
+            rt::Material m;
+            const int type = int(materials(i, 0));
+            if (type < 0 || type > 4) throw std::invalid_argument("materials: unknown material type");
+            m.type = rt::MaterialType(type);
+            m.albedo = row3(materials, i, 1);
+            m.radiance = row3(materials, i, 4);
+            m.param = materials(i, 7);
+            m.two_sided = materials(i, 8) != 0.0;
+            m.reflects = materials(i, 9) != 0.0;
+            mats.push_back(m);
+        }
+        const size_t nm = mats.size();
+        std::vector<rt::Sphere> sph;
+        for (size_t i = 0; i < spheres.shape(0); ++i)
+            sph.push_back({row3(spheres, i, 0), spheres(i, 3), spheres(i, 5) != 0.0 ? -1.0 : 1.0,
+                           material_id(spheres(i, 4), nm, "spheres")});
+        std::vector<rt::Quad> qs;
+        for (size_t i = 0; i < quads.shape(0); ++i)
+            qs.emplace_back(row3(quads, i, 0), row3(quads, i, 3), row3(quads, i, 6), material_id(quads(i, 9), nm, "quads"));
+        std::vector<rt::Triangle> tris;
+        tris.reserve(triangles.shape(0));
+        for (size_t i = 0; i < triangles.shape(0); ++i)
+            tris.push_back({row3(triangles, i, 0), row3(triangles, i, 3), row3(triangles, i, 6),
+                            material_id(double(triangle_materials(i)), nm, "triangle_materials")});
+
+        rt::SceneSettings settings;
+        settings.background = vec3(background);
+        settings.max_depth = max_depth;
+        settings.rr_depth = rr_depth;
+        settings.triangle_test = rt::TriangleTest(triangle_test);
+        const rt::Camera camera(vec3(lookfrom), vec3(lookat), vec3(vup), vfov, width, height);
+
+        const auto t0 = std::chrono::steady_clock::now();
+        {
+            nb::gil_scoped_release release;
+            scene_ = std::make_unique<rt::Scene>(camera, std::move(mats), std::move(sph), std::move(qs),
+                                                 std::move(tris), settings);
+        }
+        build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+
+    nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress) {
+        if (spp < 1) throw std::invalid_argument("spp must be >= 1");
+        if (strategy < 0 || strategy > 4) throw std::invalid_argument("unknown strategy");
+        if (threads < 1) throw std::invalid_argument("threads must be >= 1");
+        rt::RenderJob job;
+        job.scene = scene_.get();
+        job.strategy = rt::Strategy(strategy);
+        job.spp = spp;
+        job.seed = seed;
+        job.threads = threads;
+
+        bool interrupted = false, callback_failed = false;
+        rt::RenderOutput out;
+        {
+            nb::gil_scoped_release release;
+            out = rt::render(job, [&](uint64_t done, uint64_t total) {
+                nb::gil_scoped_acquire acquire;
+                if (PyErr_CheckSignals() != 0) {  // Ctrl-C: the KeyboardInterrupt is now set
+                    interrupted = true;
+                    return false;
+                }
+                if (!progress.is_none()) {
+                    try {
+                        progress(done, total);
+                    } catch (nb::python_error& e) {
+                        e.restore();
+                        callback_failed = true;
+                        return false;
+                    }
+                }
+                return true;
+            });
+        }
+        if (interrupted || callback_failed) throw nb::python_error();
+        const auto& cam = scene_->camera();
+        const size_t H = size_t(cam.height), W = size_t(cam.width);
+        if (!progress.is_none()) progress(W * H, W * H);
+        nb::dict result;
+        result["sum"] = to_numpy(std::move(out.sum), {H, W, 3});
+        result["sum_sq"] = to_numpy(std::move(out.sum_sq), {H, W, 3});
+        result["rays"] = out.rays;
+        result["nonfinite"] = out.nonfinite;
+        result["seconds"] = out.seconds;
+        return result;
+    }
+
+    // Closest hits of N rays: t (inf on a miss), primitive id (-1), point and front normal.
+    nb::dict intersect(const Matrix& origins, const Matrix& directions, bool brute_force) const {
+        require_columns(origins, 3, "origins");
+        require_columns(directions, 3, "directions");
+        if (origins.shape(0) != directions.shape(0)) throw std::invalid_argument("origins and directions differ in length");
+        const size_t n = origins.shape(0);
+        std::vector<double> t(n, rt::kInf), p(3 * n, 0.0), nrm(3 * n, 0.0);
+        std::vector<int64_t> prim(n, -1);
+        {
+            nb::gil_scoped_release release;
+            for (size_t i = 0; i < n; ++i) {
+                const rt::Ray ray{row3(origins, i, 0), row3(directions, i, 0)};
+                rt::Interaction it;
+                const bool hit = brute_force ? scene_->intersect_brute_force(ray, it) : scene_->intersect(ray, it);
+                if (!hit) continue;
+                t[i] = it.t;
+                prim[i] = it.prim;
+                for (int c = 0; c < 3; ++c) { p[3 * i + c] = it.p[c]; nrm[3 * i + c] = it.n[c]; }
+            }
+        }
+        nb::dict r;
+        r["t"] = to_numpy(std::move(t), {n});
+        r["prim"] = to_numpy(std::move(prim), {n});
+        r["point"] = to_numpy(std::move(p), {n, 3});
+        r["normal"] = to_numpy(std::move(nrm), {n, 3});
+        return r;
+    }
+
+    // Light sampling from N reference points with uniform numbers u (N, 3).
+    nb::dict sample_lights(const Matrix& refs, const Matrix& u) const {
+        require_columns(refs, 3, "refs");
+        require_columns(u, 3, "u");
+        if (refs.shape(0) != u.shape(0)) throw std::invalid_argument("refs and u differ in length");
+        const size_t n = refs.shape(0);
+        std::vector<double> wi(3 * n, 0.0), pdf(n, 0.0), dist(n, 0.0), pdf_all(n, 0.0);
+        std::vector<uint8_t> valid(n, 0);
+        for (size_t i = 0; i < n; ++i) {
+            const rt::Vec3 ref = row3(refs, i, 0);
+            const rt::LightSample ls = scene_->lights().sample(ref, u(i, 0), u(i, 1), u(i, 2));
+            valid[i] = ls.valid;
+            if (!ls.valid) continue;
+            for (int c = 0; c < 3; ++c) wi[3 * i + c] = ls.wi[c];
+            pdf[i] = ls.pdf;
+            dist[i] = ls.dist;
+            pdf_all[i] = scene_->lights().pdf_all(ref, ls.wi);
+        }
+        nb::dict r;
+        r["wi"] = to_numpy(std::move(wi), {n, 3});
+        r["pdf"] = to_numpy(std::move(pdf), {n});
+        r["pdf_all"] = to_numpy(std::move(pdf_all), {n});
+        r["dist"] = to_numpy(std::move(dist), {n});
+        r["valid"] = to_numpy(std::move(valid), {n});
+        return r;
+    }
+
+    // Density of light sampling (all emitters and the background) for N directions.
+    nb::ndarray<nb::numpy, double> light_pdf(const Matrix& refs, const Matrix& dirs) const {
+        require_columns(refs, 3, "refs");
+        require_columns(dirs, 3, "dirs");
+        if (refs.shape(0) != dirs.shape(0)) throw std::invalid_argument("refs and dirs differ in length");
+        const size_t n = refs.shape(0);
+        std::vector<double> pdf(n);
+        for (size_t i = 0; i < n; ++i) pdf[i] = scene_->lights().pdf_all(row3(refs, i, 0), rt::normalize(row3(dirs, i, 0)));
+        return to_numpy(std::move(pdf), {n});
+    }
+
+    size_t primitive_count() const { return scene_->primitive_count(); }
+    size_t emitter_count() const { return scene_->lights().emitter_count(); }
+    size_t bvh_nodes() const { return scene_->bvh().nodes().size(); }
+    int bvh_depth() const { return scene_->bvh().depth(); }
+    double build_seconds() const { return build_seconds_; }
+
+private:
+    std::unique_ptr<rt::Scene> scene_;
+    double build_seconds_ = 0.0;
+};
+
+}  // namespace
+
+NB_MODULE(_core, m) {
+    m.doc() = "C++ core of reference_tracer: scene, BVH, integrator and render loop.";
+    nb::class_<PyScene>(m, "Scene")
+        .def(nb::init<const Vector&, const Vector&, const Vector&, double, int, int, const Matrix&, const Matrix&,
+                      const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int>(),
+             "lookfrom"_a, "lookat"_a, "vup"_a, "vfov"_a, "width"_a, "height"_a, "materials"_a, "spheres"_a,
+             "quads"_a, "triangles"_a, "triangle_materials"_a, "background"_a, "max_depth"_a, "rr_depth"_a,
+             "triangle_test"_a = 0)
+        .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none())
+        .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false)
+        .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a)
+        .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)
+        .def_prop_ro("primitive_count", &PyScene::primitive_count)
+        .def_prop_ro("emitter_count", &PyScene::emitter_count)
+        .def_prop_ro("bvh_nodes", &PyScene::bvh_nodes)
+        .def_prop_ro("bvh_depth", &PyScene::bvh_depth)
+        .def_prop_ro("build_seconds", &PyScene::build_seconds);
+}

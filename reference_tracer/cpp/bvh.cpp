@@ -1,0 +1,109 @@
+#include "bvh.h"
+
+#include <algorithm>
+
+namespace rt {
+
+BVH::BVH(const std::vector<AABB>& boxes) {
+    std::vector<BuildItem> items;
+    items.reserve(boxes.size());
+    for (uint32_t i = 0; i < boxes.size(); ++i) {
+        const AABB& b = boxes[i];
+        if (!b.valid() || !is_finite(b.lo) || !is_finite(b.hi)) continue;
+        items.push_back({b, b.centroid(), i});
+    }
+    if (items.empty()) return;
+    nodes_.reserve(2 * items.size() / kMaxLeafSize + 1);
+    order_.reserve(items.size());
+    build(items, 0, static_cast<uint32_t>(items.size()), 1);
+}
+
+uint32_t BVH::build(std::vector<BuildItem>& items, uint32_t begin, uint32_t end, int depth) {
+    depth_ = std::max(depth_, depth);
+    const uint32_t index = static_cast<uint32_t>(nodes_.size());
+    nodes_.emplace_back();
+    AABB box, centroids;
+    for (uint32_t i = begin; i < end; ++i) {
+        box.expand(items[i].box);
+        centroids.expand(items[i].centroid);
+    }
+    nodes_[index].box = box;
+    const uint32_t count = end - begin;
+
+    auto make_leaf = [&]() {
+        nodes_[index].offset = static_cast<uint32_t>(order_.size());
+        nodes_[index].count = static_cast<uint16_t>(count);
+        for (uint32_t i = begin; i < end; ++i) order_.push_back(items[i].prim);
+        return index;
+    };
+    if (count <= 1) return make_leaf();
+
+    // Binned SAH over the axis of largest centroid extent.
+    const int axis = centroids.longest_axis();
+    const double lo = centroids.lo[axis], extent = centroids.hi[axis] - centroids.lo[axis];
+    uint32_t mid = begin;
+    bool split_found = false;
+    // Past depth 64 only median splits: the traversal stack (128 entries) can never overflow.
+    if (extent > 0.0 && depth < 64) {
+        struct Bin { AABB box; uint32_t count = 0; };
+        Bin bins[kBins];
+        auto bin_of = [&](const BuildItem& it) {
+            const int b = static_cast<int>(kBins * ((it.centroid[axis] - lo) / extent));
+            return std::clamp(b, 0, kBins - 1);
+        };
+        for (uint32_t i = begin; i < end; ++i) {
+            Bin& b = bins[bin_of(items[i])];
+            b.box.expand(items[i].box);
+            ++b.count;
+        }
+        // Sweep from the right to get the area and count of every right-hand side.
+        double right_area[kBins];
+        uint32_t right_count[kBins];
+        AABB acc;
+        uint32_t n = 0;
+        for (int i = kBins - 1; i > 0; --i) {
+            acc.expand(bins[i].box);
+            n += bins[i].count;
+            right_area[i] = acc.surface_area();
+            right_count[i] = n;
+        }
+        double best_cost = kInf;
+        int best_split = -1;
+        acc = AABB();
+        n = 0;
+        for (int i = 0; i < kBins - 1; ++i) {
+            acc.expand(bins[i].box);
+            n += bins[i].count;
+            if (n == 0 || right_count[i + 1] == 0) continue;
+            const double cost = n * acc.surface_area() + right_count[i + 1] * right_area[i + 1];
+            if (cost < best_cost) { best_cost = cost; best_split = i; }
+        }
+        const double parent_area = box.surface_area();
+        const double leaf_cost = static_cast<double>(count);
+        // Traversal cost 1 relative to one intersection; areas relative to the parent's.
+        const double split_cost = parent_area > 0.0 ? 1.0 + best_cost / parent_area : kInf;
+        if (best_split >= 0 && (count > kMaxLeafSize || split_cost < leaf_cost)) {
+            auto it = std::partition(items.begin() + begin, items.begin() + end,
+                                     [&](const BuildItem& x) { return bin_of(x) <= best_split; });
+            mid = static_cast<uint32_t>(it - items.begin());
+            split_found = mid > begin && mid < end;
+        } else if (count <= kMaxLeafSize) {
+            return make_leaf();
+        }
+    }
+    if (!split_found) {
+        if (count <= kMaxLeafSize) return make_leaf();
+        // Coincident centroids (or no useful SAH split): split by count so leaves stay
+        // small and the build stays O(n log n) for any input.
+        mid = begin + count / 2;
+        std::nth_element(items.begin() + begin, items.begin() + mid, items.begin() + end,
+                         [&](const BuildItem& a, const BuildItem& b) { return a.centroid[axis] < b.centroid[axis]; });
+    }
+    nodes_[index].axis = static_cast<uint8_t>(axis);
+    build(items, begin, mid, depth + 1);
+    const uint32_t right = build(items, mid, end, depth + 1);
+    nodes_[index].offset = right;
+    return index;
+}
+
+}  // namespace rt

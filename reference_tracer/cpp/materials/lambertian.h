@@ -1,0 +1,30 @@
+// Lambertian reflection, albedo / pi (Mitsuba `diffuse`). Reflects only into the
+// hemisphere the viewer is in; the caller handles one-/two-sidedness.
+#pragma once
+
+#include "../sampling/warp.h"
+#include "bsdf_sample.h"
+
+namespace rt::lambertian {
+
+inline Vec3 eval(const Vec3& albedo, const Vec3& wo, const Vec3& wi) {
+    if (wo.z <= 0.0 || wi.z <= 0.0) return Vec3(0.0);
+    return albedo * (kInvPi * wi.z);  // f * cos
+}
+
+inline double pdf(const Vec3& wo, const Vec3& wi) {
+    return (wo.z > 0.0 && wi.z > 0.0) ? cosine_hemisphere_pdf(wi.z) : 0.0;
+}
+
+inline BSDFSample sample(const Vec3& albedo, const Vec3& wo, double u1, double u2) {
+    BSDFSample s;
+    if (wo.z <= 0.0) return s;
+    s.wi = square_to_cosine_hemisphere(u1, u2);
+    s.pdf = cosine_hemisphere_pdf(s.wi.z);
+    if (!(s.pdf > 0.0)) return s;
+    s.weight = albedo;  // (albedo/pi * cos) / (cos/pi)
+    s.valid = true;
+    return s;
+}
+
+}  // namespace rt::lambertian

@@ -1,0 +1,59 @@
+// A material of the scene and the dispatch from it to its BSDF. One tagged struct, no
+// virtual calls on the hot path.
+#pragma once
+
+#include "conductor.h"
+#include "dielectric.h"
+#include "lambertian.h"
+#include "rough_conductor.h"
+
+namespace rt {
+
+enum class MaterialType : int { Lambertian = 0, Metal = 1, Dielectric = 2, RoughConductor = 3, DiffuseLight = 4 };
+
+struct Material {
+    MaterialType type = MaterialType::Lambertian;
+    Vec3 albedo;
+    Vec3 radiance;          // emitted radiance (DiffuseLight)
+    double param = 0.0;     // Metal: fuzz; Dielectric: ior; RoughConductor: alpha
+    bool two_sided = false;
+    bool reflects = true;   // false for a DiffuseLight without albedo: a black surface
+
+    bool emits() const { return type == MaterialType::DiffuseLight && max_component(radiance) > 0.0; }
+    // Delta lobes: sampled directly, no pdf machinery, no light sampling at the vertex.
+    bool is_delta() const { return type == MaterialType::Metal || type == MaterialType::Dielectric; }
+    bool is_glass() const { return type == MaterialType::Dielectric; }
+};
+
+// f * cos for a non-delta material in its local frame (wo.z > 0 assumed by the caller).
+inline Vec3 bsdf_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
+    switch (m.type) {
+        case MaterialType::Lambertian:
+        case MaterialType::DiffuseLight: return lambertian::eval(m.albedo, wo, wi);
+        case MaterialType::RoughConductor: return rough_conductor::eval(m.albedo, m.param, wo, wi);
+        default: return Vec3(0.0);
+    }
+}
+
+// Density of bsdf_sample's direction (the `cosine` strategy's pdf).
+inline double bsdf_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
+    switch (m.type) {
+        case MaterialType::Lambertian:
+        case MaterialType::DiffuseLight: return lambertian::pdf(wo, wi);
+        case MaterialType::RoughConductor: return rough_conductor::pdf(m.param, wo, wi);
+        default: return 0.0;
+    }
+}
+
+inline BSDFSample bsdf_sample(const Material& m, const Vec3& wo, double u0, double u1, double u2) {
+    switch (m.type) {
+        case MaterialType::Lambertian:
+        case MaterialType::DiffuseLight: return lambertian::sample(m.albedo, wo, u1, u2);
+        case MaterialType::RoughConductor: return rough_conductor::sample(m.albedo, m.param, wo, u1, u2);
+        case MaterialType::Metal: return conductor::sample(m.albedo, m.param, wo, u1, u2);
+        case MaterialType::Dielectric: return dielectric::sample(m.param, wo, u0);
+    }
+    return {};
+}
+
+}  // namespace rt

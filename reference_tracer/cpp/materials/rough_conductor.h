@@ -1,0 +1,70 @@
+// GGX microfacet conductor with Fresnel 1 (Mitsuba `roughconductor`, distribution 'ggx',
+// material 'none'): f = albedo D(h) G1(wo,h) G1(wi,h) / (4 cos_o cos_i), separable Smith
+// shadowing, isotropic alpha as Mitsuba's. Sampled through the distribution of visible
+// normals (Heitz 2018), whose density is D_wo(h) / (4 wo.h) = G1(wo,h) D(h) / (4 cos_o).
+#pragma once
+
+#include "../sampling/warp.h"
+#include "bsdf_sample.h"
+
+namespace rt::rough_conductor {
+
+inline double ggx_d(const Vec3& m, double alpha) {
+    if (m.z <= 0.0) return 0.0;
+    const double a2 = alpha * alpha;
+    const double c2 = m.z * m.z;
+    const double denom = c2 * (a2 - 1.0) + 1.0;
+    return a2 / (kPi * denom * denom);
+}
+
+// Smith's masking for GGX; zero when v sees the back of the microfacet.
+inline double smith_g1(const Vec3& v, const Vec3& m, double alpha) {
+    if (dot(v, m) * v.z <= 0.0) return 0.0;
+    const double c2 = v.z * v.z;
+    const double tan2 = std::max(0.0, 1.0 - c2) / c2;
+    return 2.0 / (1.0 + std::sqrt(1.0 + alpha * alpha * tan2));
+}
+
+inline Vec3 eval(const Vec3& albedo, double alpha, const Vec3& wo, const Vec3& wi) {
+    if (wo.z <= 0.0 || wi.z <= 0.0) return Vec3(0.0);
+    const Vec3 h = normalize(wo + wi);
+    const double value = ggx_d(h, alpha) * smith_g1(wo, h, alpha) * smith_g1(wi, h, alpha) / (4.0 * wo.z);
+    return albedo * value;  // f * cos_i
+}
+
+inline double pdf(double alpha, const Vec3& wo, const Vec3& wi) {
+    if (wo.z <= 0.0 || wi.z <= 0.0) return 0.0;
+    const Vec3 h = normalize(wo + wi);
+    return smith_g1(wo, h, alpha) * ggx_d(h, alpha) / (4.0 * wo.z);
+}
+
+// A visible normal for the view direction wo (Heitz, "Sampling the GGX Distribution of
+// Visible Normals", JCGT 2018).
+inline Vec3 sample_visible_normal(const Vec3& wo, double alpha, double u1, double u2) {
+    const Vec3 vh = normalize(Vec3(alpha * wo.x, alpha * wo.y, wo.z));
+    const double len2 = vh.x * vh.x + vh.y * vh.y;
+    const Vec3 t1 = len2 > 0.0 ? Vec3(-vh.y, vh.x, 0.0) / std::sqrt(len2) : Vec3(1.0, 0.0, 0.0);
+    const Vec3 t2 = cross(vh, t1);
+    const double r = std::sqrt(u1), phi = 2.0 * kPi * u2;
+    const double p1 = r * std::cos(phi);
+    const double s = 0.5 * (1.0 + vh.z);
+    const double p2 = (1.0 - s) * safe_sqrt(1.0 - p1 * p1) + s * r * std::sin(phi);
+    const Vec3 nh = p1 * t1 + p2 * t2 + safe_sqrt(1.0 - p1 * p1 - p2 * p2) * vh;
+    return normalize(Vec3(alpha * nh.x, alpha * nh.y, std::max(0.0, nh.z)));
+}
+
+inline BSDFSample sample(const Vec3& albedo, double alpha, const Vec3& wo, double u1, double u2) {
+    BSDFSample s;
+    if (wo.z <= 0.0) return s;
+    const Vec3 m = sample_visible_normal(wo, alpha, u1, u2);
+    const Vec3 wi = 2.0 * dot(wo, m) * m - wo;
+    if (wi.z <= 0.0) return s;
+    s.wi = wi;
+    s.pdf = pdf(alpha, wo, wi);
+    if (!(s.pdf > 0.0)) return s;
+    s.weight = eval(albedo, alpha, wo, wi) / s.pdf;
+    s.valid = true;
+    return s;
+}
+
+}  // namespace rt::rough_conductor

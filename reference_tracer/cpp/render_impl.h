@@ -1,0 +1,73 @@
+// Implementation of rt::render (a template over the poll callback).
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+namespace rt {
+
+template <typename Poll>
+RenderOutput render(const RenderJob& job, Poll&& poll) {
+    const Scene& scene = *job.scene;
+    const Camera& cam = scene.camera();
+    const int W = cam.width, H = cam.height, T = RenderJob::kTileSize;
+    const int tiles_x = (W + T - 1) / T, tiles_y = (H + T - 1) / T;
+    const int n_tiles = tiles_x * tiles_y;
+
+    RenderOutput out;
+    out.sum.assign(size_t(W) * H * 3, 0.0);
+    out.sum_sq.assign(size_t(W) * H * 3, 0.0);
+
+    const Integrator integrator(scene, job.strategy);
+    std::atomic<int> next_tile{0};
+    std::atomic<uint64_t> pixels_done{0}, rays{0}, nonfinite{0};
+    std::atomic<bool> cancel{false};
+    std::atomic<int> running{job.threads};
+    std::mutex mutex;
+    std::condition_variable finished;
+
+    auto worker = [&]() {
+        uint64_t my_rays = 0, my_nonfinite = 0;
+        for (int tile; !cancel.load(std::memory_order_relaxed) && (tile = next_tile.fetch_add(1)) < n_tiles;) {
+            const int x0 = (tile % tiles_x) * T, y0 = (tile / tiles_x) * T;
+            const int x1 = std::min(x0 + T, W), y1 = std::min(y0 + T, H);
+            for (int y = y0; y < y1 && !cancel.load(std::memory_order_relaxed); ++y)
+                for (int x = x0; x < x1; ++x) {
+                    const size_t k = (size_t(y) * W + x) * 3;
+                    render_pixel(scene, integrator, x, y, job.spp, job.seed, &out.sum[k], &out.sum_sq[k],
+                                 my_rays, my_nonfinite);
+                }
+            pixels_done.fetch_add(uint64_t(x1 - x0) * (y1 - y0), std::memory_order_relaxed);
+        }
+        rays.fetch_add(my_rays);
+        nonfinite.fetch_add(my_nonfinite);
+        std::lock_guard<std::mutex> lock(mutex);
+        if (--running == 0) finished.notify_all();
+    };
+
+    const auto t0 = std::chrono::steady_clock::now();
+    std::vector<std::thread> pool;
+    pool.reserve(job.threads);
+    for (int i = 0; i < job.threads; ++i) pool.emplace_back(worker);
+    const uint64_t total = uint64_t(W) * H;
+    {
+        std::unique_lock<std::mutex> lock(mutex);
+        while (running > 0) {
+            finished.wait_for(lock, std::chrono::milliseconds(50));
+            if (running == 0) break;
+            lock.unlock();
+            const bool keep_going = poll(pixels_done.load(), total);
+            lock.lock();
+            if (!keep_going) { cancel = true; out.cancelled = true; }
+        }
+    }
+    for (std::thread& t : pool) t.join();
+    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    out.rays = rays.load();
+    out.nonfinite = nonfinite.load();
+    return out;
+}
+
+}  // namespace rt

@@ -1,0 +1,233 @@
+// Light sampling: pick an emitter (area lights by power, the constant background with a
+// fixed share), then a point on it, and return the direction with its solid-angle density.
+//
+// Quads and triangles are sampled uniformly by area: pdf = dist^2 / (|cos_light| area).
+// Spheres seen from outside are sampled uniformly inside the cone they subtend (every
+// sample visible, no wasted back side); from inside (or the surface, e.g. a furnace),
+// uniformly by area. Emission is one-sided: a sampled point seen from its back emits
+// nothing, so such samples fail and their density is 0 - the same rule as Mitsuba's area
+// emitter, which keeps the mixture estimator's pdf equal to the procedure's density.
+#pragma once
+
+#include <vector>
+
+#include "../shapes/quad.h"
+#include "../shapes/sphere.h"
+#include "../shapes/triangle.h"
+#include "warp.h"
+
+namespace rt {
+
+struct LightSample {
+    Vec3 wi;            // unit direction from the reference point
+    double dist = kInf; // distance to the sampled point (inf for the background)
+    double pdf = 0.0;   // solid-angle density of this emitter's procedure times its selection
+    Vec3 radiance;      // emitted radiance toward the reference point
+    uint32_t prim = 0;  // scene primitive id of the sampled emitter
+    bool background = false;
+    bool valid = false;
+};
+
+enum class EmitterKind : uint8_t { Sphere, Quad, Triangle };
+
+struct Emitter {
+    EmitterKind kind;
+    uint32_t prim;   // scene primitive id
+    uint32_t index;  // index into the scene's array of that kind
+    Vec3 radiance;
+};
+
+class LightSampler {
+public:
+    LightSampler() = default;
+    LightSampler(std::vector<Emitter> emitters, const std::vector<Sphere>* spheres,
+                 const std::vector<Quad>* quads, const std::vector<Triangle>* triangles,
+                 const Vec3& background, size_t prim_count)
+        : emitters_(std::move(emitters)), spheres_(spheres), quads_(quads), triangles_(triangles),
+          background_(background) {
+        std::vector<double> power;
+        for (const Emitter& e : emitters_) power.push_back(area(e) * luminance(e.radiance));
+        select_ = DiscreteDistribution(power);
+        const bool has_bg = max_component(background_) > 0.0;
+        p_background_ = has_bg ? (select_.empty() ? 1.0 : 0.5) : 0.0;
+        if (select_.empty()) emitters_.clear();
+        prim_to_emitter_.assign(prim_count, -1);
+        for (size_t i = 0; i < emitters_.size(); ++i) prim_to_emitter_[emitters_[i].prim] = int32_t(i);
+    }
+
+    bool empty() const { return emitters_.empty() && p_background_ == 0.0; }
+    size_t emitter_count() const { return emitters_.size(); }
+    double background_pdf() const { return p_background_ * kUniformSpherePdf; }
+    int emitter_of_prim(uint32_t prim) const { return prim < prim_to_emitter_.size() ? prim_to_emitter_[prim] : -1; }
+
+    LightSample sample(const Vec3& ref, double u0, double u1, double u2) const {
+        LightSample ls;
+        if (p_background_ > 0.0 && (emitters_.empty() || u0 < p_background_)) {
+            ls.wi = square_to_uniform_sphere(u1, u2);
+            ls.pdf = background_pdf();
+            ls.radiance = background_;
+            ls.background = true;
+            ls.valid = true;
+            return ls;
+        }
+        if (emitters_.empty()) return ls;
+        double u = p_background_ > 0.0 ? (u0 - p_background_) / (1.0 - p_background_) : u0;
+        u = std::min(u, std::nextafter(1.0, 0.0));
+        const size_t i = select_.sample(u);
+        const Emitter& e = emitters_[i];
+        const double sel = select_.pmf(i) * (1.0 - p_background_);
+        Vec3 p, n;
+        double pdf_dir = 0.0;
+        if (!sample_point(e, ref, u1, u2, p, n, pdf_dir)) return ls;
+        const Vec3 d = p - ref;
+        const double dist2 = length_squared(d);
+        if (!(dist2 > 0.0)) return ls;
+        ls.dist = std::sqrt(dist2);
+        ls.wi = d / ls.dist;
+        const double cos_l = -dot(n, ls.wi);
+        if (!(cos_l > 0.0)) return ls;  // back of a one-sided emitter, or exactly grazing
+        if (pdf_dir == 0.0) pdf_dir = dist2 / (cos_l * area(e));  // area sampling -> solid angle
+        ls.pdf = sel * pdf_dir;
+        if (!(ls.pdf > 0.0) || !std::isfinite(ls.pdf)) return ls;
+        ls.radiance = e.radiance;
+        ls.prim = e.prim;
+        ls.valid = true;
+        return ls;
+    }
+
+    // Density of sample() for the emitter `prim` in direction wi from ref, where the ray
+    // (ref, wi) meets that emitter at `p` with front normal `n` (used for MIS weights of
+    // emitters hit by BSDF sampling).
+    double pdf_emitter(const Vec3& ref, const Vec3& wi, uint32_t prim, const Vec3& p, const Vec3& n) const {
+        const int i = emitter_of_prim(prim);
+        if (i < 0) return 0.0;
+        return select_.pmf(i) * (1.0 - p_background_) * direction_pdf(emitters_[i], ref, wi, p, n);
+    }
+
+    // Total density of sample() in direction wi from ref: every emitter the line meets
+    // (occluded or not) plus the background share. The `mixture` strategy needs this,
+    // the density of the whole procedure.
+    double pdf_all(const Vec3& ref, const Vec3& wi) const {
+        double pdf = background_pdf();
+        const Ray r{ref, wi};
+        for (size_t i = 0; i < emitters_.size(); ++i) {
+            const Emitter& e = emitters_[i];
+            double t;
+            bool hit = false;
+            Vec3 p, n;
+            switch (e.kind) {
+                case EmitterKind::Sphere: {
+                    const Sphere& s = (*spheres_)[e.index];
+                    hit = s.intersect(r, 0.0, kInf, t);
+                    if (hit) s.surface(r.at(t), p, n);
+                    break;
+                }
+                case EmitterKind::Quad: {
+                    const Quad& q = (*quads_)[e.index];
+                    hit = q.intersect(r, 0.0, kInf, t);
+                    if (hit) { p = r.at(t); n = q.normal; }
+                    break;
+                }
+                case EmitterKind::Triangle: {
+                    const Triangle& tr = (*triangles_)[e.index];
+                    hit = intersect_watertight(tr, r, WatertightRay(wi), 0.0, kInf, t);
+                    if (hit) { p = r.at(t); n = tr.normal(); }
+                    break;
+                }
+            }
+            if (hit) pdf += select_.pmf(i) * (1.0 - p_background_) * direction_pdf(e, ref, wi, p, n);
+        }
+        return pdf;
+    }
+
+private:
+    double area(const Emitter& e) const {
+        switch (e.kind) {
+            case EmitterKind::Sphere: return (*spheres_)[e.index].area();
+            case EmitterKind::Quad: return (*quads_)[e.index].area();
+            case EmitterKind::Triangle: return (*triangles_)[e.index].area();
+        }
+        return 0.0;
+    }
+
+    // Solid-angle density of this emitter's point sampling for the direction wi that
+    // meets it at p (normal n); zero when the point is seen from its back.
+    double direction_pdf(const Emitter& e, const Vec3& ref, const Vec3& wi, const Vec3& p, const Vec3& n) const {
+        const double cos_l = -dot(n, wi);
+        if (!(cos_l > 0.0)) return 0.0;
+        if (e.kind == EmitterKind::Sphere) {
+            const Sphere& s = (*spheres_)[e.index];
+            const double dc2 = length_squared(s.center - ref);
+            if (dc2 > s.radius * s.radius) return uniform_cone_pdf(cone_one_minus_cos(s, dc2));
+        }
+        const double dist2 = length_squared(p - ref);
+        const double pdf = dist2 / (cos_l * area(e));
+        return std::isfinite(pdf) ? pdf : 0.0;
+    }
+
+    static double cone_one_minus_cos(const Sphere& s, double dc2) {
+        const double sin2 = std::min(1.0, s.radius * s.radius / dc2);
+        const double cos_max = safe_sqrt(1.0 - sin2);
+        return sin2 / (1.0 + cos_max);  // 1 - cos_max without cancellation
+    }
+
+    // A point on the emitter; pdf_dir is set (solid angle) for cone sampling, else left 0.
+    bool sample_point(const Emitter& e, const Vec3& ref, double u1, double u2, Vec3& p, Vec3& n,
+                      double& pdf_dir) const {
+        switch (e.kind) {
+            case EmitterKind::Quad: {
+                const Quad& q = (*quads_)[e.index];
+                p = q.point(u1, u2);
+                n = q.normal;
+                return true;
+            }
+            case EmitterKind::Triangle: {
+                const Triangle& t = (*triangles_)[e.index];
+                p = t.point(u1, u2);
+                n = t.normal();
+                return true;
+            }
+            case EmitterKind::Sphere: {
+                const Sphere& s = (*spheres_)[e.index];
+                const Vec3 to_c = s.center - ref;
+                const double dc2 = length_squared(to_c);
+                if (dc2 <= s.radius * s.radius) {  // inside or on the sphere: sample by area
+                    const Vec3 d = square_to_uniform_sphere(u1, u2);
+                    p = s.center + s.radius * d;
+                    n = d * s.normal_sign;
+                    return true;
+                }
+                // Outside: uniform in the subtended cone; the point where the sampled
+                // direction meets the sphere follows from the law of cosines.
+                const double dc = std::sqrt(dc2);
+                const Frame frame(to_c / dc);
+                const double omc = cone_one_minus_cos(s, dc2);
+                const Vec3 local = square_to_uniform_cone(u1, u2, omc);
+                const double sin2 = local.x * local.x + local.y * local.y;
+                const double ds = dc * local.z - safe_sqrt(s.radius * s.radius - dc2 * sin2);
+                const double cos_a = std::clamp((dc2 + s.radius * s.radius - ds * ds) / (2.0 * dc * s.radius), -1.0, 1.0);
+                const double sin_a = safe_sqrt(1.0 - cos_a * cos_a);
+                const double len = std::sqrt(sin2);
+                const double cx = len > 0.0 ? local.x / len : 1.0, cy = len > 0.0 ? local.y / len : 0.0;
+                // Normal at the point, outward from the centre, on the side facing ref.
+                const Vec3 outward = frame.to_world(Vec3(sin_a * cx, sin_a * cy, -cos_a));
+                p = s.center + s.radius * outward;
+                n = outward * s.normal_sign;
+                pdf_dir = uniform_cone_pdf(omc);
+                return true;
+            }
+        }
+        return false;
+    }
+
+    std::vector<Emitter> emitters_;
+    const std::vector<Sphere>* spheres_ = nullptr;
+    const std::vector<Quad>* quads_ = nullptr;
+    const std::vector<Triangle>* triangles_ = nullptr;
+    Vec3 background_;
+    DiscreteDistribution select_;
+    std::vector<int32_t> prim_to_emitter_;
+    double p_background_ = 0.0;
+};
+
+}  // namespace rt

@@ -1,0 +1,95 @@
+// Warps from the unit square to directions, with their densities (solid angle measure).
+// All directions are in a local frame whose +z axis is the surface normal.
+#pragma once
+
+#include <vector>
+
+#include "../math.h"
+
+namespace rt {
+
+inline Vec3 square_to_uniform_hemisphere(double u1, double u2) {
+    const double z = u1;
+    const double r = safe_sqrt(1.0 - z * z);
+    const double phi = 2.0 * kPi * u2;
+    return {r * std::cos(phi), r * std::sin(phi), z};
+}
+constexpr double kUniformHemispherePdf = 1.0 / (2.0 * kPi);
+
+inline Vec3 square_to_uniform_sphere(double u1, double u2) {
+    const double z = 1.0 - 2.0 * u1;
+    const double r = safe_sqrt(1.0 - z * z);
+    const double phi = 2.0 * kPi * u2;
+    return {r * std::cos(phi), r * std::sin(phi), z};
+}
+constexpr double kUniformSpherePdf = 1.0 / (4.0 * kPi);
+
+// Cosine-weighted hemisphere (Malley's method through a concentric disk).
+inline Vec3 square_to_cosine_hemisphere(double u1, double u2) {
+    const double a = 2.0 * u1 - 1.0, b = 2.0 * u2 - 1.0;
+    double r = 0.0, phi = 0.0;
+    if (a != 0.0 || b != 0.0) {
+        if (a * a > b * b) { r = a; phi = (kPi / 4.0) * (b / a); }
+        else { r = b; phi = (kPi / 2.0) - (kPi / 4.0) * (a / b); }
+    }
+    const double x = r * std::cos(phi), y = r * std::sin(phi);
+    return {x, y, safe_sqrt(1.0 - x * x - y * y)};
+}
+inline double cosine_hemisphere_pdf(double cos_theta) { return cos_theta > 0.0 ? cos_theta * kInvPi : 0.0; }
+
+// Uniform direction in the cone of half-angle theta_max about +z, given
+// one_minus_cos_max = 1 - cos(theta_max) (passed directly: it is tiny for small, far lights
+// and 1 - cos would cancel).
+inline Vec3 square_to_uniform_cone(double u1, double u2, double one_minus_cos_max) {
+    const double one_minus_cos = u1 * one_minus_cos_max;
+    const double cos_theta = 1.0 - one_minus_cos;
+    const double sin_theta = safe_sqrt(one_minus_cos * (2.0 - one_minus_cos));
+    const double phi = 2.0 * kPi * u2;
+    return {sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta};
+}
+inline double uniform_cone_pdf(double one_minus_cos_max) { return 1.0 / (2.0 * kPi * one_minus_cos_max); }
+
+// Discrete distribution over n items proportional to non-negative weights.
+class DiscreteDistribution {
+public:
+    DiscreteDistribution() = default;
+    explicit DiscreteDistribution(const std::vector<double>& weights) {
+        cdf_.resize(weights.size() + 1, 0.0);
+        for (size_t i = 0; i < weights.size(); ++i) cdf_[i + 1] = cdf_[i] + weights[i];
+        total_ = cdf_.back();
+        pmf_.resize(weights.size());
+        for (size_t i = 0; i < weights.size(); ++i) pmf_[i] = total_ > 0 ? weights[i] / total_ : 0.0;
+    }
+    bool empty() const { return pmf_.empty() || !(total_ > 0); }
+    size_t size() const { return pmf_.size(); }
+    double pmf(size_t i) const { return pmf_[i]; }
+
+    // Index with probability pmf(i); u is re-used by the caller only through `u_remapped`.
+    size_t sample(double u, double* u_remapped = nullptr) const {
+        const double target = u * total_;
+        size_t lo = 0, hi = pmf_.size() - 1;
+        while (lo < hi) {  // first i with cdf_[i + 1] > target
+            const size_t mid = (lo + hi) / 2;
+            if (cdf_[mid + 1] > target) hi = mid; else lo = mid + 1;
+        }
+        while (pmf_[lo] == 0.0 && lo + 1 < pmf_.size()) ++lo;  // never return a zero-weight item
+        if (u_remapped) {
+            const double w = cdf_[lo + 1] - cdf_[lo];
+            *u_remapped = w > 0 ? std::min((target - cdf_[lo]) / w, std::nextafter(1.0, 0.0)) : 0.0;
+        }
+        return lo;
+    }
+
+private:
+    std::vector<double> cdf_, pmf_;
+    double total_ = 0.0;
+};
+
+// Power heuristic with beta = 2 (Veach 1997), as Mitsuba's path integrator.
+inline double power_heuristic(double pdf_a, double pdf_b) {
+    const double a2 = pdf_a * pdf_a, b2 = pdf_b * pdf_b;
+    const double w = a2 / (a2 + b2);
+    return std::isfinite(w) ? w : 0.0;
+}
+
+}  // namespace rt

@@ -1,0 +1,101 @@
+#include "scene.h"
+
+namespace rt {
+
+Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere> spheres,
+             std::vector<Quad> quads, std::vector<Triangle> triangles, SceneSettings settings)
+    : camera_(camera), materials_(std::move(materials)), spheres_(std::move(spheres)),
+      quads_(std::move(quads)), triangles_(std::move(triangles)), settings_(settings) {
+    quad_base_ = static_cast<uint32_t>(spheres_.size());
+    tri_base_ = quad_base_ + static_cast<uint32_t>(quads_.size());
+
+    std::vector<AABB> boxes;
+    boxes.reserve(primitive_count());
+    for (const Sphere& s : spheres_) boxes.push_back(s.bounds());
+    for (const Quad& q : quads_) boxes.push_back(q.bounds());
+    for (const Triangle& t : triangles_) {
+        // Zero-area triangles can never be hit: an empty box keeps them out of the BVH.
+        boxes.push_back(t.degenerate() ? AABB() : t.bounds());
+    }
+    bvh_ = BVH(boxes);
+
+    std::vector<Emitter> emitters;
+    for (uint32_t i = 0; i < spheres_.size(); ++i)
+        if (materials_[spheres_[i].material].emits())
+            emitters.push_back({EmitterKind::Sphere, i, i, materials_[spheres_[i].material].radiance});
+    for (uint32_t i = 0; i < quads_.size(); ++i)
+        if (materials_[quads_[i].material].emits())
+            emitters.push_back({EmitterKind::Quad, quad_base_ + i, i, materials_[quads_[i].material].radiance});
+    for (uint32_t i = 0; i < triangles_.size(); ++i)
+        if (materials_[triangles_[i].material].emits() && !triangles_[i].degenerate())
+            emitters.push_back({EmitterKind::Triangle, tri_base_ + i, i, materials_[triangles_[i].material].radiance});
+    lights_ = LightSampler(std::move(emitters), &spheres_, &quads_, &triangles_, settings_.background,
+                           primitive_count());
+}
+
+bool Scene::hit_primitive(uint32_t prim, const Ray& ray, const WatertightRay& wray, double& t_max,
+                          uint32_t& best) const {
+    double t;
+    bool hit;
+    if (prim < quad_base_) {
+        hit = spheres_[prim].intersect(ray, 0.0, t_max, t);
+    } else if (prim < tri_base_) {
+        hit = quads_[prim - quad_base_].intersect(ray, 0.0, t_max, t);
+    } else {
+        const Triangle& tri = triangles_[prim - tri_base_];
+        switch (settings_.triangle_test) {
+            case TriangleTest::Watertight: hit = intersect_watertight(tri, ray, wray, 0.0, t_max, t); break;
+            case TriangleTest::Cramer: hit = intersect_cramer<double>(tri, ray, 0.0, t_max, t); break;
+            default: hit = intersect_cramer<float>(tri, ray, 0.0, t_max, t); break;
+        }
+    }
+    if (hit) { t_max = t; best = prim; }
+    return hit;
+}
+
+void Scene::fill_interaction(const Ray& ray, double t, uint32_t prim, Interaction& it) const {
+    it.t = t;
+    it.prim = prim;
+    if (prim < quad_base_) {
+        const Sphere& s = spheres_[prim];
+        s.surface(ray.at(t), it.p, it.n);
+        it.material = s.material;
+    } else if (prim < tri_base_) {
+        const Quad& q = quads_[prim - quad_base_];
+        it.p = ray.at(t);
+        it.n = q.normal;
+        it.material = q.material;
+    } else {
+        const Triangle& tri = triangles_[prim - tri_base_];
+        it.p = ray.at(t);
+        it.n = tri.normal();
+        it.material = tri.material;
+    }
+}
+
+bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
+    const WatertightRay wray(ray.d);
+    uint32_t best = 0;
+    double t = t_max;
+    const bool hit = bvh_.traverse(ray, t, [&](uint32_t prim, double& tm) {
+        return hit_primitive(prim, ray, wray, tm, best);
+    });
+    if (hit) fill_interaction(ray, t, best, it);
+    return hit;
+}
+
+bool Scene::intersect_brute_force(const Ray& ray, Interaction& it, double t_max) const {
+    const WatertightRay wray(ray.d);
+    uint32_t best = 0;
+    double t = t_max;
+    bool hit = false;
+    const uint32_t n = static_cast<uint32_t>(primitive_count());
+    for (uint32_t prim = 0; prim < n; ++prim) {
+        if (prim >= tri_base_ && triangles_[prim - tri_base_].degenerate()) continue;
+        hit |= hit_primitive(prim, ray, wray, t, best);
+    }
+    if (hit) fill_interaction(ray, t, best, it);
+    return hit;
+}
+
+}  // namespace rt

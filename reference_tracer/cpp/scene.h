@@ -1,0 +1,96 @@
+// The scene the integrator renders: world-space primitives, materials, a BVH over all
+// primitives, the light sampler, the camera and the integrator settings.
+// Primitive ids are global: spheres first, then quads, then triangles.
+#pragma once
+
+#include <vector>
+
+#include "bvh.h"
+#include "materials/material.h"
+#include "sampling/lights.h"
+#include "shapes/quad.h"
+#include "shapes/sphere.h"
+#include "shapes/triangle.h"
+
+namespace rt {
+
+// Pinhole camera; pixel (0, 0) is the top-left corner, +x right, +y down in the image.
+struct Camera {
+    Vec3 origin, forward, right, up;
+    double half_width = 1, half_height = 1;
+    int width = 1, height = 1;
+
+    Camera() = default;
+    Camera(const Vec3& lookfrom, const Vec3& lookat, const Vec3& vup, double vfov_deg, int w, int h)
+        : origin(lookfrom), width(w), height(h) {
+        forward = normalize(lookat - lookfrom);
+        right = normalize(cross(forward, vup));
+        up = cross(right, forward);
+        half_height = std::tan(0.5 * vfov_deg * kPi / 180.0);
+        half_width = half_height * double(w) / double(h);
+    }
+
+    // Ray through the film point (px, py), in pixel units from the top-left corner.
+    Ray generate(double px, double py) const {
+        const double sx = (2.0 * px / width - 1.0) * half_width;
+        const double sy = (1.0 - 2.0 * py / height) * half_height;
+        return Ray{origin, normalize(forward + sx * right + sy * up)};
+    }
+};
+
+struct Interaction {
+    double t = kInf;
+    Vec3 p;          // hit point
+    Vec3 n;          // unit normal of the primitive's front side
+    uint32_t prim = 0;
+    uint32_t material = 0;
+};
+
+struct SceneSettings {
+    Vec3 background;
+    int max_depth = 50;     // path segments, as Mitsuba's path integrator counts them
+    int rr_depth = -1;      // -1: no Russian roulette
+    TriangleTest triangle_test = TriangleTest::Watertight;
+};
+
+class Scene {
+public:
+    Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere> spheres,
+          std::vector<Quad> quads, std::vector<Triangle> triangles, SceneSettings settings);
+    // Copies would leave the light sampler pointing into the source's arrays.
+    Scene(const Scene&) = delete;
+    Scene& operator=(const Scene&) = delete;
+
+    // Closest hit with t in (0, t_max).
+    bool intersect(const Ray& ray, Interaction& it, double t_max = kInf) const;
+    // The same by testing every primitive (a reference for BVH tests).
+    bool intersect_brute_force(const Ray& ray, Interaction& it, double t_max = kInf) const;
+
+    const Camera& camera() const { return camera_; }
+    const SceneSettings& settings() const { return settings_; }
+    const Material& material(uint32_t id) const { return materials_[id]; }
+    const LightSampler& lights() const { return lights_; }
+    const BVH& bvh() const { return bvh_; }
+    size_t primitive_count() const { return spheres_.size() + quads_.size() + triangles_.size(); }
+    size_t sphere_count() const { return spheres_.size(); }
+    size_t quad_count() const { return quads_.size(); }
+    size_t triangle_count() const { return triangles_.size(); }
+
+private:
+    // Tests primitive `prim`; on a hit closer than t_max, lowers t_max and records it.
+    bool hit_primitive(uint32_t prim, const Ray& ray, const WatertightRay& wray, double& t_max,
+                       uint32_t& best) const;
+    void fill_interaction(const Ray& ray, double t, uint32_t prim, Interaction& it) const;
+
+    Camera camera_;
+    std::vector<Material> materials_;
+    std::vector<Sphere> spheres_;
+    std::vector<Quad> quads_;
+    std::vector<Triangle> triangles_;
+    SceneSettings settings_;
+    BVH bvh_;
+    LightSampler lights_;
+    uint32_t quad_base_ = 0, tri_base_ = 0;
+};
+
+}  // namespace rt

@@ -1,0 +1,50 @@
+// Quad (parallelogram Q + a u + b v, a, b in [0, 1]); front face along u x v.
+#pragma once
+
+#include "../aabb.h"
+#include "../math.h"
+
+namespace rt {
+
+struct Quad {
+    Vec3 Q, u, v;
+    Vec3 normal;    // unit u x v
+    Vec3 w;         // (u x v) / |u x v|^2, to solve for the planar coordinates
+    double plane_d; // dot(normal, Q)
+    double area_;
+    uint32_t material;
+
+    Quad(const Vec3& Q_, const Vec3& u_, const Vec3& v_, uint32_t material_)
+        : Q(Q_), u(u_), v(v_), material(material_) {
+        const Vec3 n = cross(u, v);
+        area_ = length(n);
+        normal = n / area_;
+        w = n / dot(n, n);
+        plane_d = dot(normal, Q);
+    }
+
+    AABB bounds() const {
+        AABB b;
+        b.expand(Q); b.expand(Q + u); b.expand(Q + v); b.expand(Q + u + v);
+        return b;
+    }
+    double area() const { return area_; }
+
+    bool intersect(const Ray& r, double t_min, double t_max, double& t_hit) const {
+        const double denom = dot(normal, r.d);
+        if (denom == 0.0) return false;  // parallel to the plane: never a hit
+        const double t = (plane_d - dot(normal, r.o)) / denom;
+        if (!(t > t_min && t < t_max)) return false;
+        const Vec3 hp = r.at(t) - Q;
+        const double alpha = dot(w, cross(hp, v));
+        const double beta = dot(w, cross(u, hp));
+        if (alpha < 0.0 || alpha > 1.0 || beta < 0.0 || beta > 1.0) return false;
+        t_hit = t;
+        return true;
+    }
+
+    // The point (a, b) of the unit square mapped onto the quad: uniform in area.
+    Vec3 point(double a, double b) const { return Q + a * u + b * v; }
+};
+
+}  // namespace rt

@@ -1,0 +1,106 @@
+// Triangle a, b, c; counter-clockwise ((b - a) x (c - a)) is the front face.
+// Three intersection tests, selectable per scene:
+//  * watertight: Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection" (JCGT 2013).
+//    Edge functions of a shared edge are computed from the same sheared vertex
+//    coordinates, so a ray can never pass between two triangles sharing that edge.
+//  * cramer / cramer32: the seed's barycentric test, the 3x3 system
+//    o + t d = a + b1 (b - a) + b2 (c - a) solved by Cramer's rule (Snyder and Barr 1987;
+//    written with triple products as in Moller-Trumbore), in double or single precision.
+#pragma once
+
+#include <utility>
+
+#include "../aabb.h"
+#include "../math.h"
+
+namespace rt {
+
+enum class TriangleTest : int { Watertight = 0, Cramer = 1, Cramer32 = 2 };
+
+struct Triangle {
+    Vec3 a, b, c;
+    uint32_t material;
+
+    AABB bounds() const {
+        AABB box;
+        box.expand(a); box.expand(b); box.expand(c);
+        return box;
+    }
+    Vec3 normal() const { return normalize(cross(b - a, c - a)); }
+    double area() const { return 0.5 * length(cross(b - a, c - a)); }
+    bool degenerate() const {
+        const Vec3 n = cross(b - a, c - a);
+        return !(length_squared(n) > 0.0) || !std::isfinite(length_squared(n));
+    }
+
+    // Uniform point from two uniform numbers (square-root warp).
+    Vec3 point(double u1, double u2) const {
+        const double su = std::sqrt(u1);
+        return (1.0 - su) * a + (su * (1.0 - u2)) * b + (su * u2) * c;
+    }
+};
+
+// Per-ray constants of the watertight test: the axis permutation and shear that map the
+// ray direction onto +z.
+struct WatertightRay {
+    int kx, ky, kz;
+    double Sx, Sy, Sz;
+    explicit WatertightRay(const Vec3& d) {
+        kz = std::abs(d.x) > std::abs(d.y) ? (std::abs(d.x) > std::abs(d.z) ? 0 : 2)
+                                           : (std::abs(d.y) > std::abs(d.z) ? 1 : 2);
+        kx = (kz + 1) % 3;
+        ky = (kx + 1) % 3;
+        if (d[kz] < 0.0) std::swap(kx, ky);  // keep the winding of the sheared triangle
+        Sx = d[kx] / d[kz];
+        Sy = d[ky] / d[kz];
+        Sz = 1.0 / d[kz];
+    }
+};
+
+inline bool intersect_watertight(const Triangle& tri, const Ray& r, const WatertightRay& w,
+                                 double t_min, double t_max, double& t_hit) {
+    const Vec3 A = tri.a - r.o, B = tri.b - r.o, C = tri.c - r.o;
+    const double Ax = A[w.kx] - w.Sx * A[w.kz], Ay = A[w.ky] - w.Sy * A[w.kz];
+    const double Bx = B[w.kx] - w.Sx * B[w.kz], By = B[w.ky] - w.Sy * B[w.kz];
+    const double Cx = C[w.kx] - w.Sx * C[w.kz], Cy = C[w.ky] - w.Sy * C[w.kz];
+    const double U = Cx * By - Cy * Bx;
+    const double V = Ax * Cy - Ay * Cx;
+    const double W = Bx * Ay - By * Ax;
+    // Inclusive edge test: a ray through an edge or vertex hits every triangle sharing it.
+    if ((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0)) return false;
+    const double det = U + V + W;
+    if (det == 0.0) return false;  // degenerate, or the ray lies in the triangle's plane
+    const double Az = w.Sz * A[w.kz], Bz = w.Sz * B[w.kz], Cz = w.Sz * C[w.kz];
+    const double T = U * Az + V * Bz + W * Cz;
+    const double t = T / det;
+    if (!(t > t_min && t < t_max)) return false;
+    t_hit = t;
+    return true;
+}
+
+template <typename Real>
+inline bool intersect_cramer(const Triangle& tri, const Ray& r, double t_min, double t_max, double& t_hit) {
+    struct V3 { Real x, y, z; };
+    auto sub = [](const Vec3& p, const Vec3& q) { return V3{Real(p.x) - Real(q.x), Real(p.y) - Real(q.y), Real(p.z) - Real(q.z)}; };
+    auto crs = [](const V3& p, const V3& q) { return V3{p.y * q.z - p.z * q.y, p.z * q.x - p.x * q.z, p.x * q.y - p.y * q.x}; };
+    auto dt = [](const V3& p, const V3& q) { return p.x * q.x + p.y * q.y + p.z * q.z; };
+    const V3 e1 = sub(tri.b, tri.a), e2 = sub(tri.c, tri.a), s = sub(r.o, tri.a);
+    const V3 d{Real(r.d.x), Real(r.d.y), Real(r.d.z)};
+    // Cramer's rule for [-d, e1, e2] (t, b1, b2)^T = s: each unknown is a ratio of
+    // determinants, the determinants written as triple products.
+    const V3 p = crs(d, e2);
+    const Real det = dt(e1, p);
+    if (det == Real(0)) return false;
+    const Real inv = Real(1) / det;
+    const Real b1 = dt(s, p) * inv;
+    if (b1 < Real(0) || b1 > Real(1)) return false;
+    const V3 q = crs(s, e1);
+    const Real b2 = dt(d, q) * inv;
+    if (b2 < Real(0) || b1 + b2 > Real(1)) return false;
+    const double t = double(dt(e2, q) * inv);
+    if (!(t > t_min && t < t_max)) return false;
+    t_hit = t;
+    return true;
+}
+
+}  // namespace rt
