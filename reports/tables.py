@@ -1,0 +1,150 @@
+"""Tables of the report: per-strategy statistics, run facts, metric definitions; Markdown and plain text.
+
+Every number in a table is the store's own value printed with :func:`fmt` (4 significant
+digits), so the Markdown and the HTML show the same figures as ``summary.json``.
+"""
+from __future__ import annotations
+
+import math
+
+from .curves import curve_label
+from .store import num
+
+__all__ = ["fmt", "stats_table", "facts_table", "FORMULAS", "markdown_table", "text_table", "COLUMNS"]
+
+DASH = "–"
+
+#: (header, tooltip) of the per-strategy table, in order.
+COLUMNS = (
+    ("renderer / strategy", "ours: our tracer's strategy; Mitsuba: Mitsuba 3's path integrator"),
+    ("slope [95% CI]", "least-squares slope of log RMSE over log spp; unbiased Monte Carlo gives -0.5"),
+    ("bias verdict", "bias^2 test over seeds: biased when bias^2 is significantly above 0"),
+    ("bias² ± s.e.", "squared bias estimate and its standard error"),
+    ("z / p", "test statistic of the bias test and its p-value"),
+    ("variance", "mean per-pixel per-sample variance"),
+    ("efficiency", "1 / (MSE x seconds)"),
+    ("eff. / Mitsuba", "efficiency relative to Mitsuba's path integrator on the same scene"),
+    ("time to target (s)", "seconds to reach the target RMSE"),
+    ("target RMSE", "the scene's target RMSE"),
+    ("samples/s", "throughput: spp x width x height / seconds"),
+    ("samples/s / Mitsuba", "throughput relative to Mitsuba"),
+)
+
+
+def fmt(value, digits: int = 4) -> str:
+    """A number with ``digits`` significant digits; ``None``/NaN/non-numbers as a dash."""
+    v = num(value)
+    if not math.isfinite(v):
+        return "inf" if v == math.inf else ("-inf" if v == -math.inf else DASH)
+    return f"{v:.{digits}g}"
+
+
+def _verdict(row: dict) -> str:
+    sig = row.get("bias_significant")
+    if sig is True:
+        return "biased"
+    if sig is False:
+        return "no bias detected"
+    return DASH
+
+
+def stats_table(rows: list[dict]) -> list[list[str]]:
+    """Cells of the per-(renderer, strategy) table of one section, one list per summary row."""
+    out = []
+    for r in rows:
+        ci = r.get("slope_ci")
+        ci_txt = f" [{fmt(ci[0])}, {fmt(ci[1])}]" if isinstance(ci, (list, tuple)) and len(ci) == 2 else ""
+        bias = fmt(r.get("bias2"))
+        if math.isfinite(num(r.get("bias2_stderr"))):
+            bias += f" ± {fmt(r.get('bias2_stderr'))}"
+        zp = f"z={fmt(r.get('bias_z'), 3)}, p={fmt(r.get('bias_p'), 3)}"
+        if not (math.isfinite(num(r.get("bias_z"))) or math.isfinite(num(r.get("bias_p")))):
+            zp = DASH
+        out.append([
+            curve_label(r["renderer"], r["strategy"]),
+            fmt(r.get("slope")) + ci_txt,
+            _verdict(r),
+            bias,
+            zp,
+            fmt(r.get("variance")),
+            fmt(r.get("efficiency")),
+            fmt(r.get("efficiency_vs_mitsuba")),
+            fmt(r.get("time_to_target")),
+            fmt(r.get("target_rmse")),
+            fmt(r.get("samples_per_second")),
+            fmt(r.get("samples_per_second_vs_mitsuba")),
+        ])
+    return out
+
+
+def facts_table(meta: dict, *, n_records: int = 0, n_raw: int = 0) -> list[tuple[str, str]]:
+    """(label, value) pairs of the run facts; missing keys read as a dash."""
+    meta = meta if isinstance(meta, dict) else {}
+    machine = meta.get("machine") if isinstance(meta.get("machine"), dict) else {}
+    versions = meta.get("versions") if isinstance(meta.get("versions"), dict) else {}
+
+    def s(v):
+        return DASH if v is None or v == "" else str(v)
+
+    total = num(meta.get("total_seconds"))
+    total_txt = DASH if not math.isfinite(total) else f"{fmt(total)} s" + (
+        f" ({total / 60:.1f} min)" if total >= 120 else "")
+    facts = [
+        ("date", s(meta.get("date"))),
+        ("preset", s(meta.get("preset"))),
+        ("total time", total_txt),
+        ("threads", s(meta.get("threads"))),
+        ("machine", f"{s(machine.get('cpu'))}, {s(machine.get('cores'))} cores, {s(machine.get('platform'))}"),
+        ("rtbench", s(versions.get("rtbench"))),
+        ("Mitsuba", f"{s(versions.get('mitsuba'))} ({s(versions.get('variant'))})"),
+        ("Python / NumPy", f"{s(versions.get('python'))} / {s(versions.get('numpy'))}"),
+        ("job records", f"{n_records}" + (f" ({n_raw - n_records} duplicates dropped)" if n_raw > n_records else "")),
+    ]
+    refs = meta.get("references") if isinstance(meta.get("references"), dict) else {}
+    if refs:
+        facts.append(("references", "; ".join(
+            f"{scene}: {s((r or {}).get('spp'))} spp, seed {s((r or {}).get('seed'))}"
+            for scene, r in sorted(refs.items()))))
+    return facts
+
+
+#: (name, definition) of every metric in the tables and plots, epsilons included.
+FORMULAS = (
+    ("MSE, RMSE", "MSE = mean over pixels and RGB channels of (x - ref)^2 on linear radiance; RMSE = sqrt(MSE)."),
+    ("relMSE", "mean of (x - ref)^2 / (ref^2 + eps) with eps = 0.01."),
+    ("corrected MSE", "MSE - mean(Var_ref / N_ref): the reference's own noise (per-sample variance Var_ref "
+                      "over its N_ref samples) biases MSE upwards and is subtracted."),
+    ("bias^2", "over K independent seeds: mean over pixels of (mean_k x_k - ref)^2 minus the variance "
+               "corrections Var/K (ours) and Var_ref/N_ref (reference); z = bias^2 / s.e.; the verdict is "
+               "the harness's one-sided test (biased when p is below its significance level)."),
+    ("variance", "mean over pixels and channels of the per-sample variance (second moment - mean^2)."),
+    ("SSIM", "on display images (exposure from the reference, clip to [0, 1], sRGB transfer via colour-science): "
+             "skimage structural_similarity with data_range=1, gaussian_weights=True, sigma=1.5, "
+             "use_sample_covariance=False, channel_axis=-1."),
+    ("slope", "least-squares slope of log RMSE over log spp; unbiased Monte Carlo gives -1/2 (relMSE: -1); "
+              "a flattening curve is bias. The plots' legends show it; relMSE plots fit their own."),
+    ("efficiency", "1 / (MSE x seconds); relative to Mitsuba: ours / Mitsuba's path integrator, same scene."),
+    ("time to target", "seconds to reach the scene's target RMSE (interpolated on the RMSE-time curve)."),
+    ("throughput", "samples per second = spp x width x height / seconds; relative to Mitsuba as a ratio."),
+    ("median and band", "curves show the median over seeds; the shaded band spans the minimum to maximum."),
+)
+
+
+def _md_escape(s: str) -> str:
+    return str(s).replace("|", "\\|").replace("\n", " ")
+
+
+def markdown_table(header, rows) -> str:
+    """A GitHub-flavoured Markdown table."""
+    lines = ["| " + " | ".join(_md_escape(h) for h in header) + " |",
+             "|" + "|".join(" --- " for _ in header) + "|"]
+    lines += ["| " + " | ".join(_md_escape(c) for c in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def text_table(header, rows) -> str:
+    """A fixed-width plain-text table (for a terminal)."""
+    cols = [list(map(str, header))] + [list(map(str, r)) for r in rows]
+    widths = [max(len(r[i]) for r in cols) for i in range(len(header))]
+    line = lambda r: "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip()  # noqa: E731
+    return "\n".join([line(cols[0]), "  ".join("-" * w for w in widths)] + [line(r) for r in cols[1:]])
