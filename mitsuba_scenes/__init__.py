@@ -2,12 +2,19 @@
 
 Examples
 --------
->>> from mitsuba_scenes import list_scenes, get_scene
+>>> from mitsuba_scenes import list_scenes, get_scene, to_mitsuba, render_mitsuba
 >>> "cornell_box" in list_scenes()
 True
->>> get_scene("cornell_box", width=32, height=32).camera.width
+>>> scene = get_scene("cornell_box", width=32, height=32)
+>>> scene.camera.width
 32
+>>> mean, variance, seconds = render_mitsuba(scene, spp=4, seed=0)  # doctest: +SKIP
 """
-from .suite import get_scene, list_scenes
+from .importer import from_mitsuba
+from .render import MitsubaRender, render_mitsuba
+from .suite import SUITE, describe_scene, get_scene, list_scenes
+from .translate import to_mitsuba, to_xml
+from .variants import select_variant, versions
 
-__all__ = ["list_scenes", "get_scene"]
+__all__ = ["list_scenes", "get_scene", "describe_scene", "SUITE", "to_mitsuba", "to_xml",
+           "from_mitsuba", "render_mitsuba", "MitsubaRender", "select_variant", "versions"]

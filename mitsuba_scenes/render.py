@@ -1,0 +1,209 @@
+"""``render_mitsuba``: render a scene with Mitsuba 3, with per-pixel RGB variance.
+
+Mitsuba's ``moment`` integrator gives second moments in XYZ only, so the per-sample
+RGB variance is estimated from K independent batches (``shared/DESIGN.md`` section 3):
+the spp are split into K batches of as equal size as possible, each rendered with its
+own seed, and the between-batch spread gives the variance.
+"""
+from __future__ import annotations
+
+import hashlib
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+import reference_tracer as rt
+
+__all__ = ["render_mitsuba", "MitsubaRender", "batch_seeds", "split_spp", "DEFAULT_BATCHES"]
+
+#: Batches used when ``batches=None`` (capped by ``spp``).
+DEFAULT_BATCHES = 16
+
+
+@dataclass
+class MitsubaRender:
+    """The output of :func:`render_mitsuba`; unpacks as ``(mean, variance, seconds)``.
+
+    Attributes
+    ----------
+    mean : (H, W, 3) float32
+        Per-pixel mean radiance over all ``spp`` samples.
+    variance : (H, W, 3) float32
+        Per-sample variance estimated from the batches (NaN when ``batches == 1``).
+    seconds : float
+        Wall time of the timed renders (warm-up excluded).
+    compile_seconds : float
+        JIT variants: warm-up wall time minus the timed time of the same batch sizes
+        (kernel compilation and first-launch cost); 0 for ``scalar_rgb``.
+    load_seconds : float
+        Time of ``mi.load_dict``.
+    variant, spp, seed, threads : the settings used.
+    batch_spp, batch_seeds : lists
+        Samples and Mitsuba seed of each batch.
+    """
+
+    mean: np.ndarray
+    variance: np.ndarray
+    seconds: float
+    variant: str
+    spp: int
+    seed: int
+    threads: int | None = None
+    compile_seconds: float = 0.0
+    load_seconds: float = 0.0
+    batch_spp: list = field(default_factory=list)
+    batch_seeds: list = field(default_factory=list)
+
+    def __iter__(self):
+        return iter((self.mean, self.variance, self.seconds))
+
+    @property
+    def batches(self) -> int:
+        return len(self.batch_spp)
+
+
+def split_spp(spp: int, batches: int) -> list:
+    """Split ``spp`` into ``min(batches, spp)`` sizes that differ by at most one.
+
+    Examples
+    --------
+    >>> split_spp(10, 4)
+    [3, 3, 2, 2]
+    >>> split_spp(1, 16)
+    [1]
+    """
+    k = min(int(batches), int(spp))
+    return [spp // k + (1 if i < spp % k else 0) for i in range(k)]
+
+
+def batch_seeds(seed: int, count: int) -> list:
+    """Mitsuba seeds for ``count`` batches: distinct, far apart, derived by hashing.
+
+    Neighbouring Mitsuba seeds can share per-pixel random streams in ``scalar_rgb``, so
+    seeds are SHA-256 hashes of ``(seed, batch)`` reduced to 31 bits.
+
+    Examples
+    --------
+    >>> len(set(batch_seeds(0, 64)))
+    64
+    """
+    out, used = [], set()
+    for k in range(count):
+        salt = 0
+        while True:
+            h = hashlib.sha256(f"rtbench-mitsuba:{int(seed)}:{k}:{salt}".encode()).digest()
+            s = int.from_bytes(h[:4], "little") & 0x7FFFFFFF
+            if s not in used:
+                break
+            salt += 1
+        used.add(s)
+        out.append(s)
+    return out
+
+
+def render_mitsuba(scene: rt.Scene, *, spp: int, seed: int = 0, variant: str | None = None,
+                   threads: int | None = None, batches: int | None = None) -> MitsubaRender:
+    """Render ``scene`` with Mitsuba's ``path`` integrator, in independent batches.
+
+    Parameters
+    ----------
+    scene : reference_tracer.Scene
+    spp : int, keyword-only
+        Total samples per pixel, >= 1.
+    seed : int, keyword-only
+        Base seed; batch seeds are hashed from it (:func:`batch_seeds`).
+    variant : str or None, keyword-only
+        Mitsuba variant; None uses :func:`mitsuba_scenes.variants.select_variant`.
+    threads : int or None, keyword-only
+        Worker threads (``drjit.set_thread_count``); None leaves Dr.Jit's setting.
+    batches : int or None, keyword-only
+        Number of batches K (default ``min(16, spp)``; capped at ``spp``). When K does
+        not divide ``spp`` the batch sizes differ by one and the estimators below
+        weight each batch by its size. ``spp=1`` (or ``batches=1``) gives one batch
+        and a variance of NaN: one sample carries no estimate of its spread.
+
+    Returns
+    -------
+    MitsubaRender
+        ``mean`` is the size-weighted mean of the batch means; ``variance`` is the
+        per-sample variance ``sum_k n_k (m_k - mean)^2 / (K - 1)``, unbiased for
+        batches of any sizes; ``seconds`` excludes the warm-up render that JIT
+        variants get first (``compile_seconds`` reports it).
+
+    Examples
+    --------
+    >>> from mitsuba_scenes import get_scene, render_mitsuba
+    >>> mean, var, sec = render_mitsuba(get_scene("cornell_box", width=16, height=16),
+    ...                                 spp=8, seed=0, variant="scalar_rgb")
+    >>> mean.shape, var.shape
+    ((16, 16, 3), (16, 16, 3))
+    """
+    from .translate import to_mitsuba
+    from .variants import select_variant
+
+    if not isinstance(scene, rt.Scene):
+        raise ValueError(f"scene must be a reference_tracer.Scene, got {type(scene).__name__}")
+    if isinstance(spp, bool) or not isinstance(spp, (int, np.integer)) or spp < 1:
+        raise ValueError(f"spp must be an integer >= 1, got {spp!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    if batches is None:
+        batches = DEFAULT_BATCHES
+    if isinstance(batches, bool) or not isinstance(batches, (int, np.integer)) or batches < 1:
+        raise ValueError(f"batches must be an integer >= 1, got {batches!r}")
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
+                                or threads < 1):
+        raise ValueError(f"threads must be an integer >= 1 or None, got {threads!r}")
+
+    chosen = select_variant(variant)
+    import drjit as dr
+    import mitsuba as mi
+
+    if threads is not None:
+        dr.set_thread_count(int(threads))
+    t0 = time.perf_counter()
+    mscene = mi.load_dict(to_mitsuba(scene))
+    load_seconds = time.perf_counter() - t0
+
+    sizes = split_spp(int(spp), int(batches))
+    seeds = batch_seeds(int(seed), len(sizes))
+
+    def run(n, s):
+        img = mi.render(mscene, spp=int(n), seed=int(s))
+        return np.array(img, dtype=np.float64)   # forces evaluation (and waits for it)
+
+    compile_seconds = 0.0
+    jit = not chosen.startswith("scalar")
+    warm = {}
+    if jit:  # compile the kernels of each distinct batch size once, untimed
+        for n in sorted(set(sizes)):
+            t = time.perf_counter()
+            run(n, 0x5EED)
+            warm[n] = time.perf_counter() - t
+
+    h, w = scene.camera.height, scene.camera.width
+    means = np.empty((len(sizes), h, w, 3))
+    times = []
+    for k, (n, s) in enumerate(zip(sizes, seeds)):
+        t = time.perf_counter()
+        img = run(n, s)
+        times.append(time.perf_counter() - t)
+        if img.shape != (h, w, 3):
+            raise RuntimeError(f"Mitsuba returned an image of shape {img.shape}, expected {(h, w, 3)}")
+        means[k] = img
+    if jit:
+        for n, tw in warm.items():
+            timed = [tk for tk, nk in zip(times, sizes) if nk == n]
+            compile_seconds += max(0.0, tw - min(timed))
+
+    n = np.asarray(sizes, dtype=np.float64)[:, None, None, None]
+    mean = (n * means).sum(axis=0) / n.sum()
+    if len(sizes) > 1:
+        variance = (n * (means - mean) ** 2).sum(axis=0) / (len(sizes) - 1)
+    else:
+        variance = np.full_like(mean, np.nan)
+    return MitsubaRender(mean=mean.astype(np.float32), variance=variance.astype(np.float32),
+                         seconds=float(sum(times)), variant=chosen, spp=int(spp), seed=int(seed),
+                         threads=threads, compile_seconds=compile_seconds, load_seconds=load_seconds,
+                         batch_spp=sizes, batch_seeds=seeds)

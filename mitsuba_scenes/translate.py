@@ -1,0 +1,483 @@
+"""Translate a :class:`reference_tracer.Scene` to Mitsuba 3: a dict and an XML file.
+
+The mapping follows ``shared/DESIGN.md`` section 3 exactly; anything without an exact
+Mitsuba equivalent raises ``ValueError`` naming the object, never an approximation:
+
+=====================================  ==================================================
+ours                                   Mitsuba 3
+=====================================  ==================================================
+``Camera(vfov, lookfrom, ...)``        ``perspective``, ``fov=vfov``, ``fov_axis='y'``,
+                                       ``to_world = look_at(lookfrom, lookat, vup)``;
+                                       ``hdrfilm`` with a ``box`` rfilter; ``independent``
+``Quad(Q, u, v)``                      ``rectangle``, to_world columns (u/2, v/2, n, centre)
+``Box(pmin, pmax)``                    ``cube``, to_world = M . T(centre) . S(half size)
+``Sphere(c, r)``                       ``sphere`` with world centre and radius
+``Triangle``, ``Mesh``                 a mesh (``mi.Mesh`` in the dict, PLY in the XML),
+                                       world-space vertices, no vertex normals (flat)
+``flip_normals``                       ``flip_normals`` (baked into the winding of meshes)
+``Lambertian``                         ``diffuse``
+``Metal(fuzz=0)``                      ``conductor``, ``material='none'``
+``RoughConductor``                     ``roughconductor``, ``distribution='ggx'``, ``material='none'``
+``Dielectric(ior)``                    ``dielectric``, ``int_ior=ior``, ``ext_ior=1.0``
+``two_sided=True``                     ``twosided`` wrapper
+``DiffuseLight(L, albedo=a)``          ``area`` emitter + ``diffuse`` BSDF of albedo a (black if None)
+``background``                         ``constant`` emitter (none when black)
+``max_depth``, ``rr_depth``            ``path`` integrator; ``rr_depth=None`` -> larger than max_depth
+=====================================  ==================================================
+"""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+import reference_tracer as rt
+
+__all__ = ["to_mitsuba", "to_xml", "write_ply", "look_at_matrix", "mitsuba_rr_depth", "scene_extent", "NO_RR_DEPTH"]
+
+#: ``rr_depth`` given to Mitsuba for ``rr_depth=None`` with ``max_depth=-1`` (unlimited):
+#: the largest value Mitsuba's integer property holds, so roulette never starts.
+NO_RR_DEPTH = 2**31 - 1
+
+
+# --------------------------------------------------------------------------- helpers
+def _f32(x) -> np.ndarray:
+    """Round to float32 (what Mitsuba stores) and back to float64."""
+    return np.asarray(x, dtype=np.float64).astype(np.float32).astype(np.float64)
+
+
+def look_at_matrix(origin, target, up) -> np.ndarray:
+    """4x4 camera-to-world matrix exactly as Mitsuba's ``Transform4f.look_at``.
+
+    Columns: left = normalize(up x dir), new up = dir x left, dir, origin.
+
+    Examples
+    --------
+    >>> look_at_matrix((0, 0, -1), (0, 0, 0), (0, 1, 0))[:3, 2]
+    array([0., 0., 1.])
+    """
+    o = np.asarray(origin, np.float64)
+    d = np.asarray(target, np.float64) - o
+    d = d / np.linalg.norm(d)
+    left = np.cross(np.asarray(up, np.float64), d)
+    left = left / np.linalg.norm(left)
+    new_up = np.cross(d, left)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = left, new_up, d, o
+    return m
+
+
+def mitsuba_rr_depth(max_depth: int, rr_depth: int | None) -> int:
+    """The ``rr_depth`` Mitsuba gets: ours, or one past ``max_depth`` when disabled.
+
+    Examples
+    --------
+    >>> mitsuba_rr_depth(50, None), mitsuba_rr_depth(-1, None), mitsuba_rr_depth(8, 5)
+    (51, 2147483647, 5)
+    """
+    if rr_depth is not None:
+        return int(rr_depth)
+    return NO_RR_DEPTH if max_depth == -1 else int(max_depth) + 1
+
+
+def _name(i: int, shape) -> str:
+    return f"shape_{i:03d}_{type(shape).__name__.lower()}"
+
+
+def _check_linear(label: str, m: np.ndarray, *, similarity: bool) -> None:
+    lin = m[:3, :3]
+    det = np.linalg.det(lin)
+    if not det > 0:
+        raise ValueError(f"{label}: transform must preserve orientation (det > 0), got det {det:.6g}; "
+                         f"Mitsuba would turn its normals inside out")
+    if similarity:
+        s = np.cbrt(det)
+        if not np.allclose(lin.T @ lin, (s * s) * np.eye(3), rtol=1e-6, atol=1e-9 * s * s):
+            raise ValueError(f"{label}: a sphere needs a similarity transform (rotation, uniform scale, "
+                             f"translation); Mitsuba has no ellipsoid")
+    if abs(m[3, :3]).max() > 0 or m[3, 3] != 1.0:
+        raise ValueError(f"{label}: transform must be affine (last row 0 0 0 1)")
+
+
+def scene_extent(scene: rt.Scene) -> float:
+    """Largest distance from the camera to any point of the scene's geometry (>= 1)."""
+    eye = np.asarray(scene.camera.lookfrom)
+    far = 1.0
+    for s in scene.shapes:
+        if isinstance(s, rt.Sphere):
+            far = max(far, np.linalg.norm(s.world_center() - eye) + s.world_radius())
+        elif isinstance(s, rt.Quad):
+            Q, u, v = s.world_corners()
+            pts = np.array([Q, Q + u, Q + v, Q + u + v])
+            far = max(far, np.linalg.norm(pts - eye, axis=1).max())
+        elif isinstance(s, rt.Box):
+            pts = np.array([p for Q, u, v in s.world_quads() for p in (Q, Q + u, Q + v, Q + u + v)])
+            far = max(far, np.linalg.norm(pts - eye, axis=1).max())
+        elif isinstance(s, (rt.Triangle, rt.Mesh)):
+            pts = s.world_vertices()
+            far = max(far, np.linalg.norm(pts - eye, axis=1).max())
+    return float(far)
+
+
+# --------------------------------------------------------------------------- the neutral form
+# The scene is first lowered to a neutral list of plain-Python records; the dict and
+# the XML writers both read that list, so they cannot drift apart.
+
+def _rgb(c) -> list:
+    return [float(x) for x in _f32(c)]
+
+
+def _bsdf_record(label: str, m) -> dict:
+    """A nested dict (Mitsuba dict syntax, plain values) for material ``m``."""
+    if isinstance(m, rt.Lambertian):
+        b = {"type": "diffuse", "reflectance": {"type": "rgb", "value": _rgb(m.albedo)}}
+    elif isinstance(m, rt.Metal):
+        if m.fuzz > 0:
+            raise ValueError(f"{label}: Metal(fuzz={m.fuzz}) has no Mitsuba equivalent (the book's fuzz is "
+                             f"not a microfacet model); use RoughConductor(albedo, alpha) or fuzz=0")
+        b = {"type": "conductor", "material": "none",
+             "specular_reflectance": {"type": "rgb", "value": _rgb(m.albedo)}}
+    elif isinstance(m, rt.RoughConductor):
+        b = {"type": "roughconductor", "distribution": "ggx", "material": "none",
+             "alpha": float(_f32(m.alpha)),
+             "specular_reflectance": {"type": "rgb", "value": _rgb(m.albedo)}}
+    elif isinstance(m, rt.Dielectric):
+        return {"type": "dielectric", "int_ior": float(_f32(m.ior)), "ext_ior": 1.0}
+    elif isinstance(m, rt.DiffuseLight):
+        # A light without albedo reflects nothing: a black diffuse BSDF (Mitsuba would
+        # otherwise give the shape its default 0.5 grey diffuse BSDF).
+        albedo = m.albedo if m.albedo is not None else (0.0, 0.0, 0.0)
+        return {"type": "diffuse", "reflectance": {"type": "rgb", "value": _rgb(albedo)}}
+    else:
+        raise ValueError(f"{label}: material {type(m).__name__} has no Mitsuba translation")
+    if getattr(m, "two_sided", False):
+        b = {"type": "twosided", "bsdf": b}
+    return b
+
+
+def _lower(scene: rt.Scene) -> dict:
+    """Neutral description: camera, integrator, background and shape records."""
+    if not isinstance(scene, rt.Scene):
+        raise ValueError(f"scene must be a reference_tracer.Scene, got {type(scene).__name__}")
+    c = scene.camera
+    extent = scene_extent(scene)
+    out = {
+        "camera": {"fov": float(c.vfov), "to_world": _f32(look_at_matrix(c.lookfrom, c.lookat, c.vup)),
+                   "lookat": (c.lookfrom, c.lookat, c.vup), "width": int(c.width), "height": int(c.height),
+                   # Nothing of the scene may be clipped: near far below any feature, far beyond all.
+                   "near_clip": float(_f32(min(1e-4, 1e-6 * extent))),
+                   "far_clip": float(_f32(4.0 * extent + 1.0))},
+        "integrator": {"max_depth": int(scene.max_depth),
+                       "rr_depth": mitsuba_rr_depth(scene.max_depth, scene.rr_depth)},
+        "background": _rgb(scene.background) if scene.has_background else None,
+        "shapes": [],
+    }
+    errors = []
+    for i, s in enumerate(scene.shapes):
+        label = f"Scene.shapes[{i}] ({type(s).__name__})"
+        try:
+            out["shapes"].append(_shape_record(i, label, s))
+        except ValueError as exc:
+            errors.append(str(exc))
+    if errors:
+        raise ValueError("scene cannot be translated to Mitsuba exactly:\n  " + "\n  ".join(errors))
+    return out
+
+
+def _shape_record(i: int, label: str, s) -> dict:
+    m = s.matrix
+    rec = {"name": _name(i, s), "bsdf": _bsdf_record(label, s.material), "flip_normals": False}
+    mat = s.material
+    if isinstance(mat, rt.DiffuseLight) and mat.emits:
+        rec["emitter"] = _rgb(mat.radiance)
+    if isinstance(s, rt.Sphere):
+        _check_linear(label, m, similarity=True)
+        rec.update(type="sphere", center=[float(x) for x in _f32(s.world_center())],
+                   radius=float(_f32(s.world_radius())), flip_normals=s.flip_normals)
+    elif isinstance(s, rt.Quad):
+        Q, u, v = s.world_corners()          # flip_normals already swaps u and v
+        n = np.cross(u, v)
+        tw = np.eye(4)
+        tw[:3, 0], tw[:3, 1], tw[:3, 2], tw[:3, 3] = u / 2, v / 2, n / np.linalg.norm(n), Q + (u + v) / 2
+        rec.update(type="rectangle", to_world=_f32(tw))
+    elif isinstance(s, rt.Box):
+        _check_linear(label, m, similarity=False)
+        lo, hi = np.asarray(s.pmin), np.asarray(s.pmax)
+        local = np.eye(4)
+        local[:3, :3] = np.diag((hi - lo) / 2)
+        local[:3, 3] = (hi + lo) / 2
+        rec.update(type="cube", to_world=_f32(m @ local), flip_normals=s.flip_normals)
+    elif isinstance(s, (rt.Triangle, rt.Mesh)):
+        # Exactly the world-space triangles our tracer intersects (flip_normals baked
+        # into the winding, as reference_tracer._compile does), shared vertices kept.
+        if isinstance(s, rt.Triangle):
+            verts, faces = s.world_vertices(), np.array([[0, 1, 2]])
+        else:
+            verts = s.world_vertices()
+            faces = s.faces[:, [0, 2, 1]] if s.flip_normals else s.faces
+        rec.update(type="mesh", vertices=verts.astype(np.float32), faces=np.asarray(faces, dtype=np.uint32))
+    else:
+        raise ValueError(f"{label}: shape type {type(s).__name__} has no Mitsuba translation")
+    return rec
+
+
+# --------------------------------------------------------------------------- dict
+def _transform(mi, m: np.ndarray):
+    return mi.ScalarTransform4f(np.asarray(m, dtype=np.float64).tolist())
+
+
+def _make_mesh(mi, rec: dict):
+    """An ``mi.Mesh`` (flat shaded: no vertex normals) carrying its BSDF and emitter."""
+    props = mi.Properties()
+    props["bsdf"] = mi.load_dict(rec["bsdf"])
+    if "emitter" in rec:
+        props["emitter"] = mi.load_dict({"type": "area", "radiance": {"type": "rgb", "value": rec["emitter"]}})
+    vertices, faces = rec["vertices"], rec["faces"]
+    mesh = mi.Mesh(rec["name"], vertex_count=len(vertices), face_count=len(faces), props=props,
+                   has_vertex_normals=False, has_vertex_texcoords=False)
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = type(params["vertex_positions"])(
+        np.ascontiguousarray(vertices, dtype=np.float32).ravel())
+    params["faces"] = type(params["faces"])(np.ascontiguousarray(faces, dtype=np.uint32).ravel())
+    params.update()
+    return mesh
+
+
+def to_mitsuba(scene: rt.Scene, *, variant: str | None = None) -> dict:
+    """Translate ``scene`` into a dict for ``mi.load_dict``.
+
+    Triangles and meshes become ``mi.Mesh`` objects, which belong to the active
+    Mitsuba variant: the dict must be loaded under the same variant (a variant is
+    selected with :func:`mitsuba_scenes.variants.import_mitsuba` if none is set, or
+    ``variant`` is activated).
+
+    Parameters
+    ----------
+    scene : reference_tracer.Scene
+    variant : str or None, keyword-only
+        Mitsuba variant to activate first; None keeps the active one.
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    ValueError
+        For anything without an exact Mitsuba equivalent (e.g. ``Metal`` with
+        ``fuzz > 0``), listing every offending object.
+
+    Examples
+    --------
+    >>> import mitsuba as mi
+    >>> from mitsuba_scenes import get_scene, to_mitsuba
+    >>> d = to_mitsuba(get_scene("cornell_box", width=16, height=16), variant="scalar_rgb")
+    >>> d["sensor"]["fov_axis"], d["sensor"]["film"]["rfilter"]["type"]
+    ('y', 'box')
+    >>> scene = mi.load_dict(d)
+    """
+    from .variants import import_mitsuba
+
+    low = _lower(scene)
+    mi = import_mitsuba(variant)
+    cam, integ = low["camera"], low["integrator"]
+    d = {
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": integ["max_depth"], "rr_depth": integ["rr_depth"],
+                       "hide_emitters": False},
+        "sensor": {
+            "type": "perspective", "fov": cam["fov"], "fov_axis": "y",
+            "near_clip": cam["near_clip"], "far_clip": cam["far_clip"],
+            "to_world": _transform(mi, cam["to_world"]),
+            "sampler": {"type": "independent", "sample_count": 4},
+            "film": {"type": "hdrfilm", "width": cam["width"], "height": cam["height"],
+                     "rfilter": {"type": "box"}, "pixel_format": "rgb", "component_format": "float32",
+                     "sample_border": False},
+        },
+    }
+    if low["background"] is not None:
+        d["background"] = {"type": "constant", "radiance": {"type": "rgb", "value": low["background"]}}
+    for rec in low["shapes"]:
+        name = rec["name"]
+        if rec["type"] == "mesh":
+            d[name] = _make_mesh(mi, rec)
+            continue
+        entry = {"type": rec["type"], "bsdf": rec["bsdf"]}
+        if rec["type"] == "sphere":
+            entry.update(center=rec["center"], radius=rec["radius"])
+        else:
+            entry["to_world"] = _transform(mi, rec["to_world"])
+        if rec["flip_normals"]:
+            entry["flip_normals"] = True
+        if "emitter" in rec:
+            entry["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": rec["emitter"]}}
+        d[name] = entry
+    return d
+
+
+# --------------------------------------------------------------------------- XML
+def _num(x) -> str:
+    """Exact decimal of a float32 value (parses back to the same float32 bits)."""
+    return repr(float(np.float32(x)))
+
+
+def _xml_escape(s: str) -> str:
+    from xml.sax.saxutils import quoteattr
+
+    return quoteattr(str(s))
+
+
+_CHILD_TAG = {"diffuse": "bsdf", "conductor": "bsdf", "roughconductor": "bsdf", "dielectric": "bsdf",
+              "twosided": "bsdf", "area": "emitter", "constant": "emitter"}
+
+
+def _xml_props(rec: dict, indent: str) -> list:
+    """XML lines for the properties of a Mitsuba-dict-syntax record (without 'type')."""
+    lines = []
+    for key, val in rec.items():
+        if key == "type":
+            continue
+        if isinstance(val, dict) and val.get("type") == "rgb":
+            lines.append(f'{indent}<rgb name="{key}" value="{", ".join(_num(c) for c in val["value"])}"/>')
+        elif isinstance(val, dict):
+            tag = _CHILD_TAG[val["type"]]
+            name = "" if tag in ("bsdf", "emitter") else f' name="{key}"'
+            lines.append(f'{indent}<{tag} type="{val["type"]}"{name}>')
+            lines.extend(_xml_props(val, indent + "    "))
+            lines.append(f"{indent}</{tag}>")
+        elif isinstance(val, bool):
+            lines.append(f'{indent}<boolean name="{key}" value="{str(val).lower()}"/>')
+        elif isinstance(val, (int, np.integer)):
+            lines.append(f'{indent}<integer name="{key}" value="{int(val)}"/>')
+        elif isinstance(val, (float, np.floating)):
+            lines.append(f'{indent}<float name="{key}" value="{_num(val)}"/>')
+        elif isinstance(val, str):
+            lines.append(f'{indent}<string name="{key}" value={_xml_escape(val)}/>')
+        else:  # pragma: no cover - the neutral form holds only the above
+            raise TypeError(f"cannot write {key}={val!r} to XML")
+    return lines
+
+
+def _xml_matrix(m: np.ndarray, indent: str) -> list:
+    vals = " ".join(_num(x) for x in np.asarray(m).ravel())
+    return [f'{indent}<transform name="to_world">', f'{indent}    <matrix value="{vals}"/>',
+            f"{indent}</transform>"]
+
+
+def write_ply(path, vertices, faces) -> None:
+    """Write a binary little-endian PLY with float32 positions and int32 faces only.
+
+    No normals are written, so Mitsuba (with ``face_normals=true``) shades it flat.
+
+    Examples
+    --------
+    >>> write_ply("tri.ply", [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])  # doctest: +SKIP
+    """
+    v = np.ascontiguousarray(vertices, dtype="<f4")
+    f = np.asarray(faces, dtype=np.int64)
+    if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3:
+        raise ValueError(f"write_ply needs (N, 3) vertices and (M, 3) faces, got {v.shape} and {f.shape}")
+    header = (f"ply\nformat binary_little_endian 1.0\ncomment written by mitsuba_scenes\n"
+              f"element vertex {len(v)}\nproperty float x\nproperty float y\nproperty float z\n"
+              f"element face {len(f)}\nproperty list uchar int vertex_indices\nend_header\n")
+    rec = np.zeros(len(f), dtype=[("n", "u1"), ("idx", "<i4", (3,))])
+    rec["n"], rec["idx"] = 3, f
+    with open(path, "wb") as fh:
+        fh.write(header.encode("ascii"))
+        fh.write(v.tobytes())
+        fh.write(rec.tobytes())
+
+
+def to_xml(scene: rt.Scene, path) -> Path:
+    """Write ``scene`` as a Mitsuba 3 XML file; meshes go beside it as PLY files.
+
+    The file holds exactly what :func:`to_mitsuba` gives (every number is written as
+    the exact float32 value Mitsuba stores), so ``mi.load_file(path)`` renders the same
+    image as ``mi.load_dict(to_mitsuba(scene))`` for the same seed. Meshes are written
+    as ``<stem>_<shape name>.ply`` in the same folder, referenced by relative path,
+    with ``face_normals=true`` (flat shading, as our tracer).
+
+    Parameters
+    ----------
+    scene : reference_tracer.Scene
+    path : str or os.PathLike
+        The XML file to write (its folder must exist).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Examples
+    --------
+    >>> from mitsuba_scenes import get_scene, to_xml
+    >>> to_xml(get_scene("cornell_mesh", width=32, height=32), "cornell_mesh.xml")  # doctest: +SKIP
+    PosixPath('cornell_mesh.xml')
+    """
+    low = _lower(scene)
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise ValueError(f"to_xml: folder {path.parent} does not exist")
+    cam, integ = low["camera"], low["integrator"]
+    (o, t, u) = cam["lookat"]
+    L = ['<?xml version="1.0" encoding="utf-8"?>',
+         "<!-- Written by mitsuba_scenes.to_xml: the reference_tracer scene, translated per",
+         "     shared/DESIGN.md section 3 (box filter, fov_axis y, ext_ior 1, one-sided emitters). -->",
+         '<scene version="3.0.0">',
+         '    <integrator type="path">',
+         f'        <integer name="max_depth" value="{integ["max_depth"]}"/>',
+         f'        <integer name="rr_depth" value="{integ["rr_depth"]}"/>',
+         '        <boolean name="hide_emitters" value="false"/>',
+         "    </integrator>",
+         '    <sensor type="perspective">',
+         f'        <float name="fov" value="{_num(cam["fov"])}"/>',
+         '        <string name="fov_axis" value="y"/>',
+         f'        <float name="near_clip" value="{_num(cam["near_clip"])}"/>',
+         f'        <float name="far_clip" value="{_num(cam["far_clip"])}"/>',
+         f"        <!-- look_at origin={tuple(o)} target={tuple(t)} up={tuple(u)} -->",
+         *_xml_matrix(cam["to_world"], "        "),
+         '        <sampler type="independent">',
+         '            <integer name="sample_count" value="4"/>',
+         "        </sampler>",
+         '        <film type="hdrfilm">',
+         f'            <integer name="width" value="{cam["width"]}"/>',
+         f'            <integer name="height" value="{cam["height"]}"/>',
+         '            <string name="pixel_format" value="rgb"/>',
+         '            <string name="component_format" value="float32"/>',
+         '            <boolean name="sample_border" value="false"/>',
+         '            <rfilter type="box"/>',
+         "        </film>",
+         "    </sensor>"]
+    if low["background"] is not None:
+        L += ['    <emitter type="constant">',
+              f'        <rgb name="radiance" value="{", ".join(_num(c) for c in low["background"])}"/>',
+              "    </emitter>"]
+    for rec in low["shapes"]:
+        kind = "ply" if rec["type"] == "mesh" else rec["type"]
+        L.append(f'    <shape type="{kind}" id="{rec["name"]}">')
+        ind = "        "
+        if rec["type"] == "mesh":
+            ply = f"{path.stem}_{rec['name']}.ply"
+            write_ply(path.parent / ply, rec["vertices"], rec["faces"])
+            L += [f"{ind}<string name=\"filename\" value={_xml_escape(ply)}/>",
+                  f'{ind}<boolean name="face_normals" value="true"/>']
+        elif rec["type"] == "sphere":
+            c = rec["center"]
+            L += [f'{ind}<point name="center" x="{_num(c[0])}" y="{_num(c[1])}" z="{_num(c[2])}"/>',
+                  f'{ind}<float name="radius" value="{_num(rec["radius"])}"/>']
+        else:
+            L += _xml_matrix(rec["to_world"], ind)
+        if rec["flip_normals"]:
+            L.append(f'{ind}<boolean name="flip_normals" value="true"/>')
+        L += _xml_props({"bsdf": rec["bsdf"]}, ind)
+        if "emitter" in rec:
+            L += _xml_props({"emitter": {"type": "area", "radiance": {"type": "rgb", "value": rec["emitter"]}}},
+                            ind)
+        L.append("    </shape>")
+    L.append("</scene>")
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text("\n".join(L) + "\n", encoding="utf-8")
+    os.replace(tmp, path)
+    return path
