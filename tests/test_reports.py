@@ -1,0 +1,499 @@
+"""Tests of ``reports``: a synthetic results store -> index.html + summary.md, checked as data and in a browser."""
+from __future__ import annotations
+
+import base64
+import io
+import json
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from report_store import make_store  # noqa: E402
+
+import reports  # noqa: E402
+from reports.curves import curves, loglog_interp, loglog_slope, seed_comparison  # noqa: E402
+from reports.images import error_map, pick_spps, reference_exposure  # noqa: E402
+from reports.store import load_store  # noqa: E402
+
+SCENES = ("cornell_box", "spheres")
+STRATEGIES = ("uniform", "light", "mixture")
+SPPS = (1, 4, 16)
+SEEDS = (0, 1)
+COLUMNS = ["uniform", "light", "mixture", "Mitsuba path", "reference"]
+
+
+# ----------------------------------------------------------------------------------------- helpers
+
+class _Page(HTMLParser):
+    """Collects every element as (tag, attrs, ancestors' ids/classes) and the text of table cells."""
+
+    def __init__(self):
+        super().__init__(convert_charrefs=True)
+        self.elements = []
+        self.stack = []
+        self.tables = {}
+        self._table = None
+        self._cell = None
+        self._row = None
+        self.doctype = None
+
+    def handle_decl(self, decl):
+        self.doctype = decl
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        self.elements.append((tag, a, [dict(x[1]) for x in self.stack]))
+        if tag not in ("img", "meta", "br", "hr", "input", "link"):
+            self.stack.append((tag, a))
+        if tag == "table" and a.get("id"):
+            self._table = a["id"]
+            self.tables[self._table] = []
+        elif tag == "tr" and self._table:
+            self._row = []
+        elif tag in ("td", "th") and self._row is not None:
+            self._cell = []
+
+    def handle_endtag(self, tag):
+        while self.stack:
+            t, _ = self.stack.pop()
+            if t == tag:
+                break
+        if tag in ("td", "th") and self._cell is not None:
+            self._row.append("".join(self._cell).strip())
+            self._cell = None
+        elif tag == "tr" and self._row is not None:
+            self.tables[self._table].append(self._row)
+            self._row = None
+        elif tag == "table":
+            self._table = None
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell.append(data)
+
+
+def _parse(path: Path) -> _Page:
+    p = _Page()
+    p.feed(path.read_text(encoding="utf-8"))
+    p.close()
+    return p
+
+
+def _png_size(src: str) -> tuple[int, int]:
+    from PIL import Image
+
+    assert src.startswith("data:image/png;base64,"), src[:60]
+    im = Image.open(io.BytesIO(base64.b64decode(src.split(",", 1)[1], validate=True)))
+    im.load()
+    assert im.format == "PNG"
+    return im.size
+
+
+def _md_tables(md: str) -> dict[str, list[list[str]]]:
+    """Markdown tables keyed by the ``## heading`` above them (first table of each heading)."""
+    out, heading, rows = {}, None, None
+    for line in md.splitlines() + [""]:
+        if line.startswith("## "):
+            heading, rows = line[3:].strip(), None
+        elif line.startswith("|"):
+            cells = [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", line.strip())[1:-1]]
+            if rows is None:
+                rows = []
+            if not all(re.fullmatch(r"-+", c) for c in cells):
+                rows.append(cells)
+        elif rows is not None:
+            out.setdefault(heading, rows)
+            rows = None
+    return out
+
+
+def _numbers(cell: str) -> list[float]:
+    return [float(x) for x in re.findall(r"-?\d+(?:\.\d+)?(?:e[+-]?\d+)?", cell)]
+
+
+def _close(printed: float, value: float) -> bool:
+    """A number printed to 4 significant digits equals the stored value."""
+    return math.isclose(printed, value, rel_tol=6e-4, abs_tol=1e-300)
+
+
+# ----------------------------------------------------------------------------------------- fixtures
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory) -> Path:
+    return make_store(tmp_path_factory.mktemp("store"), scenes=SCENES, strategies=STRATEGIES, spps=SPPS,
+                      seeds=SEEDS, size=16, duplicate=True, truncated=True, seed_comparison=True)
+
+
+@pytest.fixture(scope="module")
+def report(store, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("report")
+    page = reports.build_report(store, out=out)
+    assert page == out / "index.html"
+    return page
+
+
+# ----------------------------------------------------------------------------------------- store
+
+def test_load_store_dedupes_last_wins_and_skips_truncated_line(store):
+    st = load_store(store)
+    n_expected = len(SCENES) * (len(STRATEGIES) + 1) * len(SPPS) * len(SEEDS) + 2 * 5 * len(SEEDS)
+    assert len(st.records) == n_expected
+    assert st.n_raw_records == n_expected + 1  # one stale duplicate, truncated line not counted
+    first = [r for r in st.records if (r["scene"], r["renderer"], r["strategy"], r["spp"], r["seed"])
+             == ("cornell_box", "ours", "uniform", 1, 0) and r["width"] == 16]
+    assert len(first) == 1 and first[0]["rmse"] != 999.0  # the stale copy (rmse 999) lost
+    assert any("truncated" in p for p in st.problems)
+    assert any("duplicate" in p for p in st.problems)
+    assert st.sections()[0] == ("cornell_box", 16, 16)  # the full sweep before the 400x400 seed runs
+    assert set(st.sections()) == {("cornell_box", 16, 16), ("cornell_box", 400, 400), ("spheres", 16, 16)}
+
+
+def test_load_store_rejects_what_is_not_a_store(tmp_path):
+    with pytest.raises(ValueError, match="not a folder"):
+        load_store(tmp_path / "nope")
+    with pytest.raises(ValueError, match="neither results.jsonl nor summary.json"):
+        load_store(tmp_path)
+    (tmp_path / "results.jsonl").write_text('{"renderer": "ours", "strategy": "mis", "spp": 4}\n{"x": 1}\n')
+    with pytest.raises(ValueError, match="line 1: missing or non-string 'scene'"):
+        load_store(tmp_path)
+    (tmp_path / "results.jsonl").write_text('{"scene": "a", "renderer": "ours", "strategy": "mis", "spp": 0}\n')
+    with pytest.raises(ValueError, match="'spp' must be a positive number"):
+        load_store(tmp_path)
+    (tmp_path / "results.jsonl").write_text('not json\n{"scene": "a", "renderer": "ours", "strategy": "mis", '
+                                            '"spp": 1}\n')
+    with pytest.raises(ValueError, match="line 1 is not valid JSON"):
+        load_store(tmp_path)
+
+
+def test_build_report_rejects_a_file_as_output(store, tmp_path):
+    f = tmp_path / "file"
+    f.write_text("x")
+    with pytest.raises(ValueError, match="not a folder"):
+        reports.build_report(store, out=f)
+
+
+# ----------------------------------------------------------------------------------------- numerics
+
+def test_seed_comparison_matches_power_laws(store):
+    cmp = seed_comparison(load_store(store).records)
+    # uniform RMSE = 0.5/sqrt(spp), light = 0.1/sqrt(spp): light matches uniform@50 at 50 * (0.1/0.5)^2 = 2 spp
+    assert cmp["target_exact"] and math.isclose(cmp["target_rmse"], 0.5 / math.sqrt(50), rel_tol=1e-12)
+    assert cmp["method"] == "interpolated"
+    assert math.isclose(cmp["light_spp"], 2.0, rel_tol=1e-9)
+    assert math.isclose(cmp["saving"], 25.0, rel_tol=1e-9)
+    assert math.isclose(cmp["light_slope"], -0.5, rel_tol=1e-9)
+
+
+def test_seed_comparison_absent_and_extrapolated():
+    assert seed_comparison([]) is None
+    recs = [{"scene": "cornell_box", "renderer": "ours", "strategy": s, "spp": n, "seed": 0, "width": 400,
+             "height": 400, "rmse": a / math.sqrt(n), "seconds": 1.0}
+            for s, a in (("uniform", 0.5), ("light", 0.01)) for n in (4, 16, 50)]
+    cmp = seed_comparison(recs)
+    # light at 4 spp (0.005) is already below uniform@50 (0.0707): extrapolated along slope -1/2
+    assert cmp["method"] == "extrapolated"
+    assert math.isclose(cmp["light_spp"], 50 * (0.01 / 0.5) ** 2, rel_tol=1e-9)
+    wrong_size = [dict(r, width=64, height=64) for r in recs]
+    assert seed_comparison(wrong_size) is None
+
+
+def test_curves_loglog_and_error_map():
+    recs = [{"renderer": "ours", "strategy": "mis", "spp": n, "seed": k, "rmse": (1 + k) / math.sqrt(n),
+             "seconds": n * (1 + k)} for n in (1, 4, 16) for k in (0, 1, 2)]
+    recs.append({"renderer": "mitsuba", "strategy": "path", "spp": 1, "seed": 0, "rmse": None, "seconds": 1})
+    (c,) = curves(recs, "rmse")  # Mitsuba has no finite value: left out
+    assert c.spp.tolist() == [1, 4, 16]
+    assert np.allclose(c.median, 2 / np.sqrt(c.spp)) and np.allclose(c.lo, 1 / np.sqrt(c.spp))
+    assert np.allclose(c.hi, 3 / np.sqrt(c.spp)) and np.allclose(c.seconds, 2 * c.spp)
+    assert math.isclose(loglog_slope(c.spp, c.median), -0.5, rel_tol=1e-12)
+    assert math.isclose(loglog_interp([1, 4], [1.0, 0.5], 2), 1 / math.sqrt(2), rel_tol=1e-12)
+    assert math.isnan(loglog_interp([1, 4], [1.0, 0.5], 8))
+    rng = np.random.default_rng(0)
+    ref = rng.random((8, 9, 3)).astype(np.float32)
+    img = ref + rng.normal(0, 0.1, ref.shape).astype(np.float32)
+    want = np.mean((img.astype(np.float64) - ref) ** 2 / (ref.astype(np.float64) ** 2 + 0.01))
+    assert math.isclose(float(error_map(img, ref).mean()), want, rel_tol=1e-9)
+    with pytest.raises(ValueError, match="differ in shape"):
+        error_map(img[:4], ref)
+    ref2 = np.full((10, 10, 3), 0.25, np.float32)
+    assert math.isclose(reference_exposure(ref2), 2.0, rel_tol=1e-6)  # 0.25 * 2**2 = 1: white
+    assert reference_exposure(np.zeros((4, 4, 3))) == 0.0
+    assert pick_spps([1, 2, 4, 8, 16, 32, 64]) == [4.0, 16.0, 64.0]
+    assert pick_spps([1, 2, 8, 32, 128]) == [1.0, 8.0, 128.0]
+
+
+# ----------------------------------------------------------------------------------------- HTML
+
+def test_html_parses_and_embeds_every_promised_plot_and_image(report):
+    page = _parse(report)
+    assert page.doctype and page.doctype.lower() == "doctype html"
+    ids = [a["id"] for _, a, _ in page.elements if "id" in a]
+    assert len(ids) == len(set(ids)), "duplicate element ids"
+    ids = set(ids)
+    # self-contained: no network, no external files
+    for tag, a, _ in page.elements:
+        for attr in ("src", "href"):
+            v = a.get(attr)
+            if v is None:
+                continue
+            assert not re.match(r"^(https?:|//|file:)", v), f"<{tag} {attr}={v[:60]}> leaves the page"
+            if attr == "href":
+                assert v.startswith("#") and v[1:] in ids, f"dangling link {v}"
+            if attr == "src":
+                assert v.startswith("data:image/png;base64,"), f"<{tag}> src is not embedded"
+        assert tag not in ("link", "iframe"), f"unexpected <{tag}>"
+    imgs = [(a, anc) for t, a, anc in page.elements if t == "img"]
+    assert imgs and all(_png_size(a["src"])[0] > 0 for a, _ in imgs)
+
+    sections = {a["data-scene"]: a for t, a, _ in page.elements if t == "section" and "data-scene" in a}
+    assert set(sections) == set(SCENES)
+    for scene in SCENES:
+        sec = [a for t, a, _ in page.elements if t == "section" and a.get("id") == f"scene-{scene.replace('_', '-')}-16-16"]
+        assert sec, f"no section for {scene} 16x16"
+        sid = sec[0]["id"]
+        assert sec[0]["data-plots"].split() == ["rmse", "relmse", "ssim", "time"]
+        assert sec[0]["data-columns"].split("|") == COLUMNS
+        assert sec[0]["data-spps"].split() == ["1", "4", "16"]
+        inside = [(a, anc) for a, anc in imgs if any(x.get("id") == sid for x in anc)]
+        plots = {a["data-plot"] for a, _ in inside if a.get("data-kind") == "plot"}
+        assert plots == {"rmse", "relmse", "ssim", "time"}
+        for spp in ("1", "4", "16"):
+            shots = {a["data-column"] for a, _ in inside if a.get("data-kind") == "image" and a["data-spp"] == spp}
+            errs = {a["data-column"] for a, _ in inside if a.get("data-kind") == "error" and a["data-spp"] == spp}
+            assert shots == set(COLUMNS), (scene, spp, shots)
+            assert errs == set(COLUMNS) - {"reference"}, (scene, spp, errs)
+        assert sum(a.get("data-kind") == "colourbar" for a, _ in inside) == 1
+        sizes = {_png_size(a["src"]) for a, _ in inside if a.get("data-kind") in ("image", "error")}
+        assert sizes == {(16, 16)}
+    # the flip and zoom wiring point at elements that exist
+    wraps = [a for t, a, _ in page.elements if t == "div" and "shotwrap" in a.get("class", "")]
+    assert wraps
+    for a in wraps:
+        assert a["data-zoom"] in ids
+        if "is-ref" not in a["class"]:
+            assert a["data-ref"] in ids and a["data-ref"].startswith("ref-")
+    # the seed comparison section is present with its plot
+    seed = [a for t, a, _ in page.elements if t == "section" and a.get("id") == "seed"]
+    assert seed and seed[0]["data-present"] == "yes"
+    assert any(a.get("data-plot") == "seed" for a, _ in imgs)
+
+
+def test_html_and_markdown_tables_hold_the_stores_numbers(store, report):
+    rows = json.loads((store / "summary.json").read_text())["rows"]
+    md = (report.parent / "summary.md").read_text()
+    tables = _md_tables(md)
+    page = _parse(report)
+    checked = 0
+    for scene in SCENES:
+        md_rows = tables[f"{scene} (16×16)"]
+        header, body = md_rows[0], md_rows[1:]
+        html_rows = page.tables[f"scene-{scene.replace('_', '-')}-16-16-table"]
+        assert [c.strip() for c in html_rows[0]] == [h.strip() for h in header]
+        assert [r[1:] for r in html_rows[1:]] == [r[1:] for r in body]  # same numbers in HTML and Markdown
+        col = {h: i for i, h in enumerate(header)}
+        srows = [r for r in rows if r["scene"] == scene]
+        assert len(body) == len(srows) == len(STRATEGIES) + 1
+        for r in srows:
+            label = r["strategy"] if r["renderer"] == "ours" else "Mitsuba path"
+            (cells,) = [b for b in body if b[0] == label]
+            slope, lo, hi = _numbers(cells[col["slope [95% CI]"]])
+            assert _close(slope, r["slope"]) and _close(lo, r["slope_ci"][0]) and _close(hi, r["slope_ci"][1])
+            b2, se = _numbers(cells[col["bias² ± s.e."]])
+            assert _close(b2, r["bias2"]) and _close(se, r["bias2_stderr"])
+            assert cells[col["bias verdict"]] == ("biased" if r["bias_significant"] else "no bias detected")
+            z, p = _numbers(cells[col["z / p"]])
+            assert math.isclose(z, r["bias_z"], rel_tol=6e-3) and math.isclose(p, r["bias_p"], rel_tol=6e-3)
+            for name, key in (("variance", "variance"), ("efficiency", "efficiency"),
+                              ("eff. / Mitsuba", "efficiency_vs_mitsuba"), ("target RMSE", "target_rmse"),
+                              ("samples/s", "samples_per_second"),
+                              ("samples/s / Mitsuba", "samples_per_second_vs_mitsuba"),
+                              ("time to target (s)", "time_to_target")):
+                cell = cells[col[name]]
+                if r[key] is None:
+                    assert cell == "–", (name, cell)
+                else:
+                    (v,) = _numbers(cell)
+                    assert _close(v, r[key]), (scene, label, name, cell, r[key])
+                checked += 1
+    assert checked == len(SCENES) * (len(STRATEGIES) + 1) * 7
+    # run facts and formulas
+    assert "Synthetic CPU @ 3.0GHz, 2 cores" in md and "3.9.1 (llvm_ad_rgb)" in md and "| preset | test |" in md
+    assert "eps = 0.01" in md and "sigma=1.5" in md
+    assert re.search(r"Light sampling reaches that RMSE at about 2 spp .*25× fewer samples", md)
+
+
+def test_report_degrades_without_meta_and_summary(store, tmp_path):
+    st = tmp_path / "partial"
+    shutil.copytree(store, st)
+    (st / "meta.json").unlink()
+    (st / "summary.json").unlink()
+    page = reports.build_report(st)
+    assert page == st / "index.html" and (st / "summary.md").exists()
+    text = page.read_text()
+    assert "meta.json is missing" in text and "summary.json is missing" in text
+    assert "summary.json holds no rows for this scene and size." in text
+    assert "names no reference image" in text  # no meta: no reference, images shown without error maps
+    p = _parse(page)
+    assert any(a.get("data-plot") == "rmse" for t, a, _ in p.elements if t == "img")
+    assert any(a.get("data-kind") == "image" for t, a, _ in p.elements if t == "img")
+    assert not any(a.get("data-kind") == "error" for t, a, _ in p.elements if t == "img")
+
+
+def test_report_says_when_the_seed_run_is_absent(tmp_path):
+    st = make_store(tmp_path / "s", scenes=("spheres",), strategies=("mis",), spps=(1, 2), seeds=(0,),
+                    size=8, seed_comparison=False, duplicate=False)
+    page = reports.build_report(st)
+    assert "holds no run of cornell_box at 400×400" in page.read_text()
+    assert "holds no run of cornell_box at 400×400" in (st / "summary.md").read_text()
+
+
+def test_cli_report_and_summary_table(store, tmp_path, capsys):
+    from benchmarks.cli import main
+
+    out = tmp_path / "cli"
+    assert main(["report", str(store), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert f"report: {(out / 'index.html').resolve()}" in printed
+    assert (out / "index.html").exists() and (out / "summary.md").exists()
+    assert "BIASED" in printed and "Mitsuba path" in printed and "light reaches it at ~2 spp" in printed
+    table = reports.summary_table(store)
+    lines = [ln for ln in table.splitlines() if ln.startswith(("cornell_box", "spheres"))]
+    assert len(lines) == len(SCENES) * (len(STRATEGIES) + 1)
+    assert all(("BIASED" in ln) == (" light " in ln) for ln in lines)
+    assert main(["report", str(tmp_path / "missing")]) == 2  # bad input: one clear line, exit 2
+    assert "is not a folder" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------------------- browser
+
+_CHECK = r"""
+<script>
+(function () {
+  var errs = [];
+  window.addEventListener("error", function (e) { errs.push("error: " + e.message); });
+  var ce = console.error, cw = console.warn;
+  console.error = function () { errs.push("console.error: " + Array.prototype.join.call(arguments, " ")); };
+  console.warn = function () { errs.push("console.warn: " + Array.prototype.join.call(arguments, " ")); };
+  window.__rtbench_errs = errs;
+})();
+</script>
+"""
+
+_PROBE = r"""
+<script>
+window.addEventListener("load", function () {
+  var r = {errors: window.__rtbench_errs};
+  var imgs = Array.prototype.slice.call(document.images);
+  r.images = imgs.length;
+  r.broken = imgs.filter(function (i) { return !(i.complete && i.naturalWidth > 0); }).length;
+  var cs = Array.prototype.slice.call(document.querySelectorAll("canvas.zoom"));
+  r.canvases = cs.length;
+  r.drawn = cs.filter(function (c) {
+    var d = c.getContext("2d").getImageData(0, 0, c.width, c.height).data, lo = 255, hi = 0;
+    for (var i = 0; i < d.length; i += 4) { lo = Math.min(lo, d[i + 1]); hi = Math.max(hi, d[i + 1]); }
+    return d[3] > 0 && hi > lo;
+  }).length;
+  var w = document.querySelector(".shotwrap:not(.is-ref)"), img = w.querySelector("img.shot");
+  var ref = document.getElementById(w.getAttribute("data-ref")), own = img.src;
+  w.click();
+  r.flip = img.src === ref.src && w.classList.contains("flipped") && own !== ref.src;
+  w.click();
+  r.unflip = img.src === own && !w.classList.contains("flipped");
+  w.dispatchEvent(new MouseEvent("mouseenter"));
+  document.dispatchEvent(new KeyboardEvent("keydown", {key: "r"}));
+  r.keyflip = img.src === ref.src;
+  document.dispatchEvent(new KeyboardEvent("keydown", {key: "Escape"}));
+  r.escape = img.src === own;
+  document.dispatchEvent(new KeyboardEvent("keydown", {key: "+"}));
+  r.zoomlabel = document.querySelector(".zoomlevel").textContent;
+  document.body.setAttribute("data-check", JSON.stringify(r));
+});
+</script>
+"""
+
+
+def _find_chromium():
+    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
+        exe = shutil.which(name)
+        if exe:
+            return exe
+    return None
+
+
+@pytest.fixture(scope="session")
+def chromium():
+    """Debian's chromium; installed with apt-get when missing and running as root, else the test is skipped."""
+    exe = _find_chromium()
+    if exe is None and hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("apt-get") \
+            and os.environ.get("RTBENCH_NO_APT") != "1":
+        env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+        cmd = ["apt-get", "install", "-y", "-q", "--no-install-recommends", "chromium"]
+        try:
+            if subprocess.run(cmd, env=env, capture_output=True, timeout=900).returncode != 0:
+                subprocess.run(["apt-get", "update", "-q"], env=env, capture_output=True, timeout=600)
+                subprocess.run(cmd, env=env, capture_output=True, timeout=900)
+        except (OSError, subprocess.TimeoutExpired):
+            pass
+        exe = _find_chromium()
+    if exe is None:
+        pytest.skip("no chromium: install it with `apt-get install -y chromium` (the test does so itself only "
+                    "as root with apt-get available)")
+    return exe
+
+
+def _chromium(exe, tmp_path, *args, timeout=120):
+    cmd = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--hide-scrollbars",
+           "--disable-extensions", "--mute-audio", f"--user-data-dir={tmp_path / 'profile'}", *args]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+
+
+def test_page_in_headless_chromium(chromium, report, tmp_path):
+    # 1. the page as written: no console message of any kind (the page logs nothing when all is well)
+    url = report.resolve().as_uri()
+    res = _chromium(chromium, tmp_path, "--enable-logging=stderr", "--v=0", "--virtual-time-budget=3000",
+                    "--dump-dom", url)
+    assert res.returncode == 0, res.stderr[-2000:]
+    console = [ln for ln in res.stderr.splitlines() if "CONSOLE" in ln and report.name in ln]
+    assert console == [], console
+    assert 'class="cmp-row' in res.stdout  # the DOM was built
+
+    # 2. an instrumented copy: errors caught in-page, images decoded, zoom canvases drawn, flip and keys work
+    probe = tmp_path / "probe.html"
+    text = report.read_text(encoding="utf-8")
+    probe.write_text(text.replace("<head>", "<head>" + _CHECK, 1).replace("</body>", _PROBE + "</body>", 1),
+                     encoding="utf-8")
+    res = _chromium(chromium, tmp_path, "--virtual-time-budget=3000", "--dump-dom", probe.as_uri())
+    m = re.search(r'data-check="([^"]*)"', res.stdout)
+    assert m, res.stderr[-2000:]
+    import html as _html
+
+    check = json.loads(_html.unescape(m.group(1)))
+    assert check["errors"] == []
+    assert check["images"] > 40 and check["broken"] == 0
+    assert check["canvases"] > 0 and check["drawn"] == check["canvases"]
+    assert check["flip"] and check["unflip"] and check["keyflip"] and check["escape"]
+    assert check["zoomlabel"] == "×8"
+
+    # 3. a screenshot that is not blank
+    from PIL import Image
+
+    shot = tmp_path / "shot.png"
+    res = _chromium(chromium, tmp_path, "--window-size=1400,2600", f"--screenshot={shot}", url)
+    assert shot.exists(), res.stderr[-2000:]
+    a = np.asarray(Image.open(shot).convert("RGB"), dtype=np.float64)
+    assert a.shape[:2] == (2600, 1400)
+    assert a.std() > 20, "screenshot is (nearly) uniform"
+    assert len(np.unique(a.reshape(-1, 3).astype(np.uint8), axis=0)) > 1000
+    keep = os.environ.get("RTBENCH_REPORT_SCREENSHOT")
+    if keep:
+        shutil.copy(shot, keep)
