@@ -1,0 +1,225 @@
+"""Shapes against analytic answers (hypothesis property tests) and the BVH against brute force."""
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import reference_tracer as rt
+from reference_tracer.render import core_scene
+
+MAT = rt.Lambertian(0.5)
+CAM = rt.Camera(lookfrom=(0, 0, -10), lookat=(0, 0, 0), width=4, height=4)
+
+coord = st.floats(-100, 100, allow_nan=False, allow_infinity=False)
+vec = st.tuples(coord, coord, coord)
+unit_interval = st.floats(0.0, 1.0)
+
+
+def core(shapes):
+    return core_scene(rt.Scene(camera=CAM, shapes=shapes))
+
+
+def cast(c, origins, dirs, **kw):
+    return c.intersect(np.ascontiguousarray(origins, dtype=np.float64),
+                       np.ascontiguousarray(dirs, dtype=np.float64), **kw)
+
+
+def random_unit(rng, n):
+    v = rng.normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+@settings(max_examples=60, deadline=None)
+@given(center=vec, radius=st.floats(1e-3, 50), seed=st.integers(0, 2**32 - 1))
+def test_sphere_hits_lie_on_surface(center, radius, seed):
+    rng = np.random.default_rng(seed)
+    c = np.array(center)
+    n = 64
+    # Origins outside the sphere, aimed at random points of its surface: every ray hits.
+    origins = c + random_unit(rng, n) * radius * rng.uniform(1.5, 20, size=(n, 1))
+    targets = c + random_unit(rng, n) * radius
+    dirs = targets - origins
+    out = cast(core([rt.Sphere(center, radius, MAT)]), origins, dirs)
+    assert np.all(out["prim"] == 0)
+    dist = np.linalg.norm(out["point"] - c, axis=1)
+    scale = 1.0 + np.abs(c).max() + radius
+    np.testing.assert_allclose(dist, radius, atol=1e-12 * scale)
+    # The hit is the near side: the front (outward) normal faces the ray.
+    assert np.all(np.einsum("ij,ij->i", out["normal"], dirs) < 0)
+    np.testing.assert_allclose(np.linalg.norm(out["normal"], axis=1), 1.0, atol=1e-12)
+
+
+@settings(max_examples=30, deadline=None)
+@given(center=vec, radius=st.floats(1e-2, 50), seed=st.integers(0, 2**32 - 1))
+def test_sphere_misses_rays_that_pass_outside(center, radius, seed):
+    rng = np.random.default_rng(seed)
+    c = np.array(center)
+    n = 64
+    origins = c + random_unit(rng, n) * radius * rng.uniform(2, 20, size=(n, 1))
+    to_c = c - origins
+    # Lines parallel to (centre - origin), shifted sideways by 1.01 radius: they pass the
+    # centre at exactly that distance and miss the sphere.
+    perp = np.cross(to_c, random_unit(rng, n))
+    perp /= np.linalg.norm(perp, axis=1, keepdims=True)
+    out = cast(core([rt.Sphere(center, radius, MAT)]), origins + perp * radius * 1.01, to_c)
+    assert np.all(out["prim"] == -1)
+
+
+def test_sphere_flip_normals_points_inward_and_inside_ray_hits_far_side():
+    c = core([rt.Sphere((0, 0, 0), 2.0, MAT, flip_normals=True)])
+    out = cast(c, [[0, 0, 0], [0, 0, -5]], [[1, 0, 0], [0, 0, 1]])
+    np.testing.assert_allclose(out["t"], [2.0, 3.0])
+    np.testing.assert_allclose(out["normal"], [[-1, 0, 0], [0, 0, 1]], atol=1e-15)
+
+
+@settings(max_examples=60, deadline=None)
+@given(a=vec, b=vec, c=vec, seed=st.integers(0, 2**32 - 1))
+def test_triangle_hits_have_barycentrics_in_range(a, b, c, seed):
+    a, b, c = map(np.array, (a, b, c))
+    normal = np.cross(b - a, c - a)
+    area2 = np.linalg.norm(normal)
+    scale = max(np.abs([a, b, c]).max(), 1.0)
+    # Skip slivers: the property is about well-posed triangles (degenerate ones: issue 8).
+    if area2 < 1e-3 * scale ** 2 or area2 / max(np.linalg.norm(b - a), np.linalg.norm(c - a), np.linalg.norm(c - b)) ** 2 < 1e-3:
+        return
+    normal /= area2
+    rng = np.random.default_rng(seed)
+    n = 64
+    # Targets strictly inside (barycentrics >= 0.01), origins on either side of the plane.
+    w = rng.dirichlet((1, 1, 1), size=n) * 0.97 + 0.01
+    targets = w[:, :1] * a + w[:, 1:2] * b + w[:, 2:] * c
+    side = rng.choice([-1.0, 1.0], size=(n, 1))
+    origins = targets + side * normal * rng.uniform(0.5, 10, size=(n, 1)) * scale + rng.normal(size=(n, 3)) * 0.1 * scale
+    dirs = targets - origins
+    for test in rt.TRIANGLE_TESTS[:2]:
+        sc = core_scene(rt.Scene(camera=CAM, shapes=[rt.Triangle(tuple(a), tuple(b), tuple(c), MAT)]), triangle_test=test)
+        out = cast(sc, origins, dirs)
+        assert np.all(out["prim"] == 0), test
+        p = out["point"]
+        # On the plane, and barycentrics (by areas) in [0, 1] up to rounding.
+        assert np.all(np.abs((p - a) @ normal) <= 1e-9 * scale)
+        tot = np.cross(b - a, c - a) @ normal
+        l1 = np.cross(c - b, p - b) @ normal / tot
+        l2 = np.cross(a - c, p - c) @ normal / tot
+        l3 = 1 - l1 - l2
+        for lam in (l1, l2, l3):
+            assert np.all(lam >= -1e-9) and np.all(lam <= 1 + 1e-9)
+        np.testing.assert_allclose(np.column_stack([l1, l2, l3]), w, atol=1e-6)
+        # The front normal follows the counter-clockwise winding.
+        np.testing.assert_allclose(out["normal"], np.broadcast_to(normal, (n, 3)), atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(Q=vec, u=vec, v=vec, s=unit_interval, t=unit_interval)
+def test_quad_hit_and_outside_miss(Q, u, v, s, t):
+    Q, u, v = map(np.array, (Q, u, v))
+    n = np.cross(u, v)
+    if np.linalg.norm(n) < 1e-2 * max(np.linalg.norm(u) * np.linalg.norm(v), 1e-9) or np.linalg.norm(n) < 1e-3:
+        return
+    n /= np.linalg.norm(n)
+    c = core([rt.Quad(tuple(Q), tuple(u), tuple(v), MAT)])
+    s, t = 0.02 + 0.96 * s, 0.02 + 0.96 * t
+    inside = Q + s * u + t * v
+    outside = Q + (1.2 + s) * u + t * v
+    origin = inside + 5 * n * max(1.0, np.abs(Q).max())
+    out = cast(c, [origin, origin], [inside - origin, outside - origin])
+    assert out["prim"].tolist() == [0, -1]
+    np.testing.assert_allclose(out["normal"][0], n, atol=1e-12)
+
+
+def test_box_faces_point_outward_under_transforms():
+    box = rt.Box((0, 0, 0), (1, 2, 3), MAT).rotate((1, 1, 0), 33).scale(2.5).translate((4, -1, 7))
+    c = core([box])
+    centre = box._point((0.5, 1.0, 1.5))
+    rng = np.random.default_rng(1)
+    dirs = random_unit(rng, 500)
+    origins = centre - 50 * dirs
+    out = cast(c, origins, dirs)
+    assert np.all(out["prim"] >= 0)
+    # Seen from outside, every hit is on a front face (normal against the ray).
+    assert np.all(np.einsum("ij,ij->i", out["normal"], dirs) < 0)
+    # From the inside, every hit is on the back of a face.
+    out_in = cast(c, np.broadcast_to(centre, (500, 3)), dirs)
+    assert np.all(np.einsum("ij,ij->i", out_in["normal"], dirs) > 0)
+
+
+def test_flip_normals_reverses_quad_triangle_and_mesh():
+    for shape in (rt.Quad((-1, -1, 0), (2, 0, 0), (0, 2, 0), MAT),
+                  rt.Triangle((-1, -1, 0), (1, -1, 0), (0, 1, 0), MAT),
+                  rt.Mesh([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]], MAT)):
+        for flip, expected_z in ((False, 1.0), (True, -1.0)):
+            s = type(shape).__new__(type(shape))
+            from dataclasses import replace
+            s = replace(shape, flip_normals=flip)
+            out = cast(core([s]), [[0, 0, 5]], [[0, 0, -1]])
+            assert out["normal"][0][2] == expected_z, (type(shape).__name__, flip)
+
+
+def random_primitives(n, rng):
+    shapes = []
+    kinds = rng.integers(0, 3, size=n) if n > 1 else [2]
+    for k in kinds:
+        p = rng.uniform(-50, 50, size=3)
+        if k == 0:
+            shapes.append(rt.Sphere(tuple(p), float(rng.uniform(0.1, 3)), MAT))
+        elif k == 1:
+            shapes.append(rt.Quad(tuple(p), tuple(rng.normal(size=3) * 3), tuple(rng.normal(size=3) * 3), MAT))
+        else:
+            shapes.append(rt.Triangle(tuple(p), tuple(p + rng.normal(size=3) * 3), tuple(p + rng.normal(size=3) * 3), MAT))
+    return shapes
+
+
+def random_mesh(n, rng):
+    base = rng.uniform(-50, 50, size=(n, 1, 3))
+    verts = (base + rng.normal(size=(n, 3, 3)) * 2).reshape(-1, 3)
+    return rt.Mesh(verts, np.arange(3 * n).reshape(n, 3), MAT)
+
+
+@pytest.mark.parametrize("n", [1, 2, 10, 100, 1000, 10000])
+def test_bvh_equals_brute_force(n):
+    rng = np.random.default_rng(n)
+    shapes = random_primitives(min(n, 1000), rng) if n <= 1000 else [random_mesh(n, rng)]
+    c = core(shapes)
+    m = 3000 if n < 10000 else 800
+    origins = rng.uniform(-70, 70, size=(m, 3))
+    dirs = random_unit(rng, m)
+    # Half the rays aimed at primitives so that hits are common.
+    anchors = np.array([s.world_center() if isinstance(s, rt.Sphere) else
+                        (s.world_corners()[0] + 0.5 * s.world_corners()[1] + 0.5 * s.world_corners()[2]) if isinstance(s, rt.Quad) else
+                        s.world_vertices().mean(axis=0) if isinstance(s, rt.Triangle) else np.zeros(3)
+                        for s in shapes]) if n <= 1000 else shapes[0].world_triangles().mean(axis=1)
+    targets = anchors[rng.integers(0, len(anchors), size=m // 2)]
+    dirs[: m // 2] = targets - origins[: m // 2]
+    fast = cast(c, origins, dirs)
+    slow = cast(c, origins, dirs, brute_force=True)
+    assert np.array_equal(fast["prim"], slow["prim"])
+    assert np.array_equal(fast["t"], slow["t"])
+    assert (fast["prim"] >= 0).mean() > 0.3
+
+
+def test_bvh_handles_flat_boxes_and_coincident_centroids():
+    # Axis-aligned quads (zero-thickness boxes) and many triangles sharing one centroid.
+    quads = [rt.Quad((-5, y, -5), (10, 0, 0), (0, 0, 10), MAT) for y in np.linspace(-3, 3, 7)]
+    rng = np.random.default_rng(3)
+    d = rng.normal(size=(2000, 3))
+    verts = np.stack([d, -d / 2 + 0.1 * rng.normal(size=(2000, 3)), -d / 2], axis=1)
+    verts[:, 2] = -verts[:, 0] - verts[:, 1]  # all centroids exactly at the origin
+    mesh = rt.Mesh(verts.reshape(-1, 3) + (0, 10, 0), np.arange(6000).reshape(-1, 3), MAT)
+    c = core(quads + [mesh])
+    origins = rng.uniform(-8, 8, size=(2000, 3)) + (0, 5, 0)
+    dirs = random_unit(rng, 2000)
+    fast, slow = cast(c, origins, dirs), cast(c, origins, dirs, brute_force=True)
+    assert np.array_equal(fast["prim"], slow["prim"])
+    assert c.bvh_depth < 64
+
+
+def test_mesh_load_obj_and_ply_keep_winding(tmp_path):
+    trimesh = pytest.importorskip("trimesh")
+    tm = trimesh.creation.icosphere(subdivisions=1)
+    for ext in ("obj", "ply"):
+        path = tmp_path / f"ico.{ext}"
+        tm.export(path)
+        mesh = rt.Mesh.load(path, MAT)
+        assert mesh.faces.shape == tm.faces.shape
+        np.testing.assert_allclose(mesh.world_triangles(), np.asarray(tm.vertices)[tm.faces], atol=1e-6)
+    with pytest.raises(ValueError, match="could not read"):
+        rt.Mesh.load(tmp_path / "missing.obj", MAT)

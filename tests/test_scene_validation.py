@@ -1,0 +1,122 @@
+"""Every invalid input raises ValueError naming the field; nothing reaches C++ unchecked."""
+import math
+
+import numpy as np
+import pytest
+
+import reference_tracer as rt
+
+MAT = rt.Lambertian(0.5)
+
+
+def camera(**kw):
+    args = dict(lookfrom=(0, 0, -3), lookat=(0, 0, 0), vup=(0, 1, 0), vfov=40, width=8, height=8)
+    args.update(kw)
+    return rt.Camera(**args)
+
+
+def scene(shapes=(), **kw):
+    return rt.Scene(camera=camera(), shapes=list(shapes), **kw)
+
+
+@pytest.mark.parametrize("make, field", [
+    (lambda: rt.Sphere((0, 0, 0), -1.0, MAT), "Sphere.radius"),
+    (lambda: rt.Sphere((0, 0, 0), 0.0, MAT), "Sphere.radius"),
+    (lambda: rt.Sphere((0, math.nan, 0), 1.0, MAT), "Sphere.center"),
+    (lambda: rt.Sphere((0, 0, 0), math.inf, MAT), "Sphere.radius"),
+    (lambda: rt.Quad((0, 0, 0), (1, 0, 0), (2, 0, 0), rt.DiffuseLight(1)), "Quad light has zero area"),
+    (lambda: rt.Quad((0, 0, 0), (0, 0, 0), (0, 1, 0), MAT), "zero area"),
+    (lambda: rt.Quad((0, 0, 0), (1, 0, math.nan), (0, 1, 0), MAT), "Quad.u"),
+    (lambda: rt.Box((0, 0, 0), (1, 0, 1), MAT), "Box.pmin"),
+    (lambda: rt.Triangle((0, 0, 0), (1, 1, 1), (2, 2, 2), MAT), "Triangle has zero area"),
+    (lambda: rt.Mesh(np.zeros((3, 3)), [[0, 1, 3]], MAT), "Mesh.faces index out of range"),
+    (lambda: rt.Mesh(np.zeros((3, 3)), [[0, 1, -1]], MAT), "Mesh.faces index out of range"),
+    (lambda: rt.Mesh([[0, 0, 0], [1, 0, math.nan], [0, 1, 0]], [[0, 1, 2]], MAT), "Mesh.vertices"),
+    (lambda: rt.Mesh(np.zeros((3, 2)), [[0, 1, 2]], MAT), "Mesh.vertices"),
+    (lambda: rt.Mesh(np.zeros((3, 3)), [[0.5, 1, 2]], MAT), "Mesh.faces"),
+    (lambda: rt.Sphere((0, 0, 0), 1.0, "white"), "Sphere.material"),
+    (lambda: rt.Sphere((0, 0, 0), 1.0, MAT).scale(0), "scale.factor"),
+    (lambda: rt.Sphere((0, 0, 0), 1.0, MAT).rotate((0, 0, 0), 10), "rotate.axis"),
+    (lambda: rt.Sphere((0, 0, 0), 1.0, MAT).translate((0, math.inf, 0)), "translate.offset"),
+])
+def test_shape_validation(make, field):
+    with pytest.raises(ValueError, match=field.replace(".", r"\.")):
+        make()
+
+
+@pytest.mark.parametrize("make, field", [
+    (lambda: rt.Lambertian((0.5, 1.2, 0.5)), "Lambertian.albedo"),
+    (lambda: rt.Lambertian(-0.1), "Lambertian.albedo"),
+    (lambda: rt.Lambertian((0.5, math.nan, 0.5)), "Lambertian.albedo"),
+    (lambda: rt.Lambertian((0.5, 0.5)), "Lambertian.albedo"),
+    (lambda: rt.Metal(0.5, fuzz=2.0), "Metal.fuzz"),
+    (lambda: rt.Metal(1.5), "Metal.albedo"),
+    (lambda: rt.Dielectric(math.nan), "Dielectric.ior"),
+    (lambda: rt.Dielectric(0.0), "Dielectric.ior"),
+    (lambda: rt.RoughConductor(0.5, alpha=0.0), "RoughConductor.alpha"),
+    (lambda: rt.RoughConductor(0.5, alpha=math.inf), "RoughConductor.alpha"),
+    (lambda: rt.DiffuseLight(-1.0), "DiffuseLight.radiance"),
+    (lambda: rt.DiffuseLight(math.inf), "DiffuseLight.radiance"),
+    (lambda: rt.DiffuseLight(1.0, albedo=1.5), "DiffuseLight.albedo"),
+])
+def test_material_validation(make, field):
+    with pytest.raises(ValueError, match=field.replace(".", r"\.")):
+        make()
+
+
+@pytest.mark.parametrize("kw, field", [
+    (dict(vfov=0), "Camera.vfov"),
+    (dict(vfov=180), "Camera.vfov"),
+    (dict(width=0), "Camera.width"),
+    (dict(height=2.5), "Camera.height"),
+    (dict(lookfrom=(0, 0, 0)), "Camera.lookat must differ"),
+    (dict(vup=(0, 0, 1)), "Camera.vup"),
+    (dict(lookfrom=(0, math.nan, -3)), "Camera.lookfrom"),
+])
+def test_camera_validation(kw, field):
+    with pytest.raises(ValueError, match=field.replace(".", r"\.")):
+        camera(**kw)
+
+
+@pytest.mark.parametrize("kw, field", [
+    (dict(max_depth=0), "Scene.max_depth"),
+    (dict(max_depth=-2), "Scene.max_depth"),
+    (dict(max_depth=2.0), "Scene.max_depth"),
+    (dict(rr_depth=0), "Scene.rr_depth"),
+    (dict(background=(1, -1, 0)), "Scene.background"),
+    (dict(background=math.nan), "Scene.background"),
+    (dict(shapes=["sphere"]), r"Scene.shapes\[0\]"),
+])
+def test_scene_validation(kw, field):
+    shapes = kw.pop("shapes", ())
+    with pytest.raises(ValueError, match=field.replace(".", r"\.") if "[" not in field else field):
+        scene(shapes, **kw)
+
+
+def test_scene_camera_must_be_camera():
+    with pytest.raises(ValueError, match="Scene.camera"):
+        rt.Scene(camera="cam", shapes=[])
+
+
+@pytest.mark.parametrize("kw, field", [
+    (dict(spp=0), "spp"),
+    (dict(spp=-4), "spp"),
+    (dict(spp=2.5), "spp"),
+    (dict(strategy="bdpt"), "strategy"),
+    (dict(seed=-1), "seed"),
+    (dict(seed=2**64), "seed"),
+    (dict(threads=0), "threads"),
+    (dict(triangle_test="moller"), "triangle_test"),
+    (dict(progress=3), "progress"),
+])
+def test_render_validation(kw, field):
+    s = scene([rt.Sphere((0, 0, 0), 1, MAT)], background=1.0)
+    args = dict(spp=1)
+    args.update(kw)
+    with pytest.raises(ValueError, match=field):
+        rt.render(s, **args)
+
+
+def test_render_rejects_non_scene():
+    with pytest.raises(ValueError, match="scene must be"):
+        rt.render("cornell_box", spp=1)
