@@ -15,7 +15,7 @@ import numpy as np
 
 import reference_tracer as rt
 
-__all__ = ["render_mitsuba", "MitsubaRender", "batch_seeds", "split_spp", "DEFAULT_BATCHES"]
+__all__ = ["render_mitsuba", "MitsubaRender", "mesh_merge_safe", "batch_seeds", "split_spp", "DEFAULT_BATCHES"]
 
 #: Batches used when ``batches=None`` (capped by ``spp``).
 DEFAULT_BATCHES = 16
@@ -102,13 +102,27 @@ def batch_seeds(seed: int, count: int) -> list:
     return out
 
 
+def mesh_merge_safe(scene) -> bool:
+    """False when Mitsuba's mesh merging (``optimize=True``) must be off for ``scene``.
+
+    Mitsuba 3.9.1 merges meshes that share a BSDF into one, and fails ("the two meshes
+    are incompatible") when one of them has ``flip_normals``: a cube or mesh with
+    flipped normals. Merging is only a speed-up, so it is turned off for such scenes.
+    """
+    if not isinstance(scene, rt.Scene):
+        return True
+    return not any(s.flip_normals for s in scene.shapes if isinstance(s, rt.Box))
+
+
 def render_mitsuba(scene: rt.Scene, *, spp: int, seed: int = 0, variant: str | None = None,
                    threads: int | None = None, batches: int | None = None) -> MitsubaRender:
     """Render ``scene`` with Mitsuba's ``path`` integrator, in independent batches.
 
     Parameters
     ----------
-    scene : reference_tracer.Scene
+    scene : reference_tracer.Scene or dict
+        Our scene (translated with :func:`mitsuba_scenes.to_mitsuba`), or a Mitsuba
+        scene dict rendered as it is (its film must give an RGB image).
     spp : int, keyword-only
         Total samples per pixel, >= 1.
     seed : int, keyword-only
@@ -142,8 +156,9 @@ def render_mitsuba(scene: rt.Scene, *, spp: int, seed: int = 0, variant: str | N
     from .translate import to_mitsuba
     from .variants import select_variant
 
-    if not isinstance(scene, rt.Scene):
-        raise ValueError(f"scene must be a reference_tracer.Scene, got {type(scene).__name__}")
+    if not isinstance(scene, (rt.Scene, dict)):
+        raise ValueError(f"scene must be a reference_tracer.Scene or a Mitsuba scene dict, "
+                         f"got {type(scene).__name__}")
     if isinstance(spp, bool) or not isinstance(spp, (int, np.integer)) or spp < 1:
         raise ValueError(f"spp must be an integer >= 1, got {spp!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
@@ -163,7 +178,8 @@ def render_mitsuba(scene: rt.Scene, *, spp: int, seed: int = 0, variant: str | N
     if threads is not None:
         dr.set_thread_count(int(threads))
     t0 = time.perf_counter()
-    mscene = mi.load_dict(to_mitsuba(scene))
+    mscene = mi.load_dict(to_mitsuba(scene) if isinstance(scene, rt.Scene) else scene,
+                          optimize=mesh_merge_safe(scene))
     load_seconds = time.perf_counter() - t0
 
     sizes = split_spp(int(spp), int(batches))
@@ -182,7 +198,7 @@ def render_mitsuba(scene: rt.Scene, *, spp: int, seed: int = 0, variant: str | N
             run(n, 0x5EED)
             warm[n] = time.perf_counter() - t
 
-    h, w = scene.camera.height, scene.camera.width
+    w, h = (int(x) for x in mscene.sensors()[0].film().size())
     means = np.empty((len(sizes), h, w, 3))
     times = []
     for k, (n, s) in enumerate(zip(sizes, seeds)):

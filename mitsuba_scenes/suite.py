@@ -7,7 +7,8 @@ import inspect
 import reference_tracer as rt
 
 #: Scene names in suite order; each is a module in ``mitsuba_scenes.scenes``.
-SUITE = ("cornell_box",)
+SUITE = ("cornell_box", "cornell_glass", "cornell_mirror", "cornell_mesh", "small_light",
+         "large_light", "glossy_plates", "furnace")
 
 
 def list_scenes() -> list:
