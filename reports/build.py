@@ -294,7 +294,8 @@ def _images_html(sec: Section) -> str:
         return ""
     n = len(sec.columns)
     out = [f'<div class="help">Images tone-mapped identically (exposure {fmt(sec.exposure, 3)} stops, from '
-           f'{_e(sec.exposure_from)}; sRGB). <b>Click</b> an image (or hover it and press <kbd>r</kbd>) to flip it '
+           f'{_e(sec.exposure_from)}: its median luminance to 18% grey, or its 99th percentile to white if brighter; '
+           'sRGB). <b>Click</b> an image (or hover it and press <kbd>r</kbd>) to flip it '
            'with the reference; <kbd>R</kbd> flips the whole row, <kbd>Esc</kbd> restores all. Move the mouse over '
            'an image to zoom every column of its row into the same crop; <kbd>+</kbd>/<kbd>−</kbd> change the '
            'zoom. Under each image: left, the zoomed crop; right, the false-colour error map against the '

@@ -15,30 +15,32 @@ __all__ = ["reference_exposure", "display_png", "error_map", "error_png", "error
 REL_EPS = 0.01
 #: colour map of the error maps.
 ERROR_CMAP = "inferno"
-#: percentile of the reference's luminance that maps to display white.
-WHITE_PERCENTILE = 97.0
 
 
-def luminance(img: np.ndarray) -> np.ndarray:
-    """Rec. 709 luminance of an (H, W, 3) linear image."""
-    img = np.asarray(img, dtype=np.float64)
-    return img[..., 0] * 0.2126 + img[..., 1] * 0.7152 + img[..., 2] * 0.0722
+#: linear display value the reference's median luminance is mapped to (photographic 18% grey).
+MIDDLE_GREY = 0.18
 
 
 def reference_exposure(ref: np.ndarray) -> float:
-    """Exposure (stops) that maps the reference's 97th-percentile luminance to display white.
+    """Display exposure in stops (for ``to_display``) from the reference image.
 
-    A percentile rather than the maximum, so that a visible light source does not darken
-    the whole picture. Returns 0 for an all-black or non-finite image.
+    The larger of two scales: the reference's median positive luminance to 18% grey, and
+    the harness's SSIM exposure (``benchmarks.metrics.exposure_from_reference``: the
+    99th-percentile luminance to white). The second alone darkens any picture in which a
+    light source covers more than 1% of the pixels (the Cornell box); the first alone
+    would leave low-contrast images dim. Returns 0 for an all-black image.
     """
-    lum = luminance(ref)
-    lum = lum[np.isfinite(lum) & (lum > 0)]
-    if lum.size == 0:
+    from benchmarks.metrics import LUMINANCE_WEIGHTS, exposure_from_reference
+
+    r = np.asarray(ref, dtype=np.float64)
+    y = r[..., :3] @ LUMINANCE_WEIGHTS if r.ndim == 3 and r.shape[-1] >= 3 else r.reshape(r.shape[:2] + (-1,)).mean(-1)
+    y = y[np.isfinite(y) & (y > 0)]
+    if y.size == 0:
         return 0.0
-    white = float(np.percentile(lum, WHITE_PERCENTILE))
-    if not (math.isfinite(white) and white > 0):
+    k = max(float(exposure_from_reference(r)), MIDDLE_GREY / float(np.median(y)))
+    if not (math.isfinite(k) and k > 0):
         return 0.0
-    return float(np.clip(-math.log2(white), -40.0, 40.0))
+    return float(np.clip(math.log2(k), -60.0, 60.0))
 
 
 def _png(rgb_uint8: np.ndarray) -> bytes:

@@ -126,6 +126,9 @@ FORMULAS = (
     ("efficiency", "1 / (MSE x seconds); relative to Mitsuba: ours / Mitsuba's path integrator, same scene."),
     ("time to target", "seconds to reach the scene's target RMSE (interpolated on the RMSE-time curve)."),
     ("throughput", "samples per second = spp x width x height / seconds; relative to Mitsuba as a ratio."),
+    ("images", "tone-mapped alike: scaled by k from the reference, the larger of 0.18 / (median luminance) and "
+               "1 / (99th-percentile luminance, the SSIM's exposure), clipped to [0, 1], sRGB transfer. Error maps: per-pixel (x - ref)^2 / (ref^2 + 0.01), "
+               "mean over channels, log colour scale shared within a scene; the seed-0 image of each job."),
     ("median and band", "curves show the median over seeds; the shaded band spans the minimum to maximum."),
 )
 
