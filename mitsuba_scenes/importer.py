@@ -46,6 +46,7 @@ _FILM_OK = {"width", "height", "rfilter", "pixel_format", "component_format", "s
 class _Ctx:
     def __init__(self, mi, state):
         self.mi, self.state, self.problems = mi, state, []
+        self.base_dir = None   # folder of the XML file: relative mesh paths resolve there
 
     def where(self, node) -> str:
         return self.mi.parser.file_location(self.state, node)
@@ -270,8 +271,11 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
         if mesh_obj is None:
             _extra(ctx, node, {"filename", "to_world", "flip_normals", "bsdf", "emitter", "face_normals",
                                "flip_tex_coords"}, "shape")
+            fname = str(node.props["filename"])
+            if ctx.base_dir is not None and not os.path.isabs(fname):
+                fname = os.path.join(ctx.base_dir, fname)
             try:
-                mesh_obj = ctx.mi.load_dict({"type": name, "filename": str(node.props["filename"]),
+                mesh_obj = ctx.mi.load_dict({"type": name, "filename": fname,
                                              "to_world": ctx.mi.ScalarTransform4f(m.tolist()),
                                              "face_normals": bool(node.props["face_normals"])
                                              if "face_normals" in node.props.keys() else False})
@@ -411,6 +415,8 @@ def from_mitsuba(source) -> rt.Scene:
     mi.parser.transform_upgrade(cfg, state)
     mi.parser.transform_resolve(cfg, state)
     ctx = _Ctx(mi, state)
+    if not isinstance(source, dict):
+        ctx.base_dir = str(Path(source).resolve().parent)
     root = state.root
     T, OT = mi.Properties.Type, mi.ObjectType
 

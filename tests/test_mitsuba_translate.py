@@ -1,0 +1,141 @@
+"""Translation to Mitsuba: dicts load, XML renders as the dict, refusals, variants, batching."""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+
+import reference_tracer as rt
+from mitsuba_scenes import get_scene, list_scenes, render_mitsuba, to_mitsuba, to_xml
+from mitsuba_scenes.render import batch_seeds, mesh_merge_safe, split_spp
+from mitsuba_scenes.scenes.cornell_mesh import torus
+from mitsuba_scenes.translate import look_at_matrix, mitsuba_rr_depth
+from mitsuba_scenes.variants import find_libllvm, import_mitsuba, select_variant, versions
+
+
+@pytest.fixture(scope="module")
+def mi():
+    return import_mitsuba()
+
+
+@pytest.mark.parametrize("name", list_scenes())
+def test_dict_loads_and_xml_renders_the_same(name, mi, tmp_path):
+    scene = get_scene(name, width=12, height=8)
+    d = to_mitsuba(scene)
+    assert d["sensor"]["fov_axis"] == "y" and d["sensor"]["film"]["rfilter"] == {"type": "box"}
+    assert d["sensor"]["sampler"]["type"] == "independent"
+    opt = mesh_merge_safe(scene)
+    a = np.array(mi.render(mi.load_dict(d, optimize=opt), spp=8, seed=11))
+    path = to_xml(scene, tmp_path / f"{name}.xml")
+    b = np.array(mi.render(mi.load_file(str(path), optimize=opt), spp=8, seed=11))
+    assert a.shape == (8, 12, 3) and np.all(np.isfinite(a))
+    np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)
+
+
+def test_xml_writes_meshes_as_ply_beside_it(tmp_path):
+    to_xml(get_scene("cornell_mesh", width=8, height=8), tmp_path / "s.xml")
+    plys = list(tmp_path.glob("s_*.ply"))
+    assert len(plys) == 1
+    text = (tmp_path / "s.xml").read_text()
+    assert 'value="true"' in text and "face_normals" in text and "<rfilter type=\"box\"/>" in text
+
+
+def test_look_at_matches_mitsuba(mi):
+    args = ((1, 2, 3), (4, -5, 6), (0.2, 1, 0.3))
+    ref = np.array(mi.ScalarTransform4f().look_at(*args).matrix)
+    np.testing.assert_allclose(look_at_matrix(*args), ref, atol=1e-6)
+
+
+def test_rr_depth_mapping():
+    assert mitsuba_rr_depth(50, None) == 51
+    assert mitsuba_rr_depth(-1, None) == 2**31 - 1
+    assert mitsuba_rr_depth(10, 3) == 3
+
+
+def test_materials_translate_exactly():
+    cam = rt.Camera(lookfrom=(0, 0, -3), lookat=(0, 0, 0), width=4, height=4)
+    mats = [rt.Lambertian(0.5, two_sided=True), rt.Metal((0.9, 0.8, 0.7)), rt.Dielectric(1.33),
+            rt.RoughConductor(0.9, alpha=0.3), rt.DiffuseLight(3.0), rt.DiffuseLight(2.0, albedo=0.4)]
+    scene = rt.Scene(camera=cam, shapes=[rt.Sphere((i, 0, 0), 0.2, m) for i, m in enumerate(mats)],
+                     background=(0.1, 0.2, 0.3))
+    d = to_mitsuba(scene)
+    shapes = [d[k] for k in sorted(d) if k.startswith("shape_")]
+    assert shapes[0]["bsdf"]["type"] == "twosided" and shapes[0]["bsdf"]["bsdf"]["type"] == "diffuse"
+    assert shapes[1]["bsdf"] == {"type": "conductor", "material": "none",
+                                 "specular_reflectance": {"type": "rgb", "value": pytest.approx([0.9, 0.8, 0.7])}}
+    assert shapes[2]["bsdf"]["ext_ior"] == 1.0 and shapes[2]["bsdf"]["int_ior"] == pytest.approx(1.33)
+    assert shapes[3]["bsdf"]["distribution"] == "ggx" and shapes[3]["bsdf"]["material"] == "none"
+    assert shapes[4]["bsdf"]["reflectance"]["value"] == [0.0, 0.0, 0.0] and shapes[4]["emitter"]["type"] == "area"
+    assert shapes[5]["bsdf"]["reflectance"]["value"] == pytest.approx([0.4] * 3)
+    assert d["background"]["type"] == "constant"
+
+
+def test_fuzzy_metal_refused_naming_every_object():
+    cam = rt.Camera(lookfrom=(0, 0, -3), lookat=(0, 0, 0), width=4, height=4)
+    scene = rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1, rt.Metal(0.8, fuzz=0.3)),
+                                         rt.Quad((0, 0, 0), (1, 0, 0), (0, 1, 0), rt.Lambertian(0.5)),
+                                         rt.Sphere((1, 0, 0), 1, rt.Metal(0.8, fuzz=0.1))])
+    with pytest.raises(ValueError, match=r"shapes\[0\].*fuzz=0.3(.|\n)*shapes\[2\].*fuzz=0.1"):
+        to_mitsuba(scene)
+
+
+def test_torus_winding_is_outward():
+    v, f = torus(major=2.0, minor=0.5, segments=12, rings=8)
+    tri = v[f]
+    signed_volume = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6
+    assert signed_volume == pytest.approx(2 * np.pi**2 * 2.0 * 0.25, rel=0.15)
+
+
+def test_split_spp_and_seeds():
+    assert split_spp(10, 4) == [3, 3, 2, 2] and sum(split_spp(1000, 7)) == 1000
+    assert split_spp(1, 16) == [1]
+    s = batch_seeds(5, 100)
+    assert len(set(s)) == 100 and min(np.diff(sorted(s))) > 1000
+    assert batch_seeds(5, 3) == s[:3] and batch_seeds(6, 3) != s[:3]
+
+
+def test_render_mitsuba_result_and_spp_edge_cases():
+    scene = get_scene("cornell_box", width=8, height=8, max_depth=3)
+    r = render_mitsuba(scene, spp=5, seed=2, batches=2, threads=1)
+    mean, var, sec = r
+    assert mean.shape == var.shape == (8, 8, 3) and mean.dtype == np.float32
+    assert r.batch_spp == [3, 2] and sec > 0 and r.variant == versions()["variant"]
+    assert np.all(var >= 0) and np.all(np.isfinite(var))
+    one = render_mitsuba(scene, spp=1, seed=2, threads=1)
+    assert one.batches == 1 and np.all(np.isnan(one.variance))
+    with pytest.raises(ValueError, match="spp"):
+        render_mitsuba(scene, spp=0)
+
+
+def test_render_mitsuba_variance_is_per_sample():
+    """Between-batch variance times batch spp estimates the per-sample variance.
+
+    A diffuse sphere under a constant sky: every sample lies in [0, 1], so the
+    per-sample variance is well estimated. 1-spp batches (the plain sample variance)
+    and 16-spp batches must give the same mean per-pixel variance: over 8 x 8 x 3
+    values with 15 degrees of freedom each, the coarse estimate's relative standard
+    error is about sqrt(2/15)/sqrt(64) = 4.6 %, so 20 % is a 4-sigma bound.
+    """
+    cam = rt.Camera(lookfrom=(0, 0, -3), lookat=(0, 0, 0), vfov=40, width=8, height=8)
+    scene = rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1.0, rt.Lambertian(0.7))], max_depth=3,
+                     background=1.0)
+    fine = render_mitsuba(scene, spp=256, seed=4, batches=256, threads=2)
+    coarse = render_mitsuba(scene, spp=256, seed=9, batches=16, threads=2)
+    assert fine.variance.mean() > 0.01
+    assert coarse.variance.mean() == pytest.approx(fine.variance.mean(), rel=0.2)
+
+
+def test_variant_selection(monkeypatch, caplog):
+    assert select_variant("scalar_rgb") == "scalar_rgb"
+    monkeypatch.setenv("RTBENCH_MITSUBA_VARIANT", "scalar_rgb")
+    assert select_variant() == "scalar_rgb"
+    with pytest.raises(ValueError, match="RGB variant"):
+        select_variant("scalar_spectral")
+    monkeypatch.delenv("RTBENCH_MITSUBA_VARIANT")
+    chosen = select_variant()
+    assert chosen in ("cuda_ad_rgb", "llvm_ad_rgb", "scalar_rgb")
+    v = versions()
+    assert v["mitsuba"] == "3.9.1" and v["variant"] == chosen
+    for p in find_libllvm():
+        assert "LLVM-15" not in p and "LLVM-14" not in p
