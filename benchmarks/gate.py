@@ -133,6 +133,8 @@ class GateResult:
     relative_bias : float
         Estimated relative bias of the whole image, ``sum(x - r) / sum(r)`` (NaN if
         ``sum(r) == 0``): e.g. -0.01 for a render 1% too dark.
+    relative_bias_se : float
+        Standard error of ``relative_bias`` (from the same variances as the tests).
     relative_bias_channels : ndarray, shape (C,)
     worst_tile_relative_bias : float
         ``sum(x - r) / sum(r)`` inside ``worst_tile``, all channels.
@@ -159,6 +161,7 @@ class GateResult:
     worst_region: tuple
     worst_level: str
     relative_bias: float
+    relative_bias_se: float
     relative_bias_channels: np.ndarray = field(repr=False)
     worst_tile_relative_bias: float
     n_nonfinite: int
@@ -169,7 +172,7 @@ class GateResult:
         r0, c0, r1, c1 = self.worst_region
         lv = ", ".join(f"{k} p={v:.3g}" for k, v in self.level_p.items())
         msg = (f"{verdict} (p={self.p_value:.3g}, alpha={self.alpha:g}; {lv}); "
-               f"relative bias {self.relative_bias:+.2%} over the image")
+               f"relative bias {self.relative_bias:+.2%} +- {self.relative_bias_se:.2%} over the image")
         if not self.passed:
             msg += (f"; strongest evidence at the {self.worst_level} level in rows {r0}-{r1 - 1}, "
                     f"cols {c0}-{c1 - 1} (worst tile relative bias "
@@ -186,7 +189,7 @@ class GateResult:
             "n_tests": dict(self.n_tests), "max_abs_t": self.max_abs_t,
             "worst_pixel": list(self.worst_pixel), "worst_tile": list(self.worst_tile),
             "worst_region": list(self.worst_region), "worst_level": self.worst_level,
-            "relative_bias": self.relative_bias,
+            "relative_bias": self.relative_bias, "relative_bias_se": self.relative_bias_se,
             "relative_bias_channels": [float(v) for v in self.relative_bias_channels],
             "worst_tile_relative_bias": self.worst_tile_relative_bias,
             "n_nonfinite": self.n_nonfinite,
@@ -217,8 +220,10 @@ def _variance(v: np.ndarray, name: str, n: float, ddof: int) -> np.ndarray:
     if np.any(v < -1e-5 * scale):
         raise ValueError(f"{name} has negative entries (min {v.min():g})")
     v = np.maximum(v, 0.0)
-    if ddof:
-        v = v * (n / (n - ddof))
+    if ddof not in (0, 1):
+        raise ValueError(f"var_ddof must be 0 or 1; got {ddof}")
+    if ddof == 0:
+        v = v * (n / (n - 1.0))  # second moment minus squared mean -> unbiased
     return v
 
 
@@ -420,6 +425,8 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
         rel_c = np.where(sum_r_c != 0, d_all.sum(axis=(0, 1)) / sum_r_c, np.nan)
     sr = float(r_all.sum())
     rel = float(d_all.sum() / sr) if sr != 0 else math.nan
+    se_sum = a + b if fa is None else np.maximum(a, fa) + b
+    rel_se = float(math.sqrt(se_sum[good].sum()) / abs(sr)) if sr != 0 else math.nan
     y0, x0, y1, x1 = worst_tile
     srt = float(r_all[y0:y1, x0:x1].sum())
     rel_tile = float(d_all[y0:y1, x0:x1].sum() / srt) if srt != 0 else math.nan
@@ -432,7 +439,8 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
         tile_p=p_tile, tile_z=z_tile, image_p=p_img, image_z=z_img,
         max_abs_t=float(np.abs(t_pix).max()), worst_pixel=(wy, wx, wc),
         worst_tile=worst_tile, worst_region=tuple(int(v) for v in worst_region),
-        worst_level=worst_level, relative_bias=rel, relative_bias_channels=rel_c,
+        worst_level=worst_level, relative_bias=rel, relative_bias_se=rel_se,
+        relative_bias_channels=rel_c,
         worst_tile_relative_bias=rel_tile, n_nonfinite=int(bad.sum()))
 
 

@@ -422,8 +422,8 @@ def bias_variance(images_k, ref, ref_var=None, ref_spp=None, var_k=None, spp=Non
     is unbiased for the mean squared bias and has expectation 0 when there is no bias.
     :math:`\hat s_p^2` uses the between-seed variance :math:`S_p^2 / K`
     (:math:`S_p^2` with ``ddof=1``, ``K >= 2``; ``variance_source='seeds'``) or the
-    renderer's per-sample variance, :math:`\overline{v_{kp}} \cdot \frac{N}{N-\mathrm{ddof}}
-    / (K N)` (``variance_source='samples'``; ``var_k`` from ``rt.render`` is second moment
+    renderer's per-sample variance, :math:`\overline{v_{kp}} \cdot
+    \frac{N-\mathrm{ddof}}{N-1} / (K N)` (``variance_source='samples'``; ``var_k`` from ``rt.render`` is second moment
     minus mean squared, ``var_ddof=0``). ``'auto'`` picks ``'seeds'`` when ``K >= 2`` else
     ``'samples'``. Without ``ref_var`` the reference is taken as noise-free.
 
@@ -508,8 +508,9 @@ def bias_variance(images_k, ref, ref_var=None, ref_spp=None, var_k=None, spp=Non
     elif variance_source == "samples":
         if vk is None or n is None:
             raise ValueError("variance_source='samples' (or K == 1) needs var_k and spp")
-        if n - var_ddof <= 0:
-            raise ValueError(f"spp={n} too small to de-bias var_k with ddof={var_ddof}")
+        if n < 2 or var_ddof not in (0, 1):
+            raise ValueError(f"variance_source='samples' needs spp >= 2 and var_ddof 0 or 1; "
+                             f"got spp={n}, var_ddof={var_ddof}")
     else:
         raise ValueError(f"variance_source must be 'auto', 'seeds' or 'samples'; got {variance_source!r}")
 
@@ -542,7 +543,8 @@ def bias_variance(images_k, ref, ref_var=None, ref_spp=None, var_k=None, spp=Non
         var_img = X.var(axis=0, ddof=1)                      # variance of one image
     else:
         V = vk.reshape(K, -1, C)[:, keep.ravel()]
-        var_img = V.mean(axis=0) * (n / (n - var_ddof)) / n  # per-sample -> one image
+        # ddof -> unbiased per-sample variance -> variance of one image's pixel mean
+        var_img = V.mean(axis=0) * ((n - var_ddof) / (n - 1)) / n
     s2 = var_img / K
     ref_noise = np.zeros_like(R)
     if rv is not None:

@@ -1,0 +1,326 @@
+"""Statistics of the regression gate (``benchmarks.gate``) on synthetic renders.
+
+The synthetic scene is Cornell-box-like: black background (zero variance on both
+sides), a directly seen light (constant radiance inside, partial coverage on its edge
+pixels from jittered sample positions), coloured walls, and per-sample noise of one of
+two profiles:
+
+* ``mild``  - gamma(shape 2) samples: skewed, light-tailed;
+* ``heavy`` - gamma(shape 0.5) samples plus rare bright hits (p = 0.003, 30x; a
+  'caustic' blob with p = 0.02, 80x): most pixel variance comes from rare samples, so at
+  low spp the sample variance is usually an under-estimate - the realistic hard case.
+
+Renders return the pixel mean and the ddof=0 per-sample variance, like ``rt.render``.
+Every test uses fixed seeds (deterministic); docstrings give the failure probability a
+correct implementation would have over random seeds.
+"""
+from __future__ import annotations
+
+import math
+import os
+import sys
+import warnings
+
+import numpy as np
+import pytest
+from scipy import stats
+
+try:
+    import benchmarks  # noqa: F401
+except ModuleNotFoundError:  # not installed (no `pip install -e .` yet): use the checkout
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from benchmarks.gate import compare, mitsuba_rule, sidak  # noqa: E402
+
+LIGHT_RGB = np.array([17.0, 12.0, 4.0])
+
+
+def make_scene(H, W=None, profile="heavy"):
+    W = W or H
+    yy, xx = np.mgrid[0:H, 0:W]
+    fy, fx = (yy + 0.5) / H, (xx + 0.5) / W
+    color, m = np.zeros((H, W, 3)), np.zeros((H, W))
+    q, L = np.zeros((H, W)), np.zeros((H, W))
+    inside = (fx > 0.08) & (fx < 0.92) & (fy > 0.06)
+    color[inside], m[inside] = (0.7, 0.7, 0.7), 0.4
+    left = inside & (fx < 0.25)
+    color[left], m[left] = (0.8, 0.12, 0.1), 0.5
+    right = inside & (fx > 0.75)
+    color[right], m[right] = (0.1, 0.75, 0.12), 0.5
+    m[inside & (fy < 0.25) & ~left & ~right] = 0.25   # ceiling
+    m[inside & (fy > 0.75)] = 0.6                      # floor
+    if profile == "heavy":
+        k = 0.5
+        q[inside], L[inside] = 0.003, 30.0
+        blob = inside & ((fx - 0.6) ** 2 + (fy - 0.85) ** 2 < 0.01)
+        q[blob], L[blob] = 0.02, 80.0
+    elif profile == "mild":
+        k = 2.0
+    else:
+        raise ValueError(profile)
+    # light box in pixel units (x0, x1, y0, y1), edges off the pixel grid
+    light = (0.375 * W + 0.3, 0.625 * W + 0.3, 0.1 * H + 0.45, 0.2 * H + 0.45)
+    return dict(color=color, m=m, q=q, L=L, k=k, left=left, light=light, H=H, W=W)
+
+
+def render(sc, n, rng, *, scale=1.0, shade=None, light_shift=0.0):
+    """(mean, ddof=0 per-sample variance) of n samples per pixel.
+
+    scale: multiplies the whole output; shade: (H, W) factor on reflected light only
+    (like an albedo change); light_shift: moves the light box right by that many pixels.
+    """
+    H, W, k = sc["H"], sc["W"], sc["k"]
+    s = sc["m"][..., None] * rng.gamma(k, 1.0 / k, size=(H, W, n))
+    if sc["q"].any():
+        s += (rng.random((H, W, n)) < sc["q"][..., None]) * sc["L"][..., None]
+    if shade is not None:
+        s *= shade[..., None]
+    col = sc["color"]
+    mean = s.mean(axis=2)[..., None] * col
+    var = s.var(axis=2)[..., None] * col ** 2
+    x0, x1, y0, y1 = sc["light"]
+    x0, x1 = x0 + light_shift, x1 + light_shift
+    r0, r1, c0, c1 = int(np.floor(y0)), int(np.ceil(y1)), int(np.floor(x0)), int(np.ceil(x1))
+    ys = np.arange(r0, r1)[:, None, None] + rng.random((r1 - r0, c1 - c0, n))
+    xs = np.arange(c0, c1)[None, :, None] + rng.random((r1 - r0, c1 - c0, n))
+    hit = (xs >= x0) & (xs < x1) & (ys >= y0) & (ys < y1)
+    blk = s[r0:r1, c0:c1, :, None] * col[r0:r1, c0:c1, None, :]
+    blk[hit] = LIGHT_RGB
+    mean[r0:r1, c0:c1], var[r0:r1, c0:c1] = blk.mean(axis=2), blk.var(axis=2)
+    return mean * scale, var * scale ** 2
+
+
+def injected(sc, name):
+    """The synthetic biases of issue 7, as keyword arguments of ``render``."""
+    H, W = sc["H"], sc["W"]
+    return {
+        "none": {},
+        "scale 0.99": dict(scale=0.99),                                 # whole image
+        "albedo 0.99": dict(shade=np.full((H, W), 0.99)),               # reflected light only
+        "wall +3%": dict(shade=np.where(sc["left"], 1.03, 1.0)),        # one wall
+        "light moved 1%": dict(light_shift=0.01 * (sc["light"][1] - sc["light"][0])),
+    }[name]
+
+
+def run_gate(sc, n_t, n_r, seed, alpha=0.01, bias="none", **kw):
+    rng = np.random.default_rng(seed)
+    tm, tv = render(sc, n_t, rng, **injected(sc, bias))
+    rm, rv = render(sc, n_r, rng)
+    return compare(tm, tv, n_t, rm, rv, n_r, alpha=alpha, **kw), mitsuba_rule(tm, rm, rv, n_t)
+
+
+def _max_count(n, rate, q=0.999):
+    """Largest false-alarm count out of n consistent with a rate <= `rate`: exceeded with
+    probability <= 1 - q when the true rate is at most `rate`."""
+    return int(stats.binom.ppf(q, n, rate))
+
+
+# ------------------------------------------------------------------ exact behaviour
+
+def test_welch_pixel_matches_scipy():
+    """Per-pixel statistic = scipy's Welch t-test from summary statistics."""
+    rng = np.random.default_rng(0)
+    shape = (4, 5, 3)
+    xm, rm = rng.normal(1, 0.1, shape), rng.normal(1, 0.01, shape)
+    xv, rv = rng.uniform(0.5, 2, shape), rng.uniform(0.5, 2, shape)
+    g = compare(xm, xv, 16, rm, rv, 400, variance_floor="none", var_ddof=1)
+    t, p = stats.ttest_ind_from_stats(xm, np.sqrt(xv), 16, rm, np.sqrt(rv), 400, equal_var=False)
+    np.testing.assert_allclose(g.pixel_t, t, rtol=1e-10)
+    np.testing.assert_allclose(g.pixel_p, p, rtol=1e-8)
+    # ddof=0 variances are de-biased by n / (n - 1)
+    g0 = compare(xm, xv * 15 / 16, 16, rm, rv * 399 / 400, 400, variance_floor="none")
+    np.testing.assert_allclose(g0.pixel_t, t, rtol=1e-10)
+
+
+def test_sidak_and_levels_by_hand():
+    assert sidak(0.01, 1) == pytest.approx(0.01)
+    assert sidak(1e-6, 1000) == pytest.approx(1 - (1 - 1e-6) ** 1000, rel=1e-9)
+    assert sidak(0.0, 5) == 0.0 and sidak(0.3, 0) == 1.0
+    rng = np.random.default_rng(1)
+    x, v = rng.normal(1, 0.05, (16, 16, 3)), np.full((16, 16, 3), 0.16)
+    g = compare(x, v, 64, np.ones_like(x), v, 4096, tile=8)
+    assert g.n_tests == {"pixel": 768, "tile": 12, "image": 3}
+    assert g.level_p["pixel"] == pytest.approx(sidak(g.pixel_p.min(), 768))
+    assert g.p_value == pytest.approx(min(1.0, 3 * min(g.level_p.values())))
+    assert g.passed == (g.p_value >= 0.01)
+
+
+def test_zero_variance_pixels():
+    """Zero variance on both sides: equal means = no evidence, unequal = failure; no
+    division-by-zero warnings either way."""
+    H, W = 8, 8
+    ref = np.zeros((H, W, 3))
+    ref[2:4, 2:4] = LIGHT_RGB            # a directly seen light
+    zero = np.zeros_like(ref)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        g = compare(ref.copy(), zero, 16, ref, zero, 1024)
+        assert g.passed and g.p_value == 1.0
+        assert g.n_tests == {"pixel": 0, "tile": 0, "image": 0}
+        # float rounding of the light is still 'equal'
+        g = compare(ref * (1 + 1e-7), zero, 16, ref, zero, 1024)
+        assert g.passed
+        moved = ref.copy()
+        moved[2, 2] = 0.0                # a light pixel went black
+        g = compare(moved, zero, 16, ref, zero, 1024)
+        assert not g.passed and g.p_value == 0.0
+        assert g.worst_pixel[:2] == (2, 2)
+        assert np.isinf(g.pixel_t[2, 2]).all()
+        # zero test variance against a noisy reference: finite statistic
+        rv = np.full_like(ref, 0.5)
+        g = compare(ref, zero, 16, ref + 0.01, rv, 1024)
+        assert np.isfinite(g.pixel_t).all() and g.passed
+
+
+def test_nonfinite_and_validation():
+    ref = np.ones((8, 8, 3))
+    v = np.full_like(ref, 0.1)
+    bad = ref.copy()
+    bad[1, 1, 0] = np.nan
+    g = compare(bad, v, 16, ref, v, 1024)
+    assert not g.passed and g.n_nonfinite == 1 and g.worst_pixel == (1, 1, 0)
+    with pytest.raises(ValueError, match="ref_mean"):
+        compare(ref, v, 16, bad, v, 1024)
+    with pytest.raises(ValueError, match="shapes differ"):
+        compare(ref, v, 16, ref[:4], v[:4], 1024)
+    with pytest.raises(ValueError, match="negative"):
+        compare(ref, -v, 16, ref, v, 1024)
+    with pytest.raises(ValueError, match="test_spp"):
+        compare(ref, v, 1, ref, v, 1024)
+
+
+def test_mitsuba_rule_by_hand():
+    """Mitsuba: z = |x - r| sqrt(spp / max(var_ref, 1e-4)), Sidak over H*W pixels,
+    pass iff passing pixel-channels / 3 >= 0.9975 H W."""
+    H, W = 20, 20                         # 400 pixels: 1 failing pixel is 0.25%
+    ref = np.ones((H, W, 3))
+    var = np.full_like(ref, 0.01)
+    alpha_s = 1 - 0.99 ** (1 / (H * W))
+    x = ref.copy()
+    x[0, 0] += 10 * math.sqrt(0.01 / 64)   # z = 10 in all 3 channels of one pixel
+    r = mitsuba_rule(x, ref, var, 64)
+    assert r.alpha_sidak == pytest.approx(alpha_s)
+    assert r.p_value[0, 0, 0] == pytest.approx(2 * stats.norm.sf(10.0))
+    assert r.n_failed == 3 and r.passed           # 399/400 = 0.9975 passes
+    x[0, 1] = x[0, 0]
+    assert not mitsuba_rule(x, ref, var, 64).passed
+    # the 1e-4 variance floor
+    r = mitsuba_rule(ref + 0.001, ref, np.zeros_like(ref), 100)
+    assert r.p_value[0, 0, 0] == pytest.approx(2 * stats.norm.sf(0.001 * math.sqrt(100 / 1e-4)))
+
+
+# ------------------------------------------------------------------ false alarms
+
+def _false_alarms(profile, size, n_t, n_r, seeds, alpha, **kw):
+    sc = make_scene(size, profile=profile)
+    ours = mits = 0
+    for s in seeds:
+        g, m = run_gate(sc, n_t, n_r, s, alpha=alpha, **kw)
+        ours += not g.passed
+        mits += not m.passed
+    return ours, mits
+
+
+@pytest.mark.parametrize("profile", ["mild", "heavy"])
+@pytest.mark.parametrize("alpha", [0.01, 0.2])
+def test_false_alarm_rate_quick(profile, alpha):
+    """Unbiased renders pass: 40 seeds, 24x24 pixels, 32 spp against 512 spp.
+
+    The gate's false-alarm rate is <= alpha by construction; the count of failures is
+    then Binomial(40, <= alpha) and the test fails if it exceeds the 0.999 quantile
+    (1 for alpha = 0.01, 16 for alpha = 0.2): false-failure probability <= 1e-3.
+    alpha = 0.2 makes the check sensitive to mis-calibration in the body of the
+    distribution, not only in the far tail.
+    """
+    n = 40
+    ours, _ = _false_alarms(profile, 24, 32, 512, range(n), alpha)
+    assert ours <= _max_count(n, alpha)
+
+
+def test_plain_welch_is_not_robust_to_heavy_tails():
+    """Why the reference variance floor exists: without it, heavy-tailed pixels at low
+    spp have under-estimated variances and the plain Welch gate fails most unbiased
+    renders (measured 95-100%); with it, none of the same renders fail."""
+    seeds = range(10)
+    plain, _ = _false_alarms("heavy", 24, 16, 512, seeds, 0.01, variance_floor="none")
+    floored, _ = _false_alarms("heavy", 24, 16, 512, seeds, 0.01)
+    assert plain >= 8
+    assert floored <= 1
+
+
+def test_mitsuba_rule_false_alarms_on_heavy_tails():
+    """Mitsuba's rule has no test-variance term: a single rare bright sample in a pixel
+    at low spp is a many-sigma outlier against the reference variance, and with >0.25% of
+    pixels carrying one the rule fails unbiased renders. Measured on the mild profile it
+    is calibrated (passes), on the heavy one it fails every seed."""
+    assert _false_alarms("mild", 32, 64, 1024, range(5), 0.01)[1] == 0
+    assert _false_alarms("heavy", 32, 64, 1024, range(5), 0.01)[1] == 5
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("profile", ["mild", "heavy"])
+def test_false_alarm_rate_1000_seeds(profile):
+    """The issue-7 criterion: the gate passes unbiased renders in at least 99 of 100
+    seeds, measured over 1000 seeds (32x32, 64 spp against 1024 spp, alpha = 0.01).
+    Bound: failures <= 0.999 quantile of Binomial(1000, 0.01) = 21 (a correct gate fails
+    this test with probability <= 1e-3). Measured: see the printed line."""
+    n = 1000
+    ours, mits = _false_alarms(profile, 32, 64, 1024, range(10_000, 10_000 + n), 0.01)
+    print(f"\n{profile}: gate false alarms {ours}/{n}; Mitsuba rule {mits}/{n}")
+    assert ours <= _max_count(n, 0.01)
+
+
+# ------------------------------------------------------------------ power
+
+POWER_BIASES = ["scale 0.99", "wall +3%", "light moved 1%"]
+
+
+@pytest.mark.parametrize("bias", POWER_BIASES)
+def test_power_mild(bias):
+    """Injected biases are caught at 64 spp (64x64 image, reference 1024 spp, mild
+    noise): measured 10/10 seeds each (see the slow table); here 4 fixed seeds must all
+    be caught. Mitsuba's rule (calibrated on this profile) misses the wall and the moved
+    light - it has no pooling - and catches 'scale 0.99' only through the zero-variance
+    light pixels (its 1e-4 variance floor makes any change there many sigma)."""
+    sc = make_scene(64, profile="mild")
+    for seed in range(4):
+        g, m = run_gate(sc, 64, 1024, 500 + seed, bias=bias)
+        assert not g.passed, (bias, seed, g.summary())
+        if bias == "scale 0.99":
+            assert m.passed is False
+            assert abs(g.relative_bias + 0.01) < 4 * g.relative_bias_se
+        else:
+            assert m.passed
+    if bias == "wall +3%":
+        y0, x0, y1, x1 = g.worst_tile
+        assert sc["left"][y0:y1, x0:x1].any() and x0 < 32     # located at the left wall
+        assert g.worst_tile_relative_bias > 0
+    if bias == "light moved 1%":
+        lx0, lx1, ly0, ly1 = sc["light"]
+        y0, x0, y1, x1 = g.worst_region
+        assert y0 <= ly1 and y1 >= ly0 and x0 <= lx1 + 1 and x1 >= lx0 - 1   # at the light
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("profile", ["mild", "heavy"])
+def test_power_table(profile):
+    """Power table for the closing note: fraction of 20 seeds caught per injected bias,
+    ours vs Mitsuba's rule, at 64 and 256 spp (64x64, reference 4096 spp).
+    Asserts the mild-profile claims at 64 spp: every issue-7 bias caught in >= 18/20
+    (measured 20/20 except where printed); the unbiased case passes."""
+    sc = make_scene(64, profile=profile)
+    rows = []
+    for n_t in (64, 256):
+        for bias in ["none"] + POWER_BIASES + ["albedo 0.99"]:
+            res = [run_gate(sc, n_t, 4096, 900 + s, bias=bias) for s in range(20)]
+            ours = sum(not g.passed for g, _ in res)
+            mits = sum(not m.passed for _, m in res)
+            med_p = float(np.median([g.p_value for g, _ in res]))
+            rows.append((n_t, bias, ours, mits))
+            print(f"{profile:5s} spp={n_t:4d} {bias:15s} ours {ours:2d}/20 (median p {med_p:.2g})"
+                  f"  mitsuba {mits:2d}/20")
+            if profile == "mild" and n_t == 64:
+                if bias == "none":
+                    assert ours <= 1
+                elif bias in POWER_BIASES:
+                    assert ours >= 18
