@@ -101,21 +101,37 @@ class Store:
             if r.get("scene") is None:
                 continue
             seen.setdefault((str(r["scene"]), _int_or_none(r.get("width")), _int_or_none(r.get("height"))), None)
+        # rows or records without a size join their scene's only sized section, when there is one
+        for k in list(seen):
+            if (k[1] is None or k[2] is None) and self._only_size(k[0]) is not None:
+                del seen[k]
         ncurves = {k: len({(r["renderer"], r["strategy"]) for r in self.records + self.rows
-                           if r.get("scene") == k[0] and _int_or_none(r.get("width")) == k[1]
-                           and _int_or_none(r.get("height")) == k[2]}) for k in seen}
+                           if r.get("scene") == k[0] and self._size(r) == (k[1], k[2])}) for k in seen}
         # per scene: the section with the most curves (the main sweep) first, then by size
         return sorted(seen, key=lambda k: (k[0], -ncurves[k], (k[1] or 0) * (k[2] or 0)))
 
+    def _only_size(self, scene: str):
+        sizes = {(_int_or_none(r.get("width")), _int_or_none(r.get("height"))) for r in self.records + self.rows
+                 if r.get("scene") == scene}
+        sizes = {sz for sz in sizes if None not in sz}
+        return next(iter(sizes)) if len(sizes) == 1 else None
+
+    def _size(self, r: dict) -> tuple:
+        size = (_int_or_none(r.get("width")), _int_or_none(r.get("height")))
+        if None in size:
+            return self._only_size(r["scene"]) or size
+        return size
+
     def section_records(self, scene: str, width, height) -> list[dict]:
         """Records of one (scene, width, height) section."""
-        return [r for r in self.records if r.get("scene") == scene
-                and _int_or_none(r.get("width")) == width and _int_or_none(r.get("height")) == height]
+        return [r for r in self.records if r.get("scene") == scene and self._size(r) == (width, height)]
 
     def section_rows(self, scene: str, width, height) -> list[dict]:
-        """Summary rows of one (scene, width, height) section, ours in strategy order, then Mitsuba."""
-        rows = [r for r in self.rows if r.get("scene") == scene
-                and _int_or_none(r.get("width")) == width and _int_or_none(r.get("height")) == height]
+        """Summary rows of one (scene, width, height) section, ours in strategy order, then Mitsuba.
+
+        A row without a size belongs to its scene's only sized section, when there is one.
+        """
+        rows = [r for r in self.rows if r.get("scene") == scene and self._size(r) == (width, height)]
         return sorted(rows, key=lambda r: curve_order((r.get("renderer"), r.get("strategy"))))
 
     def resolve(self, relpath) -> Path | None:

@@ -158,6 +158,18 @@ def test_load_store_dedupes_last_wins_and_skips_truncated_line(store):
     assert set(st.sections()) == {("cornell_box", 16, 16), ("cornell_box", 400, 400), ("spheres", 16, 16)}
 
 
+def test_rows_without_size_join_their_scenes_only_section(tmp_path):
+    st = make_store(tmp_path / "s", scenes=("spheres",), strategies=("mis",), spps=(1, 2), seeds=(0,), size=8,
+                    duplicate=False)
+    summ = json.loads((st / "summary.json").read_text())
+    for r in summ["rows"]:
+        r["width"] = r["height"] = None
+    (st / "summary.json").write_text(json.dumps(summ))
+    loaded = load_store(st)
+    assert loaded.sections() == [("spheres", 8, 8)]
+    assert [r["strategy"] for r in loaded.section_rows("spheres", 8, 8)] == ["mis", "path"]
+
+
 def test_load_store_rejects_what_is_not_a_store(tmp_path):
     with pytest.raises(ValueError, match="not a folder"):
         load_store(tmp_path / "nope")
