@@ -449,7 +449,8 @@ def chromium():
     if exe is None and hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("apt-get") \
             and os.environ.get("RTBENCH_NO_APT") != "1":
         env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
-        cmd = ["apt-get", "install", "-y", "-q", "--no-install-recommends", "chromium"]
+        cmd = ["apt-get", "install", "-y", "-q", "--no-install-recommends", "chromium", "fonts-liberation",
+               "fonts-dejavu-core"]
         try:
             if subprocess.run(cmd, env=env, capture_output=True, timeout=900).returncode != 0:
                 subprocess.run(["apt-get", "update", "-q"], env=env, capture_output=True, timeout=600)
@@ -458,7 +459,8 @@ def chromium():
             pass
         exe = _find_chromium()
     if exe is None:
-        pytest.skip("no chromium: install it with `apt-get install -y chromium` (the test does so itself only "
+        pytest.skip("no chromium: install it with `apt-get install -y --no-install-recommends chromium "
+                    "fonts-liberation fonts-dejavu-core` (the test does so itself only "
                     "as root with apt-get available)")
     return exe
 
