@@ -188,6 +188,8 @@ def load_store(store) -> Store:
     ValueError
         If ``store`` is not a folder, holds neither ``results.jsonl`` nor ``summary.json``,
         or a record or row lacks ``scene``, ``renderer`` or ``strategy`` or has a bad ``spp``.
+        A line of ``results.jsonl`` that is not JSON at all is skipped and listed in
+        :attr:`Store.problems` (the page shows them), as the harness's own reader skips it.
     """
     path = Path(store).expanduser()
     if not path.is_dir():
@@ -215,8 +217,9 @@ def load_store(store) -> Store:
             except json.JSONDecodeError:
                 if lineno == len(lines):
                     out.problems.append(f"results.jsonl: last line {lineno} is truncated (interrupted run?); skipped")
-                    continue
-                raise ValueError(f"{results}: line {lineno} is not valid JSON") from None
+                else:  # as the harness's reader does: skip it, but the report lists it
+                    out.problems.append(f"results.jsonl: line {lineno} is not valid JSON; skipped")
+                continue
             if not isinstance(rec, dict):
                 raise ValueError(f"{results}: line {lineno} is not a JSON object")
             _validate(rec, f"{results.name} line {lineno}")
