@@ -18,6 +18,14 @@ if ! ls /usr/lib/x86_64-linux-gnu/libLLVM-19.so* >/dev/null 2>&1 && ! ls /usr/li
   fi
 fi
 
+# Headless Chromium checks the HTML report in the tests (skipped with a reason without it).
+if ! command -v chromium >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+  echo "[setup] installing chromium for the report's browser test"
+  (apt-get install -y -q --no-install-recommends chromium fonts-liberation fonts-dejavu-core >/dev/null 2>&1 || \
+   { apt-get update -q >/dev/null 2>&1 && apt-get install -y -q --no-install-recommends chromium fonts-liberation fonts-dejavu-core >/dev/null 2>&1; }) \
+    || echo "[setup] could not install chromium: the browser test of the report will be skipped"
+fi
+
 if [ ! -x "$VENV/bin/python" ]; then
   "$PY" -m venv "$VENV"
 fi
