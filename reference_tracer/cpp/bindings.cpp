@@ -5,6 +5,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
@@ -150,16 +151,16 @@ public:
     }
 
     // Closest hits of N rays: t (inf on a miss), primitive id (-1), point and front normal.
-    nb::dict intersect(const Matrix& origins, const Matrix& directions, bool brute_force) const {
+    nb::dict intersect(const Matrix& origins, const Matrix& directions, bool brute_force, int threads) const {
         require_columns(origins, 3, "origins");
         require_columns(directions, 3, "directions");
         if (origins.shape(0) != directions.shape(0)) throw std::invalid_argument("origins and directions differ in length");
         const size_t n = origins.shape(0);
         std::vector<double> t(n, rt::kInf), p(3 * n, 0.0), nrm(3 * n, 0.0);
         std::vector<int64_t> prim(n, -1);
-        {
-            nb::gil_scoped_release release;
-            for (size_t i = 0; i < n; ++i) {
+        if (threads < 1) throw std::invalid_argument("threads must be >= 1");
+        auto work = [&](size_t begin, size_t end) {
+            for (size_t i = begin; i < end; ++i) {
                 const rt::Ray ray{row3(origins, i, 0), row3(directions, i, 0)};
                 rt::Interaction it;
                 const bool hit = brute_force ? scene_->intersect_brute_force(ray, it) : scene_->intersect(ray, it);
@@ -168,12 +169,25 @@ public:
                 prim[i] = it.prim;
                 for (int c = 0; c < 3; ++c) { p[3 * i + c] = it.p[c]; nrm[3 * i + c] = it.n[c]; }
             }
+        };
+        const auto t0 = std::chrono::steady_clock::now();
+        {
+            nb::gil_scoped_release release;
+            std::vector<std::thread> pool;
+            const size_t chunk = (n + threads - 1) / threads;
+            for (int k = 0; k < threads; ++k) {
+                const size_t begin = std::min(n, k * chunk), end = std::min(n, begin + chunk);
+                pool.emplace_back(work, begin, end);
+            }
+            for (std::thread& th : pool) th.join();
         }
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         nb::dict r;
         r["t"] = to_numpy(std::move(t), {n});
         r["prim"] = to_numpy(std::move(prim), {n});
         r["point"] = to_numpy(std::move(p), {n, 3});
         r["normal"] = to_numpy(std::move(nrm), {n, 3});
+        r["seconds"] = seconds;
         return r;
     }
 
@@ -237,7 +251,7 @@ NB_MODULE(_core, m) {
              "quads"_a, "triangles"_a, "triangle_materials"_a, "background"_a, "max_depth"_a, "rr_depth"_a,
              "triangle_test"_a = 0)
         .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none())
-        .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false)
+        .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false, "threads"_a = 1)
         .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a)
         .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)
         .def_prop_ro("primitive_count", &PyScene::primitive_count)

@@ -65,6 +65,33 @@ public:
         return hit;
     }
 
+    // Any-hit query: stops at the first primitive for which `test(prim, t_max)` is true.
+    template <typename Test>
+    bool any_hit(const Ray& ray, double t_max, Test&& test) const {
+        if (nodes_.empty()) return false;
+        const RayInv inv(ray);
+        uint32_t stack[128];
+        int top = 0;
+        uint32_t node = 0;
+        for (;;) {
+            const BVHNode& n = nodes_[node];
+            if (slab_hit(n.box, inv, 0.0, t_max)) {
+                if (n.count > 0) {
+                    for (uint32_t i = 0; i < n.count; ++i)
+                        if (test(order_[n.offset + i], t_max)) return true;
+                    if (top == 0) return false;
+                    node = stack[--top];
+                } else {
+                    stack[top++] = n.offset;
+                    node = node + 1;
+                }
+            } else {
+                if (top == 0) return false;
+                node = stack[--top];
+            }
+        }
+    }
+
 private:
     struct BuildItem { AABB box; Vec3 centroid; uint32_t prim; };
     uint32_t build(std::vector<BuildItem>& items, uint32_t begin, uint32_t end, int depth);

@@ -2,6 +2,10 @@
 
 namespace rt {
 
+// Relative gap left before a sampled light point by shadow rays: far above the relative
+// error of the sampled point (~1e-15 in double), far below any modelled geometry gap.
+constexpr double kShadowEpsilon = 1e-7;
+
 Vec3 Integrator::direct_emission(const Vec3& o, const Vec3& wi, uint64_t& rays) const {
     ++rays;
     Interaction it;
@@ -132,10 +136,10 @@ Vec3 Integrator::Li(Ray ray, PCG32& rng, uint64_t& rays) const {
                             const Vec3 f = bsdf_eval(m, wo, local);
                             if (!is_black(f)) {
                                 ++rays;
-                                Interaction sh;
-                                const bool hit = scene_.intersect(Ray{ref, ls.wi}, sh);
-                                const bool visible = ls.background ? !hit : (hit && sh.prim == ls.prim);
-                                if (visible) {
+                                // The shadow ray stops just short of the sampled point, so
+                                // the emitter itself does not count as an occluder.
+                                const double t_max = ls.background ? kInf : ls.dist * (1.0 - kShadowEpsilon);
+                                if (!scene_.occluded(Ray{ref, ls.wi}, t_max)) {
                                     const double w = power_heuristic(ls.pdf, bsdf_pdf(m, wo, local));
                                     L += beta * f * ls.radiance * (w / ls.pdf);
                                 }

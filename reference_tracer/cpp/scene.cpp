@@ -84,6 +84,14 @@ bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
     return hit;
 }
 
+bool Scene::occluded(const Ray& ray, double t_max) const {
+    const WatertightRay wray(ray.d);
+    uint32_t unused = 0;
+    return bvh_.any_hit(ray, t_max, [&](uint32_t prim, double tm) {
+        return hit_primitive(prim, ray, wray, tm, unused);
+    });
+}
+
 bool Scene::intersect_brute_force(const Ray& ray, Interaction& it, double t_max) const {
     const WatertightRay wray(ray.d);
     uint32_t best = 0;

@@ -63,6 +63,8 @@ public:
 
     // Closest hit with t in (0, t_max).
     bool intersect(const Ray& ray, Interaction& it, double t_max = kInf) const;
+    // Whether anything lies on the ray with t in (0, t_max) (shadow rays).
+    bool occluded(const Ray& ray, double t_max = kInf) const;
     // The same by testing every primitive (a reference for BVH tests).
     bool intersect_brute_force(const Ray& ray, Interaction& it, double t_max = kInf) const;
 
