@@ -1,0 +1,75 @@
+"""``rtbench curves SCENE... --strategies ... --spp ... --seeds K``: error-vs-spp sweeps into a results store."""
+from __future__ import annotations
+
+import argparse
+
+HELP = "render error-vs-spp curves (our strategies + Mitsuba path) against cached references into a results store"
+
+DEFAULT_OUT = "reports/out/curves"
+
+
+def _int_list(text: str, what: str) -> tuple:
+    try:
+        values = tuple(int(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise ValueError(f"{what} must be comma-separated integers, got {text!r}") from None
+    if not values:
+        raise ValueError(f"{what} is empty")
+    return values
+
+
+def _names(text: str) -> tuple:
+    return tuple(s.strip() for s in text.split(",") if s.strip())
+
+
+def add_sweep_options(parser: argparse.ArgumentParser) -> None:
+    """Options shared by ``curves`` and ``run``."""
+    parser.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                        help="Dask distributed scheduler (e.g. tcp://host:8786): one job per worker")
+    parser.add_argument("--threads", type=int, default=None,
+                        help="threads per local job, ours and Mitsuba alike (default: all cores)")
+    parser.add_argument("--variant", default=None, help="Mitsuba variant (default: the fastest that works)")
+    parser.add_argument("--cache", default=None, metavar="DIR",
+                        help="reference cache (default $RTBENCH_CACHE or ~/.cache/rtbench)")
+    parser.add_argument("--alpha", type=float, default=None, help="level of the bias test (default 0.001)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenes", nargs="+", metavar="SCENE", help="suite scene name(s)")
+    parser.add_argument("--strategies", default="uniform,light,mixture,mis",
+                        help="our strategies, comma-separated (default uniform,light,mixture,mis)")
+    parser.add_argument("--spp", default="1,2,4,8,16,32,64", help="spp ladder, comma-separated")
+    parser.add_argument("--seeds", type=int, default=3, help="independent seeds per (curve, spp) (default 3)")
+    parser.add_argument("--width", type=int, default=32, help="image width (default 32)")
+    parser.add_argument("--height", type=int, default=32, help="image height (default 32)")
+    parser.add_argument("--reference-spp", type=int, default=None,
+                        help="reference samples per pixel (default max(4096, 32 x the largest spp))")
+    parser.add_argument("--no-mitsuba", action="store_true", help="skip Mitsuba's path curve")
+    parser.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"results store (default {DEFAULT_OUT})")
+    add_sweep_options(parser)
+
+
+def sweep_kwargs(args) -> dict:
+    from benchmarks.sweep import DEFAULT_ALPHA
+
+    return dict(threads=args.threads, scheduler=args.scheduler, variant=args.variant, cache=args.cache,
+                alpha=DEFAULT_ALPHA if args.alpha is None else args.alpha, progress=not args.quiet)
+
+
+def run(args) -> int:
+    from rich.console import Console
+
+    from benchmarks.sweep import Group, run_sweep
+    from benchmarks.tables import print_summary
+
+    spps = _int_list(args.spp, "--spp")
+    ref_spp = args.reference_spp if args.reference_spp is not None else max(4096, 32 * max(spps))
+    group = Group(scenes=tuple(args.scenes), strategies=_names(args.strategies), spps=spps, seeds=args.seeds,
+                  width=args.width, height=args.height, mitsuba=not args.no_mitsuba, reference_spp=ref_spp)
+    result = run_sweep([group], out=args.out, **sweep_kwargs(args))
+    console = Console()
+    print_summary(result.store, console=console)
+    console.print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
+                  f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", highlight=False)
+    return 1 if result.failed else 0

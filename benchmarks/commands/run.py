@@ -1,0 +1,57 @@
+"""``rtbench run [--preset quick|full]``: references + curves for the suite + the report."""
+from __future__ import annotations
+
+import argparse
+import time
+
+HELP = "the main job: references and error-vs-spp curves for the whole suite, then the report"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from benchmarks.commands.curves import add_sweep_options
+    from benchmarks.presets import PRESETS
+
+    parser.add_argument("--preset", choices=PRESETS, default=PRESETS[0],
+                        help="quick (default: small images, whole suite in about 10 minutes on 2 cores) or "
+                             "full (report quality: 256x256, spp to 1024, 8 seeds)")
+    parser.add_argument("--out", metavar="DIR", default=None,
+                        help="results store (default reports/out/PRESET)")
+    parser.add_argument("--scenes", default=None, help="only these suite scenes, comma-separated")
+    parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
+    add_sweep_options(parser)
+
+
+def run(args) -> int:
+    from rich.console import Console
+
+    from benchmarks.commands.curves import sweep_kwargs
+    from benchmarks.presets import describe_preset, preset_groups
+    from benchmarks.sweep import run_sweep
+    from benchmarks.tables import print_summary
+
+    t0 = time.perf_counter()
+    out = args.out or f"reports/out/{args.preset}"
+    groups = preset_groups(args.preset, scenes=args.scenes)
+    console = Console()
+    err = Console(stderr=True)
+    if not args.quiet:
+        err.print(f"rtbench run --preset {args.preset} -> {out}", highlight=False)
+        err.print(describe_preset(args.preset), highlight=False)
+    result = run_sweep(groups, out=out, preset=args.preset, **sweep_kwargs(args))
+    page = None
+    if not args.no_report:
+        try:
+            import reports
+        except ImportError:
+            console.print("report skipped: the reports package is not installed", highlight=False)
+        else:
+            page = reports.build_report(result.store)
+    print_summary(result.store, console=console)
+    if page is not None:
+        console.print(f"report: {page.resolve()}", highlight=False)
+    console.print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
+                  f"there, {len(result.failed)} failed; wall time {time.perf_counter() - t0:.0f} s)",
+                  highlight=False)
+    for label, why in result.failed[:10]:
+        console.print(f"  failed: {label}: {why}", highlight=False)
+    return 1 if result.failed else 0

@@ -1,0 +1,119 @@
+"""Sweep presets for ``rtbench run``: ``quick`` (the default) and ``full``.
+
+Each preset is a list of :class:`benchmarks.sweep.Group`: the main sweep of the whole
+suite, and the seed's own comparison (uniform vs light sampling on ``cornell_box`` at
+400x400 with 50 spp among the sample counts, ``reports`` issue 6).
+
+``quick``
+    32x32 images, spp 1..256 (powers of two), 4 seeds, our five strategies and Mitsuba,
+    references at 8192 spp; seed comparison at 400x400 with spp 4, 16, 50 and one seed
+    (reference 256 spp). About 10 minutes on 2 cores for the whole suite, references
+    included. Sizing: on ``cornell_box`` at 32x32, 4 seeds at 256 spp flag the biased
+    ``light`` strategy with z >= 4.7 in 8 of 8 trials (``DEFAULT_ALPHA`` = 0.001 needs
+    z > 3.09).
+``full``
+    256x256 images, spp 1..1024, 8 seeds, references at 16384 spp; seed comparison at
+    400x400, spp 1..256 plus 50, 4 seeds, references at 4096 spp. Report quality; hours
+    on a small machine (``--scheduler`` spreads it over a Dask cluster).
+
+Examples
+--------
+>>> from benchmarks.presets import preset_groups
+>>> [g.name for g in preset_groups("quick", scenes=["cornell_box"])]
+['suite', 'seed comparison']
+"""
+from __future__ import annotations
+
+from .sweep import Group
+
+__all__ = ["PRESETS", "SEED_SCENE", "preset_groups", "describe_preset"]
+
+#: preset names, default first.
+PRESETS = ("quick", "full")
+#: the scene of the seed's uniform-vs-light comparison.
+SEED_SCENE = "cornell_box"
+_ALL = ("uniform", "cosine", "light", "mixture", "mis")
+
+
+def _ladder(top: int) -> tuple:
+    out, s = [], 1
+    while s <= top:
+        out.append(s)
+        s *= 2
+    return tuple(out)
+
+
+_SPECS = {
+    "quick": {
+        "suite": dict(strategies=_ALL, spps=_ladder(256), seeds=4, width=32, height=32, mitsuba=True,
+                      reference_spp=8192),
+        "seed": dict(strategies=("uniform", "light"), spps=(4, 16, 50), seeds=1, width=400, height=400,
+                     mitsuba=False, reference_spp=256),
+    },
+    "full": {
+        "suite": dict(strategies=_ALL, spps=_ladder(1024), seeds=8, width=256, height=256, mitsuba=True,
+                      reference_spp=16384),
+        "seed": dict(strategies=("uniform", "light"), spps=tuple(sorted(set(_ladder(256)) | {50})), seeds=4,
+                     width=400, height=400, mitsuba=False, reference_spp=4096),
+    },
+}
+
+
+def preset_groups(name: str = "quick", *, scenes=None) -> list:
+    """The sweep groups of preset ``name``.
+
+    Parameters
+    ----------
+    name : {'quick', 'full'}
+    scenes : sequence of str or None, keyword-only
+        Restrict to these suite scenes (default: the whole suite). The seed comparison
+        is included when ``cornell_box`` is among them.
+
+    Returns
+    -------
+    list of Group
+
+    Examples
+    --------
+    >>> g = preset_groups("full", scenes=["cornell_box"])[0]
+    >>> g.width, max(g.spps), g.seeds
+    (256, 1024, 8)
+    """
+    from mitsuba_scenes import list_scenes
+
+    if name not in _SPECS:
+        raise ValueError(f"unknown preset {name!r}; choose from {', '.join(PRESETS)}")
+    suite = list_scenes()
+    if scenes is None:
+        scenes = suite
+    else:
+        if isinstance(scenes, str):
+            scenes = [s.strip() for s in scenes.split(",") if s.strip()]
+        scenes = list(dict.fromkeys(scenes))
+        unknown = [s for s in scenes if s not in suite]
+        if unknown:
+            raise ValueError(f"unknown scene(s) {unknown}; the suite has: {', '.join(suite)}")
+        if not scenes:
+            raise ValueError("no scene selected")
+    spec = _SPECS[name]
+    groups = [Group(scenes=tuple(scenes), name="suite", **spec["suite"])]
+    if SEED_SCENE in scenes:
+        groups.append(Group(scenes=(SEED_SCENE,), name="seed comparison", **spec["seed"]))
+    return groups
+
+
+def describe_preset(name: str) -> str:
+    """One line per group of a preset: what it renders.
+
+    Examples
+    --------
+    >>> print(describe_preset("quick").splitlines()[0])  # doctest: +ELLIPSIS
+    suite: ... at 32x32, spp 1..256, 4 seeds, ...
+    """
+    lines = []
+    for g in preset_groups(name):
+        who = ", ".join(g.strategies) + (" + Mitsuba path" if g.mitsuba else "")
+        spp = f"{min(g.spps)}..{max(g.spps)}" if len(g.spps) > 3 else ",".join(map(str, g.spps))
+        lines.append(f"{g.name}: {len(g.scenes)} scene(s) at {g.width}x{g.height}, spp {spp}, {g.seeds} seeds, "
+                     f"{who}; reference {g.reference_spp} spp")
+    return "\n".join(lines)

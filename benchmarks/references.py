@@ -1,0 +1,342 @@
+"""High-spp Mitsuba references with their per-sample variance, cached outside the repo.
+
+A reference is Mitsuba 3's ``path`` integrator at many samples per pixel, rendered in
+independent batches (:func:`mitsuba_scenes.render_mitsuba`) so that it comes with a
+per-pixel, per-sample RGB variance image: the harness needs it to remove the
+reference's own noise from error figures (``benchmarks.metrics.mse_corrected``).
+
+Cache
+-----
+Folder: ``$RTBENCH_CACHE/references`` or ``~/.cache/rtbench/references``. Key: SHA-256
+of (scene content hash, Mitsuba version, variant, spp, seed, batches, format version),
+so any change to the scene (including its image size), to Mitsuba or to the settings
+gives a new entry. Each entry is three files::
+
+    <key>.mean.exr   <key>.var.exr   <key>.json
+
+The EXRs are written to temporary files and renamed into place, then the JSON sidecar
+(written the same way, last) records their SHA-256 checksums, shape and settings. An
+entry is used only if the sidecar parses, names the same key and settings, and both
+images exist, match their checksums and have the scene's shape; anything else (a
+render killed half-way, a truncated or edited file) is re-rendered. A file lock
+serialises processes that want the same entry.
+
+Examples
+--------
+>>> from mitsuba_scenes import get_scene
+>>> from benchmarks.references import reference
+>>> ref = reference(get_scene("cornell_box", width=16, height=16), spp=256)  # doctest: +SKIP
+>>> ref.mean.shape, ref.cached  # doctest: +SKIP
+((16, 16, 3), False)
+>>> reference(get_scene("cornell_box", width=16, height=16), spp=256).cached  # doctest: +SKIP
+True
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["CACHE_ENV", "DEFAULT_REFERENCE_SEED", "DEFAULT_REFERENCE_BATCHES", "FORMAT_VERSION",
+           "Reference", "cache_dir", "reference_key", "reference", "load_reference", "mitsuba_identity"]
+
+#: environment variable naming the cache folder.
+CACHE_ENV = "RTBENCH_CACHE"
+#: reference seed: far from the sweep's seeds (Mitsuba batch seeds are hashed from it anyway).
+DEFAULT_REFERENCE_SEED = 1_000_003
+#: batches of a reference render (the per-sample variance has batches - 1 degrees of freedom).
+DEFAULT_REFERENCE_BATCHES = 16
+#: bump when the on-disk format or the meaning of a cached entry changes.
+FORMAT_VERSION = 1
+
+
+@dataclass
+class Reference:
+    """A Mitsuba reference image.
+
+    Attributes
+    ----------
+    mean : (H, W, 3) float32
+        Per-pixel mean radiance.
+    variance : (H, W, 3) float32
+        Per-pixel *per-sample* variance (divide by ``spp`` for the variance of ``mean``).
+    spp, seed, batches : int
+    variant, mitsuba_version : str
+    key : str
+        Cache key (hex SHA-256).
+    path, variance_path : Path
+        The cached EXR files.
+    seconds : float
+        Render time when the entry was made (Mitsuba's timed renders).
+    cached : bool
+        True when this call found the entry in the cache (and rendered nothing).
+    scene_hash : str
+    """
+
+    mean: np.ndarray
+    variance: np.ndarray
+    spp: int
+    seed: int
+    batches: int
+    variant: str
+    mitsuba_version: str
+    key: str
+    path: Path
+    variance_path: Path
+    seconds: float
+    cached: bool
+    scene_hash: str
+
+    @property
+    def width(self) -> int:
+        return int(self.mean.shape[1])
+
+    @property
+    def height(self) -> int:
+        return int(self.mean.shape[0])
+
+    @property
+    def noise(self) -> float:
+        """Mean variance of the reference's pixel means, ``mean(variance) / spp``."""
+        return float(np.mean(self.variance, dtype=np.float64) / self.spp)
+
+
+def cache_dir(cache=None) -> Path:
+    """The reference cache folder: ``cache`` if given, else ``$RTBENCH_CACHE``, else
+    ``~/.cache/rtbench``; with ``references/`` appended. Created if missing.
+
+    Examples
+    --------
+    >>> cache_dir("/tmp/rtbench-cache").as_posix()
+    '/tmp/rtbench-cache/references'
+    """
+    root = cache if cache is not None else (os.environ.get(CACHE_ENV) or Path.home() / ".cache" / "rtbench")
+    path = Path(root).expanduser() / "references"
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"reference cache {path} exists and is not a folder")
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def _check_int(name, value, minimum):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def reference_key(scene_hash: str, *, mitsuba_version: str, variant: str, spp: int, seed: int,
+                  batches: int = DEFAULT_REFERENCE_BATCHES) -> str:
+    """Cache key of a reference: SHA-256 over its identity.
+
+    Examples
+    --------
+    >>> k = reference_key("ab" * 32, mitsuba_version="3.9.1", variant="scalar_rgb", spp=64, seed=1)
+    >>> len(k), k == reference_key("ab" * 32, mitsuba_version="3.9.1", variant="scalar_rgb",
+    ...                            spp=65, seed=1)
+    (64, False)
+    """
+    ident = {"format": FORMAT_VERSION, "scene": scene_hash, "mitsuba": mitsuba_version,
+             "variant": variant, "spp": int(spp), "seed": int(seed), "batches": int(batches)}
+    return hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()
+
+
+def mitsuba_identity(variant: str | None = None) -> tuple:
+    """``(variant, mitsuba_version)`` after selecting the variant (see ``mitsuba_scenes.variants``)."""
+    from mitsuba_scenes.variants import select_variant, versions
+
+    chosen = select_variant(variant)
+    return chosen, versions()["mitsuba"]
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _atomic_exr(path: Path, image: np.ndarray) -> None:
+    import reference_tracer as rt
+
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".exr")
+    os.close(fd)
+    try:
+        rt.write_exr(tmp, image)
+        with open(tmp, "rb") as f:
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def _atomic_text(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+@contextlib.contextmanager
+def _lock(path: Path):
+    import fcntl
+
+    with open(path, "a+") as f:
+        fcntl.flock(f.fileno(), fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f.fileno(), fcntl.LOCK_UN)
+
+
+def _paths(folder: Path, key: str):
+    return folder / f"{key}.mean.exr", folder / f"{key}.var.exr", folder / f"{key}.json"
+
+
+def load_reference(key: str, *, shape=None, cache=None):
+    """Load a cached reference by key after validating it; ``(Reference, None)`` or
+    ``(None, reason)`` when the entry is missing or corrupt.
+
+    Parameters
+    ----------
+    key : str
+    shape : tuple, optional
+        Expected ``(H, W)``.
+    cache : str or Path, optional
+        Cache root (see :func:`cache_dir`).
+    """
+    import reference_tracer as rt
+
+    folder = cache_dir(cache)
+    mean_path, var_path, meta_path = _paths(folder, key)
+    if not meta_path.exists():
+        return None, "not cached"
+    try:
+        meta = json.loads(meta_path.read_text())
+    except (OSError, ValueError) as exc:
+        return None, f"sidecar unreadable ({exc.__class__.__name__})"
+    if not isinstance(meta, dict) or meta.get("key") != key or meta.get("format") != FORMAT_VERSION:
+        return None, "sidecar does not describe this key"
+    for p, field in ((mean_path, "mean_sha256"), (var_path, "variance_sha256")):
+        if not p.exists():
+            return None, f"{p.name} missing"
+        if _sha256(p) != meta.get(field):
+            return None, f"{p.name} checksum mismatch (partial or corrupt file)"
+    try:
+        mean, var = rt.read_exr(mean_path), rt.read_exr(var_path)
+    except Exception as exc:  # noqa: BLE001 - any decoding failure means re-render
+        return None, f"EXR unreadable ({exc})"
+    want = tuple(meta.get("shape") or ())
+    if mean.shape != want or var.shape != want or (shape is not None and tuple(shape) != want[:2]):
+        return None, f"shape {mean.shape} does not match the sidecar/scene"
+    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(var)) and np.all(var >= 0)):
+        return None, "non-finite or negative values"
+    ref = Reference(mean=mean, variance=var, spp=int(meta["spp"]), seed=int(meta["seed"]),
+                    batches=int(meta["batches"]), variant=str(meta["variant"]),
+                    mitsuba_version=str(meta["mitsuba_version"]), key=key, path=mean_path,
+                    variance_path=var_path, seconds=float(meta.get("seconds", 0.0)), cached=True,
+                    scene_hash=str(meta["scene_hash"]))
+    return ref, None
+
+
+def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, variant: str | None = None,
+              threads: int | None = None, batches: int = DEFAULT_REFERENCE_BATCHES, cache=None,
+              force: bool = False, log=None) -> Reference:
+    """The Mitsuba reference of ``scene`` at ``spp`` samples, from the cache or rendered.
+
+    Parameters
+    ----------
+    scene : reference_tracer.Scene
+        The scene, camera size included (``scene.with_camera_size``).
+    spp : int, keyword-only
+        Samples per pixel (>= 2; the variance needs two batches).
+    seed : int, keyword-only
+        Base seed of the reference (keep it away from the sweep's seeds).
+    variant : str or None, keyword-only
+        Mitsuba variant (None: ``mitsuba_scenes.variants.select_variant``'s choice).
+    threads : int or None, keyword-only
+        Rendering threads (Dr.Jit); None leaves Dr.Jit's default (all cores).
+    batches : int, keyword-only
+        Independent batches for the per-sample variance (capped at ``spp``).
+    cache : str or Path, keyword-only
+        Cache root; default ``$RTBENCH_CACHE`` or ``~/.cache/rtbench``.
+    force : bool, keyword-only
+        Render even when a valid entry exists (and replace it).
+    log : callable or None, keyword-only
+        Called with one line of text when a corrupt entry is replaced.
+
+    Returns
+    -------
+    Reference
+        ``cached`` tells whether it came from the cache.
+
+    Examples
+    --------
+    >>> from mitsuba_scenes import get_scene
+    >>> ref = reference(get_scene("cornell_box", width=8, height=8), spp=64)  # doctest: +SKIP
+    >>> ref.variance.shape  # doctest: +SKIP
+    (8, 8, 3)
+    """
+    import reference_tracer as rt
+
+    if not isinstance(scene, rt.Scene):
+        raise ValueError(f"scene must be a reference_tracer.Scene, got {type(scene).__name__}")
+    spp = _check_int("spp", spp, 2)
+    seed = _check_int("seed", seed, 0)
+    batches = _check_int("batches", batches, 2)
+    batches = min(batches, spp)
+    chosen, mversion = mitsuba_identity(variant)
+    scene_hash = scene.content_hash()
+    key = reference_key(scene_hash, mitsuba_version=mversion, variant=chosen, spp=spp, seed=seed,
+                        batches=batches)
+    folder = cache_dir(cache)
+    shape = (scene.camera.height, scene.camera.width)
+    mean_path, var_path, meta_path = _paths(folder, key)
+    with _lock(folder / f"{key}.lock"):
+        if not force:
+            ref, why = load_reference(key, shape=shape, cache=cache)
+            if ref is not None:
+                return ref
+            if why != "not cached" and log is not None:
+                log(f"reference cache entry {key[:12]} is unusable ({why}); re-rendering")
+        from mitsuba_scenes import render_mitsuba
+
+        # invalidate first: a crash from here on leaves no sidecar, hence no false hit
+        with contextlib.suppress(FileNotFoundError):
+            meta_path.unlink()
+        t0 = time.perf_counter()
+        out = render_mitsuba(scene, spp=spp, seed=seed, variant=chosen, threads=threads, batches=batches)
+        wall = time.perf_counter() - t0
+        mean = np.asarray(out.mean, dtype=np.float32)
+        var = np.asarray(out.variance, dtype=np.float32)
+        if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(var))):
+            raise RuntimeError(f"Mitsuba reference of {scene_hash[:12]} has non-finite pixels")
+        _atomic_exr(mean_path, mean)
+        _atomic_exr(var_path, var)
+        meta = {"format": FORMAT_VERSION, "key": key, "scene_hash": scene_hash, "spp": spp, "seed": seed,
+                "batches": len(out.batch_spp), "variant": chosen, "mitsuba_version": mversion,
+                "shape": list(mean.shape), "seconds": float(out.seconds), "wall_seconds": wall,
+                "compile_seconds": float(out.compile_seconds), "threads": threads,
+                "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                "mean_sha256": _sha256(mean_path), "variance_sha256": _sha256(var_path)}
+        _atomic_text(meta_path, json.dumps(meta, indent=1) + "\n")
+    return Reference(mean=mean, variance=var, spp=spp, seed=seed, batches=len(out.batch_spp),
+                     variant=chosen, mitsuba_version=mversion, key=key, path=mean_path,
+                     variance_path=var_path, seconds=float(out.seconds), cached=False,
+                     scene_hash=scene_hash)

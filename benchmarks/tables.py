@@ -1,0 +1,127 @@
+"""The one-screen summary table that ``rtbench curves`` and ``rtbench run`` print (rich).
+
+One row per (scene, size); one column per curve (our strategies, then Mitsuba). A cell
+shows the convergence slope (``BIASED`` when the bias test fires) on its first line and,
+on the second, efficiency and throughput relative to Mitsuba's ``path`` on the same
+scene and size. The seed's comparison (uniform vs light on ``cornell_box`` at 400x400)
+follows as one line when the store holds it.
+
+Examples
+--------
+>>> from benchmarks.tables import summary_table
+>>> table = summary_table([])  # doctest: +SKIP
+"""
+from __future__ import annotations
+
+import math
+
+__all__ = ["summary_table", "print_summary", "seed_comparison_line"]
+
+_ORDER = ("uniform", "cosine", "light", "mixture", "mis")
+
+
+def _f(v, digits=2):
+    if v is None or isinstance(v, bool):
+        return "-"
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return "-"
+    if not math.isfinite(v):
+        return "-"
+    if v != 0 and (abs(v) >= 1e4 or abs(v) < 1e-2):
+        return f"{v:.{digits}g}" if abs(v) < 1e4 else f"{v:.2e}"
+    return f"{v:.{digits}f}"
+
+
+def _curve_name(renderer, strategy):
+    return strategy if renderer == "ours" else f"Mitsuba {strategy}"
+
+
+def summary_table(rows, *, title: str = "rtbench summary"):
+    """A ``rich.table.Table`` of summary rows (``summary.json``'s ``rows``).
+
+    Parameters
+    ----------
+    rows : list of dict
+    title : str, keyword-only
+
+    Returns
+    -------
+    rich.table.Table
+    """
+    from rich.table import Table
+    from rich.text import Text
+
+    curves = []
+    for r in rows:
+        c = (r.get("renderer"), r.get("strategy"))
+        if c not in curves:
+            curves.append(c)
+    curves.sort(key=lambda c: (c[0] != "ours", _ORDER.index(c[1]) if c[1] in _ORDER else 9, str(c[1])))
+    sections = []
+    for r in rows:
+        s = (r.get("scene"), r.get("width"), r.get("height"))
+        if s not in sections:
+            sections.append(s)
+    table = Table(title=title, caption="slope of RMSE vs spp (-0.5 = unbiased MC) or BIASED (bias test, z);  "
+                                       "eff = efficiency 1/(MSE*s), speed = samples/s, both / Mitsuba",
+                  show_lines=True, caption_justify="left")
+    table.add_column("scene", no_wrap=True)
+    for c in curves:
+        table.add_column(_curve_name(*c), no_wrap=True)
+    by = {(r.get("scene"), r.get("width"), r.get("height"), r.get("renderer"), r.get("strategy")): r for r in rows}
+    for scene, w, h in sections:
+        cells = [Text(f"{scene}\n{w}x{h}")]
+        for c in curves:
+            r = by.get((scene, w, h, *c))
+            if r is None:
+                cells.append(Text(""))
+                continue
+            t = Text()
+            if r.get("bias_significant") is True:
+                t.append(f"BIASED z={_f(r.get('bias_z'), 1)}", style="bold red")
+            else:
+                t.append(f"slope {_f(r.get('slope'))}")
+                if r.get("bias_significant") is False:
+                    t.append(" ok", style="green")
+            if r.get("renderer") == "mitsuba":
+                t.append(f"\n{_f(r.get('samples_per_second'), 3)} samples/s")
+            else:
+                t.append(f"\neff {_f(r.get('efficiency_vs_mitsuba'))} speed {_f(r.get('samples_per_second_vs_mitsuba'))}")
+            cells.append(t)
+        table.add_row(*cells)
+    return table
+
+
+def seed_comparison_line(records) -> str | None:
+    """The seed's comparison as one sentence, when the store holds it (needs ``reports``)."""
+    try:
+        from reports.curves import SEED_SCENE, SEED_SIZE, SEED_SPP, seed_comparison
+    except ImportError:
+        return None
+    cmp = seed_comparison(records)
+    if cmp is None or not math.isfinite(cmp.get("target_rmse", math.nan)):
+        return None
+    where = (f"light reaches it at ~{_f(cmp['light_spp'], 3)} spp ({cmp['method']})"
+             if math.isfinite(cmp.get("light_spp", math.nan)) else f"light never does ({cmp['method']})")
+    return (f"seed comparison ({SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}): uniform at {SEED_SPP} spp has RMSE "
+            f"{_f(cmp['target_rmse'], 3)}; {where}")
+
+
+def print_summary(store, *, console=None) -> None:
+    """Print the summary table of a results store (and the seed comparison line)."""
+    from rich.console import Console
+
+    from .store import SUMMARY, read_json, read_records
+
+    console = console or Console()
+    summary = read_json(f"{store}/{SUMMARY}", default={}) or {}
+    rows = summary.get("rows") or []
+    if not rows:
+        console.print(f"{store}: no summary rows yet")
+        return
+    console.print(summary_table(rows))
+    line = seed_comparison_line(read_records(store))
+    if line:
+        console.print(line, highlight=False)
