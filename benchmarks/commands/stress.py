@@ -1,0 +1,49 @@
+"""``rtbench stress [--quick] [--case NAME ...] [--json PATH]``: numerical stability on hard cases."""
+from __future__ import annotations
+
+import argparse
+import json
+
+HELP = "run the hard-case suite (watertight meshes, grazing rays, degenerate input, scale, ...) and print a table"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from benchmarks.stress import CASES
+
+    parser.add_argument("--quick", action="store_true",
+                        help="smaller settings (1e5 watertight rays instead of 4e6, fewer samples): ~30 s")
+    parser.add_argument("--case", action="append", metavar="NAME", choices=list(CASES),
+                        help=f"run only this case (repeatable); one of: {', '.join(CASES)}")
+    parser.add_argument("--json", metavar="PATH", default=None, help="also write every record with its details")
+
+
+def run(args) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from benchmarks.stress import run_cases
+
+    console = Console()
+    table = Table(title=f"rtbench stress ({'quick' if args.quick else 'full'})", show_lines=True)
+    table.add_column("case", style="bold", no_wrap=True)
+    table.add_column("figure")
+    table.add_column("verdict", no_wrap=True)
+    table.add_column("s", justify="right", no_wrap=True)
+
+    def progress(rec):
+        console.print(f"  {rec.case}: {rec.verdict} ({rec.seconds:.1f} s)", style="dim")
+
+    records = run_cases(args.case, quick=args.quick, on_record=progress)
+    for rec in records:
+        style = "green" if rec.passed else "bold red"
+        table.add_row(rec.case, rec.figure, f"[{style}]{rec.verdict}[/{style}]", f"{rec.seconds:.1f}")
+    console.print(table)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump([{"case": r.case, "figure": r.figure, "verdict": r.verdict, "seconds": r.seconds,
+                        "details": r.details} for r in records], fh, indent=1, default=str)
+    failed = [r.case for r in records if not r.passed]
+    if failed:
+        console.print(f"[bold red]failed: {', '.join(failed)}[/bold red]")
+        return 1
+    return 0
