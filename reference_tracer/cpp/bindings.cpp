@@ -231,7 +231,7 @@ public:
 
     size_t primitive_count() const { return scene_->primitive_count(); }
     size_t emitter_count() const { return scene_->lights().emitter_count(); }
-    size_t bvh_nodes() const { return scene_->bvh().nodes().size(); }
+    size_t bvh_nodes() const { return scene_->bvh().node_count(); }
     int bvh_depth() const { return scene_->bvh().depth(); }
     double build_seconds() const { return build_seconds_; }
 

@@ -17,7 +17,7 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
         // Zero-area triangles can never be hit: an empty box keeps them out of the BVH.
         boxes.push_back(t.degenerate() ? AABB() : t.bounds());
     }
-    bvh_ = BVH(boxes);
+    bvh_ = WideBVH(BVH(boxes));
 
     std::vector<Emitter> emitters;
     for (uint32_t i = 0; i < spheres_.size(); ++i)
@@ -77,7 +77,7 @@ bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
     const WatertightRay wray(ray.d);
     uint32_t best = 0;
     double t = t_max;
-    const bool hit = bvh_.traverse(ray, t, [&](uint32_t prim, double& tm) {
+    const bool hit = bvh_.traverse<false>(ray, t, [&](uint32_t prim, double& tm) {
         return hit_primitive(prim, ray, wray, tm, best);
     });
     if (hit) fill_interaction(ray, t, best, it);
@@ -87,7 +87,7 @@ bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
 bool Scene::occluded(const Ray& ray, double t_max) const {
     const WatertightRay wray(ray.d);
     uint32_t unused = 0;
-    return bvh_.any_hit(ray, t_max, [&](uint32_t prim, double tm) {
+    return bvh_.traverse<true>(ray, t_max, [&](uint32_t prim, double& tm) {
         return hit_primitive(prim, ray, wray, tm, unused);
     });
 }

@@ -5,7 +5,7 @@
 
 #include <vector>
 
-#include "bvh.h"
+#include "wide_bvh.h"
 #include "materials/material.h"
 #include "sampling/lights.h"
 #include "shapes/quad.h"
@@ -72,7 +72,7 @@ public:
     const SceneSettings& settings() const { return settings_; }
     const Material& material(uint32_t id) const { return materials_[id]; }
     const LightSampler& lights() const { return lights_; }
-    const BVH& bvh() const { return bvh_; }
+    const WideBVH& bvh() const { return bvh_; }
     size_t primitive_count() const { return spheres_.size() + quads_.size() + triangles_.size(); }
     size_t sphere_count() const { return spheres_.size(); }
     size_t quad_count() const { return quads_.size(); }
@@ -90,7 +90,7 @@ private:
     std::vector<Quad> quads_;
     std::vector<Triangle> triangles_;
     SceneSettings settings_;
-    BVH bvh_;
+    WideBVH bvh_;
     LightSampler lights_;
     uint32_t quad_base_ = 0, tri_base_ = 0;
 };

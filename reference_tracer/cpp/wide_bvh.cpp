@@ -1,0 +1,87 @@
+#include "wide_bvh.h"
+
+#include <cmath>
+
+namespace rt {
+
+namespace {
+
+// Float bounds that contain the double box: round lo down and hi up.
+float round_down(double x) {
+    float f = static_cast<float>(x);
+    return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+}
+float round_up(double x) {
+    float f = static_cast<float>(x);
+    return static_cast<double>(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+}
+
+void set_empty(WideNode& n, int i) {
+    for (int a = 0; a < 3; ++a) {
+        n.lo[a][i] = std::numeric_limits<float>::infinity();
+        n.hi[a][i] = -std::numeric_limits<float>::infinity();
+    }
+    n.child[i] = 0;
+    n.count[i] = 0;
+}
+
+}  // namespace
+
+WideBVH::WideBVH(const BVH& binary) : order_(binary.order()) {
+    const auto& bn = binary.nodes();
+    if (bn.empty()) return;
+    nodes_.reserve(bn.size() / 2 + 1);
+    if (bn[0].count > 0) {  // a single leaf: one node with one leaf child
+        nodes_.emplace_back();
+        WideNode& n = nodes_[0];
+        for (int i = 0; i < 4; ++i) set_empty(n, i);
+        for (int a = 0; a < 3; ++a) { n.lo[a][0] = round_down(bn[0].box.lo[a]); n.hi[a][0] = round_up(bn[0].box.hi[a]); }
+        n.child[0] = ~static_cast<int32_t>(bn[0].offset);
+        n.count[0] = bn[0].count;
+        depth_ = 1;
+        return;
+    }
+    collapse(binary, 0, 1);
+}
+
+int32_t WideBVH::collapse(const BVH& binary, uint32_t node, int depth) {
+    const auto& bn = binary.nodes();
+    depth_ = std::max(depth_, depth);
+    // Open the largest interior child until there are four (greedy by surface area: the
+    // children most likely to be hit are the ones worth testing together).
+    uint32_t kids[4] = {node + 1, bn[node].offset, 0, 0};
+    int k = 2;
+    while (k < 4) {
+        int best = -1;
+        double best_area = -1.0;
+        for (int i = 0; i < k; ++i) {
+            const BVHNode& c = bn[kids[i]];
+            if (c.count == 0 && c.box.surface_area() > best_area) { best_area = c.box.surface_area(); best = i; }
+        }
+        if (best < 0) break;
+        const uint32_t opened = kids[best];
+        kids[best] = opened + 1;
+        kids[k++] = bn[opened].offset;
+    }
+    const int32_t index = static_cast<int32_t>(nodes_.size());
+    nodes_.emplace_back();
+    for (int i = 0; i < 4; ++i) set_empty(nodes_[index], i);
+    for (int i = 0; i < k; ++i) {
+        const BVHNode& c = bn[kids[i]];
+        int32_t child;
+        uint16_t count = 0;
+        if (c.count > 0) {
+            child = ~static_cast<int32_t>(c.offset);
+            count = c.count;
+        } else {
+            child = collapse(binary, kids[i], depth + 1);  // may reallocate nodes_
+        }
+        WideNode& n = nodes_[index];
+        for (int a = 0; a < 3; ++a) { n.lo[a][i] = round_down(c.box.lo[a]); n.hi[a][i] = round_up(c.box.hi[a]); }
+        n.child[i] = child;
+        n.count[i] = count;
+    }
+    return index;
+}
+
+}  // namespace rt
