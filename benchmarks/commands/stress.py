@@ -24,6 +24,8 @@ def run(args) -> int:
     from benchmarks.stress import run_cases
 
     console = Console()
+    if not console.is_terminal:   # piped or captured: keep the figures on few lines
+        console = Console(width=160)
     table = Table(title=f"rtbench stress ({'quick' if args.quick else 'full'})", show_lines=True)
     table.add_column("case", style="bold", no_wrap=True)
     table.add_column("figure")
