@@ -1,0 +1,310 @@
+"""``rtbench speed [SCENES] [--rays] [--scaling] ...``: ours vs Mitsuba 3, paths/s, rays/s, efficiency.
+
+Default: the render benchmark (``benchmarks.speed.render_benchmark``). ``--rays`` runs
+the ray-casting micro-benchmark instead, ``--scaling`` the scaling sweeps; give both
+to run both, and ``--render`` as well to add the render benchmark to them.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+HELP = "time ours vs Mitsuba (paired, interleaved): paths/s, rays/s, ms/spp, RMSE, efficiency; --rays, --scaling"
+
+
+def _ints(text):
+    try:
+        vals = [int(float(x)) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from None
+    if not vals:
+        raise argparse.ArgumentTypeError("expected at least one integer")
+    return vals
+
+
+def _list(text):
+    return [x.strip() for x in text.split(",") if x.strip()]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from benchmarks.speed import DEFAULT_STRATEGIES, DEFAULT_VARIANTS, REFERENCE_KINDS
+
+    parser.add_argument("scenes", nargs="*", metavar="SCENE", help="suite scene(s) (default: cornell_box)")
+    parser.add_argument("--width", type=int, default=128, help="image width (default 128)")
+    parser.add_argument("--height", type=int, default=128, help="image height (default 128)")
+    parser.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")
+    parser.add_argument("--threads", type=int, default=2, help="threads for both renderers (default 2)")
+    parser.add_argument("--repeats", type=int, default=5, help="timed paired rounds (default 5)")
+    parser.add_argument("--strategies", type=_list, default=list(DEFAULT_STRATEGIES),
+                        help=f"our strategies, comma-separated (default {','.join(DEFAULT_STRATEGIES)})")
+    parser.add_argument("--variants", type=_list, default=list(DEFAULT_VARIANTS),
+                        help=f"Mitsuba variants (default {','.join(DEFAULT_VARIANTS)}); ones that do not "
+                             f"work here are skipped and named")
+    parser.add_argument("--max-depth", type=int, default=None, help="override the scene's max_depth (suite: 50)")
+    parser.add_argument("--reference", choices=REFERENCE_KINDS, default="mitsuba",
+                        help="error reference: cached high-spp Mitsuba (benchmarks.references; rendered once "
+                             "if missing) or a high-spp render of ours (default mitsuba)")
+    parser.add_argument("--reference-spp", type=int, default=4096, help="reference spp (default 4096)")
+    parser.add_argument("--cache", default=None, metavar="DIR", help="reference cache root")
+    parser.add_argument("--seed", type=int, default=0, help="base seed (default 0)")
+    parser.add_argument("--render", action="store_true", help="run the render benchmark too with --rays/--scaling")
+    parser.add_argument("--rays", action="store_true", help="ray-casting micro-benchmark (ours vs Mitsuba/Embree)")
+    parser.add_argument("--triangles", type=_ints, default=[100_000, 1_000_000],
+                        help="mesh sizes of --rays (default 100000,1000000)")
+    parser.add_argument("--ray-count", type=int, default=1 << 20, help="rays per kind for --rays (default 2^20)")
+    parser.add_argument("--scaling", action="store_true",
+                        help="paths/s vs resolution and threads; cost per ray vs triangle count")
+    parser.add_argument("--resolutions", type=_ints, default=[32, 64, 128], help="--scaling sizes (default 32,64,128)")
+    parser.add_argument("--scaling-triangles", type=_ints, default=[1_000, 10_000, 100_000, 1_000_000],
+                        help="--scaling mesh sizes (default 1e3,1e4,1e5,1e6)")
+    parser.add_argument("--scaling-spp", type=int, default=16, help="--scaling spp (default 16)")
+    parser.add_argument("--json", metavar="PATH", default=None, help="write every record as JSON")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines")
+
+
+def _f(v, digits=3):
+    if v is None or isinstance(v, bool):
+        return "-"
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return "-"
+    if not math.isfinite(v):
+        return "-"
+    if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-3):
+        return f"{v:.{digits}g}"
+    return f"{v:.{digits}g}" if abs(v) < 1 else f"{v:,.{max(0, digits - len(str(int(abs(v)))))}f}"
+
+
+def _m(v):
+    """A rate in millions."""
+    return "-" if v is None or not math.isfinite(v) else f"{v / 1e6:.3f}"
+
+
+def _short(variant):
+    """``llvm_ad_rgb`` -> ``llvm``."""
+    return variant.split("_")[0]
+
+
+def render_table(result):
+    """The render benchmark's ``rich`` table."""
+    from rich.table import Table
+
+    c = result["config"]
+    variants = result.get("available_variants", [])
+    table = Table(title=f"rtbench speed: {c['width']}x{c['height']}, {c['spp']} spp, {c['threads']} threads, "
+                        f"median of {c['repeats']} paired rounds")
+    for col, kw in (("scene", {"no_wrap": True}), ("renderer", {"no_wrap": True}), ("Mpaths/s", {}),
+                    ("Mpaths/cpu-s", {}), ("Mrays/s", {}), ("ms/spp", {}), ("spread", {}), ("cpu/wall", {})):
+        table.add_column(col, justify="left" if col in ("scene", "renderer") else "right", **kw)
+    for v in variants:
+        table.add_column(f"ratio {_short(v)} (cpu)", justify="right")
+    table.add_column("RMSE", justify="right")
+    for v in variants:
+        table.add_column(f"eff. ratio {_short(v)}", justify="right")
+    for r in result["summary"]:
+        cells = [r["scene"], r["label"], _m(r["paths_per_second"]), _m(r["paths_per_cpu_second"]),
+                 _m(r["rays_per_second"]), f"{r['ms_per_spp']:.3f}", f"{100 * r['paths_per_second_spread']:.0f}%"
+                 if math.isfinite(r["paths_per_second_spread"]) else "-", f"{r['cpu_over_wall']:.2f}"]
+        for v in variants:
+            x = r.get(f"ratio_{v}")
+            cells.append("-" if x is None else f"{x:.2f} ({r[f'cpu_ratio_{v}']:.2f})")
+        cells.append(f"{r['rmse']:.4f}")
+        for v in variants:
+            x = r.get(f"efficiency_ratio_{v}")
+            cells.append("-" if x is None or not math.isfinite(x) else f"{x:.2f}")
+        table.add_row(*cells)
+    return table
+
+
+def render_notes(result):
+    lines = []
+    for name, ref in result["references"].items():
+        lines.append(f"{name}: RMSE (raw, at equal spp) against {ref['label']}; efficiency ratio = median over "
+                     f"rounds of [1/(MSE*s) ours] / [1/(MSE*s) Mitsuba], MSE with the reference noise removed")
+    for name, per in result["mitsuba"].items():
+        if name == "versions":
+            continue
+        for v, info in per.items():
+            lines.append(f"{name}: Mitsuba {v} load {info['load_seconds']:.2f} s, warm-up {info['warmup_seconds']:.2f} s, "
+                         f"JIT compile (warm-up minus timed render, excluded) {info['compile_seconds']:.2f} s")
+    for name, info in result.get("ours", {}).items():
+        lines.append(f"{name}: ours BVH build {1e3 * info['build_seconds']:.2f} ms (excluded)")
+    if "versions" in result["mitsuba"]:
+        vv = result["mitsuba"]["versions"]
+        lines.append(f"Mitsuba {vv['mitsuba']}, Dr.Jit {vv['drjit']}, libLLVM {vv['libllvm']}")
+    for v, why in result.get("skipped_variants", {}).items():
+        lines.append(f"Mitsuba {v} skipped: {why}")
+    lines.append("ratio = paths/s ours / Mitsuba, paired per round (cpu: the same on process CPU time); Mrays/s is "
+                 "ours only (Mitsuba does not count rays); spread = (max-min)/median of paths/s")
+    return lines
+
+
+def rays_table(result):
+    from rich.table import Table
+
+    c = result["config"]
+    mi = bool(result.get("mitsuba", {}).get("variant"))
+    table = Table(title=f"ray casting: closest hit, {c['rays']} rays per kind, {c['threads']} threads, "
+                        f"median of {c['repeats']}")
+    cols = ["triangles", "rays", "ours Mrays/s", "ours Mrays/cpu-s"]
+    if mi:
+        cols += ["Mitsuba Mrays/s", "Mitsuba Mrays/cpu-s", "ratio", "hit agree", "t agree", "t rel. median"]
+    cols += ["hit frac.", "our build s/Mtri", "BVH depth"]
+    if mi:
+        cols += ["Mitsuba load s"]
+    for col in cols:
+        table.add_column(col, justify="right" if col not in ("rays",) else "left", no_wrap=True)
+    for r in result["rows"]:
+        cells = [f"{r['triangles']:,}", r["kind"], f"{r['ours_mrays_per_second']:.2f}",
+                 _f(r["ours_mrays_per_cpu_second"])]
+        if mi:
+            cells += [f"{r['mitsuba_mrays_per_second']:.2f}", _f(r["mitsuba_mrays_per_cpu_second"]),
+                      f"{r['ratio']:.2f}", f"{100 * r['agree_hit_agreement']:.4f}%",
+                      f"{100 * r['agree_t_agreement']:.3f}%", f"{r['agree_t_rel_median']:.1e}"]
+        cells += [f"{r['hit_fraction']:.3f}", f"{r['build_seconds_per_mtri']:.3f}", str(r["bvh_depth"])]
+        if mi:
+            cells += [f"{r['mitsuba_load_seconds']:.2f}"]
+        table.add_row(*cells)
+    return table
+
+
+def scaling_tables(result):
+    from rich.table import Table
+
+    mi = result["config"]["variant"] is not None
+    out = []
+    for key, title, first in (("resolution", "paths/s vs resolution", "resolution"),
+                              ("threads", "paths/s vs threads", "threads")):
+        t = Table(title=f"{title} ({result['config']['scene']}, {result['config']['strategy']}, "
+                        f"{result['config']['spp']} spp)")
+        cols = [first, "ours Mpaths/s", "ours Mpaths/cpu-s"]
+        if key == "threads":
+            cols.append("ours speed-up")
+        if mi:
+            cols += ["Mitsuba Mpaths/s", "Mitsuba Mpaths/cpu-s"] + (["Mitsuba speed-up"] if key == "threads" else [])
+            cols.append("ratio")
+        for col in cols:
+            t.add_column(col, justify="right")
+        for r in result[key]:
+            cells = [str(r[first]), _m(r["ours_paths_per_second"]), _m(r["ours_paths_per_cpu_second"])]
+            if key == "threads":
+                cells.append(_f(r.get("ours_speedup")))
+            if mi:
+                cells += [_m(r["mitsuba_paths_per_second"]), _m(r["mitsuba_paths_per_cpu_second"])]
+                if key == "threads":
+                    cells.append(_f(r.get("mitsuba_speedup")))
+                cells.append(f"{r['ratio']:.2f}")
+            t.add_row(*cells)
+        out.append(t)
+    t = Table(title="cost vs triangle count (random rays; lit torus render 64x64)")
+    cols = ["triangles", "ours ns/ray", "BVH depth", "ours Mpaths/s"]
+    if mi:
+        cols += ["Mitsuba ns/ray", "Mitsuba Mpaths/s", "paths/s ratio"]
+    for col in cols:
+        t.add_column(col, justify="right")
+    for r in result["mesh"]:
+        cells = [f"{r['triangles']:,}", f"{r['ours_ns_per_ray']:.0f}", str(r["bvh_depth"]),
+                 _m(r["ours_paths_per_second"])]
+        if mi:
+            cells += [f"{r['mitsuba_ns_per_ray']:.0f}", _m(r["mitsuba_paths_per_second"]), f"{r['ratio']:.2f}"]
+        t.add_row(*cells)
+    out.append(t)
+    return out
+
+
+def scaling_notes(result):
+    lines = []
+    for who, fit in result["fits"].items():
+        lines.append(f"{who}: fit a + b ln n: b = {fit['b']:.1f} ns per e-fold ({fit['per_doubling']:.1f} ns per "
+                     f"doubling of n), r^2 {fit['r2']:.3f}; log-log exponent {fit['loglog_exponent']:.3f} "
+                     f"(1 = linear, ~0 = logarithmic)")
+    return lines
+
+
+def _check(args):
+    for name in ("width", "height", "spp", "threads", "repeats", "reference_spp", "ray_count", "scaling_spp"):
+        v = getattr(args, name)
+        if v < 1:
+            raise ValueError(f"--{name.replace('_', '-')} must be >= 1, got {v}")
+    if args.seed < 0:
+        raise ValueError(f"--seed must be >= 0, got {args.seed}")
+
+
+def run(args) -> int:
+    from rich.console import Console
+
+    from benchmarks import speed
+
+    _check(args)
+    console = Console()
+    if not console.is_terminal:   # piped or captured: keep each table row on one line
+        console = Console(width=220)
+    log = None if args.quiet else (lambda line: console.print(line, style="dim", markup=False, highlight=False))
+    do_render = args.render or not (args.rays or args.scaling)
+    if args.scenes and not do_render:
+        raise ValueError("scenes are only used by the render benchmark: add --render")
+    jit = [v for v in args.variants if not v.startswith("scalar")]
+    out = {}
+    if do_render:
+        res = speed.render_benchmark(args.scenes or ["cornell_box"], width=args.width, height=args.height,
+                                     spp=args.spp, threads=args.threads, repeats=args.repeats,
+                                     strategies=args.strategies, variants=args.variants, max_depth=args.max_depth,
+                                     reference=args.reference, reference_spp=args.reference_spp, seed=args.seed,
+                                     cache=args.cache, log=log)
+        out["render"] = res
+        console.print(render_table(res))
+        for line in render_notes(res):
+            console.print(f"  {line}", markup=False, highlight=False)
+    if args.rays:
+        res = speed.ray_benchmark(triangles=args.triangles, rays=args.ray_count, threads=args.threads,
+                                  repeats=args.repeats, variant=jit[0] if jit else None, seed=args.seed, log=log)
+        out["rays"] = res
+        console.print(rays_table(res))
+        console.print("  ratio = ours Mrays/s / Mitsuba Mrays/s (paired per repeat); Mitsuba: "
+                      "ray_intersect_preliminary + dr.eval + dr.sync_thread, kernel compiled before timing; "
+                      "ours: core_scene(...).intersect (float64 copies of the same float32 rays); "
+                      f"t agree: relative difference <= {res['rows'][0].get('agree_t_rtol', 1e-4):g}",
+                      markup=False, highlight=False)
+    if args.scaling:
+        res = speed.scaling_benchmark(resolutions=args.resolutions, spp=args.scaling_spp,
+                                      thread_counts=sorted({1, args.threads}), triangles=args.scaling_triangles,
+                                      variant=jit[0] if jit else None, threads=args.threads,
+                                      repeats=min(args.repeats, 3), seed=args.seed, log=log)
+        out["scaling"] = res
+        for t in scaling_tables(res):
+            console.print(t)
+        for line in scaling_notes(res):
+            console.print(f"  {line}", markup=False, highlight=False)
+    first = next(iter(out.values()))
+    load = first["environment"]["loadavg"]
+    console.print(f"  note: {speed.WALL_CLOCK_NOTE}. Load average at start "
+                  f"{'/'.join(f'{x:.1f}' for x in load) if load else '?'} on {first['environment']['cpu_count']} "
+                  f"cores.", markup=False, highlight=False)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(_finite(out), fh, indent=1, default=_json_default, allow_nan=False)
+        console.print(f"  JSON: {args.json}", markup=False, highlight=False)
+    return 0
+
+
+def _finite(x):
+    """``x`` with NaN/Inf floats replaced by None (strict JSON)."""
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_finite(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def _json_default(x):
+    import numpy as np
+
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    return str(x)
