@@ -6,7 +6,7 @@ suite, and the seed's own comparison (uniform vs light sampling on ``cornell_box
 
 ``quick``
     32x32 images, spp 1..256 (powers of two), 4 seeds, our five strategies and Mitsuba,
-    references at 8192 spp; seed comparison at 400x400 with spp 4, 16, 50 and one seed
+    references at 8192 spp; seed comparison at 400x400 with spp 1, 2, 4, 16, 50 and one seed
     (reference 256 spp). About 10 minutes on 2 cores for the whole suite, references
     included. Sizing: on ``cornell_box`` at 32x32, 4 seeds at 256 spp flag the biased
     ``light`` strategy with z >= 4.7 in 8 of 8 trials (``DEFAULT_ALPHA`` = 0.001 needs
@@ -47,7 +47,7 @@ _SPECS = {
     "quick": {
         "suite": dict(strategies=_ALL, spps=_ladder(256), seeds=4, width=32, height=32, mitsuba=True,
                       reference_spp=8192),
-        "seed": dict(strategies=("uniform", "light"), spps=(4, 16, 50), seeds=1, width=400, height=400,
+        "seed": dict(strategies=("uniform", "light"), spps=(1, 2, 4, 16, 50), seeds=1, width=400, height=400,
                      mitsuba=False, reference_spp=256),
     },
     "full": {

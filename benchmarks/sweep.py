@@ -64,6 +64,8 @@ MITSUBA_STRATEGY = "path"
 DEFAULT_ALPHA = 0.001
 #: time-to-target uses target RMSE = this x the reference's RMS radiance.
 TARGET_RELATIVE_RMSE = 0.1
+#: how long to try to reach a Dask scheduler before giving up.
+DASK_CONNECT_TIMEOUT = "20s"
 #: record fields that depend on timing or on the machine (ignore them to compare two runs).
 TIMING_FIELDS = ("seconds", "paths_per_second", "efficiency", "compile_seconds", "build_seconds",
                  "load_seconds", "wall_seconds", "finished", "host", "threads", "worker")
@@ -368,7 +370,8 @@ def execute_job(job: Job, ref_mean, ref_variance, ref_spp: int, *, threads: int,
         raise ValueError(f"renderer must be 'ours' or 'mitsuba', got {job.renderer!r}")
     if mean.shape != np.shape(ref_mean):
         raise ValueError(f"{job.label}: image {mean.shape} vs reference {np.shape(ref_mean)}")
-    met = job_metrics(mean, var, ref_mean, ref_variance, ref_spp)
+    # one sample carries no estimate of its spread (ours would report 0)
+    met = job_metrics(mean, var if job.spp > 1 else None, ref_mean, ref_variance, ref_spp)
     pps = job.width * job.height * job.spp / seconds if seconds > 0 else None
     eff = None
     if met["mse"] is not None and met["mse"] > 0 and seconds > 0:
@@ -544,7 +547,7 @@ def _run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, 
     own = client is None
     if own:
         try:
-            client = Client(address, timeout="20s")
+            client = Client(address, timeout=DASK_CONNECT_TIMEOUT)
         except (OSError, TimeoutError) as exc:
             raise ValueError(f"cannot reach the Dask scheduler at {address!r}: {exc}") from exc
     done = 0
@@ -586,7 +589,10 @@ def _run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, 
                 time.sleep(poll)
                 pool = workers()
                 continue
-            finished, _ = wait(list(running), timeout=poll, return_when="FIRST_COMPLETED")
+            try:
+                finished, _ = wait(list(running), timeout=poll, return_when="FIRST_COMPLETED")
+            except TimeoutError:  # nothing finished within `poll`: look at the workers again
+                finished = []
             for fut in finished:
                 job, addr = running.pop(fut)
                 busy.discard(addr)

@@ -30,8 +30,22 @@ def _f(v, digits=2):
     if not math.isfinite(v):
         return "-"
     if v != 0 and (abs(v) >= 1e4 or abs(v) < 1e-2):
-        return f"{v:.{digits}g}" if abs(v) < 1e4 else f"{v:.2e}"
+        return f"{v:.1e}"
     return f"{v:.{digits}f}"
+
+
+def _si(v):
+    """1234567 -> '1.2M'."""
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return "-"
+    if not math.isfinite(v):
+        return "-"
+    for div, unit in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
+        if abs(v) >= div:
+            return f"{v / div:.1f}{unit}"
+    return f"{v:.0f}"
 
 
 def _curve_name(renderer, strategy):
@@ -64,12 +78,13 @@ def summary_table(rows, *, title: str = "rtbench summary"):
         s = (r.get("scene"), r.get("width"), r.get("height"))
         if s not in sections:
             sections.append(s)
-    table = Table(title=title, caption="slope of RMSE vs spp (-0.5 = unbiased MC) or BIASED (bias test, z);  "
-                                       "eff = efficiency 1/(MSE*s), speed = samples/s, both / Mitsuba",
-                  show_lines=True, caption_justify="left")
+    table = Table(title=title, show_lines=True, caption_justify="left",
+                  caption="line 1: slope of RMSE vs spp (-0.50 = unbiased Monte Carlo), or BIASED with the bias "
+                          "test's z; line 2: efficiency 1/(MSE*s) | samples/s, both relative to Mitsuba path "
+                          "(Mitsuba: its samples/s)")
     table.add_column("scene", no_wrap=True)
     for c in curves:
-        table.add_column(_curve_name(*c), no_wrap=True)
+        table.add_column(_curve_name(*c), no_wrap=True, justify="right")
     by = {(r.get("scene"), r.get("width"), r.get("height"), r.get("renderer"), r.get("strategy")): r for r in rows}
     for scene, w, h in sections:
         cells = [Text(f"{scene}\n{w}x{h}")]
@@ -80,15 +95,13 @@ def summary_table(rows, *, title: str = "rtbench summary"):
                 continue
             t = Text()
             if r.get("bias_significant") is True:
-                t.append(f"BIASED z={_f(r.get('bias_z'), 1)}", style="bold red")
+                t.append(f"BIASED z={_f(r.get('bias_z'), 0)}", style="bold red")
             else:
-                t.append(f"slope {_f(r.get('slope'))}")
-                if r.get("bias_significant") is False:
-                    t.append(" ok", style="green")
+                t.append(_f(r.get("slope")))
             if r.get("renderer") == "mitsuba":
-                t.append(f"\n{_f(r.get('samples_per_second'), 3)} samples/s")
+                t.append(f"\n{_si(r.get('samples_per_second'))}/s")
             else:
-                t.append(f"\neff {_f(r.get('efficiency_vs_mitsuba'))} speed {_f(r.get('samples_per_second_vs_mitsuba'))}")
+                t.append(f"\n{_f(r.get('efficiency_vs_mitsuba'))} | {_f(r.get('samples_per_second_vs_mitsuba'))}")
             cells.append(t)
         table.add_row(*cells)
     return table
@@ -115,7 +128,10 @@ def print_summary(store, *, console=None) -> None:
 
     from .store import SUMMARY, read_json, read_records
 
-    console = console or Console()
+    if console is None:
+        console = Console()
+        if not console.is_terminal:  # logs and pipes: wide enough for the table, no truncation
+            console = Console(width=max(console.width, 120))
     summary = read_json(f"{store}/{SUMMARY}", default={}) or {}
     rows = summary.get("rows") or []
     if not rows:

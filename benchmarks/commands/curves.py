@@ -69,7 +69,9 @@ def run(args) -> int:
                   width=args.width, height=args.height, mitsuba=not args.no_mitsuba, reference_spp=ref_spp)
     result = run_sweep([group], out=args.out, **sweep_kwargs(args))
     console = Console()
+    if not console.is_terminal:  # logs and pipes: wide enough for the summary table
+        console = Console(width=max(console.width, 120))
     print_summary(result.store, console=console)
-    console.print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
-                  f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", highlight=False)
+    print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
+                  f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", flush=True)
     return 1 if result.failed else 0

@@ -33,6 +33,8 @@ def run(args) -> int:
     out = args.out or f"reports/out/{args.preset}"
     groups = preset_groups(args.preset, scenes=args.scenes)
     console = Console()
+    if not console.is_terminal:  # logs and pipes: wide enough for the summary table
+        console = Console(width=max(console.width, 120))
     err = Console(stderr=True)
     if not args.quiet:
         err.print(f"rtbench run --preset {args.preset} -> {out}", highlight=False)
@@ -48,10 +50,9 @@ def run(args) -> int:
             page = reports.build_report(result.store)
     print_summary(result.store, console=console)
     if page is not None:
-        console.print(f"report: {page.resolve()}", highlight=False)
-    console.print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
-                  f"there, {len(result.failed)} failed; wall time {time.perf_counter() - t0:.0f} s)",
-                  highlight=False)
+        print(f"report: {page.resolve()}", flush=True)
+    print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
+          f"there, {len(result.failed)} failed; wall time {time.perf_counter() - t0:.0f} s)", flush=True)
     for label, why in result.failed[:10]:
-        console.print(f"  failed: {label}: {why}", highlight=False)
+        print(f"  failed: {label}: {why}")
     return 1 if result.failed else 0

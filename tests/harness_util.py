@@ -1,0 +1,35 @@
+"""Shared helpers of the harness tests (``tests/test_harness_*.py``)."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def cache_root(tmp_path_factory) -> Path:
+    """One reference cache for the whole test session (references are the expensive part)."""
+    path = tmp_path_factory.getbasetemp() / "rtbench-cache"
+    path.mkdir(exist_ok=True)
+    return path
+
+
+def comparable(record: dict, *, ignore=()) -> dict:
+    """A job record without its timing/machine fields, for run-to-run comparison."""
+    from benchmarks.sweep import TIMING_FIELDS
+
+    skip = set(TIMING_FIELDS) | set(ignore)
+    return {k: v for k, v in record.items() if k not in skip}
+
+
+def rtbench(*args, cache, check=True, timeout=600, **kw) -> subprocess.CompletedProcess:
+    """Run the ``rtbench`` CLI in a subprocess with the test cache."""
+    env = dict(os.environ, RTBENCH_CACHE=str(cache), PYTHONUNBUFFERED="1")
+    proc = subprocess.run([sys.executable, "-m", "benchmarks.cli", *map(str, args)], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=timeout, **kw)
+    if check and proc.returncode != 0:
+        raise AssertionError(f"rtbench {' '.join(map(str, args))} exited {proc.returncode}:\n"
+                             f"{proc.stdout}\n{proc.stderr}")
+    return proc
