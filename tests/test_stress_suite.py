@@ -23,12 +23,13 @@ def test_rtbench_stress_prints_the_table(capsys):
 
 def test_rtbench_stress_fails_on_a_failed_case(monkeypatch, capsys, tmp_path):
     def broken(**_):
-        return stress.StressRecord(case="broken", figure="1 leak", passed=False, details={"leaks": 1})
+        return stress.StressRecord(case="broken", figure="1 leak [not markup]", passed=False, details={"leaks": 1})
 
     monkeypatch.setitem(stress.CASES, "suite_nonfinite", (broken, {}, {}))
     path = tmp_path / "out.json"
     assert main(["stress", "--quick", "--case", "suite_nonfinite", "--json", str(path)]) == 1
-    assert "FAIL" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "FAIL" in out and "[not markup]" in out   # figures are printed verbatim
     assert '"leaks": 1' in path.read_text()
 
 

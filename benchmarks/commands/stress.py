@@ -19,6 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     from benchmarks.stress import run_cases
@@ -38,7 +39,7 @@ def run(args) -> int:
     records = run_cases(args.case, quick=args.quick, on_record=progress)
     for rec in records:
         style = "green" if rec.passed else "bold red"
-        table.add_row(rec.case, rec.figure, f"[{style}]{rec.verdict}[/{style}]", f"{rec.seconds:.1f}")
+        table.add_row(rec.case, escape(rec.figure), f"[{style}]{rec.verdict}[/{style}]", f"{rec.seconds:.1f}")
     console.print(table)
     if args.json:
         with open(args.json, "w") as fh:
