@@ -571,9 +571,11 @@ def intersect_ours(core, origins, directions, *, threads: int = 1, repeats: int 
 
 
 def intersect_mitsuba(mscene, origins, directions, *, repeats: int = 3):
-    """Time Mitsuba's ``ray_intersect_preliminary`` (a JIT variant must be active).
+    """Time Mitsuba's ``ray_intersect_preliminary`` on the active variant.
 
-    The rays are built and evaluated first (untimed), then one untimed call compiles the
+    With a scalar variant the rays are cast one Python call at a time, for agreement
+    checks only: nothing is timed then (``seconds`` is empty). With a JIT variant the
+    rays are built and evaluated first (untimed), then one untimed call compiles the
     kernel; each timed call is ``ray_intersect_preliminary`` + ``dr.eval`` +
     ``dr.sync_thread()``. Dr.Jit's thread count is whatever ``dr.set_thread_count`` set.
 
@@ -586,11 +588,12 @@ def intersect_mitsuba(mscene, origins, directions, *, repeats: int = 3):
     import drjit as dr
     import mitsuba as mi
 
-    if mi.variant() is None or mi.variant().startswith("scalar"):
-        raise ValueError(f"the Mitsuba ray benchmark needs a JIT variant (llvm_ad_rgb), "
-                         f"active: {mi.variant()}")
+    if mi.variant() is None:
+        raise ValueError("no Mitsuba variant is active")
     o = np.ascontiguousarray(origins, dtype=np.float32)
     d = np.ascontiguousarray(directions, dtype=np.float32)
+    if mi.variant().startswith("scalar"):
+        return _intersect_mitsuba_scalar(mi, mscene, o, d)
 
     def rays():
         ray = mi.Ray3f(mi.Point3f(o[:, 0], o[:, 1], o[:, 2]), mi.Vector3f(d[:, 0], d[:, 1], d[:, 2]))
@@ -617,6 +620,18 @@ def intersect_mitsuba(mscene, origins, directions, *, repeats: int = 3):
     prim = np.array(pi.prim_index, dtype=np.int64)
     prim[~np.isfinite(t)] = -1
     return {"t": t, "prim": prim, "seconds": secs, "process_seconds": cpus, "first_call_seconds": first}
+
+
+def _intersect_mitsuba_scalar(mi, mscene, o, d):
+    """One Python call per ray (scalar variants): for agreement checks only, never timed."""
+    t = np.full(len(o), np.inf)
+    prim = np.full(len(o), -1, dtype=np.int64)
+    for i in range(len(o)):
+        pi = mscene.ray_intersect_preliminary(mi.Ray3f(mi.Point3f(*o[i].tolist()), mi.Vector3f(*d[i].tolist())))
+        ti = float(pi.t)
+        if math.isfinite(ti) and ti < 1e30:
+            t[i], prim[i] = ti, int(pi.prim_index)
+    return {"t": t, "prim": prim, "seconds": [], "process_seconds": [], "first_call_seconds": None}
 
 
 def hit_agreement(t_a, t_b, *, rtol: float = 1e-4) -> dict:
