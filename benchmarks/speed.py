@@ -458,7 +458,7 @@ def torus_mesh(triangles: int, *, seed: int = 0):
     --------
     >>> v, f = torus_mesh(1000)
     >>> len(f), v.dtype.name
-    (960, 'float64')
+    (992, 'float64')
     """
     triangles = _int("triangles", triangles, 32)
     n = max(4, int(round(math.sqrt(triangles / 4.0))))
