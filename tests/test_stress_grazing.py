@@ -77,8 +77,11 @@ coord = st.floats(1.0, 2.0, exclude_max=True)
 @given(tri=st.lists(st.tuples(coord, coord, coord), min_size=3, max_size=3),
        k=st.integers(-30, 30), phi=st.floats(1e-10, 1e-7), sign=st.sampled_from([-1.0, 1.0]),
        psi=st.floats(0, 2 * np.pi), s1=st.floats(-0.02, 1.02), s2=st.floats(-0.02, 1.02),
-       on_edge=st.sampled_from([None, 0, 1, 2]), test=st.sampled_from(["watertight"]))
-def test_property_grazing_ray_triangle(tri, k, phi, sign, psi, s1, s2, on_edge, test):
+       on_edge=st.sampled_from([None, 0, 1, 2]))
+def test_property_grazing_ray_triangle(tri, k, phi, sign, psi, s1, s2, on_edge):
+    """A ray 1e-10..1e-7 rad off a random triangle's plane, aimed inside, outside or
+    exactly at an edge: the default (watertight) test agrees with exact arithmetic
+    wherever the exact crossing is farther than delta from the boundary."""
     P = np.array(tri) * 2.0 ** k
     a, b, c = P
     n = np.cross(b - a, c - a)
@@ -96,7 +99,7 @@ def test_property_grazing_ray_triangle(tri, k, phi, sign, psi, s1, s2, on_edge, 
     d = np.cos(phi) * w + sign * np.sin(phi) * nh
     target = a + s1 * (b - a) + s2 * (c - a)
     o = target - 1.3 * np.linalg.norm(b - a) * d
-    hit = core_scene(stress.probe_scene([rt.Triangle(a, b, c, rt.Lambertian(0.5))]), triangle_test=test) \
+    hit = core_scene(stress.probe_scene([rt.Triangle(a, b, c, rt.Lambertian(0.5))])) \
         .intersect(np.ascontiguousarray([o]), np.ascontiguousarray([d]))
     cl = stress.classify_rays("triangle", P, np.array([o]), np.array([d]), hit["t"], hit["prim"])
     assert not cl["nan"][0]
