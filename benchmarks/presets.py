@@ -12,7 +12,7 @@ suite, and the seed's own comparison (uniform vs light sampling on ``cornell_box
     ``light`` strategy with z >= 4.7 in 8 of 8 trials (``DEFAULT_ALPHA`` = 0.001 needs
     z > 3.09).
 ``full``
-    256x256 images, spp 1..1024, 8 seeds, references at 16384 spp; seed comparison at
+    256x256 images, spp 1..1024, 4 seeds, references at 16384 spp; seed comparison at
     400x400, spp 1..256 plus 50, 4 seeds, references at 4096 spp. Report quality; hours
     on a small machine (``--scheduler`` spreads it over a Dask cluster).
 
@@ -51,7 +51,7 @@ _SPECS = {
                      mitsuba=False, reference_spp=256),
     },
     "full": {
-        "suite": dict(strategies=_ALL, spps=_ladder(1024), seeds=8, width=256, height=256, mitsuba=True,
+        "suite": dict(strategies=_ALL, spps=_ladder(1024), seeds=4, width=256, height=256, mitsuba=True,
                       reference_spp=16384),
         "seed": dict(strategies=("uniform", "light"), spps=tuple(sorted(set(_ladder(256)) | {50})), seeds=4,
                      width=400, height=400, mitsuba=False, reference_spp=4096),
@@ -77,7 +77,7 @@ def preset_groups(name: str = "quick", *, scenes=None) -> list:
     --------
     >>> g = preset_groups("full", scenes=["cornell_box"])[0]
     >>> g.width, max(g.spps), g.seeds
-    (256, 1024, 8)
+    (256, 1024, 4)
     """
     from mitsuba_scenes import list_scenes
 

@@ -77,8 +77,39 @@ def test_killed_sweep_resumes_to_the_same_records(tmp_path_factory):
 
 @pytest.mark.parametrize("bad", [("--spp", "1,x"), ("--seeds", "0"), ("--strategies", "mis,best"),
                                  ("--width", "0")])
-def test_curves_cli_rejects_bad_input_without_traceback(tmp_path, bad):
-    args = ["curves", "cornell_box", "--out", tmp_path / "s", "--quiet", *bad]
-    proc = rtbench(*args, cache=tmp_path, check=False)
-    assert proc.returncode == 2, proc.stderr
-    assert proc.stderr.startswith("rtbench curves: error:") and "Traceback" not in proc.stderr
+def test_curves_cli_rejects_bad_input_without_traceback(tmp_path, capsys, bad):
+    from benchmarks.cli import main
+
+    code = main(["curves", "cornell_box", "--out", str(tmp_path / "s"), "--quiet", *bad])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.startswith("rtbench curves: error:") and "Traceback" not in err
+    assert not (tmp_path / "s" / RESULTS).exists()
+
+
+def test_run_cli_rejects_unknown_scene(tmp_path, capsys):
+    from benchmarks.cli import main
+
+    code = main(["run", "--scenes", "cornell_box,nope", "--out", str(tmp_path / "s"), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and "unknown scene" in err and "nope" in err
+
+
+@pytest.mark.slow
+def test_rtbench_run_end_to_end_on_one_scene(tmp_path_factory):
+    """`rtbench run` (quick preset, one scene): store, summary, report and the printed table."""
+    cache = cache_root(tmp_path_factory)
+    out = tmp_path_factory.mktemp("run") / "quick"
+    proc = rtbench("run", "--scenes", "furnace", "--out", out, "--quiet", cache=cache)
+    assert "rtbench summary" in proc.stdout and "furnace" in proc.stdout
+    assert f"results: {out.resolve()}" in proc.stdout
+    recs = read_records(out)
+    assert len(recs) == 6 * 9 * 4  # 5 strategies + Mitsuba, spp 1..256, 4 seeds
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["preset"] == "quick" and meta["references"]["furnace"]["spp"] == 8192
+    try:
+        import reports  # noqa: F401
+    except ImportError:
+        assert "report skipped" in proc.stdout
+    else:
+        assert (out / "index.html").exists() and f"report: {(out / 'index.html').resolve()}" in proc.stdout

@@ -13,7 +13,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("--preset", choices=PRESETS, default=PRESETS[0],
                         help="quick (default: small images, whole suite in about 10 minutes on 2 cores) or "
-                             "full (report quality: 256x256, spp to 1024, 8 seeds)")
+                             "full (report quality: 256x256, spp to 1024, 4 seeds)")
     parser.add_argument("--out", metavar="DIR", default=None,
                         help="results store (default reports/out/PRESET)")
     parser.add_argument("--scenes", default=None, help="only these suite scenes, comma-separated")
