@@ -724,6 +724,11 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
             plan.append(job)
             top[job.curve] = max(top.get(job.curve, 0), job.spp)
     done_keys = finished_keys(store)
+    stale = [r for r in read_records(store) if (r["scene"], r["width"], r["height"]) in refs
+             and r.get("reference_key") not in (None, refs[(r["scene"], r["width"], r["height"])][2]["key"])]
+    if stale:
+        say(f"warning: {len(stale)} stored job(s) were measured against another reference (other spp, seed, "
+            f"Mitsuba or scene version); they are kept - use a new --out to start afresh")
     todo = [j for j in plan if j.key not in done_keys]
     result = SweepResult(store=store, jobs=len(plan), skipped=len(plan) - len(todo))
     if result.skipped:
