@@ -82,14 +82,18 @@ struct Frame {
     Vec3 to_world(const Vec3& v) const { return s * v.x + t * v.y + n * v.z; }
 };
 
-// Relative offset applied to ray origins leaving a surface: the error of a hit point is a
-// few ulps of its largest coordinate, so the offset scales with (1 + max |p_i|).
-constexpr double kRayEpsilon = 1e-9;
+// Offset applied to ray origins leaving a surface, relative to the hit point's largest
+// coordinate. Hit points are re-projected onto their primitive (Scene::fill_interaction),
+// which leaves them within a few ulps of the surface whatever the ray's origin; 64 ulps
+// of |p| clears that error with a wide margin while staying far below any geometric
+// feature even for a scene 1e-3 across placed 1e5 from the origin (the offset there is
+// 1.4e-9, a million times smaller than the scene).
+constexpr double kRayEpsilon = 64.0 * std::numeric_limits<double>::epsilon();
 
 // Origin for a ray leaving point p (geometric normal n) in direction d: pushed off the
 // surface on the side d points to, so the ray cannot re-hit the surface it starts on.
 inline Vec3 offset_origin(const Vec3& p, const Vec3& n, const Vec3& d) {
-    const double eps = kRayEpsilon * (1.0 + max_abs_component(p));
+    const double eps = kRayEpsilon * max_abs_component(p) + std::numeric_limits<double>::min();
     return dot(n, d) >= 0.0 ? p + n * eps : p - n * eps;
 }
 

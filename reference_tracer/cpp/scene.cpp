@@ -2,6 +2,14 @@
 
 namespace rt {
 
+namespace {
+
+Vec3 project_to_plane(const Vec3& p, const Vec3& point_on_plane, const Vec3& unit_normal) {
+    return p - unit_normal * dot(p - point_on_plane, unit_normal);
+}
+
+}  // namespace
+
 Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere> spheres,
              std::vector<Quad> quads, std::vector<Triangle> triangles, SceneSettings settings)
     : camera_(camera), materials_(std::move(materials)), spheres_(std::move(spheres)),
@@ -62,13 +70,15 @@ void Scene::fill_interaction(const Ray& ray, double t, uint32_t prim, Interactio
         it.material = s.material;
     } else if (prim < tri_base_) {
         const Quad& q = quads_[prim - quad_base_];
-        it.p = ray.at(t);
+        // o + t d carries the error of the ray's origin (large for a distant camera);
+        // projecting onto the plane leaves only a few ulps of |p| off the surface.
+        it.p = project_to_plane(ray.at(t), q.Q, q.normal);
         it.n = q.normal;
         it.material = q.material;
     } else {
         const Triangle& tri = triangles_[prim - tri_base_];
-        it.p = ray.at(t);
         it.n = tri.normal();
+        it.p = project_to_plane(ray.at(t), tri.a, it.n);
         it.material = tri.material;
     }
 }
