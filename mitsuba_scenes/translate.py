@@ -144,6 +144,9 @@ def _bsdf_record(label: str, m) -> dict:
              "alpha": float(_f32(m.alpha)),
              "specular_reflectance": {"type": "rgb", "value": _rgb(m.albedo)}}
     elif isinstance(m, rt.Dielectric):
+        if m.fresnel != "exact":
+            raise ValueError(f"{label}: Dielectric(fresnel={m.fresnel!r}) has no Mitsuba equivalent (Mitsuba's "
+                             f"dielectric uses the exact Fresnel equations); use fresnel='exact'")
         return {"type": "dielectric", "int_ior": float(_f32(m.ior)), "ext_ior": 1.0}
     elif isinstance(m, rt.DiffuseLight):
         # A light without albedo reflects nothing: a black diffuse BSDF (Mitsuba would

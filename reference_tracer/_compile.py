@@ -14,7 +14,7 @@ from .shapes import Box, Mesh, Quad, Sphere, Triangle
 
 # Material table columns; must match MaterialType and read_materials() in cpp/scene.cpp.
 MATERIAL_CODES = {Lambertian: 0, Metal: 1, Dielectric: 2, RoughConductor: 3, DiffuseLight: 4}
-MATERIAL_COLUMNS = 10  # type, albedo rgb, radiance rgb, param, two_sided, reflects
+MATERIAL_COLUMNS = 11  # type, albedo rgb, radiance rgb, param, two_sided, reflects, variant
 
 
 def _material_row(m) -> list:
@@ -25,7 +25,8 @@ def _material_row(m) -> list:
              RoughConductor: lambda: m.alpha}.get(type(m), lambda: 0.0)()
     two_sided = float(getattr(m, "two_sided", False))
     reflects = 0.0 if isinstance(m, DiffuseLight) and m.albedo is None else 1.0
-    return [code, *albedo, *radiance, param, two_sided, reflects]
+    variant = 1.0 if isinstance(m, Dielectric) and m.fresnel == "schlick" else 0.0
+    return [code, *albedo, *radiance, param, two_sided, reflects, variant]
 
 
 def compile_scene(scene: Scene) -> dict:

@@ -83,6 +83,16 @@ class Dielectric(Material):
     The outside medium has index 1.0 (``ext_ior=1.0``). Reflection is chosen with
     probability F; transmitted radiance is scaled by ``1/eta^2`` as in Mitsuba.
 
+    Parameters
+    ----------
+    ior : float
+        Index of refraction inside, > 0.
+    fresnel : {'exact', 'schlick'}, keyword-only
+        ``'exact'`` (default): the unpolarised Fresnel equations, as Mitsuba.
+        ``'schlick'``: the book's approximation ``R0 + (1 - R0)(1 - cos)^5``, kept to
+        measure its bias (the regression gate must catch it); it has no Mitsuba
+        equivalent, so translation to Mitsuba refuses it.
+
     Examples
     --------
     >>> Dielectric(1.5).ior
@@ -90,11 +100,14 @@ class Dielectric(Material):
     """
 
     ior: float
+    fresnel: str = "exact"
     is_specular = True
 
     def __post_init__(self):
         ior = finite_scalar("Dielectric.ior", self.ior, lo=1e-3)
         object.__setattr__(self, "ior", ior)
+        if self.fresnel not in ("exact", "schlick"):
+            raise ValueError(f"Dielectric.fresnel must be 'exact' or 'schlick', got {self.fresnel!r}")
 
 
 @dataclass(frozen=True)

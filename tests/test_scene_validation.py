@@ -53,6 +53,7 @@ def test_shape_validation(make, field):
     (lambda: rt.Metal(1.5), "Metal.albedo"),
     (lambda: rt.Dielectric(math.nan), "Dielectric.ior"),
     (lambda: rt.Dielectric(0.0), "Dielectric.ior"),
+    (lambda: rt.Dielectric(1.5, fresnel="fast"), "Dielectric.fresnel"),
     (lambda: rt.RoughConductor(0.5, alpha=0.0), "RoughConductor.alpha"),
     (lambda: rt.RoughConductor(0.5, alpha=math.inf), "RoughConductor.alpha"),
     (lambda: rt.DiffuseLight(-1.0), "DiffuseLight.radiance"),

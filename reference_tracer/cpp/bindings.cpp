@@ -54,7 +54,7 @@ public:
         if (width < 1 || height < 1) throw std::invalid_argument("image size must be positive");
         if (max_depth < 1) throw std::invalid_argument("max_depth must be >= 1 here (the Python layer maps -1)");
         if (triangle_test < 0 || triangle_test > 2) throw std::invalid_argument("unknown triangle test");
-        require_columns(materials, 10, "materials");
+        require_columns(materials, 11, "materials");
         require_columns(spheres, 6, "spheres");
         require_columns(quads, 10, "quads");
         require_columns(triangles, 9, "triangles");
@@ -72,6 +72,7 @@ public:
             m.param = materials(i, 7);
             m.two_sided = materials(i, 8) != 0.0;
             m.reflects = materials(i, 9) != 0.0;
+            m.schlick = materials(i, 10) != 0.0;
             mats.push_back(m);
         }
         const size_t nm = mats.size();

@@ -34,10 +34,20 @@ inline Fresnel fresnel(double cos_i, double eta) {
     return f;
 }
 
-inline BSDFSample sample(double ior, const Vec3& wo, double u1) {
+// Schlick's approximation of F (the book's glass), R0 + (1 - R0)(1 - |cos_i|)^5; total
+// internal reflection is kept exact. Selectable only to measure its bias.
+inline double schlick(const Fresnel& exact, double cos_i, double eta) {
+    if (exact.cos_t == 0.0) return 1.0;
+    const double r0 = (1.0 - eta) / (1.0 + eta);
+    const double m = 1.0 - std::abs(cos_i);
+    return r0 * r0 + (1.0 - r0 * r0) * m * m * m * m * m;
+}
+
+inline BSDFSample sample(double ior, const Vec3& wo, double u1, bool use_schlick = false) {
     BSDFSample s;
     if (wo.z == 0.0) return s;
-    const Fresnel f = fresnel(wo.z, ior);
+    Fresnel f = fresnel(wo.z, ior);
+    if (use_schlick) f.F = schlick(f, wo.z, ior);
     s.delta = true;
     s.valid = true;
     if (u1 < f.F) {

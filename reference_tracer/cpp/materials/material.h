@@ -18,6 +18,7 @@ struct Material {
     double param = 0.0;     // Metal: fuzz; Dielectric: ior; RoughConductor: alpha
     bool two_sided = false;
     bool reflects = true;   // false for a DiffuseLight without albedo: a black surface
+    bool schlick = false;   // Dielectric: Schlick's approximation instead of exact Fresnel
 
     bool emits() const { return type == MaterialType::DiffuseLight && max_component(radiance) > 0.0; }
     // Delta lobes: sampled directly, no pdf machinery, no light sampling at the vertex.
@@ -51,7 +52,7 @@ inline BSDFSample bsdf_sample(const Material& m, const Vec3& wo, double u0, doub
         case MaterialType::DiffuseLight: return lambertian::sample(m.albedo, wo, u1, u2);
         case MaterialType::RoughConductor: return rough_conductor::sample(m.albedo, m.param, wo, u1, u2);
         case MaterialType::Metal: return conductor::sample(m.albedo, m.param, wo, u1, u2);
-        case MaterialType::Dielectric: return dielectric::sample(m.param, wo, u0);
+        case MaterialType::Dielectric: return dielectric::sample(m.param, wo, u0, m.schlick);
     }
     return {};
 }
