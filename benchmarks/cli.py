@@ -5,9 +5,16 @@ Each subcommand lives in its own module under ``benchmarks.commands`` and define
 """
 from __future__ import annotations
 
-import argparse
-import importlib
-import sys
+import os
+
+# Idle OpenBLAS worker threads (numpy/scipy) spin for a while after each call and steal
+# cycles from the renderers' own threads; the harness never needs parallel BLAS. Must be
+# set before numpy is imported.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import importlib  # noqa: E402
+import sys  # noqa: E402
 
 #: subcommand -> module; listed in the order ``rtbench --help`` shows them.
 COMMANDS = {
