@@ -53,7 +53,10 @@ Zero variance
 Where both variances are zero (black background, a directly seen light) the pixel
 carries no noise: equal means (within ``zero_var_rtol`` relative, for float rounding)
 are no evidence at all (p = 1, and the pixel is not counted as a test), unequal means
-are a certain difference (p = 0). No division by zero happens. Non-finite test pixels
+are a certain difference (p = 0). No division by zero happens. A per-sample variance
+below ``(zero_var_rtol / 10 * |mean|)^2`` counts as zero: it is float rounding of
+identical samples (``rt.render`` gives ~1e-15 on a directly seen light), and with it a
+1e-6 relative difference between two renderers' emitter constants would fail the gate. Non-finite test pixels
 (NaN/inf) are failures (p = 0); a non-finite reference raises ``ValueError``.
 """
 from __future__ import annotations
@@ -337,6 +340,12 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
     bad = ~np.isfinite(x) | ~np.isfinite(vx)
     vx = _variance(np.where(bad, 0.0, vx), "test_var", n_t, var_ddof)
     x = np.where(bad, r, x)  # neutral stand-in; these pixel-channels fail below
+    # A per-sample variance at float-rounding level is zero: identical samples give a
+    # second moment minus squared mean of ~1e-15 (a directly seen light), which would
+    # otherwise make a 1e-6 relative difference in the constants "significant". Below
+    # (zero_var_rtol / 10 * |mean|)^2 the pixel mean is pinned far inside the tolerance.
+    vx = np.where(vx <= (0.1 * zero_var_rtol * x) ** 2, 0.0, vx)
+    vr = np.where(vr <= (0.1 * zero_var_rtol * r) ** 2, 0.0, vr)
     H, W, C = x.shape
 
     a = vx / n_t                       # variance of the test's pixel mean
