@@ -45,7 +45,8 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["CACHE_ENV", "DEFAULT_REFERENCE_SEED", "DEFAULT_REFERENCE_BATCHES", "FORMAT_VERSION",
-           "Reference", "cache_dir", "reference_key", "reference", "load_reference", "mitsuba_identity"]
+           "Reference", "cache_dir", "reference_key", "reference", "load_reference", "mitsuba_identity",
+           "CLOSED_FORM", "CLOSED_FORM_SPP", "closed_form_reference_of"]
 
 #: environment variable naming the cache folder.
 CACHE_ENV = "RTBENCH_CACHE"
@@ -341,3 +342,28 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
                      variant=chosen, mitsuba_version=mversion, key=key, path=mean_path,
                      variance_path=var_path, seconds=float(out.seconds), cached=False,
                      scene_hash=scene_hash)
+
+
+#: ``Reference.variant`` of a closed-form (analytic) reference.
+CLOSED_FORM = "closed form"
+#: Nominal spp of a closed-form reference: its variance is exactly 0, so any count works
+#: in the noise corrections (variance / spp = 0); large so that nothing divides by it badly.
+CLOSED_FORM_SPP = 2**31 - 1
+
+
+def closed_form_reference_of(name: str, width: int, height: int):
+    """The exact reference of suite scene ``name`` when it has one (``furnace``), else None.
+
+    Returned as a :class:`Reference` with zero variance and ``variant == CLOSED_FORM``, so
+    that sweeps and the gate use it like a Mitsuba reference.
+    """
+    from mitsuba_scenes.suite import closed_form_reference
+
+    mean = closed_form_reference(name, width=width, height=height)
+    if mean is None:
+        return None
+    mean = np.asarray(mean, dtype=np.float32)
+    return Reference(mean=mean, variance=np.zeros_like(mean), spp=CLOSED_FORM_SPP, seed=0, batches=0,
+                     variant=CLOSED_FORM, mitsuba_version="-", key=f"closed-form-{name}-{width}x{height}",
+                     path=None, variance_path=None, seconds=0.0, cached=True, scene_hash="")
+

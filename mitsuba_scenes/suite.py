@@ -35,3 +35,16 @@ def get_scene(name: str, **params) -> rt.Scene:
     if unknown:
         raise ValueError(f"scene {name!r} takes no parameter(s) {unknown}; it accepts {sorted(accepted)}")
     return build(**params)
+
+
+def closed_form_reference(name: str, **params):
+    """The exact image of suite scene ``name`` built with ``params``, or None.
+
+    Scenes with an analytic answer define ``closed_form_image(**params)`` in their module
+    (``furnace``); the harness and the gate use it as a zero-variance reference instead of
+    a Mitsuba render (Mitsuba 3.9.1 is measurably biased on ``furnace``).
+    """
+    module = scene_module(name)
+    fn = getattr(module, "closed_form_image", None)
+    return None if fn is None else fn(**params)
+
