@@ -44,6 +44,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .store import atomic_write_text
+
 __all__ = ["CACHE_ENV", "DEFAULT_REFERENCE_SEED", "DEFAULT_REFERENCE_BATCHES", "FORMAT_VERSION",
            "Reference", "cache_dir", "reference_key", "reference", "load_reference", "mitsuba_identity",
            "CLOSED_FORM", "CLOSED_FORM_SPP", "closed_form_reference_of"]
@@ -173,21 +175,6 @@ def _atomic_exr(path: Path, image: np.ndarray) -> None:
         rt.write_exr(tmp, image)
         with open(tmp, "rb") as f:
             os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
-def _atomic_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, 0o644)  # mkstemp makes 0600 files
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
@@ -337,7 +324,7 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
                 "compile_seconds": float(out.compile_seconds), "threads": threads,
                 "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                 "mean_sha256": _sha256(mean_path), "variance_sha256": _sha256(var_path)}
-        _atomic_text(meta_path, json.dumps(meta, indent=1) + "\n")
+        atomic_write_text(meta_path, json.dumps(meta, indent=1) + "\n")
     return Reference(mean=mean, variance=var, spp=spp, seed=seed, batches=len(out.batch_spp),
                      variant=chosen, mitsuba_version=mversion, key=key, path=mean_path,
                      variance_path=var_path, seconds=float(out.seconds), cached=False,

@@ -194,11 +194,13 @@ def finished_keys(store) -> set:
     return {record_key(r) for r in read_records(store, dedupe=False)}
 
 
-def write_json(path, obj) -> Path:
-    """Write ``obj`` as indented JSON atomically (temp file in the same folder + rename)."""
+def atomic_write_text(path, text: str) -> Path:
+    """Write ``text`` to ``path`` atomically: a temp file in the same folder, fsync, rename.
+
+    A reader sees the old file or the new one, never a partial write (readable: 0644).
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(_json_safe(obj), indent=1, allow_nan=False) + "\n"
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "w") as f:
@@ -212,6 +214,11 @@ def write_json(path, obj) -> Path:
             os.unlink(tmp)
         raise
     return path
+
+
+def write_json(path, obj) -> Path:
+    """Write ``obj`` as indented JSON atomically (temp file in the same folder + rename)."""
+    return atomic_write_text(path, json.dumps(_json_safe(obj), indent=1, allow_nan=False) + "\n")
 
 
 def read_json(path, default=None):
