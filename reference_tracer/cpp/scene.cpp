@@ -25,7 +25,18 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
         // Zero-area triangles can never be hit: an empty box keeps them out of the BVH.
         boxes.push_back(t.degenerate() ? AABB() : t.bounds());
     }
-    bvh_ = WideBVH(BVH(boxes));
+    // Leaves made only of triangles are packed into SoA blocks of four, tested together;
+    // the Cramer variants (kept to measure their leaks) test one triangle at a time.
+    const bool pack = settings_.triangle_test == TriangleTest::Watertight;
+    bvh_ = WideBVH(BVH(boxes), [&](uint32_t prim) { return pack && prim >= tri_base_; });
+    tri4_.resize(bvh_.blocks().size());
+    for (size_t b = 0; b < tri4_.size(); ++b) {
+        const WideBVH::BlockLeaf& leaf = bvh_.blocks()[b];
+        for (uint32_t lane = 0; lane < 4; ++lane) {
+            const uint32_t prim = bvh_.order()[leaf.first + (lane < leaf.count ? lane : 0)];
+            tri4_[b].set(int(lane), triangles_[prim - tri_base_], prim);
+        }
+    }
 
     std::vector<Emitter> emitters;
     for (uint32_t i = 0; i < spheres_.size(); ++i)
@@ -87,9 +98,9 @@ bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
     const WatertightRay wray(ray.d);
     uint32_t best = 0;
     double t = t_max;
-    const bool hit = bvh_.traverse<false>(ray, t, [&](uint32_t prim, double& tm) {
-        return hit_primitive(prim, ray, wray, tm, best);
-    });
+    const bool hit = bvh_.traverse<false>(
+        ray, t, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, best); },
+        [&](uint32_t block, double& tm) { return hit_block(block, ray, wray, tm, best); });
     if (hit) fill_interaction(ray, t, best, it);
     return hit;
 }
@@ -97,9 +108,9 @@ bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
 bool Scene::occluded(const Ray& ray, double t_max) const {
     const WatertightRay wray(ray.d);
     uint32_t unused = 0;
-    return bvh_.traverse<true>(ray, t_max, [&](uint32_t prim, double& tm) {
-        return hit_primitive(prim, ray, wray, tm, unused);
-    });
+    return bvh_.traverse<true>(
+        ray, t_max, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, unused); },
+        [&](uint32_t block, double& tm) { return hit_block(block, ray, wray, tm, unused); });
 }
 
 bool Scene::intersect_brute_force(const Ray& ray, Interaction& it, double t_max) const {

@@ -82,6 +82,17 @@ private:
     // Tests primitive `prim`; on a hit closer than t_max, lowers t_max and records it.
     bool hit_primitive(uint32_t prim, const Ray& ray, const WatertightRay& wray, double& t_max,
                        uint32_t& best) const;
+    // The same for the up to four triangles of block leaf `block`.
+    bool hit_block(uint32_t block, const Ray& ray, const WatertightRay& wray, double& t_max,
+                   uint32_t& best) const {
+        const Triangle4& q = tri4_[block];
+        double t;
+        const int lane = intersect_watertight4(q, ray, wray, 0.0, t_max, t);
+        if (lane < 0) return false;
+        t_max = t;
+        best = q.prim[lane];
+        return true;
+    }
     void fill_interaction(const Ray& ray, double t, uint32_t prim, Interaction& it) const;
 
     Camera camera_;
@@ -91,6 +102,7 @@ private:
     std::vector<Triangle> triangles_;
     SceneSettings settings_;
     WideBVH bvh_;
+    std::vector<Triangle4> tri4_;  // the BVH's block leaves (watertight test only), in block order
     LightSampler lights_;
     uint32_t quad_base_ = 0, tri_base_ = 0;
 };

@@ -27,7 +27,21 @@ void set_empty(WideNode& n, int i) {
 
 }  // namespace
 
-WideBVH::WideBVH(const BVH& binary) : order_(binary.order()) {
+void WideBVH::make_leaf(const BVHNode& leaf, const std::function<bool(uint32_t)>& packable, int32_t& child,
+                        uint16_t& count) {
+    bool pack = true;
+    for (uint32_t i = 0; i < leaf.count; ++i) pack = pack && packable(order_[leaf.offset + i]);
+    if (pack) {
+        child = ~static_cast<int32_t>(blocks_.size());
+        blocks_.push_back({leaf.offset, leaf.count});
+        count = static_cast<uint16_t>(leaf.count | kBlockLeaf);
+    } else {
+        child = ~static_cast<int32_t>(leaf.offset);
+        count = leaf.count;
+    }
+}
+
+void WideBVH::build(const BVH& binary, const std::function<bool(uint32_t)>& packable) {
     const auto& bn = binary.nodes();
     if (bn.empty()) return;
     nodes_.reserve(bn.size() / 2 + 1);
@@ -36,15 +50,14 @@ WideBVH::WideBVH(const BVH& binary) : order_(binary.order()) {
         WideNode& n = nodes_[0];
         for (int i = 0; i < 4; ++i) set_empty(n, i);
         for (int a = 0; a < 3; ++a) { n.lo[a][0] = round_down(bn[0].box.lo[a]); n.hi[a][0] = round_up(bn[0].box.hi[a]); }
-        n.child[0] = ~static_cast<int32_t>(bn[0].offset);
-        n.count[0] = bn[0].count;
+        make_leaf(bn[0], packable, n.child[0], n.count[0]);
         depth_ = 1;
         return;
     }
-    collapse(binary, 0, 1);
+    collapse(binary, 0, 1, packable);
 }
 
-int32_t WideBVH::collapse(const BVH& binary, uint32_t node, int depth) {
+int32_t WideBVH::collapse(const BVH& binary, uint32_t node, int depth, const std::function<bool(uint32_t)>& packable) {
     const auto& bn = binary.nodes();
     depth_ = std::max(depth_, depth);
     // Open the largest interior child until there are four (greedy by surface area: the
@@ -71,10 +84,9 @@ int32_t WideBVH::collapse(const BVH& binary, uint32_t node, int depth) {
         int32_t child;
         uint16_t count = 0;
         if (c.count > 0) {
-            child = ~static_cast<int32_t>(c.offset);
-            count = c.count;
+            make_leaf(c, packable, child, count);
         } else {
-            child = collapse(binary, kids[i], depth + 1);  // may reallocate nodes_
+            child = collapse(binary, kids[i], depth + 1, packable);  // may reallocate nodes_
         }
         WideNode& n = nodes_[index];
         for (int a = 0; a < 3; ++a) { n.lo[a][i] = round_down(c.box.lo[a]); n.hi[a][i] = round_up(c.box.hi[a]); }

@@ -78,6 +78,59 @@ inline bool intersect_watertight(const Triangle& tri, const Ray& r, const Watert
     return true;
 }
 
+// Four triangles of a BVH leaf in structure-of-arrays form, in leaf order (no indirection
+// through the BVH's primitive order), tested together by intersect_watertight4. Padding
+// lanes repeat the first triangle: a duplicate can only tie with lane 0, and ties go to
+// the lowest lane, so padding never changes the answer.
+using V4d = double __attribute__((vector_size(32)));
+
+struct alignas(32) Triangle4 {
+    V4d v[3][3];       // [vertex a, b, c][axis x, y, z], one lane per triangle
+    uint32_t prim[4];  // scene primitive ids
+
+    void set(int lane, const Triangle& t, uint32_t prim_id) {
+        for (int axis = 0; axis < 3; ++axis) {
+            v[0][axis][lane] = t.a[axis];
+            v[1][axis][lane] = t.b[axis];
+            v[2][axis][lane] = t.c[axis];
+        }
+        prim[lane] = prim_id;
+    }
+};
+
+// The watertight test of intersect_watertight on four triangles at once, in double. Every
+// lane performs the scalar test's operations in the same order (and the build forbids FMA
+// contraction), so each lane's edge functions, determinant and t are bit-identical to
+// intersect_watertight's: the watertight guarantee carries over unchanged. Returns the
+// lane of the nearest hit in (t_min, t_max) (lowest lane on ties, as testing the
+// triangles one after another with a shrinking t_max would), or -1.
+inline int intersect_watertight4(const Triangle4& q, const Ray& r, const WatertightRay& w,
+                                 double t_min, double t_max, double& t_hit) {
+    const double o[3] = {r.o.x, r.o.y, r.o.z};
+    // Vertex coordinates relative to the origin, permuted so the ray runs along +z.
+    auto rel = [&](int vertex, int axis) { return q.v[vertex][axis] - o[axis]; };
+    const V4d Akz = rel(0, w.kz), Bkz = rel(1, w.kz), Ckz = rel(2, w.kz);
+    const V4d Ax = rel(0, w.kx) - w.Sx * Akz, Ay = rel(0, w.ky) - w.Sy * Akz;
+    const V4d Bx = rel(1, w.kx) - w.Sx * Bkz, By = rel(1, w.ky) - w.Sy * Bkz;
+    const V4d Cx = rel(2, w.kx) - w.Sx * Ckz, Cy = rel(2, w.ky) - w.Sy * Ckz;
+    const V4d U = Cx * By - Cy * Bx;
+    const V4d V = Ax * Cy - Ay * Cx;
+    const V4d W = Bx * Ay - By * Ax;
+    const V4d det = U + V + W;
+    const V4d T = U * (w.Sz * Akz) + V * (w.Sz * Bkz) + W * (w.Sz * Ckz);
+    const V4d t = T / det;
+    // Lane masks (all ones where true). NaN lanes fail every comparison, as in the scalar
+    // test: a NaN t is never a hit.
+    const auto any_neg = (U < 0.0) | (V < 0.0) | (W < 0.0);
+    const auto any_pos = (U > 0.0) | (V > 0.0) | (W > 0.0);
+    const auto ok = ~(any_neg & any_pos) & (det != 0.0) & (t > t_min) & (t < t_max);
+    int best = -1;
+    for (int i = 0; i < 4; ++i)
+        if (ok[i] && (best < 0 || t[i] < t[best])) best = i;
+    if (best >= 0) t_hit = t[best];
+    return best;
+}
+
 template <typename Real>
 inline bool intersect_cramer(const Triangle& tri, const Ray& r, double t_min, double t_max, double& t_hit) {
     struct V3 { Real x, y, z; };
