@@ -1,0 +1,436 @@
+"""Render + compare driver of ``rtbench gate`` (issue 7): our tracer against the reference.
+
+For each suite scene and strategy, :func:`run_gate` renders the scene with our tracer,
+fetches its reference (:func:`gate_reference`: the cached high-spp Mitsuba render, made
+first if missing) and applies :func:`benchmarks.gate.compare`. The statistics live in
+``benchmarks.gate``; this module decides *what* is compared and at which level.
+
+Defaults (sized for CI, measured on the 2-core development machine)
+-------------------------------------------------------------------
+The quick suite (all of :func:`mitsuba_scenes.list_scenes`) at ``32 x 32``, our ``mis``
+at ``DEFAULT_SPP`` samples per pixel, against Mitsuba references at 8192 spp - the same
+cache entries as ``rtbench run --preset quick`` (same size, spp, seed and batches), so
+either command fills the cache for the other. Cost on an empty cache: about 80 s for
+the seven Mitsuba references, then about 2 s per scene for our renders and the
+comparison; with the cache filled, about 15 s for the suite.
+
+Multiple comparisons
+--------------------
+``alpha`` is the false-alarm rate of the whole run: each of the ``k`` (scene, strategy)
+comparisons is tested at ``alpha / k`` (Bonferroni), so an unbiased tracer fails a run
+of the quick suite with probability at most ``alpha``, not ``k * alpha``.
+
+The furnace
+-----------
+Mitsuba 3.9.1 is biased in ``furnace`` (its sphere-emitter sampling from a point on the
+sphere itself: ``tests/test_mitsuba_agreement.py``), so the furnace is compared with its
+closed form, ``mitsuba_scenes.scenes.furnace.expected_radiance``: a zero-variance
+reference, exact. A stronger check than a Mitsuba render would be: where our render has
+no noise (``mis`` there is exact per sample) any relative difference above
+``compare``'s ``zero_var_rtol`` (1e-4) fails.
+
+Examples
+--------
+>>> from benchmarks.gate_run import run_gate
+>>> report = run_gate(["cornell_box"], spp=64, threads=2)  # doctest: +SKIP
+>>> report.passed, report.cases[0].result.p_value  # doctest: +SKIP
+(True, 0.83)
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_ALPHA", "DEFAULT_SEED",
+           "DEFAULT_STRATEGY", "STRATEGIES", "CLOSED_FORM", "GateReference", "GateCase", "GateReport",
+           "gate_scene", "resolve_scenes", "resolve_strategies", "gate_reference", "closed_form_reference",
+           "compare_render", "run_gate",
+           "write_p_images"]
+
+#: samples per pixel of our render (see the power table in ``tests/test_gate_power.py``).
+DEFAULT_SPP = 1024
+#: image width (and height) of the quick suite.
+DEFAULT_WIDTH = 32
+#: samples per pixel of the Mitsuba references (as ``rtbench run --preset quick``).
+DEFAULT_REF_SPP = 8192
+#: false-alarm rate of a whole gate run.
+DEFAULT_ALPHA = 0.01
+#: seed of our render (Mitsuba references use ``benchmarks.references.DEFAULT_REFERENCE_SEED``).
+DEFAULT_SEED = 0
+#: the strategy always gated: Mitsuba's ``path`` integrator is MIS.
+DEFAULT_STRATEGY = "mis"
+#: the tracer's strategies; ``light`` is biased on purpose and fails the gate.
+STRATEGIES = ("uniform", "cosine", "light", "mixture", "mis")
+#: scenes compared with a closed form instead of Mitsuba, and why.
+CLOSED_FORM = {
+    "furnace": "closed form Le (1 - rho^n) / (1 - rho): Mitsuba 3.9.1's sphere-emitter sampling from a "
+               "point on the sphere is biased here",
+}
+@dataclass
+class GateReference:
+    """The reference one scene is compared with.
+
+    Attributes
+    ----------
+    mean, variance : (H, W, 3) ndarray
+        Per-pixel mean and per-sample variance (zero for a closed form).
+    spp : int
+        Reference samples per pixel (``benchmarks.references.CLOSED_FORM_SPP`` for a closed form).
+    kind : {'mitsuba', 'closed form'}
+    description : str
+        One line: what the reference is.
+    cached : bool
+        True when it came from the cache (always True for a closed form).
+    seconds : float
+        Wall time this call spent getting it (rendering it when it was missing).
+    """
+
+    mean: np.ndarray = field(repr=False)
+    variance: np.ndarray = field(repr=False)
+    spp: int
+    kind: str
+    description: str
+    cached: bool
+    seconds: float
+
+
+@dataclass
+class GateCase:
+    """One (scene, strategy) comparison of a gate run.
+
+    ``alpha`` is the per-comparison level (the run's alpha over the number of
+    comparisons); ``result`` is :class:`benchmarks.gate.GateResult`, ``mean`` and
+    ``variance`` our render's images, ``render_seconds`` its wall time.
+    """
+
+    scene: str
+    strategy: str
+    width: int
+    height: int
+    spp: int
+    seed: int
+    alpha: float
+    reference: GateReference
+    result: object
+    render_seconds: float
+    mean: np.ndarray = field(repr=False)
+    variance: np.ndarray = field(repr=False)
+
+    @property
+    def passed(self) -> bool:
+        return bool(self.result.passed)
+
+    def where(self) -> str:
+        """Where the strongest evidence is, e.g. ``'rows 0-7, cols 8-15 (tile)'``."""
+        r = self.result
+        if r.worst_level == "image":
+            return "whole image"
+        r0, c0, r1, c1 = r.worst_region
+        if r.worst_level == "pixel":
+            ch = "RGB"[r.worst_pixel[2]] if r.pixel_p.shape[2] == 3 else str(r.worst_pixel[2])
+            return f"pixel row {r0}, col {c0} ({ch})"
+        return f"rows {r0}-{r1 - 1}, cols {c0}-{c1 - 1} ({r1 - r0}x{c1 - c0} tile)"
+
+    def message(self) -> str:
+        """The failure message: which scene, where, how large the bias is."""
+        r = self.result
+        y0, x0, y1, x1 = r.worst_tile
+        msg = (f"{self.scene} ({self.strategy}, {self.width}x{self.height}, {self.spp} spp) differs from its "
+               f"{self.reference.kind} reference: p = {r.p_value:.3g} < {self.alpha:.3g} "
+               f"(failed levels: {', '.join(r.failed_levels) or 'none'}); "
+               f"relative bias of the image {r.relative_bias:+.2%} +- {r.relative_bias_se:.2%}; "
+               f"strongest evidence: {self.where()}")
+        if r.worst_level == "pixel":
+            yy, xx, cc = r.worst_pixel
+            ours, ref = float(self.mean[yy, xx, cc]), float(self.reference.mean[yy, xx, cc])
+            msg += f" (ours {ours:.4g} vs reference {ref:.4g})"
+        msg += f"; worst tile rows {y0}-{y1 - 1}, cols {x0}-{x1 - 1} off by {r.worst_tile_relative_bias:+.2%}"
+        if r.n_nonfinite:
+            msg += f"; {r.n_nonfinite} NaN/Inf pixel-channels"
+        return msg
+
+    def to_dict(self) -> dict:
+        return {"scene": self.scene, "strategy": self.strategy, "width": self.width, "height": self.height,
+                "spp": self.spp, "seed": self.seed, "alpha": self.alpha, "reference": self.reference.kind,
+                "reference_spp": self.reference.spp, "render_seconds": self.render_seconds,
+                **self.result.to_dict()}
+
+
+@dataclass
+class GateReport:
+    """All comparisons of one :func:`run_gate` call.
+
+    ``alpha`` is the run's false-alarm rate, ``case_alpha`` the level of each comparison;
+    ``reference_seconds`` and ``render_seconds`` the wall time spent on each.
+    """
+
+    cases: list
+    alpha: float
+    case_alpha: float
+    reference_seconds: float
+    render_seconds: float
+    seconds: float
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.cases)
+
+    @property
+    def failures(self) -> list:
+        return [c for c in self.cases if not c.passed]
+
+
+# ---------------------------------------------------------------------------------------
+
+def _positive_int(name: str, value, minimum: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def gate_scene(name: str, *, width: int = DEFAULT_WIDTH, height: int | None = None):
+    """Suite scene ``name`` at ``width`` x ``height`` (default square), as the quick preset builds it.
+
+    Examples
+    --------
+    >>> gate_scene("cornell_box", width=16).camera.height
+    16
+    """
+    from mitsuba_scenes import get_scene
+
+    width = _positive_int("width", width)
+    height = width if height is None else _positive_int("height", height)
+    return get_scene(name).with_camera_size(width, height)
+
+
+def closed_form_reference(name: str, scene) -> GateReference | None:
+    """The exact, zero-variance reference of ``name`` at the scene's size, or None.
+
+    Uses :func:`benchmarks.references.closed_form_reference_of` (the harness's closed
+    forms: ``furnace``), so the gate and the sweeps compare with the same image.
+
+    Examples
+    --------
+    >>> ref = closed_form_reference("furnace", gate_scene("furnace", width=4))
+    >>> round(float(ref.mean[0, 0, 0]), 5), float(ref.variance.max()), ref.kind
+    (2.08057, 0.0, 'closed form')
+    >>> closed_form_reference("cornell_box", gate_scene("cornell_box", width=4)) is None
+    True
+    """
+    from .references import closed_form_reference_of
+
+    ref = closed_form_reference_of(name, scene.camera.width, scene.camera.height)
+    if ref is None:
+        return None
+    return GateReference(mean=ref.mean, variance=ref.variance, spp=ref.spp, kind="closed form",
+                         description=CLOSED_FORM.get(name, "closed form"), cached=True, seconds=0.0)
+
+
+def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=None, cache=None,
+                   log=None) -> GateReference:
+    """The reference of suite scene ``name``: its closed form, or the cached Mitsuba render.
+
+    Parameters
+    ----------
+    name : str
+        Suite scene name (decides closed form vs Mitsuba).
+    scene : reference_tracer.Scene
+        The scene at the gate's size.
+    ref_spp : int, keyword-only
+        Mitsuba samples per pixel (rendered and cached when missing).
+    threads, cache, log : keyword-only
+        Passed to :func:`benchmarks.references.reference`.
+    """
+    exact = closed_form_reference(name, scene)
+    if exact is not None:
+        return exact
+    from .references import reference
+
+    ref_spp = _positive_int("ref_spp", ref_spp, 2)
+    t0 = time.perf_counter()
+    ref = reference(scene, spp=ref_spp, threads=threads, cache=cache, log=log)
+    return GateReference(mean=ref.mean, variance=ref.variance, spp=ref.spp, kind="mitsuba",
+                         description=f"Mitsuba {ref.mitsuba_version} {ref.variant} path, {ref.spp} spp "
+                                     f"(cache {ref.key[:12]})",
+                         cached=ref.cached, seconds=time.perf_counter() - t0)
+
+
+def compare_render(mean, variance, spp: int, reference: GateReference, *, alpha: float = DEFAULT_ALPHA):
+    """:func:`benchmarks.gate.compare` of a render with a :class:`GateReference`."""
+    from .gate import compare
+
+    return compare(mean, variance, spp, reference.mean, reference.variance, reference.spp, alpha=alpha)
+
+
+def resolve_scenes(scenes) -> list:
+    """Validated scene names (None: the whole suite; a string may be comma-separated)."""
+    from mitsuba_scenes import list_scenes
+
+    suite = list_scenes()
+    if scenes is None:
+        return suite
+    if isinstance(scenes, str):
+        scenes = [s.strip() for s in scenes.split(",") if s.strip()]
+    scenes = list(dict.fromkeys(scenes))
+    if not scenes:
+        raise ValueError("no scene selected")
+    unknown = [s for s in scenes if s not in suite]
+    if unknown:
+        raise ValueError(f"unknown scene(s) {', '.join(unknown)}; the suite has: {', '.join(suite)}")
+    return scenes
+
+
+def resolve_strategies(strategies) -> list:
+    """``mis`` followed by the other validated, de-duplicated strategies."""
+    if isinstance(strategies, str):
+        strategies = [s.strip() for s in strategies.split(",") if s.strip()]
+    strategies = list(dict.fromkeys([DEFAULT_STRATEGY, *strategies]))
+    unknown = [s for s in strategies if s not in STRATEGIES]
+    if unknown:
+        raise ValueError(f"unknown strateg{'y' if len(unknown) == 1 else 'ies'} {', '.join(unknown)}; "
+                         f"choose from {', '.join(STRATEGIES)}")
+    return strategies
+
+
+def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int = DEFAULT_WIDTH,
+             height: int | None = None, ref_spp: int = DEFAULT_REF_SPP, alpha: float = DEFAULT_ALPHA,
+             seed: int = DEFAULT_SEED, threads: int | None = None, cache=None, log=None,
+             on_reference=None, on_case=None) -> GateReport:
+    """Render each scene with our tracer and compare it with its reference.
+
+    Parameters
+    ----------
+    scenes : sequence of str or None
+        Suite scenes (default: the whole suite, the "quick suite" at the default size).
+    strategies : sequence of str, keyword-only
+        Strategies gated besides ``mis``, which is always included.
+    spp : int, keyword-only
+        Samples per pixel of our renders (>= 2).
+    width, height : int, keyword-only
+        Image size (height defaults to width).
+    ref_spp : int, keyword-only
+        Samples per pixel of the Mitsuba references.
+    alpha : float, keyword-only
+        False-alarm rate of the whole run; each comparison is tested at
+        ``alpha / (scenes * strategies)``.
+    seed : int, keyword-only
+        Seed of our renders.
+    threads : int or None, keyword-only
+        Threads for both renderers (None: all cores).
+    cache : str or Path, keyword-only
+        Reference cache root (default ``$RTBENCH_CACHE`` or ``~/.cache/rtbench``).
+    log : callable, keyword-only
+        Called with a line of text (a corrupt cache entry being replaced).
+    on_reference : callable, keyword-only
+        ``on_reference(name, phase, info)`` with phase ``'start'`` (before a reference is
+        fetched or rendered) and ``'done'`` (``info`` the :class:`GateReference`).
+    on_case : callable, keyword-only
+        Called with each :class:`GateCase` as it completes.
+
+    Returns
+    -------
+    GateReport
+    """
+    import reference_tracer as rt
+
+    names = resolve_scenes(scenes)
+    strategies = resolve_strategies(strategies)
+    spp = _positive_int("spp", spp, 2)
+    width = _positive_int("width", width)
+    height = width if height is None else _positive_int("height", height)
+    ref_spp = _positive_int("ref_spp", ref_spp, 2)
+    seed = _positive_int("seed", seed, 0)
+    if threads is not None:
+        threads = _positive_int("threads", threads)
+    if not (isinstance(alpha, (int, float)) and 0 < alpha < 1):
+        raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
+    case_alpha = alpha / (len(names) * len(strategies))
+
+    t_start = time.perf_counter()
+    scenes_built = {name: gate_scene(name, width=width, height=height) for name in names}
+    refs, ref_seconds = {}, 0.0
+    for name in names:
+        if on_reference:
+            on_reference(name, "start", None)
+        refs[name] = gate_reference(name, scenes_built[name], ref_spp=ref_spp, threads=threads, cache=cache,
+                                    log=log)
+        ref_seconds += refs[name].seconds
+        if on_reference:
+            on_reference(name, "done", refs[name])
+    cases, render_seconds = [], 0.0
+    for name in names:
+        for strategy in strategies:
+            t0 = time.perf_counter()
+            out = rt.render(scenes_built[name], spp=spp, strategy=strategy, seed=seed, threads=threads)
+            took = time.perf_counter() - t0
+            render_seconds += took
+            result = compare_render(out.mean, out.variance, spp, refs[name], alpha=case_alpha)
+            case = GateCase(scene=name, strategy=strategy, width=width, height=height, spp=spp, seed=seed,
+                            alpha=case_alpha, reference=refs[name], result=result, render_seconds=took,
+                            mean=out.mean, variance=out.variance)
+            cases.append(case)
+            if on_case:
+                on_case(case)
+    return GateReport(cases=cases, alpha=float(alpha), case_alpha=case_alpha, reference_seconds=ref_seconds,
+                      render_seconds=render_seconds, seconds=time.perf_counter() - t_start)
+
+
+def write_p_images(case: GateCase, out) -> list:
+    """Write the p-value images of a comparison into folder ``out``.
+
+    ``<scene>_<strategy>_p.exr``: per-pixel ``-log10 p`` (minimum p over channels, raw,
+    not adjusted for multiple comparisons; 300 stands for p = 0) as one channel;
+    ``<scene>_<strategy>_p.png``: the same in false colour, scaled so that the per-pixel
+    level at which the pixel level would fail is in the middle of the colour bar, with
+    the worst tile boxed; ``<scene>_<strategy>_ours.png`` and ``..._reference.png``
+    beside it. Returns the paths written.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
+
+    import reference_tracer as rt
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    stem = out / f"{case.scene}_{case.strategy}"
+    r = case.result
+    with np.errstate(divide="ignore"):
+        logp = -np.log10(np.asarray(r.p_map, dtype=np.float64))
+    logp = np.where(np.isfinite(logp), logp, 300.0)
+    paths = [Path(f"{stem}_p.exr"), Path(f"{stem}_p.png"), Path(f"{stem}_ours.png"), Path(f"{stem}_reference.png")]
+    rt.write_exr(paths[0], logp.astype(np.float32))
+
+    # the raw per-pixel p at which the pixel level alone reaches the comparison's alpha:
+    # Bonferroni over 3 levels and Sidak over the pixel tests
+    m = max(int(r.n_tests.get("pixel", 1)), 1)
+    p_pix = -math.expm1(math.log1p(-case.alpha / 3.0) / m)
+    thresh = -math.log10(p_pix)
+    vmax = max(2.0 * thresh, float(np.nanmax(logp[logp < 300])) if np.any(logp < 300) else 0.0)
+    h, w = logp.shape
+    fig, ax = plt.subplots(figsize=(5.2, 4.4 * h / max(w, 1) + 0.6), dpi=100)
+    im = ax.imshow(np.minimum(logp, vmax), cmap="inferno", vmin=0.0, vmax=vmax, interpolation="nearest")
+    y0, x0, y1, x1 = r.worst_tile
+    ax.add_patch(Rectangle((x0 - 0.5, y0 - 0.5), x1 - x0, y1 - y0, fill=False, edgecolor="cyan", lw=1.5))
+    cb = fig.colorbar(im, ax=ax)
+    cb.set_label("-log10 p per pixel (min over RGB)")
+    cb.ax.axhline(thresh, color="cyan", lw=1.0)
+    ax.set_title(f"{case.scene} / {case.strategy}: gate p = {r.p_value:.2g}\n"
+                 f"bias {r.relative_bias:+.2%}, worst tile {r.worst_tile_relative_bias:+.2%} (box)", fontsize=9)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    fig.tight_layout()
+    fig.savefig(paths[1])
+    plt.close(fig)
+    # exposure so the reference's 99th percentile maps to about 1
+    q = float(np.percentile(case.reference.mean, 99))
+    exposure = -math.log2(q) if q > 0 else 0.0
+    rt.write_png(paths[2], case.mean, exposure=exposure)
+    rt.write_png(paths[3], case.reference.mean.astype(np.float32), exposure=exposure)
+    return paths
