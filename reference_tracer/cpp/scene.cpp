@@ -95,7 +95,8 @@ void Scene::fill_interaction(const Ray& ray, double t, uint32_t prim, Interactio
 }
 
 bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
-    const WatertightRay wray(ray.d);
+    // Three divisions per ray that only triangle tests use.
+    const WatertightRay wray = triangles_.empty() ? WatertightRay() : WatertightRay(ray.d);
     uint32_t best = 0;
     double t = t_max;
     const bool hit = bvh_.traverse<false>(
@@ -106,7 +107,7 @@ bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
 }
 
 bool Scene::occluded(const Ray& ray, double t_max) const {
-    const WatertightRay wray(ray.d);
+    const WatertightRay wray = triangles_.empty() ? WatertightRay() : WatertightRay(ray.d);
     uint32_t unused = 0;
     return bvh_.traverse<true>(
         ray, t_max, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, unused); },

@@ -43,8 +43,9 @@ struct Triangle {
 // Per-ray constants of the watertight test: the axis permutation and shear that map the
 // ray direction onto +z.
 struct WatertightRay {
-    int kx, ky, kz;
-    double Sx, Sy, Sz;
+    int kx = 0, ky = 1, kz = 2;
+    double Sx = 0, Sy = 0, Sz = 1;
+    WatertightRay() = default;  // unused placeholder (scenes without triangles)
     explicit WatertightRay(const Vec3& d) {
         kz = std::abs(d.x) > std::abs(d.y) ? (std::abs(d.x) > std::abs(d.z) ? 0 : 2)
                                            : (std::abs(d.y) > std::abs(d.z) ? 1 : 2);
