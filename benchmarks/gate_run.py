@@ -8,11 +8,14 @@ first if missing) and applies :func:`benchmarks.gate.compare`. The statistics li
 Defaults (sized for CI, measured on the 2-core development machine)
 -------------------------------------------------------------------
 The quick suite (all of :func:`mitsuba_scenes.list_scenes`) at ``32 x 32``, our ``mis``
-at ``DEFAULT_SPP`` samples per pixel, against Mitsuba references at 8192 spp - the same
-cache entries as ``rtbench run --preset quick`` (same size, spp, seed and batches), so
-either command fills the cache for the other. Cost on an empty cache: about 80 s for
-the seven Mitsuba references, then about 2 s per scene for our renders and the
-comparison; with the cache filled, about 15 s for the suite.
+at 4096 samples per pixel against Mitsuba references at 16384 spp (16 batches, the
+harness's default seed). Power decides the spp (``benchmarks.gate_power``, six seeds
+each, 8192-spp references): at 1024 spp a 1% light move along x is caught 0/6 and a
+1% global scale 6/6; at 4096 spp the light move 6/6 (light moved along z 5/6). The
+reference is kept 4x above the test's spp so that its own noise adds 25% to the
+variance of a difference. Cost on an empty cache: about 2.5 min for the seven Mitsuba
+references, then about 1.2 min for our eight renders (furnace, 8 bounces without
+Russian roulette, is the slowest at ~14 s).
 
 Multiple comparisons
 --------------------
@@ -52,11 +55,11 @@ __all__ = ["DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_ALPHA", "
            "write_p_images"]
 
 #: samples per pixel of our render (see the power table in ``tests/test_gate_power.py``).
-DEFAULT_SPP = 1024
+DEFAULT_SPP = 4096
 #: image width (and height) of the quick suite.
 DEFAULT_WIDTH = 32
-#: samples per pixel of the Mitsuba references (as ``rtbench run --preset quick``).
-DEFAULT_REF_SPP = 8192
+#: samples per pixel of the Mitsuba references (4x ``DEFAULT_SPP``).
+DEFAULT_REF_SPP = 16384
 #: false-alarm rate of a whole gate run.
 DEFAULT_ALPHA = 0.01
 #: seed of our render (Mitsuba references use ``benchmarks.references.DEFAULT_REFERENCE_SEED``).

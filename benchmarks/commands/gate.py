@@ -4,7 +4,7 @@ Renders each scene with our tracer (``mis``, plus any ``--strategies``), compare
 its cached Mitsuba reference (rendered first when missing) by
 :func:`benchmarks.gate.compare`, prints a table, writes p-value images of failures into
 ``--out`` and exits 1 when any comparison fails. Defaults: the quick suite at 32x32,
-1024 spp against 8192-spp references, false-alarm rate 0.01 for the whole run
+4096 spp against 16384-spp references, false-alarm rate 0.01 for the whole run
 (``benchmarks.gate_run``).
 """
 from __future__ import annotations
