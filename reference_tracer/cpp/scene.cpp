@@ -52,14 +52,12 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
                            primitive_count());
 }
 
-bool Scene::hit_primitive(uint32_t prim, const Ray& ray, const WatertightRay& wray, double& t_max,
-                          uint32_t& best) const {
+bool Scene::hit_other(uint32_t prim, const Ray& ray, const WatertightRay& wray, double& t_max,
+                      uint32_t& best) const {
     double t;
     bool hit;
     if (prim < quad_base_) {
         hit = spheres_[prim].intersect(ray, 0.0, t_max, t);
-    } else if (prim < tri_base_) {
-        hit = quads_[prim - quad_base_].intersect(ray, 0.0, t_max, t);
     } else {
         const Triangle& tri = triangles_[prim - tri_base_];
         switch (settings_.triangle_test) {

@@ -121,9 +121,12 @@ public:
             int idx[4], k = 0;
             for (int i = 0; i < 4; ++i)
                 if (tn[i] <= tf[i] && (n.child[i] >= 0 || n.count[i] > 0)) idx[k++] = i;
-            // Nearest first.
-            for (int i = 1; i < k; ++i)
-                for (int j = i; j > 0 && tn[idx[j]] < tn[idx[j - 1]]; --j) std::swap(idx[j], idx[j - 1]);
+            // Nearest first, for closest hits only: it lets a near hit cull the farther
+            // entries. An any-hit query takes the first occluder in any order, and the sort's
+            // data-dependent branches cost more than the order saves on small trees.
+            if (!AnyHit)
+                for (int i = 1; i < k; ++i)
+                    for (int j = i; j > 0 && tn[idx[j]] < tn[idx[j - 1]]; --j) std::swap(idx[j], idx[j - 1]);
             // Push all but the nearest, farthest first; the nearest is visited now, with
             // no round trip through the stack.
             for (int j = k - 1; j > 0; --j) stack[top++] = {n.child[idx[j]], n.count[idx[j]], tn[idx[j]]};

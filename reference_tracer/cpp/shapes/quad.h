@@ -10,6 +10,10 @@ struct Quad {
     Vec3 Q, u, v;
     Vec3 normal;    // unit u x v
     Vec3 w;         // (u x v) / |u x v|^2, to solve for the planar coordinates
+    // Planar coordinates as linear functions of the hit point: alpha = dot(p - Q, ea),
+    // beta = dot(p - Q, eb) (the triple products dot(w, (p - Q) x v) and dot(w, u x (p - Q))
+    // rearranged), so that their ray-dependent parts are computed alongside the division.
+    Vec3 ea, eb;
     double plane_d; // dot(normal, Q)
     double area_;
     uint32_t material;
@@ -21,6 +25,8 @@ struct Quad {
         normal = n / area_;
         w = n / dot(n, n);
         plane_d = dot(normal, Q);
+        ea = cross(v, w);
+        eb = cross(w, u);
     }
 
     AABB bounds() const {
@@ -33,11 +39,16 @@ struct Quad {
     bool intersect(const Ray& r, double t_min, double t_max, double& t_hit) const {
         const double denom = dot(normal, r.d);
         if (denom == 0.0) return false;  // parallel to the plane: never a hit
+        // The planar coordinates of o + t d are a0 + t ad and b0 + t bd: the four dot
+        // products do not depend on t, so they overlap the division's latency instead of
+        // waiting for it (the former test formed o + t d, then two cross products).
+        const Vec3 oq = r.o - Q;
+        const double a0 = dot(oq, ea), ad = dot(r.d, ea);
+        const double b0 = dot(oq, eb), bd = dot(r.d, eb);
         const double t = (plane_d - dot(normal, r.o)) / denom;
         if (!(t > t_min && t < t_max)) return false;
-        const Vec3 hp = r.at(t) - Q;
-        const double alpha = dot(w, cross(hp, v));
-        const double beta = dot(w, cross(u, hp));
+        const double alpha = a0 + t * ad;
+        const double beta = b0 + t * bd;
         if (alpha < 0.0 || alpha > 1.0 || beta < 0.0 || beta > 1.0) return false;
         t_hit = t;
         return true;
