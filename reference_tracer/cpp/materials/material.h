@@ -46,15 +46,24 @@ inline double bsdf_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
     }
 }
 
-inline BSDFSample bsdf_sample(const Material& m, const Vec3& wo, double u0, double u1, double u2) {
+// The specular and rough lobes, kept out of line so that the diffuse case below inlines
+// into the integrator without the rest of the switch.
+[[gnu::noinline]] inline BSDFSample bsdf_sample_other(const Material& m, const Vec3& wo, double u0, double u1,
+                                                      double u2) {
     switch (m.type) {
-        case MaterialType::Lambertian:
-        case MaterialType::DiffuseLight: return lambertian::sample(m.albedo, wo, u1, u2);
         case MaterialType::RoughConductor: return rough_conductor::sample(m.albedo, m.param, wo, u1, u2);
         case MaterialType::Metal: return conductor::sample(m.albedo, m.param, wo, u1, u2);
         case MaterialType::Dielectric: return dielectric::sample(m.param, wo, u0, m.schlick);
+        default: return {};
     }
-    return {};
+}
+
+inline BSDFSample bsdf_sample(const Material& m, const Vec3& wo, double u0, double u1, double u2) {
+    // Diffuse first and inline: the common case (a call returning the sample through
+    // memory was ~6% of cornell_box's samples).
+    if (m.type == MaterialType::Lambertian || m.type == MaterialType::DiffuseLight)
+        return lambertian::sample(m.albedo, wo, u1, u2);
+    return bsdf_sample_other(m, wo, u0, u1, u2);
 }
 
 }  // namespace rt
