@@ -187,37 +187,42 @@ private:
                 n = t.normal();
                 return true;
             }
-            case EmitterKind::Sphere: {
-                const Sphere& s = (*spheres_)[e.index];
-                const Vec3 to_c = s.center - ref;
-                const double dc2 = length_squared(to_c);
-                if (dc2 <= s.radius * s.radius) {  // inside or on the sphere: sample by area
-                    const Vec3 d = square_to_uniform_sphere(u1, u2);
-                    p = s.center + s.radius * d;
-                    n = d * s.normal_sign;
-                    return true;
-                }
-                // Outside: uniform in the subtended cone; the point where the sampled
-                // direction meets the sphere follows from the law of cosines.
-                const double dc = std::sqrt(dc2);
-                const Frame frame(to_c / dc);
-                const double omc = cone_one_minus_cos(s, dc2);
-                const Vec3 local = square_to_uniform_cone(u1, u2, omc);
-                const double sin2 = local.x * local.x + local.y * local.y;
-                const double ds = dc * local.z - safe_sqrt(s.radius * s.radius - dc2 * sin2);
-                const double cos_a = std::clamp((dc2 + s.radius * s.radius - ds * ds) / (2.0 * dc * s.radius), -1.0, 1.0);
-                const double sin_a = safe_sqrt(1.0 - cos_a * cos_a);
-                const double len = std::sqrt(sin2);
-                const double cx = len > 0.0 ? local.x / len : 1.0, cy = len > 0.0 ? local.y / len : 0.0;
-                // Normal at the point, outward from the centre, on the side facing ref.
-                const Vec3 outward = frame.to_world(Vec3(sin_a * cx, sin_a * cy, -cos_a));
-                p = s.center + s.radius * outward;
-                n = outward * s.normal_sign;
-                pdf_dir = uniform_cone_pdf(omc);
-                return true;
-            }
+            case EmitterKind::Sphere: return sample_sphere(e, ref, u1, u2, p, n, pdf_dir);
         }
         return false;
+    }
+
+    // sample_point for spheres, out of line: quads and triangles (the common emitters)
+    // then inline into sample() and the integrator.
+    [[gnu::noinline]] bool sample_sphere(const Emitter& e, const Vec3& ref, double u1, double u2, Vec3& p,
+                                         Vec3& n, double& pdf_dir) const {
+        const Sphere& s = (*spheres_)[e.index];
+        const Vec3 to_c = s.center - ref;
+        const double dc2 = length_squared(to_c);
+        if (dc2 <= s.radius * s.radius) {  // inside or on the sphere: sample by area
+            const Vec3 d = square_to_uniform_sphere(u1, u2);
+            p = s.center + s.radius * d;
+            n = d * s.normal_sign;
+            return true;
+        }
+        // Outside: uniform in the subtended cone; the point where the sampled
+        // direction meets the sphere follows from the law of cosines.
+        const double dc = std::sqrt(dc2);
+        const Frame frame(to_c / dc);
+        const double omc = cone_one_minus_cos(s, dc2);
+        const Vec3 local = square_to_uniform_cone(u1, u2, omc);
+        const double sin2 = local.x * local.x + local.y * local.y;
+        const double ds = dc * local.z - safe_sqrt(s.radius * s.radius - dc2 * sin2);
+        const double cos_a = std::clamp((dc2 + s.radius * s.radius - ds * ds) / (2.0 * dc * s.radius), -1.0, 1.0);
+        const double sin_a = safe_sqrt(1.0 - cos_a * cos_a);
+        const double len = std::sqrt(sin2);
+        const double cx = len > 0.0 ? local.x / len : 1.0, cy = len > 0.0 ? local.y / len : 0.0;
+        // Normal at the point, outward from the centre, on the side facing ref.
+        const Vec3 outward = frame.to_world(Vec3(sin_a * cx, sin_a * cy, -cos_a));
+        p = s.center + s.radius * outward;
+        n = outward * s.normal_sign;
+        pdf_dir = uniform_cone_pdf(omc);
+        return true;
     }
 
     std::vector<Emitter> emitters_;
