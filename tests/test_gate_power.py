@@ -86,3 +86,37 @@ def test_power_at_default_spp(power_rows, name):
     sign = {"scale 0.99": -1, "red wall albedo +3%": +1, "light strategy": -1}.get(name)
     if sign is not None:
         assert np.sign(row.relative_bias) == sign, row.relative_bias
+
+
+def test_schlick_recorded_at_default_spp(power_rows):
+    """Schlick on ``cornell_glass`` changes the image by +0.2%, inside noisy glass pixels:
+    at the default 4096 spp the gate caught it in 2 of 3 seeds (p 8e-5, 0.05, 1.3e-4;
+    1 of 6 against 8192-spp references), so it is recorded here, not asserted; see
+    ``test_schlick_caught_at_16384_spp``. Mitsuba's rule "catches" it only because it
+    fails the unbiased ``cornell_glass`` render too (``test_mitsuba_rule_false_alarm_on_unbiased_glass``)."""
+    row = power_rows["Schlick Fresnel"]
+    assert row.spp == DEFAULT_SPP and 0.0 <= row.p_value <= 1.0
+
+
+@pytest.mark.slow
+def test_schlick_caught_at_16384_spp():
+    """At 16384 spp (against the default 16384-spp reference) Schlick fails with p ~ 1e-11
+    in 3 of 3 seeds measured; the assertion needs p < 1.25e-3."""
+    row = power_row("Schlick Fresnel", seed=1, spp=16384, threads=THREADS)
+    assert row.caught and row.p_value < CASE_ALPHA, row
+
+
+def test_mitsuba_rule_false_alarm_on_unbiased_glass():
+    """Mitsuba's per-pixel rule on an *unbiased* ``mis`` render of ``cornell_glass`` (the
+    control of the Schlick row): it ignores the test render's own variance and the
+    reference's noise, and fails (26-67 failing pixel-channels in 12 of 12 seeds measured
+    at 1024 and 4096 spp); our gate passes the same render."""
+    from benchmarks.gate import mitsuba_rule
+    from benchmarks.gate_run import compare_render, gate_reference, gate_scene
+    import reference_tracer as rt
+
+    scene = gate_scene("cornell_glass")
+    ref = gate_reference("cornell_glass", scene, threads=THREADS)
+    out = rt.render(scene, spp=DEFAULT_SPP, strategy="mis", seed=1, threads=THREADS)
+    assert compare_render(out.mean, out.variance, DEFAULT_SPP, ref, alpha=CASE_ALPHA).passed
+    assert not mitsuba_rule(out.mean, ref.mean, ref.variance, DEFAULT_SPP).passed
