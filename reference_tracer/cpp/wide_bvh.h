@@ -122,10 +122,8 @@ public:
                 tf = t1 < tf ? t1 : tf;
             }
             int idx[4], k = 0;
-            // Empty child slots need no test of their own: their box (lo = +inf, hi = -inf)
-            // gives tn = +inf and tf = -inf on every axis, whatever the ray.
             for (int i = 0; i < 4; ++i)
-                if (tn[i] <= tf[i]) idx[k++] = i;
+                if (tn[i] <= tf[i] && (n.child[i] >= 0 || n.count[i] > 0)) idx[k++] = i;
             // Nearest first, for closest hits only: it lets a near hit cull the farther
             // entries. An any-hit query takes the first occluder in any order, and the sort's
             // data-dependent branches cost more than the order saves on small trees.
