@@ -271,9 +271,17 @@ def _welch_from_sums(diff, a, b, a2, b2, n_t, n_r, tol, fa=None, fa2=None):
     return stat, p, testable
 
 
+def _neighbourhood_floor(v: np.ndarray, size: int) -> np.ndarray:
+    """``max(v, mean of v over the size x size neighbourhood)`` per channel."""
+    from scipy.ndimage import uniform_filter
+
+    pooled = np.stack([uniform_filter(v[..., c], size=size, mode="nearest") for c in range(v.shape[2])], axis=-1)
+    return np.maximum(v, pooled)
+
+
 def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
             alpha: float = 0.01, tile=(8, 16, 32), variance_floor: str = "reference",
-            var_ddof: int = 0, zero_var_rtol: float = 1e-4) -> GateResult:
+            var_ddof: int = 0, zero_var_rtol: float = 1e-4, pixel_pool: int = 3) -> GateResult:
     """Test whether a render and a reference have the same expectation (see module doc).
 
     Parameters
@@ -304,6 +312,14 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
         are already unbiased.
     zero_var_rtol : float
         Relative tolerance for "equal means" where both variances are zero.
+    pixel_pool : int
+        Side of the neighbourhood whose mean variance floors each pixel's variance at
+        the pixel level (both sides; 1 disables). A pixel whose rare paths (a caustic
+        through glass, a tiny light in a glossy plate) did not occur among its samples
+        reports a variance far below the truth, and its t explodes: measured on real
+        renders, the 100-seed false-alarm test failed 3 runs of 100 with ``pixel_pool=1``,
+        two of them at single such pixels. Neighbours estimate the same smooth per-sample
+        variance from 9x the samples; the max keeps the floor conservative.
 
     Returns
     -------
@@ -325,6 +341,8 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
     tiles = tuple(int(t) for t in np.atleast_1d(tile))
     if not tiles or min(tiles) < 1:
         raise ValueError(f"tile sizes must be >= 1; got {tile}")
+    if isinstance(pixel_pool, bool) or not isinstance(pixel_pool, (int, np.integer)) or pixel_pool < 1:
+        raise ValueError(f"pixel_pool must be an integer >= 1; got {pixel_pool!r}")
     if variance_floor not in ("reference", "none"):
         raise ValueError(f"variance_floor must be 'reference' or 'none'; got {variance_floor!r}")
     x, vx = _image3(test_mean, "test_mean"), _image3(test_var, "test_var")
@@ -362,9 +380,10 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
             out.update(fa=reduce(fa), fa2=reduce(fa * fa))
         return out
 
-    # ---- pixel level
+    # ---- pixel level (variances floored by their neighbourhood mean: see pixel_pool)
+    pool = (lambda v: v) if pixel_pool <= 1 else (lambda v: _neighbourhood_floor(v, pixel_pool))
     t_pix, p_pix, testable_pix = _welch_from_sums(diff, n_t=n_t, n_r=n_r, tol=tol,
-                                                  **sums(lambda v: v))
+                                                  **sums(pool))
     t_pix[bad] = np.inf
     p_pix[bad] = 0.0
     testable_pix |= bad

@@ -123,12 +123,12 @@ def test_welch_pixel_matches_scipy():
     shape = (4, 5, 3)
     xm, rm = rng.normal(1, 0.1, shape), rng.normal(1, 0.01, shape)
     xv, rv = rng.uniform(0.5, 2, shape), rng.uniform(0.5, 2, shape)
-    g = compare(xm, xv, 16, rm, rv, 400, variance_floor="none", var_ddof=1)
+    g = compare(xm, xv, 16, rm, rv, 400, variance_floor="none", var_ddof=1, pixel_pool=1)
     t, p = stats.ttest_ind_from_stats(xm, np.sqrt(xv), 16, rm, np.sqrt(rv), 400, equal_var=False)
     np.testing.assert_allclose(g.pixel_t, t, rtol=1e-10)
     np.testing.assert_allclose(g.pixel_p, p, rtol=1e-8)
     # ddof=0 variances are de-biased by n / (n - 1)
-    g0 = compare(xm, xv * 15 / 16, 16, rm, rv * 399 / 400, 400, variance_floor="none")
+    g0 = compare(xm, xv * 15 / 16, 16, rm, rv * 399 / 400, 400, variance_floor="none", pixel_pool=1)
     np.testing.assert_allclose(g0.pixel_t, t, rtol=1e-10)
 
 
@@ -242,7 +242,7 @@ def test_plain_welch_is_not_robust_to_heavy_tails():
     spp have under-estimated variances and the plain Welch gate fails most unbiased
     renders (measured 95-100%); with it, none of the same renders fail."""
     seeds = range(10)
-    plain, _ = _false_alarms("heavy", 24, 16, 512, seeds, 0.01, variance_floor="none")
+    plain, _ = _false_alarms("heavy", 24, 16, 512, seeds, 0.01, variance_floor="none", pixel_pool=1)
     floored, _ = _false_alarms("heavy", 24, 16, 512, seeds, 0.01)
     assert plain >= 8
     assert floored <= 1
@@ -329,3 +329,23 @@ def test_power_table(profile):
                 assert ours >= mits, (n_t, bias)
                 if n_t == 256 and bias in POWER_BIASES:
                     assert ours >= 19, (n_t, bias)
+
+
+def test_pixel_pool_guards_a_pixel_whose_rare_paths_did_not_occur():
+    """One pixel reports a variance 1000x too small (its rare paths did not occur) and a
+    mean 2.5 true standard errors low: plain per-pixel Welch fails the unbiased render, the
+    default neighbourhood floor does not; a real 30% bias on a 4x4 patch is still caught."""
+    rng = np.random.default_rng(7)
+    n_t, n_r = 1024, 16384
+    ref = np.full((32, 32, 3), 0.5)
+    var = np.full_like(ref, 0.5)
+    test = ref + rng.standard_normal(ref.shape) * np.sqrt(var / n_t)
+    rmean = ref + rng.standard_normal(ref.shape) * np.sqrt(var / n_r)
+    tvar = var.copy()
+    tvar[10, 10] = var[10, 10] / 1000.0
+    test[10, 10] = ref[10, 10] - 2.5 * np.sqrt(var[10, 10] / n_t)
+    assert not compare(test, tvar, n_t, rmean, var * 1e-3, n_r, pixel_pool=1).passed
+    assert compare(test, tvar, n_t, rmean, var * 1e-3, n_r).passed
+    biased = test.copy()
+    biased[20:24, 20:24] *= 0.7
+    assert not compare(biased, tvar, n_t, rmean, var * 1e-3, n_r).passed
