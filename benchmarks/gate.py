@@ -381,7 +381,12 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
         return out
 
     # ---- pixel level (variances floored by their neighbourhood mean: see pixel_pool)
-    pool = (lambda v: v) if pixel_pool <= 1 else (lambda v: _neighbourhood_floor(v, pixel_pool))
+    # Pixels with no noise on either side (a directly seen light) stay exact: their
+    # neighbours' noise says nothing about them, and flooring them would turn the float
+    # rounding of the emitters' constants (~3e-6 relative) into "significant" differences.
+    exact = (a == 0) & (b == 0)
+    pool = ((lambda v: v) if pixel_pool <= 1 else
+            (lambda v: np.where(exact, v, _neighbourhood_floor(v, pixel_pool))))
     t_pix, p_pix, testable_pix = _welch_from_sums(diff, n_t=n_t, n_r=n_r, tol=tol,
                                                   **sums(pool))
     t_pix[bad] = np.inf

@@ -349,3 +349,20 @@ def test_pixel_pool_guards_a_pixel_whose_rare_paths_did_not_occur():
     biased = test.copy()
     biased[20:24, 20:24] *= 0.7
     assert not compare(biased, tvar, n_t, rmean, var * 1e-3, n_r).passed
+
+
+def test_pixel_pool_keeps_noiseless_pixels_exact():
+    """A directly seen light (zero variance in both renders, constants equal to float
+    rounding) next to pixels with almost no noise (the light's own pixels accumulate
+    ~1e-9 of rounding variance): no evidence, whatever the neighbours' variance."""
+    rng = np.random.default_rng(3)
+    n_t, n_r = 4096, 16384
+    ref = np.full((16, 16, 3), 0.3)
+    var = np.full_like(ref, 0.2)
+    ref[4:8, 4:8] = 0.8356
+    var[3:9, 3:9] = 1e-9
+    var[4:8, 4:8] = 0.0
+    test = ref + rng.standard_normal(ref.shape) * np.sqrt(var / n_t)
+    test[4:8, 4:8] = 0.8356 * (1 + 3e-6)
+    assert compare(test, var, n_t, ref, var, n_r).passed
+
