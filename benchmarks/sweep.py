@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from . import metrics as M
+from .tables import finite
 from .store import (KEY_FIELDS, append_record, finished_keys, read_json, read_records, store_path,
                     update_meta, write_image, write_json, SUMMARY, META)
 
@@ -285,14 +286,6 @@ def machine_info() -> dict:
 
 # ---------------------------------------------------------------------------- one job
 
-def _finite_or_none(x):
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return None
-    return v if math.isfinite(v) else None
-
-
 def job_metrics(mean, variance, ref_mean, ref_variance, ref_spp) -> dict:
     """Error figures of one render against the reference (DESIGN.md section 4).
 
@@ -318,7 +311,7 @@ def job_metrics(mean, variance, ref_mean, ref_variance, ref_spp) -> dict:
         v = np.asarray(variance, dtype=np.float64)
         if np.all(np.isfinite(v)):
             out["variance"] = float(v.mean())
-    return {k: _finite_or_none(v) for k, v in out.items()}
+    return {k: finite(v) for k, v in out.items()}
 
 
 def execute_job(job: Job, ref_mean, ref_variance, ref_spp: int, *, threads: int, variant=None,

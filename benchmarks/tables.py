@@ -15,19 +15,31 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["summary_table", "print_summary", "seed_comparison_line"]
+__all__ = ["summary_table", "print_summary", "seed_comparison_line", "finite"]
 
 _ORDER = ("uniform", "cosine", "light", "mixture", "mis")
 
 
-def _f(v, digits=2):
+def finite(v):
+    """``v`` as a finite float, or None (None, bools, non-numbers, NaN and inf).
+
+    The one coercion of store values (JSON numbers, nulls) before they are shown.
+
+    >>> finite("2.5"), finite(None), finite(float("nan")), finite(True)
+    (2.5, None, None, None)
+    """
     if v is None or isinstance(v, bool):
-        return "-"
+        return None
     try:
         v = float(v)
     except (TypeError, ValueError):
-        return "-"
-    if not math.isfinite(v):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def _f(v, digits=2):
+    v = finite(v)
+    if v is None:
         return "-"
     if v != 0 and (abs(v) >= 1e4 or abs(v) < 1e-2):
         return f"{v:.1e}"
@@ -36,11 +48,8 @@ def _f(v, digits=2):
 
 def _si(v):
     """1234567 -> '1.2M'."""
-    try:
-        v = float(v)
-    except (TypeError, ValueError):
-        return "-"
-    if not math.isfinite(v):
+    v = finite(v)
+    if v is None:
         return "-"
     for div, unit in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
         if abs(v) >= div:

@@ -176,7 +176,7 @@ class Quad(Shape):
         object.__setattr__(self, "v", vector3("Quad.v", self.v))
         n = np.cross(self.u, self.v)
         scale = max(np.linalg.norm(self.u) * np.linalg.norm(self.v), 1e-300)
-        if np.linalg.norm(n) <= 1e-12 * scale or np.linalg.norm(n) == 0.0:
+        if np.linalg.norm(n) <= 1e-12 * scale:
             kind = "light " if isinstance(self.material, Material) and self.material.emits else ""
             raise ValueError(f"Quad {kind}has zero area: Quad.u x Quad.v is zero (u={self.u}, v={self.v})")
         self._post()

@@ -10,6 +10,8 @@ import argparse
 import json
 import math
 
+from benchmarks.tables import finite
+
 HELP = "time ours vs Mitsuba (paired, interleaved): paths/s, rays/s, ms/spp, RMSE, efficiency; --rays, --scaling"
 
 
@@ -64,13 +66,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _f(v, digits=3):
-    if v is None or isinstance(v, bool):
-        return "-"
-    try:
-        v = float(v)
-    except (TypeError, ValueError):
-        return "-"
-    if not math.isfinite(v):
+    v = finite(v)
+    if v is None:
         return "-"
     if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-3):
         return f"{v:.{digits}g}"

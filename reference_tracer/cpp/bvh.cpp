@@ -99,7 +99,6 @@ uint32_t BVH::build(std::vector<BuildItem>& items, uint32_t begin, uint32_t end,
         std::nth_element(items.begin() + begin, items.begin() + mid, items.begin() + end,
                          [&](const BuildItem& a, const BuildItem& b) { return a.centroid[axis] < b.centroid[axis]; });
     }
-    nodes_[index].axis = static_cast<uint8_t>(axis);
     build(items, begin, mid, depth + 1);
     const uint32_t right = build(items, mid, end, depth + 1);
     nodes_[index].offset = right;

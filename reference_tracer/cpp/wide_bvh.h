@@ -117,7 +117,7 @@ public:
                 const V4d t0 = (load_widen(rows + near_row[a]) - o[a]) * id[a];
                 const V4d t1 = (load_widen(rows + far_row[a]) - o[a]) * id_far[a];
                 // NaN (origin on a slab plane of a parallel ray) keeps the bound:
-                // conservative, as in slab_hit.
+                // conservative (the primitive test decides), never a missed hit.
                 tn = t0 > tn ? t0 : tn;
                 tf = t1 < tf ? t1 : tf;
             }
