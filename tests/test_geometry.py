@@ -223,3 +223,37 @@ def test_mesh_load_obj_and_ply_keep_winding(tmp_path):
         np.testing.assert_allclose(mesh.world_triangles(), np.asarray(tm.vertices)[tm.faces], atol=1e-6)
     with pytest.raises(ValueError, match="could not read"):
         rt.Mesh.load(tmp_path / "missing.obj", MAT)
+
+
+@pytest.mark.parametrize("offset", [0.0, 1234.5678, 3.1e6 + 0.3])
+@pytest.mark.parametrize("dir_y", [0.0, -0.0, 1e-40, -1e-300, 1e-9])
+def test_float_box_test_never_misses_thin_boxes(offset, dir_y):
+    # The BVH tests child boxes in single precision (wide_bvh.h). Tiny triangles whose
+    # boxes are 2e-6 thick in y sit far from the float grid (the float spacing at 3.1e6
+    # is 0.25); rays run (almost) parallel to y = const through the slab, half of them
+    # through a triangle. A box test that merely rounded the origin to float would put
+    # most origins outside these slabs and miss every such hit; the conservative test
+    # must find exactly what brute force finds.
+    rng = np.random.default_rng(17)
+    h, w, n_tri, per_tri = 1e-6, 1e-6, 400, 8
+    corner = offset + rng.uniform(-3, 3, size=(n_tri, 3))
+    a = corner + (0.0, -h, 0.0)
+    b = corner + (w, h, 0.0)
+    c = corner + (0.0, h, w)
+    mesh = rt.Mesh(np.stack([a, b, c], axis=1).reshape(-1, 3), np.arange(3 * n_tri).reshape(-1, 3), MAT)
+    core_ = core([mesh])
+    # Points on (s in [0, 1]) or beside (s outside) each triangle's slice y = const:
+    # y(u, v) = corner_y - h + 2 h (u + v), taken at u = v = s / 2.
+    s = rng.uniform(-0.5, 1.5, size=(n_tri, per_tri, 1))
+    q = (a[:, None] + 0.5 * s * (b - a)[:, None] + 0.5 * s * (c - a)[:, None]).reshape(-1, 3)
+    theta = rng.uniform(0, 2 * np.pi, size=len(q))
+    dirs = np.stack([np.cos(theta), np.full(len(q), dir_y), np.sin(theta)], axis=1)
+    dirs[::4] = (1.0, dir_y, 0.0)  # some rays along x: two components (almost) zero
+    dirs[1::4, 0] = -dirs[1::4, 0]
+    origins = q - 5.0 * dirs
+    origins[:, 1] = q[:, 1]  # on the slice exactly, whatever dir_y is
+    fast = cast(core_, origins, dirs)
+    slow = cast(core_, origins, dirs, brute_force=True)
+    assert np.array_equal(fast["prim"], slow["prim"])
+    assert np.array_equal(fast["t"], slow["t"])
+    assert 0.3 < (slow["prim"] >= 0).mean() < 0.7

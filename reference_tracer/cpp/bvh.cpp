@@ -4,13 +4,13 @@
 
 namespace rt {
 
-BVH::BVH(const std::vector<AABB>& boxes) {
+BVH::BVH(const std::vector<AABB>& boxes, const std::function<bool(uint32_t)>& packable) {
     std::vector<BuildItem> items;
     items.reserve(boxes.size());
     for (uint32_t i = 0; i < boxes.size(); ++i) {
         const AABB& b = boxes[i];
         if (!b.valid() || !is_finite(b.lo) || !is_finite(b.hi)) continue;
-        items.push_back({b, b.centroid(), i});
+        items.push_back({b, b.centroid(), i, packable && packable(i)});
     }
     if (items.empty()) return;
     nodes_.reserve(2 * items.size() / kMaxLeafSize + 1);
@@ -23,9 +23,11 @@ uint32_t BVH::build(std::vector<BuildItem>& items, uint32_t begin, uint32_t end,
     const uint32_t index = static_cast<uint32_t>(nodes_.size());
     nodes_.emplace_back();
     AABB box, centroids;
+    bool all_packable = true;
     for (uint32_t i = begin; i < end; ++i) {
         box.expand(items[i].box);
         centroids.expand(items[i].centroid);
+        all_packable = all_packable && items[i].packable;
     }
     nodes_[index].box = box;
     const uint32_t count = end - begin;
@@ -67,6 +69,11 @@ uint32_t BVH::build(std::vector<BuildItem>& items, uint32_t begin, uint32_t end,
             right_area[i] = acc.surface_area();
             right_count[i] = n;
         }
+        // Cost of n primitives in a leaf: n tests, or one test per block of up to
+        // kMaxLeafSize when they are all packable (Embree's SAH rounds the same way).
+        auto leaf_cost = [&](uint32_t n) {
+            return all_packable ? kBlockCost * double((n + kMaxLeafSize - 1) / kMaxLeafSize) : double(n);
+        };
         double best_cost = kInf;
         int best_split = -1;
         acc = AABB();
@@ -75,14 +82,13 @@ uint32_t BVH::build(std::vector<BuildItem>& items, uint32_t begin, uint32_t end,
             acc.expand(bins[i].box);
             n += bins[i].count;
             if (n == 0 || right_count[i + 1] == 0) continue;
-            const double cost = n * acc.surface_area() + right_count[i + 1] * right_area[i + 1];
+            const double cost = leaf_cost(n) * acc.surface_area() + leaf_cost(right_count[i + 1]) * right_area[i + 1];
             if (cost < best_cost) { best_cost = cost; best_split = i; }
         }
         const double parent_area = box.surface_area();
-        const double leaf_cost = static_cast<double>(count);
         // Traversal cost 1 relative to one intersection; areas relative to the parent's.
         const double split_cost = parent_area > 0.0 ? 1.0 + best_cost / parent_area : kInf;
-        if (best_split >= 0 && (count > kMaxLeafSize || split_cost < leaf_cost)) {
+        if (best_split >= 0 && (count > kMaxLeafSize || split_cost < leaf_cost(count))) {
             auto it = std::partition(items.begin() + begin, items.begin() + end,
                                      [&](const BuildItem& x) { return bin_of(x) <= best_split; });
             mid = static_cast<uint32_t>(it - items.begin());

@@ -28,7 +28,8 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
     // Leaves made only of triangles are packed into SoA blocks of four, tested together;
     // the Cramer variants (kept to measure their leaks) test one triangle at a time.
     const bool pack = settings_.triangle_test == TriangleTest::Watertight;
-    bvh_ = WideBVH(BVH(boxes), [&](uint32_t prim) { return pack && prim >= tri_base_; });
+    const auto packable = [&](uint32_t prim) { return pack && prim >= tri_base_; };
+    bvh_ = WideBVH(BVH(boxes, packable), packable);
     tri4_.resize(bvh_.blocks().size());
     for (size_t b = 0; b < tri4_.size(); ++b) {
         const WideBVH::BlockLeaf& leaf = bvh_.blocks()[b];
@@ -85,23 +86,47 @@ void Scene::fill_interaction(const Ray& ray, double t, uint32_t prim, Interactio
         it.n = q.normal;
         it.material = q.material;
     } else {
-        const Triangle& tri = triangles_[prim - tri_base_];
-        it.n = tri.normal();
-        it.p = project_to_plane(ray.at(t), tri.a, it.n);
-        it.material = tri.material;
+        fill_triangle(ray, t, triangles_[prim - tri_base_], it);
     }
+}
+
+void Scene::fill_triangle(const Ray& ray, double t, const Triangle& tri, Interaction& it) {
+    it.n = tri.normal();
+    it.p = project_to_plane(ray.at(t), tri.a, it.n);
+    it.material = tri.material;
 }
 
 bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
     // Three divisions per ray that only triangle tests use.
     const WatertightRay wray = triangles_.empty() ? WatertightRay() : WatertightRay(ray.d);
     uint32_t best = 0;
+    int32_t best_block = -1;  // the block and lane of the closest hit when it came from a block
+    int best_lane = 0;
     double t = t_max;
     const bool hit = bvh_.traverse<false>(
-        ray, t, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, best); },
-        [&](uint32_t block, double& tm) { return hit_block(block, ray, wray, tm, best); });
-    if (hit) fill_interaction(ray, t, best, it);
-    return hit;
+        ray, t,
+        [&](uint32_t prim, double& tm) {
+            if (!hit_primitive(prim, ray, wray, tm, best)) return false;
+            best_block = -1;
+            return true;
+        },
+        [&](uint32_t block, double& tm) {
+            const int lane = hit_block(block, ray, wray, tm, best);
+            if (lane < 0) return false;
+            best_block = static_cast<int32_t>(block);
+            best_lane = lane;
+            return true;
+        });
+    if (!hit) return false;
+    if (best_block >= 0) {
+        // The block is in cache; the triangle array would be a miss on large meshes.
+        it.t = t;
+        it.prim = best;
+        fill_triangle(ray, t, tri4_[best_block].triangle(best_lane), it);
+    } else {
+        fill_interaction(ray, t, best, it);
+    }
+    return true;
 }
 
 bool Scene::occluded(const Ray& ray, double t_max) const {
@@ -109,7 +134,7 @@ bool Scene::occluded(const Ray& ray, double t_max) const {
     uint32_t unused = 0;
     return bvh_.traverse<true>(
         ray, t_max, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, unused); },
-        [&](uint32_t block, double& tm) { return hit_block(block, ray, wray, tm, unused); });
+        [&](uint32_t block, double& tm) { return hit_block(block, ray, wray, tm, unused) >= 0; });
 }
 
 bool Scene::intersect_brute_force(const Ray& ray, Interaction& it, double t_max) const {

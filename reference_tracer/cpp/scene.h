@@ -96,18 +96,20 @@ private:
     // hit_primitive for spheres and triangles.
     bool hit_other(uint32_t prim, const Ray& ray, const WatertightRay& wray, double& t_max,
                    uint32_t& best) const;
-    // The same for the up to four triangles of block leaf `block`.
-    bool hit_block(uint32_t block, const Ray& ray, const WatertightRay& wray, double& t_max,
-                   uint32_t& best) const {
+    // The same for the up to four triangles of block leaf `block`; returns the lane hit,
+    // or -1.
+    int hit_block(uint32_t block, const Ray& ray, const WatertightRay& wray, double& t_max,
+                  uint32_t& best) const {
         const Triangle4& q = tri4_[block];
         double t;
         const int lane = intersect_watertight4(q, ray, wray, 0.0, t_max, t);
-        if (lane < 0) return false;
+        if (lane < 0) return -1;
         t_max = t;
         best = q.prim[lane];
-        return true;
+        return lane;
     }
     void fill_interaction(const Ray& ray, double t, uint32_t prim, Interaction& it) const;
+    static void fill_triangle(const Ray& ray, double t, const Triangle& tri, Interaction& it);
 
     Camera camera_;
     std::vector<Material> materials_;

@@ -6,16 +6,6 @@ namespace rt {
 
 namespace {
 
-// Float bounds that contain the double box: round lo down and hi up.
-float round_down(double x) {
-    float f = static_cast<float>(x);
-    return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
-}
-float round_up(double x) {
-    float f = static_cast<float>(x);
-    return static_cast<double>(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
-}
-
 void set_empty(WideNode& n, int i) {
     for (int a = 0; a < 3; ++a) {
         n.lo[a][i] = std::numeric_limits<float>::infinity();
@@ -48,8 +38,8 @@ void WideBVH::build(const BVH& binary, const std::function<bool(uint32_t)>& pack
     if (bn[0].count > 0) {  // a single leaf: one node with one leaf child
         nodes_.emplace_back();
         WideNode& n = nodes_[0];
-        for (int i = 0; i < 4; ++i) set_empty(n, i);
-        for (int a = 0; a < 3; ++a) { n.lo[a][0] = round_down(bn[0].box.lo[a]); n.hi[a][0] = round_up(bn[0].box.hi[a]); }
+        for (int i = 0; i < kWidth; ++i) set_empty(n, i);
+        for (int a = 0; a < 3; ++a) { n.lo[a][0] = round_down_float(bn[0].box.lo[a]); n.hi[a][0] = round_up_float(bn[0].box.hi[a]); }
         make_leaf(bn[0], packable, n.child[0], n.count[0]);
         depth_ = 1;
         return;
@@ -60,11 +50,11 @@ void WideBVH::build(const BVH& binary, const std::function<bool(uint32_t)>& pack
 int32_t WideBVH::collapse(const BVH& binary, uint32_t node, int depth, const std::function<bool(uint32_t)>& packable) {
     const auto& bn = binary.nodes();
     depth_ = std::max(depth_, depth);
-    // Open the largest interior child until there are four (greedy by surface area: the
-    // children most likely to be hit are the ones worth testing together).
-    uint32_t kids[4] = {node + 1, bn[node].offset, 0, 0};
+    // Open the largest interior child until there are kWidth (greedy by surface area:
+    // the children most likely to be hit are the ones worth testing together).
+    uint32_t kids[kWidth] = {node + 1, bn[node].offset};
     int k = 2;
-    while (k < 4) {
+    while (k < kWidth) {
         int best = -1;
         double best_area = -1.0;
         for (int i = 0; i < k; ++i) {
@@ -78,7 +68,7 @@ int32_t WideBVH::collapse(const BVH& binary, uint32_t node, int depth, const std
     }
     const int32_t index = static_cast<int32_t>(nodes_.size());
     nodes_.emplace_back();
-    for (int i = 0; i < 4; ++i) set_empty(nodes_[index], i);
+    for (int i = 0; i < kWidth; ++i) set_empty(nodes_[index], i);
     for (int i = 0; i < k; ++i) {
         const BVHNode& c = bn[kids[i]];
         int32_t child;
@@ -89,7 +79,7 @@ int32_t WideBVH::collapse(const BVH& binary, uint32_t node, int depth, const std
             child = collapse(binary, kids[i], depth + 1, packable);  // may reallocate nodes_
         }
         WideNode& n = nodes_[index];
-        for (int a = 0; a < 3; ++a) { n.lo[a][i] = round_down(c.box.lo[a]); n.hi[a][i] = round_up(c.box.hi[a]); }
+        for (int a = 0; a < 3; ++a) { n.lo[a][i] = round_down_float(c.box.lo[a]); n.hi[a][i] = round_up_float(c.box.hi[a]); }
         n.child[i] = child;
         n.count[i] = count;
     }

@@ -1,12 +1,18 @@
-// A 4-wide BVH collapsed from the binary SAH tree: each node holds the boxes of up to four
-// children, stored as float (rounded outward, so boxes only grow) in structure-of-arrays
-// form, so that one node visit tests four boxes with vector instructions and moves half
-// the memory of double boxes. The arithmetic of the test is in double.
+// An 8-wide BVH collapsed from the binary SAH tree: each node holds the boxes of up to
+// eight children as float, rounded outward (boxes only grow), in structure-of-arrays
+// form, so that one node visit tests eight boxes with 8-lane single-precision vector
+// instructions. Twice the fan-out of a 4-wide tree halves the levels a ray descends,
+// and on large meshes each level is a cache miss: the latency chain is what the width
+// shortens. Single precision stays conservative (never a missed box) by rounding the
+// ray's origin towards the near and far planes and widening the far distances by more
+// than the arithmetic's relative error; see traverse().
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #ifdef __AVX__
@@ -17,32 +23,43 @@
 
 namespace rt {
 
-using V4d = double __attribute__((vector_size(32)));
+constexpr int kWidth = 8;
+using V8f = float __attribute__((vector_size(32)));
+using V8i = int32_t __attribute__((vector_size(32)));
 using V4f = float __attribute__((vector_size(16)));
+using V4d = double __attribute__((vector_size(32)));
 
-// Four floats (16-byte aligned) widened to doubles, exactly. GCC lowers
-// __builtin_convertvector(V4f -> V4d) to two half conversions through the stack, so the
-// AVX instruction is named directly where it exists.
-inline V4d load_widen(const float* p) {
+// Bit i set where lane i of a comparison result is true (all ones).
+inline unsigned lane_mask(V8i lanes) {
 #ifdef __AVX__
-    return reinterpret_cast<V4d>(_mm256_cvtps_pd(_mm_load_ps(p)));
+    return static_cast<unsigned>(_mm256_movemask_ps(reinterpret_cast<__m256>(lanes)));
 #else
-    V4f f;
-    std::memcpy(&f, p, sizeof(V4f));
-    return __builtin_convertvector(f, V4d);
+    unsigned mask = 0;
+    for (int i = 0; i < kWidth; ++i) mask |= (lanes[i] != 0 ? 1u : 0u) << i;
+    return mask;
 #endif
 }
 
-struct alignas(32) WideNode {
-    float lo[3][4];
-    float hi[3][4];
-    int32_t child[4];   // >= 0: interior node; < 0: leaf (see count)
-    uint16_t count[4];  // leaf: primitives, | kBlockLeaf for a packed block; 0: interior or empty
+struct alignas(64) WideNode {
+    float lo[3][kWidth];
+    float hi[3][kWidth];
+    int32_t child[kWidth];   // >= 0: interior node; < 0: leaf (see count)
+    uint16_t count[kWidth];  // leaf: primitives, | kBlockLeaf for a packed block; 0: interior or empty
 };
 
 // A leaf child whose primitives the scene packs into one block tested at once (four
 // triangles in SoA form): ~child is the block index, not an index into order().
 constexpr uint16_t kBlockLeaf = 0x8000;
+
+// Float bounds of a double value: the nearest float at or below / at or above it.
+inline float round_down_float(double x) {
+    const float f = static_cast<float>(x);
+    return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+}
+inline float round_up_float(double x) {
+    const float f = static_cast<float>(x);
+    return static_cast<double>(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+}
 
 class WideBVH {
 public:
@@ -65,65 +82,107 @@ public:
     // Closest-hit (AnyHit = false) or any-hit traversal. `test(prim, t_max)` and
     // `test_block(block, t_max)` return true on a hit closer than t_max and lower t_max
     // (closest-hit). Children are visited nearest first; entries are culled when a
-    // closer hit was found meanwhile.
+    // closer hit was found meanwhile. Primitive tests are exact (double); only the box
+    // tests are in float, and they are conservative, so the hits found are the ones a
+    // double-precision box test would find.
     template <bool AnyHit, typename Test, typename TestBlock>
     bool traverse(const Ray& ray, double& t_max, Test&& test, TestBlock&& test_block) const {
         if (nodes_.empty()) return false;
-        constexpr double kWiden = 1.0 + 8.0 * std::numeric_limits<double>::epsilon();
-        // The three reciprocals with one vector division (three scalar ones were the
-        // largest single cost of a traversal on small trees); the same IEEE quotients.
-        const V4d inv_d = V4d{1.0, 1.0, 1.0, 1.0} / V4d{ray.d.x, ray.d.y, ray.d.z, 1.0};
-        // Per-ray slab constants, and the box rows to read as near/far planes per axis
-        // (chosen once per ray rather than per node).
-        const V4d o[3] = {V4d{} + ray.o.x, V4d{} + ray.o.y, V4d{} + ray.o.z};
-        const V4d id[3] = {V4d{} + inv_d[0], V4d{} + inv_d[1], V4d{} + inv_d[2]};
-        const V4d id_far[3] = {id[0] * kWiden, id[1] * kWiden, id[2] * kWiden};
-        // Offsets (in floats) of the near and far rows of axis a inside a WideNode.
+        // Why the float slab test never misses a box the ray touches: the near distance
+        // (plane - o) * inv is computed with o rounded (as a float) towards the near
+        // plane's side and the far distance with o rounded away from it, so the exact
+        // distances from the rounded origins bound the true ones from below and above.
+        // The subtraction, the product and the rounding of 1/d to float each add at most
+        // u = 2^-24 relative error (3u in all, sign preserved), so scaling the far
+        // distances by 1 + 2^-20 (> (1 + 3u) / (1 - 3u), even after its own rounding)
+        // keeps computed near <= computed far whenever the exact ones are ordered (pbrt-v4
+        // widens by 1 + 2 gamma_3 for the same reason). t_max is rounded up likewise.
+        constexpr float kWiden = 1.0f + 0x1p-20f;
+        constexpr double kWidenD = 1.0 + 0x1p-20;
+        // The three reciprocals with one vector division, and the origin rounded up and
+        // down to float: with a slack of 2^-23 |o| (plus 2^-140 for zero and
+        // subnormals), more than the half ulp that rounding to nearest can move, and
+        // with no libm call (nextafter per axis cost ~20% on small scenes).
+        const V4d d4 = {ray.d.x, ray.d.y, ray.d.z, 1.0};
+        const V4d o4 = {ray.o.x, ray.o.y, ray.o.z, 0.0};
+        const V4d inv_d = V4d{1.0, 1.0, 1.0, 1.0} / d4;
+        const V4d slack = (o4 < 0.0 ? -o4 : o4) * 0x1p-23 + 0x1p-140;
+        const V4f o_up = __builtin_convertvector(o4 + slack, V4f);
+        const V4f o_down = __builtin_convertvector(o4 - slack, V4f);
+        V8f o_near[3], o_far[3], inv_near[3], inv_far[3];
+        // Offsets (in floats) of the near and far rows of axis a inside a WideNode:
+        // chosen once per ray rather than per node.
         int near_row[3], far_row[3];
         for (int a = 0; a < 3; ++a) {
-            const bool neg = inv_d[a] < 0.0;
-            near_row[a] = (neg ? 12 : 0) + 4 * a;
-            far_row[a] = (neg ? 0 : 12) + 4 * a;
+            const bool neg = inv_d[a] < 0.0;  // d = -0 gives -inf: negative, as it should
+            // The near plane is lo (d > 0) or hi (d < 0): (plane - o) * inv is smallest
+            // with o rounded up for d > 0 and down for d < 0; the far plane the other way.
+            o_near[a] = V8f{} + (neg ? o_down[a] : o_up[a]);
+            o_far[a] = V8f{} + (neg ? o_up[a] : o_down[a]);
+            // 1/d beyond the float range (|d| < 2.9e-39, or d = 0): the near factor is
+            // clamped to the largest float (a smaller near distance: conservative), the
+            // far one may become infinite (a larger far distance: conservative too).
+            constexpr double kMaxFloat = std::numeric_limits<float>::max();
+            const float inv = static_cast<float>(std::clamp(inv_d[a], -kMaxFloat, kMaxFloat));
+            inv_near[a] = V8f{} + inv;
+            inv_far[a] = V8f{} + static_cast<float>(inv_d[a]) * kWiden;
+            near_row[a] = (neg ? 3 * kWidth : 0) + kWidth * a;
+            far_row[a] = (neg ? 0 : 3 * kWidth) + kWidth * a;
         }
-        struct Entry { int32_t ref; uint32_t count; double t_near; };
+        // t_max (double, lowered by hits) as a float that is never below it; refreshed
+        // after every leaf, the only place t_max changes.
+        auto t_max_float = [&]() { return static_cast<float>(t_max * kWidenD); };
+        float t_max_f = t_max_float();
+        struct Entry { int32_t ref; uint32_t count; float t_near; };
         Entry stack[kStackSize];
         int top = 0;
         bool hit = false;
         // Returns true when an any-hit query is answered.
         auto visit_leaf = [&](int32_t ref, uint32_t count) {
             if (count & kBlockLeaf) {
-                if (test_block(~static_cast<uint32_t>(ref), t_max)) { hit = true; return AnyHit; }
+                if (test_block(~static_cast<uint32_t>(ref), t_max)) {
+                    hit = true;
+                    t_max_f = t_max_float();
+                    return AnyHit;
+                }
                 return false;
             }
             const uint32_t first = ~static_cast<uint32_t>(ref);
+            bool any = false;
             for (uint32_t i = 0; i < count; ++i) {
                 if (test(order_[first + i], t_max)) {
-                    hit = true;
-                    if (AnyHit) return true;
+                    any = true;
+                    if (AnyHit) break;
                 }
             }
-            return false;
+            if (any) {
+                hit = true;
+                t_max_f = t_max_float();
+            }
+            return AnyHit && any;
         };
         int32_t node = 0;  // the interior node visited next
         for (;;) {
             const WideNode& n = nodes_[node];
             const float* rows = &n.lo[0][0];
-            // Four slab tests at once (GCC/Clang vector extensions: AVX with -march=native,
-            // pairs of SSE2 operations otherwise). Arithmetic in double on float boxes
-            // rounded outward: conservative.
-            V4d tn = {0.0, 0.0, 0.0, 0.0};
-            V4d tf = V4d{} + t_max;
+            // Eight slab tests at once (GCC/Clang vector extensions: one AVX instruction
+            // per operation with -march=native, pairs of SSE operations otherwise).
+            V8f tn = V8f{};
+            V8f tf = V8f{} + t_max_f;
             for (int a = 0; a < 3; ++a) {
-                const V4d t0 = (load_widen(rows + near_row[a]) - o[a]) * id[a];
-                const V4d t1 = (load_widen(rows + far_row[a]) - o[a]) * id_far[a];
+                V8f near_plane, far_plane;
+                __builtin_memcpy(&near_plane, rows + near_row[a], sizeof(V8f));
+                __builtin_memcpy(&far_plane, rows + far_row[a], sizeof(V8f));
+                const V8f t0 = (near_plane - o_near[a]) * inv_near[a];
+                const V8f t1 = (far_plane - o_far[a]) * inv_far[a];
                 // NaN (origin on a slab plane of a parallel ray) keeps the bound:
                 // conservative (the primitive test decides), never a missed hit.
                 tn = t0 > tn ? t0 : tn;
                 tf = t1 < tf ? t1 : tf;
             }
-            int idx[4], k = 0;
-            for (int i = 0; i < 4; ++i)
-                if (tn[i] <= tf[i] && (n.child[i] >= 0 || n.count[i] > 0)) idx[k++] = i;
+            // Empty slots hold inverted boxes (lo = +inf, hi = -inf) and never pass.
+            int idx[kWidth], k = 0;
+            for (unsigned mask = lane_mask(tn <= tf); mask != 0; mask &= mask - 1) idx[k++] = __builtin_ctz(mask);
             // Nearest first, for closest hits only: it lets a near hit cull the farther
             // entries. An any-hit query takes the first occluder in any order, and the sort's
             // data-dependent branches cost more than the order saves on small trees.
@@ -144,10 +203,12 @@ public:
                 }
             }
             // Otherwise pop: leaves are tested in place, the first interior node still
-            // nearer than the closest hit is visited next.
+            // nearer than the closest hit is visited next. The cull compares against
+            // t_max rounded up, and t_near is never above its exact value by more than
+            // the widening: only entries wholly beyond t_max are dropped.
             while (!descend && top > 0) {
                 const Entry e = stack[--top];
-                if (e.t_near > t_max) continue;
+                if (e.t_near > t_max_f) continue;
                 if (e.ref >= 0) {
                     node = e.ref;
                     descend = true;
@@ -159,7 +220,9 @@ public:
         }
     }
 
-    static constexpr int kStackSize = 512;
+    // Each level pushes at most kWidth - 1 entries, and the binary tree is at most
+    // 64 + 32 levels deep (bvh.cpp), so the wide tree's depth never exceeds that either.
+    static constexpr int kStackSize = (kWidth - 1) * 100;
 
 private:
     void build(const BVH& binary, const std::function<bool(uint32_t)>& packable);

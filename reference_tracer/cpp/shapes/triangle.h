@@ -86,8 +86,11 @@ inline bool intersect_watertight(const Triangle& tri, const Ray& r, const Watert
 using V4d = double __attribute__((vector_size(32)));
 
 struct alignas(32) Triangle4 {
-    V4d v[3][3];       // [vertex a, b, c][axis x, y, z], one lane per triangle
-    uint32_t prim[4];  // scene primitive ids
+    V4d v[3][3];           // [vertex a, b, c][axis x, y, z], one lane per triangle
+    uint32_t prim[4];      // scene primitive ids
+    // Kept here (it fits the alignment padding) so that filling in a hit needs nothing
+    // beyond the block just tested: on large meshes the triangle array is a cache miss.
+    uint32_t material[4];
 
     void set(int lane, const Triangle& t, uint32_t prim_id) {
         for (int axis = 0; axis < 3; ++axis) {
@@ -96,8 +99,15 @@ struct alignas(32) Triangle4 {
             v[2][axis][lane] = t.c[axis];
         }
         prim[lane] = prim_id;
+        material[lane] = t.material;
+    }
+    // The triangle of a lane, exactly as it was set.
+    Triangle triangle(int lane) const {
+        return {Vec3{v[0][0][lane], v[0][1][lane], v[0][2][lane]}, Vec3{v[1][0][lane], v[1][1][lane], v[1][2][lane]},
+                Vec3{v[2][0][lane], v[2][1][lane], v[2][2][lane]}, material[lane]};
     }
 };
+static_assert(sizeof(Triangle4) == 320, "Triangle4: ten 32-byte rows");
 
 // The watertight test of intersect_watertight on four triangles at once, in double. Every
 // lane performs the scalar test's operations in the same order (and the build forbids FMA
