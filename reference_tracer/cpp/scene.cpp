@@ -116,7 +116,8 @@ bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
             best_block = static_cast<int32_t>(block);
             best_lane = lane;
             return true;
-        });
+        },
+        [&](uint32_t block) { prefetch_block(block); });
     if (!hit) return false;
     if (best_block >= 0) {
         // The block is in cache; the triangle array would be a miss on large meshes.
@@ -134,7 +135,8 @@ bool Scene::occluded(const Ray& ray, double t_max) const {
     uint32_t unused = 0;
     return bvh_.traverse<true>(
         ray, t_max, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, unused); },
-        [&](uint32_t block, double& tm) { return hit_block(block, ray, wray, tm, unused) >= 0; });
+        [&](uint32_t block, double& tm) { return hit_block(block, ray, wray, tm, unused) >= 0; },
+        [&](uint32_t block) { prefetch_block(block); });
 }
 
 bool Scene::intersect_brute_force(const Ray& ray, Interaction& it, double t_max) const {

@@ -108,6 +108,10 @@ private:
         best = q.prim[lane];
         return lane;
     }
+    void prefetch_block(uint32_t block) const {
+        const char* p = reinterpret_cast<const char*>(&tri4_[block]);
+        for (size_t line = 0; line < sizeof(Triangle4); line += 64) __builtin_prefetch(p + line);
+    }
     void fill_interaction(const Ray& ray, double t, uint32_t prim, Interaction& it) const;
     static void fill_triangle(const Ray& ray, double t, const Triangle& tri, Interaction& it);
 

@@ -85,8 +85,11 @@ public:
     // closer hit was found meanwhile. Primitive tests are exact (double); only the box
     // tests are in float, and they are conservative, so the hits found are the ones a
     // double-precision box test would find.
-    template <bool AnyHit, typename Test, typename TestBlock>
-    bool traverse(const Ray& ray, double& t_max, Test&& test, TestBlock&& test_block) const {
+    // `prefetch_block(block)` is called for block leaves put on the stack: it may start
+    // loading the block, which a large mesh would otherwise miss in cache when popped.
+    template <bool AnyHit, typename Test, typename TestBlock, typename PrefetchBlock>
+    bool traverse(const Ray& ray, double& t_max, Test&& test, TestBlock&& test_block,
+                  PrefetchBlock&& prefetch_block) const {
         if (nodes_.empty()) return false;
         // Why the float slab test never misses a box the ray touches: the near distance
         // (plane - o) * inv is computed with o rounded (as a float) towards the near
@@ -191,7 +194,18 @@ public:
                     for (int j = i; j > 0 && tn[idx[j]] < tn[idx[j - 1]]; --j) std::swap(idx[j], idx[j - 1]);
             // Push all but the nearest, farthest first; the nearest is visited now, with
             // no round trip through the stack.
-            for (int j = k - 1; j > 0; --j) stack[top++] = {n.child[idx[j]], n.count[idx[j]], tn[idx[j]]};
+            for (int j = k - 1; j > 0; --j) {
+                // Entries wait on the stack while the nearer subtree is traversed: time
+                // for their memory to arrive.
+                const int32_t ref = n.child[idx[j]];
+                const uint16_t count = n.count[idx[j]];
+                if (ref >= 0) {
+                    __builtin_prefetch(&nodes_[ref]);
+                } else if (count & kBlockLeaf) {
+                    prefetch_block(~static_cast<uint32_t>(ref));
+                }
+                stack[top++] = {ref, count, tn[idx[j]]};
+            }
             bool descend = false;
             if (k > 0) {
                 const int c = idx[0];
