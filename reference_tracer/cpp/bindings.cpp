@@ -152,7 +152,8 @@ public:
     }
 
     // Closest hits of N rays: t (inf on a miss), primitive id (-1), point and front normal.
-    nb::dict intersect(const Matrix& origins, const Matrix& directions, bool brute_force, int threads) const {
+    nb::dict intersect(const Matrix& origins, const Matrix& directions, bool brute_force, int threads,
+                       bool interleave) const {
         require_columns(origins, 3, "origins");
         require_columns(directions, 3, "directions");
         if (origins.shape(0) != directions.shape(0)) throw std::invalid_argument("origins and directions differ in length");
@@ -160,15 +161,23 @@ public:
         std::vector<double> t(n, rt::kInf), p(3 * n, 0.0), nrm(3 * n, 0.0);
         std::vector<int64_t> prim(n, -1);
         if (threads < 1) throw std::invalid_argument("threads must be >= 1");
+        auto store = [&](size_t i, const rt::Interaction& it) {
+            t[i] = it.t;
+            prim[i] = it.prim;
+            for (int c = 0; c < 3; ++c) { p[3 * i + c] = it.p[c]; nrm[3 * i + c] = it.n[c]; }
+        };
         auto work = [&](size_t begin, size_t end) {
+            if (interleave && !brute_force) {
+                scene_->intersect_stream(
+                    end - begin, [&](size_t k) { return rt::Ray{row3(origins, begin + k, 0), row3(directions, begin + k, 0)}; },
+                    [&](size_t k, bool hit, const rt::Interaction& it) { if (hit) store(begin + k, it); });
+                return;
+            }
             for (size_t i = begin; i < end; ++i) {
                 const rt::Ray ray{row3(origins, i, 0), row3(directions, i, 0)};
                 rt::Interaction it;
                 const bool hit = brute_force ? scene_->intersect_brute_force(ray, it) : scene_->intersect(ray, it);
-                if (!hit) continue;
-                t[i] = it.t;
-                prim[i] = it.prim;
-                for (int c = 0; c < 3; ++c) { p[3 * i + c] = it.p[c]; nrm[3 * i + c] = it.n[c]; }
+                if (hit) store(i, it);
             }
         };
         const auto t0 = std::chrono::steady_clock::now();
@@ -252,7 +261,8 @@ NB_MODULE(_core, m) {
              "quads"_a, "triangles"_a, "triangle_materials"_a, "background"_a, "max_depth"_a, "rr_depth"_a,
              "triangle_test"_a = 0)
         .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none())
-        .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false, "threads"_a = 1)
+        .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false, "threads"_a = 1,
+             "interleave"_a = true)
         .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a)
         .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)
         .def_prop_ro("primitive_count", &PyScene::primitive_count)

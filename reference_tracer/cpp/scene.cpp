@@ -118,16 +118,8 @@ bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
             return true;
         },
         [&](uint32_t block) { prefetch_block(block); });
-    if (!hit) return false;
-    if (best_block >= 0) {
-        // The block is in cache; the triangle array would be a miss on large meshes.
-        it.t = t;
-        it.prim = best;
-        fill_triangle(ray, t, tri4_[best_block].triangle(best_lane), it);
-    } else {
-        fill_interaction(ray, t, best, it);
-    }
-    return true;
+    if (hit) fill_hit(ray, t, best, best_block, best_lane, it);
+    return hit;
 }
 
 bool Scene::occluded(const Ray& ray, double t_max) const {

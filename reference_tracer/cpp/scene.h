@@ -63,6 +63,11 @@ public:
 
     // Closest hit with t in (0, t_max).
     bool intersect(const Ray& ray, Interaction& it, double t_max = kInf) const;
+    // Closest hits (t in (0, inf)) of rays ray_at(0 .. n-1), traversed interleaved
+    // (WideBVH::traverse_interleaved, for throughput on large meshes): done(i, hit, it)
+    // receives each result, the same as intersect(ray_at(i), it) gives.
+    template <typename RayAt, typename Done>
+    void intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const;
     // Whether anything lies on the ray with t in (0, t_max) (shadow rays).
     bool occluded(const Ray& ray, double t_max = kInf) const;
     // The same by testing every primitive (a reference for BVH tests).
@@ -113,6 +118,17 @@ private:
         for (size_t line = 0; line < sizeof(Triangle4); line += 64) __builtin_prefetch(p + line);
     }
     void fill_interaction(const Ray& ray, double t, uint32_t prim, Interaction& it) const;
+    // The interaction of a closest hit: from the block just tested when it came from one
+    // (block >= 0; it is in cache, the triangle array would be a miss on large meshes).
+    void fill_hit(const Ray& ray, double t, uint32_t prim, int32_t block, int lane, Interaction& it) const {
+        if (block >= 0) {
+            it.t = t;
+            it.prim = prim;
+            fill_triangle(ray, t, tri4_[block].triangle(lane), it);
+        } else {
+            fill_interaction(ray, t, prim, it);
+        }
+    }
     static void fill_triangle(const Ray& ray, double t, const Triangle& tri, Interaction& it);
 
     Camera camera_;
@@ -126,5 +142,57 @@ private:
     LightSampler lights_;
     uint32_t quad_base_ = 0, tri_base_ = 0;
 };
+
+template <typename RayAt, typename Done>
+void Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const {
+    constexpr int kLanes = 8;
+    // Per lane: the ray and what intersect() keeps in locals.
+    struct Context {
+        Ray ray;
+        WatertightRay wray;
+        uint32_t best = 0;
+        int32_t best_block = -1;
+        int best_lane = 0;
+    };
+    struct Query {
+        const Scene& scene;
+        RayAt& ray_at;
+        Done& done;
+        Context ctx[kLanes];
+
+        Ray ray(size_t i) { return ray_at(i); }
+        void begin(int s, size_t i) {
+            Context& c = ctx[s];
+            c.ray = ray_at(i);
+            c.wray = scene.triangles_.empty() ? WatertightRay() : WatertightRay(c.ray.d);
+            c.best_block = -1;
+        }
+        bool test(int s, uint32_t prim, double& t_max) {
+            Context& c = ctx[s];
+            if (!scene.hit_primitive(prim, c.ray, c.wray, t_max, c.best)) return false;
+            c.best_block = -1;
+            return true;
+        }
+        bool test_block(int s, uint32_t block, double& t_max) {
+            Context& c = ctx[s];
+            const int lane = scene.hit_block(block, c.ray, c.wray, t_max, c.best);
+            if (lane < 0) return false;
+            c.best_block = static_cast<int32_t>(block);
+            c.best_lane = lane;
+            return true;
+        }
+        void prefetch_block(uint32_t block) { scene.prefetch_block(block); }
+        void finish(int s, size_t i, bool hit, double t) {
+            Interaction it;
+            if (hit) {
+                const Context& c = ctx[s];
+                scene.fill_hit(c.ray, t, c.best, c.best_block, c.best_lane, it);
+            }
+            done(i, hit, it);
+        }
+    };
+    Query query{*this, ray_at, done, {}};
+    bvh_.traverse_interleaved<kLanes>(n, query);
+}
 
 }  // namespace rt

@@ -5,7 +5,7 @@
 // and on large meshes each level is a cache miss: the latency chain is what the width
 // shortens. Single precision stays conservative (never a missed box) by rounding the
 // ray's origin towards the near and far planes and widening the far distances by more
-// than the arithmetic's relative error; see traverse().
+// than the arithmetic's relative error; see RaySlabs.
 #pragma once
 
 #include <algorithm>
@@ -61,6 +61,94 @@ inline float round_up_float(double x) {
     return static_cast<double>(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
 }
 
+// Per-ray constants of the conservative single-precision slab test, and the test of
+// the eight child boxes of a node.
+//
+// Why the float test never misses a box the ray touches: the near distance
+// (plane - o) * inv is computed with o rounded (as a float) towards the near plane's
+// side and the far distance with o rounded away from it, so the exact distances from
+// the rounded origins bound the true ones from below and above. The subtraction, the
+// product and the rounding of 1/d to float each add at most u = 2^-24 relative error
+// (3u in all, sign preserved), so scaling the far distances by 1 + 2^-20
+// (> (1 + 3u) / (1 - 3u), even after its own rounding) keeps computed near <= computed
+// far whenever the exact ones are ordered (pbrt-v4 widens by 1 + 2 gamma_3 for the same
+// reason). t_max is rounded up likewise (max_float).
+struct RaySlabs {
+    static constexpr float kWiden = 1.0f + 0x1p-20f;
+    static constexpr double kWidenD = 1.0 + 0x1p-20;
+
+    V8f o_near[3], o_far[3], inv_near[3], inv_far[3];
+    // Offsets (in floats) of the near and far rows of axis a inside a WideNode: chosen
+    // once per ray rather than per node.
+    int near_row[3], far_row[3];
+
+    RaySlabs() = default;
+    explicit RaySlabs(const Ray& ray) {
+        // The three reciprocals with one vector division, and the origin rounded up and
+        // down to float: with a slack of 2^-23 |o| (plus 2^-140 for zero and
+        // subnormals), more than the half ulp that rounding to nearest can move, and
+        // with no libm call (nextafter per axis cost ~20% on small scenes).
+        const V4d d4 = {ray.d.x, ray.d.y, ray.d.z, 1.0};
+        const V4d o4 = {ray.o.x, ray.o.y, ray.o.z, 0.0};
+        const V4d inv_d = V4d{1.0, 1.0, 1.0, 1.0} / d4;
+        const V4d slack = (o4 < 0.0 ? -o4 : o4) * 0x1p-23 + 0x1p-140;
+        const V4f o_up = __builtin_convertvector(o4 + slack, V4f);
+        const V4f o_down = __builtin_convertvector(o4 - slack, V4f);
+        for (int a = 0; a < 3; ++a) {
+            const bool neg = inv_d[a] < 0.0;  // d = -0 gives -inf: negative, as it should
+            // The near plane is lo (d > 0) or hi (d < 0): (plane - o) * inv is smallest
+            // with o rounded up for d > 0 and down for d < 0; the far plane the other way.
+            o_near[a] = V8f{} + (neg ? o_down[a] : o_up[a]);
+            o_far[a] = V8f{} + (neg ? o_up[a] : o_down[a]);
+            // 1/d beyond the float range (|d| < 2.9e-39, or d = 0): the near factor is
+            // clamped to the largest float (a smaller near distance: conservative), the
+            // far one may become infinite (a larger far distance: conservative too).
+            constexpr double kMaxFloat = std::numeric_limits<float>::max();
+            const float inv = static_cast<float>(std::clamp(inv_d[a], -kMaxFloat, kMaxFloat));
+            inv_near[a] = V8f{} + inv;
+            inv_far[a] = V8f{} + static_cast<float>(inv_d[a]) * kWiden;
+            near_row[a] = (neg ? 3 * kWidth : 0) + kWidth * a;
+            far_row[a] = (neg ? 0 : 3 * kWidth) + kWidth * a;
+        }
+    }
+
+    // A float never below t_max.
+    static float max_float(double t_max) { return static_cast<float>(t_max * kWidenD); }
+
+    // Eight slab tests at once (GCC/Clang vector extensions: one AVX instruction per
+    // operation with -march=native, pairs of SSE operations otherwise). Returns the
+    // mask of children whose box the ray meets within [0, t_max_f]; `tn` receives the
+    // entry distances. Empty slots hold inverted boxes (lo = +inf, hi = -inf) and never
+    // pass.
+    unsigned test(const WideNode& n, float t_max_f, V8f& tn) const {
+        const float* rows = &n.lo[0][0];
+        tn = V8f{};
+        V8f tf = V8f{} + t_max_f;
+        for (int a = 0; a < 3; ++a) {
+            V8f near_plane, far_plane;
+            __builtin_memcpy(&near_plane, rows + near_row[a], sizeof(V8f));
+            __builtin_memcpy(&far_plane, rows + far_row[a], sizeof(V8f));
+            const V8f t0 = (near_plane - o_near[a]) * inv_near[a];
+            const V8f t1 = (far_plane - o_far[a]) * inv_far[a];
+            // NaN (origin on a slab plane of a parallel ray) keeps the bound:
+            // conservative (the primitive test decides), never a missed hit.
+            tn = t0 > tn ? t0 : tn;
+            tf = t1 < tf ? t1 : tf;
+        }
+        return lane_mask(tn <= tf);
+    }
+};
+
+// The children of a node that a ray meets, nearest first (insertion sort: usually one
+// to three children, whose branches predict better than a sorting network).
+inline int sorted_hits(unsigned mask, const V8f& tn, int (&idx)[kWidth]) {
+    int k = 0;
+    for (; mask != 0; mask &= mask - 1) idx[k++] = __builtin_ctz(mask);
+    for (int i = 1; i < k; ++i)
+        for (int j = i; j > 0 && tn[idx[j]] < tn[idx[j - 1]]; --j) std::swap(idx[j], idx[j - 1]);
+    return k;
+}
+
 class WideBVH {
 public:
     // A leaf the scene packs into a block: its primitives are order()[first, first + count).
@@ -83,129 +171,46 @@ public:
     // `test_block(block, t_max)` return true on a hit closer than t_max and lower t_max
     // (closest-hit). Children are visited nearest first; entries are culled when a
     // closer hit was found meanwhile. Primitive tests are exact (double); only the box
-    // tests are in float, and they are conservative, so the hits found are the ones a
-    // double-precision box test would find.
-    // `prefetch_block(block)` is called for block leaves put on the stack: it may start
-    // loading the block, which a large mesh would otherwise miss in cache when popped.
+    // tests are in float, and they are conservative (RaySlabs), so the hits found are
+    // the ones a double-precision box test would find. `prefetch_block(block)` is called
+    // for block leaves put on the stack: it may start loading the block, which a large
+    // mesh would otherwise miss in cache when popped.
     template <bool AnyHit, typename Test, typename TestBlock, typename PrefetchBlock>
     bool traverse(const Ray& ray, double& t_max, Test&& test, TestBlock&& test_block,
                   PrefetchBlock&& prefetch_block) const {
         if (nodes_.empty()) return false;
-        // Why the float slab test never misses a box the ray touches: the near distance
-        // (plane - o) * inv is computed with o rounded (as a float) towards the near
-        // plane's side and the far distance with o rounded away from it, so the exact
-        // distances from the rounded origins bound the true ones from below and above.
-        // The subtraction, the product and the rounding of 1/d to float each add at most
-        // u = 2^-24 relative error (3u in all, sign preserved), so scaling the far
-        // distances by 1 + 2^-20 (> (1 + 3u) / (1 - 3u), even after its own rounding)
-        // keeps computed near <= computed far whenever the exact ones are ordered (pbrt-v4
-        // widens by 1 + 2 gamma_3 for the same reason). t_max is rounded up likewise.
-        constexpr float kWiden = 1.0f + 0x1p-20f;
-        constexpr double kWidenD = 1.0 + 0x1p-20;
-        // The three reciprocals with one vector division, and the origin rounded up and
-        // down to float: with a slack of 2^-23 |o| (plus 2^-140 for zero and
-        // subnormals), more than the half ulp that rounding to nearest can move, and
-        // with no libm call (nextafter per axis cost ~20% on small scenes).
-        const V4d d4 = {ray.d.x, ray.d.y, ray.d.z, 1.0};
-        const V4d o4 = {ray.o.x, ray.o.y, ray.o.z, 0.0};
-        const V4d inv_d = V4d{1.0, 1.0, 1.0, 1.0} / d4;
-        const V4d slack = (o4 < 0.0 ? -o4 : o4) * 0x1p-23 + 0x1p-140;
-        const V4f o_up = __builtin_convertvector(o4 + slack, V4f);
-        const V4f o_down = __builtin_convertvector(o4 - slack, V4f);
-        V8f o_near[3], o_far[3], inv_near[3], inv_far[3];
-        // Offsets (in floats) of the near and far rows of axis a inside a WideNode:
-        // chosen once per ray rather than per node.
-        int near_row[3], far_row[3];
-        for (int a = 0; a < 3; ++a) {
-            const bool neg = inv_d[a] < 0.0;  // d = -0 gives -inf: negative, as it should
-            // The near plane is lo (d > 0) or hi (d < 0): (plane - o) * inv is smallest
-            // with o rounded up for d > 0 and down for d < 0; the far plane the other way.
-            o_near[a] = V8f{} + (neg ? o_down[a] : o_up[a]);
-            o_far[a] = V8f{} + (neg ? o_up[a] : o_down[a]);
-            // 1/d beyond the float range (|d| < 2.9e-39, or d = 0): the near factor is
-            // clamped to the largest float (a smaller near distance: conservative), the
-            // far one may become infinite (a larger far distance: conservative too).
-            constexpr double kMaxFloat = std::numeric_limits<float>::max();
-            const float inv = static_cast<float>(std::clamp(inv_d[a], -kMaxFloat, kMaxFloat));
-            inv_near[a] = V8f{} + inv;
-            inv_far[a] = V8f{} + static_cast<float>(inv_d[a]) * kWiden;
-            near_row[a] = (neg ? 3 * kWidth : 0) + kWidth * a;
-            far_row[a] = (neg ? 0 : 3 * kWidth) + kWidth * a;
-        }
+        const RaySlabs slabs(ray);
         // t_max (double, lowered by hits) as a float that is never below it; refreshed
         // after every leaf, the only place t_max changes.
-        auto t_max_float = [&]() { return static_cast<float>(t_max * kWidenD); };
-        float t_max_f = t_max_float();
-        struct Entry { int32_t ref; uint32_t count; float t_near; };
+        float t_max_f = RaySlabs::max_float(t_max);
         Entry stack[kStackSize];
         int top = 0;
         bool hit = false;
         // Returns true when an any-hit query is answered.
         auto visit_leaf = [&](int32_t ref, uint32_t count) {
-            if (count & kBlockLeaf) {
-                if (test_block(~static_cast<uint32_t>(ref), t_max)) {
-                    hit = true;
-                    t_max_f = t_max_float();
-                    return AnyHit;
-                }
-                return false;
-            }
-            const uint32_t first = ~static_cast<uint32_t>(ref);
-            bool any = false;
-            for (uint32_t i = 0; i < count; ++i) {
-                if (test(order_[first + i], t_max)) {
-                    any = true;
-                    if (AnyHit) break;
-                }
-            }
-            if (any) {
-                hit = true;
-                t_max_f = t_max_float();
-            }
-            return AnyHit && any;
+            if (!test_leaf<AnyHit>(ref, count, t_max, test, test_block)) return false;
+            hit = true;
+            t_max_f = RaySlabs::max_float(t_max);
+            return AnyHit;
         };
         int32_t node = 0;  // the interior node visited next
         for (;;) {
             const WideNode& n = nodes_[node];
-            const float* rows = &n.lo[0][0];
-            // Eight slab tests at once (GCC/Clang vector extensions: one AVX instruction
-            // per operation with -march=native, pairs of SSE operations otherwise).
-            V8f tn = V8f{};
-            V8f tf = V8f{} + t_max_f;
-            for (int a = 0; a < 3; ++a) {
-                V8f near_plane, far_plane;
-                __builtin_memcpy(&near_plane, rows + near_row[a], sizeof(V8f));
-                __builtin_memcpy(&far_plane, rows + far_row[a], sizeof(V8f));
-                const V8f t0 = (near_plane - o_near[a]) * inv_near[a];
-                const V8f t1 = (far_plane - o_far[a]) * inv_far[a];
-                // NaN (origin on a slab plane of a parallel ray) keeps the bound:
-                // conservative (the primitive test decides), never a missed hit.
-                tn = t0 > tn ? t0 : tn;
-                tf = t1 < tf ? t1 : tf;
+            V8f tn;
+            const unsigned mask = slabs.test(n, t_max_f, tn);
+            int idx[kWidth], k;
+            if (AnyHit) {
+                // An any-hit query takes the first occluder in any order, and the sort's
+                // data-dependent branches cost more than the order saves on small trees.
+                k = 0;
+                for (unsigned m = mask; m != 0; m &= m - 1) idx[k++] = __builtin_ctz(m);
+            } else {
+                // Nearest first: a near hit culls the farther entries.
+                k = sorted_hits(mask, tn, idx);
             }
-            // Empty slots hold inverted boxes (lo = +inf, hi = -inf) and never pass.
-            int idx[kWidth], k = 0;
-            for (unsigned mask = lane_mask(tn <= tf); mask != 0; mask &= mask - 1) idx[k++] = __builtin_ctz(mask);
-            // Nearest first, for closest hits only: it lets a near hit cull the farther
-            // entries. An any-hit query takes the first occluder in any order, and the sort's
-            // data-dependent branches cost more than the order saves on small trees.
-            if (!AnyHit)
-                for (int i = 1; i < k; ++i)
-                    for (int j = i; j > 0 && tn[idx[j]] < tn[idx[j - 1]]; --j) std::swap(idx[j], idx[j - 1]);
             // Push all but the nearest, farthest first; the nearest is visited now, with
             // no round trip through the stack.
-            for (int j = k - 1; j > 0; --j) {
-                // Entries wait on the stack while the nearer subtree is traversed: time
-                // for their memory to arrive.
-                const int32_t ref = n.child[idx[j]];
-                const uint16_t count = n.count[idx[j]];
-                if (ref >= 0) {
-                    __builtin_prefetch(&nodes_[ref]);
-                } else if (count & kBlockLeaf) {
-                    prefetch_block(~static_cast<uint32_t>(ref));
-                }
-                stack[top++] = {ref, count, tn[idx[j]]};
-            }
+            for (int j = k - 1; j > 0; --j) push(stack, top, n, idx[j], tn, prefetch_block);
             bool descend = false;
             if (k > 0) {
                 const int c = idx[0];
@@ -234,11 +239,149 @@ public:
         }
     }
 
+    // Closest hits of many rays, traversed kLanes at a time in round robin. Each step of
+    // a ray visits one node or one leaf and prefetches what it visits next, so the cache
+    // miss of one ray's next step is served while the other rays take theirs: on large
+    // meshes single-ray traversal waits on one miss after another, and this keeps
+    // several in flight (what packets do for coherent rays, for incoherent ones too).
+    // Each ray's result is exactly what traverse<false> returns for it.
+    //
+    // `query` provides: ray(i) -> Ray; begin(slot, i) before ray i's traversal in slot;
+    // test(slot, prim, t_max), test_block(slot, block, t_max) as for traverse;
+    // prefetch_block(block); finish(slot, i, hit, t).
+    template <int kLanes, typename Query>
+    void traverse_interleaved(size_t count, Query& query) const {
+        struct Lane {
+            RaySlabs slabs;
+            double t_max;
+            float t_max_f;
+            bool hit;
+            size_t ray;
+            int top;
+            int32_t ref;     // what the next step visits: a node (>= 0) or a leaf
+            uint32_t leaf_count;
+            bool active;
+        };
+        if (nodes_.empty()) {
+            for (size_t i = 0; i < count; ++i) { query.begin(0, i); query.finish(0, i, false, kInf); }
+            return;
+        }
+        // One stack per lane, as deep as this tree can need.
+        const int stack_size = (depth_ + 1) * (kWidth - 1) + 1;
+        std::vector<Entry> stacks(static_cast<size_t>(stack_size) * kLanes);
+        Lane lanes[kLanes];
+        size_t next_ray = 0;
+        auto prefetch = [&](int32_t ref, uint32_t leaf_count) {
+            if (ref >= 0) {
+                prefetch_node(ref);
+            } else if (leaf_count & kBlockLeaf) {
+                query.prefetch_block(~static_cast<uint32_t>(ref));
+            }
+        };
+        auto start = [&](int s) {
+            Lane& l = lanes[s];
+            if (next_ray == count) { l.active = false; return; }
+            l.ray = next_ray++;
+            query.begin(s, l.ray);
+            l.slabs = RaySlabs(query.ray(l.ray));
+            l.t_max = kInf;
+            l.t_max_f = RaySlabs::max_float(l.t_max);
+            l.hit = false;
+            l.top = 0;
+            l.ref = 0;
+            l.leaf_count = 0;
+            l.active = true;
+        };
+        int active = 0;
+        for (int s = 0; s < kLanes; ++s) {
+            start(s);
+            active += lanes[s].active;
+        }
+        while (active > 0) {
+            for (int s = 0; s < kLanes; ++s) {
+                Lane& l = lanes[s];
+                if (!l.active) continue;
+                Entry* stack = stacks.data() + static_cast<size_t>(s) * stack_size;
+                bool have_next = false;
+                if (l.ref >= 0) {
+                    const WideNode& n = nodes_[l.ref];
+                    V8f tn;
+                    int idx[kWidth];
+                    const int k = sorted_hits(l.slabs.test(n, l.t_max_f, tn), tn, idx);
+                    for (int j = k - 1; j > 0; --j)
+                        push(stack, l.top, n, idx[j], tn, [&](uint32_t b) { query.prefetch_block(b); });
+                    if (k > 0) {
+                        l.ref = n.child[idx[0]];
+                        l.leaf_count = n.count[idx[0]];
+                        have_next = true;
+                    }
+                } else {
+                    auto test = [&](uint32_t prim, double& t) { return query.test(s, prim, t); };
+                    auto test_block = [&](uint32_t block, double& t) { return query.test_block(s, block, t); };
+                    if (test_leaf<false>(l.ref, l.leaf_count, l.t_max, test, test_block)) {
+                        l.hit = true;
+                        l.t_max_f = RaySlabs::max_float(l.t_max);
+                    }
+                }
+                while (!have_next && l.top > 0) {
+                    const Entry e = stack[--l.top];
+                    if (e.t_near > l.t_max_f) continue;
+                    l.ref = e.ref;
+                    l.leaf_count = e.count;
+                    have_next = true;
+                }
+                if (have_next) {
+                    prefetch(l.ref, l.leaf_count);
+                } else {
+                    query.finish(s, l.ray, l.hit, l.t_max);
+                    start(s);
+                    active -= !l.active;
+                }
+            }
+        }
+    }
+
     // Each level pushes at most kWidth - 1 entries, and the binary tree is at most
     // 64 + 32 levels deep (bvh.cpp), so the wide tree's depth never exceeds that either.
     static constexpr int kStackSize = (kWidth - 1) * 100;
 
 private:
+    struct Entry { int32_t ref; uint32_t count; float t_near; };
+
+    void prefetch_node(int32_t ref) const {
+        const char* p = reinterpret_cast<const char*>(&nodes_[ref]);
+        for (size_t line = 0; line < sizeof(WideNode); line += 64) __builtin_prefetch(p + line);
+    }
+
+    // Pushes child c of node n, starting the load of its memory: it waits on the stack
+    // while the nearer subtree is traversed.
+    template <typename PrefetchBlock>
+    void push(Entry* stack, int& top, const WideNode& n, int c, const V8f& tn, PrefetchBlock&& prefetch_block) const {
+        const int32_t ref = n.child[c];
+        const uint16_t count = n.count[c];
+        if (ref >= 0) {
+            prefetch_node(ref);
+        } else if (count & kBlockLeaf) {
+            prefetch_block(~static_cast<uint32_t>(ref));
+        }
+        stack[top++] = {ref, count, tn[c]};
+    }
+
+    // Tests the primitives of a leaf; true on a hit (the first one, for any-hit queries).
+    template <bool AnyHit, typename Test, typename TestBlock>
+    bool test_leaf(int32_t ref, uint32_t count, double& t_max, Test&& test, TestBlock&& test_block) const {
+        if (count & kBlockLeaf) return test_block(~static_cast<uint32_t>(ref), t_max);
+        const uint32_t first = ~static_cast<uint32_t>(ref);
+        bool any = false;
+        for (uint32_t i = 0; i < count; ++i) {
+            if (test(order_[first + i], t_max)) {
+                any = true;
+                if (AnyHit) break;
+            }
+        }
+        return any;
+    }
+
     void build(const BVH& binary, const std::function<bool(uint32_t)>& packable);
     int32_t collapse(const BVH& binary, uint32_t node, int depth, const std::function<bool(uint32_t)>& packable);
     // Child reference and count of a leaf of the binary tree (a block leaf when packable).
