@@ -21,7 +21,7 @@ struct BVHNode {
 class BVH {
 public:
     static constexpr int kMaxLeafSize = 4;
-    static constexpr int kBins = 16;
+    static constexpr int kBins = 32;
     // SAH cost of testing one block of up to kMaxLeafSize packable primitives at once,
     // relative to one node traversal (and to one test of an unpacked primitive).
     static constexpr double kBlockCost = 2.0;
