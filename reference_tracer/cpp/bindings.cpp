@@ -243,6 +243,7 @@ public:
     size_t emitter_count() const { return scene_->lights().emitter_count(); }
     size_t bvh_nodes() const { return scene_->bvh().node_count(); }
     int bvh_depth() const { return scene_->bvh().depth(); }
+    size_t bvh_blocks() const { return scene_->bvh().blocks().size(); }
     double build_seconds() const { return build_seconds_; }
 
 private:
@@ -269,5 +270,6 @@ NB_MODULE(_core, m) {
         .def_prop_ro("emitter_count", &PyScene::emitter_count)
         .def_prop_ro("bvh_nodes", &PyScene::bvh_nodes)
         .def_prop_ro("bvh_depth", &PyScene::bvh_depth)
+        .def_prop_ro("bvh_blocks", &PyScene::bvh_blocks)
         .def_prop_ro("build_seconds", &PyScene::build_seconds);
 }
