@@ -556,7 +556,8 @@ def intersect_ours(core, origins, directions, *, threads: int = 1, repeats: int 
     -------
     dict
         ``t`` (inf on a miss), ``prim``, ``seconds`` (list: the query's own wall time,
-        GIL released), ``call_seconds`` and ``process_seconds`` (lists).
+        GIL released), ``call_seconds`` and ``process_seconds`` (lists),
+        ``packet_fraction`` (the share of rays the batch traced as coherent packets).
     """
     o = np.ascontiguousarray(origins, dtype=np.float64)
     d = np.ascontiguousarray(directions, dtype=np.float64)
@@ -567,7 +568,8 @@ def intersect_ours(core, origins, directions, *, threads: int = 1, repeats: int 
         calls.append(wall)
         cpus.append(cpu)
     return {"t": np.asarray(out["t"]), "prim": np.asarray(out["prim"]), "seconds": secs,
-            "call_seconds": calls, "process_seconds": cpus}
+            "call_seconds": calls, "process_seconds": cpus,
+            "packet_fraction": float(out["packet_rays"]) / max(1, len(o))}
 
 
 def intersect_mitsuba(mscene, origins, directions, *, repeats: int = 3):
@@ -794,7 +796,8 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
                    "ours_mrays_per_second": n / _median(ours_secs) / 1e6,
                    "ours_mrays_per_cpu_second": n / _median(ours_cpu) / 1e6 if _median(ours_cpu) > 0 else None,
                    "ours_ns_per_ray": _median(ours_secs) / n * 1e9,
-                   "hit_fraction": float(np.isfinite(ours["t"]).mean())}
+                   "hit_fraction": float(np.isfinite(ours["t"]).mean()),
+                   "ours_packet_fraction": ours["packet_fraction"]}
             if use_mi:
                 agree = hit_agreement(ours["t"], mres["t"])
                 both = np.isfinite(ours["t"]) & np.isfinite(mres["t"])

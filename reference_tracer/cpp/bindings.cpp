@@ -166,9 +166,10 @@ public:
             prim[i] = it.prim;
             for (int c = 0; c < 3; ++c) { p[3 * i + c] = it.p[c]; nrm[3 * i + c] = it.n[c]; }
         };
-        auto work = [&](size_t begin, size_t end) {
+        std::vector<size_t> packet_rays(static_cast<size_t>(threads), 0);
+        auto work = [&](size_t begin, size_t end, size_t worker) {
             if (interleave && !brute_force) {
-                scene_->intersect_stream(
+                packet_rays[worker] = scene_->intersect_stream(
                     end - begin, [&](size_t k) { return rt::Ray{row3(origins, begin + k, 0), row3(directions, begin + k, 0)}; },
                     [&](size_t k, bool hit, const rt::Interaction& it) { if (hit) store(begin + k, it); });
                 return;
@@ -187,7 +188,7 @@ public:
             const size_t chunk = (n + threads - 1) / threads;
             for (int k = 0; k < threads; ++k) {
                 const size_t begin = std::min(n, k * chunk), end = std::min(n, begin + chunk);
-                pool.emplace_back(work, begin, end);
+                pool.emplace_back(work, begin, end, static_cast<size_t>(k));
             }
             for (std::thread& th : pool) th.join();
         }
@@ -198,6 +199,9 @@ public:
         r["point"] = to_numpy(std::move(p), {n, 3});
         r["normal"] = to_numpy(std::move(nrm), {n, 3});
         r["seconds"] = seconds;
+        size_t in_packets = 0;
+        for (size_t c : packet_rays) in_packets += c;
+        r["packet_rays"] = in_packets;
         return r;
     }
 

@@ -28,6 +28,10 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
     // Leaves made only of triangles are packed into SoA blocks of four, tested together;
     // the Cramer variants (kept to measure their leaks) test one triangle at a time.
     const bool pack = settings_.triangle_test == TriangleTest::Watertight;
+    AABB world;
+    for (const AABB& b : boxes)
+        if (b.valid() && is_finite(b.lo) && is_finite(b.hi)) world.expand(b);
+    if (world.valid()) coherent_origin_radius_ = 0.01 * length(world.hi - world.lo);
     const auto packable = [&](uint32_t prim) { return pack && prim >= tri_base_; };
     bvh_ = WideBVH(BVH(boxes, packable), packable);
     tri4_.resize(bvh_.blocks().size());

@@ -3,6 +3,8 @@
 // Primitive ids are global: spheres first, then quads, then triangles.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <vector>
 
 #include "wide_bvh.h"
@@ -63,11 +65,12 @@ public:
 
     // Closest hit with t in (0, t_max).
     bool intersect(const Ray& ray, Interaction& it, double t_max = kInf) const;
-    // Closest hits (t in (0, inf)) of rays ray_at(0 .. n-1), traversed interleaved
-    // (WideBVH::traverse_interleaved, for throughput on large meshes): done(i, hit, it)
-    // receives each result, the same as intersect(ray_at(i), it) gives.
+    // Closest hits (t in (0, inf)) of rays ray_at(0 .. n-1), for throughput on large
+    // meshes: runs of coherent rays as packets (WideBVH::traverse_packet), the others
+    // interleaved (WideBVH::traverse_interleaved). done(i, hit, it) receives each result,
+    // the same as intersect(ray_at(i), it) gives. Returns how many rays went in packets.
     template <typename RayAt, typename Done>
-    void intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const;
+    size_t intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const;
     // Whether anything lies on the ray with t in (0, t_max) (shadow rays).
     bool occluded(const Ray& ray, double t_max = kInf) const;
     // The same by testing every primitive (a reference for BVH tests).
@@ -113,6 +116,23 @@ private:
         best = q.prim[lane];
         return lane;
     }
+    // Whether rays[0 .. m) may be traced as a packet: directions in one octant (the same
+    // near and far box planes for all) and close in direction (components within half the
+    // first ray's largest component of its own), origins within 1% of the scene's extent.
+    // Camera rays through neighbouring pixels are; random rays almost never (one octant
+    // alone: probability 8^-7). Only speed depends on it, never a result.
+    static bool coherent(const Ray* rays, int m, double origin_radius) {
+        const Vec3& d0 = rays[0].d;
+        const double spread = 0.5 * std::max({std::abs(d0.x), std::abs(d0.y), std::abs(d0.z)});
+        for (int r = 1; r < m; ++r)
+            for (int a = 0; a < 3; ++a) {
+                if (std::signbit(rays[r].d[a]) != std::signbit(d0[a])) return false;
+                if (!(std::abs(rays[r].d[a] - d0[a]) <= spread)) return false;
+                if (!(std::abs(rays[r].o[a] - rays[0].o[a]) <= origin_radius)) return false;
+            }
+        return true;
+    }
+    bool coherent(const Ray* rays, int m) const { return coherent(rays, m, coherent_origin_radius_); }
     void prefetch_block(uint32_t block) const {
         const char* p = reinterpret_cast<const char*>(&tri4_[block]);
         for (size_t line = 0; line < sizeof(Triangle4); line += 64) __builtin_prefetch(p + line);
@@ -141,11 +161,12 @@ private:
     std::vector<Triangle4> tri4_;  // the BVH's block leaves (watertight test only), in block order
     LightSampler lights_;
     uint32_t quad_base_ = 0, tri_base_ = 0;
+    double coherent_origin_radius_ = 0.0;  // 1% of the diagonal of the scene's bounds
 };
 
 template <typename RayAt, typename Done>
-void Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const {
-    constexpr int kLanes = 8;
+size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const {
+    constexpr int kLanes = kWidth;
     // Per lane: the ray and what intersect() keeps in locals.
     struct Context {
         Ray ray;
@@ -154,45 +175,86 @@ void Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const {
         int32_t best_block = -1;
         int best_lane = 0;
     };
-    struct Query {
+    auto lane_begin = [&](Context& c, const Ray& ray) {
+        c.ray = ray;
+        c.wray = triangles_.empty() ? WatertightRay() : WatertightRay(ray.d);
+        c.best_block = -1;
+    };
+    auto lane_test = [&](Context& c, uint32_t prim, double& t_max) {
+        if (!hit_primitive(prim, c.ray, c.wray, t_max, c.best)) return false;
+        c.best_block = -1;
+        return true;
+    };
+    auto lane_test_block = [&](Context& c, uint32_t block, double& t_max) {
+        const int lane = hit_block(block, c.ray, c.wray, t_max, c.best);
+        if (lane < 0) return false;
+        c.best_block = static_cast<int32_t>(block);
+        c.best_lane = lane;
+        return true;
+    };
+    auto lane_finish = [&](const Context& c, size_t i, bool hit, double t) {
+        Interaction it;
+        if (hit) fill_hit(c.ray, t, c.best, c.best_block, c.best_lane, it);
+        done(i, hit, it);
+    };
+
+    // Runs of kLanes consecutive rays that are coherent go through the BVH as packets;
+    // the rest are traced one ray per lane, interleaved.
+    struct PacketQuery {
+        decltype(lane_test)& test_fn;
+        decltype(lane_test_block)& test_block_fn;
         const Scene& scene;
+        Context* ctx;
+        bool test(int r, uint32_t prim, double& t_max) { return test_fn(ctx[r], prim, t_max); }
+        bool test_block(int r, uint32_t block, double& t_max) { return test_block_fn(ctx[r], block, t_max); }
+        void prefetch_block(uint32_t block) { scene.prefetch_block(block); }
+    };
+    Context packet_ctx[kLanes];
+    PacketQuery packet{lane_test, lane_test_block, *this, packet_ctx};
+    std::vector<size_t> scattered;
+    size_t in_packets = 0;
+    for (size_t base = 0; base < n; base += kLanes) {
+        const int m = static_cast<int>(std::min<size_t>(kLanes, n - base));
+        Ray rays[kLanes];
+        for (int r = 0; r < m; ++r) rays[r] = ray_at(base + r);
+        if (!coherent(rays, m)) {
+            for (int r = 0; r < m; ++r) scattered.push_back(base + r);
+            continue;
+        }
+        RaySlabs slabs[kLanes];
+        double t_max[kLanes];
+        bool hit[kLanes] = {};
+        for (int r = 0; r < kLanes; ++r) {
+            slabs[r] = RaySlabs(rays[r < m ? r : 0]);
+            t_max[r] = kInf;
+            lane_begin(packet_ctx[r], rays[r < m ? r : 0]);
+        }
+        bvh_.traverse_packet(slabs, (1u << m) - 1u, t_max, hit, packet);
+        for (int r = 0; r < m; ++r) lane_finish(packet_ctx[r], base + r, hit[r], t_max[r]);
+        in_packets += m;
+    }
+    if (scattered.empty()) return in_packets;
+
+    struct InterleavedQuery {
+        decltype(lane_test)& test_fn;
+        decltype(lane_test_block)& test_block_fn;
+        decltype(lane_begin)& begin_fn;
+        decltype(lane_finish)& finish_fn;
         RayAt& ray_at;
-        Done& done;
+        const std::vector<size_t>& index;
+        const Scene& scene;
         Context ctx[kLanes];
 
-        Ray ray(size_t i) { return ray_at(i); }
-        void begin(int s, size_t i) {
-            Context& c = ctx[s];
-            c.ray = ray_at(i);
-            c.wray = scene.triangles_.empty() ? WatertightRay() : WatertightRay(c.ray.d);
-            c.best_block = -1;
-        }
-        bool test(int s, uint32_t prim, double& t_max) {
-            Context& c = ctx[s];
-            if (!scene.hit_primitive(prim, c.ray, c.wray, t_max, c.best)) return false;
-            c.best_block = -1;
-            return true;
-        }
-        bool test_block(int s, uint32_t block, double& t_max) {
-            Context& c = ctx[s];
-            const int lane = scene.hit_block(block, c.ray, c.wray, t_max, c.best);
-            if (lane < 0) return false;
-            c.best_block = static_cast<int32_t>(block);
-            c.best_lane = lane;
-            return true;
-        }
+        Ray ray(size_t k) { return ray_at(index[k]); }
+        void begin(int s, size_t k) { begin_fn(ctx[s], ray_at(index[k])); }
+        bool test(int s, uint32_t prim, double& t_max) { return test_fn(ctx[s], prim, t_max); }
+        bool test_block(int s, uint32_t block, double& t_max) { return test_block_fn(ctx[s], block, t_max); }
         void prefetch_block(uint32_t block) { scene.prefetch_block(block); }
-        void finish(int s, size_t i, bool hit, double t) {
-            Interaction it;
-            if (hit) {
-                const Context& c = ctx[s];
-                scene.fill_hit(c.ray, t, c.best, c.best_block, c.best_lane, it);
-            }
-            done(i, hit, it);
-        }
+        void finish(int s, size_t k, bool hit, double t) { finish_fn(ctx[s], index[k], hit, t); }
     };
-    Query query{*this, ray_at, done, {}};
-    bvh_.traverse_interleaved<kLanes>(n, query);
+    InterleavedQuery query{lane_test, lane_test_block, lane_begin, lane_finish, ray_at, scattered, *this, {}};
+    bvh_.traverse_interleaved<kLanes>(scattered.size(), query);
+    return in_packets;
 }
 
 }  // namespace rt

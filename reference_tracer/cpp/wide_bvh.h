@@ -40,6 +40,27 @@ inline unsigned lane_mask(V8i lanes) {
 #endif
 }
 
+// The smallest of eight floats (no NaN among them).
+inline float min_lane(V8f v) {
+#ifdef __AVX__
+    __m256 x = reinterpret_cast<__m256>(v);
+    x = _mm256_min_ps(x, _mm256_permute2f128_ps(x, x, 1));
+    x = _mm256_min_ps(x, _mm256_shuffle_ps(x, x, 0x4E));
+    x = _mm256_min_ps(x, _mm256_shuffle_ps(x, x, 0xB1));
+    return _mm256_cvtss_f32(x);
+#else
+    float m = v[0];
+    for (int i = 1; i < kWidth; ++i) m = v[i] < m ? v[i] : m;
+    return m;
+#endif
+}
+
+// Lane i all ones where bit i of mask is set.
+inline V8i mask_lanes(unsigned mask) {
+    const V8i bits = {1, 2, 4, 8, 16, 32, 64, 128};
+    return (bits & static_cast<int32_t>(mask)) != 0;
+}
+
 struct alignas(64) WideNode {
     float lo[3][kWidth];
     float hi[3][kWidth];
@@ -338,6 +359,113 @@ public:
                     active -= !l.active;
                 }
             }
+        }
+    }
+
+    // Closest hits of a packet of up to kWidth rays that share one octant of directions
+    // (so the same box rows are near and far planes for all of them), lane r for ray r,
+    // `active` the mask of rays present. Each node's children are tested one at a time
+    // against all the rays at once, and the packet descends into a child if any ray
+    // meets its box: for coherent rays (camera rays through neighbouring pixels) one
+    // node fetch, one sort and one push serve up to eight rays, where traversing them
+    // one by one repeats that branchy work per ray. Every ray's result is the one
+    // traverse<false> gives it: it is tested against every leaf whose box it meets
+    // (per ray), and an entry is dropped for a ray only when the ray's own closest hit
+    // is nearer than the entry's distance (the smallest over the packet's rays).
+    // `query` provides test(lane, prim, t_max), test_block(lane, block, t_max) (as for
+    // traverse) and prefetch_block(block); t_max[r] in, closest t out; hit[r] set on a hit.
+    template <typename Query>
+    void traverse_packet(const RaySlabs (&slabs)[kWidth], unsigned active, double (&t_max)[kWidth],
+                         bool (&hit)[kWidth], Query& query) const {
+        if (nodes_.empty() || active == 0) return;
+        // Lane r of each vector: ray r's slab constants.
+        V8f o_near[3], o_far[3], inv_near[3], inv_far[3];
+        for (int a = 0; a < 3; ++a)
+            for (int r = 0; r < kWidth; ++r) {
+                o_near[a][r] = slabs[r].o_near[a][0];
+                o_far[a][r] = slabs[r].o_far[a][0];
+                inv_near[a][r] = slabs[r].inv_near[a][0];
+                inv_far[a][r] = slabs[r].inv_far[a][0];
+            }
+        const int* near_row = slabs[0].near_row;
+        const int* far_row = slabs[0].far_row;
+        // Absent rays get t_max -inf: no box passes for them.
+        V8f t_max_f;
+        for (int r = 0; r < kWidth; ++r)
+            t_max_f[r] = (active >> r) & 1u ? RaySlabs::max_float(t_max[r]) : -std::numeric_limits<float>::infinity();
+        struct PacketEntry { int32_t ref; uint16_t count; uint16_t mask; float t_near; };
+        PacketEntry stack[kStackSize];
+        int top = 0;
+        int32_t ref = 0;     // the item visited next: the root, for all rays present
+        uint32_t count = 0;
+        unsigned mask = active;
+        for (;;) {
+            if (ref >= 0) {
+                const WideNode& n = nodes_[ref];
+                const float* rows = &n.lo[0][0];
+                const V8i in_packet = mask_lanes(mask);
+                int idx[kWidth], k = 0;
+                unsigned child_mask[kWidth];
+                float dist[kWidth];
+                for (int c = 0; c < kWidth; ++c) {
+                    if (n.child[c] == 0 && n.count[c] == 0) break;  // empty slots come last
+                    V8f tn = V8f{};
+                    V8f tf = t_max_f;
+                    for (int a = 0; a < 3; ++a) {
+                        const V8f t0 = (rows[near_row[a] + c] - o_near[a]) * inv_near[a];
+                        const V8f t1 = (rows[far_row[a] + c] - o_far[a]) * inv_far[a];
+                        tn = t0 > tn ? t0 : tn;  // NaN keeps the bound, as in RaySlabs::test
+                        tf = t1 < tf ? t1 : tf;
+                    }
+                    const V8i pass = (tn <= tf) & in_packet;
+                    const unsigned m = lane_mask(pass);
+                    if (m == 0) continue;
+                    idx[k] = c;
+                    child_mask[c] = m;
+                    dist[c] = min_lane(pass ? tn : V8f{} + std::numeric_limits<float>::infinity());
+                    ++k;
+                }
+                for (int i = 1; i < k; ++i)
+                    for (int j = i; j > 0 && dist[idx[j]] < dist[idx[j - 1]]; --j) std::swap(idx[j], idx[j - 1]);
+                for (int j = k - 1; j > 0; --j) {
+                    const int c = idx[j];
+                    if (n.child[c] >= 0) {
+                        prefetch_node(n.child[c]);
+                    } else if (n.count[c] & kBlockLeaf) {
+                        query.prefetch_block(~static_cast<uint32_t>(n.child[c]));
+                    }
+                    stack[top++] = {n.child[c], n.count[c], static_cast<uint16_t>(child_mask[c]), dist[c]};
+                }
+                if (k > 0) {
+                    ref = n.child[idx[0]];
+                    count = n.count[idx[0]];
+                    mask = child_mask[idx[0]];
+                    continue;
+                }
+            } else {
+                for (unsigned m = mask; m != 0; m &= m - 1) {
+                    const int r = __builtin_ctz(m);
+                    auto test = [&](uint32_t prim, double& t) { return query.test(r, prim, t); };
+                    auto test_block = [&](uint32_t block, double& t) { return query.test_block(r, block, t); };
+                    if (test_leaf<false>(ref, count, t_max[r], test, test_block)) {
+                        hit[r] = true;
+                        t_max_f[r] = RaySlabs::max_float(t_max[r]);
+                    }
+                }
+            }
+            // Pop: the rays whose closest hit is nearer than the entry leave it.
+            bool next = false;
+            while (top > 0) {
+                const PacketEntry e = stack[--top];
+                const unsigned m = e.mask & lane_mask(t_max_f >= e.t_near);
+                if (m == 0) continue;
+                ref = e.ref;
+                count = e.count;
+                mask = m;
+                next = true;
+                break;
+            }
+            if (!next) return;
         }
     }
 
