@@ -29,8 +29,30 @@ def _material_row(m) -> list:
     return [code, *albedo, *radiance, param, two_sided, reflects, variant]
 
 
+#: Largest world-space coordinate magnitude a scene may reach. The BVH tests boxes in
+#: single precision (floats end at 3.4e38) and rounds boxes and ray origins outward;
+#: this leaves that rounding, and the distances it computes, far from overflow.
+MAX_COORDINATE = 1e30
+
+
+def _check_extent(what: str, points) -> None:
+    points = np.asarray(points, dtype=np.float64)
+    if points.size == 0:
+        return
+    reach = float(np.max(np.abs(points)))
+    if not reach <= MAX_COORDINATE:
+        raise ValueError(f"{what} reaches |coordinate| = {reach:.3g}, beyond {MAX_COORDINATE:g}: the BVH tests "
+                         "boxes in single precision; rescale the scene")
+
+
 def compile_scene(scene: Scene) -> dict:
-    """Return the keyword arguments of ``_core.Scene`` for ``scene``."""
+    """Return the keyword arguments of ``_core.Scene`` for ``scene``.
+
+    Raises
+    ------
+    ValueError
+        When a shape or the camera lies beyond :data:`MAX_COORDINATE` in world space.
+    """
     materials: list = []
     index: dict = {}
 
@@ -42,8 +64,9 @@ def compile_scene(scene: Scene) -> dict:
         return index[key]
 
     spheres, quads, tris, tri_mats = [], [], [], []
-    for s in scene.shapes:
+    for i, s in enumerate(scene.shapes):
         mid = mat_id(s.material)
+        n_rows = (len(spheres), len(quads), len(tris))
         if isinstance(s, Sphere):
             spheres.append([*s.world_center(), s.world_radius(), mid, float(s.flip_normals)])
         elif isinstance(s, Quad):
@@ -61,8 +84,17 @@ def compile_scene(scene: Scene) -> dict:
             tri_mats.append(np.full(len(t), mid, dtype=np.int32))
         else:  # pragma: no cover - Scene validation admits only these
             raise ValueError(f"unsupported shape {type(s).__name__}")
+        what = f"shapes[{i}] ({type(s).__name__})"
+        for row in spheres[n_rows[0]:]:
+            _check_extent(what, [abs(x) + row[3] for x in row[:3]])
+        for Q0, Q1, Q2, u0, u1, u2, v0, v1, v2, _ in quads[n_rows[1]:]:
+            Q, u, v = np.array([Q0, Q1, Q2]), np.array([u0, u1, u2]), np.array([v0, v1, v2])
+            _check_extent(what, [Q, Q + u, Q + v, Q + u + v])
+        for t in tris[n_rows[2]:]:
+            _check_extent(what, t)
 
     c = scene.camera
+    _check_extent("the camera", [c.lookfrom])
     return dict(
         lookfrom=np.asarray(c.lookfrom), lookat=np.asarray(c.lookat), vup=np.asarray(c.vup),
         vfov=float(c.vfov), width=int(c.width), height=int(c.height),

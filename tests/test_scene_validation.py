@@ -121,3 +121,27 @@ def test_render_validation(kw, field):
 def test_render_rejects_non_scene():
     with pytest.raises(ValueError, match="scene must be"):
         rt.render("cornell_box", spp=1)
+
+
+@pytest.mark.parametrize("shapes, cam, what", [
+    ([rt.Sphere((1e31, 0, 0), 1, MAT)], {}, r"shapes\[0\] \(Sphere\)"),
+    ([rt.Sphere((0, 0, 0), 1, MAT), rt.Sphere((0, 0, 0), 2e30, MAT)], {}, r"shapes\[1\] \(Sphere\)"),
+    ([rt.Quad((0, 0, 0), (3e30, 0, 0), (0, 1, 0), MAT)], {}, r"shapes\[0\] \(Quad\)"),
+    ([rt.Mesh([(0, 0, 0), (1, 0, 0), (0, 5e30, 0)], [(0, 1, 2)], MAT)], {}, r"shapes\[0\] \(Mesh\)"),
+    ([rt.Sphere((0, 0, 0), 1, MAT).translate((0, 0, -2e30))], {}, r"shapes\[0\] \(Sphere\)"),
+    ([rt.Sphere((0, 0, 0), 1, MAT)], dict(lookfrom=(0, 0, -1e31)), "the camera"),
+])
+def test_render_rejects_coordinates_beyond_single_precision_headroom(shapes, cam, what):
+    # The BVH tests boxes in single precision (wide_bvh.h); a world-space coordinate
+    # beyond 1e30 is refused with the shape named, never rendered wrong.
+    s = rt.Scene(camera=camera(**cam), shapes=shapes, background=1.0)
+    with pytest.raises(ValueError, match=what + r".*beyond 1e\+30"):
+        rt.render(s, spp=1)
+
+
+def test_render_accepts_large_but_representable_coordinates():
+    # 1e29 is within the limit: the sphere fills the view.
+    cam = camera(lookfrom=(0, 0, -3e29), lookat=(0, 0, 0))
+    s = rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1e29, rt.DiffuseLight(1.0))])
+    img = rt.render(s, spp=1).mean
+    assert np.all(np.isfinite(img)) and img[4, 4, 0] == pytest.approx(1.0)
