@@ -292,13 +292,7 @@ public:
         std::vector<Entry> stacks(static_cast<size_t>(stack_size) * kLanes);
         Lane lanes[kLanes];
         size_t next_ray = 0;
-        auto prefetch = [&](int32_t ref, uint32_t leaf_count) {
-            if (ref >= 0) {
-                prefetch_node(ref);
-            } else if (leaf_count & kBlockLeaf) {
-                query.prefetch_block(~static_cast<uint32_t>(ref));
-            }
-        };
+        auto prefetch_block = [&](uint32_t block) { query.prefetch_block(block); };
         auto start = [&](int s) {
             Lane& l = lanes[s];
             if (next_ray == count) { l.active = false; return; }
@@ -330,7 +324,7 @@ public:
                     int idx[kWidth];
                     const int k = sorted_hits(l.slabs.test(n, l.t_max_f, tn), tn, idx);
                     for (int j = k - 1; j > 0; --j)
-                        push(stack, l.top, n, idx[j], tn, [&](uint32_t b) { query.prefetch_block(b); });
+                        push(stack, l.top, n, idx[j], tn, prefetch_block);
                     if (k > 0) {
                         l.ref = n.child[idx[0]];
                         l.leaf_count = n.count[idx[0]];
@@ -352,7 +346,7 @@ public:
                     have_next = true;
                 }
                 if (have_next) {
-                    prefetch(l.ref, l.leaf_count);
+                    prefetch_child(l.ref, l.leaf_count, prefetch_block);
                 } else {
                     query.finish(s, l.ray, l.hit, l.t_max);
                     start(s);
@@ -429,11 +423,7 @@ public:
                     for (int j = i; j > 0 && dist[idx[j]] < dist[idx[j - 1]]; --j) std::swap(idx[j], idx[j - 1]);
                 for (int j = k - 1; j > 0; --j) {
                     const int c = idx[j];
-                    if (n.child[c] >= 0) {
-                        prefetch_node(n.child[c]);
-                    } else if (n.count[c] & kBlockLeaf) {
-                        query.prefetch_block(~static_cast<uint32_t>(n.child[c]));
-                    }
+                    prefetch_child(n.child[c], n.count[c], [&](uint32_t block) { query.prefetch_block(block); });
                     stack[top++] = {n.child[c], n.count[c], static_cast<uint16_t>(child_mask[c]), dist[c]};
                 }
                 if (k > 0) {
@@ -476,23 +466,23 @@ public:
 private:
     struct Entry { int32_t ref; uint32_t count; float t_near; };
 
-    void prefetch_node(int32_t ref) const {
-        const char* p = reinterpret_cast<const char*>(&nodes_[ref]);
-        for (size_t line = 0; line < sizeof(WideNode); line += 64) __builtin_prefetch(p + line);
+    // Starts loading a child: an interior node (all its cache lines) or a block leaf.
+    template <typename PrefetchBlock>
+    void prefetch_child(int32_t ref, uint32_t count, PrefetchBlock&& prefetch_block) const {
+        if (ref >= 0) {
+            const char* p = reinterpret_cast<const char*>(&nodes_[ref]);
+            for (size_t line = 0; line < sizeof(WideNode); line += 64) __builtin_prefetch(p + line);
+        } else if (count & kBlockLeaf) {
+            prefetch_block(~static_cast<uint32_t>(ref));
+        }
     }
 
     // Pushes child c of node n, starting the load of its memory: it waits on the stack
     // while the nearer subtree is traversed.
     template <typename PrefetchBlock>
     void push(Entry* stack, int& top, const WideNode& n, int c, const V8f& tn, PrefetchBlock&& prefetch_block) const {
-        const int32_t ref = n.child[c];
-        const uint16_t count = n.count[c];
-        if (ref >= 0) {
-            prefetch_node(ref);
-        } else if (count & kBlockLeaf) {
-            prefetch_block(~static_cast<uint32_t>(ref));
-        }
-        stack[top++] = {ref, count, tn[c]};
+        prefetch_child(n.child[c], n.count[c], prefetch_block);
+        stack[top++] = {n.child[c], n.count[c], tn[c]};
     }
 
     // Tests the primitives of a leaf; true on a hit (the first one, for any-hit queries).
