@@ -281,7 +281,7 @@ def test_interleaved_traversal_equals_single_ray(n_rays, threads):
     dirs = random_unit(rng, n_rays)
     dirs[: n_rays // 2] = rng.uniform(-50, 50, size=(n_rays // 2, 3)) - origins[: n_rays // 2]
     interleaved = cast(c, origins, dirs, threads=threads)
-    single = cast(c, origins, dirs, threads=threads, interleave=False)
+    single = cast(c, origins, dirs, threads=threads, batch=False)
     brute = cast(c, origins, dirs, brute_force=True)
     for key in ("t", "prim", "point", "normal"):
         assert np.array_equal(interleaved[key], single[key]), key
@@ -328,7 +328,7 @@ def test_packet_traversal_of_camera_rays_equals_single_ray(width, height, thread
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
     origins = np.tile([0.0, 0.0, 120.0], (len(dirs), 1))
     batch = cast(c, origins, dirs, threads=threads)
-    single = cast(c, origins, dirs, threads=threads, interleave=False)
+    single = cast(c, origins, dirs, threads=threads, batch=False)
     brute = cast(c, origins, dirs, brute_force=True)
     # Packets that straddle the centre or wrap from one row's end to the next row's
     # start are not coherent: 62% of the rays go in packets at 37 x 29, all at 64 x 48.

@@ -153,7 +153,7 @@ public:
 
     // Closest hits of N rays: t (inf on a miss), primitive id (-1), point and front normal.
     nb::dict intersect(const Matrix& origins, const Matrix& directions, bool brute_force, int threads,
-                       bool interleave) const {
+                       bool batch) const {
         require_columns(origins, 3, "origins");
         require_columns(directions, 3, "directions");
         if (origins.shape(0) != directions.shape(0)) throw std::invalid_argument("origins and directions differ in length");
@@ -168,7 +168,7 @@ public:
         };
         std::vector<size_t> packet_rays(static_cast<size_t>(threads), 0);
         auto work = [&](size_t begin, size_t end, size_t worker) {
-            if (interleave && !brute_force) {
+            if (batch && !brute_force) {
                 packet_rays[worker] = scene_->intersect_stream(
                     end - begin, [&](size_t k) { return rt::Ray{row3(origins, begin + k, 0), row3(directions, begin + k, 0)}; },
                     [&](size_t k, bool hit, const rt::Interaction& it) { if (hit) store(begin + k, it); });
@@ -267,7 +267,7 @@ NB_MODULE(_core, m) {
              "triangle_test"_a = 0)
         .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none())
         .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false, "threads"_a = 1,
-             "interleave"_a = true)
+             "batch"_a = true)
         .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a)
         .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)
         .def_prop_ro("primitive_count", &PyScene::primitive_count)

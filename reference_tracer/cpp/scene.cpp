@@ -103,26 +103,13 @@ void Scene::fill_triangle(const Ray& ray, double t, const Triangle& tri, Interac
 bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
     // Three divisions per ray that only triangle tests use.
     const WatertightRay wray = triangles_.empty() ? WatertightRay() : WatertightRay(ray.d);
-    uint32_t best = 0;
-    int32_t best_block = -1;  // the block and lane of the closest hit when it came from a block
-    int best_lane = 0;
+    ClosestHit best;
     double t = t_max;
     const bool hit = bvh_.traverse<false>(
-        ray, t,
-        [&](uint32_t prim, double& tm) {
-            if (!hit_primitive(prim, ray, wray, tm, best)) return false;
-            best_block = -1;
-            return true;
-        },
-        [&](uint32_t block, double& tm) {
-            const int lane = hit_block(block, ray, wray, tm, best);
-            if (lane < 0) return false;
-            best_block = static_cast<int32_t>(block);
-            best_lane = lane;
-            return true;
-        },
+        ray, t, [&](uint32_t prim, double& tm) { return closest_primitive(prim, ray, wray, tm, best); },
+        [&](uint32_t block, double& tm) { return closest_block(block, ray, wray, tm, best); },
         [&](uint32_t block) { prefetch_block(block); });
-    if (hit) fill_hit(ray, t, best, best_block, best_lane, it);
+    if (hit) fill_hit(ray, t, best, it);
     return hit;
 }
 

@@ -137,16 +137,38 @@ private:
         const char* p = reinterpret_cast<const char*>(&tri4_[block]);
         for (size_t line = 0; line < sizeof(Triangle4); line += 64) __builtin_prefetch(p + line);
     }
+    // The closest hit of a ray so far: its primitive, and the block and lane when it came
+    // from a block (its data is then in cache, the triangle array would be a miss on
+    // large meshes).
+    struct ClosestHit {
+        uint32_t prim = 0;
+        int32_t block = -1;
+        int lane = 0;
+    };
+    // hit_primitive / hit_block for closest-hit queries, recording where the hit came from.
+    bool closest_primitive(uint32_t prim, const Ray& ray, const WatertightRay& wray, double& t_max,
+                           ClosestHit& best) const {
+        if (!hit_primitive(prim, ray, wray, t_max, best.prim)) return false;
+        best.block = -1;
+        return true;
+    }
+    bool closest_block(uint32_t block, const Ray& ray, const WatertightRay& wray, double& t_max,
+                       ClosestHit& best) const {
+        const int lane = hit_block(block, ray, wray, t_max, best.prim);
+        if (lane < 0) return false;
+        best.block = static_cast<int32_t>(block);
+        best.lane = lane;
+        return true;
+    }
     void fill_interaction(const Ray& ray, double t, uint32_t prim, Interaction& it) const;
-    // The interaction of a closest hit: from the block just tested when it came from one
-    // (block >= 0; it is in cache, the triangle array would be a miss on large meshes).
-    void fill_hit(const Ray& ray, double t, uint32_t prim, int32_t block, int lane, Interaction& it) const {
-        if (block >= 0) {
+    // The interaction of a closest hit at distance t.
+    void fill_hit(const Ray& ray, double t, const ClosestHit& best, Interaction& it) const {
+        if (best.block >= 0) {
             it.t = t;
-            it.prim = prim;
-            fill_triangle(ray, t, tri4_[block].triangle(lane), it);
+            it.prim = best.prim;
+            fill_triangle(ray, t, tri4_[best.block].triangle(best.lane), it);
         } else {
-            fill_interaction(ray, t, prim, it);
+            fill_interaction(ray, t, best.prim, it);
         }
     }
     static void fill_triangle(const Ray& ray, double t, const Triangle& tri, Interaction& it);
@@ -171,46 +193,34 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const {
     struct Context {
         Ray ray;
         WatertightRay wray;
-        uint32_t best = 0;
-        int32_t best_block = -1;
-        int best_lane = 0;
+        ClosestHit best;
     };
-    auto lane_begin = [&](Context& c, const Ray& ray) {
-        c.ray = ray;
-        c.wray = triangles_.empty() ? WatertightRay() : WatertightRay(ray.d);
-        c.best_block = -1;
-    };
-    auto lane_test = [&](Context& c, uint32_t prim, double& t_max) {
-        if (!hit_primitive(prim, c.ray, c.wray, t_max, c.best)) return false;
-        c.best_block = -1;
-        return true;
-    };
-    auto lane_test_block = [&](Context& c, uint32_t block, double& t_max) {
-        const int lane = hit_block(block, c.ray, c.wray, t_max, c.best);
-        if (lane < 0) return false;
-        c.best_block = static_cast<int32_t>(block);
-        c.best_lane = lane;
-        return true;
+    auto lane_begin = [&](Context& c, const Ray& ray) -> const Ray& {
+        c = Context{ray, triangles_.empty() ? WatertightRay() : WatertightRay(ray.d), ClosestHit{}};
+        return c.ray;
     };
     auto lane_finish = [&](const Context& c, size_t i, bool hit, double t) {
         Interaction it;
-        if (hit) fill_hit(c.ray, t, c.best, c.best_block, c.best_lane, it);
+        if (hit) fill_hit(c.ray, t, c.best, it);
         done(i, hit, it);
+    };
+    // The tests of one lane, for either traversal.
+    struct LaneTests {
+        const Scene& scene;
+        Context* ctx;
+        bool test(int s, uint32_t prim, double& t_max) {
+            return scene.closest_primitive(prim, ctx[s].ray, ctx[s].wray, t_max, ctx[s].best);
+        }
+        bool test_block(int s, uint32_t block, double& t_max) {
+            return scene.closest_block(block, ctx[s].ray, ctx[s].wray, t_max, ctx[s].best);
+        }
+        void prefetch_block(uint32_t block) { scene.prefetch_block(block); }
     };
 
     // Runs of kLanes consecutive rays that are coherent go through the BVH as packets;
     // the rest are traced one ray per lane, interleaved.
-    struct PacketQuery {
-        decltype(lane_test)& test_fn;
-        decltype(lane_test_block)& test_block_fn;
-        const Scene& scene;
-        Context* ctx;
-        bool test(int r, uint32_t prim, double& t_max) { return test_fn(ctx[r], prim, t_max); }
-        bool test_block(int r, uint32_t block, double& t_max) { return test_block_fn(ctx[r], block, t_max); }
-        void prefetch_block(uint32_t block) { scene.prefetch_block(block); }
-    };
     Context packet_ctx[kLanes];
-    PacketQuery packet{lane_test, lane_test_block, *this, packet_ctx};
+    LaneTests packet{*this, packet_ctx};
     std::vector<size_t> scattered;
     size_t in_packets = 0;
     for (size_t base = 0; base < n; base += kLanes) {
@@ -224,10 +234,11 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const {
         RaySlabs slabs[kLanes];
         double t_max[kLanes];
         bool hit[kLanes] = {};
-        for (int r = 0; r < kLanes; ++r) {
-            slabs[r] = RaySlabs(rays[r < m ? r : 0]);
+        for (int r = 0; r < kLanes; ++r) {  // absent lanes repeat ray 0 (masked out)
+            const Ray& ray = rays[r < m ? r : 0];
+            slabs[r] = RaySlabs(ray);
+            lane_begin(packet_ctx[r], ray);
             t_max[r] = kInf;
-            lane_begin(packet_ctx[r], rays[r < m ? r : 0]);
         }
         bvh_.traverse_packet(slabs, (1u << m) - 1u, t_max, hit, packet);
         for (int r = 0; r < m; ++r) lane_finish(packet_ctx[r], base + r, hit[r], t_max[r]);
@@ -235,24 +246,17 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const {
     }
     if (scattered.empty()) return in_packets;
 
-    struct InterleavedQuery {
-        decltype(lane_test)& test_fn;
-        decltype(lane_test_block)& test_block_fn;
+    struct InterleavedQuery : LaneTests {
         decltype(lane_begin)& begin_fn;
         decltype(lane_finish)& finish_fn;
         RayAt& ray_at;
         const std::vector<size_t>& index;
-        const Scene& scene;
-        Context ctx[kLanes];
 
-        Ray ray(size_t k) { return ray_at(index[k]); }
-        void begin(int s, size_t k) { begin_fn(ctx[s], ray_at(index[k])); }
-        bool test(int s, uint32_t prim, double& t_max) { return test_fn(ctx[s], prim, t_max); }
-        bool test_block(int s, uint32_t block, double& t_max) { return test_block_fn(ctx[s], block, t_max); }
-        void prefetch_block(uint32_t block) { scene.prefetch_block(block); }
-        void finish(int s, size_t k, bool hit, double t) { finish_fn(ctx[s], index[k], hit, t); }
+        const Ray& begin(int s, size_t k) { return begin_fn(this->ctx[s], ray_at(index[k])); }
+        void finish(int s, size_t k, bool hit, double t) { finish_fn(this->ctx[s], index[k], hit, t); }
     };
-    InterleavedQuery query{lane_test, lane_test_block, lane_begin, lane_finish, ray_at, scattered, *this, {}};
+    Context interleaved_ctx[kLanes];
+    InterleavedQuery query{{*this, interleaved_ctx}, lane_begin, lane_finish, ray_at, scattered};
     bvh_.traverse_interleaved<kLanes>(scattered.size(), query);
     return in_packets;
 }

@@ -267,7 +267,7 @@ public:
     // several in flight (what packets do for coherent rays, for incoherent ones too).
     // Each ray's result is exactly what traverse<false> returns for it.
     //
-    // `query` provides: ray(i) -> Ray; begin(slot, i) before ray i's traversal in slot;
+    // `query` provides: begin(slot, i) -> ray i, called before its traversal in slot;
     // test(slot, prim, t_max), test_block(slot, block, t_max) as for traverse;
     // prefetch_block(block); finish(slot, i, hit, t).
     template <int kLanes, typename Query>
@@ -297,8 +297,7 @@ public:
             Lane& l = lanes[s];
             if (next_ray == count) { l.active = false; return; }
             l.ray = next_ray++;
-            query.begin(s, l.ray);
-            l.slabs = RaySlabs(query.ray(l.ray));
+            l.slabs = RaySlabs(query.begin(s, l.ray));
             l.t_max = kInf;
             l.t_max_f = RaySlabs::max_float(l.t_max);
             l.hit = false;
