@@ -44,6 +44,10 @@ from pathlib import Path
 
 import numpy as np
 
+from reference_tracer.estimate import ImageEstimate
+
+from .constants import CLOSED_FORM, CLOSED_FORM_SPP
+
 from .store import atomic_write_text
 
 __all__ = ["CACHE_ENV", "DEFAULT_REFERENCE_SEED", "DEFAULT_REFERENCE_BATCHES", "FORMAT_VERSION",
@@ -60,17 +64,15 @@ DEFAULT_REFERENCE_BATCHES = 16
 FORMAT_VERSION = 1
 
 
-@dataclass
-class Reference:
-    """A Mitsuba reference image.
+@dataclass(kw_only=True)
+class Reference(ImageEstimate):
+    """A reference image: an :class:`reference_tracer.ImageEstimate` (``mean``, per-sample
+    ``variance``, ``spp``, ``seconds``, ``source`` ``"mitsuba"`` or :data:`CLOSED_FORM`)
+    with its cache entry.
 
     Attributes
     ----------
-    mean : (H, W, 3) float32
-        Per-pixel mean radiance.
-    variance : (H, W, 3) float32
-        Per-pixel *per-sample* variance (divide by ``spp`` for the variance of ``mean``).
-    spp, seed, batches : int
+    seed, batches : int
     variant, mitsuba_version : str
     key : str
         Cache key (hex SHA-256).
@@ -83,32 +85,16 @@ class Reference:
     scene_hash : str
     """
 
-    mean: np.ndarray
-    variance: np.ndarray
-    spp: int
     seed: int
     batches: int
     variant: str
     mitsuba_version: str
     key: str
-    path: Path
-    variance_path: Path
-    seconds: float
+    path: Path | None
+    variance_path: Path | None
     cached: bool
     scene_hash: str
-
-    @property
-    def width(self) -> int:
-        return int(self.mean.shape[1])
-
-    @property
-    def height(self) -> int:
-        return int(self.mean.shape[0])
-
-    @property
-    def noise(self) -> float:
-        """Mean variance of the reference's pixel means, ``mean(variance) / spp``."""
-        return float(np.mean(self.variance, dtype=np.float64) / self.spp)
+    source: str = "mitsuba"
 
 
 def cache_dir(cache=None) -> Path:
@@ -332,12 +318,6 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
 
 
 #: ``Reference.variant`` of a closed-form (analytic) reference.
-CLOSED_FORM = "closed form"
-#: Nominal spp of a closed-form reference: its variance is exactly 0, so any count works
-#: in the noise corrections (variance / spp = 0); large so that nothing divides by it badly.
-CLOSED_FORM_SPP = 2**31 - 1
-
-
 def closed_form_reference_of(name: str, width: int, height: int):
     """The exact reference of suite scene ``name`` when it has one (``furnace``), else None.
 
@@ -352,5 +332,5 @@ def closed_form_reference_of(name: str, width: int, height: int):
     mean = np.asarray(mean, dtype=np.float32)
     return Reference(mean=mean, variance=np.zeros_like(mean), spp=CLOSED_FORM_SPP, seed=0, batches=0,
                      variant=CLOSED_FORM, mitsuba_version="-", key=f"closed-form-{name}-{width}x{height}",
-                     path=None, variance_path=None, seconds=0.0, cached=True, scene_hash="")
+                     path=None, variance_path=None, seconds=0.0, cached=True, scene_hash="", source=CLOSED_FORM)
 

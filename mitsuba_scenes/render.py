@@ -21,9 +21,10 @@ __all__ = ["render_mitsuba", "MitsubaRender", "mesh_merge_safe", "batch_seeds", 
 DEFAULT_BATCHES = 16
 
 
-@dataclass
-class MitsubaRender:
-    """The output of :func:`render_mitsuba`; unpacks as ``(mean, variance, seconds)``.
+@dataclass(kw_only=True)
+class MitsubaRender(rt.ImageEstimate):
+    """The output of :func:`render_mitsuba`, an :class:`reference_tracer.ImageEstimate`
+    (``source`` is ``"mitsuba"``); unpacks as ``(mean, variance, seconds)``.
 
     Attributes
     ----------
@@ -38,17 +39,14 @@ class MitsubaRender:
         (kernel compilation and first-launch cost); 0 for ``scalar_rgb``.
     load_seconds : float
         Time of ``mi.load_dict``.
-    variant, spp, seed, threads : the settings used.
+    variant, seed, threads : the settings used.
     batch_spp, batch_seeds : lists
         Samples and Mitsuba seed of each batch.
     """
 
-    mean: np.ndarray
-    variance: np.ndarray
-    seconds: float
     variant: str
-    spp: int
     seed: int
+    source: str = "mitsuba"
     threads: int | None = None
     compile_seconds: float = 0.0
     load_seconds: float = 0.0

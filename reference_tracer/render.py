@@ -6,16 +6,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import _core
 from ._compile import compile_scene
 from ._validate import positive_int
+from .estimate import ImageEstimate
 from .scene import Scene
+from .strategies import STRATEGIES
 
-__all__ = ["render", "RenderResult", "STRATEGIES", "TRIANGLE_TESTS", "core_scene"]
+__all__ = ["render", "RenderResult", "ImageEstimate", "STRATEGIES", "TRIANGLE_TESTS", "core_scene"]
 
-#: Sampling strategies at non-specular bounces (``shared/DESIGN.md`` section 2).
-#: ``light`` is biased on purpose: it sees only light arriving straight from an emitter.
-STRATEGIES = ("uniform", "cosine", "light", "mixture", "mis")
 
 #: Ray-triangle tests: ``watertight`` (Woop, Benthin and Wald 2013, the default: no ray
 #: leaks through shared edges), ``cramer`` (the seed's Cramer's-rule barycentric test in
@@ -23,33 +21,26 @@ STRATEGIES = ("uniform", "cosine", "light", "mixture", "mis")
 TRIANGLE_TESTS = ("watertight", "cramer", "cramer32")
 
 
-@dataclass
-class RenderResult:
-    """The output of :func:`render`.
+@dataclass(kw_only=True)
+class RenderResult(ImageEstimate):
+    """The output of :func:`render`: an :class:`ImageEstimate` (``mean``, ``variance``,
+    ``spp``, ``seconds``; ``source`` is ``"ours"``) with the render's settings and counters.
 
     Attributes
     ----------
-    mean : (H, W, 3) float32
-        Per-pixel mean radiance (linear).
-    variance : (H, W, 3) float32
-        Per-pixel *per-sample* variance, ``E[x^2] - E[x]^2`` over the pixel's samples
-        (divide by ``spp`` for the variance of ``mean``).
     seconds : float
         Wall time of the render itself (scene compilation and BVH build excluded; see
         ``build_seconds``).
-    spp, strategy, seed : the render's settings.
+    strategy, seed : the render's settings.
     rays : int
         Rays cast (camera, continuation and shadow rays).
     nonfinite_samples : int
         Samples discarded because their value was NaN or Inf (0 in a correct render).
     """
 
-    mean: np.ndarray
-    variance: np.ndarray
-    seconds: float
-    spp: int
     strategy: str
     seed: int
+    source: str = "ours"
     rays: int = 0
     nonfinite_samples: int = 0
     build_seconds: float = 0.0
@@ -66,6 +57,8 @@ def core_scene(scene: Scene, *, triangle_test: str = "watertight"):
     """Return the compiled C++ scene (BVH built), cached on the Scene object."""
     if triangle_test not in TRIANGLE_TESTS:
         raise ValueError(f"triangle_test must be one of {TRIANGLE_TESTS}, got {triangle_test!r}")
+    from . import _core  # the C++ core loads on first use: image I/O and the scene model work without it
+
     cache = scene._core_cache
     if triangle_test not in cache:
         cache[triangle_test] = _core.Scene(**compile_scene(scene),
