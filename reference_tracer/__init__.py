@@ -10,7 +10,8 @@ Examples
 >>> result.mean.shape
 (16, 16, 3)
 """
-from .estimate import ImageEstimate
+from .build import build_id
+from .estimate import ImageEstimate, SampleMoments
 from .imageio import write_exr, write_png, read_exr, to_display
 from .materials import Dielectric, DiffuseLight, Lambertian, Material, Metal, RoughConductor
 from .render import STRATEGIES, TRIANGLE_TESTS, RenderResult, render
@@ -22,6 +23,6 @@ __version__ = "0.1.0"
 __all__ = [
     "Camera", "Scene", "Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh",
     "Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "DiffuseLight",
-    "render", "RenderResult", "ImageEstimate", "STRATEGIES", "TRIANGLE_TESTS", "MAX_DEPTH_CAP",
-    "write_exr", "read_exr", "write_png", "to_display", "__version__",
+    "render", "RenderResult", "ImageEstimate", "SampleMoments", "STRATEGIES", "TRIANGLE_TESTS", "MAX_DEPTH_CAP",
+    "build_id", "write_exr", "read_exr", "write_png", "to_display", "__version__",
 ]

@@ -8,7 +8,7 @@ import numpy as np
 
 from ._compile import compile_scene
 from ._validate import positive_int
-from .estimate import ImageEstimate
+from .estimate import ImageEstimate, SampleMoments
 from .scene import Scene
 from .strategies import STRATEGIES
 
@@ -36,6 +36,8 @@ class RenderResult(ImageEstimate):
         Rays cast (camera, continuation and shadow rays).
     nonfinite_samples : int
         Samples discarded because their value was NaN or Inf (0 in a correct render).
+    moments : SampleMoments or None
+        Per-pixel tail diagnostics, when the render was asked for them (``moments=True``).
     """
 
     strategy: str
@@ -45,6 +47,7 @@ class RenderResult(ImageEstimate):
     nonfinite_samples: int = 0
     build_seconds: float = 0.0
     threads: int = 1
+    moments: SampleMoments | None = field(default=None, repr=False)
     extra: dict = field(default_factory=dict)
 
     @property
@@ -68,7 +71,7 @@ def core_scene(scene: Scene, *, triangle_test: str = "watertight"):
 
 def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int = 0,
            threads: int | None = None, triangle_test: str = "watertight",
-           progress=None) -> RenderResult:
+           progress=None, moments: bool = False) -> RenderResult:
     """Render ``scene`` with the C++ path tracer.
 
     The image for a given (scene, spp, strategy, seed) is bit-identical whatever the
@@ -93,6 +96,10 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
     progress : callable or None, keyword-only
         Called as ``progress(done_rows, total_rows)`` from the calling thread while the
         render runs.
+    moments : bool, keyword-only
+        Also accumulate per-pixel central moments up to the fourth and the largest sample
+        (``result.moments``, a :class:`SampleMoments`): the tail diagnostics the harness's
+        statistics use. The image is the same either way.
 
     Returns
     -------
@@ -125,11 +132,16 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
     t0 = time.perf_counter()
     core = core_scene(scene, triangle_test=triangle_test)
     build = time.perf_counter() - t0
-    out = core.render(spp, STRATEGIES.index(strategy), int(seed), threads, progress)
+    if not isinstance(moments, bool):
+        raise ValueError(f"moments must be True or False, got {moments!r}")
+    out = core.render(spp, STRATEGIES.index(strategy), int(seed), threads, progress, moments)
     n = float(spp)
     mean = out["sum"] / n
     variance = np.maximum(out["sum_sq"] / n - mean * mean, 0.0)
     return RenderResult(mean=mean.astype(np.float32), variance=variance.astype(np.float32),
                         seconds=out["seconds"], spp=spp, strategy=strategy, seed=int(seed),
                         rays=int(out["rays"]), nonfinite_samples=int(out["nonfinite"]),
-                        build_seconds=build, threads=threads)
+                        build_seconds=build, threads=threads,
+                        moments=(SampleMoments.from_shifted_sums(spp, max=out["max"],
+                                                                 d=[out[f"d{k}"] for k in range(1, 5)])
+                                 if moments else None))

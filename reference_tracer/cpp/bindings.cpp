@@ -105,7 +105,7 @@ public:
         build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
 
-    nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress) {
+    nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress, bool moments) {
         if (spp < 1) throw std::invalid_argument("spp must be >= 1");
         if (strategy < 0 || strategy > 4) throw std::invalid_argument("unknown strategy");
         if (threads < 1) throw std::invalid_argument("threads must be >= 1");
@@ -115,6 +115,7 @@ public:
         job.spp = spp;
         job.seed = seed;
         job.threads = threads;
+        job.moments = moments;
 
         bool interrupted = false, callback_failed = false;
         rt::RenderOutput out;
@@ -145,6 +146,14 @@ public:
         nb::dict result;
         result["sum"] = to_numpy(std::move(out.sum), {H, W, 3});
         result["sum_sq"] = to_numpy(std::move(out.sum_sq), {H, W, 3});
+        if (moments) {
+            rt::TailMoments& tm = out.tails;
+            result["d1"] = to_numpy(std::move(tm.d1), {H, W, 3});
+            result["d2"] = to_numpy(std::move(tm.d2), {H, W, 3});
+            result["d3"] = to_numpy(std::move(tm.d3), {H, W, 3});
+            result["d4"] = to_numpy(std::move(tm.d4), {H, W, 3});
+            result["max"] = to_numpy(std::move(tm.max), {H, W, 3});
+        }
         result["rays"] = out.rays;
         result["nonfinite"] = out.nonfinite;
         result["seconds"] = out.seconds;
@@ -265,7 +274,8 @@ NB_MODULE(_core, m) {
              "lookfrom"_a, "lookat"_a, "vup"_a, "vfov"_a, "width"_a, "height"_a, "materials"_a, "spheres"_a,
              "quads"_a, "triangles"_a, "triangle_materials"_a, "background"_a, "max_depth"_a, "rr_depth"_a,
              "triangle_test"_a = 0)
-        .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none())
+        .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none(),
+             "moments"_a = false)
         .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false, "threads"_a = 1,
              "batch"_a = true)
         .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a)

@@ -10,8 +10,18 @@
 
 namespace rt {
 
+// Optional per-pixel tail diagnostics (RenderJob::moments). Power sums of the samples about
+// a per-pixel shift (the pixel's first finite sample) give the central moments up to the
+// fourth without the cancellation raw power sums suffer where the mean dwarfs the spread;
+// the largest sample shows how much one rare path dominates. The statistics of the
+// harness need them to tell "rare paths not sampled yet" from bias.
+struct TailMoments {
+    std::vector<double> d1, d2, d3, d4, max;  // (H, W, 3) each
+};
+
 struct RenderOutput {
     std::vector<double> sum, sum_sq;  // (H, W, 3): per-pixel sums of sample values and squares
+    TailMoments tails;                // empty unless the job asked for moments
     uint64_t rays = 0;
     uint64_t nonfinite = 0;           // samples discarded because a channel was NaN or Inf
     double seconds = 0.0;
@@ -24,6 +34,7 @@ struct RenderJob {
     int spp = 1;
     uint64_t seed = 0;
     int threads = 1;
+    bool moments = false;             // also accumulate TailMoments (a few flops per sample)
     static constexpr int kTileSize = 16;
 };
 
@@ -33,9 +44,18 @@ struct RenderJob {
 template <typename Poll>
 RenderOutput render(const RenderJob& job, Poll&& poll);
 
-// The radiance samples of one pixel, accumulated into out[0..2] (sums) and out2 (squares).
+// Where render_pixel writes one pixel's results: three channels at each pointer; the tail
+// pointers are null when the job did not ask for moments.
+struct PixelSums {
+    double* sum;
+    double* sum_sq;
+    double* d[4] = {nullptr, nullptr, nullptr, nullptr};
+    double* max = nullptr;
+};
+
+// The radiance samples of one pixel, accumulated into `out`.
 void render_pixel(const Scene& scene, const Integrator& integrator, int x, int y, int spp, uint64_t seed,
-                  double* sum, double* sum_sq, uint64_t& rays, uint64_t& nonfinite);
+                  const PixelSums& out, uint64_t& rays, uint64_t& nonfinite);
 
 }  // namespace rt
 

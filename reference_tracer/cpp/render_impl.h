@@ -19,6 +19,10 @@ RenderOutput render(const RenderJob& job, Poll&& poll) {
     RenderOutput out;
     out.sum.assign(size_t(W) * H * 3, 0.0);
     out.sum_sq.assign(size_t(W) * H * 3, 0.0);
+    TailMoments& tm = out.tails;
+    if (job.moments)
+        for (std::vector<double>* v : {&tm.d1, &tm.d2, &tm.d3, &tm.d4, &tm.max})
+            v->assign(size_t(W) * H * 3, 0.0);
 
     const Integrator integrator(scene, job.strategy);
     std::atomic<int> next_tile{0};
@@ -36,8 +40,15 @@ RenderOutput render(const RenderJob& job, Poll&& poll) {
             for (int y = y0; y < y1 && !cancel.load(std::memory_order_relaxed); ++y)
                 for (int x = x0; x < x1; ++x) {
                     const size_t k = (size_t(y) * W + x) * 3;
-                    render_pixel(scene, integrator, x, y, job.spp, job.seed, &out.sum[k], &out.sum_sq[k],
-                                 my_rays, my_nonfinite);
+                    PixelSums px{&out.sum[k], &out.sum_sq[k]};
+                    if (job.moments) {
+                        px.d[0] = &tm.d1[k];
+                        px.d[1] = &tm.d2[k];
+                        px.d[2] = &tm.d3[k];
+                        px.d[3] = &tm.d4[k];
+                        px.max = &tm.max[k];
+                    }
+                    render_pixel(scene, integrator, x, y, job.spp, job.seed, px, my_rays, my_nonfinite);
                 }
             pixels_done.fetch_add(uint64_t(x1 - x0) * (y1 - y0), std::memory_order_relaxed);
         }
