@@ -44,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from reference_tracer._validate import positive_int
 from reference_tracer.estimate import ImageEstimate
 
 from .constants import CLOSED_FORM, CLOSED_FORM_SPP
@@ -52,7 +53,7 @@ from .store import atomic_write_text
 
 __all__ = ["CACHE_ENV", "DEFAULT_REFERENCE_SEED", "DEFAULT_REFERENCE_BATCHES", "FORMAT_VERSION",
            "Reference", "cache_dir", "reference_key", "reference", "load_reference", "mitsuba_identity",
-           "CLOSED_FORM", "CLOSED_FORM_SPP", "closed_form_reference_of"]
+           "CLOSED_FORM", "CLOSED_FORM_SPP", "CLOSED_FORM_REASONS", "closed_form_reference_of"]
 
 #: environment variable naming the cache folder.
 CACHE_ENV = "RTBENCH_CACHE"
@@ -62,6 +63,12 @@ DEFAULT_REFERENCE_SEED = 1_000_003
 DEFAULT_REFERENCE_BATCHES = 16
 #: bump when the on-disk format or the meaning of a cached entry changes.
 FORMAT_VERSION = 1
+#: suite scene -> what its closed-form reference is and why it replaces Mitsuba there
+#: (:attr:`Reference.description` of :func:`closed_form_reference_of`).
+CLOSED_FORM_REASONS = {
+    "furnace": "closed form Le (1 - rho^n) / (1 - rho): Mitsuba 3.9.1's sphere-emitter sampling from a "
+               "point on the sphere is biased here",
+}
 
 
 @dataclass(kw_only=True)
@@ -83,6 +90,15 @@ class Reference(ImageEstimate):
     cached : bool
         True when this call found the entry in the cache (and rendered nothing).
     scene_hash : str
+    description : str
+        One line: what the reference is (default for a Mitsuba render: its version,
+        variant, spp and cache key; for a closed form: :data:`CLOSED_FORM_REASONS`).
+
+    Examples
+    --------
+    >>> ref = closed_form_reference_of("furnace", 4, 4)
+    >>> ref.source, ref.description[:11], ref.spp == CLOSED_FORM_SPP
+    ('closed form', 'closed form', True)
     """
 
     seed: int
@@ -95,6 +111,12 @@ class Reference(ImageEstimate):
     cached: bool
     scene_hash: str
     source: str = "mitsuba"
+    description: str = ""
+
+    def __post_init__(self):
+        if not self.description and self.source == "mitsuba":
+            self.description = (f"Mitsuba {self.mitsuba_version} {self.variant} path, {self.spp} spp "
+                                f"(cache {self.key[:12]})")
 
 
 def cache_dir(cache=None) -> Path:
@@ -112,12 +134,6 @@ def cache_dir(cache=None) -> Path:
         raise ValueError(f"reference cache {path} exists and is not a folder")
     path.mkdir(parents=True, exist_ok=True)
     return path
-
-
-def _check_int(name, value, minimum):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
 
 
 def reference_key(scene_hash: str, *, mitsuba_version: str, variant: str, spp: int, seed: int,
@@ -272,9 +288,9 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
 
     if not isinstance(scene, rt.Scene):
         raise ValueError(f"scene must be a reference_tracer.Scene, got {type(scene).__name__}")
-    spp = _check_int("spp", spp, 2)
-    seed = _check_int("seed", seed, 0)
-    batches = _check_int("batches", batches, 2)
+    spp = positive_int("spp", spp, minimum=2)
+    seed = positive_int("seed", seed, minimum=0)
+    batches = positive_int("batches", batches, minimum=2)
     batches = min(batches, spp)
     chosen, mversion = mitsuba_identity(variant)
     scene_hash = scene.content_hash()
@@ -317,12 +333,19 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
                      scene_hash=scene_hash)
 
 
-#: ``Reference.variant`` of a closed-form (analytic) reference.
 def closed_form_reference_of(name: str, width: int, height: int):
     """The exact reference of suite scene ``name`` when it has one (``furnace``), else None.
 
-    Returned as a :class:`Reference` with zero variance and ``variant == CLOSED_FORM``, so
-    that sweeps and the gate use it like a Mitsuba reference.
+    Returned as a :class:`Reference` with zero variance, ``source`` and ``variant``
+    :data:`CLOSED_FORM`, so that sweeps and the gate use it like a Mitsuba reference.
+
+    Examples
+    --------
+    >>> ref = closed_form_reference_of("furnace", 4, 2)
+    >>> ref.mean.shape, float(ref.variance.max()), round(float(ref.mean[0, 0, 0]), 5)
+    ((2, 4, 3), 0.0, 2.08057)
+    >>> closed_form_reference_of("cornell_box", 4, 4) is None
+    True
     """
     from mitsuba_scenes.suite import closed_form_reference
 
@@ -332,5 +355,6 @@ def closed_form_reference_of(name: str, width: int, height: int):
     mean = np.asarray(mean, dtype=np.float32)
     return Reference(mean=mean, variance=np.zeros_like(mean), spp=CLOSED_FORM_SPP, seed=0, batches=0,
                      variant=CLOSED_FORM, mitsuba_version="-", key=f"closed-form-{name}-{width}x{height}",
-                     path=None, variance_path=None, seconds=0.0, cached=True, scene_hash="", source=CLOSED_FORM)
+                     path=None, variance_path=None, seconds=0.0, cached=True, scene_hash="", source=CLOSED_FORM,
+                     description=CLOSED_FORM_REASONS.get(name, CLOSED_FORM))
 

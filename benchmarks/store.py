@@ -1,7 +1,10 @@
 """The results store: an append-only folder of job records, images and run metadata.
 
-Layout and field names are fixed by ``benchmarks/STORE.md`` (the contract with
-``reports``). This module only reads and writes; it knows nothing about rendering.
+Layout and field names are fixed by ``benchmarks/STORE.md``. This module is the only
+code that knows the format: the harness writes through it and ``reports`` reads through
+it (records, keys, dedupe, torn lines, images, ``meta.json`` and ``summary.json``). It
+only reads and writes; it knows nothing about rendering, and it reads and writes EXR with
+:mod:`reference_tracer.imageio` (pure Python: the tracer's C++ core is not loaded).
 
 Durability
 ----------
@@ -9,8 +12,9 @@ Durability
   followed by ``flush`` and ``fsync``: once :func:`append_record` returns, the record
   survives a crash or ``SIGKILL`` of the process.
 * A process killed in the middle of a write can leave a truncated last line. Readers
-  skip a final line that does not parse; :func:`append_record` cuts such a fragment off
-  before appending, so a resumed run never glues a new record onto it.
+  skip a final line that does not parse (:func:`result_lines` marks it ``last``);
+  :func:`append_record` cuts such a fragment off before appending, so a resumed run never
+  glues a new record onto it.
 * Everything else (``meta.json``, ``summary.json``, EXR images) is written to a
   temporary file in the same folder and renamed into place (atomic on POSIX).
 
@@ -34,12 +38,16 @@ import os
 import tempfile
 import warnings
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
+from reference_tracer import imageio
+
 __all__ = ["KEY_FIELDS", "RESULTS", "META", "SUMMARY", "record_key", "store_path",
-           "append_record", "read_records", "finished_keys", "write_json", "read_json",
-           "update_meta", "write_image", "read_image"]
+           "append_record", "ResultLine", "result_lines", "read_records", "dedupe_records",
+           "finished_keys", "check_identity", "write_json", "read_json", "read_meta",
+           "read_summary_rows", "update_meta", "write_image", "read_image", "atomic_write_bytes", "atomic_write_text"]
 
 #: fields that identify a job (``STORE.md``): a resumed run skips records with these.
 KEY_FIELDS = ("scene", "renderer", "strategy", "spp", "seed", "width", "height")
@@ -48,15 +56,22 @@ META = "meta.json"
 SUMMARY = "summary.json"
 
 
-def record_key(record: dict) -> tuple:
+def record_key(record: dict, *, partial: bool = False) -> tuple:
     """The identity of a job record, ``(scene, renderer, strategy, spp, seed, width, height)``.
+
+    Raises ``ValueError`` if a key field is missing, unless ``partial``: then a missing
+    field reads as ``None`` (a reader that tolerates incomplete records, like the report).
 
     Examples
     --------
     >>> record_key({"scene": "s", "renderer": "ours", "strategy": "mis", "spp": 4,
     ...             "seed": 0, "width": 8, "height": 8, "mse": 1.0})
     ('s', 'ours', 'mis', 4, 0, 8, 8)
+    >>> record_key({"scene": "s", "renderer": "ours", "strategy": "mis", "spp": 4}, partial=True)
+    ('s', 'ours', 'mis', 4, None, None, None)
     """
+    if partial:
+        return tuple(record.get(k) for k in KEY_FIELDS)
     missing = [k for k in KEY_FIELDS if k not in record]
     if missing:
         raise ValueError(f"record lacks key field(s) {missing}: {record!r:.200}")
@@ -149,44 +164,127 @@ def append_record(store, record: dict) -> None:
         os.close(fd)
 
 
+class ResultLine(NamedTuple):
+    """One non-blank line of ``results.jsonl`` as read, before any check of its fields."""
+
+    #: 1-based line number in the file.
+    number: int
+    #: The parsed JSON value (``None`` when the line does not parse).
+    value: object
+    #: False: the line is not JSON (or not UTF-8).
+    parsed: bool
+    #: The file's last non-blank line: where a killed writer leaves a torn record, which
+    #: readers skip without complaint.
+    last: bool
+
+
+def result_lines(store) -> list:
+    """Every non-blank line of a store's ``results.jsonl`` as a :class:`ResultLine`.
+
+    The raw view the readers build on: :func:`read_records` (the harness) and the
+    report's loader (which lists bad lines instead of warning) decide what to do with a
+    line that does not parse or is not a job record.
+
+    Returns
+    -------
+    list of ResultLine
+        Empty when the store or its ``results.jsonl`` does not exist.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = (d / RESULTS).write_text('{"a": 1}\\n\\n{"a": 2')
+    >>> [(ln.number, ln.value, ln.parsed, ln.last) for ln in result_lines(d)]
+    [(1, {'a': 1}, True, False), (3, None, False, True)]
+    """
+    path = Path(store) / RESULTS
+    if not path.exists():
+        return []
+    lines = path.read_bytes().split(b"\n")
+    last = len(lines) - 1
+    while last >= 0 and not lines[last].strip():
+        last -= 1
+    out = []
+    for i, raw in enumerate(lines[:last + 1]):
+        if not raw.strip():
+            continue
+        try:
+            value, parsed = json.loads(raw), True
+        except (ValueError, UnicodeDecodeError):
+            value, parsed = None, False
+        out.append(ResultLine(i + 1, value, parsed, i == last))
+    return out
+
+
+def _is_job_record(value) -> bool:
+    return isinstance(value, dict) and all(k in value for k in KEY_FIELDS)
+
+
 def read_records(store, *, dedupe: bool = True) -> list:
     """Job records of a store, in file order.
 
     A last line that does not parse (a killed writer) is skipped silently; an unreadable
     line elsewhere is skipped with a ``RuntimeWarning``. With ``dedupe`` (default), a
-    key that occurs several times keeps its last record, at the position of its first.
+    key that occurs several times keeps its last record, at the position of its first
+    (:func:`dedupe_records`).
 
     Returns
     -------
     list of dict
         Empty when the store or its ``results.jsonl`` does not exist.
     """
-    path = Path(store) / RESULTS
-    if not path.exists():
-        return []
-    lines = path.read_bytes().split(b"\n")
     out = []
-    last = len(lines) - 1
-    while last >= 0 and not lines[last].strip():
-        last -= 1
-    for i, raw in enumerate(lines[:last + 1]):
-        if not raw.strip():
+    for line in result_lines(store):
+        if not (line.parsed and _is_job_record(line.value)):
+            if not line.last:
+                warnings.warn(f"{Path(store) / RESULTS}: line {line.number} is not a job record; skipped",
+                              RuntimeWarning, stacklevel=2)
             continue
-        try:
-            rec = json.loads(raw)
-            record_key(rec)
-        except (ValueError, UnicodeDecodeError):
-            if i != last:
-                warnings.warn(f"{path}: line {i + 1} is not a job record; skipped", RuntimeWarning,
-                              stacklevel=2)
-            continue
-        out.append(rec)
-    if not dedupe:
-        return out
+        out.append(line.value)
+    return dedupe_records(out) if dedupe else out
+
+
+def dedupe_records(records) -> list:
+    """One record per job key (:func:`record_key`): the last one, at the position of the first.
+
+    A resumed or repeated run may append a job again; the last write wins. Missing key
+    fields read as ``None`` here, so incomplete records are deduplicated too.
+
+    Examples
+    --------
+    >>> rs = [{"scene": "a", "spp": 1, "v": 1}, {"scene": "b", "spp": 1, "v": 2},
+    ...       {"scene": "a", "spp": 1, "v": 3}]
+    >>> [r["v"] for r in dedupe_records(rs)]
+    [3, 2]
+    """
     by_key: dict = {}
-    for rec in out:
-        by_key[record_key(rec)] = rec  # a dict keeps the first position, takes the last value
+    for rec in records:
+        by_key[record_key(rec, partial=True)] = rec  # a dict keeps the first position, takes the last value
     return list(by_key.values())
+
+
+def check_identity(record: dict, where: str, *, need_spp: bool = True) -> None:
+    """Raise ``ValueError`` unless a record (or summary row) says which curve it belongs to.
+
+    ``scene``, ``renderer`` and ``strategy`` must be non-empty strings and, for a job
+    record (``need_spp``), ``spp`` a positive number. ``where`` starts the message
+    (e.g. ``"results.jsonl line 3"``). Other fields may be missing or ``null``.
+
+    Examples
+    --------
+    >>> check_identity({"scene": "a", "renderer": "ours", "strategy": "mis", "spp": 0}, "line 1")
+    Traceback (most recent call last):
+    ...
+    ValueError: line 1: 'spp' must be a positive number, got 0
+    """
+    for k in ("scene", "renderer", "strategy"):
+        if not isinstance(record.get(k), str) or not record[k]:
+            raise ValueError(f"{where}: missing or non-string {k!r}")
+    if need_spp:
+        spp = record.get("spp")
+        if isinstance(spp, bool) or not isinstance(spp, (int, float)) or not spp > 0:
+            raise ValueError(f"{where}: 'spp' must be a positive number, got {spp!r}")
 
 
 def finished_keys(store) -> set:
@@ -194,8 +292,8 @@ def finished_keys(store) -> set:
     return {record_key(r) for r in read_records(store, dedupe=False)}
 
 
-def atomic_write_text(path, text: str) -> Path:
-    """Write ``text`` to ``path`` atomically: a temp file in the same folder, fsync, rename.
+def atomic_write_bytes(path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically: a temp file in the same folder, fsync, rename.
 
     A reader sees the old file or the new one, never a partial write (readable: 0644).
     """
@@ -203,8 +301,8 @@ def atomic_write_text(path, text: str) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
             f.flush()
             os.fsync(f.fileno())
         os.chmod(tmp, 0o644)  # mkstemp makes 0600 files
@@ -216,17 +314,67 @@ def atomic_write_text(path, text: str) -> Path:
     return path
 
 
+def atomic_write_text(path, text: str) -> Path:
+    """:func:`atomic_write_bytes` of ``text`` encoded as UTF-8."""
+    return atomic_write_bytes(path, text.encode("utf-8"))
+
+
 def write_json(path, obj) -> Path:
     """Write ``obj`` as indented JSON atomically (temp file in the same folder + rename)."""
     return atomic_write_text(path, json.dumps(_json_safe(obj), indent=1, allow_nan=False) + "\n")
 
 
-def read_json(path, default=None):
-    """Read a JSON file; ``default`` if it is missing or does not parse."""
+def read_json(path, default=None, *, problems: list | None = None):
+    """Read a JSON file; ``default`` if it is missing or does not parse.
+
+    With a ``problems`` list, what went wrong is appended to it as a sentence (a reader
+    that reports instead of failing, like the report).
+    """
+    path = Path(path)
     try:
-        return json.loads(Path(path).read_text())
-    except (OSError, ValueError):
-        return default
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        if problems is not None:
+            problems.append(f"{path.name} is missing")
+    except (OSError, ValueError) as exc:
+        if problems is not None:
+            problems.append(f"{path.name} could not be read: {exc}")
+    return default
+
+
+def read_meta(store, *, problems: list | None = None) -> dict:
+    """A store's ``meta.json`` as a dict (empty when missing or not a JSON object).
+
+    Any key may be missing after an interrupted run (``STORE.md``). Problems are appended
+    to ``problems`` when given.
+    """
+    meta = read_json(Path(store) / META, problems=problems)
+    if meta is not None and not isinstance(meta, dict):
+        if problems is not None:
+            problems.append(f"{META} is not a JSON object; ignored")
+        meta = None
+    return meta or {}
+
+
+def read_summary_rows(store, *, problems: list | None = None) -> list:
+    """The ``rows`` of a store's ``summary.json`` (empty when missing or without a list).
+
+    Problems are appended to ``problems`` when given; a row that is not a JSON object
+    raises ``ValueError`` (the file is not a summary this code wrote).
+    """
+    path = Path(store) / SUMMARY
+    summ = read_json(path, problems=problems)
+    if summ is None:
+        return []
+    rows = summ.get("rows") if isinstance(summ, dict) else None
+    if not isinstance(rows, list):
+        if problems is not None:
+            problems.append(f"{SUMMARY} has no 'rows' list; ignored")
+        return []
+    for i, row in enumerate(rows):
+        if not isinstance(row, dict):
+            raise ValueError(f"{path}: row {i} is not a JSON object")
+    return rows
 
 
 def update_meta(store, **fields) -> dict:
@@ -257,8 +405,6 @@ def update_meta(store, **fields) -> dict:
 
 def write_image(store, relpath, image) -> str:
     """Write an EXR image under the store atomically; return the store-relative path."""
-    import reference_tracer as rt
-
     rel = Path(relpath)
     if rel.is_absolute() or ".." in rel.parts:
         raise ValueError(f"image path must be relative to the store, got {relpath}")
@@ -267,7 +413,7 @@ def write_image(store, relpath, image) -> str:
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".exr")
     os.close(fd)
     try:
-        rt.write_exr(tmp, np.asarray(image, dtype=np.float32))
+        imageio.write_exr(tmp, np.asarray(image, dtype=np.float32))
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -276,8 +422,14 @@ def write_image(store, relpath, image) -> str:
     return rel.as_posix()
 
 
-def read_image(store, relpath) -> np.ndarray:
-    """Read an EXR image stored under ``store`` as (H, W, C) float32."""
-    import reference_tracer as rt
+def read_image(store, relpath, *, rgb: bool = False) -> np.ndarray:
+    """Read an EXR image stored under ``store`` as (H, W, C) float32.
 
-    return rt.read_exr(Path(store) / relpath)
+    With ``rgb``, the result is (H, W, 3): a grey image is repeated to RGB, alpha dropped.
+    """
+    a = imageio.read_exr(Path(store) / relpath)
+    if rgb:
+        if a.shape[2] == 1:
+            a = np.repeat(a, 3, axis=2)
+        a = np.asarray(a[..., :3], dtype=np.float32)
+    return a

@@ -389,8 +389,9 @@ def from_mitsuba(source) -> rt.Scene:
 
     Examples
     --------
-    >>> import mitsuba as mi
     >>> from mitsuba_scenes import from_mitsuba
+    >>> from mitsuba_scenes.variants import import_mitsuba
+    >>> mi = import_mitsuba()
     >>> d = mi.cornell_box()
     >>> d["sensor"]["film"]["rfilter"] = {"type": "box"}
     >>> scene = from_mitsuba(d)

@@ -55,8 +55,8 @@ def look_at_matrix(origin, target, up) -> np.ndarray:
 
     Examples
     --------
-    >>> look_at_matrix((0, 0, -1), (0, 0, 0), (0, 1, 0))[:3, 2]
-    array([0., 0., 1.])
+    >>> look_at_matrix((0, 0, -1), (0, 0, 0), (0, 1, 0))[:3, 2].tolist()
+    [0.0, 0.0, 1.0]
     """
     o = np.asarray(origin, np.float64)
     d = np.asarray(target, np.float64) - o

@@ -54,16 +54,41 @@ def read_exr(path) -> np.ndarray:
         return px if px.ndim == 3 else px[..., None]
 
 
-def to_display(array, exposure: float = 0.0) -> np.ndarray:
+def to_display(array, exposure: float = 0.0, *, scale: float | None = None,
+               keep_nan: bool = False) -> np.ndarray:
     """Linear radiance -> display values in [0, 1]: scale by 2**exposure, clip, sRGB transfer.
 
     Uses colour-science's sRGB inverse EOTF (the piecewise sRGB curve, not gamma 2.2).
-    Non-finite values display as 0.
+    This is the one tone curve of the project: ``benchmarks.display`` (the SSIM metric and
+    the report) builds on it.
+
+    Parameters
+    ----------
+    array : array_like
+        Linear radiance, any shape.
+    exposure : float
+        Exposure in stops: the image is scaled by ``2**exposure``.
+    scale : float, optional
+        A linear scale factor used instead of ``2**exposure`` (no round trip through log2,
+        so a scale computed from a reference is applied exactly).
+    keep_nan : bool
+        False (default): non-finite values display as 0. True: NaN stays NaN (so a metric
+        can see it) and infinities clip like any out-of-range value (+inf -> 1, -inf -> 0).
+
+    Examples
+    --------
+    >>> to_display(np.array([0.0, 0.25, 4.0, np.nan]), 1.0).round(4).tolist()
+    [0.0, 0.7354, 1.0, 0.0]
+    >>> to_display(np.array([0.5, np.nan, np.inf]), scale=0.5, keep_nan=True).round(4).tolist()
+    [0.5371, nan, 1.0]
     """
     import colour
 
-    a = np.nan_to_num(np.asarray(array, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
-    a = np.clip(a * (2.0 ** float(exposure)), 0.0, 1.0)
+    k = 2.0 ** float(exposure) if scale is None else float(scale)
+    a = np.asarray(array, dtype=np.float64)
+    if not keep_nan:
+        a = np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0)
+    a = np.clip(a * k, 0.0, 1.0)
     return np.clip(colour.models.eotf_inverse_sRGB(a), 0.0, 1.0)
 
 

@@ -126,8 +126,8 @@ class Sphere(Shape):
     Examples
     --------
     >>> from reference_tracer import Lambertian
-    >>> Sphere((0, 0, 0), 1.0, Lambertian(0.5)).translate((0, 1, 0)).world_center()
-    array([0., 1., 0.])
+    >>> Sphere((0, 0, 0), 1.0, Lambertian(0.5)).translate((0, 1, 0)).world_center().tolist()
+    [0.0, 1.0, 0.0]
     """
 
     center: tuple
@@ -159,8 +159,8 @@ class Quad(Shape):
     --------
     >>> from reference_tracer import DiffuseLight
     >>> q = Quad((213, 554, 227), (130, 0, 0), (0, 0, 105), DiffuseLight(15))
-    >>> q.world_normal()
-    array([ 0., -1.,  0.])
+    >>> q.world_normal().tolist()
+    [0.0, -1.0, 0.0]
     """
 
     Q: tuple
@@ -255,8 +255,8 @@ class Triangle(Shape):
     Examples
     --------
     >>> from reference_tracer import Lambertian
-    >>> Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0), Lambertian(0.5)).world_vertices()[2]
-    array([0., 1., 0.])
+    >>> Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0), Lambertian(0.5)).world_vertices()[2].tolist()
+    [0.0, 1.0, 0.0]
     """
 
     a: tuple

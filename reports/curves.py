@@ -11,15 +11,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP
+
 from .store import curve_order, num
 
+# SEED_* are re-exported: the seed comparison's scene, size and spp (benchmarks.constants).
 __all__ = ["Curve", "curves", "loglog_slope", "loglog_interp", "equal_time", "seed_comparison",
            "SEED_SCENE", "SEED_SIZE", "SEED_SPP"]
-
-#: the seed repository's comparison: uniform vs light sampling on this scene, size and spp.
-SEED_SCENE = "cornell_box"
-SEED_SIZE = 400
-SEED_SPP = 50
 
 
 @dataclass

@@ -1,4 +1,8 @@
-"""Image panels: tone mapping with the reference's exposure, false-colour error maps, PNG encoding."""
+"""Image panels: display PNGs, false-colour error maps, and which spp the image rows show.
+
+Tone mapping (exposure and sRGB curve) is :mod:`benchmarks.display`'s, the same as the
+SSIM metric's; the error maps use relMSE's epsilon (``benchmarks.constants.RELMSE_EPS``).
+"""
 from __future__ import annotations
 
 import io
@@ -6,41 +10,13 @@ import math
 
 import numpy as np
 
-from .store import imageio
+from benchmarks.constants import RELMSE_EPS
+from benchmarks.display import to_display
 
-__all__ = ["reference_exposure", "display_png", "error_map", "error_png", "error_range", "pick_spps",
-           "REL_EPS", "ERROR_CMAP"]
+__all__ = ["display_png", "error_map", "error_png", "error_range", "pick_spps", "ERROR_CMAP"]
 
-#: epsilon of the relative squared error (same as relMSE, DESIGN.md section 4).
-REL_EPS = 0.01
 #: colour map of the error maps.
 ERROR_CMAP = "inferno"
-
-
-#: linear display value the reference's median luminance is mapped to (photographic 18% grey).
-MIDDLE_GREY = 0.18
-
-
-def reference_exposure(ref: np.ndarray) -> float:
-    """Display exposure in stops (for ``to_display``) from the reference image.
-
-    The larger of two scales: the reference's median positive luminance to 18% grey, and
-    the harness's SSIM exposure (``benchmarks.metrics.exposure_from_reference``: the
-    99th-percentile luminance to white). The second alone darkens any picture in which a
-    light source covers more than 1% of the pixels (the Cornell box); the first alone
-    would leave low-contrast images dim. Returns 0 for an all-black image.
-    """
-    from benchmarks.metrics import LUMINANCE_WEIGHTS, exposure_from_reference
-
-    r = np.asarray(ref, dtype=np.float64)
-    y = r[..., :3] @ LUMINANCE_WEIGHTS if r.ndim == 3 and r.shape[-1] >= 3 else r.reshape(r.shape[:2] + (-1,)).mean(-1)
-    y = y[np.isfinite(y) & (y > 0)]
-    if y.size == 0:
-        return 0.0
-    k = max(float(exposure_from_reference(r)), MIDDLE_GREY / float(np.median(y)))
-    if not (math.isfinite(k) and k > 0):
-        return 0.0
-    return float(np.clip(math.log2(k), -60.0, 60.0))
 
 
 def _png(rgb_uint8: np.ndarray) -> bytes:
@@ -52,13 +28,13 @@ def _png(rgb_uint8: np.ndarray) -> bytes:
 
 
 def display_png(img: np.ndarray, exposure: float) -> bytes:
-    """Linear radiance -> 8-bit sRGB PNG bytes (``reference_tracer.to_display``, same exposure for all)."""
-    d = imageio().to_display(np.asarray(img)[..., :3], exposure)
+    """Linear radiance -> 8-bit sRGB PNG bytes, ``exposure`` in stops (non-finite pixels black)."""
+    d = to_display(np.asarray(img)[..., :3], stops=exposure, keep_nan=False)
     return _png(np.round(np.clip(d, 0.0, 1.0) * 255.0).astype(np.uint8))
 
 
 def error_map(img: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """Per-pixel relative squared error, mean over channels: (x - ref)^2 / (ref^2 + 0.01).
+    """Per-pixel relative squared error, mean over channels: (x - ref)^2 / (ref^2 + RELMSE_EPS).
 
     Its mean over the image is the record's relMSE (for the same image and reference).
     """
@@ -66,7 +42,7 @@ def error_map(img: np.ndarray, ref: np.ndarray) -> np.ndarray:
     ref = np.asarray(ref, dtype=np.float64)
     if img.shape != ref.shape:
         raise ValueError(f"error_map: image {img.shape} and reference {ref.shape} differ in shape")
-    e = (img - ref) ** 2 / (ref ** 2 + REL_EPS)
+    e = (img - ref) ** 2 / (ref ** 2 + RELMSE_EPS)
     return np.nan_to_num(e.mean(axis=-1), nan=np.inf, posinf=np.inf)
 
 

@@ -1,71 +1,42 @@
-"""Read a results store (``meta.json``, ``results.jsonl``, ``summary.json``, EXR images).
+"""The report's view of a results store: records and summary rows grouped into sections.
 
-The store layout is fixed by the harness (DESIGN.md section 5, issue 5). Everything here
-tolerates an interrupted run: a missing ``meta.json`` or ``summary.json``, a truncated last
-line in ``results.jsonl``, missing keys and ``null`` values. What cannot be understood at
-all (not a folder, nothing in it, a record without its identifying keys) is an error.
+Reading is :mod:`benchmarks.store`'s, the sole owner of the results format (records,
+keys, dedupe, torn lines, images, ``meta.json`` and ``summary.json``). This module adds
+only the report's side: it tolerates an interrupted run (a missing ``meta.json`` or
+``summary.json``, a truncated last line in ``results.jsonl``, missing keys and ``null``
+values) and lists what it skipped in :attr:`Store.problems` for the page, instead of
+warning; it groups records into (scene, width, height) sections and orders curves. What
+cannot be understood at all (not a folder, nothing in it, a record without its
+identifying keys) is an error.
 """
 from __future__ import annotations
 
-import importlib.util
-import json
 import math
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Store", "load_store", "record_key", "read_image", "imageio"]
+from benchmarks import store as results
+from benchmarks.constants import STRATEGIES
 
-#: the fields that identify a job; duplicates (a resumed run) are resolved by "last wins".
-KEY_FIELDS = ("scene", "renderer", "strategy", "spp", "seed", "width", "height")
-
-#: our strategies in the order the report shows them; unknown strategies follow, sorted.
-STRATEGY_ORDER = ("uniform", "cosine", "light", "mixture", "mis")
-
-_IMAGEIO = None
+__all__ = ["Store", "load_store", "curve_order", "num"]
 
 
-def imageio():
-    """Return the ``reference_tracer.imageio`` module, imported without the C++ core if need be.
+def num(value) -> float:
+    """A JSON value as float; ``None``, booleans and non-numbers become NaN.
 
-    ``import reference_tracer`` loads the compiled ``_core`` extension. The report only needs
-    the EXR and display helpers, which are pure Python, so when the package import fails
-    (core not built on this machine) the module file is loaded on its own.
+    Examples
+    --------
+    >>> num(None), num("x"), num(2)
+    (nan, nan, 2.0)
     """
-    global _IMAGEIO
-    if _IMAGEIO is not None:
-        return _IMAGEIO
-    try:
-        from reference_tracer import imageio as mod  # noqa: PLC0415
-    except ImportError:
-        spec = importlib.util.find_spec("reference_tracer")
-        if spec is None or not spec.submodule_search_locations:
-            raise
-        path = Path(next(iter(spec.submodule_search_locations))) / "imageio.py"
-        mspec = importlib.util.spec_from_file_location("_rtbench_report_imageio", path)
-        mod = importlib.util.module_from_spec(mspec)
-        sys.modules.setdefault("_rtbench_report_imageio", mod)
-        mspec.loader.exec_module(mod)
-    _IMAGEIO = mod
-    return mod
-
-
-def record_key(record: dict) -> tuple:
-    """The identity of a job record: (scene, renderer, strategy, spp, seed, width, height)."""
-    return tuple(record.get(k) for k in KEY_FIELDS)
-
-
-def _num(value) -> float:
-    """A JSON value as float; ``None``, strings and non-finite values become NaN."""
     if isinstance(value, bool) or value is None:
         return math.nan
     try:
-        v = float(value)
+        return float(value)
     except (TypeError, ValueError):
         return math.nan
-    return v
 
 
 @dataclass
@@ -79,12 +50,14 @@ class Store:
     meta : dict
         ``meta.json`` (empty when missing).
     records : list of dict
-        ``results.jsonl`` records, deduplicated by :data:`KEY_FIELDS` (last wins), in
-        first-appearance order of their key.
+        ``results.jsonl`` records, deduplicated by job key (last wins, at the position of
+        the first; :func:`benchmarks.store.dedupe_records`).
     rows : list of dict
         ``summary.json`` rows (empty when missing).
     problems : list of str
         What was missing or unreadable; the report lists these.
+    n_raw_records : int
+        Records before deduplication.
     """
 
     path: Path
@@ -141,6 +114,10 @@ class Store:
         p = Path(relpath)
         return p if p.is_absolute() else self.path / p
 
+    def read_image(self, relpath) -> np.ndarray:
+        """An EXR image of the store as (H, W, 3) float32 (:func:`benchmarks.store.read_image`)."""
+        return results.read_image(self.path, relpath, rgb=True)
+
 
 def _int_or_none(v):
     if v is None or isinstance(v, bool):
@@ -152,23 +129,18 @@ def _int_or_none(v):
 
 
 def curve_order(curve: tuple) -> tuple:
-    """Sort key for a (renderer, strategy) curve: ours by :data:`STRATEGY_ORDER`, Mitsuba last."""
+    """Sort key for a (renderer, strategy) curve: ours in ``STRATEGIES`` order, then Mitsuba.
+
+    Examples
+    --------
+    >>> sorted([("mitsuba", "path"), ("ours", "mis"), ("ours", "uniform")], key=curve_order)
+    [('ours', 'uniform'), ('ours', 'mis'), ('mitsuba', 'path')]
+    """
     renderer, strategy = curve
     if renderer == "ours":
-        idx = STRATEGY_ORDER.index(strategy) if strategy in STRATEGY_ORDER else len(STRATEGY_ORDER)
+        idx = STRATEGIES.index(strategy) if strategy in STRATEGIES else len(STRATEGIES)
         return (0, idx, str(strategy))
     return (1, 0, f"{renderer}:{strategy}")
-
-
-def _read_json(path: Path, problems: list, what: str):
-    if not path.exists():
-        problems.append(f"{what} is missing ({path.name})")
-        return None
-    try:
-        return json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        problems.append(f"{what} could not be read: {exc}")
-        return None
 
 
 def load_store(store) -> Store:
@@ -187,83 +159,45 @@ def load_store(store) -> Store:
     ------
     ValueError
         If ``store`` is not a folder, holds neither ``results.jsonl`` nor ``summary.json``,
-        or a record or row lacks ``scene``, ``renderer`` or ``strategy`` or has a bad ``spp``.
-        A line of ``results.jsonl`` that is not JSON at all is skipped and listed in
-        :attr:`Store.problems` (the page shows them), as the harness's own reader skips it.
+        or a record or row lacks ``scene``, ``renderer`` or ``strategy`` or has a bad ``spp``
+        (:func:`benchmarks.store.check_identity`). A line of ``results.jsonl`` that is not
+        JSON at all is skipped and listed in :attr:`Store.problems` (the page shows them),
+        as the harness's own reader skips it.
     """
     path = Path(store).expanduser()
     if not path.is_dir():
         raise ValueError(f"results store {str(path)!r} is not a folder")
-    results = path / "results.jsonl"
-    summary = path / "summary.json"
-    if not results.exists() and not summary.exists():
-        raise ValueError(f"{str(path)!r} is not a results store: it holds neither results.jsonl nor summary.json")
+    if not (path / results.RESULTS).exists() and not (path / results.SUMMARY).exists():
+        raise ValueError(f"{str(path)!r} is not a results store: it holds neither "
+                         f"{results.RESULTS} nor {results.SUMMARY}")
     out = Store(path=path.resolve())
-
-    meta = _read_json(path / "meta.json", out.problems, "meta.json")
-    if meta is not None and not isinstance(meta, dict):
-        out.problems.append("meta.json is not a JSON object; ignored")
-        meta = None
-    out.meta = meta or {}
-
-    by_key: dict[tuple, dict] = {}
-    if results.exists():
-        lines = results.read_text().splitlines()
-        for lineno, line in enumerate(lines, 1):
-            if not line.strip():
-                continue
-            try:
-                rec = json.loads(line)
-            except json.JSONDecodeError:
-                if lineno == len(lines):
-                    out.problems.append(f"results.jsonl: last line {lineno} is truncated (interrupted run?); skipped")
-                else:  # as the harness's reader does: skip it, but the report lists it
-                    out.problems.append(f"results.jsonl: line {lineno} is not valid JSON; skipped")
-                continue
-            if not isinstance(rec, dict):
-                raise ValueError(f"{results}: line {lineno} is not a JSON object")
-            _validate(rec, f"{results.name} line {lineno}")
-            out.n_raw_records += 1
-            key = record_key(rec)
-            by_key.pop(key, None)  # last wins, and keeps the order of the last write
-            by_key[key] = rec
-    else:
-        out.problems.append("results.jsonl is missing: no curves or images")
-    out.records = list(by_key.values())
+    out.meta = results.read_meta(path, problems=out.problems)
+    raw = _records(path, out.problems)
+    out.n_raw_records = len(raw)
+    out.records = results.dedupe_records(raw)
     if out.n_raw_records > len(out.records):
-        out.problems.append(f"results.jsonl: {out.n_raw_records - len(out.records)} duplicate job record(s) "
-                            "(resumed run); the last of each was kept")
-
-    summ = _read_json(summary, out.problems, "summary.json")
-    if summ is not None:
-        rows = summ.get("rows") if isinstance(summ, dict) else None
-        if not isinstance(rows, list):
-            out.problems.append("summary.json has no 'rows' list; ignored")
-            rows = []
-        for i, row in enumerate(rows):
-            if not isinstance(row, dict):
-                raise ValueError(f"{summary}: row {i} is not a JSON object")
-            _validate(row, f"summary.json row {i}", need_spp=False)
-        out.rows = rows
+        out.problems.append(f"{results.RESULTS}: {out.n_raw_records - len(out.records)} duplicate job "
+                            "record(s) (resumed run); the last of each was kept")
+    out.rows = results.read_summary_rows(path, problems=out.problems)
+    for i, row in enumerate(out.rows):
+        results.check_identity(row, f"{results.SUMMARY} row {i}", need_spp=False)
     return out
 
 
-def _validate(rec: dict, where: str, *, need_spp: bool = True) -> None:
-    for k in ("scene", "renderer", "strategy"):
-        if not isinstance(rec.get(k), str) or not rec[k]:
-            raise ValueError(f"{where}: missing or non-string {k!r}")
-    if need_spp:
-        spp = rec.get("spp")
-        if isinstance(spp, bool) or not isinstance(spp, (int, float)) or not spp > 0:
-            raise ValueError(f"{where}: 'spp' must be a positive number, got {spp!r}")
-
-
-def read_image(path: Path) -> np.ndarray:
-    """Read an EXR as an (H, W, 3) float32 array (grey images are repeated to RGB, alpha dropped)."""
-    a = imageio().read_exr(path)
-    if a.shape[2] == 1:
-        a = np.repeat(a, 3, axis=2)
-    return np.asarray(a[..., :3], dtype=np.float32)
-
-
-num = _num
+def _records(path: Path, problems: list) -> list[dict]:
+    """Every record of ``results.jsonl`` in file order; lines that are not JSON go to ``problems``."""
+    if not (path / results.RESULTS).exists():
+        problems.append(f"{results.RESULTS} is missing: no curves or images")
+        return []
+    out = []
+    for line in results.result_lines(path):
+        where = f"{results.RESULTS}: line {line.number}"
+        if not line.parsed:
+            problems.append(f"{results.RESULTS}: last line {line.number} is truncated (interrupted run?); skipped"
+                            if line.last else f"{where} is not valid JSON; skipped")
+            continue
+        if not isinstance(line.value, dict):
+            raise ValueError(f"{path / results.RESULTS}: line {line.number} is not a JSON object")
+        results.check_identity(line.value, f"{results.RESULTS} line {line.number}")
+        out.append(line.value)
+    return out

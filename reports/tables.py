@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import math
 
+from benchmarks.constants import RELMSE_EPS
+
 from .curves import curve_label
 from .store import num
 
@@ -111,7 +113,7 @@ def facts_table(meta: dict, *, n_records: int = 0, n_raw: int = 0) -> list[tuple
 #: (name, definition) of every metric in the tables and plots, epsilons included.
 FORMULAS = (
     ("MSE, RMSE", "MSE = mean over pixels and RGB channels of (x - ref)^2 on linear radiance; RMSE = sqrt(MSE)."),
-    ("relMSE", "mean of (x - ref)^2 / (ref^2 + eps) with eps = 0.01."),
+    ("relMSE", f"mean of (x - ref)^2 / (ref^2 + eps) with eps = {RELMSE_EPS:g}."),
     ("corrected MSE", "MSE - mean(Var_ref / N_ref): the reference's own noise (per-sample variance Var_ref "
                       "over its N_ref samples) biases MSE upwards and is subtracted."),
     ("bias^2", "over K independent seeds: mean over pixels of (mean_k x_k - ref)^2 minus the variance "
@@ -127,7 +129,8 @@ FORMULAS = (
     ("time to target", "seconds to reach the scene's target RMSE (interpolated on the RMSE-time curve)."),
     ("throughput", "samples per second = spp x width x height / seconds; relative to Mitsuba as a ratio."),
     ("images", "tone-mapped alike: scaled by k from the reference, the larger of 0.18 / (median luminance) and "
-               "1 / (99th-percentile luminance, the SSIM's exposure), clipped to [0, 1], sRGB transfer. Error maps: per-pixel (x - ref)^2 / (ref^2 + 0.01), "
+               "1 / (99th-percentile luminance, the SSIM's exposure), clipped to [0, 1], sRGB transfer. "
+               f"Error maps: per-pixel (x - ref)^2 / (ref^2 + {RELMSE_EPS:g}), "
                "mean over channels, log colour scale shared within a scene; the seed-0 image of each job."),
     ("median and band", "curves show the median over seeds; the shaded band spans the minimum to maximum."),
 )

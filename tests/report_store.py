@@ -21,8 +21,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from reports.images import reference_exposure  # noqa: E402
-from reports.store import imageio  # noqa: E402
+from benchmarks.display import reference_exposure, to_display  # noqa: E402
+from benchmarks.store import write_image  # noqa: E402
 
 #: per-sample relative noise of each (renderer, strategy)
 NOISE = {("ours", "uniform"): 0.9, ("ours", "cosine"): 0.6, ("ours", "light"): 0.25, ("ours", "mixture"): 0.3,
@@ -57,8 +57,8 @@ def _metrics(img, ref, exposure):
     d = img.astype(np.float64) - ref
     mse = float(np.mean(d ** 2))
     relmse = float(np.mean(d ** 2 / (ref.astype(np.float64) ** 2 + 0.01)))
-    to_display = imageio().to_display
-    ssim = float(structural_similarity(to_display(img, exposure), to_display(ref, exposure), data_range=1.0,
+    disp = lambda a: to_display(a, stops=exposure, keep_nan=False)  # noqa: E731 - as the report shows them
+    ssim = float(structural_similarity(disp(img), disp(ref), data_range=1.0,
                                        channel_axis=-1, gaussian_weights=True, sigma=1.5,
                                        use_sample_covariance=False, win_size=7))
     return mse, relmse, ssim
@@ -92,7 +92,6 @@ def make_store(path, *, scenes=("cornell_box", "spheres"), strategies=("uniform"
     root = Path(path)
     (root / "images").mkdir(parents=True, exist_ok=True)
     (root / "references").mkdir(parents=True, exist_ok=True)
-    write_exr = imageio().write_exr
     curves = [("ours", s) for s in strategies] + ([("mitsuba", "path")] if mitsuba else [])
     meta = {"date": "2025-11-22T05:40:00", "preset": "test", "total_seconds": 12.5, "threads": 2,
             "machine": {"cores": 2, "cpu": "Synthetic CPU @ 3.0GHz", "platform": "Linux-test"},
@@ -103,9 +102,9 @@ def make_store(path, *, scenes=("cornell_box", "spheres"), strategies=("uniform"
     for si, scene in enumerate(scenes):
         ref = scene_image(size, variant=si)
         ref_rel = f"references/{scene}.exr"
-        write_exr(root / ref_rel, ref)
+        write_image(root, ref_rel, ref)
         var_rel = f"references/{scene}_variance.exr"
-        write_exr(root / var_rel, (0.2 * ref) ** 2)
+        write_image(root, var_rel, (0.2 * ref) ** 2)
         meta["references"][scene] = {"spp": 4096, "seed": 1234, "path": ref_rel, "variance_path": var_rel}
         exposure = reference_exposure(ref)
         target = 0.08
@@ -113,7 +112,6 @@ def make_store(path, *, scenes=("cornell_box", "spheres"), strategies=("uniform"
         for renderer, strategy in curves:
             sigma = NOISE.get((renderer, strategy), 0.4)
             mean_img = ref.astype(np.float64).copy()
-            bias = 0.0
             if strategy == "light":  # misses indirect light: darker away from the emitter
                 mean_img[ref < 5] *= 0.7
             for spp in spps:
@@ -125,7 +123,7 @@ def make_store(path, *, scenes=("cornell_box", "spheres"), strategies=("uniform"
                     image_rel = None
                     if seed == seeds[0]:
                         image_rel = f"images/{scene}/{renderer}_{strategy}_{spp}spp_seed{seed}.exr"
-                        write_exr(root / image_rel, img)
+                        write_image(root, image_rel, img)
                     records.append({
                         "scene": scene, "renderer": renderer, "strategy": strategy, "spp": spp, "seed": seed,
                         "width": size, "height": size, "mse": mse, "rmse": math.sqrt(mse), "relmse": relmse,
@@ -134,39 +132,14 @@ def make_store(path, *, scenes=("cornell_box", "spheres"), strategies=("uniform"
                         "rays": None if renderer == "mitsuba" else int(spp * size * size * 3),
                         "paths_per_second": spp * size * size / secs, "threads": 2, "image": image_rel,
                         "versions": {"rtbench": "0.1.0", "mitsuba": "3.9.1"}})
-            recs = [r for r in records if r["scene"] == scene and (r["renderer"], r["strategy"]) == (renderer,
-                                                                                                     strategy)]
-            x = np.log([r["spp"] for r in recs])
-            slope = float(np.polyfit(x, np.log([r["rmse"] for r in recs]), 1)[0])
-            bias = float(np.mean((mean_img - ref) ** 2))
-            last = [r for r in recs if r["spp"] == spps[-1]]
-            mse_last = float(np.mean([r["mse"] for r in last]))
-            sec_last = float(np.mean([r["seconds"] for r in last]))
-            rows.append({
-                "scene": scene, "renderer": renderer, "strategy": strategy, "width": size, "height": size,
-                "slope": slope, "slope_ci": [slope - 0.04, slope + 0.04],
-                "bias2": bias + float(rng.normal(0, 1e-6)), "bias2_stderr": 2e-6 + 1e-3 * bias,
-                "bias_z": (bias / (2e-6 + 1e-3 * bias)) if bias > 0 else float(rng.normal()),
-                "bias_p": 1e-12 if bias > 0 else 0.4, "bias_significant": bool(bias > 0),
-                "variance": recs[0]["variance"], "efficiency": 1.0 / (mse_last * sec_last),
-                "efficiency_vs_mitsuba": None, "time_to_target": None if strategy == "light" else sec_last * 0.7,
-                "target_rmse": target, "samples_per_second": spps[-1] * size * size / sec_last,
-                "samples_per_second_vs_mitsuba": None})
+            rows.append(_summary_row(records, scene, renderer, strategy, mean_img, ref, spps, size, target, rng))
         mits = next((r for r in rows if r["scene"] == scene and r["renderer"] == "mitsuba"), None)
         for r in rows:
             if r["scene"] == scene and mits is not None:
                 r["efficiency_vs_mitsuba"] = r["efficiency"] / mits["efficiency"]
                 r["samples_per_second_vs_mitsuba"] = r["samples_per_second"] / mits["samples_per_second"]
     if seed_comparison:
-        for strategy, a in (("uniform", 0.5), ("light", 0.1)):
-            for spp in (1, 4, 16, 50, 64):
-                for seed in seeds:
-                    rmse = a / math.sqrt(spp)
-                    records.append({"scene": "cornell_box", "renderer": "ours", "strategy": strategy, "spp": spp,
-                                    "seed": seed, "width": 400, "height": 400, "mse": rmse ** 2, "rmse": rmse,
-                                    "relmse": rmse ** 2 * 3, "ssim": 1 - rmse, "mse_corrected": rmse ** 2,
-                                    "variance": a * a, "seconds": 0.01 * spp, "rays": 1000 * spp,
-                                    "paths_per_second": 1.6e7, "threads": 2, "image": None, "versions": {}})
+        records += _seed_comparison_records(seeds)
     lines = [json.dumps(r) for r in records]
     if duplicate and records:
         stale = dict(records[0], rmse=999.0, mse=998001.0)
@@ -178,6 +151,42 @@ def make_store(path, *, scenes=("cornell_box", "spheres"), strategies=("uniform"
     (root / "summary.json").write_text(json.dumps({"rows": rows}, indent=1))
     (root / "meta.json").write_text(json.dumps(meta, indent=1))
     return root
+
+
+def _summary_row(records, scene, renderer, strategy, mean_img, ref, spps, size, target, rng) -> dict:
+    """The summary.json row of one curve, from its records (bias from the known mean image)."""
+    recs = [r for r in records if r["scene"] == scene and (r["renderer"], r["strategy"]) == (renderer, strategy)]
+    x = np.log([r["spp"] for r in recs])
+    slope = float(np.polyfit(x, np.log([r["rmse"] for r in recs]), 1)[0])
+    bias = float(np.mean((mean_img - ref) ** 2))
+    last = [r for r in recs if r["spp"] == spps[-1]]
+    mse_last = float(np.mean([r["mse"] for r in last]))
+    sec_last = float(np.mean([r["seconds"] for r in last]))
+    return {
+        "scene": scene, "renderer": renderer, "strategy": strategy, "width": size, "height": size,
+        "slope": slope, "slope_ci": [slope - 0.04, slope + 0.04],
+        "bias2": bias + float(rng.normal(0, 1e-6)), "bias2_stderr": 2e-6 + 1e-3 * bias,
+        "bias_z": (bias / (2e-6 + 1e-3 * bias)) if bias > 0 else float(rng.normal()),
+        "bias_p": 1e-12 if bias > 0 else 0.4, "bias_significant": bool(bias > 0),
+        "variance": recs[0]["variance"], "efficiency": 1.0 / (mse_last * sec_last),
+        "efficiency_vs_mitsuba": None, "time_to_target": None if strategy == "light" else sec_last * 0.7,
+        "target_rmse": target, "samples_per_second": spps[-1] * size * size / sec_last,
+        "samples_per_second_vs_mitsuba": None}
+
+
+def _seed_comparison_records(seeds) -> list[dict]:
+    """cornell_box 400x400 uniform and light records (no images) on exact power laws (see make_store)."""
+    out = []
+    for strategy, a in (("uniform", 0.5), ("light", 0.1)):
+        for spp in (1, 4, 16, 50, 64):
+            for seed in seeds:
+                rmse = a / math.sqrt(spp)
+                out.append({"scene": "cornell_box", "renderer": "ours", "strategy": strategy, "spp": spp,
+                            "seed": seed, "width": 400, "height": 400, "mse": rmse ** 2, "rmse": rmse,
+                            "relmse": rmse ** 2 * 3, "ssim": 1 - rmse, "mse_corrected": rmse ** 2,
+                            "variance": a * a, "seconds": 0.01 * spp, "rays": 1000 * spp,
+                            "paths_per_second": 1.6e7, "threads": 2, "image": None, "versions": {}})
+    return out
 
 
 if __name__ == "__main__":

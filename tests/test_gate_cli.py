@@ -1,4 +1,4 @@
-"""``rtbench gate`` and its driver (``benchmarks.gate_run``): verdicts, messages, images, bad input.
+"""``rtbench gate`` and its driver (``benchmarks.gate.suite``): verdicts, messages, images, bad input.
 
 Small images (8-16 pixels) and references of a few hundred spp in a per-session cache, so
 this file takes seconds. The gate's statistics are tested in ``test_gate_stats.py``, its
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from benchmarks.cli import main
-from benchmarks.gate import compare
-from benchmarks.gate_run import (CLOSED_FORM, DEFAULT_ALPHA, closed_form_reference, gate_reference, gate_scene,
-                                 resolve_scenes, resolve_strategies, run_gate)
+from benchmarks.constants import GATE_ALPHA
+from benchmarks.gate import compare, gate_reference, gate_scene, resolve_scenes, resolve_strategies, run_gate
+from benchmarks.references import CLOSED_FORM_REASONS, closed_form_reference_of
 from harness_util import cache_root
 
 SMALL = dict(width=16, spp=64, ref_spp=256, threads=2)
@@ -29,7 +29,7 @@ def test_unbiased_passes_and_biased_strategy_fails_with_where_and_how_much(cache
     assert list(verdict) == [("cornell_box", "mis"), ("cornell_box", "light"), ("furnace", "mis"),
                              ("furnace", "light")]
     # four comparisons share alpha (Bonferroni)
-    assert report.case_alpha == pytest.approx(DEFAULT_ALPHA / 4)
+    assert report.case_alpha == pytest.approx(GATE_ALPHA / 4)
     assert all(c.alpha == report.case_alpha for c in report.cases)
     assert verdict["cornell_box", "mis"].passed and verdict["furnace", "mis"].passed
     assert not report.passed and {(c.scene, c.strategy) for c in report.failures} == {
@@ -42,17 +42,17 @@ def test_unbiased_passes_and_biased_strategy_fails_with_where_and_how_much(cache
     assert "relative bias of the image -" in msg and ("rows" in msg or "pixel row" in msg)
     # the furnace is compared with its closed form, exactly: zero-variance reference
     fur = verdict["furnace", "light"]
-    assert fur.reference.kind == "closed form" and fur.reference.variance.max() == 0
+    assert fur.reference.source == "closed form" and fur.reference.variance.max() == 0
     assert "closed form reference" in fur.message()
 
 
 def test_furnace_reference_is_exact_and_mis_matches_it():
     scene = gate_scene("furnace", width=8)
-    ref = closed_form_reference("furnace", scene)
-    assert ref is not None and "furnace" in CLOSED_FORM
+    ref = closed_form_reference_of("furnace", scene.camera.width, scene.camera.height)
+    assert ref is not None and "furnace" in CLOSED_FORM_REASONS
     np.testing.assert_allclose(ref.mean, 0.5 * (1 - 0.8**8) / 0.2, rtol=1e-6)
-    assert gate_reference("furnace", scene).kind == "closed form"
-    assert closed_form_reference("cornell_box", gate_scene("cornell_box", width=8)) is None
+    assert gate_reference("furnace", scene).source == "closed form"
+    assert closed_form_reference_of("cornell_box", 8, 8) is None
 
 
 def test_rounding_level_variance_is_zero_variance():

@@ -1,7 +1,7 @@
 """False-alarm rate and power of the regression gate on real renders (issue 7).
 
 References
-    The gate's own: cached Mitsuba renders (``benchmarks.gate_run.gate_reference``), so
+    The gate's own: cached Mitsuba renders (``benchmarks.gate.gate_reference``), so
     these numbers are what ``rtbench gate`` reports, and Mitsuba's per-pixel rule, which
     is defined against a Mitsuba reference, sees the same data. The power test uses the
     gate's default references (32x32, 16384 spp) from the shared cache
@@ -19,25 +19,26 @@ of seeds; the gate is conservative, so the real chance is lower)
       and at most 16 comparisons with p < 0.01 among 800 (P(Bin(800, 0.01) >= 17) = 0.2%).
     * ``test_power_at_default_spp``: the gate must catch each injection at the seed used;
       an injection the gate catches with probability 0.95 would fail this test 5% of the
-      time for an arbitrary seed; the measured rates are in ``benchmarks.gate_run``.
+      time for an arbitrary seed; the measured rates are in ``benchmarks.gate.suite``.
 """
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from benchmarks.gate_power import INJECTIONS, QUICK_SUITE_COMPARISONS, format_table, power_row
-from benchmarks.gate_run import DEFAULT_ALPHA, DEFAULT_SPP, run_gate
+from benchmarks.commands._gate_tables import format_table
+from benchmarks.constants import GATE_ALPHA
+from benchmarks.gate import DEFAULT_SPP, INJECTIONS, QUICK_SUITE_COMPARISONS, power_row, run_gate
 
 THREADS = 2
-CASE_ALPHA = DEFAULT_ALPHA / QUICK_SUITE_COMPARISONS
+CASE_ALPHA = GATE_ALPHA / QUICK_SUITE_COMPARISONS
 
 
 def _false_alarms(seeds, *, width, spp, ref_spp, cache):
     runs, small_p = [], []
     for seed in seeds:
         report = run_gate(None, spp=spp, width=width, ref_spp=ref_spp, seed=seed, threads=THREADS, cache=cache)
-        assert report.case_alpha == pytest.approx(DEFAULT_ALPHA / 8)
+        assert report.case_alpha == pytest.approx(GATE_ALPHA / 8)
         runs.append(report)
         small_p += [(seed, c.scene, c.result.p_value) for c in report.cases if c.result.p_value < 0.01]
     failed = [(r.cases[0].seed, [c.message() for c in r.failures]) for r in runs if not r.passed]
@@ -111,8 +112,7 @@ def test_mitsuba_rule_false_alarm_on_unbiased_glass():
     control of the Schlick row): it ignores the test render's own variance and the
     reference's noise, and fails (26-67 failing pixel-channels in 12 of 12 seeds measured
     at 1024 and 4096 spp); our gate passes the same render."""
-    from benchmarks.gate import mitsuba_rule
-    from benchmarks.gate_run import compare_render, gate_reference, gate_scene
+    from benchmarks.gate import compare_render, gate_reference, gate_scene, mitsuba_rule
     import reference_tracer as rt
 
     scene = gate_scene("cornell_glass")

@@ -36,9 +36,9 @@ def test_dask_local_cluster_gives_the_local_records(tmp_path_factory):
 
 
 def test_unreachable_scheduler_is_a_clear_error(tmp_path_factory, monkeypatch):
-    import benchmarks.sweep
+    import benchmarks.sweep.runners
 
-    monkeypatch.setattr(benchmarks.sweep, "DASK_CONNECT_TIMEOUT", "2s")
+    monkeypatch.setattr(benchmarks.sweep.runners, "DASK_CONNECT_TIMEOUT", "2s")
     with pytest.raises(ValueError, match="Dask scheduler"):
         run_sweep([TINY], out=tmp_path_factory.mktemp("dask-bad"), progress=False,
                   cache=cache_root(tmp_path_factory), scheduler="tcp://127.0.0.1:9")

@@ -22,7 +22,8 @@ from report_store import make_store  # noqa: E402
 
 import reports  # noqa: E402
 from reports.curves import curves, loglog_interp, loglog_slope, seed_comparison  # noqa: E402
-from reports.images import error_map, pick_spps, reference_exposure  # noqa: E402
+from benchmarks.display import reference_exposure  # noqa: E402
+from reports.images import error_map, pick_spps  # noqa: E402
 from reports.store import load_store  # noqa: E402
 
 SCENES = ("cornell_box", "spheres")

@@ -5,6 +5,7 @@ import pytest
 
 import reference_tracer as rt
 from benchmarks import stress
+from reference_tracer.render import core_scene
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +55,7 @@ def test_all_equal_vertex_mesh_renders():
     """A mesh whose vertices are all one point: empty BVH, renders black, no NaN."""
     mesh = rt.Mesh(np.full((9, 3), 0.5), np.arange(9).reshape(3, 3), rt.DiffuseLight(3.0))
     scene = stress.probe_scene([mesh], width=8, height=8)
-    core = stress.core_scene(scene)
+    core = core_scene(scene)
     assert core.emitter_count == 0
     for strategy in rt.STRATEGIES:
         r = rt.render(scene, spp=2, strategy=strategy, seed=0, threads=1)

@@ -3,12 +3,15 @@ from __future__ import annotations
 
 import argparse
 
+from benchmarks.constants import BIAS_TEST_ALPHA
+
 HELP = "render error-vs-spp curves (our strategies + Mitsuba path) against cached references into a results store"
 
 DEFAULT_OUT = "reports/out/curves"
 
 
-def _int_list(text: str, what: str) -> tuple:
+def _parse_ints(text: str, what: str) -> tuple:
+    """CLI text ``"1,2,4"`` -> ``(1, 2, 4)`` (the sweep validates the values themselves)."""
     try:
         values = tuple(int(v) for v in text.split(",") if v.strip())
     except ValueError:
@@ -31,7 +34,8 @@ def add_sweep_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--variant", default=None, help="Mitsuba variant (default: the fastest that works)")
     parser.add_argument("--cache", default=None, metavar="DIR",
                         help="reference cache (default $RTBENCH_CACHE or ~/.cache/rtbench)")
-    parser.add_argument("--alpha", type=float, default=None, help="level of the bias test (default 0.001)")
+    parser.add_argument("--alpha", type=float, default=None,
+                        help=f"level of the bias test (default {BIAS_TEST_ALPHA})")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -51,19 +55,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def sweep_kwargs(args) -> dict:
-    from benchmarks.sweep import DEFAULT_ALPHA
-
+    """``run_sweep``'s keyword arguments from the options of :func:`add_sweep_options`."""
     return dict(threads=args.threads, scheduler=args.scheduler, variant=args.variant, cache=args.cache,
-                alpha=DEFAULT_ALPHA if args.alpha is None else args.alpha, progress=not args.quiet)
+                alpha=BIAS_TEST_ALPHA if args.alpha is None else args.alpha, progress=not args.quiet)
 
 
 def run(args) -> int:
     from rich.console import Console
 
+    from benchmarks.commands._summary import print_summary
     from benchmarks.sweep import Group, run_sweep
-    from benchmarks.tables import print_summary
 
-    spps = _int_list(args.spp, "--spp")
+    spps = _parse_ints(args.spp, "--spp")
     ref_spp = args.reference_spp if args.reference_spp is not None else max(4096, 32 * max(spps))
     group = Group(scenes=tuple(args.scenes), strategies=_names(args.strategies), spps=spps, seeds=args.seeds,
                   width=args.width, height=args.height, mitsuba=not args.no_mitsuba, reference_spp=ref_spp)

@@ -2,10 +2,12 @@
 
 Renders each scene with our tracer (``mis``, plus any ``--strategies``), compares it with
 its cached Mitsuba reference (rendered first when missing) by
-:func:`benchmarks.gate.compare`, prints a table, writes p-value images of failures into
-``--out`` and exits 1 when any comparison fails. Defaults: the quick suite at 32x32,
+:func:`benchmarks.gate.compare` with the tail diagnostics of the same estimator (a cached
+high-spp run of ours: :mod:`benchmarks.tails`), prints a table with each comparison's
+verdict (pass, fail or undetermined) and power, writes p-value images of failures into
+``--out`` and exits 1 when any comparison fails (undetermined ones do not fail the run). Defaults: the quick suite at 32x32,
 4096 spp against 16384-spp references, false-alarm rate 0.01 for the whole run
-(``benchmarks.gate_run``).
+(:mod:`benchmarks.gate.suite`; the table is :func:`benchmarks.commands._gate_tables.gate_table`).
 """
 from __future__ import annotations
 
@@ -19,8 +21,9 @@ HELP = ("regression gate: render the suite with our tracer, test it against the 
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from benchmarks.gate_run import (DEFAULT_ALPHA, DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_WIDTH,
-                                     STRATEGIES)
+    from benchmarks.constants import GATE_ALPHA, STRATEGIES
+    from benchmarks.gate import DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_WIDTH
+    from benchmarks.tails import DEFAULT_TAIL_SPP
 
     parser.add_argument("scenes", nargs="*", metavar="SCENE",
                         help="suite scenes (default: the whole quick suite; see `rtbench render --list`)")
@@ -35,8 +38,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ref-spp", type=int, default=DEFAULT_REF_SPP,
                         help=f"samples per pixel of the Mitsuba references (default {DEFAULT_REF_SPP}; "
                              "rendered into the cache when missing)")
-    parser.add_argument("--alpha", type=float, default=DEFAULT_ALPHA,
-                        help=f"false-alarm rate of the whole run (default {DEFAULT_ALPHA}); each of the k "
+    parser.add_argument("--alpha", type=float, default=GATE_ALPHA,
+                        help=f"false-alarm rate of the whole run (default {GATE_ALPHA}); each of the k "
                              "comparisons is tested at alpha/k")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"seed of our renders (default {DEFAULT_SEED})")
     parser.add_argument("--out", default="rtbench-gate", metavar="DIR",
@@ -44,7 +47,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--threads", type=int, default=None, help="rendering threads (default: all cores)")
     parser.add_argument("--cache", default=None, metavar="DIR",
                         help="reference cache root (default $RTBENCH_CACHE or ~/.cache/rtbench)")
-    parser.add_argument("--json", default=None, metavar="PATH", help="also write every comparison's statistics")
+    parser.add_argument("--tail-spp", type=int, default=DEFAULT_TAIL_SPP,
+                        help=f"samples per pixel of the tail references: our estimator at a high budget, cached, "
+                             f"whose variance and tail shape make the verdicts valid for heavy-tailed strategies "
+                             f"(default {DEFAULT_TAIL_SPP}; 0: none, the older rule)")
+    parser.add_argument("--calibrate", action="store_true",
+                        help="measure the false-alarm rate instead: render every unbiased strategy (or "
+                             "--strategies) with --seeds seeds at each of --spps and count pass / fail / "
+                             "undetermined per (scene, strategy, spp); exit 1 if a rate exceeds --alpha")
+    parser.add_argument("--spps", default="64,256,1024,4096", metavar="N[,N...]",
+                        help="--calibrate: budgets of the renders (default 64,256,1024,4096)")
+    parser.add_argument("--seeds", type=int, default=100,
+                        help="--calibrate: renders per (scene, strategy, spp) (default 100)")
+    parser.add_argument("--json", default=None, metavar="PATH",
+                        help="also write one row per comparison (scene, strategy, spp, verdict, statistics, power)")
 
 
 def _strategies(values) -> list:
@@ -55,12 +71,13 @@ def _strategies(values) -> list:
 
 
 def run(args) -> int:
+    if args.calibrate:
+        return _calibrate(args)
     from rich.console import Console
-    from rich.markup import escape
     from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-    from rich.table import Table
 
-    from benchmarks.gate_run import run_gate, write_p_images
+    from benchmarks.commands._gate_tables import gate_table
+    from benchmarks.gate import resolve_scenes, resolve_strategies, run_gate, write_p_images
 
     console = Console()
     if not console.is_terminal:  # CI logs: keep one row per comparison
@@ -71,8 +88,6 @@ def run(args) -> int:
     scenes = args.scenes or None
     strategies = _strategies(args.strategies)
     # validate everything before the first (possibly long) render
-    from benchmarks.gate_run import resolve_scenes, resolve_strategies
-
     n_scenes, n_strategies = len(resolve_scenes(scenes)), len(resolve_strategies(strategies))
     for name, v, lo in (("--spp", args.spp, 2), ("--ref-spp", args.ref_spp, 2), ("--width", args.width, 1),
                         ("--seed", args.seed, 0)):
@@ -82,6 +97,8 @@ def run(args) -> int:
         raise ValueError(f"--height must be >= 1, got {args.height}")
     if not 0 < args.alpha < 1:
         raise ValueError(f"--alpha must be in (0, 1), got {args.alpha}")
+    if args.tail_spp < 0 or args.tail_spp == 1:
+        raise ValueError(f"--tail-spp must be 0 or >= 2, got {args.tail_spp}")
 
     progress = Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
                         TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(), console=err,
@@ -106,31 +123,25 @@ def run(args) -> int:
         report = run_gate(scenes, strategies=strategies, spp=args.spp, width=args.width, height=args.height,
                           ref_spp=args.ref_spp, alpha=args.alpha, seed=args.seed, threads=args.threads,
                           cache=args.cache, log=lambda line: progress.console.print(line, markup=False),
-                          on_reference=on_reference, on_case=on_case)
+                          on_reference=on_reference, on_case=on_case, tail_spp=args.tail_spp)
 
-    c0 = report.cases[0]
-    table = Table(title=f"rtbench gate: {c0.width}x{c0.height}, {c0.spp} spp, seed {c0.seed}; alpha {report.alpha:g} "
-                        f"for the run = {report.case_alpha:.3g} per comparison")
-    for col in ("scene", "strategy", "reference", "verdict", "p-value", "failed levels", "relative bias +- se",
-                "where (strongest evidence)"):
-        table.add_column(col, overflow="fold")
-    for c in report.cases:
-        r = c.result
-        verdict = "[green]pass[/]" if c.passed else "[bold red]FAIL[/]"
-        ref = "closed form" if c.reference.kind == "closed form" else f"Mitsuba {c.reference.spp} spp"
-        table.add_row(c.scene, c.strategy, ref, verdict, f"{r.p_value:.3g}", ", ".join(r.failed_levels) or "-",
-                      f"{r.relative_bias:+.2%} +- {r.relative_bias_se:.2%}", escape(c.where()) if not c.passed else "-")
-    console.print(table)
-    console.print(f"references {report.reference_seconds:.1f} s, our renders {report.render_seconds:.1f} s, "
-                  f"total {report.seconds:.1f} s", highlight=False)
+    console.print(gate_table(report))
+    console.print(f"references {report.reference_seconds:.1f} s, tail references {report.tail_seconds:.1f} s, "
+                  f"our renders {report.render_seconds:.1f} s, total {report.seconds:.1f} s", highlight=False)
+    for c in report.undetermined:
+        console.print(f"undetermined: {c.scene} ({c.strategy}): {c.result.reason}", highlight=False, markup=False)
     if args.json:
         path = Path(args.json)
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps({"alpha": report.alpha, "case_alpha": report.case_alpha,
-                                    "passed": report.passed, "cases": [c.to_dict() for c in report.cases]},
+                                    "passed": report.passed, "verdicts": {v: sum(c.verdict == v for c in report.cases)
+                                                                          for v in ("pass", "fail", "undetermined")},
+                                    "cases": [c.to_dict() for c in report.cases]},
                                    indent=1, default=float) + "\n")
     if report.passed:
-        console.print(f"[green]gate passed[/]: {len(report.cases)} comparison(s)")
+        n_und = len(report.undetermined)
+        console.print(f"[green]gate passed[/]: {len(report.cases) - n_und} comparison(s) pass"
+                      + (f", {n_und} undetermined (not a failure; see above)" if n_und else ""))
         return 0
     for c in report.failures:
         paths = write_p_images(c, args.out)
@@ -138,3 +149,61 @@ def run(args) -> int:
         print(f"  p-value images: {paths[1]} (false colour), {paths[0]} (-log10 p)", file=sys.stderr)
     print(f"rtbench gate: {len(report.failures)} of {len(report.cases)} comparison(s) failed", file=sys.stderr)
     return 1
+
+
+def _calibrate(args) -> int:
+    """``rtbench gate --calibrate``: the false-alarm table (:func:`benchmarks.gate.calibrate`)."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from benchmarks.commands._gate_tables import calibration_table
+    from benchmarks.constants import UNBIASED_STRATEGIES
+    from benchmarks.gate import calibrate, resolve_scenes
+
+    try:
+        spps = [int(v) for v in args.spps.split(",") if v.strip()]
+    except ValueError:
+        raise ValueError(f"--spps must be a comma-separated list of integers, got {args.spps!r}") from None
+    if not spps or min(spps) < 2:
+        raise ValueError(f"--spps must list budgets >= 2, got {args.spps!r}")
+    if args.seeds < 1:
+        raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
+    if not 0 < args.alpha < 1:
+        raise ValueError(f"--alpha must be in (0, 1), got {args.alpha}")
+    strategies = _strategies(args.strategies) or list(UNBIASED_STRATEGIES)
+    names = resolve_scenes(args.scenes or None)
+    console = Console()
+    progress = Progress(TextColumn("calibration"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                        console=Console(stderr=True), transient=True)
+    rows = []
+
+    def on_row(row):
+        rows.append(row)
+        progress.console.print(f"{row.scene} {row.strategy} {row.spp} spp: pass {row.passed}, fail {row.failed}, "
+                               f"undetermined {row.undetermined}", highlight=False, markup=False)
+        if args.json:  # written after every row: an interrupted calibration keeps what it measured
+            _write_json(args.json, {"alpha": args.alpha, "rows": [r.to_dict() for r in rows]})
+
+    with progress:
+        task = progress.add_task("renders", total=len(names) * len(strategies) * len(spps) * args.seeds)
+        calibrate(names, strategies=strategies, spps=spps, seeds=args.seeds, width=args.width, ref_spp=args.ref_spp,
+                  tail_spp=args.tail_spp, alpha=args.alpha, threads=args.threads, cache=args.cache,
+                  log=lambda line: progress.console.print(line, markup=False),
+                  on_render=lambda: progress.advance(task), on_row=on_row)
+    console.print(calibration_table(rows, alpha=args.alpha))
+    bad = [r for r in rows if not r.consistent]
+    if bad:
+        for r in bad:
+            print(f"rtbench gate --calibrate: false-alarm rate {r.false_alarm_rate:.3f} "
+                  f"(95% CI {r.ci_low:.3f}-{r.ci_high:.3f}) exceeds alpha {args.alpha:g} on {r.scene} "
+                  f"({r.strategy}, {r.spp} spp)", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _write_json(path, obj) -> None:
+    from benchmarks.store import atomic_write_text
+
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(p, json.dumps(obj, indent=1, default=float) + "\n")

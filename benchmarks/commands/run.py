@@ -9,7 +9,7 @@ HELP = "the main job: references and error-vs-spp curves for the whole suite, th
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from benchmarks.commands.curves import add_sweep_options
-    from benchmarks.presets import PRESETS
+    from benchmarks.sweep.presets import PRESETS
 
     parser.add_argument("--preset", choices=PRESETS, default=PRESETS[0],
                         help="quick (default: small images, whole suite in about 10 minutes on 2 cores) or "
@@ -24,10 +24,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     from rich.console import Console
 
+    from benchmarks.commands._summary import print_summary
     from benchmarks.commands.curves import sweep_kwargs
-    from benchmarks.presets import describe_preset, preset_groups
     from benchmarks.sweep import run_sweep
-    from benchmarks.tables import print_summary
+    from benchmarks.sweep.presets import describe_preset, preset_groups
 
     t0 = time.perf_counter()
     out = args.out or f"reports/out/{args.preset}"

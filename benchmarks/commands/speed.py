@@ -10,8 +10,6 @@ import argparse
 import json
 import math
 
-from benchmarks.tables import finite
-
 HELP = "time ours vs Mitsuba (paired, interleaved): paths/s, rays/s, ms/spp, RMSE, efficiency; --rays, --scaling"
 
 
@@ -66,9 +64,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _f(v, digits=3):
-    v = finite(v)
-    if v is None:
+    """``v`` to about ``digits`` significant digits; ``-`` for None, NaN and inf.
+
+    >>> _f(1234.5), _f(0.01234), _f(None), _f(float("nan"))
+    ('1,234', '0.0123', '-', '-')
+    """
+    if v is None or isinstance(v, bool) or not math.isfinite(v):
         return "-"
+    v = float(v)
     if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-3):
         return f"{v:.{digits}g}"
     return f"{v:.{digits}g}" if abs(v) < 1 else f"{v:,.{max(0, digits - len(str(int(abs(v)))))}f}"

@@ -8,36 +8,26 @@ follows as one line when the store holds it.
 
 Examples
 --------
->>> from benchmarks.tables import summary_table
->>> table = summary_table([])  # doctest: +SKIP
+>>> from benchmarks.commands._summary import summary_table
+>>> summary_table([]).title
+'rtbench summary'
 """
 from __future__ import annotations
 
 import math
 
-__all__ = ["summary_table", "print_summary", "seed_comparison_line", "finite"]
+from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP, STRATEGIES
+from benchmarks.sweep import finite
 
-_ORDER = ("uniform", "cosine", "light", "mixture", "mis")
-
-
-def finite(v):
-    """``v`` as a finite float, or None (None, bools, non-numbers, NaN and inf).
-
-    The one coercion of store values (JSON numbers, nulls) before they are shown.
-
-    >>> finite("2.5"), finite(None), finite(float("nan")), finite(True)
-    (2.5, None, None, None)
-    """
-    if v is None or isinstance(v, bool):
-        return None
-    try:
-        v = float(v)
-    except (TypeError, ValueError):
-        return None
-    return v if math.isfinite(v) else None
+__all__ = ["summary_table", "print_summary", "seed_comparison_line"]
 
 
 def _f(v, digits=2):
+    """A number in a cell: fixed point, or scientific when very large or small; '-' for none.
+
+    >>> _f(0.5), _f(12345.0), _f(None)
+    ('0.50', '1.2e+04', '-')
+    """
     v = finite(v)
     if v is None:
         return "-"
@@ -47,7 +37,11 @@ def _f(v, digits=2):
 
 
 def _si(v):
-    """1234567 -> '1.2M'."""
+    """1234567 -> '1.2M'.
+
+    >>> _si(1234567), _si(12)
+    ('1.2M', '12')
+    """
     v = finite(v)
     if v is None:
         return "-"
@@ -59,6 +53,28 @@ def _si(v):
 
 def _curve_name(renderer, strategy):
     return strategy if renderer == "ours" else f"Mitsuba {strategy}"
+
+
+def _curve_order(curve) -> tuple:
+    """Ours before Mitsuba, our strategies in :data:`benchmarks.constants.STRATEGIES` order."""
+    renderer, strategy = curve
+    return renderer != "ours", STRATEGIES.index(strategy) if strategy in STRATEGIES else 9, str(strategy)
+
+
+def _cell(r):
+    """Line 1: slope or BIASED z; line 2: ratios to Mitsuba (Mitsuba's own: its samples/s)."""
+    from rich.text import Text
+
+    t = Text()
+    if r.get("bias_significant") is True:
+        t.append(f"BIASED z={_f(r.get('bias_z'), 0)}", style="bold red")
+    else:
+        t.append(_f(r.get("slope")))
+    if r.get("renderer") == "mitsuba":
+        t.append(f"\n{_si(r.get('samples_per_second'))}/s")
+    else:
+        t.append(f"\n{_f(r.get('efficiency_vs_mitsuba'))} | {_f(r.get('samples_per_second_vs_mitsuba'))}")
+    return t
 
 
 def summary_table(rows, *, title: str = "rtbench summary"):
@@ -81,7 +97,7 @@ def summary_table(rows, *, title: str = "rtbench summary"):
         c = (r.get("renderer"), r.get("strategy"))
         if c not in curves:
             curves.append(c)
-    curves.sort(key=lambda c: (c[0] != "ours", _ORDER.index(c[1]) if c[1] in _ORDER else 9, str(c[1])))
+    curves.sort(key=_curve_order)
     sections = []
     for r in rows:
         s = (r.get("scene"), r.get("width"), r.get("height"))
@@ -99,19 +115,7 @@ def summary_table(rows, *, title: str = "rtbench summary"):
         cells = [Text(f"{scene}\n{w}x{h}")]
         for c in curves:
             r = by.get((scene, w, h, *c))
-            if r is None:
-                cells.append(Text(""))
-                continue
-            t = Text()
-            if r.get("bias_significant") is True:
-                t.append(f"BIASED z={_f(r.get('bias_z'), 0)}", style="bold red")
-            else:
-                t.append(_f(r.get("slope")))
-            if r.get("renderer") == "mitsuba":
-                t.append(f"\n{_si(r.get('samples_per_second'))}/s")
-            else:
-                t.append(f"\n{_f(r.get('efficiency_vs_mitsuba'))} | {_f(r.get('samples_per_second_vs_mitsuba'))}")
-            cells.append(t)
+            cells.append(Text("") if r is None else _cell(r))
         table.add_row(*cells)
     return table
 
@@ -119,7 +123,7 @@ def summary_table(rows, *, title: str = "rtbench summary"):
 def seed_comparison_line(records) -> str | None:
     """The seed's comparison as one sentence, when the store holds it (needs ``reports``)."""
     try:
-        from reports.curves import SEED_SCENE, SEED_SIZE, SEED_SPP, seed_comparison
+        from reports.curves import seed_comparison
     except ImportError:
         return None
     cmp = seed_comparison(records)
@@ -135,7 +139,7 @@ def print_summary(store, *, console=None) -> None:
     """Print the summary table of a results store (and the seed comparison line)."""
     from rich.console import Console
 
-    from .store import SUMMARY, read_json, read_records
+    from benchmarks.store import SUMMARY, read_json, read_records
 
     if console is None:
         console = Console()

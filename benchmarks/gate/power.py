@@ -1,8 +1,11 @@
 """Measured power of the regression gate: injected biases, ours vs Mitsuba's per-pixel rule.
 
+This module computes the table's rows (:func:`power_table`); the Markdown printing is
+:func:`benchmarks.commands._gate_tables.format_table`.
+
 Each injection is a plausible rendering bug applied to *our* tracer's render of an
 unmodified suite scene; the reference is the gate's own, the cached Mitsuba render of
-the unmodified scene at the gate's defaults (``benchmarks.gate_run``). So the table says
+the unmodified scene at the gate's defaults (:mod:`benchmarks.gate.suite`). So the table says
 what ``rtbench gate`` would report in CI, not what an idealised test could do.
 
 Injections (:data:`INJECTIONS`):
@@ -22,14 +25,14 @@ Injections (:data:`INJECTIONS`):
     instead of ``mis``.
 
 Ours "catches" an injection when its p-value is below the per-comparison level of a
-default gate run over the quick suite (``DEFAULT_ALPHA / 8`` = 0.00125: eight scenes,
+default gate run over the quick suite (``GATE_ALPHA / 8`` = 0.00125: eight scenes,
 ``mis`` only). Mitsuba's rule (:func:`benchmarks.gate.mitsuba_rule`) is applied as
 Mitsuba applies it, at its own ``alpha = 0.01`` per image, on the same render and
 reference.
 
 Examples
 --------
->>> from benchmarks.gate_power import INJECTIONS
+>>> from benchmarks.gate.power import INJECTIONS
 >>> list(INJECTIONS)[:2]
 ['scale 0.99', 'red wall albedo +3%']
 """
@@ -40,10 +43,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .gate_run import DEFAULT_ALPHA, DEFAULT_REF_SPP, DEFAULT_SPP, DEFAULT_WIDTH
+from ..constants import GATE_ALPHA
+from .mitsuba_rule import MITSUBA_ALPHA, mitsuba_rule
+from .suite import DEFAULT_REF_SPP, DEFAULT_SPP, DEFAULT_WIDTH, compare_render, gate_reference, gate_scene
 
-__all__ = ["INJECTIONS", "QUICK_SUITE_COMPARISONS", "PowerRow", "injected_scene", "power_row", "power_table",
-           "format_table"]
+__all__ = ["INJECTIONS", "QUICK_SUITE_COMPARISONS", "PowerRow", "injected_scene", "power_row", "power_table"]
 
 #: comparisons in a default gate run of the quick suite (eight scenes, ``mis``).
 QUICK_SUITE_COMPARISONS = 8
@@ -76,7 +80,7 @@ def injected_scene(scene, edit):
 
     Examples
     --------
-    >>> from benchmarks.gate_run import gate_scene
+    >>> from benchmarks.gate import gate_scene
     >>> s = injected_scene(gate_scene("cornell_box", width=8), "move_light")
     >>> s.shapes[5].Q
     (214.3, 554.0, 227.0)
@@ -124,13 +128,10 @@ class PowerRow:
 
 
 def power_row(name: str, *, seed: int = 1, spp: int = DEFAULT_SPP, width: int = DEFAULT_WIDTH,
-              ref_spp: int = DEFAULT_REF_SPP, case_alpha: float = DEFAULT_ALPHA / QUICK_SUITE_COMPARISONS,
-              mitsuba_alpha: float = 0.01, threads=None, cache=None) -> PowerRow:
+              ref_spp: int = DEFAULT_REF_SPP, case_alpha: float = GATE_ALPHA / QUICK_SUITE_COMPARISONS,
+              mitsuba_alpha: float = MITSUBA_ALPHA, threads=None, cache=None) -> PowerRow:
     """Render injection ``name`` and test it with both rules (see the module doc)."""
     import reference_tracer as rt
-
-    from .gate import mitsuba_rule
-    from .gate_run import compare_render, gate_reference, gate_scene
 
     if name not in INJECTIONS:
         raise ValueError(f"unknown injection {name!r}; choose from {', '.join(INJECTIONS)}")
@@ -152,14 +153,3 @@ def power_table(names=None, **kw) -> list:
     """:func:`power_row` for each injection (default: all of :data:`INJECTIONS`)."""
     return [power_row(n, **kw) for n in (names or list(INJECTIONS))]
 
-
-def format_table(rows) -> str:
-    """Markdown table: injected bias | caught by ours (p) | caught by Mitsuba's rule."""
-    lines = ["| injected bias | scene | caught by ours (p-value) | failed levels | image bias | "
-             "caught by Mitsuba's rule (failed pixel-channels) |",
-             "| --- | --- | --- | --- | --- | --- |"]
-    for r in rows:
-        lines.append(f"| {r.injection} | {r.scene} | {'yes' if r.caught else 'no'} ({r.p_value:.2g}) | "
-                     f"{', '.join(r.failed_levels) or '-'} | {r.relative_bias:+.2%} +- {r.relative_bias_se:.2%} | "
-                     f"{'yes' if r.mitsuba_caught else 'no'} ({r.mitsuba_failed_fraction:.2%}) |")
-    return "\n".join(lines)

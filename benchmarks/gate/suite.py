@@ -1,15 +1,17 @@
-"""Render + compare driver of ``rtbench gate`` (issue 7): our tracer against the reference.
+"""The gate's suite driver (``rtbench gate``, issue 7): our tracer against the references.
 
 For each suite scene and strategy, :func:`run_gate` renders the scene with our tracer,
-fetches its reference (:func:`gate_reference`: the cached high-spp Mitsuba render, made
-first if missing) and applies :func:`benchmarks.gate.compare`. The statistics live in
-``benchmarks.gate``; this module decides *what* is compared and at which level.
+fetches its reference (:func:`gate_reference`: the scene's closed form, or the cached
+high-spp Mitsuba render, made first if missing) and applies
+:func:`benchmarks.gate.compare`. The statistics live in :mod:`benchmarks.gate.statistics`;
+this module decides *what* is compared and at which level, and draws the p-value images
+of failures (:func:`write_p_images`).
 
 Defaults (sized for CI, measured on the 2-core development machine)
 -------------------------------------------------------------------
 The quick suite (all of :func:`mitsuba_scenes.list_scenes`) at ``32 x 32``, our ``mis``
 at 4096 samples per pixel against Mitsuba references at 16384 spp (16 batches, the
-harness's default seed). Power decides the spp (``benchmarks.gate_power``, six seeds
+harness's default seed). Power decides the spp (``benchmarks.gate.power``, six seeds
 each, 8192-spp references): at 1024 spp a 1% light move along x is caught 0/6 and a
 1% global scale 6/6; at 4096 spp the light move 6/6 (light moved along z 5/6). The
 reference is kept 4x above the test's spp so that its own noise adds 25% to the
@@ -27,14 +29,15 @@ The furnace
 -----------
 Mitsuba 3.9.1 is biased in ``furnace`` (its sphere-emitter sampling from a point on the
 sphere itself: ``tests/test_mitsuba_agreement.py``), so the furnace is compared with its
-closed form, ``mitsuba_scenes.scenes.furnace.expected_radiance``: a zero-variance
-reference, exact. A stronger check than a Mitsuba render would be: where our render has
+closed form, ``mitsuba_scenes.scenes.furnace.expected_radiance``
+(:func:`benchmarks.references.closed_form_reference_of`): a zero-variance reference,
+exact. A stronger check than a Mitsuba render would be: where our render has
 no noise (``mis`` there is exact per sample) any relative difference above
 ``compare``'s ``zero_var_rtol`` (1e-4) fails.
 
 Examples
 --------
->>> from benchmarks.gate_run import run_gate
+>>> from benchmarks.gate import run_gate
 >>> report = run_gate(["cornell_box"], spp=64, threads=2)  # doctest: +SKIP
 >>> report.passed, report.cases[0].result.p_value  # doctest: +SKIP
 (True, 0.83)
@@ -48,11 +51,18 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_ALPHA", "DEFAULT_SEED",
-           "DEFAULT_STRATEGY", "STRATEGIES", "CLOSED_FORM", "GateReference", "GateCase", "GateReport",
-           "gate_scene", "resolve_scenes", "resolve_strategies", "gate_reference", "closed_form_reference",
-           "compare_render", "run_gate",
-           "write_p_images"]
+from reference_tracer._validate import positive_int
+
+from ..constants import GATE_ALPHA, STRATEGIES
+from ..references import Reference, closed_form_reference_of
+from ..references import reference as mitsuba_reference
+from ..tails import DEFAULT_TAIL_SPP, tail_reference
+from .result import GateResult
+from .statistics import compare
+
+__all__ = ["DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_SEED", "DEFAULT_STRATEGY", "GateCase",
+           "GateReport", "gate_scene", "resolve_scenes", "resolve_strategies", "gate_reference", "compare_render",
+           "run_gate", "write_p_images"]
 
 #: samples per pixel of our render (see the power table in ``tests/test_gate_power.py``).
 DEFAULT_SPP = 4096
@@ -60,45 +70,10 @@ DEFAULT_SPP = 4096
 DEFAULT_WIDTH = 32
 #: samples per pixel of the Mitsuba references (4x ``DEFAULT_SPP``).
 DEFAULT_REF_SPP = 16384
-#: false-alarm rate of a whole gate run.
-DEFAULT_ALPHA = 0.01
 #: seed of our render (Mitsuba references use ``benchmarks.references.DEFAULT_REFERENCE_SEED``).
 DEFAULT_SEED = 0
 #: the strategy always gated: Mitsuba's ``path`` integrator is MIS.
 DEFAULT_STRATEGY = "mis"
-#: the tracer's strategies; ``light`` is biased on purpose and fails the gate.
-STRATEGIES = ("uniform", "cosine", "light", "mixture", "mis")
-#: scenes compared with a closed form instead of Mitsuba, and why.
-CLOSED_FORM = {
-    "furnace": "closed form Le (1 - rho^n) / (1 - rho): Mitsuba 3.9.1's sphere-emitter sampling from a "
-               "point on the sphere is biased here",
-}
-@dataclass
-class GateReference:
-    """The reference one scene is compared with.
-
-    Attributes
-    ----------
-    mean, variance : (H, W, 3) ndarray
-        Per-pixel mean and per-sample variance (zero for a closed form).
-    spp : int
-        Reference samples per pixel (``benchmarks.references.CLOSED_FORM_SPP`` for a closed form).
-    kind : {'mitsuba', 'closed form'}
-    description : str
-        One line: what the reference is.
-    cached : bool
-        True when it came from the cache (always True for a closed form).
-    seconds : float
-        Wall time this call spent getting it (rendering it when it was missing).
-    """
-
-    mean: np.ndarray = field(repr=False)
-    variance: np.ndarray = field(repr=False)
-    spp: int
-    kind: str
-    description: str
-    cached: bool
-    seconds: float
 
 
 @dataclass
@@ -106,7 +81,8 @@ class GateCase:
     """One (scene, strategy) comparison of a gate run.
 
     ``alpha`` is the per-comparison level (the run's alpha over the number of
-    comparisons); ``result`` is :class:`benchmarks.gate.GateResult`, ``mean`` and
+    comparisons); ``reference`` the :class:`benchmarks.references.Reference` it was
+    compared with; ``result`` the :class:`benchmarks.gate.GateResult`; ``mean`` and
     ``variance`` our render's images, ``render_seconds`` its wall time.
     """
 
@@ -117,15 +93,24 @@ class GateCase:
     spp: int
     seed: int
     alpha: float
-    reference: GateReference
-    result: object
+    reference: Reference
+    result: GateResult
     render_seconds: float
     mean: np.ndarray = field(repr=False)
     variance: np.ndarray = field(repr=False)
+    tail_spp: int = 0
 
     @property
     def passed(self) -> bool:
         return bool(self.result.passed)
+
+    @property
+    def failed(self) -> bool:
+        return bool(self.result.failed)
+
+    @property
+    def verdict(self) -> str:
+        return self.result.verdict
 
     def where(self) -> str:
         """Where the strongest evidence is, e.g. ``'rows 0-7, cols 8-15 (tile)'``."""
@@ -143,7 +128,7 @@ class GateCase:
         r = self.result
         y0, x0, y1, x1 = r.worst_tile
         msg = (f"{self.scene} ({self.strategy}, {self.width}x{self.height}, {self.spp} spp) differs from its "
-               f"{self.reference.kind} reference: p = {r.p_value:.3g} < {self.alpha:.3g} "
+               f"{self.reference.source} reference: p = {r.p_value:.3g} < {self.alpha:.3g} "
                f"(failed levels: {', '.join(r.failed_levels) or 'none'}); "
                f"relative bias of the image {r.relative_bias:+.2%} +- {r.relative_bias_se:.2%}; "
                f"strongest evidence: {self.where()}")
@@ -158,9 +143,9 @@ class GateCase:
 
     def to_dict(self) -> dict:
         return {"scene": self.scene, "strategy": self.strategy, "width": self.width, "height": self.height,
-                "spp": self.spp, "seed": self.seed, "alpha": self.alpha, "reference": self.reference.kind,
+                "spp": self.spp, "seed": self.seed, "alpha": self.alpha, "reference": self.reference.source,
                 "reference_spp": self.reference.spp, "render_seconds": self.render_seconds,
-                **self.result.to_dict()}
+                "tail_spp": self.tail_spp, **self.result.to_dict()}
 
 
 @dataclass
@@ -168,7 +153,9 @@ class GateReport:
     """All comparisons of one :func:`run_gate` call.
 
     ``alpha`` is the run's false-alarm rate, ``case_alpha`` the level of each comparison;
-    ``reference_seconds`` and ``render_seconds`` the wall time spent on each.
+    ``reference_seconds``, ``tail_seconds`` and ``render_seconds`` the wall time this run
+    spent getting the references and the tail references (rendering those missing from
+    the cache) and rendering ours. ``passed``: no comparison failed.
     """
 
     cases: list
@@ -178,22 +165,23 @@ class GateReport:
     render_seconds: float
     seconds: float
 
+    tail_seconds: float = 0.0
+
     @property
     def passed(self) -> bool:
-        return all(c.passed for c in self.cases)
+        """No comparison failed (undetermined ones do not fail a run; they are reported)."""
+        return not self.failures
 
     @property
     def failures(self) -> list:
-        return [c for c in self.cases if not c.passed]
+        return [c for c in self.cases if c.failed]
+
+    @property
+    def undetermined(self) -> list:
+        return [c for c in self.cases if c.verdict == "undetermined"]
 
 
 # ---------------------------------------------------------------------------------------
-
-def _positive_int(name: str, value, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
-
 
 def gate_scene(name: str, *, width: int = DEFAULT_WIDTH, height: int | None = None):
     """Suite scene ``name`` at ``width`` x ``height`` (default square), as the quick preset builds it.
@@ -205,37 +193,17 @@ def gate_scene(name: str, *, width: int = DEFAULT_WIDTH, height: int | None = No
     """
     from mitsuba_scenes import get_scene
 
-    width = _positive_int("width", width)
-    height = width if height is None else _positive_int("height", height)
+    width = positive_int("width", width)
+    height = width if height is None else positive_int("height", height)
     return get_scene(name).with_camera_size(width, height)
 
 
-def closed_form_reference(name: str, scene) -> GateReference | None:
-    """The exact, zero-variance reference of ``name`` at the scene's size, or None.
-
-    Uses :func:`benchmarks.references.closed_form_reference_of` (the harness's closed
-    forms: ``furnace``), so the gate and the sweeps compare with the same image.
-
-    Examples
-    --------
-    >>> ref = closed_form_reference("furnace", gate_scene("furnace", width=4))
-    >>> round(float(ref.mean[0, 0, 0]), 5), float(ref.variance.max()), ref.kind
-    (2.08057, 0.0, 'closed form')
-    >>> closed_form_reference("cornell_box", gate_scene("cornell_box", width=4)) is None
-    True
-    """
-    from .references import closed_form_reference_of
-
-    ref = closed_form_reference_of(name, scene.camera.width, scene.camera.height)
-    if ref is None:
-        return None
-    return GateReference(mean=ref.mean, variance=ref.variance, spp=ref.spp, kind="closed form",
-                         description=CLOSED_FORM.get(name, "closed form"), cached=True, seconds=0.0)
-
-
 def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=None, cache=None,
-                   log=None) -> GateReference:
+                   log=None) -> Reference:
     """The reference of suite scene ``name``: its closed form, or the cached Mitsuba render.
+
+    The closed form (:func:`benchmarks.references.closed_form_reference_of`: ``furnace``)
+    is the one the sweeps use too, at the scene's image size.
 
     Parameters
     ----------
@@ -247,26 +215,31 @@ def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=
         Mitsuba samples per pixel (rendered and cached when missing).
     threads, cache, log : keyword-only
         Passed to :func:`benchmarks.references.reference`.
+
+    Returns
+    -------
+    benchmarks.references.Reference
+        ``source`` is ``'mitsuba'`` or ``'closed form'``.
+
+    Examples
+    --------
+    >>> ref = gate_reference("furnace", gate_scene("furnace", width=4))
+    >>> ref.source, float(ref.variance.max()), ref.description[:11]
+    ('closed form', 0.0, 'closed form')
     """
-    exact = closed_form_reference(name, scene)
+    exact = closed_form_reference_of(name, scene.camera.width, scene.camera.height)
     if exact is not None:
         return exact
-    from .references import reference
-
-    ref_spp = _positive_int("ref_spp", ref_spp, 2)
-    t0 = time.perf_counter()
-    ref = reference(scene, spp=ref_spp, threads=threads, cache=cache, log=log)
-    return GateReference(mean=ref.mean, variance=ref.variance, spp=ref.spp, kind="mitsuba",
-                         description=f"Mitsuba {ref.mitsuba_version} {ref.variant} path, {ref.spp} spp "
-                                     f"(cache {ref.key[:12]})",
-                         cached=ref.cached, seconds=time.perf_counter() - t0)
+    ref_spp = positive_int("ref_spp", ref_spp, minimum=2)
+    return mitsuba_reference(scene, spp=ref_spp, threads=threads, cache=cache, log=log)
 
 
-def compare_render(mean, variance, spp: int, reference: GateReference, *, alpha: float = DEFAULT_ALPHA):
-    """:func:`benchmarks.gate.compare` of a render with a :class:`GateReference`."""
-    from .gate import compare
-
-    return compare(mean, variance, spp, reference.mean, reference.variance, reference.spp, alpha=alpha)
+def compare_render(mean, variance, spp: int, reference: Reference, *, alpha: float = GATE_ALPHA,
+                   tails=None) -> GateResult:
+    """:func:`benchmarks.gate.compare` of a render with a :class:`benchmarks.references.Reference`;
+    ``tails``: the tail reference of the same estimator (:func:`benchmarks.tails.tail_reference`)."""
+    return compare(mean, variance, spp, reference.mean, reference.variance, reference.spp, alpha=alpha,
+                   tails=None if tails is None else tails.moments)
 
 
 def resolve_scenes(scenes) -> list:
@@ -300,9 +273,9 @@ def resolve_strategies(strategies) -> list:
 
 
 def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int = DEFAULT_WIDTH,
-             height: int | None = None, ref_spp: int = DEFAULT_REF_SPP, alpha: float = DEFAULT_ALPHA,
+             height: int | None = None, ref_spp: int = DEFAULT_REF_SPP, alpha: float = GATE_ALPHA,
              seed: int = DEFAULT_SEED, threads: int | None = None, cache=None, log=None,
-             on_reference=None, on_case=None) -> GateReport:
+             on_reference=None, on_case=None, tail_spp: int = DEFAULT_TAIL_SPP) -> GateReport:
     """Render each scene with our tracer and compare it with its reference.
 
     Parameters
@@ -330,9 +303,15 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
         Called with a line of text (a corrupt cache entry being replaced).
     on_reference : callable, keyword-only
         ``on_reference(name, phase, info)`` with phase ``'start'`` (before a reference is
-        fetched or rendered) and ``'done'`` (``info`` the :class:`GateReference`).
+        fetched or rendered) and ``'done'`` (``info`` the
+        :class:`benchmarks.references.Reference`).
     on_case : callable, keyword-only
         Called with each :class:`GateCase` as it completes.
+    tail_spp : int, keyword-only
+        Samples per pixel of the tail references (our estimator at a high budget, cached:
+        :func:`benchmarks.tails.tail_reference`) that give each comparison the variance and
+        tail shape of the estimator under test; 0 compares without them (the older rule,
+        which cries wolf on heavy-tailed strategies: ``benchmarks/STATISTICS.md``).
 
     Returns
     -------
@@ -342,13 +321,16 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
 
     names = resolve_scenes(scenes)
     strategies = resolve_strategies(strategies)
-    spp = _positive_int("spp", spp, 2)
-    width = _positive_int("width", width)
-    height = width if height is None else _positive_int("height", height)
-    ref_spp = _positive_int("ref_spp", ref_spp, 2)
-    seed = _positive_int("seed", seed, 0)
+    spp = positive_int("spp", spp, minimum=2)
+    width = positive_int("width", width)
+    height = width if height is None else positive_int("height", height)
+    ref_spp = positive_int("ref_spp", ref_spp, minimum=2)
+    seed = positive_int("seed", seed, minimum=0)
+    tail_spp = positive_int("tail_spp", tail_spp, minimum=0)
+    if tail_spp == 1:
+        raise ValueError("tail_spp must be 0 (no tail references) or >= 2")
     if threads is not None:
-        threads = _positive_int("threads", threads)
+        threads = positive_int("threads", threads)
     if not (isinstance(alpha, (int, float)) and 0 < alpha < 1):
         raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
     case_alpha = alpha / (len(names) * len(strategies))
@@ -359,27 +341,33 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
     for name in names:
         if on_reference:
             on_reference(name, "start", None)
+        t0 = time.perf_counter()
         refs[name] = gate_reference(name, scenes_built[name], ref_spp=ref_spp, threads=threads, cache=cache,
                                     log=log)
-        ref_seconds += refs[name].seconds
+        ref_seconds += time.perf_counter() - t0
         if on_reference:
             on_reference(name, "done", refs[name])
-    cases, render_seconds = [], 0.0
+    cases, render_seconds, tail_seconds = [], 0.0, 0.0
     for name in names:
         for strategy in strategies:
+            t0 = time.perf_counter()
+            tails = (tail_reference(scenes_built[name], strategy=strategy, spp=tail_spp, threads=threads,
+                                    cache=cache, log=log) if tail_spp else None)
+            tail_seconds += time.perf_counter() - t0
             t0 = time.perf_counter()
             out = rt.render(scenes_built[name], spp=spp, strategy=strategy, seed=seed, threads=threads)
             took = time.perf_counter() - t0
             render_seconds += took
-            result = compare_render(out.mean, out.variance, spp, refs[name], alpha=case_alpha)
+            result = compare_render(out.mean, out.variance, spp, refs[name], alpha=case_alpha, tails=tails)
             case = GateCase(scene=name, strategy=strategy, width=width, height=height, spp=spp, seed=seed,
                             alpha=case_alpha, reference=refs[name], result=result, render_seconds=took,
-                            mean=out.mean, variance=out.variance)
+                            mean=out.mean, variance=out.variance, tail_spp=tail_spp)
             cases.append(case)
             if on_case:
                 on_case(case)
     return GateReport(cases=cases, alpha=float(alpha), case_alpha=case_alpha, reference_seconds=ref_seconds,
-                      render_seconds=render_seconds, seconds=time.perf_counter() - t_start)
+                      render_seconds=render_seconds, seconds=time.perf_counter() - t_start,
+                      tail_seconds=tail_seconds)
 
 
 def write_p_images(case: GateCase, out) -> list:

@@ -1,15 +1,16 @@
 """Sweep presets for ``rtbench run``: ``quick`` (the default) and ``full``.
 
 Each preset is a list of :class:`benchmarks.sweep.Group`: the main sweep of the whole
-suite, and the seed's own comparison (uniform vs light sampling on ``cornell_box`` at
-400x400 with 50 spp among the sample counts, ``reports`` issue 6).
+suite, and the seed's own comparison (uniform vs light sampling on ``SEED_SCENE`` at
+``SEED_SIZE`` x ``SEED_SIZE`` with ``SEED_SPP`` among the sample counts, ``reports``
+issue 6; the three from :mod:`benchmarks.constants`).
 
 ``quick``
     32x32 images, spp 1..256 (powers of two), 4 seeds, our five strategies and Mitsuba,
     references at 8192 spp; seed comparison at 400x400 with spp 1, 2, 4, 16, 50 and one seed
     (reference 256 spp). About 10 minutes on 2 cores for the whole suite, references
     included. Sizing: on ``cornell_box`` at 32x32, 4 seeds at 256 spp flag the biased
-    ``light`` strategy with z >= 4.7 in 8 of 8 trials (``DEFAULT_ALPHA`` = 0.001 needs
+    ``light`` strategy with z >= 4.7 in 8 of 8 trials (``BIAS_TEST_ALPHA`` = 0.001 needs
     z > 3.09).
 ``full``
     256x256 images, spp 1..1024, 4 seeds, references at 16384 spp; seed comparison at
@@ -18,21 +19,19 @@ suite, and the seed's own comparison (uniform vs light sampling on ``cornell_box
 
 Examples
 --------
->>> from benchmarks.presets import preset_groups
+>>> from benchmarks.sweep.presets import preset_groups
 >>> [g.name for g in preset_groups("quick", scenes=["cornell_box"])]
 ['suite', 'seed comparison']
 """
 from __future__ import annotations
 
-from .sweep import Group
+from ..constants import SEED_SCENE, SEED_SIZE, SEED_SPP, STRATEGIES
+from .jobs import Group
 
 __all__ = ["PRESETS", "SEED_SCENE", "preset_groups", "describe_preset"]
 
 #: preset names, default first.
 PRESETS = ("quick", "full")
-#: the scene of the seed's uniform-vs-light comparison.
-SEED_SCENE = "cornell_box"
-_ALL = ("uniform", "cosine", "light", "mixture", "mis")
 
 
 def _ladder(top: int) -> tuple:
@@ -45,16 +44,16 @@ def _ladder(top: int) -> tuple:
 
 _SPECS = {
     "quick": {
-        "suite": dict(strategies=_ALL, spps=_ladder(256), seeds=4, width=32, height=32, mitsuba=True,
+        "suite": dict(strategies=STRATEGIES, spps=_ladder(256), seeds=4, width=32, height=32, mitsuba=True,
                       reference_spp=8192),
-        "seed": dict(strategies=("uniform", "light"), spps=(1, 2, 4, 16, 50), seeds=1, width=400, height=400,
-                     mitsuba=False, reference_spp=256),
+        "seed": dict(strategies=("uniform", "light"), spps=(1, 2, 4, 16, SEED_SPP), seeds=1, width=SEED_SIZE,
+                     height=SEED_SIZE, mitsuba=False, reference_spp=256),
     },
     "full": {
-        "suite": dict(strategies=_ALL, spps=_ladder(1024), seeds=4, width=256, height=256, mitsuba=True,
+        "suite": dict(strategies=STRATEGIES, spps=_ladder(1024), seeds=4, width=256, height=256, mitsuba=True,
                       reference_spp=16384),
-        "seed": dict(strategies=("uniform", "light"), spps=tuple(sorted(set(_ladder(256)) | {50})), seeds=4,
-                     width=400, height=400, mitsuba=False, reference_spp=4096),
+        "seed": dict(strategies=("uniform", "light"), spps=tuple(sorted(set(_ladder(256)) | {SEED_SPP})),
+                     seeds=4, width=SEED_SIZE, height=SEED_SIZE, mitsuba=False, reference_spp=4096),
     },
 }
 

@@ -1,0 +1,82 @@
+"""The regression gate's printed tables: a gate run's verdicts and the injected-bias power table.
+
+The numbers come from :mod:`benchmarks.gate` (``run_gate``'s report, ``power_table``'s rows);
+this module only lays them out, for the terminal (rich) or as Markdown.
+"""
+from __future__ import annotations
+
+from benchmarks.constants import CLOSED_FORM
+
+__all__ = ["gate_table", "format_table", "calibration_table"]
+
+
+def gate_table(report):
+    """The verdict of every comparison of a :class:`benchmarks.gate.GateReport`, as a rich table.
+
+    One row per (scene, strategy): reference, verdict, p-value, failed levels, relative
+    bias, the power (the smallest global and 8x8-tile relative bias it would catch with
+    probability 0.8) and, for failures, where the strongest evidence is.
+    """
+    from rich.markup import escape
+    from rich.table import Table
+
+    c0 = report.cases[0]
+    table = Table(title=f"rtbench gate: {c0.width}x{c0.height}, {c0.spp} spp, seed {c0.seed}; alpha {report.alpha:g} "
+                        f"for the run = {report.case_alpha:.3g} per comparison")
+    for col in ("scene", "strategy", "reference", "verdict", "p-value", "failed levels", "relative bias +- se",
+                "catches (global / 8x8 tile)", "where (strongest evidence)"):
+        table.add_column(col, overflow="fold")
+    for c in report.cases:
+        r = c.result
+        verdict = {"pass": "[green]pass[/]", "fail": "[bold red]FAIL[/]",
+                   "undetermined": f"[yellow]undetermined[/] (needs ~{r.spp_needed} spp)"}[r.verdict]
+        ref = CLOSED_FORM if c.reference.source == CLOSED_FORM else f"Mitsuba {c.reference.spp} spp"
+        table.add_row(c.scene, c.strategy, ref, verdict, f"{r.p_value:.3g}", ", ".join(r.failed_levels) or "-",
+                      f"{r.relative_bias:+.2%} +- {r.relative_bias_se:.2%}",
+                      f"{_pct(r.min_detectable_bias)} / {_pct(r.min_detectable_tile_bias)}",
+                      escape(c.where()) if c.failed else "-")
+    return table
+
+
+def _pct(v: float) -> str:
+    """A relative bias as a percentage; '-' where the level tests nothing."""
+    return f"{v:.2%}" if v == v else "-"
+
+
+def format_table(rows) -> str:
+    """Markdown power table of :func:`benchmarks.gate.power_table`'s rows: injected bias | caught by
+    ours (p) | caught by Mitsuba's rule.
+
+    Examples
+    --------
+    >>> from benchmarks.gate import PowerRow
+    >>> row = PowerRow(injection="scale 0.99", scene="cornell_box", seed=1, spp=4096, p_value=1e-9, caught=True,
+    ...                failed_levels=["image"], relative_bias=-0.01, relative_bias_se=0.001,
+    ...                mitsuba_caught=False, mitsuba_failed_fraction=0.0)
+    >>> print(format_table([row]).splitlines()[-1])
+    | scale 0.99 | cornell_box | yes (1e-09) | image | -1.00% +- 0.10% | no (0.00%) |
+    """
+    lines = ["| injected bias | scene | caught by ours (p-value) | failed levels | image bias | "
+             "caught by Mitsuba's rule (failed pixel-channels) |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    for r in rows:
+        lines.append(f"| {r.injection} | {r.scene} | {'yes' if r.caught else 'no'} ({r.p_value:.2g}) | "
+                     f"{', '.join(r.failed_levels) or '-'} | {r.relative_bias:+.2%} +- {r.relative_bias_se:.2%} | "
+                     f"{'yes' if r.mitsuba_caught else 'no'} ({r.mitsuba_failed_fraction:.2%}) |")
+    return "\n".join(lines)
+
+
+def calibration_table(rows, *, alpha: float):
+    """The false-alarm table of :func:`benchmarks.gate.calibrate`'s rows, as a rich table."""
+    from rich.table import Table
+
+    table = Table(title=f"rtbench gate --calibrate: verdicts on unbiased renders, alpha {alpha:g} per comparison")
+    for col in ("scene", "strategy", "spp", "seeds", "pass", "fail", "undetermined", "false alarms (95% CI)",
+                "consistent", "undetermined needs ~spp", "catches (global)"):
+        table.add_column(col)
+    for r in rows:
+        table.add_row(r.scene, r.strategy, str(r.spp), str(r.seeds), str(r.passed), str(r.failed), str(r.undetermined),
+                      f"{r.false_alarm_rate:.3f} ({r.ci_low:.3f}-{r.ci_high:.3f})",
+                      "[green]yes[/]" if r.consistent else "[bold red]NO[/]",
+                      "-" if r.spp_needed is None else str(r.spp_needed), _pct(r.min_detectable_bias))
+    return table

@@ -1,0 +1,652 @@
+"""The gate's statistics: does a render converge to the same image as a reference?
+
+:func:`compare` is the test ``rtbench gate`` applies (issue 7); :func:`mitsuba_rule`
+(:mod:`benchmarks.gate.mitsuba_rule`) re-implements Mitsuba 3's own render-test rule so
+the two can be compared on the same data. Pure numpy/scipy.
+
+Inputs are per-pixel *means* and *per-sample variances* (``rt.render``'s ``mean`` and
+``variance``; for Mitsuba, the between-batch variance times the batch spp) with their
+sample counts. Pixels are assumed independent (independent sampler, box filter), which
+holds for both renderers as configured in DESIGN.md section 3.
+
+How :func:`compare` tests
+-------------------------
+Null hypothesis H0: in every pixel-channel the test renderer and the reference have
+the same expectation. Three levels, each a family of two-sided tests:
+
+1. **pixel** - a Welch t-test per pixel-channel,
+   ``t = (x - r) / sqrt(v_x / n_x + v_r / n_r)`` with Welch-Satterthwaite degrees of
+   freedom. Catches large local errors (a missing highlight, a wrong light edge).
+2. **tile** - pixels pooled into ``tile x tile`` blocks (by default at three sizes,
+   8, 16 and 32): the summed difference over the block divided by the square root of the
+   summed variances (Satterthwaite dof again).
+   Catches a small bias spread over a region (one wall 3% too bright) that no single
+   pixel can show.
+3. **image** - the same over the whole image, per channel. Catches a small global bias
+   (everything scaled by 0.99).
+
+Within a level the smallest p-value is Sidak-adjusted over the number of tests that
+can reject, ``p_level = 1 - (1 - p_min)^m`` (exact for independent tests; tiles and
+pixels are disjoint and so independent, and for the correlated channels of one pixel or
+tile Sidak's inequality for two-sided tests keeps it conservative). The three levels are
+combined by Bonferroni: ``p_value = min(1, 3 * min(p_pixel, p_tile, p_image))`` and the
+gate passes iff ``p_value >= alpha``. Hence P(false alarm | H0) <= alpha, up to how well
+each per-test p-value is calibrated - which is the hard part, below.
+
+Heavy tails: tail diagnostics of the same estimator (``tails=``)
+-----------------------------------------------------------------
+With ``tails`` (a :class:`reference_tracer.SampleMoments` of the *same estimator* at a high
+budget: :func:`benchmarks.tails.tail_reference`) the test's per-sample variance is
+``max(v_x, tails' variance)`` and every statistic (pixel, tile, image) is tested only where
+its normal approximation holds at its level's critical value, judged from its skewness and
+kurtosis (sums of the pixels' third and fourth cumulants) by a one-term Edgeworth bound
+(:func:`edgeworth_error`). The verdict has three values: ``fail`` when a tested statistic
+rejects, ``undetermined`` when the whole-image statistic of a channel could not be
+tested (with the spp that would decide), ``pass`` otherwise. The method, its assumptions
+and its measured false-alarm rates: ``benchmarks/STATISTICS.md``.
+
+Without tail diagnostics (the older rule, kept for renders that carry none)
+----------------------------------------------------------------------------
+Per-pixel Monte Carlo samples are often heavy-tailed (a rare path hits a bright light).
+At small ``n_x`` the test's sample variance is then usually far *below* its expectation
+(the rare samples did not occur) while the mean is low too; a plain Welch t then reports
+huge |t| in exactly those pixels and, with thousands of pixels, the gate would fail
+unbiased renders. Under H0 with the same estimator the reference's per-sample variance
+``v_r`` (from ``n_r >> n_x`` samples) estimates the test's per-sample variance far better,
+so by default (``variance_floor='reference'``) the test side uses
+``max(v_x, v_r)``, applied to the variance of each statistic (a pixel; the sum over a
+tile or the image: ``max(sum v_x, sum v_r) / n_x``). This can only enlarge the standard error, so it never adds false
+alarms; it costs power only where the test renderer is genuinely less noisy than the
+reference (a better sampling strategy). ``variance_floor='none'`` gives the plain Welch
+test, for comparison; ``tests/test_gate_stats.py`` measures both.
+
+Zero variance
+-------------
+Where both variances are zero (black background, a directly seen light) the pixel
+carries no noise: equal means (within ``zero_var_rtol`` relative, for float rounding)
+are no evidence at all (p = 1, and the pixel is not counted as a test), unequal means
+are a certain difference (p = 0). No division by zero happens. A per-sample variance
+below ``(zero_var_rtol / 10 * |mean|)^2`` counts as zero: it is float rounding of
+identical samples (``rt.render`` gives ~1e-15 on a directly seen light), and with it a
+1e-6 relative difference between two renderers' emitter constants would fail the gate. Non-finite test pixels
+(NaN/inf) are failures (p = 0); a non-finite reference raises ``ValueError``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from ..constants import GATE_ALPHA
+from .result import LEVELS, GateResult
+
+__all__ = ["compare", "sidak", "sidak_level", "edgeworth_error", "spp_needed", "DEFAULT_VALIDITY",
+           "POWER", "POWER_TILE"]
+
+#: Largest relative error of the normal tail probability at a level's critical value
+#: (:func:`edgeworth_error`) for a statistic to be tested (``benchmarks/STATISTICS.md``).
+DEFAULT_VALIDITY = 0.5
+#: The probability of detection quoted by the minimum detectable bias.
+POWER = 0.8
+#: Tile side of the quoted tile power.
+POWER_TILE = 8
+
+
+def sidak(p_min: float, m: int) -> float:
+    """Sidak-adjusted p-value of the smallest of ``m`` p-values, ``1 - (1 - p_min)^m``.
+
+    Computed as ``-expm1(m * log1p(-p_min))`` so tiny p-values keep their precision.
+
+    >>> round(sidak(0.01, 1), 12), round(sidak(1e-12, 1000), 15)
+    (0.01, 1e-09)
+    """
+    if m <= 0:
+        return 1.0
+    if p_min >= 1.0:
+        return 1.0
+    if p_min <= 0.0:
+        return 0.0
+    return float(-math.expm1(m * math.log1p(-p_min)))
+
+
+def sidak_level(alpha: float, m: int) -> float:
+    """Per-test level that gives family-wise ``alpha`` over ``m`` independent tests.
+
+    Examples
+    --------
+    >>> round(sidak_level(0.01, 100), 7)
+    0.0001005
+    """
+    return float(-math.expm1(math.log1p(-alpha) / max(int(m), 1)))
+
+
+def edgeworth_error(z, g1, g2):
+    """Relative error bound of the normal upper tail ``Q(z)`` for a statistic with skewness
+    ``g1`` and excess kurtosis ``g2``, from the one-term Edgeworth expansion
+    ``P(Z > z) = Q(z) + phi(z) (g1 He2 / 6 + g2 He3 / 24 + g1^2 He5 / 72) + ...``:
+    ``phi(z) / Q(z) * (|g1| |He2(z)| / 6 + |g2| |He3(z)| / 24 + g1^2 |He5(z)| / 72)``
+    (Hermite polynomials ``He2 = z^2 - 1``, ``He3 = z^3 - 3z``, ``He5 = z^5 - 10z^3 + 15z``).
+
+    Examples
+    --------
+    >>> float(edgeworth_error(3.0, 0.0, 0.0))
+    0.0
+    >>> round(float(edgeworth_error(3.0, 0.1, 0.0)), 3)
+    0.446
+    """
+    z = np.asarray(z, dtype=np.float64)
+    he2, he3, he5 = z * z - 1.0, z ** 3 - 3.0 * z, z ** 5 - 10.0 * z ** 3 + 15.0 * z
+    mills = stats.norm.pdf(z) / stats.norm.sf(z)
+    g1 = np.abs(g1)
+    return mills * (g1 * np.abs(he2) / 6.0 + np.abs(g2) * np.abs(he3) / 24.0 + g1 * g1 * np.abs(he5) / 72.0)
+
+
+def spp_needed(z: float, g1: float, g2: float, spp: float, validity: float = DEFAULT_VALIDITY) -> int:
+    """About how many spp make :func:`edgeworth_error` at ``z`` drop to ``validity``, given the
+    statistic's skewness ``g1`` and excess kurtosis ``g2`` at ``spp`` (they fall as
+    ``1/sqrt(n)`` and ``1/n``).
+
+    Examples
+    --------
+    >>> spp_needed(3.0, 0.2, 0.0, 100) > 100
+    True
+    """
+    if edgeworth_error(z, g1, g2) <= validity:
+        return int(spp)
+    lo, hi = 0.0, 64.0  # log2 of the factor
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        f = 2.0 ** mid
+        if edgeworth_error(z, g1 / math.sqrt(f), g2 / f) <= validity:
+            hi = mid
+        else:
+            lo = mid
+    return int(math.ceil(spp * 2.0 ** hi))
+
+
+def _image3(a, name: str) -> np.ndarray:
+    arr = np.asarray(a, dtype=np.float64)
+    if arr.ndim == 2:
+        arr = arr[..., None]
+    if arr.ndim != 3 or arr.size == 0:
+        raise ValueError(f"{name} must have shape (H, W) or (H, W, C); got {np.shape(a)}")
+    return arr
+
+
+def _spp(n, name: str, minimum: int) -> float:
+    v = float(n)
+    if not (math.isfinite(v) and v >= minimum):
+        raise ValueError(f"{name} must be a number >= {minimum}; got {n!r}")
+    return v
+
+
+def _variance(v: np.ndarray, name: str, n: float, ddof: int) -> np.ndarray:
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} has non-finite entries")
+    # second moment minus squared mean can come out slightly negative in float32
+    scale = max(np.abs(v).max(), 1.0)
+    if np.any(v < -1e-5 * scale):
+        raise ValueError(f"{name} has negative entries (min {v.min():g})")
+    v = np.maximum(v, 0.0)
+    if ddof not in (0, 1):
+        raise ValueError(f"var_ddof must be 0 or 1; got {ddof}")
+    if ddof == 0:
+        v = v * (n / (n - 1.0))  # second moment minus squared mean -> unbiased
+    return v
+
+
+def _two_sided_p(stat: np.ndarray, dof: np.ndarray) -> np.ndarray:
+    """2 * P(T > |stat|) with Student t(dof); dof = inf -> normal."""
+    a = np.abs(stat)
+    p = np.empty_like(a)
+    inf_dof = ~np.isfinite(dof)
+    p[inf_dof] = 2.0 * stats.norm.sf(a[inf_dof])
+    fin = ~inf_dof
+    p[fin] = 2.0 * stats.t.sf(a[fin], dof[fin])
+    return np.minimum(p, 1.0)
+
+
+def _welch_from_sums(diff, a, b, a2, b2, n_t, n_r, tol, fa=None, fa2=None):
+    """Welch statistic of a summed difference.
+
+    ``diff``: sum of differences; ``a``, ``b``: sums of the test's / reference's variances
+    of the mean; ``a2``, ``b2``: sums of their squares (for Welch-Satterthwaite dof);
+    ``fa``, ``fa2``: optional floor for ``a`` (and its squares), applied to the *sum*;
+    ``tol``: differences with ``|diff| <= tol`` count as equal when both variances are 0.
+    Returns (stat, p, testable).
+    """
+    if fa is not None:
+        use_floor = fa > a
+        a = np.where(use_floor, fa, a)
+        a2 = np.where(use_floor, fa2, a2)
+    se2 = a + b
+    pos = se2 > 0
+    stat = np.zeros_like(diff)
+    p = np.ones_like(diff)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        stat[pos] = diff[pos] / np.sqrt(se2[pos])
+        denom = a2 / (n_t - 1.0) + b2 / (n_r - 1.0)
+        dof = np.where(denom > 0, se2 * se2 / np.where(denom > 0, denom, 1.0), np.inf)
+    p[pos] = _two_sided_p(stat[pos], dof[pos])
+    zero = ~pos
+    differs = zero & (np.abs(diff) > tol)
+    stat[differs] = np.copysign(np.inf, diff[differs])
+    p[differs] = 0.0
+    testable = pos | differs
+    return stat, p, testable
+
+
+def _neighbourhood_floor(v: np.ndarray, size: int) -> np.ndarray:
+    """``max(v, mean of v over the size x size neighbourhood)`` per channel."""
+    from scipy.ndimage import uniform_filter
+
+    pooled = np.stack([uniform_filter(v[..., c], size=size, mode="nearest") for c in range(v.shape[2])], axis=-1)
+    return np.maximum(v, pooled)
+
+
+def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
+            alpha: float = GATE_ALPHA, tile=(8, 16, 32), variance_floor: str = "reference",
+            var_ddof: int = 0, zero_var_rtol: float = 1e-4, pixel_pool: int = 3, tails=None,
+            validity: float = DEFAULT_VALIDITY) -> GateResult:
+    """Test whether a render and a reference have the same expectation (see module doc).
+
+    Parameters
+    ----------
+    test_mean, test_var : array_like, shape (H, W) or (H, W, C)
+        Pixel means and per-sample variances of the render under test.
+    test_spp : int
+        Its samples per pixel (>= 2).
+    ref_mean, ref_var : array_like, same shape
+        Reference means and per-sample variances.
+    ref_spp : int
+        Reference samples per pixel (>= 2).
+    alpha : float
+        False-alarm rate of the comparison on unbiased renders (upper bound).
+    tile : int or sequence of int
+        Tile side(s) in pixels for the tile level. All tiles of all the sizes form one
+        Sidak family (nested tiles are positively correlated, so this is conservative).
+        Partial tiles at the borders are used as they are. The default ``(8, 16, 32)``
+        matters: on the synthetic suite a 3% bias on one wall at 64 spp is caught in
+        4/10 seeds with ``tile=8`` alone and 10/10 with ``(8, 16, 32)``.
+    variance_floor : {'reference', 'none'}
+        ``'reference'`` (default): the test's per-sample variance is floored at an
+        independent estimate of it - the tail diagnostics' variance when ``tails`` is
+        given (the same estimator), else the reference's, ``max(v_x, v_r)``; ``'none'``:
+        plain Welch on the render's own variance.
+    var_ddof : int
+        ddof of the given variances; ``0`` (second moment minus squared mean, as
+        ``rt.render`` returns) is de-biased by ``n / (n - 1)``; pass 1 for variances that
+        are already unbiased.
+    zero_var_rtol : float
+        Relative tolerance for "equal means" where both variances are zero.
+    pixel_pool : int
+        Side of the neighbourhood whose mean variance floors each pixel's variance at
+        the pixel level (both sides; 1 disables). A pixel whose rare paths (a caustic
+        through glass, a tiny light in a glossy plate) did not occur among its samples
+        reports a variance far below the truth, and its t explodes: measured on real
+        renders, the 100-seed false-alarm test failed 3 runs of 100 with ``pixel_pool=1``,
+        two of them at single such pixels.
+    tails : reference_tracer.SampleMoments, optional
+        Per-pixel central moments of the *same estimator* at a high budget
+        (:func:`benchmarks.tails.tail_reference`). Without them every statistic is
+        taken as normal, which heavy-tailed estimators break (``benchmarks/STATISTICS.md``).
+    validity : float
+        Largest :func:`edgeworth_error` at which a statistic is still tested.
+
+    Returns
+    -------
+    GateResult
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> ref = np.full((16, 16, 3), 0.5)
+    >>> var = np.full_like(ref, 0.25)
+    >>> test = ref + rng.standard_normal(ref.shape) * np.sqrt(0.25 / 64)
+    >>> compare(test, var, 64, ref, var, 4096).verdict
+    'pass'
+    >>> compare(test * 0.9, var, 64, ref, var, 4096).failed_levels
+    ['tile', 'image']
+    """
+    tiles = _check_options(alpha, tile, pixel_pool, variance_floor, validity)
+    d = _prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, var_ddof=var_ddof,
+                 zero_var_rtol=zero_var_rtol, variance_floor=variance_floor, tails=tails)
+    crit = dict(alpha_level=alpha / len(LEVELS), validity=validity)
+    pix = _pixel_level(d, pixel_pool, **crit)
+    # pixels with no noise and equal means contribute exactly nothing to the sums
+    diff = np.where(pix.testable & ~d.bad, d.diff, 0.0)
+    tile_levels = [_tile_level(d, diff, ts, **crit) for ts in tiles]
+    img = _image_level(d, diff, **crit)
+
+    # ---- combine: Sidak within a level (over the tested statistics), Bonferroni over the levels
+    levels = {"pixel": [pix], "tile": tile_levels, "image": [img]}
+    level_p = {k: _family_p(lvs)[0] for k, lvs in levels.items()}
+    n_tests = {k: _family_p(lvs)[1] for k, lvs in levels.items()}
+    n_cand = {k: int(sum(lv.testable.sum() for lv in lvs)) for k, lvs in levels.items()}
+    p_value = min(1.0, len(LEVELS) * min(level_p.values()))
+    failed = [k for k, v in level_p.items() if len(LEVELS) * v < alpha]
+    verdict, reason, needed = _decide(failed, img, d.n_t, validity)
+    # ---- where and how large
+    (wy, wx, wc), worst_tile, worst_level, worst_region = _locate(d, pix, tiles, tile_levels, level_p)
+    rel, rel_se, rel_c, rel_tile = _relative_bias(d, worst_tile)
+    mdb, mdb_tile = _power(img, dict(zip(tiles, tile_levels)).get(POWER_TILE))
+    return GateResult(
+        verdict=verdict, reason=reason, alpha=float(alpha), p_value=float(p_value),
+        level_p=level_p, failed_levels=failed, n_tests=n_tests, n_candidates=n_cand,
+        pixel_p=pix.p, p_map=pix.p.min(axis=2), pixel_t=pix.z,
+        tile_p=tile_levels[0].p, tile_z=tile_levels[0].z, image_p=img.p, image_z=img.z,
+        max_abs_t=float(np.abs(pix.z).max()), worst_pixel=(wy, wx, wc),
+        worst_tile=worst_tile, worst_region=tuple(int(v) for v in worst_region),
+        worst_level=worst_level, relative_bias=rel, relative_bias_se=rel_se,
+        relative_bias_channels=rel_c, worst_tile_relative_bias=rel_tile, n_nonfinite=int(d.bad.sum()),
+        min_detectable_bias=mdb, min_detectable_tile_bias=mdb_tile, spp_needed=needed,
+        tails=tails is not None)
+
+
+# ---------------------------------------------------------------------------------------
+# the steps of compare, in order
+
+def _check_options(alpha, tile, pixel_pool, variance_floor, validity) -> tuple:
+    """Validate :func:`compare`'s options; returns the tile sizes as a tuple of int."""
+    if not 0 < alpha < 1:
+        raise ValueError(f"alpha must be in (0, 1); got {alpha}")
+    tiles = tuple(int(t) for t in np.atleast_1d(tile))
+    if not tiles or min(tiles) < 1:
+        raise ValueError(f"tile sizes must be >= 1; got {tile}")
+    if isinstance(pixel_pool, bool) or not isinstance(pixel_pool, (int, np.integer)) or pixel_pool < 1:
+        raise ValueError(f"pixel_pool must be an integer >= 1; got {pixel_pool!r}")
+    if variance_floor not in ("reference", "none"):
+        raise ValueError(f"variance_floor must be 'reference' or 'none'; got {variance_floor!r}")
+    if not (isinstance(validity, (int, float)) and validity > 0):
+        raise ValueError(f"validity must be a number > 0; got {validity!r}")
+    return tiles
+
+
+@dataclass(frozen=True)
+class _Inputs:
+    """Validated inputs of :func:`compare`, as float64 ``(H, W, C)`` images.
+
+    ``x``, ``r``: test and reference means (``x`` set to ``r`` where the test is
+    non-finite, ``bad``); ``a``, ``b``: variances of the test's and the reference's pixel
+    means; ``fa``: floor of ``a`` (the reference's per-sample variance at the test's spp)
+    or None; ``k3``, ``k4``: third and fourth cumulants of the test's pixel means (zero
+    without tail diagnostics); ``g1``, ``g2``: per-sample skewness and excess kurtosis of
+    each pixel for the pixel level (the worse of the pixel's own and its neighbourhood's);
+    ``diff = x - r``; ``abs_scale = max(|x|, |r|)``.
+    """
+
+    x: np.ndarray
+    r: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    fa: np.ndarray | None
+    k3: np.ndarray
+    k4: np.ndarray
+    g1: np.ndarray
+    g2: np.ndarray
+    bad: np.ndarray
+    diff: np.ndarray
+    abs_scale: np.ndarray
+    n_t: float
+    n_r: float
+    zero_var_rtol: float
+
+    def sums(self, reduce) -> dict:
+        """The variance sums :func:`_welch_from_sums` takes, each reduced by ``reduce``."""
+        a, b, fa = self.a, self.b, self.fa
+        out = dict(a=reduce(a), b=reduce(b), a2=reduce(a * a), b2=reduce(b * b))
+        if fa is not None:
+            out.update(fa=reduce(fa), fa2=reduce(fa * fa))
+        return out
+
+
+@dataclass
+class _Level:
+    """One level's statistics (a pixel, a tile size or the image), arrays of one shape.
+
+    ``testable``: carries evidence (noise, or a difference between noiseless values);
+    ``valid``: testable and normal enough at ``z_crit`` to be tested; ``var``: variance of
+    the statistic; ``ref_sum``: the reference summed over the statistic's pixels.
+    """
+
+    z: np.ndarray
+    p: np.ndarray
+    testable: np.ndarray
+    valid: np.ndarray
+    g1: np.ndarray
+    g2: np.ndarray
+    z_crit: float
+    var: np.ndarray
+    ref_sum: np.ndarray
+
+
+def _prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *, var_ddof, zero_var_rtol,
+             variance_floor, tails) -> _Inputs:
+    """Validate and convert the images of :func:`compare` (see its parameters)."""
+    x, vx = _image3(test_mean, "test_mean"), _image3(test_var, "test_var")
+    r, vr = _image3(ref_mean, "ref_mean"), _image3(ref_var, "ref_var")
+    shapes = {"test_mean": x.shape, "test_var": vx.shape, "ref_mean": r.shape, "ref_var": vr.shape}
+    if len(set(shapes.values())) > 1:
+        raise ValueError("image shapes differ: " + ", ".join(f"{k}{s}" for k, s in shapes.items()))
+    n_t = _spp(test_spp, "test_spp", 2)
+    n_r = _spp(ref_spp, "ref_spp", 2)
+    if not np.all(np.isfinite(r)):
+        raise ValueError("ref_mean has non-finite entries")
+    vr = _variance(vr, "ref_var", n_r, var_ddof)
+    bad = ~np.isfinite(x) | ~np.isfinite(vx)
+    vx = _variance(np.where(bad, 0.0, vx), "test_var", n_t, var_ddof)
+    x = np.where(bad, r, x)  # neutral stand-in; these pixel-channels fail at the pixel level
+    zeros = np.zeros_like(x)
+    k3 = k4 = g1 = g2 = zeros
+    fa = vr / n_t if variance_floor == "reference" else None
+    if tails is not None:
+        m2, m3, k4s = _tail_moments(tails, x.shape)
+        if variance_floor == "reference":
+            # the same estimator's variance, from many more samples: the floor that holds
+            vx = np.maximum(vx, m2 * (tails.n / (tails.n - 1.0)))
+            fa = None
+        k3, k4 = m3 / n_t ** 2, k4s / n_t ** 3
+    # A per-sample variance at float-rounding level is zero: identical samples give a
+    # second moment minus squared mean of ~1e-15 (a directly seen light), which would
+    # otherwise make a 1e-6 relative difference in the constants "significant". Below
+    # (zero_var_rtol / 10 * |mean|)^2 the pixel mean is pinned far inside the tolerance.
+    vx = np.where(vx <= (0.1 * zero_var_rtol * x) ** 2, 0.0, vx)
+    vr = np.where(vr <= (0.1 * zero_var_rtol * r) ** 2, 0.0, vr)
+    if tails is not None:
+        g1, g2 = _pixel_shape(m2, m3, k4s, exact=(vx == 0) & (vr == 0), n_t=n_t)
+    return _Inputs(x=x, r=r, a=vx / n_t, b=vr / n_r, fa=fa, k3=k3, k4=k4, g1=g1, g2=g2, bad=bad,
+                   diff=x - r, abs_scale=np.maximum(np.abs(x), np.abs(r)), n_t=n_t, n_r=n_r,
+                   zero_var_rtol=zero_var_rtol)
+
+
+def _tail_moments(tails, shape) -> tuple:
+    """``(m2, m3, kappa4)`` per sample from a ``SampleMoments``, checked against the image."""
+    m2, m3, k4 = (np.asarray(v, dtype=np.float64) for v in (tails.m2, tails.m3, tails.kappa4))
+    if m2.ndim == 2:
+        m2, m3, k4 = m2[..., None], m3[..., None], k4[..., None]
+    if m2.shape != shape:
+        raise ValueError(f"tails have shape {m2.shape}, the images {shape}")
+    if not (np.all(np.isfinite(m2)) and np.all(np.isfinite(m3)) and np.all(np.isfinite(k4))):
+        raise ValueError("tails have non-finite moments")
+    if int(tails.n) < 2:
+        raise ValueError(f"tails need >= 2 samples per pixel; got {tails.n}")
+    return m2, m3, k4
+
+
+def _pixel_shape(m2, m3, k4, *, exact, n_t) -> tuple:
+    """Skewness and excess kurtosis of each pixel *mean* for the pixel level.
+
+    The worse of the pixel's own per-sample shape and its 3x3 neighbourhood's, divided by
+    ``sqrt(n)`` and ``n``: the pixel-level variance borrows the neighbours' (larger)
+    noise, and without this a pixel whose own samples are dominated by rare paths would
+    look normal.
+    """
+    m2 = np.where(exact, 0.0, m2)
+
+    def shape(s3, s4, s2):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ok = s2 > 0
+            safe = np.where(ok, s2, 1.0)
+            return np.where(ok, np.abs(s3) / safe ** 1.5, 0.0), np.where(ok, np.abs(s4) / safe ** 2, 0.0)
+
+    pool = lambda v: _neighbourhood_floor(v, 3)  # noqa: E731
+    own = shape(m3, k4, m2)
+    nb = shape(pool(np.abs(m3)), pool(np.abs(k4)), pool(m2))
+    return np.maximum(own[0], nb[0]) / math.sqrt(n_t), np.maximum(own[1], nb[1]) / n_t
+
+
+def _level(d: _Inputs, reduce, diff, K3, K4, *, alpha_level, validity) -> _Level:
+    """The Welch statistics of ``reduce(diff)`` and which of them may be tested.
+
+    ``K3``, ``K4``: the statistics' third and fourth cumulants; a statistic is tested where
+    :func:`edgeworth_error` at the level's critical value (Sidak over its candidates) is at
+    most ``validity``.
+    """
+    sums = d.sums(reduce)
+    z, p, testable = _welch_from_sums(reduce(diff), n_t=d.n_t, n_r=d.n_r,
+                                      tol=d.zero_var_rtol * reduce(d.abs_scale), **sums)
+    a = sums["a"] if d.fa is None else np.maximum(sums["a"], sums["fa"])
+    var = a + sums["b"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pos = var > 0
+        g1 = np.where(pos, K3 / np.where(pos, var, 1.0) ** 1.5, 0.0)
+        g2 = np.where(pos, K4 / np.where(pos, var, 1.0) ** 2, 0.0)
+    z_crit = float(stats.norm.isf(sidak_level(alpha_level, max(int(testable.sum()), 1)) / 2.0))
+    valid = testable & (~pos | (edgeworth_error(z_crit, g1, g2) <= validity))
+    return _Level(z=z, p=p, testable=testable, valid=valid, g1=g1, g2=g2, z_crit=z_crit, var=var,
+                  ref_sum=reduce(d.r))
+
+
+def _pixel_level(d: _Inputs, pixel_pool: int, **crit) -> _Level:
+    """Welch test per pixel-channel; non-finite test pixels fail.
+
+    Variances are floored by their neighbourhood mean (see ``pixel_pool``). Pixels with
+    no noise on either side (a directly seen light) stay exact: their neighbours' noise
+    says nothing about them, and flooring them would turn the float rounding of the
+    emitters' constants (~3e-6 relative) into "significant" differences.
+    """
+    exact = (d.a == 0) & (d.b == 0)
+    pool = ((lambda v: v) if pixel_pool <= 1 else
+            (lambda v: np.where(exact, v, _neighbourhood_floor(v, pixel_pool))))
+    var = pool(d.a if d.fa is None else np.maximum(d.a, d.fa)) + pool(d.b)
+    lv = _level(d, pool, d.diff, d.g1 * var ** 1.5, d.g2 * var * var, **crit)
+    lv.z[d.bad] = np.inf
+    lv.p[d.bad] = 0.0
+    lv.testable |= d.bad
+    lv.valid |= d.bad
+    return lv
+
+
+def _tile_level(d: _Inputs, diff: np.ndarray, ts: int, **crit) -> _Level:
+    """Welch test per ``ts x ts`` tile and channel.
+
+    Images are padded to whole tiles with zeros (padding contributes nothing to the sums).
+    """
+    H, W, C = d.x.shape
+    ty, tx = -(-H // ts), -(-W // ts)
+
+    def tile_sum(img):
+        padded = np.zeros((ty * ts, tx * ts, C))
+        padded[:H, :W] = img
+        return padded.reshape(ty, ts, tx, ts, C).sum(axis=(1, 3))
+
+    return _level(d, tile_sum, diff, tile_sum(d.k3), tile_sum(d.k4), **crit)
+
+
+def _image_level(d: _Inputs, diff: np.ndarray, **crit) -> _Level:
+    """Welch test of the whole image per channel."""
+    total = lambda v: v.sum(axis=(0, 1))  # noqa: E731
+    return _level(d, total, diff, total(d.k3), total(d.k4), **crit)
+
+
+def _family_p(levels: list) -> tuple:
+    """``(Sidak-adjusted smallest p, number of tests)`` over the tested statistics of ``levels``
+    (all tile sizes form one family)."""
+    p = np.concatenate([lv.p[lv.valid].ravel() for lv in levels])
+    m = int(p.size)
+    return (sidak(float(p.min()), m) if m else 1.0), m
+
+
+def _decide(failed: list, img: _Level, n_t: float, validity: float) -> tuple:
+    """``(verdict, reason, spp_needed)``: a failure needs one tested statistic; a pass needs
+    the whole image tested in every channel with evidence; otherwise undetermined."""
+    if failed:
+        return "fail", f"significant difference at the {', '.join(failed)} level", None
+    untested = img.testable & ~img.valid
+    if not untested.any():
+        return "pass", "no significant difference", None
+    g1, g2 = np.abs(img.g1[untested]), np.abs(img.g2[untested])
+    needed = max(spp_needed(img.z_crit, a, b, n_t, validity) for a, b in zip(g1, g2))
+    return ("undetermined", f"heavy-tailed: the image mean is too far from normal at {int(n_t)} spp "
+            f"(skewness {g1.max():.2g}, excess kurtosis {g2.max():.2g}); needs about {needed} spp", needed)
+
+
+def _argworst(p: np.ndarray, s: np.ndarray) -> tuple:
+    """Index of the smallest ``p``, ties broken by the largest ``|s|``."""
+    flat = np.lexsort((-np.abs(s).ravel(), p.ravel()))[0]
+    return tuple(int(i) for i in np.unravel_index(flat, p.shape))
+
+
+def _tested(lv: _Level) -> np.ndarray:
+    """``lv.p`` with untested statistics at 2 (never the worst)."""
+    return np.where(lv.valid, lv.p, 2.0)
+
+
+def _worst_tile(tiles, tile_levels, H: int, W: int) -> tuple:
+    """Pixel box ``(row0, col0, row1, col1)`` of the tested tile of any size with the smallest p."""
+    best = None
+    for ts, lv in zip(tiles, tile_levels):
+        pt = _tested(lv)
+        iy, ix, ic = _argworst(pt, lv.z)
+        key = (pt[iy, ix, ic], -abs(lv.z[iy, ix, ic]))
+        if best is None or key < best[0]:
+            best = (key, (iy * ts, ix * ts, min(H, (iy + 1) * ts), min(W, (ix + 1) * ts)))
+    return best[1]
+
+
+def _locate(d: _Inputs, pix: _Level, tiles, tile_levels, level_p: dict) -> tuple:
+    """``(worst pixel, worst tile, worst level, worst region)`` (see :class:`GateResult`)."""
+    H, W, _ = d.x.shape
+    wy, wx, wc = _argworst(_tested(pix), pix.z)
+    worst_tile = _worst_tile(tiles, tile_levels, H, W)
+    worst_level = min(level_p, key=lambda k: (level_p[k], LEVELS.index(k)))
+    worst_region = {"pixel": (wy, wx, wy + 1, wx + 1), "tile": worst_tile,
+                    "image": (0, 0, H, W)}[worst_level]
+    return (wy, wx, wc), worst_tile, worst_level, worst_region
+
+
+def _relative_bias(d: _Inputs, worst_tile: tuple) -> tuple:
+    """``(relative bias, its standard error, per channel, inside worst_tile)``; finite pixels only."""
+    good = ~d.bad
+    d_all = np.where(good, d.x - d.r, 0.0)
+    r_all = np.where(good, d.r, 0.0)
+    sum_r_c = r_all.sum(axis=(0, 1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel_c = np.where(sum_r_c != 0, d_all.sum(axis=(0, 1)) / sum_r_c, np.nan)
+    sr = float(r_all.sum())
+    rel = float(d_all.sum() / sr) if sr != 0 else math.nan
+    se_sum = d.a + d.b if d.fa is None else np.maximum(d.a, d.fa) + d.b
+    rel_se = float(math.sqrt(se_sum[good].sum()) / abs(sr)) if sr != 0 else math.nan
+    y0, x0, y1, x1 = worst_tile
+    srt = float(r_all[y0:y1, x0:x1].sum())
+    rel_tile = float(d_all[y0:y1, x0:x1].sum() / srt) if srt != 0 else math.nan
+    return rel, rel_se, rel_c, rel_tile
+
+
+def _power(img: _Level, tile8: _Level | None) -> tuple:
+    """Minimum detectable relative bias with probability :data:`POWER`: of the whole image
+    (the most sensitive tested channel) and of one :data:`POWER_TILE` tile (the median tested
+    tile); NaN where nothing is tested. A level detects a bias ``delta * sum(r)`` when it
+    exceeds ``(z_crit + z_power)`` standard deviations of the statistic."""
+    z_pow = float(stats.norm.isf(1.0 - POWER))
+
+    def mdb(lv):
+        if lv is None:
+            return np.array([])
+        ok = lv.valid & (lv.var > 0) & (lv.ref_sum != 0)
+        return ((lv.z_crit + z_pow) * np.sqrt(lv.var[ok]) / np.abs(lv.ref_sum[ok])).ravel()
+
+    g, t = mdb(img), mdb(tile8)
+    return (float(g.min()) if g.size else math.nan), (float(np.median(t)) if t.size else math.nan)

@@ -1,0 +1,281 @@
+r"""Bias and variance of a renderer from independent seeds, with a one-sided test for bias.
+
+Model. Seed ``k`` gives pixel means :math:`x_{kp} = \mu_p + b_p + e_{kp}`, independent
+over ``k`` and ``p``, :math:`\mathrm{Var}(e_{kp}) = \sigma^2_p / N` (``N`` = ``spp``).
+The reference is :math:`r_p = \mu_p + f_p`, :math:`\mathrm{Var}(f_p) = \tau^2_p /
+N_{ref}`, independent of the seeds. With :math:`\bar x_p = \frac1K\sum_k x_{kp}` and
+:math:`D_p = \bar x_p - r_p`:
+
+.. math:: E[D_p^2] = b_p^2 + s_p^2, \qquad
+          s_p^2 = \frac{\sigma^2_p}{K N} + \frac{\tau^2_p}{N_{ref}}.
+
+With an unbiased :math:`\hat s_p^2` the per-pixel term
+:math:`T_p = D_p^2 - \hat s_p^2` has :math:`E[T_p] = b_p^2` **exactly**, so
+
+.. math:: \widehat{\mathrm{bias}^2} = \frac{1}{P}\sum_p T_p
+
+is unbiased for the mean squared bias and has expectation 0 when there is no bias.
+:math:`\hat s_p^2` uses the between-seed variance :math:`S_p^2 / K`
+(:math:`S_p^2` with ``ddof=1``, ``K >= 2``; ``variance_source='seeds'``) or the
+renderer's per-sample variance, :math:`\overline{v_{kp}} \cdot
+\frac{N-\mathrm{ddof}}{N-1} / (K N)` (``variance_source='samples'``; ``var_k`` from
+``rt.render`` is second moment minus mean squared, ``var_ddof=0``). ``'auto'`` picks ``'seeds'`` when ``K >= 2`` else
+``'samples'``. Without ``ref_var`` the reference is taken as noise-free.
+
+Test. The :math:`T_p` are independent across pixels (channels of one pixel are not,
+so they are averaged within the pixel first: :math:`\bar T_p`). The standard error is
+the empirical one, :math:`\mathrm{se} = \mathrm{sd}(\bar T_p)/\sqrt{P}`, valid whatever
+the noise distribution, and :math:`z = \widehat{\mathrm{bias}^2}/\mathrm{se}` is
+asymptotically standard normal under :math:`H_0: b_p = 0\ \forall p` (CLT over
+pixels). ``p_value = 1 - Phi(z)`` (one-sided: bias can only add), and
+``bias_significant = p_value < alpha`` has false-positive rate ``alpha`` for large
+``P``; because :math:`T_p` is right-skewed the studentised mean is left-skewed, so for
+moderate ``P`` the rate is at most about ``alpha`` (measured in
+``tests/test_metrics.py``). The reference must be independent of the seeds.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from scipy import stats
+
+from ._checks import as_image, check_policy, positive_spp, same_shape
+
+__all__ = ["BiasVariance", "bias_variance"]
+
+
+@dataclass(frozen=True)
+class BiasVariance:
+    """Result of :func:`bias_variance`. All figures are means over pixel-channels.
+
+    Attributes
+    ----------
+    bias2 : float
+        Unbiased estimate of mean squared bias, ``mean_p b_p^2`` (can be slightly < 0).
+    bias2_se : float
+        Standard error of ``bias2`` (from the spread of per-pixel terms).
+    z : float
+        ``bias2 / bias2_se``.
+    p_value : float
+        One-sided p-value of ``H0: all b_p = 0`` against ``bias2 > 0``.
+    bias_significant : bool
+        ``p_value < alpha``; false-positive rate ``alpha`` (asymptotically in the pixel
+        count; conservative for right-skewed per-pixel terms).
+    alpha : float
+    variance : float
+        Mean variance of *one* image (one seed, ``spp`` samples): ``E[MSE] ~ bias2 +
+        variance + reference_noise``.
+    sample_variance : float
+        Mean per-sample variance, ``variance * spp`` (NaN if ``spp`` unknown).
+    mse : float
+        Mean over seeds of each image's MSE against ``ref``.
+    mse_corrected : float
+        ``mse`` minus the reference noise (NaN without ``ref_var``/``ref_spp``).
+    bias : float
+        Mean signed difference ``mean_p (mean_k x_k - r)`` (direction of the bias).
+    relative_bias : float
+        ``sum(mean_k x_k - r) / sum(r)`` (NaN if the reference sums to 0).
+    k : int
+        Number of seeds.
+    n_pixels : int
+        Number of pixels that entered the estimate.
+    variance_source : str
+        ``'seeds'`` (between-seed variance) or ``'samples'`` (``var_k``).
+    """
+
+    bias2: float
+    bias2_se: float
+    z: float
+    p_value: float
+    bias_significant: bool
+    alpha: float
+    variance: float
+    sample_variance: float
+    mse: float
+    mse_corrected: float
+    bias: float
+    relative_bias: float
+    k: int
+    n_pixels: int
+    variance_source: str
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def bias_variance(images_k, ref, ref_var=None, ref_spp=None, var_k=None, spp=None, *,
+                  alpha: float = 0.01, variance_source: str = "auto", var_ddof: int = 0,
+                  nan_policy: str = "propagate") -> BiasVariance:
+    r"""Squared bias and variance of a renderer from ``K`` independent seeds, with a test.
+
+    The estimator :math:`\widehat{\mathrm{bias}^2} = \frac1P \sum_p (D_p^2 - \hat s_p^2)`
+    (unbiased for the mean squared bias) and its one-sided z-test are derived in the
+    module docstring (:mod:`benchmarks.metrics.bias`). The reference must be independent
+    of the seeds.
+
+    Parameters
+    ----------
+    images_k : array_like, shape (K, H, W[, C])
+        ``K`` independent renders (distinct seeds) at ``spp`` each.
+    ref : array_like, shape (H, W[, C])
+        Reference image.
+    ref_var : array_like, optional
+        Per-sample variance of the reference (needs ``ref_spp``).
+    ref_spp : int, optional
+    var_k : array_like, shape (K, H, W[, C]), optional
+        Per-sample variance of each render (needs ``spp``).
+    spp : int, optional
+        Samples per pixel of each render.
+    alpha : float
+        Level of ``bias_significant``.
+    variance_source : {'auto', 'seeds', 'samples'}
+        Where :math:`\hat s_p^2` comes from; ``'auto'``: ``'seeds'`` when ``K >= 2``.
+    var_ddof : {0, 1}
+        The ddof of ``var_k`` (``rt.render``'s variance is second moment minus mean
+        squared: 0).
+    nan_policy : {'propagate', 'omit', 'raise'}
+        ``'omit'`` drops a whole pixel if any of its entries (any seed, channel or input)
+        is NaN.
+
+    Returns
+    -------
+    BiasVariance
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> ref = np.ones((32, 32, 3))
+    >>> imgs = ref + 0.1 * rng.standard_normal((4, 32, 32, 3))
+    >>> bv = bias_variance(imgs, ref)
+    >>> bool(bv.bias_significant), round(bv.variance, 3)
+    (False, 0.01)
+    >>> bool(bias_variance(imgs + 0.05, ref).bias_significant)
+    True
+    """
+    if not 0 < alpha < 1:
+        raise ValueError(f"alpha must be in (0, 1); got {alpha}")
+    imgs, r, rv, n_ref, vk, n = _checked_inputs(images_k, ref, ref_var, ref_spp, var_k, spp)
+    K = imgs.shape[0]
+    variance_source = _variance_source(variance_source, K, vk, n, var_ddof)
+    bad = _nan_pixels(nan_policy, r, [imgs, r[None]] + ([rv[None]] if rv is not None else [])
+                      + ([vk] if vk is not None else []))
+    if bad.any() and nan_policy == "propagate":
+        nanf = math.nan
+        return BiasVariance(nanf, nanf, nanf, nanf, False, alpha, nanf, nanf, nanf, nanf,
+                            nanf, nanf, K, int(bad.size), variance_source)
+    keep = ~bad
+    if not keep.any():
+        raise ValueError("no pixel left after omitting NaNs")
+    X, R, D, var_img, ref_noise = _pixel_terms(imgs, r, rv, n_ref, vk, n, var_ddof, keep, variance_source)
+    P = R.shape[0]
+    s2 = var_img / K
+    if rv is not None:
+        s2 = s2 + ref_noise
+    bias2, se, z, p = _one_sided_test((D * D - s2).mean(axis=1))  # per pixel, channels averaged
+    variance = float(var_img.mean())
+    mse_k = float(((X - R[None]) ** 2).mean(axis=(1, 2)).mean())
+    sum_r = float(R.sum())
+    return BiasVariance(
+        bias2=bias2, bias2_se=se, z=float(z), p_value=p,
+        bias_significant=bool(p < alpha), alpha=float(alpha),
+        variance=variance, sample_variance=variance * n if n is not None else math.nan,
+        mse=mse_k, mse_corrected=mse_k - float(ref_noise.mean()) if rv is not None else math.nan,
+        bias=float(D.mean()), relative_bias=float(D.sum() / sum_r) if sum_r != 0 else math.nan,
+        k=int(K), n_pixels=int(P), variance_source=variance_source)
+
+
+def _checked_inputs(images_k, ref, ref_var, ref_spp, var_k, spp):
+    """Arrays of :func:`bias_variance` checked for shape and sign: (imgs, r, rv, n_ref, vk, n)."""
+    imgs = np.asarray(images_k, dtype=np.float64)
+    r = as_image(ref, "ref")
+    if imgs.ndim != r.ndim + 1 or imgs.shape[1:] != r.shape:
+        raise ValueError(f"images_k must have shape (K,) + ref.shape = (K,) + {r.shape}; "
+                         f"got {imgs.shape}")
+    if imgs.shape[0] < 1:
+        raise ValueError("images_k holds no image")
+    if (ref_var is None) != (ref_spp is None):
+        raise ValueError("give ref_var and ref_spp together (or neither)")
+    rv = n_ref = None
+    if ref_var is not None:
+        rv = as_image(ref_var, "ref_var")
+        same_shape(ref=r, ref_var=rv)
+        if np.any(rv < 0):
+            raise ValueError("ref_var has negative entries")
+        n_ref = positive_spp(ref_spp, "ref_spp")
+    vk = None
+    if var_k is not None:
+        vk = np.asarray(var_k, dtype=np.float64)
+        if vk.shape != imgs.shape:
+            raise ValueError(f"var_k shape {vk.shape} differs from images_k shape {imgs.shape}")
+        if np.any(vk < 0):
+            raise ValueError("var_k has negative entries")
+    n = positive_spp(spp) if spp is not None else None
+    return imgs, r, rv, n_ref, vk, n
+
+
+def _pixel_terms(imgs, r, rv, n_ref, vk, n, var_ddof, keep, variance_source):
+    """Flatten to (K, P, C) over the kept pixels: images X, reference R, D = mean_k X - R,
+    the variance of one image's pixel means and the reference's noise (zeros without it)."""
+    K = imgs.shape[0]
+    C = 1 if r.ndim == 2 else r.shape[2]
+    X = imgs.reshape(K, -1, C)[:, keep.ravel()]
+    R = r.reshape(-1, C)[keep.ravel()]
+    D = X.mean(axis=0) - R
+    if variance_source == "seeds":
+        var_img = X.var(axis=0, ddof=1)                      # variance of one image
+    else:
+        V = vk.reshape(K, -1, C)[:, keep.ravel()]
+        # ddof -> unbiased per-sample variance -> variance of one image's pixel mean
+        var_img = V.mean(axis=0) * ((n - var_ddof) / (n - 1)) / n
+    ref_noise = np.zeros_like(R)
+    if rv is not None:
+        ref_noise = rv.reshape(-1, C)[keep.ravel()] / n_ref
+    return X, R, D, var_img, ref_noise
+
+
+def _variance_source(variance_source: str, K: int, vk, n, var_ddof: int) -> str:
+    """Resolve ``'auto'`` and check that the chosen source has what it needs."""
+    if variance_source == "auto":
+        variance_source = "seeds" if K >= 2 else "samples"
+    if variance_source == "seeds":
+        if K < 2:
+            raise ValueError("variance_source='seeds' needs K >= 2 seeds")
+    elif variance_source == "samples":
+        if vk is None or n is None:
+            raise ValueError("variance_source='samples' (or K == 1) needs var_k and spp")
+        if n < 2 or var_ddof not in (0, 1):
+            raise ValueError(f"variance_source='samples' needs spp >= 2 and var_ddof 0 or 1; "
+                             f"got spp={n}, var_ddof={var_ddof}")
+    else:
+        raise ValueError(f"variance_source must be 'auto', 'seeds' or 'samples'; got {variance_source!r}")
+    return variance_source
+
+
+def _nan_pixels(nan_policy: str, r: np.ndarray, parts: list) -> np.ndarray:
+    """(H, W) mask of pixels with a NaN in any part (any seed or channel); raises for 'raise'."""
+    check_policy(nan_policy)
+    bad = np.zeros(r.shape[:2], dtype=bool)
+    for a in parts:
+        nan = np.isnan(a)
+        bad |= nan.reshape(nan.shape[0], r.shape[0], r.shape[1], -1).any(axis=(0, 3))
+    if bad.any() and nan_policy == "raise":
+        raise ValueError(f"NaN in inputs ({int(bad.sum())} pixels) with nan_policy='raise'")
+    return bad
+
+
+def _one_sided_test(T: np.ndarray) -> tuple[float, float, float, float]:
+    """Mean of the per-pixel terms, its empirical standard error, z and the one-sided p-value."""
+    P = T.shape[0]
+    bias2 = float(T.mean())
+    se = float(T.std(ddof=1) / math.sqrt(P)) if P > 1 else math.nan
+    if se > 0:
+        z = bias2 / se
+    elif P > 1:
+        # every per-pixel term equal: all-zero means exact agreement, otherwise a constant offset
+        z = 0.0 if bias2 <= 0 else math.inf
+    else:
+        z = math.nan
+    p = float(stats.norm.sf(z)) if not math.isnan(z) else math.nan
+    return bias2, se, z, p

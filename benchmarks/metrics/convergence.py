@@ -1,0 +1,178 @@
+"""Convergence and cost: log-log slope of RMSE over spp, efficiency, time to reach an error."""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from scipy import stats
+
+from ._checks import check_policy
+
+__all__ = ["SlopeFit", "convergence_slope", "efficiency", "time_to_error"]
+
+
+@dataclass(frozen=True)
+class SlopeFit:
+    """Least-squares fit ``log(rmse) = intercept + slope * log(spp)``.
+
+    ``ci_low``/``ci_high`` is the two-sided ``confidence`` interval of the slope
+    (Student t with ``n - 2`` dof; NaN when ``n < 3``); ``stderr`` its standard error;
+    ``r2`` the coefficient of determination; ``n`` the number of points used.
+    """
+
+    slope: float
+    intercept: float
+    stderr: float
+    ci_low: float
+    ci_high: float
+    confidence: float
+    r2: float
+    n: int
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def convergence_slope(spp, rmse, *, confidence: float = 0.95,
+                      nan_policy: str = "propagate") -> SlopeFit:
+    r"""Slope of log RMSE over log spp, with a confidence interval.
+
+    Unbiased Monte Carlo has :math:`\mathrm{RMSE} = \sigma / \sqrt{N}`: slope -0.5. With
+    a bias ``b``, :math:`\mathrm{RMSE} = \sqrt{b^2 + \sigma^2/N}` flattens towards slope 0
+    at high ``N``. Note that RMSE against a noisy reference flattens the same way at the
+    reference's noise floor: fit RMSE from :func:`mse_corrected` (or use a reference with
+    many more spp than the sweep) when that matters.
+
+    Repeated ``spp`` values (several seeds) are fine: every (spp, rmse) pair is one point.
+    The interval treats the points as independent with equal log-scale noise.
+
+    Parameters
+    ----------
+    spp, rmse : array_like, 1-D, same length
+        Positive sample counts and positive RMSEs (zero or negative values cannot be put
+        on a log scale and raise ``ValueError``).
+    confidence : float
+    nan_policy : {'propagate', 'omit', 'raise'}
+        ``'omit'`` drops the points where either value is NaN.
+
+    Examples
+    --------
+    >>> s = [1, 4, 16, 64]
+    >>> fit = convergence_slope(s, [1 / np.sqrt(n) for n in s])
+    >>> round(fit.slope, 6), round(fit.stderr, 6)
+    (-0.5, 0.0)
+    """
+    x = np.asarray(spp, dtype=np.float64).ravel()
+    y = np.asarray(rmse, dtype=np.float64).ravel()
+    if x.shape != y.shape:
+        raise ValueError(f"spp and rmse have different lengths: {x.shape} vs {y.shape}")
+    if not 0 < confidence < 1:
+        raise ValueError(f"confidence must be in (0, 1); got {confidence}")
+    check_policy(nan_policy)
+    nan = np.isnan(x) | np.isnan(y)
+    if nan.any():
+        if nan_policy == "raise":
+            raise ValueError("NaN in spp or rmse with nan_policy='raise'")
+        if nan_policy == "propagate":
+            return SlopeFit(math.nan, math.nan, math.nan, math.nan, math.nan,
+                            float(confidence), math.nan, int(x.size))
+        x, y = x[~nan], y[~nan]
+    if np.any(x <= 0) or np.any(y <= 0):
+        raise ValueError("spp and rmse must be positive to fit on a log-log scale")
+    n = x.size
+    if n < 2:
+        raise ValueError(f"need at least 2 points to fit a slope; got {n}")
+    lx, ly = np.log(x), np.log(y)
+    mx, my = lx.mean(), ly.mean()
+    sxx = float(((lx - mx) ** 2).sum())
+    if sxx == 0:
+        raise ValueError("all spp values are equal: slope undefined")
+    slope = float(((lx - mx) * (ly - my)).sum() / sxx)
+    intercept = float(my - slope * mx)
+    resid = ly - (intercept + slope * lx)
+    ss_res = float((resid ** 2).sum())
+    ss_tot = float(((ly - my) ** 2).sum())
+    r2 = 1.0 - ss_res / ss_tot if ss_tot > 0 else 1.0
+    if n >= 3:
+        stderr = math.sqrt(ss_res / (n - 2) / sxx)
+        half = float(stats.t.ppf(0.5 + confidence / 2, n - 2)) * stderr
+        lo, hi = slope - half, slope + half
+    else:
+        stderr, lo, hi = math.nan, math.nan, math.nan
+    return SlopeFit(slope, intercept, stderr, lo, hi, float(confidence), float(r2), int(n))
+
+
+def efficiency(mse, seconds):
+    r"""Monte Carlo efficiency, :math:`1 / (\mathrm{MSE} \cdot t)`: higher is better.
+
+    Vectorised over arrays (returns an array then, a float for scalars). ``mse == 0``
+    gives ``inf``; NaN propagates; negative ``mse`` (e.g. a noise-corrected MSE that came
+    out below zero) or ``seconds <= 0`` raise ``ValueError``, since the efficiency is
+    then undefined rather than merely large.
+
+    Examples
+    --------
+    >>> efficiency(0.01, 2.0)
+    50.0
+    """
+    m = np.asarray(mse, dtype=np.float64)
+    t = np.asarray(seconds, dtype=np.float64)
+    if np.any(m < 0):
+        raise ValueError("efficiency: mse must be >= 0")
+    if np.any(t <= 0):
+        raise ValueError("efficiency: seconds must be > 0")
+    with np.errstate(divide="ignore"):
+        out = 1.0 / (m * t)
+    return float(out) if out.ndim == 0 else out
+
+
+def time_to_error(seconds, rmse, target: float) -> float:
+    r"""Seconds needed to reach ``rmse <= target``, interpolated on a log-log scale.
+
+    The points are sorted by time; the first segment ``(t_i, e_i) -> (t_{i+1}, e_{i+1})``
+    with :math:`e_i > \mathrm{target} \ge e_{i+1}` is interpolated linearly in
+    :math:`(\log t, \log e)` (a power law between the two points; exact for
+    :math:`e \propto t^{-1/2}`).
+
+    Conventions (documented, not errors):
+
+    * never reached (all ``rmse > target``): returns ``math.nan`` - there is no
+      extrapolation beyond the measured curve;
+    * already reached at the cheapest point: returns ``seconds[0]``, an upper bound;
+    * points with NaN are ignored; an ``rmse`` of 0 counts as reached.
+
+    Examples
+    --------
+    >>> time_to_error([1.0, 4.0, 16.0], [0.4, 0.2, 0.1], 0.2)
+    4.0
+    >>> round(time_to_error([1.0, 4.0], [0.4, 0.2], 0.2828427), 4)  # halfway in log
+    2.0
+    >>> time_to_error([1.0, 4.0], [0.4, 0.2], 0.01)
+    nan
+    """
+    t = np.asarray(seconds, dtype=np.float64).ravel()
+    e = np.asarray(rmse, dtype=np.float64).ravel()
+    if t.shape != e.shape:
+        raise ValueError(f"seconds and rmse have different lengths: {t.shape} vs {e.shape}")
+    if not target > 0:
+        raise ValueError(f"target must be positive; got {target}")
+    ok = ~(np.isnan(t) | np.isnan(e))
+    t, e = t[ok], e[ok]
+    if np.any(t <= 0) or np.any(e < 0):
+        raise ValueError("seconds must be > 0 and rmse >= 0")
+    if t.size == 0:
+        return math.nan
+    order = np.argsort(t, kind="stable")
+    t, e = t[order], e[order]
+    if e[0] <= target:
+        return float(t[0])
+    for i in range(1, t.size):
+        if e[i] <= target:
+            if e[i] == 0 or t[i] == t[i - 1]:
+                return float(t[i])
+            lt0, lt1 = math.log(t[i - 1]), math.log(t[i])
+            le0, le1 = math.log(e[i - 1]), math.log(e[i])
+            frac = (math.log(target) - le0) / (le1 - le0)
+            return float(math.exp(lt0 + frac * (lt1 - lt0)))
+    return math.nan

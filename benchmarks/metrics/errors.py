@@ -1,0 +1,131 @@
+"""Pixel-error metrics of one image against a reference: MSE, RMSE, relMSE, reference-noise correction."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..constants import RELMSE_EPS
+from ._checks import as_image, masked_mean, nan_mask, positive_spp, same_shape
+
+__all__ = ["mse", "rmse", "relmse", "reference_noise", "mse_corrected"]
+
+
+def mse(img, ref, *, nan_policy: str = "propagate") -> float:
+    r"""Mean squared error over all pixels and channels.
+
+    .. math:: \mathrm{MSE} = \frac{1}{HWC} \sum_{p,c} (x_{pc} - r_{pc})^2
+
+    Parameters
+    ----------
+    img, ref : array_like, shape (H, W) or (H, W, C)
+        Test image and reference, linear radiance, same shape.
+    nan_policy : {'propagate', 'omit', 'raise'}
+        See :mod:`benchmarks.metrics`.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> mse([[1.0, 2.0]], [[1.0, 4.0]])
+    2.0
+    """
+    x, r = as_image(img, "img"), as_image(ref, "ref")
+    same_shape(img=x, ref=r)
+    mask = nan_mask(nan_policy, img=x, ref=r)
+    return masked_mean((x - r) ** 2, mask)
+
+
+def rmse(img, ref, *, nan_policy: str = "propagate") -> float:
+    r"""Root mean squared error, :math:`\sqrt{\mathrm{MSE}}`.
+
+    Examples
+    --------
+    >>> rmse([[1.0, 2.0]], [[1.0, 4.0]])  # sqrt(2)
+    1.4142135623730951
+    """
+    return math.sqrt(mse(img, ref, nan_policy=nan_policy))
+
+
+def relmse(img, ref, *, eps: float = RELMSE_EPS, nan_policy: str = "propagate") -> float:
+    r"""Relative mean squared error.
+
+    .. math:: \mathrm{relMSE} = \frac{1}{HWC} \sum_{p,c}
+              \frac{(x_{pc} - r_{pc})^2}{r_{pc}^2 + \epsilon}, \qquad \epsilon = 0.01
+
+    The epsilon keeps black reference pixels from dominating (DESIGN.md section 4).
+
+    Examples
+    --------
+    >>> relmse([[1.0, 0.1]], [[0.0, 0.0]])  # (1/0.01 + 0.01/0.01) / 2
+    50.5
+    """
+    if not eps > 0:
+        raise ValueError(f"eps must be positive; got {eps}")
+    x, r = as_image(img, "img"), as_image(ref, "ref")
+    same_shape(img=x, ref=r)
+    mask = nan_mask(nan_policy, img=x, ref=r)
+    return masked_mean((x - r) ** 2 / (r * r + eps), mask)
+
+
+def reference_noise(ref_var, ref_spp, *, nan_policy: str = "propagate") -> float:
+    r"""Mean variance of the reference's pixel means, :math:`\overline{\sigma^2_{ref}} / N_{ref}`.
+
+    This is how much the reference's own Monte Carlo noise adds to the expected MSE of
+    any image measured against it.
+
+    Examples
+    --------
+    >>> reference_noise([[2.0, 4.0]], 100)
+    0.03
+    """
+    v = as_image(ref_var, "ref_var")
+    n = positive_spp(ref_spp, "ref_spp")
+    if np.any(v < 0):
+        raise ValueError("ref_var has negative entries")
+    mask = nan_mask(nan_policy, ref_var=v)
+    return masked_mean(v / n, mask)
+
+
+def mse_corrected(img, ref, ref_var, ref_spp, *, nan_policy: str = "propagate") -> float:
+    r"""MSE against the *true* image, estimated by removing the reference's own noise.
+
+    A reference ``R`` rendered at :math:`N_{ref}` spp is itself noisy. For a test image
+    ``X`` independent of it,
+
+    .. math:: E[(X - R)^2] = E[(X - \mu)^2] + \mathrm{Var}(R),
+              \qquad \mathrm{Var}(R) = \sigma^2_{ref} / N_{ref},
+
+    so the plain MSE is biased *up* by the reference noise. This returns
+
+    .. math:: \mathrm{MSE}_{corr} = \mathrm{MSE}(X, R)
+              - \frac{1}{HWC}\sum_{p,c} \frac{\sigma^2_{ref,pc}}{N_{ref}},
+
+    an unbiased estimate of the MSE against the noise-free image (given an unbiased
+    per-sample ``ref_var``). **It is a reference-noise correction**: it can come out
+    slightly negative when the test image is nearly perfect or the reference is very
+    noisy; it is deliberately not clipped (clipping would bias averages over seeds).
+
+    Parameters
+    ----------
+    img, ref : array_like
+        Test image and reference mean, same shape.
+    ref_var : array_like
+        Per-sample variance of the reference, same shape.
+    ref_spp : int
+        Samples per pixel of the reference.
+
+    Examples
+    --------
+    >>> mse_corrected([[1.0, 2.0]], [[1.0, 4.0]], [[10.0, 30.0]], 100)  # 2 - 0.2
+    1.8
+    """
+    x, r, v = as_image(img, "img"), as_image(ref, "ref"), as_image(ref_var, "ref_var")
+    same_shape(img=x, ref=r, ref_var=v)
+    n = positive_spp(ref_spp, "ref_spp")
+    if np.any(v < 0):
+        raise ValueError("ref_var has negative entries")
+    mask = nan_mask(nan_policy, img=x, ref=r, ref_var=v)
+    return masked_mean((x - r) ** 2 - v / n, mask)

@@ -1,0 +1,39 @@
+"""Speed measurements: how fast ours is against Mitsuba 3, on renders and on raw ray casting.
+
+Three measurements, each a plain function returning a JSON-able dict (``rtbench speed``
+prints them; its tables live in :mod:`benchmarks.commands.speed`):
+
+:func:`render_benchmark` (:mod:`.render`)
+    Paired, interleaved renders of each scene by ours (each strategy) and Mitsuba's
+    ``path`` integrator (each variant): paths/s, ms/spp, RMSE and efficiency at equal spp.
+:func:`ray_benchmark` (:mod:`.rays`)
+    Closest-hit queries on a generated torus with primary and random rays, ours vs
+    Mitsuba (Embree) on the same rays: Mrays/s and hit agreement.
+:func:`scaling_benchmark` (:mod:`.scaling`)
+    Paths/s vs resolution and threads, and cost per ray vs triangle count fitted as
+    ``a + b ln n``.
+
+Timing, machine identity and Mitsuba variant selection are shared (:mod:`.common`):
+wall and process CPU time are recorded side by side, since the machine may be shared.
+Speed is measured and reported, never asserted.
+
+Examples
+--------
+>>> from benchmarks.speed import hit_agreement
+>>> import numpy as np
+>>> hit_agreement(np.array([1.0, np.inf]), np.array([1.0, np.inf]))["hit_agreement"]
+1.0
+"""
+from __future__ import annotations
+
+from .common import WALL_CLOCK_NOTE, environment
+from .rays import (RAY_KINDS, hit_agreement, intersect_mitsuba, intersect_ours, mesh_scene, primary_rays,
+                   random_rays, ray_benchmark, torus_mesh)
+from .render import DEFAULT_STRATEGIES, DEFAULT_VARIANTS, REFERENCE_KINDS, render_benchmark
+from .scaling import fit_log_growth, scaling_benchmark
+
+__all__ = ["WALL_CLOCK_NOTE", "DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "REFERENCE_KINDS", "RAY_KINDS",
+           "render_benchmark", "ray_benchmark", "scaling_benchmark",
+           "torus_mesh", "mesh_scene", "primary_rays", "random_rays",
+           "intersect_ours", "intersect_mitsuba", "hit_agreement", "fit_log_growth",
+           "environment"]

@@ -1,0 +1,192 @@
+"""What every speed measurement shares: timing, robust summaries, machine identity and
+Mitsuba variant selection.
+
+Timing
+------
+Every timed call records wall time (``time.perf_counter``) and process CPU time
+(``time.process_time``: all threads of this process, Dr.Jit's worker threads
+included). The machine these run on may be shared: wall-clock figures are then noisy
+and biased by other load, and ``cpu/wall`` below the thread count shows contention (or
+idle workers). CPU-time throughputs (``paths_per_cpu_second``) are reported beside the
+wall-clock ones for that reason. Speed is measured and reported, never asserted.
+"""
+from __future__ import annotations
+
+import math
+import os
+import platform
+import statistics
+import time
+
+import numpy as np
+
+__all__ = ["WALL_CLOCK_NOTE", "environment", "timed", "median", "spread", "name_list", "use_variant",
+           "available_variants", "check_jit_variant", "mitsuba_versions", "mitsuba_render_fn", "load_mitsuba"]
+
+#: printed under every table and stored in every JSON.
+WALL_CLOCK_NOTE = ("wall-clock figures are noisy when the machine is shared (other processes steal "
+                   "cores); process CPU time (all threads) is recorded beside them; cpu/wall well below "
+                   "the thread count means contention or idle workers")
+
+
+def name_list(name, values, allowed=None) -> list:
+    """``values`` (a sequence or a comma-separated string) as a list of distinct names.
+
+    Raises ``ValueError`` naming ``name`` when the list is empty, has duplicates or holds
+    a name outside ``allowed``.
+
+    Examples
+    --------
+    >>> name_list("kinds", "primary,random", ("primary", "random"))
+    ['primary', 'random']
+    >>> name_list("kinds", ["bogus"], ("primary", "random"))
+    Traceback (most recent call last):
+    ValueError: unknown kinds ['bogus']; choose from primary, random
+    """
+    if isinstance(values, str):
+        values = [v for v in values.split(",") if v]
+    values = list(values)
+    if not values:
+        raise ValueError(f"{name} must name at least one entry")
+    if allowed is not None:
+        bad = [v for v in values if v not in allowed]
+        if bad:
+            raise ValueError(f"unknown {name} {bad}; choose from {', '.join(allowed)}")
+    if len(set(values)) != len(values):
+        raise ValueError(f"{name} has duplicates: {values}")
+    return values
+
+
+def median(xs) -> float:
+    """Median of the finite values of ``xs`` (None skipped); NaN when none is left.
+
+    Examples
+    --------
+    >>> median([3.0, None, float("nan"), 1.0, 2.0])
+    2.0
+    """
+    xs = [x for x in xs if x is not None and math.isfinite(x)]
+    return statistics.median(xs) if xs else float("nan")
+
+
+def spread(xs) -> float:
+    """(max - min) / median of the finite values; NaN for fewer than two.
+
+    Examples
+    --------
+    >>> spread([1.0, 2.0, 3.0])
+    1.0
+    """
+    xs = [x for x in xs if x is not None and math.isfinite(x)]
+    if len(xs) < 2:
+        return float("nan")
+    m = statistics.median(xs)
+    return (max(xs) - min(xs)) / m if m > 0 else float("nan")
+
+
+def timed(fn):
+    """``(result, wall_seconds, cpu_seconds)`` of ``fn()``."""
+    c0, t0 = time.process_time(), time.perf_counter()
+    out = fn()
+    return out, time.perf_counter() - t0, time.process_time() - c0
+
+
+def environment() -> dict:
+    """Machine and software identity for a JSON record (load average included).
+
+    Examples
+    --------
+    >>> sorted(environment())[:3]
+    ['cpu_count', 'loadavg', 'machine']
+    """
+    import reference_tracer as rt
+
+    try:
+        load = list(os.getloadavg())
+    except OSError:
+        load = None
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return {"cpu_count": cpus, "loadavg": load, "machine": platform.machine(),
+            "python": platform.python_version(), "reference_tracer": getattr(rt, "__version__", None),
+            "note": WALL_CLOCK_NOTE}
+
+
+def use_variant(variant, threads=None):
+    """Select ``variant`` (and Dr.Jit's thread count when given); ``(mitsuba, drjit)``.
+
+    Raises ``RuntimeError`` or ``ValueError`` when the variant does not work here.
+    """
+    from mitsuba_scenes.variants import select_variant
+
+    select_variant(variant)
+    import drjit as dr
+    import mitsuba as mi
+
+    if threads is not None:
+        dr.set_thread_count(int(threads))
+    return mi, dr
+
+
+def available_variants(variants, log):
+    """The working subset of ``variants`` and ``{variant: reason}`` for the rest.
+
+    A variant named in ``variants`` that is not compiled in or does not run here (e.g.
+    no usable libLLVM) is skipped with its reason; LLVM is selected first because Dr.Jit
+    reads the libLLVM path when it is first imported.
+    """
+    ok, skipped = [], {}
+    for v in sorted(variants, key=lambda v: not v.startswith("llvm")):
+        try:
+            use_variant(v)
+            ok.append(v)
+        except (RuntimeError, ValueError) as exc:
+            skipped[v] = str(exc)
+            if log:
+                log(f"Mitsuba {v}: skipped ({exc})")
+    return [v for v in variants if v in ok], skipped
+
+
+def check_jit_variant(variant, benchmark, log):
+    """Check that ``variant`` is a JIT variant (or None) and whether it works here.
+
+    Returns ``(usable, skipped)``: ``usable`` is True when Mitsuba can be timed with it,
+    ``skipped`` the ``{variant: reason}`` of :func:`available_variants`.
+    """
+    if variant is None:
+        return False, {}
+    if variant.startswith("scalar"):
+        raise ValueError(f"the {benchmark} benchmark needs a JIT Mitsuba variant (llvm_ad_rgb) or None")
+    ok, skipped = available_variants([variant], log)
+    return bool(ok), skipped
+
+
+def mitsuba_versions() -> dict:
+    """Mitsuba's and Dr.Jit's versions and the libLLVM in use."""
+    from mitsuba_scenes.variants import versions
+
+    v = versions()
+    return {"mitsuba": v["mitsuba"], "drjit": v["drjit"], "libllvm": os.environ.get("DRJIT_LIBLLVM_PATH")}
+
+
+def mitsuba_render_fn(mi, mscene, spp, seed):
+    """A function rendering ``mscene`` once and returning the image as float64."""
+    def go():
+        img = mi.render(mscene, spp=int(spp), seed=int(seed))
+        return np.array(img, dtype=np.float64)   # forces evaluation and waits for it
+    return go
+
+
+def load_mitsuba(variant, scene, threads, *, check_merge=True):
+    """Load ``scene`` in ``variant`` with ``threads`` Dr.Jit threads; ``(mscene, load_seconds)``.
+
+    ``check_merge`` passes ``optimize=mesh_merge_safe(scene)`` (Mitsuba's mesh merging
+    turned off where it would flip normals); ``False`` keeps Mitsuba's defaults (the ray
+    benchmark's lone torus).
+    """
+    from mitsuba_scenes import to_mitsuba
+    from mitsuba_scenes.render import mesh_merge_safe
+
+    mi, _ = use_variant(variant, threads)
+    kwargs = {"optimize": mesh_merge_safe(scene)} if check_merge else {}
+    mscene, load, _ = timed(lambda: mi.load_dict(to_mitsuba(scene), **kwargs))
+    return mscene, load

@@ -1,0 +1,347 @@
+"""The paired render benchmark: ours vs Mitsuba's ``path`` integrator, paths/s and error.
+
+Each scene is rendered by our tracer (each strategy) and by Mitsuba's ``path``
+integrator (each available variant) at the same resolution, spp, ``max_depth``, Russian
+roulette and thread count. Mitsuba gets one untimed warm-up render per variant first
+(JIT kernels compile and are cached; the warm-up's extra time is reported as
+``compile_seconds``); ours gets one small warm-up too. Then ``repeats`` rounds, each
+running every configuration once, interleaved (ours, Mitsuba, ours, ...) so that a
+change in machine load hits both sides of a pair alike. Ratios are medians over the
+rounds of the per-round ratio (paired).
+
+Examples
+--------
+>>> DEFAULT_STRATEGIES
+('mis', 'mixture', 'cosine', 'uniform', 'light')
+>>> out = render_benchmark(["cornell_box"], width=16, height=16, spp=4, repeats=1,
+...                        strategies=("mis",), variants=("scalar_rgb",),
+...                        reference="ours", reference_spp=64)  # doctest: +SKIP
+>>> sorted(out["summary"][0])[:3]  # doctest: +SKIP
+['cpu_over_wall', 'efficiency', 'label']
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from benchmarks.constants import MITSUBA_STRATEGY, STRATEGIES, UNBIASED_STRATEGIES
+from reference_tracer._validate import positive_int
+
+from .common import (available_variants, environment, load_mitsuba, median, mitsuba_render_fn, mitsuba_versions,
+                     name_list, spread, timed, use_variant)
+
+__all__ = ["DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "REFERENCE_KINDS", "render_benchmark"]
+
+#: our strategies in the order the benchmark runs and lists them: the unbiased ones from
+#: ``mis`` (the one matched to Mitsuba's ``path`` integrator) down to the plainest, then
+#: the biased ``light``.
+DEFAULT_STRATEGIES = (tuple(reversed(UNBIASED_STRATEGIES))
+                      + tuple(s for s in STRATEGIES if s not in UNBIASED_STRATEGIES))
+#: Mitsuba variants compared against, the bar first.
+DEFAULT_VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
+#: where the error reference comes from: a (cached) high-spp Mitsuba render via
+#: ``benchmarks.references``, or a high-spp render of ours (``mis``).
+REFERENCE_KINDS = ("mitsuba", "ours")
+
+#: the per-run figures summarised (median over rounds) in each summary row.
+_SUMMARY_KEYS = ("paths_per_second", "paths_per_cpu_second", "rays_per_second", "ms_per_spp", "seconds",
+                 "process_seconds", "cpu_over_wall", "mse", "mse_corrected", "rmse", "efficiency")
+
+
+def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int = 128, spp: int = 64,
+                     threads: int = 2, repeats: int = 5, strategies=DEFAULT_STRATEGIES,
+                     variants=DEFAULT_VARIANTS, max_depth: int | None = None, rr_depth="scene",
+                     reference: str = "mitsuba", reference_spp: int = 4096, seed: int = 0,
+                     cache=None, log=None) -> dict:
+    """Paired, interleaved render timings of ours vs Mitsuba, with error at equal spp.
+
+    Parameters
+    ----------
+    scenes : sequence of str
+        Suite scene names (``mitsuba_scenes.list_scenes()``).
+    width, height, spp, threads, repeats : int, keyword-only
+        Image size, samples per pixel, worker threads (both renderers), timed rounds.
+    strategies : sequence of str or comma-separated str, keyword-only
+        Our strategies (``benchmarks.constants.STRATEGIES``).
+    variants : sequence of str or comma-separated str, keyword-only
+        Mitsuba variants; one that does not work here is skipped (``skipped_variants``).
+        An empty list is not allowed.
+    max_depth : int or None, keyword-only
+        Override the scene's ``max_depth`` (None keeps it; the suite's default is 50).
+    rr_depth : int, None or 'scene', keyword-only
+        Override Russian roulette (``None`` disables it; ``'scene'`` keeps the scene's).
+    reference : {'mitsuba', 'ours'}, keyword-only
+        Error reference: ``mitsuba`` is ``benchmarks.references.reference`` (cached in
+        ``$RTBENCH_CACHE``; rendered once if missing, with the first working variant),
+        ``ours`` a fresh ``mis`` render of ours. Both carry a per-sample variance, and
+        the efficiency uses the MSE with the reference's own noise removed
+        (``metrics.mse_corrected``).
+    reference_spp : int, keyword-only
+        Samples per pixel of the reference (> ``spp``).
+    seed : int, keyword-only
+        Round ``r`` renders ours with seed ``seed + r`` and Mitsuba with a seed hashed
+        from it (``mitsuba_scenes.batch_seeds``).
+    cache : path or None, keyword-only
+        Reference cache root.
+    log : callable or None, keyword-only
+        Called with progress lines.
+
+    Returns
+    -------
+    dict
+        ``config``, ``environment``, ``mitsuba`` (versions, per-variant load and compile
+        seconds), ``skipped_variants``, ``references`` (per scene), ``runs`` (one record
+        per timed render) and ``summary`` (one row per scene and configuration: medians
+        and, for ours, ``ratio`` / ``efficiency_ratio`` / ``cpu_ratio`` per variant, each
+        the median over rounds of the paired per-round ratio).
+    """
+    config = _render_config(scenes, width=width, height=height, spp=spp, threads=threads, repeats=repeats,
+                            strategies=strategies, variants=variants, reference=reference,
+                            reference_spp=reference_spp, seed=seed)
+    max_depth, rr_depth = _depth_overrides(max_depth, rr_depth)
+
+    env_before = environment()
+    ok_variants, skipped = available_variants(config["variants"], log)
+    result = {"config": config, "environment": env_before, "skipped_variants": skipped, "mitsuba": {},
+              "references": {}, "runs": [], "summary": []}
+    if ok_variants:
+        result["mitsuba"]["versions"] = mitsuba_versions()
+    elif reference == "mitsuba":
+        raise ValueError(f"no Mitsuba variant of {config['variants']} works here ({skipped}); "
+                         f"use reference='ours'")
+    for name in config["scenes"]:
+        _bench_scene(result, name, config, ok_variants, max_depth=max_depth, rr_depth=rr_depth, cache=cache,
+                     log=log)
+    result["available_variants"] = ok_variants
+    result["environment_after"] = environment()
+    return result
+
+
+def _render_config(scenes, *, width, height, spp, threads, repeats, strategies, variants, reference,
+                   reference_spp, seed) -> dict:
+    """The validated settings, as stored under ``config``; ``ValueError`` names a bad one."""
+    from mitsuba_scenes import list_scenes
+
+    scenes = name_list("scenes", scenes, list_scenes())
+    strategies = name_list("strategies", strategies, STRATEGIES)
+    variants = name_list("variants", variants)
+    width, height = positive_int("width", width), positive_int("height", height)
+    spp, threads = positive_int("spp", spp), positive_int("threads", threads)
+    repeats = positive_int("repeats", repeats)
+    reference_spp = positive_int("reference_spp", reference_spp, minimum=2)
+    seed = positive_int("seed", seed, minimum=0)
+    if reference not in REFERENCE_KINDS:
+        raise ValueError(f"reference must be one of {REFERENCE_KINDS}, got {reference!r}")
+    if reference_spp <= spp:
+        raise ValueError(f"reference_spp ({reference_spp}) must exceed spp ({spp})")
+    return {"scenes": scenes, "width": width, "height": height, "spp": spp, "threads": threads,
+            "repeats": repeats, "strategies": strategies, "variants": variants, "reference": reference,
+            "reference_spp": reference_spp, "seed": seed}
+
+
+def _depth_overrides(max_depth, rr_depth):
+    """Validated ``(max_depth, rr_depth)`` overrides (None / ``'scene'`` keep the scene's)."""
+    if max_depth is not None:
+        max_depth = int(max_depth)
+        if not (max_depth == -1 or max_depth >= 1):
+            raise ValueError(f"max_depth must be >= 1 or -1, got {max_depth}")
+    if rr_depth not in ("scene", None):
+        rr_depth = positive_int("rr_depth", rr_depth)
+    return max_depth, rr_depth
+
+
+def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depth, cache, log):
+    """Set up, time and summarise one scene, adding its records to ``result``."""
+    import reference_tracer as rt
+    from mitsuba_scenes import get_scene
+    from reference_tracer.render import core_scene
+
+    width, height, spp, threads = config["width"], config["height"], config["spp"], config["threads"]
+    scene = get_scene(name).with_camera_size(width, height)
+    if max_depth is not None or rr_depth != "scene":
+        scene = rt.Scene(scene.camera, scene.shapes,
+                         scene.max_depth if max_depth is None else max_depth,
+                         scene.rr_depth if rr_depth == "scene" else rr_depth, scene.background)
+    if log:
+        log(f"{name} {width}x{height}, {spp} spp, max_depth {scene.max_depth}, rr_depth {scene.rr_depth}, "
+            f"{threads} threads")
+    # set-up, untimed: our BVH build + a small warm-up render; Mitsuba load + warm-up
+    _, build_wall, _ = timed(lambda: core_scene(scene))
+    ref, record = _reference(scene, kind=config["reference"], spp=config["reference_spp"],
+                             variant=ok_variants[0] if ok_variants else None, threads=threads, cache=cache,
+                             log=log)
+    result["references"][name] = record
+    ours_info = {"build_seconds": float(core_scene(scene).build_seconds), "compile_and_build_seconds": build_wall}
+    rt.render(scene, spp=max(1, spp // 8), strategy=config["strategies"][0], seed=0xA11CE, threads=threads)
+    mscenes, infos = _warm_mitsuba(scene, ok_variants, spp=spp, threads=threads, log=log)
+
+    per = _timed_rounds(name, scene, config, ok_variants, mscenes=mscenes, ref=ref, runs=result["runs"], log=log)
+
+    for v in ok_variants:   # JIT compile time: warm-up minus a typical timed render
+        info = infos[v]
+        typical = median([x["seconds"] for x in per[f"Mitsuba {v}"]])
+        info["compile_seconds"] = max(0.0, info["warmup_seconds"] - typical) if v.startswith(("llvm", "cuda")) else 0.0
+        result["mitsuba"].setdefault(name, {})[v] = info
+    result.setdefault("ours", {})[name] = ours_info
+    result["summary"] += _summary_rows(name, per, ok_variants)
+
+
+def _reference(scene, *, kind, spp, variant, threads, cache, log):
+    """The error reference, an ``ImageEstimate``, and its JSON record.
+
+    Returns
+    -------
+    ref : benchmarks.references.Reference or reference_tracer.RenderResult
+    record : dict
+        ``spp``, ``kind``, ``variant``, ``cached``, ``seconds`` (of this call), ``label``.
+    """
+    import reference_tracer as rt
+
+    if kind == "mitsuba":
+        from benchmarks.references import reference
+
+        ref, took, _ = timed(lambda: reference(scene, spp=spp, variant=variant, threads=threads, cache=cache,
+                                               log=log))
+        if log and not ref.cached:
+            log(f"  reference: rendered Mitsuba {ref.variant} {spp} spp in {took:.1f} s (now cached)")
+        return ref, {"spp": ref.spp, "kind": "mitsuba", "variant": ref.variant, "cached": bool(ref.cached),
+                     "seconds": took,
+                     "label": f"Mitsuba {ref.variant} {ref.spp} spp ({'cached' if ref.cached else 'rendered now'})"}
+    r = rt.render(scene, spp=spp, strategy="mis", seed=0xC0FFEE, threads=threads)
+    return r, {"spp": spp, "kind": "ours", "variant": None, "cached": False, "seconds": r.seconds,
+               "label": f"ours (mis) {spp} spp, rendered now"}
+
+
+def _warm_mitsuba(scene, variants, *, spp, threads, log):
+    """Load ``scene`` in each variant and render it once untimed (JIT compile).
+
+    Returns ``({variant: mitsuba scene}, {variant: info})``, info holding
+    ``load_seconds`` and ``warmup_seconds``.
+    """
+    mscenes, infos = {}, {}
+    for v in variants:
+        mscenes[v], load = load_mitsuba(v, scene, threads)
+        mi, _ = use_variant(v)
+        _, warm, _ = timed(mitsuba_render_fn(mi, mscenes[v], spp, 0x5EED))
+        infos[v] = {"load_seconds": load, "warmup_seconds": warm}
+        if log:
+            log(f"  Mitsuba {v}: load {load:.2f} s, warm-up render {warm:.2f} s")
+    return mscenes, infos
+
+
+def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log) -> dict:
+    """``repeats`` interleaved rounds of every configuration; ``{label: [run, ...]}``.
+
+    Each run record is appended to ``runs`` as well.
+    """
+    from mitsuba_scenes.render import batch_seeds
+
+    strategies, spp, threads, seed = config["strategies"], config["spp"], config["threads"], config["seed"]
+    width, height, repeats = config["width"], config["height"], config["repeats"]
+    settings = {"max_depth": scene.max_depth, "rr_depth": scene.rr_depth}
+    per = {}   # label -> list of run dicts, one per round
+    for r in range(repeats):
+        s_ours = seed + r
+        s_mi = batch_seeds(seed + r, 1)[0]
+        # interleave: ours strategy, Mitsuba variant, ours strategy, ...
+        order = []
+        for k in range(max(len(strategies), len(variants))):
+            if k < len(strategies):
+                order.append(("ours", strategies[k]))
+            if k < len(variants):
+                order.append(("mitsuba", variants[k]))
+        if r % 2 == 1:
+            order.reverse()   # alternate who goes first
+        for renderer, what in order:
+            if renderer == "ours":
+                rec = _ours_run(scene, spp=spp, strategy=what, seed=s_ours, threads=threads, ref=ref)
+                rec.update(strategy=what, variant=None, seed=s_ours)
+            else:
+                rec = _mitsuba_run(what, mscenes[what], spp=spp, seed=s_mi, threads=threads, ref=ref,
+                                   shape=(height, width, 3))
+                rec.update(strategy=MITSUBA_STRATEGY, variant=what, seed=s_mi)
+            rec.update(scene=name, renderer=renderer, round=r, spp=spp, width=width, height=height,
+                       threads=threads, **settings)
+            label = f"ours {what}" if renderer == "ours" else f"Mitsuba {what}"
+            per.setdefault(label, []).append(rec)
+            runs.append(rec)
+            if log:
+                log(f"  round {r + 1}/{repeats} {label}: {rec['paths_per_second'] / 1e6:.3f} Mpaths/s, "
+                    f"RMSE {rec['rmse']:.4g}, cpu/wall {rec['cpu_over_wall']:.2f}")
+    return per
+
+
+def _ours_run(scene, *, spp, strategy, seed, threads, ref):
+    """One timed render of ours; its run record (:func:`_run_record`)."""
+    import reference_tracer as rt
+
+    r, wall, cpu = timed(lambda: rt.render(scene, spp=spp, strategy=strategy, seed=seed, threads=threads))
+    return _run_record(r, wall=wall, cpu=cpu, ref=ref, rays=r.rays, nonfinite=r.nonfinite_samples)
+
+
+def _mitsuba_run(variant, mscene, *, spp, seed, threads, ref, shape):
+    """One timed render of Mitsuba (wall time of the call); its run record."""
+    from mitsuba_scenes import MitsubaRender
+
+    mi, _ = use_variant(variant, threads)
+    img, wall, cpu = timed(mitsuba_render_fn(mi, mscene, spp, seed))
+    if img.shape != shape:
+        raise RuntimeError(f"Mitsuba returned an image of shape {img.shape}, expected {shape}")
+    # one batch: no per-sample variance (NaN, as MitsubaRender documents for one batch)
+    est = MitsubaRender(mean=img, variance=np.full_like(img, np.nan), spp=spp, seconds=wall, variant=variant,
+                        seed=seed, threads=threads, batch_spp=[spp], batch_seeds=[seed])
+    return _run_record(est, wall=wall, cpu=cpu, ref=ref, rays=None, nonfinite=int(np.sum(~np.isfinite(img))))
+
+
+def _run_record(est, *, wall, cpu, ref, rays, nonfinite) -> dict:
+    """The figures of one timed render ``est`` (an ``ImageEstimate``) against ``ref``.
+
+    ``est.seconds`` is the render's own time (ours: the core's; Mitsuba's: the call's),
+    ``wall`` and ``cpu`` the call's wall and process CPU time, ``rays`` the rays cast
+    (None when not counted).
+    """
+    from benchmarks.metrics import mse, mse_corrected
+
+    secs = est.seconds
+    paths = est.height * est.width * est.spp
+    raw = mse(est.mean, ref.mean)
+    corr = mse_corrected(est.mean, ref.mean, ref.variance, ref.spp)
+    return {"seconds": secs, "call_seconds": wall, "process_seconds": cpu, "paths": paths,
+            "paths_per_second": paths / secs, "paths_per_cpu_second": paths / cpu if cpu > 0 else float("nan"),
+            "rays": rays, "rays_per_second": None if rays is None else rays / secs,
+            "ms_per_spp": 1e3 * secs / est.spp,
+            "cpu_over_wall": cpu / wall if wall > 0 else float("nan"), "mse": raw, "mse_corrected": corr,
+            "rmse": math.sqrt(raw), "efficiency": _efficiency(corr, secs), "nonfinite_samples": nonfinite}
+
+
+def _efficiency(mse_value, seconds):
+    """1 / (MSE * seconds); NaN when the (noise-corrected) MSE is not positive."""
+    from benchmarks.metrics import efficiency
+
+    if not (math.isfinite(mse_value) and mse_value > 0 and seconds > 0):
+        return float("nan")
+    return efficiency(mse_value, seconds)
+
+
+def _summary_rows(name, per, variants) -> list:
+    """One row per configuration of scene ``name``: medians over rounds and paired ratios."""
+    rows = []
+    for label, runs in per.items():
+        row = {"scene": name, "label": label, "renderer": runs[0]["renderer"],
+               "strategy": runs[0]["strategy"], "variant": runs[0]["variant"], "runs": len(runs)}
+        for key in _SUMMARY_KEYS:
+            vals = [x[key] for x in runs if x[key] is not None]
+            row[key] = median(vals) if vals else None
+        row["rmse"] = math.sqrt(row["mse"])
+        row["rmse_corrected"] = math.sqrt(row["mse_corrected"]) if row["mse_corrected"] > 0 else float("nan")
+        row["paths_per_second_spread"] = spread([x["paths_per_second"] for x in runs])
+        if row["renderer"] == "ours":
+            for v in variants:
+                pairs = list(zip(runs, per[f"Mitsuba {v}"]))
+                row[f"ratio_{v}"] = median([a["paths_per_second"] / b["paths_per_second"] for a, b in pairs])
+                row[f"cpu_ratio_{v}"] = median([a["paths_per_cpu_second"] / b["paths_per_cpu_second"]
+                                                for a, b in pairs])
+                row[f"efficiency_ratio_{v}"] = median([a["efficiency"] / b["efficiency"] for a, b in pairs])
+        rows.append(row)
+    return rows

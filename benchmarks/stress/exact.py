@@ -1,0 +1,171 @@
+"""Exact ray-plane intersection in rational arithmetic, and the float64 error bounds.
+
+The oracle of the grazing-ray case: the same float64 ray and shape decided again with
+``fractions.Fraction`` (no rounding at all), and the forward-error bounds within which a
+float64 decision may differ from the exact one.
+"""
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+import numpy as np
+
+__all__ = ["UNIT_ROUNDOFF", "exact_intersection", "triangle_error_bound", "quad_error_bound", "classify_rays"]
+
+#: Unit roundoff of float64, 2^-53.
+UNIT_ROUNDOFF = 2.0 ** -53
+
+
+def _frac3(v):
+    return [Fraction(float(x)) for x in v]
+
+
+def exact_intersection(o, d, p, e1, e2) -> dict:
+    """Exact (rational) intersection of the float64 ray ``o + t d`` with ``p + s1 e1 + s2 e2``.
+
+    ``p``, ``e1``, ``e2`` may be float64 or already exact (lists of ``Fraction``): for a
+    triangle pass ``e1 = b - a`` and ``e2 = c - a`` computed in ``Fraction`` so no rounding
+    enters; for a quad pass its ``u`` and ``v`` as the core receives them.
+
+    Returns
+    -------
+    dict
+        ``parallel`` (the exact determinant is 0); otherwise ``t``, ``s1``, ``s2`` as
+        ``Fraction``. Always ``plane_distance``: the exact distance from ``o`` to the plane,
+        as a float.
+
+    Examples
+    --------
+    >>> ex = exact_intersection([0.25, 0.25, 1.0], [0.0, 0.0, -2.0], [0, 0, 0], [1, 0, 0], [0, 1, 0])
+    >>> ex["parallel"], ex["t"], ex["s1"], ex["s2"], ex["plane_distance"]
+    (False, Fraction(1, 2), Fraction(1, 4), Fraction(1, 4), 1.0)
+    """
+    o, d = _frac3(o), _frac3(d)
+    p = p if isinstance(p[0], Fraction) else _frac3(p)
+    e1 = e1 if isinstance(e1[0], Fraction) else _frac3(e1)
+    e2 = e2 if isinstance(e2[0], Fraction) else _frac3(e2)
+    s = [o[i] - p[i] for i in range(3)]
+
+    def cross(x, y):
+        return [x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]]
+
+    def dot(x, y):
+        return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
+
+    n = cross(e1, e2)
+    nn = dot(n, n)
+    out = {"plane_distance": math.sqrt(float(dot(n, s) ** 2 / nn)) if nn else math.inf}
+    # Cramer's rule for [-d, e1, e2] (t, s1, s2)^T = s, with triple products.
+    q = cross(d, e2)
+    det = dot(e1, q)
+    if det == 0:
+        out["parallel"] = True
+        return out
+    r = cross(s, e1)
+    out.update(parallel=False, t=dot(e2, r) / det, s1=dot(s, q) / det, s2=dot(d, r) / det)
+    return out
+
+
+def triangle_error_bound(o, d, a, b, c) -> float:
+    """Barycentric forward-error bound of the watertight test (float64) for one ray.
+
+    In the sheared frame the vertex coordinates carry an absolute error of at most
+    ~6 u S (u = 2^-53, S = max |v - o| over the vertices, |shear| <= 1), so each edge
+    function U = Cx By - Cy Bx is off by at most ~64 u S^2; the barycentric is U / det
+    with det >= 2 A |cos| (A the area, cos between the normal and the ray). Hence
+    delta = 32 u S^2 / (A |cos|), to first order.
+    """
+    o, d, a, b, c = (np.asarray(x, dtype=np.float64) for x in (o, d, a, b, c))
+    S = max(np.abs(a - o).max(), np.abs(b - o).max(), np.abs(c - o).max())
+    n = np.cross(b - a, c - a)
+    area = 0.5 * np.linalg.norm(n)
+    cos = abs(n @ d) / (np.linalg.norm(n) * np.linalg.norm(d))
+    return 32.0 * UNIT_ROUNDOFF * S * S / (area * cos) if area > 0 and cos > 0 else math.inf
+
+
+def quad_error_bound(o, d, Q, u, v, t) -> float:
+    """Parallelogram-coordinate forward-error bound of the quad test for one ray.
+
+    t = (n.Q - n.o) / (n.d) with a rounded unit normal: the computed hit point lies off
+    the exact one by about u (|Q| + |o| + t |d|) / |cos| times a small count of roundings
+    (normal, two dot products, the division, o + t d, hp - Q); the coordinate
+    alpha = w.(hp x v) turns a point error into a coordinate error over the height
+    |u x v| / |v|. Hence delta = 32 u (|Q| + |o| + t |d|) / (|cos| h_min), with h_min
+    the smaller height of the parallelogram, to first order.
+    """
+    o, d, Q, u, v = (np.asarray(x, dtype=np.float64) for x in (o, d, Q, u, v))
+    n = np.cross(u, v)
+    area = np.linalg.norm(n)
+    h_min = area / max(np.linalg.norm(u), np.linalg.norm(v))
+    cos = abs(n @ d) / (area * np.linalg.norm(d))
+    scale = np.linalg.norm(Q) + np.linalg.norm(o) + abs(t) * np.linalg.norm(d)
+    return 32.0 * UNIT_ROUNDOFF * scale / (cos * h_min) if cos > 0 else math.inf
+
+
+def classify_rays(shape: str, verts, origins, directions, hit_t, hit_prim) -> dict:
+    """Compare float64 hits with exact arithmetic on the same rays (see :func:`benchmarks.stress.grazing_rays`).
+
+    Parameters
+    ----------
+    shape : {'triangle', 'quad'}
+    verts : (3, 3) float64
+        ``(a, b, c)`` of the triangle or ``(Q, u, v)`` of the quad.
+    origins, directions : (N, 3) float64
+    hit_t, hit_prim : (N,) results of the core's ``intersect``.
+
+    Returns
+    -------
+    dict of per-ray arrays: ``exact_hit`` (bool, or False for parallel rays), ``parallel``,
+    ``plane_distance``, ``margin`` (exact signed distance of the crossing point to the
+    boundary, in barycentric / parallelogram coordinates; nan when parallel), ``delta``
+    (the forward-error bound), ``t_exact`` (float; nan when parallel), ``delta_plane``
+    (the rounding-level distance to the plane for parallel rays).
+    """
+    verts = np.asarray(verts, dtype=np.float64)
+    if shape == "triangle":
+        a, b, c = verts
+        fa, fb, fc = _frac3(a), _frac3(b), _frac3(c)
+        p, e1, e2 = fa, [fb[i] - fa[i] for i in range(3)], [fc[i] - fa[i] for i in range(3)]
+        size = max(np.linalg.norm(b - a), np.linalg.norm(c - a), np.linalg.norm(c - b))
+    else:
+        Q, u, v = verts
+        p, e1, e2 = Q, u, v
+        size = max(np.linalg.norm(u), np.linalg.norm(v))
+    n = len(origins)
+    out = {k: np.full(n, np.nan) for k in ("margin", "delta", "t_exact", "plane_distance", "delta_plane")}
+    out["exact_hit"] = np.zeros(n, dtype=bool)
+    out["parallel"] = np.zeros(n, dtype=bool)
+    for i in range(n):
+        o, d = origins[i], directions[i]
+        ex = exact_intersection(o, d, p, e1, e2)
+        out["plane_distance"][i] = ex["plane_distance"]
+        S = max(np.abs(verts[0] - o).max(), np.abs(o).max(), np.abs(verts).max())
+        out["delta_plane"][i] = 64.0 * UNIT_ROUNDOFF * S * S / size
+        if ex["parallel"]:
+            out["parallel"][i] = True
+            continue
+        t, s1, s2 = ex["t"], ex["s1"], ex["s2"]
+        if shape == "triangle":
+            margin = min(s1, s2, 1 - s1 - s2)
+            out["delta"][i] = triangle_error_bound(o, d, *verts)
+        else:
+            margin = min(s1, 1 - s1, s2, 1 - s2)
+            out["delta"][i] = quad_error_bound(o, d, *verts, float(t))
+        out["margin"][i] = float(margin)
+        out["t_exact"][i] = float(t)
+        out["exact_hit"][i] = t > 0 and margin >= 0
+    hit = np.asarray(hit_prim) >= 0
+    disagree = hit != out["exact_hit"]
+    grazing = ~out["parallel"]
+    # A float decision may differ from the exact one only within the error bound of the
+    # boundary; an exactly parallel ray must miss unless it lies (to rounding) in the plane.
+    out["violation"] = (grazing & disagree & ~(np.abs(out["margin"]) <= out["delta"])) | \
+                       (out["parallel"] & hit & (out["plane_distance"] > out["delta_plane"]))
+    out["boundary_disagreement"] = grazing & disagree & ~out["violation"]
+    out["hit"] = hit
+    t = np.asarray(hit_t)
+    out["nan"] = np.isnan(t) | (hit & ~np.isfinite(t))
+    both = hit & out["exact_hit"]
+    out["t_rel_error"] = np.where(both, np.abs(t - out["t_exact"]) / np.abs(out["t_exact"]), 0.0)
+    return out

@@ -1,0 +1,112 @@
+"""Case ``glass``: a camera inside a glass sphere (rays start inside; total internal
+reflection traps the tangential ones) against closed forms, and ior 1.0 against no glass."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+import reference_tracer as rt
+
+from .probes import camera_rays
+from .record import StressRecord, make_record
+from .ztests import image_ztest
+
+__all__ = ["glass", "fresnel_dielectric"]
+
+
+def fresnel_dielectric(cos_i, eta):
+    """Unpolarised Fresnel reflectance for |cos_i| on the side given by its sign (numpy).
+
+    Examples
+    --------
+    >>> round(float(fresnel_dielectric(1.0, 1.5)), 12)     # normal incidence: ((1.5 - 1) / (1.5 + 1))^2
+    0.04
+    """
+    cos_i = np.asarray(cos_i, dtype=np.float64)
+    eta_it = np.where(cos_i >= 0, eta, 1.0 / eta)
+    ci = np.abs(cos_i)
+    ct2 = 1.0 - (1.0 - ci * ci) / (eta_it * eta_it)
+    ct = np.sqrt(np.maximum(ct2, 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rs = (ci - eta_it * ct) / (ci + eta_it * ct)
+        rp = (eta_it * ci - ct) / (eta_it * ci + ct)
+    return np.where(ct2 <= 0, 1.0, 0.5 * (rs * rs + rp * rp))
+
+
+def glass(*, width: int = 32, spp: int = 32, ior: float = 1.5, seed: int = 0, compare_spp: int = 128,
+          compare_width: int = 24) -> StressRecord:
+    """Glass: rays starting inside, total internal reflection, ior 1.0 equals no glass.
+
+    * Camera at the centre of a glass sphere (radius 1, ``ior``) in a background of 1:
+      every ray leaves at normal incidence; reflected rays come back at normal incidence,
+      so every sample is exactly ``ior^2`` (radiance scaled by 1/eta^2 on leaving, as
+      Mitsuba), unless ``max_depth`` ends a path (probability F^(max_depth - 1) ~ 1e-68).
+    * Camera inside the sphere at 0.8 of its radius: a ray's incidence angle is the same
+      at every bounce (sin = |o x d| / R), so rays beyond the critical angle are trapped
+      for ever (total internal reflection: exactly 0) and the others leave with
+      probability 1 - F^(max_depth - 1): pixels whose whole footprint is beyond the
+      critical angle must be exactly 0, pixels whose footprint has F^(max_depth-1) < 1e-12
+      exactly ``ior^2``. The footprint is checked on a 17 x 17 grid with a margin.
+    * A diffuse sphere inside an ior-1.0 glass sphere on a floor, lit by a quad light and
+      the background, against the same scene without the glass (``image_ztest``,
+      ``cosine`` and ``mis``).
+    """
+    t0 = time.perf_counter()
+    g = rt.Dielectric(ior)
+    expected = ior * ior
+    nonfinite = 0
+    # --- camera at the centre
+    cam = rt.Camera(lookfrom=(0, 0, 0), lookat=(0.3, 0.2, 1.0), vup=(0, 1, 0), vfov=100.0, width=width, height=width)
+    centre = rt.render(rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1.0, g)], background=1.0),
+                       spp=spp, strategy="mis", seed=seed, threads=2)
+    nonfinite += centre.nonfinite_samples
+    centre_bad = int((centre.mean != np.float32(expected)).sum())
+    # --- off-centre camera: TIR
+    rho = 0.8
+    max_depth = 50
+    cam2 = rt.Camera(lookfrom=(rho, 0, 0), lookat=(rho, 0, 1), vup=(0, 1, 0), vfov=100.0, width=width, height=width)
+    tir = rt.render(rt.Scene(camera=cam2, shapes=[rt.Sphere((0, 0, 0), 1.0, g)], background=1.0,
+                             max_depth=max_depth), spp=spp, strategy="mis", seed=seed + 1, threads=2)
+    nonfinite += tir.nonfinite_samples
+    grid = np.linspace(0.0, 1.0, 17)
+    ys, xs = np.meshgrid(np.arange(width), np.arange(width), indexing="ij")
+    px = xs[..., None, None] + grid[None, None, None, :]
+    py = ys[..., None, None] + grid[None, None, :, None]
+    px, py = np.broadcast_arrays(px, py)
+    d = camera_rays(cam2, px, py)
+    o = np.array([rho, 0.0, 0.0])
+    sin_inc = np.linalg.norm(np.cross(o, d), axis=-1)        # R = 1
+    smin, smax = sin_inc.min(axis=(-1, -2)), sin_inc.max(axis=(-1, -2))
+    margin = 1e-3
+    critical = 1.0 / ior
+    all_tir = smin > critical + margin
+    cos_max = np.sqrt(1 - np.minimum(smax + margin, 1.0) ** 2)
+    all_exit = (smax + margin < critical) & (fresnel_dielectric(-cos_max, ior) ** (max_depth - 1) < 1e-12)
+    lum = tir.mean.max(axis=-1)
+    tir_bad = int((lum[all_tir] != 0.0).sum())
+    exit_bad = int((tir.mean[all_exit] != np.float32(expected)).sum())
+    # --- ior 1.0 against no glass
+    floor = rt.Quad((-4, -1.02, -4), (0, 0, 8), (8, 0, 0), rt.Lambertian(0.5))
+    lamp = rt.Quad((-1, 2.5, -1), (2, 0, 0), (0, 0, 2), rt.DiffuseLight(6.0))
+    inner = rt.Sphere((0.1, -0.4, 0.0), 0.55, rt.Lambertian((0.7, 0.4, 0.2)))
+    shell = rt.Sphere((0.0, -0.05, 0.0), 0.95, rt.Dielectric(1.0))
+    cam3 = rt.Camera(lookfrom=(0.5, 1.0, -4.0), lookat=(0.0, -0.3, 0.0), vup=(0, 1, 0), vfov=40.0,
+                     width=compare_width, height=compare_width)
+    with_glass = rt.Scene(camera=cam3, shapes=[floor, lamp, inner, shell], background=0.3)
+    without = rt.Scene(camera=cam3, shapes=[floor, lamp, inner], background=0.3)
+    ior1 = {}
+    for i, strategy in enumerate(("cosine", "mis")):
+        a = rt.render(with_glass, spp=compare_spp, strategy=strategy, seed=seed + 20 + 2 * i, threads=2)
+        b = rt.render(without, spp=compare_spp, strategy=strategy, seed=seed + 21 + 2 * i, threads=2)
+        nonfinite += a.nonfinite_samples + b.nonfinite_samples
+        ior1[strategy] = image_ztest(a.mean, a.variance, compare_spp, b.mean, b.variance, compare_spp)
+    passed = (centre_bad == 0 and tir_bad == 0 and exit_bad == 0 and int(all_tir.sum()) > 0
+              and int(all_exit.sum()) > 0 and nonfinite == 0 and all(z["passed"] for z in ior1.values()))
+    figure = (f"inside at centre: {centre_bad} px != {expected:g}; TIR px != 0: {tir_bad}/{int(all_tir.sum())}, "
+              f"exiting px != {expected:g}: {exit_bad}/{int(all_exit.sum())}; ior 1 vs none: max |Z| "
+              f"{max(max(abs(x) for x in z['z_global']) for z in ior1.values()):.2f}")
+    details = {"centre_pixels_wrong": centre_bad, "tir_pixels": int(all_tir.sum()), "tir_pixels_wrong": tir_bad,
+               "exit_pixels": int(all_exit.sum()), "exit_pixels_wrong": exit_bad, "ior1_vs_none": ior1,
+               "nonfinite_samples": nonfinite, "expected_inside": expected}
+    return make_record("glass", figure, passed, details, t0)

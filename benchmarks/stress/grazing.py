@@ -1,0 +1,137 @@
+"""Case ``grazing_rays``: rays within 1e-7 rad of a triangle's or quad's plane, and
+exactly parallel rays, decided by the core and again in exact rational arithmetic."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+import reference_tracer as rt
+from reference_tracer.render import core_scene
+
+from .exact import classify_rays
+from .probes import contiguous, probe_scene
+from .record import StressRecord, make_record
+
+__all__ = ["grazing_rays"]
+
+
+def _random_cell(rng, scale_exp):
+    """Three points in [1, 2)^3 * 2^k: all differences are exact in float64 (Sterbenz)."""
+    return rng.uniform(1.0, 2.0, (3, 3)) * 2.0 ** scale_exp
+
+
+def _grazing_batch(rng, shape, verts, n_grazing, n_parallel):
+    """Rays within 1e-7 rad of the plane of ``verts`` aimed around its boundary, plus
+    rays exactly parallel to the plane (directions are exact in-plane differences)."""
+    if shape == "triangle":
+        a, b, c = verts
+        P0, e1, e2 = a, b - a, c - a       # exact differences
+        parallel_dirs = [e1, e2, c - b]
+    else:
+        Q, u, v = verts
+        P0, e1, e2 = Q, u, v
+        parallel_dirs = [u, v, u - v]     # u - v = P1 - P2 exactly
+    nrm = np.cross(e1, e2)
+    nhat = nrm / np.linalg.norm(nrm)
+    t1 = e1 / np.linalg.norm(e1)
+    t2 = np.cross(nhat, t1)
+    size = max(np.linalg.norm(e1), np.linalg.norm(e2))
+    # Target coordinates: half in a margin around the shape, half exactly on an edge.
+    s = rng.uniform(-0.05, 1.05, (n_grazing, 2))
+    on_edge = rng.random(n_grazing) < 0.5
+    which = rng.integers(0, 3, n_grazing)
+    if shape == "triangle":
+        s[on_edge & (which == 0), 0] = 0.0
+        s[on_edge & (which == 1), 1] = 0.0
+        m = on_edge & (which == 2)
+        s[m, 1] = 1.0 - s[m, 0]
+    else:
+        m0 = on_edge & (which < 2)
+        s[m0, 0] = which[m0].astype(float)   # alpha = 0 or 1
+        m1 = on_edge & (which == 2)
+        s[m1, 1] = rng.integers(0, 2, m1.sum()).astype(float)
+    target = P0 + s[:, :1] * e1 + s[:, 1:] * e2
+    psi = rng.uniform(0, 2 * np.pi, n_grazing)
+    w = np.cos(psi)[:, None] * t1 + np.sin(psi)[:, None] * t2
+    phi = rng.choice([-1.0, 1.0], n_grazing) * 10.0 ** rng.uniform(-9, -7, n_grazing)
+    d = np.cos(phi)[:, None] * w + np.sin(phi)[:, None] * nhat
+    o = target - rng.uniform(0.5, 2.0, (n_grazing, 1)) * size * d
+    # Exactly parallel rays: off the plane (must miss) and in it (from the vertices).
+    k = rng.integers(0, 3, n_parallel)
+    dp = np.array([parallel_dirs[j] for j in k]) * rng.choice([-1.0, 1.0], (n_parallel, 1))
+    sp = rng.uniform(0.0, 1.0, (n_parallel, 2))
+    inplane = rng.random(n_parallel) < 0.5
+    h = rng.choice([-1.0, 1.0], n_parallel) * size * 10.0 ** rng.uniform(-6, -1, n_parallel)
+    po = P0 + sp[:, :1] * e1 + sp[:, 1:] * e2 - 0.7 * dp + h[:, None] * nhat
+    corners = np.array([verts[0], verts[1], verts[2]]) if shape == "triangle" else np.array([Q, Q + u, Q + v])
+    po[inplane] = corners[rng.integers(0, 3, inplane.sum())]
+    return contiguous(np.vstack([o, po])), contiguous(np.vstack([d, dp]))
+
+
+def grazing_rays(*, shapes: int = 25, rays_per_shape: int = 80, seed: int = 0) -> StressRecord:
+    """Grazing (|angle to the plane| in [1e-9, 1e-7] rad) and exactly parallel rays.
+
+    For random triangles (watertight test, the default) and quads, rays aimed around the
+    boundary are cast with the core and decided again in exact rational arithmetic
+    (``fractions.Fraction``) on the same float64 inputs.
+
+    Consistency at the boundary: a float64 decision may differ from the exact one only
+    when the exact crossing point lies within the forward-error bound ``delta`` of the
+    boundary (:func:`triangle_error_bound`, :func:`quad_error_bound`; in barycentric
+    units), i.e. when a relative perturbation of the inputs of a few ulps would flip the
+    exact answer too. An exactly parallel ray has no crossing: it must miss unless it
+    lies in the plane to rounding (then either answer is consistent). Every hit must
+    report a finite distance; no NaN anywhere.
+
+    Parameters
+    ----------
+    shapes : int, keyword-only
+        Random triangles, and as many quads.
+    rays_per_shape : int, keyword-only
+        Rays per shape; a fifth of them exactly parallel.
+    seed : int, keyword-only
+    """
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    mat = rt.Lambertian(0.5)
+    n_par = rays_per_shape // 5
+    stats_ = {}
+    for shape in ("triangle", "quad"):
+        acc = {"rays": 0, "violations": 0, "boundary_disagreements": 0, "nan": 0, "parallel_rays": 0,
+               "parallel_off_plane_hits": 0, "in_plane_hits": 0, "exact_hits": 0, "hits": 0,
+               "max_margin_over_delta": 0.0, "max_t_rel_error": 0.0}
+        for _ in range(shapes):
+            k = int(rng.integers(-20, 21))
+            P = _random_cell(rng, k)
+            if shape == "triangle":
+                verts = P
+                shp = rt.Triangle(*P, mat)
+            else:
+                verts = np.array([P[0], P[1] - P[0], P[2] - P[0]])
+                shp = rt.Quad(*verts, mat)
+            o, d = _grazing_batch(rng, shape, verts, rays_per_shape - n_par, n_par)
+            hit = core_scene(probe_scene([shp])).intersect(o, d)
+            cl = classify_rays(shape, verts, o, d, hit["t"], hit["prim"])
+            acc["rays"] += len(o)
+            acc["violations"] += int(cl["violation"].sum())
+            acc["boundary_disagreements"] += int(cl["boundary_disagreement"].sum())
+            acc["nan"] += int(cl["nan"].sum())
+            acc["parallel_rays"] += int(cl["parallel"].sum())
+            off = cl["parallel"] & (cl["plane_distance"] > cl["delta_plane"])
+            acc["parallel_off_plane_hits"] += int((off & cl["hit"]).sum())
+            acc["in_plane_hits"] += int((cl["parallel"] & ~off & cl["hit"]).sum())
+            acc["exact_hits"] += int(cl["exact_hit"].sum())
+            acc["hits"] += int(cl["hit"].sum())
+            dis = cl["boundary_disagreement"]
+            if dis.any():
+                acc["max_margin_over_delta"] = max(acc["max_margin_over_delta"],
+                                                   float(np.max(np.abs(cl["margin"][dis]) / cl["delta"][dis])))
+            acc["max_t_rel_error"] = max(acc["max_t_rel_error"], float(cl["t_rel_error"].max()))
+        stats_[shape] = acc
+    passed = all(s["violations"] == 0 and s["nan"] == 0 for s in stats_.values())
+    tri, quad = stats_["triangle"], stats_["quad"]
+    figure = (f"inconsistent with exact: triangle {tri['violations']}/{tri['rays']}, quad "
+              f"{quad['violations']}/{quad['rays']} (within error bound: {tri['boundary_disagreements']}, "
+              f"{quad['boundary_disagreements']}); NaN {tri['nan'] + quad['nan']}")
+    return make_record("grazing_rays", figure, passed, stats_, t0)

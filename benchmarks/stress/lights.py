@@ -1,0 +1,187 @@
+"""Case ``light_sampling``: points on a quad light, on its plane, behind it, grazing it,
+inside / on / just outside a sphere light - finite pdfs, estimates equal to closed-form
+solid angles - and renders of a floor cutting a sphere light agree across strategies."""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+import reference_tracer as rt
+from reference_tracer.render import core_scene
+
+from .probes import contiguous, probe_scene
+from .record import StressRecord, make_record
+from .ztests import image_ztest, z_check
+
+__all__ = ["light_sampling", "triangle_solid_angle", "quad_solid_angle"]
+
+
+def triangle_solid_angle(ref, a, b, c) -> np.ndarray:
+    """Solid angle of triangle(s) ``a, b, c`` seen from ``ref`` (Van Oosterom and Strackee 1983).
+
+    Accepts (3,) or (N, 3) references; the triangle vertices are (3,).
+
+    Examples
+    --------
+    An octant of the unit sphere, seen from its centre, is 4 pi / 8:
+
+    >>> bool(np.isclose(triangle_solid_angle((0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1))[0], np.pi / 2))
+    True
+    """
+    r = np.atleast_2d(np.asarray(ref, dtype=np.float64))
+    A, B, C = (np.asarray(x, dtype=np.float64) - r for x in (a, b, c))
+    la, lb, lc = (np.linalg.norm(x, axis=1) for x in (A, B, C))
+    num = np.abs(np.einsum("ij,ij->i", A, np.cross(B, C)))
+    den = la * lb * lc + np.einsum("ij,ij->i", A, B) * lc + np.einsum("ij,ij->i", A, C) * lb \
+        + np.einsum("ij,ij->i", B, C) * la
+    return 2.0 * np.arctan2(num, den)
+
+
+def quad_solid_angle(ref, Q, u, v) -> np.ndarray:
+    """Solid angle of the parallelogram ``Q + s u + t v`` seen from ``ref``."""
+    Q, u, v = (np.asarray(x, dtype=np.float64) for x in (Q, u, v))
+    return triangle_solid_angle(ref, Q, Q + u, Q + u + v) + triangle_solid_angle(ref, Q, Q + u + v, Q + v)
+
+
+def _reference_points() -> list:
+    """The probed points: (name, emitter, point, closed-form solid angle of its front side)."""
+    Q, U, V = np.array([-0.5, 1.0, -0.5]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
+    quad = rt.Quad(Q, U, V, rt.DiffuseLight(1.0))                 # normal -y: emits downward
+    normal = np.array([0.0, -1.0, 0.0])
+    r_s = 0.5
+
+    def closed_quad(ref):
+        if (ref - Q) @ normal <= 0:   # on the plane or behind: nothing of the front is seen
+            return 0.0
+        return float(quad_solid_angle(ref, Q, U, V)[0])
+
+    refs_quad = {
+        "quad: below (front)": np.array([0.2, 0.3, 0.1]),
+        "quad: grazing, 1e-9 below the plane, beside": np.array([1.5, 1.0 - 1e-9, 0.2]),
+        "quad: grazing, 1e-6 below the plane, beside": np.array([-1.2, 1.0 - 1e-6, -0.9]),
+        "quad: on the light": np.array([0.1, 1.0, 0.2]),
+        "quad: on its corner": Q.copy(),
+        "quad: on its plane, outside": np.array([2.0, 1.0, 0.3]),
+        "quad: behind": np.array([0.1, 1.5, 0.0]),
+    }
+    sphere_out = rt.Sphere((0, 0, 0), r_s, rt.DiffuseLight(1.0))
+    sphere_in = rt.Sphere((0, 0, 0), r_s, rt.DiffuseLight(1.0), flip_normals=True)
+    on_surface = r_s * np.array([0.6, 0.0, 0.8])
+
+    def closed_sphere(ref, inward):
+        x, y, z = (float(c) for c in ref)
+        dc2 = x * x + y * y + z * z   # as the core computes it, to pick the same branch
+        if dc2 <= r_s * r_s:   # the core's branch: inside or on the sphere -> area sampling
+            return 4 * np.pi if inward else 0.0
+        if inward:
+            return 0.0
+        sin2 = r_s * r_s / dc2
+        return 2 * np.pi * sin2 / (1 + math.sqrt(1 - sin2))
+
+    refs_sphere = {
+        "sphere: outside": (sphere_out, np.array([0.0, 0.0, -2.0]), False),
+        "sphere: grazing, 1e-9 outside": (sphere_out, on_surface * (1 + 1e-9), False),
+        "sphere: on the surface": (sphere_out, on_surface, False),
+        "sphere: inside, facing out": (sphere_out, np.array([0.1, 0.2, 0.0]), False),
+        "sphere: inside, facing in (centre)": (sphere_in, np.array([0.0, 0.0, 0.0]), True),
+        "sphere: inside, facing in (0.6 r)": (sphere_in, np.array([0.0, 0.3, 0.0]), True),
+    }
+    jobs = [(k, quad, ref, closed_quad(ref)) for k, ref in refs_quad.items()]
+    jobs += [(k, shp, ref, closed_sphere(ref, inward)) for k, (shp, ref, inward) in refs_sphere.items()]
+    return jobs
+
+
+def _check_point(shape: rt.Shape, ref, exact: float, samples: int, rng) -> dict:
+    """``samples`` light samples of ``shape`` from ``ref``: E[valid / pdf] against ``exact``
+    (:func:`~benchmarks.stress.ztests.z_check`), non-finite pdfs, and ``light_pdf`` in
+    uniformly random directions against the probability of a valid sample."""
+    core = core_scene(probe_scene([shape]))
+    refs = contiguous(np.repeat(ref[None], samples, axis=0))
+    s = core.sample_lights(refs, contiguous(rng.random((samples, 3))))
+    valid = s["valid"].astype(bool)
+    pdf = s["pdf"]
+    nonfinite = int((~np.isfinite(pdf)).sum() + (~np.isfinite(s["pdf_all"])).sum()
+                    + (~np.isfinite(s["wi"])).sum() + (valid & ~(pdf > 0)).sum())
+    est = np.where(valid, 1.0 / np.where(valid, pdf, 1.0), 0.0)
+    chk = z_check(est, exact)
+    dirs = rng.normal(size=(samples, 3))
+    lp = core.light_pdf(refs, contiguous(dirs))
+    nonfinite += int((~np.isfinite(lp)).sum() + (lp < 0).sum())
+    # Only where uniform directions hit the light often enough to estimate the mass.
+    mass = z_check(4 * np.pi * lp, float(valid.mean())) if exact * samples >= 400 * np.pi \
+        or (exact == 0 and not valid.any()) else None
+    # pdf of the procedure equals pdf_all for one emitter (valid samples)
+    mismatch = int((valid & ~np.isclose(pdf, s["pdf_all"], rtol=1e-6, atol=0)).sum())
+    chk.update(valid_fraction=float(valid.mean()), nonfinite=nonfinite, pdf_mass=mass,
+               pdf_all_mismatch=mismatch)
+    return chk
+
+
+def _light_renders(width: int, spp: int, seed: int) -> tuple:
+    """Every strategy on a scene of degenerate light pdfs, each against ``cosine``.
+
+    The camera and a floor inside an inward-facing sphere light (a dome), a small outward
+    sphere light cut by the floor, a quad light lying in the floor's plane (every floor
+    point sees it exactly edge-on) and a quad light above.
+
+    Returns
+    -------
+    agree : dict
+        Strategy -> :func:`image_ztest` against ``cosine``.
+    nonfinite : int
+        NaN/Inf samples over all the renders.
+    """
+    floor = rt.Quad((-2, 0, -2), (0, 0, 4), (4, 0, 0), rt.Lambertian(0.6))
+    shapes = [floor, rt.Sphere((0, 0, 0), 3.0, rt.DiffuseLight(0.5), flip_normals=True),
+              rt.Sphere((0.4, 0.0, 0.6), 0.6, rt.DiffuseLight(3.0)),
+              rt.Quad((-1.8, 0.0, -1.5), (0, 0, 1), (1, 0, 0), rt.DiffuseLight(5.0)),       # faces up, in-plane
+              rt.Quad((-1.5, 2.0, 0.5), (1, 0, 0), (0, 0, 0.5), rt.DiffuseLight(2.0))]      # faces down
+    cam = rt.Camera(lookfrom=(0.0, 1.8, -2.0), lookat=(0.0, 0.0, 0.3), vup=(0, 1, 0), vfov=70.0,
+                    width=width, height=width)
+    scene = rt.Scene(camera=cam, shapes=shapes, max_depth=3)
+    renders = {s: rt.render(scene, spp=spp, strategy=s, seed=seed + 11 + i, threads=2)
+               for i, s in enumerate(rt.STRATEGIES)}
+    ref = renders["cosine"]
+    agree = {s: image_ztest(r.mean, r.variance, spp, ref.mean, ref.variance, spp)
+             for s, r in renders.items() if s != "cosine"}
+    return agree, sum(r.nonfinite_samples for r in renders.values())
+
+
+def light_sampling(*, samples: int = 100_000, seed: int = 0, width: int = 24, spp: int = 64) -> StressRecord:
+    """Light sampling where pdfs degenerate: finite everywhere, estimates unbiased.
+
+    For each reference point, ``samples`` light samples give E[valid / pdf], which is the
+    solid angle of the emitter's front side seen from the point: compared (|z| <= 5)
+    with the closed form (Van Oosterom-Strackee for the quad; 2 pi (1 - cos theta_max)
+    outside a sphere; 4 pi inside an inward-facing sphere; 0 behind a one-sided light,
+    on its plane or inside an outward-facing sphere). Each pdf of a valid sample must be
+    finite and positive; ``light_pdf`` (the mixture's density) in uniformly random
+    directions must be finite and integrate to the probability of a valid sample.
+
+    Then a camera and a floor inside an inward-facing sphere light (every shading point
+    inside a sphere light), a small sphere light cut by the floor, a quad light lying in
+    the floor's plane (seen exactly edge-on) and one above are rendered with every
+    strategy: zero NaN/Inf samples, and each strategy agrees with ``cosine`` (which uses
+    no light pdf) by :func:`image_ztest`; all light here is direct, so ``light`` is
+    unbiased too.
+    """
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    jobs = _reference_points()
+    cases, bad_pdf, worst_z = {}, 0, 0.0
+    for name, shape, ref, exact in jobs:
+        chk = _check_point(shape, ref, exact, samples, rng)
+        cases[name] = chk
+        bad_pdf += chk["nonfinite"] + chk["pdf_all_mismatch"]
+        mass = chk["pdf_mass"]
+        worst_z = max(worst_z, abs(chk["z"]), abs(mass["z"]) if mass else 0.0)
+    agree, render_nonfinite = _light_renders(width, spp, seed)
+    passed = bad_pdf == 0 and worst_z <= 5.0 and render_nonfinite == 0 and all(a["passed"] for a in agree.values())
+    figure = (f"{len(jobs)} reference points: max |z| {worst_z:.2f} (limit 5), Inf/NaN/mismatched pdfs {bad_pdf}; "
+              f"floor-through-light renders agree with cosine: "
+              f"{sum(a['passed'] for a in agree.values())}/{len(agree)}, NaN samples {render_nonfinite}")
+    details = {"points": cases, "render_agreement": agree, "render_nonfinite": render_nonfinite,
+               "samples": samples}
+    return make_record("light_sampling", figure, passed, details, t0)

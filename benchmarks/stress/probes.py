@@ -1,0 +1,129 @@
+"""Probe scenes and rays shared by the hard cases: small scenes, closed meshes, aimed rays.
+
+Nothing here decides a verdict: these build the scenes and rays that the case modules
+measure (and that ``tests/test_stress_*.py`` reuse).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import reference_tracer as rt
+from reference_tracer.render import core_scene
+
+__all__ = [
+    "contiguous", "probe_scene", "icosphere", "edge_and_vertex_rays", "count_escapes", "transform_scene",
+    "white_furnace_scene", "creased_furnace_scene", "camera_rays",
+]
+
+
+def contiguous(a) -> np.ndarray:
+    """``a`` as a C-contiguous float64 array (what the core's ray queries take).
+
+    Examples
+    --------
+    >>> contiguous([[1, 2, 3]]).dtype
+    dtype('float64')
+    """
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def probe_scene(shapes, *, background=0.0, width=4, height=4, lookfrom=(0.0, 0.0, -10.0),
+                lookat=(0.0, 0.0, 0.0), max_depth=50) -> rt.Scene:
+    """A scene holding ``shapes`` with a small camera, for ray queries and small renders."""
+    cam = rt.Camera(lookfrom=lookfrom, lookat=lookat, vup=(0, 1, 0), vfov=60.0, width=width, height=height)
+    return rt.Scene(camera=cam, shapes=list(shapes), background=background, max_depth=max_depth)
+
+
+def icosphere(subdivisions: int, *, radius: float = 1.0):
+    """A closed icosphere (trimesh): vertices (N, 3), faces (M, 3), unique edges (E, 2)."""
+    import trimesh
+
+    ico = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
+    if not ico.is_watertight:  # pragma: no cover - trimesh guarantees it
+        raise RuntimeError("trimesh icosphere is not closed")
+    return (np.asarray(ico.vertices, dtype=np.float64), np.asarray(ico.faces, dtype=np.int64),
+            np.asarray(ico.edges_unique, dtype=np.int64))
+
+
+def edge_and_vertex_rays(vertices, edges, origins, rng):
+    """Rays from ``origins`` aimed exactly at mesh edges and vertices.
+
+    A third of the rays aim at a uniformly random point of a random edge (``a + s (b - a)``
+    in float64), a third at an edge's midpoint, a third at a vertex.
+
+    Returns
+    -------
+    directions : (N, 3) float64
+        ``target - origin``.
+    kind : (N,) int
+        0 random edge point, 1 edge midpoint, 2 vertex.
+    """
+    n = len(origins)
+    kind = rng.integers(0, 3, n)
+    e = edges[rng.integers(0, len(edges), n)]
+    a, b = vertices[e[:, 0]], vertices[e[:, 1]]
+    s = np.where(kind == 1, 0.5, rng.uniform(0.0, 1.0, n))[:, None]
+    target = np.where((kind == 2)[:, None], vertices[rng.integers(0, len(vertices), n)], a + s * (b - a))
+    return contiguous(target - origins), kind
+
+
+def count_escapes(scene: rt.Scene, origins, directions, *, triangle_test: str) -> dict:
+    """Cast rays with ``triangle_test``; count misses (escapes) and non-finite hit distances."""
+    core = core_scene(scene, triangle_test=triangle_test)
+    hit = core.intersect(contiguous(origins), contiguous(directions))
+    t = hit["t"]
+    miss = hit["prim"] < 0
+    return {"escapes": int(miss.sum()), "nan": int(np.isnan(t).sum()), "escaped": miss,
+            "nonfinite_hits": int((~miss & ~np.isfinite(t)).sum())}
+
+
+def transform_scene(scene: rt.Scene, *, scale: float = 1.0, offset=(0.0, 0.0, 0.0)) -> rt.Scene:
+    """The same scene scaled uniformly about the origin, then translated (camera too)."""
+    off = np.asarray(offset, dtype=np.float64)
+    c = scene.camera
+    cam = rt.Camera(lookfrom=tuple(np.asarray(c.lookfrom) * scale + off),
+                    lookat=tuple(np.asarray(c.lookat) * scale + off), vup=c.vup, vfov=c.vfov,
+                    width=c.width, height=c.height)
+    shapes = [s.scale(scale).translate(tuple(off)) for s in scene.shapes]
+    return rt.Scene(camera=cam, shapes=shapes, max_depth=scene.max_depth, rr_depth=scene.rr_depth,
+                    background=scene.background)
+
+
+def white_furnace_scene(*, width: int = 24, height: int | None = None, max_depth: int = 50) -> rt.Scene:
+    """An albedo-1 Lambertian unit sphere in a constant background of radiance 1."""
+    cam = rt.Camera(lookfrom=(0, 0, -4.0), lookat=(0, 0, 0), vup=(0, 1, 0), vfov=35.0,
+                    width=width, height=height or width)
+    return rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1.0, rt.Lambertian(1.0))],
+                    background=1.0, max_depth=max_depth)
+
+
+def creased_furnace_scene(*, width: int = 24, height: int | None = None) -> rt.Scene:
+    """A white furnace with creases: a sphere resting on a box, an icosphere mesh beside it
+    touching the box too, all albedo 1, background 1, unlimited depth.
+
+    With ``cosine`` sampling every path carries weight exactly 1 and ends in the
+    background, so every sample is exactly 1: a path that re-hits its own surface from
+    behind (acne) or slips through a mesh edge sees a black back face and lowers its
+    pixel. Radiance does not change with scale, so this holds at every scale.
+    """
+    white = rt.Lambertian(1.0)
+    V, F, _ = icosphere(3, radius=0.6)
+    shapes = [rt.Box((-2.5, -1.0, -2.0), (2.5, 0.0, 2.0), white),
+              rt.Sphere((0.0, 1.0, 0.0), 1.0, white),
+              rt.Mesh(V + [1.45, 0.6, -0.7], F, white)]
+    cam = rt.Camera(lookfrom=(0.4, 2.2, -5.0), lookat=(0.3, 0.4, 0.0), vup=(0, 1, 0), vfov=40.0,
+                    width=width, height=height or width)
+    return rt.Scene(camera=cam, shapes=shapes, background=1.0, max_depth=-1)
+
+
+def camera_rays(camera: rt.Camera, px, py) -> np.ndarray:
+    """Unit directions of the camera's rays through film points (px, py) in pixels (as the core)."""
+    fwd, right, up = camera.basis()
+    hh = math.tan(0.5 * math.radians(camera.vfov))
+    hw = hh * camera.width / camera.height
+    sx = (2.0 * np.asarray(px) / camera.width - 1.0) * hw
+    sy = (1.0 - 2.0 * np.asarray(py) / camera.height) * hh
+    d = fwd + sx[..., None] * right + sy[..., None] * up
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)

@@ -1,0 +1,69 @@
+"""The registry of hard cases (:data:`CASES`: quick and full settings) and :func:`run_cases`."""
+from __future__ import annotations
+
+from .degenerate import degenerate_input
+from .fireflies import fireflies
+from .furnace import white_furnace
+from .glass import glass
+from .grazing import grazing_rays
+from .lights import light_sampling
+from .scale import scale_invariance
+from .suite import suite_nonfinite
+from .watertight import watertight_mesh
+
+__all__ = ["CASES", "run_cases"]
+
+#: case -> (function, quick keyword arguments, full keyword arguments)
+CASES = {
+    "watertight_mesh": (watertight_mesh, dict(rays=100_000, subdivisions=(1, 2, 3, 4)),
+                        dict(rays=4_000_000, subdivisions=(1, 2, 3, 4, 5, 6))),
+    "grazing_rays": (grazing_rays, dict(shapes=25, rays_per_shape=80), dict(shapes=100, rays_per_shape=100)),
+    "degenerate_input": (degenerate_input, dict(coincident=100_000), dict(coincident=100_000, repeats=5)),
+    "scale_invariance": (scale_invariance, dict(width=32, spp=64),
+                         dict(width=48, spp=256, strategies=("mis", "cosine", "mixture"), furnace_spp=32)),
+    "light_sampling": (light_sampling, dict(samples=100_000), dict(samples=1_000_000, width=32, spp=256)),
+    "glass": (glass, dict(width=32, spp=32), dict(width=64, spp=64, compare_spp=512, compare_width=32)),
+    "white_furnace": (white_furnace, dict(width=24, spp=64), dict(width=48, spp=256)),
+    "fireflies": (fireflies, dict(width=64, renders=128), dict(width=64, renders=512)),
+    "suite_nonfinite": (suite_nonfinite, dict(width=16, spp=4), dict(width=32, spp=16)),
+}
+
+
+def run_cases(names=None, *, quick: bool = False, on_record=None) -> list:
+    """Run the named cases (all by default) with quick or full settings.
+
+    Parameters
+    ----------
+    names : sequence of str or None
+    quick : bool, keyword-only
+    on_record : callable or None, keyword-only
+        Called with each :class:`~benchmarks.stress.record.StressRecord` as it completes.
+
+    Returns
+    -------
+    list of StressRecord
+
+    Raises
+    ------
+    ValueError
+        For a name not in :data:`CASES` (before any case runs).
+
+    Examples
+    --------
+    >>> run_cases(["no_such_case"])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown stress case(s) ['no_such_case']; known: watertight_mesh, grazing_rays, ...
+    """
+    names = list(CASES) if names is None else list(names)
+    unknown = [n for n in names if n not in CASES]
+    if unknown:
+        raise ValueError(f"unknown stress case(s) {unknown}; known: {', '.join(CASES)}")
+    records = []
+    for name in names:
+        fn, quick_kw, full_kw = CASES[name]
+        rec = fn(**(quick_kw if quick else full_kw))
+        records.append(rec)
+        if on_record is not None:
+            on_record(rec)
+    return records

@@ -1,0 +1,190 @@
+"""One job, anywhere: render it, measure it against its reference, build its record.
+
+Nothing here touches a file, so a job runs the same locally and on a Dask worker; the
+caller stores what :func:`execute_job` returns. Also the versions and machine facts
+recorded with every job and in ``meta.json``.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import platform
+import socket
+import time
+
+import numpy as np
+
+from .. import metrics as M
+from ..constants import MITSUBA_STRATEGY
+from ..store import KEY_FIELDS
+from .coerce import finite
+from .jobs import Job, default_threads, image_paths, render_seed, scene_at
+
+__all__ = ["TIMING_FIELDS", "job_metrics", "execute_job", "reference_info", "run_versions", "machine_info"]
+
+#: record fields that depend on timing or on the machine (ignore them to compare two runs).
+TIMING_FIELDS = ("seconds", "paths_per_second", "efficiency", "compile_seconds", "build_seconds",
+                 "load_seconds", "wall_seconds", "finished", "host", "threads", "worker")
+
+
+def job_metrics(mean, variance, ref_mean, ref_variance, ref_spp) -> dict:
+    """Error figures of one render against the reference (DESIGN.md section 4).
+
+    ``mse_corrected`` removes the reference's own noise, ``mean(ref_variance) / ref_spp``;
+    ``variance`` is the mean per-pixel per-sample variance of the render (None when the
+    renderer gave none). Non-finite results become None.
+
+    Examples
+    --------
+    >>> ref = np.ones((8, 8, 3)); img = ref + 0.1
+    >>> m = job_metrics(img, None, ref, np.zeros_like(ref), 64)
+    >>> round(m["mse"], 6), round(m["rmse"], 6), m["variance"]
+    (0.01, 0.1, None)
+    """
+    mean = np.asarray(mean, dtype=np.float64)
+    ref = np.asarray(ref_mean, dtype=np.float64)
+    mse = M.mse(mean, ref)
+    out = {"mse": mse, "rmse": math.sqrt(mse) if mse >= 0 else math.nan,
+           "relmse": M.relmse(mean, ref), "ssim": M.ssim(mean, ref),
+           "mse_corrected": M.mse_corrected(mean, ref, ref_variance, ref_spp),
+           "variance": None}
+    if variance is not None:
+        v = np.asarray(variance, dtype=np.float64)
+        if np.all(np.isfinite(v)):
+            out["variance"] = float(v.mean())
+    return {k: finite(v) for k, v in out.items()}
+
+
+def reference_info(reference) -> dict:
+    """What a record says of its reference (as ``reference_<field>``): spp, seed, cache key, variant.
+
+    ``reference`` is a :class:`benchmarks.references.Reference` (a closed-form one included).
+    """
+    return {"spp": reference.spp, "seed": reference.seed, "key": reference.key, "variant": reference.variant}
+
+
+def _render(job: Job, rseed: int, *, threads: int, variant) -> tuple:
+    """``(mean, variance or None, seconds, extra record fields)`` of the job's render."""
+    if job.renderer == "ours":
+        import reference_tracer as rt
+
+        res = rt.render(scene_at(job.scene, job.width, job.height), spp=job.spp, strategy=job.strategy,
+                        seed=rseed, threads=threads)
+        extra = {"rays": int(res.rays), "nonfinite_samples": int(res.nonfinite_samples),
+                 "build_seconds": float(res.build_seconds)}
+        return res.mean, res.variance, float(res.seconds), extra
+    if job.renderer == "mitsuba":
+        from mitsuba_scenes import render_mitsuba
+
+        if job.strategy != MITSUBA_STRATEGY:
+            raise ValueError(f"Mitsuba jobs use strategy {MITSUBA_STRATEGY!r}, got {job.strategy!r}")
+        out = render_mitsuba(scene_at(job.scene, job.width, job.height), spp=job.spp, seed=rseed,
+                             variant=variant, threads=threads, batches=1)
+        extra = {"rays": None, "nonfinite_samples": None, "compile_seconds": float(out.compile_seconds),
+                 "load_seconds": float(out.load_seconds)}
+        # one batch at the full spp: no per-pixel variance (summary.json has the between-seed one)
+        return out.mean, None, float(out.seconds), extra
+    raise ValueError(f"renderer must be 'ours' or 'mitsuba', got {job.renderer!r}")
+
+
+def execute_job(job: Job, reference, *, threads: int, variant=None, keep_image: bool = False,
+                keep_stats: bool = False) -> dict:
+    """Render one job, measure it against the reference and build its record.
+
+    Runs anywhere (locally or on a Dask worker): it touches no file. Returns
+    ``{"record": dict, "images": {relpath: array}}``; the caller writes the images
+    and then appends the record.
+
+    Parameters
+    ----------
+    job : Job
+    reference : benchmarks.references.Reference
+        The reference at the job's size: mean, per-sample variance and spp; its spp,
+        seed, key and variant are copied into the record (``reference_*``).
+    threads : int, keyword-only
+        Threads for our tracer and for Mitsuba (``drjit.set_thread_count``).
+    variant : str or None, keyword-only
+        Mitsuba variant (use the client's choice so all records agree).
+    keep_image : bool, keyword-only
+        Return the mean image for the store (``record["image"]``).
+    keep_stats : bool, keyword-only
+        Return mean and variance images for the bias test (``record["stats_image"]``).
+    """
+    t_job = time.perf_counter()
+    rseed = render_seed(job.seed, job.spp)
+    mean, var, seconds, extra = _render(job, rseed, threads=threads, variant=variant)
+    if mean.shape != np.shape(reference.mean):
+        raise ValueError(f"{job.label}: image {mean.shape} vs reference {np.shape(reference.mean)}")
+    # one sample carries no estimate of its spread (ours would report 0)
+    met = job_metrics(mean, var if job.spp > 1 else None, reference.mean, reference.variance, reference.spp)
+    pps = job.width * job.height * job.spp / seconds if seconds > 0 else None
+    eff = None
+    if met["mse"] is not None and met["mse"] > 0 and seconds > 0:
+        eff = M.efficiency(met["mse"], seconds)
+    images = {}
+    img_path, var_path = image_paths(job)
+    if keep_image or keep_stats:
+        images[img_path] = np.asarray(mean, dtype=np.float32)
+    if keep_stats and var is not None:
+        images[var_path] = np.asarray(var, dtype=np.float32)
+    record = {k: getattr(job, k) for k in KEY_FIELDS}
+    record.update(met)
+    record.update({
+        "seconds": seconds, "rays": extra.get("rays"), "paths_per_second": pps, "threads": int(threads),
+        "image": img_path if keep_image else None,
+        "stats_image": img_path if keep_stats else None,
+        "stats_variance_image": var_path if (keep_stats and var is not None) else None,
+        "efficiency": eff, "render_seed": rseed,
+        "nonfinite_samples": extra.get("nonfinite_samples"),
+        "compile_seconds": extra.get("compile_seconds"), "build_seconds": extra.get("build_seconds"),
+        "load_seconds": extra.get("load_seconds"),
+        "versions": run_versions(variant),
+    })
+    record.update({f"reference_{k}": v for k, v in reference_info(reference).items()})
+    record["wall_seconds"] = time.perf_counter() - t_job
+    record["host"] = socket.gethostname()
+    record["finished"] = _dt.datetime.now().astimezone().isoformat(timespec="seconds")
+    return {"record": record, "images": images}
+
+
+def run_versions(variant: str | None = None) -> dict:
+    """Versions recorded with every job: rtbench, our tracer, Mitsuba, Dr.Jit, variant, Python, NumPy."""
+    import reference_tracer as rt
+
+    out = {"rtbench": _rtbench_version(), "reference_tracer": rt.__version__,
+           "python": platform.python_version(), "numpy": np.__version__}
+    try:
+        from mitsuba_scenes.variants import versions
+
+        if variant is not None:
+            from mitsuba_scenes.variants import select_variant
+
+            select_variant(variant)
+        out.update({k: v for k, v in versions().items() if k != "libllvm"})
+    except Exception:  # noqa: BLE001 - Mitsuba missing: ours-only records still carry versions
+        pass
+    return out
+
+
+def _rtbench_version() -> str:
+    try:
+        from importlib.metadata import version
+
+        return version("rtbench")
+    except Exception:  # noqa: BLE001
+        return "unknown"
+
+
+def machine_info() -> dict:
+    """Cores, CPU model and platform for meta.json."""
+    cpu = platform.processor() or ""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return {"cores": default_threads(), "cpu": cpu or "unknown", "platform": platform.platform(),
+            "host": socket.gethostname()}

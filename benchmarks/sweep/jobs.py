@@ -1,0 +1,215 @@
+"""The job list of a sweep: :class:`Job`, :class:`Group`, their validation and the render seeds.
+
+A *job* is one render: (scene, renderer, strategy, spp, seed, width, height), the store
+key of its record (``benchmarks/STORE.md``). A :class:`Group` is a block of jobs: every
+scene x curve x spp x seed at one image size.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..constants import MITSUBA_STRATEGY, STRATEGIES
+from ..store import KEY_FIELDS
+
+__all__ = ["Job", "Group", "validate_group", "make_jobs", "render_seed", "default_threads", "scene_at",
+           "image_paths", "check_int", "check_int_list"]
+
+
+@dataclass(frozen=True)
+class Job:
+    """One render of the sweep (its identity is the store key, ``STORE.md``)."""
+
+    scene: str
+    renderer: str
+    strategy: str
+    spp: int
+    seed: int
+    width: int
+    height: int
+
+    @property
+    def key(self) -> tuple:
+        return tuple(getattr(self, k) for k in KEY_FIELDS)
+
+    @property
+    def curve(self) -> tuple:
+        return (self.scene, self.renderer, self.strategy, self.width, self.height)
+
+    @property
+    def label(self) -> str:
+        who = self.strategy if self.renderer == "ours" else f"mitsuba {self.strategy}"
+        return f"{self.scene} {self.width}x{self.height} {who} {self.spp} spp seed {self.seed}"
+
+    @property
+    def cost(self) -> float:
+        """Rough relative cost for the progress bar's time estimate (seconds at ~1 us/sample)."""
+        samples = self.width * self.height * self.spp
+        return samples * 1e-6 + (0.3 if self.renderer == "mitsuba" else 0.03)
+
+
+@dataclass(frozen=True)
+class Group:
+    """A block of a sweep: every scene x curve x spp x seed at one image size.
+
+    Parameters
+    ----------
+    scenes : tuple of str
+        Suite scene names.
+    strategies : tuple of str
+        Our strategies (``reference_tracer.STRATEGIES``).
+    spps : tuple of int
+        The spp ladder.
+    seeds : int
+        Number of independent seeds per (curve, spp); seed indices are ``0 .. seeds-1``.
+    width, height : int
+    mitsuba : bool
+        Add Mitsuba's ``path`` curve.
+    reference_spp : int
+        Samples of the Mitsuba reference (keep it well above ``max(spps)``).
+    name : str
+        A label for messages.
+    """
+
+    scenes: tuple
+    strategies: tuple
+    spps: tuple
+    seeds: int
+    width: int
+    height: int
+    mitsuba: bool = True
+    reference_spp: int = 4096
+    name: str = "curves"
+
+    def __post_init__(self):
+        validate_group(self)
+
+    def jobs(self) -> list:
+        return make_jobs(self.scenes, strategies=self.strategies, spps=self.spps, seeds=self.seeds,
+                         width=self.width, height=self.height, mitsuba=self.mitsuba)
+
+
+def check_int(name: str, value, minimum: int = 1) -> int:
+    """``value`` as an int, or ``ValueError`` naming ``name`` unless it is an integer >= ``minimum``.
+
+    Examples
+    --------
+    >>> check_int("seeds", 3)
+    3
+    >>> check_int("seeds", True)
+    Traceback (most recent call last):
+    ...
+    ValueError: seeds must be an integer >= 1, got True
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def check_int_list(name: str, values, minimum: int = 1) -> tuple:
+    """``values`` as a tuple of distinct ints >= ``minimum``, or ``ValueError`` naming ``name``.
+
+    Examples
+    --------
+    >>> check_int_list("spps", [4, 1])
+    (4, 1)
+    >>> check_int_list("spps", [4, 4])
+    Traceback (most recent call last):
+    ...
+    ValueError: spps has repeated values: [4, 4]
+    """
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        raise ValueError(f"{name} must be a sequence of integers, got {values!r}")
+    out = []
+    for v in values:
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < minimum:
+            raise ValueError(f"{name} must hold integers >= {minimum}, got {v!r}")
+        out.append(int(v))
+    if not out:
+        raise ValueError(f"{name} is empty")
+    if len(set(out)) != len(out):
+        raise ValueError(f"{name} has repeated values: {out}")
+    return tuple(out)
+
+
+def validate_group(g: Group) -> None:
+    """Raise ``ValueError`` with a clear message for a malformed :class:`Group`."""
+    from mitsuba_scenes import list_scenes
+
+    suite = list_scenes()
+    if isinstance(g.scenes, str) or not g.scenes:
+        raise ValueError(f"scenes must be a non-empty sequence of names, got {g.scenes!r}")
+    unknown = [s for s in g.scenes if s not in suite]
+    if unknown:
+        raise ValueError(f"unknown scene(s) {unknown}; the suite has: {', '.join(suite)}")
+    if isinstance(g.strategies, str):
+        raise ValueError(f"strategies must be a sequence of names, got {g.strategies!r}")
+    bad = [s for s in g.strategies if s not in STRATEGIES]
+    if bad:
+        raise ValueError(f"unknown strategy/strategies {bad}; choose from {', '.join(STRATEGIES)}")
+    if len(set(g.strategies)) != len(tuple(g.strategies)):
+        raise ValueError(f"strategies has repeated names: {list(g.strategies)}")
+    if not g.strategies and not g.mitsuba:
+        raise ValueError("nothing to render: no strategy and mitsuba=False")
+    check_int_list("spps", g.spps)
+    for name in ("seeds", "width", "height"):
+        check_int(name, getattr(g, name))
+    check_int("reference_spp", g.reference_spp, 2)
+
+
+def make_jobs(scenes, *, strategies, spps, seeds: int, width: int, height: int,
+              mitsuba: bool = True) -> list:
+    """All jobs of a sweep, cheapest spp first (curves fill in together).
+
+    Examples
+    --------
+    >>> jobs = make_jobs(["cornell_box"], strategies=["mis"], spps=[1, 4], seeds=2, width=8, height=8)
+    >>> len(jobs), jobs[0].label
+    (8, 'cornell_box 8x8 mis 1 spp seed 0')
+    """
+    spps = check_int_list("spps", spps)
+    curves = [("ours", s) for s in strategies] + ([("mitsuba", MITSUBA_STRATEGY)] if mitsuba else [])
+    return [Job(scene, renderer, strategy, spp, seed, int(width), int(height))
+            for scene in scenes for spp in sorted(spps) for seed in range(int(seeds))
+            for renderer, strategy in curves]
+
+
+def render_seed(seed: int, spp: int) -> int:
+    """The seed given to the renderer for seed index ``seed`` at ``spp``: a 62-bit hash.
+
+    Examples
+    --------
+    >>> render_seed(0, 4) != render_seed(0, 8) != render_seed(1, 4)
+    True
+    """
+    h = hashlib.sha256(f"rtbench-sweep:{int(seed)}:{int(spp)}".encode()).digest()
+    return int.from_bytes(h[:8], "little") >> 2
+
+
+def default_threads() -> int:
+    """All cores this process may use."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def scene_at(name: str, width: int, height: int):
+    """Suite scene ``name`` with its camera resized to ``width`` x ``height``."""
+    from mitsuba_scenes import get_scene
+
+    return get_scene(name).with_camera_size(int(width), int(height))
+
+
+def image_paths(job: Job) -> tuple:
+    """Store-relative paths of a job's mean and variance EXR images.
+
+    Examples
+    --------
+    >>> image_paths(Job("furnace", "ours", "mis", 4, 1, 8, 6))[0]
+    'images/furnace_8x6/ours_mis_spp4_seed1.exr'
+    """
+    stem = f"images/{job.scene}_{job.width}x{job.height}/{job.renderer}_{job.strategy}_spp{job.spp}_seed{job.seed}"
+    return f"{stem}.exr", f"{stem}_var.exr"

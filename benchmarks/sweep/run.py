@@ -1,0 +1,253 @@
+"""``run_sweep``: references, then every job not yet stored, then the summary.
+
+The steps of one (re)run of a sweep into a results store: check the arguments, record
+the run's settings in ``meta.json``, make sure every (scene, size) has its reference and
+copy it into the store, plan the jobs and skip those already stored, run the rest
+(locally or on Dask), record the run's time and write ``summary.json``.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM
+from ..references import closed_form_reference_of, mitsuba_identity, reference
+from ..store import META, finished_keys, read_json, read_records, store_path, update_meta, write_image
+from .execute import machine_info, run_versions
+from .jobs import Group, check_int, default_threads, scene_at
+from .progress import Progress
+from .runners import run_dask, run_local
+from .summary import TARGET_RELATIVE_RMSE, summarize
+
+__all__ = ["SweepResult", "run_sweep", "prepare_references"]
+
+
+@dataclass
+class SweepResult:
+    """What :func:`run_sweep` did.
+
+    ``jobs`` in the plan, ``done`` rendered now, ``skipped`` already in the store,
+    ``failed`` (job label, error text) pairs, ``seconds`` wall time, ``rows`` the
+    summary rows, ``store`` the folder.
+    """
+
+    store: Path
+    jobs: int = 0
+    done: int = 0
+    skipped: int = 0
+    failed: list = field(default_factory=list)
+    seconds: float = 0.0
+    rows: list = field(default_factory=list)
+    interrupted: bool = False
+
+
+def _now() -> str:
+    return _dt.datetime.now().astimezone().isoformat(timespec="seconds")
+
+
+def prepare_references(groups, store: Path, *, variant, threads, cache, say) -> dict:
+    """Ensure each (scene, width, height) has its reference; copy it into the store.
+
+    The closed form where the scene has one, else Mitsuba's (cached, see
+    :func:`benchmarks.references.reference`). Records them in ``meta.json``
+    (``references``: the first group naming a scene, its main sweep; ``references_by_size``).
+
+    Returns
+    -------
+    dict
+        ``{(scene, width, height): benchmarks.references.Reference}``.
+    """
+    refs, by_scene, by_size = {}, {}, {}
+    for g in groups:
+        for scene in g.scenes:
+            k = (scene, g.width, g.height)
+            if k in refs:
+                if refs[k].spp != g.reference_spp:
+                    raise ValueError(f"{scene} {g.width}x{g.height} appears in two groups with different "
+                                     f"reference spp ({refs[k].spp} and {g.reference_spp})")
+                continue
+            t0 = time.perf_counter()
+            ref = closed_form_reference_of(scene, g.width, g.height)
+            if ref is None:
+                ref = reference(scene_at(scene, g.width, g.height), spp=g.reference_spp, variant=variant,
+                                threads=threads, cache=cache, log=say)
+            how = ("closed form" if ref.variant == CLOSED_FORM else
+                   "cached" if ref.cached else f"rendered in {time.perf_counter() - t0:.1f} s")
+            say(f"reference {scene} {g.width}x{g.height}: {ref.spp} spp, {ref.variant} ({how})")
+            stem = f"references/{scene}_{g.width}x{g.height}_spp{ref.spp}"
+            mpath, vpath = f"{stem}.exr", f"{stem}_var.exr"
+            for rel, img in ((mpath, ref.mean), (vpath, ref.variance)):
+                if not (store / rel).exists():
+                    write_image(store, rel, img)
+            entry = {"spp": ref.spp, "seed": ref.seed, "path": mpath, "variance_path": vpath,
+                     "width": g.width, "height": g.height, "variant": ref.variant, "key": ref.key,
+                     "render_seconds": ref.seconds}
+            by_size[f"{scene}@{g.width}x{g.height}"] = entry
+            by_scene.setdefault(scene, entry)  # the first group naming a scene is its main sweep
+            refs[k] = ref
+    meta = read_json(store / META, default={}) or {}
+    old = meta.get("references") if isinstance(meta.get("references"), dict) else {}
+    update_meta(store, references={**by_scene, **{k: v for k, v in old.items() if k not in by_scene}},
+                references_by_size=by_size)
+    return refs
+
+
+def _messages(progress: bool, console) -> tuple:
+    """``(console, say)``: where messages go (stderr by default) and a ``say(text)`` that is
+    silent unless ``progress``."""
+    if progress and console is None:
+        from rich.console import Console
+
+        console = Console(stderr=True)
+
+    def say(text):
+        if progress:
+            console.print(text, highlight=False, markup=False)
+
+    return console, say
+
+
+def _check_arguments(groups, threads, alpha, target_relative) -> tuple:
+    """``(groups as a list, threads as an int)``, or ``ValueError`` for a bad argument."""
+    groups = list(groups)
+    if not groups:
+        raise ValueError("the sweep has no groups")
+    for g in groups:
+        if not isinstance(g, Group):
+            raise ValueError(f"groups must hold benchmarks.sweep.Group objects, got {type(g).__name__}")
+    threads = default_threads() if threads is None else check_int("threads", threads)
+    if not 0 < alpha < 1:
+        raise ValueError(f"alpha must be in (0, 1), got {alpha}")
+    if not target_relative > 0:
+        raise ValueError(f"target_relative must be positive, got {target_relative}")
+    return groups, threads
+
+
+def _record_settings(store, groups, *, threads, scheduler, variant, preset, alpha, target_relative) -> None:
+    """The run's settings, machine and versions into ``meta.json`` (its first date is kept)."""
+    meta = read_json(store / META, default={}) or {}
+    update_meta(store, date=meta.get("date") or _now(),
+                preset=preset if preset is not None else meta.get("preset", "custom"),
+                threads=None if scheduler is not None else int(threads),
+                scheduler=str(scheduler) if isinstance(scheduler, str) else (None if scheduler is None else "client"),
+                machine=machine_info(), versions=run_versions(variant), alpha=alpha,
+                target_relative_rmse=target_relative,
+                groups=[{"name": g.name, "scenes": list(g.scenes), "strategies": list(g.strategies),
+                         "spps": list(g.spps), "seeds": g.seeds, "width": g.width, "height": g.height,
+                         "mitsuba": g.mitsuba, "reference_spp": g.reference_spp} for g in groups])
+
+
+def _plan(groups) -> tuple:
+    """``(jobs without repeats in group order, {curve: its highest spp})``."""
+    plan, top, seen = [], {}, set()
+    for g in groups:
+        for job in g.jobs():
+            if job.key in seen:
+                continue
+            seen.add(job.key)
+            plan.append(job)
+            top[job.curve] = max(top.get(job.curve, 0), job.spp)
+    return plan, top
+
+
+def _warn_stale(store, refs, say) -> None:
+    """Say so when stored jobs were measured against another reference than this run's."""
+    stale = [r for r in read_records(store) if (r["scene"], r["width"], r["height"]) in refs
+             and r.get("reference_key") not in (None, refs[(r["scene"], r["width"], r["height"])].key)]
+    if stale:
+        say(f"warning: {len(stale)} stored job(s) were measured against another reference (other spp, seed, "
+            f"Mitsuba or scene version); they are kept - use a new --out to start afresh")
+
+
+def _record_time(store, *, seconds, done=None, interrupted=None) -> None:
+    """Append this run to ``meta.json``'s ``runs`` (``done`` given), or set its final time, and the total."""
+    meta = read_json(store / META, default={}) or {}
+    runs = list(meta.get("runs") or [])
+    if done is not None:
+        runs.append({"started": _now(), "seconds": seconds, "jobs_done": done, "interrupted": interrupted})
+    elif runs:
+        runs[-1]["seconds"] = seconds
+    update_meta(store, runs=runs, total_seconds=float(sum(r.get("seconds") or 0 for r in runs)))
+
+
+def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, variant: str | None = None,
+              progress: bool = True, cache=None, alpha: float = BIAS_TEST_ALPHA,
+              target_relative: float = TARGET_RELATIVE_RMSE, preset: str | None = None,
+              console=None) -> SweepResult:
+    """Run (or resume) a sweep into a results store and write its summary.
+
+    Steps: references for every (scene, size) (cached; copied into the store), then
+    every job not yet in ``results.jsonl`` (appended one by one), then
+    ``summary.json`` from all records. Interrupt it at any point (Ctrl-C, kill) and run
+    it again with the same arguments: finished jobs are skipped, nothing is lost.
+
+    Parameters
+    ----------
+    groups : sequence of Group
+    out : str or Path, keyword-only
+        The results store folder.
+    threads : int or None, keyword-only
+        Threads per local job for both renderers (default: all cores). Ignored with
+        ``scheduler`` (each worker's thread count is used).
+    scheduler : str, distributed.Client or None, keyword-only
+        Address of a Dask distributed scheduler (``tcp://host:8786``) or a Client.
+    variant : str or None, keyword-only
+        Mitsuba variant (default: the fastest that works).
+    progress : bool, keyword-only
+        Show a progress bar (rich) and one line per reference.
+    cache : str or Path or None, keyword-only
+        Reference cache root (default ``$RTBENCH_CACHE`` or ``~/.cache/rtbench``).
+    alpha : float, keyword-only
+        Level of the bias test in the summary.
+    target_relative : float, keyword-only
+        Target RMSE for time-to-target, relative to the reference's RMS radiance.
+    preset : str or None, keyword-only
+        Recorded in meta.json.
+    console : rich.console.Console or None, keyword-only
+
+    Returns
+    -------
+    SweepResult
+    """
+    t_start = time.perf_counter()
+    groups, threads = _check_arguments(groups, threads, alpha, target_relative)
+    store = store_path(out)
+    console, say = _messages(progress, console)
+    variant, _ = mitsuba_identity(variant)
+    _record_settings(store, groups, threads=threads, scheduler=scheduler, variant=variant, preset=preset,
+                     alpha=alpha, target_relative=target_relative)
+    refs = prepare_references(groups, store, variant=variant, threads=threads, cache=cache, say=say)
+    plan, top = _plan(groups)
+    done_keys = finished_keys(store)
+    _warn_stale(store, refs, say)
+    todo = [j for j in plan if j.key not in done_keys]
+    result = SweepResult(store=store, jobs=len(plan), skipped=len(plan) - len(todo))
+    if result.skipped:
+        say(f"resuming: {result.skipped} of {len(plan)} jobs already in {store}")
+
+    def keep(job):  # (keep_image, keep_stats): seed 0's image; the top spp's for the bias test
+        return job.seed == 0, job.spp == top[job.curve]
+
+    bar = Progress(sum(j.cost for j in todo), len(todo), enabled=progress, console=console)
+    log = bar.log if bar.enabled else say
+    try:
+        if scheduler is None:
+            result.done = run_local(todo, refs, store, threads=threads, variant=variant, keep=keep,
+                                    bar=bar, say=log, failures=result.failed)
+        else:
+            result.done = run_dask(todo, refs, store, address=scheduler, variant=variant, keep=keep,
+                                   bar=bar, say=log, failures=result.failed)
+    except KeyboardInterrupt:
+        result.interrupted = True
+        raise
+    finally:
+        bar.stop()
+        _record_time(store, seconds=time.perf_counter() - t_start, done=result.done,
+                     interrupted=result.interrupted)
+    result.rows = summarize(store, alpha=alpha, target_relative=target_relative, cache=cache, threads=threads,
+                            log=say)
+    result.seconds = time.perf_counter() - t_start
+    _record_time(store, seconds=result.seconds)
+    return result

@@ -1,0 +1,352 @@
+"""The per-curve summary of a results store (``summary.json``): slope, bias, variance, cost.
+
+A curve is one (scene, renderer, strategy, width, height). Its figures come from the
+store's records and images alone, so :func:`summarize` can be rerun at any time and
+gives the same rows.
+"""
+from __future__ import annotations
+
+import collections
+import math
+from pathlib import Path
+
+import numpy as np
+
+from reference_tracer.estimate import ImageEstimate
+
+from .. import metrics as M
+from ..constants import BIAS_TEST_ALPHA, STRATEGIES
+from ..store import META, SUMMARY, read_image, read_json, read_records, update_meta, write_json
+from .coerce import as_float
+
+__all__ = ["TARGET_RELATIVE_RMSE", "target_rmse", "summarize"]
+
+#: time-to-target uses target RMSE = this x the reference's RMS radiance.
+TARGET_RELATIVE_RMSE = 0.1
+
+#: what the summary's fields mean, written into ``summary.json`` (``{alpha}``, ``{target}`` filled in).
+_NOTES = {
+    "slope": "fit of log sqrt(mean over seeds of mse_corrected) on log spp, "
+             "one point per spp; slope_ci is its 95% t interval",
+    "bias": "bias2: metrics.bias_variance at bias_spp over bias_seeds "
+            "seeds; bias_significant, bias_p: tile and image levels of "
+            "benchmarks.gate.compare on the mean over seeds (Bonferroni), "
+            "level {alpha}, 2+ seeds needed; bias_z: normal quantile of bias_p. "
+            "Estimators whose value rests on rare paths (uniform sampling "
+            "of small lights on glossy plates) are flagged until they "
+            "converge: their error at that spp is real",
+    "efficiency": "1 / (expected MSE x mean seconds) at the highest spp: for our estimators found unbiased "
+                  "the expected MSE is the tail reference's per-sample variance / spp, else the mean "
+                  "mse_corrected (efficiency_source)",
+    "tails": "variance, skewness and kurtosis of our estimators from cached tail references "
+             "(benchmarks.tails); bias_verdict is the gate's three-valued test (benchmarks/STATISTICS.md)",
+    "target_rmse": "{target} x RMS of the reference radiance",
+}
+
+
+def target_rmse(ref_mean, *, relative: float = TARGET_RELATIVE_RMSE) -> float:
+    """Target RMSE of a scene: ``relative`` x the RMS of the reference's radiance.
+
+    Examples
+    --------
+    >>> target_rmse(np.full((4, 4, 3), 2.0), relative=0.1)
+    0.2
+    """
+    r = np.asarray(ref_mean, dtype=np.float64)
+    return float(relative * math.sqrt(float(np.mean(r * r))))
+
+
+def _nanmean(vals):
+    a = np.asarray([as_float(v) for v in vals], dtype=np.float64)
+    a = a[np.isfinite(a)]
+    return float(a.mean()) if a.size else math.nan
+
+
+def _bias_verdict(imgs, vars_, spp, ref_mean, ref_var, ref_spp, *, alpha, tails=None):
+    """Is the curve's expectation different from the reference's? The regression gate's test.
+
+    The mean over K seeds is the mean of K * spp samples; its per-sample variance is the
+    seeds' own per-sample variance where recorded (ours), else the between-seed variance
+    times spp (Mitsuba's sweep renders carry no variance image). ``benchmarks.gate.compare``
+    then tests with a false-alarm rate <= ``alpha``: a precision-weighted test, so a few
+    very noisy pixels (light edges) cannot hide a bias elsewhere, as they can in the
+    unweighted ``bias2`` estimate beside it. ``bias_z`` is the normal quantile of the
+    gate's p-value (capped at 40).
+
+    With ``tails`` (the tail reference of the same estimator, :mod:`benchmarks.tails`) the
+    test is the gate's three-valued one on every level: ``bias_verdict`` is 'pass', 'fail'
+    or 'undetermined' (heavy-tailed at this budget; ``bias_reason`` and
+    ``bias_spp_needed`` say why and what would decide) and ``bias_significant`` is True,
+    False or None accordingly. Without it only the tile and image levels are used (the
+    older rule, which reads rare paths not yet sampled as bias).
+    """
+    from scipy import stats
+
+    from ..gate import compare
+
+    k = len(imgs)
+    if k < 2:
+        # One render's own sample variance is no basis for a verdict where the samples
+        # are heavy-tailed: uniform sampling at 50 spp (the 400x400 seed comparison) has
+        # tiles whose rare paths did not occur, and was flagged at z = 18 while its slope
+        # was -0.50. Independent seeds are required.
+        return {"bias_significant": None, "bias_p": None, "bias_z": None}
+    mean = np.mean(np.stack(imgs), axis=0)
+    if spp > 1 and all(v is not None for v in vars_):
+        # rt.render's per-sample variance is E[x^2] - E[x]^2 over each seed's spp samples
+        per_sample = np.mean(np.stack(vars_), axis=0) * (spp / (spp - 1.0))
+    else:
+        per_sample = np.var(np.stack(imgs), axis=0, ddof=1) * spp
+    n = k * spp
+    if n < 2:
+        return {"bias_significant": None, "bias_p": None, "bias_z": None}
+    if tails is not None:
+        res = compare(mean, per_sample, n, ref_mean, ref_var, max(int(ref_spp), 2), alpha=alpha, var_ddof=1,
+                      tails=tails.moments)
+        p = res.p_value
+        z = float(min(stats.norm.isf(p / 2.0), 40.0)) if p > 0 else 40.0
+        return {"bias_significant": {"fail": True, "pass": False}.get(res.verdict), "bias_p": p, "bias_z": z,
+                "bias_levels": res.failed_levels, "bias_verdict": res.verdict, "bias_reason": res.reason,
+                "bias_spp_needed": res.spp_needed, "bias_min_detectable": res.min_detectable_bias}
+    res = compare(mean, per_sample, n, ref_mean, ref_var, max(int(ref_spp), 2), alpha=alpha, var_ddof=1)
+    # Tile and image levels only (Bonferroni over the two): a biased *estimator* shows in
+    # pooled statistics, while single-pixel tests are unreliable where a pixel's samples
+    # are dominated by rare events (uniform sampling of a small light: a few seeds carry
+    # all of its variance even at thousands of samples).
+    p = float(min(1.0, 2.0 * min(res.level_p["tile"], res.level_p["image"])))
+    z = float(min(stats.norm.isf(p / 2.0), 40.0)) if p > 0 else 40.0
+    levels = [lv for lv in ("tile", "image") if 2.0 * res.level_p[lv] < alpha]
+    return {"bias_significant": p < alpha, "bias_p": p, "bias_z": z, "bias_levels": levels,
+            "bias_verdict": "fail" if p < alpha else "pass", "bias_reason": "without tail diagnostics"}
+
+
+def _slope_stats(spps, mse_c, mse_p) -> dict:
+    """Convergence: one point per spp, RMSE from the seed-averaged reference-noise-corrected MSE."""
+    ok = np.isfinite(mse_c) & (mse_c > 0)
+    row = dict(slope=None, slope_ci=None, slope_stderr=None, slope_points=int(ok.sum()))
+    if ok.sum() >= 2 and len(set(np.asarray(spps)[ok])) >= 2:
+        fit = M.convergence_slope(np.asarray(spps)[ok], np.sqrt(mse_c[ok]))
+        row.update(slope=fit.slope, slope_stderr=fit.stderr,
+                   slope_ci=[fit.ci_low, fit.ci_high] if math.isfinite(fit.ci_low) else None)
+    okp = np.isfinite(mse_p) & (mse_p > 0)
+    row["slope_uncorrected"] = None
+    if okp.sum() >= 2:
+        row["slope_uncorrected"] = M.convergence_slope(np.asarray(spps)[okp], np.sqrt(mse_p[okp])).slope
+    return row
+
+
+def _read_stats_images(store, recs) -> tuple:
+    """``(means, variances or None)`` of the records' kept images, by seed; ``([], [])`` if one is unreadable."""
+    imgs, vars_ = [], []
+    for r in sorted(recs, key=lambda r: r["seed"]):
+        try:
+            imgs.append(read_image(store, r["stats_image"]))
+            vars_.append(read_image(store, r["stats_variance_image"]) if r.get("stats_variance_image") else None)
+        except Exception:  # noqa: BLE001 - a missing/corrupt image: no bias figure for this curve
+            return [], []
+    return imgs, vars_
+
+
+def _bias_stats(top_recs, top, ref: ImageEstimate | None, store, *, alpha, tails=None) -> dict:
+    """Bias and variance over seeds at the highest spp ``top`` (the records that kept their images)."""
+    row = dict(bias2=None, bias2_stderr=None, bias_z=None, bias_p=None, bias_significant=None, bias_levels=None,
+               bias_spp=None, bias_seeds=None, relative_bias=None, variance=None, bias_method=None)
+    kept = [r for r in top_recs if r.get("stats_image")]
+    if ref is None or not kept:
+        return row
+    imgs, vars_ = _read_stats_images(store, kept)
+    bv, method = None, None
+    if len(imgs) >= 2:
+        bv = M.bias_variance(np.stack(imgs), ref.mean, ref.variance, ref.spp, spp=top, alpha=alpha)
+        method = "seeds"
+    elif len(imgs) == 1 and vars_[0] is not None and top > 1:
+        # one seed: the renderer's own per-sample variance, E[x^2] - E[x]^2 (de-biased by n/(n-1))
+        bv = M.bias_variance(np.stack(imgs), ref.mean, ref.variance, ref.spp, var_k=np.stack(vars_), spp=top,
+                             alpha=alpha, variance_source="samples", var_ddof=1)
+        method = "samples"
+    if bv is not None:
+        row.update(bias2=bv.bias2, bias2_stderr=bv.bias2_se, bias_spp=top, bias_seeds=bv.k,
+                   relative_bias=bv.relative_bias, variance=bv.sample_variance, bias_method=method)
+        row.update(_bias_verdict(imgs, vars_, top, ref.mean, ref.variance, ref.spp, alpha=alpha, tails=tails))
+    return row
+
+
+def _tail_variance(tails) -> dict:
+    """The estimator's per-sample variance (mean over pixels) from its tail reference, and
+    whether it is only a lower bound: where one sample carries more than half of a pixel's
+    sum of squared deviations, the rarer paths that set the true variance were not seen."""
+    m = tails.moments
+    var = np.asarray(m.m2, dtype=np.float64) * (m.n / (m.n - 1.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mean = np.asarray(tails.mean, dtype=np.float64)
+        share = np.where(var > 0, (m.max - mean) ** 2 / (var * m.n), 0.0)
+    weight = var / var.sum() if var.sum() > 0 else var
+    dominated = float((weight * (share > 0.5)).sum())
+    return {"variance": float(var.mean()), "variance_source": f"tail reference, {m.n} spp",
+            "variance_lower_bound": dominated > 0.1}
+
+
+def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails=None) -> dict:
+    """Summary figures of one (scene, renderer, strategy, width, height) curve."""
+    by_spp = collections.defaultdict(list)
+    for r in recs:
+        by_spp[int(r["spp"])].append(r)
+    spps = sorted(by_spp)
+    mse_c = np.array([_nanmean(r.get("mse_corrected") for r in by_spp[s]) for s in spps])
+    mse_p = np.array([_nanmean(r.get("mse") for r in by_spp[s]) for s in spps])
+    secs = np.array([_nanmean(r.get("seconds") for r in by_spp[s]) for s in spps])
+    row = {"spps": spps, "seeds": max(len(by_spp[s]) for s in spps)}
+    row.update(_slope_stats(spps, mse_c, mse_p))
+    top = spps[-1]
+    row.update(_bias_stats(by_spp[top], top, ref, store, alpha=alpha, tails=tails))
+    if row["variance"] is None:
+        row["variance"] = _nanmean(r.get("variance") for r in recs)
+    row["variance_source"], row["variance_lower_bound"] = "renders at the top spp", None
+    if tails is not None:
+        row.update(_tail_variance(tails))
+
+    # cost: efficiency at the top spp, throughput, time to the target RMSE. An unbiased
+    # estimator's expected MSE at n spp is its per-sample variance / n; from the tail
+    # reference's variance it counts the rare paths a few renders at the top spp missed.
+    row["efficiency"] = None
+    unbiased = row.get("bias_verdict") in ("pass", "undetermined")
+    if tails is not None and unbiased and row["variance"] > 0 and secs[-1] > 0:
+        row["efficiency"] = M.efficiency(row["variance"] / top, secs[-1])
+        row["efficiency_source"] = "tail-reference variance / spp"
+    elif math.isfinite(mse_c[-1]) and mse_c[-1] > 0 and secs[-1] > 0:
+        row["efficiency"] = M.efficiency(mse_c[-1], secs[-1])
+        row["efficiency_source"] = "measured MSE"
+    row["samples_per_second"] = _nanmean(r.get("paths_per_second") for r in by_spp[top])
+    row["seconds_at_top"] = secs[-1]
+    row["target_rmse"] = target
+    row["time_to_target"] = None
+    ok = np.isfinite(mse_c) & (mse_c > 0)
+    if target is not None and ok.any():
+        row["time_to_target"] = M.time_to_error(secs[ok], np.sqrt(mse_c[ok]), target)
+    row["rmse_at_top"] = math.sqrt(mse_p[-1]) if mse_p[-1] >= 0 else None
+    return row
+
+
+def _store_reference(store, info) -> ImageEstimate | None:
+    """The reference a store holds for one (scene, size) (``meta.json``'s entry ``info``), or None."""
+    if not info:
+        return None
+    try:
+        return ImageEstimate(mean=read_image(store, info["path"]).astype(np.float64),
+                             variance=read_image(store, info["variance_path"]).astype(np.float64),
+                             spp=int(info["spp"]), source=str(info.get("variant", "")))
+    except Exception:  # noqa: BLE001 - missing reference: figures that need it stay null
+        return None
+
+
+def _ratio(a, b):
+    a, b = as_float(a), as_float(b)
+    if not (math.isfinite(a) and math.isfinite(b)) or b == 0:
+        return None
+    return a / b
+
+
+def _mitsuba_cost(row: dict, ref: ImageEstimate) -> None:
+    """Mitsuba's variance and efficiency from its own high-spp reference (the same estimator,
+    ``path``), as ours come from our tail references: expected MSE = variance / spp."""
+    var = float(np.mean(ref.variance, dtype=np.float64)) * ref.spp / max(ref.spp - 1.0, 1.0)
+    row.update(variance=var, variance_source=f"Mitsuba reference, {ref.spp} spp", variance_lower_bound=None)
+    top, secs = row["spps"][-1], as_float(row.get("seconds_at_top"))
+    if var > 0 and math.isfinite(secs) and secs > 0:
+        row["efficiency"] = M.efficiency(var / top, secs)
+        row["efficiency_source"] = "reference variance / spp"
+
+
+def _add_mitsuba_ratios(rows) -> None:
+    """``*_vs_mitsuba``: each curve against Mitsuba's curve of the same scene and size."""
+    mits = {(r["scene"], r["width"], r["height"]): r for r in rows if r["renderer"] == "mitsuba"}
+    for r in rows:
+        m = mits.get((r["scene"], r["width"], r["height"]))
+        r["efficiency_vs_mitsuba"] = _ratio(r.get("efficiency"), m.get("efficiency") if m else None)
+        r["samples_per_second_vs_mitsuba"] = _ratio(r.get("samples_per_second"),
+                                                    m.get("samples_per_second") if m else None)
+
+
+def _curve_tails(scene, strategy, w, h, *, tail_spp, cache, threads, log):
+    """The tail reference of one of our curves (cached; rendered when missing), or None."""
+    if not tail_spp:
+        return None
+    from ..tails import tail_reference
+    from .jobs import scene_at
+
+    try:
+        return tail_reference(scene_at(scene, w, h), strategy=strategy, spp=tail_spp, cache=cache, threads=threads,
+                              log=log)
+    except ValueError as exc:  # a scene no longer in the suite: no tail diagnostics for it
+        if log:
+            log(f"no tail reference for {scene} ({strategy}): {exc}")
+        return None
+
+
+def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float = TARGET_RELATIVE_RMSE,
+              tail_spp: int | None = None, cache=None, threads=None, log=None) -> list:
+    """Per (scene, renderer, strategy, width, height): the figures of ``summary.json``.
+
+    From the store's records and images:
+
+    * ``slope``, ``slope_ci`` (95%), ``slope_stderr``: least-squares fit of log RMSE over
+      log spp, one point per spp, RMSE = sqrt of the seed-averaged reference-noise-
+      corrected MSE (``slope_uncorrected`` uses the plain MSE);
+    * ``bias2``, ``bias2_stderr``, ``bias_z``, ``bias_p``, ``bias_significant`` (level
+      ``alpha``, one-sided), ``relative_bias``: ``metrics.bias_variance`` over the seeds at
+      the highest spp (``bias_spp``); with one seed, the renderer's own per-sample
+      variance is used instead (``bias_method``);
+    * ``bias_verdict`` ('pass', 'fail', 'undetermined'), ``bias_reason``,
+      ``bias_spp_needed``: with the tail reference of our estimator (``tail_spp`` spp,
+      cached under ``cache``; our curves with 2+ seeds only), the gate's three-valued test
+      of the seeds' mean (``benchmarks/STATISTICS.md``);
+    * ``variance``: per-sample variance, mean over pixels: from the tail reference where
+      there is one (``variance_lower_bound`` when single samples dominate it), else the
+      between-seed variance of the image x spp;
+    * ``efficiency``: 1 / (expected MSE x seconds) at the highest spp, the expected MSE of
+      an estimator found unbiased being its tail-reference variance / spp; else
+      1 / (corrected MSE x seconds) (``efficiency_source``);
+    * ``time_to_target``: seconds to reach ``target_rmse`` (= ``target_relative`` x the
+      reference's RMS radiance), log-log interpolated, null if not reached;
+    * ``samples_per_second`` (pixel samples per second at the highest spp) and the
+      ``*_vs_mitsuba`` ratios against Mitsuba's ``path`` curve of the same scene and size.
+
+    Writes ``summary.json`` and returns its rows.
+    """
+    from ..tails import DEFAULT_TAIL_SPP
+
+    tail_spp = DEFAULT_TAIL_SPP if tail_spp is None else int(tail_spp)
+    store = Path(store)
+    records = read_records(store)
+    meta = read_json(store / META, default={}) or {}
+    refs_meta = meta.get("references_by_size") if isinstance(meta.get("references_by_size"), dict) else {}
+    curves = collections.defaultdict(list)
+    for r in records:
+        curves[(r["scene"], r["renderer"], r["strategy"], r["width"], r["height"])].append(r)
+    ref_cache, targets, rows = {}, {}, []
+    for (scene, renderer, strategy, w, h), recs in curves.items():
+        if (scene, w, h) not in ref_cache:
+            ref_cache[(scene, w, h)] = _store_reference(store, refs_meta.get(f"{scene}@{w}x{h}"))
+        ref = ref_cache[(scene, w, h)]
+        target = target_rmse(ref.mean, relative=target_relative) if ref is not None else None
+        if target is not None:
+            targets.setdefault(scene, target)
+        row = {"scene": scene, "renderer": renderer, "strategy": strategy, "width": w, "height": h}
+        seeds_at_top = len({r["seed"] for r in recs if int(r["spp"]) == max(int(q["spp"]) for q in recs)
+                            and r.get("stats_image")})
+        tails = (_curve_tails(scene, strategy, w, h, tail_spp=tail_spp, cache=cache, threads=threads, log=log)
+                 if renderer == "ours" and ref is not None and seeds_at_top >= 2 else None)
+        row.update(_curve_stats(recs, ref, store, alpha=alpha, target=target, tails=tails))
+        if renderer == "mitsuba" and ref is not None and tail_spp:
+            _mitsuba_cost(row, ref)
+        rows.append(row)
+    _add_mitsuba_ratios(rows)
+    order = {s: i for i, s in enumerate(STRATEGIES)}
+    rows.sort(key=lambda r: (r["scene"], r["width"], r["height"], r["renderer"] != "ours",
+                             order.get(r["strategy"], 9)))
+    notes = {k: v.format(alpha=alpha, target=target_relative) for k, v in _NOTES.items()}
+    write_json(store / SUMMARY, {"rows": rows, "alpha": alpha, "target_relative_rmse": target_relative,
+                                 "notes": notes})
+    if targets:
+        update_meta(store, target_rmse=targets)
+    return rows

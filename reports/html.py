@@ -1,0 +1,188 @@
+"""The report's HTML: one self-contained page (images inline as data URIs, CSS and JS inline)."""
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html
+
+from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP
+
+from . import plots
+from .assets import CSS, JS
+from .sections import PLOT_KINDS, Section, equal_time_text, seed_lines
+from .store import Store
+from .tables import COLUMNS, FORMULAS, facts_table, fmt
+
+__all__ = ["page_html"]
+
+
+def _e(s) -> str:
+    return html.escape(str(s), quote=True)
+
+
+def _data_uri(png: bytes) -> str:
+    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+
+
+
+def _img(png: bytes, *, alt: str, cls: str = "", id_: str = "", extra: str = "") -> str:
+    return (f'<img src="{_data_uri(png)}" alt="{_e(alt)}"' + (f' class="{cls}"' if cls else "")
+            + (f' id="{_e(id_)}"' if id_ else "") + (f" {extra}" if extra else "") + ">")
+
+
+def _stats_html(sec: Section) -> str:
+    if not sec.table:
+        return '<p class="note">summary.json holds no rows for this scene and size.</p>'
+    head = "".join(f'<th title="{_e(tip)}">{_e(h)}</th>' for h, tip in COLUMNS)
+    body = []
+    for row, cells in zip(sec.rows, sec.table):
+        tds = []
+        for i, c in enumerate(cells):
+            cls = ""
+            if i == 0:
+                c_html = f'<span class="swatch" style="background:{plots.colour((row["renderer"], row["strategy"]))}">' \
+                         f'</span>{_e(c)}'
+            else:
+                c_html = _e(c)
+            if COLUMNS[i][0] == "bias verdict":
+                cls = {"biased": "biased", "no bias detected": "unbiased"}.get(c, "")
+            tds.append(f'<td class="{cls}">{c_html}</td>' if cls else f"<td>{c_html}</td>")
+        trc = ' class="mitsuba"' if row["renderer"] != "ours" else ""
+        body.append(f"<tr{trc}>{''.join(tds)}</tr>")
+    return (f'<div class="tablewrap"><table class="data" id="{sec.id}-table"><thead><tr>{head}</tr></thead>'
+            f'<tbody>{"".join(body)}</tbody></table></div>'
+            '<p class="note">Definitions and epsilons: <a href="#formulas">metric definitions</a>. '
+            "Numbers are the harness's (summary.json), 4 significant digits.</p>")
+
+
+
+
+def _images_html(sec: Section) -> str:
+    if not sec.image_rows:
+        return ""
+    n = len(sec.columns)
+    out = [f'<div class="help">Images tone-mapped identically (exposure {fmt(sec.exposure, 3)} stops, from '
+           f'{_e(sec.exposure_from)}: its median luminance to 18% grey, or its 99th percentile to white if brighter; '
+           'sRGB). <b>Click</b> an image (or hover it and press <kbd>r</kbd>) to flip it '
+           'with the reference; <kbd>R</kbd> flips the whole row, <kbd>Esc</kbd> restores all. Move the mouse over '
+           'an image to zoom every column of its row into the same crop; <kbd>+</kbd>/<kbd>−</kbd> change the '
+           'zoom. Under each image: left, the zoomed crop; right, the false-colour error map against the '
+           'reference (colour bar below the rows).</div>']
+    aspect = (sec.height / sec.width) if sec.width and sec.height else 1.0
+    for spp, row in sec.image_rows:
+        ref_id = next((c.id for c in row if c.key[0] == "reference"), "")
+        lines = {"lbl": [], "shot": [], "sub": [], "cap": []}
+        for c in row:
+            lines["lbl"].append(f'<div class="cell lbl">{_e(c.label)}</div>')
+            if c.png is None:
+                lines["shot"].append(f'<div class="cell"><div class="empty">{_e(c.missing)}</div></div>')
+                lines["sub"].append('<div class="cell"></div>')
+                lines["cap"].append('<div class="cell"></div>')
+                continue
+            is_ref = c.key[0] == "reference"
+            zid = c.id + "-zoom"
+            attrs = f'data-zoom="{zid}"' + (f' data-ref="{ref_id}"' if ref_id and not is_ref else "")
+            lines["shot"].append(
+                f'<div class="cell"><div class="shotwrap{" is-ref" if is_ref else ""}" tabindex="0" {attrs}>'
+                + _img(c.png, alt=f"{c.label} at {spp:g} spp", cls="shot", id_=c.id,
+                       extra=f'data-kind="image" data-column="{_e(c.label)}" data-spp="{spp:g}"')
+                + '<span class="badge">reference</span><span class="cropbox"></span></div></div>')
+            sub = (f'<canvas class="zoom" id="{zid}" data-aspect="{aspect:.6g}" '
+                   f'title="zoomed crop of {_e(c.label)}"></canvas>')
+            if c.err_png is not None:
+                sub += _img(c.err_png, alt=f"error map of {c.label} at {spp:g} spp", cls="err",
+                            extra=f'title="error map of {_e(c.label)}" data-kind="error" '
+                                  f'data-column="{_e(c.label)}" data-spp="{spp:g}"')
+            lines["sub"].append(f'<div class="cell sub">{sub}</div>')
+            lines["cap"].append(f'<div class="cell cap">{_e(c.caption)}</div>')
+        grid = "".join("".join(v) for v in lines.values())
+        out.append(f'<div class="cmp-row" data-spp="{spp:g}"><h4>{spp:g} spp '
+                   f'<span class="note">(zoom <span class="zoomlevel">×4</span>)</span></h4>'
+                   f'<div class="cmp-grid" style="grid-template-columns:repeat({n}, minmax(0, 1fr))">{grid}</div>'
+                   "</div>")
+    if sec.colourbar is not None:
+        lo, hi = sec.error_range
+        out.append('<div class="cbar">' + _img(sec.colourbar, alt="error map colour bar", extra='data-kind="colourbar"')
+                   + f'<div class="note">Error maps: log scale from {fmt(lo, 3)} to {fmt(hi, 3)}, shared by every '
+                   f"map of this scene (mean of a map = that image's relMSE).</div></div>")
+    return "".join(out)
+
+
+def _section_html(sec: Section) -> str:
+    out = [f'<section class="card scene" id="{sec.id}" data-scene="{_e(sec.scene)}" '
+           f'data-plots="{" ".join(k for k in PLOT_KINDS if k in sec.plots)}" '
+           f'data-columns="{_e("|".join(sec.columns))}" '
+           f'data-spps="{" ".join(f"{s:g}" for s, _ in sec.image_rows)}">',
+           f"<h2>{_e(sec.title)}</h2>"]
+    for note in sec.notes:
+        out.append(f'<p class="note">{_e(note)}</p>')
+    if sec.plots:
+        out.append('<div class="plots">')
+        for kind in PLOT_KINDS:
+            if kind in sec.plots:
+                png, cap = sec.plots[kind]
+                out.append(f'<figure class="plot" id="{sec.id}-{kind}">'
+                           + _img(png, alt=f"{sec.title} {kind} plot", extra=f'data-kind="plot" data-plot="{kind}"')
+                           + f"<figcaption>{_e(cap)}</figcaption></figure>")
+        out.append("</div>")
+        et = equal_time_text(sec)
+        if et:
+            out.append(f'<p class="note">{_e(et)}</p>')
+    out.append("<h3>Per-strategy statistics</h3>" + _stats_html(sec))
+    if sec.image_rows:
+        out.append("<h3>Images at equal spp</h3>" + _images_html(sec))
+    out.append("</section>")
+    return "".join(out)
+
+
+
+def _seed_html(cmp: dict | None, png: bytes | None) -> str:
+    lines, rows = seed_lines(cmp)
+    out = [f'<section class="card" id="seed" data-present="{"yes" if cmp else "no"}">'
+           f"<h2>The seed's comparison: uniform vs light sampling on {SEED_SCENE}, "
+           f"{SEED_SIZE}×{SEED_SIZE}</h2>"]
+    if png is not None:
+        out.append('<div class="plots"><figure class="plot" id="seed-plot">'
+                   + _img(png, alt="seed comparison plot", extra='data-kind="plot" data-plot="seed"')
+                   + "<figcaption>Median RMSE over seeds with min-max band; diamonds: uniform's error at "
+                   f"{SEED_SPP} spp and where light sampling reaches it.</figcaption></figure><div>")
+    out.append("".join(f'<p class="big">{_e(s)}</p>' for s in lines))
+    if rows:
+        out.append('<table class="data" style="width:auto"><thead><tr><th>spp</th><th>uniform RMSE</th>'
+                   "<th>light RMSE</th></tr></thead><tbody>"
+                   + "".join("<tr>" + "".join(f"<td>{_e(c)}</td>" for c in r) + "</tr>" for r in rows)
+                   + '</tbody></table><p class="note">Median over seeds.</p>')
+    if png is not None:
+        out.append("</div></div>")
+    out.append("</section>")
+    return "".join(out)
+
+
+def page_html(store: Store, sections: list[Section], cmp, seed_png, problems: list) -> str:
+    """The whole ``index.html``: run facts, sections, seed comparison, definitions, problems."""
+    facts = facts_table(store.meta, n_records=len(store.records), n_raw=store.n_raw_records)
+    title = f"rtbench report — {store.path.name}"
+    toc = "".join(f'<a href="#{s.id}">{_e(s.title)}</a>' for s in sections)
+    toc += '<a href="#seed">seed comparison</a><a href="#formulas">definitions</a>'
+    if problems:
+        toc += '<a href="#problems">problems</a>'
+    preset = store.meta.get("preset") or "?"
+    out = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+           '<meta name="viewport" content="width=device-width, initial-scale=1">',
+           f"<title>{_e(title)}</title><style>{CSS}</style></head><body>",
+           f'<header class="top"><h1>{_e(title)}</h1><div class="sub">Our path tracer against Mitsuba 3 — '
+           f"preset {_e(preset)}, {len(sections)} scene section(s), {len(store.records)} job records</div></header>",
+           f'<nav class="toc">{toc}</nav><main>',
+           '<section class="card" id="facts"><h2>Run facts</h2><table class="facts">'
+           + "".join(f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in facts) + "</table></section>"]
+    out += [_section_html(s) for s in sections]
+    out.append(_seed_html(cmp, seed_png))
+    out.append('<section class="card" id="formulas"><h2>Metric definitions</h2><dl class="formulas">'
+               + "".join(f"<dt>{_e(k)}</dt><dd>{_e(v)}</dd>" for k, v in FORMULAS) + "</dl></section>")
+    if problems:
+        out.append('<section class="card" id="problems"><h2>Problems found in the store</h2><ul class="problems">'
+                   + "".join(f"<li>{_e(p)}</li>" for p in problems) + "</ul></section>")
+    out.append(f"</main><footer>Generated by rtbench reports on "
+               f"{_e(_dt.datetime.now().isoformat(timespec='seconds'))} from {_e(store.path)}.</footer>"
+               f"<script>{JS}</script></body></html>")
+    return "\n".join(out)

@@ -1,0 +1,315 @@
+"""What each part of the report shows, as data: a scene section's plots, table and image rows.
+
+Shared by the HTML page (:mod:`reports.html`) and the Markdown summary
+(:mod:`reports.build`); nothing here writes HTML.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from benchmarks.constants import RELMSE_EPS, SEED_SCENE, SEED_SIZE, SEED_SPP
+from benchmarks.display import reference_exposure
+
+from . import plots
+from .curves import curve_label, curves, loglog_slope
+from .images import ERROR_CMAP, display_png, error_map, error_png, error_range, pick_spps
+from .store import Store, curve_order, num
+from .tables import fmt, stats_table
+
+__all__ = ["PLOT_KINDS", "Cell", "Section", "build_section", "equal_time_text", "seed_lines", "slug"]
+
+#: plot kinds of a section, in page order.
+PLOT_KINDS = ("rmse", "relmse", "ssim", "time")
+
+
+def slug(*parts) -> str:
+    s = "-".join(str(p) for p in parts if p is not None)
+    return re.sub(r"[^a-z0-9]+", "-", s.lower()).strip("-") or "x"
+
+
+@dataclass
+class Cell:
+    """One column of an equal-spp image row."""
+
+    key: tuple          # (renderer, strategy) or ("reference", "")
+    label: str
+    id: str = ""
+    png: bytes | None = None
+    err_png: bytes | None = None
+    caption: str = ""
+    missing: str = ""
+
+
+@dataclass
+class Section:
+    """Everything shown for one (scene, width, height)."""
+
+    scene: str
+    width: int | None
+    height: int | None
+    id: str
+    plots: dict = field(default_factory=dict)       # kind -> (png, caption)
+    equal_time: tuple = (math.nan, {})
+    table: list = field(default_factory=list)
+    rows: list = field(default_factory=list)
+    target: float = math.nan
+    image_rows: list = field(default_factory=list)  # [(spp, [Cell])]
+    columns: list = field(default_factory=list)     # column labels of the image rows
+    colourbar: bytes | None = None
+    error_range: tuple | None = None
+    exposure: float | None = None
+    exposure_from: str = ""
+    notes: list = field(default_factory=list)
+
+    @property
+    def title(self) -> str:
+        size = f" ({self.width}×{self.height})" if self.width and self.height else ""
+        return f"{self.scene}{size}"
+
+
+# ----------------------------------------------------------------------------------------- sections
+
+def build_section(store: Store, scene: str, width, height, *, problems: list) -> Section:
+    """Plots, statistics table and image rows of one (scene, width, height); problems appended."""
+    sec = Section(scene, width, height, id=slug("scene", scene, width, height))
+    recs = store.section_records(scene, width, height)
+    sec.rows = store.section_rows(scene, width, height)
+    sec.table = stats_table(sec.rows)
+    targets = store.meta.get("target_rmse") if isinstance(store.meta.get("target_rmse"), dict) else {}
+    sec.target = num(targets.get(scene))
+    if not math.isfinite(sec.target):
+        ts = [num(r.get("target_rmse")) for r in sec.rows if math.isfinite(num(r.get("target_rmse")))]
+        sec.target = ts[0] if ts else math.nan
+    if not recs:
+        sec.notes.append("No job records for this scene and size: plots and images are unavailable.")
+        return sec
+    _section_plots(sec, recs)
+    _section_images(store, sec, recs, problems=problems)
+    return sec
+
+
+def _section_plots(sec: Section, recs: list[dict]) -> None:
+    title = sec.title
+    rmse = curves(recs, "rmse")
+    summary_slopes = {(r["renderer"], r["strategy"]): (num(r.get("slope")), "")
+                      for r in sec.rows if math.isfinite(num(r.get("slope")))}
+    slopes = {c.key: summary_slopes.get(c.key, (loglog_slope(c.spp, c.median), "fit here")) for c in rmse}
+    if rmse:
+        sec.plots["rmse"] = (plots.convergence_plot(rmse, title=f"{title}: RMSE vs spp", ylabel="RMSE",
+                                                    slopes=slopes, guide_slope=-0.5, target=sec.target),
+                             "RMSE against the reference vs samples per pixel (log-log). Lines: median over "
+                             "seeds; bands: min to max; dashed: slope -1/2 (unbiased Monte Carlo). Legend "
+                             "slopes are the harness's fits (summary.json) unless marked 'fit here'.")
+    rel = curves(recs, "relmse")
+    if rel:
+        rslopes = {c.key: (loglog_slope(c.spp, c.median), "") for c in rel}
+        sec.plots["relmse"] = (plots.convergence_plot(rel, title=f"{title}: relMSE vs spp", ylabel="relMSE",
+                                                      slopes=rslopes, guide_slope=-1.0),
+                               f"Relative MSE (eps = {RELMSE_EPS:g}) vs spp. relMSE is a squared error, so its "
+                               "unbiased slope is -1 (the dashed guide); legend slopes fitted here on the medians.")
+    ss = curves(recs, "ssim")
+    if ss:
+        sec.plots["ssim"] = (plots.ssim_plot(ss, title=f"{title}: SSIM vs spp"),
+                             "SSIM of the display image against the reference's (higher is better).")
+    timed = [c for c in rmse if np.isfinite(c.seconds).any()]
+    if timed:
+        png, budget, at = plots.time_plot(timed, title=f"{title}: RMSE vs render time", target=sec.target)
+        sec.equal_time = (budget, at)
+        sec.plots["time"] = (png, "Speed against error: median RMSE vs median render seconds, one point per spp. "
+                                  "Stars: each curve's RMSE at the equal-time budget (dotted), log-log "
+                                  "interpolated.")
+    missing = [k for k in PLOT_KINDS if k not in sec.plots]
+    if missing:
+        sec.notes.append(f"No data for plot(s): {', '.join(missing)}.")
+
+
+def _reference(store: Store, sec: Section, *, problems: list):
+    refs = store.meta.get("references") if isinstance(store.meta.get("references"), dict) else {}
+    info = refs.get(sec.scene) if isinstance(refs.get(sec.scene), dict) else None
+    if not info or not info.get("path"):
+        sec.notes.append("meta.json names no reference image for this scene: no error maps.")
+        return None
+    path = store.resolve(info["path"])
+    if not path.exists():
+        problems.append(f"{sec.scene}: reference image {info['path']} is missing")
+        sec.notes.append("The reference image is missing from the store: no error maps.")
+        return None
+    try:
+        ref = store.read_image(path)
+    except Exception as exc:  # noqa: BLE001 - a corrupt file is reported, not fatal
+        problems.append(f"{sec.scene}: reference image {info['path']} could not be read ({exc})")
+        return None
+    if sec.width and sec.height and ref.shape[:2] != (sec.height, sec.width):
+        sec.notes.append(f"The reference is {ref.shape[1]}×{ref.shape[0]}, not {sec.width}×{sec.height}: "
+                         "no error maps at this size.")
+        return None
+    return ref
+
+
+def _section_images(store: Store, sec: Section, recs: list[dict], *, problems: list) -> None:
+    """The equal-spp image rows: one column per curve plus the reference, error maps under each."""
+    best = _best_images(recs)
+    if not best:
+        sec.notes.append("No stored images for this scene and size.")
+        return
+    keys = sorted({(k[0], k[1]) for k in best}, key=curve_order)
+    spps = pick_spps({k[2] for k in best}, preferred=(4, 16, 64))
+    if sec.scene == SEED_SCENE and sec.width == SEED_SIZE and sec.height == SEED_SIZE \
+            and float(SEED_SPP) in {k[2] for k in best} and float(SEED_SPP) not in spps:
+        spps = sorted(spps[-2:] + [float(SEED_SPP)])
+    ref = _reference(store, sec, problems=problems)
+    load = _image_loader(store, sec, problems)
+    _choose_exposure(sec, ref, best, load)
+    if sec.exposure is None:
+        sec.notes.append("None of the stored images could be read.")
+        return
+    grid, maps = [], {}
+    for spp in spps:
+        row = [_image_cell(sec, key, spp, best.get((key[0], key[1], spp)), recs, load, ref, maps, problems)
+               for key in keys]
+        if ref is not None:
+            rc = Cell(key=("reference", ""), label="reference", id=slug("ref", sec.id, f"{spp:g}"),
+                      png=display_png(ref, sec.exposure))
+            info = store.meta["references"][sec.scene]
+            rc.caption = f"Mitsuba, {info.get('spp', '?')} spp, seed {info.get('seed', '?')}"
+            row.append(rc)
+        grid.append((spp, row))
+    if maps:
+        _error_maps(sec, grid, maps)
+    sec.image_rows = grid
+    sec.columns = [c.label for c in grid[0][1]] if grid else []
+
+
+def _best_images(recs: list[dict]) -> dict[tuple, dict]:
+    """Per (renderer, strategy, spp): the record with the lowest seed that has an image."""
+    with_img = [r for r in recs if r.get("image")]
+    best: dict[tuple, dict] = {}
+    for r in sorted(with_img, key=lambda r: (num(r.get("seed")) if math.isfinite(num(r.get("seed"))) else 1e18)):
+        best.setdefault((r["renderer"], r["strategy"], float(r["spp"])), r)
+    return best
+
+
+def _image_loader(store: Store, sec: Section, problems: list):
+    """A function record -> image (or None), reading each file once and noting missing or bad files."""
+    cache: dict[str, np.ndarray | None] = {}
+
+    def load(rec):
+        rel = rec["image"]
+        if rel not in cache:
+            p = store.resolve(rel)
+            try:
+                cache[rel] = store.read_image(p) if p.exists() else None
+            except Exception as exc:  # noqa: BLE001 - a corrupt file is reported, not fatal
+                problems.append(f"{sec.scene}: image {rel} could not be read ({exc})")
+                cache[rel] = None
+            if cache[rel] is None and p is not None and not p.exists():
+                problems.append(f"{sec.scene}: image {rel} is missing")
+        return cache[rel]
+
+    return load
+
+
+def _choose_exposure(sec: Section, ref, best: dict, load) -> None:
+    """One exposure for the section: the reference's, else the most converged image's."""
+    if ref is not None:
+        sec.exposure, sec.exposure_from = reference_exposure(ref), "the reference"
+        return
+    # no reference: Mitsuba's image if there is one, at its highest spp
+    cands = sorted(best.items(), key=lambda kv: (kv[0][0] == "ours", -kv[0][2]))
+    for (_, strat, spp), rec in cands:
+        img = load(rec)
+        if img is not None:
+            sec.exposure = reference_exposure(img)
+            sec.exposure_from = f"{curve_label(rec['renderer'], strat)} at {spp:g} spp (no reference)"
+            return
+
+
+def _image_cell(sec: Section, key: tuple, spp: float, rec, recs: list[dict], load, ref, maps: dict,
+                problems: list) -> Cell:
+    """One column of an image row; its error map (against ``ref``) goes into ``maps``."""
+    cell = Cell(key=key, label=curve_label(*key), id=slug("img", sec.id, key[0], key[1], f"{spp:g}"))
+    img = load(rec) if rec else None
+    if rec is None:
+        cell.missing = "not rendered at this spp" if not any(
+            r["renderer"] == key[0] and r["strategy"] == key[1] and float(r["spp"]) == spp for r in recs) \
+            else "no stored image"
+    elif img is None:
+        cell.missing = "image missing"
+    elif sec.height and img.shape[:2] != (sec.height, sec.width):
+        cell.missing = f"image is {img.shape[1]}×{img.shape[0]}"
+        problems.append(f"{sec.scene}: image {rec['image']} has size {img.shape[1]}x{img.shape[0]}, "
+                        f"expected {sec.width}x{sec.height}")
+    else:
+        cell.png = display_png(img, sec.exposure)
+        if ref is not None:
+            maps[cell.id] = error_map(img, ref)
+        seed = rec.get("seed")
+        cell.caption = (f"RMSE {fmt(rec.get('rmse'), 3)} · relMSE {fmt(rec.get('relmse'), 3)} · "
+                        f"SSIM {fmt(rec.get('ssim'), 3)} (seed {seed})")
+    return cell
+
+
+def _error_maps(sec: Section, grid: list, maps: dict) -> None:
+    """False-colour PNGs of the error maps on one log scale per section, and its colour bar."""
+    lo, hi = error_range(list(maps.values()))
+    sec.error_range = (lo, hi)
+    for _, row in grid:
+        for cell in row:
+            if cell.id in maps:
+                cell.err_png = error_png(maps[cell.id], lo, hi)
+    sec.colourbar = plots.colourbar_png(lo, hi, cmap=ERROR_CMAP,
+                                        label=f"per-pixel relative squared error (x−ref)²/(ref²+{RELMSE_EPS:g})")
+
+
+def equal_time_text(sec: Section) -> str:
+    """The sentence comparing the curves' RMSE at equal render time (empty when none)."""
+    budget, at = sec.equal_time
+    if not at:
+        return ""
+    parts = sorted(at.items(), key=lambda kv: curve_order(kv[0]))
+    return (f"At equal time ({fmt(budget, 3)} s): " +
+            ", ".join(f"{curve_label(*k)} RMSE {fmt(v, 3)}" for k, v in parts) + ".")
+
+
+def seed_lines(cmp: dict | None) -> tuple[list[str], list[list[str]]]:
+    """Sentences and table rows of the seed comparison (shared by HTML and Markdown)."""
+    if cmp is None:
+        return ([f"This store holds no run of {SEED_SCENE} at {SEED_SIZE}×{SEED_SIZE} with both the uniform and "
+                 "the light strategy, so the seed's comparison (uniform vs light sampling, and the spp at which "
+                 f"light sampling reaches uniform's error at {SEED_SPP} spp) is not reproduced here."], [])
+    uni, light = cmp["uniform"], cmp["light"]
+    t = cmp["target_rmse"]
+    lines = []
+    if not math.isfinite(t):
+        lines.append(f"Uniform sampling was not run at or around {SEED_SPP} spp (measured: "
+                     f"{', '.join(f'{s:g}' for s in uni.spp)}), so there is no target error to match.")
+    else:
+        how = "median over seeds" if cmp["target_exact"] else "log-log interpolated between measured spp"
+        lines.append(f"Uniform hemisphere sampling at {SEED_SPP} spp: RMSE {fmt(t)} ({how}).")
+        ls = cmp["light_spp"]
+        if cmp["method"] == "interpolated":
+            lines.append(f"Light sampling reaches that RMSE at about {fmt(ls, 3)} spp (log-log interpolation of "
+                         f"its median RMSE between measured spp): {fmt(cmp['saving'], 3)}× fewer samples.")
+        elif cmp["method"] == "extrapolated":
+            lines.append(f"Light sampling is already below that RMSE at its smallest measured spp "
+                         f"({light.spp[0]:g}); extrapolating along its fitted slope ({fmt(cmp['light_slope'], 3)}) "
+                         f"gives about {fmt(ls, 3)} spp: {fmt(cmp['saving'], 3)}× fewer samples.")
+        elif cmp["method"] == "at most":
+            lines.append(f"Light sampling is already below that RMSE at its smallest measured spp "
+                         f"({light.spp[0]:g}).")
+        else:
+            lines.append(f"Light sampling does not reach that RMSE within its measured range (lowest median RMSE "
+                         f"{fmt(float(np.min(light.median)))} at {light.spp[int(np.argmin(light.median))]:g} spp).")
+        lines.append("Light sampling alone misses all indirect light: it is biased by design, so its curve "
+                     "flattens at high spp (see its bias verdict in the table above).")
+    spps = sorted(set(uni.spp.tolist()) | set(light.spp.tolist()))
+    rows = []
+    for s in spps:
+        u = uni.median[uni.spp == s]
+        li = light.median[light.spp == s]
+        rows.append([f"{s:g}", fmt(u[0]) if u.size else "–", fmt(li[0]) if li.size else "–"])
+    return lines, rows
