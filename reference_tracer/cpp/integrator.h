@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 
 #include "rng.h"
 #include "scene.h"
@@ -26,9 +27,66 @@ public:
     Vec3 Li(Ray ray, PCG32& rng, uint64_t& rays) const;
 
 private:
+    // A surface point where the path may scatter, in the frame its BSDF works in. Like
+    // pbrt's BSDF it tests false where the path cannot scatter: a surface that does not
+    // reflect, the back of a one-sided reflector, exact grazing. Built in place in Li: a
+    // std::optional<Vertex> returned by a function was copied through the stack twice
+    // per bounce.
+    struct Vertex {
+        const Material& m;
+        Frame frame;  // around the shading normal: the front normal, flipped on the back
+                      // of a two-sided reflector
+        Vec3 wo;      // toward the previous vertex, in `frame`
+        bool can_scatter;
+
+        Vertex(const Interaction& it, const Material& m, const Vec3& d, bool front);
+        explicit operator bool() const { return can_scatter; }
+    };
+
+    // A sampled continuation of the path.
+    struct Scatter {
+        Vec3 wi;           // world direction of the next segment
+        Vec3 weight;       // what the throughput is multiplied by: f |cos| / pdf
+        double pdf = 0.0;  // solid-angle density of wi (MIS weight of an emitter hit next)
+        double eta = 1.0;  // relative index of refraction crossed (Russian roulette)
+    };
+
+    // What the MIS weight of emission found by BSDF sampling needs of the vertex that
+    // sampled it. The camera counts as a delta vertex: emission seen directly is not
+    // weighted.
+    struct PrevVertex {
+        bool delta = true;
+        double pdf = 0.0;  // its BSDF sample's density
+        Vec3 ref;          // its reference point for light sampling
+    };
+
+    // MIS weights (1 unless `mis` after a non-delta vertex) of emission reached by the
+    // previous vertex's BSDF sample: an emitter's surface at `it`, or the background.
+    double emitter_weight(const PrevVertex& prev, const Ray& ray, const Interaction& it) const;
+    double background_weight(const PrevVertex& prev) const;
+
+    // Next-event estimation for `mis` (pbrt's SampleLd): beta times one light sample's
+    // contribution at v, seen from ref; none if the sample brings nothing.
+    std::optional<Vec3> sample_ld(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng,
+                                  uint64_t& rays) const;
+    // The `light` strategy at a non-delta vertex, where its path ends: beta times the
+    // radiance arriving straight along one direction sampled toward the emitters.
+    std::optional<Vec3> light_only(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng,
+                                   uint64_t& rays) const;
+    // The next direction: the material's own sampling at a delta vertex (whatever the
+    // strategy: light sampling could never meet a Dirac lobe); elsewhere the strategy's.
+    std::optional<Scatter> sample_scatter(const Vertex& v, const Vec3& ref, PCG32& rng) const;
+    static std::optional<Scatter> sample_material(const Vertex& v, PCG32& rng);
+    static std::optional<Scatter> sample_uniform(const Vertex& v, PCG32& rng);
+    std::optional<Scatter> sample_mixture(const Vertex& v, const Vec3& ref, PCG32& rng) const;
+
     // Radiance along (o, wi) that comes straight from an emitter or the background: the
     // emission of the first surface hit (front side only), or the background on escape.
     Vec3 direct_emission(const Vec3& o, const Vec3& wi, uint64_t& rays) const;
+
+    // Whether the path goes on after its depth-th segment: not once the throughput is
+    // black, and Russian roulette from rr_depth on (reweighting beta of the survivors).
+    bool survives(int depth, double eta, Vec3& beta, PCG32& rng) const;
 
     const Scene& scene_;
     Strategy strategy_;
