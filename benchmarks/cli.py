@@ -26,6 +26,7 @@ COMMANDS = {
     "gate": "benchmarks.commands.gate",
     "stress": "benchmarks.commands.stress",
     "speed": "benchmarks.commands.speed",
+    "chi2": "benchmarks.commands.chi2",
 }
 
 

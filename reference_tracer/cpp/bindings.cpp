@@ -11,6 +11,7 @@
 #include <nanobind/ndarray.h>
 
 #include "render.h"
+#include "sampling_probe.h"
 
 namespace nb = nanobind;
 using namespace nb::literals;
@@ -286,4 +287,5 @@ NB_MODULE(_core, m) {
         .def_prop_ro("bvh_depth", &PyScene::bvh_depth)
         .def_prop_ro("bvh_blocks", &PyScene::bvh_blocks)
         .def_prop_ro("build_seconds", &PyScene::build_seconds);
+    rt::register_sampling_probe(m);  // batch sampling routines for the chi-square tests
 }

@@ -1,0 +1,385 @@
+"""The catalogue of sampling routines under test, and the runner that tests each one.
+
+Every routine of the tracer that draws a direction has entries here, with the parameters
+that change its distribution:
+
+* ``warp.*`` - sampling/warp.h: uniform and cosine hemisphere, uniform sphere, uniform
+  cone at several apertures, and the concentric disk (tested in its own 2-D domain).
+* ``bsdf.*`` - the materials with a density: Lambertian, and the GGX rough conductor at
+  four alphas and four incidence angles. Besides the distribution: every sample's weight
+  equals ``eval / pdf`` at its direction and its pdf equals ``pdf()``; and the directional
+  albedo, the integral of ``f cos`` over the hemisphere, equals the mean sample weight (the
+  pdf itself integrates to the probability that a sample is valid: 1 for Lambertian, the
+  share of reflected microfacet directions above the horizon for GGX).
+* ``lobes.*`` - the smooth dielectric's discrete choice: reflection with probability F
+  against an independent Fresnel formula (exact, or Schlick's for the Schlick variant),
+  from outside, inside, and under total internal reflection; every reflected direction
+  is the mirror direction, every transmitted one obeys Snell's law, weights are 1 and
+  (n_i / n_t)^2.
+* ``light.*`` - a scene's light sampling: quad and triangle emitters, a sphere seen from
+  outside (cone sampling, near and far), from inside and from a point on its surface
+  (area sampling), and a scene with three emitters and a background (selection by power;
+  the triangle faces away, so its samples fail and its density is 0).
+  Each sample's pdf equals ``light_pdf`` in its direction.
+
+Not here: the mirror (a Dirac delta: no distribution) and the fuzzy metal (defined by its
+sampling procedure; the tracer has no density for it to be tested against).
+"""
+from __future__ import annotations
+
+import math
+import time
+import zlib
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from benchmarks.constants import LUMINANCE_WEIGHTS
+
+from .pearson import (DEFAULT_ALPHA, DEFAULT_N, DEFAULT_RESOLUTION, Chi2Result, Grid, chi2_test,
+                      discrete_test, excess_p_value, integrate, sidak)
+from .probes import (BsdfProbe, LightProbe, direction, frame, fresnel_exact, fresnel_schlick,
+                     refract_expected, warp)
+
+__all__ = ["Routine", "Row", "ROUTINES", "select", "run_routine", "run_all"]
+
+# Relative tolerance of the deterministic identities (weight = eval / pdf, the sampler's pdf
+# = pdf(), mirror and Snell directions): the same double-precision routines on both sides.
+_RTOL = 1e-9
+# Samples per call of a probe in the checks beside the chi-square test.
+_CHUNK = 1 << 20
+# Relative tolerance of a light sample's pdf against light_pdf in its direction: the
+# sampled point and the ray's hit point differ by the rounding of a ray intersection.
+_LIGHT_RTOL = 1e-6
+
+
+@dataclass(frozen=True)
+class Routine:
+    """One routine with one set of parameters. ``make()`` builds its probe lazily."""
+
+    name: str
+    params: tuple              # ((key, value), ...), shown in tables
+    kind: str                  # 'warp', 'bsdf', 'lobes' or 'light'
+    make: Callable[[], dict] = field(compare=False, repr=False)   # -> the probe and its test settings
+
+    @property
+    def param_text(self) -> str:
+        return ", ".join(f"{k}={v}" for k, v in self.params)
+
+    @property
+    def label(self) -> str:
+        return f"{self.name}[{self.param_text}]" if self.params else self.name
+
+    def seed(self, base: int) -> int:
+        """A seed of its own per routine (stable whatever else is run), from ``base``."""
+        return (zlib.crc32(self.label.encode()) + 7919 * int(base)) % 2**32
+
+
+@dataclass
+class Row:
+    """The outcome of one routine's tests: ``verdict`` over all its checks."""
+
+    routine: str
+    params: str
+    n: int
+    p_value: float
+    verdict: str
+    seconds: float
+    message: str = ""
+    checks: dict = field(default_factory=dict)
+    result: Chi2Result | None = field(default=None, repr=False)
+
+    @property
+    def passed(self) -> bool:
+        return self.verdict == "pass"
+
+    def to_json(self) -> dict:
+        r = self.result
+        return {"routine": self.routine, "params": self.params, "n": self.n, "p_value": self.p_value,
+                "verdict": self.verdict, "seconds": round(self.seconds, 3), "message": self.message,
+                "alpha": r.alpha if r else None, "statistic": r.statistic if r else None,
+                "dof": r.dof if r else None, "n_valid": r.n_valid if r else None,
+                "mass": r.mass if r else None, "mass_p_value": r.mass_p_value if r else None,
+                "pooled_in": r.pooled_in if r else None, "pooled_out": r.pooled_out if r else None,
+                "checks": self.checks}
+
+
+# --- the catalogue ---------------------------------------------------------------------
+
+def _warp(name, domain, param=0.0, cos_range=None, params=()):
+    def make():
+        sample, pdf = warp(name, param)
+        return {"sample": sample, "pdf": pdf, "domain": domain, "dims": 2, "cos_range": cos_range}
+    return Routine(f"warp.{name}", tuple(params), "warp", make)
+
+
+def _bsdf(material, theta, alpha=None, resolution=DEFAULT_RESOLUTION):
+    params = (("theta_o", theta),) + ((("alpha", alpha),) if alpha is not None else ())
+
+    def make():
+        probe = BsdfProbe(material, direction(theta, 40.0), param=alpha or 0.0)
+        return {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": "hemisphere", "dims": 3,
+                "resolution": resolution}
+    return Routine(f"bsdf.{material}", params, "bsdf", make)
+
+
+def _lobes(material, ior, theta, inside=False):
+    params = (("ior", ior), ("theta_o", theta), ("side", "inside" if inside else "outside"))
+
+    def make():
+        wo = direction(180.0 - theta if inside else theta, 25.0)
+        fresnel = fresnel_schlick if material == "dielectric_schlick" else fresnel_exact
+        return {"probe": BsdfProbe(material, wo, param=ior), "F": fresnel(float(wo[2]), ior)}
+    return Routine(f"lobes.{material}", params, "lobes", make)
+
+
+def _cap(ref, axis_point, boundary, margin=0.02):
+    """Rotation with +z from ``ref`` toward ``axis_point`` and the cos theta range of a cap
+    holding every direction toward ``boundary`` points (plus a margin)."""
+    rot = frame(np.asarray(axis_point, float) - ref)
+    d = np.asarray(boundary, float) - ref
+    cos = (d / np.linalg.norm(d, axis=1, keepdims=True)) @ rot[2]
+    return rot, (max(-1.0, float(cos.min()) - margin), 1.0)
+
+
+def _polygon_boundary(vertices, k=400):
+    v = np.asarray(vertices, float)
+    t = np.linspace(0.0, 1.0, k)[:, None]
+    return np.concatenate([(1 - t) * v[i] + t * v[(i + 1) % len(v)] for i in range(len(v))])
+
+
+def _light(label, shapes_fn, ref, *, background=0.0, cap=None, params=()):
+    """``cap``: None (the whole sphere), or a function (ref) -> (rotation, cos_range)."""
+    def make():
+        r = np.asarray(ref, float)
+        rot, cos_range = cap(r) if cap else (np.eye(3), None)
+        shapes = shapes_fn()
+        probe = LightProbe(shapes, r, background=background, rotation=rot)
+        emitters = sum(1 for s in shapes if s.material.emits) + (1 if background > 0 else 0)
+        return {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": "sphere", "dims": 3,
+                "cos_range": cos_range, "single": emitters == 1}
+    return Routine(f"light.{label}", tuple(params), "light", make)
+
+
+def _catalogue() -> tuple:
+    import reference_tracer as rt
+
+    routines = [
+        _warp("uniform_hemisphere", "hemisphere"),
+        _warp("cosine_hemisphere", "hemisphere"),
+        _warp("uniform_sphere", "sphere"),
+        _warp("concentric_disk", "disk"),
+    ]
+    # the cone on a cap exactly its size (a whole hemisphere / sphere at 1 and 2)
+    for omc in (1e-3, 0.3, 1.0, 2.0):
+        routines.append(_warp("uniform_cone", "sphere", omc, None if omc >= 2 else (1.0 - omc, 1.0),
+                              params=(("1-cos_max", omc),)))
+    routines += [_bsdf("lambertian", theta) for theta in (30, 85)]
+    routines += [_bsdf("rough_conductor", theta, alpha)
+                 for alpha in (0.1, 0.3, 0.6, 1.0) for theta in (0, 30, 60, 85)]
+    routines += [_lobes("dielectric", 1.5, theta) for theta in (0, 45, 80)]
+    routines += [_lobes("dielectric", 1.5, theta, inside=True) for theta in (20, 60)]   # 60: total reflection
+    routines += [_lobes("dielectric", 1.33, 60), _lobes("dielectric", 0.7, 30), _lobes("dielectric", 0.7, 50),
+                 _lobes("dielectric_schlick", 1.5, 60)]                                 # ior 0.7 at 50: TIR
+
+    light = rt.DiffuseLight(1.0)
+    quad_q, quad_u, quad_v = (-1.0, 1.0, -1.0), (2.0, 0.0, 0.0), (0.0, 0.0, 2.0)      # faces -y
+    quad_corners = [quad_q, (1.0, 1.0, -1.0), (1.0, 1.0, 1.0), (-1.0, 1.0, 1.0)]
+    tri = [(-1.0, 1.0, -1.0), (1.0, 1.0, -1.0), (0.0, 1.0, 1.0)]                          # faces -y
+
+    def quad():
+        return [rt.Quad(quad_q, quad_u, quad_v, light)]
+
+    def triangle():
+        return [rt.Triangle(*tri, light)]
+
+    def sphere(flip=False):
+        return lambda: [rt.Sphere((0.0, 0.0, 0.0), 1.0, light, flip_normals=flip)]
+
+    def sphere_cap(r):  # the cone the unit sphere at the origin subtends, and a margin
+        d = float(np.linalg.norm(r))
+        cos_max = math.sqrt(1.0 - 1.0 / (d * d))
+        return frame(-r), (cos_max - 0.02 * (1.0 - cos_max), 1.0)
+
+    def quad_cap(r):
+        return _cap(r, np.mean(quad_corners, axis=0), _polygon_boundary(quad_corners))
+
+    def tri_cap(r):
+        return _cap(r, np.mean(tri, axis=0), _polygon_boundary(tri))
+
+    def mixed():
+        return [rt.Quad((-2.0, 1.5, -1.0), (1.5, 0.0, 0.0), (0.0, 0.0, 1.5), rt.DiffuseLight(2.0)),
+                rt.Triangle((1.0, -1.0, 1.5), (2.0, 1.0, 1.5), (0.5, 1.0, 1.5), rt.DiffuseLight((1.0, 3.0, 0.5))),
+                rt.Sphere((0.5, -1.2, -1.0), 0.4, rt.DiffuseLight(5.0))]
+
+    routines += [
+        _light("quad", quad, (0.3, 0.4, -0.2), params=(("ref", "0.6 below"),)),
+        _light("quad", quad, (2.0, 0.5, 0.3), cap=quad_cap, params=(("ref", "beside, 0.5 below"),)),
+        _light("triangle", triangle, (0.2, 0.3, 0.1), params=(("ref", "0.7 below"),)),
+        _light("sphere", sphere(), (0.9, -0.6, -1.0), cap=sphere_cap, params=(("ref", "outside, d=1.48 r"),)),
+        _light("sphere", sphere(), (2.4, 0.0, -3.2), cap=sphere_cap, params=(("ref", "outside, d=4 r"),)),
+        _light("sphere", sphere(True), (0.3, -0.2, 0.4), params=(("ref", "inside, inward normals"),)),
+        _light("sphere", sphere(True), (0.0, 0.0, 1.0), cap=lambda r: (frame(-r), (-0.02, 1.0)),
+               params=(("ref", "on the surface, inward normals"),)),
+        _light("scene", mixed, (0.0, 0.0, 0.0), background=0.2,
+               params=(("emitters", "quad+sphere+background+triangle seen from behind"),)),
+    ]
+    return tuple(routines)
+
+
+#: Every routine of the catalogue, in table order.
+ROUTINES: tuple = _catalogue()
+
+
+def select(patterns=None) -> tuple:
+    """Routines whose label starts with any of ``patterns`` (all when None or empty)."""
+    routines = ROUTINES
+    if not patterns:
+        return routines
+    chosen = tuple(r for r in routines if any(r.label.startswith(p) for p in patterns))
+    unknown = [p for p in patterns if not any(r.label.startswith(p) for r in routines)]
+    if unknown:
+        raise ValueError(f"no routine matches {', '.join(map(repr, unknown))} "
+                         f"(names start with warp., bsdf., lobes., light.)")
+    return chosen
+
+
+# --- running -----------------------------------------------------------------------------
+
+def _chunks(n: int, seed: int, dims: int = 3):
+    """The uniform numbers of ``n`` samples, in chunks (bounded memory at any n)."""
+    rng = np.random.default_rng(seed)
+    for start in range(0, n, _CHUNK):
+        yield rng.random((min(_CHUNK, n - start), dims))
+
+
+def _bsdf_checks(probe: BsdfProbe, grid: Grid, n: int, seed: int, level: float) -> dict:
+    """weight = eval / pdf and pdf = pdf() at every sample; albedo = mean weight."""
+    lum = np.asarray(LUMINANCE_WEIGHTS)
+    bad_weight = bad_pdf = valid_count = 0
+    w_sum = w_sq = 0.0
+    for u in _chunks(n, seed):
+        s = probe.sample_full(u)
+        valid = s["valid"].astype(bool)
+        ev = probe.eval_pdf(s["wi"][valid])
+        w, p = s["weight"][valid], s["pdf"][valid]
+        ratio = ev["value"] / ev["pdf"][:, None]
+        bad_weight += int((~np.isclose(w, ratio, rtol=_RTOL, atol=0)).any(axis=1).sum())
+        bad_pdf += int((~np.isclose(p, ev["pdf"], rtol=_RTOL, atol=0)).sum())
+        valid_count += int(valid.sum())
+        wl = w @ lum                       # failed samples weigh 0
+        w_sum += float(wl.sum())
+        w_sq += float((wl * wl).sum())
+    mean = w_sum / n
+    se = math.sqrt(max(w_sq / n - mean * mean, 0.0) / max(n - 1, 1))
+    integ, err, _, bad = integrate(lambda d: probe.eval_pdf(d)["value"] @ lum, grid, n=n)
+    albedo = float(integ.sum())
+    p_albedo = excess_p_value(albedo - mean, err + _RTOL * abs(albedo), se)
+    return {
+        "weight_is_eval_over_pdf": {"ok": bad_weight == 0, "mismatches": bad_weight, "samples": valid_count},
+        "sample_pdf_is_pdf": {"ok": bad_pdf == 0, "mismatches": bad_pdf},
+        "albedo": {"ok": p_albedo >= level and bad == 0, "integral_f_cos": albedo, "mean_weight": mean,
+                   "se": se, "integration_error": err, "p_value": p_albedo},
+    }
+
+
+def _light_checks(probe: LightProbe, single: bool, n: int, seed: int) -> dict:
+    """A sample's pdf equals light_pdf in its direction (one emitter) or is at most it."""
+    bad = bad_all = valid_count = 0
+    worst = 0.0
+    for u in _chunks(n, seed):
+        s = probe.sample_full(u)
+        valid = s["valid"].astype(bool)
+        wi = np.ascontiguousarray(s["wi"][valid])
+        pdf, pdf_all = s["pdf"][valid], s["pdf_all"][valid]
+        lp = probe.core.light_pdf(np.ascontiguousarray(np.broadcast_to(probe.ref, wi.shape)), wi)
+        if single:
+            bad += int((~np.isclose(pdf, lp, rtol=_LIGHT_RTOL, atol=0)).sum())
+            if len(lp):
+                worst = max(worst, float(np.max(np.abs(pdf / np.where(lp > 0, lp, np.inf) - 1.0))))
+        else:
+            bad += int((pdf > lp * (1 + _LIGHT_RTOL)).sum())
+        bad_all += int((~np.isclose(pdf_all, lp, rtol=_RTOL, atol=0)).sum())
+        valid_count += int(valid.sum())
+    return {"sample_pdf_matches_light_pdf": {"ok": bad == 0, "mismatches": bad, "samples": valid_count,
+                                             "worst_relative": worst if single else None},
+            "pdf_all_is_light_pdf": {"ok": bad_all == 0, "mismatches": bad_all}}
+
+
+def _lobe_run(spec: dict, n: int, seed: int, alpha: float):
+    """Counts of reflection and transmission against F and 1 - F; directions and weights."""
+    probe: BsdfProbe = spec["probe"]
+    wo, ior, F = probe.wo, probe.param, spec["F"]
+    mirror = np.array([-wo[0], -wo[1], wo[2]])
+    t_dir, t_eta = refract_expected(wo, ior)
+    flags_ok = refl_ok = trans_ok = True
+    n_refl = n_trans = 0
+    t_err = 0.0
+    for u in _chunks(n, seed):
+        s = probe.sample_full(u)
+        wi, weight, eta = s["wi"], s["weight"], s["eta"]
+        flags_ok &= bool(s["valid"].all() and s["delta"].all())
+        refl = np.all(np.abs(wi - mirror) <= _RTOL, axis=1)
+        trans = ~refl
+        n_refl += int(refl.sum())
+        n_trans += int(trans.sum())
+        refl_ok &= bool(np.all(weight[refl] == 1.0) and np.all(eta[refl] == 1.0))
+        if trans.any():
+            t_err = max(t_err, float(np.abs(wi[trans] - t_dir).max()) if t_dir is not None else math.inf)
+            trans_ok &= bool(np.allclose(weight[trans], 1.0 / t_eta ** 2, rtol=_RTOL, atol=0)
+                             and np.allclose(eta[trans], t_eta, rtol=_RTOL, atol=0))
+    checks = {"all_valid_and_delta": {"ok": flags_ok},
+              "reflection": {"ok": refl_ok, "count": n_refl}}
+    if n_trans:
+        checks["transmission_snell"] = {"ok": trans_ok and t_err <= _RTOL, "max_direction_error": t_err,
+                                        "count": n_trans}
+    res = discrete_test([n_refl, n_trans], [F, 1.0 - F], alpha=alpha)
+    res.details.update(F=F, reflected=n_refl, transmitted=n_trans)
+    return res, checks
+
+
+def run_routine(routine: Routine, *, n: int = DEFAULT_N, seed: int = 0, alpha: float = DEFAULT_ALPHA) -> Row:
+    """Every test of one routine at false-positive rate ``alpha`` (split by Sidak over its
+    statistical sub-tests); the Pearson p-value is the row's ``p_value``."""
+    t0 = time.perf_counter()
+    spec = routine.make()
+    s = routine.seed(seed)
+    checks: dict = {}
+    if routine.kind == "lobes":
+        res, checks = _lobe_run(spec, n, s, alpha)
+    else:
+        stat_tests = 2 if routine.kind == "bsdf" else 1
+        a = sidak(alpha, stat_tests)
+        res = chi2_test(spec["sample"], spec["pdf"], domain=spec["domain"], n=n, seed=s, alpha=a,
+                        dims=spec["dims"], cos_range=spec.get("cos_range"),
+                        resolution=spec.get("resolution", DEFAULT_RESOLUTION))
+        if routine.kind == "bsdf":
+            grid = Grid.make("hemisphere", res.resolution)
+            checks = _bsdf_checks(spec["probe"], grid, n, s + 1, a)
+        elif routine.kind == "light":
+            checks = _light_checks(spec["probe"], spec["single"], n, s + 1)
+    failed = [k for k, v in checks.items() if not v["ok"]]
+    verdict, message = res.verdict, res.message
+    if failed:
+        verdict = "fail"
+        message = "; ".join(filter(None, [message, "failed checks: " + ", ".join(failed)]))
+    return Row(routine=routine.name, params=routine.param_text, n=n, p_value=res.p_value, verdict=verdict,
+               seconds=time.perf_counter() - t0, message=message, checks=checks, result=res)
+
+
+def run_all(routines=None, *, n: int = DEFAULT_N, seed: int = 0, alpha_family: float = DEFAULT_ALPHA,
+            on_row: Callable[[Row], None] | None = None, on_start: Callable[[Routine], None] | None = None) -> list:
+    """Run ``routines`` (default: the whole catalogue) with ``alpha_family`` the false-positive
+    rate of the whole family: each routine is tested at ``sidak(alpha_family, len(routines))``."""
+    routines = ROUTINES if routines is None else tuple(routines)
+    per_test = sidak(alpha_family, len(routines))
+    rows = []
+    for r in routines:
+        if on_start:
+            on_start(r)
+        row = run_routine(r, n=n, seed=seed, alpha=per_test)
+        rows.append(row)
+        if on_row:
+            on_row(row)
+    return rows

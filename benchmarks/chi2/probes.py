@@ -1,0 +1,183 @@
+"""Adapters from the tracer's sampling routines to ``sample(u)`` / ``pdf(points)`` callables.
+
+Warps and BSDFs run through the C++ core's batch probes (``_core.warp_sample``,
+``warp_pdf``, ``bsdf_sample``, ``bsdf_eval_pdf``: reference_tracer/cpp/sampling_probe.cpp),
+which call the routines of ``sampling/warp.h`` and the material dispatch the integrator
+uses. Light sampling runs through a compiled scene's ``sample_lights`` / ``light_pdf``,
+i.e. the scene's own LightSampler (emitter selection by power, background share,
+per-shape point sampling, and ``pdf_all``, the density the ``mixture`` strategy uses).
+
+Failed samples (the routine returned nothing) come back as rows of NaN, which
+:func:`benchmarks.chi2.pearson.chi2_test` counts as invalid.
+
+The Fresnel reflectances here are an independent statement of the formulas (the
+expectation the dielectric's lobe choice is tested against), not the tracer's code.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["direction", "frame", "warp", "BsdfProbe", "LightProbe", "fresnel_exact", "fresnel_schlick",
+           "refract_expected"]
+
+
+def _core():
+    from reference_tracer import _core  # loads the compiled extension on first use
+
+    return _core
+
+
+def _c(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def direction(theta_deg: float, phi_deg: float = 0.0) -> np.ndarray:
+    """Unit vector at polar angle theta from +z and azimuth phi (degrees)."""
+    t, p = math.radians(theta_deg), math.radians(phi_deg)
+    return np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
+
+
+def frame(axis) -> np.ndarray:
+    """A rotation (3, 3) whose rows are an orthonormal basis with ``axis`` (normalised) last:
+    ``world @ R.T`` gives coordinates in which ``axis`` is +z; ``local @ R`` maps back."""
+    n = np.asarray(axis, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    s = np.cross(helper, n)
+    s /= np.linalg.norm(s)
+    return np.stack([s, np.cross(n, s), n])
+
+
+def warp(name: str, param: float = 0.0):
+    """``(sample, pdf)`` of the warp ``name`` of sampling/warp.h (see sampling_probe.cpp)."""
+    core = _core()
+
+    def sample(u):
+        return core.warp_sample(name, _c(u), float(param))
+
+    def pdf(points):
+        return core.warp_pdf(name, _c(points), float(param))
+
+    return sample, pdf
+
+
+@dataclass
+class BsdfProbe:
+    """One material at one outgoing direction ``wo`` (local frame, unit), through
+    ``rt::bsdf_sample``, ``rt::bsdf_eval`` and ``rt::bsdf_pdf``.
+
+    ``param`` is alpha for ``rough_conductor`` and the index of refraction for
+    ``dielectric`` / ``dielectric_schlick``.
+    """
+
+    material: str
+    wo: np.ndarray
+    param: float = 0.0
+    albedo: tuple = (0.8, 0.6, 0.4)
+
+    def __post_init__(self):
+        self.wo = _c(self.wo)
+        self.wo = self.wo / np.linalg.norm(self.wo)
+
+    def sample_full(self, u) -> dict:
+        """Every field of the samples of (n, 3) uniforms: wi, weight, pdf, eta, delta, valid."""
+        return _core().bsdf_sample(self.material, self.wo, _c(u), _c(self.albedo), float(self.param))
+
+    def sample(self, u) -> np.ndarray:
+        """Directions of (n, 3) uniforms, NaN rows where the sampler failed."""
+        s = self.sample_full(u)
+        return np.where(s["valid"].astype(bool)[:, None], s["wi"], np.nan)
+
+    def eval_pdf(self, wi) -> dict:
+        """``value`` (f * cos, (n, 3)) and ``pdf`` ((n,)) at directions wi."""
+        return _core().bsdf_eval_pdf(self.material, self.wo, _c(wi), _c(self.albedo), float(self.param))
+
+    def pdf(self, wi) -> np.ndarray:
+        return self.eval_pdf(wi)["pdf"]
+
+
+@dataclass
+class LightProbe:
+    """Light sampling from the point ``ref`` of a scene holding ``shapes`` (emitters and
+    any other shapes) and a constant ``background``.
+
+    ``rotation`` (rows: a basis, see :func:`frame`) expresses directions in a frame of the
+    caller's choice (e.g. +z toward a small light, to bin a concentrated density on a
+    cap): ``sample`` returns local directions and ``pdf`` takes them.
+    """
+
+    shapes: list
+    ref: np.ndarray
+    background: float = 0.0
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    _core_scene: object = field(default=None, init=False, repr=False)
+
+    @property
+    def core(self):
+        if self._core_scene is None:
+            import reference_tracer as rt
+            from reference_tracer.render import core_scene
+
+            cam = rt.Camera(lookfrom=(0.0, 0.0, -10.0), lookat=(0.0, 0.0, 0.0), vup=(0, 1, 0), vfov=60.0,
+                            width=2, height=2)
+            self._core_scene = core_scene(rt.Scene(camera=cam, shapes=list(self.shapes),
+                                                   background=self.background))
+        return self._core_scene
+
+    def _refs(self, m: int) -> np.ndarray:
+        return _c(np.broadcast_to(np.asarray(self.ref, dtype=np.float64), (m, 3)))
+
+    def sample_full(self, u) -> dict:
+        """Every field of ``sample_lights`` for (n, 3) uniforms (wi in world space)."""
+        u = _c(u)
+        return self.core.sample_lights(self._refs(len(u)), u)
+
+    def sample(self, u) -> np.ndarray:
+        s = self.sample_full(u)
+        wi = np.where(s["valid"].astype(bool)[:, None], s["wi"], np.nan)
+        return wi @ self.rotation.T
+
+    def pdf(self, dirs) -> np.ndarray:
+        world = _c(np.asarray(dirs) @ self.rotation)
+        return self.core.light_pdf(self._refs(len(world)), world)
+
+
+def fresnel_exact(cos_i: float, ior: float) -> float:
+    """Unpolarised Fresnel reflectance of a smooth interface (outside index 1, inside
+    ``ior``) for light arriving at cosine ``cos_i`` to the outward normal (negative:
+    from inside); 1 under total internal reflection."""
+    n1, n2 = (1.0, ior) if cos_i >= 0 else (ior, 1.0)
+    ci = abs(cos_i)
+    sin_t2 = (n1 / n2) ** 2 * (1.0 - ci * ci)
+    if sin_t2 >= 1.0:
+        return 1.0
+    ct = math.sqrt(1.0 - sin_t2)
+    rs = (n1 * ci - n2 * ct) / (n1 * ci + n2 * ct)
+    rp = (n2 * ci - n1 * ct) / (n2 * ci + n1 * ct)
+    return 0.5 * (rs * rs + rp * rp)
+
+
+def fresnel_schlick(cos_i: float, ior: float) -> float:
+    """The book's Schlick approximation R0 + (1 - R0)(1 - |cos_i|)^5, R0 = ((1 - ior) /
+    (1 + ior))^2, with total internal reflection exact (what Dielectric(fresnel='schlick')
+    promises)."""
+    if fresnel_exact(cos_i, ior) == 1.0:
+        return 1.0
+    r0 = ((1.0 - ior) / (1.0 + ior)) ** 2
+    return r0 + (1.0 - r0) * (1.0 - abs(cos_i)) ** 5
+
+
+def refract_expected(wo: np.ndarray, ior: float):
+    """Snell's law for the outgoing direction ``wo`` (local, +z the outside normal):
+    the transmitted direction (None under total internal reflection) and the relative
+    index crossed n_t / n_i."""
+    n1, n2 = (1.0, ior) if wo[2] >= 0 else (ior, 1.0)
+    eta = n2 / n1
+    tangent = -np.array([wo[0], wo[1], 0.0]) / eta
+    t2 = float(tangent @ tangent)
+    if t2 >= 1.0:
+        return None, eta
+    return tangent + np.array([0.0, 0.0, -math.copysign(math.sqrt(1.0 - t2), wo[2])]), eta

@@ -1,0 +1,226 @@
+// Batch probes of the sampling routines, for their chi-square tests (benchmarks/chi2).
+//
+// Each function runs the tracer's own inline routine - sampling/warp.h, and the material
+// dispatch of materials/material.h (rt::bsdf_sample, rt::bsdf_eval, rt::bsdf_pdf, which is
+// what the integrator calls) - once per row of a numpy array, and returns numpy arrays.
+// Nothing is re-implemented here except the support of the constant densities (the warp
+// header gives their value, not where they vanish) and the disk's density 1/pi, which is
+// the definition of the target rather than code under test. Light sampling needs a scene
+// and is probed through the existing Scene.sample_lights / Scene.light_pdf (bindings.cpp),
+// i.e. the scene's real LightSampler.
+//
+//   warp_sample(name, u (n, 2), param=0) -> (n, 3) unit vectors; (n, 2) points for the disk
+//   warp_pdf(name, points, param=0)      -> (n,) density (solid angle; area for the disk)
+//   bsdf_sample(material, wo (3,), u (n, 3), albedo (3,), param) -> dict of arrays
+//   bsdf_eval_pdf(material, wo (3,), wi (n, 3), albedo (3,), param) -> dict of arrays
+//
+// Warp names: uniform_hemisphere, cosine_hemisphere, uniform_sphere, uniform_cone (param =
+// 1 - cos(theta_max), as square_to_uniform_cone takes it), concentric_disk (the concentric
+// map of square_to_cosine_hemisphere, which inlines it: the disk point is the direction's
+// (x, y) - Malley's method lifts it to the hemisphere without changing it).
+// Materials: lambertian, rough_conductor (param = alpha), dielectric and
+// dielectric_schlick (param = ior), metal (param = fuzz). Directions are in the local
+// shading frame (+z = normal), as the routines take them.
+#include "sampling_probe.h"
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/string.h>
+
+#include "materials/material.h"
+#include "sampling/warp.h"
+
+namespace nb = nanobind;
+using namespace nb::literals;
+
+namespace rt {
+namespace {
+
+using Matrix = nb::ndarray<const double, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
+using Vector = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+template <typename T>
+nb::ndarray<nb::numpy, T> to_numpy(std::vector<T>&& data, std::initializer_list<size_t> shape) {
+    auto* heap = new std::vector<T>(std::move(data));
+    nb::capsule owner(heap, [](void* p) noexcept { delete static_cast<std::vector<T>*>(p); });
+    return nb::ndarray<nb::numpy, T>(heap->data(), shape, owner);
+}
+
+void require_columns(const Matrix& m, size_t cols, const char* name) {
+    if (m.shape(1) != cols)
+        throw std::invalid_argument(std::string(name) + ": expected " + std::to_string(cols) + " columns");
+}
+
+Vec3 vec3(const Vector& a, const char* name) {
+    if (a.shape(0) != 3) throw std::invalid_argument(std::string(name) + ": expected a 3-vector");
+    return {a(0), a(1), a(2)};
+}
+
+enum class Warp { UniformHemisphere, CosineHemisphere, UniformSphere, UniformCone, ConcentricDisk };
+
+Warp warp_of(const std::string& name, double param) {
+    Warp w;
+    if (name == "uniform_hemisphere") w = Warp::UniformHemisphere;
+    else if (name == "cosine_hemisphere") w = Warp::CosineHemisphere;
+    else if (name == "uniform_sphere") w = Warp::UniformSphere;
+    else if (name == "uniform_cone") w = Warp::UniformCone;
+    else if (name == "concentric_disk") w = Warp::ConcentricDisk;
+    else
+        throw std::invalid_argument("unknown warp '" + name + "' (uniform_hemisphere, cosine_hemisphere, "
+                                    "uniform_sphere, uniform_cone, concentric_disk)");
+    if (w == Warp::UniformCone && !(param > 0.0 && param <= 2.0))
+        throw std::invalid_argument("uniform_cone: param = 1 - cos(theta_max) must be in (0, 2]");
+    return w;
+}
+
+nb::ndarray<nb::numpy, double> probe_warp_sample(const std::string& name, const Matrix& u, double param) {
+    const Warp w = warp_of(name, param);
+    require_columns(u, 2, "u");
+    const size_t n = u.shape(0);
+    const size_t dim = w == Warp::ConcentricDisk ? 2 : 3;
+    std::vector<double> out(dim * n);
+    {
+        nb::gil_scoped_release release;
+        for (size_t i = 0; i < n; ++i) {
+            const double u1 = u(i, 0), u2 = u(i, 1);
+            Vec3 d;
+            switch (w) {
+                case Warp::UniformHemisphere: d = square_to_uniform_hemisphere(u1, u2); break;
+                case Warp::CosineHemisphere:
+                case Warp::ConcentricDisk: d = square_to_cosine_hemisphere(u1, u2); break;
+                case Warp::UniformSphere: d = square_to_uniform_sphere(u1, u2); break;
+                case Warp::UniformCone: d = square_to_uniform_cone(u1, u2, param); break;
+            }
+            for (size_t c = 0; c < dim; ++c) out[dim * i + c] = d[int(c)];
+        }
+    }
+    return to_numpy(std::move(out), {n, dim});
+}
+
+nb::ndarray<nb::numpy, double> probe_warp_pdf(const std::string& name, const Matrix& points, double param) {
+    const Warp w = warp_of(name, param);
+    require_columns(points, w == Warp::ConcentricDisk ? 2 : 3, "points");
+    const size_t n = points.shape(0);
+    std::vector<double> out(n);
+    {
+        nb::gil_scoped_release release;
+        for (size_t i = 0; i < n; ++i) {
+            double p = 0.0;
+            if (w == Warp::ConcentricDisk) {
+                const double x = points(i, 0), y = points(i, 1);
+                p = x * x + y * y <= 1.0 ? kInvPi : 0.0;
+            } else {
+                const double z = points(i, 2);
+                switch (w) {
+                    case Warp::UniformHemisphere: p = z >= 0.0 ? kUniformHemispherePdf : 0.0; break;
+                    case Warp::CosineHemisphere: p = cosine_hemisphere_pdf(z); break;
+                    case Warp::UniformSphere: p = kUniformSpherePdf; break;
+                    case Warp::UniformCone: p = z >= 1.0 - param ? uniform_cone_pdf(param) : 0.0; break;
+                    case Warp::ConcentricDisk: break;
+                }
+            }
+            out[i] = p;
+        }
+    }
+    return to_numpy(std::move(out), {n});
+}
+
+Material material_of(const std::string& name, const Vector& albedo, double param) {
+    Material m;
+    if (name == "lambertian") m.type = MaterialType::Lambertian;
+    else if (name == "rough_conductor") m.type = MaterialType::RoughConductor;
+    else if (name == "dielectric" || name == "dielectric_schlick") m.type = MaterialType::Dielectric;
+    else if (name == "metal") m.type = MaterialType::Metal;
+    else
+        throw std::invalid_argument("unknown material '" + name +
+                                    "' (lambertian, rough_conductor, dielectric, dielectric_schlick, metal)");
+    m.albedo = vec3(albedo, "albedo");
+    m.param = param;
+    m.schlick = name == "dielectric_schlick";
+    if (m.type == MaterialType::RoughConductor && !(param > 0.0)) throw std::invalid_argument("alpha must be > 0");
+    if (m.type == MaterialType::Dielectric && !(param > 0.0)) throw std::invalid_argument("ior must be > 0");
+    return m;
+}
+
+Vec3 unit_wo(const Vector& wo) {
+    const Vec3 v = vec3(wo, "wo");
+    if (!(std::abs(length(v) - 1.0) < 1e-9)) throw std::invalid_argument("wo must be a unit vector");
+    return v;
+}
+
+// rt::bsdf_sample for each row of u = (u0, u1, u2): u0 picks a lobe (glass), u1 and u2
+// the direction.
+nb::dict probe_bsdf_sample(const std::string& material, const Vector& wo_, const Matrix& u, const Vector& albedo,
+                     double param) {
+    const Material m = material_of(material, albedo, param);
+    const Vec3 wo = unit_wo(wo_);
+    require_columns(u, 3, "u");
+    const size_t n = u.shape(0);
+    std::vector<double> wi(3 * n, 0.0), weight(3 * n, 0.0), pdf(n, 0.0), eta(n, 1.0);
+    std::vector<uint8_t> delta(n, 0), valid(n, 0);
+    {
+        nb::gil_scoped_release release;
+        for (size_t i = 0; i < n; ++i) {
+            const BSDFSample s = rt::bsdf_sample(m, wo, u(i, 0), u(i, 1), u(i, 2));
+            for (int c = 0; c < 3; ++c) {
+                wi[3 * i + c] = s.wi[c];
+                weight[3 * i + c] = s.weight[c];
+            }
+            pdf[i] = s.pdf;
+            eta[i] = s.eta;
+            delta[i] = s.delta;
+            valid[i] = s.valid;
+        }
+    }
+    nb::dict r;
+    r["wi"] = to_numpy(std::move(wi), {n, 3});
+    r["weight"] = to_numpy(std::move(weight), {n, 3});
+    r["pdf"] = to_numpy(std::move(pdf), {n});
+    r["eta"] = to_numpy(std::move(eta), {n});
+    r["delta"] = to_numpy(std::move(delta), {n});
+    r["valid"] = to_numpy(std::move(valid), {n});
+    return r;
+}
+
+// rt::bsdf_eval (f * cos) and rt::bsdf_pdf for each row of wi; both zero for delta lobes.
+nb::dict probe_bsdf_eval_pdf(const std::string& material, const Vector& wo_, const Matrix& wi, const Vector& albedo,
+                       double param) {
+    const Material m = material_of(material, albedo, param);
+    const Vec3 wo = unit_wo(wo_);
+    require_columns(wi, 3, "wi");
+    const size_t n = wi.shape(0);
+    std::vector<double> value(3 * n, 0.0), pdf(n, 0.0);
+    {
+        nb::gil_scoped_release release;
+        for (size_t i = 0; i < n; ++i) {
+            const Vec3 d(wi(i, 0), wi(i, 1), wi(i, 2));
+            const Vec3 f = rt::bsdf_eval(m, wo, d);
+            for (int c = 0; c < 3; ++c) value[3 * i + c] = f[c];
+            pdf[i] = rt::bsdf_pdf(m, wo, d);
+        }
+    }
+    nb::dict r;
+    r["value"] = to_numpy(std::move(value), {n, 3});
+    r["pdf"] = to_numpy(std::move(pdf), {n});
+    return r;
+}
+
+}  // namespace
+
+void register_sampling_probe(nb::module_& m) {
+    m.def("warp_sample", &probe_warp_sample, "name"_a, "u"_a, "param"_a = 0.0,
+          "Warp (n, 2) uniform numbers with a routine of sampling/warp.h: (n, 3) local directions, "
+          "(n, 2) points for concentric_disk. param: 1 - cos(theta_max) for uniform_cone.");
+    m.def("warp_pdf", &probe_warp_pdf, "name"_a, "points"_a, "param"_a = 0.0,
+          "Density of warp_sample's output at (n, 3) directions (solid angle) or (n, 2) disk points (area).");
+    m.def("bsdf_sample", &probe_bsdf_sample, "material"_a, "wo"_a, "u"_a, "albedo"_a, "param"_a,
+          "rt::bsdf_sample for each row (u0, u1, u2) of u; wo is the unit local outgoing direction. "
+          "Returns dict wi (n, 3), weight (n, 3) = f cos / pdf, pdf (n,), eta (n,), delta (n,), valid (n,).");
+    m.def("bsdf_eval_pdf", &probe_bsdf_eval_pdf, "material"_a, "wo"_a, "wi"_a, "albedo"_a, "param"_a,
+          "rt::bsdf_eval (f * cos, (n, 3)) and rt::bsdf_pdf ((n,)) for each row of wi: dict value, pdf.");
+}
+
+}  // namespace rt
