@@ -110,7 +110,10 @@ def summary_table(store) -> str:
         for r in st.section_rows(scene, w, h):
             sig = r.get("bias_significant")
             rows.append([scene, f"{w}x{h}" if w and h else "?", curve_label(r["renderer"], r["strategy"]),
-                         fmt(r.get("slope"), 3), "BIASED" if sig is True else ("ok" if sig is False else "-"),
+                         fmt(r.get("slope"), 3),
+                         "BIASED" if sig is True else ("ok" if sig is False else
+                                                       ("undetermined" if r.get("bias_verdict") == "undetermined"
+                                                        else "-")),
                          fmt(r.get("efficiency_vs_mitsuba"), 3), fmt(r.get("time_to_target"), 3),
                          fmt(r.get("samples_per_second"), 3), fmt(r.get("samples_per_second_vs_mitsuba"), 3)])
     text = text_table(header, rows) if rows else "(summary.json holds no rows)"

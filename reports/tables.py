@@ -47,6 +47,9 @@ def _verdict(row: dict) -> str:
         return "biased"
     if sig is False:
         return "no bias detected"
+    if row.get("bias_verdict") == "undetermined":
+        needed = num(row.get("bias_spp_needed"))
+        return "undetermined (heavy-tailed" + (f", needs ~{needed:.0f} spp)" if math.isfinite(needed) else ")")
     return DASH
 
 

@@ -68,6 +68,8 @@ def _cell(r):
     t = Text()
     if r.get("bias_significant") is True:
         t.append(f"BIASED z={_f(r.get('bias_z'), 0)}", style="bold red")
+    elif r.get("bias_verdict") == "undetermined":
+        t.append(f"{_f(r.get('slope'))} (undetermined)", style="yellow")
     else:
         t.append(_f(r.get("slope")))
     if r.get("renderer") == "mitsuba":
@@ -105,7 +107,8 @@ def summary_table(rows, *, title: str = "rtbench summary"):
             sections.append(s)
     table = Table(title=title, show_lines=True, caption_justify="left",
                   caption="line 1: slope of RMSE vs spp (-0.50 = unbiased Monte Carlo), or BIASED with the bias "
-                          "test's z; line 2: efficiency 1/(MSE*s) | samples/s, both relative to Mitsuba path "
+                          "test's z, or (undetermined) where the estimator is too heavy-tailed at this budget for "
+                          "a verdict; line 2: efficiency 1/(MSE*s) | samples/s, both relative to Mitsuba path "
                           "(Mitsuba: its samples/s)")
     table.add_column("scene", no_wrap=True)
     for c in curves:

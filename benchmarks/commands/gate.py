@@ -140,8 +140,11 @@ def run(args) -> int:
                                    indent=1, default=float) + "\n")
     if report.passed:
         n_und = len(report.undetermined)
-        console.print(f"[green]gate passed[/]: {len(report.cases) - n_und} comparison(s) pass"
-                      + (f", {n_und} undetermined (not a failure; see above)" if n_und else ""))
+        if n_und:
+            console.print(f"[green]gate: no comparison failed[/]: {len(report.cases) - n_und} pass, {n_und} "
+                          "undetermined (not a failure; see above)")
+        else:
+            console.print(f"[green]gate passed[/]: {len(report.cases)} comparison(s)")
         return 0
     for c in report.failures:
         paths = write_p_images(c, args.out)
@@ -173,6 +176,8 @@ def _calibrate(args) -> int:
     strategies = _strategies(args.strategies) or list(UNBIASED_STRATEGIES)
     names = resolve_scenes(args.scenes or None)
     console = Console()
+    if not console.is_terminal:  # logs and files: keep one row per line
+        console = Console(width=max(console.width, 160))
     progress = Progress(TextColumn("calibration"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                         console=Console(stderr=True), transient=True)
     rows = []

@@ -10,6 +10,8 @@ One job, in three modules:
   (:func:`run_gate`: scenes, references, renders, p-value images of failures).
 - :mod:`~benchmarks.gate.power`: the measured power of the gate on injected biases
   (the table's rows; its printing is in :mod:`benchmarks.commands._gate_tables`).
+- :mod:`~benchmarks.gate.heavy_tails`: when a statistic of a heavy-tailed estimator may
+  be tested (Edgeworth bound) and how many spp would decide.
 - :mod:`~benchmarks.gate.calibration`: the measured false-alarm rate on unbiased renders
   of every strategy (``rtbench gate --calibrate``).
 
@@ -35,7 +37,8 @@ from .calibration import CalibrationRow, calibrate, clopper_pearson
 from .mitsuba_rule import MITSUBA_ALPHA, MitsubaRuleResult, mitsuba_rule
 from .power import INJECTIONS, QUICK_SUITE_COMPARISONS, PowerRow, injected_scene, power_row, power_table
 from .result import LEVELS, GateResult
-from .statistics import DEFAULT_VALIDITY, compare, edgeworth_error, sidak, spp_needed
+from .heavy_tails import DEFAULT_VALIDITY, edgeworth_error, spp_needed
+from .statistics import compare, sidak
 from .suite import (DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_STRATEGY, DEFAULT_WIDTH, GateCase,
                     GateReport, compare_render, gate_reference, gate_scene, resolve_scenes, resolve_strategies,
                     run_gate, write_p_images)

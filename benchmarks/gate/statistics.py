@@ -80,18 +80,12 @@ import numpy as np
 from scipy import stats
 
 from ..constants import GATE_ALPHA
+from .heavy_tails import (DEFAULT_VALIDITY, edgeworth_error, neighbourhood_floor, pixel_shape, sidak_level,
+                          spp_needed, tail_moments)
+from .findings import POWER_TILE, locate, power, relative_bias
 from .result import LEVELS, GateResult
 
-__all__ = ["compare", "sidak", "sidak_level", "edgeworth_error", "spp_needed", "DEFAULT_VALIDITY",
-           "POWER", "POWER_TILE"]
-
-#: Largest relative error of the normal tail probability at a level's critical value
-#: (:func:`edgeworth_error`) for a statistic to be tested (``benchmarks/STATISTICS.md``).
-DEFAULT_VALIDITY = 0.5
-#: The probability of detection quoted by the minimum detectable bias.
-POWER = 0.8
-#: Tile side of the quoted tile power.
-POWER_TILE = 8
+__all__ = ["compare", "sidak"]
 
 
 def sidak(p_min: float, m: int) -> float:
@@ -109,61 +103,6 @@ def sidak(p_min: float, m: int) -> float:
     if p_min <= 0.0:
         return 0.0
     return float(-math.expm1(m * math.log1p(-p_min)))
-
-
-def sidak_level(alpha: float, m: int) -> float:
-    """Per-test level that gives family-wise ``alpha`` over ``m`` independent tests.
-
-    Examples
-    --------
-    >>> round(sidak_level(0.01, 100), 7)
-    0.0001005
-    """
-    return float(-math.expm1(math.log1p(-alpha) / max(int(m), 1)))
-
-
-def edgeworth_error(z, g1, g2):
-    """Relative error bound of the normal upper tail ``Q(z)`` for a statistic with skewness
-    ``g1`` and excess kurtosis ``g2``, from the one-term Edgeworth expansion
-    ``P(Z > z) = Q(z) + phi(z) (g1 He2 / 6 + g2 He3 / 24 + g1^2 He5 / 72) + ...``:
-    ``phi(z) / Q(z) * (|g1| |He2(z)| / 6 + |g2| |He3(z)| / 24 + g1^2 |He5(z)| / 72)``
-    (Hermite polynomials ``He2 = z^2 - 1``, ``He3 = z^3 - 3z``, ``He5 = z^5 - 10z^3 + 15z``).
-
-    Examples
-    --------
-    >>> float(edgeworth_error(3.0, 0.0, 0.0))
-    0.0
-    >>> round(float(edgeworth_error(3.0, 0.1, 0.0)), 3)
-    0.446
-    """
-    z = np.asarray(z, dtype=np.float64)
-    he2, he3, he5 = z * z - 1.0, z ** 3 - 3.0 * z, z ** 5 - 10.0 * z ** 3 + 15.0 * z
-    mills = stats.norm.pdf(z) / stats.norm.sf(z)
-    g1 = np.abs(g1)
-    return mills * (g1 * np.abs(he2) / 6.0 + np.abs(g2) * np.abs(he3) / 24.0 + g1 * g1 * np.abs(he5) / 72.0)
-
-
-def spp_needed(z: float, g1: float, g2: float, spp: float, validity: float = DEFAULT_VALIDITY) -> int:
-    """About how many spp make :func:`edgeworth_error` at ``z`` drop to ``validity``, given the
-    statistic's skewness ``g1`` and excess kurtosis ``g2`` at ``spp`` (they fall as
-    ``1/sqrt(n)`` and ``1/n``).
-
-    Examples
-    --------
-    >>> spp_needed(3.0, 0.2, 0.0, 100) > 100
-    True
-    """
-    if edgeworth_error(z, g1, g2) <= validity:
-        return int(spp)
-    lo, hi = 0.0, 64.0  # log2 of the factor
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        f = 2.0 ** mid
-        if edgeworth_error(z, g1 / math.sqrt(f), g2 / f) <= validity:
-            hi = mid
-        else:
-            lo = mid
-    return int(math.ceil(spp * 2.0 ** hi))
 
 
 def _image3(a, name: str) -> np.ndarray:
@@ -236,14 +175,6 @@ def _welch_from_sums(diff, a, b, a2, b2, n_t, n_r, tol, fa=None, fa2=None):
     p[differs] = 0.0
     testable = pos | differs
     return stat, p, testable
-
-
-def _neighbourhood_floor(v: np.ndarray, size: int) -> np.ndarray:
-    """``max(v, mean of v over the size x size neighbourhood)`` per channel."""
-    from scipy.ndimage import uniform_filter
-
-    pooled = np.stack([uniform_filter(v[..., c], size=size, mode="nearest") for c in range(v.shape[2])], axis=-1)
-    return np.maximum(v, pooled)
 
 
 def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
@@ -329,9 +260,9 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
     failed = [k for k, v in level_p.items() if len(LEVELS) * v < alpha]
     verdict, reason, needed = _decide(failed, img, d.n_t, validity)
     # ---- where and how large
-    (wy, wx, wc), worst_tile, worst_level, worst_region = _locate(d, pix, tiles, tile_levels, level_p)
-    rel, rel_se, rel_c, rel_tile = _relative_bias(d, worst_tile)
-    mdb, mdb_tile = _power(img, dict(zip(tiles, tile_levels)).get(POWER_TILE))
+    (wy, wx, wc), worst_tile, worst_level, worst_region = locate(d, pix, tiles, tile_levels, level_p)
+    rel, rel_se, rel_c, rel_tile = relative_bias(d, worst_tile)
+    mdb, mdb_tile = power(img, dict(zip(tiles, tile_levels)).get(POWER_TILE))
     return GateResult(
         verdict=verdict, reason=reason, alpha=float(alpha), p_value=float(p_value),
         level_p=level_p, failed_levels=failed, n_tests=n_tests, n_candidates=n_cand,
@@ -442,7 +373,7 @@ def _prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *, var_d
     k3 = k4 = g1 = g2 = zeros
     fa = vr / n_t if variance_floor == "reference" else None
     if tails is not None:
-        m2, m3, k4s = _tail_moments(tails, x.shape)
+        m2, m3, k4s = tail_moments(tails, x.shape)
         if variance_floor == "reference":
             # the same estimator's variance, from many more samples: the floor that holds
             vx = np.maximum(vx, m2 * (tails.n / (tails.n - 1.0)))
@@ -455,46 +386,10 @@ def _prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *, var_d
     vx = np.where(vx <= (0.1 * zero_var_rtol * x) ** 2, 0.0, vx)
     vr = np.where(vr <= (0.1 * zero_var_rtol * r) ** 2, 0.0, vr)
     if tails is not None:
-        g1, g2 = _pixel_shape(m2, m3, k4s, exact=(vx == 0) & (vr == 0), n_t=n_t)
+        g1, g2 = pixel_shape(m2, m3, k4s, exact=(vx == 0) & (vr == 0), n_t=n_t)
     return _Inputs(x=x, r=r, a=vx / n_t, b=vr / n_r, fa=fa, k3=k3, k4=k4, g1=g1, g2=g2, bad=bad,
                    diff=x - r, abs_scale=np.maximum(np.abs(x), np.abs(r)), n_t=n_t, n_r=n_r,
                    zero_var_rtol=zero_var_rtol)
-
-
-def _tail_moments(tails, shape) -> tuple:
-    """``(m2, m3, kappa4)`` per sample from a ``SampleMoments``, checked against the image."""
-    m2, m3, k4 = (np.asarray(v, dtype=np.float64) for v in (tails.m2, tails.m3, tails.kappa4))
-    if m2.ndim == 2:
-        m2, m3, k4 = m2[..., None], m3[..., None], k4[..., None]
-    if m2.shape != shape:
-        raise ValueError(f"tails have shape {m2.shape}, the images {shape}")
-    if not (np.all(np.isfinite(m2)) and np.all(np.isfinite(m3)) and np.all(np.isfinite(k4))):
-        raise ValueError("tails have non-finite moments")
-    if int(tails.n) < 2:
-        raise ValueError(f"tails need >= 2 samples per pixel; got {tails.n}")
-    return m2, m3, k4
-
-
-def _pixel_shape(m2, m3, k4, *, exact, n_t) -> tuple:
-    """Skewness and excess kurtosis of each pixel *mean* for the pixel level.
-
-    The worse of the pixel's own per-sample shape and its 3x3 neighbourhood's, divided by
-    ``sqrt(n)`` and ``n``: the pixel-level variance borrows the neighbours' (larger)
-    noise, and without this a pixel whose own samples are dominated by rare paths would
-    look normal.
-    """
-    m2 = np.where(exact, 0.0, m2)
-
-    def shape(s3, s4, s2):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ok = s2 > 0
-            safe = np.where(ok, s2, 1.0)
-            return np.where(ok, np.abs(s3) / safe ** 1.5, 0.0), np.where(ok, np.abs(s4) / safe ** 2, 0.0)
-
-    pool = lambda v: _neighbourhood_floor(v, 3)  # noqa: E731
-    own = shape(m3, k4, m2)
-    nb = shape(pool(np.abs(m3)), pool(np.abs(k4)), pool(m2))
-    return np.maximum(own[0], nb[0]) / math.sqrt(n_t), np.maximum(own[1], nb[1]) / n_t
 
 
 def _level(d: _Inputs, reduce, diff, K3, K4, *, alpha_level, validity) -> _Level:
@@ -529,7 +424,7 @@ def _pixel_level(d: _Inputs, pixel_pool: int, **crit) -> _Level:
     """
     exact = (d.a == 0) & (d.b == 0)
     pool = ((lambda v: v) if pixel_pool <= 1 else
-            (lambda v: np.where(exact, v, _neighbourhood_floor(v, pixel_pool))))
+            (lambda v: np.where(exact, v, neighbourhood_floor(v, pixel_pool))))
     var = pool(d.a if d.fa is None else np.maximum(d.a, d.fa)) + pool(d.b)
     lv = _level(d, pool, d.diff, d.g1 * var ** 1.5, d.g2 * var * var, **crit)
     lv.z[d.bad] = np.inf
@@ -581,72 +476,3 @@ def _decide(failed: list, img: _Level, n_t: float, validity: float) -> tuple:
     needed = max(spp_needed(img.z_crit, a, b, n_t, validity) for a, b in zip(g1, g2))
     return ("undetermined", f"heavy-tailed: the image mean is too far from normal at {int(n_t)} spp "
             f"(skewness {g1.max():.2g}, excess kurtosis {g2.max():.2g}); needs about {needed} spp", needed)
-
-
-def _argworst(p: np.ndarray, s: np.ndarray) -> tuple:
-    """Index of the smallest ``p``, ties broken by the largest ``|s|``."""
-    flat = np.lexsort((-np.abs(s).ravel(), p.ravel()))[0]
-    return tuple(int(i) for i in np.unravel_index(flat, p.shape))
-
-
-def _tested(lv: _Level) -> np.ndarray:
-    """``lv.p`` with untested statistics at 2 (never the worst)."""
-    return np.where(lv.valid, lv.p, 2.0)
-
-
-def _worst_tile(tiles, tile_levels, H: int, W: int) -> tuple:
-    """Pixel box ``(row0, col0, row1, col1)`` of the tested tile of any size with the smallest p."""
-    best = None
-    for ts, lv in zip(tiles, tile_levels):
-        pt = _tested(lv)
-        iy, ix, ic = _argworst(pt, lv.z)
-        key = (pt[iy, ix, ic], -abs(lv.z[iy, ix, ic]))
-        if best is None or key < best[0]:
-            best = (key, (iy * ts, ix * ts, min(H, (iy + 1) * ts), min(W, (ix + 1) * ts)))
-    return best[1]
-
-
-def _locate(d: _Inputs, pix: _Level, tiles, tile_levels, level_p: dict) -> tuple:
-    """``(worst pixel, worst tile, worst level, worst region)`` (see :class:`GateResult`)."""
-    H, W, _ = d.x.shape
-    wy, wx, wc = _argworst(_tested(pix), pix.z)
-    worst_tile = _worst_tile(tiles, tile_levels, H, W)
-    worst_level = min(level_p, key=lambda k: (level_p[k], LEVELS.index(k)))
-    worst_region = {"pixel": (wy, wx, wy + 1, wx + 1), "tile": worst_tile,
-                    "image": (0, 0, H, W)}[worst_level]
-    return (wy, wx, wc), worst_tile, worst_level, worst_region
-
-
-def _relative_bias(d: _Inputs, worst_tile: tuple) -> tuple:
-    """``(relative bias, its standard error, per channel, inside worst_tile)``; finite pixels only."""
-    good = ~d.bad
-    d_all = np.where(good, d.x - d.r, 0.0)
-    r_all = np.where(good, d.r, 0.0)
-    sum_r_c = r_all.sum(axis=(0, 1))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rel_c = np.where(sum_r_c != 0, d_all.sum(axis=(0, 1)) / sum_r_c, np.nan)
-    sr = float(r_all.sum())
-    rel = float(d_all.sum() / sr) if sr != 0 else math.nan
-    se_sum = d.a + d.b if d.fa is None else np.maximum(d.a, d.fa) + d.b
-    rel_se = float(math.sqrt(se_sum[good].sum()) / abs(sr)) if sr != 0 else math.nan
-    y0, x0, y1, x1 = worst_tile
-    srt = float(r_all[y0:y1, x0:x1].sum())
-    rel_tile = float(d_all[y0:y1, x0:x1].sum() / srt) if srt != 0 else math.nan
-    return rel, rel_se, rel_c, rel_tile
-
-
-def _power(img: _Level, tile8: _Level | None) -> tuple:
-    """Minimum detectable relative bias with probability :data:`POWER`: of the whole image
-    (the most sensitive tested channel) and of one :data:`POWER_TILE` tile (the median tested
-    tile); NaN where nothing is tested. A level detects a bias ``delta * sum(r)`` when it
-    exceeds ``(z_crit + z_power)`` standard deviations of the statistic."""
-    z_pow = float(stats.norm.isf(1.0 - POWER))
-
-    def mdb(lv):
-        if lv is None:
-            return np.array([])
-        ok = lv.valid & (lv.var > 0) & (lv.ref_sum != 0)
-        return ((lv.z_crit + z_pow) * np.sqrt(lv.var[ok]) / np.abs(lv.ref_sum[ok])).ravel()
-
-    g, t = mdb(img), mdb(tile8)
-    return (float(g.min()) if g.size else math.nan), (float(np.median(t)) if t.size else math.nan)
