@@ -26,6 +26,7 @@ COMMANDS = {
     "gate": "benchmarks.commands.gate",
     "stress": "benchmarks.commands.stress",
     "speed": "benchmarks.commands.speed",
+    "selftest": "benchmarks.commands.selftest",
 }
 
 
