@@ -27,6 +27,7 @@ COMMANDS = {
     "stress": "benchmarks.commands.stress",
     "speed": "benchmarks.commands.speed",
     "chi2": "benchmarks.commands.chi2",
+    "selftest": "benchmarks.commands.selftest",
 }
 
 

@@ -17,6 +17,11 @@ namespace nb = nanobind;
 using namespace nb::literals;
 
 namespace {
+#ifdef RT_MUTANTS_MODULE
+// A distinct C++ type for the self-test's module: nanobind registers bound classes by C++
+// type, and _core's Scene must not be bound a second time (with `mutant`) by _mutants.
+namespace mutants {
+#endif
 
 using Matrix = nb::ndarray<const double, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
 using Vector = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
@@ -106,7 +111,16 @@ public:
         build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
 
+#ifdef RT_MUTANTS_MODULE
+    // `mutant`: a seeded bug of the self-test (mutants.h), for benchmarks/selftest only;
+    // 0 renders with the tracer itself. Only this module (reference_tracer._mutants) has it.
+    nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress, bool moments,
+                    int mutant) {
+        if (mutant < 0 || mutant >= int(rt::Mutant::Count))
+            throw std::invalid_argument("mutant id out of range [0, " + std::to_string(int(rt::Mutant::Count)) + ")");
+#else
     nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress, bool moments) {
+#endif
         if (spp < 1) throw std::invalid_argument("spp must be >= 1");
         if (strategy < 0 || strategy > 4) throw std::invalid_argument("unknown strategy");
         if (threads < 1) throw std::invalid_argument("threads must be >= 1");
@@ -122,7 +136,7 @@ public:
         rt::RenderOutput out;
         {
             nb::gil_scoped_release release;
-            out = rt::render(job, [&](uint64_t done, uint64_t total) {
+            auto poll = [&](uint64_t done, uint64_t total) {
                 nb::gil_scoped_acquire acquire;
                 if (PyErr_CheckSignals() != 0) {  // Ctrl-C: the KeyboardInterrupt is now set
                     interrupted = true;
@@ -138,7 +152,12 @@ public:
                     }
                 }
                 return true;
-            });
+            };
+#ifdef RT_MUTANTS_MODULE
+            out = rt::render_mutant(job, rt::Mutant(mutant), poll);
+#else
+            out = rt::render(job, poll);
+#endif
         }
         if (interrupted || callback_failed) throw nb::python_error();
         const auto& cam = scene_->camera();
@@ -265,10 +284,27 @@ private:
     double build_seconds_ = 0.0;
 };
 
+#ifdef RT_MUTANTS_MODULE
+}  // namespace mutants
+using namespace mutants;
+#endif
 }  // namespace
 
+#ifdef RT_MUTANTS_MODULE
+// reference_tracer._mutants: the same scene and render loop with the self-test's seeded
+// bugs selectable (render's `mutant`); used by benchmarks/selftest only.
+NB_MODULE(_mutants, m) {
+    m.doc() = "The C++ core built with the self-test's seeded bugs (benchmarks/selftest); not the tracer.";
+    // The seeded bugs by id (index 0: "none", the tracer).
+    m.def("mutant_names", []() {
+        nb::list names;
+        for (const char* name : rt::kMutantNames) names.append(name);
+        return names;
+    });
+#else
 NB_MODULE(_core, m) {
     m.doc() = "C++ core of reference_tracer: scene, BVH, integrator and render loop.";
+#endif
     nb::class_<PyScene>(m, "Scene")
         .def(nb::init<const Vector&, const Vector&, const Vector&, double, int, int, const Matrix&, const Matrix&,
                       const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int>(),
@@ -276,7 +312,11 @@ NB_MODULE(_core, m) {
              "quads"_a, "triangles"_a, "triangle_materials"_a, "background"_a, "max_depth"_a, "rr_depth"_a,
              "triangle_test"_a = 0)
         .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none(),
-             "moments"_a = false)
+             "moments"_a = false
+#ifdef RT_MUTANTS_MODULE
+             , "mutant"_a = 0
+#endif
+             )
         .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false, "threads"_a = 1,
              "batch"_a = true)
         .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a)

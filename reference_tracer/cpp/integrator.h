@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 
+#include "mutants.h"
 #include "rng.h"
 #include "scene.h"
 
@@ -18,6 +19,9 @@ enum class Strategy : int {
     MIS = 4,      // next-event estimation + material sampling, power heuristic (Mitsuba `path`)
 };
 
+// M: a self-test mutant (mutants.h). Integrator<Mutant::None> is the tracer; the others
+// are instantiated only in the self-test's module (mutants.cpp).
+template <Mutant M>
 class Integrator {
 public:
     Integrator(const Scene& scene, Strategy strategy) : scene_(scene), strategy_(strategy) {}
@@ -91,5 +95,9 @@ private:
     const Scene& scene_;
     Strategy strategy_;
 };
+
+// Defined in integrator_impl.h: the tracer's instantiation in integrator.cpp, the mutants'
+// in mutants.cpp.
+extern template class Integrator<Mutant::None>;
 
 }  // namespace rt

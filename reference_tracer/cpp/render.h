@@ -53,9 +53,13 @@ struct PixelSums {
     double* max = nullptr;
 };
 
-// The radiance samples of one pixel, accumulated into `out`.
-void render_pixel(const Scene& scene, const Integrator& integrator, int x, int y, int spp, uint64_t seed,
+// The radiance samples of one pixel, accumulated into `out` (M: see mutants.h). Defined in
+// render_pixel.h: the tracer's instantiation in render.cpp, the mutants' in mutants.cpp.
+template <Mutant M>
+void render_pixel(const Scene& scene, const Integrator<M>& integrator, int x, int y, int spp, uint64_t seed,
                   const PixelSums& out, uint64_t& rays, uint64_t& nonfinite);
+extern template void render_pixel<Mutant::None>(const Scene&, const Integrator<Mutant::None>&, int, int, int,
+                                                 uint64_t, const PixelSums&, uint64_t&, uint64_t&);
 
 }  // namespace rt
 

@@ -8,8 +8,9 @@
 
 namespace rt {
 
-template <typename Poll>
-RenderOutput render(const RenderJob& job, Poll&& poll) {
+// The render loop of one instantiation of the integrator (M: see mutants.h).
+template <Mutant M, typename Poll>
+RenderOutput render_with(const RenderJob& job, Poll&& poll) {
     const Scene& scene = *job.scene;
     const Camera& cam = scene.camera();
     const int W = cam.width, H = cam.height, T = RenderJob::kTileSize;
@@ -24,7 +25,7 @@ RenderOutput render(const RenderJob& job, Poll&& poll) {
         for (std::vector<double>* v : {&tm.d1, &tm.d2, &tm.d3, &tm.d4, &tm.max})
             v->assign(size_t(W) * H * 3, 0.0);
 
-    const Integrator integrator(scene, job.strategy);
+    const Integrator<M> integrator(scene, job.strategy);
     std::atomic<int> next_tile{0};
     std::atomic<uint64_t> pixels_done{0}, rays{0}, nonfinite{0};
     std::atomic<bool> cancel{false};
@@ -48,7 +49,7 @@ RenderOutput render(const RenderJob& job, Poll&& poll) {
                         px.d[3] = &tm.d4[k];
                         px.max = &tm.max[k];
                     }
-                    render_pixel(scene, integrator, x, y, job.spp, job.seed, px, my_rays, my_nonfinite);
+                    render_pixel<M>(scene, integrator, x, y, job.spp, job.seed, px, my_rays, my_nonfinite);
                 }
             pixels_done.fetch_add(uint64_t(x1 - x0) * (y1 - y0), std::memory_order_relaxed);
         }
@@ -79,6 +80,20 @@ RenderOutput render(const RenderJob& job, Poll&& poll) {
     out.rays = rays.load();
     out.nonfinite = nonfinite.load();
     return out;
+}
+
+// A render by the tracer.
+template <typename Poll>
+RenderOutput render(const RenderJob& job, Poll&& poll) {
+    return render_with<Mutant::None>(job, poll);
+}
+
+// A render with seeded bug `mutant` (None: the tracer), the instantiation chosen once per
+// render. Only the self-test's module (reference_tracer._mutants, built with mutants.cpp)
+// calls it; the tracer's module contains no mutant code.
+template <typename Poll>
+RenderOutput render_mutant(const RenderJob& job, Mutant mutant, Poll&& poll) {
+    return dispatch_mutant(mutant, [&](auto tag) { return render_with<decltype(tag)::value>(job, poll); });
 }
 
 }  // namespace rt

@@ -5,6 +5,7 @@
 // Local frame: +z is the material's front (outside) normal; wo.z < 0 means inside.
 #pragma once
 
+#include "../mutants.h"
 #include "bsdf_sample.h"
 
 namespace rt::dielectric {
@@ -43,6 +44,7 @@ inline double schlick(const Fresnel& exact, double cos_i, double eta) {
     return r0 * r0 + (1.0 - r0 * r0) * m * m * m * m * m;
 }
 
+template <Mutant M = Mutant::None>
 inline BSDFSample sample(double ior, const Vec3& wo, double u1, bool use_schlick = false) {
     BSDFSample s;
     if (wo.z == 0.0) return s;
@@ -57,7 +59,10 @@ inline BSDFSample sample(double ior, const Vec3& wo, double u1, bool use_schlick
     } else {
         const double side = wo.z > 0.0 ? 1.0 : -1.0;
         s.wi = normalize(-f.eta_ti * wo + Vec3(0.0, 0.0, f.eta_ti * wo.z - side * f.cos_t));
-        s.weight = Vec3(f.eta_ti * f.eta_ti);
+        if constexpr (M == Mutant::GlassNoEtaScale)
+            s.weight = Vec3(1.0);  // seeded bug: the radiance scale (eta_i / eta_t)^2 forgotten
+        else
+            s.weight = Vec3(f.eta_ti * f.eta_ti);
         s.eta = f.eta_it;
     }
     return s;

@@ -2,25 +2,35 @@
 // hemisphere the viewer is in; the caller handles one-/two-sidedness.
 #pragma once
 
+#include "../mutants.h"
 #include "../sampling/warp.h"
 #include "bsdf_sample.h"
 
 namespace rt::lambertian {
 
+// M: a self-test mutant (mutants.h); Mutant::None is the tracer.
+template <Mutant M = Mutant::None>
 inline Vec3 eval(const Vec3& albedo, const Vec3& wo, const Vec3& wi) {
     if (wo.z <= 0.0 || wi.z <= 0.0) return Vec3(0.0);
+    if constexpr (M == Mutant::MissingCosine) return albedo * kInvPi;  // seeded bug: f, not f * cos
     return albedo * (kInvPi * wi.z);  // f * cos
 }
 
+template <Mutant M = Mutant::None>
 inline double pdf(const Vec3& wo, const Vec3& wi) {
+    if constexpr (M == Mutant::PdfOffByPi) return (wo.z > 0.0 && wi.z > 0.0) ? wi.z : 0.0;  // seeded bug: no 1/pi
     return (wo.z > 0.0 && wi.z > 0.0) ? cosine_hemisphere_pdf(wi.z) : 0.0;
 }
 
+template <Mutant M = Mutant::None>
 inline BSDFSample sample(const Vec3& albedo, const Vec3& wo, double u1, double u2) {
     BSDFSample s;
     if (wo.z <= 0.0) return s;
     s.wi = square_to_cosine_hemisphere(u1, u2);
-    s.pdf = cosine_hemisphere_pdf(s.wi.z);
+    if constexpr (M == Mutant::PdfOffByPi)
+        s.pdf = pdf<M>(wo, s.wi);  // the same wrong density as pdf(): MIS weights stay consistent
+    else
+        s.pdf = cosine_hemisphere_pdf(s.wi.z);
     if (!(s.pdf > 0.0)) return s;
     s.weight = albedo;  // (albedo/pi * cos) / (cos/pi)
     s.valid = true;

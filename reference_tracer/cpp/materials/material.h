@@ -26,44 +26,50 @@ struct Material {
     bool is_glass() const { return type == MaterialType::Dielectric; }
 };
 
+// M, in the functions below: a self-test mutant (mutants.h); Mutant::None is the tracer.
+
 // f * cos for a non-delta material in its local frame (wo.z > 0 assumed by the caller).
+template <Mutant M = Mutant::None>
 inline Vec3 bsdf_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
     switch (m.type) {
         case MaterialType::Lambertian:
-        case MaterialType::DiffuseLight: return lambertian::eval(m.albedo, wo, wi);
-        case MaterialType::RoughConductor: return rough_conductor::eval(m.albedo, m.param, wo, wi);
+        case MaterialType::DiffuseLight: return lambertian::eval<M>(m.albedo, wo, wi);
+        case MaterialType::RoughConductor: return rough_conductor::eval<M>(m.albedo, m.param, wo, wi);
         default: return Vec3(0.0);
     }
 }
 
 // Density of bsdf_sample's direction (the `cosine` strategy's pdf).
+template <Mutant M = Mutant::None>
 inline double bsdf_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
     switch (m.type) {
         case MaterialType::Lambertian:
-        case MaterialType::DiffuseLight: return lambertian::pdf(wo, wi);
-        case MaterialType::RoughConductor: return rough_conductor::pdf(m.param, wo, wi);
+        case MaterialType::DiffuseLight: return lambertian::pdf<M>(wo, wi);
+        case MaterialType::RoughConductor: return rough_conductor::pdf<M>(m.param, wo, wi);
         default: return 0.0;
     }
 }
 
 // The specular and rough lobes, kept out of line so that the diffuse case below inlines
 // into the integrator without the rest of the switch.
+template <Mutant M = Mutant::None>
 [[gnu::noinline]] inline BSDFSample bsdf_sample_other(const Material& m, const Vec3& wo, double u0, double u1,
                                                       double u2) {
     switch (m.type) {
-        case MaterialType::RoughConductor: return rough_conductor::sample(m.albedo, m.param, wo, u1, u2);
+        case MaterialType::RoughConductor: return rough_conductor::sample<M>(m.albedo, m.param, wo, u1, u2);
         case MaterialType::Metal: return conductor::sample(m.albedo, m.param, wo, u1, u2);
-        case MaterialType::Dielectric: return dielectric::sample(m.param, wo, u0, m.schlick);
+        case MaterialType::Dielectric: return dielectric::sample<M>(m.param, wo, u0, m.schlick);
         default: return {};
     }
 }
 
+template <Mutant M = Mutant::None>
 inline BSDFSample bsdf_sample(const Material& m, const Vec3& wo, double u0, double u1, double u2) {
     // Diffuse first and inline: the common case (a call returning the sample through
     // memory was ~6% of cornell_box's samples).
     if (m.type == MaterialType::Lambertian || m.type == MaterialType::DiffuseLight)
-        return lambertian::sample(m.albedo, wo, u1, u2);
-    return bsdf_sample_other(m, wo, u0, u1, u2);
+        return lambertian::sample<M>(m.albedo, wo, u1, u2);
+    return bsdf_sample_other<M>(m, wo, u0, u1, u2);
 }
 
 }  // namespace rt

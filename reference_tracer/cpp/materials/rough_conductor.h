@@ -4,6 +4,7 @@
 // normals (Heitz 2018), whose density is D_wo(h) / (4 wo.h) = G1(wo,h) D(h) / (4 cos_o).
 #pragma once
 
+#include "../mutants.h"
 #include "../sampling/warp.h"
 #include "bsdf_sample.h"
 
@@ -18,24 +19,29 @@ inline double ggx_d(const Vec3& m, double alpha) {
 }
 
 // Smith's masking for GGX; zero when v sees the back of the microfacet.
+template <Mutant M = Mutant::None>
 inline double smith_g1(const Vec3& v, const Vec3& m, double alpha) {
     if (dot(v, m) * v.z <= 0.0) return 0.0;
     const double c2 = v.z * v.z;
     const double tan2 = std::max(0.0, 1.0 - c2) / c2;
+    if constexpr (M == Mutant::GgxMaskingAlpha)
+        return 2.0 / (1.0 + std::sqrt(1.0 + alpha * tan2));  // seeded bug: alpha, not alpha^2
     return 2.0 / (1.0 + std::sqrt(1.0 + alpha * alpha * tan2));
 }
 
+template <Mutant M = Mutant::None>
 inline Vec3 eval(const Vec3& albedo, double alpha, const Vec3& wo, const Vec3& wi) {
     if (wo.z <= 0.0 || wi.z <= 0.0) return Vec3(0.0);
     const Vec3 h = normalize(wo + wi);
-    const double value = ggx_d(h, alpha) * smith_g1(wo, h, alpha) * smith_g1(wi, h, alpha) / (4.0 * wo.z);
+    const double value = ggx_d(h, alpha) * smith_g1<M>(wo, h, alpha) * smith_g1<M>(wi, h, alpha) / (4.0 * wo.z);
     return albedo * value;  // f * cos_i
 }
 
+template <Mutant M = Mutant::None>
 inline double pdf(double alpha, const Vec3& wo, const Vec3& wi) {
     if (wo.z <= 0.0 || wi.z <= 0.0) return 0.0;
     const Vec3 h = normalize(wo + wi);
-    return smith_g1(wo, h, alpha) * ggx_d(h, alpha) / (4.0 * wo.z);
+    return smith_g1<M>(wo, h, alpha) * ggx_d(h, alpha) / (4.0 * wo.z);
 }
 
 // A visible normal for the view direction wo (Heitz, "Sampling the GGX Distribution of
@@ -53,6 +59,7 @@ inline Vec3 sample_visible_normal(const Vec3& wo, double alpha, double u1, doubl
     return normalize(Vec3(alpha * nh.x, alpha * nh.y, std::max(0.0, nh.z)));
 }
 
+template <Mutant M = Mutant::None>
 inline BSDFSample sample(const Vec3& albedo, double alpha, const Vec3& wo, double u1, double u2) {
     BSDFSample s;
     if (wo.z <= 0.0) return s;
@@ -60,9 +67,9 @@ inline BSDFSample sample(const Vec3& albedo, double alpha, const Vec3& wo, doubl
     const Vec3 wi = 2.0 * dot(wo, m) * m - wo;
     if (wi.z <= 0.0) return s;
     s.wi = wi;
-    s.pdf = pdf(alpha, wo, wi);
+    s.pdf = pdf<M>(alpha, wo, wi);
     if (!(s.pdf > 0.0)) return s;
-    s.weight = eval(albedo, alpha, wo, wi) / s.pdf;
+    s.weight = eval<M>(albedo, alpha, wo, wi) / s.pdf;
     s.valid = true;
     return s;
 }

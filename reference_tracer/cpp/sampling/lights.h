@@ -11,6 +11,7 @@
 
 #include <vector>
 
+#include "../mutants.h"
 #include "../shapes/quad.h"
 #include "../shapes/sphere.h"
 #include "../shapes/triangle.h"
@@ -60,6 +61,8 @@ public:
     double background_pdf() const { return p_background_ * kUniformSpherePdf; }
     int emitter_of_prim(uint32_t prim) const { return prim < prim_to_emitter_.size() ? prim_to_emitter_[prim] : -1; }
 
+    // M: a self-test mutant (mutants.h); Mutant::None is the tracer.
+    template <Mutant M = Mutant::None>
     LightSample sample(const Vec3& ref, double u0, double u1, double u2) const {
         LightSample ls;
         if (p_background_ > 0.0 && (emitters_.empty() || u0 < p_background_)) {
@@ -86,7 +89,11 @@ public:
         ls.wi = d / ls.dist;
         const double cos_l = -dot(n, ls.wi);
         if (!(cos_l > 0.0)) return ls;  // back of a one-sided emitter, or exactly grazing
-        if (pdf_dir == 0.0) pdf_dir = dist2 / (cos_l * area(e));  // area sampling -> solid angle
+        if constexpr (M == Mutant::LightPdfNoJacobian) {
+            if (pdf_dir == 0.0) pdf_dir = 1.0 / area(e);  // seeded bug: the area density, no dist^2 / cos
+        } else {
+            if (pdf_dir == 0.0) pdf_dir = dist2 / (cos_l * area(e));  // area sampling -> solid angle
+        }
         ls.pdf = sel * pdf_dir;
         if (!(ls.pdf > 0.0) || !std::isfinite(ls.pdf)) return ls;
         ls.radiance = e.radiance;

@@ -1,0 +1,186 @@
+"""``rtbench selftest``: does the gate catch real bugs? Seeded bugs, gate vs Mitsuba's rule.
+
+Renders the tracer built with each seeded bug of the catalogue
+(:data:`benchmarks.selftest.CATALOGUE`) on the scene and strategy that expose it, with the
+gate's seed, at each budget of the ladder up to ``--spp`` (the gate's default budget), and
+judges every render with the gate (the mutant's own tail reference) and with Mitsuba's
+per-pixel rule (:func:`benchmarks.selftest.run_selftest`). Prints one row per mutant (gate
+verdict at ``--spp``, caught, smallest spp caught, the same for Mitsuba's rule, and the
+unmutated tracer's verdicts on the same scene as a control), progress on stderr.
+
+Exit 0 when the gate catches at least 90% of the mutants and never fewer than Mitsuba's
+rule, 1 otherwise, 2 on bad usage.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+HELP = ("self-test: render seeded bugs of the tracer (mutants) and report which the gate and Mitsuba's rule "
+        "catch, and from how many spp; exit 1 if the gate catches fewer than 90% or fewer than Mitsuba's rule")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from benchmarks.gate import DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_WIDTH
+    from benchmarks.selftest import CATALOGUE, DEFAULT_SPP_LADDER
+    from benchmarks.tails import DEFAULT_TAIL_SPP
+
+    parser.add_argument("--mutants", action="append", default=[], metavar="M[,M...]",
+                        help=f"mutants to test (default: all): {', '.join(m.name for m in CATALOGUE)}")
+    parser.add_argument("--list", action="store_true", help="list the mutants (what each breaks, scene, strategy, "
+                                                            "why) and exit")
+    parser.add_argument("--spp", type=int, default=DEFAULT_SPP,
+                        help=f"samples per pixel of the verdict: the gate's budget (default {DEFAULT_SPP})")
+    parser.add_argument("--spp-ladder", default=",".join(map(str, DEFAULT_SPP_LADDER)), metavar="N[,N...]",
+                        help="budgets below --spp at which each mutant is judged too, for the smallest spp "
+                             f"that catches it (default {','.join(map(str, DEFAULT_SPP_LADDER))})")
+    parser.add_argument("--width", type=int, default=DEFAULT_WIDTH,
+                        help=f"image width and height (default {DEFAULT_WIDTH})")
+    parser.add_argument("--ref-spp", type=int, default=DEFAULT_REF_SPP,
+                        help=f"samples per pixel of the Mitsuba references (default {DEFAULT_REF_SPP}; "
+                             "rendered into the cache when missing)")
+    parser.add_argument("--tail-spp", type=int, default=DEFAULT_TAIL_SPP,
+                        help=f"samples per pixel of each mutant's tail reference (default {DEFAULT_TAIL_SPP}; cached)")
+    parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"seed of the renders (default {DEFAULT_SEED})")
+    parser.add_argument("--no-controls", action="store_true",
+                        help="skip the control: the unmutated tracer judged the same way on each scene and strategy")
+    parser.add_argument("--threads", type=int, default=None, help="rendering threads (default: all cores)")
+    parser.add_argument("--cache", default=None, metavar="DIR",
+                        help="reference cache root (default $RTBENCH_CACHE or ~/.cache/rtbench)")
+    parser.add_argument("--json", default=None, metavar="PATH", help="also write the rows (one per mutant) as JSON")
+    parser.add_argument("--markdown", default=None, metavar="PATH", help="also write the table as Markdown")
+
+
+def _names(values) -> list | None:
+    out = []
+    for v in values:
+        out.extend(s.strip() for s in v.split(",") if s.strip())
+    return out or None
+
+
+def _spp(n) -> str:
+    return "-" if n is None else str(n)
+
+
+def _control(row) -> str:
+    if row.get("control_verdict") is None:
+        return "-"
+    return f"{row['control_verdict']} / {'fail' if row['control_caught_by_mitsuba_rule'] else 'pass'}"
+
+
+COLUMNS = ("mutant", "scene", "strategy", "gate verdict", "caught", "smallest spp caught", "Mitsuba rule caught",
+           "smallest spp (Mitsuba)", "image bias", "tracer: gate / Mitsuba")
+
+
+def _cells(row) -> list:
+    return [row["mutant"], row["scene"], row["strategy"], row["verdict"], "yes" if row["caught"] else "NO",
+            _spp(row["smallest_spp_caught"]), "yes" if row["caught_by_mitsuba_rule"] else "no",
+            _spp(row["smallest_spp_caught_by_mitsuba_rule"]),
+            f"{row['relative_bias']:+.2%} +- {row['relative_bias_se']:.2%}", _control(row)]
+
+
+def summary_line(report) -> str:
+    return (f"gate caught {report.n_caught}/{report.n} ({report.catch_rate:.0%}), Mitsuba's rule "
+            f"{report.n_caught_by_mitsuba_rule}/{report.n}, at {report.spp} spp")
+
+
+def selftest_table(report):
+    """The rich table of a :class:`benchmarks.selftest.SelftestReport`."""
+    from rich.table import Table
+
+    t = Table(title=f"self-test: seeded bugs at {report.spp} spp (gate level {report.alpha:.3g} per comparison)")
+    for c in COLUMNS:
+        t.add_column(c, justify="right" if "spp" in c or c == "image bias" else "left")
+    for row in report.rows:
+        cells = _cells(row)
+        if not row["caught"]:
+            cells[4] = "[bold red]NO[/]"
+        t.add_row(*cells)
+    return t
+
+
+def markdown_table(report, command: str | None = None) -> str:
+    """The table as Markdown (with the command that produced it, when given)."""
+    lines = []
+    if command:
+        lines += [f"`{command}`", ""]
+    lines += ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    lines += ["| " + " | ".join(_cells(r)) + " |" for r in report.rows]
+    lines += ["", summary_line(report) + "; gate level per comparison "
+              f"{report.alpha:.3g} (a default quick-suite run), Mitsuba's rule at its own alpha 0.01 per image. "
+              "Last column: the unmutated tracer's verdicts on the same scene and strategy (gate / Mitsuba's rule)."]
+    return "\n".join(lines) + "\n"
+
+
+def _command_line() -> str | None:
+    """This command as typed, when run from the console script (not from a test's main(argv))."""
+    import shlex
+
+    if sys.argv[1:2] != ["selftest"]:
+        return None
+    return "rtbench " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+
+
+def run(args) -> int:
+    from rich.console import Console
+
+    from benchmarks.selftest import CATALOGUE, resolve_mutants, run_selftest
+
+    if args.list:
+        for m in CATALOGUE:
+            print(f"{m.name} ({m.scene}, {m.strategy})\n  bug: {m.description}\n  breaks: {m.breaks}\n"
+                  f"  why this scene: {m.why}")
+        return 0
+    names = _names(args.mutants)
+    resolve_mutants(names)  # validate before the first render
+    for name, v, lo in (("--spp", args.spp, 2), ("--ref-spp", args.ref_spp, 2), ("--tail-spp", args.tail_spp, 2),
+                        ("--width", args.width, 1), ("--seed", args.seed, 0)):
+        if v < lo:
+            raise ValueError(f"{name} must be >= {lo}, got {v}")
+    if args.threads is not None and args.threads < 1:
+        raise ValueError(f"--threads must be >= 1, got {args.threads}")
+    try:
+        spp_ladder = [int(s) for s in args.spp_ladder.split(",") if s.strip()]
+    except ValueError:
+        raise ValueError(f"--spp-ladder must be comma-separated integers, got {args.spp_ladder!r}") from None
+
+    def log(line):
+        print(line, file=sys.stderr, flush=True)
+
+    def on_row(row):
+        log(f"{row['mutant']}: gate {row['verdict']}, Mitsuba's rule "
+            f"{'caught' if row['caught_by_mitsuba_rule'] else 'passed'} it ({row['seconds']:.0f} s)")
+
+    report = run_selftest(names, spp=args.spp, width=args.width, ref_spp=args.ref_spp, tail_spp=args.tail_spp,
+                          spp_ladder=spp_ladder, seed=args.seed, controls=not args.no_controls,
+                          threads=args.threads, cache=args.cache, on_row=on_row, log=log)
+    console = Console()
+    if not console.is_terminal:
+        console = Console(width=max(console.width, 200))
+    console.print(selftest_table(report))
+    console.print(summary_line(report) + f"; {report.seconds:.0f} s", highlight=False)
+    missed = [r for r in report.rows if not r["caught"]]
+    for r in missed:
+        console.print(f"missed: {r['mutant']} ({r['scene']}, {r['strategy']}): verdict {r['verdict']}, image bias "
+                      f"{r['relative_bias']:+.2%} +- {r['relative_bias_se']:.2%}, minimum detectable bias "
+                      f"{r['min_detectable_bias']:.2%} (image), {r['min_detectable_tile_bias']:.2%} (8x8 tile); "
+                      f"{r['reason']}", highlight=False, markup=False)
+    for r in report.rows:
+        if r["caught_by_mitsuba_rule"] and not r["caught"]:
+            console.print(f"caught by Mitsuba's rule only: {r['mutant']}", highlight=False, markup=False)
+    if args.json:
+        path = Path(args.json)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(report.to_dict(), indent=1, default=float) + "\n")
+    if args.markdown:
+        path = Path(args.markdown)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(markdown_table(report, _command_line()))
+    if report.passed:
+        console.print(f"[green]self-test passed[/]: {summary_line(report)}")
+        return 0
+    print(f"rtbench selftest: FAIL {summary_line(report)} (needs >= 90% and no fewer than Mitsuba's rule)",
+          file=sys.stderr)
+    return 1

@@ -1,0 +1,148 @@
+"""The catalogue of seeded bugs ("mutants"): what each breaks and where it is tested.
+
+Each mutant is written into the tracer's C++ sources (``reference_tracer/cpp/mutants.h``:
+one ``if constexpr`` at the place where the bug would be made), compiled into the
+self-test's own extension module ``reference_tracer._mutants`` (never into the tracer's
+``_core``) and selectable only through :func:`benchmarks.selftest.render.render_mutant`. Each is tested on one scene with one
+strategy, chosen so that the bug changes the image there: several real bugs are invisible
+in most scenes (a wrong pdf used consistently in both MIS weights cancels; the 1/eta^2 of
+refraction cancels on closed glass lit from outside; a two-sided light changes nothing
+where no one sees its back), and a self-test that only confirmed the obvious ones would
+overstate the gate's power. The order is the module's (``_mutants.mutant_names()``).
+
+Examples
+--------
+>>> from benchmarks.selftest.catalogue import CATALOGUE, mutant
+>>> len(CATALOGUE) >= 10
+True
+>>> mutant("max_depth_off_by_one").scene
+'furnace'
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+__all__ = ["Mutant", "CATALOGUE", "mutant", "resolve_mutants"]
+
+
+@dataclass(frozen=True)
+class Mutant:
+    """One seeded bug: ``name`` (the core's), ``description`` (the bug, one line),
+    ``breaks`` (which part of the estimator it breaks and how the image changes),
+    ``scene`` and ``strategy`` it is tested with, and ``why`` that scene and strategy."""
+
+    name: str
+    description: str
+    breaks: str
+    scene: str
+    strategy: str
+    why: str
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+CATALOGUE = (
+    Mutant("missing_cosine",
+           "Lambertian BSDF evaluation returns f = albedo/pi without the cosine factor",
+           "next-event estimation at diffuse vertices (f*cos/pdf_light): direct light too bright, most at grazing "
+           "angles; BSDF sampling is unaffected (its weight is the albedo, computed analytically)",
+           "cornell_box", "mis",
+           "all-diffuse scene lit mostly by next-event estimation; mis is the gated strategy"),
+    Mutant("pdf_off_by_pi",
+           "Lambertian sampling density cos(theta) instead of cos(theta)/pi (in pdf() and in the sample's pdf)",
+           "estimators that divide by the material's density: mixture's one-sample estimator divides by "
+           "0.5 pdf_light + 0.5 pdf_bsdf, now too large, so the image is too dark",
+           "cornell_box", "mixture",
+           "under mis the same wrong density enters both MIS weights, which still sum to one: the mutant is "
+           "unbiased there (image within noise of the tracer's); mixture is the strategy that exposes it"),
+    Mutant("emitter_weight_one",
+           "emitters hit by BSDF sampling are counted with MIS weight 1 beside next-event estimation",
+           "direct light is counted by both techniques: nearly twice the direct illumination",
+           "cornell_box", "mis",
+           "only mis combines the two techniques; direct light dominates cornell_box"),
+    Mutant("light_pdf_no_jacobian",
+           "light sampling returns the area density 1/A as if it were the solid-angle density "
+           "(dist^2 / (cos_light A) missing)",
+           "next-event estimation divides by a density wrong by cos/dist^2 (about 1e-5 in a 555-unit room) and "
+           "its MIS weight collapses: most direct light is lost",
+           "cornell_box", "mis",
+           "a quad light sampled by area, the common case; the emitter-hit MIS weight uses the correct "
+           "density, so the two disagree"),
+    Mutant("roulette_no_reweight",
+           "Russian roulette terminates paths but does not divide the survivors' throughput by q",
+           "energy of every path longer than rr_depth is lost in proportion to the termination probability: "
+           "indirect light too dark",
+           "cornell_box_rr3", "mis",
+           "the suite renders without Russian roulette (rr_depth=None), where the mutant is identical to the "
+           "tracer; cornell_box with rr_depth=3 (against Mitsuba's render of that same scene) has "
+           "interreflections long enough to lose"),
+    Mutant("glass_no_eta_scale",
+           "refraction through a dielectric does not scale radiance by (eta_i/eta_t)^2",
+           "radiance carried across a single interface is off by eta^2 (2.25 for glass)",
+           "glass_lamp", "mis",
+           "on closed glass lit and seen from outside (cornell_glass) the factors of entering and leaving "
+           "cancel exactly: the mutant renders cornell_glass bit-identically. In glass_lamp the light is "
+           "embedded in a glass slab, so every path that reaches it ends inside glass"),
+    Mutant("ggx_masking_alpha",
+           "GGX Smith masking G1 uses alpha where alpha^2 belongs (2 / (1 + sqrt(1 + alpha tan^2)))",
+           "rough-conductor reflectance too dark, most at grazing angles and on rough plates (G1 of both "
+           "directions, in eval, pdf and the sampled weight)",
+           "glossy_plates", "mis",
+           "the suite's only rough conductors (GGX alpha 0.005 to 0.2), seen near grazing"),
+    Mutant("two_sided_light",
+           "an area emitter hit from its back emits too (the front-side test dropped)",
+           "light leaves the back of one-sided emitters: surfaces behind lights are lit",
+           "hanging_lamp", "mis",
+           "in the suite's Cornell boxes the light's back faces the ceiling 1 unit away and is practically "
+           "unseen; hanging_lamp lowers the light to 105 units under the ceiling"),
+    Mutant("max_depth_off_by_one",
+           "the path-length test uses > where >= belongs: one segment more than max_depth allows",
+           "one more bounce of light: brighter by the energy of that bounce",
+           "furnace", "mis",
+           "at max_depth=50 (the Cornell scenes) one more bounce adds ~rho^50; the furnace has max_depth=8 and "
+           "a closed-form reference, and mis is exact per sample there, so any change is caught"),
+    Mutant("shadow_epsilon_leak",
+           "shadow rays stop 1% of their length short of the sampled light point (relative epsilon 1e-2 "
+           "instead of 1e-7; Mitsuba's is ~9e-4)",
+           "occluders within 1% of the distance from a light do not shadow next-event estimation: light "
+           "leaks through them",
+           "hanging_lamp", "mis",
+           "the suite has no occluder near a light; hanging_lamp has a diffuser plate 2 units under the light, "
+           "whose shadow leaks for points more than ~200 units away"),
+    Mutant("half_pixel_jitter",
+           "camera samples jittered in [x - 1/2, x + 1/2) instead of [x, x + 1): every pixel integrates "
+           "a pixel-sized square centred on its upper-left corner",
+           "the image is shifted by half a pixel: wrong at every edge",
+           "cornell_box", "mis",
+           "sharp, bright edges (the light, the boxes, the wall corners)"),
+    Mutant("correlated_pixel_streams",
+           "every pixel draws from the same random stream (the pixel index dropped from the seeding)",
+           "each pixel's mean is still unbiased but neighbouring pixels' errors are strongly correlated: "
+           "structured noise, tile and image averages far noisier than independent pixels allow",
+           "cornell_box", "mis",
+           "large surfaces of similar radiance where shared random numbers give nearly the same error"),
+)
+
+_BY_NAME = {m.name: m for m in CATALOGUE}
+
+
+def mutant(name: str) -> Mutant:
+    """The catalogue entry of ``name`` (ValueError for an unknown name)."""
+    try:
+        return _BY_NAME[name]
+    except KeyError:
+        raise ValueError(f"unknown mutant {name!r}; the catalogue has: {', '.join(_BY_NAME)}") from None
+
+
+def resolve_mutants(mutants=None) -> list:
+    """Catalogue entries by name (None: all; a string may be comma-separated), de-duplicated,
+    in the order given."""
+    if mutants is None:
+        return list(CATALOGUE)
+    if isinstance(mutants, str):
+        mutants = [m.strip() for m in mutants.split(",") if m.strip()]
+    names = list(dict.fromkeys(mutants))
+    if not names:
+        raise ValueError("no mutant selected")
+    return [mutant(n) for n in names]

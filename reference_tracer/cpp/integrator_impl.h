@@ -1,0 +1,225 @@
+// Definitions of rt::Integrator<M> (integrator.h), included by integrator.cpp (the tracer,
+// Mutant::None) and mutants.cpp (the self-test's seeded bugs). Every seeded line is an
+// `if constexpr` (or a constant chosen at compile time) on M.
+#pragma once
+
+#include "integrator.h"
+
+namespace rt {
+
+// Relative gap left before a sampled light point by shadow rays: far above the relative
+// error of the sampled point (~1e-15 in double), far below any modelled geometry gap.
+constexpr double kShadowEpsilon = 1e-7;
+// Mutant::ShadowEpsilonLeak: a "safe" 1% that lets occluders near the light leak (Mitsuba's
+// shadow epsilon is ~9e-4 relative, in single precision).
+constexpr double kLeakyShadowEpsilon = 1e-2;
+
+// Glass keeps its front normal (inside/outside matters); reflectors are black from the
+// back unless two-sided, in which case the frame flips.
+template <Mutant M>
+Integrator<M>::Vertex::Vertex(const Interaction& it, const Material& m_, const Vec3& d, bool front)
+    : m(m_), frame(front || m_.is_glass() ? it.n : -it.n), wo(frame.to_local(-d)),
+      can_scatter(m_.reflects && (front || m_.is_glass() || m_.two_sided) &&
+                  (wo.z != 0.0 || m_.is_glass())) {}  // exactly grazing: no reflection
+
+template <Mutant M>
+double Integrator<M>::emitter_weight(const PrevVertex& prev, const Ray& ray, const Interaction& it) const {
+    // Only `mis` samples lights and directions both, and only at non-delta vertices.
+    if (strategy_ != Strategy::MIS || prev.delta) return 1.0;
+    if constexpr (M == Mutant::EmitterWeightOne) return 1.0;  // seeded bug: NEE and BSDF hits both count fully
+    return power_heuristic(prev.pdf, scene_.lights().pdf_emitter(prev.ref, ray.d, it.prim, it.p, it.n));
+}
+
+template <Mutant M>
+double Integrator<M>::background_weight(const PrevVertex& prev) const {
+    if (strategy_ != Strategy::MIS || prev.delta) return 1.0;
+    return power_heuristic(prev.pdf, scene_.lights().background_pdf());
+}
+
+template <Mutant M>
+std::optional<Vec3> Integrator<M>::sample_ld(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng,
+                                             uint64_t& rays) const {
+    const LightSampler& lights = scene_.lights();
+    if (lights.empty()) return std::nullopt;
+    const double u0 = rng.next_double(), u1 = rng.next_double(), u2 = rng.next_double();
+    const LightSample ls = lights.sample<M>(ref, u0, u1, u2);
+    if (!ls.valid) return std::nullopt;
+    const Vec3 local = v.frame.to_local(ls.wi);
+    const Vec3 f = bsdf_eval<M>(v.m, v.wo, local);
+    if (is_black(f)) return std::nullopt;  // no shadow ray for a direction the BSDF ignores
+    ++rays;
+    // The shadow ray stops just short of the sampled point, so the emitter itself does not
+    // count as an occluder.
+    constexpr double eps = M == Mutant::ShadowEpsilonLeak ? kLeakyShadowEpsilon : kShadowEpsilon;
+    const double t_max = ls.background ? kInf : ls.dist * (1.0 - eps);
+    if (scene_.occluded(Ray{ref, ls.wi}, t_max)) return std::nullopt;
+    const double w = power_heuristic(ls.pdf, bsdf_pdf<M>(v.m, v.wo, local));
+    // beta enters the product first, as it always has: the order fixes the rounding.
+    return beta * f * ls.radiance * (w / ls.pdf);
+}
+
+template <Mutant M>
+std::optional<Vec3> Integrator<M>::light_only(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng,
+                                              uint64_t& rays) const {
+    const LightSampler& lights = scene_.lights();
+    if (lights.empty()) return std::nullopt;
+    const double u0 = rng.next_double(), u1 = rng.next_double(), u2 = rng.next_double();
+    const LightSample ls = lights.sample<M>(ref, u0, u1, u2);
+    if (!ls.valid) return std::nullopt;
+    const Vec3 f = bsdf_eval<M>(v.m, v.wo, v.frame.to_local(ls.wi));
+    if (is_black(f)) return std::nullopt;
+    // The density of the direction is that of the whole light sampler (every emitter the
+    // line meets could have produced it), and the radiance is whatever the ray meets first.
+    const double pdf = lights.pdf_all(ref, ls.wi);
+    if (!(pdf > 0.0)) return std::nullopt;
+    return beta * f * direct_emission(ref, ls.wi, rays) / pdf;
+}
+
+template <Mutant M>
+auto Integrator<M>::sample_scatter(const Vertex& v, const Vec3& ref, PCG32& rng) const
+    -> std::optional<Scatter> {
+    // At a delta vertex every strategy samples the material's lobe, as `cosine` does. One
+    // call site for sample_material keeps it inline: with two, GCC left it out of line,
+    // returning its sample through memory.
+    switch (v.m.is_delta() ? Strategy::Cosine : strategy_) {
+        case Strategy::Uniform: return sample_uniform(v, rng);
+        case Strategy::Cosine:
+        case Strategy::MIS: return sample_material(v, rng);
+        case Strategy::Mixture: return sample_mixture(v, ref, rng);
+        case Strategy::Light: break;  // its paths end at the first non-delta vertex (light_only)
+    }
+    return std::nullopt;
+}
+
+template <Mutant M>
+auto Integrator<M>::sample_material(const Vertex& v, PCG32& rng) -> std::optional<Scatter> {
+    // The three uniforms are drawn last first. Earlier versions passed three
+    // rng.next_double() calls straight as bsdf_sample's arguments, whose evaluation order
+    // C++ leaves to the compiler, and GCC evaluates them right to left. Drawing them
+    // explicitly in that order keeps every image bit-identical to the earlier ones, and
+    // the order no longer depends on the compiler.
+    const double u2 = rng.next_double(), u1 = rng.next_double(), u0 = rng.next_double();
+    const BSDFSample bs = bsdf_sample<M>(v.m, v.wo, u0, u1, u2);
+    if (!bs.valid) return std::nullopt;
+    return Scatter{v.frame.to_world(bs.wi), bs.weight, bs.pdf, bs.eta};
+}
+
+template <Mutant M>
+auto Integrator<M>::sample_uniform(const Vertex& v, PCG32& rng) -> std::optional<Scatter> {
+    const double u2 = rng.next_double(), u1 = rng.next_double();  // last first, as sample_material
+    const Vec3 local = square_to_uniform_hemisphere(u1, u2);
+    const Vec3 f = bsdf_eval<M>(v.m, v.wo, local);
+    if (is_black(f)) return std::nullopt;
+    return Scatter{v.frame.to_world(local), f * (1.0 / kUniformHemispherePdf), kUniformHemispherePdf};
+}
+
+template <Mutant M>
+auto Integrator<M>::sample_mixture(const Vertex& v, const Vec3& ref, PCG32& rng) const
+    -> std::optional<Scatter> {
+    const LightSampler& lights = scene_.lights();
+    const bool has_lights = !lights.empty();
+    // The same three uniforms serve whichever half is chosen. All four are drawn in every
+    // case (also without lights), as before: the count fixes the pixel's later samples.
+    const double u0 = rng.next_double(), u1 = rng.next_double(), u2 = rng.next_double();
+    const double choose = rng.next_double();
+    Vec3 wi, local;
+    if (has_lights && choose < 0.5) {
+        const LightSample ls = lights.sample<M>(ref, u0, u1, u2);
+        if (!ls.valid) return std::nullopt;
+        wi = ls.wi;
+        local = v.frame.to_local(wi);
+    } else {
+        const BSDFSample bs = bsdf_sample<M>(v.m, v.wo, u0, u1, u2);
+        if (!bs.valid) return std::nullopt;
+        local = bs.wi;
+        wi = v.frame.to_world(local);
+    }
+    const Vec3 f = bsdf_eval<M>(v.m, v.wo, local);
+    if (is_black(f)) return std::nullopt;
+    // One-sample estimator: divide by the density of the whole procedure, half of each
+    // (all of the material's where there is nothing to light-sample).
+    const double pdf_m = bsdf_pdf<M>(v.m, v.wo, local);
+    const double pdf = has_lights ? 0.5 * lights.pdf_all(ref, wi) + 0.5 * pdf_m : pdf_m;
+    if (!(pdf > 0.0)) return std::nullopt;
+    return Scatter{wi, f / pdf, pdf};
+}
+
+template <Mutant M>
+Vec3 Integrator<M>::direct_emission(const Vec3& o, const Vec3& wi, uint64_t& rays) const {
+    ++rays;
+    Interaction it;
+    if (!scene_.intersect(Ray{o, wi}, it)) return scene_.settings().background;
+    const Material& m = scene_.material(it.material);
+    if constexpr (M == Mutant::TwoSidedLight) return m.emits() ? m.radiance : Vec3(0.0);  // seeded bug
+    return (m.emits() && dot(wi, it.n) < 0.0) ? m.radiance : Vec3(0.0);
+}
+
+template <Mutant M>
+bool Integrator<M>::survives(int depth, double eta, Vec3& beta, PCG32& rng) const {
+    const double beta_max = max_component(beta);
+    if (!(beta_max > 0.0)) return false;  // black (or NaN): nothing more to carry
+    const int rr_depth = scene_.settings().rr_depth;
+    if (rr_depth < 0 || depth < rr_depth) return true;
+    // Russian roulette, Mitsuba's rule: continue with probability
+    // min(max(throughput) * eta^2, 0.95). eta^2 compensates the 1/eta^2 radiance scaling
+    // at refraction (solid-angle compression), which is no loss of energy.
+    const double q = std::min(beta_max * eta * eta, 0.95);
+    if (rng.next_double() >= q) return false;
+    if constexpr (M != Mutant::RouletteNoReweight) beta *= 1.0 / q;  // the mutant forgets it
+    return true;
+}
+
+template <Mutant M>
+Vec3 Integrator<M>::Li(Ray ray, PCG32& rng, uint64_t& rays) const {
+    const SceneSettings& cfg = scene_.settings();
+    Vec3 L(0.0), beta(1.0);
+    double eta = 1.0;  // product of relative IORs crossed (Russian roulette)
+    PrevVertex prev;
+
+    for (int depth = 0;; ++depth) {
+        ++rays;
+        Interaction it;
+        if (!scene_.intersect(ray, it)) {
+            if (max_component(cfg.background) > 0.0) L += beta * cfg.background * background_weight(prev);
+            return L;
+        }
+        const Material& m = scene_.material(it.material);
+        const bool front = dot(ray.d, it.n) < 0.0;
+        // Emission is one-sided: front face only, as Mitsuba's area emitter.
+        // (Mutant::TwoSidedLight: the back emits too.)
+        if ((front || M == Mutant::TwoSidedLight) && m.emits()) L += beta * m.radiance * emitter_weight(prev, ray, it);
+
+        // Another segment is allowed only while depth + 1 < max_depth (Mitsuba's rule).
+        // (Mutant::MaxDepthOffByOne: `>` for `>=`, one segment more.)
+        if (M == Mutant::MaxDepthOffByOne ? depth + 1 > cfg.max_depth : depth + 1 >= cfg.max_depth) return L;
+        const Vertex v(it, m, ray.d, front);
+        if (!v) return L;
+
+        // Light sampling, at non-delta vertices only (it could never meet a Dirac lobe).
+        Vec3 ref;
+        if (!m.is_delta()) {
+            // Reference point for light sampling: just off the surface on the reflecting
+            // side, so sphere lights are seen from the correct side.
+            ref = offset_origin(it.p, v.frame.n, v.frame.n);
+            if (strategy_ == Strategy::Light) {  // all of `light`'s estimate: its path ends here
+                if (const std::optional<Vec3> Ld = light_only(v, ref, beta, rng, rays)) L += *Ld;
+                return L;
+            }
+            if (strategy_ == Strategy::MIS)
+                if (const std::optional<Vec3> Ld = sample_ld(v, ref, beta, rng, rays)) L += *Ld;
+        }
+
+        const std::optional<Scatter> s = sample_scatter(v, ref, rng);
+        if (!s) return L;
+        beta *= s->weight;
+        eta *= s->eta;
+        prev = PrevVertex{m.is_delta(), s->pdf, ref};
+        // Delta lobes leave along the geometric normal, the others along the shading normal;
+        // the two differ only on the back of two-sided metal, and there only for a
+        // direction exactly in the tangent plane (offset_origin's tie).
+        ray = Ray{offset_origin(it.p, m.is_delta() ? it.n : v.frame.n, s->wi), s->wi};
+        if (!survives(depth + 1, eta, beta, rng)) return L;
+    }
+}
+
+}  // namespace rt
