@@ -171,6 +171,12 @@ def _bias_stats(top_recs, top, ref: ImageEstimate | None, store, *, alpha, tails
     return row
 
 
+def _exact(tails) -> bool:
+    """Whether an estimator has no noise beyond float rounding (relative spread < 1e-6)."""
+    mean2 = float(np.mean(np.square(np.asarray(tails.mean, dtype=np.float64))))
+    return float(np.mean(tails.moments.m2)) <= 1e-12 * mean2
+
+
 def _tail_variance(tails) -> dict:
     """The estimator's per-sample variance (mean over pixels) from its tail reference, and
     whether it is only a lower bound: where one sample carries more than half of a pixel's
@@ -210,7 +216,10 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     # reference's variance it counts the rare paths a few renders at the top spp missed.
     row["efficiency"] = None
     unbiased = row.get("bias_verdict") in ("pass", "undetermined")
-    if tails is not None and unbiased and row["variance"] > 0 and secs[-1] > 0:
+    if tails is not None and _exact(tails):
+        # every sample equals the pixel value (mis in the furnace): no error to trade for time
+        row.update(variance=0.0, variance_lower_bound=False, efficiency_source="exact (zero variance)")
+    elif tails is not None and unbiased and row["variance"] > 0 and secs[-1] > 0:
         row["efficiency"] = M.efficiency(row["variance"] / top, secs[-1])
         row["efficiency_source"] = "tail-reference variance / spp"
     elif math.isfinite(mse_c[-1]) and mse_c[-1] > 0 and secs[-1] > 0:
