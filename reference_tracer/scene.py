@@ -100,7 +100,10 @@ class Scene:
     max_depth: int = 50
     rr_depth: int | None = None
     background: tuple = (0.0, 0.0, 0.0)
-    _core_cache: dict = field(default_factory=dict, repr=False, compare=False)
+    # The compiled C++ scene, per triangle test. Not an __init__ field, so that
+    # dataclasses.replace(scene, ...) gives the new scene an empty cache of its own rather
+    # than the original's compiled core (which rendered the old scene: issue 15, case 0).
+    _core_cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         if not isinstance(self.camera, Camera):

@@ -145,3 +145,22 @@ def test_render_accepts_large_but_representable_coordinates():
     s = rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1e29, rt.DiffuseLight(1.0))])
     img = rt.render(s, spp=1).mean
     assert np.all(np.isfinite(img)) and img[4, 4, 0] == pytest.approx(1.0)
+
+
+def test_replaced_scene_does_not_render_with_the_original_core():
+    """``dataclasses.replace`` is the idiomatic way to vary a scene: the new scene must get
+    its own compiled core, not the original's (it rendered the old scene's image)."""
+    import dataclasses
+
+    import numpy as np
+
+    cam = rt.Camera(lookfrom=(0, 0, -3), lookat=(0, 0, 0), width=4, height=4)
+    scene = rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1, rt.Lambertian(0.5))], background=1.0,
+                     max_depth=8)
+    deep = rt.render(scene, spp=8, strategy="mis", seed=1, threads=1)
+    shallow_scene = dataclasses.replace(scene, max_depth=1)
+    assert shallow_scene._core_cache is not scene._core_cache and not shallow_scene._core_cache
+    shallow = rt.render(shallow_scene, spp=8, strategy="mis", seed=1, threads=1)
+    # max_depth 1: only the background seen directly; the sphere is black
+    assert not np.array_equal(deep.mean, shallow.mean)
+    assert float(shallow.mean[2, 2].max()) == 0.0
