@@ -341,8 +341,8 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
         if target is not None:
             targets.setdefault(scene, target)
         row = {"scene": scene, "renderer": renderer, "strategy": strategy, "width": w, "height": h}
-        seeds_at_top = len({r["seed"] for r in recs if int(r["spp"]) == max(int(q["spp"]) for q in recs)
-                            and r.get("stats_image")})
+        top = max(int(r["spp"]) for r in recs)  # the bias verdict needs 2+ seeds kept at the top spp
+        seeds_at_top = len({r["seed"] for r in recs if int(r["spp"]) == top and r.get("stats_image")})
         tails = (_curve_tails(scene, strategy, w, h, tail_spp=tail_spp, cache=cache, threads=threads, log=log)
                  if renderer == "ours" and ref is not None and seeds_at_top >= 2 else None)
         row.update(_curve_stats(recs, ref, store, alpha=alpha, target=target, tails=tails))
