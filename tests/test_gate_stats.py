@@ -139,9 +139,11 @@ def test_sidak_and_levels_by_hand():
     rng = np.random.default_rng(1)
     x, v = rng.normal(1, 0.05, (16, 16, 3)), np.full((16, 16, 3), 0.16)
     g = compare(x, v, 64, np.ones_like(x), v, 4096, tile=8)
-    assert g.n_tests == {"pixel": 768, "tile": 12, "image": 3}
+    # without tail diagnostics the correlation level is not tested (p = 1)
+    assert g.n_tests == {"pixel": 768, "tile": 12, "image": 3, "correlation": 0}
+    assert g.level_p["correlation"] == 1.0
     assert g.level_p["pixel"] == pytest.approx(sidak(g.pixel_p.min(), 768))
-    assert g.p_value == pytest.approx(min(1.0, 3 * min(g.level_p.values())))
+    assert g.p_value == pytest.approx(min(1.0, 4 * min(g.level_p.values())))
     assert g.passed == (g.p_value >= 0.01)
 
 
@@ -156,7 +158,7 @@ def test_zero_variance_pixels():
         warnings.simplefilter("error")
         g = compare(ref.copy(), zero, 16, ref, zero, 1024)
         assert g.passed and g.p_value == 1.0
-        assert g.n_tests == {"pixel": 0, "tile": 0, "image": 0}
+        assert g.n_tests == {"pixel": 0, "tile": 0, "image": 0, "correlation": 0}
         # float rounding of the light is still 'equal'
         g = compare(ref * (1 + 1e-7), zero, 16, ref, zero, 1024)
         assert g.passed

@@ -51,7 +51,7 @@ def locate(d, pix, tiles, tile_levels, level_p: dict) -> tuple:
     worst_tile = worst_tile_box(tiles, tile_levels, H, W)
     worst_level = min(level_p, key=lambda k: (level_p[k], LEVELS.index(k)))
     worst_region = {"pixel": (wy, wx, wy + 1, wx + 1), "tile": worst_tile,
-                    "image": (0, 0, H, W)}[worst_level]
+                    "image": (0, 0, H, W), "correlation": (0, 0, H, W)}[worst_level]
     return (wy, wx, wc), worst_tile, worst_level, worst_region
 
 

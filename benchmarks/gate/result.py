@@ -11,9 +11,10 @@ import numpy as np
 
 __all__ = ["LEVELS", "GateResult"]
 
-#: The three test levels of :func:`benchmarks.gate.compare`, finest first (a tie for the
-#: worst level goes to the finer one).
-LEVELS = ("pixel", "tile", "image")
+#: The four test levels of :func:`benchmarks.gate.compare`, finest first (a tie for the
+#: worst level goes to the finer one); ``correlation`` tests that neighbouring pixels'
+#: errors are independent (:mod:`benchmarks.gate.correlation`).
+LEVELS = ("pixel", "tile", "image", "correlation")
 
 
 @dataclass
@@ -32,12 +33,13 @@ class GateResult:
         One line: why this verdict.
     alpha : float
     p_value : float
-        Gate p-value: Bonferroni over the three levels of the Sidak-adjusted level
-        p-values, ``min(1, 3 * min(level_p.values()))``.
+        Gate p-value: Bonferroni over the four levels of the Sidak-adjusted level
+        p-values, ``min(1, 4 * min(level_p.values()))``.
     level_p : dict
-        ``{'pixel': p, 'tile': p, 'image': p}``, each Sidak-adjusted within its level.
+        ``{'pixel': p, 'tile': p, 'image': p, 'correlation': p}``, each Sidak-adjusted
+        within its level (``correlation``: over the channels; 1 when untested).
     failed_levels : list of str
-        Levels with ``3 * level_p < alpha`` (the levels that fail the gate).
+        Levels with ``4 * level_p < alpha`` (the levels that fail the gate).
     n_tests : dict
         Number of tests per level that were made: statistics with evidence (noise, or a
         difference between noiseless values) whose normal approximation holds.
@@ -85,6 +87,11 @@ class GateResult:
         The same for one 8x8 tile (median over the testable tiles; NaN if none).
     spp_needed : int or None
         ``undetermined``: about how many spp would make the image level testable.
+    neighbour_correlation : ndarray, shape (C,)
+        Mean product of neighbouring pixels' standardised differences per channel: about
+        0 (+- 1/sqrt(number of pairs)) when pixels are independent, positive when their
+        errors move together (NaN where the correlation level was not tested, e.g.
+        without tail diagnostics).
     tails : bool
         Whether tail diagnostics of the same estimator were used (``compare(tails=...)``).
     """
@@ -117,6 +124,7 @@ class GateResult:
     min_detectable_bias: float = float("nan")
     min_detectable_tile_bias: float = float("nan")
     spp_needed: int | None = None
+    neighbour_correlation: np.ndarray = field(default_factory=lambda: np.full(3, np.nan), repr=False)
     tails: bool = False
 
     @property
@@ -164,5 +172,7 @@ class GateResult:
             "n_nonfinite": self.n_nonfinite,
             "min_detectable_bias": self.min_detectable_bias,
             "min_detectable_tile_bias": self.min_detectable_tile_bias,
-            "spp_needed": self.spp_needed, "tails": self.tails,
+            "spp_needed": self.spp_needed,
+            "neighbour_correlation": [None if not np.isfinite(v) else float(v) for v in self.neighbour_correlation],
+            "tails": self.tails,
         }

@@ -24,12 +24,16 @@ the same expectation. Three levels, each a family of two-sided tests:
    pixel can show.
 3. **image** - the same over the whole image, per channel. Catches a small global bias
    (everything scaled by 0.99).
+4. **correlation** - the sum of the products of neighbouring pixels' standardised
+   differences per channel, one-sided (:mod:`benchmarks.gate.correlation`; with tail
+   diagnostics only). Catches wrong noise that keeps every mean right (pixels that share
+   random numbers), which would make the standard errors of the other levels too small.
 
 Within a level the smallest p-value is Sidak-adjusted over the number of tests that
 can reject, ``p_level = 1 - (1 - p_min)^m`` (exact for independent tests; tiles and
 pixels are disjoint and so independent, and for the correlated channels of one pixel or
-tile Sidak's inequality for two-sided tests keeps it conservative). The three levels are
-combined by Bonferroni: ``p_value = min(1, 3 * min(p_pixel, p_tile, p_image))`` and the
+tile Sidak's inequality for two-sided tests keeps it conservative). The four levels are
+combined by Bonferroni: ``p_value = min(1, 4 * min(level p-values))`` and the
 gate passes iff ``p_value >= alpha``. Hence P(false alarm | H0) <= alpha, up to how well
 each per-test p-value is calibrated - which is the hard part, below.
 
@@ -82,6 +86,7 @@ from scipy import stats
 from ..constants import GATE_ALPHA
 from .heavy_tails import (DEFAULT_VALIDITY, edgeworth_error, neighbourhood_floor, pixel_shape, sidak_level,
                           spp_needed, tail_moments)
+from .correlation import MIN_PAIRS, neighbour_products
 from .findings import POWER_TILE, locate, power, relative_bias
 from .result import LEVELS, GateResult
 
@@ -250,15 +255,16 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
     diff = np.where(pix.testable & ~d.bad, d.diff, 0.0)
     tile_levels = [_tile_level(d, diff, ts, **crit) for ts in tiles]
     img = _image_level(d, diff, **crit)
+    corr, rho = _correlation_level(d, tails is not None, **crit)
 
     # ---- combine: Sidak within a level (over the tested statistics), Bonferroni over the levels
-    levels = {"pixel": [pix], "tile": tile_levels, "image": [img]}
+    levels = {"pixel": [pix], "tile": tile_levels, "image": [img], "correlation": [corr]}
     level_p = {k: _family_p(lvs)[0] for k, lvs in levels.items()}
     n_tests = {k: _family_p(lvs)[1] for k, lvs in levels.items()}
     n_cand = {k: int(sum(lv.testable.sum() for lv in lvs)) for k, lvs in levels.items()}
     p_value = min(1.0, len(LEVELS) * min(level_p.values()))
     failed = [k for k, v in level_p.items() if len(LEVELS) * v < alpha]
-    verdict, reason, needed = _decide(failed, img, d.n_t, validity)
+    verdict, reason, needed = _decide(failed, img, d.n_t, validity, rho)
     # ---- where and how large
     (wy, wx, wc), worst_tile, worst_level, worst_region = locate(d, pix, tiles, tile_levels, level_p)
     rel, rel_se, rel_c, rel_tile = relative_bias(d, worst_tile)
@@ -273,7 +279,7 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
         worst_level=worst_level, relative_bias=rel, relative_bias_se=rel_se,
         relative_bias_channels=rel_c, worst_tile_relative_bias=rel_tile, n_nonfinite=int(d.bad.sum()),
         min_detectable_bias=mdb, min_detectable_tile_bias=mdb_tile, spp_needed=needed,
-        tails=tails is not None)
+        neighbour_correlation=rho, tails=tails is not None)
 
 
 # ---------------------------------------------------------------------------------------
@@ -460,6 +466,28 @@ def _image_level(d: _Inputs, diff: np.ndarray, **crit) -> _Level:
     return _level(d, total, diff, total(d.k3), total(d.k4), **crit)
 
 
+def _correlation_level(d: _Inputs, with_tails: bool, *, alpha_level, validity) -> tuple:
+    """``(level, rho)``: the one-sided test of positive correlation between neighbouring
+    pixels' differences per channel (:mod:`benchmarks.gate.correlation`) and the estimated
+    neighbour correlation ``S / N_pairs``. Tested only with tail diagnostics: without them
+    a heavy-tailed estimator's own variance is too small and its skewness unknown."""
+    v = (d.a if d.fa is None else np.maximum(d.a, d.fa)) + d.b
+    use = (v > 0) & ~d.bad
+    safe = np.where(use, v, 1.0)
+    S, n, K3, K4 = neighbour_products(d.diff / np.sqrt(safe), d.k3 / safe ** 1.5, d.k4 / safe ** 2, use)
+    testable = (n >= MIN_PAIRS) & with_tails
+    n1 = np.where(n > 0, n, 1.0)
+    z, g1, g2 = S / np.sqrt(n1), K3 / n1 ** 1.5, K4 / n1 ** 2
+    z_crit = float(stats.norm.isf(sidak_level(alpha_level, max(int(testable.sum()), 1))))
+    valid = testable & (edgeworth_error(z_crit, g1, g2) <= validity)
+    at = np.clip(z, 0.0, z_crit)
+    p = np.where(testable, np.minimum(1.0, stats.norm.sf(z) * (1.0 + edgeworth_error(at, g1, g2))), 1.0)
+    zeros = np.zeros_like(z)
+    level = _Level(z=np.where(testable, z, 0.0), p=p, testable=testable, valid=valid, g1=g1, g2=g2,
+                   z_crit=z_crit, var=zeros, ref_sum=zeros)
+    return level, np.where(testable, S / n1, np.nan)
+
+
 def _family_p(levels: list) -> tuple:
     """``(Sidak-adjusted smallest p, number of tests)`` over the tested statistics of ``levels``
     (all tile sizes form one family)."""
@@ -468,11 +496,15 @@ def _family_p(levels: list) -> tuple:
     return (sidak(float(p.min()), m) if m else 1.0), m
 
 
-def _decide(failed: list, img: _Level, n_t: float, validity: float) -> tuple:
+def _decide(failed: list, img: _Level, n_t: float, validity: float, rho) -> tuple:
     """``(verdict, reason, spp_needed)``: a failure needs one tested statistic; a pass needs
     the whole image tested in every channel with evidence; otherwise undetermined."""
     if failed:
-        return "fail", f"significant difference at the {', '.join(failed)} level", None
+        reason = f"significant difference at the {', '.join(failed)} level"
+        if "correlation" in failed:
+            reason += (f" (neighbouring pixels' errors correlate at {float(np.nanmax(rho)):+.3f}: pixels that "
+                       f"share random numbers, or a bias that varies smoothly over the image)")
+        return "fail", reason, None
     untested = img.testable & ~img.valid
     if not untested.any():
         return "pass", "no significant difference", None
