@@ -368,3 +368,18 @@ def test_pixel_pool_keeps_noiseless_pixels_exact():
     test[4:8, 4:8] = 0.8356 * (1 + 3e-6)
     assert compare(test, var, n_t, ref, var, n_r).passed
 
+
+
+@pytest.mark.parametrize("sign", [+1, -1])
+def test_pixel_level_sees_a_single_outlier_of_either_sign(sign):
+    """One pixel 10 standard errors off, all others exact: the pixel level must fail it
+    whether it is too bright or too dark (an earlier version pooled the difference with
+    the neighbourhood's through the variance floor's max, so a dark pixel read as -1.1)."""
+    ref = np.ones((16, 16, 3))
+    var = np.ones_like(ref)
+    x = ref.copy()
+    x[5, 5] += sign * 10 * np.sqrt(1 / 1024 + 1 / 16384)
+    g = compare(x, var, 1024, ref, var, 16384)
+    assert g.failed and "pixel" in g.failed_levels
+    np.testing.assert_allclose(g.pixel_t[5, 5], sign * 10, rtol=1e-3)
+    assert g.worst_pixel[:2] == (5, 5)

@@ -255,7 +255,7 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
     diff = np.where(pix.testable & ~d.bad, d.diff, 0.0)
     tile_levels = [_tile_level(d, diff, ts, **crit) for ts in tiles]
     img = _image_level(d, diff, **crit)
-    corr, rho = _correlation_level(d, tails is not None, **crit)
+    corr, rho = _correlation_level(pix, tails is not None, **crit)
 
     # ---- combine: Sidak within a level (over the tested statistics), Bonferroni over the levels
     levels = {"pixel": [pix], "tile": tile_levels, "image": [img], "correlation": [corr]}
@@ -399,7 +399,9 @@ def _prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *, var_d
 
 
 def _level(d: _Inputs, reduce, diff, K3, K4, *, alpha_level, validity) -> _Level:
-    """The Welch statistics of ``reduce(diff)`` and which of them may be tested.
+    """The Welch statistics of ``diff`` (already reduced: a pixel's, a tile's or the
+    image's summed difference) with the variances reduced by ``reduce``, and which of them
+    may be tested.
 
     ``K3``, ``K4``: the statistics' third and fourth cumulants. A statistic is tested where
     :func:`edgeworth_error` at the level's critical value (Sidak over its candidates) is at
@@ -408,7 +410,7 @@ def _level(d: _Inputs, reduce, diff, K3, K4, *, alpha_level, validity) -> _Level
     p-value rather than ignored, so the level holds for skewed statistics too.
     """
     sums = d.sums(reduce)
-    z, p, testable = _welch_from_sums(reduce(diff), n_t=d.n_t, n_r=d.n_r,
+    z, p, testable = _welch_from_sums(diff, n_t=d.n_t, n_r=d.n_r,
                                       tol=d.zero_var_rtol * reduce(d.abs_scale), **sums)
     a = sums["a"] if d.fa is None else np.maximum(sums["a"], sums["fa"])
     var = a + sums["b"]
@@ -427,7 +429,9 @@ def _level(d: _Inputs, reduce, diff, K3, K4, *, alpha_level, validity) -> _Level
 def _pixel_level(d: _Inputs, pixel_pool: int, **crit) -> _Level:
     """Welch test per pixel-channel; non-finite test pixels fail.
 
-    Variances are floored by their neighbourhood mean (see ``pixel_pool``). Pixels with
+    Variances are floored by their neighbourhood mean (see ``pixel_pool``); the difference
+    is the pixel's own (pooling it too, as an earlier version did, turned a pixel 10
+    standard errors too dark into one 1 too dark: the floor's max only lifts). Pixels with
     no noise on either side (a directly seen light) stay exact: their neighbours' noise
     says nothing about them, and flooring them would turn the float rounding of the
     emitters' constants (~3e-6 relative) into "significant" differences.
@@ -457,24 +461,29 @@ def _tile_level(d: _Inputs, diff: np.ndarray, ts: int, **crit) -> _Level:
         padded[:H, :W] = img
         return padded.reshape(ty, ts, tx, ts, C).sum(axis=(1, 3))
 
-    return _level(d, tile_sum, diff, tile_sum(d.k3), tile_sum(d.k4), **crit)
+    return _level(d, tile_sum, tile_sum(diff), tile_sum(d.k3), tile_sum(d.k4), **crit)
 
 
 def _image_level(d: _Inputs, diff: np.ndarray, **crit) -> _Level:
     """Welch test of the whole image per channel."""
     total = lambda v: v.sum(axis=(0, 1))  # noqa: E731
-    return _level(d, total, diff, total(d.k3), total(d.k4), **crit)
+    return _level(d, total, total(diff), total(d.k3), total(d.k4), **crit)
 
 
-def _correlation_level(d: _Inputs, with_tails: bool, *, alpha_level, validity) -> tuple:
+def _correlation_level(pix: _Level, with_tails: bool, *, alpha_level, validity) -> tuple:
     """``(level, rho)``: the one-sided test of positive correlation between neighbouring
     pixels' differences per channel (:mod:`benchmarks.gate.correlation`) and the estimated
-    neighbour correlation ``S / N_pairs``. Tested only with tail diagnostics: without them
-    a heavy-tailed estimator's own variance is too small and its skewness unknown."""
-    v = (d.a if d.fa is None else np.maximum(d.a, d.fa)) + d.b
-    use = (v > 0) & ~d.bad
-    safe = np.where(use, v, 1.0)
-    S, n, K3, K4 = neighbour_products(d.diff / np.sqrt(safe), d.k3 / safe ** 1.5, d.k4 / safe ** 2, use)
+    neighbour correlation ``S / N_pairs``.
+
+    It takes the pixel level's statistics: their variances are floored by the pixel's
+    neighbourhood and their shape is the worse of the pixel's and its neighbourhood's, so a
+    pixel whose rare paths neither the render nor the tail reference saw (its difference
+    hundreds of its standard errors) does not pass for correlated noise. Tested only with
+    tail diagnostics: without them a heavy-tailed estimator's own variance is too small and
+    its skewness unknown.
+    """
+    use = pix.testable & np.isfinite(pix.z) & (pix.var > 0)
+    S, n, K3, K4 = neighbour_products(pix.z, pix.g1, pix.g2, use)
     testable = (n >= MIN_PAIRS) & with_tails
     n1 = np.where(n > 0, n, 1.0)
     z, g1, g2 = S / np.sqrt(n1), K3 / n1 ** 1.5, K4 / n1 ** 2

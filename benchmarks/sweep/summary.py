@@ -181,15 +181,12 @@ def _tail_variance(tails) -> dict:
     """The estimator's per-sample variance (mean over pixels) from its tail reference, and
     whether it is only a lower bound: where one sample carries more than half of a pixel's
     sum of squared deviations, the rarer paths that set the true variance were not seen."""
+    from ..tails import variance_is_lower_bound
+
     m = tails.moments
     var = np.asarray(m.m2, dtype=np.float64) * (m.n / (m.n - 1.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        mean = np.asarray(tails.mean, dtype=np.float64)
-        share = np.where(var > 0, (m.max - mean) ** 2 / (var * m.n), 0.0)
-    weight = var / var.sum() if var.sum() > 0 else var
-    dominated = float((weight * (share > 0.5)).sum())
     return {"variance": float(var.mean()), "variance_source": f"tail reference, {m.n} spp",
-            "variance_lower_bound": dominated > 0.1}
+            "variance_lower_bound": variance_is_lower_bound(tails)}
 
 
 def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails=None) -> dict:
@@ -277,15 +274,16 @@ def _add_mitsuba_ratios(rows) -> None:
 
 
 def _curve_tails(scene, strategy, w, h, *, tail_spp, cache, threads, log):
-    """The tail reference of one of our curves (cached; rendered when missing), or None."""
+    """The tail reference of one of our curves (cached; rendered when missing; a larger
+    budget where its variance rests on single samples: ``variance_tail_reference``), or None."""
     if not tail_spp:
         return None
-    from ..tails import tail_reference
+    from ..tails import variance_tail_reference
     from .jobs import scene_at
 
     try:
-        return tail_reference(scene_at(scene, w, h), strategy=strategy, spp=tail_spp, cache=cache, threads=threads,
-                              log=log)
+        return variance_tail_reference(scene_at(scene, w, h), strategy=strategy, spp=tail_spp, cache=cache,
+                                       threads=threads, log=log)
     except ValueError as exc:  # a scene no longer in the suite: no tail diagnostics for it
         if log:
             log(f"no tail reference for {scene} ({strategy}): {exc}")
