@@ -223,3 +223,33 @@ def test_false_alarm_table_of_the_whole_suite():
     open_ = [(r.scene, r.strategy, r.spp) for r in rows
              if r.strategy in ("mis", "mixture") and r.spp >= 1024 and r.undetermined]
     assert not open_, open_
+
+
+def test_variance_tail_reference_escalates_only_where_single_samples_dominate(tmp_path):
+    """A variance resting on single samples is re-estimated once at the sample cap; a
+    well-sampled one is not (the renders are counted through ``render=``)."""
+    from types import SimpleNamespace
+
+    from benchmarks.tails import variance_is_lower_bound, variance_tail_reference
+    from mitsuba_scenes import get_scene
+
+    scene = get_scene("cornell_box", width=4, height=4)
+    calls = []
+
+    def render(sc, *, spp, rare, **kw):
+        calls.append(spp)
+        x = np.zeros(spp)
+        x[0] = 1.0 if rare else 0.0
+        if not rare:
+            x = np.random.default_rng(spp).standard_normal(spp)
+        d = [np.full((4, 4, 3), (x ** k).sum()) for k in range(1, 5)]
+        m = rt.SampleMoments.from_shifted_sums(spp, d=d, max=np.full((4, 4, 3), x.max()))
+        return SimpleNamespace(mean=np.full((4, 4, 3), x.mean()), variance=m.m2, moments=m, seconds=0.0)
+
+    for rare, expected in ((True, [64, 1024]), (False, [64])):
+        calls.clear()
+        t = variance_tail_reference(scene, strategy="uniform", spp=64, max_samples=16 * 1024, cache=tmp_path,
+                                    render=lambda sc, rare=rare, **kw: render(sc, rare=rare, **kw),
+                                    variant=f"test-{rare}")
+        assert calls == expected and t.spp == expected[-1]
+        assert variance_is_lower_bound(t) == rare
