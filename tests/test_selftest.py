@@ -135,3 +135,32 @@ def test_full_selftest_at_the_gate_budget():
     missed = [(r["mutant"], r["verdict"], r["relative_bias"]) for r in report.rows if not r["caught"]]
     assert report.passed, f"caught {report.n_caught}/{report.n}; missed {missed}"
     assert report.n_caught >= report.n_caught_by_mitsuba_rule
+
+
+def test_correlation_level_catches_correlated_pixel_streams(cache):
+    """The mutant whose pixels share one random stream keeps every mean right; the gate's
+    correlation level must catch it (neighbour correlation ~0.1-0.2) while the unmutated
+    tracer passes the same comparison with a correlation near 0 (1/sqrt(1984) = 0.022
+    per channel at 32x32). Fixed seeds; under the null hypothesis the control fails with
+    probability <= alpha = 0.01."""
+    from benchmarks.gate.suite import compare_render
+    from benchmarks.selftest.driver import scene_reference
+    from benchmarks.selftest.render import mutants_build_id
+    from benchmarks.tails import tail_reference
+
+    scene = selftest_scene("cornell_box", width=32)
+    ref = scene_reference("cornell_box", scene, ref_spp=1024, threads=2, cache=cache)
+    results = {}
+    for name in ("none", "correlated_pixel_streams"):
+        def render(sc, *, _name=name, **kw):
+            return render_mutant(sc, _name, **kw)
+
+        tails = tail_reference(scene, strategy="mis", spp=1024, threads=2, cache=cache, render=render,
+                               variant=f"{name}@{mutants_build_id()}")
+        out = render_mutant(scene, name, spp=256, strategy="mis", seed=3, threads=2)
+        results[name] = compare_render(out.mean, out.variance, 256, ref, alpha=0.01, tails=tails)
+    control, mutant = results["none"], results["correlated_pixel_streams"]
+    assert control.verdict == "pass" and np.all(np.abs(control.neighbour_correlation) < 0.1)
+    assert mutant.verdict == "fail" and "correlation" in mutant.failed_levels
+    assert np.all(mutant.neighbour_correlation > 0.05)
+    assert "correlate at" in mutant.reason
