@@ -494,7 +494,7 @@ def _correlation_level(pix: _Level, with_tails: bool, *, alpha_level, validity) 
     zeros = np.zeros_like(z)
     level = _Level(z=np.where(testable, z, 0.0), p=p, testable=testable, valid=valid, g1=g1, g2=g2,
                    z_crit=z_crit, var=zeros, ref_sum=zeros)
-    return level, np.where(testable, S / n1, np.nan)
+    return level, np.where(valid, S / n1, np.nan)
 
 
 def _family_p(levels: list) -> tuple:
