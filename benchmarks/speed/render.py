@@ -2,7 +2,8 @@
 
 Each scene is rendered by our tracer (each strategy) and by Mitsuba's ``path``
 integrator (each available variant) at the same resolution, spp, ``max_depth``, Russian
-roulette and thread count. Mitsuba gets one untimed warm-up render per variant first
+roulette and thread count, once per Russian-roulette configuration (Mitsuba's default
+``rr_depth`` 5 first, then none: :data:`DEFAULT_RR_DEPTHS`). Mitsuba gets one untimed warm-up render per variant first
 (JIT kernels compile and are cached; the warm-up's extra time is reported as
 ``compile_seconds``); ours gets one small warm-up too. Then ``repeats`` rounds, each
 running every configuration once, interleaved (ours, Mitsuba, ours, ...) so that a
