@@ -27,7 +27,8 @@ def jit_variant():
 
 
 def test_cli_render_table_and_json(tmp_path, capsys):
-    """The CLI on a tiny configuration: 12x8, 2 spp, 2 rounds, two strategies, scalar_rgb."""
+    """The CLI on a tiny configuration: 12x8, 2 spp, 2 rounds, two strategies, scalar_rgb,
+    the default Russian-roulette configurations (rr_depth 5, then none)."""
     render_json = tmp_path / "speed.json"
     rc = main(["speed", "cornell_box", "--width", "12", "--height", "8", "--spp", "2", "--repeats", "2",
                "--threads", "2", "--strategies", "mis,light", "--variants", "scalar_rgb",
@@ -35,21 +36,26 @@ def test_cli_render_table_and_json(tmp_path, capsys):
     out = capsys.readouterr().out
     assert rc == 0
     for header in ("Mpaths/s", "Mpaths/cpu-s", "Mrays/s", "ms/spp", "ratio scalar (cpu)", "RMSE",
-                   "eff. ratio scalar", "ours mis", "ours light", "Mitsuba scalar_rgb"):
+                   "eff. ratio scalar", "ours mis", "ours light", "Mitsuba scalar_rgb", "configuration",
+                   "rr_depth 5", "no RR", "geometric mean (1)", "rtbench speed, suite: ours mis vs Mitsuba"):
         assert header in out, header
+    assert out.index("rr_depth 5") < out.index("no RR")   # Mitsuba's default first
     assert "noisy" in out and "CPU time" in out          # the shared-machine caveat is printed
     assert "against ours (mis) 32 spp" in out            # which reference was used
 
     res = json.loads(render_json.read_text())["render"]
     assert res["config"]["spp"] == 2 and res["available_variants"] == ["scalar_rgb"]
+    assert res["config"]["rr_depths"] == [5, None]
     assert res["environment"]["note"] == speed.WALL_CLOCK_NOTE
-    labels = [r["label"] for r in res["summary"]]
-    assert sorted(labels) == ["Mitsuba scalar_rgb", "ours light", "ours mis"]
+    labels = [(r["configuration"], r["label"]) for r in res["summary"]]
+    assert sorted(labels) == sorted((c, x) for c in ("rr_depth 5", "no RR")
+                                    for x in ("Mitsuba scalar_rgb", "ours light", "ours mis"))
+    assert [r["configuration"] for r in res["summary"]][:3] == ["rr_depth 5"] * 3
     runs = res["runs"]
-    assert len(runs) == 2 * 3                              # rounds x configurations
+    assert len(runs) == 2 * 2 * 3                          # configurations x rounds x renderers
     for r in runs:
         assert r["width"] == 12 and r["height"] == 8 and r["spp"] == 2 and r["threads"] == 2
-        assert r["max_depth"] == 50 and r["rr_depth"] is None
+        assert r["max_depth"] == 50 and r["rr_depth"] in (5, None)
         assert r["paths"] == 12 * 8 * 2
         assert r["seconds"] > 0 and r["process_seconds"] >= 0
         assert math.isclose(r["paths_per_second"], r["paths"] / r["seconds"], rel_tol=1e-9)
@@ -63,26 +69,109 @@ def test_cli_render_table_and_json(tmp_path, capsys):
             assert math.isclose(r["rays_per_second"], r["rays"] / r["seconds"], rel_tol=1e-9)
         else:
             assert r["rays"] is None and r["variant"] == "scalar_rgb"
-    # interleaving: within every round each configuration ran once, and the order alternates
-    rounds = [[(r["renderer"], r["strategy"]) for r in runs if r["round"] == k] for k in (0, 1)]
-    assert sorted(rounds[0]) == sorted(rounds[1]) and rounds[0] == rounds[1][::-1]
-    assert rounds[0][1][0] == "mitsuba"                    # ours, Mitsuba, ours: not grouped
+    for rr in (5, None):
+        cfg = [r for r in runs if r["rr_depth"] == rr]
+        # interleaving: within every round each configuration ran once, and the order alternates
+        rounds = [[(r["renderer"], r["strategy"]) for r in cfg if r["round"] == k] for k in (0, 1)]
+        assert sorted(rounds[0]) == sorted(rounds[1]) and rounds[0] == rounds[1][::-1]
+        assert rounds[0][1][0] == "mitsuba"                # ours, Mitsuba, ours: not grouped
 
-    # the paired ratios are medians of per-round ratios
-    mits = [r for r in runs if r["renderer"] == "mitsuba"]
-    for row in res["summary"]:
-        assert row["runs"] == 2 and row["paths_per_second"] > 0
-        if row["renderer"] != "ours":
-            assert "ratio_scalar_rgb" not in row
-            continue
-        ours = [r for r in runs if r["renderer"] == "ours" and r["strategy"] == row["strategy"]]
-        want = statistics.median([a["paths_per_second"] / b["paths_per_second"] for a, b in zip(ours, mits)])
-        assert math.isclose(row["ratio_scalar_rgb"], want, rel_tol=1e-9)
-        assert row["cpu_ratio_scalar_rgb"] > 0
-        assert row["efficiency_ratio_scalar_rgb"] is None or row["efficiency_ratio_scalar_rgb"] > 0
+        # the paired ratios are medians of per-round ratios
+        mits = [r for r in cfg if r["renderer"] == "mitsuba"]
+        for row in res["summary"]:
+            if row["rr_depth"] != rr:
+                continue
+            assert row["runs"] == 2 and row["paths_per_second"] > 0
+            if row["renderer"] != "ours":
+                assert "ratio_scalar_rgb" not in row
+                continue
+            ours = [r for r in cfg if r["renderer"] == "ours" and r["strategy"] == row["strategy"]]
+            want = statistics.median([a["paths_per_second"] / b["paths_per_second"] for a, b in zip(ours, mits)])
+            assert math.isclose(row["ratio_scalar_rgb"], want, rel_tol=1e-9)
+            assert row["cpu_ratio_scalar_rgb"] > 0
+            assert row["efficiency_ratio_scalar_rgb"] is None or row["efficiency_ratio_scalar_rgb"] > 0
     assert res["references"]["cornell_box"]["kind"] == "ours"
     assert res["ours"]["cornell_box"]["build_seconds"] >= 0
-    assert res["mitsuba"]["cornell_box"]["scalar_rgb"]["compile_seconds"] == 0.0   # no JIT in scalar
+    for label in ("rr_depth 5", "no RR"):   # no JIT in scalar
+        assert res["mitsuba"]["cornell_box"][label]["scalar_rgb"]["compile_seconds"] == 0.0
+    # the headline: mis (the first strategy) per configuration, then the geometric mean
+    suite = res["suite"]
+    assert suite["strategy"] == "mis" and suite["variants"] == ["scalar_rgb"]
+    assert [(r["configuration"], r["scene"]) for r in suite["rows"]] == [
+        ("rr_depth 5", "cornell_box"), ("rr_depth 5", "geometric mean"),
+        ("no RR", "cornell_box"), ("no RR", "geometric mean")]
+    for head, gm in (suite["rows"][0:2], suite["rows"][2:4]):
+        assert gm["scenes"] == 1 and math.isclose(gm["ratio_scalar_rgb"], head["ratio_scalar_rgb"], rel_tol=1e-12)
+
+
+def _summary_row(scene, rr_depth, renderer, strategy, pps, **ratios):
+    """A render-benchmark summary row with only the fields the headline reads."""
+    return {"scene": scene, "rr_depth": rr_depth, "configuration": speed.rr_label(rr_depth), "renderer": renderer,
+            "strategy": strategy, "variant": "llvm_ad_rgb" if renderer == "mitsuba" else None,
+            "paths_per_second": pps, **{f"{k}_llvm_ad_rgb": v for k, v in ratios.items()}}
+
+
+def test_suite_summary_orders_configurations_and_takes_geometric_means():
+    """Rows per configuration in run order (roulette first), scenes in run order, the
+    headline strategy only, then the geometric mean of each ratio over the scenes."""
+    summary = []
+    for rr, scale in ((5, 1.0), (None, 2.0)):
+        for scene, ratio in (("a", 0.5), ("b", 2.0), ("c", 4.0)):
+            summary += [_summary_row(scene, rr, "ours", "mis", 1e6, ratio=scale * ratio, cpu_ratio=ratio,
+                                     efficiency_ratio=ratio),
+                        _summary_row(scene, rr, "ours", "cosine", 9e6, ratio=99.0, cpu_ratio=99.0,
+                                     efficiency_ratio=99.0),
+                        _summary_row(scene, rr, "mitsuba", "path", 3e6)]
+    result = {"config": {"strategies": ["mis", "cosine"], "rr_depths": [5, None]},
+              "available_variants": ["llvm_ad_rgb"], "summary": summary}
+    rows = speed.suite_summary(result)["rows"]
+    assert [(r["configuration"], r["scene"]) for r in rows] == [
+        ("rr_depth 5", s) for s in ("a", "b", "c", "geometric mean")] + [
+        ("no RR", s) for s in ("a", "b", "c", "geometric mean")]
+    assert [r["ratio_llvm_ad_rgb"] for r in rows[:3]] == [0.5, 2.0, 4.0]
+    assert rows[0]["mitsuba_paths_per_second_llvm_ad_rgb"] == 3e6 and rows[0]["ours_paths_per_second"] == 1e6
+    assert math.isclose(rows[3]["ratio_llvm_ad_rgb"], 4.0 ** (1 / 3), rel_tol=1e-12)
+    assert math.isclose(rows[7]["ratio_llvm_ad_rgb"], 2 * 4.0 ** (1 / 3), rel_tol=1e-12)
+    assert math.isclose(rows[7]["efficiency_ratio_llvm_ad_rgb"], 4.0 ** (1 / 3), rel_tol=1e-12)
+    assert rows[3]["scenes"] == 3 and rows[3]["rr_depth"] == 5 and rows[7]["rr_depth"] is None
+
+
+def test_suite_table_has_one_row_per_scene_and_a_geometric_mean_per_configuration():
+    """The printed headline: configuration blocks in order, each closed by its geometric
+    mean; a missing efficiency ratio prints as '-' and stays out of the mean."""
+    from rich.console import Console
+
+    from benchmarks.commands.speed import suite_table
+
+    summary = [_summary_row(s, rr, "ours", "mis", 2e6, ratio=r, cpu_ratio=r, efficiency_ratio=e)
+               for rr in (5, None) for s, r, e in (("a", 1.0, None), ("b", 4.0, 3.0))]
+    summary += [_summary_row(s, rr, "mitsuba", "path", 1e6) for rr in (5, None) for s in ("a", "b")]
+    result = {"config": {"strategies": ["mis"], "rr_depths": [5, None], "width": 8, "height": 8, "spp": 2,
+                         "threads": 2, "repeats": 1}, "available_variants": ["llvm_ad_rgb"], "summary": summary}
+    result["suite"] = speed.suite_summary(result)
+    console = Console(width=250, record=True)
+    console.print(suite_table(result))
+    rows = [[c.strip() for c in ln.split("\u2502")[1:-1]] for ln in console.export_text().splitlines()]
+    rows = [r for r in rows if r and r[0] in ("rr_depth 5", "no RR")]
+    assert [(r[0], r[1]) for r in rows] == [(c, s) for c in ("rr_depth 5", "no RR")
+                                            for s in ("a", "b", "geometric mean (2)")]
+    for r in rows:
+        if r[1].startswith("geometric mean"):
+            assert r[2:] == ["-", "-", "2.00 (2.00)", "3.00"]
+    assert rows[0][2:] == ["2.000", "1.000", "1.00 (1.00)", "-"]   # scene a: no efficiency ratio
+
+
+def test_rr_depth_option_and_its_validation(capsys):
+    from benchmarks.commands.speed import _rr_depths
+
+    assert _rr_depths("none,3") == [None, 3]
+    with pytest.raises(SystemExit) as exc:   # argparse rejects it
+        main(["speed", "--rr-depth", "x", "--quiet"])
+    assert exc.value.code == 2
+    assert main(["speed", "--rr-depth", "0", "--quiet", "--variants", "scalar_rgb", "--reference", "ours"]) == 2
+    assert "rr_depth must be >= 1" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="duplicates"):
+        speed.render_benchmark(["cornell_box"], rr_depths=(5, 5))
 
 
 def test_cli_rejects_bad_input(capsys):
@@ -200,3 +289,24 @@ def test_scaling_fields():
     assert set(fit) == {"a", "b", "per_doubling", "r2", "loglog_exponent"} and "mitsuba_ns_per_ray" not in res["fits"]
     with pytest.raises(ValueError, match="at least two"):
         speed.scaling_benchmark(triangles=(1000,))
+
+
+def test_segment_survival_and_packet_utilisation():
+    """Every path traces its camera segment; survival never grows with depth; Russian
+    roulette shortens paths; one lane is always busy; wider packets are busier on
+    nothing (utilisation falls with width)."""
+    import dataclasses
+
+    from mitsuba_scenes import get_scene
+
+    scene = get_scene("cornell_box", width=16, height=16, max_depth=8)
+    s = speed.segment_survival(scene, spp=4, seed=4)
+    assert s.shape == (8,) and s[0] == 1.0
+    assert np.all(np.diff(s) <= 0) and np.all(s >= 0)
+    s_rr = speed.segment_survival(dataclasses.replace(scene, rr_depth=2), spp=4, seed=4)
+    assert np.array_equal(s_rr[:2], s[:2]) and s_rr.sum() < s.sum()   # roulette from segment 3 on
+    one, eight, sixteen = (speed.packet_utilisation(s, w) for w in (1, 8, 16))
+    assert one["utilisation"] == 1.0 and math.isclose(one["mean_segments"], s.sum())
+    assert 0 < sixteen["utilisation"] <= eight["utilisation"] < 1
+    with pytest.raises(ValueError, match="width"):
+        speed.packet_utilisation(s, 0)

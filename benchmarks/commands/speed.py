@@ -1,6 +1,9 @@
 """``rtbench speed [SCENES] [--rays] [--scaling] ...``: ours vs Mitsuba 3, paths/s, rays/s, efficiency.
 
-Default: the render benchmark (``benchmarks.speed.render_benchmark``). ``--rays`` runs
+Default: the render benchmark (``benchmarks.speed.render_benchmark``) on the whole suite,
+in Mitsuba's default Russian-roulette configuration (``rr_depth`` 5) and then the seed's
+(none; ``--rr-depth`` picks), headed by the suite table (every scene and the geometric
+mean of the ratios, per configuration). ``--rays`` runs
 the ray-casting micro-benchmark instead, ``--scaling`` the scaling sweeps; give both
 to run both, and ``--render`` as well to add the render benchmark to them.
 """
@@ -27,10 +30,31 @@ def _list(text):
     return [x.strip() for x in text.split(",") if x.strip()]
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from benchmarks.speed import DEFAULT_STRATEGIES, DEFAULT_VARIANTS, REFERENCE_KINDS
+def _rr_depths(text):
+    """``--rr-depth``: comma-separated depths, ``none`` for no Russian roulette.
 
-    parser.add_argument("scenes", nargs="*", metavar="SCENE", help="suite scene(s) (default: cornell_box)")
+    >>> _rr_depths("5,none")
+    [5, None]
+    """
+    out = []
+    for x in _list(text):
+        if x.lower() == "none":
+            out.append(None)
+            continue
+        try:
+            out.append(int(x))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected depths or 'none', comma-separated, got {text!r}") from None
+    if not out:
+        raise argparse.ArgumentTypeError("expected at least one configuration")
+    return out
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from benchmarks.speed import DEFAULT_RR_DEPTHS, DEFAULT_STRATEGIES, DEFAULT_VARIANTS, REFERENCE_KINDS
+
+    rr_default = ",".join("none" if v is None else str(v) for v in DEFAULT_RR_DEPTHS)
+    parser.add_argument("scenes", nargs="*", metavar="SCENE", help="suite scene(s) (default: the whole suite)")
     parser.add_argument("--width", type=int, default=128, help="image width (default 128)")
     parser.add_argument("--height", type=int, default=128, help="image height (default 128)")
     parser.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")
@@ -42,6 +66,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"Mitsuba variants (default {','.join(DEFAULT_VARIANTS)}); ones that do not "
                              f"work here are skipped and named")
     parser.add_argument("--max-depth", type=int, default=None, help="override the scene's max_depth (suite: 50)")
+    parser.add_argument("--rr-depth", type=_rr_depths, default=list(DEFAULT_RR_DEPTHS), metavar="DEPTHS",
+                        help=f"Russian-roulette configurations, each measured as its own rows: depths roulette "
+                             f"starts at, 'none' for no roulette (default {rr_default}: Mitsuba's default, "
+                             f"then the seed's)")
     parser.add_argument("--reference", choices=REFERENCE_KINDS, default="mitsuba",
                         help="error reference: cached high-spp Mitsuba (benchmarks.references; rendered once "
                              "if missing) or a high-spp render of ours (default mitsuba)")
@@ -82,29 +110,67 @@ def _m(v):
     return "-" if v is None or not math.isfinite(v) else f"{v / 1e6:.3f}"
 
 
+def _r(v):
+    """A ratio to two decimals; ``-`` for None and non-finite values.
+
+    >>> _r(1.049), _r(None), _r(float("nan"))
+    ('1.05', '-', '-')
+    """
+    return "-" if v is None or not math.isfinite(v) else f"{v:.2f}"
+
+
 def _short(variant):
     """``llvm_ad_rgb`` -> ``llvm``."""
     return variant.split("_")[0]
 
 
+def suite_table(result):
+    """The render benchmark's headline ``rich`` table: every scene and the geometric mean,
+    per Russian-roulette configuration, for the headline strategy against each variant."""
+    from rich.table import Table
+
+    from benchmarks.speed import GEOMEAN
+
+    c, suite = result["config"], result["suite"]
+    variants = suite["variants"]
+    table = Table(title=f"rtbench speed, suite: ours {suite['strategy']} vs Mitsuba, {c['width']}x{c['height']}, "
+                        f"{c['spp']} spp, {c['threads']} threads, median of {c['repeats']} paired rounds")
+    table.add_column("configuration", no_wrap=True)
+    table.add_column("scene", no_wrap=True)
+    table.add_column(f"ours {suite['strategy']} Mpaths/s", justify="right")
+    for v in variants:
+        table.add_column(f"{_short(v)} Mpaths/s", justify="right")
+        table.add_column(f"ratio {_short(v)} (cpu)", justify="right")
+        table.add_column(f"eff. ratio {_short(v)}", justify="right")
+    for r in suite["rows"]:
+        cells = [r["configuration"], r["scene"] if r["scene"] != GEOMEAN else f"{GEOMEAN} ({r['scenes']})",
+                 _m(r["ours_paths_per_second"])]
+        for v in variants:
+            x, cpu, eff = r[f"ratio_{v}"], r[f"cpu_ratio_{v}"], r[f"efficiency_ratio_{v}"]
+            cells += [_m(r[f"mitsuba_paths_per_second_{v}"]), f"{_r(x)} ({_r(cpu)})", _r(eff)]
+        table.add_row(*cells, end_section=r["scene"] == GEOMEAN)
+    return table
+
+
 def render_table(result):
-    """The render benchmark's ``rich`` table."""
+    """The render benchmark's detailed ``rich`` table (every configuration, every renderer)."""
     from rich.table import Table
 
     c = result["config"]
     variants = result.get("available_variants", [])
     table = Table(title=f"rtbench speed: {c['width']}x{c['height']}, {c['spp']} spp, {c['threads']} threads, "
                         f"median of {c['repeats']} paired rounds")
-    for col, kw in (("scene", {"no_wrap": True}), ("renderer", {"no_wrap": True}), ("Mpaths/s", {}),
+    for col, kw in (("configuration", {"no_wrap": True}), ("scene", {"no_wrap": True}),
+                    ("renderer", {"no_wrap": True}), ("Mpaths/s", {}),
                     ("Mpaths/cpu-s", {}), ("Mrays/s", {}), ("ms/spp", {}), ("spread", {}), ("cpu/wall", {})):
-        table.add_column(col, justify="left" if col in ("scene", "renderer") else "right", **kw)
+        table.add_column(col, justify="left" if col in ("configuration", "scene", "renderer") else "right", **kw)
     for v in variants:
         table.add_column(f"ratio {_short(v)} (cpu)", justify="right")
     table.add_column("RMSE", justify="right")
     for v in variants:
         table.add_column(f"eff. ratio {_short(v)}", justify="right")
     for r in result["summary"]:
-        cells = [r["scene"], r["label"], _m(r["paths_per_second"]), _m(r["paths_per_cpu_second"]),
+        cells = [r["configuration"], r["scene"], r["label"], _m(r["paths_per_second"]), _m(r["paths_per_cpu_second"]),
                  _m(r["rays_per_second"]), f"{r['ms_per_spp']:.3f}", f"{100 * r['paths_per_second_spread']:.0f}%"
                  if math.isfinite(r["paths_per_second_spread"]) else "-", f"{r['cpu_over_wall']:.2f}"]
         for v in variants:
@@ -126,9 +192,11 @@ def render_notes(result):
     for name, per in result["mitsuba"].items():
         if name == "versions":
             continue
-        for v, info in per.items():
-            lines.append(f"{name}: Mitsuba {v} load {info['load_seconds']:.2f} s, warm-up {info['warmup_seconds']:.2f} s, "
-                         f"JIT compile (warm-up minus timed render, excluded) {info['compile_seconds']:.2f} s")
+        for label, per_variant in per.items():
+            for v, info in per_variant.items():
+                lines.append(f"{name}, {label}: Mitsuba {v} load {info['load_seconds']:.2f} s, warm-up "
+                             f"{info['warmup_seconds']:.2f} s, JIT compile (warm-up minus timed render, excluded) "
+                             f"{info['compile_seconds']:.2f} s")
     for name, info in result.get("ours", {}).items():
         lines.append(f"{name}: ours BVH build {1e3 * info['build_seconds']:.2f} ms (excluded)")
     if "versions" in result["mitsuba"]:
@@ -138,6 +206,8 @@ def render_notes(result):
         lines.append(f"Mitsuba {v} skipped: {why}")
     lines.append("ratio = paths/s ours / Mitsuba, paired per round (cpu: the same on process CPU time); Mrays/s is "
                  "ours only (Mitsuba does not count rays); spread = (max-min)/median of paths/s")
+    lines.append("configuration: 'rr_depth N' = Russian roulette from depth N in both renderers (5 is Mitsuba's "
+                 "default), 'no RR' = none; geometric mean = of the per-scene ratios (each scene weighs the same)")
     return lines
 
 
@@ -249,12 +319,16 @@ def run(args) -> int:
     jit = [v for v in args.variants if not v.startswith("scalar")]
     out = {}
     if do_render:
-        res = speed.render_benchmark(args.scenes or ["cornell_box"], width=args.width, height=args.height,
+        from mitsuba_scenes import list_scenes
+
+        res = speed.render_benchmark(args.scenes or list_scenes(), width=args.width, height=args.height,
                                      spp=args.spp, threads=args.threads, repeats=args.repeats,
                                      strategies=args.strategies, variants=args.variants, max_depth=args.max_depth,
+                                     rr_depths=args.rr_depth,
                                      reference=args.reference, reference_spp=args.reference_spp, seed=args.seed,
                                      cache=args.cache, log=log)
         out["render"] = res
+        console.print(suite_table(res))
         console.print(render_table(res))
         for line in render_notes(res):
             console.print(f"  {line}", markup=False, highlight=False)

@@ -5,10 +5,16 @@ prints them; its tables live in :mod:`benchmarks.commands.speed`):
 
 :func:`render_benchmark` (:mod:`.render`)
     Paired, interleaved renders of each scene by ours (each strategy) and Mitsuba's
-    ``path`` integrator (each variant): paths/s, ms/spp, RMSE and efficiency at equal spp.
+    ``path`` integrator (each variant), in each Russian-roulette configuration (Mitsuba's
+    default ``rr_depth`` 5, then none): paths/s, ms/spp, RMSE and efficiency at equal
+    spp; its headline (:func:`suite_summary`, :mod:`.suite`) is every scene and the
+    geometric mean of the ratios.
 :func:`ray_benchmark` (:mod:`.rays`)
     Closest-hit queries on a generated torus with primary and random rays, ours vs
     Mitsuba (Embree) on the same rays: Mrays/s and hit agreement.
+:func:`segment_survival`, :func:`packet_utilisation` (:mod:`.lanes`)
+    How many paths reach each segment, and the share of busy lanes in a SIMD packet
+    that runs until its longest path ends.
 :func:`scaling_benchmark` (:mod:`.scaling`)
     Paths/s vs resolution and threads, and cost per ray vs triangle count fitted as
     ``a + b ln n``.
@@ -27,13 +33,17 @@ Examples
 from __future__ import annotations
 
 from .common import WALL_CLOCK_NOTE, environment
+from .lanes import packet_utilisation, segment_survival
 from .rays import (RAY_KINDS, hit_agreement, intersect_mitsuba, intersect_ours, mesh_scene, primary_rays,
                    random_rays, ray_benchmark, torus_mesh)
-from .render import DEFAULT_STRATEGIES, DEFAULT_VARIANTS, REFERENCE_KINDS, render_benchmark
+from .render import (DEFAULT_RR_DEPTHS, DEFAULT_STRATEGIES, DEFAULT_VARIANTS, REFERENCE_KINDS, render_benchmark,
+                     rr_label)
 from .scaling import fit_log_growth, scaling_benchmark
+from .suite import GEOMEAN, geometric_mean, suite_summary
 
-__all__ = ["WALL_CLOCK_NOTE", "DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "REFERENCE_KINDS", "RAY_KINDS",
-           "render_benchmark", "ray_benchmark", "scaling_benchmark",
+__all__ = ["WALL_CLOCK_NOTE", "DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT_RR_DEPTHS", "REFERENCE_KINDS",
+           "RAY_KINDS", "render_benchmark", "rr_label", "suite_summary", "geometric_mean", "GEOMEAN",
+           "ray_benchmark", "scaling_benchmark",
            "torus_mesh", "mesh_scene", "primary_rays", "random_rays",
            "intersect_ours", "intersect_mitsuba", "hit_agreement", "fit_log_growth",
-           "environment"]
+           "environment", "segment_survival", "packet_utilisation"]

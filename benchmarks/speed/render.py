@@ -2,7 +2,8 @@
 
 Each scene is rendered by our tracer (each strategy) and by Mitsuba's ``path``
 integrator (each available variant) at the same resolution, spp, ``max_depth``, Russian
-roulette and thread count. Mitsuba gets one untimed warm-up render per variant first
+roulette and thread count, once per Russian-roulette configuration (Mitsuba's default
+``rr_depth`` 5 first, then none: :data:`DEFAULT_RR_DEPTHS`). Mitsuba gets one untimed warm-up render per variant first
 (JIT kernels compile and are cached; the warm-up's extra time is reported as
 ``compile_seconds``); ours gets one small warm-up too. Then ``repeats`` rounds, each
 running every configuration once, interleaved (ours, Mitsuba, ours, ...) so that a
@@ -30,8 +31,10 @@ from reference_tracer._validate import positive_int
 
 from .common import (available_variants, environment, load_mitsuba, median, mitsuba_render_fn, mitsuba_versions,
                      name_list, spread, timed, use_variant)
+from .suite import suite_summary
 
-__all__ = ["DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "REFERENCE_KINDS", "render_benchmark"]
+__all__ = ["DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT_RR_DEPTHS", "REFERENCE_KINDS", "render_benchmark",
+           "rr_label"]
 
 #: our strategies in the order the benchmark runs and lists them: the unbiased ones from
 #: ``mis`` (the one matched to Mitsuba's ``path`` integrator) down to the plainest, then
@@ -40,6 +43,9 @@ DEFAULT_STRATEGIES = (tuple(reversed(UNBIASED_STRATEGIES))
                       + tuple(s for s in STRATEGIES if s not in UNBIASED_STRATEGIES))
 #: Mitsuba variants compared against, the bar first.
 DEFAULT_VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
+#: Russian-roulette configurations measured, in order: Mitsuba's default ``path`` setting
+#: (roulette from depth 5, what its users run) first, then the seed's (none).
+DEFAULT_RR_DEPTHS = (5, None)
 #: where the error reference comes from: a (cached) high-spp Mitsuba render via
 #: ``benchmarks.references``, or a high-spp render of ours (``mis``).
 REFERENCE_KINDS = ("mitsuba", "ours")
@@ -51,7 +57,7 @@ _SUMMARY_KEYS = ("paths_per_second", "paths_per_cpu_second", "rays_per_second", 
 
 def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int = 128, spp: int = 64,
                      threads: int = 2, repeats: int = 5, strategies=DEFAULT_STRATEGIES,
-                     variants=DEFAULT_VARIANTS, max_depth: int | None = None, rr_depth="scene",
+                     variants=DEFAULT_VARIANTS, max_depth: int | None = None, rr_depths=DEFAULT_RR_DEPTHS,
                      reference: str = "mitsuba", reference_spp: int = 4096, seed: int = 0,
                      cache=None, log=None) -> dict:
     """Paired, interleaved render timings of ours vs Mitsuba, with error at equal spp.
@@ -69,8 +75,13 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
         An empty list is not allowed.
     max_depth : int or None, keyword-only
         Override the scene's ``max_depth`` (None keeps it; the suite's default is 50).
-    rr_depth : int, None or 'scene', keyword-only
-        Override Russian roulette (``None`` disables it; ``'scene'`` keeps the scene's).
+    rr_depths : sequence of (int, None or 'scene'), keyword-only
+        The Russian-roulette configurations, each measured separately and in this order
+        (summary rows carry ``rr_depth`` and ``configuration``): an int is the depth
+        roulette starts at (Mitsuba's rule), ``None`` disables it, ``'scene'`` keeps the
+        scene's own. Default :data:`DEFAULT_RR_DEPTHS`: Mitsuba's default (5), then none.
+        Every configuration of a scene is scored against the same reference (roulette
+        changes the noise, not the expectation).
     reference : {'mitsuba', 'ours'}, keyword-only
         Error reference: ``mitsuba`` is ``benchmarks.references.reference`` (cached in
         ``$RTBENCH_CACHE``; rendered once if missing, with the first working variant),
@@ -91,15 +102,19 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
     -------
     dict
         ``config``, ``environment``, ``mitsuba`` (versions, per-variant load and compile
-        seconds), ``skipped_variants``, ``references`` (per scene), ``runs`` (one record
-        per timed render) and ``summary`` (one row per scene and configuration: medians
+        seconds, per scene and configuration label), ``skipped_variants``, ``references``
+        (per scene), ``runs`` (one record per timed render) and ``summary`` (one row per
+        scene, Russian-roulette configuration and renderer configuration: medians
         and, for ours, ``ratio`` / ``efficiency_ratio`` / ``cpu_ratio`` per variant, each
-        the median over rounds of the paired per-round ratio).
+        the median over rounds of the paired per-round ratio), and ``suite``, the headline
+        (:func:`benchmarks.speed.suite_summary`: every scene and the geometric mean per
+        configuration).
     """
     config = _render_config(scenes, width=width, height=height, spp=spp, threads=threads, repeats=repeats,
                             strategies=strategies, variants=variants, reference=reference,
                             reference_spp=reference_spp, seed=seed)
-    max_depth, rr_depth = _depth_overrides(max_depth, rr_depth)
+    max_depth, rr_depths = _depth_overrides(max_depth, rr_depths)
+    config["rr_depths"] = list(rr_depths)
 
     env_before = environment()
     ok_variants, skipped = available_variants(config["variants"], log)
@@ -111,9 +126,10 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
         raise ValueError(f"no Mitsuba variant of {config['variants']} works here ({skipped}); "
                          f"use reference='ours'")
     for name in config["scenes"]:
-        _bench_scene(result, name, config, ok_variants, max_depth=max_depth, rr_depth=rr_depth, cache=cache,
+        _bench_scene(result, name, config, ok_variants, max_depth=max_depth, rr_depths=rr_depths, cache=cache,
                      log=log)
     result["available_variants"] = ok_variants
+    result["suite"] = suite_summary(result)
     result["environment_after"] = environment()
     return result
 
@@ -140,51 +156,78 @@ def _render_config(scenes, *, width, height, spp, threads, repeats, strategies, 
             "reference_spp": reference_spp, "seed": seed}
 
 
-def _depth_overrides(max_depth, rr_depth):
-    """Validated ``(max_depth, rr_depth)`` overrides (None / ``'scene'`` keep the scene's)."""
+def _depth_overrides(max_depth, rr_depths):
+    """Validated ``(max_depth, rr_depths)`` overrides (None / ``'scene'`` keep the scene's).
+
+    >>> _depth_overrides(None, (5, None))
+    (None, [5, None])
+    """
     if max_depth is not None:
         max_depth = int(max_depth)
         if not (max_depth == -1 or max_depth >= 1):
             raise ValueError(f"max_depth must be >= 1 or -1, got {max_depth}")
-    if rr_depth not in ("scene", None):
-        rr_depth = positive_int("rr_depth", rr_depth)
-    return max_depth, rr_depth
+    rr_depths = [v if v in ("scene", None) else positive_int("rr_depth", v) for v in rr_depths]
+    if not rr_depths:
+        raise ValueError("rr_depths must name at least one configuration")
+    if len(set(map(str, rr_depths))) != len(rr_depths):
+        raise ValueError(f"rr_depths has duplicates: {rr_depths}")
+    return max_depth, rr_depths
 
 
-def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depth, cache, log):
-    """Set up, time and summarise one scene, adding its records to ``result``."""
+def rr_label(rr_depth) -> str:
+    """A Russian-roulette setting as a table label.
+
+    >>> rr_label(5), rr_label(None)
+    ('rr_depth 5', 'no RR')
+    """
+    return "no RR" if rr_depth is None else f"rr_depth {rr_depth}"
+
+
+def _with_depths(scene, max_depth, rr_depth):
+    """``scene`` with ``max_depth`` (None keeps) and ``rr_depth`` (``'scene'`` keeps) set."""
+    import dataclasses
+
+    if max_depth is None and rr_depth == "scene":
+        return scene
+    return dataclasses.replace(scene, max_depth=scene.max_depth if max_depth is None else max_depth,
+                               rr_depth=scene.rr_depth if rr_depth == "scene" else rr_depth)
+
+
+def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cache, log):
+    """Set up, time and summarise one scene in every Russian-roulette configuration."""
     import reference_tracer as rt
     from mitsuba_scenes import get_scene
     from reference_tracer.render import core_scene
 
     width, height, spp, threads = config["width"], config["height"], config["spp"], config["threads"]
-    scene = get_scene(name).with_camera_size(width, height)
-    if max_depth is not None or rr_depth != "scene":
-        scene = rt.Scene(scene.camera, scene.shapes,
-                         scene.max_depth if max_depth is None else max_depth,
-                         scene.rr_depth if rr_depth == "scene" else rr_depth, scene.background)
-    if log:
-        log(f"{name} {width}x{height}, {spp} spp, max_depth {scene.max_depth}, rr_depth {scene.rr_depth}, "
-            f"{threads} threads")
-    # set-up, untimed: our BVH build + a small warm-up render; Mitsuba load + warm-up
-    _, build_wall, _ = timed(lambda: core_scene(scene))
-    ref, record = _reference(scene, kind=config["reference"], spp=config["reference_spp"],
+    base = _with_depths(get_scene(name).with_camera_size(width, height), max_depth, "scene")
+    # set-up, untimed: our BVH build, the reference (one per scene: roulette keeps the expectation)
+    _, build_wall, _ = timed(lambda: core_scene(base))
+    ref, record = _reference(base, kind=config["reference"], spp=config["reference_spp"],
                              variant=ok_variants[0] if ok_variants else None, threads=threads, cache=cache,
                              log=log)
     result["references"][name] = record
-    ours_info = {"build_seconds": float(core_scene(scene).build_seconds), "compile_and_build_seconds": build_wall}
-    rt.render(scene, spp=max(1, spp // 8), strategy=config["strategies"][0], seed=0xA11CE, threads=threads)
-    mscenes, infos = _warm_mitsuba(scene, ok_variants, spp=spp, threads=threads, log=log)
-
-    per = _timed_rounds(name, scene, config, ok_variants, mscenes=mscenes, ref=ref, runs=result["runs"], log=log)
-
-    for v in ok_variants:   # JIT compile time: warm-up minus a typical timed render
-        info = infos[v]
-        typical = median([x["seconds"] for x in per[f"Mitsuba {v}"]])
-        info["compile_seconds"] = max(0.0, info["warmup_seconds"] - typical) if v.startswith(("llvm", "cuda")) else 0.0
-        result["mitsuba"].setdefault(name, {})[v] = info
-    result.setdefault("ours", {})[name] = ours_info
-    result["summary"] += _summary_rows(name, per, ok_variants)
+    result.setdefault("ours", {})[name] = {"build_seconds": float(core_scene(base).build_seconds),
+                                           "compile_and_build_seconds": build_wall}
+    for rr in rr_depths:
+        scene = _with_depths(base, None, rr)
+        label = rr_label(scene.rr_depth)
+        if log:
+            log(f"{name} {width}x{height}, {spp} spp, max_depth {scene.max_depth}, {label}, {threads} threads")
+        rt.render(scene, spp=max(1, spp // 8), strategy=config["strategies"][0], seed=0xA11CE, threads=threads)
+        mscenes, infos = _warm_mitsuba(scene, ok_variants, spp=spp, threads=threads, log=log)
+        per = _timed_rounds(name, scene, config, ok_variants, mscenes=mscenes, ref=ref, runs=result["runs"],
+                            log=log)
+        for v in ok_variants:   # JIT compile time: warm-up minus a typical timed render
+            info = infos[v]
+            typical = median([x["seconds"] for x in per[f"Mitsuba {v}"]])
+            info["compile_seconds"] = (max(0.0, info["warmup_seconds"] - typical)
+                                       if v.startswith(("llvm", "cuda")) else 0.0)
+            result["mitsuba"].setdefault(name, {}).setdefault(label, {})[v] = info
+        rows = _summary_rows(name, per, ok_variants)
+        for row in rows:
+            row.update(rr_depth=scene.rr_depth, max_depth=scene.max_depth, configuration=label)
+        result["summary"] += rows
 
 
 def _reference(scene, *, kind, spp, variant, threads, cache, log):
