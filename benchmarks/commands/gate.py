@@ -16,6 +16,8 @@ import json
 import sys
 from pathlib import Path
 
+from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+
 HELP = ("regression gate: render the suite with our tracer, test it against the cached Mitsuba references "
         "(pixel, tile and image tests), exit 1 on a significant difference")
 
@@ -59,6 +61,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="--calibrate: budgets of the renders (default 64,256,1024,4096)")
     parser.add_argument("--seeds", type=int, default=100,
                         help="--calibrate: renders per (scene, strategy, spp) (default 100)")
+    add_scene_path_args(parser)
     parser.add_argument("--json", default=None, metavar="PATH",
                         help="also write one row per comparison (scene, strategy, spp, verdict, statistics, power)")
 
@@ -77,7 +80,8 @@ def run(args) -> int:
     from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from benchmarks.commands._gate_tables import gate_table
-    from benchmarks.gate import resolve_scenes, resolve_strategies, run_gate, write_p_images
+    from benchmarks.gate import resolve_strategies, run_gate, write_p_images
+    from benchmarks.gate import resolve_scenes as resolve_gate_scenes
 
     console = Console()
     if not console.is_terminal:  # CI logs: keep one row per comparison
@@ -85,10 +89,12 @@ def run(args) -> int:
     err = Console(stderr=True)
     if args.threads is not None and args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
-    scenes = args.scenes or None
+    scenes = resolve_scenes(args, suite_names=args.scenes) or None
+    if scenes and not _parity_first(scenes, args.out):
+        return 1
     strategies = _strategies(args.strategies)
     # validate everything before the first (possibly long) render
-    n_scenes, n_strategies = len(resolve_scenes(scenes)), len(resolve_strategies(strategies))
+    n_scenes, n_strategies = len(resolve_gate_scenes(scenes)), len(resolve_strategies(strategies))
     for name, v, lo in (("--spp", args.spp, 2), ("--ref-spp", args.ref_spp, 2), ("--width", args.width, 1),
                         ("--seed", args.seed, 0)):
         if v < lo:
@@ -154,6 +160,18 @@ def run(args) -> int:
     return 1
 
 
+def _parity_first(names, out) -> bool:
+    """AOV parity of the scene files among ``names`` before any render; False (after printing
+    the findings and writing the mismatch maps into ``out``) when one fails."""
+    from benchmarks.commands.parity import check_user_scenes
+
+    if check_user_scenes(names, out, say=lambda line: print(line, file=sys.stderr)):
+        return True
+    print("rtbench gate: the scene file(s) above translate differently in the two renderers; fix that first "
+          "(no statistics were computed)", file=sys.stderr)
+    return False
+
+
 def _calibrate(args) -> int:
     """``rtbench gate --calibrate``: the false-alarm table (:func:`benchmarks.gate.calibrate`)."""
     from rich.console import Console
@@ -161,7 +179,8 @@ def _calibrate(args) -> int:
 
     from benchmarks.commands._gate_tables import calibration_table
     from benchmarks.constants import UNBIASED_STRATEGIES
-    from benchmarks.gate import calibrate, resolve_scenes
+    from benchmarks.gate import calibrate
+    from benchmarks.gate import resolve_scenes as resolve_gate_scenes
 
     try:
         spps = [int(v) for v in args.spps.split(",") if v.strip()]
@@ -174,7 +193,7 @@ def _calibrate(args) -> int:
     if not 0 < args.alpha < 1:
         raise ValueError(f"--alpha must be in (0, 1), got {args.alpha}")
     strategies = _strategies(args.strategies) or list(UNBIASED_STRATEGIES)
-    names = resolve_scenes(args.scenes or None)
+    names = resolve_gate_scenes(resolve_scenes(args, suite_names=args.scenes) or None)
     console = Console()
     if not console.is_terminal:  # logs and files: keep one row per line
         console = Console(width=max(console.width, 160))

@@ -244,11 +244,11 @@ def compare_render(mean, variance, spp: int, reference: Reference, *, alpha: flo
 
 def resolve_scenes(scenes) -> list:
     """Validated scene names (None: the whole suite; a string may be comma-separated)."""
-    from mitsuba_scenes import list_scenes
+    from mitsuba_scenes import known_scenes, list_scenes
 
-    suite = list_scenes()
+    suite = known_scenes()
     if scenes is None:
-        return suite
+        return list_scenes()
     if isinstance(scenes, str):
         scenes = [s.strip() for s in scenes.split(",") if s.strip()]
     scenes = list(dict.fromkeys(scenes))

@@ -15,13 +15,17 @@ import numpy as np
 from ..constants import MITSUBA_STRATEGY, STRATEGIES
 from ..store import KEY_FIELDS
 
-__all__ = ["Job", "Group", "validate_group", "make_jobs", "render_seed", "default_threads", "scene_at",
+__all__ = ["Job", "Group", "validate_group", "make_jobs", "renderer_builds", "render_seed", "default_threads", "scene_at",
            "image_paths", "check_int", "check_int_list"]
 
 
 @dataclass(frozen=True)
 class Job:
-    """One render of the sweep (its identity is the store key, ``STORE.md``)."""
+    """One render of the sweep (its identity is the store key, ``STORE.md``).
+
+    ``build`` is the renderer's build (:func:`renderer_builds`): part of the key, so a
+    new build renders the job again.
+    """
 
     scene: str
     renderer: str
@@ -30,10 +34,11 @@ class Job:
     seed: int
     width: int
     height: int
+    build: str | None = None
 
     @property
     def key(self) -> tuple:
-        return tuple(getattr(self, k) for k in KEY_FIELDS)
+        return tuple(getattr(self, k) for k in KEY_FIELDS) + (self.build,)
 
     @property
     def curve(self) -> tuple:
@@ -137,9 +142,9 @@ def check_int_list(name: str, values, minimum: int = 1) -> tuple:
 
 def validate_group(g: Group) -> None:
     """Raise ``ValueError`` with a clear message for a malformed :class:`Group`."""
-    from mitsuba_scenes import list_scenes
+    from mitsuba_scenes import known_scenes
 
-    suite = list_scenes()
+    suite = known_scenes()
     if isinstance(g.scenes, str) or not g.scenes:
         raise ValueError(f"scenes must be a non-empty sequence of names, got {g.scenes!r}")
     unknown = [s for s in g.scenes if s not in suite]
@@ -175,6 +180,20 @@ def make_jobs(scenes, *, strategies, spps, seeds: int, width: int, height: int,
     return [Job(scene, renderer, strategy, spp, seed, int(width), int(height))
             for scene in scenes for spp in sorted(spps) for seed in range(int(seeds))
             for renderer, strategy in curves]
+
+
+def renderer_builds(variant: str | None, mitsuba_version: str | None) -> dict:
+    """``{renderer: build}`` of this process: ours is ``reference_tracer.build_id()``, Mitsuba's
+    its version and variant.
+
+    Examples
+    --------
+    >>> renderer_builds("scalar_rgb", "3.9.1")["mitsuba"]
+    'mitsuba-3.9.1-scalar_rgb'
+    """
+    import reference_tracer as rt
+
+    return {"ours": rt.build_id(), "mitsuba": f"mitsuba-{mitsuba_version}-{variant}"}
 
 
 def render_seed(seed: int, spp: int) -> int:
