@@ -62,6 +62,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seeds", type=int, default=100,
                         help="--calibrate: renders per (scene, strategy, spp) (default 100)")
     add_scene_path_args(parser)
+    parser.add_argument("--reference", default=None, metavar="STORE",
+                        help="gate against our own images in results store STORE (written by --write-reference "
+                             "with a trusted build) instead of Mitsuba: for features Mitsuba cannot render")
+    parser.add_argument("--reference-build", default=None, metavar="BUILD",
+                        help="with --reference: the build whose records to use (default: the latest)")
+    parser.add_argument("--write-reference", default=None, metavar="STORE",
+                        help="render the scenes with this build at --ref-spp (mis) into results store STORE, "
+                             "for later --reference runs, and exit")
     parser.add_argument("--json", default=None, metavar="PATH",
                         help="also write one row per comparison (scene, strategy, spp, verdict, statistics, power)")
 
@@ -90,7 +98,9 @@ def run(args) -> int:
     if args.threads is not None and args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
     scenes = resolve_scenes(args, suite_names=args.scenes) or None
-    if scenes and not _parity_first(scenes, args.out):
+    if args.write_reference:
+        return _write_reference(args, scenes)
+    if scenes and args.reference is None and not _parity_first(scenes, args.out):
         return 1
     strategies = _strategies(args.strategies)
     # validate everything before the first (possibly long) render
@@ -129,7 +139,8 @@ def run(args) -> int:
         report = run_gate(scenes, strategies=strategies, spp=args.spp, width=args.width, height=args.height,
                           ref_spp=args.ref_spp, alpha=args.alpha, seed=args.seed, threads=args.threads,
                           cache=args.cache, log=lambda line: progress.console.print(line, markup=False),
-                          on_reference=on_reference, on_case=on_case, tail_spp=args.tail_spp)
+                          on_reference=on_reference, on_case=on_case, tail_spp=args.tail_spp,
+                          reference_store=args.reference, reference_build=args.reference_build)
 
     console.print(gate_table(report))
     console.print(f"references {report.reference_seconds:.1f} s, tail references {report.tail_seconds:.1f} s, "
@@ -158,6 +169,18 @@ def run(args) -> int:
         print(f"  p-value images: {paths[1]} (false colour), {paths[0]} (-log10 p)", file=sys.stderr)
     print(f"rtbench gate: {len(report.failures)} of {len(report.cases)} comparison(s) failed", file=sys.stderr)
     return 1
+
+
+def _write_reference(args, scenes) -> int:
+    """``--write-reference STORE``: our renders at ``--ref-spp`` into a results store."""
+    from benchmarks.gate import resolve_scenes as resolve_gate_scenes
+    from benchmarks.gate.store_reference import write_reference_store
+
+    names = resolve_gate_scenes(scenes)
+    write_reference_store(names, args.write_reference, spp=args.ref_spp, width=args.width, height=args.height,
+                          threads=args.threads, log=print)
+    print(f"reference store: {Path(args.write_reference).resolve()} ({len(names)} scene(s), {args.ref_spp} spp)")
+    return 0
 
 
 def _parity_first(names, out) -> bool:

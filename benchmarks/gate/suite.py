@@ -275,7 +275,8 @@ def resolve_strategies(strategies) -> list:
 def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int = DEFAULT_WIDTH,
              height: int | None = None, ref_spp: int = DEFAULT_REF_SPP, alpha: float = GATE_ALPHA,
              seed: int = DEFAULT_SEED, threads: int | None = None, cache=None, log=None,
-             on_reference=None, on_case=None, tail_spp: int = DEFAULT_TAIL_SPP) -> GateReport:
+             on_reference=None, on_case=None, tail_spp: int = DEFAULT_TAIL_SPP, reference_store=None,
+             reference_build: str | None = None) -> GateReport:
     """Render each scene with our tracer and compare it with its reference.
 
     Parameters
@@ -312,6 +313,11 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
         :func:`benchmarks.tails.tail_reference`) that give each comparison the variance and
         tail shape of the estimator under test; 0 compares without them (the older rule,
         which cries wolf on heavy-tailed strategies: ``benchmarks/STATISTICS.md``).
+    reference_store : str or Path or None, keyword-only
+        A results store of our own tracer (:mod:`benchmarks.gate.store_reference`): its
+        images are the references instead of Mitsuba's (``rtbench gate --reference``).
+    reference_build : str or None, keyword-only
+        With ``reference_store``: use the records of this build (default: the latest).
 
     Returns
     -------
@@ -342,8 +348,13 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
         if on_reference:
             on_reference(name, "start", None)
         t0 = time.perf_counter()
-        refs[name] = gate_reference(name, scenes_built[name], ref_spp=ref_spp, threads=threads, cache=cache,
-                                    log=log)
+        if reference_store is not None:
+            from .store_reference import store_reference
+
+            refs[name] = store_reference(reference_store, name, scenes_built[name], build=reference_build)
+        else:
+            refs[name] = gate_reference(name, scenes_built[name], ref_spp=ref_spp, threads=threads, cache=cache,
+                                        log=log)
         ref_seconds += time.perf_counter() - t0
         if on_reference:
             on_reference(name, "done", refs[name])
