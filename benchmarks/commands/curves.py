@@ -52,6 +52,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--reference-spp", type=int, default=None,
                         help="reference samples per pixel (default max(4096, 32 x the largest spp))")
     parser.add_argument("--no-mitsuba", action="store_true", help="skip Mitsuba's path curve")
+    parser.add_argument("--renderer", action="append", default=[], metavar="CMD",
+                        help="an external renderer, one more curve (repeatable): a command template with "
+                             "{scene_xml} {spp} {seed} {width} {height} {out} that renders the Mitsuba XML to an "
+                             "EXR at {out}, e.g. 'mitsuba -m scalar_rgb -D spp={spp} -D seed={seed} -o {out} "
+                             "{scene_xml}' (README: External renderers)")
     parser.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"results store (default {DEFAULT_OUT})")
     add_sweep_options(parser)
 
@@ -80,6 +85,7 @@ def run(args) -> int:
     from rich.console import Console
 
     from benchmarks.commands._summary import print_summary
+    from benchmarks.external import register_external
     from benchmarks.sweep import Group, run_sweep
 
     spps = _parse_ints(args.spp, "--spp")
@@ -90,7 +96,8 @@ def run(args) -> int:
     if not _parity_first(scenes, args.out):
         return 1
     group = Group(scenes=tuple(scenes), strategies=_names(args.strategies), spps=spps, seeds=args.seeds,
-                  width=args.width, height=args.height, mitsuba=not args.no_mitsuba, reference_spp=ref_spp)
+                  width=args.width, height=args.height, mitsuba=not args.no_mitsuba, reference_spp=ref_spp,
+                  externals=tuple(register_external(cmd).name for cmd in args.renderer))
     result = run_sweep([group], out=args.out, **sweep_kwargs(args))
     console = Console()
     if not console.is_terminal:  # logs and pipes: wide enough for the summary table
@@ -98,4 +105,8 @@ def run(args) -> int:
     print_summary(result.store, console=console)
     print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
                   f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", flush=True)
+    import sys
+
+    for label, why in result.failed[:10]:
+        print(f"  failed: {label}: {why}", file=sys.stderr)
     return 1 if result.failed else 0

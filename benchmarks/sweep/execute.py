@@ -102,7 +102,13 @@ def _render(job: Job, scene, rseed: int, *, threads: int, variant) -> tuple:
                  "load_seconds": float(out.load_seconds)}
         # one batch at the full spp: no per-pixel variance (summary.json has the between-seed one)
         return out.mean, None, float(out.seconds), extra
-    raise ValueError(f"renderer must be 'ours' or 'mitsuba', got {job.renderer!r}")
+    from ..external import external, render_external
+
+    ext = external(job.renderer)
+    if ext is not None:
+        mean, seconds = render_external(ext, scene, spp=job.spp, seed=rseed & 0x7FFFFFFF)
+        return mean, None, seconds, {"rays": None, "nonfinite_samples": int((~np.isfinite(mean)).sum())}
+    raise ValueError(f"renderer must be 'ours', 'mitsuba' or a registered external renderer, got {job.renderer!r}")
 
 
 def _check_build(job: Job) -> dict:

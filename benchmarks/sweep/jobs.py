@@ -46,7 +46,7 @@ class Job:
 
     @property
     def label(self) -> str:
-        who = self.strategy if self.renderer == "ours" else f"mitsuba {self.strategy}"
+        who = self.strategy if self.renderer == "ours" else f"{self.renderer} {self.strategy}"
         return f"{self.scene} {self.width}x{self.height} {who} {self.spp} spp seed {self.seed}"
 
     @property
@@ -77,6 +77,9 @@ class Group:
         Samples of the Mitsuba reference (keep it well above ``max(spps)``).
     name : str
         A label for messages.
+    externals : tuple of str
+        Names of registered external renderers (:func:`benchmarks.external.register_external`),
+        one curve each.
     """
 
     scenes: tuple
@@ -88,13 +91,14 @@ class Group:
     mitsuba: bool = True
     reference_spp: int = 4096
     name: str = "curves"
+    externals: tuple = ()
 
     def __post_init__(self):
         validate_group(self)
 
     def jobs(self) -> list:
         return make_jobs(self.scenes, strategies=self.strategies, spps=self.spps, seeds=self.seeds,
-                         width=self.width, height=self.height, mitsuba=self.mitsuba)
+                         width=self.width, height=self.height, mitsuba=self.mitsuba, externals=self.externals)
 
 
 def check_int(name: str, value, minimum: int = 1) -> int:
@@ -157,8 +161,12 @@ def validate_group(g: Group) -> None:
         raise ValueError(f"unknown strategy/strategies {bad}; choose from {', '.join(STRATEGIES)}")
     if len(set(g.strategies)) != len(tuple(g.strategies)):
         raise ValueError(f"strategies has repeated names: {list(g.strategies)}")
-    if not g.strategies and not g.mitsuba:
-        raise ValueError("nothing to render: no strategy and mitsuba=False")
+    from ..external import external
+
+    if isinstance(g.externals, str) or any(external(e) is None for e in g.externals):
+        raise ValueError(f"externals must name registered external renderers, got {g.externals!r}")
+    if not g.strategies and not g.mitsuba and not g.externals:
+        raise ValueError("nothing to render: no strategy, no external renderer and mitsuba=False")
     check_int_list("spps", g.spps)
     for name in ("seeds", "width", "height"):
         check_int(name, getattr(g, name))
@@ -166,7 +174,7 @@ def validate_group(g: Group) -> None:
 
 
 def make_jobs(scenes, *, strategies, spps, seeds: int, width: int, height: int,
-              mitsuba: bool = True) -> list:
+              mitsuba: bool = True, externals=()) -> list:
     """All jobs of a sweep, cheapest spp first (curves fill in together).
 
     Examples
@@ -176,7 +184,10 @@ def make_jobs(scenes, *, strategies, spps, seeds: int, width: int, height: int,
     (8, 'cornell_box 8x8 mis 1 spp seed 0')
     """
     spps = check_int_list("spps", spps)
+    from ..external import STRATEGY as EXTERNAL
+
     curves = [("ours", s) for s in strategies] + ([("mitsuba", MITSUBA_STRATEGY)] if mitsuba else [])
+    curves += [(e, EXTERNAL) for e in externals]
     return [Job(scene, renderer, strategy, spp, seed, int(width), int(height))
             for scene in scenes for spp in sorted(spps) for seed in range(int(seeds))
             for renderer, strategy in curves]
@@ -193,7 +204,10 @@ def renderer_builds(variant: str | None, mitsuba_version: str | None) -> dict:
     """
     import reference_tracer as rt
 
-    return {"ours": rt.build_id(), "mitsuba": f"mitsuba-{mitsuba_version}-{variant}"}
+    from ..external import registered_externals
+
+    return {"ours": rt.build_id(), "mitsuba": f"mitsuba-{mitsuba_version}-{variant}",
+            **{e.name: e.build for e in registered_externals()}}
 
 
 def render_seed(seed: int, spp: int) -> int:

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM
+from ..external import external
 from ..references import closed_form_reference_of, mitsuba_identity, reference
 from ..store import META, finished_keys, read_json, read_records, store_path, update_meta, write_image
 from .execute import machine_info, run_versions
@@ -147,7 +148,8 @@ def _record_settings(store, groups, *, threads, scheduler, variant, preset, alph
                 scene_files=_scene_files(groups),
                 groups=[{"name": g.name, "scenes": list(g.scenes), "strategies": list(g.strategies),
                          "spps": list(g.spps), "seeds": g.seeds, "width": g.width, "height": g.height,
-                         "mitsuba": g.mitsuba, "reference_spp": g.reference_spp} for g in groups])
+                         "mitsuba": g.mitsuba, "reference_spp": g.reference_spp,
+                         "externals": {e: external(e).template for e in g.externals}} for g in groups])
 
 
 def _scene_files(groups) -> dict:

@@ -133,9 +133,13 @@ class _DaskQueue:
         """Register this process's scene files (``--scene``) on every worker (same paths there)."""
         from mitsuba_scenes.scene_files import registered, restore_registry
 
+        from ..external import registered_externals, restore_externals
+
         entries = registered()
         if entries:
             self.client.run(restore_registry, entries)
+        if registered_externals():
+            self.client.run(restore_externals, registered_externals())
 
     def _wait_for_workers(self) -> dict:
         pool = self.workers()
