@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["PLACEHOLDERS", "STRATEGY", "ExternalRenderer", "register_external", "external", "registered_externals",
-           "restore_externals", "clear_externals", "render_external"]
+           "restore_externals", "clear_externals", "render_external", "render_external_batches"]
 
 PLACEHOLDERS = ("scene_xml", "spp", "seed", "width", "height", "out")
 #: the strategy field of external renderers' records.
@@ -147,3 +147,27 @@ def render_external(renderer: ExternalRenderer, scene, *, spp: int, seed: int) -
     if img.shape[:2] != (h, w) or img.shape[2] < 3:
         raise RuntimeError(f"{renderer.name} wrote a {img.shape} image, expected ({h}, {w}, 3)")
     return np.ascontiguousarray(img[..., :3], dtype=np.float32), seconds
+
+
+def render_external_batches(renderer: ExternalRenderer, scene, *, spp: int, seed: int, batches: int = 16) -> tuple:
+    """``(mean, per-sample variance, seconds)`` from ``batches`` independent runs of the command.
+
+    The spp are split into batches of nearly equal size, each run with its own seed
+    (:func:`mitsuba_scenes.render.batch_seeds`); the variance is the size-weighted
+    between-batch variance times the batch size, as for Mitsuba (``DESIGN.md`` section 3).
+    """
+    from mitsuba_scenes.render import batch_seeds, split_spp
+
+    sizes = split_spp(int(spp), int(batches))
+    if len(sizes) < 2:
+        raise ValueError(f"{renderer.name}: a variance needs at least 2 batches (spp {spp}, batches {batches})")
+    means, seconds = [], 0.0
+    for n, s in zip(sizes, batch_seeds(int(seed), len(sizes))):
+        img, sec = render_external(renderer, scene, spp=n, seed=s)
+        means.append(img.astype(np.float64))
+        seconds += sec
+    n = np.asarray(sizes, dtype=np.float64)[:, None, None, None]
+    means = np.stack(means)
+    mean = (n * means).sum(axis=0) / n.sum()
+    var = (n * (means - mean) ** 2).sum(axis=0) / (len(sizes) - 1)
+    return mean.astype(np.float32), var.astype(np.float32), seconds

@@ -60,3 +60,14 @@ def test_template_must_name_scene_and_output():
         register_external("render -o {out}")
     assert register_external("a {scene_xml} {out}").name == "ext-a"
     assert register_external("a --x {scene_xml} {out}").name == "ext-a-2"   # another command, another name
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(MITSUBA_CLI is None, reason="the mitsuba command-line program is not installed")
+def test_gate_an_external_renderer(tmp_path, capsys):
+    """The gate's verdict on the mitsuba CLI (16 batches of scalar_rgb) against the llvm reference (~30 s)."""
+    code = main(["gate", "--scene", str(XML / "sphere_constant.xml"), "--width", "8", "--spp", "64",
+                 "--ref-spp", "2048", "--out", str(tmp_path),
+                 "--renderer", f"{MITSUBA_CLI} -m scalar_rgb -D spp={{spp}} -D seed={{seed}} -o {{out}} {{scene_xml}}"])
+    assert code == 0, capsys.readouterr().err
+    assert "gate passed" in capsys.readouterr().out

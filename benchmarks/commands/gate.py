@@ -70,6 +70,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--write-reference", default=None, metavar="STORE",
                         help="render the scenes with this build at --ref-spp (mis) into results store STORE, "
                              "for later --reference runs, and exit")
+    parser.add_argument("--renderer", default=None, metavar="CMD",
+                        help="gate an external renderer instead of ours: a command template with {scene_xml} "
+                             "{spp} {seed} {width} {height} {out} (README: External renderers), run in 16 "
+                             "batches for the per-pixel variance")
     parser.add_argument("--json", default=None, metavar="PATH",
                         help="also write one row per comparison (scene, strategy, spp, verdict, statistics, power)")
 
@@ -103,8 +107,14 @@ def run(args) -> int:
     if scenes and args.reference is None and not _parity_first(scenes, args.out):
         return 1
     strategies = _strategies(args.strategies)
+    external = None
+    if args.renderer:
+        from benchmarks.external import register_external
+
+        external = register_external(args.renderer)
     # validate everything before the first (possibly long) render
-    n_scenes, n_strategies = len(resolve_gate_scenes(scenes)), len(resolve_strategies(strategies))
+    n_scenes = len(resolve_gate_scenes(scenes))
+    n_strategies = 1 if external is not None else len(resolve_strategies(strategies))
     for name, v, lo in (("--spp", args.spp, 2), ("--ref-spp", args.ref_spp, 2), ("--width", args.width, 1),
                         ("--seed", args.seed, 0)):
         if v < lo:
@@ -140,7 +150,8 @@ def run(args) -> int:
                           ref_spp=args.ref_spp, alpha=args.alpha, seed=args.seed, threads=args.threads,
                           cache=args.cache, log=lambda line: progress.console.print(line, markup=False),
                           on_reference=on_reference, on_case=on_case, tail_spp=args.tail_spp,
-                          reference_store=args.reference, reference_build=args.reference_build)
+                          reference_store=args.reference, reference_build=args.reference_build,
+                          renderer=external)
 
     console.print(gate_table(report))
     console.print(f"references {report.reference_seconds:.1f} s, tail references {report.tail_seconds:.1f} s, "
