@@ -104,3 +104,12 @@ def test_render_cli_takes_a_python_scene_file(py_scene, tmp_path, capsys):
     assert code == 0, capsys.readouterr().err
     img = rt.read_exr(tmp_path / "my_scene+light=3_mis.exr")
     assert img.shape[:2] == (6, 6)
+
+
+def test_run_preset_takes_scene_files_only_when_given():
+    from benchmarks.sweep.presets import preset_groups
+
+    entry = register_scene_file(XML / "two_sided.xml")
+    groups = preset_groups("quick", scenes=[entry.name])
+    assert [g.scenes for g in groups] == [(entry.name,)]          # no seed comparison: not cornell_box
+    assert preset_groups("quick")[0].scenes == tuple(list_scenes())  # the default stays the suite
