@@ -75,3 +75,11 @@ def test_gate_stops_on_a_parity_failure_with_maps(tmp_path, capsys, monkeypatch)
     assert code == 1, err
     assert "parity FAILED" in err and "camera:" in err
     assert (tmp_path / "camera_axes_parity.png").is_file() and (tmp_path / "camera_axes_parity.exr").is_file()
+
+
+@pytest.mark.parametrize("size", [(48, 32), (33, 17)])
+def test_hairline_cracks_at_corners_are_edges_not_errors(size):
+    """At 48x32 one pixel centre of cornell_box escapes through the corner of two of Mitsuba's
+    float32 rectangles (ours hits a wall); rays a hundredth of a pixel away in Mitsuba hit it."""
+    report = run_parity(get_scene("cornell_box").with_camera_size(*size), name="cornell_box")
+    assert report.passed, report.findings

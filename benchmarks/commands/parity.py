@@ -59,7 +59,11 @@ def check_user_scenes(names, out, *, say=print) -> bool:
     for name in names:
         if scene_file(name) is None:
             continue
-        report = parity_of(name)
+        try:
+            report = parity_of(name)
+        except ValueError as exc:  # e.g. Metal fuzz: no Mitsuba equivalent, no parity possible
+            raise ValueError(f"{name}: no parity check possible, Mitsuba cannot load this scene: {exc} (gate such "
+                             f"scenes against a store of ours: gate --reference STORE)") from None
         say(report.summary())
         if not report.passed:
             ok = False

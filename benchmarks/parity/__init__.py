@@ -49,6 +49,6 @@ def run_parity(scene, *, mitsuba=None, name: str = "scene", params=None) -> Pari
     -------
     ParityReport
     """
-    ours = our_aovs(scene)
-    theirs = mitsuba_aovs(mitsuba_scene_for(scene, mitsuba, params=params), scene)
-    return compare_aovs(scene, ours, theirs, name=name)
+    mscene = mitsuba_scene_for(scene, mitsuba, params=params)
+    return compare_aovs(scene, our_aovs(scene), mitsuba_aovs(mscene, scene), name=name,
+                        theirs_at=lambda off: mitsuba_aovs(mscene, scene, offset=off))

@@ -69,15 +69,16 @@ def _arr(x, n: int, width: int) -> np.ndarray:
     return (a.T if a.shape[0] == width and a.ndim == 2 else a).reshape(n, width)
 
 
-def mitsuba_aovs(mscene, scene: rt.Scene) -> dict:
-    """Mitsuba's AOVs, in the form of :func:`benchmarks.parity.ours.our_aovs` (shape: our indices)."""
+def mitsuba_aovs(mscene, scene: rt.Scene, *, offset=(0.5, 0.5)) -> dict:
+    """Mitsuba's AOVs through ``pixel + offset`` (default: the centres), in the form of
+    :func:`benchmarks.parity.ours.our_aovs` (shape: our indices)."""
     import drjit as dr
     import mitsuba as mi
 
     sensor = mscene.sensors()[0]
     w, h = (int(v) for v in sensor.film().size())
     yy, xx = np.mgrid[0:h, 0:w]
-    fx, fy = (xx.ravel() + 0.5) / w, (yy.ravel() + 0.5) / h
+    fx, fy = (xx.ravel() + offset[0]) / w, (yy.ravel() + offset[1]) / h
     n = w * h
     eye = np.array(sensor.world_transform().translation(), dtype=np.float64).ravel()[:3]
     if mi.variant().startswith("scalar"):
