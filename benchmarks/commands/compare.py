@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 HELP = ("compare two results stores curve by curve: both curves on one plot, slope and efficiency of B over A "
-        "with bootstrap 95%% intervals, the gate's verdict of B against A; exit 1 if a verdict fails")
+        "with bootstrap 95 percent intervals, the gate's verdict of B against A; exit 1 if a verdict fails")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
