@@ -46,3 +46,12 @@ def test_job_planned_for_another_build_is_refused():
     job = Job("furnace", "ours", "mis", 1, 0, 4, 4, build="0000000000000000")
     with pytest.raises(RuntimeError, match="planned for tracer build 0000000000000000"):
         execute_job(job, closed_form_reference_of("furnace", 4, 4), threads=1)
+
+
+def test_git_describe_is_not_part_of_a_records_identity():
+    """A commit between two runs (or a Dask worker started after one) changes build_git, not the build."""
+    from harness_util import comparable
+
+    rec = {"scene": "s", "mse": 1.0, "build": "a", "build_git": "v1-dirty"}
+    assert comparable(rec) == comparable({**rec, "build_git": "v2"})
+    assert comparable(rec) != comparable({**rec, "build": "b"})

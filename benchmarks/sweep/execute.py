@@ -22,9 +22,10 @@ from .jobs import Job, default_threads, image_paths, render_seed, scene_at
 
 __all__ = ["TIMING_FIELDS", "job_metrics", "scene_info", "execute_job", "reference_info", "run_versions", "machine_info"]
 
-#: record fields that depend on timing or on the machine (ignore them to compare two runs).
+#: record fields that depend on timing, the machine or the checkout (ignore them to compare two runs):
+#: ``build_git`` (git describe) changes with any commit, the build id only with the tracer.
 TIMING_FIELDS = ("seconds", "paths_per_second", "efficiency", "compile_seconds", "build_seconds",
-                 "load_seconds", "wall_seconds", "finished", "host", "threads", "worker")
+                 "load_seconds", "wall_seconds", "finished", "host", "threads", "worker", "build_git")
 
 
 def job_metrics(mean, variance, ref_mean, ref_variance, ref_spp) -> dict:
