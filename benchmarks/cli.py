@@ -23,6 +23,8 @@ COMMANDS = {
     "reference": "benchmarks.commands.reference",
     "curves": "benchmarks.commands.curves",
     "report": "benchmarks.commands.report",
+    "compare": "benchmarks.commands.compare",
+    "parity": "benchmarks.commands.parity",
     "gate": "benchmarks.commands.gate",
     "stress": "benchmarks.commands.stress",
     "speed": "benchmarks.commands.speed",

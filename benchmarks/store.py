@@ -24,11 +24,11 @@ Examples
 >>> from benchmarks.store import append_record, read_records, finished_keys
 >>> d = tempfile.mkdtemp()
 >>> append_record(d, {"scene": "s", "renderer": "ours", "strategy": "mis", "spp": 4,
-...                   "seed": 0, "width": 8, "height": 8, "mse": 0.1})
+...                   "seed": 0, "width": 8, "height": 8, "build": "ab12", "mse": 0.1})
 >>> [r["mse"] for r in read_records(d)]
 [0.1]
 >>> sorted(finished_keys(d))
-[('s', 'ours', 'mis', 4, 0, 8, 8)]
+[('s', 'ours', 'mis', 4, 0, 8, 8, 'ab12')]
 """
 from __future__ import annotations
 
@@ -44,38 +44,44 @@ import numpy as np
 
 from reference_tracer import imageio
 
-__all__ = ["KEY_FIELDS", "RESULTS", "META", "SUMMARY", "record_key", "store_path",
+__all__ = ["KEY_FIELDS", "BUILD_FIELD", "curve_of", "latest_builds", "RESULTS", "META", "SUMMARY", "record_key", "store_path",
            "append_record", "ResultLine", "result_lines", "read_records", "dedupe_records",
            "finished_keys", "check_identity", "write_json", "read_json", "read_meta",
            "read_summary_rows", "update_meta", "write_image", "read_image", "atomic_write_bytes", "atomic_write_text"]
 
 #: fields that identify a job (``STORE.md``): a resumed run skips records with these.
 KEY_FIELDS = ("scene", "renderer", "strategy", "spp", "seed", "width", "height")
+#: the build that rendered a record (ours: ``reference_tracer.build_id()``; Mitsuba: its
+#: version and variant): the last part of a job's key, so that a run with another build
+#: renders again instead of reusing the old build's records (``STORE.md``).
+BUILD_FIELD = "build"
 RESULTS = "results.jsonl"
 META = "meta.json"
 SUMMARY = "summary.json"
 
 
 def record_key(record: dict, *, partial: bool = False) -> tuple:
-    """The identity of a job record, ``(scene, renderer, strategy, spp, seed, width, height)``.
+    """The identity of a job record, ``(scene, renderer, strategy, spp, seed, width, height, build)``.
 
-    Raises ``ValueError`` if a key field is missing, unless ``partial``: then a missing
-    field reads as ``None`` (a reader that tolerates incomplete records, like the report).
+    Raises ``ValueError`` if a field of :data:`KEY_FIELDS` is missing, unless ``partial``:
+    then a missing field reads as ``None`` (a reader that tolerates incomplete records,
+    like the report). The build (:data:`BUILD_FIELD`) may be missing (stores written
+    before builds were recorded): it reads as ``None``.
 
     Examples
     --------
     >>> record_key({"scene": "s", "renderer": "ours", "strategy": "mis", "spp": 4,
-    ...             "seed": 0, "width": 8, "height": 8, "mse": 1.0})
-    ('s', 'ours', 'mis', 4, 0, 8, 8)
+    ...             "seed": 0, "width": 8, "height": 8, "build": "ab12", "mse": 1.0})
+    ('s', 'ours', 'mis', 4, 0, 8, 8, 'ab12')
     >>> record_key({"scene": "s", "renderer": "ours", "strategy": "mis", "spp": 4}, partial=True)
-    ('s', 'ours', 'mis', 4, None, None, None)
+    ('s', 'ours', 'mis', 4, None, None, None, None)
     """
     if partial:
-        return tuple(record.get(k) for k in KEY_FIELDS)
+        return tuple(record.get(k) for k in KEY_FIELDS) + (record.get(BUILD_FIELD),)
     missing = [k for k in KEY_FIELDS if k not in record]
     if missing:
         raise ValueError(f"record lacks key field(s) {missing}: {record!r:.200}")
-    return tuple(record[k] for k in KEY_FIELDS)
+    return tuple(record[k] for k in KEY_FIELDS) + (record.get(BUILD_FIELD),)
 
 
 def store_path(path) -> Path:
@@ -226,8 +232,9 @@ def read_records(store, *, dedupe: bool = True) -> list:
 
     A last line that does not parse (a killed writer) is skipped silently; an unreadable
     line elsewhere is skipped with a ``RuntimeWarning``. With ``dedupe`` (default), a
-    key that occurs several times keeps its last record, at the position of its first
-    (:func:`dedupe_records`).
+    job that occurs several times keeps its last record, at the position of its first
+    (:func:`dedupe_records`), and each curve keeps only the records of its latest build
+    (:func:`latest_builds`): a store never mixes two builds in one curve.
 
     Returns
     -------
@@ -242,7 +249,31 @@ def read_records(store, *, dedupe: bool = True) -> list:
                               RuntimeWarning, stacklevel=2)
             continue
         out.append(line.value)
-    return dedupe_records(out) if dedupe else out
+    return latest_builds(dedupe_records(out)) if dedupe else out
+
+
+def curve_of(record: dict) -> tuple:
+    """The curve a record belongs to: ``(scene, renderer, strategy, width, height)``."""
+    return tuple(record.get(k) for k in ("scene", "renderer", "strategy", "width", "height"))
+
+
+def latest_builds(records) -> list:
+    """Per curve (:func:`curve_of`), only the records of the build of its last record.
+
+    Records of older builds stay in ``results.jsonl`` (nothing is deleted) but are not
+    read as part of the curve: a run with a new build renders every job again, and the
+    curve is then the new build's alone, even while that run is incomplete.
+
+    Examples
+    --------
+    >>> rs = [{"scene": "a", "spp": 1, "build": "old"}, {"scene": "a", "spp": 2, "build": "old"},
+    ...       {"scene": "a", "spp": 1, "build": "new"}]
+    >>> [(r["spp"], r["build"]) for r in latest_builds(rs)]
+    [(1, 'new')]
+    """
+    records = list(records)
+    last = {curve_of(r): r.get(BUILD_FIELD) for r in records}
+    return [r for r in records if r.get(BUILD_FIELD) == last[curve_of(r)]]
 
 
 def dedupe_records(records) -> list:
@@ -260,7 +291,8 @@ def dedupe_records(records) -> list:
     """
     by_key: dict = {}
     for rec in records:
-        by_key[record_key(rec, partial=True)] = rec  # a dict keeps the first position, takes the last value
+        # a dict keeps the first position, takes the last value; a later build replaces an earlier one
+        by_key[record_key(rec, partial=True)[:len(KEY_FIELDS)]] = rec
     return list(by_key.values())
 
 

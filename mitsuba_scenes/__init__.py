@@ -12,9 +12,10 @@ True
 """
 from .importer import from_mitsuba
 from .render import MitsubaRender, render_mitsuba
-from .suite import SUITE, describe_scene, get_scene, list_scenes
+from .scene_files import register_scene_file
+from .suite import SUITE, describe_scene, get_scene, known_scenes, list_scenes
 from .translate import to_mitsuba, to_xml
 from .variants import select_variant, versions
 
-__all__ = ["list_scenes", "get_scene", "describe_scene", "SUITE", "to_mitsuba", "to_xml",
+__all__ = ["list_scenes", "known_scenes", "register_scene_file", "get_scene", "describe_scene", "SUITE", "to_mitsuba", "to_xml",
            "from_mitsuba", "render_mitsuba", "MitsubaRender", "select_variant", "versions"]

@@ -127,10 +127,16 @@ def _ior(ctx, node, key, default):
 
 # --------------------------------------------------------------------------- BSDFs
 def _bsdf(ctx, node, *, two_sided=False, emitter=None):
-    """Material for BSDF ``node`` (None: Mitsuba's default diffuse 0.5)."""
+    """Material for BSDF ``node``.
+
+    None (no ``<bsdf>``): Mitsuba's default diffuse 0.5 on a plain shape, but *black* on an
+    emitter shape - Mitsuba gives an area emitter without a BSDF a black diffuse BSDF
+    (``mi.traverse`` shows reflectance 0), so the light reflects nothing.
+    """
     if node is None:
-        albedo = (_DEFAULT_DIFFUSE,) * 3
-        return rt.DiffuseLight(emitter, albedo=albedo) if emitter is not None else rt.Lambertian(albedo)
+        if emitter is not None:
+            return rt.DiffuseLight(emitter, albedo=None)
+        return rt.Lambertian((_DEFAULT_DIFFUSE,) * 3)
     name = node.props.plugin_name()
     if name == "twosided":
         subs = ctx.children(node)
@@ -359,13 +365,16 @@ def _camera(ctx, sensor):
 
 
 # --------------------------------------------------------------------------- entry point
-def from_mitsuba(source) -> rt.Scene:
+def from_mitsuba(source, params=None) -> rt.Scene:
     """Import a Mitsuba 3 scene (dict or XML file) as a :class:`reference_tracer.Scene`.
 
     Parameters
     ----------
     source : dict or str or os.PathLike
         A ``mi.load_dict`` dictionary, or the path of a Mitsuba 3 XML file.
+    params : dict, optional
+        XML only: values of the file's ``$name`` parameters (overriding its
+        ``<default>`` values), as ``mi.load_file(path, **params)`` takes them.
 
     Returns
     -------
@@ -380,7 +389,9 @@ def from_mitsuba(source) -> rt.Scene:
 
     Notes
     -----
-    A shape without a BSDF gets Mitsuba's default (``diffuse``, reflectance 0.5); a
+    A shape without a BSDF gets Mitsuba's default (``diffuse``, reflectance 0.5), except an
+    emitter shape, which Mitsuba makes black (it reflects nothing: ``DiffuseLight`` with no
+    albedo); a
     ``dielectric`` becomes ``Dielectric(int_ior / ext_ior)`` (exact: Mitsuba uses only
     the ratio); Mitsuba's default ``fov_axis`` is ``'x'``; ``rr_depth`` larger than
     ``max_depth`` means no Russian roulette (``rr_depth=None``). ``sample_count`` is
@@ -402,7 +413,10 @@ def from_mitsuba(source) -> rt.Scene:
 
     mi = import_mitsuba()
     cfg = mi.parser.ParserConfig(mi.variant())
+    params = {str(k): str(v) for k, v in (params or {}).items()}
     if isinstance(source, dict):
+        if params:
+            raise ValueError("from_mitsuba: params apply to XML files only")
         if source.get("type") != "scene":
             raise ValueError(f"from_mitsuba needs a scene dict (type 'scene'), got type {source.get('type')!r}")
         state = mi.parser.parse_dict(cfg, source)
@@ -410,7 +424,10 @@ def from_mitsuba(source) -> rt.Scene:
         path = Path(source)
         if not path.is_file():
             raise ValueError(f"from_mitsuba: no such file {path}")
-        state = mi.parser.parse_file(cfg, str(path))
+        try:
+            state = mi.parser.parse_file(cfg, str(path), **params)
+        except RuntimeError as exc:  # Mitsuba's parser: a malformed file or an unknown $name
+            raise ValueError(f"from_mitsuba: {path}: {exc}") from None
     else:
         raise ValueError(f"from_mitsuba takes a dict or an XML path, got {type(source).__name__}")
     mi.parser.transform_upgrade(cfg, state)

@@ -8,6 +8,7 @@ own seed, and the between-batch spread gives the variance.
 from __future__ import annotations
 
 import hashlib
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -112,15 +113,16 @@ def mesh_merge_safe(scene) -> bool:
     return not any(s.flip_normals for s in scene.shapes if isinstance(s, rt.Box))
 
 
-def render_mitsuba(scene: rt.Scene, *, spp: int, seed: int = 0, variant: str | None = None,
-                   threads: int | None = None, batches: int | None = None) -> MitsubaRender:
+def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None,
+                   threads: int | None = None, batches: int | None = None, params=None) -> MitsubaRender:
     """Render ``scene`` with Mitsuba's ``path`` integrator, in independent batches.
 
     Parameters
     ----------
-    scene : reference_tracer.Scene or dict
-        Our scene (translated with :func:`mitsuba_scenes.to_mitsuba`), or a Mitsuba
-        scene dict rendered as it is (its film must give an RGB image).
+    scene : reference_tracer.Scene or dict or str or os.PathLike
+        Our scene (translated with :func:`mitsuba_scenes.to_mitsuba`), a Mitsuba
+        scene dict, or the path of a Mitsuba XML file (``mi.load_file``), rendered as
+        it is (its film must give an RGB image).
     spp : int, keyword-only
         Total samples per pixel, >= 1.
     seed : int, keyword-only
@@ -129,6 +131,8 @@ def render_mitsuba(scene: rt.Scene, *, spp: int, seed: int = 0, variant: str | N
         Mitsuba variant; None uses :func:`mitsuba_scenes.variants.select_variant`.
     threads : int or None, keyword-only
         Worker threads (``drjit.set_thread_count``); None leaves Dr.Jit's setting.
+    params : dict or None, keyword-only
+        XML files only: ``$name`` values, as ``mi.load_file(path, **params)`` takes them.
     batches : int or None, keyword-only
         Number of batches K (default ``min(16, spp)``; capped at ``spp``). When K does
         not divide ``spp`` the batch sizes differ by one and the estimators below
@@ -154,9 +158,11 @@ def render_mitsuba(scene: rt.Scene, *, spp: int, seed: int = 0, variant: str | N
     from .translate import to_mitsuba
     from .variants import select_variant
 
-    if not isinstance(scene, (rt.Scene, dict)):
-        raise ValueError(f"scene must be a reference_tracer.Scene or a Mitsuba scene dict, "
+    if not isinstance(scene, (rt.Scene, dict, str, os.PathLike)):
+        raise ValueError(f"scene must be a reference_tracer.Scene, a Mitsuba scene dict or an XML path, "
                          f"got {type(scene).__name__}")
+    if params and not isinstance(scene, (str, os.PathLike)):
+        raise ValueError("params apply to Mitsuba XML files only")
     if isinstance(spp, bool) or not isinstance(spp, (int, np.integer)) or spp < 1:
         raise ValueError(f"spp must be an integer >= 1, got {spp!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
@@ -176,8 +182,11 @@ def render_mitsuba(scene: rt.Scene, *, spp: int, seed: int = 0, variant: str | N
     if threads is not None:
         dr.set_thread_count(int(threads))
     t0 = time.perf_counter()
-    mscene = mi.load_dict(to_mitsuba(scene) if isinstance(scene, rt.Scene) else scene,
-                          optimize=mesh_merge_safe(scene))
+    if isinstance(scene, (str, os.PathLike)):
+        mscene = mi.load_file(str(scene), **{str(k): str(v) for k, v in (params or {}).items()})
+    else:
+        mscene = mi.load_dict(to_mitsuba(scene) if isinstance(scene, rt.Scene) else scene,
+                              optimize=mesh_merge_safe(scene))
     load_seconds = time.perf_counter() - t0
 
     sizes = split_spp(int(spp), int(batches))

@@ -1,4 +1,9 @@
-"""Registry of the scene suite: ``list_scenes()`` and ``get_scene(name, **params)``."""
+"""Registry of the scene suite: ``list_scenes()`` and ``get_scene(name, **params)``.
+
+Scene files registered with :func:`mitsuba_scenes.scene_files.register_scene_file`
+(``--scene PATH``) are known by name too (:func:`known_scenes`): :func:`get_scene` builds
+them, with ``width`` and ``height`` overrides as for suite scenes.
+"""
 from __future__ import annotations
 
 import importlib
@@ -16,19 +21,45 @@ def list_scenes() -> list:
     return list(SUITE)
 
 
+def known_scenes() -> list:
+    """The suite's scenes, then the scene files registered in this process."""
+    from .scene_files import registered
+
+    return list(SUITE) + [e.name for e in registered()]
+
+
 def scene_module(name: str):
     if name not in SUITE:
-        raise ValueError(f"unknown scene {name!r}; the suite has: {', '.join(SUITE)}")
+        raise ValueError(f"unknown scene {name!r}; the suite has: {', '.join(SUITE)} "
+                         f"(a scene file is given with --scene PATH)")
     return importlib.import_module(f"mitsuba_scenes.scenes.{name}")
 
 
 def describe_scene(name: str) -> str:
-    """The first line of the scene module's docstring: what the scene tests."""
+    """The first line of the scene module's docstring: what the scene tests (a file: its path)."""
+    from .scene_files import scene_file
+
+    entry = scene_file(name)
+    if entry is not None:
+        return entry.describe()
     return (scene_module(name).__doc__ or name).strip().splitlines()[0]
 
 
 def get_scene(name: str, **params) -> rt.Scene:
-    """Build suite scene ``name``; keyword ``params`` (width, height, max_depth, ...) override defaults."""
+    """Build suite scene ``name``; keyword ``params`` (width, height, max_depth, ...) override defaults.
+
+    A registered scene file takes ``width`` and ``height`` only (its own parameters were
+    fixed when it was registered).
+    """
+    from .scene_files import scene_file
+
+    entry = scene_file(name)
+    if entry is not None:
+        unknown = sorted(set(params) - {"width", "height"})
+        if unknown:
+            raise ValueError(f"scene file {name!r} takes no parameter(s) {unknown} here; "
+                             f"give them with --param when registering it")
+        return entry.build(params.get("width"), params.get("height"))
     build = scene_module(name).build
     accepted = inspect.signature(build).parameters
     unknown = sorted(set(params) - set(accepted))
@@ -44,6 +75,10 @@ def closed_form_reference(name: str, **params):
     (``furnace``); the harness and the gate use it as a zero-variance reference instead of
     a Mitsuba render (Mitsuba 3.9.1 is measurably biased on ``furnace``).
     """
+    from .scene_files import scene_file
+
+    if scene_file(name) is not None:
+        return None
     module = scene_module(name)
     fn = getattr(module, "closed_form_image", None)
     return None if fn is None else fn(**params)

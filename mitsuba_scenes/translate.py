@@ -393,7 +393,7 @@ def write_ply(path, vertices, faces) -> None:
         fh.write(rec.tobytes())
 
 
-def to_xml(scene: rt.Scene, path) -> Path:
+def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
     """Write ``scene`` as a Mitsuba 3 XML file; meshes go beside it as PLY files.
 
     The file holds exactly what :func:`to_mitsuba` gives (every number is written as
@@ -407,6 +407,9 @@ def to_xml(scene: rt.Scene, path) -> Path:
     scene : reference_tracer.Scene
     path : str or os.PathLike
         The XML file to write (its folder must exist).
+    spp, seed : int, keyword-only
+        Defaults of the file's ``$spp`` and ``$seed`` parameters, the sampler's
+        ``sample_count`` and ``seed`` (``mitsuba -D spp=64 -D seed=7 file.xml``).
 
     Returns
     -------
@@ -429,6 +432,8 @@ def to_xml(scene: rt.Scene, path) -> Path:
          "<!-- Written by mitsuba_scenes.to_xml: the reference_tracer scene, translated per",
          "     shared/DESIGN.md section 3 (box filter, fov_axis y, ext_ior 1, one-sided emitters). -->",
          '<scene version="3.0.0">',
+         f'    <default name="spp" value="{int(spp)}"/>',
+         f'    <default name="seed" value="{int(seed)}"/>',
          '    <integrator type="path">',
          f'        <integer name="max_depth" value="{integ["max_depth"]}"/>',
          f'        <integer name="rr_depth" value="{integ["rr_depth"]}"/>',
@@ -442,7 +447,8 @@ def to_xml(scene: rt.Scene, path) -> Path:
          f"        <!-- look_at origin={tuple(o)} target={tuple(t)} up={tuple(u)} -->",
          *_xml_matrix(cam["to_world"], "        "),
          '        <sampler type="independent">',
-         '            <integer name="sample_count" value="4"/>',
+         '            <integer name="sample_count" value="$spp"/>',
+         '            <integer name="seed" value="$seed"/>',
          "        </sampler>",
          '        <film type="hdrfilm">',
          f'            <integer name="width" value="{cam["width"]}"/>',

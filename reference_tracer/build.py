@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import subprocess
 from pathlib import Path
 
-__all__ = ["build_id"]
+__all__ = ["build_id", "git_describe", "build_info"]
 
 
 @functools.lru_cache(maxsize=1)
@@ -31,3 +32,32 @@ def build_id() -> str:
         h.update(path.name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]
+
+
+@functools.lru_cache(maxsize=1)
+def git_describe() -> str | None:
+    """``git describe --always --dirty --tags`` of the repository the package runs from, or None.
+
+    None when the package is not inside a git work tree (an installed wheel) or git is
+    missing. It names the source revision for people; :func:`build_id` is what keys
+    results (a dirty tree's ``-dirty`` says nothing of *what* changed).
+    """
+    here = Path(__file__).resolve().parent
+    try:
+        out = subprocess.run(["git", "-C", str(here), "describe", "--always", "--dirty", "--tags"],
+                             capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    text = out.stdout.strip()
+    return text if out.returncode == 0 and text else None
+
+
+def build_info() -> dict:
+    """``{"build": build_id(), "build_git": git_describe()}``: what a record says of the build.
+
+    Examples
+    --------
+    >>> sorted(build_info())
+    ['build', 'build_git']
+    """
+    return {"build": build_id(), "build_git": git_describe()}

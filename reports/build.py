@@ -21,7 +21,7 @@ __all__ = ["build_report", "summary_table", "PLOT_KINDS"]
 def _markdown(store: Store, sections: list[Section], cmp, problems: list) -> str:
     out = [f"# rtbench report — {store.path.name}", "", "## Run facts", "",
            markdown_table(["fact", "value"], facts_table(store.meta, n_records=len(store.records),
-                                                         n_raw=store.n_raw_records)), ""]
+                                                         n_raw=store.n_raw_records, records=store.records)), ""]
     for sec in sections:
         out += [f"## {sec.title}", ""]
         if sec.table:

@@ -160,7 +160,8 @@ def _seed_html(cmp: dict | None, png: bytes | None) -> str:
 
 def page_html(store: Store, sections: list[Section], cmp, seed_png, problems: list) -> str:
     """The whole ``index.html``: run facts, sections, seed comparison, definitions, problems."""
-    facts = facts_table(store.meta, n_records=len(store.records), n_raw=store.n_raw_records)
+    facts = facts_table(store.meta, n_records=len(store.records), n_raw=store.n_raw_records,
+                        records=store.records)
     title = f"rtbench report — {store.path.name}"
     toc = "".join(f'<a href="#{s.id}">{_e(s.title)}</a>' for s in sections)
     toc += '<a href="#seed">seed comparison</a><a href="#formulas">definitions</a>'

@@ -33,6 +33,8 @@ DPI = 110
 
 def colour(key: tuple[str, str]) -> str:
     """Plot colour of a (renderer, strategy) curve: Mitsuba black, unknown strategies from a spare list."""
+    if str(key[0]).startswith("ext-"):   # external renderers (benchmarks.external)
+        return _SPARE[sum(map(ord, str(key[0]))) % len(_SPARE)]
     if key[0] != "ours":
         return "#000000"
     if key in COLOURS:

@@ -174,10 +174,16 @@ def load_store(store) -> Store:
     out.meta = results.read_meta(path, problems=out.problems)
     raw = _records(path, out.problems)
     out.n_raw_records = len(raw)
-    out.records = results.dedupe_records(raw)
-    if out.n_raw_records > len(out.records):
-        out.problems.append(f"{results.RESULTS}: {out.n_raw_records - len(out.records)} duplicate job "
-                            "record(s) (resumed run); the last of each was kept")
+    deduped = results.dedupe_records(raw)
+    out.records = results.latest_builds(deduped)
+    if out.n_raw_records > len(deduped):
+        out.problems.append(f"{results.RESULTS}: {out.n_raw_records - len(deduped)} duplicate job "
+                            "record(s) (resumed run or a new build); the last of each was kept")
+    if len(deduped) > len(out.records):
+        old = sorted({str(r.get(results.BUILD_FIELD)) for r in deduped} - {str(r.get(results.BUILD_FIELD))
+                                                                             for r in out.records})
+        out.problems.append(f"{results.RESULTS}: {len(deduped) - len(out.records)} record(s) of older build(s) "
+                            f"({', '.join(old)}) not shown: each curve shows its latest build only")
     out.rows = results.read_summary_rows(path, problems=out.problems)
     for i, row in enumerate(out.rows):
         results.check_identity(row, f"{results.SUMMARY} row {i}", need_spp=False)

@@ -82,8 +82,27 @@ def stats_table(rows: list[dict]) -> list[list[str]]:
     return out
 
 
-def facts_table(meta: dict, *, n_records: int = 0, n_raw: int = 0) -> list[tuple[str, str]]:
-    """(label, value) pairs of the run facts; missing keys read as a dash."""
+def _build_facts(records) -> list[tuple[str, str]]:
+    """One ``build`` fact per build in the records: which curves it rendered, with ``git describe``."""
+    by_build: dict = {}
+    for r in records or ():
+        b = r.get("build") or "unrecorded"
+        label = curve_label(r.get("renderer"), r.get("strategy"))
+        entry = by_build.setdefault(b, {"git": r.get("build_git"), "curves": {}})
+        entry["curves"].setdefault(label, set()).add(str(r.get("scene")))
+    out = []
+    for b, e in by_build.items():
+        git = f" (git {e['git']})" if e["git"] else ""
+        curves = "; ".join(f"{c}: {', '.join(sorted(sc))}" for c, sc in e["curves"].items())
+        out.append((f"build {b}{git}", curves))
+    return out
+
+
+def facts_table(meta: dict, *, n_records: int = 0, n_raw: int = 0, records=None) -> list[tuple[str, str]]:
+    """(label, value) pairs of the run facts; missing keys read as a dash.
+
+    ``records`` (the job records shown) add one line per build: which curves it rendered.
+    """
     meta = meta if isinstance(meta, dict) else {}
     machine = meta.get("machine") if isinstance(meta.get("machine"), dict) else {}
     versions = meta.get("versions") if isinstance(meta.get("versions"), dict) else {}
@@ -105,6 +124,13 @@ def facts_table(meta: dict, *, n_records: int = 0, n_raw: int = 0) -> list[tuple
         ("Python / NumPy", f"{s(versions.get('python'))} / {s(versions.get('numpy'))}"),
         ("job records", f"{n_records}" + (f" ({n_raw - n_records} duplicates dropped)" if n_raw > n_records else "")),
     ]
+    facts.extend(_build_facts(records))
+    files = meta.get("scene_files") if isinstance(meta.get("scene_files"), dict) else {}
+    for name, f in sorted(files.items()):
+        f = f if isinstance(f, dict) else {}
+        params = f.get("params") or {}
+        facts.append((f"scene {name}", f"{s(f.get('source'))}" + (f" ({', '.join(f'{k}={v}' for k, v in sorted(params.items()))})" if params else "")
+                      + f", content hash {s(f.get('hash'))}"))
     refs = meta.get("references") if isinstance(meta.get("references"), dict) else {}
     if refs:
         facts.append(("references", "; ".join(

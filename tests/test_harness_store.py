@@ -24,7 +24,8 @@ def test_append_and_read_roundtrip(tmp_path):
     rs = read_records(tmp_path)
     assert [r["spp"] for r in rs] == [4, 8]
     assert rs[0]["mse"] is None and rs[0]["ssim"] == 0.25 and rs[0]["n"] == 3 and rs[0]["ok"] is True
-    assert finished_keys(tmp_path) == {("s", "ours", "mis", 4, 0, 8, 8), ("s", "ours", "mis", 8, 0, 8, 8)}
+    # the last field is the build (None: a record that names none)
+    assert finished_keys(tmp_path) == {("s", "ours", "mis", 4, 0, 8, 8, None), ("s", "ours", "mis", 8, 0, 8, 8, None)}
     # one JSON object per line, valid JSON everywhere (no NaN tokens)
     lines = (tmp_path / RESULTS).read_text().splitlines()
     assert len(lines) == 2 and all(json.loads(line) for line in lines)
@@ -67,7 +68,7 @@ def test_record_without_key_fields_is_refused(tmp_path):
     del bad["seed"]
     with pytest.raises(ValueError, match="seed"):
         append_record(tmp_path, bad)
-    assert record_key(rec()) == tuple(rec()[k] for k in KEY_FIELDS)
+    assert record_key(rec()) == tuple(rec()[k] for k in KEY_FIELDS) + (None,)  # no build recorded
 
 
 def test_store_path_that_is_a_file_is_an_error(tmp_path):

@@ -30,7 +30,9 @@ def gate_table(report):
         r = c.result
         verdict = {"pass": "[green]pass[/]", "fail": "[bold red]FAIL[/]",
                    "undetermined": f"[yellow]undetermined[/] (needs ~{r.spp_needed} spp)"}[r.verdict]
-        ref = CLOSED_FORM if c.reference.source == CLOSED_FORM else f"Mitsuba {c.reference.spp} spp"
+        ref = (CLOSED_FORM if c.reference.source == CLOSED_FORM else
+               f"{c.reference.variant} {c.reference.spp} spp" if c.reference.source == "store" else
+               f"Mitsuba {c.reference.spp} spp")
         table.add_row(c.scene, c.strategy, ref, verdict, f"{r.p_value:.3g}", ", ".join(r.failed_levels) or "-",
                       f"{r.relative_bias:+.2%} +- {r.relative_bias_se:.2%}",
                       f"{_pct(r.min_detectable_bias)} / {_pct(r.min_detectable_tile_bias)}",

@@ -52,7 +52,7 @@ def _si(v):
 
 
 def _curve_name(renderer, strategy):
-    return strategy if renderer == "ours" else f"Mitsuba {strategy}"
+    return strategy if renderer == "ours" else f"{'Mitsuba' if renderer == 'mitsuba' else renderer} {strategy}"
 
 
 def _curve_order(curve) -> tuple:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 
+from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
 from benchmarks.constants import BIAS_TEST_ALPHA
 
 HELP = "render error-vs-spp curves (our strategies + Mitsuba path) against cached references into a results store"
@@ -40,7 +41,8 @@ def add_sweep_options(parser: argparse.ArgumentParser) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenes", nargs="+", metavar="SCENE", help="suite scene name(s)")
+    parser.add_argument("scenes", nargs="*", metavar="SCENE", help="suite scene name(s)")
+    add_scene_path_args(parser)
     parser.add_argument("--strategies", default="uniform,light,mixture,mis",
                         help="our strategies, comma-separated (default uniform,light,mixture,mis)")
     parser.add_argument("--spp", default="1,2,4,8,16,32,64", help="spp ladder, comma-separated")
@@ -50,6 +52,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--reference-spp", type=int, default=None,
                         help="reference samples per pixel (default max(4096, 32 x the largest spp))")
     parser.add_argument("--no-mitsuba", action="store_true", help="skip Mitsuba's path curve")
+    parser.add_argument("--renderer", action="append", default=[], metavar="CMD",
+                        help="an external renderer, one more curve (repeatable): a command template with "
+                             "{scene_xml} {spp} {seed} {width} {height} {out} that renders the Mitsuba XML to an "
+                             "EXR at {out}, e.g. 'mitsuba -m scalar_rgb -D spp={spp} -D seed={seed} -o {out} "
+                             "{scene_xml}' (README: External renderers)")
     parser.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"results store (default {DEFAULT_OUT})")
     add_sweep_options(parser)
 
@@ -60,16 +67,37 @@ def sweep_kwargs(args) -> dict:
                 alpha=BIAS_TEST_ALPHA if args.alpha is None else args.alpha, progress=not args.quiet)
 
 
+def _parity_first(names, out) -> bool:
+    """AOV parity of the scene files among ``names``; False when one fails (maps in ``out``/parity)."""
+    import sys
+    from pathlib import Path
+
+    from benchmarks.commands.parity import check_user_scenes
+
+    if check_user_scenes(names, Path(out) / "parity", say=lambda line: print(line, file=sys.stderr)):
+        return True
+    print("rtbench curves: the scene file(s) above translate differently in the two renderers; fix that first "
+          "(nothing was rendered)", file=sys.stderr)
+    return False
+
+
 def run(args) -> int:
     from rich.console import Console
 
     from benchmarks.commands._summary import print_summary
+    from benchmarks.external import register_external
     from benchmarks.sweep import Group, run_sweep
 
     spps = _parse_ints(args.spp, "--spp")
     ref_spp = args.reference_spp if args.reference_spp is not None else max(4096, 32 * max(spps))
-    group = Group(scenes=tuple(args.scenes), strategies=_names(args.strategies), spps=spps, seeds=args.seeds,
-                  width=args.width, height=args.height, mitsuba=not args.no_mitsuba, reference_spp=ref_spp)
+    scenes = resolve_scenes(args, suite_names=args.scenes)
+    if not scenes:
+        raise ValueError("no scene: give suite scene names or --scene PATH")
+    if not _parity_first(scenes, args.out):
+        return 1
+    group = Group(scenes=tuple(scenes), strategies=_names(args.strategies), spps=spps, seeds=args.seeds,
+                  width=args.width, height=args.height, mitsuba=not args.no_mitsuba, reference_spp=ref_spp,
+                  externals=tuple(register_external(cmd).name for cmd in args.renderer))
     result = run_sweep([group], out=args.out, **sweep_kwargs(args))
     console = Console()
     if not console.is_terminal:  # logs and pipes: wide enough for the summary table
@@ -77,4 +105,8 @@ def run(args) -> int:
     print_summary(result.store, console=console)
     print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
                   f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", flush=True)
+    import sys
+
+    for label, why in result.failed[:10]:
+        print(f"  failed: {label}: {why}", file=sys.stderr)
     return 1 if result.failed else 0

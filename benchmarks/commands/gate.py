@@ -16,6 +16,8 @@ import json
 import sys
 from pathlib import Path
 
+from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+
 HELP = ("regression gate: render the suite with our tracer, test it against the cached Mitsuba references "
         "(pixel, tile and image tests), exit 1 on a significant difference")
 
@@ -59,6 +61,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="--calibrate: budgets of the renders (default 64,256,1024,4096)")
     parser.add_argument("--seeds", type=int, default=100,
                         help="--calibrate: renders per (scene, strategy, spp) (default 100)")
+    add_scene_path_args(parser)
+    parser.add_argument("--reference", default=None, metavar="STORE",
+                        help="gate against our own images in results store STORE (written by --write-reference "
+                             "with a trusted build) instead of Mitsuba: for features Mitsuba cannot render")
+    parser.add_argument("--reference-build", default=None, metavar="BUILD",
+                        help="with --reference: the build whose records to use (default: the latest)")
+    parser.add_argument("--write-reference", default=None, metavar="STORE",
+                        help="render the scenes with this build at --ref-spp (mis) into results store STORE, "
+                             "for later --reference runs, and exit")
+    parser.add_argument("--renderer", default=None, metavar="CMD",
+                        help="gate an external renderer instead of ours: a command template with {scene_xml} "
+                             "{spp} {seed} {width} {height} {out} (README: External renderers), run in 16 "
+                             "batches for the per-pixel variance")
     parser.add_argument("--json", default=None, metavar="PATH",
                         help="also write one row per comparison (scene, strategy, spp, verdict, statistics, power)")
 
@@ -77,7 +92,8 @@ def run(args) -> int:
     from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from benchmarks.commands._gate_tables import gate_table
-    from benchmarks.gate import resolve_scenes, resolve_strategies, run_gate, write_p_images
+    from benchmarks.gate import resolve_strategies, run_gate, write_p_images
+    from benchmarks.gate import resolve_scenes as resolve_gate_scenes
 
     console = Console()
     if not console.is_terminal:  # CI logs: keep one row per comparison
@@ -85,10 +101,20 @@ def run(args) -> int:
     err = Console(stderr=True)
     if args.threads is not None and args.threads < 1:
         raise ValueError(f"--threads must be >= 1, got {args.threads}")
-    scenes = args.scenes or None
+    scenes = resolve_scenes(args, suite_names=args.scenes) or None
+    if args.write_reference:
+        return _write_reference(args, scenes)
+    if scenes and args.reference is None and not _parity_first(scenes, args.out):
+        return 1
     strategies = _strategies(args.strategies)
+    external = None
+    if args.renderer:
+        from benchmarks.external import register_external
+
+        external = register_external(args.renderer)
     # validate everything before the first (possibly long) render
-    n_scenes, n_strategies = len(resolve_scenes(scenes)), len(resolve_strategies(strategies))
+    n_scenes = len(resolve_gate_scenes(scenes))
+    n_strategies = 1 if external is not None else len(resolve_strategies(strategies))
     for name, v, lo in (("--spp", args.spp, 2), ("--ref-spp", args.ref_spp, 2), ("--width", args.width, 1),
                         ("--seed", args.seed, 0)):
         if v < lo:
@@ -123,7 +149,9 @@ def run(args) -> int:
         report = run_gate(scenes, strategies=strategies, spp=args.spp, width=args.width, height=args.height,
                           ref_spp=args.ref_spp, alpha=args.alpha, seed=args.seed, threads=args.threads,
                           cache=args.cache, log=lambda line: progress.console.print(line, markup=False),
-                          on_reference=on_reference, on_case=on_case, tail_spp=args.tail_spp)
+                          on_reference=on_reference, on_case=on_case, tail_spp=args.tail_spp,
+                          reference_store=args.reference, reference_build=args.reference_build,
+                          renderer=external)
 
     console.print(gate_table(report))
     console.print(f"references {report.reference_seconds:.1f} s, tail references {report.tail_seconds:.1f} s, "
@@ -154,6 +182,30 @@ def run(args) -> int:
     return 1
 
 
+def _write_reference(args, scenes) -> int:
+    """``--write-reference STORE``: our renders at ``--ref-spp`` into a results store."""
+    from benchmarks.gate import resolve_scenes as resolve_gate_scenes
+    from benchmarks.gate.store_reference import write_reference_store
+
+    names = resolve_gate_scenes(scenes)
+    write_reference_store(names, args.write_reference, spp=args.ref_spp, width=args.width, height=args.height,
+                          threads=args.threads, log=print)
+    print(f"reference store: {Path(args.write_reference).resolve()} ({len(names)} scene(s), {args.ref_spp} spp)")
+    return 0
+
+
+def _parity_first(names, out) -> bool:
+    """AOV parity of the scene files among ``names`` before any render; False (after printing
+    the findings and writing the mismatch maps into ``out``) when one fails."""
+    from benchmarks.commands.parity import check_user_scenes
+
+    if check_user_scenes(names, out, say=lambda line: print(line, file=sys.stderr)):
+        return True
+    print("rtbench gate: the scene file(s) above translate differently in the two renderers; fix that first "
+          "(no statistics were computed)", file=sys.stderr)
+    return False
+
+
 def _calibrate(args) -> int:
     """``rtbench gate --calibrate``: the false-alarm table (:func:`benchmarks.gate.calibrate`)."""
     from rich.console import Console
@@ -161,7 +213,8 @@ def _calibrate(args) -> int:
 
     from benchmarks.commands._gate_tables import calibration_table
     from benchmarks.constants import UNBIASED_STRATEGIES
-    from benchmarks.gate import calibrate, resolve_scenes
+    from benchmarks.gate import calibrate
+    from benchmarks.gate import resolve_scenes as resolve_gate_scenes
 
     try:
         spps = [int(v) for v in args.spps.split(",") if v.strip()]
@@ -174,7 +227,7 @@ def _calibrate(args) -> int:
     if not 0 < args.alpha < 1:
         raise ValueError(f"--alpha must be in (0, 1), got {args.alpha}")
     strategies = _strategies(args.strategies) or list(UNBIASED_STRATEGIES)
-    names = resolve_scenes(args.scenes or None)
+    names = resolve_gate_scenes(resolve_scenes(args, suite_names=args.scenes) or None)
     console = Console()
     if not console.is_terminal:  # logs and files: keep one row per line
         console = Console(width=max(console.width, 160))

@@ -6,13 +6,16 @@ import shutil
 import time
 from pathlib import Path
 
+from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+
 HELP = "render a high-spp Mitsuba reference (mean + per-sample variance) into the cache, or report the cached one"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from benchmarks.references import DEFAULT_REFERENCE_BATCHES, DEFAULT_REFERENCE_SEED
 
-    parser.add_argument("scenes", nargs="+", metavar="SCENE", help="suite scene name(s)")
+    parser.add_argument("scenes", nargs="*", metavar="SCENE", help="suite scene name(s)")
+    add_scene_path_args(parser)
     parser.add_argument("--spp", type=int, default=4096, help="samples per pixel (default 4096)")
     parser.add_argument("--seed", type=int, default=DEFAULT_REFERENCE_SEED,
                         help=f"base seed (default {DEFAULT_REFERENCE_SEED}, away from the sweeps' seeds)")
@@ -30,18 +33,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from mitsuba_scenes import get_scene, list_scenes
+    from mitsuba_scenes import describe_scene, get_scene, list_scenes
 
     from benchmarks.references import reference
 
     unknown = [s for s in args.scenes if s not in list_scenes()]
     if unknown:
         raise ValueError(f"unknown scene(s) {unknown}; the suite has: {', '.join(list_scenes())}")
+    names = resolve_scenes(args, suite_names=args.scenes)
+    if not names:
+        raise ValueError("no scene: give suite scene names or --scene PATH")
     for name in ("width", "height", "threads"):
         v = getattr(args, name)
         if v is not None and v < 1:
             raise ValueError(f"--{name} must be >= 1, got {v}")
-    for scene_name in args.scenes:
+    for scene_name in names:
         scene = get_scene(scene_name)
         w = args.width or scene.camera.width
         h = args.height or scene.camera.height
@@ -53,6 +59,7 @@ def run(args) -> int:
         how = "cache hit" if ref.cached else f"rendered in {took:.1f} s"
         print(f"{scene_name} {w}x{h}: {ref.spp} spp, seed {ref.seed}, Mitsuba {ref.mitsuba_version} "
               f"{ref.variant} ({how})")
+        print(f"  scene:    {describe_scene(scene_name)}, content hash {ref.scene_hash[:16]}")
         print(f"  mean:     {ref.path}")
         print(f"  variance: {ref.variance_path}  (per sample; mean {ref.variance.mean():.4g}, "
               f"reference noise {ref.noise:.3g})")

@@ -4,6 +4,8 @@ from __future__ import annotations
 import argparse
 import time
 
+from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+
 HELP = "the main job: references and error-vs-spp curves for the whole suite, then the report"
 
 
@@ -16,9 +18,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "full (report quality: 256x256, spp to 1024, 4 seeds)")
     parser.add_argument("--out", metavar="DIR", default=None,
                         help="results store (default reports/out/PRESET)")
-    parser.add_argument("--scenes", default=None, help="only these suite scenes, comma-separated")
+    parser.add_argument("--scenes", default=None,
+                        help="only these suite scenes, comma-separated (with --scene and no --scenes: only the "
+                             "scene files)")
     parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
     add_sweep_options(parser)
+    add_scene_path_args(parser)
 
 
 def run(args) -> int:
@@ -31,7 +36,9 @@ def run(args) -> int:
 
     t0 = time.perf_counter()
     out = args.out or f"reports/out/{args.preset}"
-    groups = preset_groups(args.preset, scenes=args.scenes)
+    suite_names = [s.strip() for s in args.scenes.split(",") if s.strip()] if args.scenes else []
+    names = resolve_scenes(args, suite_names=suite_names)
+    groups = preset_groups(args.preset, scenes=names or None)
     console = Console()
     if not console.is_terminal:  # logs and pipes: wide enough for the summary table
         console = Console(width=max(console.width, 120))

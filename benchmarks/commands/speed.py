@@ -13,6 +13,8 @@ import argparse
 import json
 import math
 
+from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+
 HELP = "time ours vs Mitsuba (paired, interleaved): paths/s, rays/s, ms/spp, RMSE, efficiency; --rays, --scaling"
 
 
@@ -89,6 +91,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scaling-spp", type=int, default=16, help="--scaling spp (default 16)")
     parser.add_argument("--json", metavar="PATH", default=None, help="write every record as JSON")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
+    add_scene_path_args(parser)
 
 
 def _f(v, digits=3):
@@ -314,14 +317,15 @@ def run(args) -> int:
         console = Console(width=220)
     log = None if args.quiet else (lambda line: console.print(line, style="dim", markup=False, highlight=False))
     do_render = args.render or not (args.rays or args.scaling)
-    if args.scenes and not do_render:
+    if (args.scenes or args.scene_files) and not do_render:
         raise ValueError("scenes are only used by the render benchmark: add --render")
+    from mitsuba_scenes import list_scenes
+
+    scenes = resolve_scenes(args, suite_names=args.scenes, default=list(list_scenes()))
     jit = [v for v in args.variants if not v.startswith("scalar")]
     out = {}
     if do_render:
-        from mitsuba_scenes import list_scenes
-
-        res = speed.render_benchmark(args.scenes or list_scenes(), width=args.width, height=args.height,
+        res = speed.render_benchmark(scenes, width=args.width, height=args.height,
                                      spp=args.spp, threads=args.threads, repeats=args.repeats,
                                      strategies=args.strategies, variants=args.variants, max_depth=args.max_depth,
                                      rr_depths=args.rr_depth,

@@ -244,11 +244,11 @@ def compare_render(mean, variance, spp: int, reference: Reference, *, alpha: flo
 
 def resolve_scenes(scenes) -> list:
     """Validated scene names (None: the whole suite; a string may be comma-separated)."""
-    from mitsuba_scenes import list_scenes
+    from mitsuba_scenes import known_scenes, list_scenes
 
-    suite = list_scenes()
+    suite = known_scenes()
     if scenes is None:
-        return suite
+        return list_scenes()
     if isinstance(scenes, str):
         scenes = [s.strip() for s in scenes.split(",") if s.strip()]
     scenes = list(dict.fromkeys(scenes))
@@ -275,7 +275,8 @@ def resolve_strategies(strategies) -> list:
 def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int = DEFAULT_WIDTH,
              height: int | None = None, ref_spp: int = DEFAULT_REF_SPP, alpha: float = GATE_ALPHA,
              seed: int = DEFAULT_SEED, threads: int | None = None, cache=None, log=None,
-             on_reference=None, on_case=None, tail_spp: int = DEFAULT_TAIL_SPP) -> GateReport:
+             on_reference=None, on_case=None, tail_spp: int = DEFAULT_TAIL_SPP, reference_store=None,
+             reference_build: str | None = None, renderer=None) -> GateReport:
     """Render each scene with our tracer and compare it with its reference.
 
     Parameters
@@ -312,6 +313,15 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
         :func:`benchmarks.tails.tail_reference`) that give each comparison the variance and
         tail shape of the estimator under test; 0 compares without them (the older rule,
         which cries wolf on heavy-tailed strategies: ``benchmarks/STATISTICS.md``).
+    reference_store : str or Path or None, keyword-only
+        A results store of our own tracer (:mod:`benchmarks.gate.store_reference`): its
+        images are the references instead of Mitsuba's (``rtbench gate --reference``).
+    reference_build : str or None, keyword-only
+        With ``reference_store``: use the records of this build (default: the latest).
+    renderer : benchmarks.external.ExternalRenderer or None, keyword-only
+        Gate this external renderer instead of ours (``--renderer``): each scene rendered
+        by the command in 16 batches for its per-pixel variance, no tail references;
+        ``strategies`` are ignored and the case's strategy is the renderer's name.
 
     Returns
     -------
@@ -320,7 +330,7 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
     import reference_tracer as rt
 
     names = resolve_scenes(scenes)
-    strategies = resolve_strategies(strategies)
+    strategies = resolve_strategies(strategies) if renderer is None else [renderer.name]
     spp = positive_int("spp", spp, minimum=2)
     width = positive_int("width", width)
     height = width if height is None else positive_int("height", height)
@@ -342,21 +352,33 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
         if on_reference:
             on_reference(name, "start", None)
         t0 = time.perf_counter()
-        refs[name] = gate_reference(name, scenes_built[name], ref_spp=ref_spp, threads=threads, cache=cache,
-                                    log=log)
+        if reference_store is not None:
+            from .store_reference import store_reference
+
+            refs[name] = store_reference(reference_store, name, scenes_built[name], build=reference_build)
+        else:
+            refs[name] = gate_reference(name, scenes_built[name], ref_spp=ref_spp, threads=threads, cache=cache,
+                                        log=log)
         ref_seconds += time.perf_counter() - t0
         if on_reference:
             on_reference(name, "done", refs[name])
     cases, render_seconds, tail_seconds = [], 0.0, 0.0
     for name in names:
         for strategy in strategies:
-            t0 = time.perf_counter()
-            tails = (tail_reference(scenes_built[name], strategy=strategy, spp=tail_spp, threads=threads,
-                                    cache=cache, log=log) if tail_spp else None)
-            tail_seconds += time.perf_counter() - t0
-            t0 = time.perf_counter()
-            out = rt.render(scenes_built[name], spp=spp, strategy=strategy, seed=seed, threads=threads)
-            took = time.perf_counter() - t0
+            if renderer is not None:
+                from ..external import render_external_batches
+
+                mean, variance, took = render_external_batches(renderer, scenes_built[name], spp=spp, seed=seed)
+                out = rt.ImageEstimate(mean=mean, variance=variance, spp=spp, seconds=took, source=renderer.name)
+                tails = None
+            else:
+                t0 = time.perf_counter()
+                tails = (tail_reference(scenes_built[name], strategy=strategy, spp=tail_spp, threads=threads,
+                                        cache=cache, log=log) if tail_spp else None)
+                tail_seconds += time.perf_counter() - t0
+                t0 = time.perf_counter()
+                out = rt.render(scenes_built[name], spp=spp, strategy=strategy, seed=seed, threads=threads)
+                took = time.perf_counter() - t0
             render_seconds += took
             result = compare_render(out.mean, out.variance, spp, refs[name], alpha=case_alpha, tails=tails)
             case = GateCase(scene=name, strategy=strategy, width=width, height=height, spp=spp, seed=seed,

@@ -137,9 +137,9 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
 def _render_config(scenes, *, width, height, spp, threads, repeats, strategies, variants, reference,
                    reference_spp, seed) -> dict:
     """The validated settings, as stored under ``config``; ``ValueError`` names a bad one."""
-    from mitsuba_scenes import list_scenes
+    from mitsuba_scenes import known_scenes
 
-    scenes = name_list("scenes", scenes, list_scenes())
+    scenes = name_list("scenes", scenes, known_scenes())
     strategies = name_list("strategies", strategies, STRATEGIES)
     variants = name_list("variants", variants)
     width, height = positive_int("width", width), positive_int("height", height)

@@ -20,11 +20,12 @@ from ..store import KEY_FIELDS
 from .coerce import finite
 from .jobs import Job, default_threads, image_paths, render_seed, scene_at
 
-__all__ = ["TIMING_FIELDS", "job_metrics", "execute_job", "reference_info", "run_versions", "machine_info"]
+__all__ = ["TIMING_FIELDS", "job_metrics", "scene_info", "execute_job", "reference_info", "run_versions", "machine_info"]
 
-#: record fields that depend on timing or on the machine (ignore them to compare two runs).
+#: record fields that depend on timing, the machine or the checkout (ignore them to compare two runs):
+#: ``build_git`` (git describe) changes with any commit, the build id only with the tracer.
 TIMING_FIELDS = ("seconds", "paths_per_second", "efficiency", "compile_seconds", "build_seconds",
-                 "load_seconds", "wall_seconds", "finished", "host", "threads", "worker")
+                 "load_seconds", "wall_seconds", "finished", "host", "threads", "worker", "build_git")
 
 
 def job_metrics(mean, variance, ref_mean, ref_variance, ref_spp) -> dict:
@@ -63,12 +64,30 @@ def reference_info(reference) -> dict:
     return {"spp": reference.spp, "seed": reference.seed, "key": reference.key, "variant": reference.variant}
 
 
-def _render(job: Job, rseed: int, *, threads: int, variant) -> tuple:
+def scene_info(name: str, scene) -> dict:
+    """What a record says of its scene: content hash and, for a scene file, its path and parameters.
+
+    Examples
+    --------
+    >>> from mitsuba_scenes import get_scene
+    >>> info = scene_info("furnace", get_scene("furnace", width=4, height=4))
+    >>> len(info["scene_hash"]), info["scene_source"]
+    (16, None)
+    """
+    from mitsuba_scenes.scene_files import scene_file
+
+    entry = scene_file(name)
+    return {"scene_hash": scene.content_hash()[:16],
+            "scene_source": None if entry is None else entry.path,
+            "scene_params": None if entry is None or not entry.params else dict(entry.params)}
+
+
+def _render(job: Job, scene, rseed: int, *, threads: int, variant) -> tuple:
     """``(mean, variance or None, seconds, extra record fields)`` of the job's render."""
     if job.renderer == "ours":
         import reference_tracer as rt
 
-        res = rt.render(scene_at(job.scene, job.width, job.height), spp=job.spp, strategy=job.strategy,
+        res = rt.render(scene, spp=job.spp, strategy=job.strategy,
                         seed=rseed, threads=threads)
         extra = {"rays": int(res.rays), "nonfinite_samples": int(res.nonfinite_samples),
                  "build_seconds": float(res.build_seconds)}
@@ -78,13 +97,34 @@ def _render(job: Job, rseed: int, *, threads: int, variant) -> tuple:
 
         if job.strategy != MITSUBA_STRATEGY:
             raise ValueError(f"Mitsuba jobs use strategy {MITSUBA_STRATEGY!r}, got {job.strategy!r}")
-        out = render_mitsuba(scene_at(job.scene, job.width, job.height), spp=job.spp, seed=rseed,
+        out = render_mitsuba(scene, spp=job.spp, seed=rseed,
                              variant=variant, threads=threads, batches=1)
         extra = {"rays": None, "nonfinite_samples": None, "compile_seconds": float(out.compile_seconds),
                  "load_seconds": float(out.load_seconds)}
         # one batch at the full spp: no per-pixel variance (summary.json has the between-seed one)
         return out.mean, None, float(out.seconds), extra
-    raise ValueError(f"renderer must be 'ours' or 'mitsuba', got {job.renderer!r}")
+    from ..external import external, render_external
+
+    ext = external(job.renderer)
+    if ext is not None:
+        mean, seconds = render_external(ext, scene, spp=job.spp, seed=rseed & 0x7FFFFFFF)
+        return mean, None, seconds, {"rays": None, "nonfinite_samples": int((~np.isfinite(mean)).sum())}
+    raise ValueError(f"renderer must be 'ours', 'mitsuba' or a registered external renderer, got {job.renderer!r}")
+
+
+def _check_build(job: Job) -> dict:
+    """The record's build fields; ``RuntimeError`` when this process's tracer is another build
+    than the job was planned with (a Dask worker running other code than the client)."""
+    if job.renderer != "ours":
+        return {"build": job.build, "build_git": None}
+    from reference_tracer.build import git_describe
+
+    import reference_tracer as rt
+
+    here = rt.build_id()
+    if job.build is not None and job.build != here:
+        raise RuntimeError(f"{job.label}: planned for tracer build {job.build}, but this process runs build {here}")
+    return {"build": here, "build_git": git_describe()}
 
 
 def execute_job(job: Job, reference, *, threads: int, variant=None, keep_image: bool = False,
@@ -111,8 +151,10 @@ def execute_job(job: Job, reference, *, threads: int, variant=None, keep_image: 
         Return mean and variance images for the bias test (``record["stats_image"]``).
     """
     t_job = time.perf_counter()
+    builds = _check_build(job)
     rseed = render_seed(job.seed, job.spp)
-    mean, var, seconds, extra = _render(job, rseed, threads=threads, variant=variant)
+    scene = scene_at(job.scene, job.width, job.height)
+    mean, var, seconds, extra = _render(job, scene, rseed, threads=threads, variant=variant)
     if mean.shape != np.shape(reference.mean):
         raise ValueError(f"{job.label}: image {mean.shape} vs reference {np.shape(reference.mean)}")
     # one sample carries no estimate of its spread (ours would report 0)
@@ -139,6 +181,7 @@ def execute_job(job: Job, reference, *, threads: int, variant=None, keep_image: 
         "compile_seconds": extra.get("compile_seconds"), "build_seconds": extra.get("build_seconds"),
         "load_seconds": extra.get("load_seconds"),
         "versions": run_versions(variant),
+        **scene_info(job.scene, scene), **builds,
     })
     record.update({f"reference_{k}": v for k, v in reference_info(reference).items()})
     record["wall_seconds"] = time.perf_counter() - t_job

@@ -15,13 +15,17 @@ import numpy as np
 from ..constants import MITSUBA_STRATEGY, STRATEGIES
 from ..store import KEY_FIELDS
 
-__all__ = ["Job", "Group", "validate_group", "make_jobs", "render_seed", "default_threads", "scene_at",
+__all__ = ["Job", "Group", "validate_group", "make_jobs", "renderer_builds", "render_seed", "default_threads", "scene_at",
            "image_paths", "check_int", "check_int_list"]
 
 
 @dataclass(frozen=True)
 class Job:
-    """One render of the sweep (its identity is the store key, ``STORE.md``)."""
+    """One render of the sweep (its identity is the store key, ``STORE.md``).
+
+    ``build`` is the renderer's build (:func:`renderer_builds`): part of the key, so a
+    new build renders the job again.
+    """
 
     scene: str
     renderer: str
@@ -30,10 +34,11 @@ class Job:
     seed: int
     width: int
     height: int
+    build: str | None = None
 
     @property
     def key(self) -> tuple:
-        return tuple(getattr(self, k) for k in KEY_FIELDS)
+        return tuple(getattr(self, k) for k in KEY_FIELDS) + (self.build,)
 
     @property
     def curve(self) -> tuple:
@@ -41,7 +46,7 @@ class Job:
 
     @property
     def label(self) -> str:
-        who = self.strategy if self.renderer == "ours" else f"mitsuba {self.strategy}"
+        who = self.strategy if self.renderer == "ours" else f"{self.renderer} {self.strategy}"
         return f"{self.scene} {self.width}x{self.height} {who} {self.spp} spp seed {self.seed}"
 
     @property
@@ -72,6 +77,9 @@ class Group:
         Samples of the Mitsuba reference (keep it well above ``max(spps)``).
     name : str
         A label for messages.
+    externals : tuple of str
+        Names of registered external renderers (:func:`benchmarks.external.register_external`),
+        one curve each.
     """
 
     scenes: tuple
@@ -83,13 +91,14 @@ class Group:
     mitsuba: bool = True
     reference_spp: int = 4096
     name: str = "curves"
+    externals: tuple = ()
 
     def __post_init__(self):
         validate_group(self)
 
     def jobs(self) -> list:
         return make_jobs(self.scenes, strategies=self.strategies, spps=self.spps, seeds=self.seeds,
-                         width=self.width, height=self.height, mitsuba=self.mitsuba)
+                         width=self.width, height=self.height, mitsuba=self.mitsuba, externals=self.externals)
 
 
 def check_int(name: str, value, minimum: int = 1) -> int:
@@ -137,9 +146,9 @@ def check_int_list(name: str, values, minimum: int = 1) -> tuple:
 
 def validate_group(g: Group) -> None:
     """Raise ``ValueError`` with a clear message for a malformed :class:`Group`."""
-    from mitsuba_scenes import list_scenes
+    from mitsuba_scenes import known_scenes
 
-    suite = list_scenes()
+    suite = known_scenes()
     if isinstance(g.scenes, str) or not g.scenes:
         raise ValueError(f"scenes must be a non-empty sequence of names, got {g.scenes!r}")
     unknown = [s for s in g.scenes if s not in suite]
@@ -152,8 +161,12 @@ def validate_group(g: Group) -> None:
         raise ValueError(f"unknown strategy/strategies {bad}; choose from {', '.join(STRATEGIES)}")
     if len(set(g.strategies)) != len(tuple(g.strategies)):
         raise ValueError(f"strategies has repeated names: {list(g.strategies)}")
-    if not g.strategies and not g.mitsuba:
-        raise ValueError("nothing to render: no strategy and mitsuba=False")
+    from ..external import external
+
+    if isinstance(g.externals, str) or any(external(e) is None for e in g.externals):
+        raise ValueError(f"externals must name registered external renderers, got {g.externals!r}")
+    if not g.strategies and not g.mitsuba and not g.externals:
+        raise ValueError("nothing to render: no strategy, no external renderer and mitsuba=False")
     check_int_list("spps", g.spps)
     for name in ("seeds", "width", "height"):
         check_int(name, getattr(g, name))
@@ -161,7 +174,7 @@ def validate_group(g: Group) -> None:
 
 
 def make_jobs(scenes, *, strategies, spps, seeds: int, width: int, height: int,
-              mitsuba: bool = True) -> list:
+              mitsuba: bool = True, externals=()) -> list:
     """All jobs of a sweep, cheapest spp first (curves fill in together).
 
     Examples
@@ -171,10 +184,30 @@ def make_jobs(scenes, *, strategies, spps, seeds: int, width: int, height: int,
     (8, 'cornell_box 8x8 mis 1 spp seed 0')
     """
     spps = check_int_list("spps", spps)
+    from ..external import STRATEGY as EXTERNAL
+
     curves = [("ours", s) for s in strategies] + ([("mitsuba", MITSUBA_STRATEGY)] if mitsuba else [])
+    curves += [(e, EXTERNAL) for e in externals]
     return [Job(scene, renderer, strategy, spp, seed, int(width), int(height))
             for scene in scenes for spp in sorted(spps) for seed in range(int(seeds))
             for renderer, strategy in curves]
+
+
+def renderer_builds(variant: str | None, mitsuba_version: str | None) -> dict:
+    """``{renderer: build}`` of this process: ours is ``reference_tracer.build_id()``, Mitsuba's
+    its version and variant.
+
+    Examples
+    --------
+    >>> renderer_builds("scalar_rgb", "3.9.1")["mitsuba"]
+    'mitsuba-3.9.1-scalar_rgb'
+    """
+    import reference_tracer as rt
+
+    from ..external import registered_externals
+
+    return {"ours": rt.build_id(), "mitsuba": f"mitsuba-{mitsuba_version}-{variant}",
+            **{e.name: e.build for e in registered_externals()}}
 
 
 def render_seed(seed: int, spp: int) -> int:

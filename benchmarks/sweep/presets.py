@@ -65,7 +65,7 @@ def preset_groups(name: str = "quick", *, scenes=None) -> list:
     ----------
     name : {'quick', 'full'}
     scenes : sequence of str or None, keyword-only
-        Restrict to these suite scenes (default: the whole suite). The seed comparison
+        Restrict to these suite scenes or registered scene files (default: the whole suite). The seed comparison
         is included when ``cornell_box`` is among them.
 
     Returns
@@ -78,13 +78,13 @@ def preset_groups(name: str = "quick", *, scenes=None) -> list:
     >>> g.width, max(g.spps), g.seeds
     (256, 1024, 4)
     """
-    from mitsuba_scenes import list_scenes
+    from mitsuba_scenes import known_scenes, list_scenes
 
     if name not in _SPECS:
         raise ValueError(f"unknown preset {name!r}; choose from {', '.join(PRESETS)}")
-    suite = list_scenes()
+    suite = known_scenes()  # the suite and the registered scene files (--scene)
     if scenes is None:
-        scenes = suite
+        scenes = list_scenes()
     else:
         if isinstance(scenes, str):
             scenes = [s.strip() for s in scenes.split(",") if s.strip()]

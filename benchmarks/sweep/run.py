@@ -7,16 +7,18 @@ copy it into the store, plan the jobs and skip those already stored, run the res
 """
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM
+from ..external import external
 from ..references import closed_form_reference_of, mitsuba_identity, reference
 from ..store import META, finished_keys, read_json, read_records, store_path, update_meta, write_image
 from .execute import machine_info, run_versions
-from .jobs import Group, check_int, default_threads, scene_at
+from .jobs import Group, check_int, default_threads, renderer_builds, scene_at
 from .progress import Progress
 from .runners import run_dask, run_local
 from .summary import TARGET_RELATIVE_RMSE, summarize
@@ -83,7 +85,8 @@ def prepare_references(groups, store: Path, *, variant, threads, cache, say) -> 
                     write_image(store, rel, img)
             entry = {"spp": ref.spp, "seed": ref.seed, "path": mpath, "variance_path": vpath,
                      "width": g.width, "height": g.height, "variant": ref.variant, "key": ref.key,
-                     "render_seconds": ref.seconds}
+                     "render_seconds": ref.seconds, "scene_hash": ref.scene_hash[:16] or None,
+                     "scene_source": _source_of(scene)}
             by_size[f"{scene}@{g.width}x{g.height}"] = entry
             by_scene.setdefault(scene, entry)  # the first group naming a scene is its main sweep
             refs[k] = ref
@@ -92,6 +95,14 @@ def prepare_references(groups, store: Path, *, variant, threads, cache, say) -> 
     update_meta(store, references={**by_scene, **{k: v for k, v in old.items() if k not in by_scene}},
                 references_by_size=by_size)
     return refs
+
+
+def _source_of(name: str):
+    """The path of scene file ``name`` (``--scene``), or None for a suite scene."""
+    from mitsuba_scenes.scene_files import scene_file
+
+    entry = scene_file(name)
+    return None if entry is None else entry.path
 
 
 def _messages(progress: bool, console) -> tuple:
@@ -134,16 +145,29 @@ def _record_settings(store, groups, *, threads, scheduler, variant, preset, alph
                 scheduler=str(scheduler) if isinstance(scheduler, str) else (None if scheduler is None else "client"),
                 machine=machine_info(), versions=run_versions(variant), alpha=alpha,
                 target_relative_rmse=target_relative,
+                scene_files=_scene_files(groups),
                 groups=[{"name": g.name, "scenes": list(g.scenes), "strategies": list(g.strategies),
                          "spps": list(g.spps), "seeds": g.seeds, "width": g.width, "height": g.height,
-                         "mitsuba": g.mitsuba, "reference_spp": g.reference_spp} for g in groups])
+                         "mitsuba": g.mitsuba, "reference_spp": g.reference_spp,
+                         "externals": {e: external(e).template for e in g.externals}} for g in groups])
 
 
-def _plan(groups) -> tuple:
-    """``(jobs without repeats in group order, {curve: its highest spp})``."""
+def _scene_files(groups) -> dict:
+    """``{name: path, kind, params, hash}`` of the scene files (``--scene``) among the groups' scenes."""
+    from mitsuba_scenes.scene_files import scene_file
+
+    names = dict.fromkeys(s for g in groups for s in g.scenes)
+    return {n: scene_file(n).to_dict() for n in names if scene_file(n) is not None}
+
+
+def _plan(groups, builds=None) -> tuple:
+    """``(jobs without repeats in group order, {curve: its highest spp})``; ``builds``:
+    ``{renderer: build}`` given to each job (:func:`benchmarks.sweep.jobs.renderer_builds`)."""
     plan, top, seen = [], {}, set()
     for g in groups:
         for job in g.jobs():
+            if builds:
+                job = dataclasses.replace(job, build=builds.get(job.renderer))
             if job.key in seen:
                 continue
             seen.add(job.key)
@@ -159,6 +183,16 @@ def _warn_stale(store, refs, say) -> None:
     if stale:
         say(f"warning: {len(stale)} stored job(s) were measured against another reference (other spp, seed, "
             f"Mitsuba or scene version); they are kept - use a new --out to start afresh")
+
+
+def _say_new_builds(store, plan, done_keys, say) -> None:
+    """Name both builds when stored jobs were rendered by another build (they are rendered again)."""
+    have = {k[:-1]: k[-1] for k in done_keys}
+    other = sorted({(j.renderer, str(have[j.key[:-1]]), str(j.build)) for j in plan
+                    if j.key not in done_keys and j.key[:-1] in have})
+    for renderer, old, new in other:
+        say(f"build changed for {renderer}: {store} holds build {old}, this is build {new}; its jobs are "
+            f"rendered again (the old records stay in the file; curves show the latest build)")
 
 
 def _record_time(store, *, seconds, done=None, interrupted=None) -> None:
@@ -215,17 +249,18 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
     groups, threads = _check_arguments(groups, threads, alpha, target_relative)
     store = store_path(out)
     console, say = _messages(progress, console)
-    variant, _ = mitsuba_identity(variant)
+    variant, mitsuba_version = mitsuba_identity(variant)
     _record_settings(store, groups, threads=threads, scheduler=scheduler, variant=variant, preset=preset,
                      alpha=alpha, target_relative=target_relative)
     refs = prepare_references(groups, store, variant=variant, threads=threads, cache=cache, say=say)
-    plan, top = _plan(groups)
+    plan, top = _plan(groups, renderer_builds(variant, mitsuba_version))
     done_keys = finished_keys(store)
     _warn_stale(store, refs, say)
     todo = [j for j in plan if j.key not in done_keys]
     result = SweepResult(store=store, jobs=len(plan), skipped=len(plan) - len(todo))
     if result.skipped:
         say(f"resuming: {result.skipped} of {len(plan)} jobs already in {store}")
+    _say_new_builds(store, plan, done_keys, say)
 
     def keep(job):  # (keep_image, keep_stats): seed 0's image; the top spp's for the bias test
         return job.seed == 0, job.spp == top[job.curve]

@@ -109,6 +109,7 @@ class _DaskQueue:
             pool = self._wait_for_workers()
             self.say(f"dask: {len(pool)} worker(s) at {self.client.scheduler.address}, one job per worker")
             scattered = {k: self.client.scatter(ref, broadcast=True) for k, ref in refs.items()}
+            self._share_scene_files()
             while pending or self.running:
                 self._submit(pending, pool, scattered)
                 if not self.running:
@@ -127,6 +128,18 @@ class _DaskQueue:
             for fut in self.running:
                 fut.cancel()
         return self.done
+
+    def _share_scene_files(self) -> None:
+        """Register this process's scene files (``--scene``) on every worker (same paths there)."""
+        from mitsuba_scenes.scene_files import registered, restore_registry
+
+        from ..external import registered_externals, restore_externals
+
+        entries = registered()
+        if entries:
+            self.client.run(restore_registry, entries)
+        if registered_externals():
+            self.client.run(restore_externals, registered_externals())
 
     def _wait_for_workers(self) -> dict:
         pool = self.workers()

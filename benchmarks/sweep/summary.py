@@ -315,6 +315,7 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
       1 / (corrected MSE x seconds) (``efficiency_source``);
     * ``time_to_target``: seconds to reach ``target_rmse`` (= ``target_relative`` x the
       reference's RMS radiance), log-log interpolated, null if not reached;
+    * ``build``, ``build_git``: the build whose records make the curve (its latest one);
     * ``samples_per_second`` (pixel samples per second at the highest spp) and the
       ``*_vs_mitsuba`` ratios against Mitsuba's ``path`` curve of the same scene and size.
 
@@ -338,7 +339,8 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
         target = target_rmse(ref.mean, relative=target_relative) if ref is not None else None
         if target is not None:
             targets.setdefault(scene, target)
-        row = {"scene": scene, "renderer": renderer, "strategy": strategy, "width": w, "height": h}
+        row = {"scene": scene, "renderer": renderer, "strategy": strategy, "width": w, "height": h,
+               "build": recs[-1].get("build"), "build_git": recs[-1].get("build_git")}
         top = max(int(r["spp"]) for r in recs)  # the bias verdict needs 2+ seeds kept at the top spp
         seeds_at_top = len({r["seed"] for r in recs if int(r["spp"]) == top and r.get("stats_image")})
         tails = (_curve_tails(scene, strategy, w, h, tail_spp=tail_spp, cache=cache, threads=threads, log=log)

@@ -1,0 +1,66 @@
+"""``rtbench compare STORE_A STORE_B``: did B (a new build, a new renderer) get faster, slower, or wrong?"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+HELP = ("compare two results stores curve by curve: both curves on one plot, slope and efficiency of B over A "
+        "with bootstrap 95 percent intervals, the gate's verdict of B against A; exit 1 if a verdict fails")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from benchmarks.constants import GATE_ALPHA
+
+    parser.add_argument("store_a", metavar="STORE_A", help="the baseline results store")
+    parser.add_argument("store_b", metavar="STORE_B", help="the results store to judge")
+    parser.add_argument("--alpha", type=float, default=GATE_ALPHA,
+                        help=f"false-alarm rate of the gate over all curves (default {GATE_ALPHA})")
+    parser.add_argument("--out", default="rtbench-compare", metavar="DIR",
+                        help="folder of the page (index.html, compare.md, plots) (default ./rtbench-compare)")
+    parser.add_argument("--json", default=None, metavar="PATH", help="also write one row per curve")
+
+
+def run(args) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from benchmarks.compare import compare_stores
+    from reports.compare import write_compare_page
+
+    for p in (args.store_a, args.store_b):
+        if not (Path(p) / "results.jsonl").is_file():
+            raise ValueError(f"{p} is not a results store (no results.jsonl)")
+    if not 0 < args.alpha < 1:
+        raise ValueError(f"--alpha must be in (0, 1), got {args.alpha}")
+    rows = compare_stores(args.store_a, args.store_b, alpha=args.alpha)
+    console = Console()
+    if not console.is_terminal:
+        console = Console(width=max(console.width, 160))
+    table = Table(title=f"rtbench compare: A = {args.store_a}, B = {args.store_b}")
+    for col in ("curve", "builds A / B", "slope A / B", "slope B-A [95%]", "efficiency B/A [95%]", "speed",
+                "gate (B vs A)", "relative bias"):
+        table.add_column(col)
+    for c in rows:
+        ci = c.slope_diff_ci
+        ei = c.efficiency_ratio_ci
+        table.add_row(c.label, f"{(c.build_a or '-')[:10]} / {(c.build_b or '-')[:10]}",
+                      f"{_f(c.slope_a)} / {_f(c.slope_b)}",
+                      f"{_f(c.slope_diff, '{:+.3f}')}" + (f" [{ci[0]:+.3f}, {ci[1]:+.3f}]" if ci else ""),
+                      f"{_f(c.efficiency_ratio)}" + (f" [{ei[0]:.3g}, {ei[1]:.3g}]" if ei else ""), c.speed,
+                      f"{c.verdict or '-'} (p {_f(c.p_value)})", _f(c.relative_bias, "{:+.2%}"))
+    console.print(table)
+    page = write_compare_page(rows, args.out, name_a=str(args.store_a), name_b=str(args.store_b))
+    print(f"page: {page.resolve()}")
+    if args.json:
+        Path(args.json).write_text(json.dumps([c.to_dict() for c in rows], indent=1, default=float) + "\n")
+    failed = [c for c in rows if c.verdict == "fail"]
+    for c in failed:
+        print(f"rtbench compare: B differs from A in {c.label}: p = {c.p_value:.3g}, relative bias "
+              f"{c.relative_bias:+.2%}", file=sys.stderr)
+    return 1 if failed else 0
+
+
+def _f(v, fmt="{:.3g}"):
+    return "-" if v is None else fmt.format(v)

@@ -1,0 +1,106 @@
+"""``rtbench parity [SCENE...] [--scene PATH]``: first-hit AOVs at pixel centres, ours vs Mitsuba.
+
+Deterministic: one ray per pixel centre in each renderer; hit distance, shading normal,
+albedo, emitted radiance and the shape hit are compared with float tolerances
+(:mod:`benchmarks.parity`). A scene file in Mitsuba XML is loaded by Mitsuba itself
+(``mi.load_file``, at the file's own size) and by us through ``from_mitsuba``: the check
+judges the import. Suite scenes and Python files go to Mitsuba through ``to_mitsuba``.
+Mismatch maps (PNG, EXR) of failing scenes go to ``--out``; exit 1 on a mismatch.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+
+HELP = ("first-hit AOV parity at pixel centres (distance, normal, albedo, emission, shape), ours vs Mitsuba; "
+        "exit 1 with mismatch maps on a difference")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenes", nargs="*", metavar="SCENE",
+                        help="suite scenes (default: the whole suite, unless --scene is given)")
+    parser.add_argument("--width", type=int, default=64,
+                        help="image width for suite and Python scenes (default 64; XML files keep their own size)")
+    parser.add_argument("--height", type=int, default=None, help="image height (default: the width)")
+    parser.add_argument("--out", default="rtbench-parity", metavar="DIR",
+                        help="folder for the mismatch maps of failing scenes (default ./rtbench-parity)")
+    parser.add_argument("--json", default=None, metavar="PATH", help="also write one row per scene")
+    add_scene_path_args(parser)
+
+
+def parity_of(name: str, *, width: int | None = None, height: int | None = None):
+    """The :class:`benchmarks.parity.ParityReport` of scene ``name`` (suite or registered file)."""
+    from mitsuba_scenes import get_scene
+    from mitsuba_scenes.scene_files import scene_file
+
+    from benchmarks.parity import run_parity
+
+    entry = scene_file(name)
+    if entry is not None and entry.kind == "xml":
+        return run_parity(get_scene(name), mitsuba=entry.path, params=entry.params, name=name)
+    scene = get_scene(name)
+    if width is not None:
+        scene = scene.with_camera_size(width, height or width)
+    return run_parity(scene, name=name)
+
+
+def check_user_scenes(names, out, *, say=print) -> bool:
+    """Parity of the scene files among ``names`` (``gate`` and ``curves`` run it first).
+
+    Returns True when all pass; prints each failure's findings and mismatch maps.
+    """
+    from mitsuba_scenes.scene_files import scene_file
+
+    ok = True
+    for name in names:
+        if scene_file(name) is None:
+            continue
+        try:
+            report = parity_of(name)
+        except ValueError as exc:  # e.g. Metal fuzz: no Mitsuba equivalent, no parity possible
+            raise ValueError(f"{name}: no parity check possible, Mitsuba cannot load this scene: {exc} (gate such "
+                             f"scenes against a store of ours: gate --reference STORE)") from None
+        say(report.summary())
+        if not report.passed:
+            ok = False
+            _explain(report, out)
+    return ok
+
+
+def _explain(report, out) -> None:
+    from benchmarks.parity import write_mismatch_maps
+
+    for line in report.findings:
+        print(f"  {line}", file=sys.stderr)
+    png, exr = write_mismatch_maps(report, out)
+    print(f"  mismatch maps: {png} and {exr}", file=sys.stderr)
+
+
+def run(args) -> int:
+    from mitsuba_scenes import list_scenes
+
+    if args.width < 1 or (args.height is not None and args.height < 1):
+        raise ValueError("--width and --height must be >= 1")
+    names = resolve_scenes(args, suite_names=args.scenes, default=list_scenes())
+    unknown = [s for s in args.scenes if s not in list_scenes()]
+    if unknown:
+        raise ValueError(f"unknown scene(s) {unknown}; the suite has: {', '.join(list_scenes())}")
+    rows, failed = [], 0
+    for name in names:
+        report = parity_of(name, width=args.width, height=args.height)
+        print(report.summary(), flush=True)
+        rows.append(report.to_dict())
+        if not report.passed:
+            failed += 1
+            _explain(report, args.out)
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(rows, indent=1) + "\n")
+    if failed:
+        print(f"rtbench parity: {failed} of {len(names)} scene(s) differ from Mitsuba", file=sys.stderr)
+        return 1
+    return 0

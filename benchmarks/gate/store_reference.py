@@ -1,0 +1,112 @@
+"""The gate against ourselves: references from a results store of a named build of our tracer.
+
+Mitsuba cannot render every feature of ours (``Metal(fuzz > 0)``, anything it has no
+plugin for), so such scenes cannot be gated against Mitsuba. Instead, a trusted build
+renders them once at a high budget into a results store (:func:`write_reference_store`,
+``rtbench gate --write-reference STORE``), and later builds are gated against those images
+(:func:`store_reference`, ``rtbench gate --reference STORE``): a regression gate, which
+says "this build renders what build X rendered", not "this is right".
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..references import DEFAULT_REFERENCE_SEED, Reference
+from ..store import append_record, dedupe_records, read_records, result_lines, write_image
+
+__all__ = ["write_reference_store", "store_reference"]
+
+
+def write_reference_store(names, store, *, spp: int, width: int, height: int | None = None,
+                          strategy: str = "mis", threads: int | None = None, log=None) -> list:
+    """Render each scene once with our tracer at ``spp`` into results store ``store``.
+
+    Each record carries the build (``build``, ``build_git``), the scene hash and source, and
+    the mean and per-sample variance images (``stats_image``, ``stats_variance_image``).
+    Returns the records written.
+    """
+    import reference_tracer as rt
+    from reference_tracer.build import build_info
+
+    from ..sweep.execute import scene_info
+    from .suite import gate_scene
+
+    height = width if height is None else height
+    out = []
+    for name in names:
+        scene = gate_scene(name, width=width, height=height)
+        res = rt.render(scene, spp=spp, strategy=strategy, seed=DEFAULT_REFERENCE_SEED, threads=threads)
+        stem = f"images/{name}_{width}x{height}/ours_{strategy}_spp{spp}_seed0"
+        write_image(store, f"{stem}.exr", res.mean)
+        write_image(store, f"{stem}_var.exr", res.variance)
+        rec = {"scene": name, "renderer": "ours", "strategy": strategy, "spp": int(spp), "seed": 0,
+               "width": width, "height": height, "mse": None, "seconds": float(res.seconds),
+               "image": f"{stem}.exr", "stats_image": f"{stem}.exr", "stats_variance_image": f"{stem}_var.exr",
+               "render_seed": DEFAULT_REFERENCE_SEED, "nonfinite_samples": int(res.nonfinite_samples),
+               **scene_info(name, scene), **build_info()}
+        append_record(store, rec)
+        out.append(rec)
+        if log:
+            log(f"reference store {store}: {name} {width}x{height} {strategy} {spp} spp, build {rec['build']} "
+                f"({res.seconds:.1f} s)")
+    return out
+
+
+def _records(store, build):
+    if build is None:
+        return read_records(store)
+    raw = [line.value for line in result_lines(store) if line.parsed and isinstance(line.value, dict)]
+    recs = dedupe_records([r for r in raw if r.get("build") == build])
+    if not recs:
+        builds = sorted({str(r.get("build")) for r in raw})
+        raise ValueError(f"reference store {store} holds no records of build {build}; it has: {', '.join(builds)}")
+    return recs
+
+
+def store_reference(store, name: str, scene, *, build: str | None = None) -> Reference:
+    """The reference of scene ``name`` (at ``scene``'s size) from a results store of our tracer.
+
+    The curve of ours with the most samples at its top spp (seeds pooled) among the
+    store's records of ``build`` (None: each curve's latest build). The store's scene hash
+    must be the scene's: a changed scene has no reference there.
+
+    Raises
+    ------
+    ValueError
+        No image of the scene at this size (with a variance image), or the scene changed.
+    """
+    from ..compare import pooled_image
+
+    store = Path(store)
+    if not (store / "results.jsonl").is_file():
+        raise ValueError(f"--reference {store} is not a results store (no results.jsonl)")
+    w, h = scene.camera.width, scene.camera.height
+    recs = [r for r in _records(store, build) if r.get("scene") == name and r.get("renderer") == "ours"
+            and (r.get("width"), r.get("height")) == (w, h) and r.get("stats_image") and r.get("stats_variance_image")]
+    if not recs:
+        raise ValueError(f"reference store {store} has no image of ours for {name} at {w}x{h}"
+                         + (f" by build {build}" if build else "") + " (write one with gate --write-reference)")
+    want = scene.content_hash()[:16]
+    stale = [r for r in recs if r.get("scene_hash") not in (None, want)]
+    if stale:
+        raise ValueError(f"reference store {store}: {name} was rendered from another scene description "
+                         f"(hash {stale[0]['scene_hash']}, now {want})")
+    best = None
+    for strategy in sorted({r["strategy"] for r in recs}, key=lambda s: s != "mis"):
+        mine = [r for r in recs if r["strategy"] == strategy]
+        top = max(int(r["spp"]) for r in mine)
+        pooled = pooled_image(store, mine, top)
+        if pooled is not None and (best is None or pooled[2] > best[0][2]):
+            best = (pooled, strategy, mine[-1])
+    if best is None:
+        raise ValueError(f"reference store {store}: no usable image of {name} at {w}x{h}")
+    (mean, var, n), strategy, rec = best
+    b, git = rec.get("build"), rec.get("build_git")
+    return Reference(mean=np.asarray(mean, np.float32), variance=np.asarray(var, np.float32), spp=int(n),
+                     seed=int(rec.get("render_seed") or 0), batches=1, variant=f"ours {b}", mitsuba_version="-",
+                     key=f"store:{store.resolve()}:{name}:{w}x{h}:{b}", path=None, variance_path=None, seconds=0.0,
+                     cached=True, scene_hash=want, source="store",
+                     description=f"our build {b}" + (f" (git {git})" if git else "") + f", {strategy} {n} spp, "
+                                 f"from {store}")

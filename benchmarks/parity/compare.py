@@ -1,0 +1,201 @@
+"""Compare two sets of first-hit AOVs with float tolerances and name what differs.
+
+Tolerances (Mitsuba works in float32, we in float64): hit distance relative 1e-3;
+shading normals must agree to a cosine of 0.999; albedo and emitted radiance to 1e-3
+relative plus 1e-4 absolute. A pixel whose ray grazes an edge may hit different shapes in
+the two renderers by rounding alone (Mitsuba's float32 rectangles leave hairline cracks
+where two meet): such a pixel is forgiven when one of four rays a hundredth of a pixel
+away in our tracer sees what Mitsuba saw at the centre, or one in Mitsuba what we saw.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+import reference_tracer as rt
+
+__all__ = ["AOVS", "ParityReport", "compare_aovs", "T_RTOL", "NORMAL_COS", "VALUE_RTOL", "VALUE_ATOL",
+           "CAMERA_FRACTION"]
+
+#: the AOVs compared, in report order.
+AOVS = ("shape", "t", "normal", "albedo", "emitted")
+T_RTOL = 1e-3
+NORMAL_COS = 0.999
+VALUE_RTOL, VALUE_ATOL = 1e-3, 1e-4
+#: above this fraction of pixels seeing other shapes or distances, the camera is blamed.
+CAMERA_FRACTION = 0.2
+#: offsets (in pixels) of the rays that decide whether a shape mismatch is an edge.
+_EDGE_OFFSETS = ((0.49, 0.5), (0.51, 0.5), (0.5, 0.49), (0.5, 0.51))
+
+
+@dataclass
+class ParityReport:
+    """What :func:`compare_aovs` found for one scene.
+
+    ``masks`` maps each AOV to an (H, W) boolean mismatch mask; ``counts`` to its number
+    of pixels; ``findings`` are one-line diagnoses (the shape, the camera, the background);
+    ``ours`` and ``theirs`` the AOVs; ``edge_pixels`` the shape mismatches forgiven as edges.
+    """
+
+    scene: str
+    width: int
+    height: int
+    masks: dict
+    findings: list
+    ours: dict = field(repr=False)
+    theirs: dict = field(repr=False)
+    edge_pixels: int = 0
+
+    @property
+    def counts(self) -> dict:
+        return {k: int(m.sum()) for k, m in self.masks.items()}
+
+    @property
+    def passed(self) -> bool:
+        return not any(self.counts.values())
+
+    @property
+    def any_mask(self) -> np.ndarray:
+        return np.logical_or.reduce([self.masks[k] for k in AOVS])
+
+    def summary(self) -> str:
+        """One line: pass, or the mismatch counts per AOV."""
+        n = self.width * self.height
+        if self.passed:
+            return (f"{self.scene}: parity ok ({self.width}x{self.height} pixel centres, {n} rays; "
+                    f"{self.edge_pixels} edge pixel(s) forgiven)")
+        bad = ", ".join(f"{k} {c}" for k, c in self.counts.items() if c)
+        return f"{self.scene}: parity FAILED: mismatching pixels of {n}: {bad}"
+
+    def to_dict(self) -> dict:
+        return {"scene": self.scene, "width": self.width, "height": self.height, "passed": self.passed,
+                "counts": self.counts, "findings": list(self.findings), "edge_pixels": self.edge_pixels}
+
+
+def _close(a, b, rtol=VALUE_RTOL, atol=VALUE_ATOL) -> np.ndarray:
+    return np.all(np.abs(a - b) <= atol + rtol * np.maximum(np.abs(a), np.abs(b)), axis=-1)
+
+
+def _classes(scene: rt.Scene) -> np.ndarray:
+    """Class of each shape: shapes with the same bounding box are indistinguishable to the match."""
+    from .ours import shape_bounds
+
+    b = shape_bounds(scene)
+    extent = max(float(np.abs(b).max()) if b.size else 1.0, 1e-6)
+    cls = np.arange(len(b))
+    for i in range(len(b)):
+        same = np.nonzero(np.abs(b[:i] - b[i]).max(axis=1) / extent <= 1e-4)[0] if i else []
+        if len(same):
+            cls[i] = cls[same[0]]
+    return cls
+
+
+def _edge_forgiven(scene, ours, theirs, suspect, cls, theirs_at=None) -> np.ndarray:
+    """Suspect pixels where a ray a hundredth of a pixel away in one renderer sees what the
+    other saw at the centre."""
+    from .ours import our_aovs
+
+    ok = np.zeros_like(suspect)
+    if not suspect.any():
+        return ok
+
+    def klass(s):
+        return np.where(s >= 0, cls[np.maximum(s, 0)], s)
+
+    for off in _EDGE_OFFSETS:
+        ok |= suspect & (klass(our_aovs(scene, offset=off)["shape"]) == klass(theirs["shape"]))
+        if theirs_at is not None and not ok[suspect].all():
+            ok |= suspect & (klass(theirs_at(off)["shape"]) == klass(ours["shape"]))
+    return ok
+
+
+def _describe(scene, i: int) -> str:
+    s = scene.shapes[i]
+    return f"shape {i} ({type(s).__name__}, {type(s.material).__name__})"
+
+
+def compare_aovs(scene: rt.Scene, ours: dict, theirs: dict, *, name: str = "scene", theirs_at=None) -> ParityReport:
+    """Mismatch masks of every AOV and the findings that explain them.
+
+    Parameters
+    ----------
+    scene : reference_tracer.Scene
+    ours, theirs : dict
+        AOVs of :func:`benchmarks.parity.ours.our_aovs` and
+        :func:`benchmarks.parity.mitsuba.mitsuba_aovs` (same image size).
+    name : str
+    theirs_at : callable or None
+        ``theirs_at((dx, dy))``: Mitsuba's AOVs through ``pixel + (dx, dy)``, to tell an
+        edge from a real difference from Mitsuba's side too.
+
+    Returns
+    -------
+    ParityReport
+    """
+    h, w = ours["t"].shape
+    if theirs["t"].shape != (h, w):
+        mask = np.ones((h, w), dtype=bool)
+        masks = {k: mask for k in AOVS}
+        return ParityReport(name, w, h, masks, [f"camera: image size {w}x{h} (ours) vs "
+                                                f"{theirs['t'].shape[1]}x{theirs['t'].shape[0]} (Mitsuba)"],
+                            ours, theirs)
+    cls = _classes(scene) if scene.shapes else np.zeros(0, dtype=np.int64)
+
+    def klass(s):
+        return np.where(s >= 0, cls[np.maximum(s, 0)] if len(cls) else s, s)
+
+    shape_bad = klass(ours["shape"]) != klass(theirs["shape"])
+    forgiven = _edge_forgiven(scene, ours, theirs, shape_bad, cls, theirs_at)
+    shape_bad &= ~forgiven
+    same = ~shape_bad & ~forgiven & (ours["shape"] >= 0)
+    with np.errstate(invalid="ignore"):  # inf - inf where both miss (not in `same`)
+        t_bad = same & ~(np.abs(ours["t"] - theirs["t"]) <= T_RTOL * np.maximum(ours["t"], theirs["t"]))
+    cos = np.einsum("hwc,hwc->hw", ours["normal"], theirs["normal"])
+    n_bad = same & (cos < NORMAL_COS)
+    a_bad = same & ~_close(ours["albedo"], theirs["albedo"])
+    e_bad = (~shape_bad & ~forgiven) & ~_close(ours["emitted"], theirs["emitted"])
+    masks = {"shape": shape_bad, "t": t_bad, "normal": n_bad, "albedo": a_bad, "emitted": e_bad}
+    findings = _findings(scene, ours, theirs, masks, cos)
+    return ParityReport(name, w, h, masks, findings, ours, theirs, edge_pixels=int(forgiven.sum()))
+
+
+def _findings(scene, ours, theirs, masks, cos) -> list:
+    out = []
+    h, w = ours["t"].shape
+    geo = masks["shape"] | masks["t"]
+    if geo.sum() > CAMERA_FRACTION * h * w:
+        out.append(f"camera: {geo.mean():.0%} of the pixel centres see another shape or distance in Mitsuba: "
+                   "check fov and fov_axis, the look-at frame and the film size")
+    for i in range(len(scene.shapes)):
+        mine = ours["shape"] == i
+        flipped = mine & masks["normal"] & (cos < -NORMAL_COS)
+        if flipped.any():
+            out.append(f"{_describe(scene, i)}: normal reversed at {int(flipped.sum())} pixel(s) (winding, "
+                       "flip_normals or the sign of to_world)")
+        other = mine & masks["normal"] & ~flipped
+        if other.any():
+            out.append(f"{_describe(scene, i)}: normal differs at {int(other.sum())} pixel(s)")
+        for aov in ("albedo", "emitted", "t"):
+            bad = mine & masks[aov]
+            if bad.any():
+                y, x = np.argwhere(bad)[0]
+                out.append(f"{_describe(scene, i)}: {aov} ours {np.round(ours[aov][y, x], 4).tolist()} vs Mitsuba "
+                           f"{np.round(theirs[aov][y, x], 4).tolist()} at {int(bad.sum())} pixel(s), "
+                           f"first at row {y}, col {x}")
+    miss = (ours["shape"] < 0) & masks["emitted"]
+    if miss.any():
+        y, x = np.argwhere(miss)[0]
+        out.append(f"background: ours {np.round(ours['emitted'][y, x], 4).tolist()} vs Mitsuba "
+                   f"{np.round(theirs['emitted'][y, x], 4).tolist()} at {int(miss.sum())} pixel(s)")
+    if masks["shape"].any() and not (out and out[0].startswith("camera")):
+        pairs = {}
+        for y, x in np.argwhere(masks["shape"]):
+            key = (int(ours["shape"][y, x]), int(theirs["shape"][y, x]))
+            pairs[key] = pairs.get(key, 0) + 1
+        for (a, b), c in sorted(pairs.items(), key=lambda kv: -kv[1])[:5]:
+            who = lambda k: "nothing" if k == -1 else ("an unmatched Mitsuba shape" if k == -2 else _describe(scene, k))  # noqa: E731
+            out.append(f"{c} pixel(s) hit {who(a)} in ours but {who(b)} in Mitsuba")
+    if any(s == -2 for s in np.unique(theirs["shape"])):
+        out.append("Mitsuba has shape(s) with no counterpart among ours (by bounding box)")
+    return out

@@ -1,0 +1,64 @@
+"""``rtbench compare STORE_A STORE_B``: a changed tracer shows, an unchanged one does not."""
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import pytest
+
+import reference_tracer as rt
+from benchmarks.cli import main
+from benchmarks.compare import compare_stores
+from benchmarks.sweep import Group, run_sweep
+
+GROUP = dict(scenes=("large_light",), strategies=("mis",), spps=(16, 64, 256), seeds=2, width=8, height=8,
+             mitsuba=False, reference_spp=256)
+
+
+def _sweep(out):
+    return run_sweep([Group(**GROUP)], out=out, threads=1, progress=False)
+
+
+@pytest.fixture(scope="module")
+def store_a(tmp_path_factory):
+    out = tmp_path_factory.mktemp("a") / "store"
+    _sweep(out)
+    return out
+
+
+def test_same_build_twice_is_not_a_difference(store_a, tmp_path):
+    _sweep(tmp_path / "b")
+    (row,) = compare_stores(store_a, tmp_path / "b")
+    assert row.verdict == "pass" and row.build_a == row.build_b
+    assert row.slope_diff == pytest.approx(0.0, abs=1e-12)      # the same seeds: the same images
+    lo, hi = row.slope_diff_ci
+    assert lo <= 0.0 <= hi
+
+
+def test_a_changed_constant_fails_the_gate_and_names_both_builds(store_a, tmp_path, monkeypatch, capsys):
+    real = rt.render
+
+    def brighter(*args, **kwargs):   # "a changed constant": 5% too much light
+        res = real(*args, **kwargs)
+        return dataclasses.replace(res, mean=res.mean * 1.05, variance=res.variance * 1.05 ** 2)
+
+    monkeypatch.setattr(rt, "build_id", lambda: "0123456789abcdef")
+    monkeypatch.setattr(rt, "render", brighter)
+    _sweep(tmp_path / "b")
+    monkeypatch.undo()
+    code = main(["compare", str(store_a), str(tmp_path / "b"), "--out", str(tmp_path / "page"),
+                 "--json", str(tmp_path / "cmp.json")])
+    err = capsys.readouterr().err
+    assert code == 1 and "B differs from A in large_light 8x8 mis" in err
+    (row,) = json.loads((tmp_path / "cmp.json").read_text())
+    assert row["verdict"] == "fail" and row["build_b"] == "0123456789abcdef" and row["build_a"] != row["build_b"]
+    assert row["relative_bias"] == pytest.approx(0.05, abs=0.01)
+    assert row["slope_diff_ci"][0] > 0   # the biased curve flattens (timings are not asserted)
+    assert (tmp_path / "page" / "index.html").is_file() and (tmp_path / "page" / "curve_000.png").is_file()
+
+
+def test_stores_without_common_curves_are_refused(store_a, tmp_path, capsys):
+    run_sweep([Group(**{**GROUP, "scenes": ("furnace",), "spps": (4,), "seeds": 1})], out=tmp_path / "f",
+              threads=1, progress=False)
+    assert main(["compare", str(store_a), str(tmp_path / "f"), "--out", str(tmp_path / "p")]) == 2
+    assert "no curve" in capsys.readouterr().err

@@ -1,0 +1,73 @@
+"""External renderers (``--renderer 'CMD'``): Mitsuba's own command-line program as a third curve."""
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+from benchmarks.cli import main
+from benchmarks.external import clear_externals, register_external
+from mitsuba_scenes.scene_files import clear_registry
+
+XML = Path(__file__).parent / "fixtures" / "xml"
+MITSUBA_CLI = shutil.which("mitsuba", path=str(Path(sys.executable).parent)) or shutil.which("mitsuba")
+
+
+@pytest.fixture(autouse=True)
+def _fresh():
+    clear_registry()
+    clear_externals()
+    yield
+    clear_registry()
+    clear_externals()
+
+
+def _curves(tmp_path, *renderers):
+    out = tmp_path / "store"
+    args = ["curves", "--scene", str(XML / "sphere_constant.xml"), "--width", "8", "--height", "6",
+            "--strategies", "mis", "--spp", "4,16,64", "--seeds", "2", "--reference-spp", "2048", "--no-mitsuba",
+            "--out", str(out), "--quiet", "--threads", "1"]
+    for r in renderers:
+        args += ["--renderer", r]
+    return main(args), out
+
+
+@pytest.mark.skipif(MITSUBA_CLI is None, reason="the mitsuba command-line program is not installed")
+def test_mitsuba_cli_as_an_external_renderer(tmp_path, capsys):
+    code, out = _curves(tmp_path, f"{MITSUBA_CLI} -m scalar_rgb -D spp={{spp}} -D seed={{seed}} -o {{out}} {{scene_xml}}")
+    assert code == 0, capsys.readouterr().err
+    records = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+    ext = [r for r in records if r["renderer"] == "ext-mitsuba"]
+    assert len(ext) == 6 and {r["strategy"] for r in ext} == {"external"}
+    assert all(r["build"].startswith("ext-") and r["reference_variant"] != "scalar_rgb" for r in ext)
+    rows = {r["renderer"]: r for r in json.loads((out / "summary.json").read_text())["rows"]}
+    assert rows["ext-mitsuba"]["bias_significant"] is False      # agrees with the llvm reference
+    assert -0.8 < rows["ext-mitsuba"]["slope"] < -0.2
+
+
+def test_a_failing_command_fails_its_jobs_with_the_reason(tmp_path, capsys):
+    code, out = _curves(tmp_path, "false {scene_xml} {out}")
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "ext-false exited with status 1" in err
+
+
+def test_template_must_name_scene_and_output():
+    with pytest.raises(ValueError, match=r"must contain \{scene_xml\}"):
+        register_external("render -o {out}")
+    assert register_external("a {scene_xml} {out}").name == "ext-a"
+    assert register_external("a --x {scene_xml} {out}").name == "ext-a-2"   # another command, another name
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(MITSUBA_CLI is None, reason="the mitsuba command-line program is not installed")
+def test_gate_an_external_renderer(tmp_path, capsys):
+    """The gate's verdict on the mitsuba CLI (16 batches of scalar_rgb) against the llvm reference (~30 s)."""
+    code = main(["gate", "--scene", str(XML / "sphere_constant.xml"), "--width", "8", "--spp", "64",
+                 "--ref-spp", "2048", "--out", str(tmp_path),
+                 "--renderer", f"{MITSUBA_CLI} -m scalar_rgb -D spp={{spp}} -D seed={{seed}} -o {{out}} {{scene_xml}}"])
+    assert code == 0, capsys.readouterr().err
+    assert "gate passed" in capsys.readouterr().out
