@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 
 from benchmarks.constants import BIAS_TEST_ALPHA
+from benchmarks.errors import EXIT_ERROR
 
 HELP = "render error-vs-spp curves (our strategies + Mitsuba path) against cached references into a results store"
 
@@ -77,4 +78,4 @@ def run(args) -> int:
     print_summary(result.store, console=console)
     print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
                   f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", flush=True)
-    return 1 if result.failed else 0
+    return EXIT_ERROR if result.failed else 0  # a job that raised: an internal error
