@@ -51,6 +51,6 @@ def run(args) -> int:
     console.print(f"{args.scene}: {w}x{h}, {args.spp} spp, {args.strategy}, seed {args.seed}: "
                   f"{result.seconds:.3f} s on {result.threads} threads, "
                   f"{result.paths_per_second / 1e6:.2f} M paths/s, {result.rays / 1e6:.2f} M rays, "
-                  f"{result.nonfinite_samples} NaN/Inf samples")
+                  f"{result.nonfinite_samples} NaN/Inf samples, {result.overflow_pixels} overflowed pixels")
     console.print(f"wrote {stem.with_suffix('.exr')} and {stem.with_suffix('.png')}")
-    return 1 if result.nonfinite_samples else 0
+    return 1 if result.nonfinite_samples or result.overflow_pixels else 0
