@@ -77,12 +77,19 @@ def _bound_int_options(parser: argparse.ArgumentParser) -> None:
             action.type = _seed_int if "seed" in action.dest else bounded_int
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with a usage error on one line (exit 2), the usage itself left to ``--help``."""
+
+    def error(self, message):
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see `{self.prog} --help`)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="rtbench", description="Validate and benchmark the reference path tracer against Mitsuba 3.",
         epilog=EXIT_CODES_HELP)
     parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name, module_name in COMMANDS.items():
         try:
             module = importlib.import_module(module_name)

@@ -67,7 +67,9 @@ def one_line(exc: BaseException) -> str:
         where = f"{exc.filename}: " if exc.filename is not None else ""
         if exc.filename2 is not None:
             where = f"{exc.filename} -> {exc.filename2}: "
-        hint = {errno.ENOSPC: " (disk full)", errno.EROFS: " (read-only file system)"}.get(exc.errno, "")
+        hint = {errno.ENOSPC: " (disk full)", errno.EROFS: " (read-only file system)",
+                errno.EEXIST: " (a folder was expected there)",
+                errno.ENOTDIR: " (a folder was expected, not a file)"}.get(exc.errno, "")
         return f"{where}{exc.strerror}{hint}"
     if isinstance(exc, OverflowError):
         return f"number out of range: {exc}"

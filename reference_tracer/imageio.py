@@ -58,6 +58,22 @@ def read_exr(path) -> np.ndarray:
 MAX_EXPOSURE_STOPS = 1000.0
 
 
+def check_exposure(exposure) -> float:
+    """An exposure in stops as a float, or ``ValueError``: it must be finite and within
+    +-:data:`MAX_EXPOSURE_STOPS` (2**1024 overflows a double).
+
+    Examples
+    --------
+    >>> check_exposure(2000)
+    Traceback (most recent call last):
+    ...
+    ValueError: exposure (stops) must be <= 1000.0, got 2000.0
+    """
+    from ._validate import finite_scalar
+
+    return finite_scalar("exposure (stops)", exposure, lo=-MAX_EXPOSURE_STOPS, hi=MAX_EXPOSURE_STOPS)
+
+
 def to_display(array, exposure: float = 0.0, *, scale: float | None = None,
                keep_nan: bool = False) -> np.ndarray:
     """Linear radiance -> display values in [0, 1]: scale by 2**exposure, clip, sRGB transfer.
@@ -88,10 +104,8 @@ def to_display(array, exposure: float = 0.0, *, scale: float | None = None,
     """
     import colour
 
-    if scale is None:  # 2**1024 overflows a double: refuse it as bad input, not an OverflowError
-        from ._validate import finite_scalar
-
-        k = 2.0 ** finite_scalar("exposure (stops)", exposure, lo=-MAX_EXPOSURE_STOPS, hi=MAX_EXPOSURE_STOPS)
+    if scale is None:
+        k = 2.0 ** check_exposure(exposure)
     else:
         k = float(scale)
     a = np.asarray(array, dtype=np.float64)

@@ -76,15 +76,15 @@ def core_scene(scene: Scene, *, triangle_test: str = "watertight"):
 
 def render_bytes(width: int, height: int, *, moments: bool = False) -> int:
     """Peak memory of a render's images, in bytes: the core's per-pixel double sums
-    (2 arrays, 7 with ``moments``), the float64 mean and variance computed from them and
-    the float32 results, 3 channels each.
+    (2 arrays, 7 with ``moments``), the float64 mean, variance and one temporary computed
+    from them and the float32 results, 3 channels each.
 
     Examples
     --------
     >>> render_bytes(100, 100)
-    1200000
+    1440000
     """
-    per_channel = 8 * (2 + (5 if moments else 0)) + 8 * 2 + 4 * 2
+    per_channel = 8 * (2 + (5 if moments else 0)) + 8 * 3 + 4 * 2
     return int(width) * int(height) * 3 * per_channel
 
 
@@ -118,7 +118,7 @@ def check_memory(width: int, height: int, *, moments: bool = False, available: i
     >>> check_memory(14000, 14000, available=2 * 2**30)
     Traceback (most recent call last):
     ...
-    ValueError: a 14000x14000 render needs about 21.9 GiB for its images, but only 2.0 GiB of memory is available; render a smaller image
+    ValueError: a 14000x14000 render needs about 26.3 GiB for its images, but only 2.0 GiB of memory is available; render a smaller image
     """
     need = render_bytes(width, height, moments=moments)
     have = available_memory() if available is None else available

@@ -31,6 +31,7 @@ def run(args) -> int:
         for name in list_scenes():
             console.print(f"{name:16s} {describe_scene(name)}")
         return 0 if args.list else 2
+    rt.imageio.check_exposure(args.exposure)  # before the render, not after it
     params = {}
     if args.width is not None:
         params["width"] = args.width
