@@ -113,12 +113,36 @@ def main(argv=None) -> int:
         parser.print_help()
         return EXIT_USAGE
     try:
+        _probe_output_files(args)
         return int(args._run(args) or 0)
     except KeyboardInterrupt as exc:
         print("\ninterrupted", file=sys.stderr)
         return exit_code(exc)
     except Exception as exc:  # noqa: BLE001 - every error becomes one line and its exit status
         return report_error(exc, command=args.command, debug=args.debug)
+
+
+#: options naming a file a command writes at its end (after a possibly long run).
+OUTPUT_FILE_OPTIONS = ("json", "markdown")
+
+
+def _probe_output_files(args) -> None:
+    """Fail now, not after the run, when an output file (``--json``, ``--markdown``) cannot
+    be written: open it for appending (its folder created, as the command would) and
+    remove it again if it did not exist. Raises ``OSError`` (exit 3)."""
+    from pathlib import Path
+
+    for name in OUTPUT_FILE_OPTIONS:
+        value = getattr(args, name, None)
+        if not isinstance(value, str) or not value or value == "-":
+            continue
+        path = Path(value)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        existed = path.exists()
+        with open(path, "a"):
+            pass
+        if not existed:
+            path.unlink()
 
 
 def report_error(exc: BaseException, *, command: str, debug: bool = False) -> int:

@@ -68,6 +68,16 @@ def test_unwritable_json_path_is_an_io_error(tmp_path, capsys):
     assert "/proc/rtbench-no-such-file" in _one_error_line(capsys, "chi2")
 
 
+@pytest.mark.parametrize("command", [["gate", "cornell_box"], ["stress", "--quick"], ["selftest"]])
+def test_unwritable_output_file_fails_before_the_run(command, capsys, monkeypatch):
+    import importlib
+
+    module = importlib.import_module(f"benchmarks.commands.{command[0]}")
+    monkeypatch.setattr(module, "run", lambda args: pytest.fail("ran before checking its output file"))
+    assert cli.main([*command, "--json", "/proc/rtbench-no-such-file"]) == 3
+    assert "/proc/rtbench-no-such-file" in _one_error_line(capsys, command[0])
+
+
 def test_debug_adds_the_traceback_before_or_after_the_command(tmp_path, capsys):
     f = tmp_path / "FILE"
     f.write_text("x")
