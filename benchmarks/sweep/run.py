@@ -15,8 +15,8 @@ from pathlib import Path
 
 from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM
 from ..references import closed_form_reference_of, mitsuba_identity, reference
-from ..store import (META, file_sha256, finished_keys, read_json, read_records, store_path, update_meta, write_image,
-                     writer_lock)
+from ..store import (META, file_sha256, finished_keys, job_records, read_json, read_records, record_key,
+                     store_path, update_meta, write_image, writer_lock)
 from .execute import machine_info, run_versions
 from .jobs import Group, check_int, default_threads, scene_at
 from .progress import Progress
@@ -180,6 +180,11 @@ def _warn_stale(store, refs, say) -> None:
             f"Mitsuba or scene version); they are kept - use a new --out to start afresh")
 
 
+def _recorded(store) -> int:
+    """How many distinct jobs the store holds (read quietly: the run warns about bad lines once)."""
+    return len({record_key(r) for r in job_records(store)[0]})
+
+
 def _start_run(store) -> int:
     """Append this run to ``meta.json``'s ``runs`` (started now, nothing done yet); its index."""
     meta = read_json(store / META, default={}) or {}
@@ -260,6 +265,7 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
         t_start = time.perf_counter()  # this run's time, not its wait for another run
         result = SweepResult(store=store)
         run_index = _start_run(store)
+        recorded_before = _recorded(store)
         try:
             _sweep(groups, store, result, threads=threads, scheduler=scheduler, variant=variant, cache=cache,
                    alpha=alpha, target_relative=target_relative, preset=preset, progress=progress,
@@ -269,7 +275,10 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
             raise
         finally:
             result.seconds = time.perf_counter() - t_start
-            _end_run(store, run_index, seconds=result.seconds, done=result.done, interrupted=result.interrupted)
+            # counted in the store (only this run appends, under the writer lock): exact even when
+            # Ctrl-C lands between a record's write and the runner's count
+            stored = _recorded(store) - recorded_before
+            _end_run(store, run_index, seconds=result.seconds, done=stored, interrupted=result.interrupted)
     return result
 
 
