@@ -260,3 +260,14 @@ def test_full_disk_loses_nothing(cache, tmp_path, monkeypatch, capsys):
     again = rtbench(*_args(tmp_path / "s"), cache=root)
     assert f"{done} already there" in again.stdout
     _assert_complete(tmp_path / "s")
+
+
+# ----------------------------------------------------------------------------------- permissions
+
+def test_cache_and_store_files_get_the_umask_permissions(cache):
+    """Not the 0600 of a temporary file: a cache or store shared between users stays readable."""
+    from benchmarks.store import new_file_mode
+
+    root, store = cache
+    files = [p for p in [*(root / "references").iterdir(), *store.rglob("*")] if p.is_file()]
+    assert files and {oct(p.stat().st_mode & 0o777) for p in files} == {oct(new_file_mode())}
