@@ -2,6 +2,12 @@
 
 Each subcommand lives in its own module under ``benchmarks.commands`` and defines
 ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int`` (exit code).
+
+Errors are handled here, once for every command (:func:`main`): an exception a command
+raises becomes its exit status (:func:`benchmarks.errors.exit_code`: 2 usage or bad
+input, 3 internal or I/O error) and one line on stderr; ``--debug`` (before or after
+the command name) adds the traceback. Integer options are checked here too
+(:func:`bounded_int`), before any value reaches the C++ core.
 """
 from __future__ import annotations
 
@@ -15,6 +21,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import argparse  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
+import traceback  # noqa: E402
+
+from benchmarks.errors import EXIT_CODES_HELP, EXIT_USAGE, exit_code, one_line  # noqa: E402
 
 #: subcommand -> module; listed in the order ``rtbench --help`` shows them.
 COMMANDS = {
@@ -33,10 +42,56 @@ COMMANDS = {
 }
 
 
+#: largest value of an integer option (the core's ``int``); seeds may use 64 bits.
+INT_MAX = 2**31 - 1
+SEED_MAX = 2**64 - 1
+
+
+def bounded_int(text: str, *, maximum: int = INT_MAX) -> int:
+    """An integer option's value, refused (a usage error) beyond ``+-maximum``.
+
+    Examples
+    --------
+    >>> bounded_int("64")
+    64
+    >>> bounded_int(str(2**31))
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: 2147483648 is too large (at most 2147483647)
+    """
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid integer: {text!r}") from None
+    if abs(value) > maximum:
+        raise argparse.ArgumentTypeError(f"{value} is too large (at most {maximum})")
+    return value
+
+
+def _seed_int(text: str) -> int:
+    return bounded_int(text, maximum=SEED_MAX)
+
+
+def _bound_int_options(parser: argparse.ArgumentParser) -> None:
+    """Give every ``type=int`` option of ``parser`` a bounded type (seeds: 64 bits)."""
+    for action in parser._actions:  # noqa: SLF001 - argparse has no public walk over options
+        if action.type is int:
+            action.type = _seed_int if "seed" in action.dest else bounded_int
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with a usage error on one line (exit 2), the usage itself left to ``--help``."""
+
+    def error(self, message):
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see `{self.prog} --help`)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="rtbench", description="Validate and benchmark the reference path tracer against Mitsuba 3.")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    parser = _Parser(
+        prog="rtbench", description="Validate and benchmark the reference path tracer against Mitsuba 3.",
+        epilog=EXIT_CODES_HELP)
+    parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name, module_name in COMMANDS.items():
         try:
             module = importlib.import_module(module_name)
@@ -44,8 +99,13 @@ def build_parser() -> argparse.ArgumentParser:
             if exc.name != module_name:
                 raise
             continue  # subcommand not part of this build
-        p = sub.add_parser(name, help=module.HELP.replace("%", "%%"), description=module.HELP)  # help is %-formatted
+        # help is %-formatted by argparse, the description is not
+        p = sub.add_parser(name, help=module.HELP.replace("%", "%%"), description=module.HELP,
+                           epilog=EXIT_CODES_HELP)
         module.add_arguments(p)
+        p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                       help="show the traceback of an error (same as `rtbench --debug`)")
+        _bound_int_options(p)
         p.set_defaults(_run=module.run)
     return parser
 
@@ -55,15 +115,46 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):
         parser.print_help()
-        return 2
+        return EXIT_USAGE
     try:
+        _probe_output_files(args)
         return int(args._run(args) or 0)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         print("\ninterrupted", file=sys.stderr)
-        return 130
-    except ValueError as exc:  # bad user input: one clear line, no traceback
-        print(f"rtbench {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return exit_code(exc)
+    except Exception as exc:  # noqa: BLE001 - every error becomes one line and its exit status
+        return report_error(exc, command=args.command, debug=args.debug)
+
+
+#: options naming a file a command writes at its end (after a possibly long run).
+OUTPUT_FILE_OPTIONS = ("json", "markdown")
+
+
+def _probe_output_files(args) -> None:
+    """Fail now, not after the run, when an output file (``--json``, ``--markdown``) cannot
+    be written: open it for appending (its folder created, as the command would) and
+    remove it again if it did not exist. Raises ``OSError`` (exit 3)."""
+    from pathlib import Path
+
+    for name in OUTPUT_FILE_OPTIONS:
+        value = getattr(args, name, None)
+        if not isinstance(value, str) or not value or value == "-":
+            continue
+        path = Path(value)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        existed = path.exists()
+        with open(path, "a"):
+            pass
+        if not existed:
+            path.unlink()
+
+
+def report_error(exc: BaseException, *, command: str, debug: bool = False) -> int:
+    """Print one line for ``exc`` on stderr (and its traceback with ``debug``); return its exit status."""
+    if debug:
+        traceback.print_exception(exc)
+    print(f"rtbench {command}: error: {one_line(exc)}", file=sys.stderr, flush=True)
+    return exit_code(exc)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,9 @@ The EXRs are written to temporary files and renamed into place, then the JSON si
 entry is used only if the sidecar parses, names the same key and settings, and both
 images exist, match their checksums and have the scene's shape; anything else (a
 render killed half-way, a truncated or edited file) is re-rendered. A file lock
-serialises processes that want the same entry.
+serialises processes that write the same entry; a valid entry is read without it, so
+a read-only cache (a shared mount) serves every entry it holds. Files are created with
+the usual permissions (0644 under umask 022), so a cache can be shared between users.
 
 Examples
 --------
@@ -44,12 +46,12 @@ from pathlib import Path
 
 import numpy as np
 
-from reference_tracer._validate import positive_int
+from reference_tracer._validate import SEED_MAX, positive_int
 from reference_tracer.estimate import ImageEstimate
 
 from .constants import CLOSED_FORM, CLOSED_FORM_SPP
 
-from .store import atomic_write_text
+from .store import atomic_write_text, new_file_mode
 
 __all__ = ["CACHE_ENV", "DEFAULT_REFERENCE_SEED", "DEFAULT_REFERENCE_BATCHES", "FORMAT_VERSION",
            "Reference", "cache_dir", "reference_key", "reference", "load_reference", "mitsuba_identity",
@@ -177,6 +179,7 @@ def _atomic_exr(path: Path, image: np.ndarray) -> None:
         rt.write_exr(tmp, image)
         with open(tmp, "rb") as f:
             os.fsync(f.fileno())
+        os.chmod(tmp, new_file_mode())  # mkstemp makes 0600 files: a shared cache must be readable
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
@@ -186,14 +189,29 @@ def _atomic_exr(path: Path, image: np.ndarray) -> None:
 
 @contextlib.contextmanager
 def _lock(path: Path):
+    """Hold an ``flock`` on ``path`` (created, 0666 less the umask).
+
+    Only a process that is about to write an entry takes it: reading a valid entry needs
+    no lock (entries are complete before their sidecar appears), so a read-only cache
+    serves its valid entries. When the lock cannot be created (a read-only cache, say)
+    ``OSError`` says which cache and why.
+    """
     import fcntl
 
-    with open(path, "a+") as f:
-        fcntl.flock(f.fileno(), fcntl.LOCK_EX)
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    except OSError as exc:
+        raise type(exc)(exc.errno, f"{exc.strerror}; cannot write to the cache (it has no valid entry for "
+                                   f"this render; give a writable one with --cache DIR or ${CACHE_ENV})",
+                        str(path)) from exc
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
         try:
             yield
         finally:
-            fcntl.flock(f.fileno(), fcntl.LOCK_UN)
+            fcntl.flock(fd, fcntl.LOCK_UN)
+    finally:
+        os.close(fd)
 
 
 def _paths(folder: Path, key: str):
@@ -289,7 +307,7 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
     if not isinstance(scene, rt.Scene):
         raise ValueError(f"scene must be a reference_tracer.Scene, got {type(scene).__name__}")
     spp = positive_int("spp", spp, minimum=2)
-    seed = positive_int("seed", seed, minimum=0)
+    seed = positive_int("seed", seed, minimum=0, maximum=SEED_MAX)
     batches = positive_int("batches", batches, minimum=2)
     batches = min(batches, spp)
     chosen, mversion = mitsuba_identity(variant)
@@ -299,8 +317,12 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
     folder = cache_dir(cache)
     shape = (scene.camera.height, scene.camera.width)
     mean_path, var_path, meta_path = _paths(folder, key)
+    if not force:  # a valid entry is read without the lock: a read-only cache serves it
+        ref, _ = load_reference(key, shape=shape, cache=cache)
+        if ref is not None:
+            return ref
     with _lock(folder / f"{key}.lock"):
-        if not force:
+        if not force:  # again under the lock: another process may have rendered it meanwhile
             ref, why = load_reference(key, shape=shape, cache=cache)
             if ref is not None:
                 return ref

@@ -14,9 +14,20 @@ Durability
 * A process killed in the middle of a write can leave a truncated last line. Readers
   skip a final line that does not parse (:func:`result_lines` marks it ``last``);
   :func:`append_record` cuts such a fragment off before appending, so a resumed run never
-  glues a new record onto it.
+  glues a new record onto it. A complete last line that merely lacks its newline is a
+  record: it is kept, and the next append adds the newline first.
 * Everything else (``meta.json``, ``summary.json``, EXR images) is written to a
-  temporary file in the same folder and renamed into place (atomic on POSIX).
+  temporary file in the same folder and renamed into place (atomic on POSIX), with the
+  permissions of a new file (``0o666`` less the umask: ``0644`` usually), not the
+  ``0600`` of a temporary file.
+
+Concurrency
+-----------
+* Appends lock ``results.jsonl`` (``flock``) for the check of its end and the write.
+* A run holds the store's writer lock (:func:`writer_lock`) from start to end; a second
+  run on the same store waits for it, then resumes. Never a duplicated or lost record.
+* Readers take no lock and never wait: every file they read is either replaced
+  atomically or only appended to, and a torn last line is skipped.
 
 Examples
 --------
@@ -32,9 +43,13 @@ Examples
 """
 from __future__ import annotations
 
+import contextlib
+import fcntl
+import hashlib
 import json
 import math
 import os
+import socket
 import tempfile
 import warnings
 from pathlib import Path
@@ -44,10 +59,14 @@ import numpy as np
 
 from reference_tracer import imageio
 
-__all__ = ["KEY_FIELDS", "BUILD_FIELD", "curve_of", "latest_builds", "RESULTS", "META", "SUMMARY", "record_key", "store_path",
-           "append_record", "ResultLine", "result_lines", "read_records", "dedupe_records",
+from .errors import InputError
+
+__all__ = ["KEY_FIELDS", "BUILD_FIELD", "curve_of", "latest_builds", "RESULTS", "META", "SUMMARY", "record_key",
+           "store_path", "append_record", "writer_lock", "WRITER_LOCK", "ResultLine", "result_lines", "skipped_line",
+           "job_records", "read_records", "dedupe_records",
            "finished_keys", "check_identity", "write_json", "read_json", "read_meta",
-           "read_summary_rows", "update_meta", "write_image", "read_image", "atomic_write_bytes", "atomic_write_text"]
+           "read_summary_rows", "update_meta", "write_image", "read_image", "atomic_write_bytes", "atomic_write_text",
+           "new_file_mode", "file_sha256"]
 
 #: fields that identify a job (``STORE.md``): a resumed run skips records with these.
 KEY_FIELDS = ("scene", "renderer", "strategy", "spp", "seed", "width", "height")
@@ -58,6 +77,8 @@ BUILD_FIELD = "build"
 RESULTS = "results.jsonl"
 META = "meta.json"
 SUMMARY = "summary.json"
+#: the lock file of :func:`writer_lock`.
+WRITER_LOCK = ".writer.lock"
 
 
 def record_key(record: dict, *, partial: bool = False) -> tuple:
@@ -114,38 +135,65 @@ def _json_safe(value):
     return value
 
 
-def _drop_partial_tail(path: Path) -> None:
-    """Cut a final line that lacks its newline (a write killed half-way)."""
-    size = path.stat().st_size
+def _last_line_start(f, size: int) -> int:
+    """Offset just after the last newline of an open file of ``size`` bytes (0 if none)."""
+    block = 1 << 16
+    pos = size
+    while pos > 0:
+        start = max(0, pos - block)
+        f.seek(start)
+        chunk = f.read(pos - start)
+        i = chunk.rfind(b"\n")
+        if i >= 0:
+            return start + i + 1
+        pos = start
+    return 0
+
+
+def _repair_tail(fd: int) -> bytes:
+    """Make the end of ``results.jsonl`` ready for an append; return the bytes to write first.
+
+    A final line without its newline is either a complete record (written by hand or by a
+    tool that omits the last newline): it is kept and gets its newline (returned as
+    ``b"\\n"``); or a fragment that does not parse (a writer killed half-way): it is cut
+    off. Called with the file locked (:func:`append_record`), so no live writer is in the
+    middle of that line.
+    """
+    size = os.fstat(fd).st_size
     if size == 0:
-        return
-    with open(path, "rb+") as f:
+        return b""
+    with open(fd, "rb", closefd=False) as f:
         f.seek(size - 1)
         if f.read(1) == b"\n":
-            return
-        # find the last newline; everything after it is a fragment
-        block = 1 << 16
-        pos = size
-        cut = 0
-        while pos > 0:
-            start = max(0, pos - block)
-            f.seek(start)
-            chunk = f.read(pos - start)
-            i = chunk.rfind(b"\n")
-            if i >= 0:
-                cut = start + i + 1
-                break
-            pos = start
-        f.truncate(cut)
-        f.flush()
-        os.fsync(f.fileno())
+            return b""
+        cut = _last_line_start(f, size)
+        f.seek(cut)
+        tail = f.read()
+    try:
+        json.loads(tail)
+    except (ValueError, UnicodeDecodeError):
+        os.ftruncate(fd, cut)
+        os.fsync(fd)
+        return b""
+    return b"\n"
+
+
+@contextlib.contextmanager
+def _flocked(fd: int):
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    try:
+        yield
+    finally:
+        fcntl.flock(fd, fcntl.LOCK_UN)
 
 
 def append_record(store, record: dict) -> None:
     """Append one job record to ``results.jsonl`` durably (write, flush, fsync).
 
-    NaN and infinite floats are written as ``null``. A truncated final line left by a
-    killed writer is removed first.
+    NaN and infinite floats are written as ``null``. The file is locked (``flock``) while
+    its end is checked and the line written, so appends of several processes never
+    interleave. A final line left without its newline is kept if it is a complete JSON
+    value (it gets its newline) and cut off if it does not parse (a killed writer).
 
     Parameters
     ----------
@@ -156,16 +204,47 @@ def append_record(store, record: dict) -> None:
     """
     record_key(record)
     path = store_path(store) / RESULTS
-    line = json.dumps(_json_safe(record), sort_keys=False, allow_nan=False) + "\n"
-    if path.exists():
-        _drop_partial_tail(path)
-    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    data = (json.dumps(_json_safe(record), sort_keys=False, allow_nan=False) + "\n").encode()
+    fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o666)  # 0o666 less the umask
     try:
-        data = line.encode()
-        written = 0
-        while written < len(data):
-            written += os.write(fd, data[written:])
-        os.fsync(fd)
+        with _flocked(fd):
+            data = _repair_tail(fd) + data
+            written = 0
+            while written < len(data):
+                written += os.write(fd, data[written:])
+            os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def writer_lock(store, *, say=None):
+    """Hold the store's writer lock: one run writes to a store at a time.
+
+    A second run on the same store waits here (``say`` is told once who holds it) until
+    the first one ends, then resumes: it finds the first run's jobs in
+    ``results.jsonl`` and renders only what is missing, so two runs never duplicate or
+    lose a record. The lock is an ``flock`` on ``STORE/.writer.lock``, released by the
+    kernel when its holder exits or is killed. Readers never take it.
+
+    Raises ``OSError`` when the store is not writable (a read-only folder or file system).
+    """
+    path = store_path(store) / WRITER_LOCK
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            if say is not None:
+                holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "?"
+                say(f"waiting for the other run writing to {Path(store)} ({holder}) to finish")
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
+        try:
+            yield path
+        finally:
+            fcntl.flock(fd, fcntl.LOCK_UN)
     finally:
         os.close(fd)
 
@@ -223,16 +302,58 @@ def result_lines(store) -> list:
     return out
 
 
-def _is_job_record(value) -> bool:
-    return isinstance(value, dict) and all(k in value for k in KEY_FIELDS)
+def skipped_line(line: ResultLine, *, partial: bool = False) -> str | None:
+    """Why a line of ``results.jsonl`` is not a job record (a sentence), or None if it is one.
+
+    The one rule of every reader (the harness's :func:`read_records`, the report): a line
+    that is not JSON, not a JSON object, lacks a key field (:data:`KEY_FIELDS`; with
+    ``partial`` only ``scene``, ``renderer``, ``strategy`` and ``spp`` are needed) or
+    fails :func:`check_identity` is skipped with this sentence. A torn last line (a killed
+    writer) is "truncated".
+
+    Examples
+    --------
+    >>> skipped_line(ResultLine(3, [1, 2], True, False))
+    'line 3 is not a JSON object'
+    >>> skipped_line(ResultLine(4, None, False, True))
+    'last line 4 is truncated (interrupted run?)'
+    """
+    if not line.parsed:
+        return (f"last line {line.number} is truncated (interrupted run?)" if line.last
+                else f"line {line.number} is not valid JSON")
+    if not isinstance(line.value, dict):
+        return f"line {line.number} is not a JSON object"
+    missing = [k for k in KEY_FIELDS if k not in line.value and not (partial and k in ("seed", "width", "height"))]
+    if missing:
+        return f"line {line.number} is not a job record (no {', '.join(missing)})"
+    try:
+        check_identity(line.value, f"line {line.number} is not a job record:")
+    except ValueError as exc:
+        return str(exc).replace(":: ", ": ")
+    return None
+
+
+def job_records(store, *, partial: bool = False) -> tuple:
+    """``(records, skipped)``: the job records of ``results.jsonl`` in file order (not
+    deduplicated) and one sentence per line skipped (:func:`skipped_line`).
+    """
+    records, skipped = [], []
+    for line in result_lines(store):
+        why = skipped_line(line, partial=partial)
+        if why is None:
+            records.append(line.value)
+        else:
+            skipped.append((line, why))
+    return records, skipped
 
 
 def read_records(store, *, dedupe: bool = True) -> list:
     """Job records of a store, in file order.
 
-    A last line that does not parse (a killed writer) is skipped silently; an unreadable
-    line elsewhere is skipped with a ``RuntimeWarning``. With ``dedupe`` (default), a
-    job that occurs several times keeps its last record, at the position of its first
+    A last line that does not parse (a killed writer) is skipped silently; any other line
+    that is not a job record (:func:`skipped_line`) is skipped with one ``RuntimeWarning``
+    for the whole file, the report lists the same lines. With ``dedupe`` (default), a job
+    that occurs several times keeps its last record, at the position of its first
     (:func:`dedupe_records`), and each curve keeps only the records of its latest build
     (:func:`latest_builds`): a store never mixes two builds in one curve.
 
@@ -241,14 +362,11 @@ def read_records(store, *, dedupe: bool = True) -> list:
     list of dict
         Empty when the store or its ``results.jsonl`` does not exist.
     """
-    out = []
-    for line in result_lines(store):
-        if not (line.parsed and _is_job_record(line.value)):
-            if not line.last:
-                warnings.warn(f"{Path(store) / RESULTS}: line {line.number} is not a job record; skipped",
-                              RuntimeWarning, stacklevel=2)
-            continue
-        out.append(line.value)
+    out, skipped = job_records(store)
+    loud = [why for line, why in skipped if not (line.last and not line.parsed)]
+    if loud:
+        warnings.warn(f"{Path(store) / RESULTS}: {len(loud)} line(s) skipped: {'; '.join(loud[:5])}"
+                      f"{'; ...' if len(loud) > 5 else ''}", RuntimeWarning, stacklevel=2)
     return latest_builds(dedupe_records(out)) if dedupe else out
 
 
@@ -324,10 +442,24 @@ def finished_keys(store) -> set:
     return {record_key(r) for r in read_records(store, dedupe=False)}
 
 
+def new_file_mode() -> int:
+    """The permissions of a newly created file: ``0o666`` less the process's umask.
+
+    Examples
+    --------
+    >>> old = os.umask(0o022); oct(new_file_mode()); _ = os.umask(old)
+    '0o644'
+    """
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def atomic_write_bytes(path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically: a temp file in the same folder, fsync, rename.
 
-    A reader sees the old file or the new one, never a partial write (readable: 0644).
+    A reader sees the old file or the new one, never a partial write. The file gets
+    :func:`new_file_mode` (0644 under the usual umask), not ``mkstemp``'s 0600.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -337,7 +469,7 @@ def atomic_write_bytes(path, data: bytes) -> Path:
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
-        os.chmod(tmp, 0o644)  # mkstemp makes 0600 files
+        os.chmod(tmp, new_file_mode())  # mkstemp makes 0600 files
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -446,6 +578,7 @@ def write_image(store, relpath, image) -> str:
     os.close(fd)
     try:
         imageio.write_exr(tmp, np.asarray(image, dtype=np.float32))
+        os.chmod(tmp, new_file_mode())  # mkstemp makes 0600 files
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -454,12 +587,27 @@ def write_image(store, relpath, image) -> str:
     return rel.as_posix()
 
 
-def read_image(store, relpath, *, rgb: bool = False) -> np.ndarray:
+def file_sha256(path) -> str:
+    """Hex SHA-256 of a file's bytes (the checksum ``meta.json`` keeps of the store's references)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def read_image(store, relpath, *, rgb: bool = False, sha256: str | None = None) -> np.ndarray:
     """Read an EXR image stored under ``store`` as (H, W, C) float32.
 
     With ``rgb``, the result is (H, W, 3): a grey image is repeated to RGB, alpha dropped.
+    With ``sha256`` (the checksum recorded when it was written), a file whose bytes do not
+    match raises :class:`benchmarks.errors.InputError` instead of being decoded: flipped
+    bytes in an EXR can decode to finite garbage.
     """
-    a = imageio.read_exr(Path(store) / relpath)
+    path = Path(store) / relpath
+    if sha256 is not None and file_sha256(path) != sha256:
+        raise InputError(f"{path}: checksum mismatch, the file is corrupt (not used)")
+    a = imageio.read_exr(path)
     if rgb:
         if a.shape[2] == 1:
             a = np.repeat(a, 3, axis=2)

@@ -123,8 +123,10 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
     folder = cache_dir(cache)
     path, meta_path = folder / f"{key}.tails.npz", folder / f"{key}.tails.json"
     shape = (scene.camera.height, scene.camera.width)
-    with _lock(folder / f"{key}.lock"):
-        loaded, why = _load(path, meta_path, key, shape)
+    loaded, _ = _load(path, meta_path, key, shape)  # a valid entry needs no lock (read-only caches)
+    with contextlib.nullcontext() if loaded is not None else _lock(folder / f"{key}.lock"):
+        if loaded is None:  # again under the lock: another process may have rendered it meanwhile
+            loaded, why = _load(path, meta_path, key, shape)
         if loaded is None:
             if why != "not cached" and log is not None:
                 log(f"tail reference {key[:12]} is unusable ({why}); re-rendering")

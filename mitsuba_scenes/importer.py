@@ -15,6 +15,7 @@ where it is; no partial scene is ever returned.
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from pathlib import Path
@@ -107,6 +108,15 @@ def _scalar(ctx, node, key, default):
         return default
     v = p[key]
     return float(v) if not isinstance(v, str) else v
+
+
+def _film_size(ctx, film, key, default) -> int:
+    """A film's width or height: a whole number >= 1 (1.5 is refused, not truncated to 1)."""
+    v = _scalar(ctx, film, key, default)
+    if isinstance(v, str) or not float(v).is_integer() or not 1 <= float(v) <= 2**31 - 1:
+        ctx.bad(film, f"film {key} must be a whole number of pixels >= 1, got {v!r}")
+        return default
+    return int(v)
 
 
 def _extra(ctx, node, allowed, kind):
@@ -337,7 +347,7 @@ def _camera(ctx, sensor):
         if film.props.plugin_name() != "hdrfilm":
             ctx.bad(film, f"film '{film.props.plugin_name()}' (only 'hdrfilm')")
         _extra(ctx, film, _FILM_OK, "film")
-        width, height = int(_scalar(ctx, film, "width", 768)), int(_scalar(ctx, film, "height", 576))
+        width, height = _film_size(ctx, film, "width", 768), _film_size(ctx, film, "height", 576)
         rf = ctx.child(film, OT.ReconstructionFilter)
         if rf is None:
             ctx.bad(film, "hdrfilm without rfilter: Mitsuba's default is gaussian (set rfilter to box)")
@@ -365,6 +375,58 @@ def _camera(ctx, sensor):
 
 
 # --------------------------------------------------------------------------- entry point
+#: deepest element nesting of an XML file handed to Mitsuba's parser (which recurses and
+#: crashes the interpreter on a file nested some thousands of levels deep).
+MAX_XML_DEPTH = 1000
+
+
+def check_xml_depth(path, *, limit: int = MAX_XML_DEPTH) -> None:
+    """Raise ``ValueError`` if the XML file at ``path`` nests elements deeper than ``limit``.
+
+    Streams the file (expat, which does not recurse) before Mitsuba's parser sees it.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> p = Path(tempfile.mkdtemp()) / "deep.xml"
+    >>> _ = p.write_text("<a>" * 5 + "</a>" * 5)
+    >>> try:
+    ...     check_xml_depth(p, limit=4)
+    ... except ValueError as exc:
+    ...     print(str(exc).split(" nests ")[1])
+    elements more than 4 deep (line 1); refused before Mitsuba's parser
+    """
+    from xml.parsers import expat
+
+    depth = {"now": 0}
+    parser = expat.ParserCreate()
+
+    def start(name, attrs):
+        depth["now"] += 1
+        if depth["now"] > limit:
+            raise ValueError(f"from_mitsuba: {path} nests elements more than {limit} deep "
+                             f"(line {parser.CurrentLineNumber}); refused before Mitsuba's parser")
+
+    def end(name):
+        depth["now"] -= 1
+
+    parser.StartElementHandler, parser.EndElementHandler = start, end
+    try:
+        with open(path, "rb") as fh:
+            parser.ParseFile(fh)
+    except expat.ExpatError as exc:
+        raise ValueError(f"from_mitsuba: {path} is not well-formed XML: {exc}") from None
+
+
+@contextlib.contextmanager
+def _as_value_error(where: str):
+    """Mitsuba's parser raises ``RuntimeError`` for a bad scene: make it the documented ``ValueError``."""
+    try:
+        yield
+    except RuntimeError as exc:
+        raise ValueError(f"{where}: {' '.join(str(exc).split())}") from exc
+
+
 def from_mitsuba(source, params=None) -> rt.Scene:
     """Import a Mitsuba 3 scene (dict or XML file) as a :class:`reference_tracer.Scene`.
 
@@ -419,19 +481,20 @@ def from_mitsuba(source, params=None) -> rt.Scene:
             raise ValueError("from_mitsuba: params apply to XML files only")
         if source.get("type") != "scene":
             raise ValueError(f"from_mitsuba needs a scene dict (type 'scene'), got type {source.get('type')!r}")
-        state = mi.parser.parse_dict(cfg, source)
+        with _as_value_error("from_mitsuba"):
+            state = mi.parser.parse_dict(cfg, source)
     elif isinstance(source, (str, os.PathLike)):
         path = Path(source)
         if not path.is_file():
             raise ValueError(f"from_mitsuba: no such file {path}")
-        try:
+        check_xml_depth(path)
+        with _as_value_error(f"from_mitsuba: {path}"):  # a malformed file or an unknown $name
             state = mi.parser.parse_file(cfg, str(path), **params)
-        except RuntimeError as exc:  # Mitsuba's parser: a malformed file or an unknown $name
-            raise ValueError(f"from_mitsuba: {path}: {exc}") from None
     else:
         raise ValueError(f"from_mitsuba takes a dict or an XML path, got {type(source).__name__}")
-    mi.parser.transform_upgrade(cfg, state)
-    mi.parser.transform_resolve(cfg, state)
+    with _as_value_error("from_mitsuba"):
+        mi.parser.transform_upgrade(cfg, state)
+        mi.parser.transform_resolve(cfg, state)
     ctx = _Ctx(mi, state)
     if not isinstance(source, dict):
         ctx.base_dir = str(Path(source).resolve().parent)

@@ -27,6 +27,7 @@ ours                                   Mitsuba 3
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from pathlib import Path
@@ -428,6 +429,7 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
         raise ValueError(f"to_xml: folder {path.parent} does not exist")
     cam, integ = low["camera"], low["integrator"]
     (o, t, u) = cam["lookat"]
+    plys = []  # (path, vertices, faces): written with the XML, by _write_all
     L = ['<?xml version="1.0" encoding="utf-8"?>',
          "<!-- Written by mitsuba_scenes.to_xml: the reference_tracer scene, translated per",
          "     shared/DESIGN.md section 3 (box filter, fov_axis y, ext_ior 1, one-sided emitters). -->",
@@ -469,7 +471,7 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
         ind = "        "
         if rec["type"] == "mesh":
             ply = f"{path.stem}_{rec['name']}.ply"
-            write_ply(path.parent / ply, rec["vertices"], rec["faces"])
+            plys.append((path.parent / ply, rec["vertices"], rec["faces"]))
             L += [f"{ind}<string name=\"filename\" value={_xml_escape(ply)}/>",
                   f'{ind}<boolean name="face_normals" value="true"/>']
         elif rec["type"] == "sphere":
@@ -486,7 +488,67 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
                             ind)
         L.append("    </shape>")
     L.append("</scene>")
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text("\n".join(L) + "\n", encoding="utf-8")
-    os.replace(tmp, path)
+    _write_all(path, "\n".join(L) + "\n", plys)
     return path
+
+
+def _write_all(path: Path, text: str, plys: list) -> None:
+    """The meshes' PLY files, then the XML, each through a temporary file renamed into
+    place; on any error the files this call created are removed (nothing stray is left)."""
+    import tempfile
+
+    for target in (path, *(p for p, _, _ in plys)):
+        _check_target(target)
+    created = []
+    try:
+        for ply, vertices, faces in plys:
+            fd, tmp = tempfile.mkstemp(dir=ply.parent, prefix=f".{ply.name}.", suffix=".tmp")
+            os.close(fd)
+            try:
+                write_ply(tmp, vertices, faces)
+                os.chmod(tmp, _new_file_mode())
+                if not ply.exists():
+                    created.append(ply)
+                os.replace(tmp, ply)
+            except BaseException:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
+                raise
+        _atomic_text(path, text)
+    except BaseException:
+        for ply in created:
+            with contextlib.suppress(OSError):
+                ply.unlink()
+        raise
+
+
+def _new_file_mode() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+def _check_target(path: Path) -> None:
+    """Refuse to replace anything but a regular file: a symlink, a device, a FIFO, a folder."""
+    if path.is_symlink() or (path.exists() and not path.is_file()):
+        what = "a symbolic link" if path.is_symlink() else "a folder" if path.is_dir() else "a special file"
+        raise ValueError(f"to_xml: {path} is {what}; refusing to replace it (write to a regular file path)")
+
+
+def _atomic_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a unique temporary file in the same folder, renamed
+    into place (never a partial file); the temporary file is removed on any error."""
+    import tempfile
+
+    _check_target(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.chmod(tmp, _new_file_mode())
+        _check_target(path)  # again: the path may have changed while we wrote
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise

@@ -50,9 +50,29 @@ def colour(name: str, value, *, upper: float | None) -> tuple:
     return tuple(float(x) for x in a)
 
 
-def positive_int(name: str, value, *, minimum: int = 1) -> int:
+#: the largest count the C++ core takes (its ``int``: spp, threads, image size, depth).
+INT_MAX = 2**31 - 1
+#: the largest seed (the core's ``uint64_t``).
+SEED_MAX = 2**64 - 1
+
+
+def positive_int(name: str, value, *, minimum: int = 1, maximum: int = INT_MAX) -> int:
+    """Return ``value`` as an int in ``[minimum, maximum]``, or raise ``ValueError`` naming ``name``.
+
+    The default ``maximum`` is the C++ core's ``int``: a larger value would reach the
+    binding and fail there with a message naming no field.
+
+    Examples
+    --------
+    >>> positive_int("spp", 2**31)
+    Traceback (most recent call last):
+    ...
+    ValueError: spp must be <= 2147483647, got 2147483648
+    """
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise ValueError(f"{name} must be an integer, got {value!r}")
     if value < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value}")
+    if value > maximum:
+        raise ValueError(f"{name} must be <= {maximum}, got {value}")
     return int(value)

@@ -54,6 +54,26 @@ def read_exr(path) -> np.ndarray:
         return px if px.ndim == 3 else px[..., None]
 
 
+#: largest exposure (in stops, either sign) of :func:`to_display`: 2**1000 is still a finite double.
+MAX_EXPOSURE_STOPS = 1000.0
+
+
+def check_exposure(exposure) -> float:
+    """An exposure in stops as a float, or ``ValueError``: it must be finite and within
+    +-:data:`MAX_EXPOSURE_STOPS` (2**1024 overflows a double).
+
+    Examples
+    --------
+    >>> check_exposure(2000)
+    Traceback (most recent call last):
+    ...
+    ValueError: exposure (stops) must be <= 1000.0, got 2000.0
+    """
+    from ._validate import finite_scalar
+
+    return finite_scalar("exposure (stops)", exposure, lo=-MAX_EXPOSURE_STOPS, hi=MAX_EXPOSURE_STOPS)
+
+
 def to_display(array, exposure: float = 0.0, *, scale: float | None = None,
                keep_nan: bool = False) -> np.ndarray:
     """Linear radiance -> display values in [0, 1]: scale by 2**exposure, clip, sRGB transfer.
@@ -84,7 +104,10 @@ def to_display(array, exposure: float = 0.0, *, scale: float | None = None,
     """
     import colour
 
-    k = 2.0 ** float(exposure) if scale is None else float(scale)
+    if scale is None:
+        k = 2.0 ** check_exposure(exposure)
+    else:
+        k = float(scale)
     a = np.asarray(array, dtype=np.float64)
     if not keep_nan:
         a = np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0)
@@ -102,8 +125,6 @@ def write_png(path, array, exposure: float = 0.0) -> Path:
     from PIL import Image
 
     a = _check_image("write_png", array)
-    if not np.isfinite(float(exposure)):
-        raise ValueError(f"write_png: exposure must be finite, got {exposure!r}")
     d = to_display(a[..., :3] if a.shape[2] >= 3 else np.repeat(a, 3, axis=2), exposure)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

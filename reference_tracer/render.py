@@ -36,6 +36,10 @@ class RenderResult(ImageEstimate):
         Rays cast (camera, continuation and shadow rays).
     nonfinite_samples : int
         Samples discarded because their value was NaN or Inf (0 in a correct render).
+    overflow_pixels : int
+        Pixels whose mean or variance overflowed (infinite in single precision) although
+        each sample was finite: radiance too large for the image format, e.g. an emitter
+        of 1e300 (0 in a correct render).
     moments : SampleMoments or None
         Per-pixel tail diagnostics, when the render was asked for them (``moments=True``).
     """
@@ -45,6 +49,7 @@ class RenderResult(ImageEstimate):
     source: str = "ours"
     rays: int = 0
     nonfinite_samples: int = 0
+    overflow_pixels: int = 0
     build_seconds: float = 0.0
     threads: int = 1
     moments: SampleMoments | None = field(default=None, repr=False)
@@ -67,6 +72,59 @@ def core_scene(scene: Scene, *, triangle_test: str = "watertight"):
         cache[triangle_test] = _core.Scene(**compile_scene(scene),
                                            triangle_test=TRIANGLE_TESTS.index(triangle_test))
     return cache[triangle_test]
+
+
+def render_bytes(width: int, height: int, *, moments: bool = False) -> int:
+    """Peak memory of a render's images, in bytes: the core's per-pixel double sums
+    (2 arrays, 7 with ``moments``), the float64 mean, variance and one temporary computed
+    from them and the float32 results, 3 channels each.
+
+    Examples
+    --------
+    >>> render_bytes(100, 100)
+    1440000
+    """
+    per_channel = 8 * (2 + (5 if moments else 0)) + 8 * 3 + 4 * 2
+    return int(width) * int(height) * 3 * per_channel
+
+
+def available_memory() -> int | None:
+    """Bytes this process can still allocate: the smaller of the system's available memory
+    and the room left under a cgroup (container) limit; None where neither is known."""
+    limits = []
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    limits.append(int(line.split()[1]) * 1024)
+    except (OSError, ValueError):
+        pass
+    try:
+        with open("/sys/fs/cgroup/memory.max") as fh:
+            cap = fh.read().strip()
+        if cap != "max":
+            with open("/sys/fs/cgroup/memory.current") as fh:
+                limits.append(int(cap) - int(fh.read().strip()))
+    except (OSError, ValueError):
+        pass
+    return min(limits) if limits else None
+
+
+def check_memory(width: int, height: int, *, moments: bool = False, available: int | None = None) -> None:
+    """Raise ``ValueError`` before rendering when the images cannot fit in memory.
+
+    Examples
+    --------
+    >>> check_memory(14000, 14000, available=2 * 2**30)
+    Traceback (most recent call last):
+    ...
+    ValueError: a 14000x14000 render needs about 26.3 GiB for its images, but only 2.0 GiB of memory is available; render a smaller image
+    """
+    need = render_bytes(width, height, moments=moments)
+    have = available_memory() if available is None else available
+    if have is not None and need > have:
+        raise ValueError(f"a {width}x{height} render needs about {need / 2**30:.1f} GiB for its images, but only "
+                         f"{have / 2**30:.1f} GiB of memory is available; render a smaller image")
 
 
 def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int = 0,
@@ -127,18 +185,23 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
     if progress is not None and not callable(progress):
         raise ValueError("progress must be callable or None")
 
+    if not isinstance(moments, bool):
+        raise ValueError(f"moments must be True or False, got {moments!r}")
+    check_memory(scene.camera.width, scene.camera.height, moments=moments)
+
     import time
 
     t0 = time.perf_counter()
     core = core_scene(scene, triangle_test=triangle_test)
     build = time.perf_counter() - t0
-    if not isinstance(moments, bool):
-        raise ValueError(f"moments must be True or False, got {moments!r}")
     out = core.render(spp, STRATEGIES.index(strategy), int(seed), threads, progress, moments)
     n = float(spp)
     mean = out["sum"] / n
-    variance = np.maximum(out["sum_sq"] / n - mean * mean, 0.0)
-    return RenderResult(mean=mean.astype(np.float32), variance=variance.astype(np.float32),
+    with np.errstate(over="ignore", invalid="ignore"):
+        variance = np.maximum(out["sum_sq"] / n - mean * mean, 0.0)
+        mean, variance = mean.astype(np.float32), variance.astype(np.float32)
+    overflow = int(np.count_nonzero(~(np.isfinite(mean) & np.isfinite(variance)).all(axis=-1)))
+    return RenderResult(mean=mean, variance=variance, overflow_pixels=overflow,
                         seconds=out["seconds"], spp=spp, strategy=strategy, seed=int(seed),
                         rays=int(out["rays"]), nonfinite_samples=int(out["nonfinite"]),
                         build_seconds=build, threads=threads,

@@ -140,6 +140,7 @@ class Sphere(Shape):
         object.__setattr__(self, "center", vector3("Sphere.center", self.center))
         object.__setattr__(self, "radius", finite_scalar("Sphere.radius", self.radius, lo=0.0, lo_open=True))
         self._post()
+        _check_similarity("Sphere.transform", self.matrix)
 
     def world_center(self) -> np.ndarray:
         return self._point(self.center)
@@ -149,6 +150,38 @@ class Sphere(Shape):
 
     def _describe_geometry(self):
         return {"center": self.center, "radius": self.radius}
+
+
+def _check_similarity(name: str, m: np.ndarray) -> None:
+    """Refuse a transform that does not keep a sphere a sphere of positive radius.
+
+    Only rotation, uniform scale and translation (a similarity) are allowed: a
+    non-uniform scale would need an ellipsoid, a mirror (negative determinant) turns the
+    normals inside out, a singular matrix collapses the sphere, and a projective last row
+    is not an affine map. ``to_mitsuba`` refuses the same transforms.
+
+    Examples
+    --------
+    >>> _check_similarity("t", np.diag([2.0, 2.0, 2.0, 1.0]))
+    >>> _check_similarity("t", np.diag([1.0, 5.0, 1.0, 1.0]))
+    Traceback (most recent call last):
+    ...
+    ValueError: t must be a similarity (rotation, uniform scale, translation): its linear part scales unequally along different axes (singular values 1, 1, 5); a sphere cannot become an ellipsoid
+    """
+    if np.any(m[3, :3] != 0.0) or m[3, 3] != 1.0:
+        raise ValueError(f"{name} must be affine (last row 0 0 0 1), got {m[3].tolist()}")
+    lin = m[:3, :3]
+    sv = np.linalg.svd(lin, compute_uv=False)
+    det = float(np.linalg.det(lin))
+    if not sv[-1] > 1e-12 * max(sv[0], 1e-300):
+        raise ValueError(f"{name} is singular (determinant {det:.6g}): it collapses the sphere")
+    if not det > 0:
+        raise ValueError(f"{name} is a mirror (determinant {det:.6g} < 0): it turns the sphere inside out; "
+                         "use flip_normals instead")
+    if sv[0] - sv[-1] > 1e-6 * sv[0]:
+        raise ValueError(f"{name} must be a similarity (rotation, uniform scale, translation): its linear part "
+                         f"scales unequally along different axes (singular values "
+                         f"{', '.join(f'{v:.6g}' for v in sorted(sv))}); a sphere cannot become an ellipsoid")
 
 
 @dataclass(frozen=True, eq=False)
@@ -337,16 +370,17 @@ class Mesh(Shape):
     def load(cls, path, material: Material, *, flip_normals: bool = False) -> "Mesh":
         """Read an OBJ or PLY file with trimesh (no processing: vertex order kept).
 
+        An OBJ's text may be UTF-8 or Latin-1 (a comment with an accented name); an OBJ
+        face index 0 (indices start at 1) and a file that is neither OBJ nor PLY raise
+        ``ValueError`` (:func:`reference_tracer.meshfile.read_mesh`).
+
         Examples
         --------
         >>> Mesh.load("bunny.ply", Lambertian(0.5))  # doctest: +SKIP
         """
-        import trimesh
+        from .meshfile import read_mesh
 
-        try:
-            tm = trimesh.load(str(path), process=False, force="mesh")
-        except Exception as exc:  # trimesh raises many types; name the file in all cases
-            raise ValueError(f"Mesh.load could not read {path!s}: {exc}") from exc
+        tm = read_mesh(path)
         if len(tm.faces) == 0:
             raise ValueError(f"Mesh.load: {path!s} holds no triangles")
         return cls(np.asarray(tm.vertices), np.asarray(tm.faces), material, flip_normals=flip_normals)

@@ -139,9 +139,10 @@ def _reference(store: Store, sec: Section, *, problems: list):
         sec.notes.append("The reference image is missing from the store: no error maps.")
         return None
     try:
-        ref = store.read_image(path)
-    except Exception as exc:  # noqa: BLE001 - a corrupt file is reported, not fatal
+        ref = store.read_image(path, sha256=info.get("sha256"))
+    except Exception as exc:  # noqa: BLE001 - a corrupt file (checksum, decoding) is reported, never used
         problems.append(f"{sec.scene}: reference image {info['path']} could not be read ({exc})")
+        sec.notes.append("The reference image is corrupt: no error maps.")
         return None
     if sec.width and sec.height and ref.shape[:2] != (sec.height, sec.width):
         sec.notes.append(f"The reference is {ref.shape[1]}×{ref.shape[0]}, not {sec.width}×{sec.height}: "

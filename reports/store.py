@@ -114,9 +114,10 @@ class Store:
         p = Path(relpath)
         return p if p.is_absolute() else self.path / p
 
-    def read_image(self, relpath) -> np.ndarray:
-        """An EXR image of the store as (H, W, 3) float32 (:func:`benchmarks.store.read_image`)."""
-        return results.read_image(self.path, relpath, rgb=True)
+    def read_image(self, relpath, *, sha256: str | None = None) -> np.ndarray:
+        """An EXR image of the store as (H, W, 3) float32 (:func:`benchmarks.store.read_image`;
+        with ``sha256``, a file that does not match it raises ``ValueError``)."""
+        return results.read_image(self.path, relpath, rgb=True, sha256=sha256)
 
 
 def _int_or_none(v):
@@ -159,10 +160,10 @@ def load_store(store) -> Store:
     ------
     ValueError
         If ``store`` is not a folder, holds neither ``results.jsonl`` nor ``summary.json``,
-        or a record or row lacks ``scene``, ``renderer`` or ``strategy`` or has a bad ``spp``
+        or a summary row lacks ``scene``, ``renderer`` or ``strategy``
         (:func:`benchmarks.store.check_identity`). A line of ``results.jsonl`` that is not
-        JSON at all is skipped and listed in :attr:`Store.problems` (the page shows them),
-        as the harness's own reader skips it.
+        a job record (:func:`benchmarks.store.skipped_line`) is skipped and listed in
+        :attr:`Store.problems` (the page shows them), as the harness's own reader skips it.
     """
     path = Path(store).expanduser()
     if not path.is_dir():
@@ -191,19 +192,14 @@ def load_store(store) -> Store:
 
 
 def _records(path: Path, problems: list) -> list[dict]:
-    """Every record of ``results.jsonl`` in file order; lines that are not JSON go to ``problems``."""
+    """Every job record of ``results.jsonl`` in file order; the lines skipped go to ``problems``.
+
+    The harness's rule (:func:`benchmarks.store.skipped_line`): a line that is not a job
+    record is skipped and listed, never fatal, as ``rtbench run`` skips it with a warning.
+    """
     if not (path / results.RESULTS).exists():
         problems.append(f"{results.RESULTS} is missing: no curves or images")
         return []
-    out = []
-    for line in results.result_lines(path):
-        where = f"{results.RESULTS}: line {line.number}"
-        if not line.parsed:
-            problems.append(f"{results.RESULTS}: last line {line.number} is truncated (interrupted run?); skipped"
-                            if line.last else f"{where} is not valid JSON; skipped")
-            continue
-        if not isinstance(line.value, dict):
-            raise ValueError(f"{path / results.RESULTS}: line {line.number} is not a JSON object")
-        results.check_identity(line.value, f"{results.RESULTS} line {line.number}")
-        out.append(line.value)
+    out, skipped = results.job_records(path, partial=True)
+    problems.extend(f"{results.RESULTS}: {why}; skipped" for _, why in skipped)
     return out

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 
 HELP = "chi-square tests of every sampling routine against its pdf; observed-vs-expected images; exit 1 on a failure"
 
@@ -30,7 +29,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--images", choices=("all", "failures", "none"), default="all",
                         help="which routines get an image (default all)")
     parser.add_argument("--json", default=None, metavar="PATH", help="also write every row with its statistics")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
 
 
 def run(args) -> int:
@@ -55,27 +53,21 @@ def run(args) -> int:
     per_test = sidak(args.alpha, len(routines))   # ValueError for alpha outside (0, 1)
 
     rows = []
-    try:
-        with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                      TimeElapsedColumn(), console=console, transient=True) as progress:
-            task = progress.add_task("chi2", total=len(routines))
-            for r in routines:
-                progress.update(task, description=f"chi2 {r.label}")
-                row = run_routine(r, n=args.samples, seed=args.seed, alpha=per_test)
-                rows.append((r, row))
-                if not row.passed:
-                    progress.console.print(f"  {r.label}: {row.verdict} - {row.message}", style="dim",
-                                           highlight=False, markup=False)
-                progress.advance(task)
-        images = _write_images(rows, args)
-        if args.json:
-            with open(args.json, "w") as fh:
-                json.dump([row.to_json() for _, row in rows], fh, indent=1, default=float)
-    except OSError as exc:
-        if args.debug:
-            raise
-        print(f"rtbench chi2: error: {exc}", file=sys.stderr)
-        return 3
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                  TimeElapsedColumn(), console=console, transient=True) as progress:
+        task = progress.add_task("chi2", total=len(routines))
+        for r in routines:
+            progress.update(task, description=f"chi2 {r.label}")
+            row = run_routine(r, n=args.samples, seed=args.seed, alpha=per_test)
+            rows.append((r, row))
+            if not row.passed:
+                progress.console.print(f"  {r.label}: {row.verdict} - {row.message}", style="dim",
+                                       highlight=False, markup=False)
+            progress.advance(task)
+    images = _write_images(rows, args)   # an OSError here: exit 3 (benchmarks.cli)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump([row.to_json() for _, row in rows], fh, indent=1, default=float)
 
     table = Table(title=f"rtbench chi2: {len(rows)} routines, {args.samples} samples each, "
                         f"alpha {args.alpha} for the run ({per_test:.2e} per routine)")

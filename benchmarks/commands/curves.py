@@ -5,6 +5,7 @@ import argparse
 
 from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
 from benchmarks.constants import BIAS_TEST_ALPHA
+from benchmarks.errors import EXIT_ERROR
 
 HELP = "render error-vs-spp curves (our strategies + Mitsuba path) against cached references into a results store"
 
@@ -109,4 +110,4 @@ def run(args) -> int:
 
     for label, why in result.failed[:10]:
         print(f"  failed: {label}: {why}", file=sys.stderr)
-    return 1 if result.failed else 0
+    return EXIT_ERROR if result.failed else 0  # a job that raised: an internal error

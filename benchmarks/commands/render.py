@@ -33,6 +33,7 @@ def run(args) -> int:
         for name in list_scenes():
             console.print(f"{name:16s} {describe_scene(name)}")
         return 0 if args.list else 2
+    rt.imageio.check_exposure(args.exposure)  # before the render, not after it
     params = {}
     if args.width is not None:
         params["width"] = args.width
@@ -66,6 +67,6 @@ def _render_one(name, scene, args, console) -> int:
     console.print(f"{name}: {w}x{h}, {args.spp} spp, {args.strategy}, seed {args.seed}: "
                   f"{result.seconds:.3f} s on {result.threads} threads, "
                   f"{result.paths_per_second / 1e6:.2f} M paths/s, {result.rays / 1e6:.2f} M rays, "
-                  f"{result.nonfinite_samples} NaN/Inf samples")
+                  f"{result.nonfinite_samples} NaN/Inf samples, {result.overflow_pixels} overflowed pixels")
     console.print(f"wrote {stem.with_suffix('.exr')} and {stem.with_suffix('.png')}")
-    return 1 if result.nonfinite_samples else 0
+    return 1 if result.nonfinite_samples or result.overflow_pixels else 0

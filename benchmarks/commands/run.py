@@ -5,6 +5,7 @@ import argparse
 import time
 
 from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+from benchmarks.errors import EXIT_ERROR
 
 HELP = "the main job: references and error-vs-spp curves for the whole suite, then the report"
 
@@ -62,4 +63,4 @@ def run(args) -> int:
           f"there, {len(result.failed)} failed; wall time {time.perf_counter() - t0:.0f} s)", flush=True)
     for label, why in result.failed[:10]:
         print(f"  failed: {label}: {why}")
-    return 1 if result.failed else 0
+    return EXIT_ERROR if result.failed else 0  # a job that raised: an internal error

@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from reference_tracer._validate import positive_int
+from reference_tracer._validate import SEED_MAX, positive_int
 
 from ..constants import GATE_ALPHA, STRATEGIES
 from ..references import Reference, closed_form_reference_of
@@ -335,7 +335,7 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
     width = positive_int("width", width)
     height = width if height is None else positive_int("height", height)
     ref_spp = positive_int("ref_spp", ref_spp, minimum=2)
-    seed = positive_int("seed", seed, minimum=0)
+    seed = positive_int("seed", seed, minimum=0, maximum=SEED_MAX)
     tail_spp = positive_int("tail_spp", tail_spp, minimum=0)
     if tail_spp == 1:
         raise ValueError("tail_spp must be 0 (no tail references) or >= 2")

@@ -25,7 +25,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-from reference_tracer._validate import positive_int
+from reference_tracer._validate import SEED_MAX, positive_int
 
 from ..constants import GATE_ALPHA
 from ..gate.mitsuba_rule import MITSUBA_ALPHA, mitsuba_rule
@@ -160,7 +160,7 @@ def run_selftest(mutants=None, *, spp: int = DEFAULT_SPP, width: int = DEFAULT_W
     width = positive_int("width", width)
     ref_spp = positive_int("ref_spp", ref_spp, minimum=2)
     tail_spp = positive_int("tail_spp", tail_spp, minimum=2)
-    seed = positive_int("seed", seed, minimum=0)
+    seed = positive_int("seed", seed, minimum=0, maximum=SEED_MAX)
     budgets = ladder(spp, [positive_int("spp_ladder", s, minimum=2) for s in spp_ladder])
     if threads is not None:
         threads = positive_int("threads", threads)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as _dt
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,7 +17,8 @@ from pathlib import Path
 from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM
 from ..external import external
 from ..references import closed_form_reference_of, mitsuba_identity, reference
-from ..store import META, finished_keys, read_json, read_records, store_path, update_meta, write_image
+from ..store import (META, file_sha256, finished_keys, job_records, read_json, read_records, record_key,
+                     store_path, update_meta, write_image, writer_lock)
 from .execute import machine_info, run_versions
 from .jobs import Group, check_int, default_threads, renderer_builds, scene_at
 from .progress import Progress
@@ -62,6 +64,8 @@ def prepare_references(groups, store: Path, *, variant, threads, cache, say) -> 
         ``{(scene, width, height): benchmarks.references.Reference}``.
     """
     refs, by_scene, by_size = {}, {}, {}
+    old_meta = read_json(store / META, default={}) or {}
+    old_refs = old_meta.get("references_by_size") if isinstance(old_meta.get("references_by_size"), dict) else {}
     for g in groups:
         for scene in g.scenes:
             k = (scene, g.width, g.height)
@@ -78,15 +82,10 @@ def prepare_references(groups, store: Path, *, variant, threads, cache, say) -> 
             how = ("closed form" if ref.variant == CLOSED_FORM else
                    "cached" if ref.cached else f"rendered in {time.perf_counter() - t0:.1f} s")
             say(f"reference {scene} {g.width}x{g.height}: {ref.spp} spp, {ref.variant} ({how})")
-            stem = f"references/{scene}_{g.width}x{g.height}_spp{ref.spp}"
-            mpath, vpath = f"{stem}.exr", f"{stem}_var.exr"
-            for rel, img in ((mpath, ref.mean), (vpath, ref.variance)):
-                if not (store / rel).exists():
-                    write_image(store, rel, img)
-            entry = {"spp": ref.spp, "seed": ref.seed, "path": mpath, "variance_path": vpath,
-                     "width": g.width, "height": g.height, "variant": ref.variant, "key": ref.key,
-                     "render_seconds": ref.seconds, "scene_hash": ref.scene_hash[:16] or None,
-                     "scene_source": _source_of(scene)}
+            entry = {"spp": ref.spp, "seed": ref.seed, "width": g.width, "height": g.height, "variant": ref.variant,
+                     "key": ref.key, "render_seconds": ref.seconds, "scene_hash": ref.scene_hash[:16] or None,
+                     "scene_source": _source_of(scene),
+                     **_store_copy(store, f"references/{scene}_{g.width}x{g.height}_spp{ref.spp}", ref, old_refs)}
             by_size[f"{scene}@{g.width}x{g.height}"] = entry
             by_scene.setdefault(scene, entry)  # the first group naming a scene is its main sweep
             refs[k] = ref
@@ -103,6 +102,26 @@ def _source_of(name: str):
 
     entry = scene_file(name)
     return None if entry is None else entry.path
+
+
+def _store_copy(store: Path, stem: str, ref, old_refs: dict) -> dict:
+    """The store's copy of a reference (``stem``.exr and ``stem``_var.exr) with their checksums.
+
+    A copy is kept when ``meta.json`` already records it with the same cache key and its
+    bytes still match the recorded checksums; anything else (missing, corrupt, another
+    reference) is written afresh from ``ref``. Returns the ``meta.json`` fields: ``path``,
+    ``variance_path``, ``sha256``, ``variance_sha256``.
+    """
+    out = {"path": f"{stem}.exr", "variance_path": f"{stem}_var.exr"}
+    old = next((e for e in old_refs.values() if isinstance(e, dict) and e.get("path") == out["path"]), {})
+    for rel_key, sum_key, img in (("path", "sha256", ref.mean), ("variance_path", "variance_sha256", ref.variance)):
+        rel = out[rel_key]
+        fresh = (old.get("key") == ref.key and old.get(sum_key) and (store / rel).is_file()
+                 and file_sha256(store / rel) == old[sum_key])
+        if not fresh:
+            write_image(store, rel, img)
+        out[sum_key] = old[sum_key] if fresh else file_sha256(store / rel)
+    return out
 
 
 def _messages(progress: bool, console) -> tuple:
@@ -195,15 +214,36 @@ def _say_new_builds(store, plan, done_keys, say) -> None:
             f"rendered again (the old records stay in the file; curves show the latest build)")
 
 
-def _record_time(store, *, seconds, done=None, interrupted=None) -> None:
-    """Append this run to ``meta.json``'s ``runs`` (``done`` given), or set its final time, and the total."""
+def _recorded(store) -> int:
+    """How many distinct jobs the store holds (read quietly: the run warns about bad lines once)."""
+    return len({record_key(r) for r in job_records(store)[0]})
+
+
+def _start_run(store) -> int:
+    """Append this run to ``meta.json``'s ``runs`` (started now, nothing done yet); its index."""
     meta = read_json(store / META, default={}) or {}
     runs = list(meta.get("runs") or [])
-    if done is not None:
-        runs.append({"started": _now(), "seconds": seconds, "jobs_done": done, "interrupted": interrupted})
-    elif runs:
-        runs[-1]["seconds"] = seconds
-    update_meta(store, runs=runs, total_seconds=float(sum(r.get("seconds") or 0 for r in runs)))
+    runs.append({"started": _now(), "ended": None, "seconds": None, "jobs_done": 0, "interrupted": None})
+    update_meta(store, runs=runs)
+    return len(runs) - 1
+
+
+def _end_run(store, index: int, *, seconds: float, done: int, interrupted: bool) -> None:
+    """Complete this run's entry in ``meta.json`` (end time, seconds, jobs stored) and the total.
+
+    ``done`` counts the jobs this run stored, also when it was interrupted; the store's
+    writer lock keeps ``index`` this run's entry.
+    """
+    meta = read_json(store / META, default={}) or {}
+    runs = list(meta.get("runs") or [])
+    entry = runs[index] if index < len(runs) and isinstance(runs[index], dict) else {}
+    entry.update(ended=_now(), seconds=seconds, jobs_done=done, interrupted=interrupted)
+    if index < len(runs):
+        runs[index] = entry
+    else:
+        runs.append(entry)
+    update_meta(store, runs=runs, total_seconds=float(sum((r.get("seconds") or 0) for r in runs
+                                                          if isinstance(r, dict))))
 
 
 def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, variant: str | None = None,
@@ -215,7 +255,12 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
     Steps: references for every (scene, size) (cached; copied into the store), then
     every job not yet in ``results.jsonl`` (appended one by one), then
     ``summary.json`` from all records. Interrupt it at any point (Ctrl-C, kill) and run
-    it again with the same arguments: finished jobs are skipped, nothing is lost.
+    it again with the same arguments: finished jobs are skipped, nothing is lost. The
+    store's writer lock (:func:`benchmarks.store.writer_lock`) is held throughout: a
+    second run on the same store waits for this one, then resumes, so no job is
+    rendered or recorded twice. ``meta.json``'s ``runs`` gets this run's entry
+    (``started``, ``ended``, ``seconds``, ``jobs_done``, ``interrupted``) even when it is
+    interrupted.
 
     Parameters
     ----------
@@ -250,6 +295,32 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
     store = store_path(out)
     console, say = _messages(progress, console)
     variant, mitsuba_version = mitsuba_identity(variant)
+    with writer_lock(store, say=lambda text: print(text, file=sys.stderr, flush=True)):
+        t_start = time.perf_counter()  # this run's time, not its wait for another run
+        result = SweepResult(store=store)
+        run_index = _start_run(store)
+        recorded_before = _recorded(store)
+        try:
+            _sweep(groups, store, result, threads=threads, scheduler=scheduler, variant=variant,
+                   mitsuba_version=mitsuba_version, cache=cache,
+                   alpha=alpha, target_relative=target_relative, preset=preset, progress=progress,
+                   console=console, say=say)
+        except BaseException:
+            result.interrupted = True
+            raise
+        finally:
+            result.seconds = time.perf_counter() - t_start
+            # counted in the store (only this run appends, under the writer lock): exact even when
+            # Ctrl-C lands between a record's write and the runner's count
+            stored = _recorded(store) - recorded_before
+            _end_run(store, run_index, seconds=result.seconds, done=stored, interrupted=result.interrupted)
+    return result
+
+
+def _sweep(groups, store, result, *, threads, scheduler, variant, mitsuba_version, cache, alpha,
+           target_relative, preset,
+           progress, console, say) -> None:
+    """The steps of :func:`run_sweep`, with the store's writer lock held; fills ``result``."""
     _record_settings(store, groups, threads=threads, scheduler=scheduler, variant=variant, preset=preset,
                      alpha=alpha, target_relative=target_relative)
     refs = prepare_references(groups, store, variant=variant, threads=threads, cache=cache, say=say)
@@ -257,7 +328,7 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
     done_keys = finished_keys(store)
     _warn_stale(store, refs, say)
     todo = [j for j in plan if j.key not in done_keys]
-    result = SweepResult(store=store, jobs=len(plan), skipped=len(plan) - len(todo))
+    result.jobs, result.skipped = len(plan), len(plan) - len(todo)
     if result.skipped:
         say(f"resuming: {result.skipped} of {len(plan)} jobs already in {store}")
     _say_new_builds(store, plan, done_keys, say)
@@ -269,20 +340,12 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
     log = bar.log if bar.enabled else say
     try:
         if scheduler is None:
-            result.done = run_local(todo, refs, store, threads=threads, variant=variant, keep=keep,
-                                    bar=bar, say=log, failures=result.failed)
+            run_local(todo, refs, store, threads=threads, variant=variant, keep=keep, bar=bar, say=log,
+                      failures=result.failed, tally=result)
         else:
-            result.done = run_dask(todo, refs, store, address=scheduler, variant=variant, keep=keep,
-                                   bar=bar, say=log, failures=result.failed)
-    except KeyboardInterrupt:
-        result.interrupted = True
-        raise
+            run_dask(todo, refs, store, address=scheduler, variant=variant, keep=keep, bar=bar, say=log,
+                     failures=result.failed, tally=result)
     finally:
         bar.stop()
-        _record_time(store, seconds=time.perf_counter() - t_start, done=result.done,
-                     interrupted=result.interrupted)
     result.rows = summarize(store, alpha=alpha, target_relative=target_relative, cache=cache, threads=threads,
                             log=say)
-    result.seconds = time.perf_counter() - t_start
-    _record_time(store, seconds=result.seconds)
-    return result

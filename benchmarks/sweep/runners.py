@@ -32,14 +32,19 @@ def _failed(job, exc, *, failures, say) -> None:
     say(f"FAILED {job.label}: {type(exc).__name__}: {exc}")
 
 
-def run_local(todo, refs, store, *, threads, variant, keep, bar, say, failures) -> int:
+class _Tally:
+    done = 0
+
+
+def run_local(todo, refs, store, *, threads, variant, keep, bar, say, failures, tally=None) -> int:
     """Run ``todo`` here, one job at a time with ``threads`` threads; returns the jobs stored.
 
     ``refs`` maps (scene, width, height) to its :class:`benchmarks.references.Reference`;
     ``keep(job)`` gives ``(keep_image, keep_stats)``; failures are appended to ``failures``
-    as (label, error text).
+    as (label, error text). ``tally.done`` (when given) counts the jobs stored as they are
+    stored, so an interrupted caller still knows how many.
     """
-    done = 0
+    tally = _Tally() if tally is None else tally
     for job in todo:
         bar.current(job.label)
         ki, ks = keep(job)
@@ -53,12 +58,12 @@ def run_local(todo, refs, store, *, threads, variant, keep, bar, say, failures) 
             bar.advance(job.cost)
             continue
         store_result(store, res)
-        done += 1
+        tally.done += 1
         bar.advance(job.cost)
-    return done
+    return tally.done
 
 
-def run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, poll=2.0) -> int:
+def run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, poll=2.0, tally=None) -> int:
     """One job per worker: each task is pinned to an idle worker (any thread count).
 
     ``address`` is a scheduler address or a ``distributed.Client``; the other arguments
@@ -78,7 +83,7 @@ def run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, p
             raise ValueError(f"cannot reach the Dask scheduler at {address!r}: {exc}") from exc
     try:
         queue = _DaskQueue(client, store, address=address, variant=variant, keep=keep, bar=bar, say=say,
-                           failures=failures, poll=poll)
+                           failures=failures, poll=poll, tally=_Tally() if tally is None else tally)
         return queue.run(todo, refs)
     finally:
         if own:
@@ -88,12 +93,12 @@ def run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, p
 class _DaskQueue:
     """The jobs of one :func:`run_dask` call: pending, running (future -> (job, worker)), done."""
 
-    def __init__(self, client, store, *, address, variant, keep, bar, say, failures, poll):
+    def __init__(self, client, store, *, address, variant, keep, bar, say, failures, poll, tally):
         self.client, self.store, self.address = client, store, address
         self.variant, self.keep, self.bar, self.say, self.failures, self.poll = variant, keep, bar, say, failures, poll
         self.running = {}
         self.busy = set()
-        self.done = 0
+        self.tally = tally
 
     def workers(self) -> dict:
         """{worker address: its thread count}."""
@@ -127,7 +132,7 @@ class _DaskQueue:
         finally:
             for fut in self.running:
                 fut.cancel()
-        return self.done
+        return self.tally.done
 
     def _share_scene_files(self) -> None:
         """Register this process's scene files (``--scene``) on every worker (same paths there)."""
@@ -172,7 +177,7 @@ class _DaskQueue:
         self.busy.discard(addr)
         if fut.status == "finished":
             store_result(self.store, fut.result())
-            self.done += 1
+            self.tally.done += 1
         else:
             try:
                 exc = fut.exception()

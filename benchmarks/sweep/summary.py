@@ -238,10 +238,11 @@ def _store_reference(store, info) -> ImageEstimate | None:
     if not info:
         return None
     try:
-        return ImageEstimate(mean=read_image(store, info["path"]).astype(np.float64),
-                             variance=read_image(store, info["variance_path"]).astype(np.float64),
+        return ImageEstimate(mean=read_image(store, info["path"], sha256=info.get("sha256")).astype(np.float64),
+                             variance=read_image(store, info["variance_path"],
+                                                 sha256=info.get("variance_sha256")).astype(np.float64),
                              spp=int(info["spp"]), source=str(info.get("variant", "")))
-    except Exception:  # noqa: BLE001 - missing reference: figures that need it stay null
+    except Exception:  # noqa: BLE001 - missing or corrupt (checksum) reference: figures that need it stay null
         return None
 
 

@@ -45,12 +45,16 @@ template <typename Poll>
 RenderOutput render(const RenderJob& job, Poll&& poll);
 
 // Where render_pixel writes one pixel's results: three channels at each pointer; the tail
-// pointers are null when the job did not ask for moments.
+// pointers are null when the job did not ask for moments. `cancel` (when set) is polled
+// every kCancelPollSamples samples: a pixel of a huge spp stops soon after Ctrl-C, its
+// sums left unwritten (a cancelled render's image is discarded).
 struct PixelSums {
     double* sum;
     double* sum_sq;
     double* d[4] = {nullptr, nullptr, nullptr, nullptr};
     double* max = nullptr;
+    const std::atomic<bool>* cancel = nullptr;
+    static constexpr int kCancelPollSamples = 256;
 };
 
 // The radiance samples of one pixel, accumulated into `out` (M: see mutants.h). Defined in

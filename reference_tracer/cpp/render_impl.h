@@ -42,6 +42,7 @@ RenderOutput render_with(const RenderJob& job, Poll&& poll) {
                 for (int x = x0; x < x1; ++x) {
                     const size_t k = (size_t(y) * W + x) * 3;
                     PixelSums px{&out.sum[k], &out.sum_sq[k]};
+                    px.cancel = &cancel;
                     if (job.moments) {
                         px.d[0] = &tm.d1[k];
                         px.d[1] = &tm.d2[k];

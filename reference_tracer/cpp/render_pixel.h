@@ -51,23 +51,31 @@ void render_pixel(const Scene& scene, const Integrator<M>& integrator, int x, in
     double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
     const bool tails = out.max != nullptr;
     detail::TailSums t;
-    for (int i = 0; i < spp; ++i) {
-        // Box filter: the pixel value is the plain mean of samples jittered in the pixel.
-        double px = x + rng.next_double(), py = y + rng.next_double();
-        if constexpr (M == Mutant::HalfPixelJitter) {  // seeded bug: centred on the pixel's corner
-            px -= 0.5;
-            py -= 0.5;
+    // Samples in chunks of kCancelPollSamples, the cancel flag polled between chunks: no
+    // cost per sample, and a pixel of a huge spp still stops soon after Ctrl-C.
+    // (64-bit chunk index: spp may be INT_MAX.)
+    for (int64_t chunk = 0; chunk < spp; chunk += PixelSums::kCancelPollSamples) {
+        if (chunk > 0 && out.cancel && out.cancel->load(std::memory_order_relaxed))
+            return;  // cancelled: the render's image is discarded
+        const int chunk_end = int(std::min<int64_t>(spp, chunk + PixelSums::kCancelPollSamples));
+        for (int i = int(chunk); i < chunk_end; ++i) {
+            // Box filter: the pixel value is the plain mean of samples jittered in the pixel.
+            double px = x + rng.next_double(), py = y + rng.next_double();
+            if constexpr (M == Mutant::HalfPixelJitter) {  // seeded bug: centred on the pixel's corner
+                px -= 0.5;
+                py -= 0.5;
+            }
+            const Vec3 L = integrator.Li(cam.generate(px, py), rng, rays);
+            if (!is_finite(L)) {  // counted and reported; must stay 0 in every suite scene
+                ++nonfinite;
+                continue;
+            }
+            for (int c = 0; c < 3; ++c) {
+                s[c] += L[c];
+                s2[c] += L[c] * L[c];
+            }
+            if (tails) t.add(L);
         }
-        const Vec3 L = integrator.Li(cam.generate(px, py), rng, rays);
-        if (!is_finite(L)) {  // counted and reported; must stay 0 in every suite scene
-            ++nonfinite;
-            continue;
-        }
-        for (int c = 0; c < 3; ++c) {
-            s[c] += L[c];
-            s2[c] += L[c] * L[c];
-        }
-        if (tails) t.add(L);
     }
     for (int c = 0; c < 3; ++c) {
         out.sum[c] = s[c];
