@@ -21,6 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from report_store import make_store  # noqa: E402
 
 import reports  # noqa: E402
+from benchmarks.sweep.by_metric import view  # noqa: E402
 from reports.curves import curves, loglog_interp, loglog_slope, seed_comparison  # noqa: E402
 from benchmarks.display import reference_exposure  # noqa: E402
 from reports.images import error_map, pick_spps  # noqa: E402
@@ -274,19 +275,21 @@ def test_html_parses_and_embeds_every_promised_plot_and_image(report):
         sec = [a for t, a, _ in page.elements if t == "section" and a.get("id") == f"scene-{scene.replace('_', '-')}-16-16"]
         assert sec, f"no section for {scene} 16x16"
         sid = sec[0]["id"]
-        assert sec[0]["data-plots"].split() == ["rmse", "relmse", "ssim", "time"]
+        assert sec[0]["data-plots"].split() == ["rmse", "relmse", "ssim", "flip", "time"]
         assert sec[0]["data-columns"].split("|") == COLUMNS
         assert sec[0]["data-spps"].split() == ["1", "4", "16"]
         inside = [(a, anc) for a, anc in imgs if any(x.get("id") == sid for x in anc)]
         plots = {a["data-plot"] for a, _ in inside if a.get("data-kind") == "plot"}
-        assert plots == {"rmse", "relmse", "ssim", "time"}
+        assert plots == {"rmse", "relmse", "ssim", "flip", "time"}
         for spp in ("1", "4", "16"):
             shots = {a["data-column"] for a, _ in inside if a.get("data-kind") == "image" and a["data-spp"] == spp}
             errs = {a["data-column"] for a, _ in inside if a.get("data-kind") == "error" and a["data-spp"] == spp}
             assert shots == set(COLUMNS), (scene, spp, shots)
             assert errs == set(COLUMNS) - {"reference"}, (scene, spp, errs)
-        assert sum(a.get("data-kind") == "colourbar" for a, _ in inside) == 1
-        sizes = {_png_size(a["src"]) for a, _ in inside if a.get("data-kind") in ("image", "error")}
+            flips = {a["data-column"] for a, _ in inside if a.get("data-kind") == "flip" and a["data-spp"] == spp}
+            assert flips == set(COLUMNS) - {"reference"}, (scene, spp, flips)  # FLIP maps in the image grid
+        assert sum(a.get("data-kind") == "colourbar" for a, _ in inside) == 2  # relative error and FLIP
+        sizes = {_png_size(a["src"]) for a, _ in inside if a.get("data-kind") in ("image", "error", "flip")}
         assert sizes == {(16, 16)}
     # the flip and zoom wiring point at elements that exist
     wraps = [a for t, a, _ in page.elements if t == "div" and "shotwrap" in a.get("class", "")]
@@ -316,23 +319,26 @@ def test_html_and_markdown_tables_hold_the_stores_numbers(store, report):
         col = {h: i for i, h in enumerate(header)}
         srows = [r for r in rows if r["scene"] == scene]
         assert len(body) == len(srows) == len(STRATEGIES) + 1
-        for r in srows:
+        for raw in srows:
+            r = view(raw, "relmse")  # the report's default metric
             label = r["strategy"] if r["renderer"] == "ours" else "Mitsuba path"
             (cells,) = [b for b in body if b[0] == label]
-            slope, lo, hi = _numbers(cells[col["slope [95% CI]"]])
+            slope, lo, hi = _numbers(cells[col["relMSE slope [95% CI]"]])
             assert _close(slope, r["slope"]) and _close(lo, r["slope_ci"][0]) and _close(hi, r["slope_ci"][1])
             b2, se = _numbers(cells[col["bias² ± s.e."]])
             assert _close(b2, r["bias2"]) and _close(se, r["bias2_stderr"])
             assert cells[col["bias verdict"]] == ("biased" if r["bias_significant"] else "no bias detected")
             z, p = _numbers(cells[col["z / p"]])
             assert math.isclose(z, r["bias_z"], rel_tol=6e-3) and math.isclose(p, r["bias_p"], rel_tol=6e-3)
-            for name, key in (("variance", "variance"), ("efficiency", "efficiency"),
-                              ("eff. / Mitsuba", "efficiency_vs_mitsuba"), ("target RMSE", "target_rmse"),
+            for name, key in (("variance", "variance"), ("efficiency (relMSE)", "efficiency"),
+                              ("eff. / Mitsuba", "efficiency_vs_mitsuba"), ("target relMSE", "target"),
                               ("samples/s", "samples_per_second"),
                               ("samples/s / Mitsuba", "samples_per_second_vs_mitsuba"),
                               ("time to target (s)", "time_to_target")):
                 cell = cells[col[name]]
-                if r[key] is None:
+                if r["bias_significant"] and key in ("efficiency", "efficiency_vs_mitsuba", "time_to_target"):
+                    assert cell == "biased", (name, cell)  # no efficiency for a biased estimator
+                elif r[key] is None:
                     assert cell == "–", (name, cell)
                 else:
                     (v,) = _numbers(cell)
@@ -362,12 +368,14 @@ def test_report_degrades_without_meta_and_summary(store, tmp_path):
     assert not any(a.get("data-kind") == "error" for t, a, _ in p.elements if t == "img")
 
 
-def test_report_says_when_the_seed_run_is_absent(tmp_path):
+def test_custom_report_has_no_stale_seed_comparison_section(tmp_path):
+    # issue 16: every custom report carried "seed comparison ... not reproduced here"
     st = make_store(tmp_path / "s", scenes=("spheres",), strategies=("mis",), spps=(1, 2), seeds=(0,),
                     size=8, seed_comparison=False, duplicate=False)
     page = reports.build_report(st)
-    assert "holds no run of cornell_box at 400×400" in page.read_text()
-    assert "holds no run of cornell_box at 400×400" in (st / "summary.md").read_text()
+    for text in (page.read_text(), (st / "summary.md").read_text()):
+        assert "not reproduced here" not in text and "Seed comparison" not in text
+        assert 'id="seed"' not in text and 'href="#seed"' not in text
 
 
 def test_cli_report_and_summary_table(store, tmp_path, capsys):
@@ -512,3 +520,55 @@ def test_page_in_headless_chromium(chromium, report, tmp_path):
     keep = os.environ.get("RTBENCH_REPORT_SCREENSHOT")
     if keep:
         shutil.copy(shot, keep)
+
+
+# ----------------------------------------------------------------------------------------- formats (issue 16)
+
+def test_report_formats_write_vector_plots_and_tidy_csvs(store, tmp_path):
+    import csv
+
+    from reports.tidy import CURVE_COLUMNS, SUMMARY_COLUMNS
+
+    out = tmp_path / "all"
+    written = reports.write_report(store, out=out, formats=("html", "svg", "pdf", "csv"), metric="relmse")
+    assert written["report"] == out / "index.html" and (out / "summary.md").exists()
+    for scene in SCENES:
+        for kind in ("rmse", "relmse", "ssim", "flip", "time-relmse"):
+            svg, pdf = out / "plots" / f"{scene}_16x16_{kind}.svg", out / "plots" / f"{scene}_16x16_{kind}.pdf"
+            assert svg.read_text().lstrip().startswith(("<?xml", "<svg")) and "<path" in svg.read_text()
+            assert pdf.read_bytes().startswith(b"%PDF")
+    assert (out / "plots" / "seed_cornell_box_400x400_rmse.svg").exists()
+    curves_rows = list(csv.DictReader((out / "curves.csv").open()))
+    assert tuple(curves_rows[0]) == CURVE_COLUMNS
+    recs = [r for r in load_store(store).records if r["scene"] == SCENES[0] and r["width"] == 16
+            and r["strategy"] == "mixture" and r["spp"] == 4]
+    (pt,) = [r for r in curves_rows if r["scene"] == SCENES[0] and r["width"] == "16" and r["strategy"] == "mixture"
+             and r["spp"] == "4" and r["metric"] == "rmse"]
+    vals = sorted(r["rmse"] for r in recs)
+    assert float(pt["min"]) == vals[0] and float(pt["max"]) == vals[-1] and int(pt["seeds"]) == len(vals)
+    assert float(pt["median"]) == pytest.approx(float(np.median(vals)))
+    assert {r["metric"] for r in curves_rows} == {"rmse", "mse_corrected", "relmse", "ssim", "flip"}
+    summary_rows = list(csv.DictReader((out / "summary.csv").open()))
+    assert tuple(summary_rows[0]) == SUMMARY_COLUMNS
+    light = [r for r in summary_rows if r["strategy"] == "light"]
+    assert light and all(r["cost_status"] == "biased" and r["efficiency"] == "" and r["time_to_target"] == ""
+                         for r in light)
+    mis = [r for r in summary_rows if r["strategy"] == "mixture" and r["metric"] == "relmse"]
+    assert mis and all(float(r["efficiency"]) > 0 and r["cost_status"] == "" for r in mis)
+
+
+def test_metric_switches_the_page_and_the_cli(store, tmp_path, capsys):
+    from benchmarks.cli import main
+
+    out = tmp_path / "rmse"
+    assert main(["report", str(store), "--out", str(out), "--metric", "rmse", "--format", "html,csv",
+                 "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "curves.csv" in printed and "BIASED" not in printed  # --quiet: no table
+    html_rmse = (out / "index.html").read_text()
+    assert "RMSE slope [95% CI]" in html_rmse
+    assert "metric of slopes, efficiency and time to target: RMSE" in html_rmse
+    html_rel = reports.build_report(store, out=tmp_path / "rel")
+    assert "relMSE slope [95% CI]" in html_rel.read_text()
+    assert main(["report", str(store), "--format", "html,gif"]) == 2
+    assert "unknown format" in capsys.readouterr().err
