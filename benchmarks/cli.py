@@ -16,6 +16,8 @@ import argparse  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
 
+from benchmarks.commands._args import HelpFormatter  # noqa: E402  (every default shown in --help)
+
 #: subcommand -> module; listed in the order ``rtbench --help`` shows them.
 COMMANDS = {
     "run": "benchmarks.commands.run",
@@ -42,7 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
             if exc.name != module_name:
                 raise
             continue  # subcommand not part of this build
-        p = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        p = sub.add_parser(name, help=module.HELP, description=module.HELP, formatter_class=HelpFormatter)
         module.add_arguments(p)
         p.set_defaults(_run=module.run)
     return parser

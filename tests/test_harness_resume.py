@@ -100,7 +100,7 @@ def test_rtbench_run_end_to_end_on_one_scene(tmp_path_factory):
     """`rtbench run` (quick preset, one scene): store, summary, report and the printed table."""
     cache = cache_root(tmp_path_factory)
     out = tmp_path_factory.mktemp("run") / "quick"
-    proc = rtbench("run", "--scenes", "furnace", "--out", out, "--quiet", cache=cache)
+    proc = rtbench("run", "--scenes", "furnace", "--out", out, cache=cache)
     assert "rtbench summary" in proc.stdout and "furnace" in proc.stdout
     assert f"results: {out.resolve()}" in proc.stdout
     recs = read_records(out)

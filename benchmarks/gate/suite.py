@@ -199,7 +199,7 @@ def gate_scene(name: str, *, width: int = DEFAULT_WIDTH, height: int | None = No
 
 
 def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=None, cache=None,
-                   log=None) -> Reference:
+                   log=None, variant: str | None = None) -> Reference:
     """The reference of suite scene ``name``: its closed form, or the cached Mitsuba render.
 
     The closed form (:func:`benchmarks.references.closed_form_reference_of`: ``furnace``)
@@ -213,8 +213,9 @@ def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=
         The scene at the gate's size.
     ref_spp : int, keyword-only
         Mitsuba samples per pixel (rendered and cached when missing).
-    threads, cache, log : keyword-only
-        Passed to :func:`benchmarks.references.reference`.
+    threads, cache, log, variant : keyword-only
+        Passed to :func:`benchmarks.references.reference` (``variant``: the Mitsuba
+        variant, default the fastest that works).
 
     Returns
     -------
@@ -231,7 +232,7 @@ def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=
     if exact is not None:
         return exact
     ref_spp = positive_int("ref_spp", ref_spp, minimum=2)
-    return mitsuba_reference(scene, spp=ref_spp, threads=threads, cache=cache, log=log)
+    return mitsuba_reference(scene, spp=ref_spp, threads=threads, cache=cache, log=log, variant=variant)
 
 
 def compare_render(mean, variance, spp: int, reference: Reference, *, alpha: float = GATE_ALPHA,
@@ -275,7 +276,8 @@ def resolve_strategies(strategies) -> list:
 def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int = DEFAULT_WIDTH,
              height: int | None = None, ref_spp: int = DEFAULT_REF_SPP, alpha: float = GATE_ALPHA,
              seed: int = DEFAULT_SEED, threads: int | None = None, cache=None, log=None,
-             on_reference=None, on_case=None, tail_spp: int = DEFAULT_TAIL_SPP) -> GateReport:
+             on_reference=None, on_case=None, tail_spp: int = DEFAULT_TAIL_SPP,
+             variant: str | None = None) -> GateReport:
     """Render each scene with our tracer and compare it with its reference.
 
     Parameters
@@ -312,6 +314,8 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
         :func:`benchmarks.tails.tail_reference`) that give each comparison the variance and
         tail shape of the estimator under test; 0 compares without them (the older rule,
         which cries wolf on heavy-tailed strategies: ``benchmarks/STATISTICS.md``).
+    variant : str or None, keyword-only
+        Mitsuba variant of the references (None: the fastest that works).
 
     Returns
     -------
@@ -343,7 +347,7 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
             on_reference(name, "start", None)
         t0 = time.perf_counter()
         refs[name] = gate_reference(name, scenes_built[name], ref_spp=ref_spp, threads=threads, cache=cache,
-                                    log=log)
+                                    log=log, variant=variant)
         ref_seconds += time.perf_counter() - t0
         if on_reference:
             on_reference(name, "done", refs[name])
