@@ -9,7 +9,8 @@ body { margin:0; font:14px/1.45 system-ui, -apple-system, "Segoe UI", Roboto, "D
 header.top { background:#20242c; color:#f2f3f5; padding:18px 28px 14px; }
 header.top h1 { margin:0 0 4px; font-size:22px; font-weight:600; }
 header.top .sub { color:#b8bec9; font-size:13px; }
-nav.toc { padding:8px 28px; background:#2b303a; position:sticky; top:0; z-index:10; font-size:13px; }
+nav.toc { padding:8px 28px; background:#2b303a; position:sticky; top:0; z-index:10; font-size:13px;
+          display:flex; flex-wrap:wrap; row-gap:2px; }
 nav.toc a { color:#d7e6ff; margin-right:16px; text-decoration:none; white-space:nowrap; }
 nav.toc a:hover { text-decoration:underline; }
 main { max-width:1560px; margin:0 auto; padding:8px 28px 40px; }

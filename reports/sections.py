@@ -61,7 +61,8 @@ class Section:
     metric: str = DEFAULT_METRIC
     equal_time: tuple = (math.nan, {})
     table: list = field(default_factory=list)
-    rows: list = field(default_factory=list)
+    rows: list = field(default_factory=list)       # summary rows as seen under ``metric`` (views)
+    raw_rows: list = field(default_factory=list)   # summary rows as stored
     target: float = math.nan
     image_rows: list = field(default_factory=list)  # [(spp, [Cell])]
     columns: list = field(default_factory=list)     # column labels of the image rows
@@ -85,7 +86,8 @@ def build_section(store: Store, scene: str, width, height, *, problems: list,
     """Plots, statistics table and image rows of one (scene, width, height) under ``metric``; problems appended."""
     sec = Section(scene, width, height, id=slug("scene", scene, width, height), metric=metric)
     recs = store.section_records(scene, width, height)
-    sec.rows = [view(r, metric) for r in store.section_rows(scene, width, height)]
+    sec.raw_rows = store.section_rows(scene, width, height)
+    sec.rows = [view(r, metric) for r in sec.raw_rows]
     sec.table = stats_table(sec.rows)
     if metric == "rmse":
         targets = store.meta.get("target_rmse") if isinstance(store.meta.get("target_rmse"), dict) else {}
@@ -123,7 +125,7 @@ def metric_records(recs: list[dict], metric: str) -> list[dict]:
 def _slopes(sec: Section, cs, metric: str) -> dict:
     """Legend slopes: the summary's under ``metric`` where it has one, else fitted here on the medians."""
     summary = {}
-    for r in sec.rows:
+    for r in sec.raw_rows:
         s = num(view(r, metric).get("slope"))
         if math.isfinite(s):
             summary[(r["renderer"], r["strategy"])] = (s, "")
@@ -141,7 +143,7 @@ def _section_plots(sec: Section, recs: list[dict]) -> None:
     if rmse:
         _add_plot(sec, "rmse", plots.convergence_plot(
             rmse, title=f"{title}: RMSE vs spp", ylabel="RMSE", slopes=_slopes(sec, rmse, "rmse"), guide_slope=-0.5,
-            target=num(view(sec.rows[0], "rmse").get("target")) if sec.rows else None),
+            target=num(view(sec.raw_rows[0], "rmse").get("target")) if sec.raw_rows else None),
             "RMSE against the reference vs samples per pixel (log-log). Lines: median over seeds; bands: min to "
             "max; dashed: slope -1/2 (unbiased Monte Carlo). Legend slopes are the harness's fits (summary.json) "
             "unless marked 'fit here'.")

@@ -417,6 +417,12 @@ window.addEventListener("load", function () {
   var imgs = Array.prototype.slice.call(document.images);
   r.images = imgs.length;
   r.broken = imgs.filter(function (i) { return !(i.complete && i.naturalWidth > 0); }).length;
+  var plots = imgs.filter(function (i) { return i.getAttribute("data-kind") === "plot"; });
+  r.plots = plots.length;
+  r.plots_loaded = plots.filter(function (i) {
+    return i.complete && i.naturalWidth >= 200 && i.naturalHeight >= 150 && i.getBoundingClientRect().width > 100;
+  }).length;
+  r.flipmaps = imgs.filter(function (i) { return i.getAttribute("data-kind") === "flip" && i.naturalWidth > 0; }).length;
   var cs = Array.prototype.slice.call(document.querySelectorAll("canvas.zoom"));
   r.canvases = cs.length;
   r.drawn = cs.filter(function (c) {
@@ -437,7 +443,57 @@ window.addEventListener("load", function () {
   r.escape = img.src === own;
   document.dispatchEvent(new KeyboardEvent("keydown", {key: "+"}));
   r.zoomlabel = document.querySelector(".zoomlevel").textContent;
+  // zoom: moving the pointer over an image moves the crop of every column of its row
+  var row = w.closest(".cmp-row"), rect = img.getBoundingClientRect();
+  var canvases = Array.prototype.slice.call(row.querySelectorAll("canvas.zoom"));
+  function sig(c) {
+    var d = c.getContext("2d").getImageData(0, 0, c.width, c.height).data, s = 0;
+    for (var i = 0; i < d.length; i += 4) s = (s * 31 + d[i] + 7 * d[i + 1] + 13 * d[i + 2]) % 1000000007;
+    return s;
+  }
+  function move(fx, fy) {
+    w.dispatchEvent(new MouseEvent("mousemove", {clientX: rect.left + fx * rect.width,
+                                                 clientY: rect.top + fy * rect.height, bubbles: true}));
+    return {sigs: canvases.map(sig), box: w.querySelector(".cropbox").style.left + "," +
+            w.querySelector(".cropbox").style.top};
+  }
+  var a = move(0.05, 0.05), b = move(0.95, 0.95);
+  r.zoom_moves = canvases.length > 1 && a.box !== b.box &&
+    a.sigs.every(function (s, i) { return s !== b.sigs[i]; });
+  r.zooming = row.classList.contains("zooming");
+  document.dispatchEvent(new KeyboardEvent("keydown", {key: "-"}));
+  document.dispatchEvent(new KeyboardEvent("keydown", {key: "-"}));
+  r.zoomout = document.querySelector(".zoomlevel").textContent;
   document.body.setAttribute("data-check", JSON.stringify(r));
+});
+</script>
+"""
+
+
+_LAYOUT = r"""
+<script>
+window.addEventListener("load", function () {
+  var inner = window.innerWidth, bad = [];
+  function scrolls(e) {  // inside a horizontally scrolling box (the wide tables) is fine
+    for (var p = e.parentElement; p; p = p.parentElement) {
+      var o = getComputedStyle(p).overflowX;
+      if (o === "auto" || o === "scroll" || o === "hidden") return true;
+    }
+    return false;
+  }
+  Array.prototype.forEach.call(document.querySelectorAll("body *"), function (e) {
+    var r = e.getBoundingClientRect();
+    if (r.width > 0 && r.right > inner + 1 && !scrolls(e) && bad.length < 5)
+      bad.push(e.tagName + "." + e.className + " in " + e.parentElement.tagName + "." +
+               e.parentElement.className + " '" + (e.textContent || "").slice(0, 30) + "' right=" + Math.round(r.right));
+  });
+  var plots = Array.prototype.map.call(document.querySelectorAll("figure.plot img"),
+                                       function (i) { return i.getBoundingClientRect().width; });
+  var fonts = Array.prototype.map.call(document.querySelectorAll("p, td, th, figcaption, .cap"),
+                                       function (e) { return parseFloat(getComputedStyle(e).fontSize); });
+  document.body.setAttribute("data-layout", JSON.stringify({
+    inner: inner, scroll: document.documentElement.scrollWidth, overflowing: bad,
+    min_plot: Math.min.apply(null, plots), min_font: Math.min.apply(null, fonts)}));
 });
 </script>
 """
@@ -506,6 +562,13 @@ def test_page_in_headless_chromium(chromium, report, tmp_path):
     assert check["canvases"] > 0 and check["drawn"] == check["canvases"]
     assert check["flip"] and check["unflip"] and check["keyflip"] and check["escape"]
     assert check["zoomlabel"] == "×8"
+    # every plot the sections promise (data-plots) and the seed plot loads; FLIP maps decode
+    promised = sum(len(p.split()) for p in re.findall(r'data-plots="([^"]*)"', text)) + 1
+    assert promised >= 5 * len(SCENES) + 1
+    assert check["plots"] == promised and check["plots_loaded"] == promised
+    assert check["flipmaps"] > 0
+    # zoom follows the pointer in every column of the row; - and + change the zoom
+    assert check["zoom_moves"] and check["zooming"] and check["zoomout"] == "×2"
 
     # 3. a screenshot that is not blank
     from PIL import Image
@@ -520,6 +583,28 @@ def test_page_in_headless_chromium(chromium, report, tmp_path):
     keep = os.environ.get("RTBENCH_REPORT_SCREENSHOT")
     if keep:
         shutil.copy(shot, keep)
+
+    # 4. layout at a desktop width and at phone width: nothing wider than the window. Headless
+    # windows are at least 500 px wide, so the phone is an iframe of 390 px in a 1400 px window.
+    lay = tmp_path / "layout.html"
+    lay.write_text(text.replace("</body>", _LAYOUT + "</body>", 1), encoding="utf-8")
+    for width, height in ((1400, 900), (390, 844)):
+        frame = tmp_path / f"frame{width}.html"
+        frame.write_text(f'<!DOCTYPE html><html><body style="margin:0"><iframe id="f" src="{lay.name}" '
+                         f'style="border:0;width:{width}px;height:{height}px"></iframe><script>'
+                         'window.addEventListener("load", function () { document.body.setAttribute("data-layout", '
+                         'document.getElementById("f").contentDocument.body.getAttribute("data-layout")); });'
+                         "</script></body></html>", encoding="utf-8")
+        res = _chromium(chromium, tmp_path, "--window-size=1400,900", "--virtual-time-budget=3000",
+                        "--allow-file-access-from-files", "--dump-dom", frame.as_uri())
+        m = re.search(r'data-layout="([^"]*)"', res.stdout)
+        assert m, res.stderr[-2000:]
+        layout = json.loads(_html.unescape(m.group(1)))
+        assert layout["inner"] == width, layout
+        assert layout["scroll"] <= layout["inner"], f"horizontal overflow at {width} px: {layout}"
+        assert layout["overflowing"] == [], layout
+        assert layout["min_plot"] > 0.8 * min(520, width - 60), layout  # plots stay readable
+        assert layout["min_font"] >= 10, layout
 
 
 # ----------------------------------------------------------------------------------------- formats (issue 16)
@@ -572,3 +657,19 @@ def test_metric_switches_the_page_and_the_cli(store, tmp_path, capsys):
     assert "relMSE slope [95% CI]" in html_rel.read_text()
     assert main(["report", str(store), "--format", "html,gif"]) == 2
     assert "unknown format" in capsys.readouterr().err
+
+
+def test_each_plot_legend_uses_its_own_metrics_slopes(store):
+    # regression: under --metric relmse the RMSE plot's legend showed the relMSE slopes
+    from reports.sections import _slopes, build_section
+    from reports.curves import curves as make_curves
+
+    st = load_store(store)
+    sec = build_section(st, "cornell_box", 16, 16, problems=[], metric="relmse")
+    recs = st.section_records("cornell_box", 16, 16)
+    raw = {(r["renderer"], r["strategy"]): r for r in st.section_rows("cornell_box", 16, 16)}
+    rmse = _slopes(sec, make_curves(recs, "rmse"), "rmse")
+    rel = _slopes(sec, make_curves(recs, "relmse"), "relmse")
+    for key, (slope, note) in rmse.items():
+        assert slope == raw[key]["slope"] and note == ""
+        assert rel[key][0] == raw[key]["by_metric"]["relmse"]["slope"]
