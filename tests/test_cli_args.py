@@ -138,3 +138,16 @@ def test_bad_option_value_is_exit_2(capsys):
     assert main(["render", "cornell_box", "--spp", "0"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--spp must be >= 1" in err[0]
+
+
+def test_render_names_every_setting_and_renders_mitsuba_on_request(tmp_path, capsys):
+    args = ["render", "cornell_box", "--width", "8", "--spp", "2", "--strategies", "mis,light", "--threads", "1",
+            "--out", str(tmp_path), "--quiet"]
+    assert main(args) == 0
+    assert main(args[:-1] + ["--seed", "1", "--quiet"]) == 0          # another seed: new files, none overwritten
+    assert main(args + ["--mitsuba", "--variant", "scalar_rgb"]) == 0
+    names = sorted(p.name for p in tmp_path.glob("*.exr"))
+    assert names == ["cornell_box_8x8_light_spp2_seed0.exr", "cornell_box_8x8_light_spp2_seed1.exr",
+                     "cornell_box_8x8_mis_spp2_seed0.exr", "cornell_box_8x8_mis_spp2_seed1.exr",
+                     "cornell_box_8x8_mitsuba-scalar_rgb_spp2_seed0.exr"]
+    assert "NaN/Inf" not in capsys.readouterr().out  # --quiet: only the 'wrote' lines
