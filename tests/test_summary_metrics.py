@@ -73,3 +73,21 @@ def test_view_switches_the_summary_and_biased_rows_show_no_cost():
 def test_unknown_metric_is_a_clear_error():
     with pytest.raises(ValueError, match="unknown metric"):
         require_metric("psnr")
+
+
+def test_exact_estimator_gets_no_efficiency_under_any_metric(tmp_path_factory):
+    # regression: mis in the furnace has no error but float rounding; its relMSE efficiency read ~1e27
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from harness_util import cache_root
+
+    from benchmarks.sweep import Group, run_sweep
+
+    g = Group(scenes=("furnace",), strategies=("mis",), spps=(2, 4), seeds=2, width=8, height=8, mitsuba=False)
+    res = run_sweep([g], out=tmp_path_factory.mktemp("exact") / "s", threads=2, progress=False,
+                    cache=cache_root(tmp_path_factory))
+    (row,) = res.rows
+    assert row["efficiency_source"] == "exact (zero variance)" and row["efficiency"] is None
+    assert all(f["efficiency"] is None for f in row["by_metric"].values())

@@ -239,6 +239,10 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     row["rmse_at_top"] = math.sqrt(mse_p[-1]) if mse_p[-1] >= 0 else None
     row["by_metric"] = curve_metrics(by_spp, secs, ref=ref, target_rmse=target, unbiased=unbiased,
                                      variance_image=tail_variance_image(tails) if tails is not None else None)
+    if row.get("efficiency_source") == "exact (zero variance)":
+        # float rounding is all the error there is: no efficiency under any metric (it was ~1e27)
+        for fig in row["by_metric"].values():
+            fig.update(efficiency=None, efficiency_source="exact (zero variance)")
     return row
 
 
