@@ -333,13 +333,14 @@ def _error_maps(sec: Section, grid: list, maps: dict) -> None:
 
 
 def equal_time_text(sec: Section) -> str:
-    """The sentence comparing the curves' RMSE at equal render time (empty when none)."""
+    """The sentence comparing the curves' error (the section's metric) at equal render time (empty when none)."""
     budget, at = sec.equal_time
     if not at:
         return ""
+    label = SPECS[sec.metric].label
     parts = sorted(at.items(), key=lambda kv: curve_order(kv[0]))
     return (f"At equal time ({fmt(budget, 3)} s): " +
-            ", ".join(f"{curve_label(*k)} RMSE {fmt(v, 3)}" for k, v in parts) + ".")
+            ", ".join(f"{curve_label(*k)} {label} {fmt(v, 3)}" for k, v in parts) + ".")
 
 
 def seed_lines(cmp: dict | None) -> tuple[list[str], list[list[str]]]:

@@ -655,6 +655,9 @@ def test_metric_switches_the_page_and_the_cli(store, tmp_path, capsys):
     assert "metric of slopes, efficiency and time to target: RMSE" in html_rmse
     html_rel = reports.build_report(store, out=tmp_path / "rel")
     assert "relMSE slope [95% CI]" in html_rel.read_text()
+    # the equal-time sentence names the metric it compares (it said RMSE for relMSE values)
+    assert re.search(r"At equal time \([^)]*\): uniform relMSE ", html_rel.read_text())
+    assert re.search(r"At equal time \([^)]*\): uniform RMSE ", html_rmse)
     assert main(["report", str(store), "--format", "html,gif"]) == 2
     assert "unknown format" in capsys.readouterr().err
 
