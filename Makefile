@@ -10,7 +10,7 @@ setup:
 	bash scripts/setup.sh
 
 report: setup
-	$(VENV)/bin/rtbench run --preset $(PRESET)
+	$(VENV)/bin/rtbench run --preset $(PRESET) --format html,svg,pdf,csv
 
 test: setup
 	$(PY) -m pytest

@@ -25,6 +25,8 @@ import traceback  # noqa: E402
 
 from benchmarks.errors import EXIT_CODES_HELP, EXIT_USAGE, exit_code, one_line  # noqa: E402
 
+from benchmarks.commands._args import HelpFormatter  # noqa: E402  (every default shown in --help)
+
 #: subcommand -> module; listed in the order ``rtbench --help`` shows them.
 COMMANDS = {
     "run": "benchmarks.commands.run",
@@ -101,7 +103,7 @@ def build_parser() -> argparse.ArgumentParser:
             continue  # subcommand not part of this build
         # help is %-formatted by argparse, the description is not
         p = sub.add_parser(name, help=module.HELP.replace("%", "%%"), description=module.HELP,
-                           epilog=EXIT_CODES_HELP)
+                           epilog=EXIT_CODES_HELP, formatter_class=HelpFormatter)
         module.add_arguments(p)
         p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                        help="show the traceback of an error (same as `rtbench --debug`)")

@@ -6,7 +6,7 @@ Examples
 >>> page = reports.build_report("reports/out/quick")        # doctest: +SKIP
 >>> print(reports.summary_table("reports/out/quick"))       # doctest: +SKIP
 """
-from .build import PLOT_KINDS, build_report, summary_table
+from .build import FORMATS, PLOT_KINDS, build_report, summary_table, write_report
 from .store import Store, load_store
 
-__all__ = ["build_report", "summary_table", "load_store", "Store", "PLOT_KINDS"]
+__all__ = ["build_report", "write_report", "summary_table", "load_store", "Store", "PLOT_KINDS", "FORMATS"]

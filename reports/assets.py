@@ -9,7 +9,8 @@ body { margin:0; font:14px/1.45 system-ui, -apple-system, "Segoe UI", Roboto, "D
 header.top { background:#20242c; color:#f2f3f5; padding:18px 28px 14px; }
 header.top h1 { margin:0 0 4px; font-size:22px; font-weight:600; }
 header.top .sub { color:#b8bec9; font-size:13px; }
-nav.toc { padding:8px 28px; background:#2b303a; position:sticky; top:0; z-index:10; font-size:13px; }
+nav.toc { padding:8px 28px; background:#2b303a; position:sticky; top:0; z-index:10; font-size:13px;
+          display:flex; flex-wrap:wrap; row-gap:2px; }
 nav.toc a { color:#d7e6ff; margin-right:16px; text-decoration:none; white-space:nowrap; }
 nav.toc a:hover { text-decoration:underline; }
 main { max-width:1560px; margin:0 auto; padding:8px 28px 40px; }
@@ -28,11 +29,12 @@ table.data tr:nth-child(even) td { background:#fafbfc; }
 table.data tr.mitsuba td { background:#f4f4f4; font-weight:500; }
 td.biased { color:var(--bad); background:var(--badbg) !important; font-weight:600; }
 td.unbiased { color:var(--good); background:var(--goodbg) !important; }
+td.nocost { color:var(--muted); font-style:italic; }
 .tablewrap { overflow-x:auto; }
 table.facts { border-collapse:collapse; font-size:13px; }
 table.facts th { text-align:left; color:var(--muted); font-weight:500; padding:2px 18px 2px 0; vertical-align:top; }
 table.facts td { padding:2px 0; }
-.plots { display:grid; grid-template-columns:repeat(auto-fit, minmax(520px, 1fr)); gap:12px 18px; }
+.plots { display:grid; grid-template-columns:repeat(auto-fit, minmax(min(520px, 100%), 1fr)); gap:12px 18px; }
 figure { margin:0; }
 figure.plot img { width:100%; height:auto; border:1px solid var(--line); border-radius:4px; background:white; }
 figcaption { font-size:12px; color:var(--muted); margin-top:2px; }
@@ -55,6 +57,7 @@ img.shot { cursor:pointer; }
            pointer-events:none; display:none; }
 .cmp-row.zooming .cropbox { display:block; }
 .cell.sub { display:grid; grid-template-columns:1fr 1fr; gap:4px; margin-top:4px; }
+.cell.sub.three { grid-template-columns:1fr 1fr 1fr; }
 .cell .cap, .cell.cap { font-size:11px; color:var(--muted); line-height:1.3; margin:2px 0 4px; font-variant-numeric:tabular-nums; }
 canvas.zoom { width:100%; height:auto; image-rendering:pixelated; background:#111; border-radius:2px; }
 .empty { display:flex; align-items:center; justify-content:center; aspect-ratio:1/1; background:#eceef1;
@@ -67,7 +70,15 @@ dl.formulas dt { font-weight:600; margin-top:6px; }
 dl.formulas dd { margin:0 0 0 18px; color:#333a45; }
 ul.problems li { color:var(--bad); }
 .big { font-size:15px; }
-footer { color:var(--muted); font-size:12px; text-align:center; padding:10px; }
+footer { color:var(--muted); font-size:12px; text-align:center; padding:10px; overflow-wrap:anywhere; }
+table.facts td { overflow-wrap:anywhere; }
+@media (max-width: 700px) {
+  header.top { padding:12px 12px 10px; }
+  nav.toc { padding:6px 12px; }
+  main { padding:4px 8px 24px; }
+  section.card { padding:10px 10px 12px; }
+  .cell .cap, .cell.cap { font-size:10px; }
+}
 """
 
 JS = r"""

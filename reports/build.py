@@ -1,41 +1,50 @@
-"""Assemble the report: ``index.html`` (self-contained) and ``summary.md`` from a results store."""
+"""Assemble the report from a results store: ``index.html`` (self-contained) and ``summary.md`` (html),
+every plot as SVG and PDF (svg, pdf), tidy CSVs of the curves and the summary (csv)."""
 from __future__ import annotations
 
 import math
 from pathlib import Path
 
 from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP
+from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS, require_metric, view
 
 from . import plots
 from .curves import curve_label, seed_comparison
 from .html import page_html
 from .sections import PLOT_KINDS, Section, build_section, equal_time_text, seed_lines
 from .store import Store, load_store
-from .tables import COLUMNS, FORMULAS, facts_table, fmt, markdown_table, text_table
+from .tables import FORMULAS, columns, facts_table, fmt, markdown_table, text_table
+from .tidy import curves_csv, summary_csv
 
-__all__ = ["build_report", "summary_table", "PLOT_KINDS"]
+__all__ = ["build_report", "write_report", "summary_table", "PLOT_KINDS", "FORMATS", "plot_file_stem"]
+
+#: what :func:`write_report` can write.
+FORMATS = ("html", "svg", "pdf", "csv")
 
 
 # ----------------------------------------------------------------------------------------- Markdown
 
-def _markdown(store: Store, sections: list[Section], cmp, problems: list) -> str:
-    out = [f"# rtbench report — {store.path.name}", "", "## Run facts", "",
+def _markdown(store: Store, sections: list[Section], cmp, problems: list, metric: str = DEFAULT_METRIC) -> str:
+    out = [f"# rtbench report — {store.path.name}", "",
+           f"Metric of slopes, efficiency and time to target: {SPECS[metric].label}. Efficiency and time to "
+           "target are shown only where no bias was detected.", "", "## Run facts", "",
            markdown_table(["fact", "value"], facts_table(store.meta, n_records=len(store.records),
                                                          n_raw=store.n_raw_records, records=store.records)), ""]
     for sec in sections:
         out += [f"## {sec.title}", ""]
         if sec.table:
-            out += [markdown_table([h for h, _ in COLUMNS], sec.table), ""]
+            out += [markdown_table([h for h, _ in columns(sec.metric)], sec.table), ""]
         else:
             out += ["summary.json holds no rows for this scene and size.", ""]
         et = equal_time_text(sec)
         if et:
             out += [et, ""]
         out += [f"- {n}" for n in sec.notes] + ([""] if sec.notes else [])
-    lines, rows = seed_lines(cmp)
-    out += [f"## Seed comparison: uniform vs light on {SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}", ""] + lines + [""]
-    if rows:
-        out += [markdown_table(["spp", "uniform RMSE", "light RMSE"], rows), ""]
+    if cmp is not None:  # only where the store holds the seed's runs
+        lines, rows = seed_lines(cmp)
+        out += [f"## Seed comparison: uniform vs light on {SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}", ""] + lines + [""]
+        if rows:
+            out += [markdown_table(["spp", "uniform RMSE", "light RMSE"], rows), ""]
     out += ["## Metric definitions", ""] + [f"- **{k}**: {v}" for k, v in FORMULAS] + [""]
     if problems:
         out += ["## Problems found in the store", ""] + [f"- {p}" for p in problems] + [""]
@@ -44,16 +53,49 @@ def _markdown(store: Store, sections: list[Section], cmp, problems: list) -> str
 
 # ----------------------------------------------------------------------------------------- API
 
-def _collect(store: Store):
+def _collect(store: Store, metric: str):
     problems = list(store.problems)
-    sections = [build_section(store, *k, problems=problems) for k in store.sections()]
+    sections = [build_section(store, *k, problems=problems, metric=metric) for k in store.sections()]
     cmp = seed_comparison(store.records)
-    seed_png = plots.seed_plot(cmp) if cmp is not None else None
-    return sections, cmp, seed_png, problems
+    seed_fig = plots.seed_plot(cmp) if cmp is not None else None
+    return sections, cmp, seed_fig, problems
 
 
-def build_report(store, *, out=None) -> Path:
-    """Write ``index.html`` (self-contained) and ``summary.md`` for a results store.
+def plot_file_stem(sec: Section, kind: str) -> str:
+    """File name (without extension) of a section's plot: scene, size and metric.
+
+    ``time`` plots are named by the metric they show: ``<scene>_<W>x<H>_time-<metric>``.
+    """
+    size = f"_{sec.width}x{sec.height}" if sec.width and sec.height else ""
+    what = f"time-{sec.metric}" if kind == "time" else kind
+    return f"{sec.scene}{size}_{what}"
+
+
+def _write_atomic(path: Path, data) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    if isinstance(data, str):
+        tmp.write_text(data, encoding="utf-8")
+    else:
+        tmp.write_bytes(data)
+    tmp.replace(path)
+
+
+def _vector_files(dest: Path, sections: list[Section], seed_fig, fmt_: str) -> list[Path]:
+    folder = dest / "plots"
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
+    figs = [(plot_file_stem(sec, kind), fig) for sec in sections for kind, fig in sec.figures.items()]
+    if seed_fig is not None:
+        figs.append((f"seed_{SEED_SCENE}_{SEED_SIZE}x{SEED_SIZE}_rmse", seed_fig))
+    for stem, fig in figs:
+        path = folder / f"{stem}.{fmt_}"
+        _write_atomic(path, plots.figure_bytes(fig, fmt_))
+        out.append(path)
+    return out
+
+
+def write_report(store, *, out=None, formats=("html",), metric: str = DEFAULT_METRIC) -> dict:
+    """Write the report of a results store in the given formats.
 
     Parameters
     ----------
@@ -61,6 +103,65 @@ def build_report(store, *, out=None) -> Path:
         The results store folder (see :func:`reports.store.load_store`).
     out : str or Path, optional
         Folder to write into (created if needed); default: the store folder.
+    formats : sequence of {'html', 'svg', 'pdf', 'csv'}, keyword-only
+        ``html``: ``index.html`` (self-contained) and ``summary.md``; ``svg``, ``pdf``: every
+        plot as a vector file in ``plots/``, named ``<scene>_<W>x<H>_<metric>`` (the
+        error-vs-time plot ``..._time-<metric>``); ``csv``: ``curves.csv`` and
+        ``summary.csv`` (:mod:`reports.tidy`).
+    metric : {'rmse', 'relmse', 'ssim', 'flip'}, keyword-only
+        The error behind slopes, efficiency and time to target in tables and the time plot.
+
+    Returns
+    -------
+    dict
+        What was written: ``{"report": index.html, "summary": summary.md, "svg": plots/,
+        "pdf": plots/, "curves.csv": ..., "summary.csv": ...}`` (the keys of the formats asked).
+
+    Raises
+    ------
+    ValueError
+        If ``store`` is not a results store, ``out`` exists and is not a folder, a format is
+        unknown, or ``metric`` is unknown (or FLIP without its package).
+    """
+    formats = tuple(dict.fromkeys(formats))
+    bad = [f for f in formats if f not in FORMATS]
+    if bad or not formats:
+        raise ValueError(f"unknown report format(s) {bad or '(none)'}; choose from {', '.join(FORMATS)}")
+    require_metric(metric)
+    st = load_store(store)
+    dest = Path(out).expanduser() if out is not None else st.path
+    if dest.exists() and not dest.is_dir():
+        raise ValueError(f"report output {str(dest)!r} exists and is not a folder")
+    sections, cmp, seed_fig, problems = _collect(st, metric)
+    dest.mkdir(parents=True, exist_ok=True)
+    written = {}
+    if "html" in formats:
+        seed_png = plots.png_bytes(seed_fig) if seed_fig is not None else None
+        _write_atomic(dest / "index.html", page_html(st, sections, cmp, seed_png, problems, metric=metric))
+        _write_atomic(dest / "summary.md", _markdown(st, sections, cmp, problems, metric))
+        written.update(report=dest / "index.html", summary=dest / "summary.md")
+    for fmt_ in ("svg", "pdf"):
+        if fmt_ in formats:
+            _vector_files(dest, sections, seed_fig, fmt_)
+            written[fmt_] = dest / "plots"
+    if "csv" in formats:
+        _write_atomic(dest / "curves.csv", curves_csv(st))
+        _write_atomic(dest / "summary.csv", summary_csv(st))
+        written.update({"curves.csv": dest / "curves.csv", "summary.csv": dest / "summary.csv"})
+    return written
+
+
+def build_report(store, *, out=None, formats=("html",), metric: str = DEFAULT_METRIC) -> Path:
+    """Write the report (:func:`write_report`) and return its ``index.html``.
+
+    Parameters
+    ----------
+    store : str or Path
+        The results store folder (see :func:`reports.store.load_store`).
+    out : str or Path, optional
+        Folder to write into (created if needed); default: the store folder.
+    formats, metric : keyword-only
+        As for :func:`write_report`; ``html`` is always written.
 
     Returns
     -------
@@ -78,45 +179,38 @@ def build_report(store, *, out=None) -> Path:
     >>> build_report("reports/out/quick")  # doctest: +SKIP
     PosixPath('reports/out/quick/index.html')
     """
-    st = load_store(store)
-    dest = Path(out).expanduser() if out is not None else st.path
-    if dest.exists() and not dest.is_dir():
-        raise ValueError(f"report output {str(dest)!r} exists and is not a folder")
-    sections, cmp, seed_png, problems = _collect(st)
-    dest.mkdir(parents=True, exist_ok=True)
-    page = dest / "index.html"
-    tmp = dest / "index.html.tmp"
-    tmp.write_text(page_html(st, sections, cmp, seed_png, problems), encoding="utf-8")
-    tmp.replace(page)
-    (dest / "summary.md").write_text(_markdown(st, sections, cmp, problems), encoding="utf-8")
-    return page
+    formats = ("html",) + tuple(f for f in formats if f != "html")
+    return write_report(store, out=out, formats=formats, metric=metric)["report"]
 
 
-def summary_table(store) -> str:
-    """A one-screen plain-text summary of a store: per scene and strategy, the key figures.
+def summary_table(store, *, metric: str = DEFAULT_METRIC) -> str:
+    """A one-screen plain-text summary of a store: per scene and strategy, the key figures under ``metric``.
 
     Parameters
     ----------
     store : str, Path or Store
+    metric : {'rmse', 'relmse', 'ssim', 'flip'}, keyword-only
 
     Returns
     -------
     str
     """
     st = store if isinstance(store, Store) else load_store(store)
-    header = ["scene", "size", "strategy", "slope", "bias", "eff/Mitsuba", "t->target s", "samples/s", "/Mitsuba"]
+    header = ["scene", "size", "strategy", f"{SPECS[metric].label} slope", "bias", "eff/Mitsuba", "t->target s",
+              "samples/s", "/Mitsuba"]
     rows = []
     for scene, w, h in st.sections():
-        for r in st.section_rows(scene, w, h):
+        for r in (view(x, metric) for x in st.section_rows(scene, w, h)):
             sig = r.get("bias_significant")
             rows.append([scene, f"{w}x{h}" if w and h else "?", curve_label(r["renderer"], r["strategy"]),
                          fmt(r.get("slope"), 3),
                          "BIASED" if sig is True else ("ok" if sig is False else
                                                        ("undetermined" if r.get("bias_verdict") == "undetermined"
                                                         else "-")),
-                         fmt(r.get("efficiency_vs_mitsuba"), 3), fmt(r.get("time_to_target"), 3),
+                         r["cost_status"] or fmt(r.get("efficiency_vs_mitsuba"), 3),
+                         r["cost_status"] or fmt(r.get("time_to_target"), 3),
                          fmt(r.get("samples_per_second"), 3), fmt(r.get("samples_per_second_vs_mitsuba"), 3)])
-    text = text_table(header, rows) if rows else "(summary.json holds no rows)"
+    text = f"metric: {SPECS[metric].label}\n" + (text_table(header, rows) if rows else "(summary.json holds no rows)")
     cmp = seed_comparison(st.records)
     if cmp is not None and math.isfinite(cmp["light_spp"]):
         text += (f"\nseed comparison ({SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}): uniform at {SEED_SPP} spp has RMSE "

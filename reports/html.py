@@ -11,7 +11,7 @@ from . import plots
 from .assets import CSS, JS
 from .sections import PLOT_KINDS, Section, equal_time_text, seed_lines
 from .store import Store
-from .tables import COLUMNS, FORMULAS, facts_table, fmt
+from .tables import FORMULAS, columns, facts_table, fmt
 
 __all__ = ["page_html"]
 
@@ -33,7 +33,8 @@ def _img(png: bytes, *, alt: str, cls: str = "", id_: str = "", extra: str = "")
 def _stats_html(sec: Section) -> str:
     if not sec.table:
         return '<p class="note">summary.json holds no rows for this scene and size.</p>'
-    head = "".join(f'<th title="{_e(tip)}">{_e(h)}</th>' for h, tip in COLUMNS)
+    cols = columns(sec.metric)
+    head = "".join(f'<th title="{_e(tip)}">{_e(h)}</th>' for h, tip in cols)
     body = []
     for row, cells in zip(sec.rows, sec.table):
         tds = []
@@ -44,14 +45,18 @@ def _stats_html(sec: Section) -> str:
                          f'</span>{_e(c)}'
             else:
                 c_html = _e(c)
-            if COLUMNS[i][0] == "bias verdict":
+            if cols[i][0] == "bias verdict":
                 cls = {"biased": "biased", "no bias detected": "unbiased"}.get(c, "")
+            elif c in ("biased", "undetermined"):
+                cls = "nocost"
             tds.append(f'<td class="{cls}">{c_html}</td>' if cls else f"<td>{c_html}</td>")
         trc = ' class="mitsuba"' if row["renderer"] != "ours" else ""
         body.append(f"<tr{trc}>{''.join(tds)}</tr>")
     return (f'<div class="tablewrap"><table class="data" id="{sec.id}-table"><thead><tr>{head}</tr></thead>'
             f'<tbody>{"".join(body)}</tbody></table></div>'
-            '<p class="note">Definitions and epsilons: <a href="#formulas">metric definitions</a>. '
+            f'<p class="note">Metric: <b>{_e(sec.rows[0]["metric_label"] if sec.rows else sec.metric)}</b> '
+            "(slopes, efficiency, time to target; --metric). Efficiency and time to target are shown only where no "
+            "bias was detected. Definitions and epsilons: <a href=\"#formulas\">metric definitions</a>. "
             "Numbers are the harness's (summary.json), 4 significant digits.</p>")
 
 
@@ -66,8 +71,8 @@ def _images_html(sec: Section) -> str:
            'sRGB). <b>Click</b> an image (or hover it and press <kbd>r</kbd>) to flip it '
            'with the reference; <kbd>R</kbd> flips the whole row, <kbd>Esc</kbd> restores all. Move the mouse over '
            'an image to zoom every column of its row into the same crop; <kbd>+</kbd>/<kbd>−</kbd> change the '
-           'zoom. Under each image: left, the zoomed crop; right, the false-colour error map against the '
-           'reference (colour bar below the rows).</div>']
+           'zoom. Under each image: the zoomed crop, the relative squared error map and the FLIP map against '
+           'the reference (colour bars below the rows).</div>']
     aspect = (sec.height / sec.width) if sec.width and sec.height else 1.0
     for spp, row in sec.image_rows:
         ref_id = next((c.id for c in row if c.key[0] == "reference"), "")
@@ -93,7 +98,11 @@ def _images_html(sec: Section) -> str:
                 sub += _img(c.err_png, alt=f"error map of {c.label} at {spp:g} spp", cls="err",
                             extra=f'title="error map of {_e(c.label)}" data-kind="error" '
                                   f'data-column="{_e(c.label)}" data-spp="{spp:g}"')
-            lines["sub"].append(f'<div class="cell sub">{sub}</div>')
+            if c.flip_png is not None:
+                sub += _img(c.flip_png, alt=f"FLIP map of {c.label} at {spp:g} spp", cls="err flipmap",
+                            extra=f'title="FLIP map of {_e(c.label)}" data-kind="flip" '
+                                  f'data-column="{_e(c.label)}" data-spp="{spp:g}"')
+            lines["sub"].append(f'<div class="cell sub{" three" if c.flip_png is not None else ""}">{sub}</div>')
             lines["cap"].append(f'<div class="cell cap">{_e(c.caption)}</div>')
         grid = "".join("".join(v) for v in lines.values())
         out.append(f'<div class="cmp-row" data-spp="{spp:g}"><h4>{spp:g} spp '
@@ -105,6 +114,11 @@ def _images_html(sec: Section) -> str:
         out.append('<div class="cbar">' + _img(sec.colourbar, alt="error map colour bar", extra='data-kind="colourbar"')
                    + f'<div class="note">Error maps: log scale from {fmt(lo, 3)} to {fmt(hi, 3)}, shared by every '
                    f"map of this scene (mean of a map = that image's relMSE).</div></div>")
+    if sec.flip_colourbar is not None:
+        out.append('<div class="cbar">' + _img(sec.flip_colourbar, alt="FLIP map colour bar",
+                                               extra='data-kind="colourbar"')
+                   + '<div class="note">FLIP maps: linear scale 0 to 1 (mean of a map = that image\'s FLIP).</div>'
+                   "</div>")
     return "".join(out)
 
 
@@ -137,6 +151,8 @@ def _section_html(sec: Section) -> str:
 
 
 def _seed_html(cmp: dict | None, png: bytes | None) -> str:
+    if cmp is None:  # a store without the seed's runs (a custom run): no section at all
+        return ""
     lines, rows = seed_lines(cmp)
     out = [f'<section class="card" id="seed" data-present="{"yes" if cmp else "no"}">'
            f"<h2>The seed's comparison: uniform vs light sampling on {SEED_SCENE}, "
@@ -158,13 +174,15 @@ def _seed_html(cmp: dict | None, png: bytes | None) -> str:
     return "".join(out)
 
 
-def page_html(store: Store, sections: list[Section], cmp, seed_png, problems: list) -> str:
-    """The whole ``index.html``: run facts, sections, seed comparison, definitions, problems."""
+def page_html(store: Store, sections: list[Section], cmp, seed_png, problems: list, *, metric: str = "relmse") -> str:
+    """The whole ``index.html``: run facts, sections, seed comparison (when the store has it), definitions, problems."""
+    from benchmarks.sweep.by_metric import SPECS
+
     facts = facts_table(store.meta, n_records=len(store.records), n_raw=store.n_raw_records,
                         records=store.records)
     title = f"rtbench report — {store.path.name}"
     toc = "".join(f'<a href="#{s.id}">{_e(s.title)}</a>' for s in sections)
-    toc += '<a href="#seed">seed comparison</a><a href="#formulas">definitions</a>'
+    toc += ('<a href="#seed">seed comparison</a>' if cmp is not None else "") + '<a href="#formulas">definitions</a>'
     if problems:
         toc += '<a href="#problems">problems</a>'
     preset = store.meta.get("preset") or "?"
@@ -172,7 +190,8 @@ def page_html(store: Store, sections: list[Section], cmp, seed_png, problems: li
            '<meta name="viewport" content="width=device-width, initial-scale=1">',
            f"<title>{_e(title)}</title><style>{CSS}</style></head><body>",
            f'<header class="top"><h1>{_e(title)}</h1><div class="sub">Our path tracer against Mitsuba 3 — '
-           f"preset {_e(preset)}, {len(sections)} scene section(s), {len(store.records)} job records</div></header>",
+           f"preset {_e(preset)}, {len(sections)} scene section(s), {len(store.records)} job records; "
+           f"metric of slopes, efficiency and time to target: {_e(SPECS[metric].label)}</div></header>",
            f'<nav class="toc">{toc}</nav><main>',
            '<section class="card" id="facts"><h2>Run facts</h2><table class="facts">'
            + "".join(f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in facts) + "</table></section>"]

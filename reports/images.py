@@ -13,10 +13,13 @@ import numpy as np
 from benchmarks.constants import RELMSE_EPS
 from benchmarks.display import to_display
 
-__all__ = ["display_png", "error_map", "error_png", "error_range", "pick_spps", "ERROR_CMAP"]
+__all__ = ["display_png", "error_map", "error_png", "error_range", "pick_spps", "ERROR_CMAP", "FLIP_CMAP",
+           "flip_map", "flip_png"]
 
 #: colour map of the error maps.
 ERROR_CMAP = "inferno"
+#: colour map of the FLIP maps (FLIP's own convention).
+FLIP_CMAP = "magma"
 
 
 def _png(rgb_uint8: np.ndarray) -> bytes:
@@ -71,6 +74,27 @@ def error_png(emap: np.ndarray, vmin: float, vmax: float) -> bytes:
     t = np.clip(np.nan_to_num(t, nan=1.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
     rgba = colormaps[ERROR_CMAP](t, bytes=True)
     return _png(rgba[..., :3])
+
+
+def flip_map(img: np.ndarray, ref: np.ndarray):
+    """Per-pixel FLIP of an image against the reference (:func:`benchmarks.metrics.flip`), or None without FLIP.
+
+    Its mean is the record's ``flip`` (same display images).
+    """
+    from benchmarks import metrics as M
+
+    if not M.flip_available():
+        return None
+    _, fmap = M.flip(np.asarray(img)[..., :3], np.asarray(ref)[..., :3], error_map=True)
+    return fmap
+
+
+def flip_png(fmap: np.ndarray) -> bytes:
+    """False-colour PNG of a FLIP map on FLIP's linear [0, 1] scale (:data:`FLIP_CMAP`)."""
+    from matplotlib import colormaps
+
+    t = np.clip(np.nan_to_num(np.asarray(fmap, dtype=np.float64), nan=1.0), 0.0, 1.0)
+    return _png(colormaps[FLIP_CMAP](t, bytes=True)[..., :3])
 
 
 def pick_spps(available, *, preferred=(4, 16, 64), count: int = 3) -> list:

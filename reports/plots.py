@@ -1,7 +1,8 @@
-"""Matplotlib (Agg) plots of a report section, each returned as PNG bytes.
+"""Matplotlib (Agg) plots of a report section, each returned as a :class:`~matplotlib.figure.Figure`.
 
 Figures are built with :class:`matplotlib.figure.Figure` and the Agg canvas directly, so no
-pyplot state or display backend is involved.
+pyplot state or display backend is involved; :func:`png_bytes` and :func:`figure_bytes`
+render one as PNG (the page) or as SVG / PDF (vector files for a paper).
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from .curves import SEED_SPP, Curve, equal_time, loglog_slope
 from .tables import fmt
 
 __all__ = ["COLOURS", "colour", "convergence_plot", "ssim_plot", "time_plot", "seed_plot", "colourbar_png",
-           "png_bytes"]
+           "png_bytes", "figure_bytes"]
 
 #: Okabe-Ito colours (colour-blind safe), fixed per strategy across every plot of the report.
 COLOURS = {
@@ -51,9 +52,20 @@ def _style(key) -> dict:
 
 def png_bytes(fig: Figure) -> bytes:
     """Render a figure to PNG bytes."""
+    return figure_bytes(fig, "png")
+
+
+def figure_bytes(fig: Figure, fmt: str) -> bytes:
+    """Render a figure as ``png``, ``svg`` or ``pdf`` bytes (vector text and lines for the latter two).
+
+    SVG and PDF carry no creation date, so the same figure gives the same bytes.
+    """
+    if fmt not in ("png", "svg", "pdf"):
+        raise ValueError(f"figure_bytes: unknown format {fmt!r}")
     FigureCanvasAgg(fig)
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=DPI)
+    meta = {"png": None, "svg": {"Date": None}, "pdf": {"CreationDate": None, "ModDate": None}}[fmt]
+    fig.savefig(buf, format=fmt, dpi=DPI, metadata=meta)
     return buf.getvalue()
 
 
@@ -92,8 +104,8 @@ def _guide(ax, curves: list[Curve], slope: float, label: str) -> None:
             zorder=2)
 
 
-def convergence_plot(curves: list[Curve], *, title: str, ylabel: str, slopes: dict, guide_slope: float,
-                     target: float | None = None) -> bytes:
+def convergence_plot(curves: list[Curve], *, title: str, ylabel: str, slopes: dict, guide_slope: float | None,
+                     target: float | None = None) -> Figure:
     """Log-log metric vs spp: median over seeds with a min-max band, a dashed guide, slopes in the legend.
 
     Parameters
@@ -104,10 +116,10 @@ def convergence_plot(curves: list[Curve], *, title: str, ylabel: str, slopes: di
         (renderer, strategy) -> (slope, note); ``note`` is appended to the legend entry
         (e.g. ``"fit"`` when the slope was fitted here and not read from the summary).
         Curves without an entry get a slope fitted on their medians.
-    guide_slope : float
-        Slope of the dashed guide (-0.5 for RMSE, -1 for relMSE).
+    guide_slope : float or None
+        Slope of the dashed guide (-0.5 for RMSE, -1 for relMSE); None: no guide.
     target : float, optional
-        A horizontal dotted line (the target RMSE).
+        A horizontal dotted line (the target error).
     """
     if not curves:
         raise ValueError("convergence_plot: no curves to plot")
@@ -122,17 +134,18 @@ def convergence_plot(curves: list[Curve], *, title: str, ylabel: str, slopes: di
             ax.fill_between(c.spp, np.maximum(c.lo, 1e-300), c.hi, color=st["color"], alpha=0.16, linewidth=0,
                             zorder=1)
         ax.plot(c.spp, c.median, label=lab, **st)
-    _guide(ax, curves, guide_slope, f"slope {guide_slope:g} guide")
+    if guide_slope is not None:
+        _guide(ax, curves, guide_slope, f"slope {guide_slope:g} guide")
     if target is not None and math.isfinite(target) and target > 0:
         ax.axhline(target, color="#B22222", linestyle=":", linewidth=1.0, label=f"target {fmt(target, 3)}")
     _spp_ticks(ax, np.concatenate([c.spp for c in curves]))
     ax.set_xlabel("samples per pixel", fontsize=9)
     ax.set_ylabel(ylabel, fontsize=9)
     ax.legend(fontsize=7.2, loc="lower left", framealpha=0.85)
-    return png_bytes(fig)
+    return fig
 
 
-def ssim_plot(curves: list[Curve], *, title: str) -> bytes:
+def ssim_plot(curves: list[Curve], *, title: str) -> Figure:
     """SSIM vs spp (log x), median with min-max band."""
     if not curves:
         raise ValueError("ssim_plot: no curves to plot")
@@ -151,15 +164,16 @@ def ssim_plot(curves: list[Curve], *, title: str) -> bytes:
     ax.set_xlabel("samples per pixel", fontsize=9)
     ax.set_ylabel("SSIM (display sRGB; 1 = identical)", fontsize=9)
     ax.legend(fontsize=7.5, loc="lower right", framealpha=0.85)
-    return png_bytes(fig)
+    return fig
 
 
-def time_plot(curves: list[Curve], *, title: str, target: float | None = None) -> tuple[bytes, float, dict]:
-    """RMSE vs render seconds (log-log), one point per spp, with equal-time markers.
+def time_plot(curves: list[Curve], *, title: str, target: float | None = None,
+              ylabel: str = "RMSE") -> tuple[Figure, float, dict]:
+    """An error (``ylabel``: the metric) vs render seconds (log-log), one point per spp, with equal-time markers.
 
     Returns
     -------
-    (png, budget_seconds, {curve key: rmse at the budget})
+    (figure, budget_seconds, {curve key: error at the budget})
     """
     timed = [c for c in curves if np.isfinite(c.seconds).any()]
     if not timed:
@@ -181,12 +195,12 @@ def time_plot(curves: list[Curve], *, title: str, target: float | None = None) -
     if target is not None and math.isfinite(target) and target > 0:
         ax.axhline(target, color="#B22222", linestyle=":", linewidth=1.0, label=f"target {fmt(target, 3)}")
     ax.set_xlabel("render time (s, median over seeds)", fontsize=9)
-    ax.set_ylabel("RMSE", fontsize=9)
+    ax.set_ylabel(ylabel, fontsize=9)
     ax.legend(fontsize=7.0, loc="lower left", framealpha=0.85)
-    return png_bytes(fig), budget, at
+    return fig, budget, at
 
 
-def seed_plot(cmp: dict) -> bytes:
+def seed_plot(cmp: dict) -> Figure:
     """The seed's comparison: RMSE vs spp of uniform and light at 400x400 with the matching point."""
     fig, ax = _new("cornell_box 400x400: uniform vs light sampling", size=(5.6, 3.8))
     ax.set_xscale("log")
@@ -213,7 +227,7 @@ def seed_plot(cmp: dict) -> bytes:
     ax.set_xlabel("samples per pixel", fontsize=9)
     ax.set_ylabel("RMSE (median over seeds)", fontsize=9)
     ax.legend(fontsize=7.2, loc="best", framealpha=0.85)
-    return png_bytes(fig)
+    return fig
 
 
 def colourbar_png(vmin: float, vmax: float, *, cmap: str, label: str, log: bool = True) -> bytes:

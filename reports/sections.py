@@ -13,17 +13,20 @@ import numpy as np
 
 from benchmarks.constants import RELMSE_EPS, SEED_SCENE, SEED_SIZE, SEED_SPP
 from benchmarks.display import reference_exposure
+from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS, view
 
 from . import plots
 from .curves import curve_label, curves, loglog_slope
-from .images import ERROR_CMAP, display_png, error_map, error_png, error_range, pick_spps
+from .images import (ERROR_CMAP, FLIP_CMAP, display_png, error_map, error_png, error_range, flip_map, flip_png,
+                     pick_spps)
 from .store import Store, curve_order, num
 from .tables import fmt, stats_table
 
-__all__ = ["PLOT_KINDS", "Cell", "Section", "build_section", "equal_time_text", "seed_lines", "slug"]
+__all__ = ["PLOT_KINDS", "Cell", "Section", "build_section", "equal_time_text", "seed_lines", "slug",
+           "metric_records"]
 
-#: plot kinds of a section, in page order.
-PLOT_KINDS = ("rmse", "relmse", "ssim", "time")
+#: plot kinds of a section, in page order ("time": the chosen metric's error vs render time).
+PLOT_KINDS = ("rmse", "relmse", "ssim", "flip", "time")
 
 
 def slug(*parts) -> str:
@@ -40,6 +43,7 @@ class Cell:
     id: str = ""
     png: bytes | None = None
     err_png: bytes | None = None
+    flip_png: bytes | None = None
     caption: str = ""
     missing: str = ""
 
@@ -53,13 +57,17 @@ class Section:
     height: int | None
     id: str
     plots: dict = field(default_factory=dict)       # kind -> (png, caption)
+    figures: dict = field(default_factory=dict)     # kind -> matplotlib Figure (for SVG / PDF files)
+    metric: str = DEFAULT_METRIC
     equal_time: tuple = (math.nan, {})
     table: list = field(default_factory=list)
-    rows: list = field(default_factory=list)
+    rows: list = field(default_factory=list)       # summary rows as seen under ``metric`` (views)
+    raw_rows: list = field(default_factory=list)   # summary rows as stored
     target: float = math.nan
     image_rows: list = field(default_factory=list)  # [(spp, [Cell])]
     columns: list = field(default_factory=list)     # column labels of the image rows
     colourbar: bytes | None = None
+    flip_colourbar: bytes | None = None
     error_range: tuple | None = None
     exposure: float | None = None
     exposure_from: str = ""
@@ -73,17 +81,25 @@ class Section:
 
 # ----------------------------------------------------------------------------------------- sections
 
-def build_section(store: Store, scene: str, width, height, *, problems: list) -> Section:
-    """Plots, statistics table and image rows of one (scene, width, height); problems appended."""
-    sec = Section(scene, width, height, id=slug("scene", scene, width, height))
+def build_section(store: Store, scene: str, width, height, *, problems: list,
+                  metric: str = DEFAULT_METRIC) -> Section:
+    """Plots, statistics table and image rows of one (scene, width, height) under ``metric``; problems appended."""
+    sec = Section(scene, width, height, id=slug("scene", scene, width, height), metric=metric)
     recs = store.section_records(scene, width, height)
-    sec.rows = store.section_rows(scene, width, height)
+    sec.raw_rows = store.section_rows(scene, width, height)
+    sec.rows = [view(r, metric) for r in sec.raw_rows]
     sec.table = stats_table(sec.rows)
-    targets = store.meta.get("target_rmse") if isinstance(store.meta.get("target_rmse"), dict) else {}
-    sec.target = num(targets.get(scene))
+    if metric == "rmse":
+        targets = store.meta.get("target_rmse") if isinstance(store.meta.get("target_rmse"), dict) else {}
+        sec.target = num(targets.get(scene))
+    else:
+        sec.target = num(SPECS[metric].target)
     if not math.isfinite(sec.target):
-        ts = [num(r.get("target_rmse")) for r in sec.rows if math.isfinite(num(r.get("target_rmse")))]
+        ts = [num(r.get("target")) for r in sec.rows if math.isfinite(num(r.get("target")))]
         sec.target = ts[0] if ts else math.nan
+    if sec.rows and metric != "rmse" and all(not r.get("by_metric") for r in sec.rows):
+        sec.notes.append(f"summary.json predates per-metric figures: no {SPECS[metric].label} slopes, efficiency "
+                         "or time to target (rerun the sweep, which resumes, to add them; or use --metric rmse).")
     if not recs:
         sec.notes.append("No job records for this scene and size: plots and images are unavailable.")
         return sec
@@ -92,36 +108,73 @@ def build_section(store: Store, scene: str, width, height, *, problems: list) ->
     return sec
 
 
+def metric_records(recs: list[dict], metric: str) -> list[dict]:
+    """Records with ``_err``: the metric's error of each (RMSE, relMSE, 1 - SSIM or FLIP), as the summary uses it.
+
+    >>> metric_records([{"ssim": 0.75}], "ssim")[0]["_err"]
+    0.25
+    """
+    field = {"rmse": "rmse", "relmse": "relmse", "ssim": "ssim", "flip": "flip"}[metric]
+    out = []
+    for r in recs:
+        v = num(r.get(field))
+        out.append(dict(r, _err=(1.0 - v) if metric == "ssim" else v))
+    return out
+
+
+def _slopes(sec: Section, cs, metric: str) -> dict:
+    """Legend slopes: the summary's under ``metric`` where it has one, else fitted here on the medians."""
+    summary = {}
+    for r in sec.raw_rows:
+        s = num(view(r, metric).get("slope"))
+        if math.isfinite(s):
+            summary[(r["renderer"], r["strategy"])] = (s, "")
+    return {c.key: summary.get(c.key, (loglog_slope(c.spp, c.median), "fit here")) for c in cs}
+
+
+def _add_plot(sec: Section, kind: str, fig, caption: str) -> None:
+    sec.figures[kind] = fig
+    sec.plots[kind] = (plots.png_bytes(fig), caption)
+
+
 def _section_plots(sec: Section, recs: list[dict]) -> None:
     title = sec.title
     rmse = curves(recs, "rmse")
-    summary_slopes = {(r["renderer"], r["strategy"]): (num(r.get("slope")), "")
-                      for r in sec.rows if math.isfinite(num(r.get("slope")))}
-    slopes = {c.key: summary_slopes.get(c.key, (loglog_slope(c.spp, c.median), "fit here")) for c in rmse}
     if rmse:
-        sec.plots["rmse"] = (plots.convergence_plot(rmse, title=f"{title}: RMSE vs spp", ylabel="RMSE",
-                                                    slopes=slopes, guide_slope=-0.5, target=sec.target),
-                             "RMSE against the reference vs samples per pixel (log-log). Lines: median over "
-                             "seeds; bands: min to max; dashed: slope -1/2 (unbiased Monte Carlo). Legend "
-                             "slopes are the harness's fits (summary.json) unless marked 'fit here'.")
+        _add_plot(sec, "rmse", plots.convergence_plot(
+            rmse, title=f"{title}: RMSE vs spp", ylabel="RMSE", slopes=_slopes(sec, rmse, "rmse"), guide_slope=-0.5,
+            target=num(view(sec.raw_rows[0], "rmse").get("target")) if sec.raw_rows else None),
+            "RMSE against the reference vs samples per pixel (log-log). Lines: median over seeds; bands: min to "
+            "max; dashed: slope -1/2 (unbiased Monte Carlo). Legend slopes are the harness's fits (summary.json) "
+            "unless marked 'fit here'.")
     rel = curves(recs, "relmse")
     if rel:
-        rslopes = {c.key: (loglog_slope(c.spp, c.median), "") for c in rel}
-        sec.plots["relmse"] = (plots.convergence_plot(rel, title=f"{title}: relMSE vs spp", ylabel="relMSE",
-                                                      slopes=rslopes, guide_slope=-1.0),
-                               f"Relative MSE (eps = {RELMSE_EPS:g}) vs spp. relMSE is a squared error, so its "
-                               "unbiased slope is -1 (the dashed guide); legend slopes fitted here on the medians.")
+        _add_plot(sec, "relmse", plots.convergence_plot(
+            rel, title=f"{title}: relMSE vs spp", ylabel="relMSE", slopes=_slopes(sec, rel, "relmse"),
+            guide_slope=-1.0, target=SPECS["relmse"].target),
+            f"Relative MSE (eps = {RELMSE_EPS:g}) vs spp. relMSE is a squared error, so its unbiased slope is -1 "
+            "(the dashed guide); legend slopes are the harness's (reference noise removed) unless marked 'fit here'.")
     ss = curves(recs, "ssim")
     if ss:
-        sec.plots["ssim"] = (plots.ssim_plot(ss, title=f"{title}: SSIM vs spp"),
-                             "SSIM of the display image against the reference's (higher is better).")
-    timed = [c for c in rmse if np.isfinite(c.seconds).any()]
+        _add_plot(sec, "ssim", plots.ssim_plot(ss, title=f"{title}: SSIM vs spp"),
+                  "SSIM of the display image against the reference's (higher is better).")
+    fl = curves(recs, "flip")
+    if fl:
+        _add_plot(sec, "flip", plots.convergence_plot(
+            fl, title=f"{title}: FLIP vs spp", ylabel="FLIP (mean, 0 = identical)", slopes=_slopes(sec, fl, "flip"),
+            guide_slope=None, target=SPECS["flip"].target),
+            "NVIDIA's FLIP of the display image against the reference's (lower is better; log-log). No theoretical "
+            "slope: FLIP saturates and is not a mean of squares.")
+    spec = SPECS[sec.metric]
+    timed = [c for c in curves(metric_records(recs, sec.metric), "_err") if np.isfinite(c.seconds).any()]
     if timed:
-        png, budget, at = plots.time_plot(timed, title=f"{title}: RMSE vs render time", target=sec.target)
+        fig, budget, at = plots.time_plot(timed, title=f"{title}: {spec.label} vs render time", target=sec.target,
+                                          ylabel=spec.label)
         sec.equal_time = (budget, at)
-        sec.plots["time"] = (png, "Speed against error: median RMSE vs median render seconds, one point per spp. "
-                                  "Stars: each curve's RMSE at the equal-time budget (dotted), log-log "
-                                  "interpolated.")
+        _add_plot(sec, "time", fig,
+                  f"Speed against error ({spec.label}, the report's metric): median {spec.label} vs median render "
+                  "seconds, one point per spp. Stars: each curve's error at the equal-time budget (dotted), "
+                  "log-log interpolated.")
     missing = [k for k in PLOT_KINDS if k not in sec.plots]
     if missing:
         sec.notes.append(f"No data for plot(s): {', '.join(missing)}.")
@@ -233,6 +286,7 @@ def _image_cell(sec: Section, key: tuple, spp: float, rec, recs: list[dict], loa
                 problems: list) -> Cell:
     """One column of an image row; its error map (against ``ref``) goes into ``maps``."""
     cell = Cell(key=key, label=curve_label(*key), id=slug("img", sec.id, key[0], key[1], f"{spp:g}"))
+    flips = maps.setdefault("_flip", {})
     img = load(rec) if rec else None
     if rec is None:
         cell.missing = "not rendered at this spp" if not any(
@@ -248,14 +302,27 @@ def _image_cell(sec: Section, key: tuple, spp: float, rec, recs: list[dict], loa
         cell.png = display_png(img, sec.exposure)
         if ref is not None:
             maps[cell.id] = error_map(img, ref)
+            fm = flip_map(img, ref)
+            if fm is not None:
+                flips[cell.id] = fm
         seed = rec.get("seed")
         cell.caption = (f"RMSE {fmt(rec.get('rmse'), 3)} · relMSE {fmt(rec.get('relmse'), 3)} · "
-                        f"SSIM {fmt(rec.get('ssim'), 3)} (seed {seed})")
+                        f"SSIM {fmt(rec.get('ssim'), 3)} · FLIP {fmt(rec.get('flip'), 3)} (seed {seed})")
     return cell
 
 
 def _error_maps(sec: Section, grid: list, maps: dict) -> None:
-    """False-colour PNGs of the error maps on one log scale per section, and its colour bar."""
+    """False-colour PNGs of the error maps on one log scale per section, and its colour bar; FLIP maps on 0..1."""
+    flips = maps.pop("_flip", {})
+    for _, row in grid:
+        for cell in row:
+            if cell.id in flips:
+                cell.flip_png = flip_png(flips[cell.id])
+    if flips:
+        sec.flip_colourbar = plots.colourbar_png(0.0, 1.0, cmap=FLIP_CMAP, log=False,
+                                                 label="per-pixel FLIP (0 = no visible difference, 1 = largest)")
+    if not maps:
+        return
     lo, hi = error_range(list(maps.values()))
     sec.error_range = (lo, hi)
     for _, row in grid:
@@ -267,21 +334,24 @@ def _error_maps(sec: Section, grid: list, maps: dict) -> None:
 
 
 def equal_time_text(sec: Section) -> str:
-    """The sentence comparing the curves' RMSE at equal render time (empty when none)."""
+    """The sentence comparing the curves' error (the section's metric) at equal render time (empty when none)."""
     budget, at = sec.equal_time
     if not at:
         return ""
+    label = SPECS[sec.metric].label
     parts = sorted(at.items(), key=lambda kv: curve_order(kv[0]))
     return (f"At equal time ({fmt(budget, 3)} s): " +
-            ", ".join(f"{curve_label(*k)} RMSE {fmt(v, 3)}" for k, v in parts) + ".")
+            ", ".join(f"{curve_label(*k)} {label} {fmt(v, 3)}" for k, v in parts) + ".")
 
 
 def seed_lines(cmp: dict | None) -> tuple[list[str], list[list[str]]]:
-    """Sentences and table rows of the seed comparison (shared by HTML and Markdown)."""
+    """Sentences and table rows of the seed comparison (shared by HTML and Markdown); none without it.
+
+    A store without the seed's runs gets no seed section at all (a custom run is not
+    missing anything).
+    """
     if cmp is None:
-        return ([f"This store holds no run of {SEED_SCENE} at {SEED_SIZE}×{SEED_SIZE} with both the uniform and "
-                 "the light strategy, so the seed's comparison (uniform vs light sampling, and the spp at which "
-                 f"light sampling reaches uniform's error at {SEED_SPP} spp) is not reproduced here."], [])
+        return [], []
     uni, light = cmp["uniform"], cmp["light"]
     t = cmp["target_rmse"]
     lines = []

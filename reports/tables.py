@@ -8,29 +8,43 @@ from __future__ import annotations
 import math
 
 from benchmarks.constants import RELMSE_EPS
+from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS
 
 from .curves import curve_label
 from .store import num
 
-__all__ = ["fmt", "stats_table", "facts_table", "FORMULAS", "markdown_table", "text_table", "COLUMNS"]
+__all__ = ["fmt", "stats_table", "facts_table", "FORMULAS", "markdown_table", "text_table", "COLUMNS", "columns"]
 
 DASH = "–"
 
-#: (header, tooltip) of the per-strategy table, in order.
-COLUMNS = (
-    ("renderer / strategy", "ours: our tracer's strategy; Mitsuba: Mitsuba 3's path integrator"),
-    ("slope [95% CI]", "least-squares slope of log RMSE over log spp; unbiased Monte Carlo gives -0.5"),
-    ("bias verdict", "bias^2 test over seeds: biased when bias^2 is significantly above 0"),
-    ("bias² ± s.e.", "squared bias estimate and its standard error"),
-    ("z / p", "test statistic of the bias test and its p-value"),
-    ("variance", "mean per-pixel per-sample variance"),
-    ("efficiency", "1 / (MSE x seconds)"),
-    ("eff. / Mitsuba", "efficiency relative to Mitsuba's path integrator on the same scene"),
-    ("time to target (s)", "seconds to reach the target RMSE"),
-    ("target RMSE", "the scene's target RMSE"),
-    ("samples/s", "throughput: spp x width x height / seconds"),
-    ("samples/s / Mitsuba", "throughput relative to Mitsuba"),
-)
+
+def columns(metric: str = DEFAULT_METRIC) -> tuple:
+    """(header, tooltip) of the per-strategy table under ``metric``, in order.
+
+    >>> columns("relmse")[1][0], columns("rmse")[9][0]
+    ('relMSE slope [95% CI]', 'target RMSE')
+    """
+    spec = SPECS[metric]
+    lab = spec.label
+    unbiased = f"; unbiased Monte Carlo gives {spec.unbiased_slope:g}" if spec.unbiased_slope is not None else ""
+    return (
+        ("renderer / strategy", "ours: our tracer's strategy; Mitsuba: Mitsuba 3's path integrator"),
+        (f"{lab} slope [95% CI]", f"least-squares slope of log {lab} over log spp{unbiased}"),
+        ("bias verdict", "the harness's bias test over seeds: biased, no bias detected, or undetermined"),
+        ("bias² ± s.e.", "squared bias estimate and its standard error"),
+        ("z / p", "test statistic of the bias test and its p-value"),
+        ("variance", "mean per-pixel per-sample variance"),
+        (f"efficiency ({lab})", f"1 / ({lab} x seconds); shown only where no bias was detected"),
+        ("eff. / Mitsuba", "efficiency relative to Mitsuba's path integrator on the same scene"),
+        ("time to target (s)", f"seconds to reach the target {lab}; shown only where no bias was detected"),
+        (f"target {lab}", f"the target {lab}"),
+        ("samples/s", "throughput: spp x width x height / seconds"),
+        ("samples/s / Mitsuba", "throughput relative to Mitsuba"),
+    )
+
+
+#: the table's columns under RMSE (kept for readers of the older name).
+COLUMNS = columns("rmse")
 
 
 def fmt(value, digits: int = 4) -> str:
@@ -53,8 +67,16 @@ def _verdict(row: dict) -> str:
     return DASH
 
 
+def _cost(row: dict, key: str) -> str:
+    """An efficiency or time figure, or why it is not shown ('biased', 'undetermined')."""
+    return row.get("cost_status") or fmt(row.get(key))
+
+
 def stats_table(rows: list[dict]) -> list[list[str]]:
-    """Cells of the per-(renderer, strategy) table of one section, one list per summary row."""
+    """Cells of the per-(renderer, strategy) table of one section, one list per summary row.
+
+    ``rows`` are :func:`benchmarks.sweep.by_metric.view` s of the summary rows (one metric).
+    """
     out = []
     for r in rows:
         ci = r.get("slope_ci")
@@ -72,10 +94,10 @@ def stats_table(rows: list[dict]) -> list[list[str]]:
             bias,
             zp,
             fmt(r.get("variance")),
-            fmt(r.get("efficiency")),
-            fmt(r.get("efficiency_vs_mitsuba")),
-            fmt(r.get("time_to_target")),
-            fmt(r.get("target_rmse")),
+            _cost(r, "efficiency"),
+            _cost(r, "efficiency_vs_mitsuba"),
+            _cost(r, "time_to_target"),
+            fmt(r.get("target", r.get("target_rmse"))),
             fmt(r.get("samples_per_second")),
             fmt(r.get("samples_per_second_vs_mitsuba")),
         ])
@@ -152,10 +174,22 @@ FORMULAS = (
     ("SSIM", "on display images (exposure from the reference, clip to [0, 1], sRGB transfer via colour-science): "
              "skimage structural_similarity with data_range=1, gaussian_weights=True, sigma=1.5, "
              "use_sample_covariance=False, channel_axis=-1."),
-    ("slope", "least-squares slope of log RMSE over log spp; unbiased Monte Carlo gives -1/2 (relMSE: -1); "
-              "a flattening curve is bias. The plots' legends show it; relMSE plots fit their own."),
-    ("efficiency", "1 / (MSE x seconds); relative to Mitsuba: ours / Mitsuba's path integrator, same scene."),
-    ("time to target", "seconds to reach the scene's target RMSE (interpolated on the RMSE-time curve)."),
+    ("FLIP", "NVIDIA's perceptual difference (Andersson et al. 2020, flip-evaluator), LDR mode on the same "
+             "display images as SSIM, 67 pixels per degree; mean over pixels, 0 = identical. Error maps: per pixel, "
+             "linear scale 0 to 1 (magma)."),
+    ("metric", "--metric chooses the error behind slopes, efficiency and time to target: RMSE (sqrt of the "
+               "corrected MSE), relMSE (minus the reference's relative noise; the default, the convention of "
+               "rendering papers), 1 - SSIM, or FLIP; every table and plot names it."),
+    ("slope", "least-squares slope of log error over log spp, one point per spp (the seed mean); unbiased Monte "
+              "Carlo gives -1/2 for RMSE and -1 for relMSE; SSIM and FLIP have no theoretical value. A flattening "
+              "curve is bias."),
+    ("efficiency", "1 / (error x seconds) at the highest spp, error the metric's (MSE for RMSE); for estimators "
+                   "found unbiased the expected MSE / relMSE from the tail reference's variance. Relative to "
+                   "Mitsuba: ours / Mitsuba's path integrator, same scene. Shown only where no bias was detected: "
+                   "'biased' or 'undetermined' otherwise (an efficiency of a biased estimator means nothing)."),
+    ("time to target", "seconds to reach the target error, log-log interpolated on the error-time curve: RMSE: "
+                       "0.1 x the reference's RMS radiance; relMSE 0.01; 1 - SSIM 0.05; FLIP 0.05. Shown only "
+                       "where no bias was detected."),
     ("throughput", "samples per second = spp x width x height / seconds; relative to Mitsuba as a ratio."),
     ("images", "tone-mapped alike: scaled by k from the reference, the larger of 0.18 / (median luminance) and "
                "1 / (99th-percentile luminance, the SSIM's exposure), clipped to [0, 1], sRGB transfer. "

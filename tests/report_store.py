@@ -21,7 +21,9 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from benchmarks import metrics as M  # noqa: E402
 from benchmarks.display import reference_exposure, to_display  # noqa: E402
+from benchmarks.sweep.by_metric import add_metric_ratios, curve_metrics  # noqa: E402
 from benchmarks.store import write_image  # noqa: E402
 
 #: per-sample relative noise of each (renderer, strategy)
@@ -61,7 +63,7 @@ def _metrics(img, ref, exposure):
     ssim = float(structural_similarity(disp(img), disp(ref), data_range=1.0,
                                        channel_axis=-1, gaussian_weights=True, sigma=1.5,
                                        use_sample_covariance=False, win_size=7))
-    return mse, relmse, ssim
+    return mse, relmse, ssim, M.flip(img, ref) if M.flip_available() else None
 
 
 def make_store(path, *, scenes=("cornell_box", "spheres"), strategies=("uniform", "light", "mixture"),
@@ -118,7 +120,7 @@ def make_store(path, *, scenes=("cornell_box", "spheres"), strategies=("uniform"
                 for seed in seeds:
                     noise = rng.standard_normal(ref.shape) * (sigma * (ref + 0.05)) / math.sqrt(spp)
                     img = (mean_img + noise).astype(np.float32)
-                    mse, relmse, ssim = _metrics(img, ref, exposure)
+                    mse, relmse, ssim, flip = _metrics(img, ref, exposure)
                     secs = COST.get((renderer, strategy), 1e-6) * spp * size * size * (1 + 0.05 * rng.random())
                     image_rel = None
                     if seed == seeds[0]:
@@ -127,7 +129,7 @@ def make_store(path, *, scenes=("cornell_box", "spheres"), strategies=("uniform"
                     records.append({
                         "scene": scene, "renderer": renderer, "strategy": strategy, "spp": spp, "seed": seed,
                         "width": size, "height": size, "mse": mse, "rmse": math.sqrt(mse), "relmse": relmse,
-                        "ssim": ssim, "mse_corrected": mse - 1e-5,
+                        "ssim": ssim, "flip": flip, "mse_corrected": mse - 1e-5,
                         "variance": float(np.mean((sigma * (ref + 0.05)) ** 2)), "seconds": secs,
                         "rays": None if renderer == "mitsuba" else int(spp * size * size * 3),
                         "paths_per_second": spp * size * size / secs, "threads": 2, "image": image_rel,
@@ -138,6 +140,7 @@ def make_store(path, *, scenes=("cornell_box", "spheres"), strategies=("uniform"
             if r["scene"] == scene and mits is not None:
                 r["efficiency_vs_mitsuba"] = r["efficiency"] / mits["efficiency"]
                 r["samples_per_second_vs_mitsuba"] = r["samples_per_second"] / mits["samples_per_second"]
+    add_metric_ratios(rows)
     if seed_comparison:
         records += _seed_comparison_records(seeds)
     lines = [json.dumps(r) for r in records]
@@ -162,12 +165,16 @@ def _summary_row(records, scene, renderer, strategy, mean_img, ref, spps, size, 
     last = [r for r in recs if r["spp"] == spps[-1]]
     mse_last = float(np.mean([r["mse"] for r in last]))
     sec_last = float(np.mean([r["seconds"] for r in last]))
-    return {
+    by_spp = {s: [r for r in recs if r["spp"] == s] for s in spps}
+    secs = [float(np.mean([r["seconds"] for r in by_spp[s]])) for s in spps]
+    by_metric = curve_metrics(by_spp, secs, target_rmse=target, unbiased=strategy != "light")
+    return {"by_metric": by_metric,
         "scene": scene, "renderer": renderer, "strategy": strategy, "width": size, "height": size,
         "slope": slope, "slope_ci": [slope - 0.04, slope + 0.04],
         "bias2": bias + float(rng.normal(0, 1e-6)), "bias2_stderr": 2e-6 + 1e-3 * bias,
         "bias_z": (bias / (2e-6 + 1e-3 * bias)) if bias > 0 else float(rng.normal()),
         "bias_p": 1e-12 if bias > 0 else 0.4, "bias_significant": bool(bias > 0),
+        "bias_verdict": "fail" if bias > 0 else "pass",
         "variance": recs[0]["variance"], "efficiency": 1.0 / (mse_last * sec_last),
         "efficiency_vs_mitsuba": None, "time_to_target": None if strategy == "light" else sec_last * 0.7,
         "target_rmse": target, "samples_per_second": spps[-1] * size * size / sec_last,

@@ -337,3 +337,28 @@ def test_no_numpy_warnings_on_degenerate_inputs():
         M.bias_variance(np.zeros((3, 4, 4, 3)), np.zeros((4, 4, 3)))
         M.mse(np.zeros((4, 4)), np.zeros((4, 4)))
         M.efficiency(np.array([0.0, 1.0]), np.array([1.0, 1.0]))
+
+
+# ----------------------------------------------------------------------------------------- FLIP (issue 16)
+
+def test_flip_is_zero_for_identical_images_and_grows_with_the_difference():
+    rng = np.random.default_rng(3)
+    ref = rng.random((24, 24, 3))
+    assert M.flip(ref, ref) == 0.0
+    small = M.flip(np.clip(ref + 0.02 * rng.standard_normal(ref.shape), 0, None), ref)
+    large = M.flip(np.clip(ref + 0.2 * rng.standard_normal(ref.shape), 0, None), ref)
+    assert 0.0 < small < large <= 1.0
+
+
+def test_flip_map_mean_is_the_flip_value_and_nan_propagates():
+    rng = np.random.default_rng(4)
+    ref = rng.random((16, 20, 3))
+    img = ref * 0.8
+    value, fmap = M.flip(img, ref, error_map=True)
+    assert fmap.shape == (16, 20) and np.all((fmap >= 0) & (fmap <= 1))
+    assert math.isclose(float(fmap.mean()), value, rel_tol=1e-5)
+    bad = img.copy()
+    bad[0, 0, 0] = np.nan
+    assert math.isnan(M.flip(bad, ref))
+    with pytest.raises(ValueError):
+        M.flip(bad, ref, nan_policy="raise")

@@ -110,9 +110,9 @@ def test_cli_render_writes_exr_and_png(tmp_path):
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert "0 NaN/Inf samples" in proc.stdout
-    img = rt.read_exr(tmp_path / "cornell_box_mixture.exr")
+    img = rt.read_exr(tmp_path / "cornell_box_16x16_mixture_spp2_seed0.exr")
     assert img.shape == (16, 16, 3)
-    assert (tmp_path / "cornell_box_mixture.png").stat().st_size > 0
+    assert (tmp_path / "cornell_box_16x16_mixture_spp2_seed0.png").stat().st_size > 0
 
 
 def test_cli_render_bad_input_is_one_clear_line(tmp_path):

@@ -21,6 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from report_store import make_store  # noqa: E402
 
 import reports  # noqa: E402
+from benchmarks.sweep.by_metric import view  # noqa: E402
 from reports.curves import curves, loglog_interp, loglog_slope, seed_comparison  # noqa: E402
 from benchmarks.display import reference_exposure  # noqa: E402
 from reports.images import error_map, pick_spps  # noqa: E402
@@ -275,19 +276,21 @@ def test_html_parses_and_embeds_every_promised_plot_and_image(report):
         sec = [a for t, a, _ in page.elements if t == "section" and a.get("id") == f"scene-{scene.replace('_', '-')}-16-16"]
         assert sec, f"no section for {scene} 16x16"
         sid = sec[0]["id"]
-        assert sec[0]["data-plots"].split() == ["rmse", "relmse", "ssim", "time"]
+        assert sec[0]["data-plots"].split() == ["rmse", "relmse", "ssim", "flip", "time"]
         assert sec[0]["data-columns"].split("|") == COLUMNS
         assert sec[0]["data-spps"].split() == ["1", "4", "16"]
         inside = [(a, anc) for a, anc in imgs if any(x.get("id") == sid for x in anc)]
         plots = {a["data-plot"] for a, _ in inside if a.get("data-kind") == "plot"}
-        assert plots == {"rmse", "relmse", "ssim", "time"}
+        assert plots == {"rmse", "relmse", "ssim", "flip", "time"}
         for spp in ("1", "4", "16"):
             shots = {a["data-column"] for a, _ in inside if a.get("data-kind") == "image" and a["data-spp"] == spp}
             errs = {a["data-column"] for a, _ in inside if a.get("data-kind") == "error" and a["data-spp"] == spp}
             assert shots == set(COLUMNS), (scene, spp, shots)
             assert errs == set(COLUMNS) - {"reference"}, (scene, spp, errs)
-        assert sum(a.get("data-kind") == "colourbar" for a, _ in inside) == 1
-        sizes = {_png_size(a["src"]) for a, _ in inside if a.get("data-kind") in ("image", "error")}
+            flips = {a["data-column"] for a, _ in inside if a.get("data-kind") == "flip" and a["data-spp"] == spp}
+            assert flips == set(COLUMNS) - {"reference"}, (scene, spp, flips)  # FLIP maps in the image grid
+        assert sum(a.get("data-kind") == "colourbar" for a, _ in inside) == 2  # relative error and FLIP
+        sizes = {_png_size(a["src"]) for a, _ in inside if a.get("data-kind") in ("image", "error", "flip")}
         assert sizes == {(16, 16)}
     # the flip and zoom wiring point at elements that exist
     wraps = [a for t, a, _ in page.elements if t == "div" and "shotwrap" in a.get("class", "")]
@@ -317,23 +320,26 @@ def test_html_and_markdown_tables_hold_the_stores_numbers(store, report):
         col = {h: i for i, h in enumerate(header)}
         srows = [r for r in rows if r["scene"] == scene]
         assert len(body) == len(srows) == len(STRATEGIES) + 1
-        for r in srows:
+        for raw in srows:
+            r = view(raw, "relmse")  # the report's default metric
             label = r["strategy"] if r["renderer"] == "ours" else "Mitsuba path"
             (cells,) = [b for b in body if b[0] == label]
-            slope, lo, hi = _numbers(cells[col["slope [95% CI]"]])
+            slope, lo, hi = _numbers(cells[col["relMSE slope [95% CI]"]])
             assert _close(slope, r["slope"]) and _close(lo, r["slope_ci"][0]) and _close(hi, r["slope_ci"][1])
             b2, se = _numbers(cells[col["bias² ± s.e."]])
             assert _close(b2, r["bias2"]) and _close(se, r["bias2_stderr"])
             assert cells[col["bias verdict"]] == ("biased" if r["bias_significant"] else "no bias detected")
             z, p = _numbers(cells[col["z / p"]])
             assert math.isclose(z, r["bias_z"], rel_tol=6e-3) and math.isclose(p, r["bias_p"], rel_tol=6e-3)
-            for name, key in (("variance", "variance"), ("efficiency", "efficiency"),
-                              ("eff. / Mitsuba", "efficiency_vs_mitsuba"), ("target RMSE", "target_rmse"),
+            for name, key in (("variance", "variance"), ("efficiency (relMSE)", "efficiency"),
+                              ("eff. / Mitsuba", "efficiency_vs_mitsuba"), ("target relMSE", "target"),
                               ("samples/s", "samples_per_second"),
                               ("samples/s / Mitsuba", "samples_per_second_vs_mitsuba"),
                               ("time to target (s)", "time_to_target")):
                 cell = cells[col[name]]
-                if r[key] is None:
+                if r["bias_significant"] and key in ("efficiency", "efficiency_vs_mitsuba", "time_to_target"):
+                    assert cell == "biased", (name, cell)  # no efficiency for a biased estimator
+                elif r[key] is None:
                     assert cell == "–", (name, cell)
                 else:
                     (v,) = _numbers(cell)
@@ -363,12 +369,14 @@ def test_report_degrades_without_meta_and_summary(store, tmp_path):
     assert not any(a.get("data-kind") == "error" for t, a, _ in p.elements if t == "img")
 
 
-def test_report_says_when_the_seed_run_is_absent(tmp_path):
+def test_custom_report_has_no_stale_seed_comparison_section(tmp_path):
+    # issue 16: every custom report carried "seed comparison ... not reproduced here"
     st = make_store(tmp_path / "s", scenes=("spheres",), strategies=("mis",), spps=(1, 2), seeds=(0,),
                     size=8, seed_comparison=False, duplicate=False)
     page = reports.build_report(st)
-    assert "holds no run of cornell_box at 400×400" in page.read_text()
-    assert "holds no run of cornell_box at 400×400" in (st / "summary.md").read_text()
+    for text in (page.read_text(), (st / "summary.md").read_text()):
+        assert "not reproduced here" not in text and "Seed comparison" not in text
+        assert 'id="seed"' not in text and 'href="#seed"' not in text
 
 
 def test_cli_report_and_summary_table(store, tmp_path, capsys):
@@ -410,6 +418,12 @@ window.addEventListener("load", function () {
   var imgs = Array.prototype.slice.call(document.images);
   r.images = imgs.length;
   r.broken = imgs.filter(function (i) { return !(i.complete && i.naturalWidth > 0); }).length;
+  var plots = imgs.filter(function (i) { return i.getAttribute("data-kind") === "plot"; });
+  r.plots = plots.length;
+  r.plots_loaded = plots.filter(function (i) {
+    return i.complete && i.naturalWidth >= 200 && i.naturalHeight >= 150 && i.getBoundingClientRect().width > 100;
+  }).length;
+  r.flipmaps = imgs.filter(function (i) { return i.getAttribute("data-kind") === "flip" && i.naturalWidth > 0; }).length;
   var cs = Array.prototype.slice.call(document.querySelectorAll("canvas.zoom"));
   r.canvases = cs.length;
   r.drawn = cs.filter(function (c) {
@@ -430,7 +444,57 @@ window.addEventListener("load", function () {
   r.escape = img.src === own;
   document.dispatchEvent(new KeyboardEvent("keydown", {key: "+"}));
   r.zoomlabel = document.querySelector(".zoomlevel").textContent;
+  // zoom: moving the pointer over an image moves the crop of every column of its row
+  var row = w.closest(".cmp-row"), rect = img.getBoundingClientRect();
+  var canvases = Array.prototype.slice.call(row.querySelectorAll("canvas.zoom"));
+  function sig(c) {
+    var d = c.getContext("2d").getImageData(0, 0, c.width, c.height).data, s = 0;
+    for (var i = 0; i < d.length; i += 4) s = (s * 31 + d[i] + 7 * d[i + 1] + 13 * d[i + 2]) % 1000000007;
+    return s;
+  }
+  function move(fx, fy) {
+    w.dispatchEvent(new MouseEvent("mousemove", {clientX: rect.left + fx * rect.width,
+                                                 clientY: rect.top + fy * rect.height, bubbles: true}));
+    return {sigs: canvases.map(sig), box: w.querySelector(".cropbox").style.left + "," +
+            w.querySelector(".cropbox").style.top};
+  }
+  var a = move(0.05, 0.05), b = move(0.95, 0.95);
+  r.zoom_moves = canvases.length > 1 && a.box !== b.box &&
+    a.sigs.every(function (s, i) { return s !== b.sigs[i]; });
+  r.zooming = row.classList.contains("zooming");
+  document.dispatchEvent(new KeyboardEvent("keydown", {key: "-"}));
+  document.dispatchEvent(new KeyboardEvent("keydown", {key: "-"}));
+  r.zoomout = document.querySelector(".zoomlevel").textContent;
   document.body.setAttribute("data-check", JSON.stringify(r));
+});
+</script>
+"""
+
+
+_LAYOUT = r"""
+<script>
+window.addEventListener("load", function () {
+  var inner = window.innerWidth, bad = [];
+  function scrolls(e) {  // inside a horizontally scrolling box (the wide tables) is fine
+    for (var p = e.parentElement; p; p = p.parentElement) {
+      var o = getComputedStyle(p).overflowX;
+      if (o === "auto" || o === "scroll" || o === "hidden") return true;
+    }
+    return false;
+  }
+  Array.prototype.forEach.call(document.querySelectorAll("body *"), function (e) {
+    var r = e.getBoundingClientRect();
+    if (r.width > 0 && r.right > inner + 1 && !scrolls(e) && bad.length < 5)
+      bad.push(e.tagName + "." + e.className + " in " + e.parentElement.tagName + "." +
+               e.parentElement.className + " '" + (e.textContent || "").slice(0, 30) + "' right=" + Math.round(r.right));
+  });
+  var plots = Array.prototype.map.call(document.querySelectorAll("figure.plot img"),
+                                       function (i) { return i.getBoundingClientRect().width; });
+  var fonts = Array.prototype.map.call(document.querySelectorAll("p, td, th, figcaption, .cap"),
+                                       function (e) { return parseFloat(getComputedStyle(e).fontSize); });
+  document.body.setAttribute("data-layout", JSON.stringify({
+    inner: inner, scroll: document.documentElement.scrollWidth, overflowing: bad,
+    min_plot: Math.min.apply(null, plots), min_font: Math.min.apply(null, fonts)}));
 });
 </script>
 """
@@ -499,6 +563,13 @@ def test_page_in_headless_chromium(chromium, report, tmp_path):
     assert check["canvases"] > 0 and check["drawn"] == check["canvases"]
     assert check["flip"] and check["unflip"] and check["keyflip"] and check["escape"]
     assert check["zoomlabel"] == "×8"
+    # every plot the sections promise (data-plots) and the seed plot loads; FLIP maps decode
+    promised = sum(len(p.split()) for p in re.findall(r'data-plots="([^"]*)"', text)) + 1
+    assert promised >= 5 * len(SCENES) + 1
+    assert check["plots"] == promised and check["plots_loaded"] == promised
+    assert check["flipmaps"] > 0
+    # zoom follows the pointer in every column of the row; - and + change the zoom
+    assert check["zoom_moves"] and check["zooming"] and check["zoomout"] == "×2"
 
     # 3. a screenshot that is not blank
     from PIL import Image
@@ -513,3 +584,96 @@ def test_page_in_headless_chromium(chromium, report, tmp_path):
     keep = os.environ.get("RTBENCH_REPORT_SCREENSHOT")
     if keep:
         shutil.copy(shot, keep)
+
+    # 4. layout at a desktop width and at phone width: nothing wider than the window. Headless
+    # windows are at least 500 px wide, so the phone is an iframe of 390 px in a 1400 px window.
+    lay = tmp_path / "layout.html"
+    lay.write_text(text.replace("</body>", _LAYOUT + "</body>", 1), encoding="utf-8")
+    for width, height in ((1400, 900), (390, 844)):
+        frame = tmp_path / f"frame{width}.html"
+        frame.write_text(f'<!DOCTYPE html><html><body style="margin:0"><iframe id="f" src="{lay.name}" '
+                         f'style="border:0;width:{width}px;height:{height}px"></iframe><script>'
+                         'window.addEventListener("load", function () { document.body.setAttribute("data-layout", '
+                         'document.getElementById("f").contentDocument.body.getAttribute("data-layout")); });'
+                         "</script></body></html>", encoding="utf-8")
+        res = _chromium(chromium, tmp_path, "--window-size=1400,900", "--virtual-time-budget=3000",
+                        "--allow-file-access-from-files", "--dump-dom", frame.as_uri())
+        m = re.search(r'data-layout="([^"]*)"', res.stdout)
+        assert m, res.stderr[-2000:]
+        layout = json.loads(_html.unescape(m.group(1)))
+        assert layout["inner"] == width, layout
+        assert layout["scroll"] <= layout["inner"], f"horizontal overflow at {width} px: {layout}"
+        assert layout["overflowing"] == [], layout
+        assert layout["min_plot"] > 0.8 * min(520, width - 60), layout  # plots stay readable
+        assert layout["min_font"] >= 10, layout
+
+
+# ----------------------------------------------------------------------------------------- formats (issue 16)
+
+def test_report_formats_write_vector_plots_and_tidy_csvs(store, tmp_path):
+    import csv
+
+    from reports.tidy import CURVE_COLUMNS, SUMMARY_COLUMNS
+
+    out = tmp_path / "all"
+    written = reports.write_report(store, out=out, formats=("html", "svg", "pdf", "csv"), metric="relmse")
+    assert written["report"] == out / "index.html" and (out / "summary.md").exists()
+    for scene in SCENES:
+        for kind in ("rmse", "relmse", "ssim", "flip", "time-relmse"):
+            svg, pdf = out / "plots" / f"{scene}_16x16_{kind}.svg", out / "plots" / f"{scene}_16x16_{kind}.pdf"
+            assert svg.read_text().lstrip().startswith(("<?xml", "<svg")) and "<path" in svg.read_text()
+            assert pdf.read_bytes().startswith(b"%PDF")
+    assert (out / "plots" / "seed_cornell_box_400x400_rmse.svg").exists()
+    curves_rows = list(csv.DictReader((out / "curves.csv").open()))
+    assert tuple(curves_rows[0]) == CURVE_COLUMNS
+    recs = [r for r in load_store(store).records if r["scene"] == SCENES[0] and r["width"] == 16
+            and r["strategy"] == "mixture" and r["spp"] == 4]
+    (pt,) = [r for r in curves_rows if r["scene"] == SCENES[0] and r["width"] == "16" and r["strategy"] == "mixture"
+             and r["spp"] == "4" and r["metric"] == "rmse"]
+    vals = sorted(r["rmse"] for r in recs)
+    assert float(pt["min"]) == vals[0] and float(pt["max"]) == vals[-1] and int(pt["seeds"]) == len(vals)
+    assert float(pt["median"]) == pytest.approx(float(np.median(vals)))
+    assert {r["metric"] for r in curves_rows} == {"rmse", "mse_corrected", "relmse", "ssim", "flip"}
+    summary_rows = list(csv.DictReader((out / "summary.csv").open()))
+    assert tuple(summary_rows[0]) == SUMMARY_COLUMNS
+    light = [r for r in summary_rows if r["strategy"] == "light"]
+    assert light and all(r["cost_status"] == "biased" and r["efficiency"] == "" and r["time_to_target"] == ""
+                         for r in light)
+    mis = [r for r in summary_rows if r["strategy"] == "mixture" and r["metric"] == "relmse"]
+    assert mis and all(float(r["efficiency"]) > 0 and r["cost_status"] == "" for r in mis)
+
+
+def test_metric_switches_the_page_and_the_cli(store, tmp_path, capsys):
+    from benchmarks.cli import main
+
+    out = tmp_path / "rmse"
+    assert main(["report", str(store), "--out", str(out), "--metric", "rmse", "--format", "html,csv",
+                 "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "curves.csv" in printed and "BIASED" not in printed  # --quiet: no table
+    html_rmse = (out / "index.html").read_text()
+    assert "RMSE slope [95% CI]" in html_rmse
+    assert "metric of slopes, efficiency and time to target: RMSE" in html_rmse
+    html_rel = reports.build_report(store, out=tmp_path / "rel")
+    assert "relMSE slope [95% CI]" in html_rel.read_text()
+    # the equal-time sentence names the metric it compares (it said RMSE for relMSE values)
+    assert re.search(r"At equal time \([^)]*\): uniform relMSE ", html_rel.read_text())
+    assert re.search(r"At equal time \([^)]*\): uniform RMSE ", html_rmse)
+    assert main(["report", str(store), "--format", "html,gif"]) == 2
+    assert "unknown format" in capsys.readouterr().err
+
+
+def test_each_plot_legend_uses_its_own_metrics_slopes(store):
+    # regression: under --metric relmse the RMSE plot's legend showed the relMSE slopes
+    from reports.sections import _slopes, build_section
+    from reports.curves import curves as make_curves
+
+    st = load_store(store)
+    sec = build_section(st, "cornell_box", 16, 16, problems=[], metric="relmse")
+    recs = st.section_records("cornell_box", 16, 16)
+    raw = {(r["renderer"], r["strategy"]): r for r in st.section_rows("cornell_box", 16, 16)}
+    rmse = _slopes(sec, make_curves(recs, "rmse"), "rmse")
+    rel = _slopes(sec, make_curves(recs, "relmse"), "relmse")
+    for key, (slope, note) in rmse.items():
+        assert slope == raw[key]["slope"] and note == ""
+        assert rel[key][0] == raw[key]["by_metric"]["relmse"]["slope"]

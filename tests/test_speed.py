@@ -32,7 +32,7 @@ def test_cli_render_table_and_json(tmp_path, capsys):
     render_json = tmp_path / "speed.json"
     rc = main(["speed", "cornell_box", "--width", "12", "--height", "8", "--spp", "2", "--repeats", "2",
                "--threads", "2", "--strategies", "mis,light", "--variants", "scalar_rgb",
-               "--reference", "ours", "--reference-spp", "32", "--json", str(render_json), "--quiet"])
+               "--reference", "ours", "--reference-spp", "32", "--json", str(render_json)])
     out = capsys.readouterr().out
     assert rc == 0
     for header in ("Mpaths/s", "Mpaths/cpu-s", "Mrays/s", "ms/spp", "ratio scalar (cpu)", "RMSE",
@@ -261,7 +261,7 @@ def test_ray_benchmark_fields(jit_variant, capsys, tmp_path):
         pytest.skip("llvm_ad_rgb does not work here: the timed Mitsuba side needs a JIT variant")
     path = tmp_path / "rays.json"
     rc = main(["speed", "--rays", "--triangles", "500,4000", "--ray-count", "4000", "--repeats", "2",
-               "--variants", jit_variant, "--json", str(path), "--quiet"])
+               "--variants", jit_variant, "--json", str(path)])
     assert rc == 0
     out = capsys.readouterr().out
     assert "ours Mrays/s" in out and "Mitsuba Mrays/s" in out and "hit agree" in out

@@ -1,16 +1,18 @@
 """The one-screen summary table that ``rtbench curves`` and ``rtbench run`` print (rich).
 
 One row per (scene, size); one column per curve (our strategies, then Mitsuba). A cell
-shows the convergence slope (``BIASED`` when the bias test fires) on its first line and,
-on the second, efficiency and throughput relative to Mitsuba's ``path`` on the same
-scene and size. The seed's comparison (uniform vs light on ``cornell_box`` at 400x400)
-follows as one line when the store holds it.
+shows the convergence slope under the chosen metric (``--metric``, default relMSE;
+``BIASED`` when the bias test fires) on its first line and, on the second, efficiency
+(under the same metric) and throughput relative to Mitsuba's ``path`` on the same scene
+and size; a biased or undetermined estimator shows that word instead of an efficiency.
+The seed's comparison (uniform vs light on ``cornell_box`` at 400x400) follows as one
+line when the store holds it.
 
 Examples
 --------
 >>> from benchmarks.commands._summary import summary_table
 >>> summary_table([]).title
-'rtbench summary'
+'rtbench summary (metric: relMSE)'
 """
 from __future__ import annotations
 
@@ -18,6 +20,7 @@ import math
 
 from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP, STRATEGIES
 from benchmarks.sweep import finite
+from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS, view
 
 __all__ = ["summary_table", "print_summary", "seed_comparison_line"]
 
@@ -75,17 +78,20 @@ def _cell(r):
     if r.get("renderer") == "mitsuba":
         t.append(f"\n{_si(r.get('samples_per_second'))}/s")
     else:
-        t.append(f"\n{_f(r.get('efficiency_vs_mitsuba'))} | {_f(r.get('samples_per_second_vs_mitsuba'))}")
+        eff = r.get("cost_status") or _f(r.get("efficiency_vs_mitsuba"))
+        t.append(f"\n{eff} | {_f(r.get('samples_per_second_vs_mitsuba'))}")
     return t
 
 
-def summary_table(rows, *, title: str = "rtbench summary"):
-    """A ``rich.table.Table`` of summary rows (``summary.json``'s ``rows``).
+def summary_table(rows, *, title: str = "rtbench summary", metric: str = DEFAULT_METRIC):
+    """A ``rich.table.Table`` of summary rows (``summary.json``'s ``rows``) under ``metric``.
 
     Parameters
     ----------
     rows : list of dict
     title : str, keyword-only
+    metric : {'rmse', 'relmse', 'ssim', 'flip'}, keyword-only
+        The error behind slopes and efficiency (:func:`benchmarks.sweep.by_metric.view`).
 
     Returns
     -------
@@ -93,6 +99,12 @@ def summary_table(rows, *, title: str = "rtbench summary"):
     """
     from rich.table import Table
     from rich.text import Text
+
+    spec = SPECS[metric]
+    rows = [view(r, metric) for r in rows]
+    title = f"{title} (metric: {spec.label})"
+    expected = (f" ({spec.unbiased_slope:+.2f} = unbiased Monte Carlo)" if spec.unbiased_slope is not None
+                else " (no theoretical value)")
 
     curves = []
     for r in rows:
@@ -106,10 +118,11 @@ def summary_table(rows, *, title: str = "rtbench summary"):
         if s not in sections:
             sections.append(s)
     table = Table(title=title, show_lines=True, caption_justify="left",
-                  caption="line 1: slope of RMSE vs spp (-0.50 = unbiased Monte Carlo), or BIASED with the bias "
+                  caption=f"line 1: slope of {spec.label} vs spp{expected}, or BIASED with the bias "
                           "test's z, or (undetermined) where the estimator is too heavy-tailed at this budget for "
-                          "a verdict; line 2: efficiency 1/(MSE*s) | samples/s, both relative to Mitsuba path "
-                          "(Mitsuba: its samples/s)")
+                          f"a verdict; line 2: efficiency 1/({spec.label}*s) | samples/s, both relative to Mitsuba "
+                          "path (Mitsuba: its samples/s); 'biased' or 'undetermined' instead of an efficiency where "
+                          "the bias test found a bias or could not decide")
     table.add_column("scene", no_wrap=True)
     for c in curves:
         table.add_column(_curve_name(*c), no_wrap=True, justify="right")
@@ -138,8 +151,8 @@ def seed_comparison_line(records) -> str | None:
             f"{_f(cmp['target_rmse'], 3)}; {where}")
 
 
-def print_summary(store, *, console=None) -> None:
-    """Print the summary table of a results store (and the seed comparison line)."""
+def print_summary(store, *, console=None, metric: str = DEFAULT_METRIC) -> None:
+    """Print the summary table of a results store under ``metric`` (and the seed comparison line)."""
     from rich.console import Console
 
     from benchmarks.store import SUMMARY, read_json, read_records
@@ -153,7 +166,7 @@ def print_summary(store, *, console=None) -> None:
     if not rows:
         console.print(f"{store}: no summary rows yet")
         return
-    console.print(summary_table(rows))
+    console.print(summary_table(rows, metric=metric))
     line = seed_comparison_line(read_records(store))
     if line:
         console.print(line, highlight=False)

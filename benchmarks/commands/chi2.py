@@ -8,27 +8,26 @@ import json
 HELP = "chi-square tests of every sampling routine against its pdf; observed-vs-expected images; exit 1 on a failure"
 
 DEFAULT_SAMPLES = 1_000_000
-DEFAULT_OUT = "rtbench-chi2"
+DEFAULT_OUT = "rtbench-out/chi2"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from benchmarks.chi2.pearson import DEFAULT_ALPHA
 
+    from benchmarks.commands import _args as A
+
     parser.add_argument("--routine", action="append", metavar="PREFIX", default=[],
                         help="run only routines whose name starts with PREFIX (repeatable), e.g. bsdf.rough_conductor, "
-                             "light., warp.uniform_cone; --list shows them")
-    parser.add_argument("--list", action="store_true", help="list the catalogue and exit")
-    parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES,
-                        help=f"samples per routine (default {DEFAULT_SAMPLES})")
-    parser.add_argument("--seed", type=int, default=0, help="base seed; each routine derives its own (default 0)")
-    parser.add_argument("--alpha", type=float, default=DEFAULT_ALPHA,
-                        help=f"false-alarm rate of the whole run (default {DEFAULT_ALPHA}); each of the k routines "
-                             "is tested at the Sidak level 1 - (1 - alpha)^(1/k)")
-    parser.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                        help=f"folder for the observed-vs-expected images (default ./{DEFAULT_OUT})")
+                             "light., warp.uniform_cone; --list shows them (default: every routine)")
+    A.add_list_arg(parser)
+    parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES, help="samples per routine")
+    A.add_seed_args(parser)
+    A.add_alpha_args(parser, default=DEFAULT_ALPHA)
+    A.add_out_arg(parser, default=DEFAULT_OUT)
     parser.add_argument("--images", choices=("all", "failures", "none"), default="all",
-                        help="which routines get an image (default all)")
-    parser.add_argument("--json", default=None, metavar="PATH", help="also write every row with its statistics")
+                        help="which routines get an observed-vs-expected image")
+    A.add_json_arg(parser)
+    A.add_quiet_arg(parser)
 
 
 def run(args) -> int:
@@ -40,21 +39,23 @@ def run(args) -> int:
     from benchmarks.chi2.catalogue import run_routine, select
     from benchmarks.chi2.pearson import sidak
 
+    from benchmarks.commands._args import check
+
+    check(args)
     routines = select(args.routine)        # ValueError (exit 2) for a prefix that matches nothing
     console = Console()
     if not console.is_terminal:   # piped or captured: keep the rows on one line each
         console = Console(width=160)
+    quiet = Console(quiet=True) if args.quiet else console
     if args.list:
         for r in routines:
             console.print(r.label, highlight=False, markup=False)
         return 0
-    if args.samples < 1:
-        raise ValueError(f"--samples must be >= 1, got {args.samples}")
     per_test = sidak(args.alpha, len(routines))   # ValueError for alpha outside (0, 1)
 
     rows = []
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                  TimeElapsedColumn(), console=console, transient=True) as progress:
+                  TimeElapsedColumn(), console=quiet, transient=True) as progress:
         task = progress.add_task("chi2", total=len(routines))
         for r in routines:
             progress.update(task, description=f"chi2 {r.label}")
@@ -81,7 +82,7 @@ def run(args) -> int:
         style = {"pass": "green", "fail": "bold red"}.get(row.verdict, "yellow")
         table.add_row(row.routine, row.params, str(row.n), f"{row.p_value:.3g}", f"[{style}]{row.verdict}[/{style}]",
                       f"{row.seconds:.1f}")
-    console.print(table)
+    quiet.print(table)
     if images:
         console.print(f"{images} images in {args.out}/")
     failed = [f"{r.label}: {row.message}" for r, row in rows if row.verdict == "fail"]

@@ -1,4 +1,5 @@
-"""``rtbench render SCENE``: render one suite scene with our tracer, write EXR and PNG."""
+"""``rtbench render SCENE``: render one suite scene (or ``--scene PATH`` files) with our tracer (and, with
+``--mitsuba``, Mitsuba), write EXR and PNG."""
 from __future__ import annotations
 
 import argparse
@@ -6,67 +7,123 @@ from pathlib import Path
 
 from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
 
-HELP = ("render a suite scene (or --scene PATH) with the reference tracer and write "
-        "<out>/<scene>_<strategy>.exr and .png")
+HELP = ("render a suite scene (or --scene PATH) with our tracer (one image per --strategies) and, with --mitsuba, "
+        "with Mitsuba too; writes <out>/<scene>_<W>x<H>_<renderer>_spp<N>_seed<S>.exr and .png")
+
+DEFAULT_OUT = "rtbench-out/render"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scene", help="suite scene name (see `rtbench render --list`)", nargs="?")
-    p.add_argument("--list", action="store_true", help="list the suite's scenes and exit")
-    p.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")
-    p.add_argument("--strategy", default="mis", help="uniform, cosine, light, mixture or mis (default mis)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--width", type=int, default=None, help="image width (default: the scene's)")
-    p.add_argument("--height", type=int, default=None, help="image height (default: the width)")
-    p.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores)")
-    p.add_argument("--exposure", type=float, default=0.0, help="PNG exposure in stops (default 0)")
-    p.add_argument("--out", default=".", help="output folder (default: current folder)")
+    from benchmarks.commands import _args as A
+
+    A.add_scene_args(p, nargs="?", what="suite scene name")
+    A.add_list_arg(p)
+    A.add_spp_args(p, default=64)
+    A.add_strategy_args(p, default=("mis",))
+    p.add_argument("--strategy", action=A.ListAction,
+                   dest="strategies", help=argparse.SUPPRESS)  # the older singular name
+    A.add_seed_args(p)
+    A.add_size_args(p, width=None)
+    p.add_argument("--mitsuba", action="store_true",
+                   help="also render the scene with Mitsuba's path integrator (in --variant)")
+    A.add_variant_args(p)
+    A.add_threads_args(p)
+    p.add_argument("--exposure", type=float, default=0.0, help="PNG exposure in stops")
+    A.add_out_arg(p, default=DEFAULT_OUT)
+    A.add_quiet_arg(p)
     add_scene_path_args(p)
 
 
-def run(args) -> int:
-    from mitsuba_scenes import describe_scene, get_scene, list_scenes
-    from rich.console import Console
+def file_stem(scene: str, width: int, height: int, renderer: str, spp: int, seed: int) -> str:
+    """The name of a render's files: every setting that changes the image, so renders never overwrite each other.
 
-    console = Console()
-    if args.list or not (args.scene or args.scene_files):
-        for name in list_scenes():
-            console.print(f"{name:16s} {describe_scene(name)}")
-        return 0 if args.list else 2
-    rt.imageio.check_exposure(args.exposure)  # before the render, not after it
+    >>> file_stem("cornell_box", 32, 32, "mis", 64, 0)
+    'cornell_box_32x32_mis_spp64_seed0'
+    """
+    return f"{scene}_{width}x{height}_{renderer}_spp{spp}_seed{seed}"
+
+
+def _size(args) -> dict:
     params = {}
     if args.width is not None:
         params["width"] = args.width
         params["height"] = args.height if args.height is not None else args.width
     elif args.height is not None:
         raise ValueError("--height needs --width")
-    names = resolve_scenes(args, suite_names=[args.scene] if args.scene else [])
+    return params
+
+
+def run(args) -> int:
+    import reference_tracer as rt
+    from mitsuba_scenes import describe_scene, get_scene, list_scenes
+    from rich.console import Console
+
+    from benchmarks.commands._args import check, single_variant
+
+    check(args)
+    console = Console()
+    if args.list or not (args.scenes or args.scene_files):
+        for name in list_scenes():
+            console.print(f"{name:16s} {describe_scene(name)}")
+        return 0 if args.list else 2
+    unknown = [s for s in args.strategies if s not in rt.STRATEGIES]
+    if unknown:
+        raise ValueError(f"unknown strateg{'y' if len(unknown) == 1 else 'ies'} {', '.join(unknown)}; "
+                         f"choose from {', '.join(rt.STRATEGIES)}")
+    rt.imageio.check_exposure(args.exposure)  # before the render, not after it
+    variant = single_variant(args)
+    params = _size(args)
+    names = resolve_scenes(args, suite_names=[args.scenes] if args.scenes else [])
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
     worst = 0
     for name in names:
-        worst = max(worst, _render_one(name, get_scene(name, **params), args, console))
+        worst = max(worst, _render_scene(name, get_scene(name, **params), args, variant, out, console))
     return worst
 
 
-def _render_one(name, scene, args, console) -> int:
-    """Render one scene, write its EXR and PNG, print one line; 1 when samples were NaN/Inf."""
+def _render_scene(name, scene, args, variant, out: Path, console) -> int:
+    """Render one scene with every strategy (and Mitsuba with ``--mitsuba``), write EXR and
+    PNG, print one line each; 1 when samples were NaN/Inf or pixels overflowed."""
     import reference_tracer as rt
     from mitsuba_scenes import describe_scene
     from rich.progress import BarColumn, Progress, TimeRemainingColumn
 
-    with Progress("[progress.description]{task.description}", BarColumn(), "{task.percentage:>3.0f}%",
-                  TimeRemainingColumn(), console=console, transient=True) as bar:
-        task = bar.add_task(f"{name} {args.strategy} {args.spp} spp", total=1.0)
-        result = rt.render(scene, spp=args.spp, strategy=args.strategy, seed=args.seed, threads=args.threads,
-                           progress=lambda done, total: bar.update(task, completed=done / total))
-    out = Path(args.out)
-    stem = out / f"{name}_{args.strategy}"
-    rt.write_exr(stem.with_suffix(".exr"), result.mean)
-    rt.write_png(stem.with_suffix(".png"), result.mean, exposure=args.exposure)
-    h, w, _ = result.mean.shape
-    console.print(f"{name} ({describe_scene(name)}, content hash {scene.content_hash()[:16]})")
-    console.print(f"{name}: {w}x{h}, {args.spp} spp, {args.strategy}, seed {args.seed}: "
-                  f"{result.seconds:.3f} s on {result.threads} threads, "
-                  f"{result.paths_per_second / 1e6:.2f} M paths/s, {result.rays / 1e6:.2f} M rays, "
-                  f"{result.nonfinite_samples} NaN/Inf samples, {result.overflow_pixels} overflowed pixels")
-    console.print(f"wrote {stem.with_suffix('.exr')} and {stem.with_suffix('.png')}")
-    return 1 if result.nonfinite_samples or result.overflow_pixels else 0
+    w, h = scene.camera.width, scene.camera.height
+    if not args.quiet:
+        console.print(f"{name} ({describe_scene(name)}, content hash {scene.content_hash()[:16]})", highlight=False)
+    bad = 0
+    for strategy in dict.fromkeys(args.strategies):
+        with Progress("[progress.description]{task.description}", BarColumn(), "{task.percentage:>3.0f}%",
+                      TimeRemainingColumn(), console=console, transient=True, disable=args.quiet) as bar:
+            task = bar.add_task(f"{name} {strategy} {args.spp} spp", total=1.0)
+            result = rt.render(scene, spp=args.spp, strategy=strategy, seed=args.seed, threads=args.threads,
+                               progress=lambda done, total: bar.update(task, completed=done / total))
+        stem = out / file_stem(name, w, h, strategy, args.spp, args.seed)
+        _write(rt, stem, result.mean, args.exposure)
+        if not args.quiet:
+            console.print(f"{name}: {w}x{h}, {args.spp} spp, {strategy}, seed {args.seed}: "
+                          f"{result.seconds:.3f} s on {result.threads} threads, "
+                          f"{result.paths_per_second / 1e6:.2f} M paths/s, {result.rays / 1e6:.2f} M rays, "
+                          f"{result.nonfinite_samples} NaN/Inf samples, {result.overflow_pixels} overflowed pixels",
+                          highlight=False)
+        print(f"wrote {stem}.exr and {stem}.png")
+        bad += bool(result.nonfinite_samples or result.overflow_pixels)
+    if args.mitsuba:
+        from mitsuba_scenes import render_mitsuba
+        from mitsuba_scenes.variants import select_variant
+
+        chosen = select_variant(variant)
+        res = render_mitsuba(scene, spp=args.spp, seed=args.seed, variant=chosen, threads=args.threads, batches=1)
+        stem = out / file_stem(name, w, h, f"mitsuba-{chosen}", args.spp, args.seed)
+        _write(rt, stem, res.mean, args.exposure)
+        if not args.quiet:
+            console.print(f"{name}: Mitsuba {chosen} path, {args.spp} spp, seed {args.seed}: "
+                          f"{res.seconds:.3f} s", highlight=False)
+        print(f"wrote {stem}.exr and {stem}.png")
+    return 1 if bad else 0
+
+
+def _write(rt, stem: Path, mean, exposure: float) -> None:
+    rt.write_exr(stem.with_suffix(".exr"), mean)
+    rt.write_png(stem.with_suffix(".png"), mean, exposure=exposure)

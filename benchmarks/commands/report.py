@@ -1,25 +1,32 @@
-"""``rtbench report STORE [--out DIR]``: write index.html and summary.md for a results store."""
+"""``rtbench report STORE [--out DIR] [--format html,svg,pdf,csv] [--metric M]``: the report of a results store."""
 from __future__ import annotations
 
 import argparse
 
-HELP = "turn a results store into a self-contained HTML report (index.html) and summary.md"
+HELP = ("turn a results store into a report: a self-contained index.html and summary.md (html), every plot as SVG "
+        "and PDF (svg, pdf) and tidy CSVs of the curves and the summary (csv)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from benchmarks.commands import _args as A
+
     parser.add_argument("store", metavar="STORE", help="results store folder (holds results.jsonl, summary.json)")
-    parser.add_argument("--out", metavar="DIR", default=None,
-                        help="folder to write index.html and summary.md into (default: STORE)")
-    parser.add_argument("--quiet", action="store_true", help="print only the report's path, not the summary table")
+    A.add_out_arg(parser, default="STORE")
+    A.add_format_arg(parser)
+    A.add_metric_arg(parser)
+    A.add_quiet_arg(parser)
 
 
 def run(args) -> int:
-    from reports import build_report, summary_table
+    from benchmarks.commands._args import check
+    from reports import summary_table, write_report
 
-    page = build_report(args.store, out=args.out)
+    check(args)
+    out = None if args.out == "STORE" else args.out
+    written = write_report(args.store, out=out, formats=args.format, metric=args.metric)
     if not args.quiet:
-        print(summary_table(args.store))
+        print(summary_table(args.store, metric=args.metric))
         print()
-    print(f"report: {page.resolve()}")
-    print(f"summary: {(page.parent / 'summary.md').resolve()}")
+    for kind, path in written.items():
+        print(f"{kind}: {path.resolve()}")
     return 0

@@ -11,20 +11,30 @@ HELP = "the main job: references and error-vs-spp curves for the whole suite, th
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from benchmarks.commands import _args as A
     from benchmarks.commands.curves import add_sweep_options
     from benchmarks.sweep.presets import PRESETS
 
     parser.add_argument("--preset", choices=PRESETS, default=PRESETS[0],
-                        help="quick (default: small images, whole suite in about 10 minutes on 2 cores) or "
+                        help="quick (small images, whole suite in about 10 minutes on 2 cores) or "
                              "full (report quality: 256x256, spp to 1024, 4 seeds)")
-    parser.add_argument("--out", metavar="DIR", default=None,
-                        help="results store (default reports/out/PRESET)")
-    parser.add_argument("--scenes", default=None,
-                        help="only these suite scenes, comma-separated (with --scene and no --scenes: only the "
-                             "scene files)")
-    parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
+    A.add_out_arg(parser, default="reports/out/PRESET[_SCENES]")
+    parser.add_argument("--scenes", default=None, metavar="SCENE[,SCENE...]",
+                        help="only these suite scenes, comma-separated (default: the whole suite; with --scene "
+                             "and no --scenes: only the scene files)")
+    parser.add_argument("--no-report", action="store_true", help="skip the report")
+    A.add_format_arg(parser)
     add_sweep_options(parser)
     add_scene_path_args(parser)
+
+
+def default_out(preset: str, scenes) -> str:
+    """The default results store of a run: one per preset, and one per scene subset.
+
+    >>> default_out("quick", None), default_out("quick", ["furnace", "cornell_box"])
+    ('reports/out/quick', 'reports/out/quick_cornell_box+furnace')
+    """
+    return f"reports/out/{preset}" + (f"_{'+'.join(sorted(scenes))}" if scenes else "")
 
 
 def run(args) -> int:
@@ -35,10 +45,14 @@ def run(args) -> int:
     from benchmarks.sweep import run_sweep
     from benchmarks.sweep.presets import describe_preset, preset_groups
 
+    from benchmarks.commands._args import check, name_list
+
+    check(args)
+    if args.scenes is not None:
+        args.scenes = name_list(args.scenes)
     t0 = time.perf_counter()
-    out = args.out or f"reports/out/{args.preset}"
-    suite_names = [s.strip() for s in args.scenes.split(",") if s.strip()] if args.scenes else []
-    names = resolve_scenes(args, suite_names=suite_names)
+    names = resolve_scenes(args, suite_names=args.scenes or [])
+    out = args.out if args.out != "reports/out/PRESET[_SCENES]" else default_out(args.preset, names or None)
     groups = preset_groups(args.preset, scenes=names or None)
     console = Console()
     if not console.is_terminal:  # logs and pipes: wide enough for the summary table
@@ -46,8 +60,8 @@ def run(args) -> int:
     err = Console(stderr=True)
     if not args.quiet:
         err.print(f"rtbench run --preset {args.preset} -> {out}", highlight=False)
-        err.print(describe_preset(args.preset), highlight=False)
-    result = run_sweep(groups, out=out, preset=args.preset, **sweep_kwargs(args))
+        err.print(describe_preset(args.preset, scenes=names or None), highlight=False)
+    result = run_sweep(groups, out=out, preset=args.preset, **sweep_kwargs(args, groups))
     page = None
     if not args.no_report:
         try:
@@ -55,8 +69,9 @@ def run(args) -> int:
         except ImportError:
             console.print("report skipped: the reports package is not installed", highlight=False)
         else:
-            page = reports.build_report(result.store)
-    print_summary(result.store, console=console)
+            page = reports.build_report(result.store, formats=args.format, metric=args.metric)
+    if not args.quiet:
+        print_summary(result.store, console=console, metric=args.metric)
     if page is not None:
         print(f"report: {page.resolve()}", flush=True)
     print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "

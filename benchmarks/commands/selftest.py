@@ -23,34 +23,30 @@ HELP = ("self-test: render seeded bugs of the tracer (mutants) and report which 
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from benchmarks.commands import _args as A
     from benchmarks.gate import DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_WIDTH
     from benchmarks.selftest import CATALOGUE, DEFAULT_SPP_LADDER
     from benchmarks.tails import DEFAULT_TAIL_SPP
 
     parser.add_argument("--mutants", action="append", default=[], metavar="M[,M...]",
                         help=f"mutants to test (default: all): {', '.join(m.name for m in CATALOGUE)}")
-    parser.add_argument("--list", action="store_true", help="list the mutants (what each breaks, scene, strategy, "
-                                                            "why) and exit")
-    parser.add_argument("--spp", type=int, default=DEFAULT_SPP,
-                        help=f"samples per pixel of the verdict: the gate's budget (default {DEFAULT_SPP})")
+    A.add_list_arg(parser)
+    A.add_spp_args(parser, default=DEFAULT_SPP)
     parser.add_argument("--spp-ladder", default=",".join(map(str, DEFAULT_SPP_LADDER)), metavar="N[,N...]",
                         help="budgets below --spp at which each mutant is judged too, for the smallest spp "
-                             f"that catches it (default {','.join(map(str, DEFAULT_SPP_LADDER))})")
-    parser.add_argument("--width", type=int, default=DEFAULT_WIDTH,
-                        help=f"image width and height (default {DEFAULT_WIDTH})")
-    parser.add_argument("--ref-spp", type=int, default=DEFAULT_REF_SPP,
-                        help=f"samples per pixel of the Mitsuba references (default {DEFAULT_REF_SPP}; "
-                             "rendered into the cache when missing)")
-    parser.add_argument("--tail-spp", type=int, default=DEFAULT_TAIL_SPP,
-                        help=f"samples per pixel of each mutant's tail reference (default {DEFAULT_TAIL_SPP}; cached)")
-    parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"seed of the renders (default {DEFAULT_SEED})")
+                             "that catches it")
+    A.add_size_args(parser, width=DEFAULT_WIDTH)
+    A.add_reference_spp_arg(parser, default=DEFAULT_REF_SPP)
+    A.add_tail_spp_arg(parser, default=DEFAULT_TAIL_SPP)
+    A.add_seed_args(parser, default=DEFAULT_SEED)
     parser.add_argument("--no-controls", action="store_true",
                         help="skip the control: the unmutated tracer judged the same way on each scene and strategy")
-    parser.add_argument("--threads", type=int, default=None, help="rendering threads (default: all cores)")
-    parser.add_argument("--cache", default=None, metavar="DIR",
-                        help="reference cache root (default $RTBENCH_CACHE or ~/.cache/rtbench)")
-    parser.add_argument("--json", default=None, metavar="PATH", help="also write the rows (one per mutant) as JSON")
-    parser.add_argument("--markdown", default=None, metavar="PATH", help="also write the table as Markdown")
+    A.add_threads_args(parser)
+    A.add_cache_arg(parser)
+    A.add_json_arg(parser)
+    parser.add_argument("--markdown", default=None, metavar="PATH",
+                        help="also write the table as Markdown (default: none)")
+    A.add_quiet_arg(parser)
 
 
 def _names(values) -> list | None:
@@ -126,6 +122,7 @@ def _command_line() -> str | None:
 def run(args) -> int:
     from rich.console import Console
 
+    from benchmarks.commands._args import check
     from benchmarks.selftest import CATALOGUE, resolve_mutants, run_selftest
 
     if args.list:
@@ -133,33 +130,35 @@ def run(args) -> int:
             print(f"{m.name} ({m.scene}, {m.strategy})\n  bug: {m.description}\n  breaks: {m.breaks}\n"
                   f"  why this scene: {m.why}")
         return 0
+    check(args)
     names = _names(args.mutants)
     resolve_mutants(names)  # validate before the first render
-    for name, v, lo in (("--spp", args.spp, 2), ("--ref-spp", args.ref_spp, 2), ("--tail-spp", args.tail_spp, 2),
-                        ("--width", args.width, 1), ("--seed", args.seed, 0)):
-        if v < lo:
-            raise ValueError(f"{name} must be >= {lo}, got {v}")
-    if args.threads is not None and args.threads < 1:
-        raise ValueError(f"--threads must be >= 1, got {args.threads}")
+    for name, v in (("--spp", args.spp), ("--reference-spp", args.reference_spp), ("--tail-spp", args.tail_spp)):
+        if v < 2:
+            raise ValueError(f"{name} must be >= 2, got {v}")
+    if args.height is not None and args.height != args.width:
+        raise ValueError("selftest renders square images: --height must equal --width")
     try:
         spp_ladder = [int(s) for s in args.spp_ladder.split(",") if s.strip()]
     except ValueError:
         raise ValueError(f"--spp-ladder must be comma-separated integers, got {args.spp_ladder!r}") from None
 
     def log(line):
-        print(line, file=sys.stderr, flush=True)
+        if not args.quiet:
+            print(line, file=sys.stderr, flush=True)
 
     def on_row(row):
         log(f"{row['mutant']}: gate {row['verdict']}, Mitsuba's rule "
             f"{'caught' if row['caught_by_mitsuba_rule'] else 'passed'} it ({row['seconds']:.0f} s)")
 
-    report = run_selftest(names, spp=args.spp, width=args.width, ref_spp=args.ref_spp, tail_spp=args.tail_spp,
+    report = run_selftest(names, spp=args.spp, width=args.width, ref_spp=args.reference_spp, tail_spp=args.tail_spp,
                           spp_ladder=spp_ladder, seed=args.seed, controls=not args.no_controls,
                           threads=args.threads, cache=args.cache, on_row=on_row, log=log)
     console = Console()
     if not console.is_terminal:
         console = Console(width=max(console.width, 200))
-    console.print(selftest_table(report))
+    if not args.quiet:
+        console.print(selftest_table(report))
     console.print(summary_line(report) + f"; {report.seconds:.0f} s", highlight=False)
     missed = [r for r in report.rows if not r["caught"]]
     for r in missed:

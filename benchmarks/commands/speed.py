@@ -18,16 +18,6 @@ from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
 HELP = "time ours vs Mitsuba (paired, interleaved): paths/s, rays/s, ms/spp, RMSE, efficiency; --rays, --scaling"
 
 
-def _ints(text):
-    try:
-        vals = [int(float(x)) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from None
-    if not vals:
-        raise argparse.ArgumentTypeError("expected at least one integer")
-    return vals
-
-
 def _list(text):
     return [x.strip() for x in text.split(",") if x.strip()]
 
@@ -53,44 +43,43 @@ def _rr_depths(text):
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from benchmarks.commands import _args as A
     from benchmarks.speed import DEFAULT_RR_DEPTHS, DEFAULT_STRATEGIES, DEFAULT_VARIANTS, REFERENCE_KINDS
 
     rr_default = ",".join("none" if v is None else str(v) for v in DEFAULT_RR_DEPTHS)
-    parser.add_argument("scenes", nargs="*", metavar="SCENE", help="suite scene(s) (default: the whole suite)")
-    parser.add_argument("--width", type=int, default=128, help="image width (default 128)")
-    parser.add_argument("--height", type=int, default=128, help="image height (default 128)")
-    parser.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")
-    parser.add_argument("--threads", type=int, default=2, help="threads for both renderers (default 2)")
-    parser.add_argument("--repeats", type=int, default=5, help="timed paired rounds (default 5)")
-    parser.add_argument("--strategies", type=_list, default=list(DEFAULT_STRATEGIES),
-                        help=f"our strategies, comma-separated (default {','.join(DEFAULT_STRATEGIES)})")
-    parser.add_argument("--variants", type=_list, default=list(DEFAULT_VARIANTS),
-                        help=f"Mitsuba variants (default {','.join(DEFAULT_VARIANTS)}); ones that do not "
-                             f"work here are skipped and named")
-    parser.add_argument("--max-depth", type=int, default=None, help="override the scene's max_depth (suite: 50)")
+    A.add_scene_args(parser, nargs="*", what="suite scene(s) of the render benchmark (default: the whole suite)")
+    A.add_size_args(parser, width=128)
+    A.add_spp_args(parser, default=64)
+    A.add_threads_args(parser)
+    parser.add_argument("--repeats", type=int, default=5, help="timed paired rounds")
+    A.add_strategy_args(parser, default=DEFAULT_STRATEGIES)
+    A.add_variant_args(parser, default=DEFAULT_VARIANTS)
+    parser.add_argument("--variants", dest="variant", help=argparse.SUPPRESS)  # older name
+    parser.add_argument("--max-depth", type=int, default=None,
+                        help="override the scene's max_depth (default: the scene's, 50 in the suite)")
     parser.add_argument("--rr-depth", type=_rr_depths, default=list(DEFAULT_RR_DEPTHS), metavar="DEPTHS",
                         help=f"Russian-roulette configurations, each measured as its own rows: depths roulette "
                              f"starts at, 'none' for no roulette (default {rr_default}: Mitsuba's default, "
                              f"then the seed's)")
     parser.add_argument("--reference", choices=REFERENCE_KINDS, default="mitsuba",
                         help="error reference: cached high-spp Mitsuba (benchmarks.references; rendered once "
-                             "if missing) or a high-spp render of ours (default mitsuba)")
-    parser.add_argument("--reference-spp", type=int, default=4096, help="reference spp (default 4096)")
-    parser.add_argument("--cache", default=None, metavar="DIR", help="reference cache root")
-    parser.add_argument("--seed", type=int, default=0, help="base seed (default 0)")
+                             "if missing) or a high-spp render of ours")
+    A.add_reference_spp_arg(parser, default=4096)
+    A.add_cache_arg(parser)
+    A.add_seed_args(parser)
     parser.add_argument("--render", action="store_true", help="run the render benchmark too with --rays/--scaling")
     parser.add_argument("--rays", action="store_true", help="ray-casting micro-benchmark (ours vs Mitsuba/Embree)")
-    parser.add_argument("--triangles", type=_ints, default=[100_000, 1_000_000],
-                        help="mesh sizes of --rays (default 100000,1000000)")
-    parser.add_argument("--ray-count", type=int, default=1 << 20, help="rays per kind for --rays (default 2^20)")
+    parser.add_argument("--triangles", default="100000,1000000",
+                        help="mesh sizes of --rays")
+    parser.add_argument("--ray-count", type=int, default=1 << 20, help="rays per kind for --rays")
     parser.add_argument("--scaling", action="store_true",
                         help="paths/s vs resolution and threads; cost per ray vs triangle count")
-    parser.add_argument("--resolutions", type=_ints, default=[32, 64, 128], help="--scaling sizes (default 32,64,128)")
-    parser.add_argument("--scaling-triangles", type=_ints, default=[1_000, 10_000, 100_000, 1_000_000],
-                        help="--scaling mesh sizes (default 1e3,1e4,1e5,1e6)")
-    parser.add_argument("--scaling-spp", type=int, default=16, help="--scaling spp (default 16)")
-    parser.add_argument("--json", metavar="PATH", default=None, help="write every record as JSON")
-    parser.add_argument("--quiet", action="store_true", help="no progress lines")
+    parser.add_argument("--resolutions", default="32,64,128", help="--scaling sizes")
+    parser.add_argument("--scaling-triangles", default="1000,10000,100000,1000000",
+                        help="--scaling mesh sizes")
+    parser.add_argument("--scaling-spp", type=int, default=16, help="--scaling spp")
+    A.add_json_arg(parser)
+    A.add_quiet_arg(parser)
     add_scene_path_args(parser)
 
 
@@ -297,37 +286,31 @@ def scaling_notes(result):
     return lines
 
 
-def _check(args):
-    for name in ("width", "height", "spp", "threads", "repeats", "reference_spp", "ray_count", "scaling_spp"):
-        v = getattr(args, name)
-        if v < 1:
-            raise ValueError(f"--{name.replace('_', '-')} must be >= 1, got {v}")
-    if args.seed < 0:
-        raise ValueError(f"--seed must be >= 0, got {args.seed}")
-
-
 def run(args) -> int:
     from rich.console import Console
 
     from benchmarks import speed
+    from benchmarks.commands._args import check, resolve_height, resolve_threads
 
-    _check(args)
-    console = Console()
+    check(args)
+    height, threads = resolve_height(args), resolve_threads(args.threads)
+    variants = list(args.variant)
+    console = Console(quiet=args.quiet)
     if not console.is_terminal:   # piped or captured: keep each table row on one line
-        console = Console(width=220)
+        console = Console(width=220, quiet=args.quiet)
     log = None if args.quiet else (lambda line: console.print(line, style="dim", markup=False, highlight=False))
     do_render = args.render or not (args.rays or args.scaling)
     if (args.scenes or args.scene_files) and not do_render:
         raise ValueError("scenes are only used by the render benchmark: add --render")
     from mitsuba_scenes import list_scenes
 
-    scenes = resolve_scenes(args, suite_names=args.scenes, default=list(list_scenes()))
-    jit = [v for v in args.variants if not v.startswith("scalar")]
+    scenes = resolve_scenes(args, suite_names=args.scenes or [], default=list(list_scenes()))
+    jit = [v for v in variants if not v.startswith("scalar")]
     out = {}
     if do_render:
-        res = speed.render_benchmark(scenes, width=args.width, height=args.height,
-                                     spp=args.spp, threads=args.threads, repeats=args.repeats,
-                                     strategies=args.strategies, variants=args.variants, max_depth=args.max_depth,
+        res = speed.render_benchmark(scenes, width=args.width, height=height,
+                                     spp=args.spp, threads=threads, repeats=args.repeats,
+                                     strategies=list(args.strategies), variants=variants, max_depth=args.max_depth,
                                      rr_depths=args.rr_depth,
                                      reference=args.reference, reference_spp=args.reference_spp, seed=args.seed,
                                      cache=args.cache, log=log)
@@ -337,7 +320,7 @@ def run(args) -> int:
         for line in render_notes(res):
             console.print(f"  {line}", markup=False, highlight=False)
     if args.rays:
-        res = speed.ray_benchmark(triangles=args.triangles, rays=args.ray_count, threads=args.threads,
+        res = speed.ray_benchmark(triangles=list(args.triangles), rays=args.ray_count, threads=threads,
                                   repeats=args.repeats, variant=jit[0] if jit else None, seed=args.seed, log=log)
         out["rays"] = res
         console.print(rays_table(res))
@@ -348,9 +331,9 @@ def run(args) -> int:
                       f"t agree: relative difference <= {res['rows'][0].get('agree_t_rtol', 1e-4):g}",
                       markup=False, highlight=False)
     if args.scaling:
-        res = speed.scaling_benchmark(resolutions=args.resolutions, spp=args.scaling_spp,
-                                      thread_counts=sorted({1, args.threads}), triangles=args.scaling_triangles,
-                                      variant=jit[0] if jit else None, threads=args.threads,
+        res = speed.scaling_benchmark(resolutions=list(args.resolutions), spp=args.scaling_spp,
+                                      thread_counts=sorted({1, threads}), triangles=list(args.scaling_triangles),
+                                      variant=jit[0] if jit else None, threads=threads,
                                       repeats=min(args.repeats, 3), seed=args.seed, log=log)
         out["scaling"] = res
         for t in scaling_tables(res):
@@ -365,7 +348,7 @@ def run(args) -> int:
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(_finite(out), fh, indent=1, default=_json_default, allow_nan=False)
-        console.print(f"  JSON: {args.json}", markup=False, highlight=False)
+        print(f"  JSON: {args.json}", flush=True)
     return 0
 
 

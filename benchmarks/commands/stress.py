@@ -13,8 +13,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true",
                         help="smaller settings (1e5 watertight rays instead of 4e6, fewer samples): ~30 s")
     parser.add_argument("--case", action="append", metavar="NAME", choices=list(CASES),
-                        help=f"run only this case (repeatable); one of: {', '.join(CASES)}")
-    parser.add_argument("--json", metavar="PATH", default=None, help="also write every record with its details")
+                        help=f"run only this case (repeatable; default: every case); one of: {', '.join(CASES)}")
+    from benchmarks.commands import _args as A
+
+    A.add_json_arg(parser)
+    A.add_quiet_arg(parser)
 
 
 def run(args) -> int:
@@ -34,13 +37,17 @@ def run(args) -> int:
     table.add_column("s", justify="right", no_wrap=True)
 
     def progress(rec):
-        console.print(f"  {rec.case}: {rec.verdict} ({rec.seconds:.1f} s)", style="dim")
+        if not args.quiet:
+            console.print(f"  {rec.case}: {rec.verdict} ({rec.seconds:.1f} s)", style="dim")
 
     records = run_cases(args.case, quick=args.quick, on_record=progress)
     for rec in records:
         style = "green" if rec.passed else "bold red"
         table.add_row(rec.case, escape(rec.figure), f"[{style}]{rec.verdict}[/{style}]", f"{rec.seconds:.1f}")
-    console.print(table)
+    if not args.quiet:
+        console.print(table)
+    else:
+        print(f"rtbench stress: {sum(r.passed for r in records)} of {len(records)} case(s) passed")
     if args.json:
         with open(args.json, "w") as fh:
             json.dump([{"case": r.case, "figure": r.figure, "verdict": r.verdict, "seconds": r.seconds,

@@ -86,7 +86,7 @@ def _median(values):
 def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIBRATION_SPPS,
               seeds: int = DEFAULT_CALIBRATION_SEEDS, width: int = DEFAULT_WIDTH, ref_spp: int = DEFAULT_REF_SPP,
               tail_spp: int = DEFAULT_TAIL_SPP, alpha: float = GATE_ALPHA, threads=None, cache=None,
-              log=None, on_render=None, on_row=None) -> list:
+              log=None, on_render=None, on_row=None, height: int | None = None, variant: str | None = None) -> list:
     """Measure the gate's verdicts on unbiased renders: one :class:`CalibrationRow` per
     (scene, strategy, spp).
 
@@ -102,6 +102,9 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
         Renders per (scene, strategy, spp), seeds ``FIRST_SEED ...``.
     width, ref_spp, tail_spp, alpha, threads, cache, log : keyword-only
         As for :func:`benchmarks.gate.run_gate`; ``alpha`` is the level of one comparison.
+    height, variant : keyword-only
+        Image height (default: the width) and the Mitsuba variant of the references
+        (default: the fastest that works).
     on_render, on_row : callable, keyword-only
         Called after each render (no argument) and with each finished row.
 
@@ -122,8 +125,8 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
             raise ValueError(f"unknown strategy {s!r}; choose from {', '.join(rt.STRATEGIES)}")
     rows = []
     for name in names:
-        scene = gate_scene(name, width=width)
-        ref = gate_reference(name, scene, ref_spp=ref_spp, threads=threads, cache=cache, log=log)
+        scene = gate_scene(name, width=width, height=height)
+        ref = gate_reference(name, scene, ref_spp=ref_spp, threads=threads, cache=cache, log=log, variant=variant)
         for strategy in strategies:
             tails = tail_reference(scene, strategy=strategy, spp=tail_spp, threads=threads, cache=cache, log=log)
             for spp in spps:

@@ -199,7 +199,7 @@ def gate_scene(name: str, *, width: int = DEFAULT_WIDTH, height: int | None = No
 
 
 def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=None, cache=None,
-                   log=None) -> Reference:
+                   log=None, variant: str | None = None) -> Reference:
     """The reference of suite scene ``name``: its closed form, or the cached Mitsuba render.
 
     The closed form (:func:`benchmarks.references.closed_form_reference_of`: ``furnace``)
@@ -213,8 +213,9 @@ def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=
         The scene at the gate's size.
     ref_spp : int, keyword-only
         Mitsuba samples per pixel (rendered and cached when missing).
-    threads, cache, log : keyword-only
-        Passed to :func:`benchmarks.references.reference`.
+    threads, cache, log, variant : keyword-only
+        Passed to :func:`benchmarks.references.reference` (``variant``: the Mitsuba
+        variant, default the fastest that works).
 
     Returns
     -------
@@ -231,7 +232,7 @@ def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=
     if exact is not None:
         return exact
     ref_spp = positive_int("ref_spp", ref_spp, minimum=2)
-    return mitsuba_reference(scene, spp=ref_spp, threads=threads, cache=cache, log=log)
+    return mitsuba_reference(scene, spp=ref_spp, threads=threads, cache=cache, log=log, variant=variant)
 
 
 def compare_render(mean, variance, spp: int, reference: Reference, *, alpha: float = GATE_ALPHA,
@@ -276,7 +277,7 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
              height: int | None = None, ref_spp: int = DEFAULT_REF_SPP, alpha: float = GATE_ALPHA,
              seed: int = DEFAULT_SEED, threads: int | None = None, cache=None, log=None,
              on_reference=None, on_case=None, tail_spp: int = DEFAULT_TAIL_SPP, reference_store=None,
-             reference_build: str | None = None, renderer=None) -> GateReport:
+             reference_build: str | None = None, renderer=None, variant: str | None = None) -> GateReport:
     """Render each scene with our tracer and compare it with its reference.
 
     Parameters
@@ -322,6 +323,8 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
         Gate this external renderer instead of ours (``--renderer``): each scene rendered
         by the command in 16 batches for its per-pixel variance, no tail references;
         ``strategies`` are ignored and the case's strategy is the renderer's name.
+    variant : str or None, keyword-only
+        Mitsuba variant of the references (None: the fastest that works).
 
     Returns
     -------
@@ -358,7 +361,7 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
             refs[name] = store_reference(reference_store, name, scenes_built[name], build=reference_build)
         else:
             refs[name] = gate_reference(name, scenes_built[name], ref_spp=ref_spp, threads=threads, cache=cache,
-                                        log=log)
+                                        log=log, variant=variant)
         ref_seconds += time.perf_counter() - t0
         if on_reference:
             on_reference(name, "done", refs[name])

@@ -8,7 +8,8 @@ dataclasses, so the harness can write them straight into ``results.jsonl`` /
 ``summary.json``.
 
 Modules: :mod:`~benchmarks.metrics.errors` (MSE, RMSE, relMSE, reference noise),
-:mod:`~benchmarks.metrics.ssim`, :mod:`~benchmarks.metrics.bias` (bias and variance over
+:mod:`~benchmarks.metrics.ssim`, :mod:`~benchmarks.metrics.flip` (NVIDIA's FLIP, on the
+same display images as SSIM), :mod:`~benchmarks.metrics.bias` (bias and variance over
 seeds), :mod:`~benchmarks.metrics.convergence` (slope, efficiency, time to error). Every
 public name is re-exported here: ``from benchmarks import metrics as M; M.rmse(...)``.
 
@@ -45,11 +46,12 @@ from ..display import exposure_from_reference, to_display
 from .bias import BiasVariance, bias_variance
 from .convergence import SlopeFit, convergence_slope, efficiency, time_to_error
 from .errors import mse, mse_corrected, reference_noise, relmse, rmse
+from .flip import flip, flip_available
 from .ssim import ssim
 
 __all__ = [
     "mse", "rmse", "relmse", "mse_corrected", "reference_noise",
-    "exposure_from_reference", "to_display", "ssim",
+    "exposure_from_reference", "to_display", "ssim", "flip", "flip_available",
     "BiasVariance", "bias_variance",
     "SlopeFit", "convergence_slope",
     "efficiency", "time_to_error",

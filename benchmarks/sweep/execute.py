@@ -32,23 +32,25 @@ def job_metrics(mean, variance, ref_mean, ref_variance, ref_spp) -> dict:
     """Error figures of one render against the reference (DESIGN.md section 4).
 
     ``mse_corrected`` removes the reference's own noise, ``mean(ref_variance) / ref_spp``;
-    ``variance`` is the mean per-pixel per-sample variance of the render (None when the
-    renderer gave none). Non-finite results become None.
+    ``flip`` is :func:`benchmarks.metrics.flip` (None where the ``flip-evaluator`` package
+    is missing); ``variance`` is the mean per-pixel per-sample variance of the render,
+    present only when the renderer gave one (ours at 2+ spp; a record never holds a null
+    variance). Non-finite results become None.
 
     Examples
     --------
     >>> ref = np.ones((8, 8, 3)); img = ref + 0.1
     >>> m = job_metrics(img, None, ref, np.zeros_like(ref), 64)
-    >>> round(m["mse"], 6), round(m["rmse"], 6), m["variance"]
-    (0.01, 0.1, None)
+    >>> round(m["mse"], 6), round(m["rmse"], 6), "variance" in m
+    (0.01, 0.1, False)
     """
     mean = np.asarray(mean, dtype=np.float64)
     ref = np.asarray(ref_mean, dtype=np.float64)
     mse = M.mse(mean, ref)
     out = {"mse": mse, "rmse": math.sqrt(mse) if mse >= 0 else math.nan,
            "relmse": M.relmse(mean, ref), "ssim": M.ssim(mean, ref),
-           "mse_corrected": M.mse_corrected(mean, ref, ref_variance, ref_spp),
-           "variance": None}
+           "flip": M.flip(mean, ref) if M.flip_available() else None,
+           "mse_corrected": M.mse_corrected(mean, ref, ref_variance, ref_spp)}
     if variance is not None:
         v = np.asarray(variance, dtype=np.float64)
         if np.all(np.isfinite(v)):

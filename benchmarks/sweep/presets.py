@@ -101,16 +101,18 @@ def preset_groups(name: str = "quick", *, scenes=None) -> list:
     return groups
 
 
-def describe_preset(name: str) -> str:
-    """One line per group of a preset: what it renders.
+def describe_preset(name: str, *, scenes=None) -> str:
+    """One line per group of a preset (restricted to ``scenes`` as :func:`preset_groups`): what it renders.
 
     Examples
     --------
     >>> print(describe_preset("quick").splitlines()[0])  # doctest: +ELLIPSIS
     suite: ... at 32x32, spp 1..256, 4 seeds, ...
+    >>> print(describe_preset("quick", scenes=["furnace"]))  # doctest: +ELLIPSIS
+    suite: 1 scene(s) at 32x32, ...
     """
     lines = []
-    for g in preset_groups(name):
+    for g in preset_groups(name, scenes=scenes):
         who = ", ".join(g.strategies) + (" + Mitsuba path" if g.mitsuba else "")
         spp = f"{min(g.spps)}..{max(g.spps)}" if len(g.spps) > 3 else ",".join(map(str, g.spps))
         lines.append(f"{g.name}: {len(g.scenes)} scene(s) at {g.width}x{g.height}, spp {spp}, {g.seeds} seeds, "

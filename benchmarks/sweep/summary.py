@@ -15,8 +15,9 @@ import numpy as np
 from reference_tracer.estimate import ImageEstimate
 
 from .. import metrics as M
-from ..constants import BIAS_TEST_ALPHA, STRATEGIES
+from ..constants import BIAS_TEST_ALPHA, RELMSE_EPS, STRATEGIES
 from ..store import META, SUMMARY, read_image, read_json, read_records, update_meta, write_json
+from .by_metric import add_metric_ratios, curve_metrics, tail_variance_image
 from .coerce import as_float
 
 __all__ = ["TARGET_RELATIVE_RMSE", "target_rmse", "summarize"]
@@ -41,6 +42,9 @@ _NOTES = {
     "tails": "variance, skewness and kurtosis of our estimators from cached tail references "
              "(benchmarks.tails); bias_verdict is the gate's three-valued test (benchmarks/STATISTICS.md)",
     "target_rmse": "{target} x RMS of the reference radiance",
+    "by_metric": "slope, efficiency and time to target under relMSE, 1 - SSIM and FLIP (benchmarks.sweep.by_metric; "
+                 "the top-level figures are RMSE's); efficiency and time to target mean something only where no bias "
+                 "was detected",
 }
 
 
@@ -230,6 +234,12 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     if target is not None and ok.any():
         row["time_to_target"] = M.time_to_error(secs[ok], np.sqrt(mse_c[ok]), target)
     row["rmse_at_top"] = math.sqrt(mse_p[-1]) if mse_p[-1] >= 0 else None
+    row["by_metric"] = curve_metrics(by_spp, secs, ref=ref, target_rmse=target, unbiased=unbiased,
+                                     variance_image=tail_variance_image(tails) if tails is not None else None)
+    if row.get("efficiency_source") == "exact (zero variance)":
+        # float rounding is all the error there is: no efficiency under any metric (it was ~1e27)
+        for fig in row["by_metric"].values():
+            fig.update(efficiency=None, efficiency_source="exact (zero variance)")
     return row
 
 
@@ -262,6 +272,13 @@ def _mitsuba_cost(row: dict, ref: ImageEstimate) -> None:
     if var > 0 and math.isfinite(secs) and secs > 0:
         row["efficiency"] = M.efficiency(var / top, secs)
         row["efficiency_source"] = "reference variance / spp"
+        # relMSE likewise from the reference's per-pixel variance (the same estimator)
+        rel = row.get("by_metric", {}).get("relmse")
+        if rel is not None:
+            expected = float(np.mean(ref.variance * (ref.spp / max(ref.spp - 1.0, 1.0))
+                                     / (ref.mean * ref.mean + RELMSE_EPS))) / top
+            if expected > 0:
+                rel.update(efficiency=M.efficiency(expected, secs), efficiency_source="reference variance / spp")
 
 
 def _add_mitsuba_ratios(rows) -> None:
@@ -351,6 +368,7 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
             _mitsuba_cost(row, ref)
         rows.append(row)
     _add_mitsuba_ratios(rows)
+    add_metric_ratios(rows)
     order = {s: i for i, s in enumerate(STRATEGIES)}
     rows.sort(key=lambda r: (r["scene"], r["width"], r["height"], r["renderer"] != "ours",
                              order.get(r["strategy"], 9)))

@@ -1,0 +1,226 @@
+"""The summary under each error metric (``--metric``): slope, efficiency and time to target per metric.
+
+``summary.json``'s top-level ``slope``, ``efficiency`` and ``time_to_target`` are RMSE's
+(as before). Each row also holds ``by_metric``: the same three figures under every metric
+of :data:`SPECS`, so a report or a table can switch metric without re-rendering
+(:func:`view`). Efficiency and time to target are only meaningful for an estimator with
+no bias detected: :func:`cost_status` says "biased" or "undetermined" where a table must
+show that word instead of a number.
+
+Errors per metric, each a mean over the seeds at one spp:
+
+* ``rmse``: sqrt of the reference-noise-corrected MSE (unbiased slope -1/2);
+* ``relmse``: relMSE minus the reference's own relative noise, mean(Var_ref / N_ref /
+  (ref^2 + eps)) (a squared error: unbiased slope -1);
+* ``ssim``: 1 - SSIM (no slope in theory; it saturates);
+* ``flip``: mean FLIP (likewise).
+
+Efficiency = 1 / (E x seconds) at the highest spp, E the metric's error there; for
+relMSE of an estimator found unbiased, E is its expected value from the tail reference's
+per-pixel variance, mean(Var / (ref^2 + eps)) / spp (as RMSE's efficiency uses the tail
+variance). Time to target: seconds until the error falls to the metric's target, log-log
+interpolated (RMSE: the scene's target RMSE; relMSE 0.01, i.e. 10% relative RMS error;
+1 - SSIM 0.05; FLIP 0.05).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import metrics as M
+from ..constants import RELMSE_EPS
+from .coerce import as_float
+
+__all__ = ["MetricSpec", "SPECS", "METRICS", "DEFAULT_METRIC", "require_metric", "relative_noise", "curve_errors",
+           "tail_variance_image", "metric_figures", "curve_metrics",
+           "add_metric_ratios", "view", "cost_status", "COST_FIELDS"]
+
+
+@dataclass(frozen=True)
+class MetricSpec:
+    """How one metric enters the summary."""
+
+    name: str
+    label: str            # what plots and tables call the error
+    field: str            # record field
+    unbiased_slope: float | None
+    target: float | None  # None: the scene's target RMSE
+    note: str
+
+
+SPECS = {
+    "rmse": MetricSpec("rmse", "RMSE", "mse_corrected", -0.5, None,
+                       "sqrt of the seed-mean reference-noise-corrected MSE"),
+    "relmse": MetricSpec("relmse", "relMSE", "relmse", -1.0, 0.01,
+                         f"seed-mean relMSE (eps {RELMSE_EPS:g}) minus the reference's own relative noise"),
+    "ssim": MetricSpec("ssim", "1 - SSIM", "ssim", None, 0.05, "seed-mean 1 - SSIM of the display images"),
+    "flip": MetricSpec("flip", "FLIP", "flip", None, 0.05, "seed-mean LDR-FLIP of the display images"),
+}
+METRICS = tuple(SPECS)
+DEFAULT_METRIC = "relmse"
+#: the figures a metric changes in a summary row.
+COST_FIELDS = ("slope", "slope_ci", "efficiency", "efficiency_vs_mitsuba", "time_to_target", "target")
+
+
+def require_metric(metric: str) -> MetricSpec:
+    """The spec of ``metric``; ``ValueError`` for an unknown one or for FLIP without its package.
+
+    >>> require_metric("relmse").unbiased_slope
+    -1.0
+    """
+    if metric not in SPECS:
+        raise ValueError(f"unknown metric {metric!r}; choose from {', '.join(METRICS)}")
+    if metric == "flip" and not M.flip_available():
+        raise ValueError(f"--metric flip needs NVIDIA's FLIP: pip install {M.FLIP_PACKAGE}")
+    return SPECS[metric]
+
+
+def relative_noise(ref) -> float:
+    """The reference's own contribution to relMSE: mean(Var_ref / N_ref / (ref^2 + eps))."""
+    if ref is None:
+        return 0.0
+    mean = np.asarray(ref.mean, dtype=np.float64)
+    return float(np.mean(np.asarray(ref.variance, dtype=np.float64) / max(int(ref.spp), 1)
+                         / (mean * mean + RELMSE_EPS)))
+
+
+def _seed_mean(values) -> float:
+    a = np.asarray([as_float(v) for v in values], dtype=np.float64)
+    a = a[np.isfinite(a)]
+    return float(a.mean()) if a.size else math.nan
+
+
+def curve_errors(by_spp: dict, metric: str, *, rel_noise: float = 0.0) -> np.ndarray:
+    """The metric's error per spp (sorted), mean over the seeds of ``by_spp[spp]`` (records).
+
+    >>> curve_errors({1: [{"ssim": 0.5}, {"ssim": 0.7}], 4: [{"ssim": 0.9}]}, "ssim").round(3).tolist()
+    [0.4, 0.1]
+    """
+    spec = SPECS[metric]
+    out = []
+    for s in sorted(by_spp):
+        v = _seed_mean(r.get(spec.field) for r in by_spp[s])
+        if metric == "rmse":
+            v = math.sqrt(v) if v > 0 else math.nan
+        elif metric == "relmse":
+            v = v - rel_noise
+        elif metric == "ssim":
+            v = 1.0 - v
+        out.append(v if math.isfinite(v) and v > 0 else math.nan)
+    return np.asarray(out, dtype=np.float64)
+
+
+def tail_variance_image(tails):
+    """The per-pixel per-sample variance of a tail reference (unbiased: m2 x n / (n - 1))."""
+    m = tails.moments
+    return np.asarray(m.m2, dtype=np.float64) * (m.n / max(m.n - 1.0, 1.0))
+
+
+def _expected_relmse(variance_image, ref, top: int) -> float | None:
+    """Expected relMSE at ``top`` spp of an unbiased estimator with per-sample variance ``variance_image``."""
+    if variance_image is None or ref is None or top < 1:
+        return None
+    mean = np.asarray(ref.mean, dtype=np.float64)
+    return float(np.mean(np.asarray(variance_image, dtype=np.float64) / (mean * mean + RELMSE_EPS))) / top
+
+
+def metric_figures(metric: str, spps, errors, secs, *, target_rmse=None, unbiased: bool = False,
+                   variance_image=None, ref=None) -> dict:
+    """Slope, efficiency and time to target of one curve under ``metric`` (errors from :func:`curve_errors`).
+
+    ``variance_image``: the estimator's per-sample variance per pixel from a high-spp run of
+    the same estimator (our tail reference; Mitsuba's own reference), used for relMSE's
+    efficiency when ``unbiased``.
+    """
+    spec = SPECS[metric]
+    spps = np.asarray(spps, dtype=np.float64)
+    secs = np.asarray(secs, dtype=np.float64)
+    ok = np.isfinite(errors) & (errors > 0)
+    fig = {"metric": metric, "label": spec.label, "unbiased_slope": spec.unbiased_slope, "slope": None,
+           "slope_ci": None, "error_at_top": None, "efficiency": None, "efficiency_source": None,
+           "time_to_target": None, "target": spec.target if spec.target is not None else as_float(target_rmse)}
+    if not math.isfinite(as_float(fig["target"])):
+        fig["target"] = None
+    if ok.sum() >= 2 and len(set(spps[ok])) >= 2:
+        s = M.convergence_slope(spps[ok], errors[ok])
+        fig["slope"] = s.slope
+        fig["slope_ci"] = [s.ci_low, s.ci_high] if math.isfinite(s.ci_low) else None
+    top = int(spps[-1]) if spps.size else 0
+    e_top = float(errors[-1]) if errors.size and ok[-1] else None
+    fig["error_at_top"] = e_top
+    expected = _expected_relmse(variance_image, ref, top) if metric == "relmse" and unbiased else None
+    t_top = float(secs[-1]) if secs.size else math.nan
+    if math.isfinite(t_top) and t_top > 0:
+        if expected is not None and expected > 0:
+            fig["efficiency"], fig["efficiency_source"] = M.efficiency(expected, t_top), "tail-reference variance / spp"
+        elif e_top is not None:
+            fig["efficiency"], fig["efficiency_source"] = M.efficiency(e_top, t_top), f"measured {spec.label}"
+    okt = ok & np.isfinite(secs) & (secs > 0)
+    if fig["target"] is not None and okt.any():
+        t = M.time_to_error(secs[okt], errors[okt], fig["target"])
+        fig["time_to_target"] = t if math.isfinite(t) else None
+    return fig
+
+
+def curve_metrics(by_spp: dict, secs, *, ref=None, target_rmse=None, unbiased: bool = False,
+                  variance_image=None) -> dict:
+    """``by_metric`` of one curve: :func:`metric_figures` for every metric but RMSE (the row's own figures)."""
+    spps = sorted(by_spp)
+    noise = relative_noise(ref)
+    return {m: metric_figures(m, spps, curve_errors(by_spp, m, rel_noise=noise), secs, target_rmse=target_rmse,
+                              unbiased=unbiased, variance_image=variance_image, ref=ref)
+            for m in METRICS if m != "rmse"}
+
+
+def add_metric_ratios(rows) -> None:
+    """``by_metric[m]["efficiency_vs_mitsuba"]``: each curve's efficiency over Mitsuba's, same scene and size."""
+    mits = {(r["scene"], r["width"], r["height"]): r for r in rows if r["renderer"] == "mitsuba"}
+    for r in rows:
+        m = mits.get((r["scene"], r["width"], r["height"]))
+        for name, fig in (r.get("by_metric") or {}).items():
+            other = ((m or {}).get("by_metric") or {}).get(name) or {}
+            a, b = as_float(fig.get("efficiency")), as_float(other.get("efficiency"))
+            fig["efficiency_vs_mitsuba"] = a / b if math.isfinite(a) and math.isfinite(b) and b > 0 else None
+
+
+def cost_status(row: dict) -> str | None:
+    """``'biased'`` or ``'undetermined'`` where efficiency and time to target must not be shown, else None.
+
+    >>> cost_status({"bias_verdict": "fail", "bias_significant": True}), cost_status({"bias_verdict": "pass"})
+    ('biased', None)
+    >>> cost_status({"bias_verdict": "undetermined", "bias_significant": None})
+    'undetermined'
+    """
+    if row.get("bias_significant") is True or row.get("bias_verdict") == "fail":
+        return "biased"
+    if row.get("bias_verdict") == "undetermined":
+        return "undetermined"
+    return None
+
+
+def view(row: dict, metric: str = DEFAULT_METRIC) -> dict:
+    """``row`` with the figures of :data:`COST_FIELDS` under ``metric`` (RMSE's are the top-level ones).
+
+    Adds ``metric``, ``metric_label``, ``unbiased_slope`` and ``cost_status``. A row written
+    before ``by_metric`` existed keeps its RMSE figures only under ``rmse``; other metrics
+    then read as null.
+
+    >>> r = {"slope": -0.5, "target_rmse": 0.1, "by_metric": {"relmse": {"slope": -1.0, "target": 0.01}}}
+    >>> v = view(r, "relmse"); v["slope"], v["target"], v["metric_label"]
+    (-1.0, 0.01, 'relMSE')
+    >>> view(r, "rmse")["target"]
+    0.1
+    """
+    spec = SPECS[metric]
+    out = dict(row)
+    if metric == "rmse":
+        out["target"] = row.get("target_rmse")
+    else:
+        fig = (row.get("by_metric") or {}).get(metric) or {}
+        for k in COST_FIELDS:
+            out[k] = fig.get(k)
+    out.update(metric=metric, metric_label=spec.label, unbiased_slope=spec.unbiased_slope,
+               cost_status=cost_status(row))
+    return out

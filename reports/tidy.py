@@ -1,0 +1,93 @@
+"""Tidy CSVs of a results store: every curve point, and the summary under every metric.
+
+One observation per line, one variable per column, so a paper's plots can be redrawn
+with any tool: ``curves.csv`` has a line per (scene, size, renderer, strategy, spp,
+metric) with the median, minimum and maximum over seeds and the number of seeds;
+``summary.csv`` a line per (scene, size, renderer, strategy, metric) with the slope, the
+bias verdict and, where no bias was detected, efficiency and time to target (empty
+otherwise, with ``cost_status`` saying why).
+"""
+from __future__ import annotations
+
+import csv
+import io
+import math
+
+from benchmarks.sweep.by_metric import METRICS, view
+
+from .curves import curves
+from .store import Store, num
+
+__all__ = ["CURVE_COLUMNS", "SUMMARY_COLUMNS", "curves_csv", "summary_csv"]
+
+#: columns of ``curves.csv``.
+CURVE_COLUMNS = ("scene", "width", "height", "renderer", "strategy", "spp", "metric", "median", "min", "max",
+                 "seeds", "seconds_median")
+#: the record field behind each metric of ``curves.csv`` (the values as recorded: SSIM itself, not 1 - SSIM).
+CURVE_METRICS = {"rmse": "rmse", "mse_corrected": "mse_corrected", "relmse": "relmse", "ssim": "ssim",
+                 "flip": "flip"}
+#: columns of ``summary.csv``.
+SUMMARY_COLUMNS = ("scene", "width", "height", "renderer", "strategy", "metric", "slope", "slope_ci_low",
+                   "slope_ci_high", "unbiased_slope", "bias_verdict", "bias_p", "cost_status", "efficiency",
+                   "efficiency_vs_mitsuba", "time_to_target", "target", "variance", "samples_per_second",
+                   "samples_per_second_vs_mitsuba")
+
+
+def _cell(v):
+    """A CSV cell: numbers with full precision (repr), None and NaN empty."""
+    if v is None or isinstance(v, bool):
+        return "" if v is None else str(v).lower()
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else ""
+    return v
+
+
+def _write(header, rows) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(header)
+    for r in rows:
+        w.writerow([_cell(r.get(k)) for k in header])
+    return buf.getvalue()
+
+
+def curves_csv(store: Store) -> str:
+    """``curves.csv``: every curve point of every section (median, min, max over seeds per spp).
+
+    Returns
+    -------
+    str
+        The CSV text, with the header :data:`CURVE_COLUMNS`.
+    """
+    rows = []
+    for scene, w, h in store.sections():
+        recs = store.section_records(scene, w, h)
+        for metric, field in CURVE_METRICS.items():
+            for c in curves(recs, field):
+                for i, spp in enumerate(c.spp):
+                    rows.append({"scene": scene, "width": w, "height": h, "renderer": c.renderer,
+                                 "strategy": c.strategy, "spp": int(spp), "metric": metric,
+                                 "median": float(c.median[i]), "min": float(c.lo[i]), "max": float(c.hi[i]),
+                                 "seeds": int(c.nseeds[i]), "seconds_median": float(c.seconds[i])})
+    return _write(CURVE_COLUMNS, rows)
+
+
+def summary_csv(store: Store) -> str:
+    """``summary.csv``: the summary rows under every metric (RMSE, relMSE, SSIM as 1 - SSIM, FLIP).
+
+    Efficiency, its ratio to Mitsuba and time to target are empty where the bias test found a
+    bias or could not decide (``cost_status``: 'biased' or 'undetermined').
+    """
+    rows = []
+    for scene, w, h in store.sections():
+        for r in store.section_rows(scene, w, h):
+            for metric in METRICS:
+                v = view(r, metric)
+                ci = v.get("slope_ci") if isinstance(v.get("slope_ci"), (list, tuple)) else (None, None)
+                out = {k: v.get(k) for k in SUMMARY_COLUMNS}
+                out.update(scene=scene, width=w, height=h, slope_ci_low=num(ci[0]) if ci[0] is not None else None,
+                           slope_ci_high=num(ci[1]) if ci[1] is not None else None)
+                if v.get("cost_status"):
+                    out.update(efficiency=None, efficiency_vs_mitsuba=None, time_to_target=None)
+                rows.append(out)
+    return _write(SUMMARY_COLUMNS, rows)

@@ -1,0 +1,153 @@
+"""One CLI vocabulary (issue 16): every shared option has one name, one default and one help text.
+
+Walks the parser of every ``rtbench`` subcommand. Fast: nothing is rendered.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+
+import pytest
+
+from benchmarks.cli import build_parser, main
+from benchmarks.commands import _args as A
+
+
+def _subparsers():
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(sub.choices)
+
+
+def _options():
+    """option string -> [(command, action)] over every subcommand (hidden aliases left out)."""
+    out = collections.defaultdict(list)
+    for cmd, p in _subparsers().items():
+        for action in p._actions:
+            if action.help == argparse.SUPPRESS or isinstance(action, argparse._HelpAction):
+                continue
+            for opt in action.option_strings:
+                out[opt].append((cmd, action))
+    return out
+
+
+SHARED = {opt: uses for opt, uses in _options().items() if len(uses) > 1}
+
+
+def test_the_shared_options_are_the_ones_expected():
+    # the vocabulary: each of these is defined once in benchmarks/commands/_args.py
+    for opt in ("--width", "--height", "--spp", "--seed", "--threads", "--cache", "--alpha", "--out", "--quiet",
+                "--strategies", "--variant", "--reference-spp", "--json", "--metric"):
+        assert opt in SHARED, opt
+
+
+@pytest.mark.parametrize("opt", sorted(SHARED))
+def test_shared_option_has_one_name_meaning_default_and_help(opt):
+    uses = SHARED[opt]
+    first_cmd, first = uses[0]
+    for cmd, a in uses[1:]:
+        where = f"{opt}: {first_cmd} vs {cmd}"
+        assert a.option_strings == first.option_strings, where
+        assert a.dest == first.dest, where
+        assert type(a) is type(first), where
+        assert a.type is first.type and a.nargs == first.nargs and a.choices == first.choices, where
+        assert a.metavar == first.metavar, where
+        assert A.base_help(a.help) == A.base_help(first.help), where
+        if opt not in A.PER_COMMAND_DEFAULTS:
+            assert a.default == first.default, where
+
+
+def test_every_default_is_visible_in_help():
+    for cmd, p in _subparsers().items():
+        text = p.format_help()
+        for a in p._actions:
+            if not a.option_strings or a.help == argparse.SUPPRESS or isinstance(a, argparse._HelpAction):
+                continue
+            if a.default is None or a.default is False or a.default == ():
+                assert "default" in a.help or a.default is False, f"{cmd} {a.option_strings}: {a.help!r}"
+            else:
+                shown = ",".join(map(str, a.default)) if isinstance(a.default, (list, tuple)) else str(a.default)
+                flat = " ".join(text.split()).replace("- ", "-")
+                assert f"(default: {shown})" in flat or "(default" in a.help, f"{cmd} {a.option_strings}"
+
+
+def test_every_subcommand_has_quiet_and_height_defaults_to_width():
+    for cmd, p in _subparsers().items():
+        opts = {o: a for a in p._actions for o in a.option_strings}
+        assert "--quiet" in opts, cmd
+        if "--height" in opts:
+            assert opts["--height"].default is None and "the width" in opts["--height"].help, cmd
+        if "--threads" in opts:
+            assert opts["--threads"].default is None and "all cores" in opts["--threads"].help, cmd
+
+
+def test_ref_spp_is_a_hidden_alias_of_reference_spp():
+    p = _subparsers()["gate"]
+    assert p.parse_args(["--ref-spp", "256"]).reference_spp == 256
+    assert p.parse_args(["--reference-spp", "512"]).reference_spp == 512
+    assert "--ref-spp" not in p.format_help()
+
+
+def test_strategies_comma_separated_or_repeated():
+    p = _subparsers()["render"]
+    assert p.parse_args(["cornell_box"]).strategies == ("mis",)
+    assert p.parse_args(["cornell_box", "--strategies", "uniform,light"]).strategies == ("uniform", "light")
+    assert p.parse_args(["x", "--strategies", "uniform", "--strategies", "mis"]).strategies == ("uniform", "mis")
+    assert p.parse_args(["x", "--strategy", "cosine"]).strategies == ("cosine",)  # the older name
+
+
+def test_check_rejects_bad_values_in_one_line():
+    with pytest.raises(ValueError, match="--threads must be >= 1"):
+        A.check(argparse.Namespace(threads=0))
+    with pytest.raises(ValueError, match="--spps must be comma-separated integers"):
+        A.check(argparse.Namespace(spps="1,x"))
+    with pytest.raises(ValueError, match=r"--alpha must be in \(0, 1\)"):
+        A.check(argparse.Namespace(alpha=1.5))
+    with pytest.raises(ValueError, match="unknown format"):
+        A.check(argparse.Namespace(format="html,gif"))
+
+
+def test_curves_alpha_is_the_whole_run_rate():
+    from benchmarks.commands.curves import sweep_kwargs
+    from benchmarks.sweep import Group
+
+    args = _subparsers()["curves"].parse_args(["cornell_box", "furnace", "--alpha", "0.01"])
+    g = Group(scenes=("cornell_box", "furnace"), strategies=("uniform", "mis"), spps=(1, 2), seeds=2, width=8,
+              height=8, mitsuba=True)
+    assert sweep_kwargs(args, [g])["alpha"] == pytest.approx(0.01 / 6)  # 2 scenes x (2 strategies + Mitsuba)
+
+
+def test_run_scenes_announces_the_right_suite(capsys):
+    from benchmarks.sweep.presets import describe_preset
+
+    text = describe_preset("quick", scenes=["furnace"])
+    assert "1 scene(s)" in text and "seed comparison" not in text
+
+
+def test_default_output_folders_differ_per_run():
+    from benchmarks.commands import curves, render, run
+
+    assert curves.default_out(["cornell_box"], 32, 32) != curves.default_out(["cornell_box"], 48, 32)
+    assert run.default_out("quick", ["furnace"]) != run.default_out("quick", None)
+    names = {render.file_stem("cornell_box", 16, 16, s, spp, seed)
+             for s in ("mis", "light") for spp in (1, 2) for seed in (0, 1)}
+    assert len(names) == 8
+
+
+def test_bad_option_value_is_exit_2(capsys):
+    assert main(["render", "cornell_box", "--spp", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--spp must be >= 1" in err[0]
+
+
+def test_render_names_every_setting_and_renders_mitsuba_on_request(tmp_path, capsys):
+    args = ["render", "cornell_box", "--width", "8", "--spp", "2", "--strategies", "mis,light", "--threads", "1",
+            "--out", str(tmp_path), "--quiet"]
+    assert main(args) == 0
+    assert main(args[:-1] + ["--seed", "1", "--quiet"]) == 0          # another seed: new files, none overwritten
+    assert main(args + ["--mitsuba", "--variant", "scalar_rgb"]) == 0
+    names = sorted(p.name for p in tmp_path.glob("*.exr"))
+    assert names == ["cornell_box_8x8_light_spp2_seed0.exr", "cornell_box_8x8_light_spp2_seed1.exr",
+                     "cornell_box_8x8_mis_spp2_seed0.exr", "cornell_box_8x8_mis_spp2_seed1.exr",
+                     "cornell_box_8x8_mitsuba-scalar_rgb_spp2_seed0.exr"]
+    assert "NaN/Inf" not in capsys.readouterr().out  # --quiet: only the 'wrote' lines

@@ -1,0 +1,93 @@
+"""--metric (issue 16): slopes, efficiency and time to target under relMSE, SSIM and FLIP; no cost for a biased curve."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from benchmarks.commands._summary import summary_table
+from benchmarks.sweep.by_metric import add_metric_ratios, cost_status, curve_metrics, require_metric, view
+
+
+def _by_spp(c_rel, c_flip, spps=(1, 2, 4, 8, 16)):
+    """Two seeds per spp on exact power laws: relMSE = c/spp, FLIP = c_flip/sqrt(spp), 1 - SSIM = 0.5/sqrt(spp)."""
+    return {s: [{"relmse": c_rel / s, "flip": c_flip / math.sqrt(s), "ssim": 1 - 0.5 / math.sqrt(s),
+                 "mse_corrected": 0.01 / s, "seconds": 0.1 * s} for _ in range(2)] for s in spps}
+
+
+def test_curve_metrics_fit_each_metric_on_its_own_errors():
+    by = _by_spp(0.2, 0.3)
+    secs = [0.1 * s for s in sorted(by)]
+    figs = curve_metrics(by, secs, target_rmse=0.05)
+    assert figs["relmse"]["slope"] == pytest.approx(-1.0) and figs["relmse"]["unbiased_slope"] == -1.0
+    assert figs["flip"]["slope"] == pytest.approx(-0.5) and figs["ssim"]["slope"] == pytest.approx(-0.5)
+    # efficiency at the top spp: 1 / (error x seconds)
+    assert figs["relmse"]["efficiency"] == pytest.approx(1 / ((0.2 / 16) * 1.6))
+    # time to target relMSE 0.01: 0.2/s = 0.01 at s = 20 > 16: not reached; FLIP 0.05 reached between 32..
+    assert figs["relmse"]["time_to_target"] is None
+    assert figs["ssim"]["time_to_target"] is None  # 0.5/sqrt(16) = 0.125 > 0.05
+    by2 = _by_spp(0.02, 0.3)
+    figs2 = curve_metrics(by2, secs)
+    # 0.02/s = 0.01 at s = 2 spp: 0.2 s
+    assert figs2["relmse"]["time_to_target"] == pytest.approx(0.2)
+
+
+def test_reference_noise_is_removed_from_relmse():
+    class Ref:
+        mean = np.ones((4, 4, 3))
+        variance = np.full((4, 4, 3), 1.01 * 64 * 0.001)  # relative noise = var/spp/(1 + 0.01) = 0.001
+        spp = 64
+
+    by = {s: [{"relmse": 0.1 / s + 0.001}] for s in (1, 2, 4, 8)}
+    figs = curve_metrics(by, [1, 2, 4, 8], ref=Ref())
+    assert figs["relmse"]["slope"] == pytest.approx(-1.0)
+
+
+def test_view_switches_the_summary_and_biased_rows_show_no_cost():
+    rows = []
+    for strategy, bias in (("mis", "pass"), ("light", "fail")):
+        figs = curve_metrics(_by_spp(0.2, 0.3), [0.1, 0.2, 0.4, 0.8, 1.6], target_rmse=0.05)
+        rows.append({"scene": "s", "width": 8, "height": 8, "renderer": "ours", "strategy": strategy,
+                     "slope": -0.36, "efficiency": 5.0, "bias_verdict": bias, "bias_significant": bias == "fail",
+                     "samples_per_second": 1e6, "by_metric": figs})
+    figs = curve_metrics(_by_spp(0.4, 0.3), [0.1, 0.2, 0.4, 0.8, 1.6])
+    rows.append({"scene": "s", "width": 8, "height": 8, "renderer": "mitsuba", "strategy": "path", "slope": -0.46,
+                 "efficiency": 2.0, "bias_verdict": "pass", "bias_significant": False, "by_metric": figs})
+    add_metric_ratios(rows)
+    assert view(rows[0], "rmse")["slope"] == -0.36 and view(rows[0], "relmse")["slope"] == pytest.approx(-1.0)
+    assert view(rows[0], "relmse")["efficiency_vs_mitsuba"] == pytest.approx(2.0)
+    assert cost_status(rows[1]) == "biased" and cost_status(dict(rows[1], bias_verdict="undetermined",
+                                                                 bias_significant=None)) == "undetermined"
+    from rich.console import Console
+
+    con = Console(width=200, record=True)
+    con.print(summary_table(rows, metric="relmse"))
+    text = con.export_text()
+    assert "metric: relMSE" in text and "-1.00" in text and "biased" in text and "13.37" not in text
+    con = Console(width=200, record=True)
+    con.print(summary_table(rows, metric="rmse"))
+    assert "-0.36" in con.export_text()
+
+
+def test_unknown_metric_is_a_clear_error():
+    with pytest.raises(ValueError, match="unknown metric"):
+        require_metric("psnr")
+
+
+def test_exact_estimator_gets_no_efficiency_under_any_metric(tmp_path_factory):
+    # regression: mis in the furnace has no error but float rounding; its relMSE efficiency read ~1e27
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from harness_util import cache_root
+
+    from benchmarks.sweep import Group, run_sweep
+
+    g = Group(scenes=("furnace",), strategies=("mis",), spps=(2, 4), seeds=2, width=8, height=8, mitsuba=False)
+    res = run_sweep([g], out=tmp_path_factory.mktemp("exact") / "s", threads=2, progress=False,
+                    cache=cache_root(tmp_path_factory))
+    (row,) = res.rows
+    assert row["efficiency_source"] == "exact (zero variance)" and row["efficiency"] is None
+    assert all(f["efficiency"] is None for f in row["by_metric"].values())
