@@ -102,7 +102,7 @@ def test_render_cli_takes_a_python_scene_file(py_scene, tmp_path, capsys):
     code = main(["render", "--scene", str(py_scene), "--param", "light=3", "--spp", "2", "--width", "6",
                  "--out", str(tmp_path)])
     assert code == 0, capsys.readouterr().err
-    img = rt.read_exr(tmp_path / "my_scene+light=3_mis.exr")
+    img = rt.read_exr(tmp_path / "my_scene+light=3_6x6_mis_spp2_seed0.exr")  # names never collide (issue 16)
     assert img.shape[:2] == (6, 6)
 
 
