@@ -172,6 +172,8 @@ def variance_is_lower_bound(tails, *, share: float = 0.5, weight: float = 0.1) -
     m = tails.moments
     var = np.asarray(m.m2, dtype=np.float64) * (m.n / (m.n - 1.0))
     mean = np.asarray(tails.mean, dtype=np.float64)
+    # float rounding of identical samples (an exact estimator: mis in the furnace) is no variance
+    var = np.where(var <= (1e-6 * np.abs(mean)) ** 2, 0.0, var)
     with np.errstate(divide="ignore", invalid="ignore"):
         one = np.where(var > 0, (np.asarray(m.max) - mean) ** 2 / (var * m.n), 0.0)
     total = float(var.sum())

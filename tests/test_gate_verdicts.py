@@ -253,3 +253,18 @@ def test_variance_tail_reference_escalates_only_where_single_samples_dominate(tm
                                     variant=f"test-{rare}")
         assert calls == expected and t.spp == expected[-1]
         assert variance_is_lower_bound(t) == rare
+
+
+def test_an_exact_estimator_is_not_a_lower_bound():
+    """Identical samples up to float rounding (mis in the furnace) have no variance to
+    underestimate: no escalation (it once sent an 8x8 furnace to 16M spp)."""
+    from types import SimpleNamespace
+
+    from benchmarks.tails import variance_is_lower_bound
+
+    x = np.full(1000, 0.7)
+    x[3] = 0.7 * (1 + 2e-16)  # one sample off by rounding carries all the 'variance'
+    d = [np.array((x - x[0]).sum()), np.array(((x - x[0]) ** 2).sum()), np.array(((x - x[0]) ** 3).sum()),
+         np.array(((x - x[0]) ** 4).sum())]
+    m = rt.SampleMoments.from_shifted_sums(1000, d=d, max=np.array(x.max()))
+    assert not variance_is_lower_bound(SimpleNamespace(moments=m, mean=np.array(x.mean())))
