@@ -106,7 +106,7 @@ def build_parser() -> argparse.ArgumentParser:
                            epilog=EXIT_CODES_HELP, formatter_class=HelpFormatter)
         module.add_arguments(p)
         p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                       help="show the traceback of an error (same as `rtbench --debug`)")
+                       help="show the traceback of an error (default: off; same as `rtbench --debug`)")
         _bound_int_options(p)
         p.set_defaults(_run=module.run)
     return parser

@@ -15,11 +15,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("store_a", metavar="STORE_A", help="the baseline results store")
     parser.add_argument("store_b", metavar="STORE_B", help="the results store to judge")
-    parser.add_argument("--alpha", type=float, default=GATE_ALPHA,
-                        help=f"false-alarm rate of the gate over all curves (default {GATE_ALPHA})")
-    parser.add_argument("--out", default="rtbench-compare", metavar="DIR",
-                        help="folder of the page (index.html, compare.md, plots) (default ./rtbench-compare)")
-    parser.add_argument("--json", default=None, metavar="PATH", help="also write one row per curve")
+    from benchmarks.commands import _args as A
+
+    A.add_alpha_args(parser, default=GATE_ALPHA)
+    A.add_out_arg(parser, default="rtbench-compare")  # the page: index.html, compare.md, plots
+    A.add_json_arg(parser)  # one row per curve
+    A.add_quiet_arg(parser)
 
 
 def run(args) -> int:
@@ -50,7 +51,8 @@ def run(args) -> int:
                       f"{_f(c.slope_diff, '{:+.3f}')}" + (f" [{ci[0]:+.3f}, {ci[1]:+.3f}]" if ci else ""),
                       f"{_f(c.efficiency_ratio)}" + (f" [{ei[0]:.3g}, {ei[1]:.3g}]" if ei else ""), c.speed,
                       f"{c.verdict or '-'} (p {_f(c.p_value)})", _f(c.relative_bias, "{:+.2%}"))
-    console.print(table)
+    if not args.quiet:
+        console.print(table)
     page = write_compare_page(rows, args.out, name_a=str(args.store_a), name_b=str(args.store_b))
     print(f"page: {page.resolve()}")
     if args.json:

@@ -47,11 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     A.add_size_args(parser, width=32)
     A.add_reference_spp_arg(parser, default=None, none_means="max(4096, 32 x the largest spp)")
     parser.add_argument("--no-mitsuba", action="store_true", help="skip Mitsuba's path curve")
-    parser.add_argument("--renderer", action="append", default=[], metavar="CMD",
-                        help="an external renderer, one more curve (repeatable): a command template with "
-                             "{scene_xml} {spp} {seed} {width} {height} {out} that renders the Mitsuba XML to an "
-                             "EXR at {out}, e.g. 'mitsuba -m scalar_rgb -D spp={spp} -D seed={seed} -o {out} "
-                             "{scene_xml}' (README: External renderers)")
+    A.add_renderer_arg(parser)  # one more curve per renderer
     A.add_out_arg(parser, default=f"{DEFAULT_OUT}/SCENES_WxH")
     add_sweep_options(parser)
 

@@ -54,16 +54,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scene_path_args(parser)
     parser.add_argument("--reference", default=None, metavar="STORE",
                         help="gate against our own images in results store STORE (written by --write-reference "
-                             "with a trusted build) instead of Mitsuba: for features Mitsuba cannot render")
+                             "with a trusted build) instead of Mitsuba: for features Mitsuba cannot render (default: Mitsuba)")
     parser.add_argument("--reference-build", default=None, metavar="BUILD",
                         help="with --reference: the build whose records to use (default: the latest)")
     parser.add_argument("--write-reference", default=None, metavar="STORE",
                         help="render the scenes with this build at --reference-spp (mis) into results store "
-                             "STORE, for later --reference runs, and exit")
-    parser.add_argument("--renderer", default=None, metavar="CMD",
-                        help="gate an external renderer instead of ours: a command template with {scene_xml} "
-                             "{spp} {seed} {width} {height} {out} (README: External renderers), run in 16 "
-                             "batches for the per-pixel variance")
+                             "STORE, for later --reference runs, and exit (default: none)")
+    A.add_renderer_arg(parser)  # gated instead of ours, run in 16 batches for the per-pixel variance
     A.add_json_arg(parser)
     A.add_quiet_arg(parser)
 
@@ -97,7 +94,9 @@ def run(args) -> int:
     if args.renderer:
         from benchmarks.external import register_external
 
-        external = register_external(args.renderer)
+        if len(args.renderer) > 1:
+            raise ValueError("gate takes one --renderer at a time")
+        external = register_external(args.renderer[0])
     # validate everything before the first (possibly long) render
     n_scenes = len(resolve_gate_scenes(scenes))
     n_strategies = 1 if external is not None else len(resolve_strategies(strategies))

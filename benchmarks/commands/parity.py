@@ -23,12 +23,12 @@ HELP = ("first-hit AOV parity at pixel centres (distance, normal, albedo, emissi
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenes", nargs="*", metavar="SCENE",
                         help="suite scenes (default: the whole suite, unless --scene is given)")
-    parser.add_argument("--width", type=int, default=64,
-                        help="image width for suite and Python scenes (default 64; XML files keep their own size)")
-    parser.add_argument("--height", type=int, default=None, help="image height (default: the width)")
-    parser.add_argument("--out", default="rtbench-parity", metavar="DIR",
-                        help="folder for the mismatch maps of failing scenes (default ./rtbench-parity)")
-    parser.add_argument("--json", default=None, metavar="PATH", help="also write one row per scene")
+    from benchmarks.commands import _args as A
+
+    A.add_size_args(parser, width=64)  # suite and Python scenes; XML files keep their own size
+    A.add_out_arg(parser, default="rtbench-parity")  # the mismatch maps of failing scenes
+    A.add_json_arg(parser)  # one row per scene
+    A.add_quiet_arg(parser)
     add_scene_path_args(parser)
 
 
@@ -92,7 +92,8 @@ def run(args) -> int:
     rows, failed = [], 0
     for name in names:
         report = parity_of(name, width=args.width, height=args.height)
-        print(report.summary(), flush=True)
+        if not args.quiet or not report.passed:
+            print(report.summary(), flush=True)
         rows.append(report.to_dict())
         if not report.passed:
             failed += 1

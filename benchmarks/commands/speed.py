@@ -61,7 +61,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"Russian-roulette configurations, each measured as its own rows: depths roulette "
                              f"starts at, 'none' for no roulette (default {rr_default}: Mitsuba's default, "
                              f"then the seed's)")
-    parser.add_argument("--reference", choices=REFERENCE_KINDS, default="mitsuba",
+    parser.add_argument("--reference", dest="reference_kind", choices=REFERENCE_KINDS,
+                        default=argparse.SUPPRESS, help=argparse.SUPPRESS)  # older name of --reference-kind
+    parser.add_argument("--reference-kind", choices=REFERENCE_KINDS, default="mitsuba",
                         help="error reference: cached high-spp Mitsuba (benchmarks.references; rendered once "
                              "if missing) or a high-spp render of ours")
     A.add_reference_spp_arg(parser, default=4096)
@@ -312,7 +314,7 @@ def run(args) -> int:
                                      spp=args.spp, threads=threads, repeats=args.repeats,
                                      strategies=list(args.strategies), variants=variants, max_depth=args.max_depth,
                                      rr_depths=args.rr_depth,
-                                     reference=args.reference, reference_spp=args.reference_spp, seed=args.seed,
+                                     reference=args.reference_kind, reference_spp=args.reference_spp, seed=args.seed,
                                      cache=args.cache, log=log)
         out["render"] = res
         console.print(suite_table(res))
