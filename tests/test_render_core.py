@@ -1,5 +1,6 @@
 """The render loop: determinism, counters, interruption, progress, image output, CLI."""
 import _thread
+import signal
 import subprocess
 import sys
 import threading
@@ -76,13 +77,20 @@ def test_progress_callback_error_stops_render(cornell64):
 
 def test_ctrl_c_stops_render_promptly(cornell64):
     big = cornell64.with_camera_size(512, 512)  # minutes of work at 512 spp
+    # Python's own SIGINT handler, whatever an earlier test or extension left installed
+    # (interrupt_main does nothing while SIGINT is ignored)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     timer = threading.Timer(0.5, _thread.interrupt_main)
     t0 = time.perf_counter()
     timer.start()
-    with pytest.raises(KeyboardInterrupt):
-        rt.render(big, spp=512, strategy="mis", threads=2)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            rt.render(big, spp=512, strategy="mis", threads=2)
+    finally:
+        timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     elapsed = time.perf_counter() - t0
-    timer.cancel()
     # Liveness, not speed: the render stops within a few tiles, not after minutes.
     assert elapsed < 20.0
 
