@@ -26,7 +26,8 @@ from reference_tracer._validate import positive_int
 from .references import _lock, cache_dir
 from .store import atomic_write_bytes, atomic_write_text
 
-__all__ = ["TailReference", "tail_reference", "tail_key", "variance_is_lower_bound", "variance_tail_reference",
+__all__ = ["TailReference", "tail_reference", "tail_key", "sample_variance", "variance_is_lower_bound",
+           "variance_tail_reference",
            "DEFAULT_TAIL_SPP", "DEFAULT_TAIL_SEED", "DEFAULT_MAX_TAIL_SAMPLES"]
 
 #: Samples per pixel of a tail reference: 4x the gate's default budget. Rare paths with
@@ -150,6 +151,16 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
                          moments=moments, strategy=strategy, seed=seed, build=build, key=key, cached=cached)
 
 
+def sample_variance(tails) -> np.ndarray:
+    """Per-pixel per-sample variance of a tail reference (ddof 1), with float rounding of
+    identical samples (relative spread below 1e-6: an exact estimator such as mis in the
+    furnace) set to exactly zero."""
+    m = tails.moments
+    var = np.asarray(m.m2, dtype=np.float64) * (m.n / (m.n - 1.0))
+    mean = np.asarray(tails.mean, dtype=np.float64)
+    return np.where(var <= (1e-6 * np.abs(mean)) ** 2, 0.0, var)
+
+
 def variance_is_lower_bound(tails, *, share: float = 0.5, weight: float = 0.1) -> bool:
     """Whether a tail reference's variance is only a lower bound of its estimator's.
 
@@ -170,10 +181,8 @@ def variance_is_lower_bound(tails, *, share: float = 0.5, weight: float = 0.1) -
     True
     """
     m = tails.moments
-    var = np.asarray(m.m2, dtype=np.float64) * (m.n / (m.n - 1.0))
+    var = sample_variance(tails)
     mean = np.asarray(tails.mean, dtype=np.float64)
-    # float rounding of identical samples (an exact estimator: mis in the furnace) is no variance
-    var = np.where(var <= (1e-6 * np.abs(mean)) ** 2, 0.0, var)
     with np.errstate(divide="ignore", invalid="ignore"):
         one = np.where(var > 0, (np.asarray(m.max) - mean) ** 2 / (var * m.n), 0.0)
     total = float(var.sum())

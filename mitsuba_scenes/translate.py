@@ -28,7 +28,6 @@ ours                                   Mitsuba 3
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 from pathlib import Path
 

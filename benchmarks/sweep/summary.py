@@ -176,20 +176,19 @@ def _bias_stats(top_recs, top, ref: ImageEstimate | None, store, *, alpha, tails
 
 
 def _exact(tails) -> bool:
-    """Whether an estimator has no noise beyond float rounding (relative spread < 1e-6)."""
-    mean2 = float(np.mean(np.square(np.asarray(tails.mean, dtype=np.float64))))
-    return float(np.mean(tails.moments.m2)) <= 1e-12 * mean2
+    """Whether an estimator has no noise beyond float rounding in any pixel (relative spread < 1e-6)."""
+    from ..tails import sample_variance
+
+    return not np.any(sample_variance(tails) > 0)
 
 
 def _tail_variance(tails) -> dict:
     """The estimator's per-sample variance (mean over pixels) from its tail reference, and
     whether it is only a lower bound: where one sample carries more than half of a pixel's
     sum of squared deviations, the rarer paths that set the true variance were not seen."""
-    from ..tails import variance_is_lower_bound
+    from ..tails import sample_variance, variance_is_lower_bound
 
-    m = tails.moments
-    var = np.asarray(m.m2, dtype=np.float64) * (m.n / (m.n - 1.0))
-    return {"variance": float(var.mean()), "variance_source": f"tail reference, {m.n} spp",
+    return {"variance": float(sample_variance(tails).mean()), "variance_source": f"tail reference, {tails.spp} spp",
             "variance_lower_bound": variance_is_lower_bound(tails)}
 
 
