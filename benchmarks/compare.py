@@ -12,6 +12,21 @@ For every curve (scene, renderer, strategy, width, height) present in both store
   variance images, or from the spread of the seeds' means when none are stored), at a
   run-wide false-alarm rate split over the curves (Bonferroni).
 
+Heavy tails. A handful of stored renders says little about a heavy-tailed estimator's
+variance (its rare paths are missing from both its mean and its variance), so the verdict
+borrows what is known of B's estimator from a high budget (``estimator=``,
+:func:`estimator_knowledge`), as ``rtbench gate`` does:
+
+* ours, when B's records come from *this* build and the scene is the one B rendered (same
+  content hash): the tail reference (:func:`benchmarks.tails.tail_reference`) of that
+  strategy, whose variance floors both sides (under "nothing changed" A's estimator is
+  B's) and whose skewness and kurtosis decide where the normal approximation holds, so a
+  budget too small to decide reads "undetermined", not "fail";
+* an external renderer given as ``--renderer`` with the same command (the same build
+  ``ext-<hash>``): the per-pixel variance of 16 batches of the command at the tail budget;
+* anything else (another build of ours, Mitsuba's ``path``): no such knowledge; the
+  curve's ``tails`` field says why, and its verdict rests on the stored images alone.
+
 Bootstrap intervals from a handful of seeds are rough; they are reported as computed.
 """
 from __future__ import annotations
@@ -26,7 +41,8 @@ import numpy as np
 from .constants import GATE_ALPHA
 from .store import curve_of, read_image, read_records
 
-__all__ = ["BOOTSTRAP_RESAMPLES", "CurveComparison", "compare_stores", "curve_points"]
+__all__ = ["BOOTSTRAP_RESAMPLES", "CurveComparison", "EstimatorKnowledge", "compare_stores", "curve_points",
+           "estimator_knowledge"]
 
 BOOTSTRAP_RESAMPLES = 2000
 
@@ -57,6 +73,7 @@ class CurveComparison:
     p_value: float | None = None
     relative_bias: float | None = None
     reason: str = ""
+    tails: str = ""
     gate: object = field(default=None, repr=False)
 
     @property
@@ -168,7 +185,119 @@ def pooled_image(store, records, spp: int):
     return means.mean(axis=0), var, spp * len(recs)
 
 
-def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0) -> list:
+@dataclass
+class EstimatorKnowledge:
+    """What is known of B's estimator from a high budget (module docstring, "Heavy tails").
+
+    ``moments``: per-pixel :class:`reference_tracer.SampleMoments` of the same estimator
+    (ours); ``variance``: per-sample variance image (an external renderer's batches);
+    ``note``: one line saying which, or why neither.
+    """
+
+    note: str
+    moments: object = None
+    variance: np.ndarray | None = None
+
+
+def estimator_knowledge(*, tail_spp: int, threads=None, cache=None, externals=(), log=None):
+    """The ``estimator=`` callable of :func:`compare_stores` for this process's build.
+
+    Parameters
+    ----------
+    tail_spp : int, keyword-only
+        Budget of the tail references (0: none, every curve rests on its stored images).
+    threads, cache, log : keyword-only
+        As for :func:`benchmarks.tails.tail_reference`.
+    externals : sequence of benchmarks.external.ExternalRenderer, keyword-only
+        External renderers whose commands may be run for B's curves of the same build.
+
+    Returns
+    -------
+    callable
+        ``knowledge(key, records_b) -> EstimatorKnowledge`` with ``key`` the curve
+        (:func:`benchmarks.store.curve_of`).
+    """
+    import reference_tracer as rt
+
+    by_build = {e.build: e for e in externals}
+    here = rt.build_id()
+
+    def knowledge(key, records_b) -> EstimatorKnowledge:
+        name, renderer, strategy, width, height = key
+        last = records_b[-1]
+        if not tail_spp:
+            return EstimatorKnowledge("none: --tail-spp 0")
+        if renderer == "ours" and last.get("build") != here:
+            return EstimatorKnowledge(f"none: B is build {last.get('build')}, this is build {here} (run compare "
+                                      f"with B's build to use its tail reference)")
+        if renderer not in ("ours",) and last.get("build") not in by_build:
+            return EstimatorKnowledge("none: Mitsuba's path integrator" if renderer == "mitsuba" else
+                                      f"none: {renderer}'s command was not given as --renderer")
+        scene, why = _scene_of(name, width, height, last)
+        if scene is None:
+            return EstimatorKnowledge(f"none: {why}")
+        if renderer == "ours":
+            from .tails import tail_reference
+
+            ref = tail_reference(scene, strategy=strategy, spp=tail_spp, threads=threads, cache=cache, log=log)
+            return EstimatorKnowledge(f"tail reference of ours {strategy} at {tail_spp} spp", moments=ref.moments)
+        from .external import render_external_batches
+
+        ext = by_build[last.get("build")]
+        if log:
+            log(f"{name}: rendering {ext.name} at {tail_spp} spp in 16 batches for its per-pixel variance")
+        _, var, _ = render_external_batches(ext, scene, spp=tail_spp, seed=0x7A11)
+        return EstimatorKnowledge(f"{ext.name} in 16 batches at {tail_spp} spp", variance=var)
+
+    return knowledge
+
+
+def _scene_of(name, width, height, record) -> tuple:
+    """``(scene, "")`` as B rendered it (content hash checked), or ``(None, why)``."""
+    from .sweep.jobs import scene_at
+
+    source = record.get("scene_source")
+    if source:
+        from mitsuba_scenes.scene_files import register_scene_file, scene_file
+
+        if scene_file(name) is None:
+            if not Path(source).is_file():
+                return None, f"the scene file {source} is gone"
+            register_scene_file(source, record.get("scene_params") or {}, name=name)
+    try:
+        scene = scene_at(name, width, height)
+    except (KeyError, ValueError) as exc:
+        return None, f"scene {name!r} cannot be built here ({exc})"
+    want = record.get("scene_hash")
+    if want and scene.content_hash()[:16] != want:
+        return None, f"scene {name!r} changed since B rendered it (content hash)"
+    return scene, ""
+
+
+def _with_knowledge(known: EstimatorKnowledge, ref, test) -> tuple:
+    """``(ref, test, moments)`` with B's high-budget variance floored into both sides.
+
+    Under the null hypothesis (nothing changed) A's estimator is B's, so the known
+    per-sample variance floors A's as well as B's: heavy-tailed renders that missed their
+    rare paths no longer look precise. A floor only ever widens the test (fewer alarms,
+    never more).
+    """
+    if known.moments is not None:
+        from .gate.heavy_tails import tail_moments
+
+        m2, _, _ = tail_moments(known.moments, np.shape(test[0]))
+        floor = m2 * (known.moments.n / (known.moments.n - 1.0))
+        moments = known.moments
+    elif known.variance is not None:
+        floor, moments = np.asarray(known.variance, dtype=np.float64), None
+    else:
+        return ref, test, None
+    test = (test[0], np.maximum(test[1], floor), test[2])
+    ref = (ref[0], np.maximum(ref[1], floor), ref[2])
+    return ref, test, moments
+
+
+def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0, estimator=None) -> list:
     """Compare every curve present in both stores (see the module docstring).
 
     Parameters
@@ -179,6 +308,10 @@ def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0
         False-alarm rate of the gate over all curves (each at ``alpha / curves``).
     seed : int
         Seed of the bootstrap's generator.
+    estimator : callable, optional
+        ``estimator(curve, records_b) -> EstimatorKnowledge`` (:func:`estimator_knowledge`):
+        B's estimator at a high budget for the verdict; without it the verdict rests on the
+        stored images alone (module docstring, "Heavy tails").
 
     Returns
     -------
@@ -210,7 +343,10 @@ def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0
         if ref is None or test is None:
             cmp.reason = "no images with a variance at the top spp in both stores: no gate verdict"
         else:
-            res = compare(test[0], test[1], test[2], ref[0], ref[1], ref[2], alpha=case_alpha)
+            known = estimator(key, rb) if estimator is not None else EstimatorKnowledge("none")
+            cmp.tails = known.note
+            ref, test, moments = _with_knowledge(known, ref, test)
+            res = compare(test[0], test[1], test[2], ref[0], ref[1], ref[2], alpha=case_alpha, tails=moments)
             cmp.gate, cmp.verdict, cmp.p_value = res, res.verdict, float(res.p_value)
             cmp.relative_bias, cmp.reason = float(res.relative_bias), res.reason
         out.append(cmp)

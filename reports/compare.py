@@ -48,6 +48,7 @@ def figures(cmp) -> list:
              f"{_f(cmp.efficiency_ratio)} {ci(cmp.efficiency_ratio_ci)}: {cmp.speed}"),
             ("gate: B against A as reference", f"{cmp.verdict or '-'} (p = {_f(cmp.p_value)}, relative bias "
                                                f"{_f(cmp.relative_bias, '{:+.2%}')})"),
+            ("B's estimator at a high budget", getattr(cmp, "tails", "") or "-"),
             ("why", cmp.reason or "-")]
 
 

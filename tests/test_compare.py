@@ -62,3 +62,47 @@ def test_stores_without_common_curves_are_refused(store_a, tmp_path, capsys):
               threads=1, progress=False)
     assert main(["compare", str(store_a), str(tmp_path / "f"), "--out", str(tmp_path / "p")]) == 2
     assert "no curve" in capsys.readouterr().err
+
+
+def _shifted_sweep(out, monkeypatch, *, gain=1.0):
+    """B of this very build with other seeds (an independent, honest store), optionally too bright."""
+    real = rt.render
+
+    def other_seeds(*args, seed=0, **kwargs):
+        res = real(*args, seed=seed + 7919, **kwargs)
+        return dataclasses.replace(res, mean=res.mean * gain, variance=res.variance * gain ** 2)
+
+    monkeypatch.setattr(rt, "render", other_seeds)
+    _sweep(out)
+    monkeypatch.undo()
+
+
+@pytest.mark.parametrize("gain, verdict", [(1.0, "pass"), (1.05, "fail")])
+def test_b_of_this_build_is_judged_with_its_tail_reference(store_a, tmp_path, monkeypatch, gain, verdict):
+    """When B is this build, its estimator's tail reference (variance, skewness, kurtosis at a
+    high budget) backs the verdict, as in ``rtbench gate``: an independent honest B passes,
+    a 5% too bright one still fails. A store of another build gets none, and says why."""
+    _shifted_sweep(tmp_path / "b", monkeypatch, gain=gain)
+    code = main(["compare", str(store_a), str(tmp_path / "b"), "--out", str(tmp_path / "page"), "--quiet",
+                 "--tail-spp", "2048", "--threads", "1", "--json", str(tmp_path / "cmp.json")])
+    (row,) = json.loads((tmp_path / "cmp.json").read_text())
+    assert row["tails"] == "tail reference of ours mis at 2048 spp"
+    assert row["verdict"] == verdict and code == (0 if verdict == "pass" else 1)
+    if verdict == "pass":   # the same store judged by a "foreign" build: no tail reference, and why
+        from benchmarks.compare import estimator_knowledge
+
+        knowledge = estimator_knowledge(tail_spp=2048, threads=1)
+        records = [dict(r, build="feedfacecafebeef") for r in _records(tmp_path / "b")]
+        note = knowledge(("large_light", "ours", "mis", 8, 8), records).note
+        assert note.startswith("none: B is build feedfacecafebeef")
+
+
+def _records(store):
+    from benchmarks.store import read_records
+
+    return read_records(store)
+
+
+def test_tail_spp_is_validated(store_a, capsys):
+    assert main(["compare", str(store_a), str(store_a), "--tail-spp", "1", "--quiet"]) == 2
+    assert "--tail-spp" in capsys.readouterr().err

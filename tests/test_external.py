@@ -71,3 +71,35 @@ def test_gate_an_external_renderer(tmp_path, capsys):
                  "--renderer", f"{MITSUBA_CLI} -m scalar_rgb -D spp={{spp}} -D seed={{seed}} -o {{out}} {{scene_xml}}"])
     assert code == 0, capsys.readouterr().err
     assert "gate passed" in capsys.readouterr().out
+
+
+@pytest.mark.skipif(MITSUBA_CLI is None, reason="the mitsuba command-line program is not installed")
+def test_speed_times_an_external_renderer_in_the_same_rounds(tmp_path, capsys):
+    """``rtbench speed --renderer``: the mitsuba CLI runs in the paired rounds beside ours and
+    Mitsuba, with its own rows (paths/s, RMSE, ratios against each variant)."""
+    cmd = f"{MITSUBA_CLI} -m scalar_rgb -D spp={{spp}} -D seed={{seed}} -o {{out}} {{scene_xml}}"
+    path = tmp_path / "speed.json"
+    code = main(["speed", "--scene", str(XML / "sphere_constant.xml"), "--width", "8", "--height", "6",
+                 "--spp", "4", "--repeats", "2", "--threads", "1", "--strategies", "mis", "--variant", "scalar_rgb",
+                 "--rr-depth", "5", "--reference-kind", "ours", "--reference-spp", "256", "--renderer", cmd,
+                 "--json", str(path)])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "ext-mitsuba" in out and "wall clock" in out
+    res = json.loads(path.read_text())["render"]
+    assert res["config"]["externals"] == {"ext-mitsuba": cmd}
+    ext = [r for r in res["runs"] if r["renderer"] == "ext-mitsuba"]
+    assert len(ext) == 2 and all(r["strategy"] == "external" and r["seconds"] > 0 for r in ext)
+    assert all(r["rr_depth"] == 5 and r["paths"] == 8 * 6 * 4 for r in ext)
+    # the same scene at the same spp: its error is of the same order as Mitsuba's in-process render
+    mits = [r for r in res["runs"] if r["renderer"] == "mitsuba"]
+    assert max(r["rmse"] for r in ext) < 5 * max(r["rmse"] for r in mits) + 1e-3
+    row = [r for r in res["summary"] if r["renderer"] == "ext-mitsuba"][0]
+    assert row["label"] == "ext-mitsuba" and row["ratio_scalar_rgb"] > 0
+    # a command that fails stops the benchmark before timing, with its message
+    assert main(["speed", "--scene", str(XML / "sphere_constant.xml"), "--width", "8", "--spp", "4", "--repeats",
+                 "1", "--variant", "scalar_rgb", "--reference-kind", "ours", "--reference-spp", "64", "--quiet",
+                 "--renderer", "false {scene_xml} {out}"]) != 0
+    assert "ext-false exited with status 1" in capsys.readouterr().err
+    # --renderer needs the render benchmark
+    assert main(["speed", "--rays", "--renderer", cmd, "--quiet"]) == 2

@@ -265,9 +265,9 @@ def add_reference_spp_arg(parser, *, default: int | None, none_means: str = "") 
 def add_tail_spp_arg(parser, *, default: int) -> None:
     """``--tail-spp N``: samples per pixel of the tail references (0: none)."""
     parser.add_argument("--tail-spp", type=int, default=default, metavar="N",
-                        help="samples per pixel of the tail references: our estimator at a high budget, cached, "
-                             "whose variance and tail shape make the verdicts valid for heavy-tailed strategies "
-                             "(0: none, the older rule)")
+                        help="samples per pixel of the tail references: the estimator under test at a high "
+                             "budget (ours: cached), whose variance and tail "
+                             "shape make the verdicts valid for heavy-tailed strategies (0: none, the older rule)")
 
 
 # ----------------------------------------------------------------------------------------- how to run

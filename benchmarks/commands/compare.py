@@ -17,7 +17,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("store_b", metavar="STORE_B", help="the results store to judge")
     from benchmarks.commands import _args as A
 
+    from benchmarks.tails import DEFAULT_TAIL_SPP
+
     A.add_alpha_args(parser, default=GATE_ALPHA)
+    A.add_tail_spp_arg(parser, default=DEFAULT_TAIL_SPP)  # of ours when B is this build; README: Comparing builds
+    A.add_threads_args(parser)
+    A.add_cache_arg(parser)
+    A.add_renderer_arg(parser)  # external renderers whose B curves may be re-run for their variance
     A.add_out_arg(parser, default="rtbench-compare")  # the page: index.html, compare.md, plots
     A.add_json_arg(parser)  # one row per curve
     A.add_quiet_arg(parser)
@@ -35,7 +41,17 @@ def run(args) -> int:
             raise ValueError(f"{p} is not a results store (no results.jsonl)")
     if not 0 < args.alpha < 1:
         raise ValueError(f"--alpha must be in (0, 1), got {args.alpha}")
-    rows = compare_stores(args.store_a, args.store_b, alpha=args.alpha)
+    if args.tail_spp < 0 or args.tail_spp == 1:
+        raise ValueError(f"--tail-spp must be 0 (none) or >= 2, got {args.tail_spp}")
+    from benchmarks.commands._args import resolve_threads
+    from benchmarks.compare import estimator_knowledge
+    from benchmarks.external import register_external
+
+    externals = [register_external(cmd) for cmd in args.renderer]
+    say = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    knowledge = estimator_knowledge(tail_spp=args.tail_spp, threads=resolve_threads(args.threads),
+                                    cache=args.cache, externals=externals, log=say)
+    rows = compare_stores(args.store_a, args.store_b, alpha=args.alpha, estimator=knowledge)
     console = Console()
     if not console.is_terminal:
         console = Console(width=max(console.width, 160))
@@ -53,6 +69,10 @@ def run(args) -> int:
                       f"{c.verdict or '-'} (p {_f(c.p_value)})", _f(c.relative_bias, "{:+.2%}"))
     if not args.quiet:
         console.print(table)
+        for c in rows:
+            if c.tails:
+                console.print(f"  {c.label}: B's estimator at a high budget: {c.tails}", markup=False,
+                              highlight=False)
     page = write_compare_page(rows, args.out, name_a=str(args.store_a), name_b=str(args.store_b))
     print(f"page: {page.resolve()}")
     if args.json:

@@ -80,6 +80,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scaling-triangles", default="1000,10000,100000,1000000",
                         help="--scaling mesh sizes")
     parser.add_argument("--scaling-spp", type=int, default=16, help="--scaling spp")
+    A.add_renderer_arg(parser)  # timed in the same paired rounds as ours and Mitsuba
     A.add_json_arg(parser)
     A.add_quiet_arg(parser)
     add_scene_path_args(parser)
@@ -105,12 +106,14 @@ def _m(v):
 
 
 def _r(v):
-    """A ratio to two decimals; ``-`` for None and non-finite values.
+    """A ratio to two decimals (two significant digits below 0.01); ``-`` for None and non-finite values.
 
-    >>> _r(1.049), _r(None), _r(float("nan"))
-    ('1.05', '-', '-')
+    >>> _r(1.049), _r(0.00123), _r(None), _r(float("nan"))
+    ('1.05', '0.0012', '-', '-')
     """
-    return "-" if v is None or not math.isfinite(v) else f"{v:.2f}"
+    if v is None or not math.isfinite(v):
+        return "-"
+    return f"{v:.2g}" if 0 < abs(v) < 0.01 else f"{v:.2f}"
 
 
 def _short(variant):
@@ -169,11 +172,11 @@ def render_table(result):
                  if math.isfinite(r["paths_per_second_spread"]) else "-", f"{r['cpu_over_wall']:.2f}"]
         for v in variants:
             x = r.get(f"ratio_{v}")
-            cells.append("-" if x is None else f"{x:.2f} ({r[f'cpu_ratio_{v}']:.2f})")
+            cells.append("-" if x is None else f"{_r(x)} ({_r(r[f'cpu_ratio_{v}'])})")
         cells.append(f"{r['rmse']:.4f}")
         for v in variants:
             x = r.get(f"efficiency_ratio_{v}")
-            cells.append("-" if x is None or not math.isfinite(x) else f"{x:.2f}")
+            cells.append(_r(x))
         table.add_row(*cells)
     return table
 
@@ -198,6 +201,9 @@ def render_notes(result):
         lines.append(f"Mitsuba {vv['mitsuba']}, Dr.Jit {vv['drjit']}, libLLVM {vv['libllvm']}")
     for v, why in result.get("skipped_variants", {}).items():
         lines.append(f"Mitsuba {v} skipped: {why}")
+    for name, template in result["config"].get("externals", {}).items():
+        lines.append(f"{name}: external renderer '{template}'; its seconds are the command's wall clock (process "
+                     f"start and scene loading included), its CPU time that of its child processes")
     lines.append("ratio = paths/s ours / Mitsuba, paired per round (cpu: the same on process CPU time); Mrays/s is "
                  "ours only (Mitsuba does not count rays); spread = (max-min)/median of paths/s")
     lines.append("configuration: 'rr_depth N' = Russian roulette from depth N in both renderers (5 is Mitsuba's "
@@ -304,6 +310,11 @@ def run(args) -> int:
     do_render = args.render or not (args.rays or args.scaling)
     if (args.scenes or args.scene_files) and not do_render:
         raise ValueError("scenes are only used by the render benchmark: add --render")
+    if args.renderer and not do_render:
+        raise ValueError("--renderer is only timed by the render benchmark: add --render")
+    from benchmarks.external import register_external
+
+    externals = [register_external(cmd) for cmd in args.renderer]
     from mitsuba_scenes import list_scenes
 
     scenes = resolve_scenes(args, suite_names=args.scenes or [], default=list(list_scenes()))
@@ -315,7 +326,7 @@ def run(args) -> int:
                                      strategies=list(args.strategies), variants=variants, max_depth=args.max_depth,
                                      rr_depths=args.rr_depth,
                                      reference=args.reference_kind, reference_spp=args.reference_spp, seed=args.seed,
-                                     cache=args.cache, log=log)
+                                     cache=args.cache, log=log, externals=externals)
         out["render"] = res
         console.print(suite_table(res))
         console.print(render_table(res))

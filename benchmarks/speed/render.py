@@ -10,6 +10,13 @@ running every configuration once, interleaved (ours, Mitsuba, ours, ...) so that
 change in machine load hits both sides of a pair alike. Ratios are medians over the
 rounds of the per-round ratio (paired).
 
+External renderers (``externals=``, ``rtbench speed --renderer 'CMD'``,
+:mod:`benchmarks.external`) join the same rounds: each run writes the scene's Mitsuba XML
+(with the configuration's ``max_depth`` and ``rr_depth``) and times the command's wall
+clock, so their time includes process start and scene loading (they are not warmed up
+beyond one untimed run); their CPU time is that of the child processes. Their rows carry
+the same paired ratios against each Mitsuba variant as ours.
+
 Examples
 --------
 >>> DEFAULT_STRATEGIES
@@ -27,6 +34,7 @@ import math
 import numpy as np
 
 from benchmarks.constants import MITSUBA_STRATEGY, STRATEGIES, UNBIASED_STRATEGIES
+from benchmarks.external import STRATEGY as EXTERNAL_STRATEGY
 from reference_tracer._validate import positive_int
 
 from .common import (available_variants, environment, load_mitsuba, median, mitsuba_render_fn, mitsuba_versions,
@@ -59,7 +67,7 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
                      threads: int = 2, repeats: int = 5, strategies=DEFAULT_STRATEGIES,
                      variants=DEFAULT_VARIANTS, max_depth: int | None = None, rr_depths=DEFAULT_RR_DEPTHS,
                      reference: str = "mitsuba", reference_spp: int = 4096, seed: int = 0,
-                     cache=None, log=None) -> dict:
+                     cache=None, log=None, externals=()) -> dict:
     """Paired, interleaved render timings of ours vs Mitsuba, with error at equal spp.
 
     Parameters
@@ -97,6 +105,9 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
         Reference cache root.
     log : callable or None, keyword-only
         Called with progress lines.
+    externals : sequence of benchmarks.external.ExternalRenderer, keyword-only
+        External renderers timed in the same rounds (module docstring); rows labelled
+        with their names.
 
     Returns
     -------
@@ -115,6 +126,7 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
                             reference_spp=reference_spp, seed=seed)
     max_depth, rr_depths = _depth_overrides(max_depth, rr_depths)
     config["rr_depths"] = list(rr_depths)
+    config["externals"] = {e.name: e.template for e in externals}
 
     env_before = environment()
     ok_variants, skipped = available_variants(config["variants"], log)
@@ -127,7 +139,7 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
                          f"use reference='ours'")
     for name in config["scenes"]:
         _bench_scene(result, name, config, ok_variants, max_depth=max_depth, rr_depths=rr_depths, cache=cache,
-                     log=log)
+                     log=log, externals=tuple(externals))
     result["available_variants"] = ok_variants
     result["suite"] = suite_summary(result)
     result["environment_after"] = environment()
@@ -193,7 +205,7 @@ def _with_depths(scene, max_depth, rr_depth):
                                rr_depth=scene.rr_depth if rr_depth == "scene" else rr_depth)
 
 
-def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cache, log):
+def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cache, log, externals=()):
     """Set up, time and summarise one scene in every Russian-roulette configuration."""
     import reference_tracer as rt
     from mitsuba_scenes import get_scene
@@ -216,8 +228,9 @@ def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cac
             log(f"{name} {width}x{height}, {spp} spp, max_depth {scene.max_depth}, {label}, {threads} threads")
         rt.render(scene, spp=max(1, spp // 8), strategy=config["strategies"][0], seed=0xA11CE, threads=threads)
         mscenes, infos = _warm_mitsuba(scene, ok_variants, spp=spp, threads=threads, log=log)
+        _warm_externals(scene, externals, spp=spp, log=log)
         per = _timed_rounds(name, scene, config, ok_variants, mscenes=mscenes, ref=ref, runs=result["runs"],
-                            log=log)
+                            log=log, externals=externals)
         for v in ok_variants:   # JIT compile time: warm-up minus a typical timed render
             info = infos[v]
             typical = median([x["seconds"] for x in per[f"Mitsuba {v}"]])
@@ -273,7 +286,18 @@ def _warm_mitsuba(scene, variants, *, spp, threads, log):
     return mscenes, infos
 
 
-def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log) -> dict:
+def _warm_externals(scene, externals, *, spp, log):
+    """One small untimed run of each external renderer: a command that fails does so here,
+    before any timing, with its own message."""
+    from benchmarks.external import render_external
+
+    for ext in externals:
+        _, secs = render_external(ext, scene, spp=max(1, spp // 8), seed=0x5EED)
+        if log:
+            log(f"  {ext.name}: warm-up run {secs:.2f} s")
+
+
+def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, externals=()) -> dict:
     """``repeats`` interleaved rounds of every configuration; ``{label: [run, ...]}``.
 
     Each run record is appended to ``runs`` as well.
@@ -289,24 +313,30 @@ def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log) -> 
         s_mi = batch_seeds(seed + r, 1)[0]
         # interleave: ours strategy, Mitsuba variant, ours strategy, ...
         order = []
-        for k in range(max(len(strategies), len(variants))):
+        for k in range(max(len(strategies), len(variants), len(externals))):
             if k < len(strategies):
                 order.append(("ours", strategies[k]))
             if k < len(variants):
                 order.append(("mitsuba", variants[k]))
+            if k < len(externals):
+                order.append(("external", externals[k]))
         if r % 2 == 1:
             order.reverse()   # alternate who goes first
         for renderer, what in order:
             if renderer == "ours":
                 rec = _ours_run(scene, spp=spp, strategy=what, seed=s_ours, threads=threads, ref=ref)
                 rec.update(strategy=what, variant=None, seed=s_ours)
+            elif renderer == "external":
+                rec = _external_run(what, scene, spp=spp, seed=s_mi & 0x7FFFFFFF, ref=ref)
+                rec.update(strategy=EXTERNAL_STRATEGY, variant=None, seed=s_mi & 0x7FFFFFFF)
+                renderer, what = what.name, what.name
             else:
                 rec = _mitsuba_run(what, mscenes[what], spp=spp, seed=s_mi, threads=threads, ref=ref,
                                    shape=(height, width, 3))
                 rec.update(strategy=MITSUBA_STRATEGY, variant=what, seed=s_mi)
             rec.update(scene=name, renderer=renderer, round=r, spp=spp, width=width, height=height,
                        threads=threads, **settings)
-            label = f"ours {what}" if renderer == "ours" else f"Mitsuba {what}"
+            label = f"ours {what}" if renderer == "ours" else f"Mitsuba {what}" if renderer == "mitsuba" else what
             per.setdefault(label, []).append(rec)
             runs.append(rec)
             if log:
@@ -335,6 +365,26 @@ def _mitsuba_run(variant, mscene, *, spp, seed, threads, ref, shape):
     est = MitsubaRender(mean=img, variance=np.full_like(img, np.nan), spp=spp, seconds=wall, variant=variant,
                         seed=seed, threads=threads, batch_spp=[spp], batch_seeds=[seed])
     return _run_record(est, wall=wall, cpu=cpu, ref=ref, rays=None, nonfinite=int(np.sum(~np.isfinite(img))))
+
+
+def _external_run(ext, scene, *, spp, seed, ref):
+    """One timed run of an external renderer (wall time of the command); its run record.
+
+    The CPU time is the child processes' (``RUSAGE_CHILDREN``), not this process's."""
+    import resource
+
+    import reference_tracer as rt
+    from benchmarks.external import render_external
+
+    def children_cpu():
+        u = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return u.ru_utime + u.ru_stime
+
+    cpu0 = children_cpu()
+    (img, secs), wall, _ = timed(lambda: render_external(ext, scene, spp=spp, seed=seed))
+    est = rt.ImageEstimate(mean=img, variance=np.full_like(img, np.nan), spp=spp, seconds=secs, source=ext.name)
+    return _run_record(est, wall=wall, cpu=children_cpu() - cpu0, ref=ref, rays=None,
+                       nonfinite=int(np.sum(~np.isfinite(img))))
 
 
 def _run_record(est, *, wall, cpu, ref, rays, nonfinite) -> dict:
@@ -379,7 +429,7 @@ def _summary_rows(name, per, variants) -> list:
         row["rmse"] = math.sqrt(row["mse"])
         row["rmse_corrected"] = math.sqrt(row["mse_corrected"]) if row["mse_corrected"] > 0 else float("nan")
         row["paths_per_second_spread"] = spread([x["paths_per_second"] for x in runs])
-        if row["renderer"] == "ours":
+        if row["renderer"] != "mitsuba":   # ours and external renderers, against each variant
             for v in variants:
                 pairs = list(zip(runs, per[f"Mitsuba {v}"]))
                 row[f"ratio_{v}"] = median([a["paths_per_second"] / b["paths_per_second"] for a, b in pairs])

@@ -114,6 +114,22 @@ def _render(job: Job, scene, rseed: int, *, threads: int, variant) -> tuple:
     raise ValueError(f"renderer must be 'ours', 'mitsuba' or a registered external renderer, got {job.renderer!r}")
 
 
+def _register_here(scene_file, external) -> None:
+    """Register the job's scene file and external renderer in this process if missing."""
+    if scene_file is not None:
+        from mitsuba_scenes.scene_files import restore_registry
+        from mitsuba_scenes.scene_files import scene_file as registered_scene_file
+
+        if registered_scene_file(scene_file.name) is None:
+            restore_registry([scene_file])
+    if external is not None:
+        from ..external import external as registered_external
+        from ..external import restore_externals
+
+        if registered_external(external.name) is None:
+            restore_externals([external])
+
+
 def _check_build(job: Job) -> dict:
     """The record's build fields; ``RuntimeError`` when this process's tracer is another build
     than the job was planned with (a Dask worker running other code than the client)."""
@@ -130,7 +146,7 @@ def _check_build(job: Job) -> dict:
 
 
 def execute_job(job: Job, reference, *, threads: int, variant=None, keep_image: bool = False,
-                keep_stats: bool = False) -> dict:
+                keep_stats: bool = False, scene_file=None, external=None) -> dict:
     """Render one job, measure it against the reference and build its record.
 
     Runs anywhere (locally or on a Dask worker): it touches no file. Returns
@@ -151,7 +167,13 @@ def execute_job(job: Job, reference, *, threads: int, variant=None, keep_image: 
         Return the mean image for the store (``record["image"]``).
     keep_stats : bool, keyword-only
         Return mean and variance images for the bias test (``record["stats_image"]``).
+    scene_file, external : keyword-only
+        The job's :class:`mitsuba_scenes.scene_files.SceneFile` and
+        :class:`benchmarks.external.ExternalRenderer` entries, registered here first when
+        this process does not know them (a Dask worker, including one that joined after
+        the run started).
     """
+    _register_here(scene_file, external)
     t_job = time.perf_counter()
     builds = _check_build(job)
     rseed = render_seed(job.seed, job.spp)

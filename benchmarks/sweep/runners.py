@@ -114,7 +114,6 @@ class _DaskQueue:
             pool = self._wait_for_workers()
             self.say(f"dask: {len(pool)} worker(s) at {self.client.scheduler.address}, one job per worker")
             scattered = {k: self.client.scatter(ref, broadcast=True) for k, ref in refs.items()}
-            self._share_scene_files()
             while pending or self.running:
                 self._submit(pending, pool, scattered)
                 if not self.running:
@@ -134,18 +133,6 @@ class _DaskQueue:
                 fut.cancel()
         return self.tally.done
 
-    def _share_scene_files(self) -> None:
-        """Register this process's scene files (``--scene``) on every worker (same paths there)."""
-        from mitsuba_scenes.scene_files import registered, restore_registry
-
-        from ..external import registered_externals, restore_externals
-
-        entries = registered()
-        if entries:
-            self.client.run(restore_registry, entries)
-        if registered_externals():
-            self.client.run(restore_externals, registered_externals())
-
     def _wait_for_workers(self) -> dict:
         pool = self.workers()
         t_wait = time.monotonic()
@@ -158,6 +145,10 @@ class _DaskQueue:
 
     def _submit(self, pending, pool, scattered) -> None:
         """Give each idle worker the next pending job, pinned to it."""
+        from mitsuba_scenes.scene_files import scene_file
+
+        from ..external import external
+
         for addr in list(pool):
             if addr in self.busy or not pending:
                 continue
@@ -165,6 +156,7 @@ class _DaskQueue:
             ki, ks = self.keep(job)
             fut = self.client.submit(execute_job, job, scattered[(job.scene, job.width, job.height)],
                                      threads=pool[addr], variant=self.variant, keep_image=ki, keep_stats=ks,
+                                     scene_file=scene_file(job.scene), external=external(job.renderer),
                                      workers=[addr], allow_other_workers=False, pure=False,
                                      key=f"rtbench-{job.scene}-{job.renderer}-{job.strategy}-{job.spp}-"
                                          f"{job.seed}-{job.width}x{job.height}-{time.monotonic_ns()}")
