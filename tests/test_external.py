@@ -103,3 +103,22 @@ def test_speed_times_an_external_renderer_in_the_same_rounds(tmp_path, capsys):
     assert "ext-false exited with status 1" in capsys.readouterr().err
     # --renderer needs the render benchmark
     assert main(["speed", "--rays", "--renderer", cmd, "--quiet"]) == 2
+
+
+@pytest.mark.skipif(MITSUBA_CLI is None, reason="the mitsuba command-line program is not installed")
+def test_compare_runs_the_given_command_for_the_external_curves_variance(tmp_path, capsys):
+    """``rtbench compare A B --renderer CMD``: B's external curve gets its per-pixel variance
+    from 16 batches of that very command (same build ``ext-<hash>``); without the command
+    the curve says it rests on its stored images."""
+    cmd = f"{MITSUBA_CLI} -m scalar_rgb -D spp={{spp}} -D seed={{seed}} -o {{out}} {{scene_xml}}"
+    code_a, a = _curves(tmp_path / "a", cmd)
+    code_b, b = _curves(tmp_path / "b", cmd)
+    assert code_a == code_b == 0
+    for extra, note in (([], "none: ext-mitsuba's command was not given as --renderer"),
+                        (["--renderer", cmd], "ext-mitsuba in 16 batches at 256 spp")):
+        path = tmp_path / "cmp.json"
+        assert main(["compare", str(a), str(b), "--tail-spp", "256", "--quiet", "--out", str(tmp_path / "page"),
+                     "--json", str(path), *extra]) == 0
+        rows = {r["renderer"]: r for r in json.loads(path.read_text())}
+        assert rows["ext-mitsuba"]["tails"] == note
+        assert rows["ext-mitsuba"]["verdict"] == "pass"
