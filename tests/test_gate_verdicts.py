@@ -268,3 +268,37 @@ def test_an_exact_estimator_is_not_a_lower_bound():
          np.array(((x - x[0]) ** 4).sum())]
     m = rt.SampleMoments.from_shifted_sums(1000, d=d, max=np.array(x.max()))
     assert not variance_is_lower_bound(SimpleNamespace(moments=m, mean=np.array(x.mean())))
+
+
+def test_an_interrupted_calibration_resumes_from_its_json(small_calibration, tmp_path, capsys, monkeypatch):
+    """``rtbench gate --calibrate --json PATH`` writes every row as it finishes; run again, it
+    renders only the rows missing from PATH and keeps the others. A file measured with
+    other settings is refused, not mixed in."""
+    from benchmarks.cli import main
+
+    _, cache = small_calibration
+    path = tmp_path / "cal.json"
+    base = ["gate", "--calibrate", "cornell_box", "--strategies", "mis", "--seeds", "2", "--width", "8",
+            "--ref-spp", "4096", "--tail-spp", "4096", "--threads", "2", "--cache", str(cache), "--quiet",
+            "--json", str(path)]
+    assert main(base + ["--spps", "16"]) == 0
+    first = json.loads(path.read_text())
+    assert [(r["spp"], r["seeds"]) for r in first["rows"]] == [(16, 2)]
+    import reference_tracer as rt
+
+    real, spps = rt.render, []
+
+    def counted(*args, spp, **kwargs):
+        spps.append(spp)
+        return real(*args, spp=spp, **kwargs)
+
+    monkeypatch.setattr(rt, "render", counted)
+    assert main(base + ["--spps", "16,32"]) == 0
+    monkeypatch.undo()
+    assert spps == [32, 32]                          # only the missing row was rendered
+    assert "resuming" in capsys.readouterr().err
+    second = json.loads(path.read_text())
+    assert [r["spp"] for r in second["rows"]] == [16, 32]
+    assert second["rows"][0] == first["rows"][0]      # kept as it was, not measured again
+    assert main(base[:-2] + ["--json", str(path), "--spps", "16", "--seeds", "3"]) == 2
+    assert "other settings: seeds 2 (now 3)" in capsys.readouterr().err

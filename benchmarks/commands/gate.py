@@ -48,7 +48,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="measure the false-alarm rate instead: render every unbiased strategy (or "
                              "--strategies) with --seeds seeds at each of --spps and count pass / fail / "
                              "undetermined per (scene, strategy, spp); exit 1 if a rate exceeds --alpha (here "
-                             "each comparison is tested at --alpha itself: the rate measured is one comparison's)")
+                             "each comparison is tested at --alpha itself: the rate measured is one comparison's); "
+                             "with --json PATH, written after every row, a rerun resumes where it stopped")
     A.add_spps_arg(parser, default=DEFAULT_CALIBRATION_SPPS)
     A.add_seeds_arg(parser, default=DEFAULT_CALIBRATION_SEEDS)
     add_scene_path_args(parser)
@@ -208,22 +209,29 @@ def _calibrate(args) -> int:
         console = Console(width=max(console.width, 160))
     progress = Progress(TextColumn("calibration"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                         console=Console(stderr=True, quiet=args.quiet), transient=True)
-    rows = []
+    config = {"scenes": list(names), "strategies": strategies, "spps": spps, "seeds": args.seeds,
+              "width": args.width, "height": args.height or args.width, "reference_spp": args.reference_spp,
+              "tail_spp": args.tail_spp, "variant": single_variant(args)}
+    rows = _resumed_rows(args.json, config, alpha=args.alpha) if args.json else []
+    if rows:
+        print(f"rtbench gate --calibrate: resuming {args.json}: {len(rows)} row(s) measured already",
+              file=sys.stderr, flush=True)
+    skip = {(r.scene, r.strategy, r.spp) for r in rows}
 
     def on_row(row):
         rows.append(row)
         progress.console.print(f"{row.scene} {row.strategy} {row.spp} spp: pass {row.passed}, fail {row.failed}, "
                                f"undetermined {row.undetermined}", highlight=False, markup=False)
         if args.json:  # written after every row: an interrupted calibration keeps what it measured
-            _write_json(args.json, {"alpha": args.alpha, "rows": [r.to_dict() for r in rows]})
+            _write_json(args.json, {"alpha": args.alpha, "config": config, "rows": [r.to_dict() for r in rows]})
 
     with progress:
-        task = progress.add_task("renders", total=len(names) * len(strategies) * len(spps) * args.seeds)
+        task = progress.add_task("renders", total=(len(names) * len(strategies) * len(spps) - len(skip)) * args.seeds)
         calibrate(names, strategies=strategies, spps=spps, seeds=args.seeds, width=args.width,
                   height=args.height, ref_spp=args.reference_spp, tail_spp=args.tail_spp, alpha=args.alpha,
                   threads=args.threads, cache=args.cache, variant=single_variant(args),
                   log=lambda line: progress.console.print(line, markup=False),
-                  on_render=lambda: progress.advance(task), on_row=on_row)
+                  on_render=lambda: progress.advance(task), on_row=on_row, skip=skip)
     if not args.quiet:
         console.print(calibration_table(rows, alpha=args.alpha))
     bad = [r for r in rows if not r.consistent]
@@ -234,6 +242,35 @@ def _calibrate(args) -> int:
                   f"({r.strategy}, {r.spp} spp)", file=sys.stderr)
         return 1
     return 0
+
+
+def _resumed_rows(path, config: dict, *, alpha: float) -> list:
+    """The rows an earlier, interrupted calibration wrote to ``path`` with the same settings.
+
+    A file from other settings (seeds, size, references, variant, alpha) is refused rather
+    than mixed in; a missing file is a fresh start. Every row of the file is kept (rows of
+    other scenes, strategies or budgets as well: the file grows into the whole table).
+    """
+    from benchmarks.gate import CalibrationRow
+
+    p = Path(path)
+    if not p.is_file():
+        return []
+    try:
+        data = json.loads(p.read_text())
+        old = data["config"]
+        rows = [CalibrationRow(**r) for r in data["rows"]]
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"--json {path} exists but is not a calibration this command can resume ({exc}); "
+                         f"give another path") from None
+    same = {k: old.get(k) for k in ("seeds", "width", "height", "reference_spp", "tail_spp", "variant")}
+    want = {k: config[k] for k in same}
+    if same != want or data.get("alpha") != alpha:
+        diff = ", ".join(f"{k} {same[k]} (now {want[k]})" for k in same if same[k] != want[k])
+        if data.get("alpha") != alpha:
+            diff = ", ".join(x for x in (diff, f"alpha {data.get('alpha')} (now {alpha})") if x)
+        raise ValueError(f"--json {path} holds a calibration with other settings: {diff}; give another path")
+    return rows
 
 
 def _write_json(path, obj) -> None:

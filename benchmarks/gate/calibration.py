@@ -86,7 +86,8 @@ def _median(values):
 def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIBRATION_SPPS,
               seeds: int = DEFAULT_CALIBRATION_SEEDS, width: int = DEFAULT_WIDTH, ref_spp: int = DEFAULT_REF_SPP,
               tail_spp: int = DEFAULT_TAIL_SPP, alpha: float = GATE_ALPHA, threads=None, cache=None,
-              log=None, on_render=None, on_row=None, height: int | None = None, variant: str | None = None) -> list:
+              log=None, on_render=None, on_row=None, height: int | None = None, variant: str | None = None,
+              skip=frozenset()) -> list:
     """Measure the gate's verdicts on unbiased renders: one :class:`CalibrationRow` per
     (scene, strategy, spp).
 
@@ -107,6 +108,8 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
         (default: the fastest that works).
     on_render, on_row : callable, keyword-only
         Called after each render (no argument) and with each finished row.
+    skip : set of (scene, strategy, spp), keyword-only
+        Rows measured already (a resumed calibration): neither rendered nor returned.
 
     Examples
     --------
@@ -125,11 +128,16 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
             raise ValueError(f"unknown strategy {s!r}; choose from {', '.join(rt.STRATEGIES)}")
     rows = []
     for name in names:
+        if all((name, st, spp) in skip for st in strategies for spp in spps):
+            continue
         scene = gate_scene(name, width=width, height=height)
         ref = gate_reference(name, scene, ref_spp=ref_spp, threads=threads, cache=cache, log=log, variant=variant)
         for strategy in strategies:
+            todo = [spp for spp in spps if (name, strategy, spp) not in skip]
+            if not todo:
+                continue
             tails = tail_reference(scene, strategy=strategy, spp=tail_spp, threads=threads, cache=cache, log=log)
-            for spp in spps:
+            for spp in todo:
                 results = []
                 for k in range(seeds):
                     out = rt.render(scene, spp=spp, strategy=strategy, seed=FIRST_SEED + k, threads=threads)
