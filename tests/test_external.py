@@ -9,20 +9,13 @@ from pathlib import Path
 import pytest
 
 from benchmarks.cli import main
-from benchmarks.external import clear_externals, register_external
-from mitsuba_scenes.scene_files import clear_registry
+from benchmarks.external import register_external
 
 XML = Path(__file__).parent / "fixtures" / "xml"
 MITSUBA_CLI = shutil.which("mitsuba", path=str(Path(sys.executable).parent)) or shutil.which("mitsuba")
 
 
-@pytest.fixture(autouse=True)
-def _fresh():
-    clear_registry()
-    clear_externals()
-    yield
-    clear_registry()
-    clear_externals()
+pytestmark = pytest.mark.usefixtures("fresh_registries")
 
 
 def _curves(tmp_path, *renderers):

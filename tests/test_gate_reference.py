@@ -20,11 +20,7 @@ def build(width=8, height=8):
 '''
 
 
-@pytest.fixture(autouse=True)
-def _fresh_registry():
-    clear_registry()
-    yield
-    clear_registry()
+pytestmark = pytest.mark.usefixtures("fresh_registries")
 
 
 @pytest.fixture

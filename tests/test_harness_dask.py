@@ -44,7 +44,7 @@ def test_unreachable_scheduler_is_a_clear_error(tmp_path_factory, monkeypatch):
                   cache=cache_root(tmp_path_factory), scheduler="tcp://127.0.0.1:9")
 
 
-def test_dask_workers_learn_scene_files_and_external_renderers_with_each_job(tmp_path_factory):
+def test_dask_workers_learn_scene_files_and_external_renderers_with_each_job(tmp_path_factory, fresh_registries):
     """A worker process never saw the client's ``--scene`` and ``--renderer`` registrations:
     each job carries its scene file and external renderer entries, so workers that join at
     any time render them (before, only the workers present at the start were told)."""
@@ -52,29 +52,23 @@ def test_dask_workers_learn_scene_files_and_external_renderers_with_each_job(tmp
     import sys
     from pathlib import Path
 
-    from benchmarks.external import clear_externals, register_external
-    from mitsuba_scenes.scene_files import clear_registry, register_scene_file
+    from benchmarks.external import register_external
+    from mitsuba_scenes.scene_files import register_scene_file
 
     cli = shutil.which("mitsuba", path=str(Path(sys.executable).parent)) or shutil.which("mitsuba")
-    clear_registry()
-    clear_externals()
-    try:
-        entry = register_scene_file(Path(__file__).parent / "fixtures" / "xml" / "sphere_constant.xml")
-        externals = ()
-        if cli is not None:
-            externals = (register_external(f"{cli} -m scalar_rgb -D spp={{spp}} -D seed={{seed}} -o {{out}} "
-                                           f"{{scene_xml}}").name,)
-        group = Group(scenes=(entry.name,), strategies=("mis",), spps=(4,), seeds=2, width=8, height=6,
-                      mitsuba=False, reference_spp=256, name="files", externals=externals)
-        with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                      silence_logs=40) as cluster:
-            result = run_sweep([group], out=tmp_path_factory.mktemp("dask-files"), progress=False,
-                               cache=cache_root(tmp_path_factory), scheduler=cluster.scheduler_address)
-        assert not result.failed, result.failed
-        assert result.done == result.jobs == 2 * (1 + len(externals))
-        got = read_records(result.store)
-        assert {r["scene"] for r in got} == {entry.name}
-        assert {r["scene_source"] for r in got} == {entry.path}
-    finally:
-        clear_registry()
-        clear_externals()
+    entry = register_scene_file(Path(__file__).parent / "fixtures" / "xml" / "sphere_constant.xml")
+    externals = ()
+    if cli is not None:
+        externals = (register_external(f"{cli} -m scalar_rgb -D spp={{spp}} -D seed={{seed}} -o {{out}} "
+                                       f"{{scene_xml}}").name,)
+    group = Group(scenes=(entry.name,), strategies=("mis",), spps=(4,), seeds=2, width=8, height=6,
+                  mitsuba=False, reference_spp=256, name="files", externals=externals)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=40) as cluster:
+        result = run_sweep([group], out=tmp_path_factory.mktemp("dask-files"), progress=False,
+                           cache=cache_root(tmp_path_factory), scheduler=cluster.scheduler_address)
+    assert not result.failed, result.failed
+    assert result.done == result.jobs == 2 * (1 + len(externals))
+    got = read_records(result.store)
+    assert {r["scene"] for r in got} == {entry.name}
+    assert {r["scene_source"] for r in got} == {entry.path}

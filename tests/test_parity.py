@@ -10,16 +10,11 @@ import reference_tracer as rt
 from benchmarks.cli import main
 from benchmarks.parity import run_parity
 from mitsuba_scenes import from_mitsuba, get_scene, list_scenes, to_mitsuba
-from mitsuba_scenes.scene_files import clear_registry
 
 XML = Path(__file__).parent / "fixtures" / "xml"
 
 
-@pytest.fixture(autouse=True)
-def _fresh_registry():
-    clear_registry()
-    yield
-    clear_registry()
+pytestmark = pytest.mark.usefixtures("fresh_registries")
 
 
 @pytest.mark.parametrize("name", list_scenes())

@@ -9,7 +9,7 @@ import pytest
 import reference_tracer as rt
 from benchmarks.cli import main
 from mitsuba_scenes import get_scene, known_scenes, list_scenes
-from mitsuba_scenes.scene_files import clear_registry, parse_params, register_scene_file, scene_file
+from mitsuba_scenes.scene_files import parse_params, register_scene_file, scene_file
 
 XML = Path(__file__).parent / "fixtures" / "xml"
 
@@ -24,11 +24,7 @@ def build(width=24, height=16, light=10.0):
 '''
 
 
-@pytest.fixture(autouse=True)
-def _fresh_registry():
-    clear_registry()
-    yield
-    clear_registry()
+pytestmark = pytest.mark.usefixtures("fresh_registries")
 
 
 @pytest.fixture

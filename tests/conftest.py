@@ -1,0 +1,18 @@
+"""Fixtures shared by several test modules."""
+from __future__ import annotations
+
+import pytest
+
+
+@pytest.fixture
+def fresh_registries():
+    """No registered scene files (``--scene``) or external renderers (``--renderer``) before
+    or after the test: both registries are per process, and a test must not see another's."""
+    from benchmarks.external import clear_externals
+    from mitsuba_scenes.scene_files import clear_registry
+
+    clear_registry()
+    clear_externals()
+    yield
+    clear_registry()
+    clear_externals()
