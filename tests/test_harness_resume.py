@@ -113,7 +113,11 @@ def test_rtbench_run_end_to_end_on_one_scene(tmp_path_factory):
     recs = read_records(out)
     assert len(recs) == 6 * 9 * 4  # 5 strategies + Mitsuba, spp 1..256, 4 seeds
     meta = json.loads((out / "meta.json").read_text())
-    assert meta["preset"] == "quick" and meta["references"]["furnace"]["spp"] == 8192
+    # furnace's reference is its closed form (exact: CLOSED_FORM_SPP stands for "no sampling noise")
+    from benchmarks.constants import CLOSED_FORM, CLOSED_FORM_SPP
+
+    furnace = meta["references"]["furnace"]
+    assert meta["preset"] == "quick" and furnace["variant"] == CLOSED_FORM and furnace["spp"] == CLOSED_FORM_SPP
     try:
         import reports  # noqa: F401
     except ImportError:
