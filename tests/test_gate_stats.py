@@ -383,3 +383,19 @@ def test_pixel_level_sees_a_single_outlier_of_either_sign(sign):
     assert g.failed and "pixel" in g.failed_levels
     np.testing.assert_allclose(g.pixel_t[5, 5], sign * 10, rtol=1e-3)
     assert g.worst_pixel[:2] == (5, 5)
+
+
+def test_power_of_an_exact_comparison_is_its_equality_tolerance():
+    """An exact estimator against an exact reference (zero variance on both sides: the
+    furnace's closed form) catches any bias beyond the equality tolerance, with certainty:
+    the stated power is that tolerance (it was reported as nothing, NaN), and a bias just
+    above it does fail."""
+    from benchmarks.gate import compare
+
+    img = np.full((8, 8, 3), 2.0)
+    zero = np.zeros_like(img)
+    res = compare(img, zero, 64, img, zero, 1 << 20, zero_var_rtol=1e-4)
+    assert res.verdict == "pass"
+    assert res.min_detectable_bias == pytest.approx(1e-4, rel=1e-9)
+    assert res.min_detectable_tile_bias == pytest.approx(1e-4, rel=1e-9)
+    assert compare(img * (1 + 2e-4), zero, 64, img, zero, 1 << 20, zero_var_rtol=1e-4).verdict == "fail"

@@ -77,14 +77,19 @@ def power(img, tile8) -> tuple:
     """Minimum detectable relative bias with probability :data:`POWER`: of the whole image
     (the most sensitive tested channel) and of one :data:`POWER_TILE` tile (the median tested
     tile); NaN where nothing is tested. A level detects a bias ``delta * sum(r)`` when it
-    exceeds ``(z_crit + z_power)`` standard deviations of the statistic."""
+    exceeds ``(z_crit + z_power)`` standard deviations of the statistic; a noiseless
+    statistic (an exact estimator against an exact reference: variance 0) detects, with
+    certainty, any bias beyond its equality tolerance ``tol / |sum(r)|``."""
     z_pow = float(stats.norm.isf(1.0 - POWER))
 
     def mdb(lv):
         if lv is None:
             return np.array([])
-        ok = lv.valid & (lv.var > 0) & (lv.ref_sum != 0)
-        return ((lv.z_crit + z_pow) * np.sqrt(lv.var[ok]) / np.abs(lv.ref_sum[ok])).ravel()
+        ref = np.abs(lv.ref_sum)
+        ok = lv.valid & (lv.var > 0) & (ref != 0)
+        exact = (lv.var == 0) & (ref != 0) & np.broadcast_to(np.asarray(lv.tol) > 0, ref.shape)
+        noisy = (lv.z_crit + z_pow) * np.sqrt(lv.var[ok]) / ref[ok]
+        return np.concatenate([noisy.ravel(), (np.broadcast_to(lv.tol, ref.shape)[exact] / ref[exact]).ravel()])
 
     g, t = mdb(img), mdb(tile8)
     return (float(g.min()) if g.size else math.nan), (float(np.median(t)) if t.size else math.nan)

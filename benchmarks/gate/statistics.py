@@ -357,6 +357,7 @@ class _Level:
     z_crit: float
     var: np.ndarray
     ref_sum: np.ndarray
+    tol: np.ndarray | float = 0.0
 
 
 def _prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *, var_ddof, zero_var_rtol,
@@ -410,8 +411,8 @@ def _level(d: _Inputs, reduce, diff, K3, K4, *, alpha_level, validity) -> _Level
     p-value rather than ignored, so the level holds for skewed statistics too.
     """
     sums = d.sums(reduce)
-    z, p, testable = _welch_from_sums(diff, n_t=d.n_t, n_r=d.n_r,
-                                      tol=d.zero_var_rtol * reduce(d.abs_scale), **sums)
+    tol = d.zero_var_rtol * reduce(d.abs_scale)
+    z, p, testable = _welch_from_sums(diff, n_t=d.n_t, n_r=d.n_r, tol=tol, **sums)
     a = sums["a"] if d.fa is None else np.maximum(sums["a"], sums["fa"])
     var = a + sums["b"]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -423,7 +424,7 @@ def _level(d: _Inputs, reduce, diff, K3, K4, *, alpha_level, validity) -> _Level
     at = np.minimum(np.where(np.isfinite(z), np.abs(z), z_crit), z_crit)
     p = np.where(pos, np.minimum(1.0, p * (1.0 + edgeworth_error(at, g1, g2))), p)
     return _Level(z=z, p=p, testable=testable, valid=valid, g1=g1, g2=g2, z_crit=z_crit, var=var,
-                  ref_sum=reduce(d.r))
+                  ref_sum=reduce(d.r), tol=tol)
 
 
 def _pixel_level(d: _Inputs, pixel_pool: int, **crit) -> _Level:
