@@ -277,6 +277,7 @@ public:
     size_t bvh_nodes() const { return scene_->bvh().node_count(); }
     int bvh_depth() const { return scene_->bvh().depth(); }
     size_t bvh_blocks() const { return scene_->bvh().blocks().size(); }
+    bool bvh_float_blocks() const { return scene_->float_blocks(); }
     double build_seconds() const { return build_seconds_; }
 
 private:
@@ -326,6 +327,7 @@ NB_MODULE(_core, m) {
         .def_prop_ro("bvh_nodes", &PyScene::bvh_nodes)
         .def_prop_ro("bvh_depth", &PyScene::bvh_depth)
         .def_prop_ro("bvh_blocks", &PyScene::bvh_blocks)
+        .def_prop_ro("bvh_float_blocks", &PyScene::bvh_float_blocks)
         .def_prop_ro("build_seconds", &PyScene::build_seconds);
     rt::register_sampling_probe(m);  // batch sampling routines for the chi-square tests
 }
