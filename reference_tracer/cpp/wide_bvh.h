@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <initializer_list>
 #include <limits>
 #include <vector>
 
@@ -169,6 +170,81 @@ inline int sorted_hits(unsigned mask, const V8f& tn, int (&idx)[kWidth]) {
         for (int j = i; j > 0 && tn[idx[j]] < tn[idx[j - 1]]; --j) std::swap(idx[j], idx[j - 1]);
     return k;
 }
+
+constexpr float kInfF = std::numeric_limits<float>::infinity();
+
+// The largest of eight floats (no NaN among them).
+inline float max_lane(V8f v) { return -min_lane(-v); }
+
+// A packet's slab constants as intervals over its rays, per axis, and the test of a
+// node's eight child boxes against all of them at once: a lower bound of every ray's
+// near distance and an upper bound of every ray's far distance per child, so that a
+// child no ray of the packet meets is (nearly always) rejected by one 8-wide test
+// instead of its own test against the eight rays. On camera rays most children of a
+// node are missed by the whole packet, and testing them one by one was a third of
+// the instructions.
+//
+// Why it never rejects a child that a ray's own test (WideBVH::traverse_packet) passes:
+// that test computes t0 = fl(fl(P - o) * inv) and t1 likewise for each ray. Rounding is
+// monotone, the rays share an octant (inv has one sign per axis), and (P - o) * inv is
+// monotone in o and linear in inv: over the box of (o, inv) its minimum lies at the
+// corner with o at the bound that makes P - o smallest (inv > 0) or largest (inv < 0)
+// and inv at either end. So the smallest of the two corner values, computed with the
+// same float operations, is at most every ray's computed t0; the largest far corner is
+// at least every ray's t1; and the pass condition max(0, t0) <= min(t_max, t1) of any
+// ray implies it for the bounds (t_max: the largest over the packet). NaN would break
+// the argument (0 * inf): the bounds are used only when every factor is finite and
+// non-zero, which excludes it (a plane at infinity times a finite factor is infinite,
+// not NaN).
+struct PacketBounds {
+    bool valid = true;
+    float o_near[3], o_far[3];          // the corner origin of the near / far distances
+    float inv_near[2][3], inv_far[2][3];  // [smallest, largest] factor
+
+    PacketBounds(const V8f (&on)[3], const V8f (&of)[3], const V8f (&in)[3], const V8f (&inf)[3], unsigned active) {
+        constexpr float kMax = std::numeric_limits<float>::max();
+        for (int a = 0; a < 3; ++a) {
+            float on_lo = kInfF, on_hi = -kInfF, of_lo = kInfF, of_hi = -kInfF;
+            float in_lo = kInfF, in_hi = -kInfF, if_lo = kInfF, if_hi = -kInfF;
+            for (unsigned m = active; m != 0; m &= m - 1) {
+                const int r = __builtin_ctz(m);
+                on_lo = std::min(on_lo, on[a][r]); on_hi = std::max(on_hi, on[a][r]);
+                of_lo = std::min(of_lo, of[a][r]); of_hi = std::max(of_hi, of[a][r]);
+                in_lo = std::min(in_lo, in[a][r]); in_hi = std::max(in_hi, in[a][r]);
+                if_lo = std::min(if_lo, inf[a][r]); if_hi = std::max(if_hi, inf[a][r]);
+                for (float f : {in[a][r], inf[a][r], on[a][r], of[a][r]})
+                    valid = valid && std::abs(f) <= kMax;
+                valid = valid && in[a][r] != 0.0f && inf[a][r] != 0.0f;
+            }
+            const bool pos = in_lo > 0.0f;  // one sign for the packet (one octant)
+            o_near[a] = pos ? on_hi : on_lo;
+            o_far[a] = pos ? of_lo : of_hi;
+            inv_near[0][a] = in_lo; inv_near[1][a] = in_hi;
+            inv_far[0][a] = if_lo; inv_far[1][a] = if_hi;
+        }
+    }
+
+    // Mask of the children of n that some ray may meet within [0, t_max_f].
+    unsigned test(const WideNode& n, const int* near_row, const int* far_row, float t_max_f) const {
+        const float* rows = &n.lo[0][0];
+        V8f tn = V8f{};
+        V8f tf = V8f{} + t_max_f;
+        for (int a = 0; a < 3; ++a) {
+            V8f near_plane, far_plane;
+            __builtin_memcpy(&near_plane, rows + near_row[a], sizeof(V8f));
+            __builtin_memcpy(&far_plane, rows + far_row[a], sizeof(V8f));
+            const V8f dn = near_plane - o_near[a];
+            const V8f n0 = dn * inv_near[0][a], n1 = dn * inv_near[1][a];
+            const V8f df = far_plane - o_far[a];
+            const V8f f0 = df * inv_far[0][a], f1 = df * inv_far[1][a];
+            const V8f t0 = n0 < n1 ? n0 : n1;
+            const V8f t1 = f0 > f1 ? f0 : f1;
+            tn = t0 > tn ? t0 : tn;
+            tf = t1 < tf ? t1 : tf;
+        }
+        return lane_mask(tn <= tf);
+    }
+};
 
 class WideBVH {
 public:
@@ -386,6 +462,7 @@ public:
         V8f t_max_f;
         for (int r = 0; r < kWidth; ++r)
             t_max_f[r] = (active >> r) & 1u ? RaySlabs::max_float(t_max[r]) : -std::numeric_limits<float>::infinity();
+        const PacketBounds bounds(o_near, o_far, inv_near, inv_far, active);
         struct PacketEntry { int32_t ref; uint16_t count; uint16_t mask; float t_near; };
         PacketEntry stack[kStackSize];
         int top = 0;
@@ -400,7 +477,13 @@ public:
                 int idx[kWidth], k = 0;
                 unsigned child_mask[kWidth];
                 float dist[kWidth];
-                for (int c = 0; c < kWidth; ++c) {
+                // The children some ray of the packet may meet (all, without bounds):
+                // the others would fail every ray's test below.
+                const unsigned candidates =
+                    bounds.valid ? bounds.test(n, near_row, far_row, max_lane(in_packet ? t_max_f : V8f{} - kInfF))
+                                 : (1u << kWidth) - 1u;
+                for (unsigned cm = candidates; cm != 0; cm &= cm - 1) {
+                    const int c = __builtin_ctz(cm);
                     if (n.child[c] == 0 && n.count[c] == 0) break;  // empty slots come last
                     V8f tn = V8f{};
                     V8f tf = t_max_f;
