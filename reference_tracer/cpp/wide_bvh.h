@@ -202,25 +202,23 @@ struct PacketBounds {
     float inv_near[2][3], inv_far[2][3];  // [smallest, largest] factor
 
     PacketBounds(const V8f (&on)[3], const V8f (&of)[3], const V8f (&in)[3], const V8f (&inf)[3], unsigned active) {
-        constexpr float kMax = std::numeric_limits<float>::max();
+        // Whole-vector reductions, with the absent lanes replaced by the first ray's.
+        const V8i present = mask_lanes(active);
+        const int first = __builtin_ctz(active);
+        auto fill = [&](const V8f& v) { return present ? v : V8f{} + v[first]; };
+        auto finite_nonzero = [&](const V8f& v) {
+            const V8f mag = v < 0.0f ? -v : v;  // NaN fails both comparisons below
+            return lane_mask((mag <= std::numeric_limits<float>::max()) & (mag > 0.0f)) == 0xFFu;
+        };
+        auto finite = [&](const V8f& v) { return lane_mask(v - v == 0.0f) == 0xFFu; };  // inf - inf is NaN
         for (int a = 0; a < 3; ++a) {
-            float on_lo = kInfF, on_hi = -kInfF, of_lo = kInfF, of_hi = -kInfF;
-            float in_lo = kInfF, in_hi = -kInfF, if_lo = kInfF, if_hi = -kInfF;
-            for (unsigned m = active; m != 0; m &= m - 1) {
-                const int r = __builtin_ctz(m);
-                on_lo = std::min(on_lo, on[a][r]); on_hi = std::max(on_hi, on[a][r]);
-                of_lo = std::min(of_lo, of[a][r]); of_hi = std::max(of_hi, of[a][r]);
-                in_lo = std::min(in_lo, in[a][r]); in_hi = std::max(in_hi, in[a][r]);
-                if_lo = std::min(if_lo, inf[a][r]); if_hi = std::max(if_hi, inf[a][r]);
-                for (float f : {in[a][r], inf[a][r], on[a][r], of[a][r]})
-                    valid = valid && std::abs(f) <= kMax;
-                valid = valid && in[a][r] != 0.0f && inf[a][r] != 0.0f;
-            }
-            const bool pos = in_lo > 0.0f;  // one sign for the packet (one octant)
-            o_near[a] = pos ? on_hi : on_lo;
-            o_far[a] = pos ? of_lo : of_hi;
-            inv_near[0][a] = in_lo; inv_near[1][a] = in_hi;
-            inv_far[0][a] = if_lo; inv_far[1][a] = if_hi;
+            const V8f o_n = fill(on[a]), o_f = fill(of[a]), i_n = fill(in[a]), i_f = fill(inf[a]);
+            valid = valid && finite_nonzero(i_n) && finite_nonzero(i_f) && finite(o_n) && finite(o_f);
+            const bool pos = i_n[first] > 0.0f;  // one sign for the packet (one octant)
+            o_near[a] = pos ? max_lane(o_n) : min_lane(o_n);
+            o_far[a] = pos ? min_lane(o_f) : max_lane(o_f);
+            inv_near[0][a] = min_lane(i_n); inv_near[1][a] = max_lane(i_n);
+            inv_far[0][a] = min_lane(i_f); inv_far[1][a] = max_lane(i_f);
         }
     }
 
