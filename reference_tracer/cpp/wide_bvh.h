@@ -164,7 +164,12 @@ struct RaySlabs {
 // The children of a node that a ray meets, nearest first (insertion sort: usually one
 // to three children, whose branches predict better than a sorting network).
 inline int sorted_hits(unsigned mask, const V8f& tn, int (&idx)[kWidth]) {
-    int k = 0;
+    // None or one child (most nodes a random ray visits low in the tree): nothing to sort.
+    if (mask == 0) return 0;
+    idx[0] = __builtin_ctz(mask);
+    mask &= mask - 1;
+    if (mask == 0) return 1;
+    int k = 1;
     for (; mask != 0; mask &= mask - 1) idx[k++] = __builtin_ctz(mask);
     for (int i = 1; i < k; ++i)
         for (int j = i; j > 0 && tn[idx[j]] < tn[idx[j - 1]]; --j) std::swap(idx[j], idx[j - 1]);
