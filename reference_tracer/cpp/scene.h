@@ -251,12 +251,12 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const {
             for (int r = 0; r < m; ++r) scattered.push_back(base + r);
             continue;
         }
-        RaySlabs slabs[kLanes];
+        RaySlabs::Scalars slabs[kLanes];
         double t_max[kLanes];
         bool hit[kLanes] = {};
         for (int r = 0; r < kLanes; ++r) {  // absent lanes repeat ray 0 (masked out)
             const Ray& ray = rays[r < m ? r : 0];
-            slabs[r] = RaySlabs(ray);
+            slabs[r] = RaySlabs::Scalars(ray);
             lane_begin(packet_ctx[r], ray);
             t_max[r] = kInf;
         }

@@ -99,38 +99,57 @@ struct RaySlabs {
     static constexpr float kWiden = 1.0f + 0x1p-20f;
     static constexpr double kWidenD = 1.0 + 0x1p-20;
 
+    // The per-ray scalars, one per axis: what a packet keeps of each of its rays (one
+    // lane each), without the eight-fold broadcasts a single-ray test wants.
+    struct Scalars {
+        float o_near[3], o_far[3], inv_near[3], inv_far[3];
+        int near_row[3], far_row[3];
+
+        Scalars() = default;
+        explicit Scalars(const Ray& ray) {
+            // The three reciprocals with one vector division, and the origin rounded up and
+            // down to float: with a slack of 2^-23 |o| (plus 2^-140 for zero and
+            // subnormals), more than the half ulp that rounding to nearest can move, and
+            // with no libm call (nextafter per axis cost ~20% on small scenes).
+            const V4d d4 = {ray.d.x, ray.d.y, ray.d.z, 1.0};
+            const V4d o4 = {ray.o.x, ray.o.y, ray.o.z, 0.0};
+            const V4d inv_d = V4d{1.0, 1.0, 1.0, 1.0} / d4;
+            const V4d slack = (o4 < 0.0 ? -o4 : o4) * 0x1p-23 + 0x1p-140;
+            const V4f o_up = __builtin_convertvector(o4 + slack, V4f);
+            const V4f o_down = __builtin_convertvector(o4 - slack, V4f);
+            for (int a = 0; a < 3; ++a) {
+                const bool neg = inv_d[a] < 0.0;  // d = -0 gives -inf: negative, as it should
+                // The near plane is lo (d > 0) or hi (d < 0): (plane - o) * inv is smallest
+                // with o rounded up for d > 0 and down for d < 0; the far plane the other way.
+                o_near[a] = neg ? o_down[a] : o_up[a];
+                o_far[a] = neg ? o_up[a] : o_down[a];
+                // 1/d beyond the float range (|d| < 2.9e-39, or d = 0): the near factor is
+                // clamped to the largest float (a smaller near distance: conservative), the
+                // far one may become infinite (a larger far distance: conservative too).
+                constexpr double kMaxFloat = std::numeric_limits<float>::max();
+                inv_near[a] = static_cast<float>(std::clamp(inv_d[a], -kMaxFloat, kMaxFloat));
+                inv_far[a] = static_cast<float>(inv_d[a]) * kWiden;
+                near_row[a] = (neg ? 3 * kWidth : 0) + kWidth * a;
+                far_row[a] = (neg ? 0 : 3 * kWidth) + kWidth * a;
+            }
+        }
+    };
+
     V8f o_near[3], o_far[3], inv_near[3], inv_far[3];
     // Offsets (in floats) of the near and far rows of axis a inside a WideNode: chosen
     // once per ray rather than per node.
     int near_row[3], far_row[3];
 
     RaySlabs() = default;
-    explicit RaySlabs(const Ray& ray) {
-        // The three reciprocals with one vector division, and the origin rounded up and
-        // down to float: with a slack of 2^-23 |o| (plus 2^-140 for zero and
-        // subnormals), more than the half ulp that rounding to nearest can move, and
-        // with no libm call (nextafter per axis cost ~20% on small scenes).
-        const V4d d4 = {ray.d.x, ray.d.y, ray.d.z, 1.0};
-        const V4d o4 = {ray.o.x, ray.o.y, ray.o.z, 0.0};
-        const V4d inv_d = V4d{1.0, 1.0, 1.0, 1.0} / d4;
-        const V4d slack = (o4 < 0.0 ? -o4 : o4) * 0x1p-23 + 0x1p-140;
-        const V4f o_up = __builtin_convertvector(o4 + slack, V4f);
-        const V4f o_down = __builtin_convertvector(o4 - slack, V4f);
+    explicit RaySlabs(const Ray& ray) : RaySlabs(Scalars(ray)) {}
+    explicit RaySlabs(const Scalars& s) {
         for (int a = 0; a < 3; ++a) {
-            const bool neg = inv_d[a] < 0.0;  // d = -0 gives -inf: negative, as it should
-            // The near plane is lo (d > 0) or hi (d < 0): (plane - o) * inv is smallest
-            // with o rounded up for d > 0 and down for d < 0; the far plane the other way.
-            o_near[a] = V8f{} + (neg ? o_down[a] : o_up[a]);
-            o_far[a] = V8f{} + (neg ? o_up[a] : o_down[a]);
-            // 1/d beyond the float range (|d| < 2.9e-39, or d = 0): the near factor is
-            // clamped to the largest float (a smaller near distance: conservative), the
-            // far one may become infinite (a larger far distance: conservative too).
-            constexpr double kMaxFloat = std::numeric_limits<float>::max();
-            const float inv = static_cast<float>(std::clamp(inv_d[a], -kMaxFloat, kMaxFloat));
-            inv_near[a] = V8f{} + inv;
-            inv_far[a] = V8f{} + static_cast<float>(inv_d[a]) * kWiden;
-            near_row[a] = (neg ? 3 * kWidth : 0) + kWidth * a;
-            far_row[a] = (neg ? 0 : 3 * kWidth) + kWidth * a;
+            o_near[a] = V8f{} + s.o_near[a];
+            o_far[a] = V8f{} + s.o_far[a];
+            inv_near[a] = V8f{} + s.inv_near[a];
+            inv_far[a] = V8f{} + s.inv_far[a];
+            near_row[a] = s.near_row[a];
+            far_row[a] = s.far_row[a];
         }
     }
 
@@ -447,17 +466,17 @@ public:
     // `query` provides test(lane, prim, t_max), test_block(lane, block, t_max) (as for
     // traverse) and prefetch_block(block); t_max[r] in, closest t out; hit[r] set on a hit.
     template <typename Query>
-    void traverse_packet(const RaySlabs (&slabs)[kWidth], unsigned active, double (&t_max)[kWidth],
+    void traverse_packet(const RaySlabs::Scalars (&slabs)[kWidth], unsigned active, double (&t_max)[kWidth],
                          bool (&hit)[kWidth], Query& query) const {
         if (nodes_.empty() || active == 0) return;
         // Lane r of each vector: ray r's slab constants.
         V8f o_near[3], o_far[3], inv_near[3], inv_far[3];
         for (int a = 0; a < 3; ++a)
             for (int r = 0; r < kWidth; ++r) {
-                o_near[a][r] = slabs[r].o_near[a][0];
-                o_far[a][r] = slabs[r].o_far[a][0];
-                inv_near[a][r] = slabs[r].inv_near[a][0];
-                inv_far[a][r] = slabs[r].inv_far[a][0];
+                o_near[a][r] = slabs[r].o_near[a];
+                o_far[a][r] = slabs[r].o_far[a];
+                inv_near[a][r] = slabs[r].inv_near[a];
+                inv_far[a][r] = slabs[r].inv_far[a];
             }
         const int* near_row = slabs[0].near_row;
         const int* far_row = slabs[0].far_row;
