@@ -31,7 +31,13 @@ rt::Vec3 vec3(const Vector& a) {
     if (a.shape(0) != 3) throw std::invalid_argument("expected a 3-vector");
     return {a(0), a(1), a(2)};
 }
-rt::Vec3 row3(const Matrix& m, size_t i, size_t col) { return {m(i, col), m(i, col + 1), m(i, col + 2)}; }
+// Three consecutive entries of row i (C-contiguous: straight from the data pointer; the
+// ndarray's operator() recomputes the offset from its strides per entry, ~40
+// instructions a ray in the batch queries).
+rt::Vec3 row3(const Matrix& m, size_t i, size_t col) {
+    const double* p = m.data() + i * m.shape(1) + col;
+    return {p[0], p[1], p[2]};
+}
 
 void require_columns(const Matrix& m, size_t cols, const char* name) {
     if (m.shape(1) != cols)
@@ -277,6 +283,7 @@ public:
     size_t bvh_nodes() const { return scene_->bvh().node_count(); }
     int bvh_depth() const { return scene_->bvh().depth(); }
     size_t bvh_blocks() const { return scene_->bvh().blocks().size(); }
+    bool bvh_float_blocks() const { return scene_->float_blocks(); }
     double build_seconds() const { return build_seconds_; }
 
 private:
@@ -326,6 +333,7 @@ NB_MODULE(_core, m) {
         .def_prop_ro("bvh_nodes", &PyScene::bvh_nodes)
         .def_prop_ro("bvh_depth", &PyScene::bvh_depth)
         .def_prop_ro("bvh_blocks", &PyScene::bvh_blocks)
+        .def_prop_ro("bvh_float_blocks", &PyScene::bvh_float_blocks)
         .def_prop_ro("build_seconds", &PyScene::build_seconds);
     rt::register_sampling_probe(m);  // batch sampling routines for the chi-square tests
 }

@@ -34,13 +34,21 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
     if (world.valid()) coherent_origin_radius_ = 0.01 * length(world.hi - world.lo);
     const auto packable = [&](uint32_t prim) { return pack && prim >= tri_base_; };
     bvh_ = WideBVH(BVH(boxes, packable), packable);
-    tri4_.resize(bvh_.blocks().size());
-    for (size_t b = 0; b < tri4_.size(); ++b) {
-        const WideBVH::BlockLeaf& leaf = bvh_.blocks()[b];
-        for (uint32_t lane = 0; lane < 4; ++lane) {
-            const uint32_t prim = bvh_.order()[leaf.first + (lane < leaf.count ? lane : 0)];
-            tri4_[b].set(int(lane), triangles_[prim - tri_base_], prim);
+    float_blocks_ = std::all_of(triangles_.begin(), triangles_.end(), &Triangle4f::exact);
+    auto fill_blocks = [&](auto& blocks) {
+        blocks.resize(bvh_.blocks().size());
+        for (size_t b = 0; b < blocks.size(); ++b) {
+            const WideBVH::BlockLeaf& leaf = bvh_.blocks()[b];
+            for (uint32_t lane = 0; lane < 4; ++lane) {
+                const uint32_t prim = bvh_.order()[leaf.first + (lane < leaf.count ? lane : 0)];
+                blocks[b].set(int(lane), triangles_[prim - tri_base_], prim);
+            }
         }
+    };
+    if (float_blocks_) {
+        fill_blocks(tri4f_);
+    } else {
+        fill_blocks(tri4_);
     }
 
     std::vector<Emitter> emitters;

@@ -81,6 +81,8 @@ public:
     const Material& material(uint32_t id) const { return materials_[id]; }
     const LightSampler& lights() const { return lights_; }
     const WideBVH& bvh() const { return bvh_; }
+    // Whether the triangle blocks are stored in float (every vertex exactly a float).
+    bool float_blocks() const { return float_blocks_; }
     size_t primitive_count() const { return spheres_.size() + quads_.size() + triangles_.size(); }
     size_t sphere_count() const { return spheres_.size(); }
     size_t quad_count() const { return quads_.size(); }
@@ -108,7 +110,12 @@ private:
     // or -1.
     int hit_block(uint32_t block, const Ray& ray, const WatertightRay& wray, double& t_max,
                   uint32_t& best) const {
-        const Triangle4& q = tri4_[block];
+        return float_blocks_ ? hit_block(tri4f_[block], ray, wray, t_max, best)
+                             : hit_block(tri4_[block], ray, wray, t_max, best);
+    }
+    template <typename Block>
+    static int hit_block(const Block& q, const Ray& ray, const WatertightRay& wray, double& t_max,
+                         uint32_t& best) {
         double t;
         const int lane = intersect_watertight4(q, ray, wray, 0.0, t_max, t);
         if (lane < 0) return -1;
@@ -134,8 +141,16 @@ private:
     }
     bool coherent(const Ray* rays, int m) const { return coherent(rays, m, coherent_origin_radius_); }
     void prefetch_block(uint32_t block) const {
-        const char* p = reinterpret_cast<const char*>(&tri4_[block]);
-        for (size_t line = 0; line < sizeof(Triangle4); line += 64) __builtin_prefetch(p + line);
+        if (float_blocks_) {
+            prefetch_lines(&tri4f_[block]);
+        } else {
+            prefetch_lines(&tri4_[block]);
+        }
+    }
+    template <typename Block>
+    static void prefetch_lines(const Block* block) {
+        const char* p = reinterpret_cast<const char*>(block);
+        for (size_t line = 0; line < sizeof(Block); line += 64) __builtin_prefetch(p + line);
     }
     // The closest hit of a ray so far: its primitive, and the block and lane when it came
     // from a block (its data is then in cache, the triangle array would be a miss on
@@ -166,7 +181,8 @@ private:
         if (best.block >= 0) {
             it.t = t;
             it.prim = best.prim;
-            fill_triangle(ray, t, tri4_[best.block].triangle(best.lane), it);
+            fill_triangle(ray, t, float_blocks_ ? tri4f_[best.block].triangle(best.lane)
+                                                : tri4_[best.block].triangle(best.lane), it);
         } else {
             fill_interaction(ray, t, best.prim, it);
         }
@@ -180,7 +196,11 @@ private:
     std::vector<Triangle> triangles_;
     SceneSettings settings_;
     WideBVH bvh_;
-    std::vector<Triangle4> tri4_;  // the BVH's block leaves (watertight test only), in block order
+    // The BVH's block leaves (watertight test only), in block order: in float when every
+    // triangle vertex is exactly a float (float_blocks_), else in double.
+    std::vector<Triangle4> tri4_;
+    std::vector<Triangle4f> tri4f_;
+    bool float_blocks_ = false;
     LightSampler lights_;
     uint32_t quad_base_ = 0, tri_base_ = 0;
     double coherent_origin_radius_ = 0.0;  // 1% of the diagonal of the scene's bounds
@@ -231,12 +251,12 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const {
             for (int r = 0; r < m; ++r) scattered.push_back(base + r);
             continue;
         }
-        RaySlabs slabs[kLanes];
+        RaySlabs::Scalars slabs[kLanes];
         double t_max[kLanes];
         bool hit[kLanes] = {};
         for (int r = 0; r < kLanes; ++r) {  // absent lanes repeat ray 0 (masked out)
             const Ray& ray = rays[r < m ? r : 0];
-            slabs[r] = RaySlabs(ray);
+            slabs[r] = RaySlabs::Scalars(ray);
             lane_begin(packet_ctx[r], ray);
             t_max[r] = kInf;
         }

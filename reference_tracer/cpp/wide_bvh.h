@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <initializer_list>
 #include <limits>
 #include <vector>
 
@@ -98,38 +99,57 @@ struct RaySlabs {
     static constexpr float kWiden = 1.0f + 0x1p-20f;
     static constexpr double kWidenD = 1.0 + 0x1p-20;
 
+    // The per-ray scalars, one per axis: what a packet keeps of each of its rays (one
+    // lane each), without the eight-fold broadcasts a single-ray test wants.
+    struct Scalars {
+        float o_near[3], o_far[3], inv_near[3], inv_far[3];
+        int near_row[3], far_row[3];
+
+        Scalars() = default;
+        explicit Scalars(const Ray& ray) {
+            // The three reciprocals with one vector division, and the origin rounded up and
+            // down to float: with a slack of 2^-23 |o| (plus 2^-140 for zero and
+            // subnormals), more than the half ulp that rounding to nearest can move, and
+            // with no libm call (nextafter per axis cost ~20% on small scenes).
+            const V4d d4 = {ray.d.x, ray.d.y, ray.d.z, 1.0};
+            const V4d o4 = {ray.o.x, ray.o.y, ray.o.z, 0.0};
+            const V4d inv_d = V4d{1.0, 1.0, 1.0, 1.0} / d4;
+            const V4d slack = (o4 < 0.0 ? -o4 : o4) * 0x1p-23 + 0x1p-140;
+            const V4f o_up = __builtin_convertvector(o4 + slack, V4f);
+            const V4f o_down = __builtin_convertvector(o4 - slack, V4f);
+            for (int a = 0; a < 3; ++a) {
+                const bool neg = inv_d[a] < 0.0;  // d = -0 gives -inf: negative, as it should
+                // The near plane is lo (d > 0) or hi (d < 0): (plane - o) * inv is smallest
+                // with o rounded up for d > 0 and down for d < 0; the far plane the other way.
+                o_near[a] = neg ? o_down[a] : o_up[a];
+                o_far[a] = neg ? o_up[a] : o_down[a];
+                // 1/d beyond the float range (|d| < 2.9e-39, or d = 0): the near factor is
+                // clamped to the largest float (a smaller near distance: conservative), the
+                // far one may become infinite (a larger far distance: conservative too).
+                constexpr double kMaxFloat = std::numeric_limits<float>::max();
+                inv_near[a] = static_cast<float>(std::clamp(inv_d[a], -kMaxFloat, kMaxFloat));
+                inv_far[a] = static_cast<float>(inv_d[a]) * kWiden;
+                near_row[a] = (neg ? 3 * kWidth : 0) + kWidth * a;
+                far_row[a] = (neg ? 0 : 3 * kWidth) + kWidth * a;
+            }
+        }
+    };
+
     V8f o_near[3], o_far[3], inv_near[3], inv_far[3];
     // Offsets (in floats) of the near and far rows of axis a inside a WideNode: chosen
     // once per ray rather than per node.
     int near_row[3], far_row[3];
 
     RaySlabs() = default;
-    explicit RaySlabs(const Ray& ray) {
-        // The three reciprocals with one vector division, and the origin rounded up and
-        // down to float: with a slack of 2^-23 |o| (plus 2^-140 for zero and
-        // subnormals), more than the half ulp that rounding to nearest can move, and
-        // with no libm call (nextafter per axis cost ~20% on small scenes).
-        const V4d d4 = {ray.d.x, ray.d.y, ray.d.z, 1.0};
-        const V4d o4 = {ray.o.x, ray.o.y, ray.o.z, 0.0};
-        const V4d inv_d = V4d{1.0, 1.0, 1.0, 1.0} / d4;
-        const V4d slack = (o4 < 0.0 ? -o4 : o4) * 0x1p-23 + 0x1p-140;
-        const V4f o_up = __builtin_convertvector(o4 + slack, V4f);
-        const V4f o_down = __builtin_convertvector(o4 - slack, V4f);
+    explicit RaySlabs(const Ray& ray) : RaySlabs(Scalars(ray)) {}
+    explicit RaySlabs(const Scalars& s) {
         for (int a = 0; a < 3; ++a) {
-            const bool neg = inv_d[a] < 0.0;  // d = -0 gives -inf: negative, as it should
-            // The near plane is lo (d > 0) or hi (d < 0): (plane - o) * inv is smallest
-            // with o rounded up for d > 0 and down for d < 0; the far plane the other way.
-            o_near[a] = V8f{} + (neg ? o_down[a] : o_up[a]);
-            o_far[a] = V8f{} + (neg ? o_up[a] : o_down[a]);
-            // 1/d beyond the float range (|d| < 2.9e-39, or d = 0): the near factor is
-            // clamped to the largest float (a smaller near distance: conservative), the
-            // far one may become infinite (a larger far distance: conservative too).
-            constexpr double kMaxFloat = std::numeric_limits<float>::max();
-            const float inv = static_cast<float>(std::clamp(inv_d[a], -kMaxFloat, kMaxFloat));
-            inv_near[a] = V8f{} + inv;
-            inv_far[a] = V8f{} + static_cast<float>(inv_d[a]) * kWiden;
-            near_row[a] = (neg ? 3 * kWidth : 0) + kWidth * a;
-            far_row[a] = (neg ? 0 : 3 * kWidth) + kWidth * a;
+            o_near[a] = V8f{} + s.o_near[a];
+            o_far[a] = V8f{} + s.o_far[a];
+            inv_near[a] = V8f{} + s.inv_near[a];
+            inv_far[a] = V8f{} + s.inv_far[a];
+            near_row[a] = s.near_row[a];
+            far_row[a] = s.far_row[a];
         }
     }
 
@@ -163,12 +183,90 @@ struct RaySlabs {
 // The children of a node that a ray meets, nearest first (insertion sort: usually one
 // to three children, whose branches predict better than a sorting network).
 inline int sorted_hits(unsigned mask, const V8f& tn, int (&idx)[kWidth]) {
-    int k = 0;
+    // None or one child (most nodes a random ray visits low in the tree): nothing to sort.
+    if (mask == 0) return 0;
+    idx[0] = __builtin_ctz(mask);
+    mask &= mask - 1;
+    if (mask == 0) return 1;
+    int k = 1;
     for (; mask != 0; mask &= mask - 1) idx[k++] = __builtin_ctz(mask);
     for (int i = 1; i < k; ++i)
         for (int j = i; j > 0 && tn[idx[j]] < tn[idx[j - 1]]; --j) std::swap(idx[j], idx[j - 1]);
     return k;
 }
+
+constexpr float kInfF = std::numeric_limits<float>::infinity();
+
+// The largest of eight floats (no NaN among them).
+inline float max_lane(V8f v) { return -min_lane(-v); }
+
+// A packet's slab constants as intervals over its rays, per axis, and the test of a
+// node's eight child boxes against all of them at once: a lower bound of every ray's
+// near distance and an upper bound of every ray's far distance per child, so that a
+// child no ray of the packet meets is (nearly always) rejected by one 8-wide test
+// instead of its own test against the eight rays. On camera rays most children of a
+// node are missed by the whole packet, and testing them one by one was a third of
+// the instructions.
+//
+// Why it never rejects a child that a ray's own test (WideBVH::traverse_packet) passes:
+// that test computes t0 = fl(fl(P - o) * inv) and t1 likewise for each ray. Rounding is
+// monotone, the rays share an octant (inv has one sign per axis), and (P - o) * inv is
+// monotone in o and linear in inv: over the box of (o, inv) its minimum lies at the
+// corner with o at the bound that makes P - o smallest (inv > 0) or largest (inv < 0)
+// and inv at either end. So the smallest of the two corner values, computed with the
+// same float operations, is at most every ray's computed t0; the largest far corner is
+// at least every ray's t1; and the pass condition max(0, t0) <= min(t_max, t1) of any
+// ray implies it for the bounds (t_max: the largest over the packet). NaN would break
+// the argument (0 * inf): the bounds are used only when every factor is finite and
+// non-zero, which excludes it (a plane at infinity times a finite factor is infinite,
+// not NaN).
+struct PacketBounds {
+    bool valid = true;
+    float o_near[3], o_far[3];          // the corner origin of the near / far distances
+    float inv_near[2][3], inv_far[2][3];  // [smallest, largest] factor
+
+    PacketBounds(const V8f (&on)[3], const V8f (&of)[3], const V8f (&in)[3], const V8f (&inf)[3], unsigned active) {
+        // Whole-vector reductions, with the absent lanes replaced by the first ray's.
+        const V8i present = mask_lanes(active);
+        const int first = __builtin_ctz(active);
+        auto fill = [&](const V8f& v) { return present ? v : V8f{} + v[first]; };
+        auto finite_nonzero = [&](const V8f& v) {
+            const V8f mag = v < 0.0f ? -v : v;  // NaN fails both comparisons below
+            return lane_mask((mag <= std::numeric_limits<float>::max()) & (mag > 0.0f)) == 0xFFu;
+        };
+        auto finite = [&](const V8f& v) { return lane_mask(v - v == 0.0f) == 0xFFu; };  // inf - inf is NaN
+        for (int a = 0; a < 3; ++a) {
+            const V8f o_n = fill(on[a]), o_f = fill(of[a]), i_n = fill(in[a]), i_f = fill(inf[a]);
+            valid = valid && finite_nonzero(i_n) && finite_nonzero(i_f) && finite(o_n) && finite(o_f);
+            const bool pos = i_n[first] > 0.0f;  // one sign for the packet (one octant)
+            o_near[a] = pos ? max_lane(o_n) : min_lane(o_n);
+            o_far[a] = pos ? min_lane(o_f) : max_lane(o_f);
+            inv_near[0][a] = min_lane(i_n); inv_near[1][a] = max_lane(i_n);
+            inv_far[0][a] = min_lane(i_f); inv_far[1][a] = max_lane(i_f);
+        }
+    }
+
+    // Mask of the children of n that some ray may meet within [0, t_max_f].
+    unsigned test(const WideNode& n, const int* near_row, const int* far_row, float t_max_f) const {
+        const float* rows = &n.lo[0][0];
+        V8f tn = V8f{};
+        V8f tf = V8f{} + t_max_f;
+        for (int a = 0; a < 3; ++a) {
+            V8f near_plane, far_plane;
+            __builtin_memcpy(&near_plane, rows + near_row[a], sizeof(V8f));
+            __builtin_memcpy(&far_plane, rows + far_row[a], sizeof(V8f));
+            const V8f dn = near_plane - o_near[a];
+            const V8f n0 = dn * inv_near[0][a], n1 = dn * inv_near[1][a];
+            const V8f df = far_plane - o_far[a];
+            const V8f f0 = df * inv_far[0][a], f1 = df * inv_far[1][a];
+            const V8f t0 = n0 < n1 ? n0 : n1;
+            const V8f t1 = f0 > f1 ? f0 : f1;
+            tn = t0 > tn ? t0 : tn;
+            tf = t1 < tf ? t1 : tf;
+        }
+        return lane_mask(tn <= tf);
+    }
+};
 
 class WideBVH {
 public:
@@ -368,17 +466,17 @@ public:
     // `query` provides test(lane, prim, t_max), test_block(lane, block, t_max) (as for
     // traverse) and prefetch_block(block); t_max[r] in, closest t out; hit[r] set on a hit.
     template <typename Query>
-    void traverse_packet(const RaySlabs (&slabs)[kWidth], unsigned active, double (&t_max)[kWidth],
+    void traverse_packet(const RaySlabs::Scalars (&slabs)[kWidth], unsigned active, double (&t_max)[kWidth],
                          bool (&hit)[kWidth], Query& query) const {
         if (nodes_.empty() || active == 0) return;
         // Lane r of each vector: ray r's slab constants.
         V8f o_near[3], o_far[3], inv_near[3], inv_far[3];
         for (int a = 0; a < 3; ++a)
             for (int r = 0; r < kWidth; ++r) {
-                o_near[a][r] = slabs[r].o_near[a][0];
-                o_far[a][r] = slabs[r].o_far[a][0];
-                inv_near[a][r] = slabs[r].inv_near[a][0];
-                inv_far[a][r] = slabs[r].inv_far[a][0];
+                o_near[a][r] = slabs[r].o_near[a];
+                o_far[a][r] = slabs[r].o_far[a];
+                inv_near[a][r] = slabs[r].inv_near[a];
+                inv_far[a][r] = slabs[r].inv_far[a];
             }
         const int* near_row = slabs[0].near_row;
         const int* far_row = slabs[0].far_row;
@@ -386,6 +484,7 @@ public:
         V8f t_max_f;
         for (int r = 0; r < kWidth; ++r)
             t_max_f[r] = (active >> r) & 1u ? RaySlabs::max_float(t_max[r]) : -std::numeric_limits<float>::infinity();
+        const PacketBounds bounds(o_near, o_far, inv_near, inv_far, active);
         struct PacketEntry { int32_t ref; uint16_t count; uint16_t mask; float t_near; };
         PacketEntry stack[kStackSize];
         int top = 0;
@@ -400,7 +499,13 @@ public:
                 int idx[kWidth], k = 0;
                 unsigned child_mask[kWidth];
                 float dist[kWidth];
-                for (int c = 0; c < kWidth; ++c) {
+                // The children some ray of the packet may meet (all, without bounds):
+                // the others would fail every ray's test below.
+                const unsigned candidates =
+                    bounds.valid ? bounds.test(n, near_row, far_row, max_lane(in_packet ? t_max_f : V8f{} - kInfF))
+                                 : (1u << kWidth) - 1u;
+                for (unsigned cm = candidates; cm != 0; cm &= cm - 1) {
+                    const int c = __builtin_ctz(cm);
                     if (n.child[c] == 0 && n.count[c] == 0) break;  // empty slots come last
                     V8f tn = V8f{};
                     V8f tf = t_max_f;

@@ -8,7 +8,12 @@
 //    written with triple products as in Moller-Trumbore), in double or single precision.
 #pragma once
 
+#include <initializer_list>
 #include <utility>
+
+#ifdef __AVX__
+#include <immintrin.h>
+#endif
 
 #include "../aabb.h"
 #include "../math.h"
@@ -83,31 +88,71 @@ inline bool intersect_watertight(const Triangle& tri, const Ray& r, const Watert
 // through the BVH's primitive order), tested together by intersect_watertight4. Padding
 // lanes repeat the first triangle: a duplicate can only tie with lane 0, and ties go to
 // the lowest lane, so padding never changes the answer.
+//
+// Two storages of the same block: double (any vertex), and float where every vertex of
+// the scene's triangles is exactly a float (meshes read from PLY/OBJ files, the ray
+// benchmark's torus). Widening a float to double is exact, so the float block feeds the
+// double test the very same values: the test, and every hit, is bit-identical, while a
+// block takes 3 cache lines instead of 5. On large meshes a ray's leaf visits are cache
+// misses, and the lines a block spans (and how many blocks the caches hold) are what
+// they cost.
 using V4d = double __attribute__((vector_size(32)));
+using V4f = float __attribute__((vector_size(16)));
 
-struct alignas(32) Triangle4 {
-    V4d v[3][3];           // [vertex a, b, c][axis x, y, z], one lane per triangle
+// The four lanes of a row, as double (exact for float rows: one vcvtps2pd with AVX).
+inline V4d widen(const V4d& row) { return row; }
+inline V4d widen(const V4f& row) {
+#ifdef __AVX__
+    return reinterpret_cast<V4d>(_mm256_cvtps_pd(reinterpret_cast<__m128>(row)));
+#else
+    return __builtin_convertvector(row, V4d);
+#endif
+}
+
+template <typename Scalar> struct Lanes4;
+template <> struct Lanes4<double> { using type = V4d; };
+template <> struct Lanes4<float> { using type = V4f; };
+
+template <typename Scalar>
+struct alignas(64) TriangleBlock4 {  // cache-line aligned: a block never straddles an extra line
+    using Row = typename Lanes4<Scalar>::type;
+    Row v[3][3];           // [vertex a, b, c][axis x, y, z], one lane per triangle
     uint32_t prim[4];      // scene primitive ids
     // Kept here (it fits the alignment padding) so that filling in a hit needs nothing
     // beyond the block just tested: on large meshes the triangle array is a cache miss.
     uint32_t material[4];
 
+    // Whether a triangle's vertices are stored exactly by this storage.
+    static bool exact(const Triangle& t) {
+        for (const Vec3* p : {&t.a, &t.b, &t.c})
+            for (int axis = 0; axis < 3; ++axis)
+                if (!(static_cast<double>(static_cast<Scalar>((*p)[axis])) == (*p)[axis])) return false;
+        return true;
+    }
+    // Stores triangle t in a lane (exactly: the caller checked exact(t)).
     void set(int lane, const Triangle& t, uint32_t prim_id) {
         for (int axis = 0; axis < 3; ++axis) {
-            v[0][axis][lane] = t.a[axis];
-            v[1][axis][lane] = t.b[axis];
-            v[2][axis][lane] = t.c[axis];
+            v[0][axis][lane] = static_cast<Scalar>(t.a[axis]);
+            v[1][axis][lane] = static_cast<Scalar>(t.b[axis]);
+            v[2][axis][lane] = static_cast<Scalar>(t.c[axis]);
         }
         prim[lane] = prim_id;
         material[lane] = t.material;
     }
+    // Row `axis` of `vertex`, as double.
+    V4d row(int vertex, int axis) const { return widen(v[vertex][axis]); }
     // The triangle of a lane, exactly as it was set.
     Triangle triangle(int lane) const {
-        return {Vec3{v[0][0][lane], v[0][1][lane], v[0][2][lane]}, Vec3{v[1][0][lane], v[1][1][lane], v[1][2][lane]},
-                Vec3{v[2][0][lane], v[2][1][lane], v[2][2][lane]}, material[lane]};
+        auto vertex = [&](int k) {
+            return Vec3{double(v[k][0][lane]), double(v[k][1][lane]), double(v[k][2][lane])};
+        };
+        return {vertex(0), vertex(1), vertex(2), material[lane]};
     }
 };
-static_assert(sizeof(Triangle4) == 320, "Triangle4: ten 32-byte rows");
+using Triangle4 = TriangleBlock4<double>;
+using Triangle4f = TriangleBlock4<float>;
+static_assert(sizeof(Triangle4) == 320, "Triangle4: ten 32-byte rows, five cache lines");
+static_assert(sizeof(Triangle4f) == 192, "Triangle4f: nine 16-byte rows and the ids, three cache lines");
 
 // The watertight test of intersect_watertight on four triangles at once, in double. Every
 // lane performs the scalar test's operations in the same order (and the build forbids FMA
@@ -115,11 +160,12 @@ static_assert(sizeof(Triangle4) == 320, "Triangle4: ten 32-byte rows");
 // intersect_watertight's: the watertight guarantee carries over unchanged. Returns the
 // lane of the nearest hit in (t_min, t_max) (lowest lane on ties, as testing the
 // triangles one after another with a shrinking t_max would), or -1.
-inline int intersect_watertight4(const Triangle4& q, const Ray& r, const WatertightRay& w,
+template <typename Block>
+inline int intersect_watertight4(const Block& q, const Ray& r, const WatertightRay& w,
                                  double t_min, double t_max, double& t_hit) {
     const double o[3] = {r.o.x, r.o.y, r.o.z};
     // Vertex coordinates relative to the origin, permuted so the ray runs along +z.
-    auto rel = [&](int vertex, int axis) { return q.v[vertex][axis] - o[axis]; };
+    auto rel = [&](int vertex, int axis) { return q.row(vertex, axis) - o[axis]; };
     const V4d Akz = rel(0, w.kz), Bkz = rel(1, w.kz), Ckz = rel(2, w.kz);
     const V4d Ax = rel(0, w.kx) - w.Sx * Akz, Ay = rel(0, w.ky) - w.Sy * Akz;
     const V4d Bx = rel(1, w.kx) - w.Sx * Bkz, By = rel(1, w.ky) - w.Sy * Bkz;
