@@ -95,7 +95,8 @@ def _save(path, meta_path, meta, arrays):
 
 
 def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: int = DEFAULT_TAIL_SEED,
-                   threads=None, cache=None, render=None, variant: str = "", log=None) -> TailReference:
+                   threads=None, cache=None, render=None, variant: str = "", log=None,
+                   progress=None) -> TailReference:
     """The tail reference of ``scene`` for ``strategy``, from the cache or rendered.
 
     Parameters
@@ -113,6 +114,8 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
         ``reference_tracer.render`` (the self-test's mutants); give it a ``variant`` name.
     log : callable, keyword-only
         Called with one line when a tail reference is rendered or an entry is replaced.
+    progress : callable, keyword-only
+        ``progress(done_rows, total_rows)`` while our tracer renders it (not with ``render``).
     """
     import reference_tracer as rt
 
@@ -135,7 +138,9 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
                 log(f"rendering the tail reference of {strategy} at {spp} spp ({shape[1]}x{shape[0]})")
             with contextlib.suppress(FileNotFoundError):
                 meta_path.unlink()
-            res = (render or rt.render)(scene, spp=spp, strategy=strategy, seed=seed, threads=threads, moments=True)
+            extra = {} if render is not None or progress is None else {"progress": progress}
+            res = (render or rt.render)(scene, spp=spp, strategy=strategy, seed=seed, threads=threads, moments=True,
+                                        **extra)
             m = res.moments
             arrays = {"mean": res.mean, "variance": res.variance, "m2": m.m2, "m3": m.m3, "m4": m.m4, "max": m.max}
             meta = {"format": FORMAT_VERSION, "key": key, "strategy": strategy, "spp": spp, "seed": seed,
@@ -212,5 +217,33 @@ def variance_tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP
         if log is not None:
             log(f"the variance of {strategy} rests on single samples at {tails.spp} spp; "
                 f"tail reference at {top} spp (minutes)")
+        if log is not None and kw.get("render") is None:
+            kw = {**kw, "progress": progress_lines(log, f"tail reference of {strategy} at {top} spp")}
         tails = tail_reference(scene, strategy=strategy, spp=top, log=log, **kw)
     return tails
+
+
+def progress_lines(log, what: str, *, step: int = 10):
+    """A ``progress(done, total)`` callback that logs one line per ``step`` percent with the
+    elapsed time and an estimate of what is left: a render of minutes says how far it is.
+
+    Examples
+    --------
+    >>> lines = []
+    >>> cb = progress_lines(lines.append, "x", step=50)
+    >>> for done in range(5):
+    ...     cb(done, 4)
+    >>> [line.split(" (")[0] for line in lines]
+    ['x: 50%', 'x: 100%']
+    """
+    t0, last = time.monotonic(), [0]
+
+    def callback(done, total):
+        pct = int(100 * done / total) // step * step if total else 100
+        if pct > last[0]:
+            last[0] = pct
+            took = time.monotonic() - t0
+            left = took * (total - done) / done if done else float("nan")
+            log(f"{what}: {pct}% ({took:.0f} s, about {left:.0f} s left)")
+
+    return callback

@@ -302,3 +302,17 @@ def test_an_interrupted_calibration_resumes_from_its_json(small_calibration, tmp
     assert second["rows"][0] == first["rows"][0]      # kept as it was, not measured again
     assert main(base[:-2] + ["--json", str(path), "--spps", "16", "--seeds", "3"]) == 2
     assert "other settings: seeds 2 (now 3)" in capsys.readouterr().err
+
+
+def test_a_long_tail_reference_reports_its_progress(tmp_path):
+    """The escalated tail reference takes minutes: rendered by our tracer it reports its
+    progress (``progress=``), which ``variance_tail_reference`` turns into log lines."""
+    from benchmarks.tails import progress_lines, tail_reference
+    from mitsuba_scenes import get_scene
+
+    lines = []
+    tail_reference(get_scene("cornell_box", width=4, height=4), strategy="mis", spp=64, cache=tmp_path,
+                   threads=1, progress=progress_lines(lines.append, "tails", step=50))
+    pcts = [int(line.split(": ")[1].split("%")[0]) for line in lines]
+    assert pcts and pcts[-1] == 100 and pcts == sorted(set(pcts))   # rising, once each, ends done
+    assert all(p % 50 == 0 for p in pcts) and "s left)" in lines[-1]
