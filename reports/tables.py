@@ -89,7 +89,7 @@ def stats_table(rows: list[dict]) -> list[list[str]]:
             zp = DASH
         out.append([
             curve_label(r["renderer"], r["strategy"]),
-            fmt(r.get("slope")) + ci_txt,
+            fmt(r.get("slope")) + ci_txt + (" (undetermined: heavy-tailed)" if r.get("slope_status") else ""),
             _verdict(r),
             bias,
             zp,

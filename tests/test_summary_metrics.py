@@ -91,3 +91,23 @@ def test_exact_estimator_gets_no_efficiency_under_any_metric(tmp_path_factory):
     (row,) = res.rows
     assert row["efficiency_source"] == "exact (zero variance)" and row["efficiency"] is None
     assert all(f["efficiency"] is None for f in row["by_metric"].values())
+
+
+def test_a_slope_measured_while_heavy_tailed_is_marked_undetermined():
+    """Where the gate cannot decide at the curve's top budget, the renders have mostly not
+    met the paths that carry the variance and the fitted slope reads shallower than the
+    estimator's: the summary row and the report's table say so, and keep the number."""
+    from benchmarks.sweep.by_metric import view
+    from benchmarks.sweep.summary import _slope_status
+    from reports.tables import stats_table
+
+    heavy = {"renderer": "ours", "strategy": "uniform", "slope": -0.21, "slope_ci": [-0.3, -0.12],
+             "bias_verdict": "undetermined", "bias_spp_needed": 120000}
+    assert "undetermined: heavy-tailed" in _slope_status(heavy) and "120000" in _slope_status(heavy)
+    assert _slope_status(dict(heavy, bias_verdict="pass")) is None
+    assert _slope_status(dict(heavy, bias_verdict="fail")) is None
+    heavy["slope_status"] = _slope_status(heavy)
+    cell = stats_table([view(heavy, "rmse")])[0][1]
+    assert cell.startswith("-0.21") and cell.endswith("(undetermined: heavy-tailed)")
+    ok = dict(heavy, bias_verdict="pass", slope_status=None)
+    assert "undetermined" not in stats_table([view(ok, "rmse")])[0][1]

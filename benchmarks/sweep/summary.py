@@ -28,7 +28,8 @@ TARGET_RELATIVE_RMSE = 0.1
 #: what the summary's fields mean, written into ``summary.json`` (``{alpha}``, ``{target}`` filled in).
 _NOTES = {
     "slope": "fit of log sqrt(mean over seeds of mse_corrected) on log spp, "
-             "one point per spp; slope_ci is its 95% t interval",
+             "one point per spp; slope_ci is its 95% t interval; slope_status marks a slope measured "
+             "where the estimator is still heavy-tailed (bias_verdict undetermined at the top spp)",
     "bias": "bias2: metrics.bias_variance at bias_spp over bias_seeds "
             "seeds; bias_significant, bias_p: tile and image levels of "
             "benchmarks.gate.compare on the mean over seeds (Bonferroni), "
@@ -124,6 +125,23 @@ def _bias_verdict(imgs, vars_, spp, ref_mean, ref_var, ref_spp, *, alpha, tails=
             "bias_verdict": "fail" if p < alpha else "pass", "bias_reason": "without tail diagnostics"}
 
 
+def _slope_status(row: dict):
+    """Why the fitted slope says nothing yet, or None.
+
+    Where the gate cannot decide even at the curve's top budget (its image mean is too far
+    from normal: ``bias_verdict`` 'undetermined'), the renders have mostly not met the rare
+    paths that carry the estimator's variance, so their measured MSE sits far below its
+    expectation, by a factor that shrinks as spp grows: the fitted slope is then shallower
+    than the estimator's (``uniform`` on ``glossy_plates``), and its regression interval
+    does not cover that. The slope is kept in the row (it is what was measured) and marked.
+    """
+    if row.get("bias_verdict") != "undetermined":
+        return None
+    need = row.get("bias_spp_needed")
+    return ("undetermined: heavy-tailed at these budgets (the measured MSE misses rare paths)"
+            + (f"; the gate needs about {need} samples per pixel" if need else ""))
+
+
 def _slope_stats(spps, mse_c, mse_p) -> dict:
     """Convergence: one point per spp, RMSE from the seed-averaged reference-noise-corrected MSE."""
     ok = np.isfinite(mse_c) & (mse_c > 0)
@@ -205,6 +223,7 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     row.update(_slope_stats(spps, mse_c, mse_p))
     top = spps[-1]
     row.update(_bias_stats(by_spp[top], top, ref, store, alpha=alpha, tails=tails))
+    row["slope_status"] = _slope_status(row)
     if row["variance"] is None:
         row["variance"] = _nanmean(r.get("variance") for r in recs)
     row["variance_source"], row["variance_lower_bound"] = "renders at the top spp", None
@@ -315,7 +334,8 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
 
     * ``slope``, ``slope_ci`` (95%), ``slope_stderr``: least-squares fit of log RMSE over
       log spp, one point per spp, RMSE = sqrt of the seed-averaged reference-noise-
-      corrected MSE (``slope_uncorrected`` uses the plain MSE);
+      corrected MSE (``slope_uncorrected`` uses the plain MSE); ``slope_status``: why the
+      slope is not yet meaningful (heavy-tailed at every budget of the curve), else None;
     * ``bias2``, ``bias2_stderr``, ``bias_z``, ``bias_p``, ``bias_significant`` (level
       ``alpha``, one-sided), ``relative_bias``: ``metrics.bias_variance`` over the seeds at
       the highest spp (``bias_spp``); with one seed, the renderer's own per-sample
