@@ -230,7 +230,7 @@ def estimator_knowledge(*, tail_spp: int, threads=None, cache=None, externals=()
         if renderer == "ours" and last.get("build") != here:
             return EstimatorKnowledge(f"none: B is build {last.get('build')}, this is build {here} (run compare "
                                       f"with B's build to use its tail reference)")
-        if renderer not in ("ours",) and last.get("build") not in by_build:
+        if renderer != "ours" and last.get("build") not in by_build:
             return EstimatorKnowledge("none: Mitsuba's path integrator" if renderer == "mitsuba" else
                                       f"none: {renderer}'s command was not given as --renderer")
         scene, why = _scene_of(name, width, height, last)
@@ -246,7 +246,10 @@ def estimator_knowledge(*, tail_spp: int, threads=None, cache=None, externals=()
         ext = by_build[last.get("build")]
         if log:
             log(f"{name}: rendering {ext.name} at {tail_spp} spp in 16 batches for its per-pixel variance")
-        _, var, _ = render_external_batches(ext, scene, spp=tail_spp, seed=0x7A11)
+        try:
+            _, var, _ = render_external_batches(ext, scene, spp=tail_spp, seed=0x7A11)
+        except (RuntimeError, ValueError) as exc:   # the command failed: say so, judge the images alone
+            return EstimatorKnowledge(f"none: {exc}")
         return EstimatorKnowledge(f"{ext.name} in 16 batches at {tail_spp} spp", variance=var)
 
     return knowledge
@@ -263,7 +266,10 @@ def _scene_of(name, width, height, record) -> tuple:
         if scene_file(name) is None:
             if not Path(source).is_file():
                 return None, f"the scene file {source} is gone"
-            register_scene_file(source, record.get("scene_params") or {}, name=name)
+            try:
+                register_scene_file(source, record.get("scene_params") or {}, name=name)
+            except ValueError as exc:
+                return None, f"the scene file {source} cannot be loaded here ({exc})"
     try:
         scene = scene_at(name, width, height)
     except (KeyError, ValueError) as exc:

@@ -115,3 +115,22 @@ def test_compare_runs_the_given_command_for_the_external_curves_variance(tmp_pat
         rows = {r["renderer"]: r for r in json.loads(path.read_text())}
         assert rows["ext-mitsuba"]["tails"] == note
         assert rows["ext-mitsuba"]["verdict"] == "pass"
+
+
+def test_compare_says_when_the_given_command_fails(tmp_path):
+    """An external command that fails while compare runs it for B's variance does not stop
+    the comparison: the curve says why it rests on its stored images."""
+    from benchmarks.compare import estimator_knowledge
+    from mitsuba_scenes.scene_files import register_scene_file
+
+    entry = register_scene_file(XML / "sphere_constant.xml")
+    ext = register_external("false {scene_xml} {out}")
+    knowledge = estimator_knowledge(tail_spp=32, externals=[ext])
+    from mitsuba_scenes import get_scene
+
+    scene = get_scene(entry.name).with_camera_size(8, 6)
+    record = {"build": ext.build, "scene_source": entry.path, "scene_hash": scene.content_hash()[:16]}
+    note = knowledge((entry.name, ext.name, "external", 8, 6), [record]).note
+    assert note.startswith("none: ext-false exited with status 1")
+    gone = dict(record, scene_source=str(tmp_path / "gone.xml"))
+    assert knowledge(("gone", ext.name, "external", 8, 6), [gone]).note == f"none: the scene file {tmp_path / 'gone.xml'} is gone"
