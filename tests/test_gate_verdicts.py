@@ -302,6 +302,12 @@ def test_an_interrupted_calibration_resumes_from_its_json(small_calibration, tmp
     assert second["rows"][0] == first["rows"][0]      # kept as it was, not measured again
     assert main(base[:-2] + ["--json", str(path), "--spps", "16", "--seeds", "3"]) == 2
     assert "other settings: seeds 2 (now 3)" in capsys.readouterr().err
+    import reference_tracer.build
+
+    monkeypatch.setattr(reference_tracer.build, "build_id", lambda: "0123456789abcdef")
+    assert main(base + ["--spps", "16"]) == 2   # another build of the tracer: a new file
+    err = capsys.readouterr().err
+    assert "other settings: build" in err and "(now 0123456789abcdef)" in err
 
 
 def test_a_long_tail_reference_reports_its_progress(tmp_path):

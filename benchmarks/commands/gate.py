@@ -198,6 +198,7 @@ def _calibrate(args) -> int:
     from benchmarks.constants import UNBIASED_STRATEGIES
     from benchmarks.gate import calibrate
     from benchmarks.gate import resolve_scenes as resolve_gate_scenes
+    from reference_tracer.build import build_id as rt_build_id
 
     spps = list(args.spps)
     if min(spps) < 2:
@@ -211,12 +212,13 @@ def _calibrate(args) -> int:
                         console=Console(stderr=True, quiet=args.quiet), transient=True)
     config = {"scenes": list(names), "strategies": strategies, "spps": spps, "seeds": args.seeds,
               "width": args.width, "height": args.height or args.width, "reference_spp": args.reference_spp,
-              "tail_spp": args.tail_spp, "variant": single_variant(args)}
+              "tail_spp": args.tail_spp, "variant": single_variant(args), "build": rt_build_id()}
     rows = _resumed_rows(args.json, config, alpha=args.alpha) if args.json else []
     if rows:
         print(f"rtbench gate --calibrate: resuming {args.json}: {len(rows)} row(s) measured already",
               file=sys.stderr, flush=True)
     skip = {(r.scene, r.strategy, r.spp) for r in rows}
+    todo = len({(n, st, spp) for n in names for st in strategies for spp in spps} - skip)
 
     def on_row(row):
         rows.append(row)
@@ -226,7 +228,7 @@ def _calibrate(args) -> int:
             _write_json(args.json, {"alpha": args.alpha, "config": config, "rows": [r.to_dict() for r in rows]})
 
     with progress:
-        task = progress.add_task("renders", total=(len(names) * len(strategies) * len(spps) - len(skip)) * args.seeds)
+        task = progress.add_task("renders", total=todo * args.seeds)
         calibrate(names, strategies=strategies, spps=spps, seeds=args.seeds, width=args.width,
                   height=args.height, ref_spp=args.reference_spp, tail_spp=args.tail_spp, alpha=args.alpha,
                   threads=args.threads, cache=args.cache, variant=single_variant(args),
@@ -247,8 +249,8 @@ def _calibrate(args) -> int:
 def _resumed_rows(path, config: dict, *, alpha: float) -> list:
     """The rows an earlier, interrupted calibration wrote to ``path`` with the same settings.
 
-    A file from other settings (seeds, size, references, variant, alpha) is refused rather
-    than mixed in; a missing file is a fresh start. Every row of the file is kept (rows of
+    A file from other settings (seeds, size, references, variant, alpha) or of another
+    build of the tracer is refused rather than mixed in; a missing file is a fresh start. Every row of the file is kept (rows of
     other scenes, strategies or budgets as well: the file grows into the whole table).
     """
     from benchmarks.gate import CalibrationRow
@@ -263,7 +265,7 @@ def _resumed_rows(path, config: dict, *, alpha: float) -> list:
     except (ValueError, KeyError, TypeError) as exc:
         raise ValueError(f"--json {path} exists but is not a calibration this command can resume ({exc}); "
                          f"give another path") from None
-    same = {k: old.get(k) for k in ("seeds", "width", "height", "reference_spp", "tail_spp", "variant")}
+    same = {k: old.get(k) for k in ("seeds", "width", "height", "reference_spp", "tail_spp", "variant", "build")}
     want = {k: config[k] for k in same}
     if same != want or data.get("alpha") != alpha:
         diff = ", ".join(f"{k} {same[k]} (now {want[k]})" for k in same if same[k] != want[k])
