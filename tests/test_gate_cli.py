@@ -126,3 +126,16 @@ def test_resolve_helpers():
     assert len(resolve_scenes(None)) == 8
     with pytest.raises(ValueError, match="no scene"):
         resolve_scenes([])
+
+
+@pytest.mark.parametrize("tail_spp, warned", [(1024, "is below 16384"), (0, "turns the tail references off"),
+                                              (16384, None)])
+def test_a_tail_spp_below_the_calibrated_budget_is_warned_about(tail_spp, warned, capsys):
+    # the warning comes before any render: an unknown scene then stops the command at once
+    assert main(["gate", "no_such_scene", "--tail-spp", str(tail_spp), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown scene" in err
+    if warned:
+        assert f"warning: --tail-spp {tail_spp} {warned}" in err
+    else:
+        assert "warning" not in err

@@ -45,6 +45,7 @@ __all__ = [
     "add_variant_args", "add_seed_args", "add_seeds_arg", "add_threads_args", "add_cache_arg", "add_alpha_args",
     "add_quiet_arg", "add_out_arg", "add_json_arg", "add_list_arg", "add_reference_spp_arg", "add_tail_spp_arg",
     "add_metric_arg", "add_format_arg", "add_scheduler_arg", "single_variant", "resolve_threads",
+    "tail_spp_warning",
 ]
 
 #: options whose default a subcommand chooses (name, meaning and help text are still shared).
@@ -268,6 +269,33 @@ def add_tail_spp_arg(parser, *, default: int) -> None:
                         help="samples per pixel of the tail references: the estimator under test at a high "
                              "budget (ours: cached), whose variance and tail "
                              "shape make the verdicts valid for heavy-tailed strategies (0: none, the older rule)")
+
+
+def tail_spp_warning(tail_spp: int, *, default: int) -> str | None:
+    """The line a command prints when ``--tail-spp`` is below the budget its false-alarm
+    rates were measured at (``benchmarks/STATISTICS.md``, "Known limits"), else None.
+
+    A tail reference stands for the estimator's rare paths only where it samples them; at a
+    lower budget it misses them as the render does, and heavy-tailed strategies fail falsely.
+
+    Examples
+    --------
+    >>> tail_spp_warning(16384, default=16384) is None
+    True
+    >>> tail_spp_warning(1024, default=16384).split(":")[0]
+    '--tail-spp 1024 is below 16384'
+    """
+    if tail_spp >= default:
+        return None
+    if tail_spp == 0:
+        return ("--tail-spp 0 turns the tail references off: verdicts on heavy-tailed strategies "
+                "(uniform, cosine) then rest on the render's own variance, too small where its rare "
+                "paths were missed, and can fail falsely (benchmarks/STATISTICS.md)")
+    return (f"--tail-spp {tail_spp} is below {default}: the false-alarm rates (benchmarks/STATISTICS.md) "
+            f"were measured at {default}, the default; below it a tail reference misses the rare paths "
+            f"of heavy-tailed strategies as the render does, and verdicts on them can fail falsely "
+            f"(measured: uniform on glossy_plates at 64 spp fails 20 of 20 seeds with --tail-spp 1024, "
+            f"1 of 20 with 4096, 0 of 100 with {default})")
 
 
 # ----------------------------------------------------------------------------------------- how to run

@@ -43,6 +43,11 @@ def run(args) -> int:
         raise ValueError(f"--alpha must be in (0, 1), got {args.alpha}")
     if args.tail_spp < 0 or args.tail_spp == 1:
         raise ValueError(f"--tail-spp must be 0 (none) or >= 2, got {args.tail_spp}")
+    from benchmarks.commands._args import tail_spp_warning
+    from benchmarks.tails import DEFAULT_TAIL_SPP
+
+    if line := tail_spp_warning(args.tail_spp, default=DEFAULT_TAIL_SPP):
+        print(f"rtbench compare: warning: {line}", file=sys.stderr)
     from benchmarks.commands._args import resolve_threads
     from benchmarks.compare import estimator_knowledge
     from benchmarks.external import register_external

@@ -66,10 +66,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     A.add_quiet_arg(parser)
 
 
+def _warn_tail_spp(args) -> None:
+    """One line on stderr where ``--tail-spp`` makes the verdicts uncalibrated (the tail
+    references are ours: not used by ``--renderer`` or ``--write-reference``)."""
+    from benchmarks.commands._args import tail_spp_warning
+    from benchmarks.tails import DEFAULT_TAIL_SPP
+
+    if args.tail_spp != 1 and not args.renderer and not args.write_reference:
+        line = tail_spp_warning(args.tail_spp, default=DEFAULT_TAIL_SPP)
+        if line:
+            print(f"rtbench gate: warning: {line}", file=sys.stderr)
+
+
 def run(args) -> int:
     from benchmarks.commands._args import check
 
     check(args)
+    _warn_tail_spp(args)
     if args.calibrate:
         return _calibrate(args)
     from rich.console import Console

@@ -136,6 +136,11 @@ def run(args) -> int:
     for name, v in (("--spp", args.spp), ("--reference-spp", args.reference_spp), ("--tail-spp", args.tail_spp)):
         if v < 2:
             raise ValueError(f"{name} must be >= 2, got {v}")
+    from benchmarks.commands._args import tail_spp_warning
+    from benchmarks.tails import DEFAULT_TAIL_SPP
+
+    if line := tail_spp_warning(args.tail_spp, default=DEFAULT_TAIL_SPP):
+        print(f"rtbench selftest: warning: {line}", file=sys.stderr)
     if args.height is not None and args.height != args.width:
         raise ValueError("selftest renders square images: --height must equal --width")
     try:
