@@ -42,7 +42,7 @@ from .constants import GATE_ALPHA
 from .store import curve_of, read_image, read_records
 
 __all__ = ["BOOTSTRAP_RESAMPLES", "CurveComparison", "EstimatorKnowledge", "compare_stores", "curve_points",
-           "estimator_knowledge"]
+           "estimator_knowledge", "judge"]
 
 BOOTSTRAP_RESAMPLES = 2000
 
@@ -303,6 +303,30 @@ def _with_knowledge(known: EstimatorKnowledge, ref, test) -> tuple:
     return ref, test, moments
 
 
+def judge(ref, test, *, known: EstimatorKnowledge, alpha: float):
+    """The gate's verdict of B's image against A's, as :func:`compare_stores` gives it.
+
+    Parameters
+    ----------
+    ref, test : tuple
+        ``(mean, per-sample variance, spp)`` of A (the baseline) and of B.
+    known : EstimatorKnowledge, keyword-only
+        B's estimator at a high budget (floored into both sides, see ``_with_knowledge``).
+    alpha : float, keyword-only
+        Level of this one comparison.
+
+    Returns
+    -------
+    benchmarks.gate.GateResult
+        With ``verdict`` "pass", "fail" or "undetermined". ``rtbench gate --calibrate
+        --compare-pairs`` measures its false-alarm rate on pairs of renders of one build.
+    """
+    from .gate import compare
+
+    ref, test, moments = _with_knowledge(known, ref, test)
+    return compare(test[0], test[1], test[2], ref[0], ref[1], ref[2], alpha=alpha, tails=moments)
+
+
 def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0, estimator=None) -> list:
     """Compare every curve present in both stores (see the module docstring).
 
@@ -323,8 +347,6 @@ def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0
     -------
     list of CurveComparison
     """
-    from .gate import compare
-
     a, b = Path(store_a), Path(store_b)
     by_a, by_b = collections.defaultdict(list), collections.defaultdict(list)
     for r in read_records(a):
@@ -351,8 +373,7 @@ def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0
         else:
             known = estimator(key, rb) if estimator is not None else EstimatorKnowledge("none")
             cmp.tails = known.note
-            ref, test, moments = _with_knowledge(known, ref, test)
-            res = compare(test[0], test[1], test[2], ref[0], ref[1], ref[2], alpha=case_alpha, tails=moments)
+            res = judge(ref, test, known=known, alpha=case_alpha)
             cmp.gate, cmp.verdict, cmp.p_value = res, res.verdict, float(res.p_value)
             cmp.relative_bias, cmp.reason = float(res.relative_bias), res.reason
         out.append(cmp)

@@ -68,11 +68,13 @@ def format_table(rows) -> str:
     return "\n".join(lines)
 
 
-def calibration_table(rows, *, alpha: float):
-    """The false-alarm table of :func:`benchmarks.gate.calibrate`'s rows, as a rich table."""
+def calibration_table(rows, *, alpha: float, pairs: bool = False):
+    """The false-alarm table of :func:`benchmarks.gate.calibrate`'s rows, as a rich table
+    (``pairs``: of ``rtbench compare``'s verdict on pairs of renders)."""
     from rich.table import Table
 
-    table = Table(title=f"rtbench gate --calibrate: verdicts on unbiased renders, alpha {alpha:g} per comparison")
+    what = "rtbench compare's verdicts on pairs of renders of this build" if pairs else "verdicts on unbiased renders"
+    table = Table(title=f"rtbench gate --calibrate: {what}, alpha {alpha:g} per comparison")
     for col in ("scene", "strategy", "spp", "seeds", "pass", "fail", "undetermined", "false alarms (95% CI)",
                 "consistent", "undetermined needs ~spp", "catches (global)"):
         table.add_column(col)

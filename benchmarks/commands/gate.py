@@ -50,6 +50,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "undetermined per (scene, strategy, spp); exit 1 if a rate exceeds --alpha (here "
                              "each comparison is tested at --alpha itself: the rate measured is one comparison's); "
                              "with --json PATH, written after every row, a rerun resumes where it stopped")
+    parser.add_argument("--compare-pairs", action="store_true",
+                        help="with --calibrate: measure rtbench compare's verdict instead, on --seeds pairs of "
+                             "renders of this build (the second judged against the first with the tail "
+                             "reference, as compare judges two stores of one build); no Mitsuba reference")
     A.add_spps_arg(parser, default=DEFAULT_CALIBRATION_SPPS)
     A.add_seeds_arg(parser, default=DEFAULT_CALIBRATION_SEEDS)
     add_scene_path_args(parser)
@@ -83,6 +87,8 @@ def run(args) -> int:
 
     check(args)
     _warn_tail_spp(args)
+    if args.compare_pairs and not args.calibrate:
+        raise ValueError("--compare-pairs goes with --calibrate (it measures compare's false-alarm rate)")
     if args.calibrate:
         return _calibrate(args)
     from rich.console import Console
@@ -225,7 +231,8 @@ def _calibrate(args) -> int:
                         console=Console(stderr=True, quiet=args.quiet), transient=True)
     config = {"scenes": list(names), "strategies": strategies, "spps": spps, "seeds": args.seeds,
               "width": args.width, "height": args.height or args.width, "reference_spp": args.reference_spp,
-              "tail_spp": args.tail_spp, "variant": single_variant(args), "build": rt_build_id()}
+              "tail_spp": args.tail_spp, "variant": single_variant(args), "build": rt_build_id(),
+              "compare_pairs": bool(args.compare_pairs)}
     rows = _resumed_rows(args.json, config, alpha=args.alpha) if args.json else []
     if rows:
         print(f"rtbench gate --calibrate: resuming {args.json}: {len(rows)} row(s) measured already",
@@ -246,9 +253,9 @@ def _calibrate(args) -> int:
                   height=args.height, ref_spp=args.reference_spp, tail_spp=args.tail_spp, alpha=args.alpha,
                   threads=args.threads, cache=args.cache, variant=single_variant(args),
                   log=lambda line: progress.console.print(line, markup=False),
-                  on_render=lambda: progress.advance(task), on_row=on_row, skip=skip)
+                  on_render=lambda: progress.advance(task), on_row=on_row, skip=skip, pairs=args.compare_pairs)
     if not args.quiet:
-        console.print(calibration_table(rows, alpha=args.alpha))
+        console.print(calibration_table(rows, alpha=args.alpha, pairs=args.compare_pairs))
     bad = [r for r in rows if not r.consistent]
     if bad:
         for r in bad:
@@ -279,6 +286,7 @@ def _resumed_rows(path, config: dict, *, alpha: float) -> list:
         raise ValueError(f"--json {path} exists but is not a calibration this command can resume ({exc}); "
                          f"give another path") from None
     same = {k: old.get(k) for k in ("seeds", "width", "height", "reference_spp", "tail_spp", "variant", "build")}
+    same["compare_pairs"] = bool(old.get("compare_pairs", False))  # files before the option: the gate's
     want = {k: config[k] for k in same}
     if same != want or data.get("alpha") != alpha:
         diff = ", ".join(f"{k} {same[k]} (now {want[k]})" for k in same if same[k] != want[k])

@@ -7,6 +7,12 @@ comparison at level ``alpha``, with the tail reference of the same estimator), a
 pass, fail and undetermined. Undetermined is never a failure in this table and never a
 pass in a power table; both show it. ``rtbench gate --calibrate`` prints the table;
 ``benchmarks/STATISTICS.md`` holds the measured one.
+
+With ``pairs=True`` (``--compare-pairs``) it measures ``rtbench compare``'s verdict
+instead: two renders of this build per seed, B (seed ``FIRST_SEED + 2k + 1``) judged
+against A (seed ``FIRST_SEED + 2k``) by :func:`benchmarks.compare.judge`, the function
+``compare_stores`` uses, with the tail reference as ``compare`` takes it for two stores of
+this build. No Mitsuba reference is involved: under "nothing changed" A is the reference.
 """
 from __future__ import annotations
 
@@ -87,7 +93,7 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
               seeds: int = DEFAULT_CALIBRATION_SEEDS, width: int = DEFAULT_WIDTH, ref_spp: int = DEFAULT_REF_SPP,
               tail_spp: int = DEFAULT_TAIL_SPP, alpha: float = GATE_ALPHA, threads=None, cache=None,
               log=None, on_render=None, on_row=None, height: int | None = None, variant: str | None = None,
-              skip=frozenset()) -> list:
+              skip=frozenset(), pairs: bool = False) -> list:
     """Measure the gate's verdicts on unbiased renders: one :class:`CalibrationRow` per
     (scene, strategy, spp).
 
@@ -110,6 +116,9 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
         Called after each render (no argument) and with each finished row.
     skip : set of (scene, strategy, spp), keyword-only
         Rows measured already (a resumed calibration): neither rendered nor returned.
+    pairs : bool, keyword-only
+        Measure ``rtbench compare``'s verdict on pairs of renders instead of the gate's
+        against Mitsuba (module docstring); ``seeds`` pairs per row.
 
     Examples
     --------
@@ -131,17 +140,23 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
         if all((name, st, spp) in skip for st in strategies for spp in spps):
             continue
         scene = gate_scene(name, width=width, height=height)
-        ref = gate_reference(name, scene, ref_spp=ref_spp, threads=threads, cache=cache, log=log, variant=variant)
+        ref = None if pairs else gate_reference(name, scene, ref_spp=ref_spp, threads=threads, cache=cache, log=log,
+                                                variant=variant)
         for strategy in strategies:
             todo = [spp for spp in spps if (name, strategy, spp) not in skip]
             if not todo:
                 continue
-            tails = tail_reference(scene, strategy=strategy, spp=tail_spp, threads=threads, cache=cache, log=log)
+            tails = (tail_reference(scene, strategy=strategy, spp=tail_spp, threads=threads, cache=cache, log=log)
+                     if tail_spp else None)
             for spp in todo:
                 results = []
                 for k in range(seeds):
-                    out = rt.render(scene, spp=spp, strategy=strategy, seed=FIRST_SEED + k, threads=threads)
-                    results.append(compare_render(out.mean, out.variance, spp, ref, alpha=alpha, tails=tails))
+                    if pairs:
+                        results.append(_compare_pair(scene, strategy, spp, FIRST_SEED + 2 * k, tails,
+                                                     alpha=alpha, threads=threads))
+                    else:
+                        out = rt.render(scene, spp=spp, strategy=strategy, seed=FIRST_SEED + k, threads=threads)
+                        results.append(compare_render(out.mean, out.variance, spp, ref, alpha=alpha, tails=tails))
                     if on_render:
                         on_render()
                 row = _row(name, strategy, spp, alpha, results)
@@ -149,6 +164,17 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
                 if on_row:
                     on_row(row)
     return rows
+
+
+def _compare_pair(scene, strategy: str, spp: int, seed: int, tails, *, alpha: float, threads):
+    """``rtbench compare``'s verdict on two renders of this build: B (``seed + 1``) against A (``seed``)."""
+    import reference_tracer as rt
+    from ..compare import EstimatorKnowledge, judge
+
+    a, b = (rt.render(scene, spp=spp, strategy=strategy, seed=s, threads=threads) for s in (seed, seed + 1))
+    known = (EstimatorKnowledge(f"tail reference of ours {strategy} at {tails.spp} spp", moments=tails.moments)
+             if tails is not None else EstimatorKnowledge("none: --tail-spp 0"))
+    return judge((a.mean, a.variance, spp), (b.mean, b.variance, spp), known=known, alpha=alpha)
 
 
 def _row(scene, strategy, spp, alpha, results) -> CalibrationRow:
