@@ -209,6 +209,43 @@ def test_gate_cli_writes_verdicts_and_power(small_calibration, tmp_path):
     assert "catches" in proc.stdout and "undetermined" in proc.stdout
 
 
+def test_compare_false_alarms_on_pairs_of_real_renders(small_calibration, monkeypatch):
+    """``rtbench compare``'s verdict (``benchmarks.compare.judge``) on 48 pairs of unbiased
+    renders of one build, the noisiest strategy included: at most 2 may fail (P(>= 3 | rate
+    0.01) = 0.013, the test's false-positive rate), every row consistent with alpha. No
+    Mitsuba reference is asked for: under "nothing changed" A is the reference."""
+    import benchmarks.gate.calibration as calibration
+
+    _, cache = small_calibration
+
+    def no_reference(*a, **k):
+        raise AssertionError("compare pairs need no Mitsuba reference")
+
+    monkeypatch.setattr(calibration, "gate_reference", no_reference)
+    rows = calibrate(["cornell_box", "glossy_plates"], strategies=["uniform", "mis"], spps=[64], seeds=12,
+                     width=16, ref_spp=4096, tail_spp=4096, threads=2, cache=cache, pairs=True)
+    assert len(rows) == 4 and all(r.seeds == 12 for r in rows)
+    assert sum(r.failed for r in rows) <= 2, [(r.scene, r.strategy, r.failed) for r in rows]
+    assert all(r.consistent for r in rows)
+    mis_box = next(r for r in rows if r.scene == "cornell_box" and r.strategy == "mis")
+    assert mis_box.undetermined == 0 and mis_box.passed >= 11
+
+
+def test_judge_fails_a_real_change_between_builds():
+    """The pair verdict has power: B rendered with ``light`` (all indirect light missing)
+    against A with ``mis`` fails, with B's tail knowledge floored in."""
+    from mitsuba_scenes import get_scene
+
+    from benchmarks.compare import EstimatorKnowledge, judge
+
+    scene = get_scene("cornell_box", width=16, height=16)
+    a = rt.render(scene, spp=64, strategy="mis", seed=1)
+    b = rt.render(scene, spp=64, strategy="light", seed=2, moments=True)
+    res = judge((a.mean, a.variance, 64), (b.mean, b.variance, 64), alpha=0.01,
+                known=EstimatorKnowledge("B's own moments", moments=b.moments))
+    assert res.verdict == "fail" and res.relative_bias < -0.1
+
+
 @pytest.mark.slow
 def test_false_alarm_table_of_the_whole_suite():
     """The full false-alarm table of issue 18 (hours on 2 cores; `make test-slow`): every
@@ -302,6 +339,8 @@ def test_an_interrupted_calibration_resumes_from_its_json(small_calibration, tmp
     assert second["rows"][0] == first["rows"][0]      # kept as it was, not measured again
     assert main(base[:-2] + ["--json", str(path), "--spps", "16", "--seeds", "3"]) == 2
     assert "other settings: seeds 2 (now 3)" in capsys.readouterr().err
+    assert main(base + ["--spps", "16", "--compare-pairs"]) == 2   # compare's table is another calibration
+    assert "compare_pairs False (now True)" in capsys.readouterr().err
     import reference_tracer.build
 
     monkeypatch.setattr(reference_tracer.build, "build_id", lambda: "0123456789abcdef")
