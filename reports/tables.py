@@ -89,7 +89,9 @@ def stats_table(rows: list[dict]) -> list[list[str]]:
             zp = DASH
         out.append([
             curve_label(r["renderer"], r["strategy"]),
-            fmt(r.get("slope")) + ci_txt + (" (undetermined: heavy-tailed)" if r.get("slope_status") else ""),
+            fmt(r.get("slope")) + ci_txt + (" (undetermined: heavy-tailed)" if r.get("slope_status") else
+                                            f" (fit from {r['slope_fit_from']} spp)" if r.get("slope_excluded_spps")
+                                            else ""),
             _verdict(r),
             bias,
             zp,

@@ -111,3 +111,52 @@ def test_a_slope_measured_while_heavy_tailed_is_marked_undetermined():
     assert cell.startswith("-0.21") and cell.endswith("(undetermined: heavy-tailed)")
     ok = dict(heavy, bias_verdict="pass", slope_status=None)
     assert "undetermined" not in stats_table([view(ok, "rmse")])[0][1]
+
+
+def test_budgets_below_the_normal_start_are_left_out_of_the_slope():
+    """Per-point rule: where the tail reference says the image mean is near normal only
+    from 64 spp, the cheaper budgets' MSE (rare paths missed: too low) is left out of the
+    fit; with fewer than two budgets left the measured slope is kept and marked."""
+    from benchmarks.sweep.summary import _normal_points_only, _slope_stats, _slope_status
+
+    spps = [4, 16, 64, 256, 1024]
+    # an estimator of variance 1: MSE 1/n from 64 spp on, far below it at 4 and 16 spp
+    mse = np.array([0.01, 0.01, 1 / 64, 1 / 256, 1 / 1024])
+    row = dict(_slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=64)
+    assert row["slope"] > -0.3                     # the low points flatten the whole fit
+    row.update(_normal_points_only(spps, mse, mse, row))
+    assert row["slope_excluded_spps"] == [4, 16]
+    assert row["slope"] == pytest.approx(-0.5) and row["slope_points"] == 3
+    assert _slope_status(row) is None
+    late = dict(_slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=1000)
+    measured = late["slope"]
+    late.update(_normal_points_only(spps, mse, mse, late))
+    assert late["slope_excluded_spps"] == [4, 16, 64, 256] and late["slope"] == measured
+    assert "below 1000 spp" in _slope_status(late)
+    # nothing to leave out: normal from 1 spp, or no tail reference (None)
+    for start in (1, None):
+        r = dict(_slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=start)
+        assert _normal_points_only(spps, mse, mse, r) == {"slope_excluded_spps": []}
+
+
+def test_every_metric_slope_follows_the_per_point_rule():
+    from benchmarks.sweep.by_metric import metric_figures
+
+    spps = [4, 16, 64, 256, 1024]
+    err = np.array([0.1, 0.1, 1 / 8, 1 / 16, 1 / 32])     # RMSE-like: -0.5 from 64 spp on
+    secs = np.array(spps, dtype=float)
+    assert metric_figures("relmse", spps, err, secs)["slope"] > -0.3
+    assert metric_figures("relmse", spps, err, secs, fit_from=64)["slope"] == pytest.approx(-0.5)
+    # two budgets or fewer above: the measured slope stays
+    assert (metric_figures("relmse", spps, err, secs, fit_from=1000)["slope"]
+            == metric_figures("relmse", spps, err, secs)["slope"])
+
+
+def test_the_report_says_where_a_slope_was_fitted_from():
+    from benchmarks.sweep.by_metric import view
+    from reports.tables import stats_table
+
+    row = {"renderer": "ours", "strategy": "uniform", "slope": -0.5, "slope_ci": [-0.6, -0.4], "bias_verdict": "pass",
+           "slope_status": None, "slope_excluded_spps": [4, 16], "slope_fit_from": 37}
+    assert stats_table([view(row, "rmse")])[0][1].endswith("(fit from 37 spp)")
+    assert "fit from" not in stats_table([view(dict(row, slope_excluded_spps=[]), "rmse")])[0][1]

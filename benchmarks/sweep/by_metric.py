@@ -127,12 +127,13 @@ def _expected_relmse(variance_image, ref, top: int) -> float | None:
 
 
 def metric_figures(metric: str, spps, errors, secs, *, target_rmse=None, unbiased: bool = False,
-                   variance_image=None, ref=None) -> dict:
+                   variance_image=None, ref=None, fit_from: int | None = None) -> dict:
     """Slope, efficiency and time to target of one curve under ``metric`` (errors from :func:`curve_errors`).
 
     ``variance_image``: the estimator's per-sample variance per pixel from a high-spp run of
     the same estimator (our tail reference; Mitsuba's own reference), used for relMSE's
-    efficiency when ``unbiased``.
+    efficiency when ``unbiased``. ``fit_from``: the slope is fitted to the budgets from this
+    one on (the summary's per-point rule, ``slope_fit_from``) where two or more remain.
     """
     spec = SPECS[metric]
     spps = np.asarray(spps, dtype=np.float64)
@@ -143,8 +144,11 @@ def metric_figures(metric: str, spps, errors, secs, *, target_rmse=None, unbiase
            "time_to_target": None, "target": spec.target if spec.target is not None else as_float(target_rmse)}
     if not math.isfinite(as_float(fig["target"])):
         fig["target"] = None
-    if ok.sum() >= 2 and len(set(spps[ok])) >= 2:
-        s = M.convergence_slope(spps[ok], errors[ok])
+    fit = ok & (spps >= fit_from) if fit_from else ok
+    if len(set(spps[fit])) < 2:  # too few budgets left: the measured slope, marked by the summary
+        fit = ok
+    if fit.sum() >= 2 and len(set(spps[fit])) >= 2:
+        s = M.convergence_slope(spps[fit], errors[fit])
         fig["slope"] = s.slope
         fig["slope_ci"] = [s.ci_low, s.ci_high] if math.isfinite(s.ci_low) else None
     top = int(spps[-1]) if spps.size else 0
@@ -165,12 +169,12 @@ def metric_figures(metric: str, spps, errors, secs, *, target_rmse=None, unbiase
 
 
 def curve_metrics(by_spp: dict, secs, *, ref=None, target_rmse=None, unbiased: bool = False,
-                  variance_image=None) -> dict:
+                  variance_image=None, fit_from: int | None = None) -> dict:
     """``by_metric`` of one curve: :func:`metric_figures` for every metric but RMSE (the row's own figures)."""
     spps = sorted(by_spp)
     noise = relative_noise(ref)
     return {m: metric_figures(m, spps, curve_errors(by_spp, m, rel_noise=noise), secs, target_rmse=target_rmse,
-                              unbiased=unbiased, variance_image=variance_image, ref=ref)
+                              unbiased=unbiased, variance_image=variance_image, ref=ref, fit_from=fit_from)
             for m in METRICS if m != "rmse"}
 
 

@@ -29,7 +29,9 @@ TARGET_RELATIVE_RMSE = 0.1
 _NOTES = {
     "slope": "fit of log sqrt(mean over seeds of mse_corrected) on log spp, "
              "one point per spp; slope_ci is its 95% t interval; slope_status marks a slope measured "
-             "where the estimator is still heavy-tailed (bias_verdict undetermined at the top spp)",
+             "where the estimator is still heavy-tailed (bias_verdict undetermined at the top spp); "
+             "slope_excluded_spps: budgets below slope_fit_from (from the tail reference: the budget from "
+             "which the seed-averaged MSE is near its expectation), left out of the fit",
     "bias": "bias2: metrics.bias_variance at bias_spp over bias_seeds "
             "seeds; bias_significant, bias_p: tile and image levels of "
             "benchmarks.gate.compare on the mean over seeds (Bonferroni), "
@@ -136,10 +138,67 @@ def _slope_status(row: dict):
     does not cover that. The slope is kept in the row (it is what was measured) and marked.
     """
     if row.get("bias_verdict") != "undetermined":
+        if row.get("slope_excluded_spps") and len(row["spps"]) - len(row["slope_excluded_spps"]) < 2:
+            return (f"undetermined: heavy-tailed below {row['slope_fit_from']} spp (the measured MSE misses "
+                    f"rare paths there), and fewer than two budgets at or above it")
         return None
     need = row.get("bias_spp_needed")
     return ("undetermined: heavy-tailed at these budgets (the measured MSE misses rare paths)"
             + (f"; the gate needs about {need} samples per pixel" if need else ""))
+
+
+def mse_reliable_from(tails, *, seeds: int) -> int:
+    """The smallest budget from which the seed-averaged MSE (and relMSE) of this estimator
+    is near its expectation, from its tail reference (``benchmarks/STATISTICS.md``).
+
+    One render's MSE at ``n`` spp over ``P`` pixels, ``(1/P) sum_p (xbar_p - mu_p)^2``, has
+    expectation ``sum_p s2_p / (P n)`` and, from the samples' fourth cumulants ``k4_p``, a
+    variance of at least ``sum_p k4_p / (P^2 n^3)``: relative to the squared expectation,
+    ``K = sum_p k4_p / (sum_p s2_p)^2`` over ``n``, and over ``n k`` for the mean of ``k``
+    seeds. Where that exceeds 1 the MSE rests on rare paths: most renders missed them and
+    read low, a few met them and read high. The budget is ``ceil(K / k)``, with ``K`` the
+    largest over the channels and over the weights of MSE (1) and relMSE
+    (``1 / (mu^2 + eps)``).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> m = SimpleNamespace(m2=np.ones((4, 4, 3)), kappa4=np.full((4, 4, 3), 160.0))
+    >>> mse_reliable_from(SimpleNamespace(moments=m, mean=np.ones((4, 4, 3))), seeds=2)
+    5
+    """
+    from ..constants import RELMSE_EPS
+
+    m2 = np.asarray(tails.moments.m2, dtype=np.float64)
+    k4 = np.asarray(tails.moments.kappa4, dtype=np.float64)
+    mu = np.asarray(tails.mean, dtype=np.float64)
+    worst = 0.0
+    for w in (np.ones_like(mu), 1.0 / (mu * mu + RELMSE_EPS)):
+        num, den = (w * w * k4).sum(axis=(0, 1)), (w * m2).sum(axis=(0, 1)) ** 2
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+        worst = max(worst, float(np.max(k)))
+    return max(1, int(math.ceil(worst / max(int(seeds), 1))))
+
+
+def _normal_points_only(spps, mse_c, mse_p, row: dict) -> dict:
+    """The slope refitted without the budgets below ``slope_fit_from`` (the per-point rule).
+
+    Below it, renders have mostly not met the rare paths that carry the variance, their MSE
+    sits below expectation and would flatten the fit. Where the gate is undetermined at the
+    top budget :func:`_slope_status` marks the whole slope instead.
+    """
+    start = row.get("slope_fit_from")
+    if not start or row.get("bias_verdict") == "undetermined":
+        return {"slope_excluded_spps": []}
+    keep = [i for i, s in enumerate(spps) if s >= start]
+    excluded = [int(s) for s in spps if s < start]
+    if not excluded:
+        return {"slope_excluded_spps": []}
+    out = _slope_stats([spps[i] for i in keep], mse_c[keep], mse_p[keep])
+    if out["slope"] is None:  # too few budgets left: keep what was measured, marked (_slope_status)
+        return {"slope_excluded_spps": excluded}
+    return dict(out, slope_excluded_spps=excluded)
 
 
 def _slope_stats(spps, mse_c, mse_p) -> dict:
@@ -223,6 +282,8 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     row.update(_slope_stats(spps, mse_c, mse_p))
     top = spps[-1]
     row.update(_bias_stats(by_spp[top], top, ref, store, alpha=alpha, tails=tails))
+    row["slope_fit_from"] = mse_reliable_from(tails, seeds=row["seeds"]) if tails is not None else None
+    row.update(_normal_points_only(spps, mse_c, mse_p, row))
     row["slope_status"] = _slope_status(row)
     if row["variance"] is None:
         row["variance"] = _nanmean(r.get("variance") for r in recs)
@@ -253,7 +314,8 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
         row["time_to_target"] = M.time_to_error(secs[ok], np.sqrt(mse_c[ok]), target)
     row["rmse_at_top"] = math.sqrt(mse_p[-1]) if mse_p[-1] >= 0 else None
     row["by_metric"] = curve_metrics(by_spp, secs, ref=ref, target_rmse=target, unbiased=unbiased,
-                                     variance_image=tail_variance_image(tails) if tails is not None else None)
+                                     variance_image=tail_variance_image(tails) if tails is not None else None,
+                                     fit_from=row["slope_fit_from"] if row["slope_excluded_spps"] else None)
     if row.get("efficiency_source") == "exact (zero variance)":
         # float rounding is all the error there is: no efficiency under any metric (it was ~1e27)
         for fig in row["by_metric"].values():
@@ -335,7 +397,10 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
     * ``slope``, ``slope_ci`` (95%), ``slope_stderr``: least-squares fit of log RMSE over
       log spp, one point per spp, RMSE = sqrt of the seed-averaged reference-noise-
       corrected MSE (``slope_uncorrected`` uses the plain MSE); ``slope_status``: why the
-      slope is not yet meaningful (heavy-tailed at every budget of the curve), else None;
+      slope is not yet meaningful (heavy-tailed at every budget of the curve, or at all
+      but one), else None; ``slope_excluded_spps``: with a tail reference, the budgets
+      below ``slope_fit_from`` (:func:`mse_reliable_from`), where renders mostly miss the
+      rare paths and the MSE reads low: left out of the fit;
     * ``bias2``, ``bias2_stderr``, ``bias_z``, ``bias_p``, ``bias_significant`` (level
       ``alpha``, one-sided), ``relative_bias``: ``metrics.bias_variance`` over the seeds at
       the highest spp (``bias_spp``); with one seed, the renderer's own per-sample
