@@ -32,6 +32,11 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
     for (const AABB& b : boxes)
         if (b.valid() && is_finite(b.lo) && is_finite(b.hi)) world.expand(b);
     if (world.valid()) coherent_origin_radius_ = 0.01 * length(world.hi - world.lo);
+    // A handful of spheres and quads (the furnace: one sphere) are tested directly: the
+    // tree's set-up and 8-wide root test cost more per ray than the primitives themselves.
+    direct_ = triangles_.empty() && primitive_count() <= kDirectTestLimit &&
+              std::all_of(boxes.begin(), boxes.end(),
+                          [](const AABB& b) { return b.valid() && is_finite(b.lo) && is_finite(b.hi); });
     const auto packable = [&](uint32_t prim) { return pack && prim >= tri_base_; };
     bvh_ = WideBVH(BVH(boxes, packable), packable);
     float_blocks_ = std::all_of(triangles_.begin(), triangles_.end(), &Triangle4f::exact);
@@ -113,6 +118,13 @@ bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
     const WatertightRay wray = triangles_.empty() ? WatertightRay() : WatertightRay(ray.d);
     ClosestHit best;
     double t = t_max;
+    if (direct_) {
+        bool hit = false;
+        for (uint32_t prim = 0; prim < quad_base_ + quads_.size(); ++prim)
+            hit |= closest_primitive(prim, ray, wray, t, best);
+        if (hit) fill_hit(ray, t, best, it);
+        return hit;
+    }
     const bool hit = bvh_.traverse<false>(
         ray, t, [&](uint32_t prim, double& tm) { return closest_primitive(prim, ray, wray, tm, best); },
         [&](uint32_t block, double& tm) { return closest_block(block, ray, wray, tm, best); },
@@ -124,6 +136,11 @@ bool Scene::intersect(const Ray& ray, Interaction& it, double t_max) const {
 bool Scene::occluded(const Ray& ray, double t_max) const {
     const WatertightRay wray = triangles_.empty() ? WatertightRay() : WatertightRay(ray.d);
     uint32_t unused = 0;
+    if (direct_) {
+        for (uint32_t prim = 0; prim < quad_base_ + quads_.size(); ++prim)
+            if (hit_primitive(prim, ray, wray, t_max, unused)) return true;
+        return false;
+    }
     return bvh_.traverse<true>(
         ray, t_max, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, unused); },
         [&](uint32_t block, double& tm) { return hit_block(block, ray, wray, tm, unused) >= 0; },

@@ -196,6 +196,9 @@ private:
     std::vector<Triangle> triangles_;
     SceneSettings settings_;
     WideBVH bvh_;
+    // Scenes of at most kDirectTestLimit spheres and quads skip the tree (see the constructor).
+    static constexpr size_t kDirectTestLimit = 2;
+    bool direct_ = false;
     // The BVH's block leaves (watertight test only), in block order: in float when every
     // triangle vertex is exactly a float (float_blocks_), else in double.
     std::vector<Triangle4> tri4_;
