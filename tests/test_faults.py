@@ -77,7 +77,11 @@ def _one_line(stderr: str) -> str:
 def test_sigkill_at_a_random_point_then_resume(cache, tmp_path, seed):
     root, _ = cache
     store = tmp_path / "s"
-    proc = _popen(_args(store), root)
+    # a last budget of 16384 spp keeps the run busy for a second or more after its first
+    # records, so the interrupt lands inside the run (with 1-4 spp alone it could finish first)
+    args = list(_args(store))
+    args[args.index("--spp") + 1] = "1,2,4,16384"
+    proc = _popen(args, root)
     deadline = time.monotonic() + 300
     while proc.poll() is None and not (store / META).exists() and time.monotonic() < deadline:
         time.sleep(0.005)  # the run has started writing: kill it at a random point from here
