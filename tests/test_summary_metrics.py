@@ -117,26 +117,26 @@ def test_budgets_below_the_normal_start_are_left_out_of_the_slope():
     """Per-point rule: where the tail reference says the image mean is near normal only
     from 64 spp, the cheaper budgets' MSE (rare paths missed: too low) is left out of the
     fit; with fewer than two budgets left the measured slope is kept and marked."""
-    from benchmarks.sweep.summary import _normal_points_only, _slope_stats, _slope_status
+    from benchmarks.sweep.summary import _reliable_points_only, _slope_stats, _slope_status
 
     spps = [4, 16, 64, 256, 1024]
     # an estimator of variance 1: MSE 1/n from 64 spp on, far below it at 4 and 16 spp
     mse = np.array([0.01, 0.01, 1 / 64, 1 / 256, 1 / 1024])
     row = dict(_slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=64)
     assert row["slope"] > -0.3                     # the low points flatten the whole fit
-    row.update(_normal_points_only(spps, mse, mse, row))
+    row.update(_reliable_points_only(spps, mse, mse, row))
     assert row["slope_excluded_spps"] == [4, 16]
     assert row["slope"] == pytest.approx(-0.5) and row["slope_points"] == 3
     assert _slope_status(row) is None
     late = dict(_slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=1000)
     measured = late["slope"]
-    late.update(_normal_points_only(spps, mse, mse, late))
+    late.update(_reliable_points_only(spps, mse, mse, late))
     assert late["slope_excluded_spps"] == [4, 16, 64, 256] and late["slope"] == measured
     assert "below 1000 spp" in _slope_status(late)
     # nothing to leave out: normal from 1 spp, or no tail reference (None)
     for start in (1, None):
         r = dict(_slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=start)
-        assert _normal_points_only(spps, mse, mse, r) == {"slope_excluded_spps": []}
+        assert _reliable_points_only(spps, mse, mse, r) == {"slope_excluded_spps": []}
 
 
 def test_every_metric_slope_follows_the_per_point_rule():

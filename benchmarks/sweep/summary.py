@@ -181,7 +181,7 @@ def mse_reliable_from(tails, *, seeds: int) -> int:
     return max(1, int(math.ceil(worst / max(int(seeds), 1))))
 
 
-def _normal_points_only(spps, mse_c, mse_p, row: dict) -> dict:
+def _reliable_points_only(spps, mse_c, mse_p, row: dict) -> dict:
     """The slope refitted without the budgets below ``slope_fit_from`` (the per-point rule).
 
     Below it, renders have mostly not met the rare paths that carry the variance, their MSE
@@ -283,7 +283,7 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     top = spps[-1]
     row.update(_bias_stats(by_spp[top], top, ref, store, alpha=alpha, tails=tails))
     row["slope_fit_from"] = mse_reliable_from(tails, seeds=row["seeds"]) if tails is not None else None
-    row.update(_normal_points_only(spps, mse_c, mse_p, row))
+    row.update(_reliable_points_only(spps, mse_c, mse_p, row))
     row["slope_status"] = _slope_status(row)
     if row["variance"] is None:
         row["variance"] = _nanmean(r.get("variance") for r in recs)
