@@ -121,16 +121,19 @@ public:
     // `mutant`: a seeded bug of the self-test (mutants.h), for benchmarks/selftest only;
     // 0 renders with the tracer itself. Only this module (reference_tracer._mutants) has it.
     nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress, bool moments,
-                    int mutant) {
+                    int integrator, int mutant) {
         if (mutant < 0 || mutant >= int(rt::Mutant::Count))
             throw std::invalid_argument("mutant id out of range [0, " + std::to_string(int(rt::Mutant::Count)) + ")");
 #else
-    nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress, bool moments) {
+    nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress, bool moments,
+                    int integrator) {
 #endif
         if (spp < 1) throw std::invalid_argument("spp must be >= 1");
         if (strategy < 0 || strategy > 4) throw std::invalid_argument("unknown strategy");
         if (threads < 1) throw std::invalid_argument("threads must be >= 1");
+        if (integrator < 0 || integrator > 1) throw std::invalid_argument("unknown integrator");
         rt::RenderJob job;
+        job.integrator = rt::IntegratorKind(integrator);
         job.scene = scene_.get();
         job.strategy = rt::Strategy(strategy);
         job.spp = spp;
@@ -187,8 +190,9 @@ public:
     }
 
     // Closest hits of N rays: t (inf on a miss), primitive id (-1), point and front normal.
+    // `wavefront`: through Scene::intersect_batch, as the wavefront integrator asks.
     nb::dict intersect(const Matrix& origins, const Matrix& directions, bool brute_force, int threads,
-                       bool batch) const {
+                       bool batch, bool wavefront) const {
         require_columns(origins, 3, "origins");
         require_columns(directions, 3, "directions");
         if (origins.shape(0) != directions.shape(0)) throw std::invalid_argument("origins and directions differ in length");
@@ -203,6 +207,16 @@ public:
         };
         std::vector<size_t> packet_rays(static_cast<size_t>(threads), 0);
         auto work = [&](size_t begin, size_t end, size_t worker) {
+            if (wavefront) {
+                std::vector<rt::Ray> rays;
+                for (size_t i = begin; i < end; ++i) rays.push_back({row3(origins, i, 0), row3(directions, i, 0)});
+                std::unique_ptr<bool[]> hit(new bool[rays.size()]);
+                std::vector<rt::Interaction> its(rays.size());
+                scene_->intersect_batch(rays.size(), rays.data(), hit.get(), its.data());
+                for (size_t k = 0; k < rays.size(); ++k)
+                    if (hit[k]) store(begin + k, its[k]);
+                return;
+            }
             if (batch && !brute_force) {
                 packet_rays[worker] = scene_->intersect_stream(
                     end - begin, [&](size_t k) { return rt::Ray{row3(origins, begin + k, 0), row3(directions, begin + k, 0)}; },
@@ -238,6 +252,31 @@ public:
         for (size_t c : packet_rays) in_packets += c;
         r["packet_rays"] = in_packets;
         return r;
+    }
+
+    // Whether anything lies on each of N rays with t in (0, t_max): per ray
+    // (Scene::occluded), or as the wavefront integrator asks (Scene::occluded_batch).
+    nb::ndarray<nb::numpy, uint8_t> occluded(const Matrix& origins, const Matrix& directions, const Vector& t_max,
+                                             bool wavefront) const {
+        require_columns(origins, 3, "origins");
+        require_columns(directions, 3, "directions");
+        const size_t n = origins.shape(0);
+        if (directions.shape(0) != n || t_max.shape(0) != n)
+            throw std::invalid_argument("origins, directions and t_max differ in length");
+        std::vector<rt::Ray> rays;
+        std::vector<double> tm(n);
+        for (size_t i = 0; i < n; ++i) {
+            rays.push_back({row3(origins, i, 0), row3(directions, i, 0)});
+            tm[i] = t_max(i);
+        }
+        std::unique_ptr<bool[]> occ(new bool[n]);
+        if (wavefront) {
+            scene_->occluded_batch(n, rays.data(), tm.data(), occ.get());
+        } else {
+            for (size_t i = 0; i < n; ++i) occ[i] = scene_->occluded(rays[i], tm[i]);
+        }
+        std::vector<uint8_t> out(occ.get(), occ.get() + n);
+        return to_numpy(std::move(out), {n});
     }
 
     // Light sampling from N reference points with uniform numbers u (N, 3).
@@ -319,13 +358,14 @@ NB_MODULE(_core, m) {
              "quads"_a, "triangles"_a, "triangle_materials"_a, "background"_a, "max_depth"_a, "rr_depth"_a,
              "triangle_test"_a = 0)
         .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none(),
-             "moments"_a = false
+             "moments"_a = false, "integrator"_a = 0
 #ifdef RT_MUTANTS_MODULE
              , "mutant"_a = 0
 #endif
              )
         .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false, "threads"_a = 1,
-             "batch"_a = true)
+             "batch"_a = true, "wavefront"_a = false)
+        .def("occluded", &PyScene::occluded, "origins"_a, "directions"_a, "t_max"_a, "wavefront"_a = false)
         .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a)
         .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)
         .def_prop_ro("primitive_count", &PyScene::primitive_count)

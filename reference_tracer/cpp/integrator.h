@@ -11,6 +11,8 @@
 
 namespace rt {
 
+class WavefrontIntegrator;
+
 enum class Strategy : int {
     Uniform = 0,  // uniform hemisphere, pdf 1/(2 pi); no light sampling
     Cosine = 1,   // the material's own sampling (cosine for Lambertian, visible GGX normals)
@@ -31,6 +33,9 @@ public:
     Vec3 Li(Ray ray, PCG32& rng, uint64_t& rays) const;
 
 private:
+    // The wavefront integrator (wavefront.h) runs the same steps as Li on batches of paths.
+    friend class WavefrontIntegrator;
+
     // A surface point where the path may scatter, in the frame its BSDF works in. Like
     // pbrt's BSDF it tests false where the path cannot scatter: a surface that does not
     // reflect, the back of a one-sided reflector, exact grazing. Built in place in Li: a
@@ -70,9 +75,12 @@ private:
     double background_weight(const PrevVertex& prev) const;
 
     // Next-event estimation for `mis` (pbrt's SampleLd): beta times one light sample's
-    // contribution at v, seen from ref; none if the sample brings nothing.
-    std::optional<Vec3> sample_ld(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng,
-                                  uint64_t& rays) const;
+    // contribution at v, seen from ref; none if the sample brings nothing. `occluded(ray,
+    // t_max)` answers its shadow ray: Scene::occluded in Li; the wavefront integrator
+    // queues the ray instead (answering "not occluded") and applies the verdict later.
+    template <typename Occluded>
+    std::optional<Vec3> sample_ld(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng, uint64_t& rays,
+                                  Occluded&& occluded) const;
     // The `light` strategy at a non-delta vertex, where its path ends: beta times the
     // radiance arriving straight along one direction sampled toward the emitters.
     std::optional<Vec3> light_only(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng,

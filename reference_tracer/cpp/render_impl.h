@@ -35,21 +35,21 @@ RenderOutput render_with(const RenderJob& job, Poll&& poll) {
 
     auto worker = [&]() {
         uint64_t my_rays = 0, my_nonfinite = 0;
-        for (int tile; !cancel.load(std::memory_order_relaxed) && (tile = next_tile.fetch_add(1)) < n_tiles;) {
+        bool scalar = true;
+        if constexpr (M == Mutant::None) {
+            if (job.integrator == IntegratorKind::Wavefront) {
+                scalar = false;
+                TileCursor pixels(next_tile, W, H);
+                render_wavefront(integrator, job, pixels, out, cancel, pixels_done, my_rays, my_nonfinite);
+            }
+        }
+        for (int tile; scalar && !cancel.load(std::memory_order_relaxed) && (tile = next_tile.fetch_add(1)) < n_tiles;) {
             const int x0 = (tile % tiles_x) * T, y0 = (tile / tiles_x) * T;
             const int x1 = std::min(x0 + T, W), y1 = std::min(y0 + T, H);
             for (int y = y0; y < y1 && !cancel.load(std::memory_order_relaxed); ++y)
                 for (int x = x0; x < x1; ++x) {
-                    const size_t k = (size_t(y) * W + x) * 3;
-                    PixelSums px{&out.sum[k], &out.sum_sq[k]};
+                    PixelSums px = pixel_sums(out, job.moments, W, x, y);
                     px.cancel = &cancel;
-                    if (job.moments) {
-                        px.d[0] = &tm.d1[k];
-                        px.d[1] = &tm.d2[k];
-                        px.d[2] = &tm.d3[k];
-                        px.d[3] = &tm.d4[k];
-                        px.max = &tm.max[k];
-                    }
                     render_pixel<M>(scene, integrator, x, y, job.spp, job.seed, px, my_rays, my_nonfinite);
                 }
             pixels_done.fetch_add(uint64_t(x1 - x0) * (y1 - y0), std::memory_order_relaxed);

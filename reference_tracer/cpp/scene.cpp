@@ -34,9 +34,13 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
     if (world.valid()) coherent_origin_radius_ = 0.01 * length(world.hi - world.lo);
     // A handful of spheres and quads (the furnace: one sphere) are tested directly: the
     // tree's set-up and 8-wide root test cost more per ray than the primitives themselves.
-    direct_ = triangles_.empty() && primitive_count() <= kDirectTestLimit &&
-              std::all_of(boxes.begin(), boxes.end(),
-                          [](const AABB& b) { return b.valid() && is_finite(b.lo) && is_finite(b.hi); });
+    const bool all_finite = std::all_of(boxes.begin(), boxes.end(), [](const AABB& b) {
+        return b.valid() && is_finite(b.lo) && is_finite(b.hi);
+    });
+    direct_ = triangles_.empty() && primitive_count() <= kDirectTestLimit && all_finite;
+    // Batches of four rays tested against every primitive: one vector quad test serves
+    // four rays, which beats descending the tree ray by ray up to a few dozen quads.
+    batch_direct_ = triangles_.empty() && primitive_count() <= kBatchTestLimit && all_finite;
     const auto packable = [&](uint32_t prim) { return pack && prim >= tri_base_; };
     bvh_ = WideBVH(BVH(boxes, packable), packable);
     float_blocks_ = std::all_of(triangles_.begin(), triangles_.end(), &Triangle4f::exact);
@@ -145,6 +149,68 @@ bool Scene::occluded(const Ray& ray, double t_max) const {
         ray, t_max, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, unused); },
         [&](uint32_t block, double& tm) { return hit_block(block, ray, wray, tm, unused) >= 0; },
         [&](uint32_t block) { prefetch_block(block); });
+}
+
+namespace {
+
+// Rays rays[0 .. m) (m <= 4) as a pack; absent lanes repeat ray 0.
+RayPack4 pack_rays(const Ray* rays, size_t m) {
+    RayPack4 p;
+    for (size_t l = 0; l < 4; ++l) {
+        const Ray& r = rays[l < m ? l : 0];
+        p.ox[l] = r.o.x; p.oy[l] = r.o.y; p.oz[l] = r.o.z;
+        p.dx[l] = r.d.x; p.dy[l] = r.d.y; p.dz[l] = r.d.z;
+    }
+    return p;
+}
+
+}  // namespace
+
+void Scene::intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* it) const {
+    if (!batch_direct_) {
+        for (size_t i = 0; i < n; ++i) hit[i] = intersect(rays[i], it[i]);
+        return;
+    }
+    for (size_t base = 0; base < n; base += 4) {
+        const size_t m = std::min<size_t>(4, n - base);
+        const Ray* r = rays + base;
+        const RayPack4 p = pack_rays(r, m);
+        // Every primitive in id order (spheres, then quads), as Scene::intersect's direct
+        // loop, four rays at a time.
+        V4d t_max = V4d{} + kInf;
+        V4l best = V4l{} - 1;
+        for (uint32_t s = 0; s < spheres_.size(); ++s)
+            best = spheres_[s].intersect4(p, t_max) ? V4l{} + int64_t(s) : best;
+        for (uint32_t q = 0; q < quads_.size(); ++q)
+            best = quads_[q].intersect4(p, t_max) ? V4l{} + int64_t(quad_base_ + q) : best;
+        for (size_t l = 0; l < m; ++l) {
+            hit[base + l] = best[l] >= 0;
+            if (best[l] >= 0) fill_interaction(r[l], t_max[l], static_cast<uint32_t>(best[l]), it[base + l]);
+        }
+    }
+}
+
+void Scene::occluded_batch(size_t n, const Ray* rays, const double* t_max, bool* occluded) const {
+    if (!batch_direct_) {
+        for (size_t i = 0; i < n; ++i) occluded[i] = this->occluded(rays[i], t_max[i]);
+        return;
+    }
+    for (size_t base = 0; base < n; base += 4) {
+        const size_t m = std::min<size_t>(4, n - base);
+        const Ray* r = rays + base;
+        const RayPack4 p = pack_rays(r, m);
+        // Absent lanes get t_max 0: nothing can block them.
+        V4d tm;
+        for (size_t l = 0; l < 4; ++l) tm[l] = l < m ? t_max[base + l] : 0.0;
+        // Any hit answers, so a test's lowering of t_max changes no verdict.
+        const unsigned all = (1u << m) - 1u;
+        unsigned blocked = 0;
+        for (uint32_t s = 0; s < spheres_.size() && blocked != all; ++s)
+            blocked |= lane_mask4(spheres_[s].intersect4(p, tm));
+        for (uint32_t q = 0; q < quads_.size() && blocked != all; ++q)
+            blocked |= lane_mask4(quads_[q].intersect4(p, tm));
+        for (size_t l = 0; l < m; ++l) occluded[base + l] = (blocked >> l) & 1u;
+    }
 }
 
 bool Scene::intersect_brute_force(const Ray& ray, Interaction& it, double t_max) const {

@@ -73,6 +73,13 @@ public:
     size_t intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const;
     // Whether anything lies on the ray with t in (0, t_max) (shadow rays).
     bool occluded(const Ray& ray, double t_max = kInf) const;
+    // The closest hits of rays[0 .. n): hit[i] and it[i] as intersect(rays[i], it[i])
+    // gives them (of two primitives hit at exactly the same distance, either may be
+    // reported). Scenes of a few dozen spheres and quads test four rays at a time
+    // against every primitive (the wavefront integrator's batches); others ray by ray.
+    void intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* it) const;
+    // occluded(rays[i], t_max[i]) for i < n, into occluded[i], the same way.
+    void occluded_batch(size_t n, const Ray* rays, const double* t_max, bool* occluded) const;
     // The same by testing every primitive (a reference for BVH tests).
     bool intersect_brute_force(const Ray& ray, Interaction& it, double t_max = kInf) const;
 
@@ -199,6 +206,10 @@ private:
     // Scenes of at most kDirectTestLimit spheres and quads skip the tree (see the constructor).
     static constexpr size_t kDirectTestLimit = 2;
     bool direct_ = false;
+    // Scenes of at most kBatchTestLimit spheres and quads (no triangles) answer batched
+    // queries by testing four rays at once against every primitive, without the tree.
+    static constexpr size_t kBatchTestLimit = 64;
+    bool batch_direct_ = false;
     // The BVH's block leaves (watertight test only), in block order: in float when every
     // triangle vertex is exactly a float (float_blocks_), else in double.
     std::vector<Triangle4> tri4_;

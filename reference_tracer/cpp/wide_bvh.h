@@ -21,14 +21,11 @@
 #endif
 
 #include "bvh.h"
+#include "simd.h"
 
 namespace rt {
 
 constexpr int kWidth = 8;
-using V8f = float __attribute__((vector_size(32)));
-using V8i = int32_t __attribute__((vector_size(32)));
-using V4f = float __attribute__((vector_size(16)));
-using V4d = double __attribute__((vector_size(32)));
 
 // Bit i set where lane i of a comparison result is true (all ones).
 inline unsigned lane_mask(V8i lanes) {

@@ -1,0 +1,186 @@
+// The wavefront integrator (wavefront.h). Every step mirrors Integrator::Li and
+// render_pixel statement for statement, calling the same helpers: the order of the random
+// draws and of the floating-point operations is theirs, which is what keeps the images
+// identical (tests/test_wavefront.py compares them on every suite scene and strategy).
+#include "wavefront.h"
+
+#include "integrator_impl.h"
+
+namespace rt {
+
+bool WavefrontIntegrator::start_pixel(Lane& lane, TileCursor& pixels) const {
+    int x, y;
+    lane.busy = pixels.next(x, y);
+    if (!lane.busy) return false;
+    lane.x = x;
+    lane.y = y;
+    lane.rng = pixel_rng(job_.seed, uint64_t(y) * uint64_t(scene_.camera().width) + uint64_t(x));
+    lane.samples_left = job_.spp;
+    for (int c = 0; c < 3; ++c) lane.s[c] = lane.s2[c] = 0.0;
+    lane.tails = detail::TailSums();
+    return true;
+}
+
+void WavefrontIntegrator::start_sample(Lane& lane) const {
+    --lane.samples_left;
+    // Box filter, as render_pixel: a sample jittered in the pixel.
+    const double px = lane.x + lane.rng.next_double(), py = lane.y + lane.rng.next_double();
+    lane.ray = scene_.camera().generate(px, py);
+    lane.L = Vec3(0.0);
+    lane.beta = Vec3(1.0);
+    lane.eta = 1.0;
+    lane.prev = PrevVertex();
+    lane.depth = 0;
+    lane.path_done = false;
+    lane.shadow = false;
+}
+
+void WavefrontIntegrator::shade(Lane& lane, bool hit, const Interaction& it, uint64_t& rays) const {
+    const Integrator<Mutant::None>& li = integrator_;
+    const SceneSettings& cfg = scene_.settings();
+    if (!hit) {
+        if (max_component(cfg.background) > 0.0)
+            lane.L += lane.beta * cfg.background * li.background_weight(lane.prev);
+        lane.path_done = true;
+        return;
+    }
+    const Material& m = scene_.material(it.material);
+    const bool front = dot(lane.ray.d, it.n) < 0.0;
+    if (front && m.emits()) lane.L += lane.beta * m.radiance * li.emitter_weight(lane.prev, lane.ray, it);
+    if (lane.depth + 1 >= cfg.max_depth) {
+        lane.path_done = true;
+        return;
+    }
+    const Vertex v(it, m, lane.ray.d, front);
+    if (!v) {
+        lane.path_done = true;
+        return;
+    }
+
+    Vec3 ref;
+    if (!m.is_delta()) {
+        ref = offset_origin(it.p, v.frame.n, v.frame.n);
+        if (li.strategy_ == Strategy::Light) {  // the path ends with one query of its own
+            if (const std::optional<Vec3> Ld = li.light_only(v, ref, lane.beta, lane.rng, rays)) lane.L += *Ld;
+            lane.path_done = true;
+            return;
+        }
+        if (li.strategy_ == Strategy::MIS) {
+            // The shadow ray joins the batch's; its value is added after the batch, before
+            // anything else touches L, so the sum keeps Li's order.
+            const auto queue = [&lane](const Ray& r, double t_max) {
+                lane.shadow = true;
+                lane.shadow_ray = r;
+                lane.shadow_t_max = t_max;
+                return false;
+            };
+            if (const std::optional<Vec3> Ld = li.sample_ld(v, ref, lane.beta, lane.rng, rays, queue))
+                lane.shadow_value = *Ld;
+        }
+    }
+
+    const std::optional<Integrator<Mutant::None>::Scatter> s = li.sample_scatter(v, ref, lane.rng);
+    if (!s) {
+        lane.path_done = true;
+        return;
+    }
+    lane.beta *= s->weight;
+    lane.eta *= s->eta;
+    lane.prev = PrevVertex{m.is_delta(), s->pdf, ref};
+    lane.ray = Ray{offset_origin(it.p, m.is_delta() ? it.n : v.frame.n, s->wi), s->wi};
+    if (!li.survives(lane.depth + 1, lane.eta, lane.beta, lane.rng)) {
+        lane.path_done = true;
+        return;
+    }
+    ++lane.depth;
+}
+
+void WavefrontIntegrator::add_sample(Lane& lane, bool tails, uint64_t& nonfinite) {
+    const Vec3& L = lane.L;
+    if (!is_finite(L)) {  // counted and reported, as render_pixel does
+        ++nonfinite;
+        return;
+    }
+    for (int c = 0; c < 3; ++c) {
+        lane.s[c] += L[c];
+        lane.s2[c] += L[c] * L[c];
+    }
+    if (tails) lane.tails.add(L);
+}
+
+void WavefrontIntegrator::write_pixel(const Lane& lane, RenderOutput& out) const {
+    const PixelSums px = pixel_sums(out, job_.moments, scene_.camera().width, lane.x, lane.y);
+    for (int c = 0; c < 3; ++c) {
+        px.sum[c] = lane.s[c];
+        px.sum_sq[c] = lane.s2[c];
+    }
+    if (job_.moments) lane.tails.write(px);
+}
+
+void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::atomic<bool>& cancel,
+                              std::atomic<uint64_t>& pixels_done, uint64_t& rays, uint64_t& nonfinite) const {
+    std::vector<Lane> lanes(kLanes);
+    for (Lane& lane : lanes)
+        if (start_pixel(lane, pixels)) start_sample(lane);
+
+    // The batch's queries, compacted: lane index, ray and result per busy lane.
+    int active[kLanes], shadowed[kLanes];
+    Ray batch[kLanes];
+    bool hit[kLanes];
+    Interaction its[kLanes];
+    double t_max[kLanes];
+
+    for (;;) {
+        // A cancelled render's image is discarded: stop at the next bounce.
+        if (cancel.load(std::memory_order_relaxed)) return;
+        int n = 0;
+        for (int i = 0; i < kLanes; ++i)
+            if (lanes[i].busy) {
+                active[n] = i;
+                batch[n++] = lanes[i].ray;
+            }
+        if (n == 0) return;
+
+        rays += uint64_t(n);
+        scene_.intersect_batch(size_t(n), batch, hit, its);
+        int n_shadow = 0;
+        for (int k = 0; k < n; ++k) {
+            Lane& lane = lanes[active[k]];
+            shade(lane, hit[k], its[k], rays);
+            if (lane.shadow) {
+                shadowed[n_shadow] = active[k];
+                batch[n_shadow] = lane.shadow_ray;
+                t_max[n_shadow++] = lane.shadow_t_max;
+            }
+        }
+        if (n_shadow > 0) {
+            scene_.occluded_batch(size_t(n_shadow), batch, t_max, hit);
+            for (int k = 0; k < n_shadow; ++k) {
+                Lane& lane = lanes[shadowed[k]];
+                if (!hit[k]) lane.L += lane.shadow_value;
+                lane.shadow = false;
+            }
+        }
+
+        // Paths that ended hand their lane to the pixel's next sample, or to a new pixel.
+        for (int k = 0; k < n; ++k) {
+            Lane& lane = lanes[active[k]];
+            if (!lane.path_done) continue;
+            add_sample(lane, job_.moments, nonfinite);
+            if (lane.samples_left == 0) {
+                write_pixel(lane, out);
+                pixels_done.fetch_add(1, std::memory_order_relaxed);
+                if (!start_pixel(lane, pixels)) continue;
+            }
+            start_sample(lane);
+        }
+    }
+}
+
+void render_wavefront(const Integrator<Mutant::None>& integrator, const RenderJob& job, TileCursor& pixels,
+                      RenderOutput& out, const std::atomic<bool>& cancel, std::atomic<uint64_t>& pixels_done,
+                      uint64_t& rays, uint64_t& nonfinite) {
+    WavefrontIntegrator(integrator, job).run(pixels, out, cancel, pixels_done, rays, nonfinite);
+}
+
+}  // namespace rt

@@ -1,0 +1,83 @@
+// The wavefront integrator: the path integrator of integrator.h run on a batch of paths
+// at once, so that each bounce's intersection queries (closest hits, then shadow rays)
+// go to the scene as one batch, which it answers several rays per instruction
+// (Scene::intersect_batch / occluded_batch).
+//
+// Each lane of the batch owns one pixel and runs that pixel's samples one after the
+// other, drawing from the pixel's own random stream in the same order as render_pixel
+// and Integrator::Li do; a lane whose path ends starts the pixel's next sample (or a new
+// pixel) before the next bounce, so lanes never idle while work is left (the "busy
+// lanes" loss of a packet that runs until its longest path ends, PERFORMANCE.md round 5).
+// Every sample is therefore the very number the scalar integrator computes, summed in
+// the same order: the two integrators' images are the same bit for bit.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+#include "render_pixel.h"
+
+namespace rt {
+
+class WavefrontIntegrator {
+public:
+    // Paths in flight per worker: enough for full 4-ray packets after the paths that
+    // ended leave a batch, few enough that a batch's rays and hits stay in L1.
+    static constexpr int kLanes = 32;
+
+    WavefrontIntegrator(const Integrator<Mutant::None>& integrator, const RenderJob& job)
+        : integrator_(integrator), scene_(*job.scene), job_(job) {}
+
+    // Renders the pixels that `pixels` hands out into `out`, until none is left or
+    // `cancel` is set; counts finished pixels in `pixels_done`, rays cast and discarded
+    // non-finite samples in `rays` and `nonfinite`.
+    void run(TileCursor& pixels, RenderOutput& out, const std::atomic<bool>& cancel,
+             std::atomic<uint64_t>& pixels_done, uint64_t& rays, uint64_t& nonfinite) const;
+
+private:
+    using PrevVertex = Integrator<Mutant::None>::PrevVertex;
+    using Vertex = Integrator<Mutant::None>::Vertex;
+
+    // One lane: its pixel's running sums and the state of its current path, that is the
+    // locals of render_pixel and Integrator::Li.
+    struct Lane {
+        bool busy = false;     // holds a pixel
+        int x = 0, y = 0;
+        int samples_left = 0;  // samples of the pixel still to start
+        PCG32 rng{0, 0};
+        double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+        detail::TailSums tails;
+
+        Ray ray;               // the path's next segment
+        Vec3 L, beta;
+        double eta = 1.0;
+        PrevVertex prev;
+        int depth = 0;
+        bool path_done = false;
+
+        bool shadow = false;   // a shadow ray to trace before the next bounce
+        Ray shadow_ray;
+        double shadow_t_max = 0.0;
+        Vec3 shadow_value;     // what it adds to L when unoccluded
+    };
+
+    // Takes the next pixel for `lane`; false (the lane idle) when none is left.
+    bool start_pixel(Lane& lane, TileCursor& pixels) const;
+    // Starts the pixel's next sample: its camera ray, as render_pixel draws it.
+    void start_sample(Lane& lane) const;
+    // One vertex of Integrator::Li's loop, after the closest hit of lane.ray: emission,
+    // next-event estimation up to its shadow ray (queued in the lane), the next direction
+    // and Russian roulette. Sets path_done where Li would return.
+    void shade(Lane& lane, bool hit, const Interaction& it, uint64_t& rays) const;
+    // Adds the finished path's radiance to the pixel's sums, as render_pixel does.
+    static void add_sample(Lane& lane, bool tails, uint64_t& nonfinite);
+    // Writes the pixel's sums into the image.
+    void write_pixel(const Lane& lane, RenderOutput& out) const;
+
+    const Integrator<Mutant::None>& integrator_;
+    const Scene& scene_;
+    const RenderJob& job_;
+};
+
+}  // namespace rt

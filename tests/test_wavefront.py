@@ -1,0 +1,127 @@
+"""The wavefront integrator against the scalar one (the reference implementation).
+
+Both draw each pixel's random numbers in the same order and do the same arithmetic, so
+their images must agree bit for bit, not only statistically: every suite scene and
+strategy, both Russian-roulette configurations, the tail moments, the ray counts. The
+batched intersection queries it relies on must equal the one-ray-at-a-time ones exactly.
+"""
+import numpy as np
+import pytest
+
+import reference_tracer as rt
+from mitsuba_scenes import SUITE, get_scene
+from reference_tracer.render import core_scene
+
+
+def _assert_same_render(a, b):
+    assert np.array_equal(a.mean, b.mean)
+    assert np.array_equal(a.variance, b.variance)
+    assert a.rays == b.rays
+    assert a.nonfinite_samples == b.nonfinite_samples
+    if a.moments is not None:
+        for field in ("m2", "m3", "m4", "max"):
+            assert np.array_equal(getattr(a.moments, field), getattr(b.moments, field)), field
+
+
+@pytest.mark.parametrize("strategy", rt.STRATEGIES)
+@pytest.mark.parametrize("name", SUITE)
+def test_wavefront_image_equals_scalar_bit_for_bit(name, strategy):
+    # 20x18: tiles and lanes do not divide the image; 6 spp: pixels end at different
+    # bounces, so lanes refill while others are mid-path.
+    scene = get_scene(name, width=20, height=18)
+    a, b = (rt.render(scene, spp=6, strategy=strategy, seed=11, threads=2, moments=True, integrator=i)
+            for i in ("scalar", "wavefront"))
+    _assert_same_render(a, b)
+
+
+@pytest.mark.parametrize("rr_depth", [None, 1, 5])
+@pytest.mark.parametrize("name", ["cornell_box", "glossy_plates", "cornell_mesh"])
+def test_wavefront_equals_scalar_with_and_without_roulette(name, rr_depth):
+    import dataclasses
+
+    scene = dataclasses.replace(get_scene(name, width=16, height=16), rr_depth=rr_depth)
+    a, b = (rt.render(scene, spp=8, strategy="mis", seed=5, threads=1, integrator=i)
+            for i in ("scalar", "wavefront"))
+    _assert_same_render(a, b)
+
+
+@pytest.mark.parametrize("size", [(1, 1), (3, 2), (40, 1)])
+@pytest.mark.parametrize("spp", [1, 3])
+def test_wavefront_on_images_smaller_than_its_batch(size, spp):
+    # Fewer pixels than lanes: most lanes never get one.
+    scene = get_scene("cornell_box", width=size[0], height=size[1])
+    a, b = (rt.render(scene, spp=spp, strategy="mis", seed=2, threads=3, integrator=i)
+            for i in ("scalar", "wavefront"))
+    _assert_same_render(a, b)
+
+
+def test_wavefront_beyond_the_batched_primitive_limit():
+    # 80 quads and 10 spheres: more than the scene tests four rays at a time against
+    # (kBatchTestLimit 64), so the batches go ray by ray through the tree.
+    rng = np.random.default_rng(3)
+    shapes = [rt.Quad(Q=tuple(rng.uniform(-2, 2, 3)), u=tuple(rng.uniform(-1, 1, 3)), v=tuple(rng.uniform(-1, 1, 3)),
+                      material=rt.Lambertian(albedo=(0.6, 0.5, 0.4))) for _ in range(80)]
+    shapes += [rt.Sphere(center=tuple(rng.uniform(-2, 2, 3)), radius=0.3, material=rt.Lambertian(albedo=(0.5, 0.5, 0.5)))
+               for _ in range(10)]
+    shapes.append(rt.Sphere(center=(0.0, 4.0, 0.0), radius=0.5, material=rt.DiffuseLight(radiance=(20.0, 20.0, 20.0))))
+    scene = rt.Scene(shapes=shapes, background=(0.5, 0.6, 0.7),  # lit from everywhere
+                     camera=rt.Camera(lookfrom=(0, 0, 8), lookat=(0, 0, 0), vup=(0, 1, 0), vfov=40, width=16, height=12))
+    for strategy in ("cosine", "mis"):
+        a, b = (rt.render(scene, spp=4, strategy=strategy, seed=9, threads=2, integrator=i)
+                for i in ("scalar", "wavefront"))
+        _assert_same_render(a, b)
+        assert a.mean.max() > 0
+
+
+@pytest.mark.parametrize("integrator", rt.INTEGRATORS)
+def test_each_integrator_is_deterministic_whatever_the_thread_count(integrator):
+    scene = get_scene("glossy_plates", width=24, height=20)
+    images = [rt.render(scene, spp=4, strategy="mis", seed=7, threads=t, integrator=integrator) for t in (1, 2, 5)]
+    for r in images[1:]:
+        _assert_same_render(r, images[0])
+
+
+@pytest.mark.parametrize("bad", ["Scalar", "simd", "", None, 0])
+def test_unknown_integrator_is_refused(bad):
+    scene = get_scene("cornell_box", width=4, height=4)
+    with pytest.raises(ValueError, match="integrator must be one of"):
+        rt.render(scene, spp=1, integrator=bad)
+
+
+def _random_rays(rng, n, scale):
+    origins = rng.uniform(-scale, scale, size=(n, 3))
+    dirs = rng.normal(size=(n, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    # Edge cases of the 4-lane tests: axis-parallel directions (zero components, rays
+    # parallel to the walls), and a direction that is not unit length.
+    dirs[::7] = (0.0, 0.0, 1.0)
+    dirs[1::7] = (1.0, 0.0, 0.0)
+    dirs[2::7] *= 3.0
+    return origins, dirs
+
+
+@pytest.mark.parametrize("name", ["cornell_box", "glossy_plates", "furnace", "cornell_glass", "cornell_mesh"])
+@pytest.mark.parametrize("n", [1, 3, 4, 5, 999])
+def test_batched_queries_equal_single_ray_queries(name, n):
+    scene = get_scene(name, width=8, height=8)
+    c = core_scene(scene)
+    rng = np.random.default_rng(n)
+    # Origins around the point the camera looks at, within the scene's scale.
+    centre = np.asarray(scene.camera.lookat, dtype=float)
+    scale = 0.3 * float(np.linalg.norm(np.subtract(scene.camera.lookfrom, centre)))
+    origins, dirs = _random_rays(rng, n, scale)
+    origins += centre
+    one, batch = (c.intersect(origins, dirs, wavefront=w, batch=False) for w in (False, True))
+    for key in ("t", "prim", "point", "normal"):
+        assert np.array_equal(one[key], batch[key]), key
+    hit = one["prim"] >= 0
+    if n > 100:
+        assert 0.2 < hit.mean()  # enough hits to test (glossy_plates is open: 30%)
+    # Shadow rays: to just before, at and beyond each closest hit, and unbounded.
+    t = np.where(hit, one["t"], 10.0 * scale)
+    for t_max in (t * (1 - 1e-9), t, t * (1 + 1e-9), np.full(n, np.inf)):
+        expected = c.occluded(origins, dirs, np.ascontiguousarray(t_max), wavefront=False)
+        got = c.occluded(origins, dirs, np.ascontiguousarray(t_max), wavefront=True)
+        assert np.array_equal(expected, got)
+    blocked = c.occluded(origins, dirs, np.ascontiguousarray(t * (1 + 1e-9)), wavefront=True)
+    assert np.array_equal(blocked.astype(bool), hit)
