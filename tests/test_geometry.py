@@ -290,6 +290,37 @@ def test_interleaved_traversal_equals_single_ray(n_rays, threads):
         assert 0.2 < (brute["prim"] >= 0).mean() < 0.9
 
 
+@pytest.mark.parametrize("n_prims, mesh_triangles", [(1, 3000), (8, 3000), (20, 1), (20, 0), (0, 500), (40, 3000)])
+@pytest.mark.parametrize("triangle_test", ["watertight", "cramer"])
+def test_batched_queries_equal_brute_force(n_prims, mesh_triangles, triangle_test):
+    # Scene.intersect_batch / occluded_batch (the wavefront integrator's queries): spheres
+    # and quads four rays at a time, then the triangles through a tree of their own behind
+    # a four-ray box test (scene.cpp). Every field must equal brute force's; shadow rays
+    # must equal the one-ray-at-a-time query's.
+    rng = np.random.default_rng(n_prims + mesh_triangles)
+    shapes = random_primitives(n_prims, rng) if n_prims else []
+    if mesh_triangles:
+        shapes.append(random_mesh(mesh_triangles, rng))
+    c = core_scene(rt.Scene(camera=CAM, shapes=shapes), triangle_test=triangle_test)
+    n = 1003
+    origins = rng.uniform(-70, 70, size=(n, 3))
+    dirs = random_unit(rng, n)
+    dirs[: n // 2] = rng.uniform(-50, 50, size=(n // 2, 3)) - origins[: n // 2]
+    dirs[::9] = (0.0, 1.0, 0.0)  # parallel to two slab planes of every box
+    batch = cast(c, origins, dirs, wavefront=True)
+    brute = cast(c, origins, dirs, brute_force=True)
+    for key in ("t", "prim", "point", "normal"):
+        assert np.array_equal(batch[key], brute[key]), key
+    hit = brute["prim"] >= 0
+    assert hit.mean() > (0.05 if mesh_triangles >= 500 else 0.0)  # something to compare
+    t = np.where(hit, brute["t"], 1e3)
+    for t_max in (t * (1 - 1e-9), t * (1 + 1e-9), np.full(n, np.inf)):
+        t_max = np.ascontiguousarray(t_max)
+        assert np.array_equal(c.occluded(origins, dirs, t_max, wavefront=True),
+                              c.occluded(origins, dirs, t_max, wavefront=False))
+    assert np.array_equal(c.occluded(origins, dirs, np.ascontiguousarray(t * (1 + 1e-9)), wavefront=True), hit)
+
+
 def test_interleaved_traversal_of_an_empty_scene():
     c = core([])
     out = cast(c, np.zeros((5, 3)), np.tile([0.0, 0.0, 1.0], (5, 1)))

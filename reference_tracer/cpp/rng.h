@@ -34,7 +34,8 @@ public:
     }
 
     // Uniform double in [0, 1) with 53 random bits (two draws).
-    double next_double() {
+    // Always inline: a call per draw cost the wavefront integrator 7% of its instructions.
+    [[gnu::always_inline]] double next_double() {
         const uint64_t hi = next_u32(), lo = next_u32();
         return static_cast<double>(((hi << 32) | lo) >> 11) * 0x1.0p-53;
     }

@@ -34,30 +34,49 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
     if (world.valid()) coherent_origin_radius_ = 0.01 * length(world.hi - world.lo);
     // A handful of spheres and quads (the furnace: one sphere) are tested directly: the
     // tree's set-up and 8-wide root test cost more per ray than the primitives themselves.
-    const bool all_finite = std::all_of(boxes.begin(), boxes.end(), [](const AABB& b) {
+    // Finite bounds for every sphere and quad (the tests that skip the tree need them).
+    const bool finite = std::all_of(boxes.begin(), boxes.begin() + tri_base_, [](const AABB& b) {
         return b.valid() && is_finite(b.lo) && is_finite(b.hi);
     });
-    direct_ = triangles_.empty() && primitive_count() <= kDirectTestLimit && all_finite;
-    // Batches of four rays tested against every primitive: one vector quad test serves
-    // four rays, which beats descending the tree ray by ray up to a few dozen quads.
-    batch_direct_ = triangles_.empty() && primitive_count() <= kBatchTestLimit && all_finite;
+    direct_ = triangles_.empty() && primitive_count() <= kDirectTestLimit && finite;
+    // Batches of four rays tested against every sphere and quad: one vector test serves
+    // four rays, which beats descending the tree ray by ray up to a few dozen of them.
+    batch_direct_ = tri_base_ <= kBatchTestLimit && finite;
     const auto packable = [&](uint32_t prim) { return pack && prim >= tri_base_; };
     bvh_ = WideBVH(BVH(boxes, packable), packable);
     float_blocks_ = std::all_of(triangles_.begin(), triangles_.end(), &Triangle4f::exact);
-    auto fill_blocks = [&](auto& blocks) {
-        blocks.resize(bvh_.blocks().size());
+    auto fill_blocks = [&](const WideBVH& tree, auto& blocks) {
+        blocks.resize(tree.blocks().size());
         for (size_t b = 0; b < blocks.size(); ++b) {
-            const WideBVH::BlockLeaf& leaf = bvh_.blocks()[b];
+            const WideBVH::BlockLeaf& leaf = tree.blocks()[b];
             for (uint32_t lane = 0; lane < 4; ++lane) {
-                const uint32_t prim = bvh_.order()[leaf.first + (lane < leaf.count ? lane : 0)];
+                const uint32_t prim = tree.order()[leaf.first + (lane < leaf.count ? lane : 0)];
                 blocks[b].set(int(lane), triangles_[prim - tri_base_], prim);
             }
         }
     };
     if (float_blocks_) {
-        fill_blocks(tri4f_);
+        fill_blocks(bvh_, tri4f_);
     } else {
-        fill_blocks(tri4_);
+        fill_blocks(bvh_, tri4_);
+    }
+    if (batch_direct_ && tri_base_ > 0 && !triangles_.empty() && triangles_.size() <= kMeshTreeLimit) {
+        // The triangles alone: empty boxes keep the spheres and quads out of this tree.
+        std::vector<AABB> mesh_boxes(boxes);
+        std::fill(mesh_boxes.begin(), mesh_boxes.begin() + tri_base_, AABB());
+        mesh_bvh_ = WideBVH(BVH(mesh_boxes, packable), packable);
+        for (size_t i = tri_base_; i < boxes.size(); ++i)
+            if (boxes[i].valid()) mesh_bounds_.expand(boxes[i]);
+        // Padded far beyond the rounding of the slab test in may_hit_box.
+        const Vec3 pad = Vec3(1e-7 * max_abs_component(mesh_bounds_.extent()) + 1e-300) +
+                         1e-12 * vmax(mesh_bounds_.lo * -1.0, mesh_bounds_.hi);
+        mesh_bounds_.lo = mesh_bounds_.lo - pad;
+        mesh_bounds_.hi = mesh_bounds_.hi + pad;
+        if (float_blocks_) {
+            fill_blocks(mesh_bvh_, mesh_tri4f_);
+        } else {
+            fill_blocks(mesh_bvh_, mesh_tri4_);
+        }
     }
 
     std::vector<Emitter> emitters;
@@ -164,10 +183,60 @@ RayPack4 pack_rays(const Ray* rays, size_t m) {
     return p;
 }
 
+// Lanes (bits) of p that may meet box b at a distance in [0, t_max]: a slab test in
+// double with the far distance widened by 1e-9 of itself, far beyond its rounding error,
+// so that it only saves tree descents and never loses a hit. A lane whose arithmetic
+// gives NaN (an origin on a slab plane, the direction parallel to it) counts as a maybe.
+unsigned may_hit_box(const RayPack4& p, const AABB& b, V4d t_max) {
+    V4d t_near = V4d{}, t_far = t_max;
+    V4l nan = V4l{};
+    const V4d o[3] = {p.ox, p.oy, p.oz}, d[3] = {p.dx, p.dy, p.dz};
+    for (int a = 0; a < 3; ++a) {
+        const V4d inv = 1.0 / d[a];
+        const V4d t0 = (b.lo[a] - o[a]) * inv, t1 = (b.hi[a] - o[a]) * inv;
+        nan |= (t0 != t0) | (t1 != t1);
+        const V4l order = t0 < t1;
+        const V4d near = order ? t0 : t1, far = order ? t1 : t0;
+        t_near = near > t_near ? near : t_near;
+        t_far = far < t_far ? far : t_far;
+    }
+    const V4d abs_far = t_far < 0.0 ? -t_far : t_far;
+    return lane_mask4(nan | (t_near <= t_far + abs_far * 1e-9));
+}
+
 }  // namespace
 
+bool Scene::closest_mesh_hit(const Ray& ray, double& t_max, uint32_t& best) const {
+    const WatertightRay wray(ray.d);
+    return mesh_bvh_.traverse<false>(
+        ray, t_max, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, best); },
+        [&](uint32_t block, double& tm) {
+            return (float_blocks_ ? hit_block(mesh_tri4f_[block], ray, wray, tm, best)
+                                  : hit_block(mesh_tri4_[block], ray, wray, tm, best)) >= 0;
+        },
+        [&](uint32_t block) {
+            if (float_blocks_) {
+                prefetch_lines(&mesh_tri4f_[block]);
+            } else {
+                prefetch_lines(&mesh_tri4_[block]);
+            }
+        });
+}
+
+bool Scene::mesh_occludes(const Ray& ray, double t_max) const {
+    const WatertightRay wray(ray.d);
+    uint32_t unused = 0;
+    return mesh_bvh_.traverse<true>(
+        ray, t_max, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, unused); },
+        [&](uint32_t block, double& tm) {
+            return (float_blocks_ ? hit_block(mesh_tri4f_[block], ray, wray, tm, unused)
+                                  : hit_block(mesh_tri4_[block], ray, wray, tm, unused)) >= 0;
+        },
+        [](uint32_t) {});
+}
+
 void Scene::intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* it) const {
-    if (!batch_direct_) {
+    if (!batch_direct_ || (!triangles_.empty() && mesh_bvh_.empty())) {
         for (size_t i = 0; i < n; ++i) hit[i] = intersect(rays[i], it[i]);
         return;
     }
@@ -175,23 +244,28 @@ void Scene::intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* i
         const size_t m = std::min<size_t>(4, n - base);
         const Ray* r = rays + base;
         const RayPack4 p = pack_rays(r, m);
-        // Every primitive in id order (spheres, then quads), as Scene::intersect's direct
-        // loop, four rays at a time.
+        // Every sphere and quad in id order, as Scene::intersect's direct loop, four rays
+        // at a time; then the triangles, ray by ray, below the distance found.
         V4d t_max = V4d{} + kInf;
         V4l best = V4l{} - 1;
         for (uint32_t s = 0; s < spheres_.size(); ++s)
             best = spheres_[s].intersect4(p, t_max) ? V4l{} + int64_t(s) : best;
         for (uint32_t q = 0; q < quads_.size(); ++q)
             best = quads_[q].intersect4(p, t_max) ? V4l{} + int64_t(quad_base_ + q) : best;
+        const unsigned mesh = mesh_bvh_.empty() ? 0u : may_hit_box(p, mesh_bounds_, t_max);
         for (size_t l = 0; l < m; ++l) {
-            hit[base + l] = best[l] >= 0;
-            if (best[l] >= 0) fill_interaction(r[l], t_max[l], static_cast<uint32_t>(best[l]), it[base + l]);
+            double t = t_max[l];
+            uint32_t prim = static_cast<uint32_t>(best[l]);
+            bool found = best[l] >= 0;
+            if ((mesh >> l) & 1u) found |= closest_mesh_hit(r[l], t, prim);
+            hit[base + l] = found;
+            if (found) fill_interaction(r[l], t, prim, it[base + l]);
         }
     }
 }
 
 void Scene::occluded_batch(size_t n, const Ray* rays, const double* t_max, bool* occluded) const {
-    if (!batch_direct_) {
+    if (!batch_direct_ || (!triangles_.empty() && mesh_bvh_.empty())) {
         for (size_t i = 0; i < n; ++i) occluded[i] = this->occluded(rays[i], t_max[i]);
         return;
     }
@@ -209,7 +283,9 @@ void Scene::occluded_batch(size_t n, const Ray* rays, const double* t_max, bool*
             blocked |= lane_mask4(spheres_[s].intersect4(p, tm));
         for (uint32_t q = 0; q < quads_.size() && blocked != all; ++q)
             blocked |= lane_mask4(quads_[q].intersect4(p, tm));
-        for (size_t l = 0; l < m; ++l) occluded[base + l] = (blocked >> l) & 1u;
+        const unsigned mesh = (mesh_bvh_.empty() || blocked == all) ? 0u : may_hit_box(p, mesh_bounds_, tm) & ~blocked;
+        for (size_t l = 0; l < m; ++l)
+            occluded[base + l] = ((blocked >> l) & 1u) || (((mesh >> l) & 1u) && mesh_occludes(r[l], t_max[base + l]));
     }
 }
 

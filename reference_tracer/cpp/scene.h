@@ -206,10 +206,23 @@ private:
     // Scenes of at most kDirectTestLimit spheres and quads skip the tree (see the constructor).
     static constexpr size_t kDirectTestLimit = 2;
     bool direct_ = false;
-    // Scenes of at most kBatchTestLimit spheres and quads (no triangles) answer batched
-    // queries by testing four rays at once against every primitive, without the tree.
+    // Batched queries (intersect_batch, occluded_batch) test four rays at once against
+    // every sphere and quad where there are at most kBatchTestLimit of them
+    // (batch_direct_), and then any triangles through a tree of their own (mesh_bvh_, with
+    // its blocks in mesh_tri4_ / mesh_tri4f_), built where there are at most
+    // kMeshTreeLimit (a second tree costs memory: about 100 bytes a triangle). Elsewhere
+    // they go ray by ray through the tree of all primitives.
     static constexpr size_t kBatchTestLimit = 64;
+    static constexpr size_t kMeshTreeLimit = 1u << 18;
     bool batch_direct_ = false;
+    WideBVH mesh_bvh_;
+    AABB mesh_bounds_;  // of mesh_bvh_'s triangles, padded (culls its descents four rays at a time)
+    std::vector<Triangle4> mesh_tri4_;
+    std::vector<Triangle4f> mesh_tri4f_;
+    // The part of a batched query after the direct tests: the triangles of mesh_bvh_ for a
+    // ray whose closest hit so far is (t_max, best); the same for a shadow ray.
+    bool closest_mesh_hit(const Ray& ray, double& t_max, uint32_t& best) const;
+    bool mesh_occludes(const Ray& ray, double t_max) const;
     // The BVH's block leaves (watertight test only), in block order: in float when every
     // triangle vertex is exactly a float (float_blocks_), else in double.
     std::vector<Triangle4> tri4_;

@@ -103,7 +103,9 @@ struct RaySlabs {
         int near_row[3], far_row[3];
 
         Scalars() = default;
-        explicit Scalars(const Ray& ray) {
+        // Always inline: with a traversal per query kind (closest hit, shadow ray, the
+        // wavefront's mesh tree) GCC left it out of line, 8% of all instructions.
+        [[gnu::always_inline]] explicit Scalars(const Ray& ray) {
             // The three reciprocals with one vector division, and the origin rounded up and
             // down to float: with a slack of 2^-23 |o| (plus 2^-140 for zero and
             // subnormals), more than the half ulp that rounding to nearest can move, and
@@ -138,8 +140,8 @@ struct RaySlabs {
     int near_row[3], far_row[3];
 
     RaySlabs() = default;
-    explicit RaySlabs(const Ray& ray) : RaySlabs(Scalars(ray)) {}
-    explicit RaySlabs(const Scalars& s) {
+    [[gnu::always_inline]] explicit RaySlabs(const Ray& ray) : RaySlabs(Scalars(ray)) {}
+    [[gnu::always_inline]] explicit RaySlabs(const Scalars& s) {
         for (int a = 0; a < 3; ++a) {
             o_near[a] = V8f{} + s.o_near[a];
             o_far[a] = V8f{} + s.o_far[a];
@@ -281,6 +283,7 @@ public:
     size_t node_count() const { return nodes_.size(); }
     int depth() const { return depth_; }
     const std::vector<uint32_t>& order() const { return order_; }
+    bool empty() const { return nodes_.empty(); }
     const std::vector<BlockLeaf>& blocks() const { return blocks_; }
 
     // Closest-hit (AnyHit = false) or any-hit traversal. `test(prim, t_max)` and
