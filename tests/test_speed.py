@@ -104,6 +104,31 @@ def test_cli_render_table_and_json(tmp_path, capsys):
         assert gm["scenes"] == 1 and math.isclose(gm["ratio_scalar_rgb"], head["ratio_scalar_rgb"], rel_tol=1e-12)
 
 
+def test_cli_times_each_integrator_as_its_own_rows(tmp_path, capsys):
+    """--integrators: every strategy timed with each integrator in every round; rows other
+    than the wavefront's say which; the headline is the first integrator's."""
+    out_json = tmp_path / "speed.json"
+    rc = main(["speed", "cornell_box", "--width", "8", "--spp", "2", "--repeats", "2", "--threads", "1",
+               "--strategies", "mis", "--integrators", "scalar,wavefront", "--variants", "scalar_rgb",
+               "--rr-depth", "5", "--reference", "ours", "--reference-spp", "16", "--json", str(out_json)])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "ours mis (scalar)" in out and "rtbench speed, suite: ours mis (scalar) vs Mitsuba" in out
+    res = json.loads(out_json.read_text())["render"]
+    assert res["config"]["integrators"] == ["scalar", "wavefront"]
+    assert sorted(r["label"] for r in res["summary"]) == ["Mitsuba scalar_rgb", "ours mis", "ours mis (scalar)"]
+    ours = [r for r in res["runs"] if r["renderer"] == "ours"]
+    assert sorted((r["round"], r["integrator"]) for r in ours) == [(0, "scalar"), (0, "wavefront"),
+                                                                  (1, "scalar"), (1, "wavefront")]
+    # Same seed per round, same image: the two integrators agree bit for bit.
+    for k in (0, 1):
+        a, b = (r for r in ours if r["round"] == k)
+        assert a["mse"] == b["mse"] and a["rays"] == b["rays"]
+    assert res["suite"]["integrator"] == "scalar"
+    rc = main(["speed", "cornell_box", "--integrators", "simd", "--variants", "scalar_rgb"])
+    assert rc == 2 and "integrators" in capsys.readouterr().err
+
+
 def _summary_row(scene, rr_depth, renderer, strategy, pps, **ratios):
     """A render-benchmark summary row with only the fields the headline reads."""
     return {"scene": scene, "rr_depth": rr_depth, "configuration": speed.rr_label(rr_depth), "renderer": renderer,

@@ -53,6 +53,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     A.add_threads_args(parser)
     parser.add_argument("--repeats", type=int, default=5, help="timed paired rounds")
     A.add_strategy_args(parser, default=DEFAULT_STRATEGIES)
+    parser.add_argument("--integrators", action=A.ListAction, default=("wavefront",), metavar="I[,I...]",
+                        help="our integrators, each strategy timed with each: wavefront (the default), scalar "
+                             "(one path at a time, the reference implementation); rows of the others are "
+                             "labelled with the integrator")
     A.add_variant_args(parser, default=DEFAULT_VARIANTS)
     parser.add_argument("--variants", dest="variant", help=argparse.SUPPRESS)  # older name
     parser.add_argument("--max-depth", type=int, default=None,
@@ -130,11 +134,13 @@ def suite_table(result):
 
     c, suite = result["config"], result["suite"]
     variants = suite["variants"]
-    table = Table(title=f"rtbench speed, suite: ours {suite['strategy']} vs Mitsuba, {c['width']}x{c['height']}, "
+    ours = suite["strategy"] + ("" if suite.get("integrator", "wavefront") == "wavefront"
+                                else f" ({suite['integrator']})")
+    table = Table(title=f"rtbench speed, suite: ours {ours} vs Mitsuba, {c['width']}x{c['height']}, "
                         f"{c['spp']} spp, {c['threads']} threads, median of {c['repeats']} paired rounds")
     table.add_column("configuration", no_wrap=True)
     table.add_column("scene", no_wrap=True)
-    table.add_column(f"ours {suite['strategy']} Mpaths/s", justify="right")
+    table.add_column(f"ours {ours} Mpaths/s", justify="right")
     for v in variants:
         table.add_column(f"{_short(v)} Mpaths/s", justify="right")
         table.add_column(f"ratio {_short(v)} (cpu)", justify="right")
@@ -323,7 +329,8 @@ def run(args) -> int:
     if do_render:
         res = speed.render_benchmark(scenes, width=args.width, height=height,
                                      spp=args.spp, threads=threads, repeats=args.repeats,
-                                     strategies=list(args.strategies), variants=variants, max_depth=args.max_depth,
+                                     strategies=list(args.strategies), integrators=list(args.integrators),
+                                     variants=variants, max_depth=args.max_depth,
                                      rr_depths=args.rr_depth,
                                      reference=args.reference_kind, reference_spp=args.reference_spp, seed=args.seed,
                                      cache=args.cache, log=log, externals=externals)

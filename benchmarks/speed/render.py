@@ -65,8 +65,8 @@ _SUMMARY_KEYS = ("paths_per_second", "paths_per_cpu_second", "rays_per_second", 
 
 def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int = 128, spp: int = 64,
                      threads: int = 2, repeats: int = 5, strategies=DEFAULT_STRATEGIES,
-                     variants=DEFAULT_VARIANTS, max_depth: int | None = None, rr_depths=DEFAULT_RR_DEPTHS,
-                     reference: str = "mitsuba", reference_spp: int = 4096, seed: int = 0,
+                     integrators=("wavefront",), variants=DEFAULT_VARIANTS, max_depth: int | None = None,
+                     rr_depths=DEFAULT_RR_DEPTHS, reference: str = "mitsuba", reference_spp: int = 4096, seed: int = 0,
                      cache=None, log=None, externals=()) -> dict:
     """Paired, interleaved render timings of ours vs Mitsuba, with error at equal spp.
 
@@ -78,6 +78,10 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
         Image size, samples per pixel, worker threads (both renderers), timed rounds.
     strategies : sequence of str or comma-separated str, keyword-only
         Our strategies (``benchmarks.constants.STRATEGIES``).
+    integrators : sequence of str or comma-separated str, keyword-only
+        Our integrators (``reference_tracer.INTEGRATORS``), each strategy timed with each
+        in every round; the first is the headline's. Rows of ``wavefront`` (the default)
+        are labelled ``ours <strategy>``, the others ``ours <strategy> (<integrator>)``.
     variants : sequence of str or comma-separated str, keyword-only
         Mitsuba variants; one that does not work here is skipped (``skipped_variants``).
         An empty list is not allowed.
@@ -122,8 +126,8 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
         configuration).
     """
     config = _render_config(scenes, width=width, height=height, spp=spp, threads=threads, repeats=repeats,
-                            strategies=strategies, variants=variants, reference=reference,
-                            reference_spp=reference_spp, seed=seed)
+                            strategies=strategies, integrators=integrators, variants=variants,
+                            reference=reference, reference_spp=reference_spp, seed=seed)
     max_depth, rr_depths = _depth_overrides(max_depth, rr_depths)
     config["rr_depths"] = list(rr_depths)
     config["externals"] = {e.name: e.template for e in externals}
@@ -146,13 +150,15 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
     return result
 
 
-def _render_config(scenes, *, width, height, spp, threads, repeats, strategies, variants, reference,
+def _render_config(scenes, *, width, height, spp, threads, repeats, strategies, integrators, variants, reference,
                    reference_spp, seed) -> dict:
     """The validated settings, as stored under ``config``; ``ValueError`` names a bad one."""
     from mitsuba_scenes import known_scenes
+    from reference_tracer import INTEGRATORS
 
     scenes = name_list("scenes", scenes, known_scenes())
     strategies = name_list("strategies", strategies, STRATEGIES)
+    integrators = name_list("integrators", integrators, INTEGRATORS)
     variants = name_list("variants", variants)
     width, height = positive_int("width", width), positive_int("height", height)
     spp, threads = positive_int("spp", spp), positive_int("threads", threads)
@@ -164,8 +170,8 @@ def _render_config(scenes, *, width, height, spp, threads, repeats, strategies, 
     if reference_spp <= spp:
         raise ValueError(f"reference_spp ({reference_spp}) must exceed spp ({spp})")
     return {"scenes": scenes, "width": width, "height": height, "spp": spp, "threads": threads,
-            "repeats": repeats, "strategies": strategies, "variants": variants, "reference": reference,
-            "reference_spp": reference_spp, "seed": seed}
+            "repeats": repeats, "strategies": strategies, "integrators": integrators, "variants": variants,
+            "reference": reference, "reference_spp": reference_spp, "seed": seed}
 
 
 def _depth_overrides(max_depth, rr_depths):
@@ -304,7 +310,8 @@ def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, ext
     """
     from mitsuba_scenes.render import batch_seeds
 
-    strategies, spp, threads, seed = config["strategies"], config["spp"], config["threads"], config["seed"]
+    spp, threads, seed = config["spp"], config["threads"], config["seed"]
+    ours = [(s, i) for s in config["strategies"] for i in config.get("integrators", ["wavefront"])]
     width, height, repeats = config["width"], config["height"], config["repeats"]
     settings = {"max_depth": scene.max_depth, "rr_depth": scene.rr_depth}
     per = {}   # label -> list of run dicts, one per round
@@ -313,9 +320,9 @@ def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, ext
         s_mi = batch_seeds(seed + r, 1)[0]
         # interleave: ours strategy, Mitsuba variant, ours strategy, ...
         order = []
-        for k in range(max(len(strategies), len(variants), len(externals))):
-            if k < len(strategies):
-                order.append(("ours", strategies[k]))
+        for k in range(max(len(ours), len(variants), len(externals))):
+            if k < len(ours):
+                order.append(("ours", ours[k]))
             if k < len(variants):
                 order.append(("mitsuba", variants[k]))
             if k < len(externals):
@@ -324,8 +331,11 @@ def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, ext
             order.reverse()   # alternate who goes first
         for renderer, what in order:
             if renderer == "ours":
-                rec = _ours_run(scene, spp=spp, strategy=what, seed=s_ours, threads=threads, ref=ref)
-                rec.update(strategy=what, variant=None, seed=s_ours)
+                strategy, integrator = what
+                rec = _ours_run(scene, spp=spp, strategy=strategy, integrator=integrator, seed=s_ours,
+                                threads=threads, ref=ref)
+                rec.update(strategy=strategy, integrator=integrator, variant=None, seed=s_ours)
+                what = strategy if integrator == "wavefront" else f"{strategy} ({integrator})"
             elif renderer == "external":
                 rec = _external_run(what, scene, spp=spp, seed=s_mi & 0x7FFFFFFF, ref=ref)
                 rec.update(strategy=EXTERNAL_STRATEGY, variant=None, seed=s_mi & 0x7FFFFFFF)
@@ -345,11 +355,12 @@ def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, ext
     return per
 
 
-def _ours_run(scene, *, spp, strategy, seed, threads, ref):
+def _ours_run(scene, *, spp, strategy, integrator="wavefront", seed, threads, ref):
     """One timed render of ours; its run record (:func:`_run_record`)."""
     import reference_tracer as rt
 
-    r, wall, cpu = timed(lambda: rt.render(scene, spp=spp, strategy=strategy, seed=seed, threads=threads))
+    r, wall, cpu = timed(lambda: rt.render(scene, spp=spp, strategy=strategy, seed=seed, threads=threads,
+                                           integrator=integrator))
     return _run_record(r, wall=wall, cpu=cpu, ref=ref, rays=r.rays, nonfinite=r.nonfinite_samples)
 
 
@@ -422,7 +433,8 @@ def _summary_rows(name, per, variants) -> list:
     rows = []
     for label, runs in per.items():
         row = {"scene": name, "label": label, "renderer": runs[0]["renderer"],
-               "strategy": runs[0]["strategy"], "variant": runs[0]["variant"], "runs": len(runs)}
+               "strategy": runs[0]["strategy"], "integrator": runs[0].get("integrator"),
+               "variant": runs[0]["variant"], "runs": len(runs)}
         for key in _SUMMARY_KEYS:
             vals = [x[key] for x in runs if x[key] is not None]
             row[key] = median(vals) if vals else None

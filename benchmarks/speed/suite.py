@@ -56,7 +56,8 @@ def suite_summary(result) -> dict:
     Returns
     -------
     dict
-        ``strategy`` (the headline strategy), ``variants`` and ``rows``: per configuration
+        ``strategy`` and ``integrator`` (the headline's: the first of each), ``variants``
+        and ``rows``: per configuration
         in run order, one row per scene in run order (``configuration``, ``rr_depth``,
         ``scene``, ``ours_paths_per_second``, ``mitsuba_paths_per_second_<variant>`` and
         ``ratio_`` / ``cpu_ratio_`` / ``efficiency_ratio_<variant>``), then a row with
@@ -64,16 +65,17 @@ def suite_summary(result) -> dict:
         the number of scenes behind them.
     """
     strategy = result["config"]["strategies"][0]
+    integrator = result["config"].get("integrators", ["wavefront"])[0]
     variants = list(result.get("available_variants", []))
     summary = result["summary"]
     configurations = _in_order(r["configuration"] for r in summary)
     rows = []
     for label in configurations:
         ours = [r for r in summary if r["configuration"] == label and r["renderer"] == "ours"
-                and r["strategy"] == strategy]
+                and r["strategy"] == strategy and r.get("integrator", "wavefront") in (integrator, None)]
         block = [_headline_row(r, summary, variants) for r in ours]
         rows += block + [_geomean_row(label, block, variants)]
-    return {"strategy": strategy, "variants": variants, "rows": rows}
+    return {"strategy": strategy, "integrator": integrator, "variants": variants, "rows": rows}
 
 
 def _in_order(items) -> list:
