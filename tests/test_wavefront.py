@@ -81,6 +81,12 @@ def test_each_integrator_is_deterministic_whatever_the_thread_count(integrator):
         _assert_same_render(r, images[0])
 
 
+def test_the_pack_width_is_the_machines():
+    from reference_tracer import _core
+
+    assert _core.PACK_WIDTH in (4, 8)
+
+
 @pytest.mark.parametrize("bad", ["Scalar", "simd", "", None, 0])
 def test_unknown_integrator_is_refused(bad):
     scene = get_scene("cornell_box", width=4, height=4)
@@ -125,3 +131,44 @@ def test_batched_queries_equal_single_ray_queries(name, n):
         assert np.array_equal(expected, got)
     blocked = c.occluded(origins, dirs, np.ascontiguousarray(t * (1 + 1e-9)), wavefront=True)
     assert np.array_equal(blocked.astype(bool), hit)
+
+
+@pytest.mark.slow
+def test_eight_ray_packs_give_the_same_images(tmp_path):
+    # AVX-512 machines build packs of eight rays (simd.h); this machine may not have
+    # AVX-512, so build the core with RT_PACK_WIDTH=8 (each 512-bit operation done as two
+    # halves) and check the wavefront images against the scalar integrator there. About a
+    # minute: the build.
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    if shutil.which("cmake") is None:
+        pytest.skip("cmake is not installed")
+    root = Path(__file__).resolve().parents[1]
+    subprocess.run(["cmake", "-S", str(root), "-B", str(tmp_path), "-DCMAKE_BUILD_TYPE=Release",
+                    "-DRT_PACK_WIDTH=8", f"-DPython_EXECUTABLE={sys.executable}"],
+                   check=True, capture_output=True)
+    subprocess.run(["cmake", "--build", str(tmp_path), "--target", "_core", "-j", "2"], check=True,
+                   capture_output=True)
+    module = next(tmp_path.glob("_core*.so"))
+    script = f"""
+import importlib.util, sys
+import numpy as np
+spec = importlib.util.spec_from_file_location("reference_tracer._core", {str(module)!r})
+core = importlib.util.module_from_spec(spec); spec.loader.exec_module(core)
+sys.modules["reference_tracer._core"] = core
+assert core.PACK_WIDTH == 8
+import reference_tracer as rt
+from mitsuba_scenes import SUITE, get_scene
+for name in SUITE:
+    for strategy in rt.STRATEGIES:
+        scene = get_scene(name, width=20, height=18)
+        a, b = (rt.render(scene, spp=6, strategy=strategy, seed=11, threads=2, integrator=i)
+                for i in ("scalar", "wavefront"))
+        assert np.array_equal(a.mean, b.mean) and a.rays == b.rays, (name, strategy)
+print("ok")
+"""
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=root)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]

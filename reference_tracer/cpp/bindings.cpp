@@ -342,6 +342,8 @@ using namespace mutants;
 NB_MODULE(_mutants, m) {
     m.doc() = "The C++ core built with the self-test's seeded bugs (benchmarks/selftest); not the tracer.";
     // The seeded bugs by id (index 0: "none", the tracer).
+    // Rays per pack of the batched scene queries (simd.h): 8 in AVX-512 builds, else 4.
+    m.attr("PACK_WIDTH") = rt::kPackWidth;
     m.def("mutant_names", []() {
         nb::list names;
         for (const char* name : rt::kMutantNames) names.append(name);

@@ -39,8 +39,8 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
         return b.valid() && is_finite(b.lo) && is_finite(b.hi);
     });
     direct_ = triangles_.empty() && primitive_count() <= kDirectTestLimit && finite;
-    // Batches of four rays tested against every sphere and quad: one vector test serves
-    // four rays, which beats descending the tree ray by ray up to a few dozen of them.
+    // Packs of rays (simd.h: 4, or 8 with AVX-512) tested against every sphere and quad:
+    // one vector test serves the whole pack, which beats descending the tree ray by ray up to a few dozen of them.
     batch_direct_ = tri_base_ <= kBatchTestLimit && finite;
     const auto packable = [&](uint32_t prim) { return pack && prim >= tri_base_; };
     bvh_ = WideBVH(BVH(boxes, packable), packable);
@@ -172,10 +172,10 @@ bool Scene::occluded(const Ray& ray, double t_max) const {
 
 namespace {
 
-// Rays rays[0 .. m) (m <= 4) as a pack; absent lanes repeat ray 0.
-RayPack4 pack_rays(const Ray* rays, size_t m) {
-    RayPack4 p;
-    for (size_t l = 0; l < 4; ++l) {
+// Rays rays[0 .. m) (m <= kPackWidth) as a pack; absent lanes repeat ray 0.
+RayPack pack_rays(const Ray* rays, size_t m) {
+    RayPack p;
+    for (size_t l = 0; l < size_t(kPackWidth); ++l) {
         const Ray& r = rays[l < m ? l : 0];
         p.ox[l] = r.o.x; p.oy[l] = r.o.y; p.oz[l] = r.o.z;
         p.dx[l] = r.d.x; p.dy[l] = r.d.y; p.dz[l] = r.d.z;
@@ -187,21 +187,21 @@ RayPack4 pack_rays(const Ray* rays, size_t m) {
 // double with the far distance widened by 1e-9 of itself, far beyond its rounding error,
 // so that it only saves tree descents and never loses a hit. A lane whose arithmetic
 // gives NaN (an origin on a slab plane, the direction parallel to it) counts as a maybe.
-unsigned may_hit_box(const RayPack4& p, const AABB& b, V4d t_max) {
-    V4d t_near = V4d{}, t_far = t_max;
-    V4l nan = V4l{};
-    const V4d o[3] = {p.ox, p.oy, p.oz}, d[3] = {p.dx, p.dy, p.dz};
+unsigned may_hit_box(const RayPack& p, const AABB& b, VPd t_max) {
+    VPd t_near = VPd{}, t_far = t_max;
+    VPl nan = VPl{};
+    const VPd o[3] = {p.ox, p.oy, p.oz}, d[3] = {p.dx, p.dy, p.dz};
     for (int a = 0; a < 3; ++a) {
-        const V4d inv = 1.0 / d[a];
-        const V4d t0 = (b.lo[a] - o[a]) * inv, t1 = (b.hi[a] - o[a]) * inv;
+        const VPd inv = 1.0 / d[a];
+        const VPd t0 = (b.lo[a] - o[a]) * inv, t1 = (b.hi[a] - o[a]) * inv;
         nan |= (t0 != t0) | (t1 != t1);
-        const V4l order = t0 < t1;
-        const V4d near = order ? t0 : t1, far = order ? t1 : t0;
+        const VPl order = t0 < t1;
+        const VPd near = order ? t0 : t1, far = order ? t1 : t0;
         t_near = near > t_near ? near : t_near;
         t_far = far < t_far ? far : t_far;
     }
-    const V4d abs_far = t_far < 0.0 ? -t_far : t_far;
-    return lane_mask4(nan | (t_near <= t_far + abs_far * 1e-9));
+    const VPd abs_far = t_far < 0.0 ? -t_far : t_far;
+    return lane_mask(nan | (t_near <= t_far + abs_far * 1e-9));
 }
 
 }  // namespace
@@ -240,18 +240,18 @@ void Scene::intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* i
         for (size_t i = 0; i < n; ++i) hit[i] = intersect(rays[i], it[i]);
         return;
     }
-    for (size_t base = 0; base < n; base += 4) {
-        const size_t m = std::min<size_t>(4, n - base);
+    for (size_t base = 0; base < n; base += kPackWidth) {
+        const size_t m = std::min<size_t>(kPackWidth, n - base);
         const Ray* r = rays + base;
-        const RayPack4 p = pack_rays(r, m);
-        // Every sphere and quad in id order, as Scene::intersect's direct loop, four rays
+        const RayPack p = pack_rays(r, m);
+        // Every sphere and quad in id order, as Scene::intersect's direct loop, a pack of rays
         // at a time; then the triangles, ray by ray, below the distance found.
-        V4d t_max = V4d{} + kInf;
-        V4l best = V4l{} - 1;
+        VPd t_max = VPd{} + kInf;
+        VPl best = VPl{} - 1;
         for (uint32_t s = 0; s < spheres_.size(); ++s)
-            best = spheres_[s].intersect4(p, t_max) ? V4l{} + int64_t(s) : best;
+            best = spheres_[s].intersect_pack(p, t_max) ? VPl{} + int64_t(s) : best;
         for (uint32_t q = 0; q < quads_.size(); ++q)
-            best = quads_[q].intersect4(p, t_max) ? V4l{} + int64_t(quad_base_ + q) : best;
+            best = quads_[q].intersect_pack(p, t_max) ? VPl{} + int64_t(quad_base_ + q) : best;
         const unsigned mesh = mesh_bvh_.empty() ? 0u : may_hit_box(p, mesh_bounds_, t_max);
         for (size_t l = 0; l < m; ++l) {
             double t = t_max[l];
@@ -269,20 +269,20 @@ void Scene::occluded_batch(size_t n, const Ray* rays, const double* t_max, bool*
         for (size_t i = 0; i < n; ++i) occluded[i] = this->occluded(rays[i], t_max[i]);
         return;
     }
-    for (size_t base = 0; base < n; base += 4) {
-        const size_t m = std::min<size_t>(4, n - base);
+    for (size_t base = 0; base < n; base += kPackWidth) {
+        const size_t m = std::min<size_t>(kPackWidth, n - base);
         const Ray* r = rays + base;
-        const RayPack4 p = pack_rays(r, m);
+        const RayPack p = pack_rays(r, m);
         // Absent lanes get t_max 0: nothing can block them.
-        V4d tm;
-        for (size_t l = 0; l < 4; ++l) tm[l] = l < m ? t_max[base + l] : 0.0;
+        VPd tm;
+        for (size_t l = 0; l < size_t(kPackWidth); ++l) tm[l] = l < m ? t_max[base + l] : 0.0;
         // Any hit answers, so a test's lowering of t_max changes no verdict.
         const unsigned all = (1u << m) - 1u;
         unsigned blocked = 0;
         for (uint32_t s = 0; s < spheres_.size() && blocked != all; ++s)
-            blocked |= lane_mask4(spheres_[s].intersect4(p, tm));
+            blocked |= lane_mask(spheres_[s].intersect_pack(p, tm));
         for (uint32_t q = 0; q < quads_.size() && blocked != all; ++q)
-            blocked |= lane_mask4(quads_[q].intersect4(p, tm));
+            blocked |= lane_mask(quads_[q].intersect_pack(p, tm));
         const unsigned mesh = (mesh_bvh_.empty() || blocked == all) ? 0u : may_hit_box(p, mesh_bounds_, tm) & ~blocked;
         for (size_t l = 0; l < m; ++l)
             occluded[base + l] = ((blocked >> l) & 1u) || (((mesh >> l) & 1u) && mesh_occludes(r[l], t_max[base + l]));

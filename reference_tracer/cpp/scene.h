@@ -75,8 +75,9 @@ public:
     bool occluded(const Ray& ray, double t_max = kInf) const;
     // The closest hits of rays[0 .. n): hit[i] and it[i] as intersect(rays[i], it[i])
     // gives them (of two primitives hit at exactly the same distance, either may be
-    // reported). Scenes of a few dozen spheres and quads test four rays at a time
-    // against every primitive (the wavefront integrator's batches); others ray by ray.
+    // reported). Scenes of a few dozen spheres and quads test a pack of rays (simd.h: 4,
+    // or 8 with AVX-512) at a time against every primitive (the wavefront integrator's
+    // batches), then any mesh through a tree of its own; others go ray by ray.
     void intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* it) const;
     // occluded(rays[i], t_max[i]) for i < n, into occluded[i], the same way.
     void occluded_batch(size_t n, const Ray* rays, const double* t_max, bool* occluded) const;
@@ -206,7 +207,7 @@ private:
     // Scenes of at most kDirectTestLimit spheres and quads skip the tree (see the constructor).
     static constexpr size_t kDirectTestLimit = 2;
     bool direct_ = false;
-    // Batched queries (intersect_batch, occluded_batch) test four rays at once against
+    // Batched queries (intersect_batch, occluded_batch) test a pack of rays at once against
     // every sphere and quad where there are at most kBatchTestLimit of them
     // (batch_direct_), and then any triangles through a tree of their own (mesh_bvh_, with
     // its blocks in mesh_tri4_ / mesh_tri4f_), built where there are at most
@@ -216,7 +217,7 @@ private:
     static constexpr size_t kMeshTreeLimit = 1u << 18;
     bool batch_direct_ = false;
     WideBVH mesh_bvh_;
-    AABB mesh_bounds_;  // of mesh_bvh_'s triangles, padded (culls its descents four rays at a time)
+    AABB mesh_bounds_;  // of mesh_bvh_'s triangles, padded (culls its descents a pack at a time)
     std::vector<Triangle4> mesh_tri4_;
     std::vector<Triangle4f> mesh_tri4f_;
     // The part of a batched query after the direct tests: the triangles of mesh_bvh_ for a

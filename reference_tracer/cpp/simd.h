@@ -15,38 +15,57 @@ using V8f = float __attribute__((vector_size(32)));
 using V8i = int32_t __attribute__((vector_size(32)));
 using V4f = float __attribute__((vector_size(16)));
 using V4d = double __attribute__((vector_size(32)));
-using V4l = int64_t __attribute__((vector_size(32)));  // lane masks of V4d comparisons (0 / -1)
 
-// Four rays in structure-of-arrays form: one lane per ray, so that a primitive's test
-// runs on all four with the same instructions.
-struct RayPack4 {
-    V4d ox, oy, oz, dx, dy, dz;
+// Rays per pack of the batched scene queries (Scene::intersect_batch): eight doubles, one
+// AVX-512 register, where the build machine has AVX-512; four (one AVX2 register, two
+// SSE2 ones, or scalar code) elsewhere. RT_PACK_WIDTH overrides it (tests build 8 on AVX2).
+#if defined(RT_PACK_WIDTH)
+#define RT_PACK RT_PACK_WIDTH
+// 512-bit vectors without AVX-512 (a test build) are two 256-bit halves; GCC warns that
+// passing them by value would change the ABI, which does not matter inside the module.
+#pragma GCC diagnostic ignored "-Wpsabi"
+#elif defined(__AVX512F__)
+#define RT_PACK 8
+#else
+#define RT_PACK 4
+#endif
+constexpr int kPackWidth = RT_PACK;
+static_assert(kPackWidth == 4 || kPackWidth == 8, "RT_PACK_WIDTH must be 4 or 8");
+using VPd = double __attribute__((vector_size(8 * kPackWidth)));
+using VPl = int64_t __attribute__((vector_size(8 * kPackWidth)));  // lane masks of VPd comparisons (0 / -1)
+
+// kPackWidth rays in structure-of-arrays form: one lane per ray, so that a primitive's
+// test runs on all of them with the same instructions.
+struct RayPack {
+    VPd ox, oy, oz, dx, dy, dz;
 };
 
 // Lane-wise square root (IEEE, as std::sqrt on each lane).
-inline V4d sqrt4(V4d x) {
-#ifdef __AVX__
-    return reinterpret_cast<V4d>(_mm256_sqrt_pd(reinterpret_cast<__m256d>(x)));
+inline VPd sqrt_lanes(VPd x) {
+#if RT_PACK == 8 && defined(__AVX512F__)
+    return reinterpret_cast<VPd>(_mm512_sqrt_pd(reinterpret_cast<__m512d>(x)));
+#elif RT_PACK == 4 && defined(__AVX__)
+    return reinterpret_cast<VPd>(_mm256_sqrt_pd(reinterpret_cast<__m256d>(x)));
 #else
-    for (int i = 0; i < 4; ++i) x[i] = __builtin_sqrt(x[i]);
+    for (int i = 0; i < kPackWidth; ++i) x[i] = __builtin_sqrt(x[i]);
     return x;
 #endif
 }
 
 // Lane-wise std::copysign(magnitude, sign).
-inline V4d copysign4(V4d magnitude, V4d sign) {
-    const V4l sign_bit = V4l{} + INT64_MIN;
-    return reinterpret_cast<V4d>((reinterpret_cast<V4l>(magnitude) & ~sign_bit) |
-                                 (reinterpret_cast<V4l>(sign) & sign_bit));
+inline VPd copysign_lanes(VPd magnitude, VPd sign) {
+    const VPl sign_bit = VPl{} + INT64_MIN;
+    return reinterpret_cast<VPd>((reinterpret_cast<VPl>(magnitude) & ~sign_bit) |
+                                 (reinterpret_cast<VPl>(sign) & sign_bit));
 }
 
-// Bit i set where lane i of a V4d comparison is true.
-inline unsigned lane_mask4(V4l lanes) {
-#ifdef __AVX__
+// Bit i set where lane i of a VPd comparison is true.
+inline unsigned lane_mask(VPl lanes) {
+#if RT_PACK == 4 && defined(__AVX__)
     return static_cast<unsigned>(_mm256_movemask_pd(reinterpret_cast<__m256d>(lanes)));
 #else
     unsigned mask = 0;
-    for (int i = 0; i < 4; ++i) mask |= (lanes[i] != 0 ? 1u : 0u) << i;
+    for (int i = 0; i < kPackWidth; ++i) mask |= (lanes[i] != 0 ? 1u : 0u) << i;
     return mask;
 #endif
 }

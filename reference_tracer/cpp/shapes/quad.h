@@ -55,23 +55,23 @@ struct Quad {
         return true;
     }
 
-    // The test above on four rays at once (t_min 0): lanes where it hits, with t_max
+    // The test above on a pack of rays at once (simd.h) (t_min 0): lanes where it hits, with t_max
     // lowered there to the hit's distance. Each lane is bit-identical to intersect(): the
     // same operations in the same order (the build forbids contracting them into FMAs),
     // only without its early exits, which a lane cannot take alone.
-    V4l intersect4(const RayPack4& r, V4d& t_max) const {
-        const V4d denom = normal.x * r.dx + normal.y * r.dy + normal.z * r.dz;
-        const V4d oqx = r.ox - Q.x, oqy = r.oy - Q.y, oqz = r.oz - Q.z;
-        const V4d a0 = oqx * ea.x + oqy * ea.y + oqz * ea.z;
-        const V4d ad = r.dx * ea.x + r.dy * ea.y + r.dz * ea.z;
-        const V4d b0 = oqx * eb.x + oqy * eb.y + oqz * eb.z;
-        const V4d bd = r.dx * eb.x + r.dy * eb.y + r.dz * eb.z;
-        const V4d t = (plane_d - (normal.x * r.ox + normal.y * r.oy + normal.z * r.oz)) / denom;
-        const V4d alpha = a0 + t * ad;
-        const V4d beta = b0 + t * bd;
+    VPl intersect_pack(const RayPack& r, VPd& t_max) const {
+        const VPd denom = normal.x * r.dx + normal.y * r.dy + normal.z * r.dz;
+        const VPd oqx = r.ox - Q.x, oqy = r.oy - Q.y, oqz = r.oz - Q.z;
+        const VPd a0 = oqx * ea.x + oqy * ea.y + oqz * ea.z;
+        const VPd ad = r.dx * ea.x + r.dy * ea.y + r.dz * ea.z;
+        const VPd b0 = oqx * eb.x + oqy * eb.y + oqz * eb.z;
+        const VPd bd = r.dx * eb.x + r.dy * eb.y + r.dz * eb.z;
+        const VPd t = (plane_d - (normal.x * r.ox + normal.y * r.oy + normal.z * r.oz)) / denom;
+        const VPd alpha = a0 + t * ad;
+        const VPd beta = b0 + t * bd;
         // Written as intersect() rejects, so that a NaN coordinate passes as it does there.
-        const V4l outside = (alpha < 0.0) | (alpha > 1.0) | (beta < 0.0) | (beta > 1.0);
-        const V4l hit = (denom != 0.0) & (t > 0.0) & (t < t_max) & ~outside;
+        const VPl outside = (alpha < 0.0) | (alpha > 1.0) | (beta < 0.0) | (beta > 1.0);
+        const VPl hit = (denom != 0.0) & (t > 0.0) & (t < t_max) & ~outside;
         t_max = hit ? t : t_max;
         return hit;
     }

@@ -42,28 +42,28 @@ struct Sphere {
         return false;
     }
 
-    // The test above on four rays at once (t_min 0): lanes where it hits, with t_max
+    // The test above on a pack of rays at once (simd.h) (t_min 0): lanes where it hits, with t_max
     // lowered there to the hit's distance. Each lane is bit-identical to intersect() (the
     // same operations in the same order; the build forbids FMA contraction).
-    V4l intersect4(const RayPack4& r, V4d& t_max) const {
-        const V4d Lx = center.x - r.ox, Ly = center.y - r.oy, Lz = center.z - r.oz;
-        const V4d a = r.dx * r.dx + r.dy * r.dy + r.dz * r.dz;
-        const V4d h = r.dx * Lx + r.dy * Ly + r.dz * Lz;
-        const V4d ha = h / a;
-        const V4d fx = Lx - ha * r.dx, fy = Ly - ha * r.dy, fz = Lz - ha * r.dz;
-        const V4d disc = radius * radius - (fx * fx + fy * fy + fz * fz);
-        const V4d c = (Lx * Lx + Ly * Ly + Lz * Lz) - radius * radius;
+    VPl intersect_pack(const RayPack& r, VPd& t_max) const {
+        const VPd Lx = center.x - r.ox, Ly = center.y - r.oy, Lz = center.z - r.oz;
+        const VPd a = r.dx * r.dx + r.dy * r.dy + r.dz * r.dz;
+        const VPd h = r.dx * Lx + r.dy * Ly + r.dz * Lz;
+        const VPd ha = h / a;
+        const VPd fx = Lx - ha * r.dx, fy = Ly - ha * r.dy, fz = Lz - ha * r.dz;
+        const VPd disc = radius * radius - (fx * fx + fy * fy + fz * fz);
+        const VPd c = (Lx * Lx + Ly * Ly + Lz * Lz) - radius * radius;
         // Lanes with disc < 0 take the square root of a negative number; they are
         // masked out below, as intersect() returns before it.
-        const V4d q = h + copysign4(sqrt4(a * disc), h);
-        const V4l q_zero = q == 0.0;
-        V4d t0 = q_zero ? V4d{} : c / q;
-        V4d t1 = q_zero ? V4d{} : q / a;
-        const V4l swap = t0 > t1;
-        const V4d lo = swap ? t1 : t0, hi = swap ? t0 : t1;
-        const V4l valid = ~(disc < 0.0);
-        const V4l hit0 = valid & (lo > 0.0) & (lo < t_max);
-        const V4l hit1 = valid & ~hit0 & (hi > 0.0) & (hi < t_max);
+        const VPd q = h + copysign_lanes(sqrt_lanes(a * disc), h);
+        const VPl q_zero = q == 0.0;
+        VPd t0 = q_zero ? VPd{} : c / q;
+        VPd t1 = q_zero ? VPd{} : q / a;
+        const VPl swap = t0 > t1;
+        const VPd lo = swap ? t1 : t0, hi = swap ? t0 : t1;
+        const VPl valid = ~(disc < 0.0);
+        const VPl hit0 = valid & (lo > 0.0) & (lo < t_max);
+        const VPl hit1 = valid & ~hit0 & (hi > 0.0) & (hi < t_max);
         t_max = hit0 ? lo : (hit1 ? hi : t_max);
         return hit0 | hit1;
     }
