@@ -342,8 +342,6 @@ using namespace mutants;
 NB_MODULE(_mutants, m) {
     m.doc() = "The C++ core built with the self-test's seeded bugs (benchmarks/selftest); not the tracer.";
     // The seeded bugs by id (index 0: "none", the tracer).
-    // Rays per pack of the batched scene queries (simd.h): 8 in AVX-512 builds, else 4.
-    m.attr("PACK_WIDTH") = rt::kPackWidth;
     m.def("mutant_names", []() {
         nb::list names;
         for (const char* name : rt::kMutantNames) names.append(name);
@@ -353,6 +351,8 @@ NB_MODULE(_mutants, m) {
 NB_MODULE(_core, m) {
     m.doc() = "C++ core of reference_tracer: scene, BVH, integrator and render loop.";
 #endif
+    // Rays per pack of the batched scene queries (simd.h): 8 in AVX-512 builds, else 4.
+    m.attr("PACK_WIDTH") = rt::kPackWidth;
     nb::class_<PyScene>(m, "Scene")
         .def(nb::init<const Vector&, const Vector&, const Vector&, double, int, int, const Matrix&, const Matrix&,
                       const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int>(),
