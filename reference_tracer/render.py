@@ -166,8 +166,8 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
     integrator : {'wavefront', 'scalar'}, keyword-only
         How the C++ core runs the paths (see ``INTEGRATORS``). ``wavefront`` traces a
         batch of paths per thread and hands each bounce's intersection queries to the
-        scene together (four rays per vector instruction in scenes of up to 64 spheres
-        and quads); ``scalar`` traces one path at a time and is the reference
+        scene together (four rays per vector instruction, eight with AVX-512, in scenes
+        of up to 32 spheres and quads); ``scalar`` traces one path at a time and is the reference
         implementation. Both draw the same random numbers in the same order, so the
         image is the same bit for bit, except where a ray meets two primitives at
         exactly the same distance (either hit is then correct).

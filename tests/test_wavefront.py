@@ -57,7 +57,7 @@ def test_wavefront_on_images_smaller_than_its_batch(size, spp):
 
 def test_wavefront_beyond_the_batched_primitive_limit():
     # 80 quads and 10 spheres: more than the scene tests four rays at a time against
-    # (kBatchTestLimit 64), so the batches go ray by ray through the tree.
+    # (kBatchTestLimit 32), so the batches go ray by ray through the tree.
     rng = np.random.default_rng(3)
     shapes = [rt.Quad(Q=tuple(rng.uniform(-2, 2, 3)), u=tuple(rng.uniform(-1, 1, 3)), v=tuple(rng.uniform(-1, 1, 3)),
                       material=rt.Lambertian(albedo=(0.6, 0.5, 0.4))) for _ in range(80)]
