@@ -51,10 +51,12 @@ inline Vec3 sample_visible_normal(const Vec3& wo, double alpha, double u1, doubl
     const double len2 = vh.x * vh.x + vh.y * vh.y;
     const Vec3 t1 = len2 > 0.0 ? Vec3(-vh.y, vh.x, 0.0) / std::sqrt(len2) : Vec3(1.0, 0.0, 0.0);
     const Vec3 t2 = cross(vh, t1);
-    const double r = std::sqrt(u1), phi = 2.0 * kPi * u2;
-    const double p1 = r * std::cos(phi);
+    const double r = std::sqrt(u1);
+    double sin_phi, cos_phi;
+    sincos_turn(u2, sin_phi, cos_phi);  // phi = 2 pi u2
+    const double p1 = r * cos_phi;
     const double s = 0.5 * (1.0 + vh.z);
-    const double p2 = (1.0 - s) * safe_sqrt(1.0 - p1 * p1) + s * r * std::sin(phi);
+    const double p2 = (1.0 - s) * safe_sqrt(1.0 - p1 * p1) + s * r * sin_phi;
     const Vec3 nh = p1 * t1 + p2 * t2 + safe_sqrt(1.0 - p1 * p1 - p2 * p2) * vh;
     return normalize(Vec3(alpha * nh.x, alpha * nh.y, std::max(0.0, nh.z)));
 }
