@@ -172,3 +172,16 @@ print("ok")
 """
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=root)
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
+
+
+def test_seeded_bugs_run_in_the_scalar_integrator_only():
+    # The self-test's mutants (reference_tracer._mutants) exist in Integrator<M> alone: a
+    # mutant render asked of the wavefront integrator is refused, not silently rerouted.
+    from benchmarks.selftest.render import _compiled, mutant_id
+
+    core = _compiled(get_scene("cornell_box", width=4, height=4))
+    k = mutant_id("two_sided_light")
+    with pytest.raises(ValueError, match="scalar integrator only"):
+        core.render(1, 4, 0, 1, None, False, integrator=0, mutant=k)
+    core.render(1, 4, 0, 1, None, False, integrator=1, mutant=k)
+    core.render(1, 4, 0, 1, None, False, integrator=0, mutant=0)  # the tracer itself: either

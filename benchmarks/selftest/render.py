@@ -73,8 +73,10 @@ def render_mutant(scene, mutant: str, *, spp: int, strategy: str, seed: int = 0,
     if threads is None:
         threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     threads = positive_int("threads", threads)
+    # The seeded bugs live in the scalar integrator; the tracer's images are the same with
+    # either integrator (tests/test_wavefront.py), so every self-test render uses it.
     out = _compiled(scene).render(spp, rt.STRATEGIES.index(strategy), int(seed), threads, None, bool(moments),
-                                   mutant=k)
+                                   integrator=rt.INTEGRATORS.index("scalar"), mutant=k)
     n = float(spp)
     mean = out["sum"] / n
     variance = np.maximum(out["sum_sq"] / n - mean * mean, 0.0)

@@ -124,6 +124,9 @@ public:
                     int integrator, int mutant) {
         if (mutant < 0 || mutant >= int(rt::Mutant::Count))
             throw std::invalid_argument("mutant id out of range [0, " + std::to_string(int(rt::Mutant::Count)) + ")");
+        // The seeded bugs live in the scalar integrator (Integrator<M>) only.
+        if (mutant != 0 && integrator != int(rt::IntegratorKind::Scalar))
+            throw std::invalid_argument("seeded bugs run in the scalar integrator only: pass integrator=1");
 #else
     nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress, bool moments,
                     int integrator) {

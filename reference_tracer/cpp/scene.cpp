@@ -40,7 +40,8 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
     });
     direct_ = triangles_.empty() && primitive_count() <= kDirectTestLimit && finite;
     // Packs of rays (simd.h: 4, or 8 with AVX-512) tested against every sphere and quad:
-    // one vector test serves the whole pack, which beats descending the tree ray by ray up to a few dozen of them.
+    // one vector test serves the whole pack, which beats descending the tree ray by ray
+    // up to a few dozen of them.
     batch_direct_ = tri_base_ <= kBatchTestLimit && finite;
     const auto packable = [&](uint32_t prim) { return pack && prim >= tri_base_; };
     bvh_ = WideBVH(BVH(boxes, packable), packable);
@@ -210,17 +211,8 @@ bool Scene::closest_mesh_hit(const Ray& ray, double& t_max, uint32_t& best) cons
     const WatertightRay wray(ray.d);
     return mesh_bvh_.traverse<false>(
         ray, t_max, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, best); },
-        [&](uint32_t block, double& tm) {
-            return (float_blocks_ ? hit_block(mesh_tri4f_[block], ray, wray, tm, best)
-                                  : hit_block(mesh_tri4_[block], ray, wray, tm, best)) >= 0;
-        },
-        [&](uint32_t block) {
-            if (float_blocks_) {
-                prefetch_lines(&mesh_tri4f_[block]);
-            } else {
-                prefetch_lines(&mesh_tri4_[block]);
-            }
-        });
+        [&](uint32_t block, double& tm) { return hit_mesh_block(block, ray, wray, tm, best) >= 0; },
+        [&](uint32_t block) { prefetch_mesh_block(block); });
 }
 
 bool Scene::mesh_occludes(const Ray& ray, double t_max) const {
@@ -228,11 +220,8 @@ bool Scene::mesh_occludes(const Ray& ray, double t_max) const {
     uint32_t unused = 0;
     return mesh_bvh_.traverse<true>(
         ray, t_max, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, unused); },
-        [&](uint32_t block, double& tm) {
-            return (float_blocks_ ? hit_block(mesh_tri4f_[block], ray, wray, tm, unused)
-                                  : hit_block(mesh_tri4_[block], ray, wray, tm, unused)) >= 0;
-        },
-        [](uint32_t) {});
+        [&](uint32_t block, double& tm) { return hit_mesh_block(block, ray, wray, tm, unused) >= 0; },
+        [&](uint32_t block) { prefetch_mesh_block(block); });
 }
 
 void Scene::intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* it) const {

@@ -155,6 +155,19 @@ private:
             prefetch_lines(&tri4_[block]);
         }
     }
+    // hit_block and prefetch_block for the blocks of mesh_bvh_.
+    int hit_mesh_block(uint32_t block, const Ray& ray, const WatertightRay& wray, double& t_max,
+                       uint32_t& best) const {
+        return float_blocks_ ? hit_block(mesh_tri4f_[block], ray, wray, t_max, best)
+                             : hit_block(mesh_tri4_[block], ray, wray, t_max, best);
+    }
+    void prefetch_mesh_block(uint32_t block) const {
+        if (float_blocks_) {
+            prefetch_lines(&mesh_tri4f_[block]);
+        } else {
+            prefetch_lines(&mesh_tri4_[block]);
+        }
+    }
     template <typename Block>
     static void prefetch_lines(const Block* block) {
         const char* p = reinterpret_cast<const char*>(block);
