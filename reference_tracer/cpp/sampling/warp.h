@@ -37,22 +37,20 @@ inline void sincos_turn(double u, double& s, double& c) {
     c = ((k + 1) & 2) ? -b : b;
 }
 
-inline Vec3 square_to_uniform_hemisphere(double u1, double u2) {
-    const double z = u1;
+// The point of the unit sphere at height z and azimuth 2 pi u.
+inline Vec3 sphere_point_at_height(double z, double u) {
     const double r = safe_sqrt(1.0 - z * z);
     double sin_phi, cos_phi;
-    sincos_turn(u2, sin_phi, cos_phi);
+    sincos_turn(u, sin_phi, cos_phi);
     return {r * cos_phi, r * sin_phi, z};
 }
+
+// Heights uniform in [0, 1] (hemisphere) or [-1, 1] (sphere): uniform in solid angle
+// (Archimedes' hat-box theorem).
+inline Vec3 square_to_uniform_hemisphere(double u1, double u2) { return sphere_point_at_height(u1, u2); }
 constexpr double kUniformHemispherePdf = 1.0 / (2.0 * kPi);
 
-inline Vec3 square_to_uniform_sphere(double u1, double u2) {
-    const double z = 1.0 - 2.0 * u1;
-    const double r = safe_sqrt(1.0 - z * z);
-    double sin_phi, cos_phi;
-    sincos_turn(u2, sin_phi, cos_phi);
-    return {r * cos_phi, r * sin_phi, z};
-}
+inline Vec3 square_to_uniform_sphere(double u1, double u2) { return sphere_point_at_height(1.0 - 2.0 * u1, u2); }
 constexpr double kUniformSpherePdf = 1.0 / (4.0 * kPi);
 
 // Cosine-weighted hemisphere (Malley's method through a concentric disk). Both branches
