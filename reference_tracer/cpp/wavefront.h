@@ -22,8 +22,9 @@ namespace rt {
 
 class WavefrontIntegrator {
 public:
-    // Paths in flight per worker: enough for full 4-ray packets after the paths that
-    // ended leave a batch, few enough that a batch's rays and hits stay in L1.
+    // Paths in flight per worker: every lane is refilled each bounce, so the batches are
+    // full packs (simd.h) but for the render's last pixels; few enough that the lanes, rays
+    // and hits stay in L1. 16 and 64 measured slower than 32 (PERFORMANCE.md round 8).
     static constexpr int kLanes = 32;
 
     WavefrontIntegrator(const Integrator<Mutant::None>& integrator, const RenderJob& job)
