@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -33,3 +34,12 @@ def rtbench(*args, cache, check=True, timeout=600, **kw) -> subprocess.Completed
         raise AssertionError(f"rtbench {' '.join(map(str, args))} exited {proc.returncode}:\n"
                              f"{proc.stdout}\n{proc.stderr}")
     return proc
+
+
+def default_sigint() -> None:
+    """``preexec_fn`` for a child that must see Ctrl-C: SIGINT at its default disposition
+    and unblocked before exec. In the full test suite something leaves SIGINT ignored at
+    the C level in this process, exec keeps an ignored signal ignored, and Python then
+    installs no handler: the child would run through every SIGINT to the end."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})

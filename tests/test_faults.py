@@ -24,7 +24,7 @@ from pathlib import Path
 import pytest
 
 from benchmarks.store import META, RESULTS, SUMMARY, read_records, record_key, result_lines
-from harness_util import ROOT, rtbench
+from harness_util import ROOT, default_sigint, rtbench
 
 N_JOBS = 3 * 2  # spp 1, 2, 4 x 2 seeds
 
@@ -51,8 +51,11 @@ def _copy_store(src: Path, dst: Path) -> Path:
 
 def _popen(args, cache_root) -> subprocess.Popen:
     env = dict(os.environ, RTBENCH_CACHE=str(cache_root), PYTHONUNBUFFERED="1")
+    # SIGINT at its default in the child whatever this process inherited (harness_util):
+    # without it the Ctrl-C test's run ignored the interrupt in every full-suite run.
     return subprocess.Popen([sys.executable, "-m", "benchmarks.cli", *map(str, args)], cwd=ROOT, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_sigint)
 
 
 def _assert_complete(store: Path) -> None:

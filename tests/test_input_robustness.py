@@ -12,18 +12,12 @@ import numpy as np
 import pytest
 
 import reference_tracer as rt
-from harness_util import ROOT
+from harness_util import ROOT, default_sigint
 
 WHITE = rt.Lambertian(0.5)
 
 
 # -------------------------------------------------------------------- case 3: Ctrl-C inside a pixel
-
-def _default_sigint():
-    """In the child before exec: SIGINT at its default disposition and not blocked."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-
 
 def test_ctrl_c_stops_a_one_pixel_render_of_huge_spp(tmp_path):
     code = ("import reference_tracer as rt\n"
@@ -35,7 +29,7 @@ def test_ctrl_c_stops_a_one_pixel_render_of_huge_spp(tmp_path):
     # SIGINT at its default in the child whatever this process inherited: in the full suite
     # something leaves SIGINT ignored at the C level (exec keeps an ignored signal ignored)
     proc = subprocess.Popen([sys.executable, "-c", code], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, preexec_fn=_default_sigint)
+                            text=True, preexec_fn=default_sigint)
     assert proc.stdout.readline().strip() == "rendering"
     time.sleep(0.5)
     t0 = time.monotonic()
