@@ -35,35 +35,37 @@ void WavefrontIntegrator::start_sample(Lane& lane) const {
     lane.shadow = false;
 }
 
-void WavefrontIntegrator::shade(Lane& lane, bool hit, const Interaction& it, uint64_t& rays) const {
+bool WavefrontIntegrator::shade(Lane& lane, bool hit, const Interaction& it, uint64_t& rays) const {
     const Integrator<Mutant::None>& li = integrator_;
     const SceneSettings& cfg = scene_.settings();
     if (!hit) {
         if (max_component(cfg.background) > 0.0)
             lane.L += lane.beta * cfg.background * li.background_weight(lane.prev);
         lane.path_done = true;
-        return;
+        return false;
     }
     const Material& m = scene_.material(it.material);
     const bool front = dot(lane.ray.d, it.n) < 0.0;
     if (front && m.emits()) lane.L += lane.beta * m.radiance * li.emitter_weight(lane.prev, lane.ray, it);
     if (lane.depth + 1 >= cfg.max_depth) {
         lane.path_done = true;
-        return;
+        return false;
     }
-    const Vertex v(it, m, lane.ray.d, front);
+    lane.vertex.emplace(it, m, lane.ray.d, front);
+    const Vertex& v = *lane.vertex;
     if (!v) {
         lane.path_done = true;
-        return;
+        return false;
     }
 
-    Vec3 ref;
+    Vec3& ref = lane.ref;
+    ref = Vec3();
     if (!m.is_delta()) {
         ref = offset_origin(it.p, v.frame.n, v.frame.n);
         if (li.strategy_ == Strategy::Light) {  // the path ends with one query of its own
             if (const std::optional<Vec3> Ld = li.light_only(v, ref, lane.beta, lane.rng, rays)) lane.L += *Ld;
             lane.path_done = true;
-            return;
+            return false;
         }
         if (li.strategy_ == Strategy::MIS) {
             // The shadow ray joins the batch's; its value is added after the batch, before
@@ -79,6 +81,16 @@ void WavefrontIntegrator::shade(Lane& lane, bool hit, const Interaction& it, uin
         }
     }
 
+    lane.it = it;
+    return true;
+}
+
+void WavefrontIntegrator::scatter(Lane& lane) const {
+    const Integrator<Mutant::None>& li = integrator_;
+    const Vertex& v = *lane.vertex;
+    const Material& m = v.m;
+    const Interaction& it = lane.it;
+    const Vec3& ref = lane.ref;
     const std::optional<Integrator<Mutant::None>::Scatter> s = li.sample_scatter(v, ref, lane.rng);
     if (!s) {
         lane.path_done = true;
@@ -124,7 +136,7 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
         if (start_pixel(lane, pixels)) start_sample(lane);
 
     // The batch's queries, compacted: lane index, ray and result per busy lane.
-    int active[kLanes], shadowed[kLanes];
+    int active[kLanes], shadowed[kLanes], scattering[kLanes];
     Ray batch[kLanes];
     bool hit[kLanes];
     Interaction its[kLanes];
@@ -144,9 +156,12 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
         rays += uint64_t(n);
         scene_.intersect_batch(size_t(n), batch, hit, its);
         int n_shadow = 0;
+        int n_scatter = 0;
+        for (int k = 0; k < n; ++k)
+            if (shade(lanes[active[k]], hit[k], its[k], rays)) scattering[n_scatter++] = active[k];
+        for (int k = 0; k < n_scatter; ++k) scatter(lanes[scattering[k]]);
         for (int k = 0; k < n; ++k) {
             Lane& lane = lanes[active[k]];
-            shade(lane, hit[k], its[k], rays);
             if (lane.shadow) {
                 shadowed[n_shadow] = active[k];
                 batch[n_shadow] = lane.shadow_ray;
