@@ -67,22 +67,26 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, const Interaction& it, uin
             lane.path_done = true;
             return false;
         }
-        if (li.strategy_ == Strategy::MIS) {
-            // The shadow ray joins the batch's; its value is added after the batch, before
-            // anything else touches L, so the sum keeps Li's order.
-            const auto queue = [&lane](const Ray& r, double t_max) {
-                lane.shadow = true;
-                lane.shadow_ray = r;
-                lane.shadow_t_max = t_max;
-                return false;
-            };
-            if (const std::optional<Vec3> Ld = li.sample_ld(v, ref, lane.beta, lane.rng, rays, queue))
-                lane.shadow_value = *Ld;
-        }
     }
 
     lane.it = it;
     return true;
+}
+
+void WavefrontIntegrator::next_event(Lane& lane, uint64_t& rays) const {
+    const Integrator<Mutant::None>& li = integrator_;
+    const Vertex& v = *lane.vertex;
+    if (li.strategy_ != Strategy::MIS || v.m.is_delta()) return;
+    // The shadow ray joins the batch's; its value is added after the batch, before
+    // anything else touches L, so the sum keeps Li's order.
+    const auto queue = [&lane](const Ray& r, double t_max) {
+        lane.shadow = true;
+        lane.shadow_ray = r;
+        lane.shadow_t_max = t_max;
+        return false;
+    };
+    if (const std::optional<Vec3> Ld = li.sample_ld(v, lane.ref, lane.beta, lane.rng, rays, queue))
+        lane.shadow_value = *Ld;
 }
 
 void WavefrontIntegrator::scatter(Lane& lane) const {
@@ -159,6 +163,7 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
         int n_scatter = 0;
         for (int k = 0; k < n; ++k)
             if (shade(lanes[active[k]], hit[k], its[k], rays)) scattering[n_scatter++] = active[k];
+        for (int k = 0; k < n_scatter; ++k) next_event(lanes[scattering[k]], rays);
         for (int k = 0; k < n_scatter; ++k) scatter(lanes[scattering[k]]);
         for (int k = 0; k < n; ++k) {
             Lane& lane = lanes[active[k]];

@@ -58,8 +58,8 @@ private:
         int depth = 0;
         bool path_done = false;
 
-        // What scatter() needs of shade(): the vertex, its light-sampling reference point
-        // and the hit.
+        // What next_event() and scatter() need of shade(): the vertex, its light-sampling
+        // reference point and the hit.
         std::optional<Vertex> vertex;
         Vec3 ref;
         Interaction it;
@@ -74,15 +74,16 @@ private:
     bool start_pixel(Lane& lane, TileCursor& pixels) const;
     // Starts the pixel's next sample: its camera ray, as render_pixel draws it.
     void start_sample(Lane& lane) const;
-    // One vertex of Integrator::Li's loop in two halves, each run over the whole batch
-    // before the next, so that the independent lanes overlap each half's long chains of
-    // dependent arithmetic (light sampling, then BSDF sampling) instead of waiting on them
-    // one lane after another (cornell_box +2.7%, furnace +5%: PERFORMANCE.md round 8).
-    // shade(), after the closest hit of lane.ray: emission, the vertex, next-event
-    // estimation up to its shadow ray (queued in the lane); returns whether the path goes
-    // on to scatter(): the next direction and Russian roulette. Both set path_done where
-    // Li would return. The random draws stay in Li's order: each lane's own.
+    // One vertex of Integrator::Li's loop in three parts, each run over the whole batch
+    // before the next, so that the independent lanes overlap each part's long chains of
+    // dependent arithmetic instead of waiting on them one lane after another
+    // (PERFORMANCE.md round 8: cornell_box +8%, cornell_mesh +11%, furnace +5%).
+    // shade(), after the closest hit of lane.ray: emission and the vertex; returns whether
+    // the path goes on. next_event(): `mis`'s light sample up to its shadow ray (queued in
+    // the lane). scatter(): the next direction and Russian roulette. They set path_done
+    // where Li would return; each lane's random draws keep Li's order.
     bool shade(Lane& lane, bool hit, const Interaction& it, uint64_t& rays) const;
+    void next_event(Lane& lane, uint64_t& rays) const;
     void scatter(Lane& lane) const;
     // Adds the finished path's radiance to the pixel's sums, as render_pixel does.
     static void add_sample(Lane& lane, bool tails, uint64_t& nonfinite);
