@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from benchmarks.store import META, RESULTS, SUMMARY, read_records, record_key, result_lines
+from benchmarks.store import META, RESULTS, SUMMARY, WRITER_LOCK, read_records, record_key, result_lines
 from harness_util import ROOT, default_sigint, rtbench
 
 N_JOBS = 3 * 2  # spp 1, 2, 4 x 2 seeds
@@ -58,12 +58,12 @@ def _popen(args, cache_root) -> subprocess.Popen:
                             preexec_fn=default_sigint)
 
 
-def _assert_complete(store: Path) -> None:
+def _assert_complete(store: Path, n_jobs: int = N_JOBS) -> None:
     """Every job exactly once, every line a record, the JSON files whole."""
     lines = result_lines(store)
     assert all(ln.parsed for ln in lines), [ln.number for ln in lines if not ln.parsed]
     keys = [record_key(r) for r in read_records(store, dedupe=False)]
-    assert len(keys) == len(set(keys)) == N_JOBS, keys
+    assert len(keys) == len(set(keys)) == n_jobs, keys
     json.loads((store / META).read_text())
     assert json.loads((store / SUMMARY).read_text())["rows"]
 
@@ -127,14 +127,28 @@ def test_ctrl_c_records_the_run_history(cache, tmp_path):
 def test_two_concurrent_runs_on_one_store(cache, tmp_path):
     root, _ = cache
     store = tmp_path / "s"
-    a, b = _popen(_args(store), root), _popen(_args(store), root)
+    # The second run starts once the first holds the store's writer lock, and the first
+    # holds it for a second or more (two 16384-spp jobs after the small ones): with the
+    # small jobs alone the first run could end before the second had even started, and
+    # the second then found the store complete without waiting.
+    args = list(_args(store))
+    args[args.index("--spp") + 1] = "1,2,4,16384"
+    n_jobs = 4 * 2
+    a = _popen(args, root)
+    lock = store / WRITER_LOCK
+    deadline = time.monotonic() + 300
+    while a.poll() is None and time.monotonic() < deadline:
+        if lock.exists() and lock.read_bytes().startswith(b"pid"):
+            break
+        time.sleep(0.005)
+    b = _popen(args, root)
     out_a, err_a = a.communicate(timeout=600)
     out_b, err_b = b.communicate(timeout=600)
     assert a.returncode == b.returncode == 0, (err_a, err_b)
-    _assert_complete(store)
+    _assert_complete(store, n_jobs)
     rendered = sorted(int(m) for o in (out_a, out_b) for m in re.findall(r"\((\d+) jobs rendered", o))
-    assert rendered == [0, N_JOBS]  # one rendered everything, the other waited and found it done
-    assert "waiting for the other run" in err_a + err_b
+    assert rendered == [0, n_jobs]  # one rendered everything, the other waited and found it done
+    assert "waiting for the other run" in err_b
 
 
 # ------------------------------------------------------------------------- read-only folders
