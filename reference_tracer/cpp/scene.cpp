@@ -79,6 +79,8 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
             fill_blocks(mesh_bvh_, mesh_tri4_);
         }
     }
+    // Triangles that the packs cannot reach (too many for a second tree): ray by ray.
+    batch_direct_ = batch_direct_ && (triangles_.empty() || !mesh_bvh_.empty());
 
     std::vector<Emitter> emitters;
     for (uint32_t i = 0; i < spheres_.size(); ++i)
@@ -225,7 +227,7 @@ bool Scene::mesh_occludes(const Ray& ray, double t_max) const {
 }
 
 void Scene::intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* it) const {
-    if (!batch_direct_ || (!triangles_.empty() && mesh_bvh_.empty())) {
+    if (!batch_direct_) {
         for (size_t i = 0; i < n; ++i) hit[i] = intersect(rays[i], it[i]);
         return;
     }
@@ -254,7 +256,7 @@ void Scene::intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* i
 }
 
 void Scene::occluded_batch(size_t n, const Ray* rays, const double* t_max, bool* occluded) const {
-    if (!batch_direct_ || (!triangles_.empty() && mesh_bvh_.empty())) {
+    if (!batch_direct_) {
         for (size_t i = 0; i < n; ++i) occluded[i] = this->occluded(rays[i], t_max[i]);
         return;
     }

@@ -224,8 +224,9 @@ private:
     // every sphere and quad where there are at most kBatchTestLimit of them
     // (batch_direct_), and then any triangles through a tree of their own (mesh_bvh_, with
     // its blocks in mesh_tri4_ / mesh_tri4f_), built where there are at most
-    // kMeshTreeLimit (a second tree costs memory: about 100 bytes a triangle). Elsewhere
-    // they go ray by ray through the tree of all primitives.
+    // kMeshTreeLimit (a second tree costs memory: about 100 bytes a triangle); batch_direct_
+    // is false where either limit is passed, and the queries then go ray by ray through the
+    // tree of all primitives.
     // 32: callgrind, cornell_box plus n small boxes, 32x32, 16 spp, `mis`: with 36 quads
     // the packs and the tree cost the same (131 M vs 133 M instructions), with 48 the packs
     // 17% more, with 18 (cornell_box) 28% less.
