@@ -40,6 +40,19 @@ inline Vec3 operator*(double s, const Vec3& a) { return a * s; }
 inline Vec3 operator/(const Vec3& a, double s) { return a * (1.0 / s); }
 
 inline double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+// a * b + c in one rounding where the target has FMA instructions (one instruction instead
+// of two), else in two. The lane-wise version (simd.h) makes the same choice, so that the
+// scalar and batched shape tests agree bit for bit within a build; builds for CPUs with
+// and without FMA may differ in the last bit of such results.
+inline double mul_add(double a, double b, double c) {
+#ifdef __FMA__
+    return __builtin_fma(a, b, c);
+#else
+    return a * b + c;
+#endif
+}
+// dot(a, b) with two of its additions fused: x first, then y and z added by mul_add.
+inline double dot_fused(const Vec3& a, const Vec3& b) { return mul_add(a.z, b.z, mul_add(a.y, b.y, a.x * b.x)); }
 inline Vec3 cross(const Vec3& a, const Vec3& b) {
     return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }

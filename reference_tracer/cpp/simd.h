@@ -52,6 +52,22 @@ inline VPd sqrt_lanes(VPd x) {
 #endif
 }
 
+// Lane-wise mul_add (math.h): fused where the target has FMA, as the scalar one is.
+inline VPd mul_add(VPd a, VPd b, VPd c) {
+#if defined(__FMA__) && RT_PACK == 4
+    return reinterpret_cast<VPd>(_mm256_fmadd_pd(reinterpret_cast<__m256d>(a), reinterpret_cast<__m256d>(b),
+                                                  reinterpret_cast<__m256d>(c)));
+#elif defined(__AVX512F__) && RT_PACK == 8
+    return reinterpret_cast<VPd>(_mm512_fmadd_pd(reinterpret_cast<__m512d>(a), reinterpret_cast<__m512d>(b),
+                                                  reinterpret_cast<__m512d>(c)));
+#elif defined(__FMA__)
+    for (int i = 0; i < kPackWidth; ++i) a[i] = __builtin_fma(a[i], b[i], c[i]);
+    return a;
+#else
+    return a * b + c;
+#endif
+}
+
 // Lane-wise std::copysign(magnitude, sign).
 inline VPd copysign_lanes(VPd magnitude, VPd sign) {
     const VPl sign_bit = VPl{} + INT64_MIN;

@@ -8,17 +8,31 @@
 
 namespace rt {
 
-// sin and cos of x for |x| <= pi/4 from their Taylor series in Horner form. The first
-// omitted terms, x^17/17! and x^18/18!, are below 5e-17 there, and the result is within
-// 1 ulp of std::sin / std::cos (checked on 3e5 points of the interval). Inline and
-// without range reduction it costs a fraction of a general sincos call, and the
-// concentric map below only ever needs angles in this interval.
-inline void sincos_quarter(double x, double& s, double& c) {
+// sin and cos of x for |x| <= pi/4 from their Taylor series in Horner form, each step one
+// mul_add (fused where the CPU has FMA: half the instructions and half the latency of
+// the chain). The first omitted terms, x^17/17! and x^18/18!, are below 5e-17 there, and
+// the result is within 1 ulp of std::sin / std::cos (tests/test_chi2.py checks the warps
+// built on it against extended precision). Inline and without range reduction it costs a
+// fraction of a general sincos call, and the concentric map below only ever needs angles
+// in this interval.
+[[gnu::always_inline]] inline void sincos_quarter(double x, double& s, double& c) {
     const double z = x * x;
-    s = x * (1.0 + z * (-1.0 / 6.0 + z * (1.0 / 120.0 + z * (-1.0 / 5040.0 + z * (1.0 / 362880.0 +
-        z * (-1.0 / 39916800.0 + z * (1.0 / 6227020800.0 + z * (-1.0 / 1307674368000.0))))))));
-    c = 1.0 + z * (-0.5 + z * (1.0 / 24.0 + z * (-1.0 / 720.0 + z * (1.0 / 40320.0 + z * (-1.0 / 3628800.0 +
-        z * (1.0 / 479001600.0 + z * (-1.0 / 87178291200.0 + z * (1.0 / 20922789888000.0))))))));
+    double ps = mul_add(z, -1.0 / 1307674368000.0, 1.0 / 6227020800.0);
+    ps = mul_add(z, ps, -1.0 / 39916800.0);
+    ps = mul_add(z, ps, 1.0 / 362880.0);
+    ps = mul_add(z, ps, -1.0 / 5040.0);
+    ps = mul_add(z, ps, 1.0 / 120.0);
+    ps = mul_add(z, ps, -1.0 / 6.0);
+    ps = mul_add(z, ps, 1.0);
+    s = x * ps;
+    double pc = mul_add(z, 1.0 / 20922789888000.0, -1.0 / 87178291200.0);
+    pc = mul_add(z, pc, 1.0 / 479001600.0);
+    pc = mul_add(z, pc, -1.0 / 3628800.0);
+    pc = mul_add(z, pc, 1.0 / 40320.0);
+    pc = mul_add(z, pc, -1.0 / 720.0);
+    pc = mul_add(z, pc, 1.0 / 24.0);
+    pc = mul_add(z, pc, -0.5);
+    c = mul_add(z, pc, 1.0);
 }
 
 // sin and cos of 2 pi u for u in [0, 1]: u is split into its nearest quarter turn q/4 and

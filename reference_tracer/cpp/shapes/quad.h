@@ -38,18 +38,18 @@ struct Quad {
     double area() const { return area_; }
 
     bool intersect(const Ray& r, double t_min, double t_max, double& t_hit) const {
-        const double denom = dot(normal, r.d);
+        const double denom = dot_fused(normal, r.d);
         if (denom == 0.0) return false;  // parallel to the plane: never a hit
         // The planar coordinates of o + t d are a0 + t ad and b0 + t bd: the four dot
         // products do not depend on t, so they overlap the division's latency instead of
         // waiting for it (the former test formed o + t d, then two cross products).
         const Vec3 oq = r.o - Q;
-        const double a0 = dot(oq, ea), ad = dot(r.d, ea);
-        const double b0 = dot(oq, eb), bd = dot(r.d, eb);
-        const double t = (plane_d - dot(normal, r.o)) / denom;
+        const double a0 = dot_fused(oq, ea), ad = dot_fused(r.d, ea);
+        const double b0 = dot_fused(oq, eb), bd = dot_fused(r.d, eb);
+        const double t = (plane_d - dot_fused(normal, r.o)) / denom;
         if (!(t > t_min && t < t_max)) return false;
-        const double alpha = a0 + t * ad;
-        const double beta = b0 + t * bd;
+        const double alpha = mul_add(t, ad, a0);
+        const double beta = mul_add(t, bd, b0);
         if (alpha < 0.0 || alpha > 1.0 || beta < 0.0 || beta > 1.0) return false;
         t_hit = t;
         return true;
@@ -57,21 +57,23 @@ struct Quad {
 
     // The test above on a pack of rays at once (simd.h) (t_min 0): lanes where it hits, with t_max
     // lowered there to the hit's distance. Each lane is bit-identical to intersect(): the
-    // same operations in the same order (the build forbids contracting them into FMAs),
-    // only without its early exits, which a lane cannot take alone.
+    // same operations in the same order (the build forbids contracting them into FMAs
+    // other than mul_add's), only without its early exits, which a lane cannot take alone.
     VPl intersect_pack(const RayPack& r, VPd& t_max) const {
-        const VPd denom = normal.x * r.dx + normal.y * r.dy + normal.z * r.dz;
+        const auto dot_lanes = [](const Vec3& a, VPd x, VPd y, VPd z) {
+            return mul_add(VPd{} + a.z, z, mul_add(VPd{} + a.y, y, a.x * x));
+        };
+        const VPd denom = dot_lanes(normal, r.dx, r.dy, r.dz);
         const VPd oqx = r.ox - Q.x, oqy = r.oy - Q.y, oqz = r.oz - Q.z;
-        const VPd a0 = oqx * ea.x + oqy * ea.y + oqz * ea.z;
-        const VPd ad = r.dx * ea.x + r.dy * ea.y + r.dz * ea.z;
-        const VPd b0 = oqx * eb.x + oqy * eb.y + oqz * eb.z;
-        const VPd bd = r.dx * eb.x + r.dy * eb.y + r.dz * eb.z;
-        const VPd t = (plane_d - (normal.x * r.ox + normal.y * r.oy + normal.z * r.oz)) / denom;
-        const VPd alpha = a0 + t * ad;
-        const VPd beta = b0 + t * bd;
+        const VPd a0 = dot_lanes(ea, oqx, oqy, oqz), ad = dot_lanes(ea, r.dx, r.dy, r.dz);
+        const VPd b0 = dot_lanes(eb, oqx, oqy, oqz), bd = dot_lanes(eb, r.dx, r.dy, r.dz);
+        const VPd t = (plane_d - dot_lanes(normal, r.ox, r.oy, r.oz)) / denom;
+        const VPd alpha = mul_add(t, ad, a0);
+        const VPd beta = mul_add(t, bd, b0);
         // Written as intersect() rejects, so that a NaN coordinate passes as it does there.
+        // No test of denom: where it is 0, t is infinite or NaN and fails 0 < t < t_max.
         const VPl outside = (alpha < 0.0) | (alpha > 1.0) | (beta < 0.0) | (beta > 1.0);
-        const VPl hit = (denom != 0.0) & (t > 0.0) & (t < t_max) & ~outside;
+        const VPl hit = (t > 0.0) & (t < t_max) & ~outside;
         t_max = hit ? t : t_max;
         return hit;
     }
