@@ -52,6 +52,11 @@ inline VPd sqrt_lanes(VPd x) {
 #endif
 }
 
+// x in every lane. VPd{} + x would add a zero first (IEEE has -0 + 0 = +0, so the compiler
+// must); x - 0 is x for every x, so the subtraction folds away into a broadcast.
+inline VPd splat(double x) { return x - VPd{}; }
+inline V8f splat8(float x) { return x - V8f{}; }
+
 // Lane-wise mul_add (math.h): fused where the target has FMA, as the scalar one is.
 inline VPd mul_add(VPd a, VPd b, VPd c) {
 #if defined(__FMA__) && RT_PACK == 4

@@ -143,10 +143,10 @@ struct RaySlabs {
     [[gnu::always_inline]] explicit RaySlabs(const Ray& ray) : RaySlabs(Scalars(ray)) {}
     [[gnu::always_inline]] explicit RaySlabs(const Scalars& s) {
         for (int a = 0; a < 3; ++a) {
-            o_near[a] = V8f{} + s.o_near[a];
-            o_far[a] = V8f{} + s.o_far[a];
-            inv_near[a] = V8f{} + s.inv_near[a];
-            inv_far[a] = V8f{} + s.inv_far[a];
+            o_near[a] = splat8(s.o_near[a]);
+            o_far[a] = splat8(s.o_far[a]);
+            inv_near[a] = splat8(s.inv_near[a]);
+            inv_far[a] = splat8(s.inv_far[a]);
             near_row[a] = s.near_row[a];
             far_row[a] = s.far_row[a];
         }
@@ -163,7 +163,7 @@ struct RaySlabs {
     unsigned test(const WideNode& n, float t_max_f, V8f& tn) const {
         const float* rows = &n.lo[0][0];
         tn = V8f{};
-        V8f tf = V8f{} + t_max_f;
+        V8f tf = splat8(t_max_f);
         for (int a = 0; a < 3; ++a) {
             V8f near_plane, far_plane;
             __builtin_memcpy(&near_plane, rows + near_row[a], sizeof(V8f));
@@ -228,7 +228,7 @@ struct PacketBounds {
         // Whole-vector reductions, with the absent lanes replaced by the first ray's.
         const V8i present = mask_lanes(active);
         const int first = __builtin_ctz(active);
-        auto fill = [&](const V8f& v) { return present ? v : V8f{} + v[first]; };
+        auto fill = [&](const V8f& v) { return present ? v : splat8(v[first]); };
         auto finite_nonzero = [&](const V8f& v) {
             const V8f mag = v < 0.0f ? -v : v;  // NaN fails both comparisons below
             return lane_mask((mag <= std::numeric_limits<float>::max()) & (mag > 0.0f)) == 0xFFu;
@@ -249,7 +249,7 @@ struct PacketBounds {
     unsigned test(const WideNode& n, const int* near_row, const int* far_row, float t_max_f) const {
         const float* rows = &n.lo[0][0];
         V8f tn = V8f{};
-        V8f tf = V8f{} + t_max_f;
+        V8f tf = splat8(t_max_f);
         for (int a = 0; a < 3; ++a) {
             V8f near_plane, far_plane;
             __builtin_memcpy(&near_plane, rows + near_row[a], sizeof(V8f));

@@ -61,7 +61,7 @@ struct Quad {
     // other than mul_add's), only without its early exits, which a lane cannot take alone.
     VPl intersect_pack(const RayPack& r, VPd& t_max) const {
         const auto dot_lanes = [](const Vec3& a, VPd x, VPd y, VPd z) {
-            return mul_add(VPd{} + a.z, z, mul_add(VPd{} + a.y, y, a.x * x));
+            return mul_add(splat(a.z), z, mul_add(splat(a.y), y, a.x * x));
         };
         const VPd denom = dot_lanes(normal, r.dx, r.dy, r.dz);
         const VPd oqx = r.ox - Q.x, oqy = r.oy - Q.y, oqz = r.oz - Q.z;
