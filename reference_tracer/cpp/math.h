@@ -91,8 +91,12 @@ struct Frame {
         s = Vec3(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
         t = Vec3(b, sign + n.y * n.y * a, -n.y);
     }
-    Vec3 to_local(const Vec3& v) const { return {dot(v, s), dot(v, t), dot(v, n)}; }
-    Vec3 to_world(const Vec3& v) const { return s * v.x + t * v.y + n * v.z; }
+    // With fused multiply-adds (mul_add): two thirds of the instructions, one rounding less.
+    Vec3 to_local(const Vec3& v) const { return {dot_fused(v, s), dot_fused(v, t), dot_fused(v, n)}; }
+    Vec3 to_world(const Vec3& v) const {
+        return {mul_add(n.x, v.z, mul_add(t.x, v.y, s.x * v.x)), mul_add(n.y, v.z, mul_add(t.y, v.y, s.y * v.x)),
+                mul_add(n.z, v.z, mul_add(t.z, v.y, s.z * v.x))};
+    }
 };
 
 // Offset applied to ray origins leaving a surface, relative to the hit point's largest
