@@ -83,11 +83,11 @@ public:
         double pdf_dir = 0.0;
         if (!sample_point(e, ref, u1, u2, p, n, pdf_dir)) return ls;
         const Vec3 d = p - ref;
-        const double dist2 = length_squared(d);
+        const double dist2 = dot_fused(d, d);
         if (!(dist2 > 0.0)) return ls;
         ls.dist = std::sqrt(dist2);
         ls.wi = d / ls.dist;
-        const double cos_l = -dot(n, ls.wi);
+        const double cos_l = -dot_fused(n, ls.wi);
         if (!(cos_l > 0.0)) return ls;  // back of a one-sided emitter, or exactly grazing
         if constexpr (M == Mutant::LightPdfNoJacobian) {
             if (pdf_dir == 0.0) pdf_dir = 1.0 / area(e);  // seeded bug: the area density, no dist^2 / cos

@@ -79,7 +79,10 @@ struct Quad {
     }
 
     // The point (a, b) of the unit square mapped onto the quad: uniform in area.
-    Vec3 point(double a, double b) const { return Q + a * u + b * v; }
+    Vec3 point(double a, double b) const {
+        return {mul_add(b, v.x, mul_add(a, u.x, Q.x)), mul_add(b, v.y, mul_add(a, u.y, Q.y)),
+                mul_add(b, v.z, mul_add(a, u.z, Q.z))};
+    }
 };
 
 }  // namespace rt
