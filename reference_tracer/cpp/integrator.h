@@ -81,6 +81,12 @@ private:
     template <typename Occluded>
     std::optional<Vec3> sample_ld(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng, uint64_t& rays,
                                   Occluded&& occluded) const;
+    // sample_ld after its light sample `ls` (drawn with three uniforms where the scene has
+    // emitters): the wavefront integrator draws the uniforms, samples the lights for
+    // several lanes at once and finishes each lane here.
+    template <typename Occluded>
+    std::optional<Vec3> estimate_ld(const Vertex& v, const Vec3& beta, const LightSample& ls, uint64_t& rays,
+                                    const Vec3& ref, Occluded&& occluded) const;
     // The `light` strategy at a non-delta vertex, where its path ends: beta times the
     // radiance arriving straight along one direction sampled toward the emitters.
     std::optional<Vec3> light_only(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng,

@@ -45,7 +45,13 @@ std::optional<Vec3> Integrator<M>::sample_ld(const Vertex& v, const Vec3& ref, c
     const LightSampler& lights = scene_.lights();
     if (lights.empty()) return std::nullopt;
     const double u0 = rng.next_double(), u1 = rng.next_double(), u2 = rng.next_double();
-    const LightSample ls = lights.sample<M>(ref, u0, u1, u2);
+    return estimate_ld(v, beta, lights.sample<M>(ref, u0, u1, u2), rays, ref, occluded);
+}
+
+template <Mutant M>
+template <typename Occluded>
+std::optional<Vec3> Integrator<M>::estimate_ld(const Vertex& v, const Vec3& beta, const LightSample& ls,
+                                               uint64_t& rays, const Vec3& ref, Occluded&& occluded) const {
     if (!ls.valid) return std::nullopt;
     const Vec3 local = v.frame.to_local(ls.wi);
     const Vec3 f = bsdf_eval<M>(v.m, v.wo, local);

@@ -73,10 +73,38 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, const Interaction& it, uin
     return true;
 }
 
-void WavefrontIntegrator::next_event(Lane& lane, uint64_t& rays) const {
+bool WavefrontIntegrator::draw_light_uniforms(Lane& lane) const {
     const Integrator<Mutant::None>& li = integrator_;
-    const Vertex& v = *lane.vertex;
-    if (li.strategy_ != Strategy::MIS || v.m.is_delta()) return;
+    // sample_ld's first step: its three uniforms, where it would draw them.
+    if (li.strategy_ != Strategy::MIS || lane.vertex->m.is_delta() || scene_.lights().empty()) return false;
+    for (double& u : lane.light_u) u = lane.rng.next_double();
+    return true;
+}
+
+void WavefrontIntegrator::sample_lights(Lane* const* lanes, int n) const {
+    const LightSampler& lights = scene_.lights();
+    if (!lights.single_quad()) {
+        for (int k = 0; k < n; ++k)
+            lanes[k]->light = lights.sample(lanes[k]->ref, lanes[k]->light_u[0], lanes[k]->light_u[1],
+                                            lanes[k]->light_u[2]);
+        return;
+    }
+    for (int base = 0; base < n; base += kPackWidth) {
+        const int m = std::min(kPackWidth, n - base);
+        VPd ref[3], u1, u2;
+        LightSample* out[kPackWidth];
+        for (int l = 0; l < kPackWidth; ++l) {  // absent lanes repeat the first
+            const Lane& lane = *lanes[base + (l < m ? l : 0)];
+            for (int a = 0; a < 3; ++a) ref[a][l] = lane.ref[a];
+            u1[l] = lane.light_u[1];
+            u2[l] = lane.light_u[2];
+            out[l] = &lanes[base + (l < m ? l : 0)]->light;
+        }
+        lights.sample_single_quad(ref, u1, u2, m, out);
+    }
+}
+
+void WavefrontIntegrator::next_event(Lane& lane, uint64_t& rays) const {
     // The shadow ray joins the batch's; its value is added after the batch, before
     // anything else touches L, so the sum keeps Li's order.
     const auto queue = [&lane](const Ray& r, double t_max) {
@@ -85,7 +113,7 @@ void WavefrontIntegrator::next_event(Lane& lane, uint64_t& rays) const {
         lane.shadow_t_max = t_max;
         return false;
     };
-    if (const std::optional<Vec3> Ld = li.sample_ld(v, lane.ref, lane.beta, lane.rng, rays, queue))
+    if (const std::optional<Vec3> Ld = integrator_.estimate_ld(*lane.vertex, lane.beta, lane.light, rays, lane.ref, queue))
         lane.shadow_value = *Ld;
 }
 
@@ -141,6 +169,7 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
 
     // The batch's queries, compacted: lane index, ray and result per busy lane.
     int active[kLanes], shadowed[kLanes], scattering[kLanes];
+    Lane* lighting[kLanes];
     Ray batch[kLanes];
     bool hit[kLanes];
     Interaction its[kLanes];
@@ -163,7 +192,11 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
         int n_scatter = 0;
         for (int k = 0; k < n; ++k)
             if (shade(lanes[active[k]], hit[k], its[k], rays)) scattering[n_scatter++] = active[k];
-        for (int k = 0; k < n_scatter; ++k) next_event(lanes[scattering[k]], rays);
+        int n_light = 0;
+        for (int k = 0; k < n_scatter; ++k)
+            if (draw_light_uniforms(lanes[scattering[k]])) lighting[n_light++] = &lanes[scattering[k]];
+        sample_lights(lighting, n_light);
+        for (int k = 0; k < n_light; ++k) next_event(*lighting[k], rays);
         for (int k = 0; k < n_scatter; ++k) scatter(lanes[scattering[k]]);
         for (int k = 0; k < n; ++k) {
             Lane& lane = lanes[active[k]];

@@ -64,6 +64,8 @@ private:
         Vec3 ref;
         Interaction it;
 
+        double light_u[3] = {0, 0, 0};  // `mis`'s light sample: its uniforms, then
+        LightSample light;               // the sample
         bool shadow = false;   // a shadow ray to trace before the next bounce
         Ray shadow_ray;
         double shadow_t_max = 0.0;
@@ -74,15 +76,20 @@ private:
     bool start_pixel(Lane& lane, TileCursor& pixels) const;
     // Starts the pixel's next sample: its camera ray, as render_pixel draws it.
     void start_sample(Lane& lane) const;
-    // One vertex of Integrator::Li's loop in three parts, each run over the whole batch
-    // before the next, so that the independent lanes overlap each part's long chains of
-    // dependent arithmetic instead of waiting on them one lane after another
-    // (PERFORMANCE.md round 8: cornell_box +8%, cornell_mesh +11%, furnace +5%).
+    // One vertex of Integrator::Li's loop in parts, each run over the whole batch before
+    // the next, so that the independent lanes overlap each part's long chains of dependent
+    // arithmetic instead of waiting on them one lane after another (PERFORMANCE.md round 8:
+    // cornell_box +8%, cornell_mesh +11%, furnace +5%).
     // shade(), after the closest hit of lane.ray: emission and the vertex; returns whether
-    // the path goes on. next_event(): `mis`'s light sample up to its shadow ray (queued in
-    // the lane). scatter(): the next direction and Russian roulette. They set path_done
+    // the path goes on. draw_light_uniforms(): `mis`'s three uniforms for the light sample
+    // (returns whether the vertex takes one). sample_lights(): the light samples of those
+    // lanes, a pack of lanes at a time where the only light is a quad (PERFORMANCE.md
+    // round 9). next_event(): the rest of next-event estimation up to its shadow ray (queued
+    // in the lane). scatter(): the next direction and Russian roulette. They set path_done
     // where Li would return; each lane's random draws keep Li's order.
     bool shade(Lane& lane, bool hit, const Interaction& it, uint64_t& rays) const;
+    bool draw_light_uniforms(Lane& lane) const;
+    void sample_lights(Lane* const* lanes, int n) const;
     void next_event(Lane& lane, uint64_t& rays) const;
     void scatter(Lane& lane) const;
     // Adds the finished path's radiance to the pixel's sums, as render_pixel does.

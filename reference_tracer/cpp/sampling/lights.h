@@ -102,6 +102,48 @@ public:
         return ls;
     }
 
+    // Whether the scene's only light is one quad (no background): the case
+    // sample_single_quad() serves (every Cornell box of the suite).
+    bool single_quad() const {
+        return emitters_.size() == 1 && emitters_[0].kind == EmitterKind::Quad && p_background_ == 0.0;
+    }
+
+    // sample() for a pack of reference points at once (simd.h: 4 or 8 lanes) where
+    // single_quad() holds; u0 is not needed (one emitter). Lane l of ref, u1, u2 goes to
+    // out[l] for l < m. Each lane does sample()'s operations in sample()'s order (lane-wise
+    // square root and division are IEEE like the scalar ones), so every valid sample is
+    // sample()'s bit for bit; a failed one is returned as LightSample() (sample() leaves
+    // some fields set on the way, which no caller reads once valid is false).
+    void sample_single_quad(const VPd (&ref)[3], VPd u1, VPd u2, int m, LightSample* const* out) const {
+        const Emitter& e = emitters_[0];
+        const Quad& q = (*quads_)[e.index];
+        const double sel = select_.pmf(0) * (1.0 - p_background_);
+        const double area = q.area();
+        // p = q.point(u1, u2), d = p - ref.
+        VPd d[3];
+        for (int a = 0; a < 3; ++a) d[a] = mul_add(u2, splat(q.v[a]), mul_add(u1, splat(q.u[a]), splat(q.Q[a]))) - ref[a];
+        const VPd dist2 = mul_add(d[2], d[2], mul_add(d[1], d[1], d[0] * d[0]));
+        const VPd dist = sqrt_lanes(dist2);
+        const VPd inv = 1.0 / dist;  // Vec3 / double multiplies by the reciprocal
+        VPd wi[3];
+        for (int a = 0; a < 3; ++a) wi[a] = d[a] * inv;
+        const VPd cos_l = -mul_add(splat(q.normal.z), wi[2], mul_add(splat(q.normal.y), wi[1], q.normal.x * wi[0]));
+        const VPd pdf = sel * (dist2 / (cos_l * area));
+        const VPd abs_pdf = pdf < 0.0 ? -pdf : pdf;
+        const unsigned valid = lane_mask((dist2 > 0.0) & (cos_l > 0.0) & (pdf > 0.0) & (abs_pdf < kInf));
+        for (int l = 0; l < m; ++l) {
+            LightSample& ls = *out[l];
+            ls = LightSample();
+            if (!((valid >> l) & 1u)) continue;
+            ls.wi = Vec3(wi[0][l], wi[1][l], wi[2][l]);
+            ls.dist = dist[l];
+            ls.pdf = pdf[l];
+            ls.radiance = e.radiance;
+            ls.prim = e.prim;
+            ls.valid = true;
+        }
+    }
+
     // Density of sample() for the emitter `prim` in direction wi from ref, where the ray
     // (ref, wi) meets that emitter at `p` with front normal `n` (used for MIS weights of
     // emitters hit by BSDF sampling).
