@@ -57,6 +57,11 @@ inline VPd sqrt_lanes(VPd x) {
 inline VPd splat(double x) { return x - VPd{}; }
 inline V8f splat8(float x) { return x - V8f{}; }
 
+// v as the type of `like`: itself for double, in every lane for VPd (code written once
+// for a scalar and a pack).
+inline double as_lanes(double v, double) { return v; }
+inline VPd as_lanes(double v, VPd) { return splat(v); }
+
 // Lane-wise mul_add (math.h): fused where the target has FMA, as the scalar one is.
 inline VPd mul_add(VPd a, VPd b, VPd c) {
 #if defined(__FMA__) && RT_PACK == 4
@@ -72,6 +77,10 @@ inline VPd mul_add(VPd a, VPd b, VPd c) {
     return a * b + c;
 #endif
 }
+
+// std::sqrt for double and lane-wise for VPd.
+inline double sqrt_of(double x) { return __builtin_sqrt(x); }
+inline VPd sqrt_of(VPd x) { return sqrt_lanes(x); }
 
 // Lane-wise std::copysign(magnitude, sign).
 inline VPd copysign_lanes(VPd magnitude, VPd sign) {

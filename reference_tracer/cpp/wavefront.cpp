@@ -118,12 +118,55 @@ void WavefrontIntegrator::next_event(Lane& lane, uint64_t& rays) const {
 }
 
 void WavefrontIntegrator::scatter(Lane& lane) const {
+    continue_path(lane, integrator_.sample_scatter(*lane.vertex, lane.ref, lane.rng));
+}
+
+bool WavefrontIntegrator::draw_diffuse_uniforms(Lane& lane) const {
+    // sample_scatter's path to lambertian::sample (sample_material at a diffuse vertex),
+    // with sample_material's draws in its order (u0 is drawn and not used).
+    const Strategy strategy = integrator_.strategy_;
+    const MaterialType type = lane.vertex->m.type;
+    if (!(strategy == Strategy::Cosine || strategy == Strategy::MIS) ||
+        !(type == MaterialType::Lambertian || type == MaterialType::DiffuseLight))
+        return false;
+    lane.scatter_u[1] = lane.rng.next_double();  // u2
+    lane.scatter_u[0] = lane.rng.next_double();  // u1
+    lane.rng.next_double();                      // u0
+    return true;
+}
+
+void WavefrontIntegrator::scatter_diffuse(Lane* const* lanes, int n) const {
+    for (int base = 0; base < n; base += kPackWidth) {
+        const int m = std::min(kPackWidth, n - base);
+        VPd u1, u2;
+        for (int l = 0; l < kPackWidth; ++l) {  // absent lanes repeat the first
+            const Lane& lane = *lanes[base + (l < m ? l : 0)];
+            u1[l] = lane.scatter_u[0];
+            u2[l] = lane.scatter_u[1];
+        }
+        VPd w[3];
+        square_to_cosine_hemisphere(u1, u2, w[0], w[1], w[2]);
+        for (int l = 0; l < m; ++l) {
+            // The rest of lambertian::sample and sample_material, lane by lane.
+            Lane& lane = *lanes[base + l];
+            const Vertex& v = *lane.vertex;
+            const Vec3 wi(w[0][l], w[1][l], w[2][l]);
+            const double pdf = cosine_hemisphere_pdf(wi.z);
+            if (v.wo.z <= 0.0 || !(pdf > 0.0)) {
+                continue_path(lane, std::nullopt);
+                continue;
+            }
+            continue_path(lane, Integrator<Mutant::None>::Scatter{v.frame.to_world(wi), v.m.albedo, pdf, 1.0});
+        }
+    }
+}
+
+void WavefrontIntegrator::continue_path(Lane& lane, const std::optional<Integrator<Mutant::None>::Scatter>& s) const {
     const Integrator<Mutant::None>& li = integrator_;
     const Vertex& v = *lane.vertex;
     const Material& m = v.m;
     const Interaction& it = lane.it;
     const Vec3& ref = lane.ref;
-    const std::optional<Integrator<Mutant::None>::Scatter> s = li.sample_scatter(v, ref, lane.rng);
     if (!s) {
         lane.path_done = true;
         return;
@@ -197,7 +240,15 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
             if (draw_light_uniforms(lanes[scattering[k]])) lighting[n_light++] = &lanes[scattering[k]];
         sample_lights(lighting, n_light);
         for (int k = 0; k < n_light; ++k) next_event(*lighting[k], rays);
-        for (int k = 0; k < n_scatter; ++k) scatter(lanes[scattering[k]]);
+        int n_diffuse = 0;
+        for (int k = 0; k < n_scatter; ++k) {
+            Lane& lane = lanes[scattering[k]];
+            if (draw_diffuse_uniforms(lane))
+                lighting[n_diffuse++] = &lane;
+            else
+                scatter(lane);
+        }
+        scatter_diffuse(lighting, n_diffuse);
         for (int k = 0; k < n; ++k) {
             Lane& lane = lanes[active[k]];
             if (lane.shadow) {

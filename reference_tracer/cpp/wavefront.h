@@ -66,6 +66,7 @@ private:
 
         double light_u[3] = {0, 0, 0};  // `mis`'s light sample: its uniforms, then
         LightSample light;               // the sample
+        double scatter_u[2] = {0, 0};    // a diffuse vertex's uniforms u1, u2 for its next direction
         bool shadow = false;   // a shadow ray to trace before the next bounce
         Ray shadow_ray;
         double shadow_t_max = 0.0;
@@ -92,6 +93,13 @@ private:
     void sample_lights(Lane* const* lanes, int n) const;
     void next_event(Lane& lane, uint64_t& rays) const;
     void scatter(Lane& lane) const;
+    // scatter() for diffuse vertices of `cosine` and `mis`, in two parts: the uniforms
+    // (returns whether the vertex is one), then the cosine-weighted directions of a pack
+    // of lanes at once (PERFORMANCE.md round 9).
+    bool draw_diffuse_uniforms(Lane& lane) const;
+    void scatter_diffuse(Lane* const* lanes, int n) const;
+    // scatter()'s end, given the sampled continuation (none: the path ends).
+    void continue_path(Lane& lane, const std::optional<Integrator<Mutant::None>::Scatter>& s) const;
     // Adds the finished path's radiance to the pixel's sums, as render_pixel does.
     static void add_sample(Lane& lane, bool tails, uint64_t& nonfinite);
     // Writes the pixel's sums into the image.

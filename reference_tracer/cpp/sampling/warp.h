@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "../math.h"
+#include "../simd.h"
 
 namespace rt {
 
@@ -14,25 +15,28 @@ namespace rt {
 // the result is within 1 ulp of std::sin / std::cos (tests/test_chi2.py checks the warps
 // built on it against extended precision). Inline and without range reduction it costs a
 // fraction of a general sincos call, and the concentric map below only ever needs angles
-// in this interval.
-[[gnu::always_inline]] inline void sincos_quarter(double x, double& s, double& c) {
-    const double z = x * x;
-    double ps = mul_add(z, -1.0 / 1307674368000.0, 1.0 / 6227020800.0);
-    ps = mul_add(z, ps, -1.0 / 39916800.0);
-    ps = mul_add(z, ps, 1.0 / 362880.0);
-    ps = mul_add(z, ps, -1.0 / 5040.0);
-    ps = mul_add(z, ps, 1.0 / 120.0);
-    ps = mul_add(z, ps, -1.0 / 6.0);
-    ps = mul_add(z, ps, 1.0);
+// in this interval. T is double, or VPd for a pack of lanes (each lane computes exactly
+// what the double version does).
+template <typename T>
+[[gnu::always_inline]] inline void sincos_quarter(T x, T& s, T& c) {
+    const T z = x * x;
+    const auto k = [&z](double v) { return as_lanes(v, z); };
+    T ps = mul_add(z, k(-1.0 / 1307674368000.0), k(1.0 / 6227020800.0));
+    ps = mul_add(z, ps, k(-1.0 / 39916800.0));
+    ps = mul_add(z, ps, k(1.0 / 362880.0));
+    ps = mul_add(z, ps, k(-1.0 / 5040.0));
+    ps = mul_add(z, ps, k(1.0 / 120.0));
+    ps = mul_add(z, ps, k(-1.0 / 6.0));
+    ps = mul_add(z, ps, k(1.0));
     s = x * ps;
-    double pc = mul_add(z, 1.0 / 20922789888000.0, -1.0 / 87178291200.0);
-    pc = mul_add(z, pc, 1.0 / 479001600.0);
-    pc = mul_add(z, pc, -1.0 / 3628800.0);
-    pc = mul_add(z, pc, 1.0 / 40320.0);
-    pc = mul_add(z, pc, -1.0 / 720.0);
-    pc = mul_add(z, pc, 1.0 / 24.0);
-    pc = mul_add(z, pc, -0.5);
-    c = mul_add(z, pc, 1.0);
+    T pc = mul_add(z, k(1.0 / 20922789888000.0), k(-1.0 / 87178291200.0));
+    pc = mul_add(z, pc, k(1.0 / 479001600.0));
+    pc = mul_add(z, pc, k(-1.0 / 3628800.0));
+    pc = mul_add(z, pc, k(1.0 / 40320.0));
+    pc = mul_add(z, pc, k(-1.0 / 720.0));
+    pc = mul_add(z, pc, k(1.0 / 24.0));
+    pc = mul_add(z, pc, k(-0.5));
+    c = mul_add(z, pc, k(1.0));
 }
 
 // sin and cos of 2 pi u for u in [0, 1]: u is split into its nearest quarter turn q/4 and
@@ -69,23 +73,27 @@ constexpr double kUniformSpherePdf = 1.0 / (4.0 * kPi);
 
 // Cosine-weighted hemisphere (Malley's method through a concentric disk). Both branches
 // of the concentric map need the sine and cosine of an angle in [-pi/4, pi/4]: the second
-// one's angle pi/2 - phi' is taken as cos/sin of phi' with the roles swapped.
-inline Vec3 square_to_cosine_hemisphere(double u1, double u2) {
-    const double a = 2.0 * u1 - 1.0, b = 2.0 * u2 - 1.0;
-    double x = 0.0, y = 0.0;
-    if (a != 0.0 || b != 0.0) {
-        double s, c;
-        if (a * a > b * b) {
-            sincos_quarter((kPi / 4.0) * (b / a), s, c);
-            x = a * c;
-            y = a * s;
-        } else {
-            sincos_quarter((kPi / 4.0) * (a / b), s, c);
-            x = b * s;
-            y = b * c;
-        }
-    }
-    return {x, y, safe_sqrt(1.0 - x * x - y * y)};
+// one's angle pi/2 - phi' is taken as cos/sin of phi' with the roles swapped. The branch
+// is a selection (its condition is random: a branch would be mispredicted half the time),
+// so the same code serves one sample (T = double) or a pack of lanes (T = VPd).
+template <typename T>
+[[gnu::always_inline]] inline void square_to_cosine_hemisphere(T u1, T u2, T& x, T& y, T& z) {
+    const T a = 2.0 * u1 - 1.0, b = 2.0 * u2 - 1.0;
+    const auto first = a * a > b * b;
+    // At a = b = 0 the angle is 0 / 0; that lane's point is the centre, selected below.
+    T s, c;
+    sincos_quarter((kPi / 4.0) * ((first ? b : a) / (first ? a : b)), s, c);
+    const auto centre = (a == 0.0) & (b == 0.0);
+    const T zero = as_lanes(0.0, a);
+    x = centre ? zero : (first ? a * c : b * s);
+    y = centre ? zero : (first ? a * s : b * c);
+    const T r2 = 1.0 - x * x - y * y;
+    z = sqrt_of(r2 > 0.0 ? r2 : zero);  // safe_sqrt
+}
+[[gnu::always_inline]] inline Vec3 square_to_cosine_hemisphere(double u1, double u2) {
+    Vec3 w;
+    square_to_cosine_hemisphere(u1, u2, w.x, w.y, w.z);
+    return w;
 }
 inline double cosine_hemisphere_pdf(double cos_theta) { return cos_theta > 0.0 ? cos_theta * kInvPi : 0.0; }
 
