@@ -185,3 +185,54 @@ def test_seeded_bugs_run_in_the_scalar_integrator_only():
         core.render(1, 4, 0, 1, None, False, integrator=0, mutant=k)
     core.render(1, 4, 0, 1, None, False, integrator=1, mutant=k)
     core.render(1, 4, 0, 1, None, False, integrator=0, mutant=0)  # the tracer itself: either
+
+
+@pytest.mark.parametrize("name", SUITE)
+def test_packed_light_samples_equal_scalar_ones(name):
+    # The wavefront samples the lights of a pack of vertices at once where the scene's only
+    # light is a quad (LightSampler::sample_single_quad; every Cornell box of the suite);
+    # each sample must be LightSampler::sample's bit for bit, the failed ones included:
+    # points all over and beyond the scene, on the light's plane, at its corners (where the
+    # sampled point can be the reference point itself: distance 0) and behind it.
+    scene = get_scene(name)
+    core = core_scene(scene)
+    rng = np.random.default_rng(7)
+    n = 4001  # not a multiple of the pack width: the last pack is partial
+    refs = rng.uniform(-700.0, 1300.0, (n, 3))
+    u = rng.random((n, 3))
+    lights = [s for s in scene.shapes if isinstance(s, rt.Quad) and isinstance(s.material, rt.DiffuseLight)]
+    special = []
+    for q in lights:
+        Q, a, b = (np.asarray(x, dtype=float) for x in (q.Q, q.u, q.v))
+        normal = np.cross(a, b) / np.linalg.norm(np.cross(a, b))
+        for p in (Q, Q + a, Q + b, Q + a + b, Q + 0.5 * a + 0.5 * b):
+            special += [p, p + normal, p - normal, p + 1e-9 * normal]
+    if special:
+        refs[: len(special)] = special
+        u[: len(special), 1:] = 0.0  # the sampled point is Q: at the corner Q, distance 0
+    refs, u = np.ascontiguousarray(refs), np.ascontiguousarray(u)
+    scalar, packed = core.sample_lights(refs, u), core.sample_lights(refs, u, wavefront=True)
+    assert scalar["valid"].any() or not lights
+    for key in ("valid", "wi", "pdf", "dist", "pdf_all"):
+        assert np.array_equal(scalar[key], packed[key]), key
+
+
+@pytest.mark.parametrize("warp", ["cosine_hemisphere", "concentric_disk"])
+def test_packed_cosine_warp_equals_scalar_one(warp):
+    # The wavefront draws the directions of a pack of diffuse vertices at once with the same
+    # template as the scalar warp (warp.h: square_to_cosine_hemisphere); bit for bit on
+    # random numbers and on the concentric map's special points (centre, diagonals, edges).
+    from reference_tracer import _core
+
+    rng = np.random.default_rng(3)
+    edges = np.array([0.0, 0.25, 0.5, 0.75, np.nextafter(1.0, 0.0), np.nextafter(0.5, 0.0), np.nextafter(0.5, 1.0)])
+    grid = np.stack(np.meshgrid(edges, edges), axis=-1).reshape(-1, 2)
+    u = np.ascontiguousarray(np.concatenate([grid, rng.random((9999, 2))]))
+    assert np.array_equal(_core.warp_sample(warp, u, packed=True), _core.warp_sample(warp, u))
+
+
+def test_only_the_cosine_warp_has_a_packed_version():
+    from reference_tracer import _core
+
+    with pytest.raises(ValueError, match="packed"):
+        _core.warp_sample("uniform_sphere", np.zeros((3, 2)), packed=True)

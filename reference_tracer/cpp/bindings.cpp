@@ -282,17 +282,37 @@ public:
         return to_numpy(std::move(out), {n});
     }
 
-    // Light sampling from N reference points with uniform numbers u (N, 3).
-    nb::dict sample_lights(const Matrix& refs, const Matrix& u) const {
+    // Light sampling from N reference points with uniform numbers u (N, 3). wavefront: as
+    // the wavefront integrator samples them (a pack of points at a time where the only
+    // light is a quad: LightSampler::sample_single_quad), to compare with sample().
+    nb::dict sample_lights(const Matrix& refs, const Matrix& u, bool wavefront) const {
         require_columns(refs, 3, "refs");
         require_columns(u, 3, "u");
         if (refs.shape(0) != u.shape(0)) throw std::invalid_argument("refs and u differ in length");
         const size_t n = refs.shape(0);
         std::vector<double> wi(3 * n, 0.0), pdf(n, 0.0), dist(n, 0.0), pdf_all(n, 0.0);
         std::vector<uint8_t> valid(n, 0);
+        std::vector<rt::LightSample> packed;
+        if (wavefront && scene_->lights().single_quad()) {
+            packed.resize(n);
+            for (size_t base = 0; base < n; base += rt::kPackWidth) {
+                const int m = static_cast<int>(std::min<size_t>(rt::kPackWidth, n - base));
+                rt::VPd ref[3], u1, u2;
+                rt::LightSample* out[rt::kPackWidth];
+                for (int l = 0; l < rt::kPackWidth; ++l) {  // absent lanes repeat the first
+                    const size_t i = base + size_t(l < m ? l : 0);
+                    for (int a = 0; a < 3; ++a) ref[a][l] = refs(i, a);
+                    u1[l] = u(i, 1);
+                    u2[l] = u(i, 2);
+                    out[l] = &packed[i];
+                }
+                scene_->lights().sample_single_quad(ref, u1, u2, m, out);
+            }
+        }
         for (size_t i = 0; i < n; ++i) {
             const rt::Vec3 ref = row3(refs, i, 0);
-            const rt::LightSample ls = scene_->lights().sample(ref, u(i, 0), u(i, 1), u(i, 2));
+            const rt::LightSample ls =
+                packed.empty() ? scene_->lights().sample(ref, u(i, 0), u(i, 1), u(i, 2)) : packed[i];
             valid[i] = ls.valid;
             if (!ls.valid) continue;
             for (int c = 0; c < 3; ++c) wi[3 * i + c] = ls.wi[c];
@@ -371,7 +391,7 @@ NB_MODULE(_core, m) {
         .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false, "threads"_a = 1,
              "batch"_a = true, "wavefront"_a = false)
         .def("occluded", &PyScene::occluded, "origins"_a, "directions"_a, "t_max"_a, "wavefront"_a = false)
-        .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a)
+        .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a, "wavefront"_a = false)
         .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)
         .def_prop_ro("primitive_count", &PyScene::primitive_count)
         .def_prop_ro("emitter_count", &PyScene::emitter_count)

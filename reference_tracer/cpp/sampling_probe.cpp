@@ -9,7 +9,8 @@
 // and is probed through the existing Scene.sample_lights / Scene.light_pdf (bindings.cpp),
 // i.e. the scene's real LightSampler.
 //
-//   warp_sample(name, u (n, 2), param=0) -> (n, 3) unit vectors; (n, 2) points for the disk
+//   warp_sample(name, u (n, 2), param=0, packed=False) -> (n, 3) unit vectors; (n, 2) points
+//       for the disk; packed: the wavefront's pack version (the cosine warp only)
 //   warp_pdf(name, points, param=0)      -> (n,) density (solid angle; area for the disk)
 //   bsdf_sample(material, wo (3,), u (n, 3), albedo (3,), param) -> dict of arrays
 //   bsdf_eval_pdf(material, wo (3,), wi (n, 3), albedo (3,), param) -> dict of arrays
@@ -76,12 +77,31 @@ Warp warp_of(const std::string& name, double param) {
     return w;
 }
 
-nb::ndarray<nb::numpy, double> probe_warp_sample(const std::string& name, const Matrix& u, double param) {
+nb::ndarray<nb::numpy, double> probe_warp_sample(const std::string& name, const Matrix& u, double param,
+                                                 bool packed) {
     const Warp w = warp_of(name, param);
     require_columns(u, 2, "u");
     const size_t n = u.shape(0);
     const size_t dim = w == Warp::ConcentricDisk ? 2 : 3;
     std::vector<double> out(dim * n);
+    if (packed) {
+        // The pack version the wavefront integrator runs (the same template, T = VPd).
+        if (w != Warp::CosineHemisphere && w != Warp::ConcentricDisk)
+            throw std::invalid_argument(name + ": only cosine_hemisphere and concentric_disk have a packed version");
+        nb::gil_scoped_release release;
+        for (size_t base = 0; base < n; base += kPackWidth) {
+            VPd u1, u2, d[3];
+            for (int l = 0; l < kPackWidth; ++l) {  // absent lanes repeat the first
+                const size_t i = base + size_t(base + l < n ? l : 0);
+                u1[l] = u(i, 0);
+                u2[l] = u(i, 1);
+            }
+            square_to_cosine_hemisphere(u1, u2, d[0], d[1], d[2]);
+            for (size_t l = 0; l < size_t(kPackWidth) && base + l < n; ++l)
+                for (size_t c = 0; c < dim; ++c) out[dim * (base + l) + c] = d[c][l];
+        }
+        return to_numpy(std::move(out), {n, dim});
+    }
     {
         nb::gil_scoped_release release;
         for (size_t i = 0; i < n; ++i) {
@@ -211,9 +231,10 @@ nb::dict probe_bsdf_eval_pdf(const std::string& material, const Vector& wo_, con
 }  // namespace
 
 void register_sampling_probe(nb::module_& m) {
-    m.def("warp_sample", &probe_warp_sample, "name"_a, "u"_a, "param"_a = 0.0,
+    m.def("warp_sample", &probe_warp_sample, "name"_a, "u"_a, "param"_a = 0.0, "packed"_a = false,
           "Warp (n, 2) uniform numbers with a routine of sampling/warp.h: (n, 3) local directions, "
-          "(n, 2) points for concentric_disk. param: 1 - cos(theta_max) for uniform_cone.");
+          "(n, 2) points for concentric_disk. param: 1 - cos(theta_max) for uniform_cone. packed: the "
+          "pack version the wavefront integrator runs (cosine_hemisphere and concentric_disk only).");
     m.def("warp_pdf", &probe_warp_pdf, "name"_a, "points"_a, "param"_a = 0.0,
           "Density of warp_sample's output at (n, 3) directions (solid angle) or (n, 2) disk points (area).");
     m.def("bsdf_sample", &probe_bsdf_sample, "material"_a, "wo"_a, "u"_a, "albedo"_a, "param"_a,
