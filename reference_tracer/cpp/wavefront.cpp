@@ -147,7 +147,8 @@ void WavefrontIntegrator::scatter_diffuse(Lane* const* lanes, int n) const {
         VPd w[3];
         square_to_cosine_hemisphere(u1, u2, w[0], w[1], w[2]);
         for (int l = 0; l < m; ++l) {
-            // The rest of lambertian::sample and sample_material, lane by lane.
+            // The rest of lambertian::sample and sample_material, lane by lane (the images
+            // stay the scalar integrator's bit for bit: tests/test_wavefront.py).
             Lane& lane = *lanes[base + l];
             const Vertex& v = *lane.vertex;
             const Vec3 wi(w[0][l], w[1][l], w[2][l]);
@@ -212,7 +213,7 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
 
     // The batch's queries, compacted: lane index, ray and result per busy lane.
     int active[kLanes], shadowed[kLanes], scattering[kLanes];
-    Lane* lighting[kLanes];
+    Lane* grouped[kLanes];  // the lanes of one pack pass (light samples, diffuse directions)
     Ray batch[kLanes];
     bool hit[kLanes];
     Interaction its[kLanes];
@@ -237,18 +238,18 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
             if (shade(lanes[active[k]], hit[k], its[k], rays)) scattering[n_scatter++] = active[k];
         int n_light = 0;
         for (int k = 0; k < n_scatter; ++k)
-            if (draw_light_uniforms(lanes[scattering[k]])) lighting[n_light++] = &lanes[scattering[k]];
-        sample_lights(lighting, n_light);
-        for (int k = 0; k < n_light; ++k) next_event(*lighting[k], rays);
+            if (draw_light_uniforms(lanes[scattering[k]])) grouped[n_light++] = &lanes[scattering[k]];
+        sample_lights(grouped, n_light);
+        for (int k = 0; k < n_light; ++k) next_event(*grouped[k], rays);
         int n_diffuse = 0;
         for (int k = 0; k < n_scatter; ++k) {
             Lane& lane = lanes[scattering[k]];
             if (draw_diffuse_uniforms(lane))
-                lighting[n_diffuse++] = &lane;
+                grouped[n_diffuse++] = &lane;
             else
                 scatter(lane);
         }
-        scatter_diffuse(lighting, n_diffuse);
+        scatter_diffuse(grouped, n_diffuse);
         for (int k = 0; k < n; ++k) {
             Lane& lane = lanes[active[k]];
             if (lane.shadow) {

@@ -129,8 +129,7 @@ public:
         for (int a = 0; a < 3; ++a) wi[a] = d[a] * inv;
         const VPd cos_l = -mul_add(splat(q.normal.z), wi[2], mul_add(splat(q.normal.y), wi[1], q.normal.x * wi[0]));
         const VPd pdf = sel * (dist2 / (cos_l * area));
-        const VPd abs_pdf = pdf < 0.0 ? -pdf : pdf;
-        const unsigned valid = lane_mask((dist2 > 0.0) & (cos_l > 0.0) & (pdf > 0.0) & (abs_pdf < kInf));
+        const unsigned valid = lane_mask((dist2 > 0.0) & (cos_l > 0.0) & (pdf > 0.0) & (pdf < kInf));
         for (int l = 0; l < m; ++l) {
             LightSample& ls = *out[l];
             ls = LightSample();
