@@ -1,11 +1,13 @@
 // Python bindings (nanobind): the compiled scene, rendering with the GIL released, and
 // ray queries used by tests and benchmarks. Input arrays are validated by the Python
 // layer (reference_tracer/_compile.py); the checks here guard the C++ invariants only.
+#include <array>
 #include <chrono>
 #include <memory>
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <tuple>
 
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
@@ -295,19 +297,11 @@ public:
         std::vector<rt::LightSample> packed;
         if (wavefront && scene_->lights().single_quad()) {
             packed.resize(n);
-            for (size_t base = 0; base < n; base += rt::kPackWidth) {
-                const int m = static_cast<int>(std::min<size_t>(rt::kPackWidth, n - base));
-                rt::VPd ref[3], u1, u2;
-                rt::LightSample* out[rt::kPackWidth];
-                for (int l = 0; l < rt::kPackWidth; ++l) {  // absent lanes repeat the first
-                    const size_t i = base + size_t(l < m ? l : 0);
-                    for (int a = 0; a < 3; ++a) ref[a][l] = refs(i, a);
-                    u1[l] = u(i, 1);
-                    u2[l] = u(i, 2);
-                    out[l] = &packed[i];
-                }
-                scene_->lights().sample_single_quad(ref, u1, u2, m, out);
-            }
+            scene_->lights().sample_single_quad(static_cast<int>(n), [&](int i) {
+                const std::array<double, 3> ui = {u(i, 0), u(i, 1), u(i, 2)};
+                return std::tuple<rt::Vec3, std::array<double, 3>, rt::LightSample*>(row3(refs, size_t(i), 0), ui,
+                                                                                    &packed[size_t(i)]);
+            });
         }
         for (size_t i = 0; i < n; ++i) {
             const rt::Vec3 ref = row3(refs, i, 0);

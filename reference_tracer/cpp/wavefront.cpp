@@ -4,6 +4,8 @@
 // identical (tests/test_wavefront.py compares them on every suite scene and strategy).
 #include "wavefront.h"
 
+#include <tuple>
+
 #include "integrator_impl.h"
 
 namespace rt {
@@ -89,19 +91,10 @@ void WavefrontIntegrator::sample_lights(Lane* const* lanes, int n) const {
                                             lanes[k]->light_u[2]);
         return;
     }
-    for (int base = 0; base < n; base += kPackWidth) {
-        const int m = std::min(kPackWidth, n - base);
-        VPd ref[3], u1, u2;
-        LightSample* out[kPackWidth];
-        for (int l = 0; l < kPackWidth; ++l) {  // absent lanes repeat the first
-            const Lane& lane = *lanes[base + (l < m ? l : 0)];
-            for (int a = 0; a < 3; ++a) ref[a][l] = lane.ref[a];
-            u1[l] = lane.light_u[1];
-            u2[l] = lane.light_u[2];
-            out[l] = &lanes[base + (l < m ? l : 0)]->light;
-        }
-        lights.sample_single_quad(ref, u1, u2, m, out);
-    }
+    lights.sample_single_quad(n, [lanes](int k) {
+        Lane& lane = *lanes[k];
+        return std::tuple<const Vec3&, const double*, LightSample*>(lane.ref, lane.light_u, &lane.light);
+    });
 }
 
 void WavefrontIntegrator::next_event(Lane& lane, uint64_t& rays) const {

@@ -9,6 +9,7 @@
 // emitter, which keeps the mixture estimator's pdf equal to the procedure's density.
 #pragma once
 
+#include <algorithm>
 #include <vector>
 
 #include "../mutants.h"
@@ -140,6 +141,25 @@ public:
             ls.radiance = e.radiance;
             ls.prim = e.prim;
             ls.valid = true;
+        }
+    }
+
+    // sample_single_quad() for n reference points, a pack at a time: point(i) gives the i-th
+    // point's reference point, uniforms (u0, u1, u2) and where its sample goes, as a tuple.
+    template <typename Point>
+    void sample_single_quad(int n, Point&& point) const {
+        for (int base = 0; base < n; base += kPackWidth) {
+            const int m = std::min(kPackWidth, n - base);
+            VPd ref[3], u1, u2;
+            LightSample* out[kPackWidth];
+            for (int l = 0; l < kPackWidth; ++l) {  // absent lanes repeat the first
+                const auto [r, u, sample] = point(base + (l < m ? l : 0));
+                for (int a = 0; a < 3; ++a) ref[a][l] = r[a];
+                u1[l] = u[1];
+                u2[l] = u[2];
+                out[l] = sample;
+            }
+            sample_single_quad(ref, u1, u2, m, out);
         }
     }
 
