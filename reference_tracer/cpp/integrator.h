@@ -95,6 +95,11 @@ private:
     // strategy: light sampling could never meet a Dirac lobe); elsewhere the strategy's.
     std::optional<Scatter> sample_scatter(const Vertex& v, const Vec3& ref, PCG32& rng) const;
     static std::optional<Scatter> sample_material(const Vertex& v, PCG32& rng);
+    // The continuation of a material sample bs (local frame) at v; none if it failed.
+    static std::optional<Scatter> scatter_of(const Vertex& v, const BSDFSample& bs) {
+        if (!bs.valid) return std::nullopt;
+        return Scatter{v.frame.to_world(bs.wi), bs.weight, bs.pdf, bs.eta};
+    }
     static std::optional<Scatter> sample_uniform(const Vertex& v, PCG32& rng);
     std::optional<Scatter> sample_mixture(const Vertex& v, const Vec3& ref, PCG32& rng) const;
 

@@ -108,9 +108,7 @@ template <Mutant M>
     // explicitly in that order keeps every image bit-identical to the earlier ones, and
     // the order no longer depends on the compiler.
     const double u2 = rng.next_double(), u1 = rng.next_double(), u0 = rng.next_double();
-    const BSDFSample bs = bsdf_sample<M>(v.m, v.wo, u0, u1, u2);
-    if (!bs.valid) return std::nullopt;
-    return Scatter{v.frame.to_world(bs.wi), bs.weight, bs.pdf, bs.eta};
+    return scatter_of(v, bsdf_sample<M>(v.m, v.wo, u0, u1, u2));
 }
 
 template <Mutant M>

@@ -40,8 +40,9 @@ struct RayPack {
     VPd ox, oy, oz, dx, dy, dz;
 };
 
-// Lane-wise square root (IEEE, as std::sqrt on each lane).
-inline VPd sqrt_lanes(VPd x) {
+// Square root: std::sqrt for double, lane-wise (IEEE, as std::sqrt on each lane) for VPd.
+inline double sqrt_of(double x) { return __builtin_sqrt(x); }
+inline VPd sqrt_of(VPd x) {
 #if RT_PACK == 8 && defined(__AVX512F__)
     return reinterpret_cast<VPd>(_mm512_sqrt_pd(reinterpret_cast<__m512d>(x)));
 #elif RT_PACK == 4 && defined(__AVX__)
@@ -77,10 +78,6 @@ inline VPd mul_add(VPd a, VPd b, VPd c) {
     return a * b + c;
 #endif
 }
-
-// std::sqrt for double and lane-wise for VPd.
-inline double sqrt_of(double x) { return __builtin_sqrt(x); }
-inline VPd sqrt_of(VPd x) { return sqrt_lanes(x); }
 
 // Lane-wise std::copysign(magnitude, sign).
 inline VPd copysign_lanes(VPd magnitude, VPd sign) {

@@ -140,17 +140,11 @@ void WavefrontIntegrator::scatter_diffuse(Lane* const* lanes, int n) const {
         VPd w[3];
         square_to_cosine_hemisphere(u1, u2, w[0], w[1], w[2]);
         for (int l = 0; l < m; ++l) {
-            // The rest of lambertian::sample and sample_material, lane by lane (the images
-            // stay the scalar integrator's bit for bit: tests/test_wavefront.py).
+            // The rest of lambertian::sample and sample_material, lane by lane.
             Lane& lane = *lanes[base + l];
             const Vertex& v = *lane.vertex;
-            const Vec3 wi(w[0][l], w[1][l], w[2][l]);
-            const double pdf = cosine_hemisphere_pdf(wi.z);
-            if (v.wo.z <= 0.0 || !(pdf > 0.0)) {
-                continue_path(lane, std::nullopt);
-                continue;
-            }
-            continue_path(lane, Integrator<Mutant::None>::Scatter{v.frame.to_world(wi), v.m.albedo, pdf, 1.0});
+            const BSDFSample bs = lambertian::sample_with(v.m.albedo, v.wo, Vec3(w[0][l], w[1][l], w[2][l]));
+            continue_path(lane, Integrator<Mutant::None>::scatter_of(v, bs));
         }
     }
 }

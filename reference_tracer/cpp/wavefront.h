@@ -98,8 +98,9 @@ private:
     // of lanes at once (PERFORMANCE.md round 9).
     bool draw_diffuse_uniforms(Lane& lane) const;
     void scatter_diffuse(Lane* const* lanes, int n) const;
-    // scatter()'s end, given the sampled continuation (none: the path ends).
-    void continue_path(Lane& lane, const std::optional<Integrator<Mutant::None>::Scatter>& s) const;
+    // scatter()'s end, given the sampled continuation (none: the path ends). Always inline:
+    // with two callers GCC left it out of line (+1.8% instructions on cornell_box).
+    [[gnu::always_inline]] void continue_path(Lane& lane, const std::optional<Integrator<Mutant::None>::Scatter>& s) const;
     // Adds the finished path's radiance to the pixel's sums, as render_pixel does.
     static void add_sample(Lane& lane, bool tails, uint64_t& nonfinite);
     // Writes the pixel's sums into the image.

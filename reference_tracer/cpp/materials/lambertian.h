@@ -22,11 +22,13 @@ inline double pdf(const Vec3& wo, const Vec3& wi) {
     return (wo.z > 0.0 && wi.z > 0.0) ? cosine_hemisphere_pdf(wi.z) : 0.0;
 }
 
+// sample() given its cosine-weighted direction wi (the wavefront integrator warps a pack
+// of directions at once, then finishes each sample here).
 template <Mutant M = Mutant::None>
-inline BSDFSample sample(const Vec3& albedo, const Vec3& wo, double u1, double u2) {
+inline BSDFSample sample_with(const Vec3& albedo, const Vec3& wo, const Vec3& wi) {
     BSDFSample s;
     if (wo.z <= 0.0) return s;
-    s.wi = square_to_cosine_hemisphere(u1, u2);
+    s.wi = wi;
     if constexpr (M == Mutant::PdfOffByPi)
         s.pdf = pdf<M>(wo, s.wi);  // the same wrong density as pdf(): MIS weights stay consistent
     else
@@ -35,6 +37,11 @@ inline BSDFSample sample(const Vec3& albedo, const Vec3& wo, double u1, double u
     s.weight = albedo;  // (albedo/pi * cos) / (cos/pi)
     s.valid = true;
     return s;
+}
+
+template <Mutant M = Mutant::None>
+inline BSDFSample sample(const Vec3& albedo, const Vec3& wo, double u1, double u2) {
+    return sample_with<M>(albedo, wo, square_to_cosine_hemisphere(u1, u2));
 }
 
 }  // namespace rt::lambertian

@@ -124,7 +124,7 @@ public:
         VPd d[3];
         for (int a = 0; a < 3; ++a) d[a] = mul_add(u2, splat(q.v[a]), mul_add(u1, splat(q.u[a]), splat(q.Q[a]))) - ref[a];
         const VPd dist2 = mul_add(d[2], d[2], mul_add(d[1], d[1], d[0] * d[0]));
-        const VPd dist = sqrt_lanes(dist2);
+        const VPd dist = sqrt_of(dist2);
         const VPd inv = 1.0 / dist;  // Vec3 / double multiplies by the reciprocal
         VPd wi[3];
         for (int a = 0; a < 3; ++a) wi[a] = d[a] * inv;

@@ -55,7 +55,7 @@ struct Sphere {
         const VPd c = (Lx * Lx + Ly * Ly + Lz * Lz) - radius * radius;
         // Lanes with disc < 0 take the square root of a negative number; they are
         // masked out below, as intersect() returns before it.
-        const VPd q = h + copysign_lanes(sqrt_lanes(a * disc), h);
+        const VPd q = h + copysign_lanes(sqrt_of(a * disc), h);
         const VPl q_zero = q == 0.0;
         VPd t0 = q_zero ? VPd{} : c / q;
         VPd t1 = q_zero ? VPd{} : q / a;
