@@ -137,14 +137,22 @@ private:
     // Camera rays through neighbouring pixels are; random rays almost never (one octant
     // alone: probability 8^-7). Only speed depends on it, never a result.
     static bool coherent(const Ray* rays, int m, double origin_radius) {
+        // The three axes of a ray at once (lane 3 repeats z), each ray leaving at once when it
+        // fails (random rays fail at the second ray).
+        using V4l = int64_t __attribute__((vector_size(32)));
         const Vec3& d0 = rays[0].d;
         const double spread = 0.5 * std::max({std::abs(d0.x), std::abs(d0.y), std::abs(d0.z)});
-        for (int r = 1; r < m; ++r)
-            for (int a = 0; a < 3; ++a) {
-                if (std::signbit(rays[r].d[a]) != std::signbit(d0[a])) return false;
-                if (!(std::abs(rays[r].d[a] - d0[a]) <= spread)) return false;
-                if (!(std::abs(rays[r].o[a] - rays[0].o[a]) <= origin_radius)) return false;
-            }
+        const V4d first_d = {d0.x, d0.y, d0.z, d0.z};
+        const V4d first_o = {rays[0].o.x, rays[0].o.y, rays[0].o.z, rays[0].o.z};
+        auto magnitude = [](V4d v) { return v < 0.0 ? -v : v; };
+        for (int r = 1; r < m; ++r) {
+            const V4d d = {rays[r].d.x, rays[r].d.y, rays[r].d.z, rays[r].d.z};
+            const V4d o = {rays[r].o.x, rays[r].o.y, rays[r].o.z, rays[r].o.z};
+            // Same sign bit (as std::signbit: -0 differs from +0); NaN fails the bounds.
+            const V4l same_sign = (reinterpret_cast<V4l>(d) ^ reinterpret_cast<V4l>(first_d)) >= 0;
+            const V4l ok = same_sign & (magnitude(d - first_d) <= spread) & (magnitude(o - first_o) <= origin_radius);
+            if ((ok[0] & ok[1] & ok[2]) == 0) return false;
+        }
         return true;
     }
     bool coherent(const Ray* rays, int m) const { return coherent(rays, m, coherent_origin_radius_); }

@@ -14,6 +14,7 @@ namespace rt {
 using V8f = float __attribute__((vector_size(32)));
 using V8i = int32_t __attribute__((vector_size(32)));
 using V4f = float __attribute__((vector_size(16)));
+using V4i = int32_t __attribute__((vector_size(16)));
 using V4d = double __attribute__((vector_size(32)));
 
 // Rays per pack of the batched scene queries (Scene::intersect_batch): eight doubles, one

@@ -96,41 +96,52 @@ struct RaySlabs {
     static constexpr float kWiden = 1.0f + 0x1p-20f;
     static constexpr double kWidenD = 1.0 + 0x1p-20;
 
-    // The per-ray scalars, one per axis: what a packet keeps of each of its rays (one
-    // lane each), without the eight-fold broadcasts a single-ray test wants.
+    // The per-ray scalars, one per axis (lane 3 unused): what a packet keeps of each of its
+    // rays (one lane each), without the eight-fold broadcasts a single-ray test wants.
     struct Scalars {
-        float o_near[3], o_far[3], inv_near[3], inv_far[3];
-        int near_row[3], far_row[3];
+        float o_near[4], o_far[4], inv_near[4], inv_far[4];
+        int near_row[4], far_row[4];
 
         Scalars() = default;
         // Always inline: with a traversal per query kind (closest hit, shadow ray, the
         // wavefront's mesh tree) GCC left it out of line, 8% of all instructions.
         [[gnu::always_inline]] explicit Scalars(const Ray& ray) {
-            // The three reciprocals with one vector division, and the origin rounded up and
-            // down to float: with a slack of 2^-23 |o| (plus 2^-140 for zero and
-            // subnormals), more than the half ulp that rounding to nearest can move, and
-            // with no libm call (nextafter per axis cost ~20% on small scenes).
+            // The three axes at once, without a branch: the reciprocals with one vector
+            // division, the origin rounded up and down to float with a slack of 2^-23 |o|
+            // (plus 2^-140 for zero and subnormals), more than the half ulp that rounding to
+            // nearest can move, and no libm call (nextafter per axis cost ~20% on small
+            // scenes). The per-axis choices are lane selections: as branches on the signs of
+            // a random direction they were a mispredicted branch per ray (round 10).
             const V4d d4 = {ray.d.x, ray.d.y, ray.d.z, 1.0};
             const V4d o4 = {ray.o.x, ray.o.y, ray.o.z, 0.0};
             const V4d inv_d = V4d{1.0, 1.0, 1.0, 1.0} / d4;
             const V4d slack = (o4 < 0.0 ? -o4 : o4) * 0x1p-23 + 0x1p-140;
             const V4f o_up = __builtin_convertvector(o4 + slack, V4f);
             const V4f o_down = __builtin_convertvector(o4 - slack, V4f);
-            for (int a = 0; a < 3; ++a) {
-                const bool neg = inv_d[a] < 0.0;  // d = -0 gives -inf: negative, as it should
-                // The near plane is lo (d > 0) or hi (d < 0): (plane - o) * inv is smallest
-                // with o rounded up for d > 0 and down for d < 0; the far plane the other way.
-                o_near[a] = neg ? o_down[a] : o_up[a];
-                o_far[a] = neg ? o_up[a] : o_down[a];
-                // 1/d beyond the float range (|d| < 2.9e-39, or d = 0): the near factor is
-                // clamped to the largest float (a smaller near distance: conservative), the
-                // far one may become infinite (a larger far distance: conservative too).
-                constexpr double kMaxFloat = std::numeric_limits<float>::max();
-                inv_near[a] = static_cast<float>(std::clamp(inv_d[a], -kMaxFloat, kMaxFloat));
-                inv_far[a] = static_cast<float>(inv_d[a]) * kWiden;
-                near_row[a] = (neg ? 3 * kWidth : 0) + kWidth * a;
-                far_row[a] = (neg ? 0 : 3 * kWidth) + kWidth * a;
-            }
+            // d = -0 gives -inf: negative, as it should.
+            const V4i neg = __builtin_convertvector(inv_d < 0.0, V4i);
+            // The near plane is lo (d > 0) or hi (d < 0): (plane - o) * inv is smallest
+            // with o rounded up for d > 0 and down for d < 0; the far plane the other way.
+            const V4f near = neg ? o_down : o_up;
+            const V4f far = neg ? o_up : o_down;
+            // 1/d beyond the float range (|d| < 2.9e-39, or d = 0): the near factor is
+            // clamped to the largest float (a smaller near distance: conservative), the far
+            // one may become infinite (a larger far distance: conservative too). A clamp
+            // that keeps NaN, as std::clamp does.
+            constexpr double kMaxFloat = std::numeric_limits<float>::max();
+            V4d clamped = inv_d < -kMaxFloat ? V4d{} - kMaxFloat : inv_d;
+            clamped = kMaxFloat < clamped ? V4d{} + kMaxFloat : clamped;
+            const V4f inv_n = __builtin_convertvector(clamped, V4f);
+            const V4f inv_f = __builtin_convertvector(inv_d, V4f) * kWiden;
+            const V4i axis_row = {0, kWidth, 2 * kWidth, 0};
+            const V4i near_r = (neg & (3 * kWidth)) + axis_row;
+            const V4i far_r = (~neg & (3 * kWidth)) + axis_row;
+            __builtin_memcpy(o_near, &near, sizeof(near));
+            __builtin_memcpy(o_far, &far, sizeof(far));
+            __builtin_memcpy(inv_near, &inv_n, sizeof(inv_n));
+            __builtin_memcpy(inv_far, &inv_f, sizeof(inv_f));
+            __builtin_memcpy(near_row, &near_r, sizeof(near_r));
+            __builtin_memcpy(far_row, &far_r, sizeof(far_r));
         }
     };
 

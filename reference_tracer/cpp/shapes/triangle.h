@@ -52,14 +52,21 @@ struct WatertightRay {
     double Sx = 0, Sy = 0, Sz = 1;
     WatertightRay() = default;  // unused placeholder (scenes without triangles)
     explicit WatertightRay(const Vec3& d) {
-        kz = std::abs(d.x) > std::abs(d.y) ? (std::abs(d.x) > std::abs(d.z) ? 0 : 2)
-                                           : (std::abs(d.y) > std::abs(d.z) ? 1 : 2);
-        kx = (kz + 1) % 3;
-        ky = (kx + 1) % 3;
-        if (d[kz] < 0.0) std::swap(kx, ky);  // keep the winding of the sheared triangle
-        Sx = d[kx] / d[kz];
-        Sy = d[ky] / d[kz];
-        Sz = 1.0 / d[kz];
+        // kz: the axis of the largest |d| (on ties the later axis).
+        // Written as selections rather than nested branches: on random directions each
+        // branch was a coin toss for the predictor, 1.4 mispredictions per ray (round 10).
+        const double ax = std::abs(d.x), ay = std::abs(d.y), az = std::abs(d.z);
+        const int kz_if_x = ax > az ? 0 : 2, kz_if_y = ay > az ? 1 : 2;
+        kz = ax > ay ? kz_if_x : kz_if_y;
+        static constexpr int kNext[3] = {1, 2, 0};
+        const int next = kNext[kz], after = kNext[next];
+        const double dd[3] = {d.x, d.y, d.z};
+        const bool flip = dd[kz] < 0.0;  // keep the winding of the sheared triangle
+        kx = flip ? after : next;
+        ky = flip ? next : after;
+        Sx = dd[kx] / dd[kz];
+        Sy = dd[ky] / dd[kz];
+        Sz = 1.0 / dd[kz];
     }
 };
 
