@@ -321,6 +321,30 @@ def test_batched_queries_equal_brute_force(n_prims, mesh_triangles, triangle_tes
     assert np.array_equal(c.occluded(origins, dirs, np.ascontiguousarray(t * (1 + 1e-9)), wavefront=True), hit)
 
 
+@pytest.mark.parametrize("path", [{}, {"batch": False}, {"wavefront": True}, {"brute_force": True}])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_preliminary_query_gives_the_full_querys_distance_and_primitive(path, threads):
+    # intersect(preliminary=True) answers as Mitsuba's ray_intersect_preliminary does
+    # (distance and primitive; the batch traversal then skips the hit point and normal):
+    # its t and prim must be the full query's, for camera rays (packets) and scattered
+    # rays (interleaved), on spheres, quads and a mesh, whichever traversal answers.
+    rng = np.random.default_rng(41 + threads)
+    shapes = random_primitives(30, rng) + [random_mesh(3000, rng)]
+    c = core(shapes)
+    side = 40
+    gx, gy = np.meshgrid(np.linspace(-0.5, 0.5, side), np.linspace(-0.4, 0.4, side))
+    cam = np.stack([gx.ravel() + 0.013, gy.ravel() + 0.017, -np.ones(gx.size)], axis=1)
+    n = 1500
+    origins = np.concatenate([np.tile([0.0, 0.0, 120.0], (len(cam), 1)), rng.uniform(-70, 70, size=(n, 3))])
+    dirs = np.concatenate([cam / np.linalg.norm(cam, axis=1, keepdims=True), random_unit(rng, n)])
+    full = cast(c, origins, dirs, threads=threads, **path)
+    pre = cast(c, origins, dirs, threads=threads, preliminary=True, **path)
+    assert "point" not in pre and "normal" not in pre
+    assert np.array_equal(pre["t"], full["t"]) and np.array_equal(pre["prim"], full["prim"])
+    assert pre["packet_rays"] == full["packet_rays"]
+    assert 0.2 < (full["prim"] >= 0).mean() < 0.95
+
+
 def test_interleaved_traversal_of_an_empty_scene():
     c = core([])
     out = cast(c, np.zeros((5, 3)), np.tile([0.0, 0.0, 1.0], (5, 1)))

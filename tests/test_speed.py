@@ -289,14 +289,17 @@ def test_ray_benchmark_fields(jit_variant, capsys, tmp_path):
                "--variants", jit_variant, "--json", str(path)])
     assert rc == 0
     out = capsys.readouterr().out
-    assert "ours Mrays/s" in out and "Mitsuba Mrays/s" in out and "hit agree" in out
+    assert "ours Mrays/s" in out and "Mitsuba Mrays/s" in out and "hit agree" in out and "ours full Mrays/s" in out
     res = json.loads(path.read_text())["rays"]
     assert [(r["kind"], r["triangles"] < 1000) for r in res["rows"]] == [
         ("primary", True), ("random", True), ("primary", False), ("random", False)]
     for r in res["rows"]:
         assert r["rays"] == 4000 and len(r["ours_seconds"]) == len(r["mitsuba_seconds"]) == 2
+        assert len(r["ours_full_seconds"]) == 2
         assert r["ours_mrays_per_second"] > 0 and r["mitsuba_mrays_per_second"] > 0
         assert math.isclose(r["ours_mrays_per_second"], 4000 / statistics.median(r["ours_seconds"]) / 1e6)
+        assert math.isclose(r["ratio_full"], statistics.median(
+            [m / o for o, m in zip(r["ours_full_seconds"], r["mitsuba_seconds"])]))
         assert r["agree_hit_agreement"] > 0.999
         assert r["build_seconds_per_mtri"] > 0 and r["mitsuba_load_seconds"] > 0 and r["bvh_depth"] >= 1
 

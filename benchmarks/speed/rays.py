@@ -145,8 +145,12 @@ def random_rays(count: int, *, seed: int = 0):
     return np.ascontiguousarray(o, dtype=np.float32), np.ascontiguousarray(d, dtype=np.float32)
 
 
-def intersect_ours(core, origins, directions, *, threads: int = 1, repeats: int = 3):
+def intersect_ours(core, origins, directions, *, threads: int = 1, repeats: int = 3, preliminary: bool = False):
     """Time ``core.intersect`` (closest hit) ``repeats`` times on the same rays.
+
+    ``preliminary=True`` asks for the distance and primitive only, what Mitsuba's
+    ``ray_intersect_preliminary`` returns; otherwise the hit point and normal are filled
+    in too.
 
     Returns
     -------
@@ -159,7 +163,7 @@ def intersect_ours(core, origins, directions, *, threads: int = 1, repeats: int 
     d = np.ascontiguousarray(directions, dtype=np.float64)
     secs, calls, cpus, out = [], [], [], None
     for _ in range(positive_int("repeats", repeats)):
-        out, wall, cpu = timed(lambda: core.intersect(o, d, threads=int(threads)))
+        out, wall, cpu = timed(lambda: core.intersect(o, d, threads=int(threads), preliminary=bool(preliminary)))
         secs.append(float(out["seconds"]))
         calls.append(wall)
         cpus.append(cpu)
@@ -291,9 +295,10 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
     Returns
     -------
     dict
-        ``rows``: per (triangles, kind) ``ours_mrays_per_second``,
-        ``mitsuba_mrays_per_second``, ``ratio`` (ours / Mitsuba, median of the paired
-        per-repeat ratios), CPU-time figures, agreement (:func:`hit_agreement`), ours'
+        ``rows``: per (triangles, kind) ``ours_mrays_per_second`` (distance and primitive,
+        as Mitsuba's preliminary intersection), ``ours_full_mrays_per_second`` (with the
+        hit point and normal), ``mitsuba_mrays_per_second``, ``ratio`` and ``ratio_full``
+        (ours / Mitsuba, median of the paired per-repeat ratios), CPU-time figures, agreement (:func:`hit_agreement`), ours'
         ``build_seconds`` and ``build_seconds_per_mtri``, Mitsuba's ``load_seconds``
         and ``first_call_seconds``; plus ``config``, ``environment``, ``mitsuba``.
     """
@@ -333,10 +338,11 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
                            threads=threads, repeats=repeats, variant=variant, seed=seed)
             out["rows"].append(row)
             if log:
-                msg = f"  {kind}: ours {row['ours_mrays_per_second']:.2f} Mrays/s"
+                msg = (f"  {kind}: ours {row['ours_mrays_per_second']:.2f} Mrays/s "
+                       f"({row['ours_full_mrays_per_second']:.2f} with hit point and normal)")
                 if use_mi:
-                    msg += (f", Mitsuba {row['mitsuba_mrays_per_second']:.2f} Mrays/s, ratio {row['ratio']:.2f}, "
-                            f"hit agreement {row['agree_hit_agreement']:.5f}")
+                    msg += (f", Mitsuba {row['mitsuba_mrays_per_second']:.2f} Mrays/s, ratio {row['ratio']:.2f} "
+                            f"({row['ratio_full']:.2f}), hit agreement {row['agree_hit_agreement']:.5f}")
                 log(msg)
         del core, mscene
         scene._core_cache.clear()
@@ -351,20 +357,27 @@ def _ray_row(core, mscene, kind, *, triangles, built, load_seconds, rays, thread
     """
     o, d = {"primary": primary_rays, "random": random_rays}[kind](rays, seed=seed)
     n = len(o)
-    ours_secs, ours_cpu, mi_secs, mi_cpu, first = [], [], [], [], None
-    ours = mres = None
+    ours_secs, ours_cpu, full_secs, full_cpu, mi_secs, mi_cpu, first = [], [], [], [], [], [], None
+    ours = full = mres = None
     for _ in range(repeats):   # interleaved, one timed query per side per round
-        ours = intersect_ours(core, o, d, threads=threads, repeats=1)
+        # The like-for-like query (distance and primitive, as Mitsuba's preliminary
+        # intersection), then ours with the hit point and normal filled in.
+        ours = intersect_ours(core, o, d, threads=threads, repeats=1, preliminary=True)
         ours_secs += ours["seconds"]
         ours_cpu += ours["process_seconds"]
+        full = intersect_ours(core, o, d, threads=threads, repeats=1)
+        full_secs += full["seconds"]
+        full_cpu += full["process_seconds"]
         if mscene is not None:
             use_variant(variant, threads)
             mres = intersect_mitsuba(mscene, o, d, repeats=1)
             mi_secs += mres["seconds"]
             mi_cpu += mres["process_seconds"]
             first = mres["first_call_seconds"] if first is None else first
+    if not (np.array_equal(ours["t"], full["t"]) and np.array_equal(ours["prim"], full["prim"])):
+        raise RuntimeError(f"{kind} rays: the preliminary and the full closest-hit queries disagree")
     row = {"triangles": triangles, "kind": kind, "rays": n, "threads": threads, **built,
-           **_rate_columns("ours", n, ours_secs, ours_cpu),
+           **_rate_columns("ours", n, ours_secs, ours_cpu), **_rate_columns("ours_full", n, full_secs, full_cpu),
            "hit_fraction": float(np.isfinite(ours["t"]).mean()),
            "ours_packet_fraction": ours["packet_fraction"]}
     if mscene is not None:
@@ -372,6 +385,7 @@ def _ray_row(core, mscene, kind, *, triangles, built, load_seconds, rays, thread
         both = np.isfinite(ours["t"]) & np.isfinite(mres["t"])
         row.update({**_rate_columns("mitsuba", n, mi_secs, mi_cpu),
                     "ratio": median([m / o_ for o_, m in zip(ours_secs, mi_secs)]),
+                    "ratio_full": median([m / o_ for o_, m in zip(full_secs, mi_secs)]),
                     "mitsuba_load_seconds": load_seconds, "mitsuba_first_call_seconds": first,
                     "prim_agreement": float(np.mean(ours["prim"][both] == mres["prim"][both]))
                     if both.any() else float("nan"),

@@ -194,27 +194,38 @@ public:
         return result;
     }
 
-    // Closest hits of N rays: t (inf on a miss), primitive id (-1), point and front normal.
+    // Closest hits of N rays: t (inf on a miss), primitive id (-1), point and front normal;
+    // with `preliminary` only t and the primitive (what Mitsuba's ray_intersect_preliminary
+    // gives; the batch queries then skip the point and normal).
     // `wavefront`: through Scene::intersect_batch, as the wavefront integrator asks.
     nb::dict intersect(const Matrix& origins, const Matrix& directions, bool brute_force, int threads,
-                       bool batch, bool wavefront) const {
+                       bool batch, bool wavefront, bool preliminary) const {
         require_columns(origins, 3, "origins");
         require_columns(directions, 3, "directions");
         if (origins.shape(0) != directions.shape(0)) throw std::invalid_argument("origins and directions differ in length");
         const size_t n = origins.shape(0);
-        std::vector<double> t(n, rt::kInf), p(3 * n, 0.0), nrm(3 * n, 0.0);
+        std::vector<double> t(n, rt::kInf), p(preliminary ? 0 : 3 * n, 0.0), nrm(preliminary ? 0 : 3 * n, 0.0);
         std::vector<int64_t> prim(n, -1);
         if (threads < 1) throw std::invalid_argument("threads must be >= 1");
         auto store = [&](size_t i, const rt::Interaction& it) {
             t[i] = it.t;
             prim[i] = it.prim;
+            if (preliminary) return;
             for (int c = 0; c < 3; ++c) { p[3 * i + c] = it.p[c]; nrm[3 * i + c] = it.n[c]; }
+        };
+        // Rows of the C-contiguous (N, 3) arrays (checked above), read directly.
+        const double* o_rows = origins.data();
+        const double* d_rows = directions.data();
+        auto ray_at = [o_rows, d_rows](size_t i) {
+            const double* o = o_rows + 3 * i;
+            const double* d = d_rows + 3 * i;
+            return rt::Ray{{o[0], o[1], o[2]}, {d[0], d[1], d[2]}};
         };
         std::vector<size_t> packet_rays(static_cast<size_t>(threads), 0);
         auto work = [&](size_t begin, size_t end, size_t worker) {
             if (wavefront) {
                 std::vector<rt::Ray> rays;
-                for (size_t i = begin; i < end; ++i) rays.push_back({row3(origins, i, 0), row3(directions, i, 0)});
+                for (size_t i = begin; i < end; ++i) rays.push_back(ray_at(i));
                 std::unique_ptr<bool[]> hit(new bool[rays.size()]);
                 std::vector<rt::Interaction> its(rays.size());
                 scene_->intersect_batch(rays.size(), rays.data(), hit.get(), its.data());
@@ -224,12 +235,12 @@ public:
             }
             if (batch && !brute_force) {
                 packet_rays[worker] = scene_->intersect_stream(
-                    end - begin, [&](size_t k) { return rt::Ray{row3(origins, begin + k, 0), row3(directions, begin + k, 0)}; },
-                    [&](size_t k, bool hit, const rt::Interaction& it) { if (hit) store(begin + k, it); });
+                    end - begin, [&](size_t k) { return ray_at(begin + k); },
+                    [&](size_t k, bool hit, const rt::Interaction& it) { if (hit) store(begin + k, it); }, preliminary);
                 return;
             }
             for (size_t i = begin; i < end; ++i) {
-                const rt::Ray ray{row3(origins, i, 0), row3(directions, i, 0)};
+                const rt::Ray ray = ray_at(i);
                 rt::Interaction it;
                 const bool hit = brute_force ? scene_->intersect_brute_force(ray, it) : scene_->intersect(ray, it);
                 if (hit) store(i, it);
@@ -250,8 +261,10 @@ public:
         nb::dict r;
         r["t"] = to_numpy(std::move(t), {n});
         r["prim"] = to_numpy(std::move(prim), {n});
-        r["point"] = to_numpy(std::move(p), {n, 3});
-        r["normal"] = to_numpy(std::move(nrm), {n, 3});
+        if (!preliminary) {
+            r["point"] = to_numpy(std::move(p), {n, 3});
+            r["normal"] = to_numpy(std::move(nrm), {n, 3});
+        }
         r["seconds"] = seconds;
         size_t in_packets = 0;
         for (size_t c : packet_rays) in_packets += c;
@@ -383,7 +396,8 @@ NB_MODULE(_core, m) {
 #endif
              )
         .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false, "threads"_a = 1,
-             "batch"_a = true, "wavefront"_a = false)
+             "batch"_a = true, "wavefront"_a = false,
+             "preliminary"_a = false)
         .def("occluded", &PyScene::occluded, "origins"_a, "directions"_a, "t_max"_a, "wavefront"_a = false)
         .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a, "wavefront"_a = false)
         .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)

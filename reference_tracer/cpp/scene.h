@@ -68,9 +68,11 @@ public:
     // Closest hits (t in (0, inf)) of rays ray_at(0 .. n-1), for throughput on large
     // meshes: runs of coherent rays as packets (WideBVH::traverse_packet), the others
     // interleaved (WideBVH::traverse_interleaved). done(i, hit, it) receives each result,
-    // the same as intersect(ray_at(i), it) gives. Returns how many rays went in packets.
+    // the same as intersect(ray_at(i), it) gives; with `preliminary`, only it.t and it.prim
+    // are filled in (what Mitsuba's ray_intersect_preliminary returns), not the point,
+    // normal and material. Returns how many rays went in packets.
     template <typename RayAt, typename Done>
-    size_t intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const;
+    size_t intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preliminary = false) const;
     // Whether anything lies on the ray with t in (0, t_max) (shadow rays).
     bool occluded(const Ray& ray, double t_max = kInf) const;
     // The closest hits of rays[0 .. n): hit[i] and it[i] as intersect(rays[i], it[i])
@@ -260,7 +262,7 @@ private:
 };
 
 template <typename RayAt, typename Done>
-size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const {
+size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preliminary) const {
     constexpr int kLanes = kWidth;
     // Per lane: the ray and what intersect() keeps in locals.
     struct Context {
@@ -274,7 +276,12 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done) const {
     };
     auto lane_finish = [&](const Context& c, size_t i, bool hit, double t) {
         Interaction it;
-        if (hit) fill_hit(c.ray, t, c.best, it);
+        if (hit && preliminary) {
+            it.t = t;
+            it.prim = c.best.prim;
+        } else if (hit) {
+            fill_hit(c.ray, t, c.best, it);
+        }
         done(i, hit, it);
     };
     // The tests of one lane, for either traversal.

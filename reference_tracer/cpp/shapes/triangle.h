@@ -52,18 +52,21 @@ struct WatertightRay {
     double Sx = 0, Sy = 0, Sz = 1;
     WatertightRay() = default;  // unused placeholder (scenes without triangles)
     explicit WatertightRay(const Vec3& d) {
-        // kz: the axis of the largest |d| (on ties the later axis).
-        // Written as selections rather than nested branches: on random directions each
-        // branch was a coin toss for the predictor, 1.4 mispredictions per ray (round 10).
+        // kz: the axis of the largest |d| (on ties the later axis); kx, ky the two others,
+        // swapped where d[kz] < 0 to keep the winding of the sheared triangle. Looked up in
+        // tables indexed by the comparisons: as conditional expressions (and as bit
+        // arithmetic) GCC compiled them to branches, each a coin toss on random directions
+        // (1.4 mispredictions per ray; round 10 of PERFORMANCE.md).
         const double ax = std::abs(d.x), ay = std::abs(d.y), az = std::abs(d.z);
-        const int kz_if_x = ax > az ? 0 : 2, kz_if_y = ay > az ? 1 : 2;
-        kz = ax > ay ? kz_if_x : kz_if_y;
-        static constexpr int kNext[3] = {1, 2, 0};
-        const int next = kNext[kz], after = kNext[next];
+        // Index bits: |x| > |y|, |x| > |z|, |y| > |z|.
+        static constexpr int kLargest[8] = {2, 1, 2, 1, 2, 2, 0, 0};
+        kz = kLargest[(int(ax > ay) << 2) | (int(ax > az) << 1) | int(ay > az)];
         const double dd[3] = {d.x, d.y, d.z};
-        const bool flip = dd[kz] < 0.0;  // keep the winding of the sheared triangle
-        kx = flip ? after : next;
-        ky = flip ? next : after;
+        const int flip = dd[kz] < 0.0;
+        static constexpr int kFirst[2][3] = {{1, 2, 0}, {2, 0, 1}};
+        static constexpr int kSecond[2][3] = {{2, 0, 1}, {1, 2, 0}};
+        kx = kFirst[flip][kz];
+        ky = kSecond[flip][kz];
         Sx = dd[kx] / dd[kz];
         Sy = dd[ky] / dd[kz];
         Sz = 1.0 / dd[kz];
