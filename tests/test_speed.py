@@ -300,6 +300,8 @@ def test_ray_benchmark_fields(jit_variant, capsys, tmp_path):
         assert math.isclose(r["ours_mrays_per_second"], 4000 / statistics.median(r["ours_seconds"]) / 1e6)
         assert math.isclose(r["ratio_full"], statistics.median(
             [m / o for o, m in zip(r["ours_full_seconds"], r["mitsuba_seconds"])]))
+        assert r["ratio_min"] <= r["ratio"] <= r["ratio_max"]
+        assert r["ratio_full_min"] <= r["ratio_full"] <= r["ratio_full_max"]
         assert r["agree_hit_agreement"] > 0.999
         assert r["build_seconds_per_mtri"] > 0 and r["mitsuba_load_seconds"] > 0 and r["bvh_depth"] >= 1
 

@@ -227,10 +227,10 @@ def rays_tables(result):
                               f"median of {c['repeats']}")
     cols = ["triangles", "rays", "ours Mrays/s", "ours Mrays/cpu-s"]
     if mi:
-        cols += ["Mitsuba Mrays/s", "Mitsuba Mrays/cpu-s", "ratio"]
+        cols += ["Mitsuba Mrays/s", "Mitsuba Mrays/cpu-s", "ratio", "ratio range"]
     cols += ["ours full Mrays/s"]
     if mi:
-        cols += ["full ratio"]
+        cols += ["full ratio", "full range"]
     for col in cols:
         speed_table.add_column(col, justify="right" if col not in ("rays",) else "left", no_wrap=True)
     checks = Table(title="ray casting: agreement and build")
@@ -247,10 +247,10 @@ def rays_tables(result):
         cells = first + [f"{r['ours_mrays_per_second']:.2f}", _f(r["ours_mrays_per_cpu_second"])]
         if mi:
             cells += [f"{r['mitsuba_mrays_per_second']:.2f}", _f(r["mitsuba_mrays_per_cpu_second"]),
-                      f"{r['ratio']:.2f}"]
+                      f"{r['ratio']:.2f}", f"{r['ratio_min']:.2f}-{r['ratio_max']:.2f}"]
         cells += [f"{r['ours_full_mrays_per_second']:.2f}"]
         if mi:
-            cells += [f"{r['ratio_full']:.2f}"]
+            cells += [f"{r['ratio_full']:.2f}", f"{r['ratio_full_min']:.2f}-{r['ratio_full_max']:.2f}"]
         speed_table.add_row(*cells)
         cells = list(first)
         if mi:

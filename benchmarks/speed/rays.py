@@ -298,7 +298,8 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
         ``rows``: per (triangles, kind) ``ours_mrays_per_second`` (distance and primitive,
         as Mitsuba's preliminary intersection), ``ours_full_mrays_per_second`` (with the
         hit point and normal), ``mitsuba_mrays_per_second``, ``ratio`` and ``ratio_full``
-        (ours / Mitsuba, median of the paired per-repeat ratios), CPU-time figures, agreement (:func:`hit_agreement`), ours'
+        (ours / Mitsuba, median of the paired per-repeat ratios; ``ratio_min`` /
+        ``ratio_max`` and ``ratio_full_min`` / ``_max`` their range), CPU-time figures, agreement (:func:`hit_agreement`), ours'
         ``build_seconds`` and ``build_seconds_per_mtri``, Mitsuba's ``load_seconds``
         and ``first_call_seconds``; plus ``config``, ``environment``, ``mitsuba``.
     """
@@ -381,11 +382,16 @@ def _ray_row(core, mscene, kind, *, triangles, built, load_seconds, rays, thread
            "hit_fraction": float(np.isfinite(ours["t"]).mean()),
            "ours_packet_fraction": ours["packet_fraction"]}
     if mscene is not None:
+        # Paired per round: ours and Mitsuba ran back to back, so a round's ratio sees the
+        # machine alike on both sides; the range shows how far single rounds scatter.
+        ratios = [m / o_ for o_, m in zip(ours_secs, mi_secs)]
+        ratios_full = [m / o_ for o_, m in zip(full_secs, mi_secs)]
         agree = hit_agreement(ours["t"], mres["t"])
         both = np.isfinite(ours["t"]) & np.isfinite(mres["t"])
         row.update({**_rate_columns("mitsuba", n, mi_secs, mi_cpu),
-                    "ratio": median([m / o_ for o_, m in zip(ours_secs, mi_secs)]),
-                    "ratio_full": median([m / o_ for o_, m in zip(full_secs, mi_secs)]),
+                    "ratio": median(ratios), "ratio_min": min(ratios), "ratio_max": max(ratios),
+                    "ratio_full": median(ratios_full), "ratio_full_min": min(ratios_full),
+                    "ratio_full_max": max(ratios_full),
                     "mitsuba_load_seconds": load_seconds, "mitsuba_first_call_seconds": first,
                     "prim_agreement": float(np.mean(ours["prim"][both] == mres["prim"][both]))
                     if both.any() else float("nan"),

@@ -2,6 +2,7 @@
 // ray queries used by tests and benchmarks. Input arrays are validated by the Python
 // layer (reference_tracer/_compile.py); the checks here guard the C++ invariants only.
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <memory>
 #include <stdexcept>
@@ -234,7 +235,7 @@ public:
                 return;
             }
             if (batch && !brute_force) {
-                packet_rays[worker] = scene_->intersect_stream(
+                packet_rays[worker] += scene_->intersect_stream(
                     end - begin, [&](size_t k) { return ray_at(begin + k); },
                     [&](size_t k, bool hit, const rt::Interaction& it) { if (hit) store(begin + k, it); }, preliminary);
                 return;
@@ -246,15 +247,25 @@ public:
                 if (hit) store(i, it);
             }
         };
+        // Chunks of rays handed out through an atomic counter, as the renderer hands out
+        // tiles: with one fixed half per thread, camera rays left one thread idle while the
+        // other finished the half of the image where the mesh is (cpu/wall 1.7-1.8 on
+        // two threads). Chunks are whole packets (multiples of 8 rays), so each ray meets
+        // the same packet as in one pass over all rays.
+        constexpr size_t kChunk = 8192;
+        std::atomic<size_t> next_chunk{0};
+        auto worker_loop = [&](size_t worker) {
+            for (;;) {
+                const size_t begin = next_chunk.fetch_add(kChunk, std::memory_order_relaxed);
+                if (begin >= n) return;
+                work(begin, std::min(n, begin + kChunk), worker);
+            }
+        };
         const auto t0 = std::chrono::steady_clock::now();
         {
             nb::gil_scoped_release release;
             std::vector<std::thread> pool;
-            const size_t chunk = (n + threads - 1) / threads;
-            for (int k = 0; k < threads; ++k) {
-                const size_t begin = std::min(n, k * chunk), end = std::min(n, begin + chunk);
-                pool.emplace_back(work, begin, end, static_cast<size_t>(k));
-            }
+            for (int k = 0; k < threads; ++k) pool.emplace_back(worker_loop, static_cast<size_t>(k));
             for (std::thread& th : pool) th.join();
         }
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
