@@ -362,11 +362,12 @@ def run(args) -> int:
         out["rays"] = res
         for table in rays_tables(res):
             console.print(table)
-        console.print("  ratio = ours Mrays/s / Mitsuba Mrays/s (paired per repeat); Mitsuba: "
+        console.print("  ratio = ours Mrays/s / Mitsuba Mrays/s (median of the rounds' paired ratios; range: the "
+                      "lowest and highest round); Mitsuba: "
                       "ray_intersect_preliminary + dr.eval + dr.sync_thread (distance and primitive), kernel compiled "
-                      "before timing; ours: core_scene(...).intersect(preliminary=True), the same outputs (per thread: "
-                      "runs of 8 coherent rays as packets, the others 8 at a time interleaved; float64 copies of the "
-                      "same float32 rays); ours full / full ratio: the same query with our hit point and normal filled "
+                      "before timing; ours: core_scene(...).intersect(preliminary=True), the same outputs (chunks of "
+                      "8192 rays handed to the threads; in each, runs of 8 coherent rays as packets, the others 8 at a "
+                      "time interleaved; float64 copies of the same float32 rays); ours full / full ratio: the same query with our hit point and normal filled "
                       "in, timed in the same rounds; "
                       f"t agree: relative difference <= {res['rows'][0].get('agree_t_rtol', 1e-4):g}",
                       markup=False, highlight=False)
