@@ -190,10 +190,12 @@ def test_seeded_bugs_run_in_the_scalar_integrator_only():
 @pytest.mark.parametrize("name", SUITE)
 def test_packed_light_samples_equal_scalar_ones(name):
     # The wavefront samples the lights of a pack of vertices at once where the scene's only
-    # light is a quad (LightSampler::sample_single_quad; every Cornell box of the suite);
-    # each sample must be LightSampler::sample's bit for bit, the failed ones included:
-    # points all over and beyond the scene, on the light's plane, at its corners (where the
-    # sampled point can be the reference point itself: distance 0) and behind it.
+    # light is a quad (LightSampler::sample_single_quad; every Cornell box of the suite) or
+    # a sphere (sample_single_sphere; `furnace`); each sample must be
+    # LightSampler::sample's bit for bit, the failed ones included: points all over and
+    # beyond the scene, on the light's plane, at its corners (where the sampled point can be
+    # the reference point itself: distance 0) and behind it; on, inside (the packed case)
+    # and just outside a sphere light (cone sampling, lane by lane).
     scene = get_scene(name)
     core = core_scene(scene)
     rng = np.random.default_rng(7)
@@ -207,9 +209,18 @@ def test_packed_light_samples_equal_scalar_ones(name):
         normal = np.cross(a, b) / np.linalg.norm(np.cross(a, b))
         for p in (Q, Q + a, Q + b, Q + a + b, Q + 0.5 * a + 0.5 * b):
             special += [p, p + normal, p - normal, p + 1e-9 * normal]
+    spheres = [s for s in scene.shapes if isinstance(s, rt.Sphere) and isinstance(s.material, rt.DiffuseLight)]
+    for sph in spheres:
+        c, r = np.asarray(sph.center, dtype=float), float(sph.radius)
+        dirs = rng.normal(size=(600, 3))
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        scale = rng.choice([0.0, 0.3, 0.999, 1.0, 1.0, 1.0, 1.0 + 1e-12, 1.5], size=(600, 1))
+        special += list(c + r * scale * dirs)
     if special:
         refs[: len(special)] = special
         u[: len(special), 1:] = 0.0  # the sampled point is Q: at the corner Q, distance 0
+        if spheres:  # random uniforms for the sphere points (u = 0 is the pole)
+            u[len(special) - 600 * len(spheres): len(special)] = rng.random((600 * len(spheres), 3))
     refs, u = np.ascontiguousarray(refs), np.ascontiguousarray(u)
     scalar, packed = core.sample_lights(refs, u), core.sample_lights(refs, u, wavefront=True)
     assert scalar["valid"].any() or not lights

@@ -54,6 +54,17 @@ inline VPd sqrt_of(VPd x) {
 #endif
 }
 
+// Lane-wise std::floor and safe_sqrt (math.h: the square root of max(0, x), NaN -> 0).
+inline VPd floor_of(VPd x) {
+#if RT_PACK == 4 && defined(__AVX__)
+    return reinterpret_cast<VPd>(_mm256_floor_pd(reinterpret_cast<__m256d>(x)));
+#else
+    for (int i = 0; i < kPackWidth; ++i) x[i] = __builtin_floor(x[i]);
+    return x;
+#endif
+}
+inline VPd safe_sqrt_of(VPd x) { return sqrt_of(0.0 < x ? x : VPd{}); }
+
 // x in every lane. VPd{} + x would add a zero first (IEEE has -0 + 0 = +0, so the compiler
 // must); x - 0 is x for every x, so the subtraction folds away into a broadcast.
 inline VPd splat(double x) { return x - VPd{}; }

@@ -144,22 +144,85 @@ public:
         }
     }
 
-    // sample_single_quad() for n reference points, a pack at a time: point(i) gives the i-th
-    // point's reference point, uniforms (u0, u1, u2) and where its sample goes, as a tuple.
+    // Whether the scene's only light is one sphere (no background): the case
+    // sample_single_sphere() serves (`furnace`).
+    bool single_sphere() const {
+        return emitters_.size() == 1 && emitters_[0].kind == EmitterKind::Sphere && p_background_ == 0.0;
+    }
+
+    // sample() for a pack of reference points where single_sphere() holds, as
+    // sample_single_quad() is for a quad: the lanes whose point lies inside or on the
+    // sphere (sampled by area, sample_sphere's first case: every vertex of `furnace`) run
+    // sample()'s operations lane-wise, bit for bit; any other lane (cone sampling) calls
+    // sample() itself.
+    void sample_single_sphere(const VPd (&ref)[3], const VPd (&u)[3], int m, LightSample* const* out) const {
+        const Emitter& e = emitters_[0];
+        const Sphere& s = (*spheres_)[e.index];
+        const double sel = select_.pmf(0) * (1.0 - p_background_);
+        const double area = s.area();
+        VPd to_c[3];
+        for (int a = 0; a < 3; ++a) to_c[a] = s.center[a] - ref[a];
+        const VPd dc2 = to_c[0] * to_c[0] + to_c[1] * to_c[1] + to_c[2] * to_c[2];  // length_squared
+        const unsigned inside = lane_mask(dc2 <= s.radius * s.radius);
+        // p = centre + radius * d, n = d * normal_sign, d uniform on the unit sphere.
+        VPd dir[3];
+        sphere_point_at_height(1.0 - 2.0 * u[1], u[2], dir);
+        VPd d[3], n[3];
+        for (int a = 0; a < 3; ++a) {
+            d[a] = (s.center[a] + s.radius * dir[a]) - ref[a];
+            n[a] = dir[a] * s.normal_sign;
+        }
+        const VPd dist2 = mul_add(d[2], d[2], mul_add(d[1], d[1], d[0] * d[0]));
+        const VPd dist = sqrt_of(dist2);
+        const VPd inv = 1.0 / dist;  // Vec3 / double multiplies by the reciprocal
+        VPd wi[3];
+        for (int a = 0; a < 3; ++a) wi[a] = d[a] * inv;
+        const VPd cos_l = -mul_add(n[2], wi[2], mul_add(n[1], wi[1], n[0] * wi[0]));
+        const VPd pdf = sel * (dist2 / (cos_l * area));
+        const unsigned valid = lane_mask((dist2 > 0.0) & (cos_l > 0.0) & (pdf > 0.0) & (pdf < kInf));
+        for (int l = 0; l < m; ++l) {
+            LightSample& ls = *out[l];
+            if (!((inside >> l) & 1u)) {
+                ls = sample(Vec3(ref[0][l], ref[1][l], ref[2][l]), u[0][l], u[1][l], u[2][l]);
+                continue;
+            }
+            ls = LightSample();
+            if (!((valid >> l) & 1u)) continue;
+            ls.wi = Vec3(wi[0][l], wi[1][l], wi[2][l]);
+            ls.dist = dist[l];
+            ls.pdf = pdf[l];
+            ls.radiance = e.radiance;
+            ls.prim = e.prim;
+            ls.valid = true;
+        }
+    }
+
+    // Whether the scene's light sampling runs a pack at a time (sample_single_emitter).
+    bool single_emitter_packs() const { return single_quad() || single_sphere(); }
+
+    // sample() for n reference points, a pack at a time, where single_emitter_packs()
+    // holds: point(i) gives the i-th point's reference point, uniforms (u0, u1, u2) and
+    // where its sample goes, as a tuple.
     template <typename Point>
-    void sample_single_quad(int n, Point&& point) const {
+    void sample_single_emitter(int n, Point&& point) const {
+        const bool quad = single_quad();
         for (int base = 0; base < n; base += kPackWidth) {
             const int m = std::min(kPackWidth, n - base);
-            VPd ref[3], u1, u2;
+            VPd ref[3], u[3];
             LightSample* out[kPackWidth];
             for (int l = 0; l < kPackWidth; ++l) {  // absent lanes repeat the first
-                const auto [r, u, sample] = point(base + (l < m ? l : 0));
-                for (int a = 0; a < 3; ++a) ref[a][l] = r[a];
-                u1[l] = u[1];
-                u2[l] = u[2];
+                const auto [r, ui, sample] = point(base + (l < m ? l : 0));
+                for (int a = 0; a < 3; ++a) {
+                    ref[a][l] = r[a];
+                    u[a][l] = ui[a];
+                }
                 out[l] = sample;
             }
-            sample_single_quad(ref, u1, u2, m, out);
+            if (quad) {
+                sample_single_quad(ref, u[1], u[2], m, out);
+            } else {
+                sample_single_sphere(ref, u, m, out);
+            }
         }
     }
 

@@ -63,6 +63,27 @@ inline Vec3 sphere_point_at_height(double z, double u) {
     return {r * cos_phi, r * sin_phi, z};
 }
 
+// sincos_turn and sphere_point_at_height for a pack of lanes: each lane computes exactly
+// what the double versions do (the quarter-turn choices as selections).
+inline void sincos_turn(VPd u, VPd& s, VPd& c) {
+    const VPd q = floor_of(4.0 * u + 0.5);
+    VPd sx, cx;
+    sincos_quarter((2.0 * kPi) * (u - 0.25 * q), sx, cx);
+    const VPl k = __builtin_convertvector(q, VPl) & 3;
+    const VPl odd = (k & 1) != 0;
+    const VPd a = odd ? cx : sx, b = odd ? sx : cx;
+    s = (k & 2) != 0 ? -a : a;
+    c = ((k + 1) & 2) != 0 ? -b : b;
+}
+inline void sphere_point_at_height(VPd z, VPd u, VPd (&p)[3]) {
+    const VPd r = safe_sqrt_of(1.0 - z * z);
+    VPd sin_phi, cos_phi;
+    sincos_turn(u, sin_phi, cos_phi);
+    p[0] = r * cos_phi;
+    p[1] = r * sin_phi;
+    p[2] = z;
+}
+
 // Heights uniform in [0, 1] (hemisphere) or [-1, 1] (sphere): uniform in solid angle
 // (Archimedes' hat-box theorem).
 inline Vec3 square_to_uniform_hemisphere(double u1, double u2) { return sphere_point_at_height(u1, u2); }
