@@ -118,30 +118,11 @@ public:
     void sample_single_quad(const VPd (&ref)[3], VPd u1, VPd u2, int m, LightSample* const* out) const {
         const Emitter& e = emitters_[0];
         const Quad& q = (*quads_)[e.index];
-        const double sel = select_.pmf(0) * (1.0 - p_background_);
-        const double area = q.area();
         // p = q.point(u1, u2), d = p - ref.
         VPd d[3];
         for (int a = 0; a < 3; ++a) d[a] = mul_add(u2, splat(q.v[a]), mul_add(u1, splat(q.u[a]), splat(q.Q[a]))) - ref[a];
-        const VPd dist2 = mul_add(d[2], d[2], mul_add(d[1], d[1], d[0] * d[0]));
-        const VPd dist = sqrt_of(dist2);
-        const VPd inv = 1.0 / dist;  // Vec3 / double multiplies by the reciprocal
-        VPd wi[3];
-        for (int a = 0; a < 3; ++a) wi[a] = d[a] * inv;
-        const VPd cos_l = -mul_add(splat(q.normal.z), wi[2], mul_add(splat(q.normal.y), wi[1], q.normal.x * wi[0]));
-        const VPd pdf = sel * (dist2 / (cos_l * area));
-        const unsigned valid = lane_mask((dist2 > 0.0) & (cos_l > 0.0) & (pdf > 0.0) & (pdf < kInf));
-        for (int l = 0; l < m; ++l) {
-            LightSample& ls = *out[l];
-            ls = LightSample();
-            if (!((valid >> l) & 1u)) continue;
-            ls.wi = Vec3(wi[0][l], wi[1][l], wi[2][l]);
-            ls.dist = dist[l];
-            ls.pdf = pdf[l];
-            ls.radiance = e.radiance;
-            ls.prim = e.prim;
-            ls.valid = true;
-        }
+        const VPd n[3] = {splat(q.normal.x), splat(q.normal.y), splat(q.normal.z)};
+        finish_pack(e, q.area(), d, n, (1u << m) - 1u, m, out);
     }
 
     // Whether the scene's only light is one sphere (no background): the case
@@ -158,13 +139,14 @@ public:
     void sample_single_sphere(const VPd (&ref)[3], const VPd (&u)[3], int m, LightSample* const* out) const {
         const Emitter& e = emitters_[0];
         const Sphere& s = (*spheres_)[e.index];
-        const double sel = select_.pmf(0) * (1.0 - p_background_);
-        const double area = s.area();
         VPd to_c[3];
         for (int a = 0; a < 3; ++a) to_c[a] = s.center[a] - ref[a];
         const VPd dc2 = to_c[0] * to_c[0] + to_c[1] * to_c[1] + to_c[2] * to_c[2];  // length_squared
-        const unsigned inside = lane_mask(dc2 <= s.radius * s.radius);
-        // p = centre + radius * d, n = d * normal_sign, d uniform on the unit sphere.
+        const unsigned inside = lane_mask(dc2 <= s.radius * s.radius) & ((1u << m) - 1u);
+        for (int l = 0; l < m; ++l)
+            if (!((inside >> l) & 1u)) *out[l] = sample(Vec3(ref[0][l], ref[1][l], ref[2][l]), u[0][l], u[1][l], u[2][l]);
+        if (inside == 0) return;
+        // p = centre + radius * dir, n = dir * normal_sign, dir uniform on the unit sphere.
         VPd dir[3];
         sphere_point_at_height(1.0 - 2.0 * u[1], u[2], dir);
         VPd d[3], n[3];
@@ -172,29 +154,7 @@ public:
             d[a] = (s.center[a] + s.radius * dir[a]) - ref[a];
             n[a] = dir[a] * s.normal_sign;
         }
-        const VPd dist2 = mul_add(d[2], d[2], mul_add(d[1], d[1], d[0] * d[0]));
-        const VPd dist = sqrt_of(dist2);
-        const VPd inv = 1.0 / dist;  // Vec3 / double multiplies by the reciprocal
-        VPd wi[3];
-        for (int a = 0; a < 3; ++a) wi[a] = d[a] * inv;
-        const VPd cos_l = -mul_add(n[2], wi[2], mul_add(n[1], wi[1], n[0] * wi[0]));
-        const VPd pdf = sel * (dist2 / (cos_l * area));
-        const unsigned valid = lane_mask((dist2 > 0.0) & (cos_l > 0.0) & (pdf > 0.0) & (pdf < kInf));
-        for (int l = 0; l < m; ++l) {
-            LightSample& ls = *out[l];
-            if (!((inside >> l) & 1u)) {
-                ls = sample(Vec3(ref[0][l], ref[1][l], ref[2][l]), u[0][l], u[1][l], u[2][l]);
-                continue;
-            }
-            ls = LightSample();
-            if (!((valid >> l) & 1u)) continue;
-            ls.wi = Vec3(wi[0][l], wi[1][l], wi[2][l]);
-            ls.dist = dist[l];
-            ls.pdf = pdf[l];
-            ls.radiance = e.radiance;
-            ls.prim = e.prim;
-            ls.valid = true;
-        }
+        finish_pack(e, s.area(), d, n, inside, m, out);
     }
 
     // Whether the scene's light sampling runs a pack at a time (sample_single_emitter).
@@ -272,6 +232,36 @@ public:
     }
 
 private:
+    // The rest of sample() for a pack of lanes whose sampled point p lies at d = p - ref,
+    // with the emitter's normal n there, for the single emitter e of the given area: lane l
+    // of `lanes` (l < m) gets sample()'s result, bit for bit (lane-wise square root and
+    // division are IEEE like the scalar ones); a failed sample is returned as LightSample()
+    // (sample() leaves some fields set on the way, which no caller reads once valid is false).
+    void finish_pack(const Emitter& e, double area, const VPd (&d)[3], const VPd (&n)[3], unsigned lanes, int m,
+                     LightSample* const* out) const {
+        const double sel = select_.pmf(0) * (1.0 - p_background_);
+        const VPd dist2 = mul_add(d[2], d[2], mul_add(d[1], d[1], d[0] * d[0]));
+        const VPd dist = sqrt_of(dist2);
+        const VPd inv = 1.0 / dist;  // Vec3 / double multiplies by the reciprocal
+        VPd wi[3];
+        for (int a = 0; a < 3; ++a) wi[a] = d[a] * inv;
+        const VPd cos_l = -mul_add(n[2], wi[2], mul_add(n[1], wi[1], n[0] * wi[0]));
+        const VPd pdf = sel * (dist2 / (cos_l * area));
+        const unsigned valid = lane_mask((dist2 > 0.0) & (cos_l > 0.0) & (pdf > 0.0) & (pdf < kInf));
+        for (int l = 0; l < m; ++l) {
+            if (!((lanes >> l) & 1u)) continue;
+            LightSample& ls = *out[l];
+            ls = LightSample();
+            if (!((valid >> l) & 1u)) continue;
+            ls.wi = Vec3(wi[0][l], wi[1][l], wi[2][l]);
+            ls.dist = dist[l];
+            ls.pdf = pdf[l];
+            ls.radiance = e.radiance;
+            ls.prim = e.prim;
+            ls.valid = true;
+        }
+    }
+
     double area(const Emitter& e) const {
         switch (e.kind) {
             case EmitterKind::Sphere: return (*spheres_)[e.index].area();
