@@ -343,6 +343,11 @@ def test_preliminary_query_gives_the_full_querys_distance_and_primitive(path, th
     assert np.array_equal(pre["t"], full["t"]) and np.array_equal(pre["prim"], full["prim"])
     assert pre["packet_rays"] == full["packet_rays"]
     assert 0.2 < (full["prim"] >= 0).mean() < 0.95
+    # The outputs are not zero-filled before the query (bindings.cpp): every miss must have
+    # been written as a miss by whichever path answered it.
+    miss = full["prim"] < 0
+    assert np.all(np.isinf(full["t"][miss])) and np.all(full["point"][miss] == 0.0)
+    assert np.all(full["normal"][miss] == 0.0)
 
 
 def test_interleaved_traversal_of_an_empty_scene():
