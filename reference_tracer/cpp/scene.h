@@ -141,7 +141,6 @@ private:
     static bool coherent(const Ray* rays, int m, double origin_radius) {
         // The three axes of a ray at once (lane 3 repeats z), each ray leaving at once when it
         // fails (random rays fail at the second ray).
-        using V4l = int64_t __attribute__((vector_size(32)));
         const Vec3& d0 = rays[0].d;
         const double spread = 0.5 * std::max({std::abs(d0.x), std::abs(d0.y), std::abs(d0.z)});
         const V4d first_d = {d0.x, d0.y, d0.z, d0.z};
@@ -311,14 +310,23 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preli
             for (int r = 0; r < m; ++r) scattered.push_back(base + r);
             continue;
         }
-        RaySlabs::Scalars slabs[kLanes];
+        for (int r = m; r < kLanes; ++r) rays[r] = rays[0];  // absent lanes repeat ray 0 (masked out)
+        // The per-ray constants four rays at a time (PacketSlabs, WatertightRays4).
+        const PacketSlabs slabs(rays);
         double t_max[kLanes];
         bool hit[kLanes] = {};
-        for (int r = 0; r < kLanes; ++r) {  // absent lanes repeat ray 0 (masked out)
-            const Ray& ray = rays[r < m ? r : 0];
-            slabs[r] = RaySlabs::Scalars(ray);
-            lane_begin(packet_ctx[r], ray);
-            t_max[r] = kInf;
+        for (int half = 0; half < kLanes; half += 4) {
+            const Ray* q = rays + half;
+            const WatertightRays4 wrays(V4d{q[0].d.x, q[1].d.x, q[2].d.x, q[3].d.x},
+                                        V4d{q[0].d.y, q[1].d.y, q[2].d.y, q[3].d.y},
+                                        V4d{q[0].d.z, q[1].d.z, q[2].d.z, q[3].d.z});
+            for (int i = 0; i < 4; ++i) {
+                Context& c = packet_ctx[half + i];
+                c.ray = q[i];
+                c.wray = triangles_.empty() ? WatertightRay() : wrays.lane(i);
+                c.best = ClosestHit{};
+                t_max[half + i] = kInf;
+            }
         }
         bvh_.traverse_packet(slabs, (1u << m) - 1u, t_max, hit, packet);
         for (int r = 0; r < m; ++r) lane_finish(packet_ctx[r], base + r, hit[r], t_max[r]);

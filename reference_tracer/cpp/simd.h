@@ -16,6 +16,7 @@ using V8i = int32_t __attribute__((vector_size(32)));
 using V4f = float __attribute__((vector_size(16)));
 using V4i = int32_t __attribute__((vector_size(16)));
 using V4d = double __attribute__((vector_size(32)));
+using V4l = int64_t __attribute__((vector_size(32)));  // lane masks of V4d comparisons (0 / -1)
 
 // Rays per pack of the batched scene queries (Scene::intersect_batch): eight doubles, one
 // AVX-512 register, where the build machine has AVX-512; four (one AVX2 register, two
@@ -106,6 +107,30 @@ inline unsigned lane_mask(VPl lanes) {
     unsigned mask = 0;
     for (int i = 0; i < kPackWidth; ++i) mask |= (lanes[i] != 0 ? 1u : 0u) << i;
     return mask;
+#endif
+}
+
+// Bit i set where lane i of a V4d comparison is true.
+inline unsigned lane_mask4(V4l lanes) {
+#ifdef __AVX__
+    return static_cast<unsigned>(_mm256_movemask_pd(reinterpret_cast<__m256d>(lanes)));
+#else
+    unsigned mask = 0;
+    for (int i = 0; i < 4; ++i) mask |= (lanes[i] != 0 ? 1u : 0u) << i;
+    return mask;
+#endif
+}
+
+// The smallest of four doubles (no NaN among them).
+inline double min_lane(V4d v) {
+#ifdef __AVX__
+    __m256d x = reinterpret_cast<__m256d>(v);
+    x = _mm256_min_pd(x, _mm256_permute2f128_pd(x, x, 1));
+    x = _mm256_min_pd(x, _mm256_shuffle_pd(x, x, 0x5));
+    return _mm256_cvtsd_f64(x);
+#else
+    const double a = v[0] < v[1] ? v[0] : v[1], b = v[2] < v[3] ? v[2] : v[3];
+    return a < b ? a : b;
 #endif
 }
 

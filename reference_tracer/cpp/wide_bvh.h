@@ -96,8 +96,43 @@ struct RaySlabs {
     static constexpr float kWiden = 1.0f + 0x1p-20f;
     static constexpr double kWidenD = 1.0 + 0x1p-20;
 
-    // The per-ray scalars, one per axis (lane 3 unused): what a packet keeps of each of its
-    // rays (one lane each), without the eight-fold broadcasts a single-ray test wants.
+    // Four slab constants computed at once, without a branch: the three axes of one ray
+    // (Scalars), or one axis of four rays (PacketSlabs). The reciprocals with one vector
+    // division; the origin rounded up and down to float with a slack of 2^-23 |o| (plus
+    // 2^-140 for zero and subnormals), more than the half ulp that rounding to nearest can
+    // move, and no libm call (nextafter per axis cost ~20% on small scenes). The choices
+    // by sign are lane selections: as branches on the signs of a random direction they
+    // were a mispredicted branch per ray (round 10). Lane for lane the same operations
+    // whichever way the four values are grouped, so both groupings give the same bits.
+    struct Lanes {
+        V4f o_near, o_far, inv_near, inv_far;
+        V4i neg;  // all ones where 1/d < 0: the near plane is hi, the far plane lo
+
+        [[gnu::always_inline]] Lanes(const V4d& o4, const V4d& d4) {
+            const V4d inv_d = V4d{1.0, 1.0, 1.0, 1.0} / d4;
+            const V4d slack = (o4 < 0.0 ? -o4 : o4) * 0x1p-23 + 0x1p-140;
+            const V4f o_up = __builtin_convertvector(o4 + slack, V4f);
+            const V4f o_down = __builtin_convertvector(o4 - slack, V4f);
+            // d = -0 gives -inf: negative, as it should.
+            neg = __builtin_convertvector(inv_d < 0.0, V4i);
+            // The near plane is lo (d > 0) or hi (d < 0): (plane - o) * inv is smallest
+            // with o rounded up for d > 0 and down for d < 0; the far plane the other way.
+            o_near = neg ? o_down : o_up;
+            o_far = neg ? o_up : o_down;
+            // 1/d beyond the float range (|d| < 2.9e-39, or d = 0): the near factor is
+            // clamped to the largest float (a smaller near distance: conservative), the far
+            // one may become infinite (a larger far distance: conservative too). A clamp
+            // that keeps NaN, as std::clamp does.
+            constexpr double kMaxFloat = std::numeric_limits<float>::max();
+            V4d clamped = inv_d < -kMaxFloat ? V4d{} - kMaxFloat : inv_d;
+            clamped = kMaxFloat < clamped ? V4d{} + kMaxFloat : clamped;
+            inv_near = __builtin_convertvector(clamped, V4f);
+            inv_far = __builtin_convertvector(inv_d, V4f) * kWiden;
+        }
+    };
+
+    // The per-ray scalars, one per axis (lane 3 unused): what a single-ray traversal
+    // broadcasts to the eight lanes of its node tests.
     struct Scalars {
         float o_near[4], o_far[4], inv_near[4], inv_far[4];
         int near_row[4], far_row[4];
@@ -106,40 +141,14 @@ struct RaySlabs {
         // Always inline: with a traversal per query kind (closest hit, shadow ray, the
         // wavefront's mesh tree) GCC left it out of line, 8% of all instructions.
         [[gnu::always_inline]] explicit Scalars(const Ray& ray) {
-            // The three axes at once, without a branch: the reciprocals with one vector
-            // division, the origin rounded up and down to float with a slack of 2^-23 |o|
-            // (plus 2^-140 for zero and subnormals), more than the half ulp that rounding to
-            // nearest can move, and no libm call (nextafter per axis cost ~20% on small
-            // scenes). The per-axis choices are lane selections: as branches on the signs of
-            // a random direction they were a mispredicted branch per ray (round 10).
-            const V4d d4 = {ray.d.x, ray.d.y, ray.d.z, 1.0};
-            const V4d o4 = {ray.o.x, ray.o.y, ray.o.z, 0.0};
-            const V4d inv_d = V4d{1.0, 1.0, 1.0, 1.0} / d4;
-            const V4d slack = (o4 < 0.0 ? -o4 : o4) * 0x1p-23 + 0x1p-140;
-            const V4f o_up = __builtin_convertvector(o4 + slack, V4f);
-            const V4f o_down = __builtin_convertvector(o4 - slack, V4f);
-            // d = -0 gives -inf: negative, as it should.
-            const V4i neg = __builtin_convertvector(inv_d < 0.0, V4i);
-            // The near plane is lo (d > 0) or hi (d < 0): (plane - o) * inv is smallest
-            // with o rounded up for d > 0 and down for d < 0; the far plane the other way.
-            const V4f near = neg ? o_down : o_up;
-            const V4f far = neg ? o_up : o_down;
-            // 1/d beyond the float range (|d| < 2.9e-39, or d = 0): the near factor is
-            // clamped to the largest float (a smaller near distance: conservative), the far
-            // one may become infinite (a larger far distance: conservative too). A clamp
-            // that keeps NaN, as std::clamp does.
-            constexpr double kMaxFloat = std::numeric_limits<float>::max();
-            V4d clamped = inv_d < -kMaxFloat ? V4d{} - kMaxFloat : inv_d;
-            clamped = kMaxFloat < clamped ? V4d{} + kMaxFloat : clamped;
-            const V4f inv_n = __builtin_convertvector(clamped, V4f);
-            const V4f inv_f = __builtin_convertvector(inv_d, V4f) * kWiden;
+            const Lanes l(V4d{ray.o.x, ray.o.y, ray.o.z, 0.0}, V4d{ray.d.x, ray.d.y, ray.d.z, 1.0});
             const V4i axis_row = {0, kWidth, 2 * kWidth, 0};
-            const V4i near_r = (neg & (3 * kWidth)) + axis_row;
-            const V4i far_r = (~neg & (3 * kWidth)) + axis_row;
-            __builtin_memcpy(o_near, &near, sizeof(near));
-            __builtin_memcpy(o_far, &far, sizeof(far));
-            __builtin_memcpy(inv_near, &inv_n, sizeof(inv_n));
-            __builtin_memcpy(inv_far, &inv_f, sizeof(inv_f));
+            const V4i near_r = (l.neg & (3 * kWidth)) + axis_row;
+            const V4i far_r = (~l.neg & (3 * kWidth)) + axis_row;
+            __builtin_memcpy(o_near, &l.o_near, sizeof(l.o_near));
+            __builtin_memcpy(o_far, &l.o_far, sizeof(l.o_far));
+            __builtin_memcpy(inv_near, &l.inv_near, sizeof(l.inv_near));
+            __builtin_memcpy(inv_far, &l.inv_far, sizeof(l.inv_far));
             __builtin_memcpy(near_row, &near_r, sizeof(near_r));
             __builtin_memcpy(far_row, &far_r, sizeof(far_r));
         }
@@ -187,6 +196,35 @@ struct RaySlabs {
             tf = t1 < tf ? t1 : tf;
         }
         return lane_mask(tn <= tf);
+    }
+};
+
+// The slab constants of a packet of kWidth rays, lane r for ray r, computed four rays at
+// a time (RaySlabs::Lanes on one axis of four rays) straight into the vectors the packet
+// traversal tests: per ray, a RaySlabs::Scalars and its transposition into the lanes
+// cost ~70 instructions a camera ray (round 11). Each lane holds the very bits
+// Scalars(rays[r]) holds. The rays share an octant, so ray 0's signs choose the rows.
+struct PacketSlabs {
+    V8f o_near[3], o_far[3], inv_near[3], inv_far[3];
+    int near_row[3], far_row[3];
+
+    [[gnu::always_inline]] explicit PacketSlabs(const Ray (&rays)[kWidth]) {
+        for (int a = 0; a < 3; ++a) {
+            auto axis_of = [&](int first, bool origin) {
+                const Ray* q = rays + first;
+                return origin ? V4d{q[0].o[a], q[1].o[a], q[2].o[a], q[3].o[a]}
+                              : V4d{q[0].d[a], q[1].d[a], q[2].d[a], q[3].d[a]};
+            };
+            const RaySlabs::Lanes lo(axis_of(0, true), axis_of(0, false));
+            const RaySlabs::Lanes hi(axis_of(4, true), axis_of(4, false));
+            auto join = [](const V4f& x, const V4f& y) { return __builtin_shufflevector(x, y, 0, 1, 2, 3, 4, 5, 6, 7); };
+            o_near[a] = join(lo.o_near, hi.o_near);
+            o_far[a] = join(lo.o_far, hi.o_far);
+            inv_near[a] = join(lo.inv_near, hi.inv_near);
+            inv_far[a] = join(lo.inv_far, hi.inv_far);
+            near_row[a] = a * kWidth + (lo.neg[0] ? 3 * kWidth : 0);
+            far_row[a] = a * kWidth + (lo.neg[0] ? 0 : 3 * kWidth);
+        }
     }
 };
 
@@ -477,20 +515,16 @@ public:
     // `query` provides test(lane, prim, t_max), test_block(lane, block, t_max) (as for
     // traverse) and prefetch_block(block); t_max[r] in, closest t out; hit[r] set on a hit.
     template <typename Query>
-    void traverse_packet(const RaySlabs::Scalars (&slabs)[kWidth], unsigned active, double (&t_max)[kWidth],
-                         bool (&hit)[kWidth], Query& query) const {
+    void traverse_packet(const PacketSlabs& slabs, unsigned active, double (&t_max)[kWidth], bool (&hit)[kWidth],
+                         Query& query) const {
         if (nodes_.empty() || active == 0) return;
         // Lane r of each vector: ray r's slab constants.
-        V8f o_near[3], o_far[3], inv_near[3], inv_far[3];
-        for (int a = 0; a < 3; ++a)
-            for (int r = 0; r < kWidth; ++r) {
-                o_near[a][r] = slabs[r].o_near[a];
-                o_far[a][r] = slabs[r].o_far[a];
-                inv_near[a][r] = slabs[r].inv_near[a];
-                inv_far[a][r] = slabs[r].inv_far[a];
-            }
-        const int* near_row = slabs[0].near_row;
-        const int* far_row = slabs[0].far_row;
+        const auto& o_near = slabs.o_near;
+        const auto& o_far = slabs.o_far;
+        const auto& inv_near = slabs.inv_near;
+        const auto& inv_far = slabs.inv_far;
+        const int* near_row = slabs.near_row;
+        const int* far_row = slabs.far_row;
         // Absent rays get t_max -inf: no box passes for them.
         V8f t_max_f;
         for (int r = 0; r < kWidth; ++r)
