@@ -372,12 +372,15 @@ def test_bvh_fills_triangle_blocks():
 
 @pytest.mark.parametrize("width, height", [(64, 48), (37, 29)])
 @pytest.mark.parametrize("threads", [1, 2])
-def test_packet_traversal_of_camera_rays_equals_single_ray(width, height, threads):
+@pytest.mark.parametrize("view", ["-z", "+x", "-y"])
+def test_packet_traversal_of_camera_rays_equals_single_ray(width, height, threads, view):
     # Camera rays through neighbouring pixels go through the BVH as packets of eight
     # (wide_bvh.h): every field of every result must equal the one-ray-at-a-time
-    # traversal's and brute force. The camera looks straight down -z, so the centre
-    # column and row have exactly zero x or y components and the packets there straddle
-    # a change of octant (traced one ray at a time); odd sizes leave a partial packet.
+    # traversal's and brute force. The camera looks straight along an axis, so the centre
+    # column and row have exactly zero components and the packets there straddle a change
+    # of octant (traced one ray at a time); odd sizes leave a partial packet. Packets
+    # compute their rays' constants four at a time (PacketSlabs, WatertightRays4): the
+    # three views give each axis as the dominant one, in both directions.
     rng = np.random.default_rng(width + threads)
     shapes = random_primitives(40, rng) + [random_mesh(3000, rng)]
     c = core(shapes)
@@ -385,8 +388,15 @@ def test_packet_traversal_of_camera_rays_equals_single_ray(width, height, thread
     ys = np.linspace(-0.45, 0.45, height)
     gx, gy = np.meshgrid(xs, ys)
     dirs = np.stack([gx.ravel(), gy.ravel(), -np.ones(gx.size)], axis=1)
+    axis = "xyz".index(view[1])
+    sign = 1.0 if view[0] == "+" else -1.0
+    # The dominant component (-1 above) moved to `axis`, pointing along `sign`.
+    order = {0: [2, 0, 1], 1: [0, 2, 1], 2: [0, 1, 2]}[axis]
+    dirs = dirs[:, order]
+    dirs[:, axis] = sign
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    origins = np.tile([0.0, 0.0, 120.0], (len(dirs), 1))
+    origins = np.zeros((len(dirs), 3))
+    origins[:, axis] = -120.0 * sign
     batch = cast(c, origins, dirs, threads=threads)
     single = cast(c, origins, dirs, threads=threads, batch=False)
     brute = cast(c, origins, dirs, brute_force=True)
