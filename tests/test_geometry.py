@@ -409,6 +409,44 @@ def test_packet_traversal_of_camera_rays_equals_single_ray(width, height, thread
     assert 0.1 < (brute["prim"] >= 0).mean()
 
 
+@pytest.mark.parametrize("scale, offset", [(1e-30, 0.0), (1e-3, 1e5), (1.0, 0.0), (1e-6, 3.1e6), (1e25, 0.0)])
+@pytest.mark.parametrize("flat", [False, True])
+def test_bvh_equals_brute_force_at_any_scale(scale, offset, flat):
+    # The tree tests its child boxes in single precision, rounded outward from the double
+    # boxes (wide_bvh.h; PERFORMANCE.md round 11 tried them as bytes on a grid per node).
+    # Meshes of every size the API accepts (coordinates up to 1e30), far from the origin,
+    # and flat ones (every vertex at one z: boxes without extent in z; the triangles laid
+    # out on a grid so that none overlaps another and no hit is a tie) must give exactly
+    # brute force's hits, for packets, interleaved and single rays.
+    rng = np.random.default_rng(5)
+    n = 3000
+    if flat:
+        cells = np.stack(np.meshgrid(np.arange(55), np.arange(55), indexing="ij"), -1).reshape(-1, 2)[:n]
+        base = np.concatenate([2.0 * cells - 55.0, np.full((n, 1), 7.0)], axis=1)[:, None, :]
+        verts = base + np.concatenate([rng.uniform(-0.6, 0.6, size=(n, 3, 2)), np.zeros((n, 3, 1))], axis=2)
+    else:
+        verts = rng.uniform(-50, 50, size=(n, 1, 3)) + rng.normal(size=(n, 3, 3)) * 2
+    verts = (verts * scale + offset).reshape(-1, 3)
+    c = core([rt.Mesh(verts, np.arange(3 * n).reshape(n, 3), MAT)])
+    m = 2048
+    centre = np.array([0.0, 0.0, 7.0 if flat else 0.0]) * scale + offset
+    origins = centre + rng.uniform(-70, 70, size=(m, 3)) * scale
+    targets = verts.reshape(n, 3, 3).mean(axis=1)[rng.integers(0, n, size=m)]
+    dirs = (targets - origins) / scale
+    # The first half from one point towards neighbouring targets: packets.
+    origins[: m // 2] = centre + np.array([0.0, -120.0, 30.0]) * scale
+    half = (targets[: m // 2] - origins[: m // 2]) / scale
+    dirs[: m // 2] = half[np.lexsort((half[:, 0], np.round(half[:, 1], 0)))]
+    brute = cast(c, origins, dirs, brute_force=True)
+    assert (brute["prim"] >= 0).mean() > 0.3
+    single = cast(c, origins, dirs, batch=False)
+    batch = cast(c, origins, dirs)
+    assert batch["packet_rays"] > 0
+    for out in (single, batch):
+        for key in ("t", "prim"):
+            assert np.array_equal(out[key], brute[key]), key
+
+
 @pytest.mark.parametrize("float_exact", [True, False])
 def test_float_stored_triangle_blocks_equal_brute_force(float_exact):
     # Where every vertex is exactly a float (meshes from PLY/OBJ files), the BVH's
