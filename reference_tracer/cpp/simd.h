@@ -99,14 +99,22 @@ inline VPd copysign_lanes(VPd magnitude, VPd sign) {
                                  (reinterpret_cast<VPl>(sign) & sign_bit));
 }
 
+// Bit i set where lane i of a comparison result (0 / all ones) is true, lane by lane: the
+// portable form of the movemask instructions below.
+template <typename Lanes>
+inline unsigned lane_bits(const Lanes& lanes) {
+    constexpr int kLanes = sizeof(Lanes) / sizeof(lanes[0]);
+    unsigned mask = 0;
+    for (int i = 0; i < kLanes; ++i) mask |= (lanes[i] != 0 ? 1u : 0u) << i;
+    return mask;
+}
+
 // Bit i set where lane i of a VPd comparison is true.
 inline unsigned lane_mask(VPl lanes) {
 #if RT_PACK == 4 && defined(__AVX__)
     return static_cast<unsigned>(_mm256_movemask_pd(reinterpret_cast<__m256d>(lanes)));
 #else
-    unsigned mask = 0;
-    for (int i = 0; i < kPackWidth; ++i) mask |= (lanes[i] != 0 ? 1u : 0u) << i;
-    return mask;
+    return lane_bits(lanes);
 #endif
 }
 
@@ -115,9 +123,7 @@ inline unsigned lane_mask4(V4l lanes) {
 #ifdef __AVX__
     return static_cast<unsigned>(_mm256_movemask_pd(reinterpret_cast<__m256d>(lanes)));
 #else
-    unsigned mask = 0;
-    for (int i = 0; i < 4; ++i) mask |= (lanes[i] != 0 ? 1u : 0u) << i;
-    return mask;
+    return lane_bits(lanes);
 #endif
 }
 

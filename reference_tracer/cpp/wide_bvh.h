@@ -32,9 +32,7 @@ inline unsigned lane_mask(V8i lanes) {
 #ifdef __AVX__
     return static_cast<unsigned>(_mm256_movemask_ps(reinterpret_cast<__m256>(lanes)));
 #else
-    unsigned mask = 0;
-    for (int i = 0; i < kWidth; ++i) mask |= (lanes[i] != 0 ? 1u : 0u) << i;
-    return mask;
+    return lane_bits(lanes);
 #endif
 }
 
