@@ -109,23 +109,18 @@ inline unsigned lane_bits(const Lanes& lanes) {
     return mask;
 }
 
-// Bit i set where lane i of a VPd comparison is true.
-inline unsigned lane_mask(VPl lanes) {
-#if RT_PACK == 4 && defined(__AVX__)
-    return static_cast<unsigned>(_mm256_movemask_pd(reinterpret_cast<__m256d>(lanes)));
-#else
-    return lane_bits(lanes);
-#endif
-}
-
-// Bit i set where lane i of a V4d comparison is true.
-inline unsigned lane_mask4(V4l lanes) {
+// Bit i set where lane i of a V4d comparison (a VPd one where packs are four wide) is true.
+inline unsigned lane_mask(V4l lanes) {
 #ifdef __AVX__
     return static_cast<unsigned>(_mm256_movemask_pd(reinterpret_cast<__m256d>(lanes)));
 #else
     return lane_bits(lanes);
 #endif
 }
+#if RT_PACK == 8
+// The same for a pack of eight (two AVX registers, or one AVX-512 register).
+inline unsigned lane_mask(VPl lanes) { return lane_bits(lanes); }
+#endif
 
 // The smallest of four doubles (no NaN among them).
 inline double min_lane(V4d v) {

@@ -231,7 +231,7 @@ inline int intersect_watertight4(const Block& q, const Ray& r, const WatertightR
     // loop cost 0.5 mispredictions a block): passing lanes have a finite t (t < t_max),
     // the others count as +inf.
     const V4d candidate = ok ? t : V4d{} + kInf;
-    const unsigned nearest = lane_mask4(ok & (candidate == min_lane(candidate)));
+    const unsigned nearest = lane_mask(ok & (candidate == min_lane(candidate)));
     if (nearest == 0) return -1;
     const int best = __builtin_ctz(nearest);
     t_hit = t[best];
