@@ -317,13 +317,15 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preli
         bool hit[kLanes] = {};
         for (int half = 0; half < kLanes; half += 4) {
             const Ray* q = rays + half;
-            const WatertightRays4 wrays(V4d{q[0].d.x, q[1].d.x, q[2].d.x, q[3].d.x},
-                                        V4d{q[0].d.y, q[1].d.y, q[2].d.y, q[3].d.y},
-                                        V4d{q[0].d.z, q[1].d.z, q[2].d.z, q[3].d.z});
+            const WatertightRays4 wrays =
+                triangles_.empty() ? WatertightRays4()
+                                   : WatertightRays4(V4d{q[0].d.x, q[1].d.x, q[2].d.x, q[3].d.x},
+                                                     V4d{q[0].d.y, q[1].d.y, q[2].d.y, q[3].d.y},
+                                                     V4d{q[0].d.z, q[1].d.z, q[2].d.z, q[3].d.z});
             for (int i = 0; i < 4; ++i) {
                 Context& c = packet_ctx[half + i];
                 c.ray = q[i];
-                c.wray = triangles_.empty() ? WatertightRay() : wrays.lane(i);
+                c.wray = wrays.lane(i);
                 c.best = ClosestHit{};
                 t_max[half + i] = kInf;
             }

@@ -79,9 +79,10 @@ struct WatertightRay {
 // constants the very bits WatertightRay(d) computes (the same comparisons, the same
 // divisions). For packets: one ray at a time cost ~60 instructions a camera ray.
 struct WatertightRays4 {
-    V4l kx, ky, kz;
-    V4d Sx, Sy, Sz;
+    V4l kx = V4l{} + 0, ky = V4l{} + 1, kz = V4l{} + 2;
+    V4d Sx{}, Sy{}, Sz = V4d{} + 1.0;
 
+    WatertightRays4() = default;  // four WatertightRay() placeholders (scenes without triangles)
     WatertightRays4(const V4d& dx, const V4d& dy, const V4d& dz) {
         auto magnitude = [](const V4d& v) { return v < 0.0 ? -v : v; };
         const V4d ax = magnitude(dx), ay = magnitude(dy), az = magnitude(dz);
