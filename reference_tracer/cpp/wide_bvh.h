@@ -197,6 +197,23 @@ struct RaySlabs {
     }
 };
 
+// kWidth rays in structure-of-arrays form, four to a vector: o[axis][half] holds the
+// origins' `axis` components of rays 4 half .. 4 half + 3. What a packet's set-up reads:
+// the coherence test, the slab and the watertight constants, each a few vector
+// operations over all eight rays.
+struct RayOctet {
+    V4d o[3][2], d[3][2];
+
+    [[gnu::always_inline]] explicit RayOctet(const Ray (&rays)[kWidth]) {
+        for (int a = 0; a < 3; ++a)
+            for (int h = 0; h < 2; ++h) {
+                const Ray* q = rays + 4 * h;
+                o[a][h] = V4d{q[0].o[a], q[1].o[a], q[2].o[a], q[3].o[a]};
+                d[a][h] = V4d{q[0].d[a], q[1].d[a], q[2].d[a], q[3].d[a]};
+            }
+    }
+};
+
 // The slab constants of a packet of kWidth rays, lane r for ray r, computed four rays at
 // a time (RaySlabs::Lanes on one axis of four rays) straight into the vectors the packet
 // traversal tests: per ray, a RaySlabs::Scalars and its transposition into the lanes
@@ -206,15 +223,10 @@ struct PacketSlabs {
     V8f o_near[3], o_far[3], inv_near[3], inv_far[3];
     int near_row[3], far_row[3];
 
-    [[gnu::always_inline]] explicit PacketSlabs(const Ray (&rays)[kWidth]) {
+    [[gnu::always_inline]] explicit PacketSlabs(const RayOctet& rays) {
         for (int a = 0; a < 3; ++a) {
-            auto axis_of = [&](int first, bool origin) {
-                const Ray* q = rays + first;
-                return origin ? V4d{q[0].o[a], q[1].o[a], q[2].o[a], q[3].o[a]}
-                              : V4d{q[0].d[a], q[1].d[a], q[2].d[a], q[3].d[a]};
-            };
-            const RaySlabs::Lanes lo(axis_of(0, true), axis_of(0, false));
-            const RaySlabs::Lanes hi(axis_of(4, true), axis_of(4, false));
+            const RaySlabs::Lanes lo(rays.o[a][0], rays.d[a][0]);
+            const RaySlabs::Lanes hi(rays.o[a][1], rays.d[a][1]);
             auto join = [](const V4f& x, const V4f& y) { return __builtin_shufflevector(x, y, 0, 1, 2, 3, 4, 5, 6, 7); };
             o_near[a] = join(lo.o_near, hi.o_near);
             o_far[a] = join(lo.o_far, hi.o_far);
