@@ -317,13 +317,15 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preli
         const int m = static_cast<int>(std::min<size_t>(kLanes, n - base));
         Ray rays[kLanes];
         for (int r = 0; r < m; ++r) rays[r] = ray_at(base + r);
-        if (m > 1 && !same_octant(rays[0].d, rays[1].d)) {
-            for (int r = 0; r < m; ++r) scattered[n_scattered++] = base + r;
-            continue;
+        // Random rays mostly leave at the octant of their second ray, before the gathering.
+        RayOctet octet;
+        bool as_packet = m == 1 || same_octant(rays[0].d, rays[1].d);
+        if (as_packet) {
+            for (int r = m; r < kLanes; ++r) rays[r] = rays[0];  // absent lanes repeat ray 0 (masked out)
+            octet = RayOctet(rays);
+            as_packet = coherent(octet);
         }
-        for (int r = m; r < kLanes; ++r) rays[r] = rays[0];  // absent lanes repeat ray 0 (masked out)
-        const RayOctet octet(rays);
-        if (!coherent(octet)) {
+        if (!as_packet) {
             for (int r = 0; r < m; ++r) scattered[n_scattered++] = base + r;
             continue;
         }

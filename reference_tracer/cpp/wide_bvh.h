@@ -204,6 +204,7 @@ struct RaySlabs {
 struct RayOctet {
     V4d o[3][2], d[3][2];
 
+    RayOctet() = default;
     [[gnu::always_inline]] explicit RayOctet(const Ray (&rays)[kWidth]) {
         for (int a = 0; a < 3; ++a)
             for (int h = 0; h < 2; ++h) {
