@@ -122,6 +122,31 @@ inline unsigned lane_mask(V4l lanes) {
 inline unsigned lane_mask(VPl lanes) { return lane_bits(lanes); }
 #endif
 
+// Bit i set where lane i of a V8f comparison is true.
+inline unsigned lane_mask(V8i lanes) {
+#ifdef __AVX__
+    return static_cast<unsigned>(_mm256_movemask_ps(reinterpret_cast<__m256>(lanes)));
+#else
+    return lane_bits(lanes);
+#endif
+}
+
+// The smallest and the largest of eight floats (no NaN among them).
+inline float min_lane(V8f v) {
+#ifdef __AVX__
+    __m256 x = reinterpret_cast<__m256>(v);
+    x = _mm256_min_ps(x, _mm256_permute2f128_ps(x, x, 1));
+    x = _mm256_min_ps(x, _mm256_shuffle_ps(x, x, 0x4E));
+    x = _mm256_min_ps(x, _mm256_shuffle_ps(x, x, 0xB1));
+    return _mm256_cvtss_f32(x);
+#else
+    float m = v[0];
+    for (int i = 1; i < 8; ++i) m = v[i] < m ? v[i] : m;
+    return m;
+#endif
+}
+inline float max_lane(V8f v) { return -min_lane(-v); }
+
 // The smallest of four doubles (no NaN among them).
 inline double min_lane(V4d v) {
 #ifdef __AVX__

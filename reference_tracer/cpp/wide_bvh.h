@@ -27,30 +27,6 @@ namespace rt {
 
 constexpr int kWidth = 8;
 
-// Bit i set where lane i of a comparison result is true (all ones).
-inline unsigned lane_mask(V8i lanes) {
-#ifdef __AVX__
-    return static_cast<unsigned>(_mm256_movemask_ps(reinterpret_cast<__m256>(lanes)));
-#else
-    return lane_bits(lanes);
-#endif
-}
-
-// The smallest of eight floats (no NaN among them).
-inline float min_lane(V8f v) {
-#ifdef __AVX__
-    __m256 x = reinterpret_cast<__m256>(v);
-    x = _mm256_min_ps(x, _mm256_permute2f128_ps(x, x, 1));
-    x = _mm256_min_ps(x, _mm256_shuffle_ps(x, x, 0x4E));
-    x = _mm256_min_ps(x, _mm256_shuffle_ps(x, x, 0xB1));
-    return _mm256_cvtss_f32(x);
-#else
-    float m = v[0];
-    for (int i = 1; i < kWidth; ++i) m = v[i] < m ? v[i] : m;
-    return m;
-#endif
-}
-
 // Lane i all ones where bit i of mask is set.
 inline V8i mask_lanes(unsigned mask) {
     const V8i bits = {1, 2, 4, 8, 16, 32, 64, 128};
@@ -255,9 +231,6 @@ inline int sorted_hits(unsigned mask, const V8f& tn, int (&idx)[kWidth]) {
 }
 
 constexpr float kInfF = std::numeric_limits<float>::infinity();
-
-// The largest of eight floats (no NaN among them).
-inline float max_lane(V8f v) { return -min_lane(-v); }
 
 // A packet's slab constants as intervals over its rays, per axis, and the test of a
 // node's eight child boxes against all of them at once: a lower bound of every ray's
