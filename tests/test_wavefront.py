@@ -139,26 +139,11 @@ def test_eight_ray_packs_give_the_same_images(tmp_path):
     # AVX-512, so build the core with RT_PACK_WIDTH=8 (each 512-bit operation done as two
     # halves) and check the wavefront images against the scalar integrator there. About a
     # minute: the build.
-    import shutil
-    import subprocess
-    import sys
-    from pathlib import Path
+    from build_util import build_core, run_with_core
 
-    if shutil.which("cmake") is None:
-        pytest.skip("cmake is not installed")
-    root = Path(__file__).resolve().parents[1]
-    subprocess.run(["cmake", "-S", str(root), "-B", str(tmp_path), "-DCMAKE_BUILD_TYPE=Release",
-                    "-DRT_PACK_WIDTH=8", f"-DPython_EXECUTABLE={sys.executable}"],
-                   check=True, capture_output=True)
-    subprocess.run(["cmake", "--build", str(tmp_path), "--target", "_core", "-j", "2"], check=True,
-                   capture_output=True)
-    module = next(tmp_path.glob("_core*.so"))
-    script = f"""
-import importlib.util, sys
+    module = build_core(tmp_path, "-DRT_PACK_WIDTH=8")
+    script = """
 import numpy as np
-spec = importlib.util.spec_from_file_location("reference_tracer._core", {str(module)!r})
-core = importlib.util.module_from_spec(spec); spec.loader.exec_module(core)
-sys.modules["reference_tracer._core"] = core
 assert core.PACK_WIDTH == 8
 import reference_tracer as rt
 from mitsuba_scenes import SUITE, get_scene
@@ -170,8 +155,7 @@ for name in SUITE:
         assert np.array_equal(a.mean, b.mean) and a.rays == b.rays, (name, strategy)
 print("ok")
 """
-    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=root)
-    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
+    assert run_with_core(module, script).strip() == "ok"
 
 
 def test_seeded_bugs_run_in_the_scalar_integrator_only():

@@ -16,7 +16,10 @@ using V8i = int32_t __attribute__((vector_size(32)));
 using V4f = float __attribute__((vector_size(16)));
 using V4i = int32_t __attribute__((vector_size(16)));
 using V4d = double __attribute__((vector_size(32)));
-using V4l = int64_t __attribute__((vector_size(32)));  // lane masks of V4d comparisons (0 / -1)
+// Lane masks of V4d comparisons (0 / -1): the comparison's own result type, whose element
+// is `long` under GCC and `long long` under Clang (int64_t, a `long`, would make the two a
+// distinct pair of types under Clang, and calls taking masks ambiguous).
+using V4l = decltype(V4d{} < V4d{});
 
 // Rays per pack of the batched scene queries (Scene::intersect_batch): eight doubles, one
 // AVX-512 register, where the build machine has AVX-512; four (one AVX2 register, two
@@ -34,7 +37,7 @@ using V4l = int64_t __attribute__((vector_size(32)));  // lane masks of V4d comp
 constexpr int kPackWidth = RT_PACK;
 static_assert(kPackWidth == 4 || kPackWidth == 8, "RT_PACK_WIDTH must be 4 or 8");
 using VPd = double __attribute__((vector_size(8 * kPackWidth)));
-using VPl = int64_t __attribute__((vector_size(8 * kPackWidth)));  // lane masks of VPd comparisons (0 / -1)
+using VPl = decltype(VPd{} < VPd{});  // lane masks of VPd comparisons (0 / -1), as V4l
 
 // kPackWidth rays in structure-of-arrays form: one lane per ray, so that a primitive's
 // test runs on all of them with the same instructions.
