@@ -1,9 +1,9 @@
 """Build the C++ core in another configuration and run code against that build.
 
-For the tests that compare builds (tests/test_wavefront.py's eight-ray packs, tests/
-test_compilers.py's Clang build): the module is built with CMake into a temporary folder
-and loaded in a subprocess as ``reference_tracer._core``, so that the installed module of
-the test process stays untouched.
+For the tests that compare builds (tests/test_wavefront.py's eight-ray packs,
+tests/test_builds.py's Clang and portable builds): the module is built with CMake into a
+temporary folder and loaded in a subprocess as ``reference_tracer._core``, so that the
+installed module of the test process stays untouched.
 """
 from __future__ import annotations
 
