@@ -24,16 +24,16 @@ using V4l = decltype(V4d{} < V4d{});
 // Rays per pack of the batched scene queries (Scene::intersect_batch): eight doubles, one
 // AVX-512 register, where the build machine has AVX-512; four (one AVX2 register, two
 // SSE2 ones, or scalar code) elsewhere. RT_PACK_WIDTH overrides it (tests build 8 on AVX2).
+// (512-bit vectors without AVX-512 are two 256-bit halves, 256-bit ones without AVX two SSE
+// halves: CMakeLists.txt silences GCC's ABI notes about passing them.)
 #if defined(RT_PACK_WIDTH)
 #define RT_PACK RT_PACK_WIDTH
-// 512-bit vectors without AVX-512 (a test build) are two 256-bit halves; GCC warns that
-// passing them by value would change the ABI, which does not matter inside the module.
-#pragma GCC diagnostic ignored "-Wpsabi"
 #elif defined(__AVX512F__)
 #define RT_PACK 8
 #else
 #define RT_PACK 4
 #endif
+
 constexpr int kPackWidth = RT_PACK;
 static_assert(kPackWidth == 4 || kPackWidth == 8, "RT_PACK_WIDTH must be 4 or 8");
 using VPd = double __attribute__((vector_size(8 * kPackWidth)));

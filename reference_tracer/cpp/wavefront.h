@@ -99,8 +99,9 @@ private:
     bool draw_diffuse_uniforms(Lane& lane) const;
     void scatter_diffuse(Lane* const* lanes, int n) const;
     // scatter()'s end, given the sampled continuation (none: the path ends). Always inline:
-    // with two callers GCC left it out of line (+1.8% instructions on cornell_box).
-    [[gnu::always_inline]] void continue_path(Lane& lane, const std::optional<Integrator<Mutant::None>::Scatter>& s) const;
+    // with two callers GCC left it out of line (+1.8% instructions on cornell_box); declared
+    // inline too, as the attribute wants (else GCC warns it "might not be inlinable").
+    [[gnu::always_inline]] inline void continue_path(Lane& lane, const std::optional<Integrator<Mutant::None>::Scatter>& s) const;
     // Adds the finished path's radiance to the pixel's sums, as render_pixel does.
     static void add_sample(Lane& lane, bool tails, uint64_t& nonfinite);
     // Writes the pixel's sums into the image.
