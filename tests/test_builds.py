@@ -4,10 +4,11 @@ The README promises "g++ or clang", and issue 17's SIMD code has a portable fall
 (simd.h: plain vector extensions and lane loops where the build has no AVX). Each build
 compiles the same IEEE arithmetic with fused multiply-adds off (CMakeLists.txt:
 -ffp-contract=off, which Clang needs spelled out since its default contracts), and the
-explicit ones (`mul_add`) are correctly rounded whether the CPU or libm does them, so the
-builds must agree bit for bit with the installed module (GCC, -march=native): the images of
-every suite scene and strategy with both integrators, and closest hits on a mesh. A
-difference is a portability bug, not noise. The first Clang build of the project failed
+explicit ones (`mul_add`) are correctly rounded whether the CPU or libm does them, so on
+one machine (whose libm picks its own code paths by CPU, whatever the build) the builds
+must agree bit for bit with the installed module (GCC, -march=native): the images of every
+suite scene and strategy with both integrators, and closest hits on a mesh. A difference
+is a portability bug, not noise. The first Clang build of the project failed
 outright: the vector-mask types of simd.h were `long` vectors, Clang's comparisons of double
 vectors give `long long` ones, and calls taking a mask were ambiguous.
 """
