@@ -28,7 +28,7 @@ import subprocess
 import sys
 
 __all__ = ["VARIANT_ENV", "PREFERRED_VARIANTS", "select_variant", "import_mitsuba",
-           "find_libllvm", "probe_variant", "versions"]
+           "find_libllvm", "probe_variant", "versions", "llvm_target"]
 
 log = logging.getLogger(__name__)
 
@@ -303,16 +303,65 @@ def import_mitsuba(variant: str | None = None):
 
 
 def versions() -> dict:
-    """Versions for results records: Mitsuba, Dr.Jit, the active variant and libLLVM.
+    """Versions for results records: Mitsuba, Dr.Jit, the active variant, libLLVM, and the
+    LLVM backend's target (:func:`llvm_target`, None where that backend has not run).
 
     Examples
     --------
     >>> sorted(versions())
-    ['drjit', 'libllvm', 'mitsuba', 'variant']
+    ['drjit', 'libllvm', 'llvm_target', 'mitsuba', 'variant']
     """
     import drjit as dr
     import mitsuba as mi
 
     variant = mi.variant()
     return {"mitsuba": mi.__version__, "drjit": dr.__version__, "variant": variant,
-            "libllvm": os.environ.get("DRJIT_LIBLLVM_PATH") if variant and variant.startswith("llvm") else None}
+            "libllvm": os.environ.get("DRJIT_LIBLLVM_PATH") if variant and variant.startswith("llvm") else None,
+            "llvm_target": llvm_target()}
+
+
+# Dr.Jit's C++ functions that report the LLVM backend's target (drjit-core's jit.h:
+# jit_llvm_target_cpu, jit_llvm_vector_width), by their mangled names: the Python bindings
+# do not expose them. Itanium-ABI names of functions without arguments, stable while the
+# signatures are.
+_LLVM_TARGET_SYMBOLS = {"cpu": "_Z19jit_llvm_target_cpuv", "width": "_Z21jit_llvm_vector_widthv",
+                        "features": "_Z24jit_llvm_target_featuresv"}
+
+
+def llvm_target() -> dict | None:
+    """The CPU and vector width that Dr.Jit's LLVM backend compiles kernels for, in this process.
+
+    Dr.Jit chooses them when its LLVM backend starts, from the running CPU: 8 float lanes
+    with AVX2, 16 with AVX-512. It sets the speed of ``llvm_ad_rgb`` (PERFORMANCE.md round
+    13: 1.1-1.7x between the two on one CPU), and ``mitsuba --help``'s "8-wide SIMD" does not
+    show it (that is the width Mitsuba's own binary was compiled for).
+
+    Returns
+    -------
+    dict or None
+        ``cpu`` (LLVM's name, e.g. ``'znver3'``), ``vector_width`` (float lanes per kernel
+        instruction) and ``avx512`` (bool); None where the LLVM backend has not started in
+        this process or this Dr.Jit does not export the functions.
+
+    Examples
+    --------
+    >>> target = llvm_target()
+    >>> target is None or target["vector_width"] in (4, 8, 16)
+    True
+    """
+    import ctypes
+
+    import drjit as dr
+
+    try:
+        core = ctypes.CDLL(os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so"))
+        cpu, width, features = (core[_LLVM_TARGET_SYMBOLS[k]] for k in ("cpu", "width", "features"))
+    except (OSError, AttributeError):
+        return None
+    cpu.restype = features.restype = ctypes.c_char_p
+    width.restype = ctypes.c_uint32
+    lanes, name, flags = int(width()), cpu(), features()
+    if lanes == 0 or not name:
+        return None
+    return {"cpu": name.decode(), "vector_width": lanes,
+            "avx512": "+avx512f" in (flags or b"").decode().split(",")}

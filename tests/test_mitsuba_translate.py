@@ -2,6 +2,9 @@
 from __future__ import annotations
 
 import logging
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -11,7 +14,7 @@ from mitsuba_scenes import get_scene, list_scenes, render_mitsuba, to_mitsuba, t
 from mitsuba_scenes.render import batch_seeds, mesh_merge_safe, split_spp
 from mitsuba_scenes.scenes.cornell_mesh import torus
 from mitsuba_scenes.translate import look_at_matrix, mitsuba_rr_depth
-from mitsuba_scenes.variants import find_libllvm, import_mitsuba, select_variant, versions
+from mitsuba_scenes.variants import find_libllvm, import_mitsuba, llvm_target, select_variant, versions
 
 
 @pytest.fixture(scope="module")
@@ -139,3 +142,34 @@ def test_variant_selection(monkeypatch, caplog):
     assert v["mitsuba"] == "3.9.1" and v["variant"] == chosen
     for p in find_libllvm():
         assert "LLVM-15" not in p and "LLVM-14" not in p
+
+
+def _cpu_has_avx512() -> bool:
+    with open("/proc/cpuinfo") as f:
+        return "avx512f" in f.read().split()
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/cpuinfo"), reason="reads the CPU's flags from /proc/cpuinfo")
+def test_llvm_target_reports_the_width_dr_jit_compiles_for():
+    # Dr.Jit compiles 16-wide kernels where the CPU has AVX-512 and 8-wide ones with AVX2
+    # (PERFORMANCE.md round 13: what it reported on a Sapphire Rapids host, and on this
+    # project's AVX2 machine), and the benchmark's footer prints it; so must llvm_target.
+    try:
+        select_variant("llvm_ad_rgb")
+    except (RuntimeError, ValueError) as e:
+        pytest.skip(f"llvm_ad_rgb does not run here: {e}")
+    target = llvm_target()
+    assert target is not None and target["cpu"]
+    assert target["avx512"] == _cpu_has_avx512()
+    assert target["vector_width"] == (16 if target["avx512"] else 8)
+    assert versions()["llvm_target"] == target
+
+
+def test_llvm_target_is_none_without_an_llvm_backend():
+    # A libLLVM that cannot load leaves Dr.Jit's LLVM backend off: no target to report
+    # (a fresh process, since Dr.Jit reads DRJIT_LIBLLVM_PATH once, when it is imported).
+    code = ("import drjit; from mitsuba_scenes.variants import llvm_target; print(llvm_target())")
+    env = dict(os.environ, DRJIT_LIBLLVM_PATH="/nonexistent/libLLVM.so")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().splitlines()[-1] == "None"

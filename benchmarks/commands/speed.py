@@ -204,7 +204,10 @@ def render_notes(result):
         lines.append(f"{name}: ours BVH build {1e3 * info['build_seconds']:.2f} ms (excluded)")
     if "versions" in result["mitsuba"]:
         vv = result["mitsuba"]["versions"]
-        lines.append(f"Mitsuba {vv['mitsuba']}, Dr.Jit {vv['drjit']}, libLLVM {vv['libllvm']}")
+        target = vv.get("llvm_target")
+        kernels = (f"; llvm_ad_rgb kernels {target['vector_width']}-wide for {target['cpu']}"
+                   f"{' (AVX-512)' if target['avx512'] else ''}" if target else "")
+        lines.append(f"Mitsuba {vv['mitsuba']}, Dr.Jit {vv['drjit']}, libLLVM {vv['libllvm']}{kernels}")
     for v, why in result.get("skipped_variants", {}).items():
         lines.append(f"Mitsuba {v} skipped: {why}")
     for name, template in result["config"].get("externals", {}).items():

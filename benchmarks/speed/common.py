@@ -161,11 +161,13 @@ def check_jit_variant(variant, benchmark, log):
 
 
 def mitsuba_versions() -> dict:
-    """Mitsuba's and Dr.Jit's versions and the libLLVM in use."""
+    """Mitsuba's and Dr.Jit's versions, the libLLVM in use and its kernels' target
+    (``llvm_target``: CPU and vector width, None where the LLVM backend did not run)."""
     from mitsuba_scenes.variants import versions
 
     v = versions()
-    return {"mitsuba": v["mitsuba"], "drjit": v["drjit"], "libllvm": os.environ.get("DRJIT_LIBLLVM_PATH")}
+    return {"mitsuba": v["mitsuba"], "drjit": v["drjit"], "libllvm": os.environ.get("DRJIT_LIBLLVM_PATH"),
+            "llvm_target": v["llvm_target"]}
 
 
 def mitsuba_render_fn(mi, mscene, spp, seed):
