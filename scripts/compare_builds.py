@@ -119,14 +119,20 @@ def _build(name: str, args: list[str], work: Path, jobs: int) -> subprocess.Pope
 
 
 def _targets(build_dir: Path) -> str:
-    """What the compiler targeted: the flags that simd.h reads, from the build's own command."""
-    flags = subprocess.run(["bash", "-c", f"grep -ho -- '-march=[^ ]*' {build_dir}/CMakeFiles/_core.dir/flags.make"],
-                           capture_output=True, text=True).stdout.split()
-    march = sorted(set(flags)) or ["(compiler default)"]
-    probe = subprocess.run(["bash", "-c", f"echo | c++ {' '.join(march[:1]) if flags else ''} -dM -E -x c++ - "
-                                          "| grep -E '__AVX2__|__AVX512F__|__FMA__' | awk '{print $2}'"],
-                           capture_output=True, text=True).stdout.split()
-    return f"{' '.join(march)}: {' '.join(sorted(probe)) or 'no AVX2/AVX-512'}"
+    """What the compiler targeted: the macros simd.h reads, from the build's own compiler and
+    flags (CMake's flags.make), and the pack width they give (simd.h's RT_PACK rule)."""
+    flags_file = (build_dir / "CMakeFiles" / "_core.dir" / "flags.make").read_text()
+    fields = dict(line.split(" = ", 1) for line in flags_file.splitlines() if " = " in line)
+    compiler = next((line.split("=", 1)[1] for line in (build_dir / "CMakeCache.txt").read_text().splitlines()
+                     if line.startswith("CMAKE_CXX_COMPILER:")), "c++")
+    flags = shlex.split(fields.get("CXX_FLAGS", "")) + shlex.split(fields.get("CXX_DEFINES", ""))
+    probe = subprocess.run([compiler, *flags, "-dM", "-E", "-x", "c++", "/dev/null"], capture_output=True, text=True)
+    macros = dict((parts[1], parts[2] if len(parts) > 2 else "") for parts in
+                  (line.split(" ", 2) for line in probe.stdout.splitlines()) if len(parts) > 1)
+    isa = [m for m in ("__AVX2__", "__FMA__", "__AVX512F__") if m in macros]
+    pack = macros.get("RT_PACK_WIDTH") or ("8" if "__AVX512F__" in macros else "4")
+    march = [f for f in flags if f.startswith("-march=")] or ["(compiler default)"]
+    return f"{Path(compiler).name} {' '.join(march)}: {' '.join(isa) or 'no AVX2/AVX-512'}, packs of {pack}"
 
 
 def main(argv=None) -> int:
