@@ -122,6 +122,21 @@ def _build_facts(records) -> list[tuple[str, str]]:
     return out
 
 
+def _kernel_width(versions: dict) -> str:
+    """", LLVM kernels 16-wide for sapphirerapids" where the run recorded Dr.Jit's LLVM target
+    (``mitsuba_scenes.variants.llvm_target``), else "": the width sets ``llvm_ad_rgb``'s speed.
+
+    >>> _kernel_width({"llvm_target": {"cpu": "znver3", "vector_width": 8, "avx512": False}})
+    ', LLVM kernels 8-wide for znver3'
+    >>> _kernel_width({"llvm_target": None}), _kernel_width({})
+    ('', '')
+    """
+    target = versions.get("llvm_target")
+    if not isinstance(target, dict) or "vector_width" not in target:
+        return ""
+    return f", LLVM kernels {target['vector_width']}-wide for {target.get('cpu', DASH)}"
+
+
 def facts_table(meta: dict, *, n_records: int = 0, n_raw: int = 0, records=None) -> list[tuple[str, str]]:
     """(label, value) pairs of the run facts; missing keys read as a dash.
 
@@ -144,7 +159,7 @@ def facts_table(meta: dict, *, n_records: int = 0, n_raw: int = 0, records=None)
         ("threads", s(meta.get("threads"))),
         ("machine", f"{s(machine.get('cpu'))}, {s(machine.get('cores'))} cores, {s(machine.get('platform'))}"),
         ("rtbench", s(versions.get("rtbench"))),
-        ("Mitsuba", f"{s(versions.get('mitsuba'))} ({s(versions.get('variant'))})"),
+        ("Mitsuba", f"{s(versions.get('mitsuba'))} ({s(versions.get('variant'))})" + _kernel_width(versions)),
         ("Python / NumPy", f"{s(versions.get('python'))} / {s(versions.get('numpy'))}"),
         ("job records", f"{n_records}" + (f" ({n_raw - n_records} duplicates dropped)" if n_raw > n_records else "")),
     ]
