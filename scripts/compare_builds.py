@@ -33,46 +33,14 @@ import os
 import platform
 import shlex
 import statistics
-import subprocess
 import sys
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-# Runs in a child process whose reference_tracer._core is the build under test.
-_PREAMBLE = """
-import importlib.util, sys
-sys.path.insert(0, {root!r})
-spec = importlib.util.spec_from_file_location("reference_tracer._core", {module!r})
-core = importlib.util.module_from_spec(spec); spec.loader.exec_module(core)
-sys.modules["reference_tracer._core"] = core
-"""
-
-_AGREEMENT = """
-import dataclasses
-import numpy as np
-import reference_tracer as rt
-from mitsuba_scenes import SUITE, get_scene
-from benchmarks.speed.rays import mesh_scene, random_rays
-from reference_tracer.render import core_scene
-
-out = {}
-for name in SUITE:
-    for strategy in rt.STRATEGIES:
-        scene = get_scene(name, width=16, height=12)
-        for integrator in ("scalar", "wavefront"):
-            r = rt.render(scene, spp=4, strategy=strategy, seed=5, threads=2, integrator=integrator)
-            out[f"{name}/{strategy}/{integrator}"] = r.mean
-scene = get_scene("cornell_box", width=64, height=48)
-for threads in (1, THREADS):
-    out[f"threads/{threads}"] = rt.render(scene, spp=16, strategy="mis", seed=9, threads=threads).mean
-mesh = core_scene(mesh_scene(20_000))
-o, d = random_rays(4096, seed=3)
-hits = mesh.intersect(np.ascontiguousarray(o, dtype=np.float64), np.ascontiguousarray(d, dtype=np.float64), threads=2)
-out["rays/t"], out["rays/prim"] = np.asarray(hits["t"]), np.asarray(hits["prim"])
-np.savez(PATH, **out)
-"""
+from benchmarks.speed.builds import agreement_arrays, build_core, build_target, run_with_core  # noqa: E402
 
 _TIMING = """
 import dataclasses, json
@@ -98,44 +66,14 @@ print("ROW " + json.dumps(row))
 """
 
 
-def _run(module: Path, body: str, **values) -> str:
-    script = _PREAMBLE.format(root=str(ROOT), module=str(module)) + body
-    for key, value in values.items():
-        script = script.replace(key, repr(value))
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT,
-                          env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1"))
-    if done.returncode != 0:
-        raise SystemExit(f"a run with {module} failed:\n{done.stderr[-3000:]}")
-    return done.stdout
-
-
-def _build(name: str, args: list[str], work: Path, jobs: int) -> subprocess.Popen:
-    build_dir = work / name
-    configure = ["cmake", "-S", str(ROOT), "-B", str(build_dir), "-DCMAKE_BUILD_TYPE=Release",
-                 f"-DPython_EXECUTABLE={sys.executable}", *args]
-    line = f"{shlex.join(configure)} && cmake --build {shlex.quote(str(build_dir))} --target _core -j {jobs}"
-    log = open(work / f"{name}.log", "w")
-    return subprocess.Popen(["bash", "-c", line], stdout=log, stderr=subprocess.STDOUT)
-
-
-def _targets(build_dir: Path) -> str:
-    """What the compiler targeted: the macros simd.h reads, from the build's own compiler and
-    flags (CMake's flags.make), and the pack width they give (simd.h's RT_PACK rule)."""
-    flags_file = (build_dir / "CMakeFiles" / "_core.dir" / "flags.make").read_text()
-    fields = dict(line.split(" = ", 1) for line in flags_file.splitlines() if " = " in line)
-    compiler = next((line.split("=", 1)[1] for line in (build_dir / "CMakeCache.txt").read_text().splitlines()
-                     if line.startswith("CMAKE_CXX_COMPILER:")), "c++")
-    flags = shlex.split(fields.get("CXX_FLAGS", "")) + shlex.split(fields.get("CXX_DEFINES", ""))
-    probe = subprocess.run([compiler, *flags, "-dM", "-E", "-x", "c++", "/dev/null"], capture_output=True, text=True)
-    macros = dict((parts[1], parts[2] if len(parts) > 2 else "") for parts in
-                  (line.split(" ", 2) for line in probe.stdout.splitlines()) if len(parts) > 1)
-    isa = [m for m in ("__AVX2__", "__FMA__", "__AVX512F__") if m in macros]
-    pack = macros.get("RT_PACK_WIDTH") or ("8" if "__AVX512F__" in macros else "4")
-    march = [f for f in flags if f.startswith("-march=")] or ["(compiler default)"]
-    return f"{Path(compiler).name} {' '.join(march)}: {' '.join(isa) or 'no AVX2/AVX-512'}, packs of {pack}"
-
-
 def main(argv=None) -> int:
+    try:
+        return _compare(argv)
+    except RuntimeError as e:  # a run against a build failed: its stderr, no traceback
+        raise SystemExit(str(e))
+
+
+def _compare(argv) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--build", action="append", required=True, metavar="NAME=ARGS",
                         help="a configuration: name, '=', extra cmake arguments (repeat; the first is the baseline)")
@@ -162,22 +100,20 @@ def main(argv=None) -> int:
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs; "
           f"python {platform.python_version()}; work folder {work}", flush=True)
     jobs = max(1, (os.cpu_count() or 2) // len(builds))
-    procs = [(name, _build(name, args, work, jobs)) for name, args in builds]
+    with ThreadPoolExecutor(len(builds)) as pool:
+        futures = {name: pool.submit(build_core, work / name, *args, jobs=jobs) for name, args in builds}
     modules = {}
-    for name, proc in procs:
-        if proc.wait() != 0:
-            print((work / f"{name}.log").read_text()[-4000:])
-            raise SystemExit(f"build {name} failed")
-        modules[name] = next((work / name).glob("_core*.so"))
-        print(f"built {name}: {_targets(work / name)}", flush=True)
+    for name, future in futures.items():
+        try:
+            modules[name] = future.result()
+        except (RuntimeError, FileNotFoundError) as e:
+            raise SystemExit(f"build {name} failed: {e}")
+        print(f"built {name}: {build_target(work / name)}", flush=True)
 
     import numpy as np
 
-    results = {}
-    for name, module in modules.items():
-        path = work / f"{name}.npz"
-        _run(module, _AGREEMENT, PATH=str(path), THREADS=opts.threads)
-        results[name] = np.load(path)
+    results = {name: agreement_arrays(module, work / f"{name}.npz", threads=opts.threads)
+               for name, module in modules.items()}
     base_name = builds[0][0]
     base = results[base_name]
     disagree = False
@@ -193,7 +129,7 @@ def main(argv=None) -> int:
     for round_ in range(opts.rounds):
         order = list(modules) if round_ % 2 == 0 else list(reversed(modules))
         for name in order:
-            out = _run(modules[name], _TIMING, TRIANGLES=opts.triangles, THREADS=opts.threads, SPP=opts.spp)
+            out = run_with_core(modules[name], _TIMING, TRIANGLES=opts.triangles, THREADS=opts.threads, SPP=opts.spp)
             row = json.loads(next(line for line in out.splitlines() if line.startswith("ROW "))[4:])
             rows[name].append(row)
             print(f"round {round_ + 1} {name}: " + ", ".join(f"{k} {v:.3f}" for k, v in row.items()), flush=True)

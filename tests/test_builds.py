@@ -7,7 +7,8 @@ compiles the same IEEE arithmetic with fused multiply-adds off (CMakeLists.txt:
 explicit ones (`mul_add`) are correctly rounded whether the CPU or libm does them, so on
 one machine (whose libm picks its own code paths by CPU, whatever the build) the builds
 must agree bit for bit with the installed module (GCC, -march=native): the images of every
-suite scene and strategy with both integrators, and closest hits on a mesh. A difference
+suite scene and strategy with both integrators, a render with one thread and with two, and
+closest hits on a mesh (benchmarks.speed.builds.AGREEMENT_SCRIPT). A difference
 is a portability bug, not noise. The first Clang build of the project failed
 outright: the vector-mask types of simd.h were `long` vectors, Clang's comparisons of double
 vectors give `long long` ones, and calls taking a mask were ambiguous.
@@ -21,28 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from build_util import build_core, run_with_core
-
-SCRIPT = """
-import numpy as np
-import reference_tracer as rt
-from mitsuba_scenes import SUITE, get_scene
-from benchmarks.speed.rays import mesh_scene, random_rays
-from reference_tracer.render import core_scene
-
-out = {}
-for name in SUITE:
-    for strategy in rt.STRATEGIES:
-        scene = get_scene(name, width=16, height=12)
-        for integrator in ("scalar", "wavefront"):
-            r = rt.render(scene, spp=4, strategy=strategy, seed=5, threads=2, integrator=integrator)
-            out[f"{name}/{strategy}/{integrator}"] = r.mean
-mesh = core_scene(mesh_scene(20_000))
-o, d = random_rays(4096, seed=3)
-hits = mesh.intersect(np.asarray(o, dtype=np.float64), np.asarray(d, dtype=np.float64), threads=2)
-out["rays/t"], out["rays/prim"] = np.asarray(hits["t"]), np.asarray(hits["prim"])
-np.savez(PATH, **out)
-"""
+from build_util import agreement_arrays, build_core
 
 
 def _clang() -> str | None:
@@ -52,11 +32,6 @@ def _clang() -> str | None:
         return found
     versioned = sorted(glob.glob("/usr/bin/clang++-[0-9]*"), key=lambda p: int(p.rsplit("-", 1)[1]))
     return versioned[-1] if versioned else None
-
-
-def _results(module: Path, path: Path):
-    run_with_core(module, SCRIPT.replace("PATH", repr(str(path))))
-    return np.load(path)
 
 
 @pytest.mark.slow
@@ -74,8 +49,8 @@ def test_build_gives_the_same_results_as_the_installed_module(build, tmp_path):
         module = build_core(tmp_path / build, cxx=clang)
     else:
         module = build_core(tmp_path / build, "-DRT_NATIVE=OFF")
-    expected = _results(Path(installed.__file__), tmp_path / "installed.npz")
-    got = _results(module, tmp_path / f"{build}.npz")
+    expected = agreement_arrays(Path(installed.__file__), tmp_path / "installed.npz")
+    got = agreement_arrays(module, tmp_path / f"{build}.npz")
     assert sorted(got.files) == sorted(expected.files)
     differ = [k for k in expected.files if not np.array_equal(expected[k], got[k], equal_nan=True)]
     assert differ == [], f"the {build} build differs from the installed module in {differ}"

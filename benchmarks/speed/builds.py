@@ -1,0 +1,132 @@
+"""Other builds of the C++ core, side by side with the installed one.
+
+The core's configurations (``-march``, the pack width ``RT_PACK_WIDTH``, the compiler) must
+give the same images bit for bit on one machine: fused multiply-adds are off
+(``-ffp-contract=off``), the explicit ones are correctly rounded, IEEE semantics are kept.
+These functions build a configuration with CMake into a folder of its own, run code against
+that build in a fresh interpreter (as ``reference_tracer._core``, so that the calling
+process keeps its module), and collect the arrays that must agree. Used by
+``scripts/compare_builds.py`` and by the tests that rebuild the core
+(``tests/test_builds.py``, ``tests/test_wavefront.py``).
+
+Examples
+--------
+>>> from benchmarks.speed.builds import AGREEMENT_SCRIPT
+>>> "integrator" in AGREEMENT_SCRIPT
+True
+"""
+from __future__ import annotations
+
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+__all__ = ["ROOT", "AGREEMENT_SCRIPT", "build_core", "run_with_core", "agreement_arrays", "build_target"]
+
+#: The repository's root (the CMake project).
+ROOT = Path(__file__).resolve().parents[2]
+
+# Makes `module` the fresh interpreter's reference_tracer._core before anything imports it.
+_PREAMBLE = """
+import importlib.util, sys
+sys.path.insert(0, {root!r})
+spec = importlib.util.spec_from_file_location("reference_tracer._core", {module!r})
+core = importlib.util.module_from_spec(spec); spec.loader.exec_module(core)
+sys.modules["reference_tracer._core"] = core
+"""
+
+#: What every build must give bit for bit (PATH: the .npz written, THREADS: the thread
+#: count compared with one thread): each suite scene x strategy x integrator at 16x12,
+#: 4 spp; a 64x48 ``cornell_box`` rendered with 1 and THREADS threads; the closest hits of
+#: 4096 random rays on a 20k-triangle mesh.
+AGREEMENT_SCRIPT = """
+import numpy as np
+import reference_tracer as rt
+from mitsuba_scenes import SUITE, get_scene
+from benchmarks.speed.rays import mesh_scene, random_rays
+from reference_tracer.render import core_scene
+
+out = {}
+for name in SUITE:
+    for strategy in rt.STRATEGIES:
+        scene = get_scene(name, width=16, height=12)
+        for integrator in rt.INTEGRATORS:
+            r = rt.render(scene, spp=4, strategy=strategy, seed=5, threads=2, integrator=integrator)
+            out[f"{name}/{strategy}/{integrator}"] = r.mean
+scene = get_scene("cornell_box", width=64, height=48)
+for threads in (1, THREADS):
+    out[f"threads/{threads}"] = rt.render(scene, spp=16, strategy="mis", seed=9, threads=threads).mean
+mesh = core_scene(mesh_scene(20_000))
+o, d = random_rays(4096, seed=3)
+hits = mesh.intersect(np.ascontiguousarray(o, dtype=np.float64), np.ascontiguousarray(d, dtype=np.float64), threads=2)
+out["rays/t"], out["rays/prim"] = np.asarray(hits["t"]), np.asarray(hits["prim"])
+np.savez(PATH, **out)
+"""
+
+
+def build_core(build_dir: Path, *cmake_args: str, cxx: str | None = None, jobs: int = 2) -> Path:
+    """Configure and build the ``_core`` target into ``build_dir``; return the module's path.
+
+    ``cmake_args`` are extra CMake arguments (``-DRT_NATIVE=OFF``, ``-DRT_PACK_WIDTH=8``,
+    ``-DCMAKE_CXX_FLAGS=...``); ``cxx`` names the C++ compiler (None: CMake's choice). About
+    a minute on two cores. Raises ``FileNotFoundError`` where cmake is missing and
+    ``RuntimeError`` (with the end of the log) where a step fails.
+    """
+    if shutil.which("cmake") is None:
+        raise FileNotFoundError("cmake is not installed")
+    build_dir = Path(build_dir)
+    configure = ["cmake", "-S", str(ROOT), "-B", str(build_dir), "-DCMAKE_BUILD_TYPE=Release",
+                 f"-DPython_EXECUTABLE={sys.executable}", *cmake_args]
+    if cxx is not None:
+        configure.append(f"-DCMAKE_CXX_COMPILER={cxx}")
+    for command in (configure, ["cmake", "--build", str(build_dir), "--target", "_core", "-j", str(int(jobs))]):
+        done = subprocess.run(command, capture_output=True, text=True)
+        if done.returncode != 0:
+            raise RuntimeError(f"{shlex.join(command)} failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}")
+    return next(build_dir.glob("_core*.so"))
+
+
+def run_with_core(module: Path, script: str, **values) -> str:
+    """Run ``script`` in a fresh interpreter whose ``reference_tracer._core`` is ``module``;
+    return its stdout. Each ``values`` key in the script is replaced by the value's repr.
+    Raises ``RuntimeError`` with the script's stderr where it fails."""
+    body = script
+    for key, value in values.items():
+        body = body.replace(key, repr(value))
+    code = _PREAMBLE.format(root=str(ROOT), module=str(module)) + body
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT,
+                         env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1"))
+    if out.returncode != 0:
+        raise RuntimeError(f"a run with {module} failed:\n{out.stderr[-3000:]}")
+    return out.stdout
+
+
+def agreement_arrays(module: Path, path: Path, *, threads: int = 2):
+    """The arrays of :data:`AGREEMENT_SCRIPT` rendered by ``module``, saved to ``path``
+    (``.npz``) and loaded (``numpy.lib.npyio.NpzFile``: a mapping of name to array)."""
+    import numpy as np
+
+    run_with_core(module, AGREEMENT_SCRIPT, PATH=str(path), THREADS=int(threads))
+    return np.load(path)
+
+
+def build_target(build_dir: Path) -> str:
+    """What a build targeted: the macros simd.h reads (AVX2, FMA, AVX-512), from the build's
+    own compiler and flags (CMake's cache and ``flags.make``), and the pack width they give
+    (``RT_PACK_WIDTH`` where set, else simd.h's rule: 8 with AVX-512, 4 otherwise)."""
+    build_dir = Path(build_dir)
+    flags_file = (build_dir / "CMakeFiles" / "_core.dir" / "flags.make").read_text()
+    fields = dict(line.split(" = ", 1) for line in flags_file.splitlines() if " = " in line)
+    compiler = next((line.split("=", 1)[1] for line in (build_dir / "CMakeCache.txt").read_text().splitlines()
+                     if line.startswith("CMAKE_CXX_COMPILER:")), "c++")
+    flags = shlex.split(fields.get("CXX_FLAGS", "")) + shlex.split(fields.get("CXX_DEFINES", ""))
+    probe = subprocess.run([compiler, *flags, "-dM", "-E", "-x", "c++", "/dev/null"], capture_output=True, text=True)
+    macros = dict((parts[1], parts[2] if len(parts) > 2 else "") for parts in
+                  (line.split(" ", 2) for line in probe.stdout.splitlines()) if len(parts) > 1)
+    isa = [m for m in ("__AVX2__", "__FMA__", "__AVX512F__") if m in macros]
+    pack = macros.get("RT_PACK_WIDTH") or ("8" if "__AVX512F__" in macros else "4")
+    march = [f for f in flags if f.startswith("-march=")] or ["(compiler default)"]
+    return f"{Path(compiler).name} {' '.join(march)}: {' '.join(isa) or 'no AVX2/AVX-512'}, packs of {pack}"
