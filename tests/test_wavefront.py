@@ -175,11 +175,13 @@ def test_seeded_bugs_run_in_the_scalar_integrator_only():
 def test_packed_light_samples_equal_scalar_ones(name):
     # The wavefront samples the lights of a pack of vertices at once where the scene's only
     # light is a quad (LightSampler::sample_single_quad; every Cornell box of the suite) or
-    # a sphere (sample_single_sphere; `furnace`); each sample must be
-    # LightSampler::sample's bit for bit, the failed ones included: points all over and
-    # beyond the scene, on the light's plane, at its corners (where the sampled point can be
-    # the reference point itself: distance 0) and behind it; on, inside (the packed case)
-    # and just outside a sphere light (cone sampling, lane by lane).
+    # a sphere (sample_single_sphere; `furnace`), or its lights are several spheres
+    # (sample_spheres; `glossy_plates`); each sample must be LightSampler::sample's bit for
+    # bit, the failed ones included: points all over and beyond the scene, on the light's
+    # plane, at its corners (where the sampled point can be the reference point itself:
+    # distance 0) and behind it; on, inside and just outside a sphere light (one sphere:
+    # area sampling packed, cone sampling lane by lane; several: the cone packed, the rest
+    # lane by lane).
     scene = get_scene(name)
     core = core_scene(scene)
     rng = np.random.default_rng(7)

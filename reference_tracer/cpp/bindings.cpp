@@ -331,9 +331,9 @@ public:
     }
 
     // Light sampling from N reference points with uniform numbers u (N, 3). wavefront: as
-    // the wavefront integrator samples them (a pack of points at a time where the only
-    // light is a quad or a sphere: LightSampler::sample_single_emitter), to compare with
-    // sample().
+    // the wavefront integrator samples them (a pack of points at a time where the lights
+    // are one quad, one sphere or several spheres: LightSampler::sample_packed), to compare
+    // with sample().
     nb::dict sample_lights(const Matrix& refs, const Matrix& u, bool wavefront) const {
         require_columns(refs, 3, "refs");
         require_columns(u, 3, "u");
@@ -342,9 +342,9 @@ public:
         std::vector<double> wi(3 * n, 0.0), pdf(n, 0.0), dist(n, 0.0), pdf_all(n, 0.0);
         std::vector<uint8_t> valid(n, 0);
         std::vector<rt::LightSample> packed;
-        if (wavefront && scene_->lights().single_emitter_packs()) {
+        if (wavefront && scene_->lights().packed_sampling()) {
             packed.resize(n);
-            scene_->lights().sample_single_emitter(static_cast<int>(n), [&](int i) {
+            scene_->lights().sample_packed(static_cast<int>(n), [&](int i) {
                 const std::array<double, 3> ui = {u(i, 0), u(i, 1), u(i, 2)};
                 return std::tuple<rt::Vec3, std::array<double, 3>, rt::LightSample*>(row3(refs, size_t(i), 0), ui,
                                                                                     &packed[size_t(i)]);

@@ -85,13 +85,13 @@ bool WavefrontIntegrator::draw_light_uniforms(Lane& lane) const {
 
 void WavefrontIntegrator::sample_lights(Lane* const* lanes, int n) const {
     const LightSampler& lights = scene_.lights();
-    if (!lights.single_emitter_packs()) {
+    if (!lights.packed_sampling()) {
         for (int k = 0; k < n; ++k)
             lanes[k]->light = lights.sample(lanes[k]->ref, lanes[k]->light_u[0], lanes[k]->light_u[1],
                                             lanes[k]->light_u[2]);
         return;
     }
-    lights.sample_single_emitter(n, [lanes](int k) {
+    lights.sample_packed(n, [lanes](int k) {
         Lane& lane = *lanes[k];
         return std::tuple<const Vec3&, const double*, LightSample*>(lane.ref, lane.light_u, &lane.light);
     });
