@@ -168,9 +168,8 @@ public:
     // emitter is selected as sample() does (a table walk, lane by lane); the lanes whose
     // point lies outside its sphere (the common case) sample the subtended cone with
     // sample_sphere()'s operations lane-wise, bit for bit; a point inside or on its sphere
-    // calls sample() itself. Out of line: inlined into the wavefront's loop it cost the other
-    // scenes' paths 0.5% more instructions (register pressure), for one call a pack.
-    [[gnu::noinline]] void sample_spheres(const VPd (&ref)[3], const VPd (&u)[3], int m, LightSample* const* out) const {
+    // calls sample() itself.
+    void sample_spheres(const VPd (&ref)[3], const VPd (&u)[3], int m, LightSample* const* out) const {
         const Emitter* emitter[kPackWidth];
         VPd center[3], radius, normal_sign, sel, area;
         for (int l = 0; l < kPackWidth; ++l) {  // absent lanes (l >= m) repeat the first's point
