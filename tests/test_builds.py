@@ -25,6 +25,18 @@ import pytest
 from build_util import agreement_arrays, build_core
 
 
+def _cpu_flags() -> set[str]:
+    """The CPU's feature flags as Linux lists them (empty where /proc/cpuinfo is absent)."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("flags"):
+                    return set(line.split(":", 1)[1].split())
+    except OSError:
+        pass
+    return set()
+
+
 def _clang() -> str | None:
     """A Clang C++ compiler on PATH (clang++, or the newest clang++-N in /usr/bin), or None."""
     found = shutil.which("clang++")
@@ -35,11 +47,13 @@ def _clang() -> str | None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("build", ["clang", "portable"])
+@pytest.mark.parametrize("build", ["clang", "portable", "avx2"])
 def test_build_gives_the_same_results_as_the_installed_module(build, tmp_path):
     # clang: Clang with the installed module's flags (-march=native where available);
     # portable: GCC without -march=native (RT_NATIVE=OFF: SSE2 only, no AVX or FMA
-    # instructions, simd.h's fallbacks). About a minute each: the build.
+    # instructions, simd.h's fallbacks); avx2: GCC for x86-64-v3 (AVX2 and FMA, packs of
+    # four: simd.h's __AVX__ code, which an installed build on an AVX-512 CPU never
+    # compiles). About a minute each: the build.
     import reference_tracer._core as installed
 
     if build == "clang":
@@ -47,6 +61,10 @@ def test_build_gives_the_same_results_as_the_installed_module(build, tmp_path):
         if clang is None:
             pytest.skip("no Clang compiler installed (clang++ or clang++-N; Debian: apt-get install clang)")
         module = build_core(tmp_path / build, cxx=clang)
+    elif build == "avx2":
+        if not {"avx2", "fma"} <= _cpu_flags():
+            pytest.skip("this CPU lacks AVX2 or FMA (or is not x86 Linux): an x86-64-v3 build would not run")
+        module = build_core(tmp_path / build, "-DRT_NATIVE=OFF", "-DCMAKE_CXX_FLAGS=-march=x86-64-v3")
     else:
         module = build_core(tmp_path / build, "-DRT_NATIVE=OFF")
     expected = agreement_arrays(Path(installed.__file__), tmp_path / "installed.npz")
