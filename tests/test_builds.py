@@ -73,3 +73,25 @@ def test_build_gives_the_same_results_as_the_installed_module(build, tmp_path):
     differ = [k for k in expected.files if not np.array_equal(expected[k], got[k], equal_nan=True)]
     assert differ == [], f"the {build} build differs from the installed module in {differ}"
     assert (expected["rays/prim"] >= 0).mean() > 0.2  # the ray check casts rays that hit
+
+
+@pytest.mark.slow
+def test_avx512_configuration_builds_on_any_machine(tmp_path):
+    # simd.h's AVX-512 code (_mm512_*, packs of eight) compiles only where the build
+    # targets AVX-512, which an installed build on an AVX2 CPU never does: build it for
+    # x86-64-v4 anyway, so that a broken AVX-512 path shows on every machine that runs the
+    # slow tests. Where the CPU has AVX-512 the build also runs, and must give the
+    # installed module's results bit for bit. About a minute: the build.
+    import reference_tracer._core as installed
+    from benchmarks.speed.builds import build_target
+
+    module = build_core(tmp_path / "avx512", "-DRT_NATIVE=OFF", "-DCMAKE_CXX_FLAGS=-march=x86-64-v4")
+    assert module.is_file()
+    target = build_target(tmp_path / "avx512")
+    assert "__AVX512F__" in target and "packs of 8" in target, target
+    if "avx512f" not in _cpu_flags():
+        return  # compiled; this CPU cannot run it
+    expected = agreement_arrays(Path(installed.__file__), tmp_path / "installed.npz")
+    got = agreement_arrays(module, tmp_path / "avx512.npz")
+    differ = [k for k in expected.files if not np.array_equal(expected[k], got[k], equal_nan=True)]
+    assert differ == [], f"the x86-64-v4 build differs from the installed module in {differ}"
