@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from benchmarks.speed.builds import build_target
 from build_util import agreement_arrays, build_core
 
 
@@ -54,8 +55,6 @@ def test_build_gives_the_same_results_as_the_installed_module(build, tmp_path):
     # instructions, simd.h's fallbacks); avx2: GCC for x86-64-v3 (AVX2 and FMA, packs of
     # four: simd.h's __AVX__ code, which an installed build on an AVX-512 CPU never
     # compiles). About a minute each: the build.
-    import reference_tracer._core as installed
-
     if build == "clang":
         clang = _clang()
         if clang is None:
@@ -67,6 +66,13 @@ def test_build_gives_the_same_results_as_the_installed_module(build, tmp_path):
         module = build_core(tmp_path / build, "-DRT_NATIVE=OFF", "-DCMAKE_CXX_FLAGS=-march=x86-64-v3")
     else:
         module = build_core(tmp_path / build, "-DRT_NATIVE=OFF")
+    _assert_same_results(module, build, tmp_path)
+
+
+def _assert_same_results(module: Path, build: str, tmp_path: Path) -> None:
+    """The agreement arrays of `module` equal the installed module's bit for bit."""
+    import reference_tracer._core as installed
+
     expected = agreement_arrays(Path(installed.__file__), tmp_path / "installed.npz")
     got = agreement_arrays(module, tmp_path / f"{build}.npz")
     assert sorted(got.files) == sorted(expected.files)
@@ -82,16 +88,9 @@ def test_avx512_configuration_builds_on_any_machine(tmp_path):
     # x86-64-v4 anyway, so that a broken AVX-512 path shows on every machine that runs the
     # slow tests. Where the CPU has AVX-512 the build also runs, and must give the
     # installed module's results bit for bit. About a minute: the build.
-    import reference_tracer._core as installed
-    from benchmarks.speed.builds import build_target
-
     module = build_core(tmp_path / "avx512", "-DRT_NATIVE=OFF", "-DCMAKE_CXX_FLAGS=-march=x86-64-v4")
     assert module.is_file()
     target = build_target(tmp_path / "avx512")
     assert "__AVX512F__" in target and "packs of 8" in target, target
-    if "avx512f" not in _cpu_flags():
-        return  # compiled; this CPU cannot run it
-    expected = agreement_arrays(Path(installed.__file__), tmp_path / "installed.npz")
-    got = agreement_arrays(module, tmp_path / "avx512.npz")
-    differ = [k for k in expected.files if not np.array_equal(expected[k], got[k], equal_nan=True)]
-    assert differ == [], f"the x86-64-v4 build differs from the installed module in {differ}"
+    if "avx512f" in _cpu_flags():  # else compiled only: this CPU cannot run it
+        _assert_same_results(module, "avx512", tmp_path)
