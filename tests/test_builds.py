@@ -23,19 +23,7 @@ import numpy as np
 import pytest
 
 from benchmarks.speed.builds import build_target
-from build_util import agreement_arrays, build_core
-
-
-def _cpu_flags() -> set[str]:
-    """The CPU's feature flags as Linux lists them (empty where /proc/cpuinfo is absent)."""
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("flags"):
-                    return set(line.split(":", 1)[1].split())
-    except OSError:
-        pass
-    return set()
+from build_util import X86_64_V3, X86_64_V4, agreement_arrays, build_core, cpu_flags
 
 
 def _clang() -> str | None:
@@ -61,8 +49,8 @@ def test_build_gives_the_same_results_as_the_installed_module(build, tmp_path):
             pytest.skip("no Clang compiler installed (clang++ or clang++-N; Debian: apt-get install clang)")
         module = build_core(tmp_path / build, cxx=clang)
     elif build == "avx2":
-        if not {"avx2", "fma"} <= _cpu_flags():
-            pytest.skip("this CPU lacks AVX2 or FMA (or is not x86 Linux): an x86-64-v3 build would not run")
+        if not X86_64_V3 <= cpu_flags():
+            pytest.skip("this CPU lacks part of x86-64-v3 (AVX2, FMA, ...) or is not x86 Linux: the build would not run")
         module = build_core(tmp_path / build, "-DRT_NATIVE=OFF", "-DCMAKE_CXX_FLAGS=-march=x86-64-v3")
     else:
         module = build_core(tmp_path / build, "-DRT_NATIVE=OFF")
@@ -92,5 +80,5 @@ def test_avx512_configuration_builds_on_any_machine(tmp_path):
     assert module.is_file()
     target = build_target(tmp_path / "avx512")
     assert "__AVX512F__" in target and "packs of 8" in target, target
-    if "avx512f" in _cpu_flags():  # else compiled only: this CPU cannot run it
+    if X86_64_V4 <= cpu_flags():  # else compiled only: this CPU cannot run it
         _assert_same_results(module, "avx512", tmp_path)

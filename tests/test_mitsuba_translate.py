@@ -14,6 +14,7 @@ from mitsuba_scenes import get_scene, list_scenes, render_mitsuba, to_mitsuba, t
 from mitsuba_scenes.render import batch_seeds, mesh_merge_safe, split_spp
 from mitsuba_scenes.scenes.cornell_mesh import torus
 from mitsuba_scenes.translate import look_at_matrix, mitsuba_rr_depth
+from build_util import cpu_flags
 from mitsuba_scenes.variants import find_libllvm, import_mitsuba, llvm_target, select_variant, versions
 
 
@@ -144,11 +145,6 @@ def test_variant_selection(monkeypatch, caplog):
         assert "LLVM-15" not in p and "LLVM-14" not in p
 
 
-def _cpu_has_avx512() -> bool:
-    with open("/proc/cpuinfo") as f:
-        return "avx512f" in f.read().split()
-
-
 @pytest.mark.skipif(not os.path.exists("/proc/cpuinfo"), reason="reads the CPU's flags from /proc/cpuinfo")
 def test_llvm_target_reports_the_width_dr_jit_compiles_for():
     # Dr.Jit compiles 16-wide kernels where the CPU has AVX-512 and 8-wide ones with AVX2
@@ -160,7 +156,7 @@ def test_llvm_target_reports_the_width_dr_jit_compiles_for():
         pytest.skip(f"llvm_ad_rgb does not run here: {e}")
     target = llvm_target()
     assert target is not None and target["cpu"]
-    assert target["avx512"] == _cpu_has_avx512()
+    assert target["avx512"] == ("avx512f" in cpu_flags())
     assert target["vector_width"] == (16 if target["avx512"] else 8)
     assert versions()["llvm_target"] == target
 
