@@ -72,10 +72,27 @@ struct Quad {
         const VPd beta = mul_add(t, bd, b0);
         // Written as intersect() rejects, so that a NaN coordinate passes as it does there.
         // No test of denom: where it is 0, t is infinite or NaN and fails 0 < t < t_max.
+#if RT_PACK == 8 && defined(__AVX512F__)
+        // The same six comparisons chained through a mask register, each one masked by the
+        // ones before: GCC combined the masks of the portable form below in general
+        // registers (a dozen moves between the two kinds per quad). "Not less than" and
+        // "not greater than" are true for NaN, as the portable form's negated rejects.
+        const __m512d T = reinterpret_cast<__m512d>(t), A = reinterpret_cast<__m512d>(alpha),
+                      B = reinterpret_cast<__m512d>(beta), zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0);
+        __mmask8 hit = _mm512_cmp_pd_mask(T, zero, _CMP_GT_OQ);
+        hit = _mm512_mask_cmp_pd_mask(hit, T, reinterpret_cast<__m512d>(t_max), _CMP_LT_OQ);
+        hit = _mm512_mask_cmp_pd_mask(hit, A, zero, _CMP_NLT_UQ);
+        hit = _mm512_mask_cmp_pd_mask(hit, A, one, _CMP_NGT_UQ);
+        hit = _mm512_mask_cmp_pd_mask(hit, B, zero, _CMP_NLT_UQ);
+        hit = _mm512_mask_cmp_pd_mask(hit, B, one, _CMP_NGT_UQ);
+        t_max = reinterpret_cast<VPd>(_mm512_mask_blend_pd(hit, reinterpret_cast<__m512d>(t_max), T));
+        return reinterpret_cast<VPl>(_mm512_maskz_mov_epi64(hit, _mm512_set1_epi64(-1)));
+#else
         const VPl outside = (alpha < 0.0) | (alpha > 1.0) | (beta < 0.0) | (beta > 1.0);
         const VPl hit = (t > 0.0) & (t < t_max) & ~outside;
         t_max = hit ? t : t_max;
         return hit;
+#endif
     }
 
     // The point (a, b) of the unit square mapped onto the quad: uniform in area.
