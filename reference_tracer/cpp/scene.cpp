@@ -8,6 +8,15 @@ Vec3 project_to_plane(const Vec3& p, const Vec3& point_on_plane, const Vec3& uni
     return p - unit_normal * dot(p - point_on_plane, unit_normal);
 }
 
+// b grown far beyond the rounding of a pack's slab test (PackSlabs) and of the primitives'
+// bounds, so that a ray that can meet a primitive inside b is never judged to miss b.
+AABB padded(AABB b) {
+    const Vec3 pad = Vec3(1e-7 * max_abs_component(b.extent()) + 1e-300) + 1e-12 * vmax(b.lo * -1.0, b.hi);
+    b.lo = b.lo - pad;
+    b.hi = b.hi + pad;
+    return b;
+}
+
 }  // namespace
 
 Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere> spheres,
@@ -69,10 +78,7 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
         for (size_t i = tri_base_; i < boxes.size(); ++i)
             if (boxes[i].valid()) mesh_bounds_.expand(boxes[i]);
         // Padded far beyond the rounding of the slab test in may_hit_box.
-        const Vec3 pad = Vec3(1e-7 * max_abs_component(mesh_bounds_.extent()) + 1e-300) +
-                         1e-12 * vmax(mesh_bounds_.lo * -1.0, mesh_bounds_.hi);
-        mesh_bounds_.lo = mesh_bounds_.lo - pad;
-        mesh_bounds_.hi = mesh_bounds_.hi + pad;
+        mesh_bounds_ = padded(mesh_bounds_);
         if (float_blocks_) {
             fill_blocks(mesh_bvh_, mesh_tri4f_);
         } else {
@@ -81,6 +87,7 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
     }
     // Triangles that the packs cannot reach (too many for a second tree): ray by ray.
     batch_direct_ = batch_direct_ && (triangles_.empty() || !mesh_bvh_.empty());
+    if (batch_direct_) choose_quad_runs(world);
 
     std::vector<Emitter> emitters;
     for (uint32_t i = 0; i < spheres_.size(); ++i)
@@ -94,6 +101,55 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
             emitters.push_back({EmitterKind::Triangle, tri_base_ + i, i, materials_[triangles_[i].material].radiance});
     lights_ = LightSampler(std::move(emitters), &spheres_, &quads_, &triangles_, settings_.background,
                            primitive_count());
+}
+
+void Scene::choose_quad_runs(const AABB& world) {
+    // A boxed run of k quads saves their k tests in the packs where no lane meets its box,
+    // and costs the box test (about half a quad test: the pack's reciprocal directions are
+    // shared) in every pack. A ray crossing the scene meets a box with probability about
+    // its surface area over the scene's (the surface-area heuristic's estimate), so a pack
+    // of W lanes skips the run with probability (1 - p)^W. The runs are those that save
+    // the most, found over the partitions of the quads' id order into consecutive runs
+    // (dynamic programming; the order must stay, for ties). cornell_box: its two boxes,
+    // six quads each; the walls and the light alone.
+    constexpr double kBoxTestCost = 0.5;  // in quad tests
+    const uint32_t n = static_cast<uint32_t>(quads_.size());
+    const double world_area = world.surface_area();
+    std::vector<double> saved(n + 1, 0.0);   // saved[i]: the best saving over quads [0, i)
+    std::vector<uint32_t> start(n + 1, 0);  // where the last run of that partition starts
+    for (uint32_t i = 1; i <= n; ++i) {
+        saved[i] = saved[i - 1];  // quad i - 1 tested in every pack
+        start[i] = i - 1;
+        AABB b = quads_[i - 1].bounds();
+        for (uint32_t j = i - 1; j-- > 0;) {  // the run [j, i)
+            b.expand(quads_[j].bounds());
+            const double p = world_area > 0.0 ? std::min(1.0, b.surface_area() / world_area) : 1.0;
+            const double saving = double(i - j) * std::pow(1.0 - p, kPackWidth) - kBoxTestCost;
+            if (saved[j] + saving > saved[i]) {
+                saved[i] = saved[j] + saving;
+                start[i] = j;
+            }
+        }
+    }
+    quad_runs_.clear();
+    for (uint32_t i = n; i > 0; i = start[i]) {
+        QuadRun run;
+        run.first = start[i];
+        run.count = i - start[i];
+        run.boxed = run.count > 1;
+        if (run.boxed) {
+            for (uint32_t q = run.first; q < i; ++q) run.bounds.expand(quads_[q].bounds());
+            run.bounds = padded(run.bounds);
+        } else if (!quad_runs_.empty() && !quad_runs_.back().boxed) {
+            --quad_runs_.back().first;  // joins the unboxed run after it (walking backwards)
+            ++quad_runs_.back().count;
+            continue;
+        }
+        quad_runs_.push_back(run);
+    }
+    std::reverse(quad_runs_.begin(), quad_runs_.end());
+    pack_slabs_ = !mesh_bvh_.empty() ||
+                  std::any_of(quad_runs_.begin(), quad_runs_.end(), [](const QuadRun& r) { return r.boxed; });
 }
 
 bool Scene::hit_other(uint32_t prim, const Ray& ray, const WatertightRay& wray, double& t_max,
@@ -186,26 +242,33 @@ RayPack pack_rays(const Ray* rays, size_t m) {
     return p;
 }
 
-// Lanes (bits) of p that may meet box b at a distance in [0, t_max]: a slab test in
-// double with the far distance widened by 1e-9 of itself, far beyond its rounding error,
-// so that it only saves tree descents and never loses a hit. A lane whose arithmetic
-// gives NaN (an origin on a slab plane, the direction parallel to it) counts as a maybe.
-unsigned may_hit_box(const RayPack& p, const AABB& b, VPd t_max) {
-    VPd t_near = VPd{}, t_far = t_max;
-    VPl nan = VPl{};
-    const VPd o[3] = {p.ox, p.oy, p.oz}, d[3] = {p.dx, p.dy, p.dz};
-    for (int a = 0; a < 3; ++a) {
-        const VPd inv = 1.0 / d[a];
-        const VPd t0 = (b.lo[a] - o[a]) * inv, t1 = (b.hi[a] - o[a]) * inv;
-        nan |= (t0 != t0) | (t1 != t1);
-        const VPl order = t0 < t1;
-        const VPd near = order ? t0 : t1, far = order ? t1 : t0;
-        t_near = near > t_near ? near : t_near;
-        t_far = far < t_far ? far : t_far;
+// A pack's slab tests against boxes (mesh_bvh_'s bounds, the boxed quad runs), with the
+// reciprocal directions computed once per pack. may_hit(b, t_max): the lanes (bits) that
+// may meet box b at a distance in [0, t_max]; the far distance is widened by 1e-9 of
+// itself, far beyond its rounding error, so that a test only saves work and never loses a
+// hit. A lane whose arithmetic gives NaN (an origin on a slab plane, the direction parallel
+// to it) counts as a maybe.
+struct PackSlabs {
+    VPd o[3], inv[3];
+
+    PackSlabs() = default;
+    explicit PackSlabs(const RayPack& p) : o{p.ox, p.oy, p.oz}, inv{1.0 / p.dx, 1.0 / p.dy, 1.0 / p.dz} {}
+
+    unsigned may_hit(const AABB& b, VPd t_max) const {
+        VPd t_near = VPd{}, t_far = t_max;
+        VPl nan = VPl{};
+        for (int a = 0; a < 3; ++a) {
+            const VPd t0 = (b.lo[a] - o[a]) * inv[a], t1 = (b.hi[a] - o[a]) * inv[a];
+            nan |= (t0 != t0) | (t1 != t1);
+            const VPl order = t0 < t1;
+            const VPd near = order ? t0 : t1, far = order ? t1 : t0;
+            t_near = near > t_near ? near : t_near;
+            t_far = far < t_far ? far : t_far;
+        }
+        const VPd abs_far = t_far < 0.0 ? -t_far : t_far;
+        return lane_mask(nan | (t_near <= t_far + abs_far * 1e-9));
     }
-    const VPd abs_far = t_far < 0.0 ? -t_far : t_far;
-    return lane_mask(nan | (t_near <= t_far + abs_far * 1e-9));
-}
+};
 
 }  // namespace
 
@@ -241,9 +304,13 @@ void Scene::intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* i
         VPl best = VPl{} - 1;
         for (uint32_t s = 0; s < spheres_.size(); ++s)
             best = spheres_[s].intersect_pack(p, t_max) ? VPl{} + int64_t(s) : best;
-        for (uint32_t q = 0; q < quads_.size(); ++q)
-            best = quads_[q].intersect_pack(p, t_max) ? VPl{} + int64_t(quad_base_ + q) : best;
-        const unsigned mesh = mesh_bvh_.empty() ? 0u : may_hit_box(p, mesh_bounds_, t_max);
+        const PackSlabs slabs = pack_slabs_ ? PackSlabs(p) : PackSlabs();
+        for (const QuadRun& run : quad_runs_) {
+            if (run.boxed && slabs.may_hit(run.bounds, t_max) == 0) continue;  // no lane can meet its quads
+            for (uint32_t q = run.first; q < run.first + run.count; ++q)
+                best = quads_[q].intersect_pack(p, t_max) ? VPl{} + int64_t(quad_base_ + q) : best;
+        }
+        const unsigned mesh = mesh_bvh_.empty() ? 0u : slabs.may_hit(mesh_bounds_, t_max);
         for (size_t l = 0; l < m; ++l) {
             double t = t_max[l];
             uint32_t prim = static_cast<uint32_t>(best[l]);
@@ -272,9 +339,14 @@ void Scene::occluded_batch(size_t n, const Ray* rays, const double* t_max, bool*
         unsigned blocked = 0;
         for (uint32_t s = 0; s < spheres_.size() && blocked != all; ++s)
             blocked |= lane_mask(spheres_[s].intersect_pack(p, tm));
-        for (uint32_t q = 0; q < quads_.size() && blocked != all; ++q)
-            blocked |= lane_mask(quads_[q].intersect_pack(p, tm));
-        const unsigned mesh = (mesh_bvh_.empty() || blocked == all) ? 0u : may_hit_box(p, mesh_bounds_, tm) & ~blocked;
+        const PackSlabs slabs = pack_slabs_ ? PackSlabs(p) : PackSlabs();
+        for (size_t i = 0; i < quad_runs_.size() && blocked != all; ++i) {
+            const QuadRun& run = quad_runs_[i];
+            if (run.boxed && (slabs.may_hit(run.bounds, tm) & all & ~blocked) == 0) continue;
+            for (uint32_t q = run.first; q < run.first + run.count && blocked != all; ++q)
+                blocked |= lane_mask(quads_[q].intersect_pack(p, tm));
+        }
+        const unsigned mesh = (mesh_bvh_.empty() || blocked == all) ? 0u : slabs.may_hit(mesh_bounds_, tm) & ~blocked;
         for (size_t l = 0; l < m; ++l)
             occluded[base + l] = ((blocked >> l) & 1u) || (((mesh >> l) & 1u) && mesh_occludes(r[l], t_max[base + l]));
     }

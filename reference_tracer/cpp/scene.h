@@ -250,6 +250,19 @@ private:
     static constexpr size_t kBatchTestLimit = 32;
     static constexpr size_t kMeshTreeLimit = 1u << 18;
     bool batch_direct_ = false;
+    // The batched queries' quads, in id order, as runs of consecutive quads: a boxed run (a
+    // Box's six faces, say) is tested only where a lane of the pack may meet its padded
+    // bounds, the others always (choose_quad_runs). Skipping a run changes no result: its
+    // quads could not have hit those lanes, and the rest keep their order.
+    struct QuadRun {
+        uint32_t first = 0, count = 0;
+        bool boxed = false;
+        AABB bounds;  // padded like mesh_bounds_ (boxed runs only)
+    };
+    std::vector<QuadRun> quad_runs_;
+    void choose_quad_runs(const AABB& world);
+    // Whether a pack's slab test is ever needed (a boxed run, or mesh_bvh_'s bounds).
+    bool pack_slabs_ = false;
     WideBVH mesh_bvh_;
     AABB mesh_bounds_;  // of mesh_bvh_'s triangles, padded (culls its descents a pack at a time)
     std::vector<Triangle4> mesh_tri4_;
