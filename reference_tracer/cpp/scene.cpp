@@ -348,8 +348,10 @@ void Scene::occluded_batch(size_t n, const Ray* rays, const double* t_max, bool*
         for (size_t i = 0; i < quad_runs_.size() && blocked != all; ++i) {
             const QuadRun& run = quad_runs_[i];
             if (run.boxed && (slabs.may_hit(run.bounds, tm) & all & ~blocked) == 0) continue;
-            for (uint32_t q = run.first; q < run.first + run.count && blocked != all; ++q)
+            for (uint32_t q = run.first; q < run.first + run.count && blocked != all; ++q) {
+                if (((quads_[q].same_side_lanes(p, tm) | blocked) & all) == all) continue;  // no lane can cross it
                 blocked |= lane_mask(quads_[q].intersect_pack(p, tm));
+            }
         }
         const unsigned mesh = (mesh_bvh_.empty() || blocked == all) ? 0u : slabs.may_hit(mesh_bounds_, tm) & ~blocked;
         for (size_t l = 0; l < m; ++l)

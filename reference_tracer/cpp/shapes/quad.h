@@ -95,6 +95,25 @@ struct Quad {
 #endif
     }
 
+    // Lanes (bits) whose segment from the origin to t_max stays strictly on one side of
+    // the quad's plane, so that intersect_pack could not report a hit there: a shadow ray
+    // between two points of a closed room never crosses its walls. num and denom are
+    // intersect_pack's, bit for bit: a lane with num < 0 has the origin in front (num has
+    // the sign of -(n.o - d), exactly); if denom >= 0 its t is negative (or NaN), else t =
+    // num / denom exceeds t_max as soon as the far end t_max d + o is in front by more than
+    // 1e-9 of the origin's distance: the computed far distance errs by a few 1e-16 of it,
+    // and the division rounds t by less than 1e-16. The same with both signs flipped.
+    unsigned same_side_lanes(const RayPack& r, VPd t_max) const {
+        const auto dot_lanes = [](const Vec3& a, VPd x, VPd y, VPd z) {
+            return mul_add(splat(a.z), z, mul_add(splat(a.y), y, a.x * x));
+        };
+        const VPd denom = dot_lanes(normal, r.dx, r.dy, r.dz);
+        const VPd num = plane_d - dot_lanes(normal, r.ox, r.oy, r.oz);
+        const VPd far = mul_add(t_max, denom, -num);  // the far end's signed distance, times |n|
+        const VPd margin = 1e-9 * num;
+        return lane_mask(((num < 0.0) & (far > -margin)) | ((num > 0.0) & (far < -margin)));
+    }
+
     // The point (a, b) of the unit square mapped onto the quad: uniform in area.
     Vec3 point(double a, double b) const {
         return {mul_add(b, v.x, mul_add(a, u.x, Q.x)), mul_add(b, v.y, mul_add(a, u.y, Q.y)),
