@@ -35,9 +35,23 @@ struct Camera {
 
     // Ray through the film point (px, py), in pixel units from the top-left corner.
     Ray generate(double px, double py) const {
-        const double sx = (2.0 * px / width - 1.0) * half_width;
-        const double sy = (1.0 - 2.0 * py / height) * half_height;
-        return Ray{origin, normalize(forward + sx * right + sy * up)};
+        Ray r{origin, Vec3()};
+        direction(px, py, r.d.x, r.d.y, r.d.z);
+        return r;
+    }
+    // Its unit direction, written once for a double and for a pack of them (simd.h; the
+    // wavefront integrator starts several lanes' samples at once): every lane performs the
+    // operations of normalize(forward + sx * right + sy * up) in their order.
+    template <typename T>
+    void direction(T px, T py, T& dx, T& dy, T& dz) const {
+        const T sx = (2.0 * px / double(width) - 1.0) * half_width;
+        const T sy = (1.0 - 2.0 * py / double(height)) * half_height;
+        const T x = forward.x + sx * right.x + sy * up.x, y = forward.y + sx * right.y + sy * up.y,
+                z = forward.z + sx * right.z + sy * up.z;
+        const T inv = 1.0 / sqrt_of(x * x + y * y + z * z);  // Vec3 / double multiplies by the reciprocal
+        dx = x * inv;
+        dy = y * inv;
+        dz = z * inv;
     }
 };
 

@@ -26,8 +26,8 @@ bool WavefrontIntegrator::start_pixel(Lane& lane, TileCursor& pixels) const {
 void WavefrontIntegrator::start_sample(Lane& lane) const {
     --lane.samples_left;
     // Box filter, as render_pixel: a sample jittered in the pixel.
-    const double px = lane.x + lane.rng.next_double(), py = lane.y + lane.rng.next_double();
-    lane.ray = scene_.camera().generate(px, py);
+    lane.film[0] = lane.x + lane.rng.next_double();
+    lane.film[1] = lane.y + lane.rng.next_double();
     lane.L = Vec3(0.0);
     lane.beta = Vec3(1.0);
     lane.eta = 1.0;
@@ -35,6 +35,22 @@ void WavefrontIntegrator::start_sample(Lane& lane) const {
     lane.depth = 0;
     lane.path_done = false;
     lane.shadow = false;
+}
+
+void WavefrontIntegrator::camera_rays(Lane* const* lanes, int n) const {
+    const Camera& camera = scene_.camera();
+    for (int base = 0; base < n; base += kPackWidth) {
+        const int m = std::min(kPackWidth, n - base);
+        VPd px, py;
+        for (int l = 0; l < kPackWidth; ++l) {  // absent lanes repeat the first
+            const Lane& lane = *lanes[base + (l < m ? l : 0)];
+            px[l] = lane.film[0];
+            py[l] = lane.film[1];
+        }
+        VPd d[3];
+        camera.direction(px, py, d[0], d[1], d[2]);
+        for (int l = 0; l < m; ++l) lanes[base + l]->ray = Ray{camera.origin, Vec3(d[0][l], d[1][l], d[2][l])};
+    }
 }
 
 bool WavefrontIntegrator::shade(Lane& lane, bool hit, const Interaction& it, uint64_t& rays) const {
@@ -195,12 +211,17 @@ void WavefrontIntegrator::write_pixel(const Lane& lane, RenderOutput& out) const
 void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::atomic<bool>& cancel,
                               std::atomic<uint64_t>& pixels_done, uint64_t& rays, uint64_t& nonfinite) const {
     std::vector<Lane> lanes(kLanes);
-    for (Lane& lane : lanes)
-        if (start_pixel(lane, pixels)) start_sample(lane);
-
     // The batch's queries, compacted: lane index, ray and result per busy lane.
     int active[kLanes], shadowed[kLanes], scattering[kLanes];
-    Lane* grouped[kLanes];  // the lanes of one pack pass (light samples, diffuse directions)
+    Lane* grouped[kLanes];  // the lanes of one pack pass (light samples, diffuse directions, camera rays)
+    int n_start = 0;
+    for (Lane& lane : lanes)
+        if (start_pixel(lane, pixels)) {
+            start_sample(lane);
+            grouped[n_start++] = &lane;
+        }
+    camera_rays(grouped, n_start);
+
     Ray batch[kLanes];
     bool hit[kLanes];
     Interaction its[kLanes];
@@ -255,6 +276,7 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
         }
 
         // Paths that ended hand their lane to the pixel's next sample, or to a new pixel.
+        n_start = 0;
         for (int k = 0; k < n; ++k) {
             Lane& lane = lanes[active[k]];
             if (!lane.path_done) continue;
@@ -265,7 +287,9 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
                 if (!start_pixel(lane, pixels)) continue;
             }
             start_sample(lane);
+            grouped[n_start++] = &lane;
         }
+        camera_rays(grouped, n_start);
     }
 }
 

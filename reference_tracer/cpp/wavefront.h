@@ -51,6 +51,7 @@ private:
         double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
         detail::TailSums tails;
 
+        double film[2] = {0, 0};  // the sample's film point (px, py), until camera_rays()
         Ray ray;               // the path's next segment
         Vec3 L, beta;
         double eta = 1.0;
@@ -75,8 +76,10 @@ private:
 
     // Takes the next pixel for `lane`; false (the lane idle) when none is left.
     bool start_pixel(Lane& lane, TileCursor& pixels) const;
-    // Starts the pixel's next sample: its camera ray, as render_pixel draws it.
+    // Starts the pixel's next sample: its film point, as render_pixel draws it, and the
+    // path's state; camera_rays() then gives a pack of such lanes their camera rays at once.
     void start_sample(Lane& lane) const;
+    void camera_rays(Lane* const* lanes, int n) const;
     // One vertex of Integrator::Li's loop in parts, each run over the whole batch before
     // the next, so that the independent lanes overlap each part's long chains of dependent
     // arithmetic instead of waiting on them one lane after another (PERFORMANCE.md round 8:
