@@ -42,11 +42,7 @@ void WavefrontIntegrator::camera_rays(Lane* const* lanes, int n) const {
     for (int base = 0; base < n; base += kPackWidth) {
         const int m = std::min(kPackWidth, n - base);
         VPd px, py;
-        for (int l = 0; l < kPackWidth; ++l) {  // absent lanes repeat the first
-            const Lane& lane = *lanes[base + (l < m ? l : 0)];
-            px[l] = lane.film[0];
-            py[l] = lane.film[1];
-        }
+        pack_pairs(lanes + base, m, [](const Lane& lane) { return lane.film; }, px, py);
         VPd d[3];
         camera.direction(px, py, d[0], d[1], d[2]);
         for (int l = 0; l < m; ++l) lanes[base + l]->ray = Ray{camera.origin, Vec3(d[0][l], d[1][l], d[2][l])};
@@ -148,11 +144,7 @@ void WavefrontIntegrator::scatter_diffuse(Lane* const* lanes, int n) const {
     for (int base = 0; base < n; base += kPackWidth) {
         const int m = std::min(kPackWidth, n - base);
         VPd u1, u2;
-        for (int l = 0; l < kPackWidth; ++l) {  // absent lanes repeat the first
-            const Lane& lane = *lanes[base + (l < m ? l : 0)];
-            u1[l] = lane.scatter_u[0];
-            u2[l] = lane.scatter_u[1];
-        }
+        pack_pairs(lanes + base, m, [](const Lane& lane) { return lane.scatter_u; }, u1, u2);
         VPd w[3];
         square_to_cosine_hemisphere(u1, u2, w[0], w[1], w[2]);
         for (int l = 0; l < m; ++l) {
