@@ -55,14 +55,16 @@ struct Quad {
         return true;
     }
 
+    // dot_fused(a, (x, y, z)) lane by lane.
+    static VPd dot_lanes(const Vec3& a, VPd x, VPd y, VPd z) {
+        return mul_add(splat(a.z), z, mul_add(splat(a.y), y, a.x * x));
+    }
+
     // The test above on a pack of rays at once (simd.h) (t_min 0): lanes where it hits, with t_max
     // lowered there to the hit's distance. Each lane is bit-identical to intersect(): the
     // same operations in the same order (the build forbids contracting them into FMAs
     // other than mul_add's), only without its early exits, which a lane cannot take alone.
     VPl intersect_pack(const RayPack& r, VPd& t_max) const {
-        const auto dot_lanes = [](const Vec3& a, VPd x, VPd y, VPd z) {
-            return mul_add(splat(a.z), z, mul_add(splat(a.y), y, a.x * x));
-        };
         const VPd denom = dot_lanes(normal, r.dx, r.dy, r.dz);
         const VPd oqx = r.ox - Q.x, oqy = r.oy - Q.y, oqz = r.oz - Q.z;
         const VPd a0 = dot_lanes(ea, oqx, oqy, oqz), ad = dot_lanes(ea, r.dx, r.dy, r.dz);
@@ -98,15 +100,13 @@ struct Quad {
     // Lanes (bits) whose segment from the origin to t_max stays strictly on one side of
     // the quad's plane, so that intersect_pack could not report a hit there: a shadow ray
     // between two points of a closed room never crosses its walls. num and denom are
-    // intersect_pack's, bit for bit: a lane with num < 0 has the origin in front (num has
-    // the sign of -(n.o - d), exactly); if denom >= 0 its t is negative (or NaN), else t =
-    // num / denom exceeds t_max as soon as the far end t_max d + o is in front by more than
-    // 1e-9 of the origin's distance: the computed far distance errs by a few 1e-16 of it,
-    // and the division rounds t by less than 1e-16. The same with both signs flipped.
+    // intersect_pack's, bit for bit: a lane with num < 0 has the origin in front (num is
+    // plane_d - n.o, exactly the negated signed distance); if denom >= 0 its t is negative
+    // (or NaN), else t = num / denom exceeds t_max as soon as the far end o + t_max d is in
+    // front by more than 1e-9 of the origin's distance: the computed far distance errs by a
+    // few 1e-16 of it, and the division rounds t by less than 1e-16. The same with both
+    // signs flipped.
     unsigned same_side_lanes(const RayPack& r, VPd t_max) const {
-        const auto dot_lanes = [](const Vec3& a, VPd x, VPd y, VPd z) {
-            return mul_add(splat(a.z), z, mul_add(splat(a.y), y, a.x * x));
-        };
         const VPd denom = dot_lanes(normal, r.dx, r.dy, r.dz);
         const VPd num = plane_d - dot_lanes(normal, r.ox, r.oy, r.oz);
         const VPd far = mul_add(t_max, denom, -num);  // the far end's signed distance, times |n|
