@@ -14,8 +14,9 @@ from mitsuba_scenes import get_scene, list_scenes, render_mitsuba, to_mitsuba, t
 from mitsuba_scenes.render import batch_seeds, mesh_merge_safe, split_spp
 from mitsuba_scenes.scenes.cornell_mesh import torus
 from mitsuba_scenes.translate import look_at_matrix, mitsuba_rr_depth
-from build_util import cpu_flags
 from mitsuba_scenes.variants import find_libllvm, import_mitsuba, llvm_target, select_variant, versions
+
+from build_util import cpu_flags
 
 
 @pytest.fixture(scope="module")

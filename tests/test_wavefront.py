@@ -133,7 +133,6 @@ def test_batched_queries_equal_single_ray_queries(name, n):
     assert np.array_equal(blocked.astype(bool), hit)
 
 
-
 def _boxes_scene():
     """Five small boxes (30 quads, within the packs' direct limit) on a floor, one rotated."""
     grey, light = rt.Lambertian(0.5), rt.DiffuseLight((4.0, 4.0, 4.0))

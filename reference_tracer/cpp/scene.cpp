@@ -88,6 +88,8 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
     // Triangles that the packs cannot reach (too many for a second tree): ray by ray.
     batch_direct_ = batch_direct_ && (triangles_.empty() || !mesh_bvh_.empty());
     if (batch_direct_) choose_quad_runs(world);
+    pack_slabs_ = !mesh_bvh_.empty() ||
+                  std::any_of(quad_runs_.begin(), quad_runs_.end(), [](const QuadRun& r) { return r.boxed; });
 
     std::vector<Emitter> emitters;
     for (uint32_t i = 0; i < spheres_.size(); ++i)
@@ -148,8 +150,6 @@ void Scene::choose_quad_runs(const AABB& world) {
         quad_runs_.push_back(run);
     }
     std::reverse(quad_runs_.begin(), quad_runs_.end());
-    pack_slabs_ = !mesh_bvh_.empty() ||
-                  std::any_of(quad_runs_.begin(), quad_runs_.end(), [](const QuadRun& r) { return r.boxed; });
 }
 
 bool Scene::hit_other(uint32_t prim, const Ray& ray, const WatertightRay& wray, double& t_max,

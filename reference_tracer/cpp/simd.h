@@ -70,15 +70,13 @@ inline VPd floor_of(VPd x) {
 inline VPd safe_sqrt_of(VPd x) { return sqrt_of(0.0 < x ? x : VPd{}); }
 
 // 1 / x lane-wise within a relative error of 2^-14 (kReciprocalEstimateError), with its
-// sign, and +-inf for +-0: AVX-512's estimate instruction, a division elsewhere. For tests
-// that only need bounds (PackSlabs), where eight exact divisions cost as much as a
-// primitive's test.
+// sign, and +-inf for +-0: AVX-512's estimate instruction for packs of eight, a division
+// elsewhere. For tests that only need bounds (PackSlabs), where eight exact divisions cost
+// as much as a primitive's test.
 constexpr double kReciprocalEstimateError = 0x1.0p-14;
 inline VPd reciprocal_estimate(VPd x) {
 #if RT_PACK == 8 && defined(__AVX512F__)
     return reinterpret_cast<VPd>(_mm512_rcp14_pd(reinterpret_cast<__m512d>(x)));
-#elif RT_PACK == 4 && defined(__AVX512VL__)
-    return reinterpret_cast<VPd>(_mm256_rcp14_pd(reinterpret_cast<__m256d>(x)));
 #else
     return 1.0 / x;
 #endif
