@@ -138,7 +138,7 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
     """Render ``scene`` with the C++ path tracer.
 
     The image for a given (scene, spp, strategy, seed) is bit-identical whatever the
-    thread count: every pixel draws from its own PCG32 stream seeded from ``seed`` and
+    thread count: every pixel draws from its own PCG (64-bit) stream seeded from ``seed`` and
     the pixel index. Ctrl-C stops the render promptly with ``KeyboardInterrupt``.
 
     Parameters

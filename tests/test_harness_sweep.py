@@ -17,6 +17,13 @@ cornell_box at 16x16, spp 1, 2, 4, ..., 512 (10 levels), 6 seeds per level, refe
   widest); Mitsuba's ``path`` has mis's variance. False-positive rate of the slope
   assertions for a fresh choice of seeds: < 5e-5 over the five unbiased curves. (The
   slow test ``test_slope_spread_matches_the_derivation`` re-measures the spread.)
+* Points of the fit. Budgets below ``slope_fit_from`` leave the fit (heavy tails: the
+  seed-averaged MSE misses rare paths there). ``slope_fit_from`` comes from one tail
+  reference's fourth cumulants, an estimate that is itself heavy-tailed: for ``mixture``
+  over 20 tail-reference seeds it was 1-4 in 19 (one 130) with the render's current
+  generator, 1-27 in 18 (104, 118) with the earlier PCG32; the default seed gives 4, so
+  ``mixture`` fits 8 points (4..512 spp), the others 10. The test asserts the rule, not a
+  count that only some seeds give.
 * Bias. ``metrics.bias_variance`` at the top spp (512) over the 6 seeds, one-sided at
   ``DEFAULT_ALPHA`` = 0.001: the false-positive rate for ``mixture`` is at most 0.001
   (the test is conservative for right-skewed per-pixel terms, ``benchmarks.metrics``).
@@ -71,7 +78,11 @@ def _row(rows, renderer, strategy):
 def test_unbiased_strategies_converge_at_minus_one_half(stat_store, curve):
     _, result = stat_store
     row = _row(result.rows, *curve)
-    assert row["slope_points"] == 10
+    # Budgets below slope_fit_from (from the tail reference's fourth cumulants) leave the fit;
+    # every other one is a point of it, and enough remain for the derivation above to hold.
+    excluded = row["slope_excluded_spps"]
+    assert excluded == [s for s in STAT.spps if s < (row["slope_fit_from"] or 1)]
+    assert row["slope_points"] == 10 - len(excluded) >= 7
     assert abs(row["slope"] + 0.5) <= 0.1, row["slope"]
     lo, hi = row["slope_ci"]
     assert lo < row["slope"] < hi

@@ -30,7 +30,7 @@ public:
 
     // Radiance arriving along `ray`; `rays` counts every ray cast (camera, continuation,
     // shadow/light rays).
-    Vec3 Li(Ray ray, PCG32& rng, uint64_t& rays) const;
+    Vec3 Li(Ray ray, PCG64& rng, uint64_t& rays) const;
 
 private:
     // The wavefront integrator (wavefront.h) runs the same steps as Li on batches of paths.
@@ -79,7 +79,7 @@ private:
     // t_max)` answers its shadow ray: Scene::occluded in Li; the wavefront integrator
     // queues the ray instead (answering "not occluded") and applies the verdict later.
     template <typename Occluded>
-    std::optional<Vec3> sample_ld(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng, uint64_t& rays,
+    std::optional<Vec3> sample_ld(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG64& rng, uint64_t& rays,
                                   Occluded&& occluded) const;
     // sample_ld after its light sample `ls` (drawn with three uniforms where the scene has
     // emitters): the wavefront integrator draws the uniforms, samples the lights for
@@ -89,19 +89,19 @@ private:
                                     const Vec3& ref, Occluded&& occluded) const;
     // The `light` strategy at a non-delta vertex, where its path ends: beta times the
     // radiance arriving straight along one direction sampled toward the emitters.
-    std::optional<Vec3> light_only(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng,
+    std::optional<Vec3> light_only(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG64& rng,
                                    uint64_t& rays) const;
     // The next direction: the material's own sampling at a delta vertex (whatever the
     // strategy: light sampling could never meet a Dirac lobe); elsewhere the strategy's.
-    std::optional<Scatter> sample_scatter(const Vertex& v, const Vec3& ref, PCG32& rng) const;
-    static std::optional<Scatter> sample_material(const Vertex& v, PCG32& rng);
+    std::optional<Scatter> sample_scatter(const Vertex& v, const Vec3& ref, PCG64& rng) const;
+    static std::optional<Scatter> sample_material(const Vertex& v, PCG64& rng);
     // The continuation of a material sample bs (local frame) at v; none if it failed.
     static std::optional<Scatter> scatter_of(const Vertex& v, const BSDFSample& bs) {
         if (!bs.valid) return std::nullopt;
         return Scatter{v.frame.to_world(bs.wi), bs.weight, bs.pdf, bs.eta};
     }
-    static std::optional<Scatter> sample_uniform(const Vertex& v, PCG32& rng);
-    std::optional<Scatter> sample_mixture(const Vertex& v, const Vec3& ref, PCG32& rng) const;
+    static std::optional<Scatter> sample_uniform(const Vertex& v, PCG64& rng);
+    std::optional<Scatter> sample_mixture(const Vertex& v, const Vec3& ref, PCG64& rng) const;
 
     // Radiance along (o, wi) that comes straight from an emitter or the background: the
     // emission of the first surface hit (front side only), or the background on escape.
@@ -109,7 +109,7 @@ private:
 
     // Whether the path goes on after its depth-th segment: not once the throughput is
     // black, and Russian roulette from rr_depth on (reweighting beta of the survivors).
-    bool survives(int depth, double eta, Vec3& beta, PCG32& rng) const;
+    bool survives(int depth, double eta, Vec3& beta, PCG64& rng) const;
 
     const Scene& scene_;
     Strategy strategy_;

@@ -40,7 +40,7 @@ double Integrator<M>::background_weight(const PrevVertex& prev) const {
 
 template <Mutant M>
 template <typename Occluded>
-std::optional<Vec3> Integrator<M>::sample_ld(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng,
+std::optional<Vec3> Integrator<M>::sample_ld(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG64& rng,
                                              uint64_t& rays, Occluded&& occluded) const {
     const LightSampler& lights = scene_.lights();
     if (lights.empty()) return std::nullopt;
@@ -68,7 +68,7 @@ std::optional<Vec3> Integrator<M>::estimate_ld(const Vertex& v, const Vec3& beta
 }
 
 template <Mutant M>
-std::optional<Vec3> Integrator<M>::light_only(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG32& rng,
+std::optional<Vec3> Integrator<M>::light_only(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG64& rng,
                                               uint64_t& rays) const {
     const LightSampler& lights = scene_.lights();
     if (lights.empty()) return std::nullopt;
@@ -85,7 +85,7 @@ std::optional<Vec3> Integrator<M>::light_only(const Vertex& v, const Vec3& ref, 
 }
 
 template <Mutant M>
-[[gnu::always_inline]] inline auto Integrator<M>::sample_scatter(const Vertex& v, const Vec3& ref, PCG32& rng) const
+[[gnu::always_inline]] inline auto Integrator<M>::sample_scatter(const Vertex& v, const Vec3& ref, PCG64& rng) const
     -> std::optional<Scatter> {
     // At a delta vertex every strategy samples the material's lobe, as `cosine` does. One
     // call site for sample_material keeps it inline: with two, GCC left it out of line,
@@ -101,7 +101,7 @@ template <Mutant M>
 }
 
 template <Mutant M>
-[[gnu::always_inline]] inline auto Integrator<M>::sample_material(const Vertex& v, PCG32& rng) -> std::optional<Scatter> {
+[[gnu::always_inline]] inline auto Integrator<M>::sample_material(const Vertex& v, PCG64& rng) -> std::optional<Scatter> {
     // The three uniforms are drawn last first. Earlier versions passed three
     // rng.next_double() calls straight as bsdf_sample's arguments, whose evaluation order
     // C++ leaves to the compiler, and GCC evaluates them right to left. Drawing them
@@ -112,7 +112,7 @@ template <Mutant M>
 }
 
 template <Mutant M>
-auto Integrator<M>::sample_uniform(const Vertex& v, PCG32& rng) -> std::optional<Scatter> {
+auto Integrator<M>::sample_uniform(const Vertex& v, PCG64& rng) -> std::optional<Scatter> {
     const double u2 = rng.next_double(), u1 = rng.next_double();  // last first, as sample_material
     const Vec3 local = square_to_uniform_hemisphere(u1, u2);
     const Vec3 f = bsdf_eval<M>(v.m, v.wo, local);
@@ -121,7 +121,7 @@ auto Integrator<M>::sample_uniform(const Vertex& v, PCG32& rng) -> std::optional
 }
 
 template <Mutant M>
-auto Integrator<M>::sample_mixture(const Vertex& v, const Vec3& ref, PCG32& rng) const
+auto Integrator<M>::sample_mixture(const Vertex& v, const Vec3& ref, PCG64& rng) const
     -> std::optional<Scatter> {
     const LightSampler& lights = scene_.lights();
     const bool has_lights = !lights.empty();
@@ -162,7 +162,7 @@ Vec3 Integrator<M>::direct_emission(const Vec3& o, const Vec3& wi, uint64_t& ray
 }
 
 template <Mutant M>
-bool Integrator<M>::survives(int depth, double eta, Vec3& beta, PCG32& rng) const {
+bool Integrator<M>::survives(int depth, double eta, Vec3& beta, PCG64& rng) const {
     const double beta_max = max_component(beta);
     if (!(beta_max > 0.0)) return false;  // black (or NaN): nothing more to carry
     const int rr_depth = scene_.settings().rr_depth;
@@ -177,7 +177,7 @@ bool Integrator<M>::survives(int depth, double eta, Vec3& beta, PCG32& rng) cons
 }
 
 template <Mutant M>
-Vec3 Integrator<M>::Li(Ray ray, PCG32& rng, uint64_t& rays) const {
+Vec3 Integrator<M>::Li(Ray ray, PCG64& rng, uint64_t& rays) const {
     const SceneSettings& cfg = scene_.settings();
     Vec3 L(0.0), beta(1.0);
     double eta = 1.0;  // product of relative IORs crossed (Russian roulette)

@@ -47,7 +47,7 @@ void render_pixel(const Scene& scene, const Integrator<M>& integrator, int x, in
     // (Mutant::CorrelatedPixelStreams: the pixel index forgotten, every pixel the same stream.)
     const uint64_t pixel_index =
         M == Mutant::CorrelatedPixelStreams ? 0 : uint64_t(y) * uint64_t(cam.width) + uint64_t(x);
-    PCG32 rng = pixel_rng(seed, pixel_index);
+    PCG64 rng = pixel_rng(seed, pixel_index);
     double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
     const bool tails = out.max != nullptr;
     detail::TailSums t;

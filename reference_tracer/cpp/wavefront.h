@@ -47,7 +47,7 @@ private:
         bool busy = false;     // holds a pixel
         int x = 0, y = 0;
         int samples_left = 0;  // samples of the pixel still to start
-        PCG32 rng{0, 0};
+        PCG64 rng{0, 0};
         double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
         detail::TailSums tails;
 
