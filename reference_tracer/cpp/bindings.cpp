@@ -252,7 +252,13 @@ public:
                 for (size_t i = begin; i < end; ++i) rays.push_back(ray_at(i));
                 std::unique_ptr<bool[]> hit(new bool[rays.size()]);
                 std::vector<rt::Interaction> its(rays.size());
-                scene_->intersect_batch(rays.size(), rays.data(), hit.get(), its.data());
+                std::vector<const rt::Ray*> ray_ptrs;
+                std::vector<rt::Interaction*> it_ptrs;
+                for (size_t k = 0; k < rays.size(); ++k) {
+                    ray_ptrs.push_back(&rays[k]);
+                    it_ptrs.push_back(&its[k]);
+                }
+                scene_->intersect_batch(rays.size(), ray_ptrs.data(), hit.get(), it_ptrs.data());
                 for (size_t k = 0; k < rays.size(); ++k) store(begin + k, hit[k], its[k]);
                 return;
             }
@@ -322,7 +328,9 @@ public:
         }
         std::unique_ptr<bool[]> occ(new bool[n]);
         if (wavefront) {
-            scene_->occluded_batch(n, rays.data(), tm.data(), occ.get());
+            std::vector<const rt::Ray*> ray_ptrs;
+            for (const rt::Ray& r : rays) ray_ptrs.push_back(&r);
+            scene_->occluded_batch(n, ray_ptrs.data(), tm.data(), occ.get());
         } else {
             for (size_t i = 0; i < n; ++i) occ[i] = scene_->occluded(rays[i], tm[i]);
         }

@@ -232,10 +232,10 @@ bool Scene::occluded(const Ray& ray, double t_max) const {
 namespace {
 
 // Rays rays[0 .. m) (m <= kPackWidth) as a pack; absent lanes repeat ray 0.
-RayPack pack_rays(const Ray* rays, size_t m) {
+RayPack pack_rays(const Ray* const* rays, size_t m) {
     RayPack p;
     for (size_t l = 0; l < size_t(kPackWidth); ++l) {
-        const Ray& r = rays[l < m ? l : 0];
+        const Ray& r = *rays[l < m ? l : 0];
         p.ox[l] = r.o.x; p.oy[l] = r.o.y; p.oz[l] = r.o.z;
         p.dx[l] = r.d.x; p.dy[l] = r.d.y; p.dz[l] = r.d.z;
     }
@@ -294,14 +294,14 @@ bool Scene::mesh_occludes(const Ray& ray, double t_max) const {
         [&](uint32_t block) { prefetch_mesh_block(block); });
 }
 
-void Scene::intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* it) const {
+void Scene::intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interaction* const* it) const {
     if (!batch_direct_) {
-        for (size_t i = 0; i < n; ++i) hit[i] = intersect(rays[i], it[i]);
+        for (size_t i = 0; i < n; ++i) hit[i] = intersect(*rays[i], *it[i]);
         return;
     }
     for (size_t base = 0; base < n; base += kPackWidth) {
         const size_t m = std::min<size_t>(kPackWidth, n - base);
-        const Ray* r = rays + base;
+        const Ray* const* r = rays + base;
         const RayPack p = pack_rays(r, m);
         // Every sphere and quad in id order, as Scene::intersect's direct loop, a pack of rays
         // at a time; then the triangles, ray by ray, below the distance found.
@@ -320,21 +320,21 @@ void Scene::intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* i
             double t = t_max[l];
             uint32_t prim = static_cast<uint32_t>(best[l]);
             bool found = best[l] >= 0;
-            if ((mesh >> l) & 1u) found |= closest_mesh_hit(r[l], t, prim);
+            if ((mesh >> l) & 1u) found |= closest_mesh_hit(*r[l], t, prim);
             hit[base + l] = found;
-            if (found) fill_interaction(r[l], t, prim, it[base + l]);
+            if (found) fill_interaction(*r[l], t, prim, *it[base + l]);
         }
     }
 }
 
-void Scene::occluded_batch(size_t n, const Ray* rays, const double* t_max, bool* occluded) const {
+void Scene::occluded_batch(size_t n, const Ray* const* rays, const double* t_max, bool* occluded) const {
     if (!batch_direct_) {
-        for (size_t i = 0; i < n; ++i) occluded[i] = this->occluded(rays[i], t_max[i]);
+        for (size_t i = 0; i < n; ++i) occluded[i] = this->occluded(*rays[i], t_max[i]);
         return;
     }
     for (size_t base = 0; base < n; base += kPackWidth) {
         const size_t m = std::min<size_t>(kPackWidth, n - base);
-        const Ray* r = rays + base;
+        const Ray* const* r = rays + base;
         const RayPack p = pack_rays(r, m);
         // Absent lanes get t_max 0: nothing can block them.
         VPd tm;
@@ -355,7 +355,7 @@ void Scene::occluded_batch(size_t n, const Ray* rays, const double* t_max, bool*
         }
         const unsigned mesh = (mesh_bvh_.empty() || blocked == all) ? 0u : slabs.may_hit(mesh_bounds_, tm) & ~blocked;
         for (size_t l = 0; l < m; ++l)
-            occluded[base + l] = ((blocked >> l) & 1u) || (((mesh >> l) & 1u) && mesh_occludes(r[l], t_max[base + l]));
+            occluded[base + l] = ((blocked >> l) & 1u) || (((mesh >> l) & 1u) && mesh_occludes(*r[l], t_max[base + l]));
     }
 }
 

@@ -90,14 +90,16 @@ public:
     size_t intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preliminary = false) const;
     // Whether anything lies on the ray with t in (0, t_max) (shadow rays).
     bool occluded(const Ray& ray, double t_max = kInf) const;
-    // The closest hits of rays[0 .. n): hit[i] and it[i] as intersect(rays[i], it[i])
+    // The closest hits of *rays[0 .. n): hit[i] and *it[i] as intersect(*rays[i], *it[i])
     // gives them (of two primitives hit at exactly the same distance, either may be
     // reported). Scenes of a few dozen spheres and quads test a pack of rays (simd.h: 4,
     // or 8 with AVX-512) at a time against every primitive (the wavefront integrator's
-    // batches), then any mesh through a tree of its own; others go ray by ray.
-    void intersect_batch(size_t n, const Ray* rays, bool* hit, Interaction* it) const;
-    // occluded(rays[i], t_max[i]) for i < n, into occluded[i], the same way.
-    void occluded_batch(size_t n, const Ray* rays, const double* t_max, bool* occluded) const;
+    // batches), then any mesh through a tree of its own; others go ray by ray. Rays and
+    // hits by pointer: the wavefront integrator's lanes hold them, and copying them into
+    // arrays and back cost 3% of its instructions (PERFORMANCE.md round 16).
+    void intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interaction* const* it) const;
+    // occluded(*rays[i], t_max[i]) for i < n, into occluded[i], the same way.
+    void occluded_batch(size_t n, const Ray* const* rays, const double* t_max, bool* occluded) const;
     // The same by testing every primitive (a reference for BVH tests).
     bool intersect_brute_force(const Ray& ray, Interaction& it, double t_max = kInf) const;
 

@@ -49,8 +49,9 @@ void WavefrontIntegrator::camera_rays(Lane* const* lanes, int n) const {
     }
 }
 
-bool WavefrontIntegrator::shade(Lane& lane, bool hit, const Interaction& it, uint64_t& rays) const {
+bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
     const Integrator<Mutant::None>& li = integrator_;
+    const Interaction& it = lane.it;
     const SceneSettings& cfg = scene_.settings();
     if (!hit) {
         if (max_component(cfg.background) > 0.0)
@@ -83,7 +84,6 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, const Interaction& it, uin
         }
     }
 
-    lane.it = it;
     return true;
 }
 
@@ -214,9 +214,10 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
         }
     camera_rays(grouped, n_start);
 
-    Ray batch[kLanes];
+    // The queries' rays and hits stay in the lanes; the batch holds pointers to them.
+    const Ray* batch[kLanes];
+    Interaction* hits[kLanes];
     bool hit[kLanes];
-    Interaction its[kLanes];
     double t_max[kLanes];
 
     for (;;) {
@@ -226,16 +227,17 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
         for (int i = 0; i < kLanes; ++i)
             if (lanes[i].busy) {
                 active[n] = i;
-                batch[n++] = lanes[i].ray;
+                batch[n] = &lanes[i].ray;
+                hits[n++] = &lanes[i].it;
             }
         if (n == 0) return;
 
         rays += uint64_t(n);
-        scene_.intersect_batch(size_t(n), batch, hit, its);
+        scene_.intersect_batch(size_t(n), batch, hit, hits);
         int n_shadow = 0;
         int n_scatter = 0;
         for (int k = 0; k < n; ++k)
-            if (shade(lanes[active[k]], hit[k], its[k], rays)) scattering[n_scatter++] = active[k];
+            if (shade(lanes[active[k]], hit[k], rays)) scattering[n_scatter++] = active[k];
         int n_light = 0;
         for (int k = 0; k < n_scatter; ++k)
             if (draw_light_uniforms(lanes[scattering[k]])) grouped[n_light++] = &lanes[scattering[k]];
@@ -254,7 +256,7 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
             Lane& lane = lanes[active[k]];
             if (lane.shadow) {
                 shadowed[n_shadow] = active[k];
-                batch[n_shadow] = lane.shadow_ray;
+                batch[n_shadow] = &lane.shadow_ray;
                 t_max[n_shadow++] = lane.shadow_t_max;
             }
         }

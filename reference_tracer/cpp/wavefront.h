@@ -59,11 +59,12 @@ private:
         int depth = 0;
         bool path_done = false;
 
-        // What next_event() and scatter() need of shade(): the vertex, its light-sampling
-        // reference point and the hit.
+        // The closest hit of `ray` (written there by the batch's query), and what
+        // next_event() and scatter() need of shade(): the vertex and its light-sampling
+        // reference point.
+        Interaction it;
         std::optional<Vertex> vertex;
         Vec3 ref;
-        Interaction it;
 
         double light_u[3] = {0, 0, 0};  // `mis`'s light sample: its uniforms, then
         LightSample light;               // the sample
@@ -84,14 +85,14 @@ private:
     // the next, so that the independent lanes overlap each part's long chains of dependent
     // arithmetic instead of waiting on them one lane after another (PERFORMANCE.md round 8:
     // cornell_box +8%, cornell_mesh +11%, furnace +5%).
-    // shade(), after the closest hit of lane.ray: emission and the vertex; returns whether
-    // the path goes on. draw_light_uniforms(): `mis`'s three uniforms for the light sample
-    // (returns whether the vertex takes one). sample_lights(): the light samples of those
+    // shade(), after the closest hit of lane.ray (lane.it where `hit`): emission and the
+    // vertex; returns whether the path goes on. draw_light_uniforms(): `mis`'s three
+    // uniforms for the light sample (returns whether the vertex takes one). sample_lights(): the light samples of those
     // lanes, a pack of lanes at a time where the only light is a quad (PERFORMANCE.md
     // round 9). next_event(): the rest of next-event estimation up to its shadow ray (queued
     // in the lane). scatter(): the next direction and Russian roulette. They set path_done
     // where Li would return; each lane's random draws keep Li's order.
-    bool shade(Lane& lane, bool hit, const Interaction& it, uint64_t& rays) const;
+    bool shade(Lane& lane, bool hit, uint64_t& rays) const;
     bool draw_light_uniforms(Lane& lane) const;
     void sample_lights(Lane* const* lanes, int n) const;
     void next_event(Lane& lane, uint64_t& rays) const;
