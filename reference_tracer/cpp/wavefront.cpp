@@ -204,8 +204,12 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
                               std::atomic<uint64_t>& pixels_done, uint64_t& rays, uint64_t& nonfinite) const {
     std::vector<Lane> lanes(kLanes);
     // The batch's queries, compacted: lane index, ray and result per busy lane.
-    int active[kLanes], shadowed[kLanes], scattering[kLanes];
-    Lane* grouped[kLanes];  // the lanes of one pack pass (light samples, diffuse directions, camera rays)
+    int active[kLanes], shadowed[kLanes];
+    // The lanes of the pack passes (light samples, diffuse directions, camera rays), and those
+    // that scatter otherwise.
+    Lane* grouped[kLanes];
+    Lane* diffuse[kLanes];
+    Lane* others[kLanes];
     int n_start = 0;
     for (Lane& lane : lanes)
         if (start_pixel(lane, pixels)) {
@@ -235,23 +239,24 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
         rays += uint64_t(n);
         scene_.intersect_batch(size_t(n), batch, hit, hits);
         int n_shadow = 0;
-        int n_scatter = 0;
-        for (int k = 0; k < n; ++k)
-            if (shade(lanes[active[k]], hit[k], rays)) scattering[n_scatter++] = active[k];
-        int n_light = 0;
-        for (int k = 0; k < n_scatter; ++k)
-            if (draw_light_uniforms(lanes[scattering[k]])) grouped[n_light++] = &lanes[scattering[k]];
+        int n_light = 0, n_diffuse = 0, n_others = 0;
+        for (int k = 0; k < n; ++k) {
+            Lane& lane = lanes[active[k]];
+            if (!shade(lane, hit[k], rays)) continue;
+            // The lane's draws in Li's order: the light sample's uniforms, then a diffuse
+            // direction's (one loop: as passes of their own they cost 2% of cornell_box's
+            // instructions, PERFORMANCE.md round 16). Other lanes draw in scatter(), after
+            // next_event() has used their throughput.
+            if (draw_light_uniforms(lane)) grouped[n_light++] = &lane;
+            if (draw_diffuse_uniforms(lane))
+                diffuse[n_diffuse++] = &lane;
+            else
+                others[n_others++] = &lane;
+        }
         sample_lights(grouped, n_light);
         for (int k = 0; k < n_light; ++k) next_event(*grouped[k], rays);
-        int n_diffuse = 0;
-        for (int k = 0; k < n_scatter; ++k) {
-            Lane& lane = lanes[scattering[k]];
-            if (draw_diffuse_uniforms(lane))
-                grouped[n_diffuse++] = &lane;
-            else
-                scatter(lane);
-        }
-        scatter_diffuse(grouped, n_diffuse);
+        for (int k = 0; k < n_others; ++k) scatter(*others[k]);
+        scatter_diffuse(diffuse, n_diffuse);
         for (int k = 0; k < n; ++k) {
             Lane& lane = lanes[active[k]];
             if (lane.shadow) {
