@@ -204,7 +204,8 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
                               std::atomic<uint64_t>& pixels_done, uint64_t& rays, uint64_t& nonfinite) const {
     std::vector<Lane> lanes(kLanes);
     // The batch's queries, compacted: lane index, ray and result per busy lane.
-    int active[kLanes], shadowed[kLanes];
+    int active[kLanes];
+    Lane* shadowed[kLanes];
     // The lanes of the pack passes (light samples, diffuse directions, camera rays), and those
     // that scatter otherwise.
     Lane* grouped[kLanes];
@@ -254,21 +255,21 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
                 others[n_others++] = &lane;
         }
         sample_lights(grouped, n_light);
-        for (int k = 0; k < n_light; ++k) next_event(*grouped[k], rays);
-        for (int k = 0; k < n_others; ++k) scatter(*others[k]);
-        scatter_diffuse(diffuse, n_diffuse);
-        for (int k = 0; k < n; ++k) {
-            Lane& lane = lanes[active[k]];
-            if (lane.shadow) {
-                shadowed[n_shadow] = active[k];
+        for (int k = 0; k < n_light; ++k) {
+            Lane& lane = *grouped[k];
+            next_event(lane, rays);
+            if (lane.shadow) {  // only next_event() queues shadow rays
+                shadowed[n_shadow] = &lane;
                 batch[n_shadow] = &lane.shadow_ray;
                 t_max[n_shadow++] = lane.shadow_t_max;
             }
         }
+        for (int k = 0; k < n_others; ++k) scatter(*others[k]);
+        scatter_diffuse(diffuse, n_diffuse);
         if (n_shadow > 0) {
             scene_.occluded_batch(size_t(n_shadow), batch, t_max, hit);
             for (int k = 0; k < n_shadow; ++k) {
-                Lane& lane = lanes[shadowed[k]];
+                Lane& lane = *shadowed[k];
                 if (!hit[k]) lane.L += lane.shadow_value;
                 lane.shadow = false;
             }
