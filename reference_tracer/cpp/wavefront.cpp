@@ -203,8 +203,8 @@ void WavefrontIntegrator::write_pixel(const Lane& lane, RenderOutput& out) const
 void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::atomic<bool>& cancel,
                               std::atomic<uint64_t>& pixels_done, uint64_t& rays, uint64_t& nonfinite) const {
     std::vector<Lane> lanes(kLanes);
-    // The batch's queries, compacted: lane index, ray and result per busy lane.
-    int active[kLanes];
+    // The batch's queries, compacted: the busy lanes, and those with a shadow ray.
+    Lane* active[kLanes];
     Lane* shadowed[kLanes];
     // The lanes of the pack passes (light samples, diffuse directions, camera rays), and those
     // that scatter otherwise.
@@ -229,11 +229,11 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
         // A cancelled render's image is discarded: stop at the next bounce.
         if (cancel.load(std::memory_order_relaxed)) return;
         int n = 0;
-        for (int i = 0; i < kLanes; ++i)
-            if (lanes[i].busy) {
-                active[n] = i;
-                batch[n] = &lanes[i].ray;
-                hits[n++] = &lanes[i].it;
+        for (Lane& lane : lanes)
+            if (lane.busy) {
+                active[n] = &lane;
+                batch[n] = &lane.ray;
+                hits[n++] = &lane.it;
             }
         if (n == 0) return;
 
@@ -242,7 +242,7 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
         int n_shadow = 0;
         int n_light = 0, n_diffuse = 0, n_others = 0;
         for (int k = 0; k < n; ++k) {
-            Lane& lane = lanes[active[k]];
+            Lane& lane = *active[k];
             if (!shade(lane, hit[k], rays)) continue;
             // The lane's draws in Li's order: the light sample's uniforms, then a diffuse
             // direction's (one loop: as passes of their own they cost 2% of cornell_box's
@@ -278,7 +278,7 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
         // Paths that ended hand their lane to the pixel's next sample, or to a new pixel.
         n_start = 0;
         for (int k = 0; k < n; ++k) {
-            Lane& lane = lanes[active[k]];
+            Lane& lane = *active[k];
             if (!lane.path_done) continue;
             add_sample(lane, job_.moments, nonfinite);
             if (lane.samples_left == 0) {
