@@ -16,7 +16,7 @@ inline uint64_t mix64(uint64_t z) {
 }
 
 // PCG with 64-bit state and 64-bit output (O'Neill 2014, the "RXS M XS" output function):
-// one LCG step per double. The earlier generator, PCG64 (XSH RR, 32-bit output), took two
+// one LCG step per double. The earlier generator, PCG32 (XSH RR, 32-bit output), took two
 // steps per double for 53 random bits, ~22 instructions a draw and 10-13% of a render's
 // instructions (PERFORMANCE.md round 16). RXS M XS at full state width is a bijection of
 // the state, so each 64-bit output occurs once per period (2^64 per stream), which is what
