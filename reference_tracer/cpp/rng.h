@@ -50,7 +50,7 @@ private:
 
 // The random stream of one pixel.
 inline PCG64 pixel_rng(uint64_t seed, uint64_t pixel_index) {
-    return PCG64(mix64((seed ^ 0x1111111111111111ull) ^ mix64(pixel_index)), mix64(pixel_index + 0x632BE59BD9B4E019ull * mix64(seed)));
+    return PCG64(mix64(seed ^ mix64(pixel_index)), mix64(pixel_index + 0x632BE59BD9B4E019ull * mix64(seed)));
 }
 
 }  // namespace rt
