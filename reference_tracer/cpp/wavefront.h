@@ -87,11 +87,13 @@ private:
     // cornell_box +8%, cornell_mesh +11%, furnace +5%).
     // shade(), after the closest hit of lane.ray (lane.it where `hit`): emission and the
     // vertex; returns whether the path goes on. draw_light_uniforms(): `mis`'s three
-    // uniforms for the light sample (returns whether the vertex takes one). sample_lights(): the light samples of those
-    // lanes, a pack of lanes at a time where the only light is a quad (PERFORMANCE.md
-    // round 9). next_event(): the rest of next-event estimation up to its shadow ray (queued
-    // in the lane). scatter(): the next direction and Russian roulette. They set path_done
-    // where Li would return; each lane's random draws keep Li's order.
+    // uniforms for the light sample (returns whether the vertex takes one); it and
+    // draw_diffuse_uniforms() run in shade()'s loop, lane by lane (PERFORMANCE.md round 16).
+    // sample_lights(): the light samples of those lanes, a pack of lanes at a time where the
+    // lights allow it (PERFORMANCE.md rounds 9 and 13). next_event(): the rest of next-event
+    // estimation up to its shadow ray (queued in the lane). scatter(): the next direction
+    // and Russian roulette. They set path_done where Li would return; each lane's random
+    // draws keep Li's order.
     bool shade(Lane& lane, bool hit, uint64_t& rays) const;
     bool draw_light_uniforms(Lane& lane) const;
     void sample_lights(Lane* const* lanes, int n) const;
