@@ -87,6 +87,13 @@ inline VPd reciprocal_estimate(VPd x) {
 inline VPd splat(double x) { return x - VPd{}; }
 inline V8f splat8(float x) { return x - V8f{}; }
 
+// The pack of doubles at p[0..kPackWidth) (any alignment).
+inline VPd load_pack(const double* p) {
+    VPd v;
+    __builtin_memcpy(&v, p, sizeof v);
+    return v;
+}
+
 // v as the type of `like`: itself for double, in every lane for VPd (code written once
 // for a scalar and a pack).
 inline double as_lanes(double v, double) { return v; }
@@ -152,6 +159,20 @@ inline unsigned lane_mask(VPl lanes) {
 #endif
 }
 #endif
+
+// Lane i all ones where bit i of `bits` is set: lane_mask's inverse, for selections by a
+// mask of bits (one instruction with AVX-512).
+inline VPl lanes_of_bits(unsigned bits) {
+#if RT_PACK == 8 && defined(__AVX512F__)
+    return reinterpret_cast<VPl>(_mm512_maskz_mov_epi64(static_cast<__mmask8>(bits), _mm512_set1_epi64(-1)));
+#elif RT_PACK == 8
+    const VPl bit = {1, 2, 4, 8, 16, 32, 64, 128};
+    return (bit & static_cast<int64_t>(bits)) != 0;
+#else
+    const VPl bit = {1, 2, 4, 8};
+    return (bit & static_cast<int64_t>(bits)) != 0;
+#endif
+}
 
 // Bit i set where lane i of a V8f comparison is true.
 inline unsigned lane_mask(V8i lanes) {

@@ -66,12 +66,28 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
         lane.path_done = true;
         return false;
     }
+    lane.material = &m;
+    if (scatters_diffusely(m)) {
+        // Vertex's constructor less its frame's tangents, which only scatter_diffuse() needs
+        // (and builds a pack at a time): the shading normal, wo's local z and whether the
+        // path can scatter here (PERFORMANCE.md round 17).
+        lane.normal = front ? it.n : -it.n;
+        lane.wo_z = dot_fused(-lane.ray.d, lane.normal);
+        if (!(m.reflects && (front || m.two_sided) && lane.wo_z != 0.0)) {
+            lane.path_done = true;
+            return false;
+        }
+        lane.ref = offset_origin(it.p, lane.normal, lane.normal);
+        return true;
+    }
     lane.vertex.emplace(it, m, lane.ray.d, front);
     const Vertex& v = *lane.vertex;
     if (!v) {
         lane.path_done = true;
         return false;
     }
+    lane.normal = v.frame.n;
+    lane.wo_z = v.wo.z;
 
     Vec3& ref = lane.ref;
     ref = Vec3();
@@ -87,26 +103,111 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
     return true;
 }
 
-bool WavefrontIntegrator::draw_light_uniforms(Lane& lane) const {
-    const Integrator<Mutant::None>& li = integrator_;
-    // sample_ld's first step: its three uniforms, where it would draw them.
-    if (li.strategy_ != Strategy::MIS || lane.vertex->m.is_delta() || scene_.lights().empty()) return false;
-    for (double& u : lane.light_u) u = lane.rng.next_double();
+bool WavefrontIntegrator::queue_vertex(Lane& lane, VertexQueue& q, int k) const {
+    const Material& m = *lane.material;
+    // sample_ld's light sample (`mis`, a non-delta vertex), and sample_material's path to
+    // lambertian::sample (a diffuse vertex of `cosine` or `mis`).
+    const bool light = integrator_.strategy_ == Strategy::MIS && !m.is_delta() && !scene_.lights().empty();
+    const bool scatter = scatters_diffusely(m);
+    if (!light && !scatter) return false;
+    // Their draws, in Li's order: the light sample's u0, u1, u2, then sample_material's
+    // u2, u1, u0 (u0 drawn and not used). Other vertices draw in scatter(), after
+    // next_event() has used their throughput.
+    if (light)
+        for (int a = 0; a < 3; ++a) q.u[a][k] = lane.rng.next_double();
+    if (scatter) {
+        q.su[1][k] = lane.rng.next_double();
+        q.su[0][k] = lane.rng.next_double();
+        lane.rng.next_double();
+    }
+    q.lanes[k] = &lane;
+    q.light[k] = light ? 1.0 : 0.0;
+    q.diffuse[k] = is_diffuse(m) ? 1.0 : 0.0;
+    q.scatter[k] = scatter ? 1.0 : 0.0;
+    for (int a = 0; a < 3; ++a) {
+        q.ref[a][k] = lane.ref[a];
+        q.n[a][k] = lane.normal[a];
+        q.albedo[a][k] = m.albedo[a];
+        q.beta[a][k] = lane.beta[a];
+        q.p[a][k] = lane.it.p[a];
+    }
+    q.wo_z[k] = lane.wo_z;
     return true;
 }
 
-void WavefrontIntegrator::sample_lights(Lane* const* lanes, int n) const {
-    const LightSampler& lights = scene_.lights();
-    if (!lights.packed_sampling()) {
-        for (int k = 0; k < n; ++k)
-            lanes[k]->light = lights.sample(lanes[k]->ref, lanes[k]->light_u[0], lanes[k]->light_u[1],
-                                            lanes[k]->light_u[2]);
-        return;
+int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, const Ray** rays_out, double* t_max,
+                                     uint64_t& rays) const {
+    int n_shadow = 0;
+    for (int base = 0; base < n; base += kPackWidth) {
+        const unsigned present = (1u << std::min(kPackWidth, n - base)) - 1u;
+        const unsigned light = lane_mask(load_pack(q.light + base) != 0.0) & present;
+        if (light == 0) continue;
+        VPd ref[3], u[3];
+        for (int a = 0; a < 3; ++a) {
+            ref[a] = load_pack(q.ref[a] + base);
+            u[a] = load_pack(q.u[a] + base);
+        }
+        const LightSamplePack ls = scene_.lights().sample_pack(ref, u, light);
+        const unsigned diffuse = lane_mask(load_pack(q.diffuse + base) != 0.0) & light;
+        VPd value[3], t_far;
+        const unsigned shadow = diffuse != 0 ? estimate_diffuse(q, base, ls, diffuse, value, t_far) : 0u;
+        for (unsigned left = light; left != 0; left &= left - 1) {
+            const int l = __builtin_ctz(left);
+            Lane& lane = *q.lanes[base + l];
+            if ((diffuse >> l) & 1u) {
+                if (!((shadow >> l) & 1u)) continue;
+                // What estimate_ld does after its checks: count the shadow ray and queue it.
+                ++rays;
+                lane.shadow = true;
+                lane.shadow_ray = Ray{lane.ref, Vec3(ls.wi[0][l], ls.wi[1][l], ls.wi[2][l])};
+                lane.shadow_t_max = t_far[l];
+                lane.shadow_value = Vec3(value[0][l], value[1][l], value[2][l]);
+            } else {
+                lane.light = ls.lane(l);
+                next_event(lane, rays);
+                if (!lane.shadow) continue;
+            }
+            shadowed[n_shadow] = &lane;
+            rays_out[n_shadow] = &lane.shadow_ray;
+            t_max[n_shadow++] = lane.shadow_t_max;
+        }
     }
-    lights.sample_packed(n, [lanes](int k) {
-        Lane& lane = *lanes[k];
-        return std::tuple<const Vec3&, const double*, LightSample*>(lane.ref, lane.light_u, &lane.light);
-    });
+    return n_shadow;
+}
+
+unsigned WavefrontIntegrator::estimate_diffuse(const VertexQueue& q, int base, const LightSamplePack& ls,
+                                               unsigned lanes, VPd (&value)[3], VPd& t_max) {
+    VPd n[3], albedo[3], beta[3];
+    for (int a = 0; a < 3; ++a) {
+        n[a] = load_pack(q.n[a] + base);
+        albedo[a] = load_pack(q.albedo[a] + base);
+        beta[a] = load_pack(q.beta[a] + base);
+    }
+    const VPd wo_z = load_pack(q.wo_z + base);
+    // The sample's local z, frame.to_local(wi).z (dot_fused): all that Lambertian
+    // evaluation and density read of it.
+    const VPd cos_i = mul_add(ls.wi[2], n[2], mul_add(ls.wi[1], n[1], ls.wi[0] * n[0]));
+    // lambertian::eval: black unless both cosines are positive, written as its rejects (a
+    // NaN cosine passes, as there); else albedo * (kInvPi * cos_i).
+    const VPl reject = (wo_z <= 0.0) | (cos_i <= 0.0);
+    const VPd k = kInvPi * cos_i;
+    VPd f[3];
+    for (int c = 0; c < 3; ++c) f[c] = reject ? VPd{} : albedo[c] * k;
+    // No shadow ray for an invalid sample, or a direction the BSDF ignores (is_black(f)).
+    const unsigned shadow = lanes & ls.valid & ~lane_mask((f[0] == 0.0) & (f[1] == 0.0) & (f[2] == 0.0));
+    // The segment ends just short of the sampled point (kShadowEpsilon), at infinity for
+    // the background.
+    t_max = lanes_of_bits(ls.background) ? splat(kInf) : ls.dist * (1.0 - kShadowEpsilon);
+    // power_heuristic(ls.pdf, lambertian::pdf(wo, wi)); the density is
+    // cosine_hemisphere_pdf(cos_i) where both cosines are positive, else 0.
+    const VPd pdf_b = (wo_z > 0.0) & (cos_i > 0.0) ? cos_i * kInvPi : VPd{};
+    const VPd a2 = ls.pdf * ls.pdf, b2 = pdf_b * pdf_b;
+    const VPd w_raw = a2 / (a2 + b2);
+    const VPd w = (w_raw - w_raw) == 0.0 ? w_raw : VPd{};  // std::isfinite(w) ? w : 0
+    // beta * f * radiance * (w / pdf), in estimate_ld's order.
+    const VPd scale = w / ls.pdf;
+    for (int c = 0; c < 3; ++c) value[c] = ((beta[c] * f[c]) * ls.radiance[c]) * scale;
+    return shadow;
 }
 
 void WavefrontIntegrator::next_event(Lane& lane, uint64_t& rays) const {
@@ -126,33 +227,57 @@ void WavefrontIntegrator::scatter(Lane& lane) const {
     continue_path(lane, integrator_.sample_scatter(*lane.vertex, lane.ref, lane.rng));
 }
 
-bool WavefrontIntegrator::draw_diffuse_uniforms(Lane& lane) const {
-    // sample_scatter's path to lambertian::sample (sample_material at a diffuse vertex),
-    // with sample_material's draws in its order (u0 is drawn and not used).
-    const Strategy strategy = integrator_.strategy_;
-    const MaterialType type = lane.vertex->m.type;
-    if (!(strategy == Strategy::Cosine || strategy == Strategy::MIS) ||
-        !(type == MaterialType::Lambertian || type == MaterialType::DiffuseLight))
-        return false;
-    lane.scatter_u[1] = lane.rng.next_double();  // u2
-    lane.scatter_u[0] = lane.rng.next_double();  // u1
-    lane.rng.next_double();                      // u0
-    return true;
-}
-
-void WavefrontIntegrator::scatter_diffuse(Lane* const* lanes, int n) const {
+void WavefrontIntegrator::scatter_diffuse(const VertexQueue& q, int n) const {
     for (int base = 0; base < n; base += kPackWidth) {
-        const int m = std::min(kPackWidth, n - base);
-        VPd u1, u2;
-        pack_pairs(lanes + base, m, [](const Lane& lane) { return lane.scatter_u; }, u1, u2);
+        const unsigned present = (1u << std::min(kPackWidth, n - base)) - 1u;
+        const unsigned lanes = lane_mask(load_pack(q.scatter + base) != 0.0) & present;
+        if (lanes == 0) continue;
         VPd w[3];
-        square_to_cosine_hemisphere(u1, u2, w[0], w[1], w[2]);
-        for (int l = 0; l < m; ++l) {
-            // The rest of lambertian::sample and sample_material, lane by lane.
-            Lane& lane = *lanes[base + l];
-            const Vertex& v = *lane.vertex;
-            const BSDFSample bs = lambertian::sample_with(v.m.albedo, v.wo, Vec3(w[0][l], w[1][l], w[2][l]));
-            continue_path(lane, Integrator<Mutant::None>::scatter_of(v, bs));
+        square_to_cosine_hemisphere(load_pack(q.su[0] + base), load_pack(q.su[1] + base), w[0], w[1], w[2]);
+        // lambertian::sample_with: no sample seen from below the surface, nor of density 0
+        // (the density cosine_hemisphere_pdf(w.z)); its weight is the albedo.
+        const VPd pdf = w[2] > 0.0 ? w[2] * kInvPi : VPd{};
+        const unsigned valid = lanes & ~lane_mask(load_pack(q.wo_z + base) <= 0.0) & lane_mask(pdf > 0.0);
+        // scatter_of: the direction in world space, Frame(n).to_world(w), with the frame
+        // built as Frame's constructor builds it (math.h).
+        VPd nv[3], p[3], beta[3];
+        for (int a = 0; a < 3; ++a) {
+            nv[a] = load_pack(q.n[a] + base);
+            p[a] = load_pack(q.p[a] + base);
+            beta[a] = load_pack(q.beta[a] + base) * load_pack(q.albedo[a] + base);  // beta *= weight
+        }
+        const VPd sign = copysign_lanes(splat(1.0), nv[2]);
+        const VPd fa = -1.0 / (sign + nv[2]);
+        const VPd fb = nv[0] * nv[1] * fa;
+        const VPd fs[3] = {1.0 + sign * nv[0] * nv[0] * fa, sign * fb, -sign * nv[0]};
+        const VPd ft[3] = {fb, sign + nv[1] * nv[1] * fa, -nv[1]};
+        VPd wi[3];
+        for (int a = 0; a < 3; ++a) wi[a] = mul_add(nv[a], w[2], mul_add(ft[a], w[1], fs[a] * w[0]));
+        // offset_origin(p, n, wi) (math.h): max_abs_component with std::max's selections.
+        VPd abs_p[3];
+        for (int a = 0; a < 3; ++a) abs_p[a] = copysign_lanes(p[a], splat(1.0));
+        const VPd max_yz = abs_p[1] < abs_p[2] ? abs_p[2] : abs_p[1];
+        const VPd max_p = abs_p[0] < max_yz ? max_yz : abs_p[0];
+        const VPd eps = kRayEpsilon * max_p + std::numeric_limits<double>::min();
+        const VPl outward = nv[0] * wi[0] + nv[1] * wi[1] + nv[2] * wi[2] >= 0.0;  // dot(n, wi) >= 0
+        VPd origin[3];
+        for (int a = 0; a < 3; ++a) origin[a] = outward ? p[a] + nv[a] * eps : p[a] - nv[a] * eps;
+        // continue_path, lane by lane. The sample's eta is 1 (eta *= 1 changes nothing).
+        for (unsigned left = lanes; left != 0; left &= left - 1) {
+            const int l = __builtin_ctz(left);
+            Lane& lane = *q.lanes[base + l];
+            if (!((valid >> l) & 1u)) {
+                lane.path_done = true;
+                continue;
+            }
+            lane.beta = Vec3(beta[0][l], beta[1][l], beta[2][l]);
+            lane.prev = PrevVertex{false, pdf[l], lane.ref};
+            lane.ray = Ray{Vec3(origin[0][l], origin[1][l], origin[2][l]), Vec3(wi[0][l], wi[1][l], wi[2][l])};
+            if (!integrator_.survives(lane.depth + 1, lane.eta, lane.beta, lane.rng)) {
+                lane.path_done = true;
+                continue;
+            }
+            ++lane.depth;
         }
     }
 }
@@ -206,10 +331,10 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
     // The batch's queries, compacted: the busy lanes, and those with a shadow ray.
     Lane* active[kLanes];
     Lane* shadowed[kLanes];
-    // The lanes of the pack passes (light samples, diffuse directions, camera rays), and those
-    // that scatter otherwise.
+    // The vertices that run in packs (light samples, diffuse scattering), the lanes that
+    // start a sample (their camera rays run in packs too), and those that scatter otherwise.
+    VertexQueue queue{};
     Lane* grouped[kLanes];
-    Lane* diffuse[kLanes];
     Lane* others[kLanes];
     int n_start = 0;
     for (Lane& lane : lanes)
@@ -239,33 +364,19 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
 
         rays += uint64_t(n);
         scene_.intersect_batch(size_t(n), batch, hit, hits);
-        int n_shadow = 0;
-        int n_light = 0, n_diffuse = 0, n_others = 0;
+        int n_queued = 0, n_others = 0;
         for (int k = 0; k < n; ++k) {
             Lane& lane = *active[k];
             if (!shade(lane, hit[k], rays)) continue;
-            // The lane's draws in Li's order: the light sample's uniforms, then a diffuse
-            // direction's (one loop: as passes of their own they cost 2% of cornell_box's
-            // instructions, PERFORMANCE.md round 16). Other lanes draw in scatter(), after
-            // next_event() has used their throughput.
-            if (draw_light_uniforms(lane)) grouped[n_light++] = &lane;
-            if (draw_diffuse_uniforms(lane))
-                diffuse[n_diffuse++] = &lane;
-            else
-                others[n_others++] = &lane;
+            // One loop: as passes of their own, the draws cost 2% of cornell_box's
+            // instructions (PERFORMANCE.md round 16).
+            const bool queued = queue_vertex(lane, queue, n_queued);
+            if (!(queued && queue.scatter[n_queued] != 0.0)) others[n_others++] = &lane;
+            n_queued += queued;
         }
-        sample_lights(grouped, n_light);
-        for (int k = 0; k < n_light; ++k) {
-            Lane& lane = *grouped[k];
-            next_event(lane, rays);
-            if (lane.shadow) {  // only next_event() queues shadow rays
-                shadowed[n_shadow] = &lane;
-                batch[n_shadow] = &lane.shadow_ray;
-                t_max[n_shadow++] = lane.shadow_t_max;
-            }
-        }
+        const int n_shadow = next_events(queue, n_queued, shadowed, batch, t_max, rays);
         for (int k = 0; k < n_others; ++k) scatter(*others[k]);
-        scatter_diffuse(diffuse, n_diffuse);
+        scatter_diffuse(queue, n_queued);
         if (n_shadow > 0) {
             scene_.occluded_batch(size_t(n_shadow), batch, t_max, hit);
             for (int k = 0; k < n_shadow; ++k) {

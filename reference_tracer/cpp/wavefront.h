@@ -10,6 +10,14 @@
 // lanes" loss of a packet that runs until its longest path ends, PERFORMANCE.md round 5).
 // Every sample is therefore the very number the scalar integrator computes, summed in
 // the same order: the two integrators' images are the same bit for bit.
+//
+// Besides the queries, the steps that run a pack of lanes at a time are the camera rays,
+// the light samples and, at diffuse vertices of `cosine` and `mis`, next-event estimation
+// and the continuation (VertexQueue): lane-wise, with the scalar code's operations in its
+// order, so that each lane's result is still the scalar integrator's bit for bit
+// (tests/test_wavefront.py checks both integrators' images on every suite scene and
+// strategy). The other materials' vertices run the scalar integrator's own code lane by
+// lane.
 #pragma once
 
 #include <atomic>
@@ -63,17 +71,50 @@ private:
         // next_event() and scatter() need of shade(): the vertex and its light-sampling
         // reference point.
         Interaction it;
-        std::optional<Vertex> vertex;
+        const Material* material = nullptr;
+        std::optional<Vertex> vertex;  // not built where the vertex scatters diffusely
+        Vec3 normal;           // the vertex's shading normal (its frame's n)
+        double wo_z = 0.0;     // the local z of wo
         Vec3 ref;
 
-        double light_u[3] = {0, 0, 0};  // `mis`'s light sample: its uniforms, then
-        LightSample light;               // the sample
-        double scatter_u[2] = {0, 0};    // a diffuse vertex's uniforms u1, u2 for its next direction
+        LightSample light;     // a light sample that next_event() finishes (not diffuse vertices)
         bool shadow = false;   // a shadow ray to trace before the next bounce
         Ray shadow_ray;
         double shadow_t_max = 0.0;
         Vec3 shadow_value;     // what it adds to L when unoccluded
     };
+
+    // The work queue of one bounce's vertices that run in packs: the lanes that take a light
+    // sample (`mis` at a non-delta vertex) or scatter diffusely (`cosine` and `mis` at a
+    // Lambertian vertex), in the order shade()'s loop finds them, with what those steps need
+    // of each in structure-of-arrays form (position k: the k-th such lane). The light
+    // samples, the whole estimate at diffuse vertices and their continuation then run a pack
+    // of positions at a time and load their inputs as vectors: packs that gathered them from
+    // the lanes' structures, field by field, cost what they saved (PERFORMANCE.md rounds
+    // 14-16; round 17 for this queue).
+    struct VertexQueue {
+        alignas(64) double light[kLanes];    // 1 where the vertex takes a light sample, else 0
+        alignas(64) double diffuse[kLanes];  // 1 where its material is diffuse, else 0
+        alignas(64) double scatter[kLanes];  // 1 where it scatters diffusely (scatter_diffuse)
+        alignas(64) double ref[3][kLanes];   // reference point
+        alignas(64) double u[3][kLanes];     // the light sample's uniforms u0, u1, u2
+        alignas(64) double su[2][kLanes];    // the diffuse direction's uniforms u1, u2
+        alignas(64) double n[3][kLanes];     // the vertex's shading normal (its frame's n)
+        alignas(64) double wo_z[kLanes];     // the local z of wo
+        alignas(64) double albedo[3][kLanes];
+        alignas(64) double beta[3][kLanes];
+        alignas(64) double p[3][kLanes];     // the hit point
+        Lane* lanes[kLanes];
+    };
+
+    static bool is_diffuse(const Material& m) {
+        return m.type == MaterialType::Lambertian || m.type == MaterialType::DiffuseLight;
+    }
+    // Whether a vertex of material m scatters as lambertian::sample does, in
+    // scatter_diffuse(): sample_material at a diffuse vertex of `cosine` or `mis`.
+    bool scatters_diffusely(const Material& m) const {
+        return is_diffuse(m) && (integrator_.strategy_ == Strategy::Cosine || integrator_.strategy_ == Strategy::MIS);
+    }
 
     // Takes the next pixel for `lane`; false (the lane idle) when none is left.
     bool start_pixel(Lane& lane, TileCursor& pixels) const;
@@ -86,24 +127,33 @@ private:
     // arithmetic instead of waiting on them one lane after another (PERFORMANCE.md round 8:
     // cornell_box +8%, cornell_mesh +11%, furnace +5%).
     // shade(), after the closest hit of lane.ray (lane.it where `hit`): emission and the
-    // vertex; returns whether the path goes on. draw_light_uniforms(): `mis`'s three
-    // uniforms for the light sample (returns whether the vertex takes one); it and
-    // draw_diffuse_uniforms() run in shade()'s loop, lane by lane (PERFORMANCE.md round 16).
-    // sample_lights(): the light samples of those lanes, a pack of lanes at a time where the
-    // lights allow it (PERFORMANCE.md rounds 9 and 13). next_event(): the rest of next-event
-    // estimation up to its shadow ray (queued in the lane). scatter(): the next direction
-    // and Russian roulette. They set path_done where Li would return; each lane's random
-    // draws keep Li's order.
+    // vertex; returns whether the path goes on. queue_vertex(): the lane's draws in Li's
+    // order, `mis`'s three light-sample uniforms and a diffuse direction's, and its place in
+    // the queue at position k where it takes either step (returns whether it did); it runs
+    // in shade()'s loop, lane by lane (PERFORMANCE.md round 16). next_events(): the queue's
+    // light samples a pack at a time (LightSampler::sample_pack), the estimates of its
+    // diffuse vertices from them (estimate_diffuse), the others' by next_event(); lists the
+    // lanes with a shadow ray. scatter(): the next direction and Russian roulette, for lanes
+    // that do not scatter diffusely; scatter_diffuse() for those of the queue, a pack at a
+    // time. They set path_done where Li would return; each lane's random draws keep Li's
+    // order.
     bool shade(Lane& lane, bool hit, uint64_t& rays) const;
-    bool draw_light_uniforms(Lane& lane) const;
-    void sample_lights(Lane* const* lanes, int n) const;
+    bool queue_vertex(Lane& lane, VertexQueue& q, int k) const;
+    int next_events(VertexQueue& q, int n, Lane** shadowed, const Ray** rays_out, double* t_max,
+                    uint64_t& rays) const;
+    // Integrator::estimate_ld at the diffuse vertices (bits `lanes`) of the queue's pack at
+    // `base`, given their light samples: the operations of Lambertian evaluation, density
+    // and power heuristic lane-wise, bit for bit. Returns the lanes with a shadow ray; `value`
+    // holds what each adds to L when unoccluded, t_max where its shadow ray ends.
+    static unsigned estimate_diffuse(const VertexQueue& q, int base, const LightSamplePack& ls, unsigned lanes,
+                                     VPd (&value)[3], VPd& t_max);
     void next_event(Lane& lane, uint64_t& rays) const;
     void scatter(Lane& lane) const;
-    // scatter() for diffuse vertices of `cosine` and `mis`, in two parts: the uniforms
-    // (returns whether the vertex is one), then the cosine-weighted directions of a pack
-    // of lanes at once (PERFORMANCE.md round 9).
-    bool draw_diffuse_uniforms(Lane& lane) const;
-    void scatter_diffuse(Lane* const* lanes, int n) const;
+    // sample_scatter at the queue's diffuse vertices: the cosine-weighted direction
+    // (square_to_cosine_hemisphere, PERFORMANCE.md round 9), lambertian::sample_with, the
+    // frame's to_world and the ray's offset origin lane-wise, bit for bit; then each lane's
+    // throughput, previous vertex, ray and Russian roulette.
+    void scatter_diffuse(const VertexQueue& q, int n) const;
     // scatter()'s end, given the sampled continuation (none: the path ends). Always inline:
     // with two callers GCC left it out of line (+1.8% instructions on cornell_box); declared
     // inline too, as the attribute wants (else GCC warns it "might not be inlinable").

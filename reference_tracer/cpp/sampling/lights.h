@@ -25,9 +25,39 @@ struct LightSample {
     double dist = kInf; // distance to the sampled point (inf for the background)
     double pdf = 0.0;   // solid-angle density of this emitter's procedure times its selection
     Vec3 radiance;      // emitted radiance toward the reference point
-    uint32_t prim = 0;  // scene primitive id of the sampled emitter
     bool background = false;
     bool valid = false;
+};
+
+// LightSamples of a pack of reference points (simd.h), lane by lane, in structure-of-arrays
+// form: the packed samplers write them as vectors, and the wavefront integrator finishes
+// the next-event estimates of a pack of diffuse vertices from them without unpacking
+// (PERFORMANCE.md round 17). A lane holds LightSample()'s values until a sample is set.
+struct LightSamplePack {
+    VPd wi[3] = {}, dist = splat(kInf), pdf = {}, radiance[3] = {};
+    unsigned valid = 0, background = 0;  // bit l: lane l's flag
+
+    LightSample lane(int l) const {
+        LightSample ls;
+        ls.wi = Vec3(wi[0][l], wi[1][l], wi[2][l]);
+        ls.dist = dist[l];
+        ls.pdf = pdf[l];
+        ls.radiance = Vec3(radiance[0][l], radiance[1][l], radiance[2][l]);
+        ls.background = (background >> l) & 1u;
+        ls.valid = (valid >> l) & 1u;
+        return ls;
+    }
+    void set_lane(int l, const LightSample& ls) {
+        for (int a = 0; a < 3; ++a) {
+            wi[a][l] = ls.wi[a];
+            radiance[a][l] = ls.radiance[a];
+        }
+        dist[l] = ls.dist;
+        pdf[l] = ls.pdf;
+        const unsigned bit = 1u << l;
+        valid = ls.valid ? valid | bit : valid & ~bit;
+        background = ls.background ? background | bit : background & ~bit;
+    }
 };
 
 enum class EmitterKind : uint8_t { Sphere, Quad, Triangle };
@@ -101,7 +131,6 @@ public:
         ls.pdf = sel * pdf_dir;
         if (!(ls.pdf > 0.0) || !std::isfinite(ls.pdf)) return ls;
         ls.radiance = e.radiance;
-        ls.prim = e.prim;
         ls.valid = true;
         return ls;
     }
@@ -113,19 +142,19 @@ public:
     }
 
     // sample() for a pack of reference points at once (simd.h: 4 or 8 lanes) where
-    // single_quad() holds; u0 is not needed (one emitter). Lane l of ref, u1, u2 goes to
-    // out[l] for l < m. Each lane does sample()'s operations in sample()'s order (lane-wise
-    // square root and division are IEEE like the scalar ones), so every valid sample is
-    // sample()'s bit for bit; a failed one is returned as LightSample() (sample() leaves
-    // some fields set on the way, which no caller reads once valid is false).
-    void sample_single_quad(const VPd (&ref)[3], VPd u1, VPd u2, int m, LightSample* const* out) const {
+    // single_quad() holds; u0 is not needed (one emitter). Lane l of ref, u1, u2 gives lane
+    // l of out. Each lane does sample()'s operations in sample()'s order (lane-wise square
+    // root and division are IEEE like the scalar ones), so every valid sample is sample()'s
+    // bit for bit; a failed one is returned as LightSample() (sample() leaves some fields
+    // set on the way, which no caller reads once valid is false).
+    void sample_single_quad(const VPd (&ref)[3], VPd u1, VPd u2, LightSamplePack& out) const {
         const Emitter& e = emitters_[0];
         const Quad& q = (*quads_)[e.index];
         // p = q.point(u1, u2), d = p - ref.
         VPd d[3];
         for (int a = 0; a < 3; ++a) d[a] = mul_add(u2, splat(q.v[a]), mul_add(u1, splat(q.u[a]), splat(q.Q[a]))) - ref[a];
         const VPd n[3] = {splat(q.normal.x), splat(q.normal.y), splat(q.normal.z)};
-        finish_pack(e, q.area(), d, n, (1u << m) - 1u, m, out);
+        finish_pack(e, q.area(), d, n, kAllLanes, out);
     }
 
     // Whether the scene's only light is one sphere (no background): the case
@@ -139,15 +168,15 @@ public:
     // sphere (sampled by area, sample_sphere's first case: every vertex of `furnace`) run
     // sample()'s operations lane-wise, bit for bit; any other lane (cone sampling) calls
     // sample() itself.
-    void sample_single_sphere(const VPd (&ref)[3], const VPd (&u)[3], int m, LightSample* const* out) const {
+    // Only the lanes of `lanes` (bits) are set.
+    void sample_single_sphere(const VPd (&ref)[3], const VPd (&u)[3], unsigned lanes, LightSamplePack& out) const {
         const Emitter& e = emitters_[0];
         const Sphere& s = (*spheres_)[e.index];
         VPd to_c[3];
         for (int a = 0; a < 3; ++a) to_c[a] = s.center[a] - ref[a];
         const VPd dc2 = to_c[0] * to_c[0] + to_c[1] * to_c[1] + to_c[2] * to_c[2];  // length_squared
-        const unsigned inside = lane_mask(dc2 <= s.radius * s.radius) & ((1u << m) - 1u);
-        for (int l = 0; l < m; ++l)
-            if (!((inside >> l) & 1u)) *out[l] = sample(Vec3(ref[0][l], ref[1][l], ref[2][l]), u[0][l], u[1][l], u[2][l]);
+        const unsigned inside = lane_mask(dc2 <= s.radius * s.radius) & lanes;
+        sample_lanes(ref, u, lanes & ~inside, out);
         if (inside == 0) return;
         // p = centre + radius * dir, n = dir * normal_sign, dir uniform on the unit sphere.
         VPd dir[3];
@@ -157,7 +186,7 @@ public:
             d[a] = (s.center[a] + s.radius * dir[a]) - ref[a];
             n[a] = dir[a] * s.normal_sign;
         }
-        finish_pack(e, s.area(), d, n, inside, m, out);
+        finish_pack(e, s.area(), d, n, inside, out);
     }
 
     // Whether the scene's lights are several spheres (no background): the case
@@ -169,14 +198,16 @@ public:
     // point lies outside its sphere (the common case) sample the subtended cone with
     // sample_sphere()'s operations lane-wise, bit for bit; a point inside or on its sphere
     // calls sample() itself.
-    void sample_spheres(const VPd (&ref)[3], const VPd (&u)[3], int m, LightSample* const* out) const {
-        const Emitter* emitter[kPackWidth];
-        VPd center[3], radius, normal_sign, sel, area;
-        for (int l = 0; l < kPackWidth; ++l) {  // absent lanes (l >= m) repeat the first's point
+    // Only the lanes of `lanes` (bits) are set.
+    void sample_spheres(const VPd (&ref)[3], const VPd (&u)[3], unsigned lanes, LightSamplePack& out) const {
+        VPd center[3], radius, normal_sign, sel, area, radiance[3];
+        for (int l = 0; l < kPackWidth; ++l) {  // every lane: the others' values are not used
             const size_t i = select_.sample(std::min(u[0][l], std::nextafter(1.0, 0.0)));
-            emitter[l] = &emitters_[i];
             const Sphere& s = (*spheres_)[emitters_[i].index];
-            for (int a = 0; a < 3; ++a) center[a][l] = s.center[a];
+            for (int a = 0; a < 3; ++a) {
+                center[a][l] = s.center[a];
+                radiance[a][l] = emitters_[i].radiance[a];
+            }
             radius[l] = s.radius;
             normal_sign[l] = s.normal_sign;
             sel[l] = select_.pmf(i) * (1.0 - p_background_);
@@ -186,10 +217,8 @@ public:
         for (int a = 0; a < 3; ++a) to_c[a] = center[a] - ref[a];
         const VPd dc2 = to_c[0] * to_c[0] + to_c[1] * to_c[1] + to_c[2] * to_c[2];  // length_squared
         const VPd r2 = radius * radius;
-        const unsigned all = (1u << m) - 1u;
-        const unsigned outside = lane_mask(dc2 > r2) & all;
-        for (int l = 0; l < m; ++l)
-            if (!((outside >> l) & 1u)) *out[l] = sample(Vec3(ref[0][l], ref[1][l], ref[2][l]), u[0][l], u[1][l], u[2][l]);
+        const unsigned outside = lane_mask(dc2 > r2) & lanes;
+        sample_lanes(ref, u, lanes & ~outside, out);
         if (outside == 0) return;
 
         // The cone's axis and frame (Frame(to_c / dc), Duff et al.), lane-wise.
@@ -229,31 +258,57 @@ public:
             n[a] = outward * normal_sign;
         }
         const VPd pdf_dir = 1.0 / (2.0 * kPi * omc);  // uniform_cone_pdf
-        finish_lanes(d, n, sel, pdf_dir, area, [&emitter](int l) -> const Emitter& { return *emitter[l]; }, outside,
-                     m, out);
+        finish_lanes(d, n, sel, pdf_dir, area, radiance, outside, out);
     }
 
     // Whether the scene's light sampling runs a pack at a time (sample_packed).
     bool packed_sampling() const { return single_quad() || single_sphere() || several_spheres(); }
 
-    // sample() for n reference points, a pack at a time, where packed_sampling() holds:
-    // point(i) gives the i-th point's reference point, uniforms (u0, u1, u2) and where its
-    // sample goes, as a tuple. One loop per case, chosen once: a choice in the loop cost the
-    // single-sphere scene 0.5% more instructions.
+    // sample() for a pack of reference points, the lanes of `lanes` (bits; the others'
+    // values are not used and their results are any): the packed samplers above where
+    // packed_sampling() holds, else sample() lane by lane. Always inline: out of line, the
+    // pack went back through memory (+0.5% instructions on cornell_box).
+    [[gnu::always_inline]] inline LightSamplePack sample_pack(const VPd (&ref)[3], const VPd (&u)[3],
+                                                              unsigned lanes) const {
+        LightSamplePack out;
+        if (single_quad())
+            sample_single_quad(ref, u[1], u[2], out);
+        else if (single_sphere())
+            sample_single_sphere(ref, u, lanes, out);
+        else if (several_spheres())
+            sample_spheres(ref, u, lanes, out);
+        else
+            sample_lanes(ref, u, lanes, out);
+        return out;
+    }
+
+    // sample() itself for the lanes of `lanes` (bits).
+    void sample_lanes(const VPd (&ref)[3], const VPd (&u)[3], unsigned lanes, LightSamplePack& out) const {
+        for (; lanes != 0; lanes &= lanes - 1) {
+            const int l = __builtin_ctz(lanes);
+            out.set_lane(l, sample(Vec3(ref[0][l], ref[1][l], ref[2][l]), u[0][l], u[1][l], u[2][l]));
+        }
+    }
+
+    // sample() for n reference points, a pack at a time (sample_pack): point(i) gives the
+    // i-th point's reference point, uniforms (u0, u1, u2) and where its sample goes, as a
+    // tuple. Absent lanes of the last pack repeat its first point.
     template <typename Point>
     void sample_packed(int n, Point&& point) const {
-        if (single_quad()) {
-            for_packs(n, point, [this](const VPd (&ref)[3], const VPd (&u)[3], int m, LightSample* const* out) {
-                sample_single_quad(ref, u[1], u[2], m, out);
-            });
-        } else if (single_sphere()) {
-            for_packs(n, point, [this](const VPd (&ref)[3], const VPd (&u)[3], int m, LightSample* const* out) {
-                sample_single_sphere(ref, u, m, out);
-            });
-        } else {
-            for_packs(n, point, [this](const VPd (&ref)[3], const VPd (&u)[3], int m, LightSample* const* out) {
-                sample_spheres(ref, u, m, out);
-            });
+        for (int base = 0; base < n; base += kPackWidth) {
+            const int m = std::min(kPackWidth, n - base);
+            VPd ref[3], u[3];
+            LightSample* out[kPackWidth];
+            for (int l = 0; l < kPackWidth; ++l) {
+                const auto [r, ui, sample] = point(base + (l < m ? l : 0));
+                for (int a = 0; a < 3; ++a) {
+                    ref[a][l] = r[a];
+                    u[a][l] = ui[a];
+                }
+                out[l] = sample;
+            }
+            const LightSamplePack pack = sample_pack(ref, u, (1u << m) - 1u);
+            for (int l = 0; l < m; ++l) *out[l] = pack.lane(l);
         }
     }
 
@@ -303,36 +358,18 @@ public:
     }
 
 private:
-    // Gathers the points of sample_packed a pack at a time (absent lanes of the last pack
-    // repeat its first point) and hands each pack to sample_pack(ref, u, m, out).
-    template <typename Point, typename SamplePack>
-    static void for_packs(int n, Point& point, SamplePack&& sample_pack) {
-        for (int base = 0; base < n; base += kPackWidth) {
-            const int m = std::min(kPackWidth, n - base);
-            VPd ref[3], u[3];
-            LightSample* out[kPackWidth];
-            for (int l = 0; l < kPackWidth; ++l) {
-                const auto [r, ui, sample] = point(base + (l < m ? l : 0));
-                for (int a = 0; a < 3; ++a) {
-                    ref[a][l] = r[a];
-                    u[a][l] = ui[a];
-                }
-                out[l] = sample;
-            }
-            sample_pack(ref, u, m, out);
-        }
-    }
+    static constexpr unsigned kAllLanes = (1u << kPackWidth) - 1u;
 
     // The rest of sample() for a pack of lanes whose sampled point p lies at d = p - ref,
-    // with the emitter's normal n there: lane l (l < m, bit l of `lanes` set) has the emitter
-    // emitter_of(l), selected with probability sel, of the given area, and the solid-angle
+    // with the emitter's normal n there: lane l (bit l of `lanes` set) has an emitter of the
+    // given radiance, selected with probability sel, of the given area, and the solid-angle
     // density pdf_dir of cone sampling (0 where the point was sampled by area, as in
     // sample()). Each lane gets sample()'s result bit for bit (lane-wise square root and
     // division are IEEE like the scalar ones); a failed sample is returned as LightSample()
     // (sample() leaves some fields set on the way, which no caller reads once valid is false).
-    template <typename EmitterOf>
-    void finish_lanes(const VPd (&d)[3], const VPd (&n)[3], VPd sel, VPd pdf_dir, VPd area, EmitterOf&& emitter_of,
-                      unsigned lanes, int m, LightSample* const* out) const {
+    // The other lanes of `out` are left as they are.
+    void finish_lanes(const VPd (&d)[3], const VPd (&n)[3], VPd sel, VPd pdf_dir, VPd area, const VPd (&radiance)[3],
+                      unsigned lanes, LightSamplePack& out) const {
         const VPd dist2 = mul_add(d[2], d[2], mul_add(d[1], d[1], d[0] * d[0]));
         const VPd dist = sqrt_of(dist2);
         const VPd inv = 1.0 / dist;  // Vec3 / double multiplies by the reciprocal
@@ -340,27 +377,23 @@ private:
         for (int a = 0; a < 3; ++a) wi[a] = d[a] * inv;
         const VPd cos_l = -mul_add(n[2], wi[2], mul_add(n[1], wi[1], n[0] * wi[0]));
         const VPd pdf = sel * (pdf_dir == 0.0 ? dist2 / (cos_l * area) : pdf_dir);
-        const unsigned valid = lane_mask((dist2 > 0.0) & (cos_l > 0.0) & (pdf > 0.0) & (pdf < kInf));
-        for (int l = 0; l < m; ++l) {
-            if (!((lanes >> l) & 1u)) continue;
-            LightSample& ls = *out[l];
-            ls = LightSample();
-            if (!((valid >> l) & 1u)) continue;
-            ls.wi = Vec3(wi[0][l], wi[1][l], wi[2][l]);
-            ls.dist = dist[l];
-            ls.pdf = pdf[l];
-            const Emitter& e = emitter_of(l);
-            ls.radiance = e.radiance;
-            ls.prim = e.prim;
-            ls.valid = true;
+        const unsigned valid = lane_mask((dist2 > 0.0) & (cos_l > 0.0) & (pdf > 0.0) & (pdf < kInf)) & lanes;
+        const VPl set = lanes_of_bits(lanes), good = lanes_of_bits(valid);
+        for (int a = 0; a < 3; ++a) {
+            out.wi[a] = good ? wi[a] : (set ? VPd{} : out.wi[a]);
+            out.radiance[a] = good ? radiance[a] : (set ? VPd{} : out.radiance[a]);
         }
+        out.dist = good ? dist : (set ? splat(kInf) : out.dist);
+        out.pdf = good ? pdf : (set ? VPd{} : out.pdf);
+        out.valid = (out.valid & ~lanes) | valid;
+        out.background &= ~lanes;
     }
 
     // finish_lanes for the scene's one emitter, sampled by area in every lane.
-    void finish_pack(const Emitter& e, double area, const VPd (&d)[3], const VPd (&n)[3], unsigned lanes, int m,
-                     LightSample* const* out) const {
-        finish_lanes(d, n, splat(select_.pmf(0) * (1.0 - p_background_)), VPd{}, splat(area),
-                     [&e](int) -> const Emitter& { return e; }, lanes, m, out);
+    void finish_pack(const Emitter& e, double area, const VPd (&d)[3], const VPd (&n)[3], unsigned lanes,
+                     LightSamplePack& out) const {
+        const VPd radiance[3] = {splat(e.radiance.x), splat(e.radiance.y), splat(e.radiance.z)};
+        finish_lanes(d, n, splat(select_.pmf(0) * (1.0 - p_background_)), VPd{}, splat(area), radiance, lanes, out);
     }
 
     double area(const Emitter& e) const {
