@@ -35,16 +35,34 @@ public:
     uint64_t next_u64() {
         const uint64_t old = state_;
         step();
-        const uint64_t word = ((old >> ((old >> 59u) + 5u)) ^ old) * 12605985483714917081ull;
+        return output(old);
+    }
+
+    // The output function ("RXS M XS") of a state: a uint64_t, or lanes of them (code that
+    // steps several generators at once, wavefront.cpp).
+    template <typename U>
+    static U output(U old) {
+        const U word = ((old >> ((old >> 59u) + 5u)) ^ old) * 12605985483714917081ull;
         return (word >> 43u) ^ word;
     }
+    // next_double()'s double of an output.
+    static double to_double(uint64_t word) { return static_cast<double>(word >> 11) * 0x1.0p-53; }
+
+    // The state and the stream's increment, for code that steps several generators at once:
+    // j steps take the state s to kMultiplier^j s + jump_increment(j) inc (mod 2^64).
+    static constexpr uint64_t kMultiplier = 6364136223846793005ull;
+    uint64_t state() const { return state_; }
+    uint64_t increment() const { return inc_; }
+    void set_state(uint64_t state) { state_ = state; }
+    static constexpr uint64_t jump_multiplier(int j) { return j == 0 ? 1u : kMultiplier * jump_multiplier(j - 1); }
+    static constexpr uint64_t jump_increment(int j) { return j == 0 ? 0u : jump_increment(j - 1) * kMultiplier + 1u; }
 
     // Uniform double in [0, 1) with 53 random bits (the output's top 53).
     // Always inline: a call per draw cost the wavefront integrator 7% of its instructions.
-    [[gnu::always_inline]] double next_double() { return static_cast<double>(next_u64() >> 11) * 0x1.0p-53; }
+    [[gnu::always_inline]] double next_double() { return to_double(next_u64()); }
 
 private:
-    void step() { state_ = state_ * 6364136223846793005ull + inc_; }
+    void step() { state_ = state_ * kMultiplier + inc_; }
     uint64_t state_ = 0, inc_ = 0;
 };
 

@@ -94,6 +94,8 @@ inline VPd load_pack(const double* p) {
     return v;
 }
 
+inline void store_pack(double* p, VPd v) { __builtin_memcpy(p, &v, sizeof v); }
+
 // v as the type of `like`: itself for double, in every lane for VPd (code written once
 // for a scalar and a pack).
 inline double as_lanes(double v, double) { return v; }

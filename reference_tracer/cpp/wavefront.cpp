@@ -113,12 +113,15 @@ bool WavefrontIntegrator::queue_vertex(Lane& lane, VertexQueue& q, int k) const 
     // Their draws, in Li's order: the light sample's u0, u1, u2, then sample_material's
     // u2, u1, u0 (u0 drawn and not used). Other vertices draw in scatter(), after
     // next_event() has used their throughput.
-    if (light)
-        for (int a = 0; a < 3; ++a) q.u[a][k] = lane.rng.next_double();
-    if (scatter) {
-        q.su[1][k] = lane.rng.next_double();
-        q.su[0][k] = lane.rng.next_double();
-        lane.rng.next_double();
+    // (draw_queued() makes them for the whole queue at once, where it runs.)
+    if constexpr (!kPackedDraws) {
+        if (light)
+            for (int a = 0; a < 3; ++a) q.u[a][k] = lane.rng.next_double();
+        if (scatter) {
+            q.su[1][k] = lane.rng.next_double();
+            q.su[0][k] = lane.rng.next_double();
+            lane.rng.next_double();
+        }
     }
     q.lanes[k] = &lane;
     q.light[k] = light ? 1.0 : 0.0;
@@ -133,6 +136,33 @@ bool WavefrontIntegrator::queue_vertex(Lane& lane, VertexQueue& q, int k) const 
     }
     q.wo_z[k] = lane.wo_z;
     return true;
+}
+
+void WavefrontIntegrator::draw_queued(VertexQueue& q, int n) const {
+    using VPu = uint64_t __attribute__((vector_size(8 * kPackWidth)));
+    for (int base = 0; base < n; base += kPackWidth) {
+        const int m = std::min(kPackWidth, n - base);
+        VPu s0 = {}, inc = {};
+        for (int l = 0; l < m; ++l) {
+            const PCG64& rng = q.lanes[base + l]->rng;
+            s0[l] = rng.state();
+            inc[l] = rng.increment();
+        }
+        // The states after 0..6 steps, each straight from s0 (no chain of dependent
+        // multiplies), and the draws of the first six.
+        VPu s[7];
+        VPd u[6];
+        for (int j = 0; j <= 6; ++j) s[j] = s0 * PCG64::jump_multiplier(j) + inc * PCG64::jump_increment(j);
+        for (int j = 0; j < 6; ++j) u[j] = __builtin_convertvector(PCG64::output(s[j]) >> 11, VPd) * 0x1.0p-53;
+        // A lane draws the light sample's three first where it takes one, then the diffuse
+        // direction's three (u2, u1, and u0 unused) where it scatters diffusely.
+        const VPl light = load_pack(q.light + base) != 0.0, scatter = load_pack(q.scatter + base) != 0.0;
+        for (int a = 0; a < 3; ++a) store_pack(q.u[a] + base, u[a]);
+        store_pack(q.su[1] + base, light ? u[3] : u[0]);
+        store_pack(q.su[0] + base, light ? u[4] : u[1]);
+        const VPu state = (light & scatter) ? s[6] : s[3];
+        for (int l = 0; l < m; ++l) q.lanes[base + l]->rng.set_state(state[l]);
+    }
 }
 
 int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, const Ray** rays_out, double* t_max,
@@ -374,6 +404,7 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
             if (!(queued && queue.scatter[n_queued] != 0.0)) others[n_others++] = &lane;
             n_queued += queued;
         }
+        if constexpr (kPackedDraws) draw_queued(queue, n_queued);
         const int n_shadow = next_events(queue, n_queued, shadowed, batch, t_max, rays);
         for (int k = 0; k < n_others; ++k) scatter(*others[k]);
         scatter_diffuse(queue, n_queued);

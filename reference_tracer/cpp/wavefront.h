@@ -141,6 +141,16 @@ private:
     bool queue_vertex(Lane& lane, VertexQueue& q, int k) const;
     int next_events(VertexQueue& q, int n, Lane** shadowed, const Ray** rays_out, double* t_max,
                     uint64_t& rays) const;
+    // queue_vertex()'s draws for the whole queue, a pack of lanes at a time, where the build
+    // has 64-bit multiplies of eight lanes (AVX-512DQ): each lane's generator jumped 1-6
+    // steps ahead at once (PCG64::jump_multiplier), the same numbers as its next_double()
+    // calls. Where it does not, queue_vertex() draws lane by lane.
+#if defined(__AVX512DQ__) && RT_PACK == 8
+    static constexpr bool kPackedDraws = true;
+#else
+    static constexpr bool kPackedDraws = false;
+#endif
+    void draw_queued(VertexQueue& q, int n) const;
     // Integrator::estimate_ld at the diffuse vertices (bits `lanes`) of the queue's pack at
     // `base`, given their light samples: the operations of Lambertian evaluation, density
     // and power heuristic lane-wise, bit for bit. Returns the lanes with a shadow ray; `value`
