@@ -73,6 +73,42 @@ def test_wavefront_beyond_the_batched_primitive_limit():
         assert a.mean.max() > 0
 
 
+def _mixed_vertices_scene():
+    # What the wavefront's vertex queue separates (wavefront.h, VertexQueue): diffuse vertices
+    # that take a light sample and scatter in packs, two-sided ones seen from the back,
+    # one-sided ones seen from the back (no scatter), a light that also reflects, rough
+    # metal beside them (a light sample in the queue, its estimate and scatter lane by
+    # lane), a mirror (neither); and light sampling that does not run in packs: two quad
+    # lights, a triangle light and the background.
+    white = rt.Lambertian(albedo=(0.7, 0.7, 0.7))
+    shapes = [
+        rt.Quad(Q=(-3, 0, -3), u=(0, 0, 6), v=(6, 0, 0), material=white),  # floor, facing up
+        # Back wall and right wall, both facing away from the camera and the room.
+        rt.Quad(Q=(-3, 0, -3), u=(0, 4, 0), v=(6, 0, 0), material=rt.Lambertian(albedo=(0.6, 0.3, 0.2), two_sided=True)),
+        rt.Quad(Q=(3, 0, -3), u=(0, 4, 0), v=(0, 0, 6), material=rt.Lambertian(albedo=(0.2, 0.5, 0.3))),
+        rt.Quad(Q=(-1, 3.9, -1), u=(2, 0, 0), v=(0, 0, 0.5), material=rt.DiffuseLight((8, 8, 8), albedo=(0.5, 0.5, 0.5))),
+        rt.Quad(Q=(-1, 3.9, 1), u=(2, 0, 0), v=(0, 0, 0.5), material=rt.DiffuseLight((4, 6, 8))),
+        rt.Triangle(a=(-2.9, 0.5, 2), b=(-2.9, 0.5, 0), c=(-2.9, 2.5, 1), material=rt.DiffuseLight((6, 3, 2))),
+        rt.Sphere(center=(-1, 1, 0), radius=0.8, material=rt.RoughConductor(albedo=(0.9, 0.8, 0.6), alpha=0.3)),
+        rt.Sphere(center=(1.2, 0.7, 0.5), radius=0.6, material=rt.Metal(albedo=(0.9, 0.9, 0.9))),
+        rt.Sphere(center=(0.5, 0.4, -1.5), radius=0.4, material=white),
+    ]
+    return rt.Scene(shapes=shapes, background=(0.2, 0.25, 0.3),
+                    camera=rt.Camera(lookfrom=(0.5, 2, 7), lookat=(0, 1, 0), vup=(0, 1, 0), vfov=60, width=24, height=18))
+
+
+@pytest.mark.parametrize("rr_depth", [None, 2])
+@pytest.mark.parametrize("strategy", rt.STRATEGIES)
+def test_wavefront_equals_scalar_on_mixed_vertices(strategy, rr_depth):
+    import dataclasses
+
+    scene = dataclasses.replace(_mixed_vertices_scene(), rr_depth=rr_depth)
+    a, b = (rt.render(scene, spp=8, strategy=strategy, seed=13, threads=2, moments=True, integrator=i)
+            for i in ("scalar", "wavefront"))
+    _assert_same_render(a, b)
+    assert a.mean.max() > 0
+
+
 @pytest.mark.parametrize("integrator", rt.INTEGRATORS)
 def test_each_integrator_is_deterministic_whatever_the_thread_count(integrator):
     scene = get_scene("glossy_plates", width=24, height=20)
