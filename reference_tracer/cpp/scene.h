@@ -106,6 +106,7 @@ public:
     const Camera& camera() const { return camera_; }
     const SceneSettings& settings() const { return settings_; }
     const Material& material(uint32_t id) const { return materials_[id]; }
+    size_t material_count() const { return materials_.size(); }
     const LightSampler& lights() const { return lights_; }
     const WideBVH& bvh() const { return bvh_; }
     // Whether the triangle blocks are stored in float (every vertex exactly a float).

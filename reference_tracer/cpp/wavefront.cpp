@@ -10,6 +10,18 @@
 
 namespace rt {
 
+WavefrontIntegrator::WavefrontIntegrator(const Integrator<Mutant::None>& integrator, const RenderJob& job)
+    : integrator_(integrator), scene_(*job.scene), job_(job) {
+    const bool light_samples = integrator_.strategy_ == Strategy::MIS && !scene_.lights().empty();
+    for (uint32_t id = 0; id < scene_.material_count(); ++id) {
+        const Material& m = scene_.material(id);
+        material_flags_.push_back(static_cast<uint8_t>((m.emits() ? kEmits : 0) |
+                                                       (scatters_diffusely(m) ? kScattersDiffusely : 0) |
+                                                       (light_samples && !m.is_delta() ? kTakesLightSample : 0) |
+                                                       (is_diffuse(m) ? kDiffuse : 0)));
+    }
+}
+
 bool WavefrontIntegrator::start_pixel(Lane& lane, TileCursor& pixels) const {
     int x, y;
     lane.busy = pixels.next(x, y);
@@ -60,14 +72,15 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
         return false;
     }
     const Material& m = scene_.material(it.material);
+    const unsigned flags = material_flags_[it.material];
     const bool front = dot(lane.ray.d, it.n) < 0.0;
-    if (front && m.emits()) lane.L += lane.beta * m.radiance * li.emitter_weight(lane.prev, lane.ray, it);
+    if (front && (flags & kEmits)) lane.L += lane.beta * m.radiance * li.emitter_weight(lane.prev, lane.ray, it);
     if (lane.depth + 1 >= cfg.max_depth) {
         lane.path_done = true;
         return false;
     }
     lane.material = &m;
-    if (scatters_diffusely(m)) {
+    if (flags & kScattersDiffusely) {
         // Vertex's constructor less its frame's tangents, which only scatter_diffuse() needs
         // (and builds a pack at a time): the shading normal, wo's local z and whether the
         // path can scatter here (PERFORMANCE.md round 17).
@@ -105,10 +118,11 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
 
 bool WavefrontIntegrator::queue_vertex(Lane& lane, VertexQueue& q, int k) const {
     const Material& m = *lane.material;
+    const unsigned flags = material_flags_[lane.it.material];
     // sample_ld's light sample (`mis`, a non-delta vertex), and sample_material's path to
     // lambertian::sample (a diffuse vertex of `cosine` or `mis`).
-    const bool light = integrator_.strategy_ == Strategy::MIS && !m.is_delta() && !scene_.lights().empty();
-    const bool scatter = scatters_diffusely(m);
+    const bool light = flags & kTakesLightSample;
+    const bool scatter = flags & kScattersDiffusely;
     if (!light && !scatter) return false;
     // Their draws, in Li's order: the light sample's u0, u1, u2, then sample_material's
     // u2, u1, u0 (u0 drawn and not used). Other vertices draw in scatter(), after
@@ -125,7 +139,7 @@ bool WavefrontIntegrator::queue_vertex(Lane& lane, VertexQueue& q, int k) const 
     }
     q.lanes[k] = &lane;
     q.light[k] = light ? 1.0 : 0.0;
-    q.diffuse[k] = is_diffuse(m) ? 1.0 : 0.0;
+    q.diffuse[k] = (flags & kDiffuse) ? 1.0 : 0.0;
     q.scatter[k] = scatter ? 1.0 : 0.0;
     for (int a = 0; a < 3; ++a) {
         q.ref[a][k] = lane.ref[a];

@@ -36,8 +36,7 @@ public:
     // and hits stay in L1. 16 and 64 measured slower than 32 (PERFORMANCE.md round 8).
     static constexpr int kLanes = 32;
 
-    WavefrontIntegrator(const Integrator<Mutant::None>& integrator, const RenderJob& job)
-        : integrator_(integrator), scene_(*job.scene), job_(job) {}
+    WavefrontIntegrator(const Integrator<Mutant::None>& integrator, const RenderJob& job);
 
     // Renders the pixels that `pixels` hands out into `out`, until none is left or
     // `cancel` is set; counts finished pixels in `pixels_done`, rays cast and discarded
@@ -105,6 +104,15 @@ private:
         alignas(64) double beta[3][kLanes];
         alignas(64) double p[3][kLanes];     // the hit point
         Lane* lanes[kLanes];
+    };
+
+    // What shade() and queue_vertex() ask of a vertex's material, decided once per render
+    // for each material (bits of material_flags_): a few loads and tests a vertex otherwise.
+    enum MaterialFlag : uint8_t {
+        kEmits = 1,              // Material::emits()
+        kScattersDiffusely = 2,  // scatters_diffusely()
+        kTakesLightSample = 4,   // `mis`'s light sample at a non-delta vertex, lights present
+        kDiffuse = 8,            // is_diffuse()
     };
 
     static bool is_diffuse(const Material& m) {
@@ -186,6 +194,7 @@ private:
     const Integrator<Mutant::None>& integrator_;
     const Scene& scene_;
     const RenderJob& job_;
+    std::vector<uint8_t> material_flags_;  // MaterialFlag bits, by material id
 };
 
 }  // namespace rt
