@@ -84,6 +84,8 @@ struct Ray {
 struct Frame {
     Vec3 s, t, n;
 
+    // warp.h's frame_tangents does these operations lane-wise, for the packs: keep the two
+    // alike (the wavefront integrator's images must equal the scalar one's bit for bit).
     explicit Frame(const Vec3& normal) : n(normal) {
         const double sign = std::copysign(1.0, n.z);
         const double a = -1.0 / (sign + n.z);

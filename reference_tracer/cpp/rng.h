@@ -45,8 +45,11 @@ public:
         const U word = ((old >> ((old >> 59u) + 5u)) ^ old) * 12605985483714917081ull;
         return (word >> 43u) ^ word;
     }
-    // next_double()'s double of an output.
+    // next_double()'s double of an output: a uint64_t, or lanes of them into the vector of
+    // doubles D (the conversion is exact either way, the value below 2^53).
     static double to_double(uint64_t word) { return static_cast<double>(word >> 11) * 0x1.0p-53; }
+    template <typename D, typename U>
+    static D to_double(U words) { return __builtin_convertvector(words >> 11, D) * 0x1.0p-53; }
 
     // The state and the stream's increment, for code that steps several generators at once:
     // j steps take the state s to kMultiplier^j s + jump_increment(j) inc (mod 2^64).

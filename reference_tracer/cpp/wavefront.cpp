@@ -79,7 +79,6 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
         lane.path_done = true;
         return false;
     }
-    lane.material = &m;
     if (flags & kScattersDiffusely) {
         // Vertex's constructor less its frame's tangents, which only scatter_diffuse() needs
         // (and builds a pack at a time): the shading normal, wo's local z and whether the
@@ -117,7 +116,7 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
 }
 
 bool WavefrontIntegrator::queue_vertex(Lane& lane, VertexQueue& q, int k) const {
-    const Material& m = *lane.material;
+    const Material& m = scene_.material(lane.it.material);
     const unsigned flags = material_flags_[lane.it.material];
     // sample_ld's light sample (`mis`, a non-delta vertex), and sample_material's path to
     // lambertian::sample (a diffuse vertex of `cosine` or `mis`).
@@ -167,7 +166,7 @@ void WavefrontIntegrator::draw_queued(VertexQueue& q, int n) const {
         VPu s[7];
         VPd u[6];
         for (int j = 0; j <= 6; ++j) s[j] = s0 * PCG64::jump_multiplier(j) + inc * PCG64::jump_increment(j);
-        for (int j = 0; j < 6; ++j) u[j] = __builtin_convertvector(PCG64::output(s[j]) >> 11, VPd) * 0x1.0p-53;
+        for (int j = 0; j < 6; ++j) u[j] = PCG64::to_double<VPd>(PCG64::output(s[j]));
         // A lane draws the light sample's three first where it takes one, then the diffuse
         // direction's three (u2, u1, and u0 unused) where it scatters diffusely.
         const VPl light = load_pack(q.light + base) != 0.0, scatter = load_pack(q.scatter + base) != 0.0;
@@ -290,11 +289,8 @@ void WavefrontIntegrator::scatter_diffuse(const VertexQueue& q, int n) const {
             p[a] = load_pack(q.p[a] + base);
             beta[a] = load_pack(q.beta[a] + base) * load_pack(q.albedo[a] + base);  // beta *= weight
         }
-        const VPd sign = copysign_lanes(splat(1.0), nv[2]);
-        const VPd fa = -1.0 / (sign + nv[2]);
-        const VPd fb = nv[0] * nv[1] * fa;
-        const VPd fs[3] = {1.0 + sign * nv[0] * nv[0] * fa, sign * fb, -sign * nv[0]};
-        const VPd ft[3] = {fb, sign + nv[1] * nv[1] * fa, -nv[1]};
+        VPd fs[3], ft[3];
+        frame_tangents(nv, fs, ft);
         VPd wi[3];
         for (int a = 0; a < 3; ++a) wi[a] = mul_add(nv[a], w[2], mul_add(ft[a], w[1], fs[a] * w[0]));
         // offset_origin(p, n, wi) (math.h): max_abs_component with std::max's selections.

@@ -70,7 +70,6 @@ private:
         // next_event() and scatter() need of shade(): the vertex and its light-sampling
         // reference point.
         Interaction it;
-        const Material* material = nullptr;
         std::optional<Vertex> vertex;  // not built where the vertex scatters diffusely
         Vec3 normal;           // the vertex's shading normal (its frame's n)
         double wo_z = 0.0;     // the local z of wo

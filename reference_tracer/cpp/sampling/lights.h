@@ -226,11 +226,8 @@ public:
         const VPd inv_dc = 1.0 / dc;
         VPd axis[3];
         for (int a = 0; a < 3; ++a) axis[a] = to_c[a] * inv_dc;
-        const VPd sign = copysign_lanes(splat(1.0), axis[2]);
-        const VPd fa = -1.0 / (sign + axis[2]);
-        const VPd fb = axis[0] * axis[1] * fa;
-        const VPd fs[3] = {1.0 + sign * axis[0] * axis[0] * fa, sign * fb, -sign * axis[0]};
-        const VPd ft[3] = {fb, sign + axis[1] * axis[1] * fa, -axis[1]};
+        VPd fs[3], ft[3];
+        frame_tangents(axis, fs, ft);
 
         // cone_one_minus_cos, square_to_uniform_cone and the point where the direction meets
         // the sphere (law of cosines), as sample_sphere() computes them.

@@ -9,6 +9,21 @@
 
 namespace rt {
 
+// The tangents s and t of Frame(n) (math.h: Duff et al.'s branchless basis) for a pack of
+// unit normals, with the constructor's operations in its order, so that each lane is
+// Frame's bit for bit.
+inline void frame_tangents(const VPd (&n)[3], VPd (&s)[3], VPd (&t)[3]) {
+    const VPd sign = copysign_lanes(splat(1.0), n[2]);
+    const VPd a = -1.0 / (sign + n[2]);
+    const VPd b = n[0] * n[1] * a;
+    s[0] = 1.0 + sign * n[0] * n[0] * a;
+    s[1] = sign * b;
+    s[2] = -sign * n[0];
+    t[0] = b;
+    t[1] = sign + n[1] * n[1] * a;
+    t[2] = -n[1];
+}
+
 // sin and cos of x for |x| <= pi/4 from their Taylor series in Horner form, each step one
 // mul_add (fused where the CPU has FMA: half the instructions and half the latency of
 // the chain). The first omitted terms, x^17/17! and x^18/18!, are below 5e-17 there, and
