@@ -194,22 +194,28 @@ int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, con
         const unsigned diffuse = lane_mask(load_pack(q.diffuse + base) != 0.0) & light;
         VPd value[3], t_far;
         const unsigned shadow = diffuse != 0 ? estimate_diffuse(q, base, ls, diffuse, value, t_far) : 0u;
-        for (unsigned left = light; left != 0; left &= left - 1) {
+        // The diffuse vertices with a shadow ray, then the other vertices lane by lane: a
+        // loop over each set's bits, not a test of each lane's verdict, which the CPU
+        // cannot predict. (The order of the batch's shadow rays changes no result.)
+        rays += uint64_t(__builtin_popcount(shadow));
+        for (unsigned left = shadow; left != 0; left &= left - 1) {
             const int l = __builtin_ctz(left);
             Lane& lane = *q.lanes[base + l];
-            if ((diffuse >> l) & 1u) {
-                if (!((shadow >> l) & 1u)) continue;
-                // What estimate_ld does after its checks: count the shadow ray and queue it.
-                ++rays;
-                lane.shadow = true;
-                lane.shadow_ray = Ray{lane.ref, Vec3(ls.wi[0][l], ls.wi[1][l], ls.wi[2][l])};
-                lane.shadow_t_max = t_far[l];
-                lane.shadow_value = Vec3(value[0][l], value[1][l], value[2][l]);
-            } else {
-                lane.light = ls.lane(l);
-                next_event(lane, rays);
-                if (!lane.shadow) continue;
-            }
+            // What estimate_ld does after its checks: count the shadow ray (above) and queue it.
+            lane.shadow = true;
+            lane.shadow_ray = Ray{lane.ref, Vec3(ls.wi[0][l], ls.wi[1][l], ls.wi[2][l])};
+            lane.shadow_t_max = t_far[l];
+            lane.shadow_value = Vec3(value[0][l], value[1][l], value[2][l]);
+            shadowed[n_shadow] = &lane;
+            rays_out[n_shadow] = &lane.shadow_ray;
+            t_max[n_shadow++] = lane.shadow_t_max;
+        }
+        for (unsigned left = light & ~diffuse; left != 0; left &= left - 1) {
+            const int l = __builtin_ctz(left);
+            Lane& lane = *q.lanes[base + l];
+            lane.light = ls.lane(l);
+            next_event(lane, rays);
+            if (!lane.shadow) continue;
             shadowed[n_shadow] = &lane;
             rays_out[n_shadow] = &lane.shadow_ray;
             t_max[n_shadow++] = lane.shadow_t_max;
@@ -313,11 +319,11 @@ void WavefrontIntegrator::scatter_diffuse(const VertexQueue& q, int n) const {
             lane.beta = Vec3(beta[0][l], beta[1][l], beta[2][l]);
             lane.prev = PrevVertex{false, pdf[l], lane.ref};
             lane.ray = Ray{Vec3(origin[0][l], origin[1][l], origin[2][l]), Vec3(wi[0][l], wi[1][l], wi[2][l])};
-            if (!integrator_.survives(lane.depth + 1, lane.eta, lane.beta, lane.rng)) {
-                lane.path_done = true;
-                continue;
-            }
-            ++lane.depth;
+            // The verdict stored: the path's end is handled after the bounce, for the ended
+            // lanes only.
+            const bool goes_on = integrator_.survives(lane.depth + 1, lane.eta, lane.beta, lane.rng);
+            lane.path_done = !goes_on;
+            lane.depth += goes_on;
         }
     }
 }
@@ -336,11 +342,9 @@ void WavefrontIntegrator::continue_path(Lane& lane, const std::optional<Integrat
     lane.eta *= s->eta;
     lane.prev = PrevVertex{m.is_delta(), s->pdf, ref};
     lane.ray = Ray{offset_origin(it.p, m.is_delta() ? it.n : v.frame.n, s->wi), s->wi};
-    if (!li.survives(lane.depth + 1, lane.eta, lane.beta, lane.rng)) {
-        lane.path_done = true;
-        return;
-    }
-    ++lane.depth;
+    const bool goes_on = li.survives(lane.depth + 1, lane.eta, lane.beta, lane.rng);
+    lane.path_done = !goes_on;
+    lane.depth += goes_on;
 }
 
 void WavefrontIntegrator::add_sample(Lane& lane, bool tails, uint64_t& nonfinite) {
@@ -368,9 +372,11 @@ void WavefrontIntegrator::write_pixel(const Lane& lane, RenderOutput& out) const
 void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::atomic<bool>& cancel,
                               std::atomic<uint64_t>& pixels_done, uint64_t& rays, uint64_t& nonfinite) const {
     std::vector<Lane> lanes(kLanes);
-    // The batch's queries, compacted: the busy lanes, and those with a shadow ray.
+    // The batch's queries, compacted: the busy lanes, those with a shadow ray, and those
+    // whose path ended.
     Lane* active[kLanes];
     Lane* shadowed[kLanes];
+    Lane* ended[kLanes];
     // The vertices that run in packs (light samples, diffuse scattering), the lanes that
     // start a sample (their camera rays run in packs too), and those that scatter otherwise.
     VertexQueue queue{};
@@ -422,16 +428,24 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
             scene_.occluded_batch(size_t(n_shadow), batch, t_max, hit);
             for (int k = 0; k < n_shadow; ++k) {
                 Lane& lane = *shadowed[k];
-                if (!hit[k]) lane.L += lane.shadow_value;
+                // A selection, not a branch (the verdicts are unpredictable); L + 0 would
+                // turn a -0 into +0, so the sum is selected, not the term.
+                lane.L = select_bits(hit[k], lane.L, lane.L + lane.shadow_value);
                 lane.shadow = false;
             }
         }
 
         // Paths that ended hand their lane to the pixel's next sample, or to a new pixel.
-        n_start = 0;
+        // The ended paths listed first, without a branch a lane: whether a path ended is
+        // the CPU's to guess, and a wrong guess a lane cost more than the list.
+        int n_ended = 0;
         for (int k = 0; k < n; ++k) {
-            Lane& lane = *active[k];
-            if (!lane.path_done) continue;
+            ended[n_ended] = active[k];
+            n_ended += active[k]->path_done;
+        }
+        n_start = 0;
+        for (int k = 0; k < n_ended; ++k) {
+            Lane& lane = *ended[k];
             add_sample(lane, job_.moments, nonfinite);
             if (lane.samples_left == 0) {
                 write_pixel(lane, out);
