@@ -38,3 +38,48 @@ def test_a_build_with_different_arithmetic_is_reported(tmp_path):
     assert re.search(r"agreement default vs default: (\d+)/\1 arrays identical; 1 vs 2 threads identical", out.stdout)
     assert "agreement fast_math vs default:" in out.stdout and "differ:" in out.stdout
     assert "random rays, 1 thr (Mrays/s)" in out.stdout.split("median of 1 rounds")[1]
+
+
+AB_SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "ab_cores.py"
+
+
+def _run_ab(*args, timeout=300):
+    return subprocess.run([sys.executable, str(AB_SCRIPT), *args], capture_output=True, text=True, timeout=timeout)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["installed", "/nonexistent/_core.so"], "no core module at /nonexistent/_core.so"),
+    (["installed", "installed", "--scenes", "nope"], "unknown scene(s) nope"),
+    (["installed", "installed", "--rounds", "0"], "--rounds must be at least 1"),
+    (["installed", "installed", "--spp", "0"], "--spp must be at least 1"),
+])
+def test_ab_cores_bad_arguments_are_usage_errors(args, message):
+    out = _run_ab(*args, timeout=60)
+    assert out.returncode == 2 and message in out.stderr
+
+
+def test_ab_cores_times_a_build_against_itself():
+    # The installed core against itself: both workers render, and the speed-up row is a
+    # finite ratio with its interval around the median (its value is the machine's noise,
+    # not asserted beyond a factor of two at this tiny size).
+    out = _run_ab("installed", "installed", "--scenes", "cornell_box", "--rounds", "3", "--spp", "1", "--size", "16")
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
+    row = re.search(r"^cornell_box +([\d.]+) +([\d.]+) +([\d.]+) +\[([\d.]+), ([\d.]+)\]$", out.stdout, re.M)
+    assert row, out.stdout
+    a, b, med, low, high = map(float, row.groups())
+    assert a > 0 and b > 0 and 0.5 < med < 2.0 and low <= med <= high
+
+
+def test_median_interval_brackets_the_median_and_narrows_with_more_rounds():
+    import numpy as np
+
+    from benchmarks.speed.builds import median_interval
+
+    rng = np.random.default_rng(3)
+    few = median_interval(1.05 + 0.1 * rng.standard_normal(10))
+    many = median_interval(1.05 + 0.1 * rng.standard_normal(400))
+    assert few[1] <= few[0] <= few[2] and many[1] <= many[0] <= many[2]
+    assert many[2] - many[1] < few[2] - few[1]
+    assert many[1] < 1.05 < many[2]  # the true median, at 90%: fixed seed, passes for this draw
+    with pytest.raises(ValueError):
+        median_interval([1.0, float("nan")])

@@ -24,7 +24,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-__all__ = ["ROOT", "AGREEMENT_SCRIPT", "build_core", "run_with_core", "agreement_arrays", "build_target"]
+__all__ = ["ROOT", "AGREEMENT_SCRIPT", "build_core", "run_with_core", "agreement_arrays", "build_target",
+           "paired_render_times", "median_interval"]
 
 #: The repository's root (the CMake project).
 ROOT = Path(__file__).resolve().parents[2]
@@ -130,3 +131,92 @@ def build_target(build_dir: Path) -> str:
     pack = macros.get("RT_PACK_WIDTH") or ("8" if "__AVX512F__" in macros else "4")
     march = [f for f in flags if f.startswith("-march=")] or ["(compiler default)"]
     return f"{Path(compiler).name} {' '.join(march)}: {' '.join(isa) or 'no AVX2/AVX-512'}, packs of {pack}"
+
+
+# A worker that renders on request with its own core: reads "scene spp" lines, answers each
+# with the wall seconds of one render (128x128 unless SIZE, `mis`, wavefront, Russian
+# roulette from depth 5 as Mitsuba's default, 1 thread). A first render of each scene warms
+# it up untimed.
+_WORKER_SCRIPT = """
+import time
+import reference_tracer as rt
+from mitsuba_scenes import get_scene
+scenes = {}
+for line in sys.stdin:
+    name, spp = line.split()
+    if name not in scenes:
+        scenes[name] = get_scene(name, width=SIZE, height=SIZE, max_depth=50, rr_depth=5)
+        rt.render(scenes[name], spp=1, strategy="mis", seed=1, threads=1)
+    t0 = time.perf_counter()
+    rt.render(scenes[name], spp=int(spp), strategy="mis", seed=1, threads=1)
+    print(time.perf_counter() - t0, flush=True)
+"""
+
+
+def paired_render_times(modules, scenes, *, rounds: int = 40, spp: int = 16, size: int = 128) -> dict:
+    """Render times of several core builds, paired: ``{scene: [[seconds of each module] per round]}``.
+
+    One persistent worker process per module renders on request, one render at a time
+    (never two at once), each round in turn starting with the next module. Renders a
+    fraction of a second apart see the same machine, so the per-round ratios cancel the
+    slow drifts of a shared VM that separate timed processes do not (PERFORMANCE.md round
+    18: identical builds gave a 90% interval of +-1% in 40 pairs, where best-of-six
+    processes left quartiles of +-5-20%).
+    """
+    if rounds < 1:
+        raise ValueError("rounds must be at least 1")
+    workers = []
+    try:
+        for module in modules:
+            code = _PREAMBLE.format(root=str(ROOT), module=str(module)) + _WORKER_SCRIPT.replace("SIZE", str(int(size)))
+            workers.append(subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                            stderr=subprocess.PIPE, text=True, cwd=ROOT,
+                                            env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1")))
+
+        def render(k, scene):
+            w = workers[k]
+            w.stdin.write(f"{scene} {int(spp)}\n")
+            w.stdin.flush()
+            line = w.stdout.readline()
+            if not line:
+                raise RuntimeError(f"the worker of {modules[k]} stopped:\n{w.stderr.read()[-3000:]}")
+            return float(line)
+
+        times = {}
+        for scene in scenes:
+            for k in range(len(workers)):
+                render(k, scene)  # warm-up
+            rows = []
+            for r in range(rounds):
+                row = [0.0] * len(workers)
+                for j in range(len(workers)):
+                    k = (r + j) % len(workers)
+                    row[k] = render(k, scene)
+                rows.append(row)
+            times[scene] = rows
+        return times
+    finally:
+        for w in workers:
+            if w.stdin:
+                w.stdin.close()
+            w.wait(timeout=60)
+
+
+def median_interval(ratios, *, level: float = 0.90, resamples: int = 2000, seed: int = 0):
+    """Median of ``ratios`` and a bootstrap interval of it (percentiles of the medians of
+    ``resamples`` resamples with replacement, fixed ``seed``): ``(median, low, high)``.
+
+    Examples
+    --------
+    >>> median_interval([1.0, 1.0, 1.0])
+    (1.0, 1.0, 1.0)
+    """
+    import numpy as np
+
+    x = np.asarray(ratios, dtype=float)
+    if x.size == 0 or not np.all(np.isfinite(x)):
+        raise ValueError("ratios must be finite and not empty")
+    rng = np.random.default_rng(seed)
+    medians = np.median(x[rng.integers(0, x.size, size=(resamples, x.size))], axis=1)
+    tail = (1.0 - level) / 2.0
+    return float(np.median(x)), float(np.quantile(medians, tail)), float(np.quantile(medians, 1.0 - tail))
