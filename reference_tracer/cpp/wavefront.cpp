@@ -89,8 +89,7 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
             lane.path_done = true;
             return false;
         }
-        lane.ref = offset_origin(it.p, lane.normal, lane.normal);
-        return true;
+        return true;  // the reference point: reference_points(), a pack at a time
     }
     lane.vertex.emplace(it, m, lane.ray.d, front);
     const Vertex& v = *lane.vertex;
@@ -141,7 +140,6 @@ bool WavefrontIntegrator::queue_vertex(Lane& lane, VertexQueue& q, int k) const 
     q.diffuse[k] = (flags & kDiffuse) ? 1.0 : 0.0;
     q.scatter[k] = scatter ? 1.0 : 0.0;
     for (int a = 0; a < 3; ++a) {
-        q.ref[a][k] = lane.ref[a];
         q.n[a][k] = lane.normal[a];
         q.albedo[a][k] = m.albedo[a];
         q.beta[a][k] = lane.beta[a];
@@ -178,6 +176,25 @@ void WavefrontIntegrator::draw_queued(VertexQueue& q, int n) const {
     }
 }
 
+VPd WavefrontIntegrator::offset_epsilon(const VPd (&p)[3]) {
+    // offset_origin's kRayEpsilon * max_abs_component(p) + min, with std::max's selections.
+    VPd abs_p[3];
+    for (int a = 0; a < 3; ++a) abs_p[a] = copysign_lanes(p[a], splat(1.0));
+    const VPd max_yz = abs_p[1] < abs_p[2] ? abs_p[2] : abs_p[1];
+    const VPd max_p = abs_p[0] < max_yz ? max_yz : abs_p[0];
+    return kRayEpsilon * max_p + std::numeric_limits<double>::min();
+}
+
+void WavefrontIntegrator::offset_along(const VPd (&p)[3], const VPd (&n)[3], VPd eps, VPd (&ref)[3]) {
+    // offset_origin(p, n, n): the side test dot(n, n) >= 0 fails only for a NaN normal.
+    const VPl outward = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] >= 0.0;
+    for (int a = 0; a < 3; ++a) ref[a] = outward ? p[a] + n[a] * eps : p[a] - n[a] * eps;
+}
+
+void WavefrontIntegrator::reference_points(const VPd (&p)[3], const VPd (&n)[3], VPd (&ref)[3]) {
+    offset_along(p, n, offset_epsilon(p), ref);
+}
+
 int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, const Ray** rays_out, double* t_max,
                                      uint64_t& rays) const {
     int n_shadow = 0;
@@ -185,11 +202,13 @@ int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, con
         const unsigned present = (1u << std::min(kPackWidth, n - base)) - 1u;
         const unsigned light = lane_mask(load_pack(q.light + base) != 0.0) & present;
         if (light == 0) continue;
-        VPd ref[3], u[3];
+        VPd p[3], nv[3], ref[3], u[3];
         for (int a = 0; a < 3; ++a) {
-            ref[a] = load_pack(q.ref[a] + base);
+            p[a] = load_pack(q.p[a] + base);
+            nv[a] = load_pack(q.n[a] + base);
             u[a] = load_pack(q.u[a] + base);
         }
+        reference_points(p, nv, ref);
         const LightSamplePack ls = scene_.lights().sample_pack(ref, u, light);
         const unsigned diffuse = lane_mask(load_pack(q.diffuse + base) != 0.0) & light;
         VPd value[3], t_far;
@@ -203,7 +222,7 @@ int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, con
             Lane& lane = *q.lanes[base + l];
             // What estimate_ld does after its checks: count the shadow ray (above) and queue it.
             lane.shadow = true;
-            lane.shadow_ray = Ray{lane.ref, Vec3(ls.wi[0][l], ls.wi[1][l], ls.wi[2][l])};
+            lane.shadow_ray = Ray{Vec3(ref[0][l], ref[1][l], ref[2][l]), Vec3(ls.wi[0][l], ls.wi[1][l], ls.wi[2][l])};
             lane.shadow_t_max = t_far[l];
             lane.shadow_value = Vec3(value[0][l], value[1][l], value[2][l]);
             shadowed[n_shadow] = &lane;
@@ -299,15 +318,12 @@ void WavefrontIntegrator::scatter_diffuse(const VertexQueue& q, int n) const {
         frame_tangents(nv, fs, ft);
         VPd wi[3];
         for (int a = 0; a < 3; ++a) wi[a] = mul_add(nv[a], w[2], mul_add(ft[a], w[1], fs[a] * w[0]));
-        // offset_origin(p, n, wi) (math.h): max_abs_component with std::max's selections.
-        VPd abs_p[3];
-        for (int a = 0; a < 3; ++a) abs_p[a] = copysign_lanes(p[a], splat(1.0));
-        const VPd max_yz = abs_p[1] < abs_p[2] ? abs_p[2] : abs_p[1];
-        const VPd max_p = abs_p[0] < max_yz ? max_yz : abs_p[0];
-        const VPd eps = kRayEpsilon * max_p + std::numeric_limits<double>::min();
+        // offset_origin(p, n, wi) (math.h), and the reference point offset_origin(p, n, n).
+        const VPd eps = offset_epsilon(p);
         const VPl outward = nv[0] * wi[0] + nv[1] * wi[1] + nv[2] * wi[2] >= 0.0;  // dot(n, wi) >= 0
-        VPd origin[3];
+        VPd origin[3], ref[3];
         for (int a = 0; a < 3; ++a) origin[a] = outward ? p[a] + nv[a] * eps : p[a] - nv[a] * eps;
+        offset_along(p, nv, eps, ref);
         // continue_path, lane by lane. The sample's eta is 1 (eta *= 1 changes nothing).
         for (unsigned left = lanes; left != 0; left &= left - 1) {
             const int l = __builtin_ctz(left);
@@ -317,7 +333,7 @@ void WavefrontIntegrator::scatter_diffuse(const VertexQueue& q, int n) const {
                 continue;
             }
             lane.beta = Vec3(beta[0][l], beta[1][l], beta[2][l]);
-            lane.prev = PrevVertex{false, pdf[l], lane.ref};
+            lane.prev = PrevVertex{false, pdf[l], Vec3(ref[0][l], ref[1][l], ref[2][l])};
             lane.ray = Ray{Vec3(origin[0][l], origin[1][l], origin[2][l]), Vec3(wi[0][l], wi[1][l], wi[2][l])};
             // The verdict stored: the path's end is handled after the bounce, for the ended
             // lanes only.

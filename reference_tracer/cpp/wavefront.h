@@ -73,7 +73,7 @@ private:
         std::optional<Vertex> vertex;  // not built where the vertex scatters diffusely
         Vec3 normal;           // the vertex's shading normal (its frame's n)
         double wo_z = 0.0;     // the local z of wo
-        Vec3 ref;
+        Vec3 ref;              // not set where the vertex scatters diffusely (the queue's packs compute it)
 
         LightSample light;     // a light sample that next_event() finishes (not diffuse vertices)
         bool shadow = false;   // a shadow ray to trace before the next bounce
@@ -85,7 +85,10 @@ private:
     // The work queue of one bounce's vertices that run in packs: the lanes that take a light
     // sample (`mis` at a non-delta vertex) or scatter diffusely (`cosine` and `mis` at a
     // Lambertian vertex), in the order shade()'s loop finds them, with what those steps need
-    // of each in structure-of-arrays form (position k: the k-th such lane). The light
+    // of each in structure-of-arrays form (position k: the k-th such lane). Their reference
+    // point, offset_origin(p, n, n), is computed from p and n a pack at a time
+    // (reference_points()); shade() computes it only for the vertices that need it lane by
+    // lane. The light
     // samples, the whole estimate at diffuse vertices and their continuation then run a pack
     // of positions at a time and load their inputs as vectors: packs that gathered them from
     // the lanes' structures, field by field, cost what they saved (PERFORMANCE.md rounds
@@ -94,7 +97,6 @@ private:
         alignas(64) double light[kLanes];    // 1 where the vertex takes a light sample, else 0
         alignas(64) double diffuse[kLanes];  // 1 where its material is diffuse, else 0
         alignas(64) double scatter[kLanes];  // 1 where it scatters diffusely (scatter_diffuse)
-        alignas(64) double ref[3][kLanes];   // reference point
         alignas(64) double u[3][kLanes];     // the light sample's uniforms u0, u1, u2
         alignas(64) double su[2][kLanes];    // the diffuse direction's uniforms u1, u2
         alignas(64) double n[3][kLanes];     // the vertex's shading normal (its frame's n)
@@ -165,6 +167,11 @@ private:
     static unsigned estimate_diffuse(const VertexQueue& q, int base, const LightSamplePack& ls, unsigned lanes,
                                      VPd (&value)[3], VPd& t_max);
     void next_event(Lane& lane, uint64_t& rays) const;
+    // offset_origin (math.h) lane-wise, bit for bit: its epsilon for points p, the points
+    // offset along n by it (offset_origin(p, n, n)), and both at once.
+    static VPd offset_epsilon(const VPd (&p)[3]);
+    static void offset_along(const VPd (&p)[3], const VPd (&n)[3], VPd eps, VPd (&ref)[3]);
+    static void reference_points(const VPd (&p)[3], const VPd (&n)[3], VPd (&ref)[3]);
     void scatter(Lane& lane) const;
     // sample_scatter at the queue's diffuse vertices: the cosine-weighted direction
     // (square_to_cosine_hemisphere, PERFORMANCE.md round 9), lambertian::sample_with, the
