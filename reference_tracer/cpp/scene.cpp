@@ -234,11 +234,29 @@ namespace {
 // Rays rays[0 .. m) (m <= kPackWidth) as a pack; absent lanes repeat ray 0.
 RayPack pack_rays(const Ray* const* rays, size_t m) {
     RayPack p;
+#if RT_PACK == 8 && defined(__AVX512F__)
+    // Six gathers, one a field, at the rays' offsets from ray 0 (absent lanes: offset 0).
+    // Written lane by lane, the pack went through the stack as narrow stores that its
+    // wide loads then waited for (store forwarding fails): 5% of the closest-hit packs'
+    // time on cornell_box (PERFORMANCE.md round 18).
+    const char* first = reinterpret_cast<const char*>(rays[0]);
+    const __mmask8 present = static_cast<__mmask8>((1u << m) - 1u);
+    const __m512i at = _mm512_sub_epi64(
+        _mm512_mask_loadu_epi64(_mm512_set1_epi64(reinterpret_cast<long long>(first)), present, rays),
+        _mm512_set1_epi64(reinterpret_cast<long long>(first)));
+    const auto gather = [&](const double& field) {
+        return reinterpret_cast<VPd>(_mm512_i64gather_pd(at, &field, 1));
+    };
+    const Ray& r0 = *rays[0];
+    p.ox = gather(r0.o.x); p.oy = gather(r0.o.y); p.oz = gather(r0.o.z);
+    p.dx = gather(r0.d.x); p.dy = gather(r0.d.y); p.dz = gather(r0.d.z);
+#else
     for (size_t l = 0; l < size_t(kPackWidth); ++l) {
         const Ray& r = *rays[l < m ? l : 0];
         p.ox[l] = r.o.x; p.oy[l] = r.o.y; p.oz[l] = r.o.z;
         p.dx[l] = r.d.x; p.dy[l] = r.d.y; p.dz[l] = r.d.z;
     }
+#endif
     return p;
 }
 
