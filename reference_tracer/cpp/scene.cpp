@@ -231,33 +231,27 @@ bool Scene::occluded(const Ray& ray, double t_max) const {
 
 namespace {
 
-// Rays rays[0 .. m) (m <= kPackWidth) as a pack; absent lanes repeat ray 0.
+// Rays rays[0 .. m) (m <= kPackWidth) as a pack; absent lanes repeat ray 0. Gathered field
+// by field (simd.h): written lane by lane, the pack's wide reloads waited on the narrow
+// stores, 5% of the closest-hit packs' time on cornell_box (PERFORMANCE.md round 18).
+static_assert(sizeof(Vec3) == 3 * sizeof(double) && offsetof(Ray, d) == sizeof(Vec3),
+              "pack_rays gathers a ray as six consecutive doubles");
 RayPack pack_rays(const Ray* const* rays, size_t m) {
-    RayPack p;
 #if RT_PACK == 8 && defined(__AVX512F__)
-    // Six gathers, one a field, at the rays' offsets from ray 0 (absent lanes: offset 0).
-    // Written lane by lane, the pack went through the stack as narrow stores that its
-    // wide loads then waited for (store forwarding fails): 5% of the closest-hit packs'
-    // time on cornell_box (PERFORMANCE.md round 18).
-    const char* first = reinterpret_cast<const char*>(rays[0]);
-    const __mmask8 present = static_cast<__mmask8>((1u << m) - 1u);
-    const __m512i at = _mm512_sub_epi64(
-        _mm512_mask_loadu_epi64(_mm512_set1_epi64(reinterpret_cast<long long>(first)), present, rays),
-        _mm512_set1_epi64(reinterpret_cast<long long>(first)));
-    const auto gather = [&](const double& field) {
-        return reinterpret_cast<VPd>(_mm512_i64gather_pd(at, &field, 1));
-    };
-    const Ray& r0 = *rays[0];
-    p.ox = gather(r0.o.x); p.oy = gather(r0.o.y); p.oz = gather(r0.o.z);
-    p.dx = gather(r0.d.x); p.dy = gather(r0.d.y); p.dz = gather(r0.d.z);
+    VPd v[6];  // o and d: six consecutive doubles (static_assert above)
+    gather_members<6>(rays, static_cast<int>(m), [](const Ray& r) { return &r.o.x; }, v);
+    return RayPack{v[0], v[1], v[2], v[3], v[4], v[5]};
 #else
+    // Lane by lane into the pack itself: through gather_members' array, one more copy of
+    // the pack (+1.3% AVX2 instructions on cornell_box).
+    RayPack p;
     for (size_t l = 0; l < size_t(kPackWidth); ++l) {
         const Ray& r = *rays[l < m ? l : 0];
         p.ox[l] = r.o.x; p.oy[l] = r.o.y; p.oz[l] = r.o.z;
         p.dx[l] = r.d.x; p.dy[l] = r.d.y; p.dz[l] = r.d.z;
     }
-#endif
     return p;
+#endif
 }
 
 // A pack's slab tests against boxes (mesh_bvh_'s bounds, the boxed quad runs), with the
@@ -355,8 +349,7 @@ void Scene::occluded_batch(size_t n, const Ray* const* rays, const double* t_max
         const Ray* const* r = rays + base;
         const RayPack p = pack_rays(r, m);
         // Absent lanes get t_max 0: nothing can block them.
-        VPd tm;
-        for (size_t l = 0; l < size_t(kPackWidth); ++l) tm[l] = l < m ? t_max[base + l] : 0.0;
+        VPd tm = load_partial(t_max + base, static_cast<int>(m));
         // Any hit answers, so a test's lowering of t_max changes no verdict.
         const unsigned all = (1u << m) - 1u;
         unsigned blocked = 0;

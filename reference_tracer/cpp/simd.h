@@ -3,6 +3,7 @@
 // elsewhere, so no code path depends on an instruction set.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 
 #ifdef __AVX__
@@ -95,6 +96,39 @@ inline VPd load_pack(const double* p) {
 }
 
 inline void store_pack(double* p, VPd v) { __builtin_memcpy(p, &v, sizeof v); }
+
+// p[0..m) as a pack (m <= kPackWidth), absent lanes 0.
+inline VPd load_partial(const double* p, int m) {
+#if RT_PACK == 8 && defined(__AVX512F__)
+    return reinterpret_cast<VPd>(_mm512_maskz_loadu_pd(static_cast<__mmask8>((1u << m) - 1u), p));
+#else
+    VPd v = {};
+    for (int l = 0; l < m; ++l) v[l] = p[l];
+    return v;
+#endif
+}
+
+// The N consecutive doubles that get(obj) points to (a member of every object, at the same
+// place), read from each of objs[0..m) (m <= kPackWidth) as packs out[0..N); absent lanes
+// repeat objs[0]. On AVX-512 a gather a double at the objects' distances from objs[0]:
+// packs written lane by lane go through the stack as narrow stores that their wide reloads
+// wait for (store forwarding fails; PERFORMANCE.md round 18). Elsewhere one pass over the
+// objects.
+template <int N, typename T, typename Get>
+inline void gather_members(const T* const* objs, int m, Get&& get, VPd (&out)[N]) {
+#if RT_PACK == 8 && defined(__AVX512F__)
+    const __m512i base = _mm512_set1_epi64(reinterpret_cast<long long>(objs[0]));
+    const __m512i at = _mm512_sub_epi64(
+        _mm512_mask_loadu_epi64(base, static_cast<__mmask8>((1u << m) - 1u), objs), base);
+    const double* first = get(*objs[0]);
+    for (int i = 0; i < N; ++i) out[i] = reinterpret_cast<VPd>(_mm512_i64gather_pd(at, first + i, 1));
+#else
+    for (int l = 0; l < kPackWidth; ++l) {
+        const double* v = get(*objs[l < m ? l : 0]);
+        for (int i = 0; i < N; ++i) out[i][l] = v[i];
+    }
+#endif
+}
 
 // v as the type of `like`: itself for double, in every lane for VPd (code written once
 // for a scalar and a pack).

@@ -53,8 +53,9 @@ void WavefrontIntegrator::camera_rays(Lane* const* lanes, int n) const {
     const Camera& camera = scene_.camera();
     for (int base = 0; base < n; base += kPackWidth) {
         const int m = std::min(kPackWidth, n - base);
-        VPd px, py;
-        pack_pairs(lanes + base, m, [](const Lane& lane) { return lane.film; }, px, py);
+        VPd film[2];
+        gather_members<2>(lanes + base, m, [](const Lane& lane) { return lane.film; }, film);
+        const VPd px = film[0], py = film[1];
         VPd d[3];
         camera.direction(px, py, d[0], d[1], d[2]);
         for (int l = 0; l < m; ++l) lanes[base + l]->ray = Ray{camera.origin, Vec3(d[0][l], d[1][l], d[2][l])};

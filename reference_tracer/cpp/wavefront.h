@@ -182,16 +182,6 @@ private:
     // with two callers GCC left it out of line (+1.8% instructions on cornell_box); declared
     // inline too, as the attribute wants (else GCC warns it "might not be inlinable").
     [[gnu::always_inline]] inline void continue_path(Lane& lane, const std::optional<Integrator<Mutant::None>::Scatter>& s) const;
-    // The pair of doubles that get(lane) points to, for lanes[0..m) of a pack pass: a lane
-    // of the pack per lane of the batch (absent lanes, l >= m, repeat the first).
-    template <typename Get>
-    static void pack_pairs(Lane* const* lanes, int m, Get&& get, VPd& a, VPd& b) {
-        for (int l = 0; l < kPackWidth; ++l) {
-            const double* v = get(*lanes[l < m ? l : 0]);
-            a[l] = v[0];
-            b[l] = v[1];
-        }
-    }
     // Adds the finished path's radiance to the pixel's sums, as render_pixel does.
     static void add_sample(Lane& lane, bool tails, uint64_t& nonfinite);
     // Writes the pixel's sums into the image.
