@@ -1,5 +1,6 @@
 """scripts/compare_builds.py: the tool that checks and times builds of the core on a
-machine (PERFORMANCE.md round 13 ran it on an AVX-512 CPU)."""
+machine (PERFORMANCE.md round 13 ran it on an AVX-512 CPU); scripts/ab_cores.py, which
+times two builds render by render (round 18)."""
 from __future__ import annotations
 
 import re
@@ -10,20 +11,25 @@ from pathlib import Path
 import pytest
 
 SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "compare_builds.py"
+AB_SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "ab_cores.py"
 
 
-def _run(*args, timeout=900):
-    return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, timeout=timeout)
+def _run(*args, script=SCRIPT, timeout=900):
+    return subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, timeout=timeout)
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--build", "no equals sign"], "expected NAME=ARGS"),
-    (["--build", "a=", "--build", "a=-DRT_PACK_WIDTH=8"], "names must differ"),
-    (["--build", "a=", "--threads", "0"], "--threads must be at least 1"),
-    (["--build", "a=", "--rounds", "0"], "--rounds must be at least 1"),
+@pytest.mark.parametrize("script, args, message", [
+    (SCRIPT, ["--build", "no equals sign"], "expected NAME=ARGS"),
+    (SCRIPT, ["--build", "a=", "--build", "a=-DRT_PACK_WIDTH=8"], "names must differ"),
+    (SCRIPT, ["--build", "a=", "--threads", "0"], "--threads must be at least 1"),
+    (SCRIPT, ["--build", "a=", "--rounds", "0"], "--rounds must be at least 1"),
+    (AB_SCRIPT, ["installed", "/nonexistent/_core.so"], "no core module at /nonexistent/_core.so"),
+    (AB_SCRIPT, ["installed", "installed", "--scenes", "nope"], "unknown scene(s) nope"),
+    (AB_SCRIPT, ["installed", "installed", "--rounds", "0"], "--rounds must be at least 1"),
+    (AB_SCRIPT, ["installed", "installed", "--spp", "0"], "--spp must be at least 1"),
 ])
-def test_bad_arguments_are_usage_errors(args, message):
-    out = _run(*args, timeout=60)
+def test_bad_arguments_are_usage_errors(script, args, message):
+    out = _run(*args, script=script, timeout=60)
     assert out.returncode == 2 and message in out.stderr
 
 
@@ -40,29 +46,12 @@ def test_a_build_with_different_arithmetic_is_reported(tmp_path):
     assert "random rays, 1 thr (Mrays/s)" in out.stdout.split("median of 1 rounds")[1]
 
 
-AB_SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "ab_cores.py"
-
-
-def _run_ab(*args, timeout=300):
-    return subprocess.run([sys.executable, str(AB_SCRIPT), *args], capture_output=True, text=True, timeout=timeout)
-
-
-@pytest.mark.parametrize("args, message", [
-    (["installed", "/nonexistent/_core.so"], "no core module at /nonexistent/_core.so"),
-    (["installed", "installed", "--scenes", "nope"], "unknown scene(s) nope"),
-    (["installed", "installed", "--rounds", "0"], "--rounds must be at least 1"),
-    (["installed", "installed", "--spp", "0"], "--spp must be at least 1"),
-])
-def test_ab_cores_bad_arguments_are_usage_errors(args, message):
-    out = _run_ab(*args, timeout=60)
-    assert out.returncode == 2 and message in out.stderr
-
-
 def test_ab_cores_times_a_build_against_itself():
     # The installed core against itself: both workers render, and the speed-up row is a
     # finite ratio with its interval around the median (its value is the machine's noise,
     # not asserted beyond a factor of two at this tiny size).
-    out = _run_ab("installed", "installed", "--scenes", "cornell_box", "--rounds", "3", "--spp", "1", "--size", "16")
+    out = _run("installed", "installed", "--scenes", "cornell_box", "--rounds", "3", "--spp", "1", "--size", "16",
+               script=AB_SCRIPT, timeout=300)
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
     row = re.search(r"^cornell_box +([\d.]+) +([\d.]+) +([\d.]+) +\[([\d.]+), ([\d.]+)\]$", out.stdout, re.M)
     assert row, out.stdout
