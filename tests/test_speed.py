@@ -86,8 +86,10 @@ def test_cli_render_table_and_json(tmp_path, capsys):
                 assert "ratio_scalar_rgb" not in row
                 continue
             ours = [r for r in cfg if r["renderer"] == "ours" and r["strategy"] == row["strategy"]]
-            want = statistics.median([a["paths_per_second"] / b["paths_per_second"] for a, b in zip(ours, mits)])
+            per_round = [a["paths_per_second"] / b["paths_per_second"] for a, b in zip(ours, mits)]
+            want = statistics.median(per_round)
             assert math.isclose(row["ratio_scalar_rgb"], want, rel_tol=1e-9)
+            assert row["round_ratios_scalar_rgb"] == pytest.approx(per_round, rel=1e-12)
             assert row["cpu_ratio_scalar_rgb"] > 0
             assert row["efficiency_ratio_scalar_rgb"] is None or row["efficiency_ratio_scalar_rgb"] > 0
     assert res["references"]["cornell_box"]["kind"] == "ours"
@@ -102,6 +104,10 @@ def test_cli_render_table_and_json(tmp_path, capsys):
         ("no RR", "cornell_box"), ("no RR", "geometric mean")]
     for head, gm in (suite["rows"][0:2], suite["rows"][2:4]):
         assert gm["scenes"] == 1 and math.isclose(gm["ratio_scalar_rgb"], head["ratio_scalar_rgb"], rel_tol=1e-12)
+        assert gm["round_ratios_scalar_rgb"] == pytest.approx(head["round_ratios_scalar_rgb"], rel=1e-12)
+    # the headline table shows the rounds' range beside the median
+    lo, hi = min(suite["rows"][0]["round_ratios_scalar_rgb"]), max(suite["rows"][0]["round_ratios_scalar_rgb"])
+    assert "rounds scalar" in out and f"{lo:.2f}-{hi:.2f}" in out
 
 
 def test_cli_times_each_integrator_as_its_own_rows(tmp_path, capsys):
@@ -168,11 +174,11 @@ def test_suite_table_has_one_row_per_scene_and_a_geometric_mean_per_configuratio
 
     from benchmarks.commands.speed import suite_table
 
-    summary = [_summary_row(s, rr, "ours", "mis", 2e6, ratio=r, cpu_ratio=r, efficiency_ratio=e)
-               for rr in (5, None) for s, r, e in (("a", 1.0, None), ("b", 4.0, 3.0))]
+    summary = [_summary_row(s, rr, "ours", "mis", 2e6, ratio=r, cpu_ratio=r, efficiency_ratio=e, round_ratios=k)
+               for rr in (5, None) for s, r, e, k in (("a", 1.0, None, [0.5, 2.0]), ("b", 4.0, 3.0, [2.0, 8.0]))]
     summary += [_summary_row(s, rr, "mitsuba", "path", 1e6) for rr in (5, None) for s in ("a", "b")]
     result = {"config": {"strategies": ["mis"], "rr_depths": [5, None], "width": 8, "height": 8, "spp": 2,
-                         "threads": 2, "repeats": 1}, "available_variants": ["llvm_ad_rgb"], "summary": summary}
+                         "threads": 2, "repeats": 2}, "available_variants": ["llvm_ad_rgb"], "summary": summary}
     result["suite"] = speed.suite_summary(result)
     console = Console(width=250, record=True)
     console.print(suite_table(result))
@@ -181,9 +187,9 @@ def test_suite_table_has_one_row_per_scene_and_a_geometric_mean_per_configuratio
     assert [(r[0], r[1]) for r in rows] == [(c, s) for c in ("rr_depth 5", "no RR")
                                             for s in ("a", "b", "geometric mean (2)")]
     for r in rows:
-        if r[1].startswith("geometric mean"):
-            assert r[2:] == ["-", "-", "2.00 (2.00)", "3.00"]
-    assert rows[0][2:] == ["2.000", "1.000", "1.00 (1.00)", "-"]   # scene a: no efficiency ratio
+        if r[1].startswith("geometric mean"):   # rounds: each round's geometric mean, 1 and 4
+            assert r[2:] == ["-", "-", "2.00 (2.00)", "1.00-4.00", "3.00"]
+    assert rows[0][2:] == ["2.000", "1.000", "1.00 (1.00)", "0.50-2.00", "-"]   # scene a: no efficiency ratio
 
 
 def test_rr_depth_option_and_its_validation(capsys):

@@ -120,6 +120,13 @@ def _r(v):
     return f"{v:.2g}" if 0 < abs(v) < 0.01 else f"{v:.2f}"
 
 
+def _round_range(ratios):
+    """The lowest and highest of the rounds' ratios, ``1.25-1.73``; ``-`` for none."""
+    if not ratios:
+        return "-"
+    return f"{_r(min(ratios))}-{_r(max(ratios))}"
+
+
 def _short(variant):
     """``llvm_ad_rgb`` -> ``llvm``."""
     return variant.split("_")[0]
@@ -144,13 +151,15 @@ def suite_table(result):
     for v in variants:
         table.add_column(f"{_short(v)} Mpaths/s", justify="right")
         table.add_column(f"ratio {_short(v)} (cpu)", justify="right")
+        table.add_column(f"rounds {_short(v)}", justify="right")
         table.add_column(f"eff. ratio {_short(v)}", justify="right")
     for r in suite["rows"]:
         cells = [r["configuration"], r["scene"] if r["scene"] != GEOMEAN else f"{GEOMEAN} ({r['scenes']})",
                  _m(r["ours_paths_per_second"])]
         for v in variants:
             x, cpu, eff = r[f"ratio_{v}"], r[f"cpu_ratio_{v}"], r[f"efficiency_ratio_{v}"]
-            cells += [_m(r[f"mitsuba_paths_per_second_{v}"]), f"{_r(x)} ({_r(cpu)})", _r(eff)]
+            cells += [_m(r[f"mitsuba_paths_per_second_{v}"]), f"{_r(x)} ({_r(cpu)})",
+                      _round_range(r.get(f"round_ratios_{v}")), _r(eff)]
         table.add_row(*cells, end_section=r["scene"] == GEOMEAN)
     return table
 
@@ -213,8 +222,10 @@ def render_notes(result):
     for name, template in result["config"].get("externals", {}).items():
         lines.append(f"{name}: external renderer '{template}'; its seconds are the command's wall clock (process "
                      f"start and scene loading included), its CPU time that of its child processes")
-    lines.append("ratio = paths/s ours / Mitsuba, paired per round (cpu: the same on process CPU time); Mrays/s is "
-                 "ours only (Mitsuba does not count rays); spread = (max-min)/median of paths/s")
+    lines.append("ratio = paths/s ours / Mitsuba, paired per round (cpu: the same on process CPU time); rounds = "
+                 "the lowest and highest round's ratio (the geometric mean's: of each round's geometric mean over "
+                 "the scenes), the noise a median of few rounds carries; Mrays/s is ours only (Mitsuba does not "
+                 "count rays); spread = (max-min)/median of paths/s")
     lines.append("configuration: 'rr_depth N' = Russian roulette from depth N in both renderers (5 is Mitsuba's "
                  "default), 'no RR' = none; geometric mean = of the per-scene ratios (each scene weighs the same)")
     return lines

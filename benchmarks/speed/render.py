@@ -121,7 +121,8 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
         (per scene), ``runs`` (one record per timed render) and ``summary`` (one row per
         scene, Russian-roulette configuration and renderer configuration: medians
         and, for ours, ``ratio`` / ``efficiency_ratio`` / ``cpu_ratio`` per variant, each
-        the median over rounds of the paired per-round ratio), and ``suite``, the headline
+        the median over rounds of the paired per-round ratio, and ``round_ratios`` per
+        variant, the paths/s ratio of each round), and ``suite``, the headline
         (:func:`benchmarks.speed.suite_summary`: every scene and the geometric mean per
         configuration).
     """
@@ -444,7 +445,9 @@ def _summary_rows(name, per, variants) -> list:
         if row["renderer"] != "mitsuba":   # ours and external renderers, against each variant
             for v in variants:
                 pairs = list(zip(runs, per[f"Mitsuba {v}"]))
-                row[f"ratio_{v}"] = median([a["paths_per_second"] / b["paths_per_second"] for a, b in pairs])
+                rounds = [a["paths_per_second"] / b["paths_per_second"] for a, b in pairs]
+                row[f"ratio_{v}"] = median(rounds)
+                row[f"round_ratios_{v}"] = rounds  # per round, in round order: their spread is the noise
                 row[f"cpu_ratio_{v}"] = median([a["paths_per_cpu_second"] / b["paths_per_cpu_second"]
                                                 for a, b in pairs])
                 row[f"efficiency_ratio_{v}"] = median([a["efficiency"] / b["efficiency"] for a, b in pairs])

@@ -60,9 +60,10 @@ def suite_summary(result) -> dict:
         and ``rows``: per configuration
         in run order, one row per scene in run order (``configuration``, ``rr_depth``,
         ``scene``, ``ours_paths_per_second``, ``mitsuba_paths_per_second_<variant>`` and
-        ``ratio_`` / ``cpu_ratio_`` / ``efficiency_ratio_<variant>``), then a row with
-        ``scene`` :data:`GEOMEAN` holding the geometric means of the ratios and ``scenes``,
-        the number of scenes behind them.
+        ``ratio_`` / ``cpu_ratio_`` / ``efficiency_ratio_<variant>`` and
+        ``round_ratios_<variant>``, each round's paths/s ratio), then a row with ``scene``
+        :data:`GEOMEAN` holding the geometric means of the ratios, each round's geometric
+        mean over the scenes, and ``scenes``, the number of scenes behind them.
     """
     strategy = result["config"]["strategies"][0]
     integrator = result["config"].get("integrators", ["wavefront"])[0]
@@ -97,6 +98,7 @@ def _headline_row(row, summary, variants) -> dict:
         out[f"mitsuba_paths_per_second_{v}"] = theirs[0]["paths_per_second"] if theirs else None
         for key in _RATIOS:
             out[f"{key}_{v}"] = row.get(f"{key}_{v}")
+        out[f"round_ratios_{v}"] = row.get(f"round_ratios_{v}")
     return out
 
 
@@ -108,4 +110,11 @@ def _geomean_row(label, block, variants) -> dict:
         out[f"mitsuba_paths_per_second_{v}"] = None
         for key in _RATIOS:
             out[f"{key}_{v}"] = geometric_mean(r[f"{key}_{v}"] for r in block)
+        # Round k's geometric mean over the scenes (their k-th rounds ran in the same pass
+        # over the suite); None where a scene lacks its rounds.
+        rounds = [r.get(f"round_ratios_{v}") for r in block]
+        if block and all(rounds) and len({len(x) for x in rounds}) == 1:
+            out[f"round_ratios_{v}"] = [geometric_mean(x[k] for x in rounds) for k in range(len(rounds[0]))]
+        else:
+            out[f"round_ratios_{v}"] = None
     return out
