@@ -34,8 +34,17 @@ struct LightSample {
 // the next-event estimates of a pack of diffuse vertices from them without unpacking
 // (PERFORMANCE.md round 17). A lane holds LightSample()'s values until a sample is set.
 struct LightSamplePack {
-    VPd wi[3] = {}, dist = splat(kInf), pdf = {}, radiance[3] = {};
+    VPd wi[3], dist, pdf, radiance[3];
     unsigned valid = 0, background = 0;  // bit l: lane l's flag
+
+    // Zeros (dist infinite), set from a register: with default member initialisers GCC
+    // zeroed the arrays with `rep stos` on AVX2 targets, a microcoded start-up a pack.
+    LightSamplePack() {
+        const VPd zero = {};
+        for (int a = 0; a < 3; ++a) wi[a] = radiance[a] = zero;
+        dist = splat(kInf);
+        pdf = zero;
+    }
 
     LightSample lane(int l) const {
         LightSample ls;
