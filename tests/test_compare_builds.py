@@ -48,15 +48,15 @@ def test_a_build_with_different_arithmetic_is_reported(tmp_path):
 
 def test_ab_cores_times_a_build_against_itself():
     # The installed core against itself: both workers render, and the speed-up row is a
-    # finite ratio with its interval around the median (its value is the machine's noise,
-    # not asserted beyond a factor of two at this tiny size).
+    # positive ratio with its interval around the median (its value is the machine's noise
+    # and is not asserted: speed belongs in the benchmark).
     out = _run("installed", "installed", "--scenes", "cornell_box", "--rounds", "3", "--spp", "1", "--size", "16",
                script=AB_SCRIPT, timeout=300)
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
     row = re.search(r"^cornell_box +([\d.]+) +([\d.]+) +([\d.]+) +\[([\d.]+), ([\d.]+)\]$", out.stdout, re.M)
     assert row, out.stdout
     a, b, med, low, high = map(float, row.groups())
-    assert a > 0 and b > 0 and 0.5 < med < 2.0 and low <= med <= high
+    assert a > 0 and b > 0 and med > 0 and low <= med <= high
 
 
 def test_median_interval_brackets_the_median_and_narrows_with_more_rounds():
@@ -72,3 +72,14 @@ def test_median_interval_brackets_the_median_and_narrows_with_more_rounds():
     assert many[1] < 1.05 < many[2]  # the true median, at 90%: fixed seed, passes for this draw
     with pytest.raises(ValueError):
         median_interval([1.0, float("nan")])
+
+
+def test_paired_render_times_reports_a_worker_that_cannot_start(tmp_path):
+    # A file that is no core module: its worker fails on import, and the error names the
+    # module and carries the worker's own message instead of hanging or a bare EOF.
+    from benchmarks.speed.builds import paired_render_times
+
+    bogus = tmp_path / "_core.so"
+    bogus.write_bytes(b"not a shared object")
+    with pytest.raises(RuntimeError, match=r"the worker of .*_core\.so stopped:(.|\n)*ImportError"):
+        paired_render_times([bogus], ["cornell_box"], rounds=1, spp=1, size=8)

@@ -134,9 +134,8 @@ def build_target(build_dir: Path) -> str:
 
 
 # A worker that renders on request with its own core: reads "scene spp" lines, answers each
-# with the wall seconds of one render (128x128 unless SIZE, `mis`, wavefront, Russian
-# roulette from depth 5 as Mitsuba's default, 1 thread). A first render of each scene warms
-# it up untimed.
+# with the wall seconds of one render (SIZE x SIZE, `mis`, wavefront, Russian roulette from
+# depth 5 as Mitsuba's default, 1 thread). The caller's first render of a scene warms it up.
 _WORKER_SCRIPT = """
 import time
 import reference_tracer as rt
@@ -146,7 +145,6 @@ for line in sys.stdin:
     name, spp = line.split()
     if name not in scenes:
         scenes[name] = get_scene(name, width=SIZE, height=SIZE, max_depth=50, rr_depth=5)
-        rt.render(scenes[name], spp=1, strategy="mis", seed=1, threads=1)
     t0 = time.perf_counter()
     rt.render(scenes[name], spp=int(spp), strategy="mis", seed=1, threads=1)
     print(time.perf_counter() - t0, flush=True)
@@ -165,12 +163,16 @@ def paired_render_times(modules, scenes, *, rounds: int = 40, spp: int = 16, siz
     """
     if rounds < 1:
         raise ValueError("rounds must be at least 1")
-    workers = []
+    import tempfile
+
+    workers, errors = [], []
     try:
         for module in modules:
             code = _PREAMBLE.format(root=str(ROOT), module=str(module)) + _WORKER_SCRIPT.replace("SIZE", str(int(size)))
+            # stderr to a file: a pipe nobody reads while the worker runs could fill and stall it.
+            errors.append(tempfile.TemporaryFile(mode="w+"))
             workers.append(subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                            stderr=subprocess.PIPE, text=True, cwd=ROOT,
+                                            stderr=errors[-1], text=True, cwd=ROOT,
                                             env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1")))
 
         def render(k, scene):
@@ -179,7 +181,9 @@ def paired_render_times(modules, scenes, *, rounds: int = 40, spp: int = 16, siz
             w.stdin.flush()
             line = w.stdout.readline()
             if not line:
-                raise RuntimeError(f"the worker of {modules[k]} stopped:\n{w.stderr.read()[-3000:]}")
+                w.wait(timeout=60)
+                errors[k].seek(0)
+                raise RuntimeError(f"the worker of {modules[k]} stopped:\n{errors[k].read()[-3000:]}")
             return float(line)
 
         times = {}
@@ -199,7 +203,13 @@ def paired_render_times(modules, scenes, *, rounds: int = 40, spp: int = 16, siz
         for w in workers:
             if w.stdin:
                 w.stdin.close()
-            w.wait(timeout=60)
+            try:
+                w.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                w.kill()
+                w.wait()
+        for f in errors:
+            f.close()
 
 
 def median_interval(ratios, *, level: float = 0.90, resamples: int = 2000, seed: int = 0):

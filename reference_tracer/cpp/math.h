@@ -129,6 +129,8 @@ constexpr double kRayEpsilon = 64.0 * std::numeric_limits<double>::epsilon();
 // surface on the side d points to, so the ray cannot re-hit the surface it starts on.
 // Always inline: called at every vertex from both integrators, GCC sometimes left it out
 // of line (3-4% of the wavefront integrator's instructions as a call).
+// wavefront.cpp's offset_epsilon / offset_toward do these operations lane-wise for the
+// packs: keep the two alike (the integrators' images must agree bit for bit).
 [[gnu::always_inline]] inline Vec3 offset_origin(const Vec3& p, const Vec3& n, const Vec3& d) {
     const double eps = kRayEpsilon * max_abs_component(p) + std::numeric_limits<double>::min();
     return dot(n, d) >= 0.0 ? p + n * eps : p - n * eps;

@@ -1,5 +1,7 @@
 #include "scene.h"
 
+#include <cstddef>
+
 namespace rt {
 
 namespace {

@@ -3,7 +3,6 @@
 // elsewhere, so no code path depends on an instruction set.
 #pragma once
 
-#include <cstddef>
 #include <cstdint>
 
 #ifdef __AVX__

@@ -46,7 +46,6 @@ void WavefrontIntegrator::start_sample(Lane& lane) const {
     lane.prev = PrevVertex();
     lane.depth = 0;
     lane.path_done = false;
-    lane.shadow = false;
 }
 
 void WavefrontIntegrator::camera_rays(Lane* const* lanes, int n) const {
@@ -55,9 +54,8 @@ void WavefrontIntegrator::camera_rays(Lane* const* lanes, int n) const {
         const int m = std::min(kPackWidth, n - base);
         VPd film[2];
         gather_members<2>(lanes + base, m, [](const Lane& lane) { return lane.film; }, film);
-        const VPd px = film[0], py = film[1];
         VPd d[3];
-        camera.direction(px, py, d[0], d[1], d[2]);
+        camera.direction(film[0], film[1], d[0], d[1], d[2]);
         for (int l = 0; l < m; ++l) lanes[base + l]->ray = Ray{camera.origin, Vec3(d[0][l], d[1][l], d[2][l])};
     }
 }
@@ -186,14 +184,15 @@ VPd WavefrontIntegrator::offset_epsilon(const VPd (&p)[3]) {
     return kRayEpsilon * max_p + std::numeric_limits<double>::min();
 }
 
-void WavefrontIntegrator::offset_along(const VPd (&p)[3], const VPd (&n)[3], VPd eps, VPd (&ref)[3]) {
-    // offset_origin(p, n, n): the side test dot(n, n) >= 0 fails only for a NaN normal.
-    const VPl outward = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] >= 0.0;
-    for (int a = 0; a < 3; ++a) ref[a] = outward ? p[a] + n[a] * eps : p[a] - n[a] * eps;
+void WavefrontIntegrator::offset_toward(const VPd (&p)[3], const VPd (&n)[3], const VPd (&d)[3], VPd eps,
+                                        VPd (&out)[3]) {
+    // offset_origin's side test, dot(n, d) >= 0, and its offset along n.
+    const VPl outward = n[0] * d[0] + n[1] * d[1] + n[2] * d[2] >= 0.0;
+    for (int a = 0; a < 3; ++a) out[a] = outward ? p[a] + n[a] * eps : p[a] - n[a] * eps;
 }
 
 void WavefrontIntegrator::reference_points(const VPd (&p)[3], const VPd (&n)[3], VPd (&ref)[3]) {
-    offset_along(p, n, offset_epsilon(p), ref);
+    offset_toward(p, n, n, offset_epsilon(p), ref);
 }
 
 int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, const Ray** rays_out, double* t_max,
@@ -222,7 +221,6 @@ int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, con
             const int l = __builtin_ctz(left);
             Lane& lane = *q.lanes[base + l];
             // What estimate_ld does after its checks: count the shadow ray (above) and queue it.
-            lane.shadow = true;
             lane.shadow_ray = Ray{Vec3(ref[0][l], ref[1][l], ref[2][l]), Vec3(ls.wi[0][l], ls.wi[1][l], ls.wi[2][l])};
             lane.shadow_t_max = t_far[l];
             lane.shadow_value = Vec3(value[0][l], value[1][l], value[2][l]);
@@ -233,9 +231,7 @@ int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, con
         for (unsigned left = light & ~diffuse; left != 0; left &= left - 1) {
             const int l = __builtin_ctz(left);
             Lane& lane = *q.lanes[base + l];
-            lane.light = ls.lane(l);
-            next_event(lane, rays);
-            if (!lane.shadow) continue;
+            if (!next_event(lane, ls.lane(l), rays)) continue;
             shadowed[n_shadow] = &lane;
             rays_out[n_shadow] = &lane.shadow_ray;
             t_max[n_shadow++] = lane.shadow_t_max;
@@ -279,17 +275,18 @@ unsigned WavefrontIntegrator::estimate_diffuse(const VertexQueue& q, int base, c
     return shadow;
 }
 
-void WavefrontIntegrator::next_event(Lane& lane, uint64_t& rays) const {
+bool WavefrontIntegrator::next_event(Lane& lane, const LightSample& light, uint64_t& rays) const {
     // The shadow ray joins the batch's; its value is added after the batch, before
-    // anything else touches L, so the sum keeps Li's order.
+    // anything else touches L, so the sum keeps Li's order. estimate_ld returns a value
+    // exactly where it queued the ray (it reports it unoccluded).
     const auto queue = [&lane](const Ray& r, double t_max) {
-        lane.shadow = true;
         lane.shadow_ray = r;
         lane.shadow_t_max = t_max;
         return false;
     };
-    if (const std::optional<Vec3> Ld = integrator_.estimate_ld(*lane.vertex, lane.beta, lane.light, rays, lane.ref, queue))
-        lane.shadow_value = *Ld;
+    const std::optional<Vec3> Ld = integrator_.estimate_ld(*lane.vertex, lane.beta, light, rays, lane.ref, queue);
+    if (Ld) lane.shadow_value = *Ld;
+    return Ld.has_value();
 }
 
 void WavefrontIntegrator::scatter(Lane& lane) const {
@@ -321,10 +318,9 @@ void WavefrontIntegrator::scatter_diffuse(const VertexQueue& q, int n) const {
         for (int a = 0; a < 3; ++a) wi[a] = mul_add(nv[a], w[2], mul_add(ft[a], w[1], fs[a] * w[0]));
         // offset_origin(p, n, wi) (math.h), and the reference point offset_origin(p, n, n).
         const VPd eps = offset_epsilon(p);
-        const VPl outward = nv[0] * wi[0] + nv[1] * wi[1] + nv[2] * wi[2] >= 0.0;  // dot(n, wi) >= 0
         VPd origin[3], ref[3];
-        for (int a = 0; a < 3; ++a) origin[a] = outward ? p[a] + nv[a] * eps : p[a] - nv[a] * eps;
-        offset_along(p, nv, eps, ref);
+        offset_toward(p, nv, wi, eps, origin);
+        offset_toward(p, nv, nv, eps, ref);
         // continue_path, lane by lane. The sample's eta is 1 (eta *= 1 changes nothing).
         for (unsigned left = lanes; left != 0; left &= left - 1) {
             const int l = __builtin_ctz(left);
@@ -448,7 +444,6 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
                 // A selection, not a branch (the verdicts are unpredictable); L + 0 would
                 // turn a -0 into +0, so the sum is selected, not the term.
                 lane.L = select_bits(hit[k], lane.L, lane.L + lane.shadow_value);
-                lane.shadow = false;
             }
         }
 

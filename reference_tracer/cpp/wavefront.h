@@ -75,8 +75,7 @@ private:
         double wo_z = 0.0;     // the local z of wo
         Vec3 ref;              // not set where the vertex scatters diffusely (the queue's packs compute it)
 
-        LightSample light;     // a light sample that next_event() finishes (not diffuse vertices)
-        bool shadow = false;   // a shadow ray to trace before the next bounce
+        // The shadow ray to trace before the next bounce, where next_events() listed one.
         Ray shadow_ray;
         double shadow_t_max = 0.0;
         Vec3 shadow_value;     // what it adds to L when unoccluded
@@ -166,11 +165,14 @@ private:
     // holds what each adds to L when unoccluded, t_max where its shadow ray ends.
     static unsigned estimate_diffuse(const VertexQueue& q, int base, const LightSamplePack& ls, unsigned lanes,
                                      VPd (&value)[3], VPd& t_max);
-    void next_event(Lane& lane, uint64_t& rays) const;
-    // offset_origin (math.h) lane-wise, bit for bit: its epsilon for points p, the points
-    // offset along n by it (offset_origin(p, n, n)), and both at once.
+    // Integrator::estimate_ld for a vertex that is not diffuse, from its light sample;
+    // returns whether it queued a shadow ray (lane.shadow_*).
+    bool next_event(Lane& lane, const LightSample& light, uint64_t& rays) const;
+    // offset_origin (math.h) lane-wise, bit for bit: its epsilon for points p; p offset
+    // along n to the side d points to (offset_origin(p, n, d), given that epsilon); and the
+    // reference points offset_origin(p, n, n).
     static VPd offset_epsilon(const VPd (&p)[3]);
-    static void offset_along(const VPd (&p)[3], const VPd (&n)[3], VPd eps, VPd (&ref)[3]);
+    static void offset_toward(const VPd (&p)[3], const VPd (&n)[3], const VPd (&d)[3], VPd eps, VPd (&out)[3]);
     static void reference_points(const VPd (&p)[3], const VPd (&n)[3], VPd (&ref)[3]);
     void scatter(Lane& lane) const;
     // sample_scatter at the queue's diffuse vertices: the cosine-weighted direction
