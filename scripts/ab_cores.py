@@ -11,8 +11,15 @@ build of a change:
         --scenes cornell_box glossy_plates --rounds 60
 
 Each render: 128x128 (``--size``), ``--spp`` spp, ``mis``, the wavefront integrator, Russian
-roulette from depth 5 (Mitsuba's default), 1 thread. The table gives each build's median
-seconds a render and the speed-up of B over A (time of A / time of B, above 1 where B is
+roulette from depth 5 (Mitsuba's default), 1 thread. With ``--rays`` the builds cast rays
+instead, as ``rtbench speed --rays`` does (closest hits, distance and primitive), 1 thread,
+``--ray-count`` rays a query on the torus of each ``--triangles`` size, random and primary
+rays (``--kinds``):
+
+    python scripts/ab_cores.py installed /tmp/build/_core.cpython-311-x86_64-linux-gnu.so \\
+        --rays --triangles 1000000 --kinds random --rounds 40
+ The table gives each build's median
+seconds a render (or query) and the speed-up of B over A (time of A / time of B, above 1 where B is
 faster): the median of the rounds' ratios with a bootstrap 90% interval. Builds of the same
 code measured 0.99-1.01 this way (40 rounds). Images are not compared here:
 ``scripts/compare_builds.py`` and ``benchmarks.speed.builds.agreement_arrays`` do that.
@@ -43,10 +50,17 @@ def main(argv=None) -> int:
     parser.add_argument("--rounds", type=int, default=40)
     parser.add_argument("--spp", type=int, default=16)
     parser.add_argument("--size", type=int, default=128, help="image width and height")
+    parser.add_argument("--rays", action="store_true", help="time ray queries instead of renders")
+    parser.add_argument("--triangles", type=int, nargs="+", default=[1_000_000], help="--rays: mesh sizes")
+    parser.add_argument("--kinds", nargs="+", default=["random", "primary"], choices=["random", "primary"],
+                        help="--rays: kinds of rays")
+    parser.add_argument("--ray-count", type=int, default=1 << 18, help="--rays: rays a query")
     opts = parser.parse_args(argv)
-    for flag in ("rounds", "spp", "size"):
+    for flag in ("rounds", "spp", "size", "ray_count"):
         if getattr(opts, flag) < 1:
-            parser.error(f"--{flag} must be at least 1")
+            parser.error(f"--{flag.replace('_', '-')} must be at least 1")
+    if any(t < 32 for t in opts.triangles):
+        parser.error("--triangles must be at least 32")
     unknown = [s for s in opts.scenes if s not in SUITE]
     if unknown:
         parser.error(f"unknown scene(s) {', '.join(unknown)}; the suite has {', '.join(SUITE)}")
@@ -57,17 +71,26 @@ def main(argv=None) -> int:
             parser.error(f"no core module at {path}")
         modules.append(path.resolve())
 
-    from benchmarks.speed.builds import median_interval, paired_render_times
+    from benchmarks.speed.builds import median_interval, paired_ray_times, paired_render_times
 
     print(f"A: {modules[0]}\nB: {modules[1]}")
-    print(f"{opts.rounds} rounds, {opts.size}x{opts.size}, {opts.spp} spp, mis, rr_depth 5, 1 thread")
-    print(f"{'scene':16s} {'A s/render':>11s} {'B s/render':>11s} {'B speed-up':>11s} {'90% interval':>16s}")
-    for scene in opts.scenes:
-        rows = paired_render_times(modules, [scene], rounds=opts.rounds, spp=opts.spp, size=opts.size)[scene]
+    if opts.rays:
+        print(f"{opts.rounds} rounds, {opts.ray_count} rays a query, closest hit (distance and primitive), 1 thread")
+        cases = [((t, kind), f"{t} {kind}") for t in opts.triangles for kind in opts.kinds]
+        print(f"{'mesh, rays':16s} {'A s/query':>11s} {'B s/query':>11s} {'B speed-up':>11s} {'90% interval':>16s}")
+    else:
+        print(f"{opts.rounds} rounds, {opts.size}x{opts.size}, {opts.spp} spp, mis, rr_depth 5, 1 thread")
+        cases = [(scene, scene) for scene in opts.scenes]
+        print(f"{'scene':16s} {'A s/render':>11s} {'B s/render':>11s} {'B speed-up':>11s} {'90% interval':>16s}")
+    for key, label in cases:
+        if opts.rays:
+            rows = paired_ray_times(modules, [key[0]], [key[1]], rounds=opts.rounds, rays=opts.ray_count)[key]
+        else:
+            rows = paired_render_times(modules, [key], rounds=opts.rounds, spp=opts.spp, size=opts.size)[key]
         med, low, high = median_interval([a / b for a, b in rows])
         ta = statistics.median(r[0] for r in rows)
         tb = statistics.median(r[1] for r in rows)
-        print(f"{scene:16s} {ta:11.4f} {tb:11.4f} {med:11.3f} {f'[{low:.3f}, {high:.3f}]':>16s}", flush=True)
+        print(f"{label:16s} {ta:11.4f} {tb:11.4f} {med:11.3f} {f'[{low:.3f}, {high:.3f}]':>16s}", flush=True)
     return 0
 
 

@@ -27,6 +27,8 @@ def _run(*args, script=SCRIPT, timeout=900):
     (AB_SCRIPT, ["installed", "installed", "--scenes", "nope"], "unknown scene(s) nope"),
     (AB_SCRIPT, ["installed", "installed", "--rounds", "0"], "--rounds must be at least 1"),
     (AB_SCRIPT, ["installed", "installed", "--spp", "0"], "--spp must be at least 1"),
+    (AB_SCRIPT, ["installed", "installed", "--rays", "--triangles", "10"], "--triangles must be at least 32"),
+    (AB_SCRIPT, ["installed", "installed", "--rays", "--ray-count", "0"], "--ray-count must be at least 1"),
 ])
 def test_bad_arguments_are_usage_errors(script, args, message):
     out = _run(*args, script=script, timeout=60)
@@ -57,6 +59,25 @@ def test_ab_cores_times_a_build_against_itself():
     assert row, out.stdout
     a, b, med, low, high = map(float, row.groups())
     assert a > 0 and b > 0 and med > 0 and low <= med <= high
+
+
+def test_ab_cores_times_ray_queries_of_a_build_against_itself():
+    # --rays: both workers cast the same rays on a small torus; one row per mesh and kind.
+    out = _run("installed", "installed", "--rays", "--triangles", "2000", "--kinds", "random", "primary",
+               "--ray-count", "4096", "--rounds", "3", script=AB_SCRIPT, timeout=300)
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
+    for kind in ("random", "primary"):
+        row = re.search(rf"^2000 {kind} +([\d.]+) +([\d.]+) +([\d.]+) +\[([\d.]+), ([\d.]+)\]$", out.stdout, re.M)
+        assert row, out.stdout
+        a, b, med, low, high = map(float, row.groups())
+        assert a > 0 and b > 0 and low <= med <= high
+
+
+def test_paired_ray_times_rejects_an_unknown_kind():
+    from benchmarks.speed.builds import paired_ray_times
+
+    with pytest.raises(ValueError, match="kind must be"):
+        paired_ray_times(["a.so"], [1000], ["diffuse"], rounds=1)
 
 
 def test_median_interval_brackets_the_median_and_narrows_with_more_rounds():

@@ -25,7 +25,7 @@ import sys
 from pathlib import Path
 
 __all__ = ["ROOT", "AGREEMENT_SCRIPT", "build_core", "run_with_core", "agreement_arrays", "build_target",
-           "paired_render_times", "median_interval"]
+           "paired_render_times", "paired_ray_times", "median_interval"]
 
 #: The repository's root (the CMake project).
 ROOT = Path(__file__).resolve().parents[2]
@@ -136,7 +136,7 @@ def build_target(build_dir: Path) -> str:
 # A worker that renders on request with its own core: reads "scene spp" lines, answers each
 # with the wall seconds of one render (SIZE x SIZE, `mis`, wavefront, Russian roulette from
 # depth 5 as Mitsuba's default, 1 thread). The caller's first render of a scene warms it up.
-_WORKER_SCRIPT = """
+_RENDER_WORKER = """
 import time
 import reference_tracer as rt
 from mitsuba_scenes import get_scene
@@ -150,17 +150,35 @@ for line in sys.stdin:
     print(time.perf_counter() - t0, flush=True)
 """
 
+# A worker that casts rays on request: reads "triangles kind count" lines, answers each with
+# the wall seconds of one closest-hit query of `count` rays of `kind` (random / primary, as
+# `rtbench speed --rays` makes them) on the benchmark's torus, like for like
+# (`preliminary=True`), 1 thread. Meshes and rays are made once, on first request.
+_RAY_WORKER = """
+import time
+import numpy as np
+from benchmarks.speed.rays import mesh_scene, primary_rays, random_rays
+from reference_tracer.render import core_scene
+meshes, rays = {}, {}
+for line in sys.stdin:
+    triangles, kind, count = line.split()
+    if triangles not in meshes:
+        meshes[triangles] = core_scene(mesh_scene(int(triangles)))
+    if (kind, count) not in rays:
+        o, d = (random_rays if kind == "random" else primary_rays)(int(count))
+        rays[kind, count] = (np.ascontiguousarray(o, dtype=np.float64), np.ascontiguousarray(d, dtype=np.float64))
+    o, d = rays[kind, count]
+    t0 = time.perf_counter()
+    meshes[triangles].intersect(o, d, threads=1, preliminary=True)
+    print(time.perf_counter() - t0, flush=True)
+"""
 
-def paired_render_times(modules, scenes, *, rounds: int = 40, spp: int = 16, size: int = 128) -> dict:
-    """Render times of several core builds, paired: ``{scene: [[seconds of each module] per round]}``.
 
-    One persistent worker process per module renders on request, one render at a time
-    (never two at once), each round in turn starting with the next module. Renders a
-    fraction of a second apart see the same machine, so the per-round ratios cancel the
-    slow drifts of a shared VM that separate timed processes do not (PERFORMANCE.md round
-    18: identical builds gave a 90% interval of +-1% in 40 pairs, where best-of-six
-    processes left quartiles of +-5-20%).
-    """
+def _paired_times(modules, worker_script: str, requests, *, rounds: int) -> dict:
+    """``{request: [[seconds of each module] per round]}`` for each request line, from one
+    persistent worker per module running ``worker_script`` (it answers each request line
+    with seconds), one request at a time, each round in turn starting with the next
+    module; one untimed warm-up request per module first."""
     if rounds < 1:
         raise ValueError("rounds must be at least 1")
     import tempfile
@@ -168,16 +186,16 @@ def paired_render_times(modules, scenes, *, rounds: int = 40, spp: int = 16, siz
     workers, errors = [], []
     try:
         for module in modules:
-            code = _PREAMBLE.format(root=str(ROOT), module=str(module)) + _WORKER_SCRIPT.replace("SIZE", str(int(size)))
+            code = _PREAMBLE.format(root=str(ROOT), module=str(module)) + worker_script
             # stderr to a file: a pipe nobody reads while the worker runs could fill and stall it.
             errors.append(tempfile.TemporaryFile(mode="w+"))
             workers.append(subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                             stderr=errors[-1], text=True, cwd=ROOT,
                                             env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1")))
 
-        def render(k, scene):
+        def ask(k, request):
             w = workers[k]
-            w.stdin.write(f"{scene} {int(spp)}\n")
+            w.stdin.write(f"{request}\n")
             w.stdin.flush()
             line = w.stdout.readline()
             if not line:
@@ -187,17 +205,17 @@ def paired_render_times(modules, scenes, *, rounds: int = 40, spp: int = 16, siz
             return float(line)
 
         times = {}
-        for scene in scenes:
+        for request in requests:
             for k in range(len(workers)):
-                render(k, scene)  # warm-up
+                ask(k, request)  # warm-up
             rows = []
             for r in range(rounds):
                 row = [0.0] * len(workers)
                 for j in range(len(workers)):
                     k = (r + j) % len(workers)
-                    row[k] = render(k, scene)
+                    row[k] = ask(k, request)
                 rows.append(row)
-            times[scene] = rows
+            times[request] = rows
         return times
     finally:
         for w in workers:
@@ -210,6 +228,34 @@ def paired_render_times(modules, scenes, *, rounds: int = 40, spp: int = 16, siz
                 w.wait()
         for f in errors:
             f.close()
+
+
+def paired_render_times(modules, scenes, *, rounds: int = 40, spp: int = 16, size: int = 128) -> dict:
+    """Render times of several core builds, paired: ``{scene: [[seconds of each module] per round]}``.
+
+    One persistent worker process per module renders on request, one render at a time
+    (never two at once), each round in turn starting with the next module. Renders a
+    fraction of a second apart see the same machine, so the per-round ratios cancel the
+    slow drifts of a shared VM that separate timed processes do not (PERFORMANCE.md round
+    18: identical builds gave a 90% interval of +-1% in 40 pairs, where best-of-six
+    processes left quartiles of +-5-20%).
+    """
+    times = _paired_times(modules, _RENDER_WORKER.replace("SIZE", str(int(size))),
+                          [f"{scene} {int(spp)}" for scene in scenes], rounds=rounds)
+    return {scene: times[f"{scene} {int(spp)}"] for scene in scenes}
+
+
+def paired_ray_times(modules, triangles, kinds, *, rounds: int = 40, rays: int = 1 << 18) -> dict:
+    """Ray-query times of several core builds, paired as :func:`paired_render_times` pairs
+    renders: ``{(triangles, kind): [[seconds of each module] per round]}``, each a closest-hit
+    query (``preliminary=True``, 1 thread) of ``rays`` rays of ``kind`` (``"random"`` or
+    ``"primary"``, :mod:`benchmarks.speed.rays`) on the torus of ``triangles`` triangles."""
+    for kind in kinds:
+        if kind not in ("random", "primary"):
+            raise ValueError(f"kind must be 'random' or 'primary', not {kind!r}")
+    keys = [(int(t), kind) for t in triangles for kind in kinds]
+    times = _paired_times(modules, _RAY_WORKER, [f"{t} {kind} {int(rays)}" for t, kind in keys], rounds=rounds)
+    return {(t, kind): times[f"{t} {kind} {int(rays)}"] for t, kind in keys}
 
 
 def median_interval(ratios, *, level: float = 0.90, resamples: int = 2000, seed: int = 0):
