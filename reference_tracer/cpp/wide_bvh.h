@@ -401,7 +401,17 @@ public:
     // `query` provides: begin(slot, i) -> ray i, called before its traversal in slot;
     // test(slot, prim, t_max), test_block(slot, block, t_max) as for traverse;
     // prefetch_block(block); finish(slot, i, hit, t).
-    template <int kLanes, typename Query>
+    //
+    // `kPrefetchPushed`: whether the children pushed on a lane's stack are prefetched when
+    // pushed, as well as when popped (the next item of a lane is prefetched either way,
+    // a round of the lanes before its visit). Worth it for a tree held in the caches; for
+    // one that is not, a pushed child is a memory transfer that holds a line fill buffer
+    // (a core has about 16) for the ~150 ns of a DRAM access, and 40% of them are culled
+    // unvisited: 1M triangles (67 MB of tree), random rays, 1 thread, paired: without them
+    // 1.08x and 1.22x, 300k triangles 1.17x, 100k triangles (6.5 MB) 0.95x and 0.98x
+    // (PERFORMANCE.md round 19). A template parameter: as a run-time flag tested in the
+    // push loop, the build lost the gain (0.84x of the build without the prefetches).
+    template <int kLanes, bool kPrefetchPushed, typename Query>
     void traverse_interleaved(size_t count, Query& query) const {
         struct Lane {
             RaySlabs slabs;
@@ -453,8 +463,11 @@ public:
                     V8f tn;
                     int idx[kWidth];
                     const int k = sorted_hits(l.slabs.test(n, l.t_max_f, tn), tn, idx);
-                    for (int j = k - 1; j > 0; --j)
-                        push(stack, l.top, n, idx[j], tn, prefetch_block);
+                    for (int j = k - 1; j > 0; --j) {
+                        const int c = idx[j];
+                        if (kPrefetchPushed) prefetch_child(n.child[c], n.count[c], prefetch_block);
+                        stack[l.top++] = {n.child[c], n.count[c], tn[c]};
+                    }
                     if (k > 0) {
                         l.ref = n.child[idx[0]];
                         l.leaf_count = n.count[idx[0]];
