@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Time two builds of the C++ core against each other, paired render by render.
+"""Time two builds of the C++ core against each other, paired render by render (or ray query by query).
 
 For changes of a few per cent on a shared VM, where separate timed processes disagree by
 more than that (PERFORMANCE.md round 18): one worker process per build renders on request,
@@ -18,10 +18,12 @@ rays (``--kinds``):
 
     python scripts/ab_cores.py installed /tmp/build/_core.cpython-311-x86_64-linux-gnu.so \\
         --rays --triangles 1000000 --kinds random --rounds 40
- The table gives each build's median
-seconds a render (or query) and the speed-up of B over A (time of A / time of B, above 1 where B is
-faster): the median of the rounds' ratios with a bootstrap 90% interval. Builds of the same
-code measured 0.99-1.01 this way (40 rounds). Images are not compared here:
+
+The table gives each build's median seconds a render (or query) and the speed-up of B over A
+(time of A / time of B, above 1 where B is faster): the median of the rounds' ratios with a
+bootstrap 90% interval. Builds of the same code measured 0.99-1.01 this way on renders (40
+rounds), and 1.00-1.06 on 1M-triangle ray queries (20-30 rounds: the memory-bound queries
+are noisier; PERFORMANCE.md round 19). Images are not compared here:
 ``scripts/compare_builds.py`` and ``benchmarks.speed.builds.agreement_arrays`` do that.
 """
 from __future__ import annotations
