@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Time two builds of the C++ core against each other, paired render by render (or ray query by query).
+"""Time two builds of the C++ core against each other, paired run by run (renders or ray queries).
 
 For changes of a few per cent on a shared VM, where separate timed processes disagree by
 more than that (PERFORMANCE.md round 18): one worker process per build renders on request,
