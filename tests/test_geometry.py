@@ -290,6 +290,25 @@ def test_interleaved_traversal_equals_single_ray(n_rays, threads):
         assert 0.2 < (brute["prim"] >= 0).mean() < 0.9
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_interleaved_traversal_of_a_tree_beyond_the_cache_threshold(threads):
+    # Trees over 8 MiB (Scene::kCachedTreeBytes) take another instance of the interleaved
+    # traversal, one that does not prefetch pushed children (PERFORMANCE.md round 19): its
+    # results must equal the one-ray-at-a-time traversal's, field by field.
+    from benchmarks.speed.rays import mesh_scene, random_rays
+
+    c = core_scene(mesh_scene(200_000))
+    # The tree's bytes as the core counts them: 256-byte nodes and 192-byte float blocks.
+    assert c.bvh_float_blocks and c.bvh_nodes * 256 + c.bvh_blocks * 192 > 8 << 20
+    origins, dirs = random_rays(3000, seed=11)
+    interleaved = cast(c, origins, dirs, threads=threads)
+    single = cast(c, origins, dirs, threads=threads, batch=False)
+    assert interleaved["packet_rays"] == 0
+    for key in ("t", "prim", "point", "normal"):
+        assert np.array_equal(interleaved[key], single[key]), key
+    assert 0.2 < (single["prim"] >= 0).mean() < 0.7
+
+
 @pytest.mark.parametrize("n_prims, mesh_triangles", [(1, 3000), (8, 3000), (20, 1), (20, 0), (0, 500), (40, 3000)])
 @pytest.mark.parametrize("triangle_test", ["watertight", "cramer"])
 def test_batched_queries_equal_brute_force(n_prims, mesh_triangles, triangle_test):
