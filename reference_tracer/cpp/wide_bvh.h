@@ -463,11 +463,8 @@ public:
                     V8f tn;
                     int idx[kWidth];
                     const int k = sorted_hits(l.slabs.test(n, l.t_max_f, tn), tn, idx);
-                    for (int j = k - 1; j > 0; --j) {
-                        const int c = idx[j];
-                        if (kPrefetchPushed) prefetch_child(n.child[c], n.count[c], prefetch_block);
-                        stack[l.top++] = {n.child[c], n.count[c], tn[c]};
-                    }
+                    for (int j = k - 1; j > 0; --j)
+                        push<kPrefetchPushed>(stack, l.top, n, idx[j], tn, prefetch_block);
                     if (k > 0) {
                         l.ref = n.child[idx[0]];
                         l.leaf_count = n.count[idx[0]];
@@ -623,11 +620,11 @@ private:
         }
     }
 
-    // Pushes child c of node n, starting the load of its memory: it waits on the stack
-    // while the nearer subtree is traversed.
-    template <typename PrefetchBlock>
+    // Pushes child c of node n and (with Prefetch) starts the load of its memory: it waits
+    // on the stack while the nearer subtree is traversed.
+    template <bool Prefetch = true, typename PrefetchBlock>
     void push(Entry* stack, int& top, const WideNode& n, int c, const V8f& tn, PrefetchBlock&& prefetch_block) const {
-        prefetch_child(n.child[c], n.count[c], prefetch_block);
+        if (Prefetch) prefetch_child(n.child[c], n.count[c], prefetch_block);
         stack[top++] = {n.child[c], n.count[c], tn[c]};
     }
 
