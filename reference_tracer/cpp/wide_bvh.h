@@ -1,4 +1,5 @@
-// An 8-wide BVH collapsed from the binary SAH tree: each node holds the boxes of up to
+// An 8-wide BVH collapsed from the binary SAH tree (the wide nodes chosen to minimise the
+// summed areas of the nodes a ray visits; wide_bvh.cpp): each node holds the boxes of up to
 // eight children as float, rounded outward (boxes only grow), in structure-of-arrays
 // form, so that one node visit tests eight boxes with 8-lane single-precision vector
 // instructions. Twice the fan-out of a 4-wide tree halves the levels a ray descends,
@@ -643,8 +644,10 @@ private:
         return any;
     }
 
+    class CollapsePlan;
     void build(const BVH& binary, const std::function<bool(uint32_t)>& packable);
-    int32_t collapse(const BVH& binary, uint32_t node, int depth, const std::function<bool(uint32_t)>& packable);
+    int32_t collapse(const BVH& binary, const CollapsePlan& plan, uint32_t node, int depth,
+                     const std::function<bool(uint32_t)>& packable);
     // Child reference and count of a leaf of the binary tree (a block leaf when packable).
     void make_leaf(const BVHNode& leaf, const std::function<bool(uint32_t)>& packable, int32_t& child,
                    uint16_t& count);
