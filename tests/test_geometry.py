@@ -389,6 +389,34 @@ def test_bvh_fills_triangle_blocks():
     assert core_scene(scene, triangle_test="cramer").bvh_blocks == 0
 
 
+@pytest.mark.parametrize("n_quads", [20, 40])
+def test_exact_ties_go_to_the_lower_id_in_every_path(n_quads):
+    # Pairs of identical quads (a face drawn twice, a box on a floor) give two hits at
+    # exactly one distance. Every path reports the lower id: brute force and the packs
+    # (20 quads: intersect_batch tests them in id order) by their order, the tree
+    # (40 quads, and single rays always) by Scene::closest_primitive's rule, whatever
+    # order it visits them in. Each duplicate comes late in the id order, after unrelated
+    # quads, so that the tree's order and the ids disagree.
+    rng = np.random.default_rng(2)
+    n_pairs = n_quads // 4
+    base = [rt.Quad((x, y, -1.0), (1.0, 0.0, 0.0), (0.0, 0.0, 2.0), MAT)
+            for x, y in zip(rng.uniform(-20, 20, n_quads - n_pairs), rng.uniform(-5, 5, n_quads - n_pairs))]
+    shapes = base + [base[i] for i in range(n_pairs)]
+    c = core(shapes)
+    m = 400
+    pick = rng.integers(0, n_pairs, size=m)
+    q = np.array([shapes[i].Q for i in pick])
+    origins = q + np.stack([rng.uniform(0.05, 0.95, m), np.full(m, 30.0), rng.uniform(0.1, 1.9, m)], axis=1)
+    dirs = np.tile([0.0, -1.0, 0.0], (m, 1)) + rng.normal(scale=1e-3, size=(m, 3))
+    brute = cast(c, origins, dirs, brute_force=True)
+    duplicated = brute["prim"] < n_pairs
+    assert duplicated.mean() > 0.5  # most rays end on the first quad of a pair
+    for path in ({}, {"batch": False}, {"wavefront": True}):
+        out = cast(c, origins, dirs, **path)
+        for key in ("t", "prim"):
+            assert np.array_equal(out[key], brute[key]), (path, key)
+
+
 @pytest.mark.parametrize("triangles", [2_000, 20_000])
 def test_wide_tree_fills_its_nodes(triangles):
     # The binary tree's nodes that become 8-wide nodes are chosen by dynamic programming

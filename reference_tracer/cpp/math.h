@@ -61,6 +61,17 @@ inline double length_squared(const Vec3& a) { return dot(a, a); }
 inline double length(const Vec3& a) { return std::sqrt(dot(a, a)); }
 inline Vec3 normalize(const Vec3& a) { return a / length(a); }
 inline double max_component(const Vec3& a) { return std::max(a.x, std::max(a.y, a.z)); }
+// The next double above x, for x >= +0 (+inf stays): std::nextafter without its
+// call (the closest-hit tie rule, Scene::closest_primitive, takes it per candidate).
+inline double next_up(double x) {
+    if (!(x < std::numeric_limits<double>::infinity())) return x;
+    uint64_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    ++bits;
+    std::memcpy(&x, &bits, sizeof bits);
+    return x;
+}
+
 inline double max_abs_component(const Vec3& a) {
     return std::max(std::abs(a.x), std::max(std::abs(a.y), std::abs(a.z)));
 }

@@ -225,9 +225,18 @@ private:
         int lane = 0;
     };
     // hit_primitive / hit_block for closest-hit queries, recording where the hit came from.
+    // Exact ties go to the lower primitive id, as in the loops that test primitives in id
+    // order (the direct path, intersect_batch's packs, brute force): a primitive of lower
+    // id than the best so far is accepted at t_max itself (the test's bound is the next
+    // double up), so the tree's visiting order never decides which of two primitives at
+    // one distance (coplanar faces, a box standing on a floor) is reported. Triangles'
+    // ids follow every sphere's and quad's, so a block (strict bound) loses a tie to them
+    // whichever is met first; ties between triangles of blocks go to the tree's order.
     bool closest_primitive(uint32_t prim, const Ray& ray, const WatertightRay& wray, double& t_max,
                            ClosestHit& best) const {
-        if (!hit_primitive(prim, ray, wray, t_max, best.prim)) return false;
+        double bound = prim < best.prim ? next_up(t_max) : t_max;
+        if (!hit_primitive(prim, ray, wray, bound, best.prim)) return false;
+        t_max = bound;
         best.block = -1;
         return true;
     }

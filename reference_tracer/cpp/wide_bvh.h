@@ -410,8 +410,9 @@ public:
     // (a core has about 16) for the ~150 ns of a DRAM access, and 40% of them are culled
     // unvisited: 1M triangles (67 MB of tree), random rays, 1 thread, paired: without them
     // 1.08-1.22x while the host's memory was busy, 1.01-1.06x when it was quieter; 300k
-    // triangles 1.17x; 100k triangles (6.5 MB) 0.95x and 0.98x (PERFORMANCE.md round 19). A template parameter: as a run-time flag tested in the
-    // push loop, the build lost the gain (0.84x of the build without the prefetches).
+    // triangles 1.17x; 100k triangles (6.5 MB) 0.95x and 0.98x (PERFORMANCE.md round 19).
+    // A template parameter: as a run-time flag tested in the push loop, the build lost the
+    // gain (0.84x of the build without the prefetches).
     template <int kLanes, bool kPrefetchPushed, typename Query>
     void traverse_interleaved(size_t count, Query& query) const {
         struct Lane {
