@@ -425,6 +425,7 @@ NB_MODULE(_core, m) {
 #endif
     // Rays per pack of the batched scene queries (simd.h): 8 in AVX-512 builds, else 4.
     m.attr("PACK_WIDTH") = rt::kPackWidth;
+    m.attr("PACKET_RAYS") = rt::kPacketRays;  // rays per packet of coherent rays in intersect()
     nb::class_<PyScene>(m, "Scene")
         .def(nb::init<const Vector&, const Vector&, const Vector&, double, int, int, const Matrix&, const Matrix&,
                       const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int>(),

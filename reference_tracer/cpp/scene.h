@@ -158,7 +158,7 @@ private:
     // probability 8^-7). Only speed depends on it, never a result. Eight rays at once (four
     // lanes a vector, three axes), without a branch per ray: one at a time, the test cost
     // ~25 instructions a camera ray.
-    static bool coherent(const RayOctet& rays, double origin_radius) {
+    static bool coherent(const RayPacket& rays, double origin_radius) {
         auto first = [](const V4d& v) { return v[0] - V4d{}; };  // ray 0's component, broadcast
         auto magnitude = [](const V4d& v) { return v < 0.0 ? -v : v; };
         const double spread = 0.5 * std::max({std::abs(rays.d[0][0][0]), std::abs(rays.d[1][0][0]),
@@ -166,18 +166,18 @@ private:
         V4l ok = V4l{} - 1;
         for (int a = 0; a < 3; ++a) {
             const V4d d0 = first(rays.d[a][0]), o0 = first(rays.o[a][0]);
-            for (int h = 0; h < 2; ++h) {
-                const V4d& d = rays.d[a][h];
+            for (int q = 0; q < RayPacket::kQuads; ++q) {
+                const V4d& d = rays.d[a][q];
                 // Same sign bit (as std::signbit: -0 differs from +0); NaN fails the bounds.
                 const V4l same_sign = (reinterpret_cast<V4l>(d) ^ reinterpret_cast<V4l>(d0)) >= 0;
-                ok &= same_sign & (magnitude(d - d0) <= spread) & (magnitude(rays.o[a][h] - o0) <= origin_radius);
+                ok &= same_sign & (magnitude(d - d0) <= spread) & (magnitude(rays.o[a][q] - o0) <= origin_radius);
             }
         }
         return lane_mask(ok) == 0xFu;
     }
-    bool coherent(const RayOctet& rays) const { return coherent(rays, coherent_origin_radius_); }
+    bool coherent(const RayPacket& rays) const { return coherent(rays, coherent_origin_radius_); }
     // Whether two directions lie in one octant (the same sign bits): random rays mostly fail
-    // it at their second ray, before their eight are gathered for coherent().
+    // it at their second ray, before a packet's rays are gathered for coherent().
     static bool same_octant(const Vec3& a, const Vec3& b) {
         const V4d a4 = {a.x, a.y, a.z, a.z}, b4 = {b.x, b.y, b.z, b.z};
         return lane_mask(reinterpret_cast<V4l>(a4) ^ reinterpret_cast<V4l>(b4)) == 0;
@@ -352,52 +352,62 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preli
         void prefetch_block(uint32_t block) { scene.prefetch_block(block); }
     };
 
-    // Runs of kLanes consecutive rays that are coherent go through the BVH as packets;
+    // Runs of kPacketRays consecutive rays that are coherent go through the BVH as packets;
     // the rest are traced one ray per lane, interleaved.
-    Context packet_ctx[kLanes];
+    Context packet_ctx[kPacketRays];
     LaneTests packet{*this, packet_ctx};
     // The rays traced one per lane, by index: written in place, left uninitialised until
     // then (push_back was left out of line, a call per ray).
     const std::unique_ptr<size_t[]> scattered(new size_t[n]);
     size_t n_scattered = 0;
     size_t in_packets = 0;
-    for (size_t base = 0; base < n; base += kLanes) {
-        const int m = static_cast<int>(std::min<size_t>(kLanes, n - base));
-        Ray rays[kLanes];
+    // Traces rays ray_at(base .. base + m) as one packet if they are coherent (absent
+    // lanes repeat the first ray, masked out); otherwise traces nothing and says why.
+    enum class Packet { kTraced, kOctants, kIncoherent };
+    auto trace_packet = [&](size_t base, int m) [[gnu::always_inline]] {
+        Ray rays[kPacketRays];
         for (int r = 0; r < m; ++r) rays[r] = ray_at(base + r);
         // Random rays mostly leave at the octant of their second ray, before the gathering.
-        RayOctet octet;
-        bool as_packet = m == 1 || same_octant(rays[0].d, rays[1].d);
-        if (as_packet) {
-            for (int r = m; r < kLanes; ++r) rays[r] = rays[0];  // absent lanes repeat ray 0 (masked out)
-            octet = RayOctet(rays);
-            as_packet = coherent(octet);
-        }
-        if (!as_packet) {
-            for (int r = 0; r < m; ++r) scattered[n_scattered++] = base + r;
-            continue;
-        }
+        if (m > 1 && !same_octant(rays[0].d, rays[1].d)) return Packet::kOctants;
+        for (int r = m; r < kPacketRays; ++r) rays[r] = rays[0];
+        const RayPacket packet_rays(rays);
+        if (!coherent(packet_rays)) return Packet::kIncoherent;
         // The per-ray constants four rays at a time (PacketSlabs, WatertightRays4).
-        const PacketSlabs slabs(octet);
-        double t_max[kLanes];
-        bool hit[kLanes] = {};
-        for (int half = 0; half < kLanes; half += 4) {
-            const Ray* q = rays + half;
-            const int h = half / 4;
-            const WatertightRays4 wrays = triangles_.empty()
-                                              ? WatertightRays4()
-                                              : WatertightRays4(octet.d[0][h], octet.d[1][h], octet.d[2][h]);
+        const PacketSlabs slabs(packet_rays);
+        double t_max[kPacketRays];
+        bool hit[kPacketRays] = {};
+        for (int q = 0; q < RayPacket::kQuads; ++q) {
+            const Ray* four = rays + 4 * q;
+            const WatertightRays4 wrays =
+                triangles_.empty() ? WatertightRays4()
+                                   : WatertightRays4(packet_rays.d[0][q], packet_rays.d[1][q], packet_rays.d[2][q]);
             for (int i = 0; i < 4; ++i) {
-                Context& c = packet_ctx[half + i];
-                c.ray = q[i];
+                Context& c = packet_ctx[4 * q + i];
+                c.ray = four[i];
                 c.wray = wrays.lane(i);
                 c.best = ClosestHit{};
-                t_max[half + i] = kInf;
+                t_max[4 * q + i] = kInf;
             }
         }
         bvh_.traverse_packet(slabs, (1u << m) - 1u, t_max, hit, packet);
         for (int r = 0; r < m; ++r) lane_finish(packet_ctx[r], base + r, hit[r], t_max[r]);
-        in_packets += m;
+        in_packets += static_cast<size_t>(m);
+        return Packet::kTraced;
+    };
+    for (size_t base = 0; base < n; base += kPacketRays) {
+        const int m = static_cast<int>(std::min<size_t>(kPacketRays, n - base));
+        const Packet whole = trace_packet(base, m);
+        if (whole == Packet::kTraced) continue;
+        // Sixteen rays in one octant but not coherent as a whole (camera rays across the
+        // end of an image row, say) may be as two halves of eight, each a packet of its
+        // own. Random rays, which mostly fail at the octants, are not tried again.
+        constexpr int kHalf = kPacketRays / 2;
+        const bool halves = kPacketRays > 8 && m > kHalf && whole == Packet::kIncoherent;
+        for (int h = 0; h < m; h += kHalf) {
+            const int mh = std::min(kHalf, m - h);
+            if (halves && trace_packet(base + h, mh) == Packet::kTraced) continue;
+            for (int r = 0; r < mh; ++r) scattered[n_scattered++] = base + h + r;
+        }
     }
     if (n_scattered == 0) return in_packets;
 

@@ -234,6 +234,33 @@ inline float min_lane(V8f v) {
 }
 inline float max_lane(V8f v) { return -min_lane(-v); }
 
+// Sixteen floats and their comparison masks: the lanes of a packet of sixteen rays
+// (wide_bvh.h), one AVX-512 register, two AVX ones elsewhere.
+using V16f = float __attribute__((vector_size(64)));
+using V16i = int32_t __attribute__((vector_size(64)));
+
+// Bit i set where lane i of a V16f comparison is true.
+inline unsigned lane_mask(V16i lanes) {
+#if defined(__AVX512F__)
+    const __m512i v = reinterpret_cast<__m512i>(lanes);
+    return static_cast<unsigned>(_mm512_test_epi32_mask(v, v));
+#else
+    V8i low, high;
+    __builtin_memcpy(&low, &lanes, sizeof low);
+    __builtin_memcpy(&high, reinterpret_cast<const char*>(&lanes) + sizeof low, sizeof high);
+    return lane_mask(low) | (lane_mask(high) << 8);
+#endif
+}
+
+// The smallest and the largest of sixteen floats (no NaN among them).
+inline float min_lane(V16f v) {
+    V8f low, high;
+    __builtin_memcpy(&low, &v, sizeof low);
+    __builtin_memcpy(&high, reinterpret_cast<const char*>(&v) + sizeof low, sizeof high);
+    return min_lane(low < high ? low : high);
+}
+inline float max_lane(V16f v) { return -min_lane(-v); }
+
 // The smallest of four doubles (no NaN among them).
 inline double min_lane(V4d v) {
 #ifdef __AVX__

@@ -34,6 +34,38 @@ inline V8i mask_lanes(unsigned mask) {
     return (bits & static_cast<int32_t>(mask)) != 0;
 }
 
+// Rays per packet of coherent rays (WideBVH::traverse_packet): sixteen where the build
+// targets AVX-512, so that a node's child is tested against sixteen camera rays with one
+// vector instruction a step, and the node fetch, the ordering of the hit children and the
+// stack serve sixteen rays (against eight, paired, 1 thread, camera rays: 1.05-1.10x at
+// 100k triangles, 0.99-1.04x at 1M; PERFORMANCE.md round 21). Eight elsewhere: GCC
+// compiles the 16-lane code for AVX2 into slow sequences (2.5x slower queries).
+// RT_PACKET_RAYS overrides it.
+#if defined(RT_PACKET_RAYS)
+#define RT_PACKET RT_PACKET_RAYS
+#elif defined(__AVX512F__)
+#define RT_PACKET 16
+#else
+#define RT_PACKET 8
+#endif
+constexpr int kPacketRays = RT_PACKET;
+static_assert(kPacketRays == 8 || kPacketRays == 16, "RT_PACKET_RAYS must be 8 or 16");
+// A packet's lanes, one per ray, and their comparison masks.
+using VRf = float __attribute__((vector_size(4 * kPacketRays)));
+using VRi = int32_t __attribute__((vector_size(4 * kPacketRays)));
+constexpr unsigned kAllPacketRays = (1u << kPacketRays) - 1u;
+
+inline VRf splat_rays(float x) { return x - VRf{}; }
+// Lane r all ones where bit r of mask is set.
+inline VRi packet_lanes(unsigned mask) {
+#if RT_PACKET == 8
+    return mask_lanes(mask);
+#else
+    const VRi bits = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192, 16384, 32768};
+    return (bits & static_cast<int32_t>(mask)) != 0;
+#endif
+}
+
 struct alignas(64) WideNode {
     float lo[3][kWidth];
     float hi[3][kWidth];
@@ -174,44 +206,58 @@ struct RaySlabs {
     }
 };
 
-// kWidth rays in structure-of-arrays form, four to a vector: o[axis][half] holds the
-// origins' `axis` components of rays 4 half .. 4 half + 3. What a packet's set-up reads:
-// the coherence test, the slab and the watertight constants, each a few vector
-// operations over all eight rays.
-struct RayOctet {
-    V4d o[3][2], d[3][2];
+// kPacketRays rays in structure-of-arrays form, four to a vector: o[axis][q] holds the
+// origins' `axis` components of rays 4 q .. 4 q + 3. What a packet's set-up reads: the
+// coherence test, the slab and the watertight constants, each a few vector operations
+// over all its rays.
+struct RayPacket {
+    static constexpr int kQuads = kPacketRays / 4;
+    V4d o[3][kQuads], d[3][kQuads];
 
-    RayOctet() = default;
-    [[gnu::always_inline]] explicit RayOctet(const Ray (&rays)[kWidth]) {
+    RayPacket() = default;
+    [[gnu::always_inline]] explicit RayPacket(const Ray (&rays)[kPacketRays]) {
         for (int a = 0; a < 3; ++a)
-            for (int h = 0; h < 2; ++h) {
-                const Ray* q = rays + 4 * h;
-                o[a][h] = V4d{q[0].o[a], q[1].o[a], q[2].o[a], q[3].o[a]};
-                d[a][h] = V4d{q[0].d[a], q[1].d[a], q[2].d[a], q[3].d[a]};
+            for (int q = 0; q < kQuads; ++q) {
+                const Ray* r = rays + 4 * q;
+                o[a][q] = V4d{r[0].o[a], r[1].o[a], r[2].o[a], r[3].o[a]};
+                d[a][q] = V4d{r[0].d[a], r[1].d[a], r[2].d[a], r[3].d[a]};
             }
     }
 };
 
-// The slab constants of a packet of kWidth rays, lane r for ray r, computed four rays at
-// a time (RaySlabs::Lanes on one axis of four rays) straight into the vectors the packet
+// The slab constants of a packet, lane r for ray r, computed four rays at a time
+// (RaySlabs::Lanes on one axis of four rays) straight into the vectors the packet
 // traversal tests: per ray, a RaySlabs::Scalars and its transposition into the lanes
 // cost ~70 instructions a camera ray (round 11). Each lane holds the very bits
 // Scalars(rays[r]) holds. The rays share an octant, so ray 0's signs choose the rows.
 struct PacketSlabs {
-    V8f o_near[3], o_far[3], inv_near[3], inv_far[3];
+    VRf o_near[3], o_far[3], inv_near[3], inv_far[3];
     int near_row[3], far_row[3];
 
-    [[gnu::always_inline]] explicit PacketSlabs(const RayOctet& rays) {
+    [[gnu::always_inline]] explicit PacketSlabs(const RayPacket& rays) {
         for (int a = 0; a < 3; ++a) {
-            const RaySlabs::Lanes lo(rays.o[a][0], rays.d[a][0]);
-            const RaySlabs::Lanes hi(rays.o[a][1], rays.d[a][1]);
+            const RaySlabs::Lanes l0(rays.o[a][0], rays.d[a][0]);
+            const RaySlabs::Lanes l1(rays.o[a][1], rays.d[a][1]);
             auto join = [](const V4f& x, const V4f& y) { return __builtin_shufflevector(x, y, 0, 1, 2, 3, 4, 5, 6, 7); };
-            o_near[a] = join(lo.o_near, hi.o_near);
-            o_far[a] = join(lo.o_far, hi.o_far);
-            inv_near[a] = join(lo.inv_near, hi.inv_near);
-            inv_far[a] = join(lo.inv_far, hi.inv_far);
-            near_row[a] = a * kWidth + (lo.neg[0] ? 3 * kWidth : 0);
-            far_row[a] = a * kWidth + (lo.neg[0] ? 0 : 3 * kWidth);
+#if RT_PACKET == 8
+            o_near[a] = join(l0.o_near, l1.o_near);
+            o_far[a] = join(l0.o_far, l1.o_far);
+            inv_near[a] = join(l0.inv_near, l1.inv_near);
+            inv_far[a] = join(l0.inv_far, l1.inv_far);
+#else
+            const RaySlabs::Lanes l2(rays.o[a][2], rays.d[a][2]);
+            const RaySlabs::Lanes l3(rays.o[a][3], rays.d[a][3]);
+            auto join4 = [&](const V4f& x0, const V4f& x1, const V4f& x2, const V4f& x3) {
+                return __builtin_shufflevector(join(x0, x1), join(x2, x3), 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13,
+                                               14, 15);
+            };
+            o_near[a] = join4(l0.o_near, l1.o_near, l2.o_near, l3.o_near);
+            o_far[a] = join4(l0.o_far, l1.o_far, l2.o_far, l3.o_far);
+            inv_near[a] = join4(l0.inv_near, l1.inv_near, l2.inv_near, l3.inv_near);
+            inv_far[a] = join4(l0.inv_far, l1.inv_far, l2.inv_far, l3.inv_far);
+#endif
+            near_row[a] = a * kWidth + (l0.neg[0] ? 3 * kWidth : 0);
+            far_row[a] = a * kWidth + (l0.neg[0] ? 0 : 3 * kWidth);
         }
     }
 };
@@ -258,18 +304,18 @@ struct PacketBounds {
     float o_near[3], o_far[3];          // the corner origin of the near / far distances
     float inv_near[2][3], inv_far[2][3];  // [smallest, largest] factor
 
-    PacketBounds(const V8f (&on)[3], const V8f (&of)[3], const V8f (&in)[3], const V8f (&inf)[3], unsigned active) {
+    PacketBounds(const VRf (&on)[3], const VRf (&of)[3], const VRf (&in)[3], const VRf (&inf)[3], unsigned active) {
         // Whole-vector reductions, with the absent lanes replaced by the first ray's.
-        const V8i present = mask_lanes(active);
+        const VRi present = packet_lanes(active);
         const int first = __builtin_ctz(active);
-        auto fill = [&](const V8f& v) { return present ? v : splat8(v[first]); };
-        auto finite_nonzero = [&](const V8f& v) {
-            const V8f mag = v < 0.0f ? -v : v;  // NaN fails both comparisons below
-            return lane_mask((mag <= std::numeric_limits<float>::max()) & (mag > 0.0f)) == 0xFFu;
+        auto fill = [&](const VRf& v) { return present ? v : splat_rays(v[first]); };
+        auto finite_nonzero = [&](const VRf& v) {
+            const VRf mag = v < 0.0f ? -v : v;  // NaN fails both comparisons below
+            return lane_mask((mag <= std::numeric_limits<float>::max()) & (mag > 0.0f)) == kAllPacketRays;
         };
-        auto finite = [&](const V8f& v) { return lane_mask(v - v == 0.0f) == 0xFFu; };  // inf - inf is NaN
+        auto finite = [&](const VRf& v) { return lane_mask(v - v == 0.0f) == kAllPacketRays; };  // inf - inf is NaN
         for (int a = 0; a < 3; ++a) {
-            const V8f o_n = fill(on[a]), o_f = fill(of[a]), i_n = fill(in[a]), i_f = fill(inf[a]);
+            const VRf o_n = fill(on[a]), o_f = fill(of[a]), i_n = fill(in[a]), i_f = fill(inf[a]);
             valid = valid && finite_nonzero(i_n) && finite_nonzero(i_f) && finite(o_n) && finite(o_f);
             const bool pos = i_n[first] > 0.0f;  // one sign for the packet (one octant)
             o_near[a] = pos ? max_lane(o_n) : min_lane(o_n);
@@ -498,12 +544,12 @@ public:
         }
     }
 
-    // Closest hits of a packet of up to kWidth rays that share one octant of directions
-    // (so the same box rows are near and far planes for all of them), lane r for ray r,
-    // `active` the mask of rays present. Each node's children are tested one at a time
-    // against all the rays at once, and the packet descends into a child if any ray
+    // Closest hits of a packet of up to kPacketRays rays that share one octant of
+    // directions (so the same box rows are near and far planes for all of them), lane r
+    // for ray r, `active` the mask of rays present. Each node's children are tested one at
+    // a time against all the rays at once, and the packet descends into a child if any ray
     // meets its box: for coherent rays (camera rays through neighbouring pixels) one
-    // node fetch, one sort and one push serve up to eight rays, where traversing them
+    // node fetch, one sort and one push serve up to sixteen rays, where traversing them
     // one by one repeats that branchy work per ray. Every ray's result is the one
     // traverse<false> gives it: it is tested against every leaf whose box it meets
     // (per ray), and an entry is dropped for a ray only when the ray's own closest hit
@@ -511,8 +557,8 @@ public:
     // `query` provides test(lane, prim, t_max), test_block(lane, block, t_max) (as for
     // traverse) and prefetch_block(block); t_max[r] in, closest t out; hit[r] set on a hit.
     template <typename Query>
-    void traverse_packet(const PacketSlabs& slabs, unsigned active, double (&t_max)[kWidth], bool (&hit)[kWidth],
-                         Query& query) const {
+    void traverse_packet(const PacketSlabs& slabs, unsigned active, double (&t_max)[kPacketRays],
+                         bool (&hit)[kPacketRays], Query& query) const {
         if (nodes_.empty() || active == 0) return;
         // Lane r of each vector: ray r's slab constants.
         const auto& o_near = slabs.o_near;
@@ -522,8 +568,8 @@ public:
         const int* near_row = slabs.near_row;
         const int* far_row = slabs.far_row;
         // Absent rays get t_max -inf: no box passes for them.
-        V8f t_max_f;
-        for (int r = 0; r < kWidth; ++r)
+        VRf t_max_f;
+        for (int r = 0; r < kPacketRays; ++r)
             t_max_f[r] = (active >> r) & 1u ? RaySlabs::max_float(t_max[r]) : -std::numeric_limits<float>::infinity();
         const PacketBounds bounds(o_near, o_far, inv_near, inv_far, active);
         struct PacketEntry { int32_t ref; uint16_t count; uint16_t mask; float t_near; };
@@ -536,32 +582,32 @@ public:
             if (ref >= 0) {
                 const WideNode& n = nodes_[ref];
                 const float* rows = &n.lo[0][0];
-                const V8i in_packet = mask_lanes(mask);
+                const VRi in_packet = packet_lanes(mask);
                 int idx[kWidth], k = 0;
                 unsigned child_mask[kWidth];
                 float dist[kWidth];
                 // The children some ray of the packet may meet (all, without bounds):
                 // the others would fail every ray's test below.
                 const unsigned candidates =
-                    bounds.valid ? bounds.test(n, near_row, far_row, max_lane(in_packet ? t_max_f : V8f{} - kInfF))
+                    bounds.valid ? bounds.test(n, near_row, far_row, max_lane(in_packet ? t_max_f : VRf{} - kInfF))
                                  : (1u << kWidth) - 1u;
                 for (unsigned cm = candidates; cm != 0; cm &= cm - 1) {
                     const int c = __builtin_ctz(cm);
                     if (n.child[c] == 0 && n.count[c] == 0) break;  // empty slots come last
-                    V8f tn = V8f{};
-                    V8f tf = t_max_f;
+                    VRf tn = VRf{};
+                    VRf tf = t_max_f;
                     for (int a = 0; a < 3; ++a) {
-                        const V8f t0 = (rows[near_row[a] + c] - o_near[a]) * inv_near[a];
-                        const V8f t1 = (rows[far_row[a] + c] - o_far[a]) * inv_far[a];
+                        const VRf t0 = (rows[near_row[a] + c] - o_near[a]) * inv_near[a];
+                        const VRf t1 = (rows[far_row[a] + c] - o_far[a]) * inv_far[a];
                         tn = t0 > tn ? t0 : tn;  // NaN keeps the bound, as in RaySlabs::test
                         tf = t1 < tf ? t1 : tf;
                     }
-                    const V8i pass = (tn <= tf) & in_packet;
+                    const VRi pass = (tn <= tf) & in_packet;
                     const unsigned m = lane_mask(pass);
                     if (m == 0) continue;
                     idx[k] = c;
                     child_mask[c] = m;
-                    dist[c] = min_lane(pass ? tn : V8f{} + std::numeric_limits<float>::infinity());
+                    dist[c] = min_lane(pass ? tn : VRf{} + std::numeric_limits<float>::infinity());
                     ++k;
                 }
                 for (int i = 1; i < k; ++i)
