@@ -376,12 +376,14 @@ def run(args) -> int:
         out["rays"] = res
         for table in rays_tables(res):
             console.print(table)
+        from reference_tracer import _core
+
         console.print("  ratio = ours Mrays/s / Mitsuba Mrays/s (median of the rounds' paired ratios; range: the "
                       "lowest and highest round); Mitsuba: "
                       "ray_intersect_preliminary + dr.eval + dr.sync_thread (distance and primitive), kernel compiled "
                       "before timing; ours: core_scene(...).intersect(preliminary=True), the same outputs, timed from "
                       "the Python call to its return as Mitsuba's (chunks of "
-                      "8192 rays handed to the threads; in each, runs of 16 coherent rays as packets, the others 8 at a "
+                      f"8192 rays handed to the threads; in each, runs of {_core.PACKET_RAYS} coherent rays as packets, the others 8 at a "
                       "time interleaved; float64 copies of the same float32 rays); ours full / full ratio: the same query with our hit point and normal filled "
                       "in, timed in the same rounds; "
                       f"t agree: relative difference <= {res['rows'][0].get('agree_t_rtol', 1e-4):g}",
