@@ -151,13 +151,13 @@ private:
         best = q.prim[lane];
         return lane;
     }
-    // Whether eight rays may be traced as a packet: directions in one octant (the same near
-    // and far box planes for all) and close in direction (components within half the first
-    // ray's largest component of its own), origins within 1% of the scene's extent. Camera
-    // rays through neighbouring pixels are; random rays almost never (one octant alone:
-    // probability 8^-7). Only speed depends on it, never a result. Eight rays at once (four
-    // lanes a vector, three axes), without a branch per ray: one at a time, the test cost
-    // ~25 instructions a camera ray.
+    // Whether a packet's rays may be traced together: directions in one octant (the same
+    // near and far box planes for all) and close in direction (components within half the
+    // first ray's largest component of its own), origins within 1% of the scene's extent.
+    // Camera rays through neighbouring pixels are; random rays almost never (one octant
+    // alone: probability 8^-7 for eight). Only speed depends on it, never a result. Four
+    // rays a vector, three axes, without a branch per ray: one at a time, the test cost ~25
+    // instructions a camera ray.
     static bool coherent(const RayPacket& rays, double origin_radius) {
         auto first = [](const V4d& v) { return v[0] - V4d{}; };  // ray 0's component, broadcast
         auto magnitude = [](const V4d& v) { return v < 0.0 ? -v : v; };
