@@ -300,9 +300,10 @@ def test_interleaved_traversal_of_a_tree_beyond_the_cache_threshold(threads):
     # results must equal the one-ray-at-a-time traversal's, field by field.
     from benchmarks.speed.rays import mesh_scene, random_rays
 
+    from reference_tracer import _core
+
     c = core_scene(mesh_scene(200_000))
-    # The tree's bytes as the core counts them: 256-byte nodes and 192-byte float blocks.
-    assert c.bvh_float_blocks and c.bvh_nodes * 256 + c.bvh_blocks * 192 > 8 << 20
+    assert c.bvh_float_blocks and c.bvh_bytes > _core.CACHED_TREE_BYTES
     origins, dirs = random_rays(3000, seed=11)
     interleaved = cast(c, origins, dirs, threads=threads)
     single = cast(c, origins, dirs, threads=threads, batch=False)

@@ -395,6 +395,7 @@ public:
     int bvh_depth() const { return scene_->bvh().depth(); }
     size_t bvh_blocks() const { return scene_->bvh().blocks().size(); }
     bool bvh_float_blocks() const { return scene_->float_blocks(); }
+    size_t bvh_bytes() const { return scene_->tree_bytes(); }
     double build_seconds() const { return build_seconds_; }
 
 private:
@@ -425,7 +426,9 @@ NB_MODULE(_core, m) {
 #endif
     // Rays per pack of the batched scene queries (simd.h): 8 in AVX-512 builds, else 4.
     m.attr("PACK_WIDTH") = rt::kPackWidth;
-    m.attr("PACKET_RAYS") = rt::kPacketRays;  // rays per packet of coherent rays in intersect()
+    m.attr("PACKET_RAYS") = rt::kPacketRays;
+    // Trees above this many bytes are traversed without prefetching pushed children.
+    m.attr("CACHED_TREE_BYTES") = rt::Scene::kCachedTreeBytes;  // rays per packet of coherent rays in intersect()
     nb::class_<PyScene>(m, "Scene")
         .def(nb::init<const Vector&, const Vector&, const Vector&, double, int, int, const Matrix&, const Matrix&,
                       const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int>(),
@@ -450,6 +453,7 @@ NB_MODULE(_core, m) {
         .def_prop_ro("bvh_depth", &PyScene::bvh_depth)
         .def_prop_ro("bvh_blocks", &PyScene::bvh_blocks)
         .def_prop_ro("bvh_float_blocks", &PyScene::bvh_float_blocks)
+        .def_prop_ro("bvh_bytes", &PyScene::bvh_bytes)
         .def_prop_ro("build_seconds", &PyScene::build_seconds);
     rt::register_sampling_probe(m);  // batch sampling routines for the chi-square tests
 }

@@ -111,6 +111,15 @@ public:
     const WideBVH& bvh() const { return bvh_; }
     // Whether the triangle blocks are stored in float (every vertex exactly a float).
     bool float_blocks() const { return float_blocks_; }
+    // Bytes of the scene's tree: its nodes and triangle blocks (what a traversal reads).
+    size_t tree_bytes() const {
+        return bvh_.node_count() * sizeof(WideNode) + tri4f_.size() * sizeof(Triangle4f) +
+               tri4_.size() * sizeof(Triangle4);
+    }
+    // Trees up to this size count as cache-resident for prefetching pushed entries
+    // (WideBVH::traverse_interleaved): between the 6.5 MB of a 100k-triangle mesh, where the
+    // prefetches paid, and the 20 MB of a 300k one, where they cost 15% (round 19).
+    static constexpr size_t kCachedTreeBytes = size_t{8} << 20;
     size_t primitive_count() const { return spheres_.size() + quads_.size() + triangles_.size(); }
     size_t sphere_count() const { return spheres_.size(); }
     size_t quad_count() const { return quads_.size(); }
@@ -182,15 +191,6 @@ private:
         const V4d a4 = {a.x, a.y, a.z, a.z}, b4 = {b.x, b.y, b.z, b.z};
         return lane_mask(reinterpret_cast<V4l>(a4) ^ reinterpret_cast<V4l>(b4)) == 0;
     }
-    // Bytes of the scene's tree: its nodes and triangle blocks (what a traversal reads).
-    size_t tree_bytes() const {
-        return bvh_.node_count() * sizeof(WideNode) + tri4f_.size() * sizeof(Triangle4f) +
-               tri4_.size() * sizeof(Triangle4);
-    }
-    // Trees up to this size count as cache-resident for prefetching pushed entries
-    // (WideBVH::traverse_interleaved): between the 6.5 MB of a 100k-triangle mesh, where the
-    // prefetches paid, and the 20 MB of a 300k one, where they cost 15% (round 19).
-    static constexpr size_t kCachedTreeBytes = size_t{8} << 20;
     void prefetch_block(uint32_t block) const {
         if (float_blocks_) {
             prefetch_lines(&tri4f_[block]);
