@@ -43,6 +43,10 @@ rt::Vec3 row3(const Matrix& m, size_t i, size_t col) {
     return {p[0], p[1], p[2]};
 }
 
+// Rays a thread of intersect() takes at a time: each chunk is ordered into packets on its
+// own (Scene::packet_order), so it should hold several rows of an image's rays.
+constexpr size_t kRayChunk = 8192;
+
 void require_columns(const Matrix& m, size_t cols, const char* name) {
     if (m.shape(1) != cols)
         throw std::invalid_argument(std::string(name) + ": expected " + std::to_string(cols) + " columns");
@@ -275,18 +279,17 @@ public:
                 store(i, hit, it);
             }
         };
-        // Chunks of rays handed out through an atomic counter, as the renderer hands out
-        // tiles: with one fixed half per thread, camera rays left one thread idle while the
-        // other finished the half of the image where the mesh is (cpu/wall 1.7-1.8 on
-        // two threads). Chunks are whole packets (multiples of 8 rays), so each ray meets
-        // the same packet as in one pass over all rays.
-        constexpr size_t kChunk = 8192;
+        // Chunks of kRayChunk rays handed out through an atomic counter, as the renderer
+        // hands out tiles: with one fixed half per thread, camera rays left one thread idle
+        // while the other finished the half of the image where the mesh is (cpu/wall 1.7-1.8
+        // on two threads). Each chunk gathers its own packets (Scene::packet_order); a ray's
+        // hit does not depend on its packet.
         std::atomic<size_t> next_chunk{0};
         auto worker_loop = [&](size_t worker) {
             for (;;) {
-                const size_t begin = next_chunk.fetch_add(kChunk, std::memory_order_relaxed);
+                const size_t begin = next_chunk.fetch_add(kRayChunk, std::memory_order_relaxed);
                 if (begin >= n) return;
-                work(begin, std::min(n, begin + kChunk), worker);
+                work(begin, std::min(n, begin + kRayChunk), worker);
             }
         };
         const auto t0 = std::chrono::steady_clock::now();
@@ -308,6 +311,29 @@ public:
         size_t in_packets = 0;
         for (size_t c : packet_rays) in_packets += c;
         r["packet_rays"] = in_packets;
+        return r;
+    }
+
+    // The order in which intersect() gathers these rays into packets, taken as one batch
+    // (intersect() hands its threads chunks of kRayChunk rays, each ordered on its own):
+    // the caller's index of each ray in gathering order, the packets' sizes, and the rows
+    // found (packet_order.h; width 0: none, the rays' own order).
+    nb::dict packet_order(const Matrix& origins, const Matrix& directions) const {
+        require_columns(origins, 3, "origins");
+        require_columns(directions, 3, "directions");
+        const size_t n = origins.shape(0);
+        if (directions.shape(0) != n) throw std::invalid_argument("origins and directions differ in length");
+        const rt::PacketOrder order =
+            scene_->packet_order(n, [&](size_t i) { return rt::Ray{row3(origins, i, 0), row3(directions, i, 0)}; });
+        std::vector<int64_t> index(n), sizes;
+        for (size_t k = 0; k < n; ++k) index[k] = static_cast<int64_t>(order[k]);
+        order.for_each_packet([&](size_t, int m) { sizes.push_back(m); });
+        const size_t packets = sizes.size();
+        nb::dict r;
+        r["order"] = to_numpy(std::move(index), {n});
+        r["sizes"] = to_numpy(std::move(sizes), {packets});
+        r["row_width"] = order.row_width();
+        r["first_row"] = order.first_row();
         return r;
     }
 
@@ -426,9 +452,10 @@ NB_MODULE(_core, m) {
 #endif
     // Rays per pack of the batched scene queries (simd.h): 8 in AVX-512 builds, else 4.
     m.attr("PACK_WIDTH") = rt::kPackWidth;
-    m.attr("PACKET_RAYS") = rt::kPacketRays;
+    m.attr("PACKET_RAYS") = rt::kPacketRays;  // rays per packet of coherent rays in intersect()
+    m.attr("RAY_CHUNK") = kRayChunk;           // rays a thread of intersect() orders into packets at a time
     // Trees above this many bytes are traversed without prefetching pushed children.
-    m.attr("CACHED_TREE_BYTES") = rt::Scene::kCachedTreeBytes;  // rays per packet of coherent rays in intersect()
+    m.attr("CACHED_TREE_BYTES") = rt::Scene::kCachedTreeBytes;
     nb::class_<PyScene>(m, "Scene")
         .def(nb::init<const Vector&, const Vector&, const Vector&, double, int, int, const Matrix&, const Matrix&,
                       const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int>(),
@@ -444,6 +471,7 @@ NB_MODULE(_core, m) {
         .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false, "threads"_a = 1,
              "batch"_a = true, "wavefront"_a = false,
              "preliminary"_a = false)
+        .def("packet_order", &PyScene::packet_order, "origins"_a, "directions"_a)
         .def("occluded", &PyScene::occluded, "origins"_a, "directions"_a, "t_max"_a, "wavefront"_a = false)
         .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a, "wavefront"_a = false)
         .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)

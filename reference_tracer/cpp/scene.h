@@ -8,6 +8,7 @@
 #include <memory>
 #include <vector>
 
+#include "packet_order.h"
 #include "wide_bvh.h"
 #include "materials/material.h"
 #include "sampling/lights.h"
@@ -88,6 +89,10 @@ public:
     // normal and material. Returns how many rays went in packets.
     template <typename RayAt, typename Done>
     size_t intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preliminary = false) const;
+    // The order in which intersect_stream gathers rays ray_at(0 .. n-1) into packets: tiles
+    // of an image's rows where the rays come row after row (packet_order.h).
+    template <typename RayAt>
+    PacketOrder packet_order(size_t n, RayAt&& ray_at) const;
     // Whether anything lies on the ray with t in (0, t_max) (shadow rays).
     bool occluded(const Ray& ray, double t_max = kInf) const;
     // The closest hits of *rays[0 .. n): hit[i] and *it[i] as intersect(*rays[i], *it[i])
@@ -316,6 +321,18 @@ private:
     double coherent_origin_radius_ = 0.0;  // 1% of the diagonal of the scene's bounds
 };
 
+template <typename RayAt>
+PacketOrder Scene::packet_order(size_t n, RayAt&& ray_at) const {
+    auto rays_coherent = [&](const size_t* index, int m) {
+        Ray rays[kPacketRays];
+        for (int r = 0; r < m; ++r) rays[r] = ray_at(index[r]);
+        if (m > 1 && !same_octant(rays[0].d, rays[1].d)) return false;
+        for (int r = m; r < kPacketRays; ++r) rays[r] = rays[0];
+        return coherent(RayPacket(rays));
+    };
+    return PacketOrder(n, ray_at, rays_coherent, coherent_origin_radius_);
+}
+
 template <typename RayAt, typename Done>
 size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preliminary) const {
     constexpr int kLanes = kWidth;
@@ -361,12 +378,13 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preli
     const std::unique_ptr<size_t[]> scattered(new size_t[n]);
     size_t n_scattered = 0;
     size_t in_packets = 0;
-    // Traces rays ray_at(base .. base + m) as one packet if they are coherent (absent
+    const PacketOrder order = packet_order(n, ray_at);
+    // Traces the rays ray_at(order[k .. k + m)) as one packet if they are coherent (absent
     // lanes repeat the first ray, masked out); otherwise traces nothing and says why.
     enum class Packet { kTraced, kOctants, kIncoherent };
-    auto trace_packet = [&](size_t base, int m) [[gnu::always_inline]] {
+    auto trace_packet = [&](size_t k, int m) [[gnu::always_inline]] {
         Ray rays[kPacketRays];
-        for (int r = 0; r < m; ++r) rays[r] = ray_at(base + r);
+        for (int r = 0; r < m; ++r) rays[r] = ray_at(order[k + r]);
         // Random rays mostly leave at the octant of their second ray, before the gathering.
         if (m > 1 && !same_octant(rays[0].d, rays[1].d)) return Packet::kOctants;
         for (int r = m; r < kPacketRays; ++r) rays[r] = rays[0];
@@ -390,14 +408,13 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preli
             }
         }
         bvh_.traverse_packet(slabs, (1u << m) - 1u, t_max, hit, packet);
-        for (int r = 0; r < m; ++r) lane_finish(packet_ctx[r], base + r, hit[r], t_max[r]);
+        for (int r = 0; r < m; ++r) lane_finish(packet_ctx[r], order[k + r], hit[r], t_max[r]);
         in_packets += static_cast<size_t>(m);
         return Packet::kTraced;
     };
-    for (size_t base = 0; base < n; base += kPacketRays) {
-        const int m = static_cast<int>(std::min<size_t>(kPacketRays, n - base));
-        const Packet whole = trace_packet(base, m);
-        if (whole == Packet::kTraced) continue;
+    order.for_each_packet([&](size_t k, int m) {
+        const Packet whole = trace_packet(k, m);
+        if (whole == Packet::kTraced) return;
         // Sixteen rays in one octant but not coherent as a whole (camera rays across the
         // end of an image row, say) may be as two halves of eight, each a packet of its
         // own. Random rays, which mostly fail at the octants, are not tried again.
@@ -405,10 +422,10 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preli
         const bool halves = kPacketRays > 8 && m > kHalf && whole == Packet::kIncoherent;
         for (int h = 0; h < m; h += kHalf) {
             const int mh = std::min(kHalf, m - h);
-            if (halves && trace_packet(base + h, mh) == Packet::kTraced) continue;
-            for (int r = 0; r < mh; ++r) scattered[n_scattered++] = base + h + r;
+            if (halves && trace_packet(k + h, mh) == Packet::kTraced) continue;
+            for (int r = 0; r < mh; ++r) scattered[n_scattered++] = order[k + h + r];
         }
-    }
+    });
     if (n_scattered == 0) return in_packets;
 
     struct InterleavedQuery : LaneTests {
