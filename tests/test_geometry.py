@@ -527,7 +527,8 @@ def test_packet_order_gathers_scanline_rays_into_tiles(width, height, skip, jitt
 
 def test_packet_order_keeps_the_order_of_rays_without_rows():
     # Rays that come in no rows keep their own order: random rays, rays already in tiles
-    # of 4 x 4 pixels, one ray repeated, and rows of fewer than eight rays.
+    # of 4 x 4 pixels, one ray repeated, rows of fewer than eight rays, zero directions and
+    # NaN (no crash: the median step must still have an order to find).
     rng = np.random.default_rng(3)
     c = core(random_primitives(10, rng) + [random_mesh(500, rng)])
     n = 4096
@@ -537,7 +538,9 @@ def test_packet_order_keeps_the_order_of_rays_without_rows():
     cases = {"random": (rng.uniform(-50, 50, (n, 3)), random_unit(rng, n)),
              "tiles": (o[tiled], d[tiled]),
              "one ray": (np.tile(o[:1], (n, 1)), np.tile(d[:1], (n, 1))),
-             "narrow rows": (narrow_o, narrow_d)}
+             "narrow rows": (narrow_o, narrow_d),
+             "zero directions": (o, np.zeros_like(d)),
+             "NaN": (np.where(rng.random((len(o), 1)) < 0.3, np.nan, o), d)}
     for name, (oo, dd) in cases.items():
         po = c.packet_order(np.ascontiguousarray(oo), np.ascontiguousarray(dd))
         assert po["row_width"] == 0, name

@@ -18,7 +18,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <memory>
+#include <limits>
 #include <vector>
 
 #include "math.h"
@@ -35,7 +35,10 @@ inline double ray_step(const Ray& a, const Ray& b, double origin_scale) {
     const double dd = std::max({std::abs(b.d.x - a.d.x), std::abs(b.d.y - a.d.y), std::abs(b.d.z - a.d.z)});
     const double od = std::max({std::abs(b.o.x - a.o.x), std::abs(b.o.y - a.o.y), std::abs(b.o.z - a.o.z)});
     const double step_o = od == 0.0 ? 0.0 : od / origin_scale;  // origin_scale 0: any move is infinite
-    return std::max(dd / d_scale, step_o);
+    const double step = std::max(dd / d_scale, step_o);
+    // NaN (a zero direction, or NaN in a ray) as infinitely far: the median below needs an
+    // order, and such rays start no rows.
+    return step >= 0.0 ? step : std::numeric_limits<double>::infinity();
 }
 
 class PacketOrder {
@@ -46,6 +49,7 @@ public:
     // A row is detected when the step from its last ray to the next row's first is at least
     // this many times the median step between the first rays of the batch.
     static constexpr double kRowJump = 8.0;
+    // Rays whose median step exceeds this are not rows of an image (see find_rows).
     static constexpr double kMaxStep = 1.0 / 16.0;
     // A ray and the one below it in the next row are at most this many typical steps apart
     // (two, for pixels jittered by up to half a pixel).
