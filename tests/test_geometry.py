@@ -525,6 +525,35 @@ def test_packet_order_gathers_scanline_rays_into_tiles(width, height, skip, jitt
     assert not first_tile
 
 
+@pytest.mark.parametrize("width, skip", [(64, 0), (37, 5), (1500, 700), (3000, 0)])
+def test_intersect_chunks_hold_whole_bands_of_rows(width, skip):
+    # intersect() hands its threads chunks of rays, each ordered on its own. Where the rays
+    # come in rows, a chunk holds whole bands of tiles (at least two), and the chunks begin
+    # at the first whole row: with chunks of RAY_CHUNK, rows wider than about 1600 rays
+    # would never be tiled, and bands would be cut wherever the width does not divide
+    # RAY_CHUNK. Each chunk's own order must find the rows, and every hit stay the
+    # single-ray traversal's.
+    rng = np.random.default_rng(width)
+    c = core(random_primitives(10, rng) + [random_mesh(2000, rng)])
+    o, d, _, _ = scanline_camera(width, max(12, 2 * _core.RAY_CHUNK // width + 3), jitter=0.5, rng=rng)
+    o, d = o[skip:], d[skip:]
+    batch = cast(c, o, d, threads=2, preliminary=True)
+    band = _core.PACKET_RAYS // 4 * width
+    chunk, offset = batch["chunk"], batch["chunk_offset"]
+    assert chunk % band == 0 and chunk >= max(2 * band, _core.RAY_CHUNK) and chunk - band < max(_core.RAY_CHUNK, 2 * band)
+    assert offset == (width - skip) % width
+    bounds = [0] + list(range(offset + chunk, len(o), chunk)) + [len(o)]
+    for begin, end in zip(bounds[:-1], bounds[1:]):
+        if end - begin >= band + width:
+            po = c.packet_order(o[begin:end], d[begin:end])
+            assert po["row_width"] == width
+            assert po["first_row"] == (offset if begin == 0 else 0)
+    assert batch["packet_rays"] > 0.95 * len(o)
+    single = cast(c, o, d, batch=False, preliminary=True)
+    assert np.array_equal(batch["t"], single["t"]) and np.array_equal(batch["prim"], single["prim"])
+    assert (single["prim"] >= 0).mean() > 0.05
+
+
 def test_packet_order_keeps_the_order_of_rays_without_rows():
     # Rays that come in no rows keep their own order: random rays, rays already in tiles
     # of 4 x 4 pixels, one ray repeated, rows of fewer than eight rays, zero directions and

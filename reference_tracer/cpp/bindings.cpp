@@ -43,9 +43,26 @@ rt::Vec3 row3(const Matrix& m, size_t i, size_t col) {
     return {p[0], p[1], p[2]};
 }
 
-// Rays a thread of intersect() takes at a time: each chunk is ordered into packets on its
-// own (Scene::packet_order), so it should hold several rows of an image's rays.
+// Rays a thread of intersect() takes at a time, at least: each chunk is ordered into
+// packets on its own (Scene::packet_order).
 constexpr size_t kRayChunk = 8192;
+
+// How intersect() splits rays ray_at(0 .. n-1) into chunks: the first is [0, offset + size),
+// the others [offset + j size, offset + (j + 1) size). kRayChunk rays where the rays show
+// no rows. Where they come in an image's rows (looked for among the first 64k), whole
+// bands of tiles, at least two, with the chunks beginning at the first whole row: chunks of
+// kRayChunk would leave rows of more than ~1600 rays untiled, and cut bands in two where
+// the rows' width does not divide kRayChunk.
+struct RayChunks {
+    size_t size = kRayChunk, offset = 0;
+};
+template <typename RayAt>
+RayChunks ray_chunks(const rt::Scene& scene, size_t n, const RayAt& ray_at) {
+    const rt::PacketOrder::Rows rows = scene.image_rows(std::min<size_t>(n, 1 << 16), ray_at);
+    if (rows.width == 0) return {};
+    const size_t band = rt::PacketOrder::kTileRows * rows.width;
+    return {band * std::max<size_t>(2, (kRayChunk + band - 1) / band), rows.first};
+}
 
 void require_columns(const Matrix& m, size_t cols, const char* name) {
     if (m.shape(1) != cols)
@@ -284,12 +301,14 @@ public:
         // while the other finished the half of the image where the mesh is (cpu/wall 1.7-1.8
         // on two threads). Each chunk gathers its own packets (Scene::packet_order); a ray's
         // hit does not depend on its packet.
+        const RayChunks chunks = batch && !brute_force && !wavefront ? ray_chunks(*scene_, n, ray_at) : RayChunks{};
         std::atomic<size_t> next_chunk{0};
         auto worker_loop = [&](size_t worker) {
             for (;;) {
-                const size_t begin = next_chunk.fetch_add(kRayChunk, std::memory_order_relaxed);
+                const size_t j = next_chunk.fetch_add(1, std::memory_order_relaxed);
+                const size_t begin = j == 0 ? 0 : chunks.offset + j * chunks.size;
                 if (begin >= n) return;
-                work(begin, std::min(n, begin + kRayChunk), worker);
+                work(begin, std::min(n, chunks.offset + (j + 1) * chunks.size), worker);
             }
         };
         const auto t0 = std::chrono::steady_clock::now();
@@ -311,6 +330,8 @@ public:
         size_t in_packets = 0;
         for (size_t c : packet_rays) in_packets += c;
         r["packet_rays"] = in_packets;
+        r["chunk"] = chunks.size;  // rays a thread took at a time (the first: chunk_offset more)
+        r["chunk_offset"] = chunks.offset;
         return r;
     }
 
@@ -332,8 +353,8 @@ public:
         nb::dict r;
         r["order"] = to_numpy(std::move(index), {n});
         r["sizes"] = to_numpy(std::move(sizes), {packets});
-        r["row_width"] = order.row_width();
-        r["first_row"] = order.first_row();
+        r["row_width"] = order.rows().width;
+        r["first_row"] = order.rows().first;
         return r;
     }
 

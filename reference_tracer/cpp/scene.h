@@ -92,7 +92,15 @@ public:
     // The order in which intersect_stream gathers rays ray_at(0 .. n-1) into packets: tiles
     // of an image's rows where the rays come row after row (packet_order.h).
     template <typename RayAt>
-    PacketOrder packet_order(size_t n, RayAt&& ray_at) const;
+    PacketOrder packet_order(size_t n, RayAt&& ray_at) const {
+        return PacketOrder(n, ray_at, coherent_at(ray_at), coherent_origin_radius_);
+    }
+    // The rows packet_order finds, without the order: for callers that split rays into
+    // batches, so that each batch can hold whole bands of rows.
+    template <typename RayAt>
+    PacketOrder::Rows image_rows(size_t n, RayAt&& ray_at) const {
+        return PacketOrder::find_rows(n, ray_at, coherent_at(ray_at), coherent_origin_radius_);
+    }
     // Whether anything lies on the ray with t in (0, t_max) (shadow rays).
     bool occluded(const Ray& ray, double t_max = kInf) const;
     // The closest hits of *rays[0 .. n): hit[i] and *it[i] as intersect(*rays[i], *it[i])
@@ -190,6 +198,17 @@ private:
         return lane_mask(ok) == 0xFu;
     }
     bool coherent(const RayPacket& rays) const { return coherent(rays, coherent_origin_radius_); }
+    // Whether rays ray_at(index[0 .. m)) may be one packet, as PacketOrder asks.
+    template <typename RayAt>
+    auto coherent_at(RayAt& ray_at) const {
+        return [this, &ray_at](const size_t* index, int m) {
+            Ray rays[kPacketRays];
+            for (int r = 0; r < m; ++r) rays[r] = ray_at(index[r]);
+            if (m > 1 && !same_octant(rays[0].d, rays[1].d)) return false;
+            for (int r = m; r < kPacketRays; ++r) rays[r] = rays[0];
+            return coherent(RayPacket(rays));
+        };
+    }
     // Whether two directions lie in one octant (the same sign bits): random rays mostly fail
     // it at their second ray, before a packet's rays are gathered for coherent().
     static bool same_octant(const Vec3& a, const Vec3& b) {
@@ -320,18 +339,6 @@ private:
     uint32_t quad_base_ = 0, tri_base_ = 0;
     double coherent_origin_radius_ = 0.0;  // 1% of the diagonal of the scene's bounds
 };
-
-template <typename RayAt>
-PacketOrder Scene::packet_order(size_t n, RayAt&& ray_at) const {
-    auto rays_coherent = [&](const size_t* index, int m) {
-        Ray rays[kPacketRays];
-        for (int r = 0; r < m; ++r) rays[r] = ray_at(index[r]);
-        if (m > 1 && !same_octant(rays[0].d, rays[1].d)) return false;
-        for (int r = m; r < kPacketRays; ++r) rays[r] = rays[0];
-        return coherent(RayPacket(rays));
-    };
-    return PacketOrder(n, ray_at, rays_coherent, coherent_origin_radius_);
-}
 
 template <typename RayAt, typename Done>
 size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preliminary) const {
