@@ -296,7 +296,7 @@ public:
                 store(i, hit, it);
             }
         };
-        // Chunks of kRayChunk rays handed out through an atomic counter, as the renderer
+        // Chunks of rays (ray_chunks) handed out through an atomic counter, as the renderer
         // hands out tiles: with one fixed half per thread, camera rays left one thread idle
         // while the other finished the half of the image where the mesh is (cpu/wall 1.7-1.8
         // on two threads). Each chunk gathers its own packets (Scene::packet_order); a ray's
@@ -336,7 +336,7 @@ public:
     }
 
     // The order in which intersect() gathers these rays into packets, taken as one batch
-    // (intersect() hands its threads chunks of kRayChunk rays, each ordered on its own):
+    // (intersect() hands its threads chunks of rays, ray_chunks, each ordered on its own):
     // the caller's index of each ray in gathering order, the packets' sizes, and the rows
     // found (packet_order.h; width 0: none, the rays' own order).
     nb::dict packet_order(const Matrix& origins, const Matrix& directions) const {
