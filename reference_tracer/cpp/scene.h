@@ -198,15 +198,24 @@ private:
         return lane_mask(ok) == 0xFu;
     }
     bool coherent(const RayPacket& rays) const { return coherent(rays, coherent_origin_radius_); }
+    // Whether rays[0 .. m) may be one packet, and if not, why. Pads rays[m ..] with rays[0]
+    // (lanes masked out) and transposes them into `packet` once they share an octant.
+    enum class Coherence { kCoherent, kOctants, kIncoherent };
+    [[gnu::always_inline]] Coherence packet_coherence(Ray (&rays)[kPacketRays], int m, RayPacket& packet) const {
+        // Random rays mostly leave at the octant of their second ray, before the gathering.
+        if (m > 1 && !same_octant(rays[0].d, rays[1].d)) return Coherence::kOctants;
+        for (int r = m; r < kPacketRays; ++r) rays[r] = rays[0];
+        packet = RayPacket(rays);
+        return coherent(packet) ? Coherence::kCoherent : Coherence::kIncoherent;
+    }
     // Whether rays ray_at(index[0 .. m)) may be one packet, as PacketOrder asks.
     template <typename RayAt>
     auto coherent_at(RayAt& ray_at) const {
         return [this, &ray_at](const size_t* index, int m) {
             Ray rays[kPacketRays];
             for (int r = 0; r < m; ++r) rays[r] = ray_at(index[r]);
-            if (m > 1 && !same_octant(rays[0].d, rays[1].d)) return false;
-            for (int r = m; r < kPacketRays; ++r) rays[r] = rays[0];
-            return coherent(RayPacket(rays));
+            RayPacket packet;
+            return packet_coherence(rays, m, packet) == Coherence::kCoherent;
         };
     }
     // Whether two directions lie in one octant (the same sign bits): random rays mostly fail
@@ -386,17 +395,14 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preli
     size_t n_scattered = 0;
     size_t in_packets = 0;
     const PacketOrder order = packet_order(n, ray_at);
-    // Traces the rays ray_at(order[k .. k + m)) as one packet if they are coherent (absent
-    // lanes repeat the first ray, masked out); otherwise traces nothing and says why.
-    enum class Packet { kTraced, kOctants, kIncoherent };
+    // Traces the rays ray_at(order[k .. k + m)) as one packet if they are coherent (and
+    // returns kCoherent); otherwise traces nothing and says why.
     auto trace_packet = [&](size_t k, int m) [[gnu::always_inline]] {
         Ray rays[kPacketRays];
         for (int r = 0; r < m; ++r) rays[r] = ray_at(order[k + r]);
-        // Random rays mostly leave at the octant of their second ray, before the gathering.
-        if (m > 1 && !same_octant(rays[0].d, rays[1].d)) return Packet::kOctants;
-        for (int r = m; r < kPacketRays; ++r) rays[r] = rays[0];
-        const RayPacket packet_rays(rays);
-        if (!coherent(packet_rays)) return Packet::kIncoherent;
+        RayPacket packet_rays;
+        const Coherence why = packet_coherence(rays, m, packet_rays);
+        if (why != Coherence::kCoherent) return why;
         // The per-ray constants four rays at a time (PacketSlabs, WatertightRays4).
         const PacketSlabs slabs(packet_rays);
         double t_max[kPacketRays];
@@ -417,19 +423,19 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preli
         bvh_.traverse_packet(slabs, (1u << m) - 1u, t_max, hit, packet);
         for (int r = 0; r < m; ++r) lane_finish(packet_ctx[r], order[k + r], hit[r], t_max[r]);
         in_packets += static_cast<size_t>(m);
-        return Packet::kTraced;
+        return Coherence::kCoherent;
     };
     order.for_each_packet([&](size_t k, int m) {
-        const Packet whole = trace_packet(k, m);
-        if (whole == Packet::kTraced) return;
+        const Coherence whole = trace_packet(k, m);
+        if (whole == Coherence::kCoherent) return;
         // Sixteen rays in one octant but not coherent as a whole (camera rays across the
         // end of an image row, say) may be as two halves of eight, each a packet of its
         // own. Random rays, which mostly fail at the octants, are not tried again.
         constexpr int kHalf = kPacketRays / 2;
-        const bool halves = kPacketRays > 8 && m > kHalf && whole == Packet::kIncoherent;
+        const bool halves = kPacketRays > 8 && m > kHalf && whole == Coherence::kIncoherent;
         for (int h = 0; h < m; h += kHalf) {
             const int mh = std::min(kHalf, m - h);
-            if (halves && trace_packet(k + h, mh) == Packet::kTraced) continue;
+            if (halves && trace_packet(k + h, mh) == Coherence::kCoherent) continue;
             for (int r = 0; r < mh; ++r) scattered[n_scattered++] = order[k + h + r];
         }
     });
