@@ -294,6 +294,37 @@ def test_interleaved_traversal_equals_single_ray(n_rays, threads):
         assert 0.2 < (brute["prim"] >= 0).mean() < 0.9
 
 
+def _child_order_key(t, slot):
+    # wide_bvh.h's child_order_key: the float's bits with the lowest three replaced by the slot.
+    bits = int(np.array(t, dtype=np.float32).view(np.int32))
+    return (bits & ~7) | slot
+
+
+near_distance = st.one_of(st.floats(0.0, 1e6, width=32), st.sampled_from([0.0, 1.0, 1.0000001, np.inf]))
+
+
+@settings(max_examples=300, deadline=None)
+@given(t_near=st.lists(near_distance, min_size=8, max_size=8), met=st.lists(st.booleans(), min_size=8, max_size=8),
+       close=st.integers(0, 7))
+def test_children_are_visited_nearest_first_in_both_traversals(t_near, met, close):
+    # The interleaved traversal orders a node's children with a sorting network, the
+    # single-ray one with an insertion sort (wide_bvh.h); both must give the slots met in
+    # the order of the same key, or their results could differ on ties. `close` puts two
+    # distances a few ulps apart, where the key's slot bits decide.
+    t_near[close] = float(np.nextafter(np.float32(t_near[(close + 1) % 8]), np.float32(np.inf)))
+    network, insertion = _core.child_visit_order(t_near, met)
+    expected = sorted((c for c in range(8) if met[c]), key=lambda c: _child_order_key(t_near[c], c))
+    assert list(network) == expected
+    assert list(insertion) == expected
+
+
+def test_child_visit_order_rejects_bad_input():
+    with pytest.raises(ValueError, match="one entry per child"):
+        _core.child_visit_order([1.0] * 7, [True] * 7)
+    with pytest.raises(ValueError, match="not NaN"):
+        _core.child_visit_order([1.0] * 7 + [float("nan")], [True] * 8)
+
+
 @pytest.mark.parametrize("threads", [1, 2])
 def test_interleaved_traversal_of_a_tree_beyond_the_cache_threshold(threads):
     # Trees over 8 MiB (Scene::kCachedTreeBytes) take another instance of the interleaved

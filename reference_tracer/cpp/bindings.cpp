@@ -477,6 +477,34 @@ NB_MODULE(_core, m) {
     m.attr("RAY_CHUNK") = kRayChunk;           // rays a thread of intersect() orders into packets at a time
     // Trees above this many bytes are traversed without prefetching pushed children.
     m.attr("CACHED_TREE_BYTES") = rt::Scene::kCachedTreeBytes;
+    // The order in which the traversals visit the children a ray meets in a node of the
+    // wide tree: `t_near` the eight children's entry distances, `met` which of them the ray
+    // meets. Returns the slots met, nearest first, twice: as the interleaved traversal's
+    // sorting network orders them and as the single-ray traversal's insertion sort does
+    // (the two must agree, with child_order_key as the key).
+    m.def("child_visit_order", [](const nb::list& t_near, const nb::list& met) {
+        if (nb::len(t_near) != rt::kWidth || nb::len(met) != rt::kWidth)
+            throw std::invalid_argument("child_visit_order: t_near and met need one entry per child (8)");
+        rt::WideNode node{};
+        rt::V8f tn{};
+        rt::V8i lanes{};
+        for (int c = 0; c < rt::kWidth; ++c) {
+            tn[c] = nb::cast<float>(t_near[c]);
+            if (!(tn[c] >= 0.0f))
+                throw std::invalid_argument("child_visit_order: entry distances are >= 0 and not NaN");
+            lanes[c] = nb::cast<bool>(met[c]) ? -1 : 0;
+            node.child[c] = c;
+        }
+        int32_t ref[rt::kWidth], count[rt::kWidth];
+        float t[rt::kWidth];
+        const int k = rt::far_to_near_hits(node, lanes, tn, ref, count, t);
+        nb::list network, insertion;
+        for (int j = k - 1; j >= 0; --j) network.append(ref[j]);
+        int idx[rt::kWidth];
+        const int k2 = rt::sorted_hits(rt::lane_mask(lanes), tn, idx);
+        for (int j = 0; j < k2; ++j) insertion.append(idx[j]);
+        return nb::make_tuple(network, insertion);
+    }, "t_near"_a, "met"_a);
     nb::class_<PyScene>(m, "Scene")
         .def(nb::init<const Vector&, const Vector&, const Vector&, double, int, int, const Matrix&, const Matrix&,
                       const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int>(),
