@@ -750,11 +750,11 @@ private:
         }
     }
 
-    // Pushes child c of node n and (with Prefetch) starts the load of its memory: it waits
-    // on the stack while the nearer subtree is traversed.
-    template <bool Prefetch = true, typename PrefetchBlock>
+    // Pushes child c of node n and starts the load of its memory: it waits on the stack
+    // while the nearer subtree is traversed.
+    template <typename PrefetchBlock>
     void push(Entry* stack, int& top, const WideNode& n, int c, const V8f& tn, PrefetchBlock&& prefetch_block) const {
-        if (Prefetch) prefetch_child(n.child[c], n.count[c], prefetch_block);
+        prefetch_child(n.child[c], n.count[c], prefetch_block);
         stack[top++] = {n.child[c], n.count[c], tn[c]};
     }
 
