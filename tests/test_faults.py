@@ -80,10 +80,13 @@ def _one_line(stderr: str) -> str:
 def test_sigkill_at_a_random_point_then_resume(cache, tmp_path, seed):
     root, _ = cache
     store = tmp_path / "s"
-    # a last budget of 16384 spp keeps the run busy for a second or more after its first
-    # records, so the interrupt lands inside the run (with 1-4 spp alone it could finish first)
+    # A last budget of 2^20 spp (about 15 s or more a job) keeps the run busy long after its
+    # first records, so the kill (within 1.5 s of them) always lands inside the run and
+    # before a job the resumed run does not have completes. With 1-4 spp alone the run could
+    # finish first; with 16384 spp (0.2-0.4 s a job) the faster tracer sometimes finished one
+    # before the kill, and the store then held 7 records where the resumed sweep has 6 jobs.
     args = list(_args(store))
-    args[args.index("--spp") + 1] = "1,2,4,16384"
+    args[args.index("--spp") + 1] = "1,2,4,1048576"
     proc = _popen(args, root)
     deadline = time.monotonic() + 300
     while proc.poll() is None and not (store / META).exists() and time.monotonic() < deadline:
