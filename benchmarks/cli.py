@@ -155,7 +155,10 @@ def report_error(exc: BaseException, *, command: str, debug: bool = False) -> in
     """Print one line for ``exc`` on stderr (and its traceback with ``debug``); return its exit status."""
     if debug:
         traceback.print_exception(exc)
-    print(f"rtbench {command}: error: {one_line(exc)}", file=sys.stderr, flush=True)
+    from benchmarks.text import terminal
+
+    # the message may quote input (a store field, a file name): no terminal escapes from it
+    print(terminal(f"rtbench {command}: error: {one_line(exc)}"), file=sys.stderr, flush=True)
     return exit_code(exc)
 
 

@@ -256,20 +256,23 @@ def estimator_knowledge(*, tail_spp: int, threads=None, cache=None, externals=()
 
 
 def _scene_of(name, width, height, record) -> tuple:
-    """``(scene, "")`` as B rendered it (content hash checked), or ``(None, why)``."""
+    """``(scene, "")`` as B rendered it (content hash checked), or ``(None, why)``.
+
+    Only scenes this process knows are built: the suite's, and scene files the user named
+    on the command line (``--scene PATH``). A store is untrusted input: the scene file its
+    records name (``scene_source``) is never loaded from there, since a Python scene file
+    is code and the store may come from anybody.
+    """
+    from mitsuba_scenes.scene_files import scene_file
+    from mitsuba_scenes.suite import SUITE
+
     from .sweep.jobs import scene_at
 
-    source = record.get("scene_source")
-    if source:
-        from mitsuba_scenes.scene_files import register_scene_file, scene_file
-
-        if scene_file(name) is None:
-            if not Path(source).is_file():
-                return None, f"the scene file {source} is gone"
-            try:
-                register_scene_file(source, record.get("scene_params") or {}, name=name)
-            except ValueError as exc:
-                return None, f"the scene file {source} cannot be loaded here ({exc})"
+    if name not in SUITE and scene_file(name) is None:
+        source = record.get("scene_source")
+        named = f" (B rendered it from {str(source)[:200]!r})" if source else ""
+        return None, (f"scene {str(name)[:120]!r} is not a suite scene{named}; give its file with --scene PATH "
+                      "to use its tail reference")
     try:
         scene = scene_at(name, width, height)
     except (KeyError, ValueError) as exc:

@@ -39,7 +39,6 @@ import contextlib
 import hashlib
 import json
 import os
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,10 +47,11 @@ import numpy as np
 
 from reference_tracer._validate import SEED_MAX, positive_int
 from reference_tracer.estimate import ImageEstimate
+from reference_tracer.imageio import atomic_write, write_exr
 
 from .constants import CLOSED_FORM, CLOSED_FORM_SPP
+from .store import file_sha256
 
-from .store import atomic_write_text, new_file_mode
 
 __all__ = ["CACHE_ENV", "DEFAULT_REFERENCE_SEED", "DEFAULT_REFERENCE_BATCHES", "FORMAT_VERSION",
            "Reference", "cache_dir", "reference_key", "reference", "load_reference", "mitsuba_identity",
@@ -162,31 +162,6 @@ def mitsuba_identity(variant: str | None = None) -> tuple:
     return chosen, versions()["mitsuba"]
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
-def _atomic_exr(path: Path, image: np.ndarray) -> None:
-    import reference_tracer as rt
-
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".exr")
-    os.close(fd)
-    try:
-        rt.write_exr(tmp, image)
-        with open(tmp, "rb") as f:
-            os.fsync(f.fileno())
-        os.chmod(tmp, new_file_mode())  # mkstemp makes 0600 files: a shared cache must be readable
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
 @contextlib.contextmanager
 def _lock(path: Path):
     """Hold an ``flock`` on ``path`` (created, 0666 less the umask).
@@ -245,7 +220,7 @@ def load_reference(key: str, *, shape=None, cache=None):
     for p, field in ((mean_path, "mean_sha256"), (var_path, "variance_sha256")):
         if not p.exists():
             return None, f"{p.name} missing"
-        if _sha256(p) != meta.get(field):
+        if file_sha256(p) != meta.get(field):
             return None, f"{p.name} checksum mismatch (partial or corrupt file)"
     try:
         mean, var = rt.read_exr(mean_path), rt.read_exr(var_path)
@@ -340,15 +315,15 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
         var = np.asarray(out.variance, dtype=np.float32)
         if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(var))):
             raise RuntimeError(f"Mitsuba reference of {scene_hash[:12]} has non-finite pixels")
-        _atomic_exr(mean_path, mean)
-        _atomic_exr(var_path, var)
+        write_exr(mean_path, mean)
+        write_exr(var_path, var)
         meta = {"format": FORMAT_VERSION, "key": key, "scene_hash": scene_hash, "spp": spp, "seed": seed,
                 "batches": len(out.batch_spp), "variant": chosen, "mitsuba_version": mversion,
                 "shape": list(mean.shape), "seconds": float(out.seconds), "wall_seconds": wall,
                 "compile_seconds": float(out.compile_seconds), "threads": threads,
                 "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                "mean_sha256": _sha256(mean_path), "variance_sha256": _sha256(var_path)}
-        atomic_write_text(meta_path, json.dumps(meta, indent=1) + "\n")
+                "mean_sha256": file_sha256(mean_path), "variance_sha256": file_sha256(var_path)}
+        atomic_write(meta_path, json.dumps(meta, indent=1) + "\n")
     return Reference(mean=mean, variance=var, spp=spp, seed=seed, batches=len(out.batch_spp),
                      variant=chosen, mitsuba_version=mversion, key=key, path=mean_path,
                      variance_path=var_path, seconds=float(out.seconds), cached=False,

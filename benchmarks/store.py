@@ -17,9 +17,15 @@ Durability
   glues a new record onto it. A complete last line that merely lacks its newline is a
   record: it is kept, and the next append adds the newline first.
 * Everything else (``meta.json``, ``summary.json``, EXR images) is written to a
-  temporary file in the same folder and renamed into place (atomic on POSIX), with the
-  permissions of a new file (``0o666`` less the umask: ``0644`` usually), not the
-  ``0600`` of a temporary file.
+  temporary file in the same folder and renamed into place
+  (:func:`reference_tracer.imageio.atomic_write`).
+
+Untrusted input
+---------------
+A store may come from anybody. Nothing read from it is executed; a path read from it is
+opened only inside the store and only if it is a regular file (:func:`image_path`); an
+image larger than its header allows is refused before decoding; JSON nested too deeply
+is bad input, not a crash. The threat model is in ``SECURITY.md``.
 
 Concurrency
 -----------
@@ -50,7 +56,6 @@ import json
 import math
 import os
 import socket
-import tempfile
 import warnings
 from pathlib import Path
 from typing import NamedTuple
@@ -58,15 +63,16 @@ from typing import NamedTuple
 import numpy as np
 
 from reference_tracer import imageio
+from reference_tracer.imageio import atomic_write
 
 from .errors import InputError
+from .files import confined_file, open_regular
 
 __all__ = ["KEY_FIELDS", "BUILD_FIELD", "curve_of", "latest_builds", "RESULTS", "META", "SUMMARY", "record_key",
            "store_path", "append_record", "writer_lock", "WRITER_LOCK", "ResultLine", "result_lines", "skipped_line",
            "job_records", "read_records", "dedupe_records",
            "finished_keys", "check_identity", "write_json", "read_json", "read_meta",
-           "read_summary_rows", "update_meta", "write_image", "read_image", "atomic_write_bytes", "atomic_write_text",
-           "new_file_mode", "file_sha256"]
+           "read_summary_rows", "update_meta", "write_image", "read_image", "image_path", "file_sha256"]
 
 #: fields that identify a job (``STORE.md``): a resumed run skips records with these.
 KEY_FIELDS = ("scene", "renderer", "strategy", "spp", "seed", "width", "height")
@@ -77,6 +83,8 @@ BUILD_FIELD = "build"
 RESULTS = "results.jsonl"
 META = "meta.json"
 SUMMARY = "summary.json"
+#: largest ``meta.json`` / ``summary.json`` read (a store's are kilobytes).
+MAX_JSON_BYTES = 64 << 20
 #: the lock file of :func:`writer_lock`.
 WRITER_LOCK = ".writer.lock"
 
@@ -286,7 +294,8 @@ def result_lines(store) -> list:
     path = Path(store) / RESULTS
     if not path.exists():
         return []
-    lines = path.read_bytes().split(b"\n")
+    with open_regular(path) as f:
+        lines = f.read().split(b"\n")
     last = len(lines) - 1
     while last >= 0 and not lines[last].strip():
         last -= 1
@@ -296,7 +305,7 @@ def result_lines(store) -> list:
             continue
         try:
             value, parsed = json.loads(raw), True
-        except (ValueError, UnicodeDecodeError):
+        except (ValueError, UnicodeDecodeError, RecursionError):  # nested too deeply: not a record
             value, parsed = None, False
         out.append(ResultLine(i + 1, value, parsed, i == last))
     return out
@@ -442,50 +451,9 @@ def finished_keys(store) -> set:
     return {record_key(r) for r in read_records(store, dedupe=False)}
 
 
-def new_file_mode() -> int:
-    """The permissions of a newly created file: ``0o666`` less the process's umask.
-
-    Examples
-    --------
-    >>> old = os.umask(0o022); oct(new_file_mode()); _ = os.umask(old)
-    '0o644'
-    """
-    mask = os.umask(0)
-    os.umask(mask)
-    return 0o666 & ~mask
-
-
-def atomic_write_bytes(path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically: a temp file in the same folder, fsync, rename.
-
-    A reader sees the old file or the new one, never a partial write. The file gets
-    :func:`new_file_mode` (0644 under the usual umask), not ``mkstemp``'s 0600.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, new_file_mode())  # mkstemp makes 0600 files
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
-
-
-def atomic_write_text(path, text: str) -> Path:
-    """:func:`atomic_write_bytes` of ``text`` encoded as UTF-8."""
-    return atomic_write_bytes(path, text.encode("utf-8"))
-
-
 def write_json(path, obj) -> Path:
     """Write ``obj`` as indented JSON atomically (temp file in the same folder + rename)."""
-    return atomic_write_text(path, json.dumps(_json_safe(obj), indent=1, allow_nan=False) + "\n")
+    return atomic_write(path, json.dumps(_json_safe(obj), indent=1, allow_nan=False) + "\n")
 
 
 def read_json(path, default=None, *, problems: list | None = None):
@@ -496,28 +464,113 @@ def read_json(path, default=None, *, problems: list | None = None):
     """
     path = Path(path)
     try:
-        return json.loads(path.read_text())
+        with open_regular(path, max_bytes=MAX_JSON_BYTES) as f:
+            return json.loads(f.read())
     except FileNotFoundError:
         if problems is not None:
             problems.append(f"{path.name} is missing")
+    except RecursionError:
+        if problems is not None:
+            problems.append(f"{path.name} could not be read: JSON nested too deeply")
     except (OSError, ValueError) as exc:
         if problems is not None:
             problems.append(f"{path.name} could not be read: {exc}")
     return default
 
 
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _is_scalar(v) -> bool:
+    return v is None or isinstance(v, (str, int, float, bool))
+
+
+#: the type of each field of a reference entry of ``meta.json`` (STORE.md).
+_REFERENCE_FIELDS = {"path": str, "variance_path": str, "sha256": str, "variance_sha256": str, "variant": str,
+                     "key": str, "scene_hash": str, "scene_source": str, "spp": "number", "seed": "number",
+                     "width": "number", "height": "number", "render_seconds": "number"}
+_SCENE_FILE_FIELDS = {"name": str, "source": str, "kind": str, "hash": str, "params": "scalars"}
+
+
+def _fits(value, kind) -> bool:
+    if value is None:
+        return True
+    if kind == "number":
+        return _is_number(value)
+    if kind == "scalars":
+        return isinstance(value, dict) and all(_is_scalar(v) for v in value.values())
+    return isinstance(value, kind)
+
+
+def _clean_entry(entry, fields: dict):
+    """A dict of known fields of the right type (others dropped), or None if ``entry`` is no dict."""
+    if not isinstance(entry, dict):
+        return None
+    return {k: v for k, v in entry.items() if k in fields and _fits(v, fields[k])}
+
+
+def _clean_meta(meta: dict, problems: list | None) -> dict:
+    """``meta.json`` as its readers expect it (STORE.md): each known key with its type, entries of
+    the wrong shape dropped (and said in ``problems``), unknown keys kept only as plain values.
+
+    The one check of ``meta.json`` at the boundary: after it a reader may index what it reads.
+
+    Examples
+    --------
+    >>> _clean_meta({"references": {"a": [1], "b": {"spp": 4, "path": 7}}, "threads": "x"}, None)
+    {'references': {'b': {'spp': 4}}}
+    """
+    out, dropped = {}, []
+    for key, value in meta.items():
+        if key in ("date", "preset"):
+            ok = isinstance(value, str)
+        elif key in ("total_seconds", "threads"):
+            ok = _is_number(value)
+        elif key in ("machine", "versions"):
+            ok = _fits(value, "scalars")
+        elif key in ("references", "references_by_size", "scene_files"):
+            ok = isinstance(value, dict)
+            if ok:
+                fields = _SCENE_FILE_FIELDS if key == "scene_files" else _REFERENCE_FIELDS
+                entries = {str(k): _clean_entry(v, fields) for k, v in value.items()}
+                dropped += [f"{key}.{k}" for k, v in entries.items() if v is None]
+                value = {k: v for k, v in entries.items() if v is not None}
+        elif key == "target_rmse":
+            ok = isinstance(value, dict)
+            if ok:
+                dropped += [f"{key}.{k}" for k, v in value.items() if not _is_number(v)]
+                value = {str(k): v for k, v in value.items() if _is_number(v)}
+        elif key == "runs":
+            ok = isinstance(value, list)
+            if ok:
+                value = [r for r in value if isinstance(r, dict) and all(_is_scalar(v) for v in r.values())]
+        else:
+            ok = _is_scalar(value)
+        if ok:
+            out[key] = value
+        else:
+            dropped.append(key)
+    if dropped and problems is not None:
+        problems.append(f"{META}: {len(dropped)} field(s) of the wrong type ignored: {', '.join(dropped[:8])}"
+                        + (", ..." if len(dropped) > 8 else ""))
+    return out
+
+
 def read_meta(store, *, problems: list | None = None) -> dict:
     """A store's ``meta.json`` as a dict (empty when missing or not a JSON object).
 
-    Any key may be missing after an interrupted run (``STORE.md``). Problems are appended
-    to ``problems`` when given.
+    Any key may be missing after an interrupted run (``STORE.md``). The file is checked
+    here, once, against the fields STORE.md gives (:func:`_clean_meta`): a field of the
+    wrong type is dropped, so readers may rely on the types. Problems are appended to
+    ``problems`` when given.
     """
     meta = read_json(Path(store) / META, problems=problems)
     if meta is not None and not isinstance(meta, dict):
         if problems is not None:
             problems.append(f"{META} is not a JSON object; ignored")
         meta = None
-    return meta or {}
+    return _clean_meta(meta or {}, problems)
 
 
 def read_summary_rows(store, *, problems: list | None = None) -> list:
@@ -572,42 +625,46 @@ def write_image(store, relpath, image) -> str:
     rel = Path(relpath)
     if rel.is_absolute() or ".." in rel.parts:
         raise ValueError(f"image path must be relative to the store, got {relpath}")
-    path = Path(store) / rel
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".exr")
-    os.close(fd)
-    try:
-        imageio.write_exr(tmp, np.asarray(image, dtype=np.float32))
-        os.chmod(tmp, new_file_mode())  # mkstemp makes 0600 files
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    imageio.write_exr(Path(store) / rel, np.asarray(image, dtype=np.float32))
     return rel.as_posix()
 
 
 def file_sha256(path) -> str:
-    """Hex SHA-256 of a file's bytes (the checksum ``meta.json`` keeps of the store's references)."""
+    """Hex SHA-256 of a regular file's bytes (the checksum ``meta.json`` keeps of the store's references)."""
     h = hashlib.sha256()
-    with open(path, "rb") as f:
+    with open_regular(path) as f:
         for block in iter(lambda: f.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()
 
 
+def image_path(store, relpath) -> Path:
+    """The file a record's image field names, confined to the store (:func:`benchmarks.files.confined_file`).
+
+    Raises :class:`benchmarks.errors.InputError` for an absolute path, a ``..``, a link
+    out of the store or anything but a regular file; the file need not exist.
+    """
+    return confined_file(store, relpath, what="image")
+
+
 def read_image(store, relpath, *, rgb: bool = False, sha256: str | None = None) -> np.ndarray:
     """Read an EXR image stored under ``store`` as (H, W, C) float32.
 
-    With ``rgb``, the result is (H, W, 3): a grey image is repeated to RGB, alpha dropped.
-    With ``sha256`` (the checksum recorded when it was written), a file whose bytes do not
-    match raises :class:`benchmarks.errors.InputError` instead of being decoded: flipped
-    bytes in an EXR can decode to finite garbage.
+    ``relpath`` is confined to the store (:func:`image_path`): a path read from a store
+    never reads a file outside it. With ``rgb``, the result is (H, W, 3): a grey image is
+    repeated to RGB, alpha dropped. With ``sha256`` (the checksum recorded when it was
+    written), a file whose bytes do not match raises :class:`benchmarks.errors.InputError`
+    instead of being decoded: flipped bytes in an EXR can decode to finite garbage.
     """
-    path = Path(store) / relpath
+    path = image_path(store, relpath)
     if sha256 is not None and file_sha256(path) != sha256:
         raise InputError(f"{path}: checksum mismatch, the file is corrupt (not used)")
-    a = imageio.read_exr(path)
+    try:
+        a = imageio.read_exr(path)
+    except (OSError, RuntimeError) as exc:
+        if not path.exists():
+            raise
+        raise InputError(f"{path}: not a readable EXR image ({exc})") from exc
     if rgb:
         if a.shape[2] == 1:
             a = np.repeat(a, 3, axis=2)

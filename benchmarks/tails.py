@@ -24,7 +24,7 @@ from reference_tracer.estimate import ImageEstimate, SampleMoments
 from reference_tracer._validate import positive_int
 
 from .references import _lock, cache_dir
-from .store import atomic_write_bytes, atomic_write_text
+from reference_tracer.imageio import atomic_write
 
 __all__ = ["TailReference", "tail_reference", "tail_key", "sample_variance", "variance_is_lower_bound",
            "variance_tail_reference",
@@ -90,8 +90,8 @@ def _save(path, meta_path, meta, arrays):
     buf = io.BytesIO()
     np.savez_compressed(buf, **arrays)
     blob = buf.getvalue()
-    atomic_write_bytes(path, blob)
-    atomic_write_text(meta_path, json.dumps(dict(meta, sha256=hashlib.sha256(blob).hexdigest()), indent=1) + "\n")
+    atomic_write(path, blob)
+    atomic_write(meta_path, json.dumps(dict(meta, sha256=hashlib.sha256(blob).hexdigest()), indent=1) + "\n")
 
 
 def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: int = DEFAULT_TAIL_SEED,

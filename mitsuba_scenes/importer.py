@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 import reference_tracer as rt
+from reference_tracer.meshfile import check_mesh_file
 
 __all__ = ["from_mitsuba", "IOR_TABLE"]
 
@@ -290,6 +291,11 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
             fname = str(node.props["filename"])
             if ctx.base_dir is not None and not os.path.isabs(fname):
                 fname = os.path.join(ctx.base_dir, fname)
+            try:  # before Mitsuba allocates what a header declares: a regular file, counts it can hold
+                check_mesh_file(fname)
+            except (ValueError, OSError) as exc:
+                ctx.bad(node, f"{name} mesh {fname} cannot be used: {exc}")
+                return None
             try:
                 mesh_obj = ctx.mi.load_dict({"type": name, "filename": fname,
                                              "to_world": ctx.mi.ScalarTransform4f(m.tolist()),
@@ -304,6 +310,10 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
         params = ctx.mi.traverse(mesh_obj)
         v = np.array(params["vertex_positions"], dtype=np.float64).reshape(-1, 3)
         f = np.array(params["faces"], dtype=np.int64).reshape(-1, 3)
+        if len(f) == 0:
+            ctx.bad(node, f"{name} mesh {node.props['filename'] if 'filename' in node.props.keys() else ''} "
+                          "holds no triangles")
+            return None
         return rt.Mesh(v, f, mat, flip_normals=flip)
     ctx.bad(node, f"shape '{name}'")
     return None

@@ -197,10 +197,27 @@ def _content_hash(path: Path, params: dict, scene: rt.Scene) -> str:
     return h.hexdigest()[:16]
 
 
+#: longest scene name: it names files (images, references, plots) with more beside it.
+MAX_NAME = 80
+
+
 def _scene_name(path: Path, params: dict) -> str:
-    """The file's stem, plus the parameters when any are given (``box+res=8+spp=4``)."""
-    name = _NAME_OK.sub("_", path.stem)
-    return name + "".join(f"+{k}={_NAME_OK.sub('_', v)}" for k, v in sorted(params.items()))
+    """The file's stem, plus the parameters when any are given (``box+res=8+spp=4``).
+
+    A name longer than :data:`MAX_NAME` is cut and ends with 8 hex digits of a hash of the
+    whole, so that files named after it stay within a file system's limits.
+
+    Examples
+    --------
+    >>> _scene_name(Path("box.xml"), {"spp": "4"})
+    'box+spp=4'
+    >>> len(_scene_name(Path("s" * 240 + ".xml"), {}))
+    80
+    """
+    name = _NAME_OK.sub("_", path.stem) + "".join(f"+{k}={_NAME_OK.sub('_', v)}" for k, v in sorted(params.items()))
+    if len(name) > MAX_NAME:
+        name = f"{name[:MAX_NAME - 9]}-{_digest(name.encode())[:8]}"
+    return name
 
 
 def register_scene_file(path, params=None, *, name: str | None = None) -> SceneFile:

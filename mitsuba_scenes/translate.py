@@ -28,12 +28,12 @@ ours                                   Mitsuba 3
 from __future__ import annotations
 
 import contextlib
-import os
 from pathlib import Path
 
 import numpy as np
 
 import reference_tracer as rt
+from reference_tracer.imageio import atomic_write
 
 __all__ = ["to_mitsuba", "to_xml", "write_ply", "look_at_matrix", "mitsuba_rr_depth", "scene_extent", "NO_RR_DEPTH"]
 
@@ -492,28 +492,18 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
 
 
 def _write_all(path: Path, text: str, plys: list) -> None:
-    """The meshes' PLY files, then the XML, each through a temporary file renamed into
-    place; on any error the files this call created are removed (nothing stray is left)."""
-    import tempfile
-
+    """The meshes' PLY files, then the XML, each written atomically (never a partial file);
+    on any error the files this call created are removed (nothing stray is left)."""
     for target in (path, *(p for p, _, _ in plys)):
         _check_target(target)
     created = []
     try:
         for ply, vertices, faces in plys:
-            fd, tmp = tempfile.mkstemp(dir=ply.parent, prefix=f".{ply.name}.", suffix=".tmp")
-            os.close(fd)
-            try:
-                write_ply(tmp, vertices, faces)
-                os.chmod(tmp, _new_file_mode())
-                if not ply.exists():
-                    created.append(ply)
-                os.replace(tmp, ply)
-            except BaseException:
-                with contextlib.suppress(OSError):
-                    os.unlink(tmp)
-                raise
-        _atomic_text(path, text)
+            existed = ply.exists()
+            atomic_write(ply, lambda tmp, v=vertices, f=faces: write_ply(tmp, v, f))
+            if not existed:
+                created.append(ply)
+        atomic_write(path, text)
     except BaseException:
         for ply in created:
             with contextlib.suppress(OSError):
@@ -521,33 +511,8 @@ def _write_all(path: Path, text: str, plys: list) -> None:
         raise
 
 
-def _new_file_mode() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return 0o666 & ~mask
-
-
 def _check_target(path: Path) -> None:
     """Refuse to replace anything but a regular file: a symlink, a device, a FIFO, a folder."""
     if path.is_symlink() or (path.exists() and not path.is_file()):
         what = "a symbolic link" if path.is_symlink() else "a folder" if path.is_dir() else "a special file"
         raise ValueError(f"to_xml: {path} is {what}; refusing to replace it (write to a regular file path)")
-
-
-def _atomic_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a unique temporary file in the same folder, renamed
-    into place (never a partial file); the temporary file is removed on any error."""
-    import tempfile
-
-    _check_target(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.chmod(tmp, _new_file_mode())
-        _check_target(path)  # again: the path may have changed while we wrote
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise

@@ -35,8 +35,16 @@ def vector3(name: str, value) -> tuple:
     return tuple(float(x) for x in a)
 
 
+#: the largest value of the float32 images both renderers write: radiance above it is infinite there.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
 def colour(name: str, value, *, upper: float | None) -> tuple:
-    """Return an RGB triple; a scalar is broadcast. Components in [0, upper]."""
+    """Return an RGB triple; a scalar is broadcast. Components in [0, upper].
+
+    With ``upper=None`` (radiance) the bound is :data:`FLOAT32_MAX`: a radiance the image
+    cannot hold would turn every pixel it reaches infinite.
+    """
     a = np.asarray(value, dtype=np.float64) if not isinstance(value, (str, bytes)) else None
     if a is None or a.ndim > 1 or (a.ndim == 1 and a.shape != (3,)):
         raise ValueError(f"{name} must be a number or an RGB triple, got {value!r}")
@@ -47,6 +55,9 @@ def colour(name: str, value, *, upper: float | None) -> tuple:
         raise ValueError(f"{name} must be >= 0, got {tuple(a.tolist())}")
     if upper is not None and np.any(a > upper):
         raise ValueError(f"{name} must lie in [0, {upper}], got {tuple(a.tolist())}")
+    if upper is None and np.any(a > FLOAT32_MAX):
+        raise ValueError(f"{name} must be at most {FLOAT32_MAX:.7g} (the largest value of a float32 image), "
+                         f"got {tuple(a.tolist())}")
     return tuple(float(x) for x in a)
 
 

@@ -1,11 +1,104 @@
-"""Image output: linear EXR (OpenEXR) and display PNG (sRGB transfer, Pillow)."""
+"""Image and file output: linear EXR (OpenEXR), display PNG (sRGB transfer, Pillow), atomic writes.
+
+Every file the project writes goes through :func:`atomic_write`: a reader (or a crash)
+sees the old file or the new one, never a partial file, and nothing stray is left behind
+when a write fails (a full disk, an interrupt).
+"""
 from __future__ import annotations
 
+import contextlib
+import errno
+import os
+import stat
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["write_exr", "read_exr", "write_png", "to_display"]
+__all__ = ["write_exr", "read_exr", "write_png", "to_display", "atomic_write", "new_file_mode"]
+
+
+def new_file_mode() -> int:
+    """The permissions of a newly created file: ``0o666`` less the process's umask.
+
+    Examples
+    --------
+    >>> old = os.umask(0o022); oct(new_file_mode()); _ = os.umask(old)
+    '0o644'
+    """
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+def _check_target(path: Path) -> None:
+    """Refuse to replace anything but a regular file (a symbolic link, a folder, a FIFO, a device)."""
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return
+    if not stat.S_ISREG(st.st_mode):
+        what = ("a symbolic link" if stat.S_ISLNK(st.st_mode) else "a folder" if stat.S_ISDIR(st.st_mode)
+                else "a special file")
+        raise ValueError(f"{path} is {what}; refusing to replace it (write to a regular file path)")
+
+
+def atomic_write(path, data) -> Path:
+    """Write a file atomically: a unique temporary file in the same folder, fsync, rename.
+
+    A reader sees the old file or the new one, never a partial write; on any error
+    (a full disk, an interrupt) the temporary file is removed and the old file, if any,
+    is left as it was. The new file gets :func:`new_file_mode` (0644 under the usual
+    umask), not the 0600 of a temporary file. A path that is a symbolic link, a folder or
+    a special file is refused (``ValueError``): it is never replaced or written through.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write (its folder is created if needed).
+    data : bytes, str or callable
+        The content (``str`` is encoded as UTF-8), or a function ``data(tmp_path)`` that
+        writes the file at ``tmp_path`` itself (an image writer).
+
+    Returns
+    -------
+    Path
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> p = Path(tempfile.mkdtemp()) / "a.txt"
+    >>> atomic_write(p, "hello").read_text()
+    'hello'
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    _check_target(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name[:200]}.", suffix=".tmp")
+    try:
+        if callable(data):
+            os.close(fd)
+            fd = -1
+            data(tmp)
+            fd = os.open(tmp, os.O_RDONLY)
+        else:
+            blob = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+            view = memoryview(blob)
+            while view:
+                view = view[os.write(fd, view):]
+        os.fsync(fd)
+        os.close(fd)
+        fd = -1
+        os.chmod(tmp, new_file_mode())
+        _check_target(path)  # again: the path may have changed while we wrote
+        os.replace(tmp, path)
+    except BaseException:
+        if fd >= 0:
+            os.close(fd)
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    return path
 
 
 def _check_image(name: str, array) -> np.ndarray:
@@ -20,7 +113,7 @@ def _check_image(name: str, array) -> np.ndarray:
 
 
 def write_exr(path, array) -> Path:
-    """Write a linear float32 image as OpenEXR (channels R, G, B[, A] or Y).
+    """Write a linear float32 image as OpenEXR (channels R, G, B[, A] or Y), atomically (:func:`atomic_write`).
 
     Examples
     --------
@@ -32,17 +125,46 @@ def write_exr(path, array) -> Path:
     names = {1: "Y", 3: "RGB", 4: "RGBA"}[a.shape[2]]
     channels = {names: a if a.shape[2] > 1 else a[..., 0]}
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with OpenEXR.File(header, channels) as f:
-        f.write(str(path))
-    return path
+
+    def write(tmp):
+        try:
+            with OpenEXR.File(header, channels) as f:
+                f.write(str(tmp))
+        except RuntimeError as exc:  # OpenEXR reports I/O errors as RuntimeError with strerror's text
+            raise _os_error(exc, path) from exc
+
+    return atomic_write(path, write)
 
 
-def read_exr(path) -> np.ndarray:
-    """Read an EXR written by :func:`write_exr` (or Mitsuba) as an (H, W, C) float32 array."""
+def _os_error(exc: Exception, path) -> Exception:
+    """An ``OSError`` naming ``path`` for a library error that quotes an OS error's text (a
+    full disk, a read-only folder), so the caller reports it as an I/O error of that file;
+    ``exc`` itself otherwise."""
+    text = str(exc)
+    for code in (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EIO):
+        if os.strerror(code) in text:
+            return OSError(code, os.strerror(code), str(path))
+    return exc
+
+
+#: most pixels :func:`read_exr` decodes by default: a file may declare any size in its header.
+MAX_READ_PIXELS = 1 << 26
+
+
+def read_exr(path, *, max_pixels: int = MAX_READ_PIXELS) -> np.ndarray:
+    """Read an EXR written by :func:`write_exr` (or Mitsuba) as an (H, W, C) float32 array.
+
+    The header is read first: an image of more than ``max_pixels`` pixels (64 Mi by
+    default) is refused with ``ValueError`` before its pixels are decoded, so a small
+    compressed file cannot make the reader allocate gigabytes.
+    """
     import OpenEXR
 
+    with OpenEXR.File(str(path), header_only=True) as f:
+        lo, hi = (np.asarray(v, dtype=np.int64) for v in f.header()["dataWindow"])
+    pixels = int(np.prod(hi - lo + 1))
+    if pixels > max_pixels:
+        raise ValueError(f"{path}: an EXR image of {pixels} pixels, more than the {max_pixels} read at most")
     with OpenEXR.File(str(path), separate_channels=False) as f:
         channels = f.channels()
         for key in ("RGB", "RGBA", "Y"):
@@ -116,7 +238,7 @@ def to_display(array, exposure: float = 0.0, *, scale: float | None = None,
 
 
 def write_png(path, array, exposure: float = 0.0) -> Path:
-    """Write linear radiance as an 8-bit sRGB PNG after scaling by ``2**exposure``.
+    """Write linear radiance as an 8-bit sRGB PNG after scaling by ``2**exposure``, atomically.
 
     Examples
     --------
@@ -126,7 +248,5 @@ def write_png(path, array, exposure: float = 0.0) -> Path:
 
     a = _check_image("write_png", array)
     d = to_display(a[..., :3] if a.shape[2] >= 3 else np.repeat(a, 3, axis=2), exposure)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(np.round(d * 255.0).astype(np.uint8), mode="RGB").save(path)
-    return path
+    image = Image.fromarray(np.round(d * 255.0).astype(np.uint8), mode="RGB")
+    return atomic_write(path, lambda tmp: image.save(tmp, format="PNG"))

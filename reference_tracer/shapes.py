@@ -51,12 +51,27 @@ class Shape:
     """Base of all shapes: a material, a front-side flag and a similarity transform."""
 
     def _post(self):
-        object.__setattr__(self, "material", _check_material(type(self).__name__, self.material))
+        name = type(self).__name__
+        object.__setattr__(self, "material", _check_material(name, self.material))
         object.__setattr__(self, "flip_normals", bool(self.flip_normals))
         m = np.asarray(self.transform, dtype=np.float64)
         if m.shape != (4, 4) or not np.all(np.isfinite(m)):
-            raise ValueError(f"{type(self).__name__}.transform must be a finite 4x4 matrix")
+            raise ValueError(f"{name}.transform must be a finite 4x4 matrix")
+        if np.any(m[3, :3] != 0.0) or m[3, 3] != 1.0:
+            # a projective row is not an affine map: Mitsuba would divide by w, we would not
+            raise ValueError(f"{name}.transform must be affine (last row 0 0 0 1), got {m[3].tolist()}")
         object.__setattr__(self, "transform", tuple(map(tuple, m)))
+        self._check_world()
+
+    def _check_world(self) -> None:
+        """Refuse geometry that the transform collapsed (zero area or volume): it would never
+        be hit, and a light of it would render black. Shapes override it."""
+
+    def _collapsed(self, what: str) -> ValueError:
+        kind = " light" if self.material.emits else ""
+        rows = "; ".join(" ".join(f"{x:g}" for x in r) for r in self.transform)
+        return ValueError(f"{type(self).__name__}{kind} has zero {what} after its transform: "
+                          f"{type(self).__name__}.transform [{rows}] is singular in the shape's plane")
 
     # -- transforms ---------------------------------------------------------
     @property
@@ -152,6 +167,14 @@ class Sphere(Shape):
         return {"center": self.center, "radius": self.radius}
 
 
+def _spans_area(u, v):
+    """Whether edges ``u`` and ``v`` (3-vectors, or arrays of them) span a non-zero area,
+    relative to their lengths (a relative test: the scale of a scene does not matter)."""
+    u, v = np.asarray(u, dtype=np.float64), np.asarray(v, dtype=np.float64)
+    cross = np.linalg.norm(np.cross(u, v), axis=-1)
+    return cross > 1e-12 * np.linalg.norm(u, axis=-1) * np.linalg.norm(v, axis=-1)
+
+
 def _check_similarity(name: str, m: np.ndarray) -> None:
     """Refuse a transform that does not keep a sphere a sphere of positive radius.
 
@@ -214,6 +237,11 @@ class Quad(Shape):
             raise ValueError(f"Quad {kind}has zero area: Quad.u x Quad.v is zero (u={self.u}, v={self.v})")
         self._post()
 
+    def _check_world(self) -> None:
+        _, u, v = self.world_corners()
+        if not _spans_area(u, v):
+            raise self._collapsed("area")
+
     def world_corners(self):
         """(Q, u, v) in world space, with u and v swapped when the normal is flipped."""
         Q, u, v = self._point(self.Q), self._vector(self.u), self._vector(self.v)
@@ -270,6 +298,10 @@ class Box(Shape):
             ((x0, y0, z0), (dx, 0, 0), (0, 0, dz)),    # -y
         ]
 
+    def _check_world(self) -> None:
+        if any(not _spans_area(u, v) for _, u, v in self.world_quads()):
+            raise self._collapsed("volume")
+
     def world_quads(self):
         out = []
         for Q, u, v in self.local_quads():
@@ -307,6 +339,11 @@ class Triangle(Shape):
             raise ValueError(f"Triangle has zero area (collinear or repeated vertices): {self.a}, {self.b}, {self.c}")
         self._post()
 
+    def _check_world(self) -> None:
+        a, b, c = self.world_vertices()
+        if not _spans_area(b - a, c - a):
+            raise self._collapsed("area")
+
     def world_vertices(self) -> np.ndarray:
         a, b, c = (self._point(p) for p in (self.a, self.b, self.c))
         return np.array([a, c, b] if self.flip_normals else [a, b, c])
@@ -321,7 +358,7 @@ class Mesh(Shape):
 
     Faces are counter-clockwise seen from the front, as in OBJ and PLY. Shading is
     flat (Mitsuba shades meshes without vertex normals flat). Degenerate (zero-area)
-    faces are allowed and never hit.
+    faces are allowed and never hit, but a mesh with no face of non-zero area is refused.
 
     Examples
     --------
@@ -384,6 +421,18 @@ class Mesh(Shape):
         if len(tm.faces) == 0:
             raise ValueError(f"Mesh.load: {path!s} holds no triangles")
         return cls(np.asarray(tm.vertices), np.asarray(tm.faces), material, flip_normals=flip_normals)
+
+    def _check_world(self) -> None:
+        w = self.world_vertices()
+
+        def any_area(faces) -> bool:
+            t = w[faces]
+            return bool(np.any(_spans_area(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])))
+
+        # the first faces almost always decide it: the whole mesh only when they are all degenerate
+        if not any_area(self.faces[:1024]) and not any_area(self.faces):
+            raise ValueError(f"Mesh has zero area{' after its transform' if self.transform != _IDENTITY else ''}: "
+                             f"all {len(self.faces)} triangles are degenerate (collinear or repeated vertices)")
 
     def world_vertices(self) -> np.ndarray:
         m = self.matrix

@@ -5,7 +5,11 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from reference_tracer.imageio import atomic_write
+
 from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP
+from benchmarks.files import slug
+from benchmarks.text import markdown, markdown_table, text_table
 from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS, require_metric, view
 
 from . import plots
@@ -13,7 +17,7 @@ from .curves import curve_label, seed_comparison
 from .html import page_html
 from .sections import PLOT_KINDS, Section, build_section, equal_time_text, seed_lines
 from .store import Store, load_store
-from .tables import FORMULAS, columns, facts_table, fmt, markdown_table, text_table
+from .tables import FORMULAS, columns, facts_table, fmt
 from .tidy import curves_csv, summary_csv
 
 __all__ = ["build_report", "write_report", "summary_table", "PLOT_KINDS", "FORMATS", "plot_file_stem"]
@@ -25,29 +29,30 @@ FORMATS = ("html", "svg", "pdf", "csv")
 # ----------------------------------------------------------------------------------------- Markdown
 
 def _markdown(store: Store, sections: list[Section], cmp, problems: list, metric: str = DEFAULT_METRIC) -> str:
-    out = [f"# rtbench report — {store.path.name}", "",
+    out = [f"# rtbench report — {markdown(store.path.name)}", "",
            f"Metric of slopes, efficiency and time to target: {SPECS[metric].label}. Efficiency and time to "
            "target are shown only where no bias was detected.", "", "## Run facts", "",
            markdown_table(["fact", "value"], facts_table(store.meta, n_records=len(store.records),
                                                          n_raw=store.n_raw_records, records=store.records)), ""]
     for sec in sections:
-        out += [f"## {sec.title}", ""]
+        out += [f"## {markdown(sec.title)}", ""]
         if sec.table:
             out += [markdown_table([h for h, _ in columns(sec.metric)], sec.table), ""]
         else:
             out += ["summary.json holds no rows for this scene and size.", ""]
         et = equal_time_text(sec)
         if et:
-            out += [et, ""]
-        out += [f"- {n}" for n in sec.notes] + ([""] if sec.notes else [])
+            out += [markdown(et), ""]
+        out += [f"- {markdown(n)}" for n in sec.notes] + ([""] if sec.notes else [])
     if cmp is not None:  # only where the store holds the seed's runs
         lines, rows = seed_lines(cmp)
-        out += [f"## Seed comparison: uniform vs light on {SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}", ""] + lines + [""]
+        out += ([f"## Seed comparison: uniform vs light on {SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}", ""]
+                + [markdown(line) for line in lines] + [""])
         if rows:
             out += [markdown_table(["spp", "uniform RMSE", "light RMSE"], rows), ""]
     out += ["## Metric definitions", ""] + [f"- **{k}**: {v}" for k, v in FORMULAS] + [""]
     if problems:
-        out += ["## Problems found in the store", ""] + [f"- {p}" for p in problems] + [""]
+        out += ["## Problems found in the store", ""] + [f"- {markdown(p)}" for p in problems] + [""]
     return "\n".join(out)
 
 
@@ -64,20 +69,13 @@ def _collect(store: Store, metric: str):
 def plot_file_stem(sec: Section, kind: str) -> str:
     """File name (without extension) of a section's plot: scene, size and metric.
 
-    ``time`` plots are named by the metric they show: ``<scene>_<W>x<H>_time-<metric>``.
+    ``time`` plots are named by the metric they show: ``<scene>_<W>x<H>_time-<metric>``. The
+    scene name comes from the store (untrusted): it goes through :func:`benchmarks.files.slug`,
+    so no name can climb out of ``plots/``.
     """
-    size = f"_{sec.width}x{sec.height}" if sec.width and sec.height else ""
+    size = f"{sec.width}x{sec.height}" if sec.width and sec.height else None
     what = f"time-{sec.metric}" if kind == "time" else kind
-    return f"{sec.scene}{size}_{what}"
-
-
-def _write_atomic(path: Path, data) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    if isinstance(data, str):
-        tmp.write_text(data, encoding="utf-8")
-    else:
-        tmp.write_bytes(data)
-    tmp.replace(path)
+    return slug(sec.scene, size, what)
 
 
 def _vector_files(dest: Path, sections: list[Section], seed_fig, fmt_: str) -> list[Path]:
@@ -89,7 +87,7 @@ def _vector_files(dest: Path, sections: list[Section], seed_fig, fmt_: str) -> l
         figs.append((f"seed_{SEED_SCENE}_{SEED_SIZE}x{SEED_SIZE}_rmse", seed_fig))
     for stem, fig in figs:
         path = folder / f"{stem}.{fmt_}"
-        _write_atomic(path, plots.figure_bytes(fig, fmt_))
+        atomic_write(path, plots.figure_bytes(fig, fmt_))
         out.append(path)
     return out
 
@@ -137,16 +135,16 @@ def write_report(store, *, out=None, formats=("html",), metric: str = DEFAULT_ME
     written = {}
     if "html" in formats:
         seed_png = plots.png_bytes(seed_fig) if seed_fig is not None else None
-        _write_atomic(dest / "index.html", page_html(st, sections, cmp, seed_png, problems, metric=metric))
-        _write_atomic(dest / "summary.md", _markdown(st, sections, cmp, problems, metric))
+        atomic_write(dest / "index.html", page_html(st, sections, cmp, seed_png, problems, metric=metric))
+        atomic_write(dest / "summary.md", _markdown(st, sections, cmp, problems, metric))
         written.update(report=dest / "index.html", summary=dest / "summary.md")
     for fmt_ in ("svg", "pdf"):
         if fmt_ in formats:
             _vector_files(dest, sections, seed_fig, fmt_)
             written[fmt_] = dest / "plots"
     if "csv" in formats:
-        _write_atomic(dest / "curves.csv", curves_csv(st))
-        _write_atomic(dest / "summary.csv", summary_csv(st))
+        atomic_write(dest / "curves.csv", curves_csv(st))
+        atomic_write(dest / "summary.csv", summary_csv(st))
         written.update({"curves.csv": dest / "curves.csv", "summary.csv": dest / "summary.csv"})
     return written
 

@@ -6,9 +6,16 @@ import base64
 import html
 from pathlib import Path
 
+from reference_tracer.imageio import atomic_write
+
+from benchmarks.text import markdown, markdown_table
+
+from .plots import plain_text
+
 __all__ = ["plot_pair", "write_compare_page"]
 
 
+@plain_text
 def plot_pair(cmp, path, *, name_a: str = "A", name_b: str = "B") -> Path:
     """RMSE vs spp of A and B (log-log) for one :class:`benchmarks.compare.CurveComparison`."""
     import matplotlib
@@ -56,20 +63,20 @@ def write_compare_page(comparisons, out, *, name_a: str, name_b: str) -> Path:
     """``out/index.html`` (self-contained) and ``out/compare.md``: one plot and table per curve."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    blocks, md = [], [f"# rtbench compare: A = {name_a}, B = {name_b}", ""]
+    blocks, md = [], [f"# rtbench compare: A = {markdown(name_a)}, B = {markdown(name_b)}", ""]
     for i, cmp in enumerate(comparisons):
         png = plot_pair(cmp, out / f"curve_{i:03d}.png", name_a="A", name_b="B")
         data = base64.b64encode(png.read_bytes()).decode()
         rows = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>" for k, v in figures(cmp))
         blocks.append(f'<section><h2>{html.escape(cmp.label)}</h2><div class="pair"><img src="data:image/png;base64,'
                       f'{data}" alt="RMSE curves"><table>{rows}</table></div></section>')
-        md += [f"## {cmp.label}", "", f"![curves]({png.name})", "", "| figure | value |", "| --- | --- |"]
-        md += [f"| {k} | {v} |" for k, v in figures(cmp)] + [""]
+        md += [f"## {markdown(cmp.label)}", "", f"![curves]({png.name})", "",
+               markdown_table(["figure", "value"], figures(cmp)), ""]
     page = out / "index.html"
-    page.write_text("<!doctype html><meta charset='utf-8'><title>rtbench compare</title><style>"
+    atomic_write(page, "<!doctype html><meta charset='utf-8'><title>rtbench compare</title><style>"
                     "body{font-family:sans-serif;margin:1em}.pair{display:flex;gap:1em;align-items:flex-start}"
                     "th{text-align:left;padding-right:1em}</style>"
                     f"<h1>rtbench compare</h1><p>A = {html.escape(name_a)}<br>B = {html.escape(name_b)}</p>"
                     + "".join(blocks))
-    (out / "compare.md").write_text("\n".join(md) + "\n")
+    atomic_write(out / "compare.md", "\n".join(md) + "\n")
     return page

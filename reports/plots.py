@@ -6,9 +6,11 @@ render one as PNG (the page) or as SVG / PDF (vector files for a paper).
 """
 from __future__ import annotations
 
+import functools
 import io
 import math
 
+import matplotlib
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -69,6 +71,18 @@ def figure_bytes(fig: Figure, fmt: str) -> bytes:
     return buf.getvalue()
 
 
+def plain_text(plot):
+    """Run a plotting function with mathtext off: titles and labels hold store fields
+    (scene names), and a ``$`` in them must print as a ``$``, not start a formula that
+    matplotlib parses (or fails to parse)."""
+    @functools.wraps(plot)
+    def wrapped(*args, **kwargs):
+        with matplotlib.rc_context({"text.parse_math": False}):
+            return plot(*args, **kwargs)
+
+    return wrapped
+
+
 def _new(title: str, *, size=(5.2, 3.7)):
     fig = Figure(figsize=size, dpi=DPI, layout="constrained")
     ax = fig.add_subplot()
@@ -104,6 +118,7 @@ def _guide(ax, curves: list[Curve], slope: float, label: str) -> None:
             zorder=2)
 
 
+@plain_text
 def convergence_plot(curves: list[Curve], *, title: str, ylabel: str, slopes: dict, guide_slope: float | None,
                      target: float | None = None) -> Figure:
     """Log-log metric vs spp: median over seeds with a min-max band, a dashed guide, slopes in the legend.
@@ -145,6 +160,7 @@ def convergence_plot(curves: list[Curve], *, title: str, ylabel: str, slopes: di
     return fig
 
 
+@plain_text
 def ssim_plot(curves: list[Curve], *, title: str) -> Figure:
     """SSIM vs spp (log x), median with min-max band."""
     if not curves:
@@ -167,6 +183,7 @@ def ssim_plot(curves: list[Curve], *, title: str) -> Figure:
     return fig
 
 
+@plain_text
 def time_plot(curves: list[Curve], *, title: str, target: float | None = None,
               ylabel: str = "RMSE") -> tuple[Figure, float, dict]:
     """An error (``ylabel``: the metric) vs render seconds (log-log), one point per spp, with equal-time markers.
@@ -200,6 +217,7 @@ def time_plot(curves: list[Curve], *, title: str, target: float | None = None,
     return fig, budget, at
 
 
+@plain_text
 def seed_plot(cmp: dict) -> Figure:
     """The seed's comparison: RMSE vs spp of uniform and light at 400x400 with the matching point."""
     fig, ax = _new("cornell_box 400x400: uniform vs light sampling", size=(5.6, 3.8))

@@ -186,16 +186,15 @@ def _reference(store: Store, sec: Section, *, problems: list):
     if not info or not info.get("path"):
         sec.notes.append("meta.json names no reference image for this scene: no error maps.")
         return None
-    path = store.resolve(info["path"])
-    if not path.exists():
-        problems.append(f"{sec.scene}: reference image {info['path']} is missing")
-        sec.notes.append("The reference image is missing from the store: no error maps.")
-        return None
     try:
-        ref = store.read_image(path, sha256=info.get("sha256"))
-    except Exception as exc:  # noqa: BLE001 - a corrupt file (checksum, decoding) is reported, never used
-        problems.append(f"{sec.scene}: reference image {info['path']} could not be read ({exc})")
-        sec.notes.append("The reference image is corrupt: no error maps.")
+        ref = store.read_image(info["path"], sha256=info.get("sha256"))
+    except Exception as exc:  # noqa: BLE001 - a corrupt or misplaced file is reported, never used
+        problems.append(f"{sec.scene}: reference image {info['path']!r:.200} could not be read ({exc})")
+        sec.notes.append("The reference image is corrupt or not in the store: no error maps.")
+        return None
+    if ref is None:
+        problems.append(f"{sec.scene}: reference image {info['path']!r:.200} is missing")
+        sec.notes.append("The reference image is missing from the store: no error maps.")
         return None
     if sec.width and sec.height and ref.shape[:2] != (sec.height, sec.width):
         sec.notes.append(f"The reference is {ref.shape[1]}×{ref.shape[0]}, not {sec.width}×{sec.height}: "
@@ -253,15 +252,16 @@ def _image_loader(store: Store, sec: Section, problems: list):
 
     def load(rec):
         rel = rec["image"]
+        if not isinstance(rel, str):
+            rel = repr(rel)
         if rel not in cache:
-            p = store.resolve(rel)
             try:
-                cache[rel] = store.read_image(p) if p.exists() else None
-            except Exception as exc:  # noqa: BLE001 - a corrupt file is reported, not fatal
-                problems.append(f"{sec.scene}: image {rel} could not be read ({exc})")
+                cache[rel] = store.read_image(rel)
+                if cache[rel] is None:
+                    problems.append(f"{sec.scene}: image {rel!r:.200} is missing")
+            except Exception as exc:  # noqa: BLE001 - a corrupt or misplaced file is reported, not fatal
+                problems.append(f"{sec.scene}: image {rel!r:.200} could not be read ({exc})")
                 cache[rel] = None
-            if cache[rel] is None and p is not None and not p.exists():
-                problems.append(f"{sec.scene}: image {rel} is missing")
         return cache[rel]
 
     return load

@@ -107,16 +107,15 @@ class Store:
         rows = [r for r in self.rows if r.get("scene") == scene and self._size(r) == (width, height)]
         return sorted(rows, key=lambda r: curve_order((r.get("renderer"), r.get("strategy"))))
 
-    def resolve(self, relpath) -> Path | None:
-        """A store-relative path as an absolute path (``None`` stays ``None``)."""
-        if not relpath:
-            return None
-        p = Path(relpath)
-        return p if p.is_absolute() else self.path / p
+    def read_image(self, relpath, *, sha256: str | None = None) -> np.ndarray | None:
+        """An EXR image of the store as (H, W, 3) float32, or ``None`` when the file is missing.
 
-    def read_image(self, relpath, *, sha256: str | None = None) -> np.ndarray:
-        """An EXR image of the store as (H, W, 3) float32 (:func:`benchmarks.store.read_image`;
-        with ``sha256``, a file that does not match it raises ``ValueError``)."""
+        :func:`benchmarks.store.read_image`: the path is confined to the store and must be a
+        regular file; a path that leaves the store, a special file or (with ``sha256``) a
+        file whose checksum does not match raises ``ValueError``.
+        """
+        if not results.image_path(self.path, relpath).exists():
+            return None
         return results.read_image(self.path, relpath, rgb=True, sha256=sha256)
 
 
@@ -169,6 +168,9 @@ def load_store(store) -> Store:
     if not path.is_dir():
         raise ValueError(f"results store {str(path)!r} is not a folder")
     if not (path / results.RESULTS).exists() and not (path / results.SUMMARY).exists():
+        if (path / results.META).exists():
+            raise ValueError(f"results store {str(path)!r} holds no finished job yet (a run that has just "
+                             f"started writes {results.META} first): report it once a job is recorded")
         raise ValueError(f"{str(path)!r} is not a results store: it holds neither "
                          f"{results.RESULTS} nor {results.SUMMARY}")
     out = Store(path=path.resolve())

@@ -13,7 +13,7 @@ from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS
 from .curves import curve_label
 from .store import num
 
-__all__ = ["fmt", "stats_table", "facts_table", "FORMULAS", "markdown_table", "text_table", "COLUMNS", "columns"]
+__all__ = ["fmt", "stats_table", "facts_table", "FORMULAS", "COLUMNS", "columns"]
 
 DASH = "–"
 
@@ -214,23 +214,3 @@ FORMULAS = (
                "mean over channels, log colour scale shared within a scene; the seed-0 image of each job."),
     ("median and band", "curves show the median over seeds; the shaded band spans the minimum to maximum."),
 )
-
-
-def _md_escape(s: str) -> str:
-    return str(s).replace("|", "\\|").replace("\n", " ")
-
-
-def markdown_table(header, rows) -> str:
-    """A GitHub-flavoured Markdown table."""
-    lines = ["| " + " | ".join(_md_escape(h) for h in header) + " |",
-             "|" + "|".join(" --- " for _ in header) + "|"]
-    lines += ["| " + " | ".join(_md_escape(c) for c in row) + " |" for row in rows]
-    return "\n".join(lines)
-
-
-def text_table(header, rows) -> str:
-    """A fixed-width plain-text table (for a terminal)."""
-    cols = [list(map(str, header))] + [list(map(str, r)) for r in rows]
-    widths = [max(len(r[i]) for r in cols) for i in range(len(header))]
-    line = lambda r: "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip()  # noqa: E731
-    return "\n".join([line(cols[0]), "  ".join("-" * w for w in widths)] + [line(r) for r in cols[1:]])

@@ -14,6 +14,7 @@ import io
 import math
 
 from benchmarks.sweep.by_metric import METRICS, view
+from benchmarks.text import csv_cell
 
 from .curves import curves
 from .store import Store, num
@@ -34,12 +35,13 @@ SUMMARY_COLUMNS = ("scene", "width", "height", "renderer", "strategy", "metric",
 
 
 def _cell(v):
-    """A CSV cell: numbers with full precision (repr), None and NaN empty."""
+    """A CSV cell: numbers with full precision (repr), None and NaN empty, text never a
+    spreadsheet formula (:func:`benchmarks.text.csv_cell`: store fields are untrusted)."""
     if v is None or isinstance(v, bool):
         return "" if v is None else str(v).lower()
     if isinstance(v, float):
         return repr(v) if math.isfinite(v) else ""
-    return v
+    return csv_cell(v)
 
 
 def _write(header, rows) -> str:

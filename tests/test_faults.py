@@ -296,7 +296,7 @@ def test_full_disk_loses_nothing(cache, tmp_path, monkeypatch, capsys):
 
 def test_cache_and_store_files_get_the_umask_permissions(cache):
     """Not the 0600 of a temporary file: a cache or store shared between users stays readable."""
-    from benchmarks.store import new_file_mode
+    from reference_tracer.imageio import new_file_mode
 
     root, store = cache
     files = [p for p in [*(root / "references").iterdir(), *store.rglob("*")] if p.is_file()]

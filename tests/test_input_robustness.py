@@ -173,10 +173,14 @@ def test_to_xml_leaves_no_stray_file_on_error(tmp_path, monkeypatch):
 
     scene = get_scene("cornell_mesh", width=4, height=4)
 
-    def fail(path, text):
-        raise OSError(28, "No space left on device", str(path))
+    real = translate.atomic_write
 
-    monkeypatch.setattr(translate, "_atomic_text", fail)
+    def fail(path, data):
+        if str(path).endswith(".xml"):  # the meshes are written, then the disk fills
+            raise OSError(28, "No space left on device", str(path))
+        return real(path, data)
+
+    monkeypatch.setattr(translate, "atomic_write", fail)
     with pytest.raises(OSError):
         to_xml(scene, tmp_path / "scene.xml")
     assert list(tmp_path.iterdir()) == []

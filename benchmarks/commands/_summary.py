@@ -21,6 +21,7 @@ import math
 from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP, STRATEGIES
 from benchmarks.sweep import finite
 from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS, view
+from benchmarks.text import terminal
 
 __all__ = ["summary_table", "print_summary", "seed_comparison_line"]
 
@@ -125,10 +126,10 @@ def summary_table(rows, *, title: str = "rtbench summary", metric: str = DEFAULT
                           "the bias test found a bias or could not decide")
     table.add_column("scene", no_wrap=True)
     for c in curves:
-        table.add_column(_curve_name(*c), no_wrap=True, justify="right")
+        table.add_column(Text(terminal(_curve_name(*c))), no_wrap=True, justify="right")
     by = {(r.get("scene"), r.get("width"), r.get("height"), r.get("renderer"), r.get("strategy")): r for r in rows}
     for scene, w, h in sections:
-        cells = [Text(f"{scene}\n{w}x{h}")]
+        cells = [Text(terminal(f"{scene}\n{w}x{h}"))]  # store fields: no terminal escapes
         for c in curves:
             r = by.get((scene, w, h, *c))
             cells.append(Text("") if r is None else _cell(r))

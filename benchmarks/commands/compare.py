@@ -24,6 +24,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     A.add_threads_args(parser)
     A.add_cache_arg(parser)
     A.add_renderer_arg(parser)  # external renderers whose B curves may be re-run for their variance
+    from benchmarks.commands._scene_args import add_scene_path_args
+
+    add_scene_path_args(parser)  # scene files B rendered: the store's own file is never loaded
     A.add_out_arg(parser, default="rtbench-compare")  # the page: index.html, compare.md, plots
     A.add_json_arg(parser)  # one row per curve
     A.add_quiet_arg(parser)
@@ -32,6 +35,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     from rich.console import Console
     from rich.table import Table
+    from rich.text import Text
+
+    from benchmarks.text import terminal
 
     from benchmarks.compare import compare_stores
     from reports.compare import write_compare_page
@@ -52,6 +58,9 @@ def run(args) -> int:
     from benchmarks.compare import estimator_knowledge
     from benchmarks.external import register_external
 
+    from benchmarks.commands._scene_args import resolve_scenes
+
+    resolve_scenes(args)  # only files named here run; a store's scene_source never does
     externals = [register_external(cmd) for cmd in args.renderer]
     say = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     knowledge = estimator_knowledge(tail_spp=args.tail_spp, threads=resolve_threads(args.threads),
@@ -67,7 +76,7 @@ def run(args) -> int:
     for c in rows:
         ci = c.slope_diff_ci
         ei = c.efficiency_ratio_ci
-        table.add_row(c.label, f"{(c.build_a or '-')[:10]} / {(c.build_b or '-')[:10]}",
+        table.add_row(Text(terminal(c.label)), Text(terminal(f"{(c.build_a or '-')[:10]} / {(c.build_b or '-')[:10]}")),
                       f"{_f(c.slope_a)} / {_f(c.slope_b)}",
                       f"{_f(c.slope_diff, '{:+.3f}')}" + (f" [{ci[0]:+.3f}, {ci[1]:+.3f}]" if ci else ""),
                       f"{_f(c.efficiency_ratio)}" + (f" [{ei[0]:.3g}, {ei[1]:.3g}]" if ei else ""), c.speed,
@@ -76,7 +85,7 @@ def run(args) -> int:
         console.print(table)
         for c in rows:
             if c.tails:
-                console.print(f"  {c.label}: B's estimator at a high budget: {c.tails}", markup=False,
+                console.print(terminal(f"  {c.label}: B's estimator at a high budget: {c.tails}"), markup=False,
                               highlight=False)
     page = write_compare_page(rows, args.out, name_a=str(args.store_a), name_b=str(args.store_b))
     print(f"page: {page.resolve()}")
@@ -84,8 +93,8 @@ def run(args) -> int:
         Path(args.json).write_text(json.dumps([c.to_dict() for c in rows], indent=1, default=float) + "\n")
     failed = [c for c in rows if c.verdict == "fail"]
     for c in failed:
-        print(f"rtbench compare: B differs from A in {c.label}: p = {c.p_value:.3g}, relative bias "
-              f"{c.relative_bias:+.2%}", file=sys.stderr)
+        print(terminal(f"rtbench compare: B differs from A in {c.label}: p = {c.p_value:.3g}, relative bias "
+                       f"{c.relative_bias:+.2%}"), file=sys.stderr)
     return 1 if failed else 0
 
 

@@ -297,8 +297,8 @@ def _resumed_rows(path, config: dict, *, alpha: float) -> list:
 
 
 def _write_json(path, obj) -> None:
-    from benchmarks.store import atomic_write_text
+    from reference_tracer.imageio import atomic_write
 
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(p, json.dumps(obj, indent=1, default=float) + "\n")
+    atomic_write(p, json.dumps(obj, indent=1, default=float) + "\n")

@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+from benchmarks.files import slug
 
 HELP = "render a high-spp Mitsuba reference (mean + per-sample variance) into the cache, or report the cached one"
 
@@ -69,7 +70,7 @@ def run(args) -> int:
         if args.export:
             out = Path(args.export)
             out.mkdir(parents=True, exist_ok=True)
-            stem = f"{scene_name}_{w}x{h}_spp{ref.spp}"
+            stem = slug(scene_name, f"{w}x{h}", f"spp{ref.spp}")
             shutil.copyfile(ref.path, out / f"{stem}.exr")
             shutil.copyfile(ref.variance_path, out / f"{stem}_var.exr")
             print(f"  exported to {out / stem}.exr (+ _var.exr)")

@@ -40,7 +40,9 @@ def file_stem(scene: str, width: int, height: int, renderer: str, spp: int, seed
     >>> file_stem("cornell_box", 32, 32, "mis", 64, 0)
     'cornell_box_32x32_mis_spp64_seed0'
     """
-    return f"{scene}_{width}x{height}_{renderer}_spp{spp}_seed{seed}"
+    from benchmarks.files import slug
+
+    return slug(scene, f"{width}x{height}", renderer, f"spp{spp}", f"seed{seed}")
 
 
 def _size(args) -> dict:

@@ -13,8 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..files import slug
 from ..references import DEFAULT_REFERENCE_SEED, Reference
-from ..store import append_record, dedupe_records, read_records, result_lines, write_image
+from ..store import (append_record, dedupe_records, finished_keys, read_records, result_lines, write_image,
+                     writer_lock)
 
 __all__ = ["write_reference_store", "store_reference"]
 
@@ -25,7 +27,9 @@ def write_reference_store(names, store, *, spp: int, width: int, height: int | N
 
     Each record carries the build (``build``, ``build_git``), the scene hash and source, and
     the mean and per-sample variance images (``stats_image``, ``stats_variance_image``).
-    Returns the records written.
+    The store's writer lock (:func:`benchmarks.store.writer_lock`) is held throughout: a
+    second writer waits, then finds this build's records there and renders only what is
+    missing, so no job is ever recorded twice. Returns the records written.
     """
     import reference_tracer as rt
     from reference_tracer.build import build_info
@@ -35,22 +39,30 @@ def write_reference_store(names, store, *, spp: int, width: int, height: int | N
 
     height = width if height is None else height
     out = []
-    for name in names:
-        scene = gate_scene(name, width=width, height=height)
-        res = rt.render(scene, spp=spp, strategy=strategy, seed=DEFAULT_REFERENCE_SEED, threads=threads)
-        stem = f"images/{name}_{width}x{height}/ours_{strategy}_spp{spp}_seed0"
-        write_image(store, f"{stem}.exr", res.mean)
-        write_image(store, f"{stem}_var.exr", res.variance)
-        rec = {"scene": name, "renderer": "ours", "strategy": strategy, "spp": int(spp), "seed": 0,
-               "width": width, "height": height, "mse": None, "seconds": float(res.seconds),
-               "image": f"{stem}.exr", "stats_image": f"{stem}.exr", "stats_variance_image": f"{stem}_var.exr",
-               "render_seed": DEFAULT_REFERENCE_SEED, "nonfinite_samples": int(res.nonfinite_samples),
-               **scene_info(name, scene), **build_info()}
-        append_record(store, rec)
-        out.append(rec)
-        if log:
-            log(f"reference store {store}: {name} {width}x{height} {strategy} {spp} spp, build {rec['build']} "
-                f"({res.seconds:.1f} s)")
+    with writer_lock(store, say=log):  # one writer at a time; a second one waits, then resumes
+        done = finished_keys(store)
+        for name in names:
+            scene = gate_scene(name, width=width, height=height)
+            key = (name, "ours", strategy, int(spp), 0, width, height, build_info()["build"])
+            if key in done:
+                if log:
+                    log(f"reference store {store}: {name} {width}x{height} {strategy} {spp} spp of this build "
+                        "is there already")
+                continue
+            res = rt.render(scene, spp=spp, strategy=strategy, seed=DEFAULT_REFERENCE_SEED, threads=threads)
+            stem = f"images/{slug(name, f'{width}x{height}')}/{slug('ours', strategy, f'spp{spp}', 'seed0')}"
+            write_image(store, f"{stem}.exr", res.mean)
+            write_image(store, f"{stem}_var.exr", res.variance)
+            rec = {"scene": name, "renderer": "ours", "strategy": strategy, "spp": int(spp), "seed": 0,
+                   "width": width, "height": height, "mse": None, "seconds": float(res.seconds),
+                   "image": f"{stem}.exr", "stats_image": f"{stem}.exr", "stats_variance_image": f"{stem}_var.exr",
+                   "render_seed": DEFAULT_REFERENCE_SEED, "nonfinite_samples": int(res.nonfinite_samples),
+                   **scene_info(name, scene), **build_info()}
+            append_record(store, rec)
+            out.append(rec)
+            if log:
+                log(f"reference store {store}: {name} {width}x{height} {strategy} {spp} spp, build {rec['build']} "
+                    f"({res.seconds:.1f} s)")
     return out
 
 

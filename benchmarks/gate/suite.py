@@ -54,6 +54,7 @@ import numpy as np
 from reference_tracer._validate import SEED_MAX, positive_int
 
 from ..constants import GATE_ALPHA, STRATEGIES
+from ..files import slug
 from ..references import Reference, closed_form_reference_of
 from ..references import reference as mitsuba_reference
 from ..tails import DEFAULT_TAIL_SPP, tail_reference
@@ -415,7 +416,7 @@ def write_p_images(case: GateCase, out) -> list:
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    stem = out / f"{case.scene}_{case.strategy}"
+    stem = out / slug(case.scene, case.strategy)
     r = case.result
     with np.errstate(divide="ignore"):
         logp = -np.log10(np.asarray(r.p_map, dtype=np.float64))

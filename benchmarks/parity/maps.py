@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..files import slug
 from .compare import AOVS, ParityReport
 
 __all__ = ["write_mismatch_maps"]
@@ -34,7 +35,7 @@ def write_mismatch_maps(report: ParityReport, out) -> list:
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    png, exr = out / f"{report.scene}_parity.png", out / f"{report.scene}_parity.exr"
+    png, exr = out / f"{slug(report.scene)}_parity.png", out / f"{slug(report.scene)}_parity.exr"
     m = report.masks
     rt.write_exr(exr, np.stack([m["shape"] | m["t"], m["normal"], m["albedo"] | m["emitted"]], axis=-1)
                  .astype(np.float32))

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..constants import MITSUBA_STRATEGY, STRATEGIES
+from ..files import slug
 from ..store import KEY_FIELDS
 
 __all__ = ["Job", "Group", "validate_group", "make_jobs", "renderer_builds", "render_seed", "default_threads", "scene_at",
@@ -244,5 +245,6 @@ def image_paths(job: Job) -> tuple:
     >>> image_paths(Job("furnace", "ours", "mis", 4, 1, 8, 6))[0]
     'images/furnace_8x6/ours_mis_spp4_seed1.exr'
     """
-    stem = f"images/{job.scene}_{job.width}x{job.height}/{job.renderer}_{job.strategy}_spp{job.spp}_seed{job.seed}"
+    stem = (f"images/{slug(job.scene, f'{job.width}x{job.height}')}/"
+            f"{slug(job.renderer, job.strategy, f'spp{job.spp}', f'seed{job.seed}')}")
     return f"{stem}.exr", f"{stem}_var.exr"

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM
 from ..external import external
+from ..files import slug
 from ..references import closed_form_reference_of, mitsuba_identity, reference
 from ..store import (META, file_sha256, finished_keys, job_records, read_json, read_records, record_key,
                      store_path, update_meta, write_image, writer_lock)
@@ -85,7 +86,7 @@ def prepare_references(groups, store: Path, *, variant, threads, cache, say) -> 
             entry = {"spp": ref.spp, "seed": ref.seed, "width": g.width, "height": g.height, "variant": ref.variant,
                      "key": ref.key, "render_seconds": ref.seconds, "scene_hash": ref.scene_hash[:16] or None,
                      "scene_source": _source_of(scene),
-                     **_store_copy(store, f"references/{scene}_{g.width}x{g.height}_spp{ref.spp}", ref, old_refs)}
+                     **_store_copy(store, f"references/{slug(scene, f'{g.width}x{g.height}', f'spp{ref.spp}')}", ref, old_refs)}
             by_size[f"{scene}@{g.width}x{g.height}"] = entry
             by_scene.setdefault(scene, entry)  # the first group naming a scene is its main sweep
             refs[k] = ref

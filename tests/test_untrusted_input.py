@@ -1,0 +1,380 @@
+"""A results store, a scene file and a mesh are untrusted input (``SECURITY.md``).
+
+Each test plays an attacker's store or file against the command a user runs on it and
+asserts what must never happen: code executed, a file touched outside the output folder,
+a read outside the store, a hang (every subprocess has a timeout), markup or escape
+sequences passed through, a silently wrong image, an allocation before a check; and that
+the user gets the documented exit status with one line naming the file.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import reference_tracer as rt
+from benchmarks.cli import main
+from benchmarks.store import RESULTS, SUMMARY, append_record, read_records, record_key, write_image
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from harness_util import ROOT  # noqa: E402
+from report_store import make_store  # noqa: E402
+
+
+def _rewrite(store: Path, fn) -> None:
+    """Apply ``fn(record) -> record`` to every record and summary row of a store."""
+    lines = [json.loads(x) for x in (store / RESULTS).read_text().splitlines() if x.strip()]
+    (store / RESULTS).write_text("".join(json.dumps(fn(r)) + "\n" for r in lines))
+    summ = json.loads((store / SUMMARY).read_text())
+    summ["rows"] = [fn(r) for r in summ["rows"]]
+    (store / SUMMARY).write_text(json.dumps(summ))
+
+
+def _small_store(path: Path) -> Path:
+    return make_store(path, scenes=("spheres",), strategies=("mis",), spps=(1, 2, 4, 8), seeds=(0,), size=8,
+                      mitsuba=False, duplicate=False)
+
+
+def _files_under(folder: Path) -> set:
+    return {p for p in folder.rglob("*")}
+
+
+def _rtbench(*args, timeout=120, cwd=ROOT) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "benchmarks.cli", *map(str, args)], cwd=cwd, capture_output=True,
+                          text=True, timeout=timeout)
+
+
+# ---------------------------------------------------------------------------------- 1. no code from a store
+
+def test_compare_never_imports_the_scene_file_a_store_names(tmp_path):
+    """A record of this very build naming a Python payload as its ``scene_source``: the
+    tail-reference lookup of ``rtbench compare`` must not import it."""
+    from benchmarks.compare import estimator_knowledge
+
+    marker = tmp_path / "pwned"
+    payload = tmp_path / "b" / "evil.py"
+    payload.parent.mkdir()
+    payload.write_text(f"open({str(marker)!r}, 'w').write('ran')\n"
+                       "import reference_tracer as rt\n"
+                       "def build(width=8, height=8):\n    raise SystemExit\n")
+    record = {"scene": "evil", "renderer": "ours", "strategy": "mis", "spp": 4, "seed": 0, "width": 8,
+              "height": 8, "build": rt.build_id(), "scene_source": str(payload), "scene_hash": "0" * 16}
+    knowledge = estimator_knowledge(tail_spp=64, threads=1)
+    note = knowledge(("evil", "ours", "mis", 8, 8), [record]).note
+    assert not marker.exists()
+    assert note.startswith("none:") and "--scene" in note
+
+
+def test_compare_cli_with_a_payload_store_runs_no_code(tmp_path):
+    """End to end: ``rtbench compare A B`` where B names a payload (relative to the current
+    folder, as an attacker ships it inside B) and carries this build's id."""
+    a = _small_store(tmp_path / "a")
+    b = _small_store(tmp_path / "b")
+    marker = tmp_path / "pwned"
+    (b / "evil.py").write_text(f"open({str(marker)!r}, 'w').write('ran')\n")
+    build = rt.build_id()
+
+    def hostile(r, **extra):  # a scene only the payload defines; images with variances: a verdict is due
+        if r.get("image"):
+            r = dict(r, stats_image=r["image"], stats_variance_image="references/spheres_variance.exr")
+        return dict(r, build=build, scene="evil", **extra)
+
+    _rewrite(b, lambda r: hostile(r, scene_source="b/evil.py"))
+    _rewrite(a, hostile)
+    proc = _rtbench("compare", a, b, "--out", tmp_path / "page", "--quiet", "--tail-spp", "16", "--threads", "1",
+                    cwd=tmp_path)
+    assert not marker.exists(), proc.stderr
+    assert proc.returncode in (0, 1), proc.stderr
+
+
+# ---------------------------------------------------------------------------------- 2. no write outside
+
+@pytest.mark.parametrize("hostile", ["../../escaped", "/tmp/rtbench-escaped-abs", "a/b/../../c", ".hidden"])
+def test_report_writes_only_inside_its_output_folder(tmp_path, hostile):
+    store = _small_store(tmp_path / "s")
+    _rewrite(store, lambda r: dict(r, scene=hostile))
+    out = tmp_path / "deep" / "out"
+    before = _files_under(tmp_path) - _files_under(out)
+    code = main(["report", str(store), "--out", str(out), "--format", "html,svg,pdf,csv", "--quiet"])
+    assert code == 0
+    outside = {p for p in _files_under(tmp_path) - _files_under(out) - before if p not in (out, out.parent)}
+    assert outside == set(), outside
+    assert not Path("/tmp/rtbench-escaped-abs_8x8_rmse.svg").exists()
+    plots = sorted(p.name for p in (out / "plots").iterdir())
+    assert plots and all(not name.startswith(".") and "/" not in name for name in plots)
+
+
+# ---------------------------------------------------------------------------------- 3. no read outside, no hang
+
+def _secret_exr(tmp_path) -> Path:
+    secret = tmp_path / "secret.exr"
+    rt.write_exr(secret, np.full((8, 8, 3), 7.0))
+    return secret
+
+
+@pytest.mark.parametrize("where", ["absolute", "dotdot", "symlink"])
+def test_report_reads_no_image_outside_the_store(tmp_path, where):
+    store = _small_store(tmp_path / "s")
+    secret = _secret_exr(tmp_path)
+    if where == "symlink":
+        os.symlink(secret, store / "images" / "link.exr")
+        rel = "images/link.exr"
+    else:
+        rel = str(secret) if where == "absolute" else "../secret.exr"
+    _rewrite(store, lambda r: dict(r, image=rel) if "image" in r else r)
+    meta = json.loads((store / "meta.json").read_text())
+    meta["references"]["spheres"]["path"] = rel
+    (store / "meta.json").write_text(json.dumps(meta))
+    from reports.store import load_store
+
+    st = load_store(store)
+    with pytest.raises(ValueError, match="folder|symbolic link"):
+        st.read_image(rel)
+    page = tmp_path / "out"
+    assert main(["report", str(store), "--out", str(page), "--quiet"]) == 0
+    md = (page / "summary.md").read_text()
+    assert "could not be read" in md   # listed as a problem of the store, never shown
+
+
+def test_a_fifo_in_the_store_does_not_hang_the_report(tmp_path):
+    store = _small_store(tmp_path / "s")
+    os.mkfifo(store / "images" / "fifo.exr")
+    _rewrite(store, lambda r: dict(r, image="images/fifo.exr"))
+    os.unlink(store / "meta.json")
+    os.mkfifo(store / "meta.json")
+    proc = _rtbench("report", store, "--out", tmp_path / "out", "--quiet", timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "not a regular file" in (tmp_path / "out" / "summary.md").read_text()
+
+
+def test_an_exr_header_declaring_a_huge_image_is_refused_before_decoding(tmp_path):
+    import OpenEXR
+
+    path = tmp_path / "big.exr"
+    rt.write_exr(path, np.zeros((4, 4, 3)))
+    with pytest.raises(ValueError, match="pixels"):
+        rt.read_exr(path, max_pixels=8)
+    assert OpenEXR  # the decoder is there; the header alone decided
+
+
+# ---------------------------------------------------------------------------------- 4. escaped per medium
+
+HOSTILE_NAME = "<script>alert(1)</script>|*x*[l](http://e)=HYPERLINK(\"http://e\")\x1b[2J\x1b]0;t\x07"
+
+
+def test_text_outputs_escape_store_fields(tmp_path, capsys):
+    store = _small_store(tmp_path / "s")
+    _rewrite(store, lambda r: dict(r, scene=HOSTILE_NAME, strategy="=cmd|' /C calc'!A0"))
+    out = tmp_path / "out"
+    assert main(["report", str(store), "--out", str(out), "--format", "html,csv"]) == 0
+    printed = capsys.readouterr()
+    assert "\x1b" not in printed.out + printed.err
+    md = (out / "summary.md").read_text()
+    assert "<script>" not in md and "[l](http" not in md and "\x1b" not in md
+    page = (out / "index.html").read_text()
+    assert "<script>alert(1)" not in page
+    import csv
+
+    for name in ("curves.csv", "summary.csv"):
+        rows = list(csv.reader((out / name).open()))
+        assert rows[1:], name
+        for row in rows[1:]:
+            assert not any(cell.startswith(("=", "+", "@")) for cell in row), (name, row)
+
+
+def test_error_lines_carry_no_terminal_escapes(tmp_path):
+    proc = _rtbench("render", "--scene", tmp_path / "no\x1b]0;title\x07such.xml")
+    assert proc.returncode == 2 and "such.xml" in proc.stderr
+    assert "\x1b" not in proc.stderr and "\x07" not in proc.stderr and "\\x1b" in proc.stderr
+
+
+# ---------------------------------------------------------------------------------- 5. one writer at a time
+
+def test_concurrent_write_reference_records_each_job_once(tmp_path):
+    store = tmp_path / "ref"
+    code = ("import sys; from benchmarks.gate.store_reference import write_reference_store; "
+            "write_reference_store(['cornell_box'], sys.argv[1], spp=64, width=8, threads=1)")
+    procs = [subprocess.Popen([sys.executable, "-c", code, str(store)], cwd=ROOT, stderr=subprocess.PIPE, text=True)
+             for _ in range(2)]
+    for p in procs:
+        assert p.wait(timeout=300) == 0, p.stderr.read()
+    records = read_records(store, dedupe=False)
+    keys = [record_key(r) for r in records]
+    assert len(keys) == len(set(keys)) == 1
+    img = rt.read_exr(store / records[0]["image"])
+    assert img.shape == (8, 8, 3)
+
+
+# ---------------------------------------------------------------------------------- 6. no silent wrong image
+
+SINGULAR_IN_PLANE = ((1, 0, 0, 0), (0, 0, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
+PROJECTIVE = ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0.5, 1))
+
+
+@pytest.mark.parametrize("make", [
+    lambda m, t: rt.Quad((0, 0, 0), (1, 0, 0), (0, 1, 0), m, transform=t),
+    lambda m, t: rt.Box((0, 0, 0), (1, 1, 1), m, transform=t),
+    lambda m, t: rt.Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0), m, transform=t),
+    lambda m, t: rt.Mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], m, transform=t),
+    lambda m, t: rt.Sphere((0, 0, 0), 1.0, m, transform=t),
+], ids=["quad", "box", "triangle", "mesh", "sphere"])
+@pytest.mark.parametrize("transform, message", [(SINGULAR_IN_PLANE, "zero|singular"), (PROJECTIVE, "affine")],
+                         ids=["singular", "projective"])
+def test_collapsed_or_projective_shapes_are_refused(make, transform, message):
+    with pytest.raises(ValueError, match=message):
+        make(rt.DiffuseLight(5.0), transform)
+
+
+def test_a_mesh_of_collinear_triangles_is_refused():
+    with pytest.raises(ValueError, match="zero area"):
+        rt.Mesh([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]], [[0, 1, 2], [1, 2, 3]], rt.DiffuseLight(1.0))
+
+
+def test_scaling_a_mesh_to_nothing_is_refused_after_the_transform():
+    mesh = rt.Mesh(np.eye(3), [[0, 1, 2]], rt.Lambertian(0.5))
+    with pytest.raises(ValueError, match="zero area after its transform"):
+        mesh.rotate_y(10)._compose(np.diag([0.0, 0.0, 1.0, 1.0]))
+
+
+@pytest.mark.parametrize("radiance", [1e300, 3.5e38, (1.0, 1e39, 1.0)])
+def test_radiance_beyond_float32_is_refused(radiance):
+    with pytest.raises(ValueError, match="float32"):
+        rt.DiffuseLight(radiance)
+    with pytest.raises(ValueError, match="float32"):
+        rt.Scene(camera=rt.Camera(lookfrom=(0, 0, -3), lookat=(0, 0, 0), vfov=40, width=4, height=4),
+                 shapes=[rt.Sphere((0, 0, 0), 1, rt.Lambertian(0.5))], background=radiance)
+
+
+# ---------------------------------------------------------------------------------- 7. memory bounded
+
+HUGE_PLY = (b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
+            b"property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+            b"end_header\n" + b"\0" * 64)
+
+
+def _xml_with_mesh(tmp_path, mesh: str, kind: str = "ply") -> Path:
+    xml = tmp_path / "scene.xml"
+    xml.write_text(f"""<scene version="3.0.0">
+  <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>
+    <integer name="height" value="8"/><rfilter type="box"/></film></sensor>
+  <shape type="{kind}"><string name="filename" value="{mesh}"/><boolean name="face_normals" value="true"/></shape>
+</scene>
+""")
+    return xml
+
+
+@pytest.mark.parametrize("source", ["huge_header", "dev_zero"])
+def test_a_mesh_is_checked_before_anything_is_allocated(tmp_path, source):
+    if source == "huge_header":
+        mesh = tmp_path / "huge.ply"
+        mesh.write_bytes(HUGE_PLY)
+    else:
+        mesh = Path("/dev/zero")
+    with pytest.raises(ValueError, match="declares|regular file"):
+        rt.Mesh.load(mesh, rt.Lambertian(0.5))
+    # the importer checks before Mitsuba's loader allocates: exit 2 in seconds, the file named
+    proc = _rtbench("render", "--scene", _xml_with_mesh(tmp_path, str(mesh)), "--out", tmp_path / "r", timeout=60)
+    assert proc.returncode == 2 and str(mesh) in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_a_mesh_too_large_for_memory_exits_3(tmp_path, monkeypatch):
+    from reference_tracer import meshfile
+
+    mesh = tmp_path / "ok.ply"
+    from mitsuba_scenes.translate import write_ply
+
+    write_ply(mesh, np.eye(3), [[0, 1, 2]])
+    monkeypatch.setattr(meshfile, "_available_memory", lambda: 10)
+    with pytest.raises(MemoryError, match="GiB"):
+        rt.Mesh.load(mesh, rt.Lambertian(0.5))
+    from benchmarks.errors import exit_code
+
+    assert exit_code(MemoryError()) == 3
+
+
+# ---------------------------------------------------------------------------------- 8. user errors, said as such
+
+def test_deeply_nested_json_in_a_store_is_a_listed_problem(tmp_path):
+    store = _small_store(tmp_path / "s")
+    (store / "meta.json").write_text("[" * 100000 + "]" * 100000)
+    with (store / RESULTS).open("a") as f:
+        f.write('{"a": ' * 50000 + "1" + "}" * 50000 + "\n")
+    assert main(["report", str(store), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    md = (tmp_path / "o" / "summary.md").read_text()
+    assert "nested too deeply" in md
+
+
+def test_a_long_scene_file_name_renders(tmp_path):
+    src = ROOT / "tests" / "fixtures"
+    xml = src / "xml" / "box_rect_light.xml"
+    long = tmp_path / ("s" * 240 + ".xml")
+    long.write_text(xml.read_text())
+    for extra in xml.parent.iterdir():  # meshes the file names beside it
+        if extra.suffix in (".ply", ".obj"):
+            (tmp_path / extra.name).write_bytes(extra.read_bytes())
+    proc = _rtbench("render", "--scene", long, "--spp", "1", "--width", "8", "--out", tmp_path / "r", timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert all(len(p.name) < 255 for p in (tmp_path / "r").iterdir())
+
+
+def test_a_full_disk_leaves_no_temporary_file_behind(tmp_path, monkeypatch):
+    from reference_tracer import imageio
+
+    store = _small_store(tmp_path / "s")
+    out = tmp_path / "out"
+    calls = {"n": 0}
+    real = os.fsync
+
+    def full(fd):
+        calls["n"] += 1
+        if calls["n"] >= 2:
+            raise OSError(28, "No space left on device")
+        return real(fd)
+
+    monkeypatch.setattr(imageio.os, "fsync", full)
+    assert main(["report", str(store), "--out", str(out), "--quiet"]) == 3
+    assert not [p for p in out.rglob("*") if p.name.endswith(".tmp")]
+
+
+def test_a_report_before_the_first_record_says_so(tmp_path, capsys):
+    store = tmp_path / "s"
+    store.mkdir()
+    (store / "meta.json").write_text("{}")
+    assert main(["report", str(store)]) == 2
+    assert "no finished job yet" in capsys.readouterr().err
+
+
+def test_a_text_file_as_a_mesh_names_the_file(tmp_path):
+    mesh = tmp_path / "passwd.obj"
+    mesh.write_text("root:x:0:0:root:/root:/bin/bash\n")
+    with pytest.raises(ValueError, match="passwd.obj"):
+        rt.Mesh.load(mesh, rt.Lambertian(0.5))
+    proc = _rtbench("render", "--scene", _xml_with_mesh(tmp_path, str(mesh), kind="obj"), timeout=60)
+    assert proc.returncode == 2 and "passwd.obj" in proc.stderr and "holds no triangles" in proc.stderr
+
+
+def test_concurrent_appends_never_interleave(tmp_path):
+    """The store's own writer primitives hold under threads (the lock is per process)."""
+    store = tmp_path / "s"
+
+    def writer(k):
+        for i in range(50):
+            append_record(store, {"scene": "s", "renderer": "ours", "strategy": "mis", "spp": 1, "seed": k * 100 + i,
+                                  "width": 1, "height": 1})
+
+    threads = [threading.Thread(target=writer, args=(k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert len(read_records(store, dedupe=False)) == 200
+    write_image(store, "images/x.exr", np.zeros((2, 2, 3)))
+    with pytest.raises(ValueError):
+        write_image(store, "../x.exr", np.zeros((2, 2, 3)))
