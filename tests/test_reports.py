@@ -102,13 +102,19 @@ def _png_size(src: str) -> tuple[int, int]:
 
 
 def _md_tables(md: str) -> dict[str, list[list[str]]]:
-    """Markdown tables keyed by the ``## heading`` above them (first table of each heading)."""
+    """Markdown tables keyed by the ``## heading`` above them (first table of each heading), as a
+    Markdown reader shows them: backslash escapes and entities undone."""
+    import html as _html
+
+    def shown(text: str) -> str:
+        return _html.unescape(re.sub(r"\\(.)", r"\1", text))
+
     out, heading, rows = {}, None, None
     for line in md.splitlines() + [""]:
         if line.startswith("## "):
-            heading, rows = line[3:].strip(), None
+            heading, rows = shown(line[3:].strip()), None
         elif line.startswith("|"):
-            cells = [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", line.strip())[1:-1]]
+            cells = [shown(c.strip()) for c in re.split(r"(?<!\\)\|", line.strip())[1:-1]]
             if rows is None:
                 rows = []
             if not all(re.fullmatch(r"-+", c) for c in cells):

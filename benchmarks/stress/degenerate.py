@@ -59,7 +59,7 @@ def _degenerate_faces(rng, seed: int) -> dict:
     -------
     dict
         ``ray_hits`` (per test), ``image_differences``, ``nonfinite_samples``, ``emitters``
-        (emitters of the scene with the degenerate faces).
+        (the lights of an emitting mesh of one triangle and 40 all-equal ones: 1).
     """
     lam = rt.Lambertian(0.5)
     light = rt.DiffuseLight(4.0)
@@ -71,16 +71,23 @@ def _degenerate_faces(rng, seed: int) -> dict:
                   [1, 0, 2],      # collinear, other order
                   [3, 3, 3],      # one point
                   [6, 6, 0]])     # segment
-    degenerate = rt.Mesh(V, F, lam)
-    same = rt.Mesh(np.full((30, 3), 0.3), rng.integers(0, 30, (40, 3)), light)   # all vertices equal
-    ordinary = rt.Triangle((-2, -2, 3), (3, -2, 3), (0, 3, 3), lam)
+    ordinary_face = np.array([[-2.0, -2.0, 3.0], [3.0, -2.0, 3.0], [0.0, 3.0, 3.0]])
+    same_points = np.full((30, 3), 0.3)                                                  # all vertices equal
+    # The scene model refuses a mesh without area: the degenerate faces ride on a mesh whose
+    # first face is the ordinary triangle (prim 2 with or without them, the quads first).
+    mesh_v = np.vstack([ordinary_face, V, same_points])
+    mesh_f = np.vstack([[[0, 1, 2]], F + 3, rng.integers(0, 30, (40, 3)) + 3 + len(V)])
+    degenerate = rt.Mesh(mesh_v, mesh_f, lam)
+    ordinary = rt.Triangle(*ordinary_face, lam)
     floor = rt.Quad((-5, -2.5, -5), (0, 0, 10), (10, 0, 0), lam)
     lamp = rt.Quad((-1, 3, -1), (2, 0, 0), (0, 0, 2), light)
-    base = [floor, lamp, ordinary]
-    with_deg = probe_scene(base + [degenerate, same], background=0.2, lookfrom=(0.3, 0.4, -6),
+    with_deg = probe_scene([floor, lamp, degenerate], background=0.2, lookfrom=(0.3, 0.4, -6),
                            lookat=(0.2, 0.3, 0), width=24, height=24)
-    without = probe_scene(base, background=0.2, lookfrom=(0.3, 0.4, -6), lookat=(0.2, 0.3, 0),
+    without = probe_scene([floor, lamp, ordinary], background=0.2, lookfrom=(0.3, 0.4, -6), lookat=(0.2, 0.3, 0),
                           width=24, height=24)
+    # An emitting mesh of one triangle and 40 all-equal ones: only the triangle is a light.
+    lights = probe_scene([rt.Mesh(np.vstack([ordinary_face, same_points]),
+                                  np.vstack([[[0, 1, 2]], rng.integers(0, 30, (40, 3)) + 3]), light)])
     n_base = 2 + 1  # quads then the ordinary triangle: ids 0..2
     # Rays at every degenerate vertex and along their segments, from random origins.
     pts = np.vstack([V, V[0] + rng.random((200, 1)) * (V[2] - V[0]), V[6] + rng.random((200, 1)) * (V[0] - V[6]),
@@ -106,7 +113,7 @@ def _degenerate_faces(rng, seed: int) -> dict:
         img_diff += int((a.mean != b.mean).sum())
         nonfinite += a.nonfinite_samples + b.nonfinite_samples
     return {"ray_hits": ray_hits, "image_differences": img_diff, "nonfinite_samples": nonfinite,
-            "emitters": int(core_scene(with_deg).emitter_count)}
+            "emitters": int(core_scene(lights).emitter_count)}
 
 
 def _split_vertex_escapes(rng) -> int:
