@@ -11,7 +11,7 @@ from reference_tracer.strategies import STRATEGIES
 
 __all__ = [
     "STRATEGIES", "UNBIASED_STRATEGIES", "MITSUBA_STRATEGY", "RELMSE_EPS", "LUMINANCE_WEIGHTS",
-    "SEED_SCENE", "SEED_SIZE", "SEED_SPP", "GATE_ALPHA", "BIAS_TEST_ALPHA", "CLOSED_FORM",
+    "SEED_SCENE", "SEED_SIZE", "SEED_SPP", "SEED_LIGHT_SPP", "MIN_SLOPE_BUDGETS", "GATE_ALPHA", "BIAS_TEST_ALPHA", "CLOSED_FORM",
     "CLOSED_FORM_SPP",
 ]
 
@@ -36,6 +36,10 @@ LUMINANCE_WEIGHTS = (0.2126, 0.7152, 0.0722)
 SEED_SCENE = "cornell_box"
 SEED_SIZE = 400
 SEED_SPP = 50
+#: fewest rendered budgets a convergence slope is fitted to (two or three points fit any line).
+MIN_SLOPE_BUDGETS = 4
+#: light sampling's budget in the seed figure, beside uniform at SEED_SPP: about as noisy.
+SEED_LIGHT_SPP = 4
 
 #: The regression gate's false-alarm rate for a whole run (all its comparisons together).
 GATE_ALPHA = 0.01

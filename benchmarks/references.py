@@ -53,7 +53,7 @@ from .constants import CLOSED_FORM, CLOSED_FORM_SPP
 from .store import file_sha256
 
 
-__all__ = ["CACHE_ENV", "DEFAULT_REFERENCE_SEED", "DEFAULT_REFERENCE_BATCHES", "FORMAT_VERSION",
+__all__ = ["is_cached", "CACHE_ENV", "DEFAULT_REFERENCE_SEED", "DEFAULT_REFERENCE_BATCHES", "FORMAT_VERSION",
            "Reference", "cache_dir", "reference_key", "reference", "load_reference", "mitsuba_identity",
            "CLOSED_FORM", "CLOSED_FORM_SPP", "CLOSED_FORM_REASONS", "closed_form_reference_of"]
 
@@ -191,6 +191,16 @@ def _lock(path: Path):
 
 def _paths(folder: Path, key: str):
     return folder / f"{key}.mean.exr", folder / f"{key}.var.exr", folder / f"{key}.json"
+
+
+def is_cached(scene, *, spp: int, seed: int = DEFAULT_REFERENCE_SEED, variant: str | None = None,
+              batches: int = DEFAULT_REFERENCE_BATCHES, cache=None) -> bool:
+    """Whether :func:`reference` would find this reference in the cache (its sidecar exists;
+    the files are checked when it is read). For planning a run's progress, nothing more."""
+    chosen, mversion = mitsuba_identity(variant)
+    key = reference_key(scene.content_hash(), mitsuba_version=mversion, variant=chosen, spp=spp, seed=seed,
+                        batches=min(batches, spp))
+    return _paths(cache_dir(cache), key)[2].exists()
 
 
 def load_reference(key: str, *, shape=None, cache=None):

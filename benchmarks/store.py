@@ -72,7 +72,7 @@ __all__ = ["KEY_FIELDS", "BUILD_FIELD", "curve_of", "latest_builds", "RESULTS", 
            "store_path", "append_record", "writer_lock", "WRITER_LOCK", "ResultLine", "result_lines", "skipped_line",
            "job_records", "read_records", "dedupe_records",
            "finished_keys", "check_identity", "write_json", "read_json", "read_meta",
-           "read_summary_rows", "update_meta", "write_image", "read_image", "image_path", "file_sha256"]
+           "read_summary_rows", "read_headline", "update_meta", "write_image", "read_image", "image_path", "file_sha256"]
 
 #: fields that identify a job (``STORE.md``): a resumed run skips records with these.
 KEY_FIELDS = ("scene", "renderer", "strategy", "spp", "seed", "width", "height")
@@ -592,6 +592,22 @@ def read_summary_rows(store, *, problems: list | None = None) -> list:
         if not isinstance(row, dict):
             raise ValueError(f"{path}: row {i} is not a JSON object")
     return rows
+
+
+def read_headline(store, *, problems: list | None = None) -> list:
+    """The ``headline`` entries of a store's ``summary.json`` (one per scene and size; empty
+    when missing): each a JSON object with a string ``scene``; others are dropped and said."""
+    summ = read_json(Path(store) / SUMMARY)
+    entries = summ.get("headline") if isinstance(summ, dict) else None
+    if not isinstance(entries, list):
+        return []
+    good = [e for e in entries if isinstance(e, dict) and isinstance(e.get("scene"), str)
+            and isinstance(e.get("curves", []), list)]
+    for e in good:
+        e["curves"] = [c for c in e.get("curves") or [] if isinstance(c, dict)]
+    if len(good) < len(entries) and problems is not None:
+        problems.append(f"{SUMMARY}: {len(entries) - len(good)} headline entr(ies) that are not scene entries ignored")
+    return good
 
 
 def update_meta(store, **fields) -> dict:

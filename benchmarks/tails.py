@@ -26,7 +26,7 @@ from reference_tracer._validate import positive_int
 from .references import _lock, cache_dir
 from reference_tracer.imageio import atomic_write
 
-__all__ = ["TailReference", "tail_reference", "tail_key", "sample_variance", "variance_is_lower_bound",
+__all__ = ["TailReference", "is_cached", "tail_reference", "tail_key", "sample_variance", "variance_is_lower_bound",
            "variance_tail_reference",
            "DEFAULT_TAIL_SPP", "DEFAULT_TAIL_SEED", "DEFAULT_MAX_TAIL_SAMPLES"]
 
@@ -94,9 +94,19 @@ def _save(path, meta_path, meta, arrays):
     atomic_write(meta_path, json.dumps(dict(meta, sha256=hashlib.sha256(blob).hexdigest()), indent=1) + "\n")
 
 
+def is_cached(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: int = DEFAULT_TAIL_SEED,
+              cache=None) -> bool:
+    """Whether :func:`tail_reference` would find this tail reference in the cache (its sidecar
+    exists; the file is checked when it is read). For planning a run's progress."""
+    import reference_tracer as rt
+
+    key = tail_key(scene.content_hash(), build=rt.build_id(), strategy=strategy, spp=spp, seed=seed)
+    return (cache_dir(cache) / f"{key}.tails.json").exists()
+
+
 def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: int = DEFAULT_TAIL_SEED,
                    threads=None, cache=None, render=None, variant: str = "", log=None,
-                   progress=None) -> TailReference:
+                   progress=None, what: str = "") -> TailReference:
     """The tail reference of ``scene`` for ``strategy``, from the cache or rendered.
 
     Parameters
@@ -116,6 +126,8 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
         Called with one line when a tail reference is rendered or an entry is replaced.
     progress : callable, keyword-only
         ``progress(done_rows, total_rows)`` while our tracer renders it (not with ``render``).
+    what : str, keyword-only
+        What the tail reference is of (``"cornell_box 32x32"``), for the log lines.
     """
     import reference_tracer as rt
 
@@ -135,7 +147,7 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
             if why != "not cached" and log is not None:
                 log(f"tail reference {key[:12]} is unusable ({why}); re-rendering")
             elif log is not None:
-                log(f"rendering the tail reference of {strategy} at {spp} spp ({shape[1]}x{shape[0]})")
+                log(f"rendering the tail reference of {what or f'{shape[1]}x{shape[0]}'} {strategy} at {spp} spp")
             with contextlib.suppress(FileNotFoundError):
                 meta_path.unlink()
             extra = {} if render is not None or progress is None else {"progress": progress}
@@ -197,7 +209,8 @@ def variance_is_lower_bound(tails, *, share: float = 0.5, weight: float = 0.1) -
 
 
 def variance_tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP,
-                            max_samples: int = DEFAULT_MAX_TAIL_SAMPLES, log=None, **kw) -> TailReference:
+                            max_samples: int = DEFAULT_MAX_TAIL_SAMPLES, log=None, what: str = "",
+                            **kw) -> TailReference:
     """A tail reference whose variance can be trusted: :func:`tail_reference` at ``spp``,
     and where :func:`variance_is_lower_bound` holds, once more at the largest budget
     ``max_samples`` allows for the image (cached like any tail reference).
@@ -210,16 +223,17 @@ def variance_tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP
     intermediate budgets were all still dominated by single samples. Other estimators stop
     at ``spp``; the check costs nothing.
     """
-    tails = tail_reference(scene, strategy=strategy, spp=spp, log=log, **kw)
+    tails = tail_reference(scene, strategy=strategy, spp=spp, log=log, what=what, **kw)
     pixels = int(scene.camera.width) * int(scene.camera.height)
     top = max_samples // pixels
     if variance_is_lower_bound(tails) and top > tails.spp:
+        name = f"{what} " if what else ""
         if log is not None:
-            log(f"the variance of {strategy} rests on single samples at {tails.spp} spp; "
+            log(f"the variance of {name}{strategy} rests on single samples at {tails.spp} spp; "
                 f"tail reference at {top} spp (minutes)")
         if log is not None and kw.get("render") is None:
-            kw = {**kw, "progress": progress_lines(log, f"tail reference of {strategy} at {top} spp")}
-        tails = tail_reference(scene, strategy=strategy, spp=top, log=log, **kw)
+            kw = {**kw, "progress": progress_lines(log, f"tail reference of {name}{strategy} at {top} spp")}
+        tails = tail_reference(scene, strategy=strategy, spp=top, log=log, what=what, **kw)
     return tails
 
 

@@ -3,6 +3,11 @@
 Scene files registered with :func:`mitsuba_scenes.scene_files.register_scene_file`
 (``--scene PATH``) are known by name too (:func:`known_scenes`): :func:`get_scene` builds
 them, with ``width`` and ``height`` overrides as for suite scenes.
+
+Every suite scene but ``furnace`` renders as Mitsuba's ``path`` does by default: Russian
+roulette from depth 5 (``rr_depth=5``), with at most 50 segments (``max_depth=50``); pass
+``rr_depth=None`` for none. ``furnace`` keeps no roulette: its closed form is the exact
+value of every path, and roulette would give its exact estimators (``mis``) a variance.
 """
 from __future__ import annotations
 

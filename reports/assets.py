@@ -42,6 +42,7 @@ figcaption { font-size:12px; color:var(--muted); margin-top:2px; }
 .cmp-row { margin:10px 0 18px; }
 .cmp-row h4 { margin:6px 0; font-size:13.5px; }
 .cmp-grid { display:grid; gap:8px; align-items:start; }
+.cmp-scroll { overflow-x:auto; }
 .cell { min-width:0; }
 .cell .lbl { font-size:12.5px; font-weight:600; margin-bottom:2px; overflow:hidden; text-overflow:ellipsis;
              white-space:nowrap; }
@@ -70,6 +71,17 @@ dl.formulas dt { font-weight:600; margin-top:6px; }
 dl.formulas dd { margin:0 0 0 18px; color:#333a45; }
 ul.problems li { color:var(--bad); }
 .big { font-size:15px; }
+table.headline td { white-space:nowrap; vertical-align:top; }
+table.headline td:nth-child(2) { white-space:normal; min-width:12em; }
+table.headline th .sub { font-weight:400; color:var(--muted); font-size:11px; }
+.seedgrid { display:grid; grid-template-columns:repeat(auto-fill, minmax(min(180px, 100%), 1fr)); gap:10px;
+            margin-bottom:8px; max-width:1300px; }
+.seedgrid img { width:100%; height:auto; border-radius:2px; background:#000; display:block; }
+.seedgrid figcaption { font-size:12px; }
+details.scene-details > summary { cursor:pointer; list-style:revert; }
+details.scene-details > summary h2 { display:inline; margin-right:12px; }
+.cmp-grid img.shot, .cmp-grid canvas.zoom { min-width:0; }
+.shotwrap img.shot { border:1px solid #555; }
 footer { color:var(--muted); font-size:12px; text-align:center; padding:10px; overflow-wrap:anywhere; }
 table.facts td { overflow-wrap:anywhere; }
 @media (max-width: 700px) {

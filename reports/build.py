@@ -17,8 +17,9 @@ from .curves import curve_label, seed_comparison
 from .html import page_html
 from .sections import PLOT_KINDS, Section, build_section, equal_time_text, seed_lines
 from .store import Store, load_store
-from .tables import FORMULAS, columns, facts_table, fmt
-from .tidy import curves_csv, summary_csv
+from .headline import HEADLINE_NOTE, headline_cells, headline_entries, headline_header, percent_text
+from .tables import FORMULAS, columns, facts_table, fmt, verdict_cell
+from .tidy import curves_csv, headline_csv, summary_csv
 
 __all__ = ["build_report", "write_report", "summary_table", "PLOT_KINDS", "FORMATS", "plot_file_stem"]
 
@@ -30,10 +31,19 @@ FORMATS = ("html", "svg", "pdf", "csv")
 
 def _markdown(store: Store, sections: list[Section], cmp, problems: list, metric: str = DEFAULT_METRIC) -> str:
     out = [f"# rtbench report — {markdown(store.path.name)}", "",
-           f"Metric of slopes, efficiency and time to target: {SPECS[metric].label}. Efficiency and time to "
-           "target are shown only where no bias was detected.", "", "## Run facts", "",
-           markdown_table(["fact", "value"], facts_table(store.meta, n_records=len(store.records),
-                                                         n_raw=store.n_raw_records, records=store.records)), ""]
+           "How much noisier is each sampling strategy than light sampling, at equal samples and at equal time, "
+           f"and does our tracer agree with Mitsuba 3? One error metric throughout: {SPECS[metric].label}. "
+           "Efficiency and time to target are shown only where no bias was detected.", ""]
+    entries = headline_entries(store)
+    if entries:
+        out += ["## The answer", "", markdown_table(headline_header(entries), headline_cells(entries)), "",
+                markdown(HEADLINE_NOTE), ""]
+    if cmp is not None:  # only where the store holds the seed's runs
+        lines, rows = seed_lines(cmp)
+        out += ([f"## Seed comparison: uniform vs light on {SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}", ""]
+                + [markdown(line) for line in lines] + [""])
+        if rows:
+            out += [markdown_table(["spp", f"uniform {cmp['label']}", f"light {cmp['label']}"], rows), ""]
     for sec in sections:
         out += [f"## {markdown(sec.title)}", ""]
         if sec.table:
@@ -44,12 +54,8 @@ def _markdown(store: Store, sections: list[Section], cmp, problems: list, metric
         if et:
             out += [markdown(et), ""]
         out += [f"- {markdown(n)}" for n in sec.notes] + ([""] if sec.notes else [])
-    if cmp is not None:  # only where the store holds the seed's runs
-        lines, rows = seed_lines(cmp)
-        out += ([f"## Seed comparison: uniform vs light on {SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}", ""]
-                + [markdown(line) for line in lines] + [""])
-        if rows:
-            out += [markdown_table(["spp", "uniform RMSE", "light RMSE"], rows), ""]
+    out += ["## Run facts", "", markdown_table(["fact", "value"], facts_table(
+        store.meta, n_records=len(store.records), n_raw=store.n_raw_records, records=store.records)), ""]
     out += ["## Metric definitions", ""] + [f"- **{k}**: {v}" for k, v in FORMULAS] + [""]
     if problems:
         out += ["## Problems found in the store", ""] + [f"- {markdown(p)}" for p in problems] + [""]
@@ -84,12 +90,61 @@ def _vector_files(dest: Path, sections: list[Section], seed_fig, fmt_: str) -> l
     out = []
     figs = [(plot_file_stem(sec, kind), fig) for sec in sections for kind, fig in sec.figures.items()]
     if seed_fig is not None:
-        figs.append((f"seed_{SEED_SCENE}_{SEED_SIZE}x{SEED_SIZE}_rmse", seed_fig))
+        figs.append((f"seed_{SEED_SCENE}_{SEED_SIZE}x{SEED_SIZE}_relmse", seed_fig))
     for stem, fig in figs:
         path = folder / f"{stem}.{fmt_}"
         atomic_write(path, plots.figure_bytes(fig, fmt_))
         out.append(path)
     return out
+
+
+def _chromium():
+    import shutil
+
+    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
+        exe = shutil.which(name)
+        if exe:
+            return exe
+    return None
+
+
+def report_pdf(page: str, path: Path, *, figures=()) -> Path:
+    """The whole page as one PDF, every scene section opened: printed by headless Chromium.
+
+    Without Chromium the PDF holds the report's figures, one per page, after a first page
+    that says so (the tables are in ``index.html`` and ``summary.md``).
+    """
+    import subprocess
+    import tempfile
+
+    exe = _chromium()
+    if exe is not None:
+        with tempfile.TemporaryDirectory() as tmp:
+            opened = Path(tmp) / "page.html"
+            opened.write_text(page.replace('<details class="scene-details">', '<details class="scene-details" open>'),
+                              encoding="utf-8")
+            out = Path(tmp) / "report.pdf"
+            try:
+                subprocess.run([exe, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+                                f"--user-data-dir={Path(tmp) / 'profile'}", "--no-pdf-header-footer",
+                                f"--print-to-pdf={out}", opened.as_uri()], capture_output=True, timeout=300)
+            except (OSError, subprocess.TimeoutExpired):
+                pass
+            if out.exists() and out.read_bytes().startswith(b"%PDF"):
+                return atomic_write(path, out.read_bytes())
+    from matplotlib.backends.backend_pdf import PdfPages
+    from matplotlib.figure import Figure
+
+    def write(tmp):
+        with PdfPages(tmp) as pdf:
+            note = Figure(figsize=(8.27, 2.0))
+            note.text(0.05, 0.5, "The report's figures (Chromium was not found to print the whole page:\n"
+                                 "the tables are in index.html and summary.md).", fontsize=11, va="center")
+            pdf.savefig(note)
+            for fig in figures:
+                pdf.savefig(fig)
+
+    return atomic_write(path, write)
 
 
 def write_report(store, *, out=None, formats=("html",), metric: str = DEFAULT_METRIC) -> dict:
@@ -133,19 +188,27 @@ def write_report(store, *, out=None, formats=("html",), metric: str = DEFAULT_ME
     sections, cmp, seed_fig, problems = _collect(st, metric)
     dest.mkdir(parents=True, exist_ok=True)
     written = {}
-    if "html" in formats:
+    page = None
+    if "html" in formats or "pdf" in formats:
         seed_png = plots.png_bytes(seed_fig) if seed_fig is not None else None
-        atomic_write(dest / "index.html", page_html(st, sections, cmp, seed_png, problems, metric=metric))
+        page = page_html(st, sections, cmp, seed_png, problems, metric=metric)
+    if "html" in formats:
+        atomic_write(dest / "index.html", page)
         atomic_write(dest / "summary.md", _markdown(st, sections, cmp, problems, metric))
         written.update(report=dest / "index.html", summary=dest / "summary.md")
     for fmt_ in ("svg", "pdf"):
         if fmt_ in formats:
             _vector_files(dest, sections, seed_fig, fmt_)
             written[fmt_] = dest / "plots"
+    if "pdf" in formats:
+        written["report.pdf"] = report_pdf(page, dest / "report.pdf", figures=[
+            fig for sec in sections for fig in sec.figures.values()] + ([seed_fig] if seed_fig is not None else []))
     if "csv" in formats:
         atomic_write(dest / "curves.csv", curves_csv(st))
         atomic_write(dest / "summary.csv", summary_csv(st))
-        written.update({"curves.csv": dest / "curves.csv", "summary.csv": dest / "summary.csv"})
+        atomic_write(dest / "headline.csv", headline_csv(st))
+        written.update({"curves.csv": dest / "curves.csv", "summary.csv": dest / "summary.csv",
+                        "headline.csv": dest / "headline.csv"})
     return written
 
 
@@ -194,24 +257,20 @@ def summary_table(store, *, metric: str = DEFAULT_METRIC) -> str:
     str
     """
     st = store if isinstance(store, Store) else load_store(store)
-    header = ["scene", "size", "strategy", f"{SPECS[metric].label} slope", "bias", "eff/Mitsuba", "t->target s",
-              "samples/s", "/Mitsuba"]
+    header = ["scene", "size", "strategy", f"{SPECS[metric].label} slope", "bias test", "bias", "eff/Mitsuba",
+              "t->target s", "samples/s", "/Mitsuba"]
     rows = []
     for scene, w, h in st.sections():
         for r in (view(x, metric) for x in st.section_rows(scene, w, h)):
-            sig = r.get("bias_significant")
             rows.append([scene, f"{w}x{h}" if w and h else "?", curve_label(r["renderer"], r["strategy"]),
-                         fmt(r.get("slope"), 3),
-                         "BIASED" if sig is True else ("ok" if sig is False else
-                                                       ("undetermined" if r.get("bias_verdict") == "undetermined"
-                                                        else "-")),
+                         fmt(r.get("slope"), 3), verdict_cell(r), percent_text(r.get("relative_bias")),
                          r["cost_status"] or fmt(r.get("efficiency_vs_mitsuba"), 3),
                          r["cost_status"] or fmt(r.get("time_to_target"), 3),
                          fmt(r.get("samples_per_second"), 3), fmt(r.get("samples_per_second_vs_mitsuba"), 3)])
     text = f"metric: {SPECS[metric].label}\n" + (text_table(header, rows) if rows else "(summary.json holds no rows)")
     cmp = seed_comparison(st.records)
     if cmp is not None and math.isfinite(cmp["light_spp"]):
-        text += (f"\nseed comparison ({SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}): uniform at {SEED_SPP} spp has RMSE "
+        text += (f"\nseed comparison ({SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}): uniform at {SEED_SPP} spp has {cmp['label']} "
                  f"{fmt(cmp['target_rmse'], 3)}; light reaches it at ~{fmt(cmp['light_spp'], 3)} spp "
                  f"({cmp['method']})")
     return text

@@ -173,24 +173,27 @@ def seed_comparison(records: list[dict]) -> dict | None:
     -------
     dict or None
         ``None`` when the store has no ``ours`` uniform and light records for
-        ``cornell_box`` at 400x400. Otherwise: ``uniform`` and ``light`` (Curves of RMSE),
-        ``target_rmse`` (uniform's median RMSE at 50 spp, log-log interpolated when 50 was
+        ``cornell_box`` at 400x400. Otherwise: ``uniform`` and ``light`` (Curves of relMSE),
+        ``label`` ("relMSE": the error compared, less the reference's noise where recorded),
+        ``target_rmse`` (uniform's median relMSE at 50 spp, log-log interpolated when 50 was
         not run, NaN outside its range), ``target_exact`` (50 spp was run),
-        ``light_spp`` (spp at which light's median RMSE reaches the target, log-log
-        interpolated between measured spp), ``method`` (``"interpolated"``,
-        ``"extrapolated"`` with light's fitted slope, or ``"not reached"``), ``saving``
-        (50 / light_spp) and ``light_slope``.
+        ``light_spp`` (spp at which light's median relMSE reaches the target, log-log
+        interpolated between measured spp), ``method`` (``"interpolated"``, ``"at most"``
+        when light is below the target at its smallest budget: ``light_spp`` is that budget,
+        or ``"not reached"``), ``saving`` (50 / light_spp) and ``light_slope``.
     """
     sel = [r for r in records if r.get("scene") == SEED_SCENE and r.get("renderer") == "ours"
            and r.get("strategy") in ("uniform", "light")
            and num(r.get("width")) == SEED_SIZE and num(r.get("height")) == SEED_SIZE]
-    cs = {c.strategy: c for c in curves(sel, "rmse")}
+    # relMSE, the report's metric, less the reference's own noise where the records carry it
+    field = "relmse_corrected" if any(r.get("relmse_corrected") is not None for r in sel) else "relmse"
+    cs = {c.strategy: c for c in curves(sel, field)}
     if "uniform" not in cs or "light" not in cs:
         return None
     uni, light = cs["uniform"], cs["light"]
     exact = bool(np.any(uni.spp == SEED_SPP))
     target = float(uni.median[uni.spp == SEED_SPP][0]) if exact else loglog_interp(uni.spp, uni.median, SEED_SPP)
-    out = {"uniform": uni, "light": light, "target_rmse": target, "target_exact": exact,
+    out = {"uniform": uni, "light": light, "target_rmse": target, "target_exact": exact, "label": "relMSE",
            "light_spp": math.nan, "method": "no target", "saving": math.nan,
            "light_slope": loglog_slope(light.spp, light.median)}
     if not np.isfinite(target):
@@ -207,11 +210,9 @@ def seed_comparison(records: list[dict]) -> dict | None:
     else:
         if s.size and math.isclose(m[0], target, rel_tol=1e-12):
             out["light_spp"], out["method"] = float(s[0]), "interpolated"
-        elif s.size and m[0] <= target and np.isfinite(out["light_slope"]) and out["light_slope"] < 0:
-            # already below the target at the smallest spp: extrapolate down along the fitted slope
-            out["light_spp"] = float(s[0] * (target / m[0]) ** (1.0 / out["light_slope"]))
-            out["method"] = "extrapolated"
         elif s.size and m[0] <= target:
+            # already below the target at its smallest budget: no extrapolation (light's curve
+            # flattens at its bias, so its fitted slope says nothing of smaller budgets)
             out["light_spp"], out["method"] = float(s[0]), "at most"
         else:
             out["method"] = "not reached"

@@ -5,10 +5,11 @@ import base64
 import datetime as _dt
 import html
 
-from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP
+from benchmarks.constants import SEED_LIGHT_SPP, SEED_SCENE, SEED_SIZE, SEED_SPP
 
 from . import plots
 from .assets import CSS, JS
+from .headline import HEADLINE_NOTE, headline_cells, headline_entries, headline_header, verdict_text
 from .sections import PLOT_KINDS, Section, equal_time_text, seed_lines
 from .store import Store
 from .tables import FORMULAS, columns, facts_table, fmt
@@ -45,8 +46,8 @@ def _stats_html(sec: Section) -> str:
                          f'</span>{_e(c)}'
             else:
                 c_html = _e(c)
-            if cols[i][0] == "bias verdict":
-                cls = {"biased": "biased", "no bias detected": "unbiased"}.get(c, "")
+            if cols[i][0] == "bias test":
+                cls = "biased" if c == "fail" else "unbiased" if c == "pass" else "nocost" if c != "–" else ""
             elif c in ("biased", "undetermined"):
                 cls = "nocost"
             tds.append(f'<td class="{cls}">{c_html}</td>' if cls else f"<td>{c_html}</td>")
@@ -55,9 +56,9 @@ def _stats_html(sec: Section) -> str:
     return (f'<div class="tablewrap"><table class="data" id="{sec.id}-table"><thead><tr>{head}</tr></thead>'
             f'<tbody>{"".join(body)}</tbody></table></div>'
             f'<p class="note">Metric: <b>{_e(sec.rows[0]["metric_label"] if sec.rows else sec.metric)}</b> '
-            "(slopes, efficiency, time to target; --metric). Efficiency and time to target are shown only where no "
-            "bias was detected. Definitions and epsilons: <a href=\"#formulas\">metric definitions</a>. "
-            "Numbers are the harness's (summary.json), 4 significant digits.</p>")
+            f"(slopes, efficiency, time to target; --metric); target {_e(fmt(sec.target, 3))}. Efficiency and time to "
+            "target are shown only where no bias was detected. Definitions and epsilons: <a href=\"#formulas\">"
+            "metric definitions</a>. Numbers are the harness's (summary.json).</p>")
 
 
 
@@ -107,7 +108,8 @@ def _images_html(sec: Section) -> str:
         grid = "".join("".join(v) for v in lines.values())
         out.append(f'<div class="cmp-row" data-spp="{spp:g}"><h4>{spp:g} spp '
                    f'<span class="note">(zoom <span class="zoomlevel">×4</span>)</span></h4>'
-                   f'<div class="cmp-grid" style="grid-template-columns:repeat({n}, minmax(0, 1fr))">{grid}</div>'
+                   f'<div class="cmp-scroll"><div class="cmp-grid" style="grid-template-columns:repeat({n}, '
+                   f'minmax(128px, 1fr))">{grid}</div></div>'
                    "</div>")
     if sec.colourbar is not None:
         lo, hi = sec.error_range
@@ -122,12 +124,13 @@ def _images_html(sec: Section) -> str:
     return "".join(out)
 
 
-def _section_html(sec: Section) -> str:
+def _section_html(sec: Section, summary: str = "") -> str:
     out = [f'<section class="card scene" id="{sec.id}" data-scene="{_e(sec.scene)}" '
            f'data-plots="{" ".join(k for k in PLOT_KINDS if k in sec.plots)}" '
            f'data-columns="{_e("|".join(sec.columns))}" '
            f'data-spps="{" ".join(f"{s:g}" for s, _ in sec.image_rows)}">',
-           f"<h2>{_e(sec.title)}</h2>"]
+           f'<details class="scene-details"><summary><h2>{_e(sec.title)}</h2>'
+           f'<span class="note">{_e(summary)}</span></summary>']
     for note in sec.notes:
         out.append(f'<p class="note">{_e(note)}</p>')
     if sec.plots:
@@ -145,27 +148,89 @@ def _section_html(sec: Section) -> str:
     out.append("<h3>Per-strategy statistics</h3>" + _stats_html(sec))
     if sec.image_rows:
         out.append("<h3>Images at equal spp</h3>" + _images_html(sec))
-    out.append("</section>")
+    out.append("</details></section>")
     return "".join(out)
 
 
 
-def _seed_html(cmp: dict | None, png: bytes | None) -> str:
+def _headline_html(entries: list) -> str:
+    """The first card: one row per scene, the run's answer (:mod:`reports.headline`)."""
+    out = ['<section class="card" id="headline"><h2>The answer: noise of each strategy against light sampling, '
+           'and our tracer against Mitsuba</h2>']
+    if not entries:
+        out.append('<p class="note">summary.json holds no headline yet (a run still going, or one without tail '
+                   "references): the sections below show what there is.</p></section>")
+        return "".join(out)
+    header = headline_header(entries)
+    head = []
+    for h in header:
+        name, _, sub = h.partition(": ")
+        head.append(f"<th>{_e(name)}" + (f'<br><span class="sub">{_e(sub)}</span>' if sub else "") + "</th>")
+    body = []
+    for e, cells in zip(entries, headline_cells(entries)):
+        tds = []
+        for i, c in enumerate(cells):
+            cls = ""
+            if i == 1:
+                cls = {"pass": "unbiased", "fail": "biased", "undetermined": "nocost"}.get(e.get("verdict"), "")
+            text = "<br>".join(_e(part) for part in c.split(" | "))  # equal spp over equal time
+            tds.append(f'<td class="{cls}">{text}</td>' if cls else f"<td>{text}</td>")
+        body.append(f'<tr data-scene="{_e(e["scene"])}" data-verdict="{_e(e.get("verdict"))}">{"".join(tds)}</tr>')
+    out.append(f'<div class="tablewrap"><table class="data headline" id="headline-table"><thead><tr>{"".join(head)}'
+               f'</tr></thead><tbody>{"".join(body)}</tbody></table></div>'
+               f'<p class="note">{_e(HEADLINE_NOTE)}</p></section>')
+    return "".join(out)
+
+
+def _seed_cells(sections: list[Section]) -> list:
+    """The seed figure's images: uniform at SEED_SPP, light at SEED_LIGHT_SPP and the reference,
+    from the seed section's image rows (each with its error map), where they were stored."""
+    sec = next((s for s in sections if s.scene == SEED_SCENE and s.width == SEED_SIZE and s.height == SEED_SIZE),
+               None)
+    if sec is None:
+        return []
+    rows = dict(sec.image_rows)
+    want = [(("ours", "uniform"), float(SEED_SPP)), (("ours", "light"), float(SEED_LIGHT_SPP))]
+    out = []
+    for key, spp in want:
+        cell = next((c for c in rows.get(spp, []) if c.key == key and c.png is not None), None)
+        if cell is not None:
+            out.append((f"{cell.label}, {spp:g} spp", cell))
+    ref = next((c for row in rows.values() for c in row if c.key[0] == "reference" and c.png is not None), None)
+    if ref is not None:
+        out.append(("reference", ref))
+    return out
+
+
+def _seed_html(cmp: dict | None, png: bytes | None, sections: list[Section]) -> str:
     if cmp is None:  # a store without the seed's runs (a custom run): no section at all
         return ""
     lines, rows = seed_lines(cmp)
     out = [f'<section class="card" id="seed" data-present="{"yes" if cmp else "no"}">'
            f"<h2>The seed's comparison: uniform vs light sampling on {SEED_SCENE}, "
            f"{SEED_SIZE}×{SEED_SIZE}</h2>"]
+    cells = _seed_cells(sections)
+    if cells:
+        figs = []
+        for label, c in cells:
+            shot = _img(c.png, alt=label, cls="seedshot", extra='data-kind="image"')
+            figs.append(f'<figure class="seedimg">{shot}'
+                        f"<figcaption><b>{_e(label)}</b><br>{_e(c.caption)}</figcaption></figure>")
+            if c.err_png is not None:
+                figs.append(f'<figure class="seedimg">{_img(c.err_png, alt=f"error map of {label}", cls="err")}'
+                            f"<figcaption>error map of {_e(label)}</figcaption></figure>")
+        out.append(f'<div class="seedgrid">{"".join(figs)}</div><p class="note">Same exposure for every image; error '
+                   "maps: per-pixel relative squared error against the reference on one log colour scale (its bar "
+                   "is in the cornell_box 400×400 section below).</p>")
     if png is not None:
         out.append('<div class="plots"><figure class="plot" id="seed-plot">'
                    + _img(png, alt="seed comparison plot", extra='data-kind="plot" data-plot="seed"')
-                   + "<figcaption>Median RMSE over seeds with min-max band; diamonds: uniform's error at "
+                   + f"<figcaption>Median {cmp['label']} over seeds with min-max band; diamonds: uniform's error at "
                    f"{SEED_SPP} spp and where light sampling reaches it.</figcaption></figure><div>")
     out.append("".join(f'<p class="big">{_e(s)}</p>' for s in lines))
     if rows:
-        out.append('<table class="data" style="width:auto"><thead><tr><th>spp</th><th>uniform RMSE</th>'
-                   "<th>light RMSE</th></tr></thead><tbody>"
+        out.append(f'<table class="data" style="width:auto"><thead><tr><th>spp</th><th>uniform {_e(cmp["label"])}</th>'
+                   f"<th>light {_e(cmp['label'])}</th></tr></thead><tbody>"
                    + "".join("<tr>" + "".join(f"<td>{_e(c)}</td>" for c in r) + "</tr>" for r in rows)
                    + '</tbody></table><p class="note">Median over seeds.</p>')
     if png is not None:
@@ -174,29 +239,40 @@ def _seed_html(cmp: dict | None, png: bytes | None) -> str:
     return "".join(out)
 
 
+def _scene_summary(sec: Section, entries: list) -> str:
+    """One line beside a collapsed section's title: its verdict, from the headline."""
+    e = next((e for e in entries if (e["scene"], e.get("width"), e.get("height")) == (sec.scene, sec.width,
+                                                                                          sec.height)), None)
+    return f"ours vs reference: {verdict_text(e)}" if e else ""
+
+
 def page_html(store: Store, sections: list[Section], cmp, seed_png, problems: list, *, metric: str = "relmse") -> str:
     """The whole ``index.html``: run facts, sections, seed comparison (when the store has it), definitions, problems."""
     from benchmarks.sweep.by_metric import SPECS
 
     facts = facts_table(store.meta, n_records=len(store.records), n_raw=store.n_raw_records,
                         records=store.records)
+    entries = headline_entries(store)
     title = f"rtbench report — {store.path.name}"
-    toc = "".join(f'<a href="#{s.id}">{_e(s.title)}</a>' for s in sections)
-    toc += ('<a href="#seed">seed comparison</a>' if cmp is not None else "") + '<a href="#formulas">definitions</a>'
+    toc = '<a href="#headline">answer</a>' + ('<a href="#seed">seed comparison</a>' if cmp is not None else "")
+    toc += "".join(f'<a href="#{s.id}">{_e(s.title)}</a>' for s in sections)
+    toc += '<a href="#facts">run facts</a><a href="#formulas">definitions</a>'
     if problems:
         toc += '<a href="#problems">problems</a>'
     preset = store.meta.get("preset") or "?"
     out = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
            '<meta name="viewport" content="width=device-width, initial-scale=1">',
            f"<title>{_e(title)}</title><style>{CSS}</style></head><body>",
-           f'<header class="top"><h1>{_e(title)}</h1><div class="sub">Our path tracer against Mitsuba 3 — '
-           f"preset {_e(preset)}, {len(sections)} scene section(s), {len(store.records)} job records; "
-           f"metric of slopes, efficiency and time to target: {_e(SPECS[metric].label)}</div></header>",
-           f'<nav class="toc">{toc}</nav><main>',
-           '<section class="card" id="facts"><h2>Run facts</h2><table class="facts">'
-           + "".join(f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in facts) + "</table></section>"]
-    out += [_section_html(s) for s in sections]
-    out.append(_seed_html(cmp, seed_png))
+           f'<header class="top"><h1>{_e(title)}</h1><div class="sub">How much noisier is each sampling strategy '
+           "than light sampling, at equal samples and at equal time, and does our tracer agree with Mitsuba 3? "
+           f"Preset {_e(preset)}, {len(sections)} scene section(s), {len(store.records)} job records; one error "
+           f"metric throughout: {_e(SPECS[metric].label)}.</div></header>",
+           f'<nav class="toc">{toc}</nav><main>', _headline_html(entries), _seed_html(cmp, seed_png, sections),
+           '<p class="note">Per scene and size below (click to open): convergence plots, per-strategy statistics '
+           "and images at equal spp.</p>"]
+    out += [_section_html(s, _scene_summary(s, entries)) for s in sections]
+    out.append('<section class="card" id="facts"><h2>Run facts</h2><table class="facts">'
+               + "".join(f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in facts) + "</table></section>")
     out.append('<section class="card" id="formulas"><h2>Metric definitions</h2><dl class="formulas">'
                + "".join(f"<dt>{_e(k)}</dt><dd>{_e(v)}</dd>" for k, v in FORMULAS) + "</dl></section>")
     if problems:

@@ -219,7 +219,7 @@ def time_plot(curves: list[Curve], *, title: str, target: float | None = None,
 
 @plain_text
 def seed_plot(cmp: dict) -> Figure:
-    """The seed's comparison: RMSE vs spp of uniform and light at 400x400 with the matching point."""
+    """The seed's comparison: the error (``cmp["label"]``) vs spp of uniform and light at 400x400 with the matching point."""
     fig, ax = _new("cornell_box 400x400: uniform vs light sampling", size=(5.6, 3.8))
     ax.set_xscale("log")
     ax.set_yscale("log")
@@ -232,7 +232,7 @@ def seed_plot(cmp: dict) -> Figure:
     t = cmp["target_rmse"]
     if math.isfinite(t):
         ax.axhline(t, color="#444444", linestyle=":", linewidth=1.0,
-                   label=f"uniform at {SEED_SPP} spp: RMSE {fmt(t, 3)}")
+                   label=f"uniform at {SEED_SPP} spp: {cmp.get('label', 'RMSE')} {fmt(t, 3)}")
         ax.plot([SEED_SPP], [t], marker="D", color=colour(("ours", "uniform")), markersize=7, zorder=6,
                 markeredgecolor="black", linestyle="none")
     if math.isfinite(cmp["light_spp"]):
@@ -243,7 +243,7 @@ def seed_plot(cmp: dict) -> Figure:
     spps = np.concatenate([cmp["uniform"].spp, cmp["light"].spp])
     _spp_ticks(ax, spps)
     ax.set_xlabel("samples per pixel", fontsize=9)
-    ax.set_ylabel("RMSE (median over seeds)", fontsize=9)
+    ax.set_ylabel(f"{cmp.get('label', 'RMSE')} (median over seeds)", fontsize=9)
     ax.legend(fontsize=7.2, loc="best", framealpha=0.85)
     return fig
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from benchmarks.constants import RELMSE_EPS, SEED_SCENE, SEED_SIZE, SEED_SPP
+from benchmarks.constants import CLOSED_FORM, RELMSE_EPS, SEED_SCENE, SEED_SIZE, SEED_SPP
 from benchmarks.display import reference_exposure
 from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS, view
 
@@ -166,23 +166,59 @@ def _section_plots(sec: Section, recs: list[dict]) -> None:
             "NVIDIA's FLIP of the display image against the reference's (lower is better; log-log). No theoretical "
             "slope: FLIP saturates and is not a mean of squares.")
     spec = SPECS[sec.metric]
-    timed = [c for c in curves(metric_records(recs, sec.metric), "_err") if np.isfinite(c.seconds).any()]
+    timed, modelled = _timed_curves(sec, recs)
     if timed:
         fig, budget, at = plots.time_plot(timed, title=f"{title}: {spec.label} vs render time", target=sec.target,
                                           ylabel=spec.label)
         sec.equal_time = (budget, at)
+        how = ("render time = spp × pixels × the estimator's seconds per sample, timed on its seconds-long "
+               "high-budget render (our tail reference, Mitsuba's reference): the small renders of the sweep take "
+               "milliseconds, mostly per-render overhead" if modelled else
+               "median render seconds of the sweep's renders (no high-budget timing in the summary)")
         _add_plot(sec, "time", fig,
-                  f"Speed against error ({spec.label}, the report's metric): median {spec.label} vs median render "
-                  "seconds, one point per spp. Stars: each curve's error at the equal-time budget (dotted), "
-                  "log-log interpolated.")
+                  f"Speed against error ({spec.label}, the report's metric), one point per spp; {how}. Stars: each "
+                  "curve's error at the equal-time budget (dotted), log-log interpolated.")
     missing = [k for k in PLOT_KINDS if k not in sec.plots]
     if missing:
         sec.notes.append(f"No data for plot(s): {', '.join(missing)}.")
 
 
+def _timed_curves(sec: Section, recs: list[dict]) -> tuple:
+    """``(curves, modelled)``: the section metric's curves with a time per spp. Where the summary
+    gives a curve's seconds per sample (``seconds_per_sample``), its time at ``n`` spp is
+    ``n`` x pixels x that (``modelled``); else its renders' median seconds."""
+    sps = {(r["renderer"], r["strategy"]): num(r.get("seconds_per_sample")) for r in sec.raw_rows}
+    pixels = (sec.width or 0) * (sec.height or 0)
+    out, modelled = [], False
+    for c in curves(metric_records(recs, sec.metric), "_err"):
+        t = sps.get(c.key, math.nan)
+        if math.isfinite(t) and t > 0 and pixels:
+            c.seconds = c.spp * pixels * t
+            modelled = True
+        if np.isfinite(c.seconds).any():
+            out.append(c)
+    return out, modelled
+
+
+def reference_info(store: Store, scene: str, width, height) -> dict | None:
+    """``meta.json``'s entry of the reference of one section: the one rendered at its size
+    (``references_by_size``), else the scene's main one (``references``; stores of older runs)."""
+    by_size = store.meta.get("references_by_size") or {}
+    info = by_size.get(f"{scene}@{width}x{height}")
+    if info is None:
+        info = (store.meta.get("references") or {}).get(scene)
+    return info if isinstance(info, dict) else None
+
+
+def reference_caption(info: dict) -> str:
+    """What a reference is, for its image's caption: a closed form says so."""
+    if info.get("variant") == CLOSED_FORM:
+        return "closed form (exact)"
+    return f"Mitsuba, {info.get('spp', '?')} spp, seed {info.get('seed', '?')}"
+
+
 def _reference(store: Store, sec: Section, *, problems: list):
-    refs = store.meta.get("references") if isinstance(store.meta.get("references"), dict) else {}
-    info = refs.get(sec.scene) if isinstance(refs.get(sec.scene), dict) else None
+    info = reference_info(store, sec.scene, sec.width, sec.height)
     if not info or not info.get("path"):
         sec.notes.append("meta.json names no reference image for this scene: no error maps.")
         return None
@@ -227,8 +263,7 @@ def _section_images(store: Store, sec: Section, recs: list[dict], *, problems: l
         if ref is not None:
             rc = Cell(key=("reference", ""), label="reference", id=slug("ref", sec.id, f"{spp:g}"),
                       png=display_png(ref, sec.exposure))
-            info = store.meta["references"][sec.scene]
-            rc.caption = f"Mitsuba, {info.get('spp', '?')} spp, seed {info.get('seed', '?')}"
+            rc.caption = reference_caption(reference_info(store, sec.scene, sec.width, sec.height) or {})
             row.append(rc)
         grid.append((spp, row))
     if maps:
@@ -306,8 +341,9 @@ def _image_cell(sec: Section, key: tuple, spp: float, rec, recs: list[dict], loa
             if fm is not None:
                 flips[cell.id] = fm
         seed = rec.get("seed")
-        cell.caption = (f"RMSE {fmt(rec.get('rmse'), 3)} · relMSE {fmt(rec.get('relmse'), 3)} · "
-                        f"SSIM {fmt(rec.get('ssim'), 3)} · FLIP {fmt(rec.get('flip'), 3)} (seed {seed})")
+        field = {"rmse": "rmse", "relmse": "relmse", "ssim": "ssim", "flip": "flip"}[sec.metric]
+        cell.caption = f"{SPECS[sec.metric].label if sec.metric != 'ssim' else 'SSIM'} " \
+                       f"{fmt(rec.get(field), 3)} (seed {seed})"
     return cell
 
 
@@ -360,21 +396,19 @@ def seed_lines(cmp: dict | None) -> tuple[list[str], list[list[str]]]:
                      f"{', '.join(f'{s:g}' for s in uni.spp)}), so there is no target error to match.")
     else:
         how = "median over seeds" if cmp["target_exact"] else "log-log interpolated between measured spp"
-        lines.append(f"Uniform hemisphere sampling at {SEED_SPP} spp: RMSE {fmt(t)} ({how}).")
+        lines.append(f"Uniform hemisphere sampling at {SEED_SPP} spp: {cmp['label']} {fmt(t)} ({how}).")
         ls = cmp["light_spp"]
         if cmp["method"] == "interpolated":
-            lines.append(f"Light sampling reaches that RMSE at about {fmt(ls, 3)} spp (log-log interpolation of "
-                         f"its median RMSE between measured spp): {fmt(cmp['saving'], 3)}× fewer samples.")
-        elif cmp["method"] == "extrapolated":
-            lines.append(f"Light sampling is already below that RMSE at its smallest measured spp "
-                         f"({light.spp[0]:g}); extrapolating along its fitted slope ({fmt(cmp['light_slope'], 3)}) "
-                         f"gives about {fmt(ls, 3)} spp: {fmt(cmp['saving'], 3)}× fewer samples.")
+            lines.append(f"Light sampling reaches that {cmp['label']} at about {fmt(ls, 3)} spp (log-log interpolation "
+                         f"of its median {cmp['label']} between measured spp): {fmt(cmp['saving'], 3)}× fewer samples.")
         elif cmp["method"] == "at most":
-            lines.append(f"Light sampling is already below that RMSE at its smallest measured spp "
-                         f"({light.spp[0]:g}).")
+            lines.append(f"Light sampling is already below that {cmp['label']} at its smallest measured spp "
+                         f"({light.spp[0]:g}: {cmp['label']} {fmt(float(light.median[0]), 3)}), at least "
+                         f"{fmt(cmp['saving'], 3)}× fewer samples.")
         else:
-            lines.append(f"Light sampling does not reach that RMSE within its measured range (lowest median RMSE "
-                         f"{fmt(float(np.min(light.median)))} at {light.spp[int(np.argmin(light.median))]:g} spp).")
+            lines.append(f"Light sampling does not reach that {cmp['label']} within its measured range (lowest median "
+                         f"{cmp['label']} {fmt(float(np.min(light.median)))} at "
+                         f"{light.spp[int(np.argmin(light.median))]:g} spp).")
         lines.append("Light sampling alone misses all indirect light: it is biased by design, so its curve "
                      "flattens at high spp (see its bias verdict in the table above).")
     spps = sorted(set(uni.spp.tolist()) | set(light.spp.tolist()))

@@ -54,6 +54,8 @@ class Store:
         the first; :func:`benchmarks.store.dedupe_records`).
     rows : list of dict
         ``summary.json`` rows (empty when missing).
+    headline : list of dict
+        ``summary.json``'s headline entries, one per scene and size (empty when missing).
     problems : list of str
         What was missing or unreadable; the report lists these.
     n_raw_records : int
@@ -64,6 +66,7 @@ class Store:
     meta: dict = field(default_factory=dict)
     records: list = field(default_factory=list)
     rows: list = field(default_factory=list)
+    headline: list = field(default_factory=list)
     problems: list = field(default_factory=list)
     n_raw_records: int = 0
 
@@ -188,6 +191,7 @@ def load_store(store) -> Store:
         out.problems.append(f"{results.RESULTS}: {len(deduped) - len(out.records)} record(s) of older build(s) "
                             f"({', '.join(old)}) not shown: each curve shows its latest build only")
     out.rows = results.read_summary_rows(path, problems=out.problems)
+    out.headline = results.read_headline(path, problems=out.problems)
     for i, row in enumerate(out.rows):
         results.check_identity(row, f"{results.SUMMARY} row {i}", need_spp=False)
     return out

@@ -7,13 +7,16 @@ from __future__ import annotations
 
 import math
 
-from benchmarks.constants import RELMSE_EPS
+from benchmarks.constants import MIN_SLOPE_BUDGETS, RELMSE_EPS
 from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS
+from benchmarks.sweep.headline import BASELINE
 
 from .curves import curve_label
+from .headline import VERDICT_WORDS, percent_text, ratio_text
 from .store import num
 
-__all__ = ["fmt", "stats_table", "facts_table", "FORMULAS", "COLUMNS", "columns"]
+__all__ = ["fmt", "stats_table", "facts_table", "FORMULAS", "COLUMNS", "columns", "verdict_cell", "p_text",
+           "slope_cell"]
 
 DASH = "–"
 
@@ -21,25 +24,30 @@ DASH = "–"
 def columns(metric: str = DEFAULT_METRIC) -> tuple:
     """(header, tooltip) of the per-strategy table under ``metric``, in order.
 
-    >>> columns("relmse")[1][0], columns("rmse")[9][0]
-    ('relMSE slope [95% CI]', 'target RMSE')
+    >>> columns("relmse")[1][0], columns("rmse")[1][0]
+    ('relMSE slope [95% CI]', 'RMSE slope [95% CI]')
     """
     spec = SPECS[metric]
     lab = spec.label
     unbiased = f"; unbiased Monte Carlo gives {spec.unbiased_slope:g}" if spec.unbiased_slope is not None else ""
     return (
         ("renderer / strategy", "ours: our tracer's strategy; Mitsuba: Mitsuba 3's path integrator"),
-        (f"{lab} slope [95% CI]", f"least-squares slope of log {lab} over log spp{unbiased}"),
-        ("bias verdict", "the harness's bias test over seeds: biased, no bias detected, or undetermined"),
-        ("bias² ± s.e.", "squared bias estimate and its standard error"),
-        ("z / p", "test statistic of the bias test and its p-value"),
-        ("variance", "mean per-pixel per-sample variance"),
-        (f"efficiency ({lab})", f"1 / ({lab} x seconds); shown only where no bias was detected"),
-        ("eff. / Mitsuba", "efficiency relative to Mitsuba's path integrator on the same scene"),
+        (f"{lab} slope [95% CI]", f"least-squares slope of log {lab} over log spp, from {MIN_SLOPE_BUDGETS} or "
+                                  f"more rendered budgets (the range fitted is given){unbiased}"),
+        ("bias test", "the gate's three-valued test of the seeds' mean at the top budget against the reference: "
+                      "pass, fail or undetermined (heavy-tailed at this budget)"),
+        ("bias [95% CI]", "relative bias sum(mean - ref) / sum(ref), in percent, with its 95% interval"),
+        ("p", "the bias test's p-value, as computed (its levels combined by Bonferroni; "
+              "fail when below the run's alpha per curve)"),
+        ("noise vs light: equal spp | equal time", "per-sample relative variance (about the estimator's own "
+                                                   "expectation) over light sampling's; at equal time x seconds "
+                                                   "per sample"),
+        (f"efficiency / Mitsuba ({lab})", f"1 / ({lab} x seconds), ours over Mitsuba's path; shown only where no "
+                                          "bias was detected"),
         ("time to target (s)", f"seconds to reach the target {lab}; shown only where no bias was detected"),
-        (f"target {lab}", f"the target {lab}"),
-        ("samples/s", "throughput: spp x width x height / seconds"),
-        ("samples/s / Mitsuba", "throughput relative to Mitsuba"),
+        ("samples/s", "throughput of the estimator's seconds-long high-budget render (tail reference, Mitsuba's "
+                      "reference), else of the sweep's renders"),
+        ("samples/s / Mitsuba", "throughput relative to Mitsuba's path"),
     )
 
 
@@ -55,16 +63,41 @@ def fmt(value, digits: int = 4) -> str:
     return f"{v:.{digits}g}"
 
 
-def _verdict(row: dict) -> str:
-    sig = row.get("bias_significant")
-    if sig is True:
-        return "biased"
-    if sig is False:
-        return "no bias detected"
-    if row.get("bias_verdict") == "undetermined":
+def verdict_cell(row: dict) -> str:
+    """The bias test's verdict in the words of the headline: pass, fail, undetermined (and why)."""
+    v = row.get("bias_verdict")
+    if v == "undetermined":
         needed = num(row.get("bias_spp_needed"))
-        return "undetermined (heavy-tailed" + (f", needs ~{needed:.0f} spp)" if math.isfinite(needed) else ")")
-    return DASH
+        tail = num(row.get("tail_spp_needed"))
+        why = (f"needs ~{needed:.0f} spp" if math.isfinite(needed) else
+               f"needs a {tail:.0f}-spp tail reference" if math.isfinite(tail) else "heavy-tailed")
+        return f"undetermined ({why})"
+    return VERDICT_WORDS.get(v, DASH)
+
+
+def p_text(p) -> str:
+    """A p-value as computed: ``< 1e-300`` where it underflows to zero (never a capped z)."""
+    p = num(p)
+    if not math.isfinite(p):
+        return DASH
+    return "< 1e-300" if p == 0 else f"{p:.2g}"
+
+
+def slope_cell(r: dict) -> str:
+    """Slope, interval, the budgets fitted, and a flag where it is steeper than Monte Carlo allows."""
+    if r.get("slope_status") and r.get("slope") is None:
+        return f"{DASH} ({r['slope_status']})"
+    ci = r.get("slope_ci")
+    out = fmt(r.get("slope"), 3) + (f" [{fmt(ci[0], 3)}, {fmt(ci[1], 3)}]"
+                                    if isinstance(ci, (list, tuple)) and len(ci) == 2 else "")
+    rng = r.get("slope_range")
+    if isinstance(rng, (list, tuple)) and len(rng) == 2:
+        out += f", {rng[0]:g}–{rng[1]:g} spp"
+    if r.get("slope_steep"):
+        out += f" (steeper than {r.get('unbiased_slope'):g}: the low budgets read low, rare paths unseen)"
+    elif r.get("slope_status"):
+        out += " (undetermined: heavy-tailed)"
+    return out
 
 
 def _cost(row: dict, key: str) -> str:
@@ -79,29 +112,26 @@ def stats_table(rows: list[dict]) -> list[list[str]]:
     """
     out = []
     for r in rows:
-        ci = r.get("slope_ci")
-        ci_txt = f" [{fmt(ci[0])}, {fmt(ci[1])}]" if isinstance(ci, (list, tuple)) and len(ci) == 2 else ""
-        bias = fmt(r.get("bias2"))
-        if math.isfinite(num(r.get("bias2_stderr"))):
-            bias += f" ± {fmt(r.get('bias2_stderr'))}"
-        zp = f"z={fmt(r.get('bias_z'), 3)}, p={fmt(r.get('bias_p'), 3)}"
-        if not (math.isfinite(num(r.get("bias_z"))) or math.isfinite(num(r.get("bias_p")))):
-            zp = DASH
+        noise = DASH
+        if r.get("strategy") == BASELINE and r.get("renderer") == "ours":
+            noise = "baseline"
+        elif r.get("exact"):
+            noise = "exact"
+        elif r.get("noise_vs_light") is not None:
+            lb = bool(r.get("noise_lower_bound"))
+            noise = (f"{ratio_text(r['noise_vs_light'], r.get('noise_vs_light_ci'), lower_bound=lb)} | "
+                     f"{ratio_text(r.get('time_noise_vs_light'), r.get('time_noise_vs_light_ci'), lower_bound=lb)}")
         out.append([
             curve_label(r["renderer"], r["strategy"]),
-            fmt(r.get("slope")) + ci_txt + (" (undetermined: heavy-tailed)" if r.get("slope_status") else
-                                            f" (fit from {r['slope_fit_from']} spp)" if r.get("slope_excluded_spps")
-                                            else ""),
-            _verdict(r),
-            bias,
-            zp,
-            fmt(r.get("variance")),
-            _cost(r, "efficiency"),
+            slope_cell(r),
+            verdict_cell(r),
+            percent_text(r.get("relative_bias"), r.get("relative_bias_ci")),
+            p_text(r.get("bias_p")),
+            noise,
             _cost(r, "efficiency_vs_mitsuba"),
             _cost(r, "time_to_target"),
-            fmt(r.get("target", r.get("target_rmse"))),
-            fmt(r.get("samples_per_second")),
-            fmt(r.get("samples_per_second_vs_mitsuba")),
+            fmt(r.get("samples_per_second"), 3),
+            fmt(r.get("samples_per_second_vs_mitsuba"), 3),
         ])
     return out
 
@@ -184,10 +214,20 @@ FORMULAS = (
     ("relMSE", f"mean of (x - ref)^2 / (ref^2 + eps) with eps = {RELMSE_EPS:g}."),
     ("corrected MSE", "MSE - mean(Var_ref / N_ref): the reference's own noise (per-sample variance Var_ref "
                       "over its N_ref samples) biases MSE upwards and is subtracted."),
-    ("bias^2", "over K independent seeds: mean over pixels of (mean_k x_k - ref)^2 minus the variance "
-               "corrections Var/K (ours) and Var_ref/N_ref (reference); z = bias^2 / s.e.; the verdict is "
-               "the harness's one-sided test (biased when p is below its significance level)."),
-    ("variance", "mean over pixels and channels of the per-sample variance (second moment - mean^2)."),
+    ("bias test", "the gate's test of the mean over the seeds at the top budget against the reference "
+                  "(benchmarks/STATISTICS.md): summed differences per pixel, per tile and over the image, each "
+                  "standardised by the estimator's variance (floored by its tail reference's) and the reference's, "
+                  "tested only where its normal approximation holds; p is the smallest Sidak-adjusted level p "
+                  "times the number of levels (Bonferroni), as computed. pass / fail (p below the run's alpha per "
+                  "curve) / undetermined (the image-level statistic is too heavy-tailed at this budget: the spp "
+                  "that would decide is given)."),
+    ("bias", "relative bias sum(mean_k x_k - ref) / sum(ref) at the top budget, in percent; 95% interval from the "
+             "per-sample variance over K x spp samples and the reference's own."),
+    ("noise", "per-sample relative variance about the estimator's own expectation, mean over pixels and "
+              f"channels of Var / (ref^2 + {RELMSE_EPS:g}), from a high-budget render of the same estimator (our "
+              "16384-spp tail reference; Mitsuba's reference); against light sampling's at equal spp, and times "
+              "seconds per sample at equal time (its 95% interval from the fourth moments; timing noise not "
+              "included)."),
     ("SSIM", "on display images (exposure from the reference, clip to [0, 1], sRGB transfer via colour-science): "
              "skimage structural_similarity with data_range=1, gaussian_weights=True, sigma=1.5, "
              "use_sample_covariance=False, channel_axis=-1."),
@@ -207,7 +247,8 @@ FORMULAS = (
     ("time to target", "seconds to reach the target error, log-log interpolated on the error-time curve: RMSE: "
                        "0.1 x the reference's RMS radiance; relMSE 0.01; 1 - SSIM 0.05; FLIP 0.05. Shown only "
                        "where no bias was detected."),
-    ("throughput", "samples per second = spp x width x height / seconds; relative to Mitsuba as a ratio."),
+    ("throughput", "samples per second of the estimator's seconds-long high-budget render (our tail reference, "
+                   "Mitsuba's reference); relative to Mitsuba as a ratio. Equal-time figures use the same timing."),
     ("images", "tone-mapped alike: scaled by k from the reference, the larger of 0.18 / (median luminance) and "
                "1 / (99th-percentile luminance, the SSIM's exposure), clipped to [0, 1], sRGB transfer. "
                f"Error maps: per-pixel (x - ref)^2 / (ref^2 + {RELMSE_EPS:g}), "

@@ -19,7 +19,7 @@ from benchmarks.text import csv_cell
 from .curves import curves
 from .store import Store, num
 
-__all__ = ["CURVE_COLUMNS", "SUMMARY_COLUMNS", "curves_csv", "summary_csv"]
+__all__ = ["CURVE_COLUMNS", "SUMMARY_COLUMNS", "HEADLINE_COLUMNS", "curves_csv", "summary_csv", "headline_csv"]
 
 #: columns of ``curves.csv``.
 CURVE_COLUMNS = ("scene", "width", "height", "renderer", "strategy", "spp", "metric", "median", "min", "max",
@@ -51,6 +51,42 @@ def _write(header, rows) -> str:
     for r in rows:
         w.writerow([_cell(r.get(k)) for k in header])
     return buf.getvalue()
+
+
+#: columns of ``headline.csv``: one line per (scene, size, curve) of the report's first table.
+HEADLINE_COLUMNS = ("scene", "width", "height", "renderer", "strategy", "scene_verdict", "scene_min_detectable_bias",
+                    "reference", "noise", "noise_se", "noise_lower_bound", "exact", "noise_vs_light",
+                    "noise_vs_light_low", "noise_vs_light_high", "time_noise_vs_light", "time_noise_vs_light_low",
+                    "time_noise_vs_light_high", "seconds_per_sample", "bias_verdict", "relative_bias",
+                    "relative_bias_low", "relative_bias_high")
+
+
+def headline_csv(store: Store) -> str:
+    """``headline.csv``: the report's first table as numbers, one line per (scene, size, curve);
+    verdicts in the page's words (pass, fail, undetermined)."""
+    from .headline import headline_entries
+
+    def ci(c, key, i):
+        v = c.get(key)
+        return v[i] if isinstance(v, list) and len(v) == 2 else None
+
+    rows = []
+    for e in headline_entries(store):
+        for c in e.get("curves") or []:
+            rows.append({"scene": e["scene"], "width": e.get("width"), "height": e.get("height"),
+                         "renderer": c.get("renderer"), "strategy": c.get("strategy"),
+                         "scene_verdict": e.get("verdict"), "scene_min_detectable_bias": e.get("min_detectable_bias"),
+                         "reference": e.get("reference"),
+                         **{k: c.get(k) for k in ("noise", "noise_se", "noise_lower_bound", "exact", "noise_vs_light",
+                                                  "time_noise_vs_light", "seconds_per_sample", "bias_verdict",
+                                                  "relative_bias")},
+                         "noise_vs_light_low": ci(c, "noise_vs_light_ci", 0),
+                         "noise_vs_light_high": ci(c, "noise_vs_light_ci", 1),
+                         "time_noise_vs_light_low": ci(c, "time_noise_vs_light_ci", 0),
+                         "time_noise_vs_light_high": ci(c, "time_noise_vs_light_ci", 1),
+                         "relative_bias_low": ci(c, "relative_bias_ci", 0),
+                         "relative_bias_high": ci(c, "relative_bias_ci", 1)})
+    return _write(HEADLINE_COLUMNS, rows)
 
 
 def curves_csv(store: Store) -> str:

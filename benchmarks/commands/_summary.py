@@ -23,7 +23,7 @@ from benchmarks.sweep import finite
 from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS, view
 from benchmarks.text import terminal
 
-__all__ = ["summary_table", "print_summary", "seed_comparison_line"]
+__all__ = ["summary_table", "print_summary", "print_headline", "seed_comparison_line"]
 
 
 def _f(v, digits=2):
@@ -70,8 +70,10 @@ def _cell(r):
     from rich.text import Text
 
     t = Text()
-    if r.get("bias_significant") is True:
-        t.append(f"BIASED z={_f(r.get('bias_z'), 0)}", style="bold red")
+    if r.get("bias_verdict") == "fail" or r.get("bias_significant") is True:
+        rel = r.get("relative_bias")
+        t.append("fail" + (f" {100 * rel:+.1f}%" if isinstance(rel, (int, float)) and math.isfinite(rel) else ""),
+                 style="bold red")
     elif r.get("bias_verdict") == "undetermined":
         t.append(f"{_f(r.get('slope'))} (undetermined)", style="yellow")
     else:
@@ -119,8 +121,8 @@ def summary_table(rows, *, title: str = "rtbench summary", metric: str = DEFAULT
         if s not in sections:
             sections.append(s)
     table = Table(title=title, show_lines=True, caption_justify="left",
-                  caption=f"line 1: slope of {spec.label} vs spp{expected}, or BIASED with the bias "
-                          "test's z, or (undetermined) where the estimator is too heavy-tailed at this budget for "
+                  caption=f"line 1: slope of {spec.label} vs spp{expected}, or fail with the relative bias where the "
+                          "bias test fails, or (undetermined) where the estimator is too heavy-tailed at this budget for "
                           f"a verdict; line 2: efficiency 1/({spec.label}*s) | samples/s, both relative to Mitsuba "
                           "path (Mitsuba: its samples/s); 'biased' or 'undetermined' instead of an efficiency where "
                           "the bias test found a bias or could not decide")
@@ -148,7 +150,7 @@ def seed_comparison_line(records) -> str | None:
         return None
     where = (f"light reaches it at ~{_f(cmp['light_spp'], 3)} spp ({cmp['method']})"
              if math.isfinite(cmp.get("light_spp", math.nan)) else f"light never does ({cmp['method']})")
-    return (f"seed comparison ({SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}): uniform at {SEED_SPP} spp has RMSE "
+    return (f"seed comparison ({SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}): uniform at {SEED_SPP} spp has {cmp['label']} "
             f"{_f(cmp['target_rmse'], 3)}; {where}")
 
 
@@ -171,3 +173,33 @@ def print_summary(store, *, console=None, metric: str = DEFAULT_METRIC) -> None:
     line = seed_comparison_line(read_records(store))
     if line:
         console.print(line, highlight=False)
+
+
+def print_headline(store, *, console=None) -> None:
+    """Print the run's answer (the report's first table, :mod:`reports.headline`): per scene,
+    ours against the reference, light sampling's bias, each strategy's noise relative to
+    light sampling at equal spp and at equal time; then the seed's comparison line."""
+    from rich.console import Console
+
+    from benchmarks.store import read_records
+    from benchmarks.text import text_table
+
+    if console is None:
+        console = Console(soft_wrap=True)
+    try:
+        from reports.headline import headline_cells, headline_entries, headline_header
+        from reports.store import load_store
+    except ImportError:
+        print_summary(store, console=console)
+        return
+    entries = headline_entries(load_store(store))
+    if not entries:
+        console.print(f"{store}: no summary yet", highlight=False)
+        return
+    header = [h.replace(": equal spp | equal time", "") for h in headline_header(entries)]
+    console.print("noise relative to light sampling, at equal spp | at equal time (x: times as noisy):",
+                  highlight=False)
+    console.print(text_table(header, headline_cells(entries, intervals=False)), highlight=False, markup=False)
+    line = seed_comparison_line(read_records(store))
+    if line:
+        console.print(line, highlight=False, markup=False)

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import time
 
 from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
 from benchmarks.errors import EXIT_ERROR
@@ -16,8 +15,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from benchmarks.sweep.presets import PRESETS
 
     parser.add_argument("--preset", choices=PRESETS, default=PRESETS[0],
-                        help="quick (small images, whole suite in about 10 minutes on 2 cores) or "
-                             "full (report quality: 256x256, spp to 1024, 4 seeds)")
+                        help="quick (32x32 images, the whole suite in under three minutes on 2 cores from an "
+                             "empty cache) or full (report quality: 256x256, spp to 1024, 4 seeds; hours)")
     A.add_out_arg(parser, default="reports/out/PRESET[_SCENES]")
     parser.add_argument("--scenes", default=None, metavar="SCENE[,SCENE...]",
                         help="only these suite scenes, comma-separated (default: the whole suite; with --scene "
@@ -37,45 +36,64 @@ def default_out(preset: str, scenes) -> str:
     return f"reports/out/{preset}" + (f"_{'+'.join(sorted(scenes))}" if scenes else "")
 
 
+#: planned seconds of the report (plots, image panels, the page and its PDF) in the run's progress.
+REPORT_COST = 12.0
+
+
 def run(args) -> int:
     from rich.console import Console
 
-    from benchmarks.commands._summary import print_summary
+    from benchmarks.commands._summary import print_headline
     from benchmarks.commands.curves import sweep_kwargs
     from benchmarks.sweep import run_sweep
-    from benchmarks.sweep.presets import describe_preset, preset_groups
+    from benchmarks.sweep.presets import describe_preset, escalates_tails, preset_groups
+    from benchmarks.sweep.progress import Progress, process_seconds
 
     from benchmarks.commands._args import check, name_list
 
     check(args)
     if args.scenes is not None:
         args.scenes = name_list(args.scenes)
-    t0 = time.perf_counter()
     names = resolve_scenes(args, suite_names=args.scenes or [])
     out = args.out if args.out != "reports/out/PRESET[_SCENES]" else default_out(args.preset, names or None)
     groups = preset_groups(args.preset, scenes=names or None)
     console = Console()
-    if not console.is_terminal:  # logs and pipes: wide enough for the summary table
-        console = Console(width=max(console.width, 120))
-    err = Console(stderr=True)
+    if not console.is_terminal:  # logs and pipes: wide enough for the tables, lines never cut
+        console = Console(width=max(console.width, 140), soft_wrap=True)
+    err = Console(stderr=True, soft_wrap=True)
     if not args.quiet:
         err.print(f"rtbench run --preset {args.preset} -> {out}", highlight=False)
         err.print(describe_preset(args.preset, scenes=names or None), highlight=False)
-    result = run_sweep(groups, out=out, preset=args.preset, **sweep_kwargs(args, groups))
-    page = None
-    if not args.no_report:
-        try:
-            import reports
-        except ImportError:
-            console.print("report skipped: the reports package is not installed", highlight=False)
-        else:
-            page = reports.build_report(result.store, formats=args.format, metric=args.metric)
+    kwargs = sweep_kwargs(args, groups)
+    bar = Progress(enabled=kwargs.pop("progress"), console=err)
+    report_wanted = not args.no_report
+    if report_wanted:
+        bar.plan(REPORT_COST)
+    try:
+        result = run_sweep(groups, out=out, preset=args.preset, progress=bar,
+                           escalate_tails=escalates_tails(args.preset), **kwargs)
+        page = None
+        if report_wanted:
+            try:
+                import reports
+            except ImportError:
+                console.print("report skipped: the reports package is not installed", highlight=False)
+            else:
+                bar.current("report")
+                with result.phases("report"):
+                    page = reports.build_report(result.store, formats=args.format, metric=args.metric)
+                bar.advance(REPORT_COST)
+    finally:
+        bar.stop()
     if not args.quiet:
-        print_summary(result.store, console=console, metric=args.metric)
+        print_headline(result.store, console=console)
     if page is not None:
         print(f"report: {page.resolve()}", flush=True)
-    print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
-          f"there, {len(result.failed)} failed; wall time {time.perf_counter() - t0:.0f} s)", flush=True)
+    total = process_seconds()
+    startup = max(0.0, total - sum(result.phases.seconds.values()))
+    print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already there, "
+          f"{len(result.failed)} failed)", flush=True)
+    print(f"time: start-up {startup:.0f} s, {result.phases.line(total)}", flush=True)
     for label, why in result.failed[:10]:
         print(f"  failed: {label}: {why}")
     return EXIT_ERROR if result.failed else 0  # a job that raised: an internal error

@@ -45,12 +45,12 @@ from ..constants import LUMINANCE_WEIGHTS, RELMSE_EPS
 from ..display import exposure_from_reference, to_display
 from .bias import BiasVariance, bias_variance
 from .convergence import SlopeFit, convergence_slope, efficiency, time_to_error
-from .errors import mse, mse_corrected, reference_noise, relmse, rmse
+from .errors import mse, mse_corrected, reference_noise, relmse, relmse_corrected, rmse
 from .flip import flip, flip_available
 from .ssim import ssim
 
 __all__ = [
-    "mse", "rmse", "relmse", "mse_corrected", "reference_noise",
+    "mse", "rmse", "relmse", "mse_corrected", "relmse_corrected", "reference_noise",
     "exposure_from_reference", "to_display", "ssim", "flip", "flip_available",
     "BiasVariance", "bias_variance",
     "SlopeFit", "convergence_slope",

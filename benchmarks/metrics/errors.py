@@ -8,7 +8,7 @@ import numpy as np
 from ..constants import RELMSE_EPS
 from ._checks import as_image, masked_mean, nan_mask, positive_spp, same_shape
 
-__all__ = ["mse", "rmse", "relmse", "reference_noise", "mse_corrected"]
+__all__ = ["mse", "rmse", "relmse", "reference_noise", "mse_corrected", "relmse_corrected"]
 
 
 def mse(img, ref, *, nan_policy: str = "propagate") -> float:
@@ -129,3 +129,28 @@ def mse_corrected(img, ref, ref_var, ref_spp, *, nan_policy: str = "propagate") 
         raise ValueError("ref_var has negative entries")
     mask = nan_mask(nan_policy, img=x, ref=r, ref_var=v)
     return masked_mean((x - r) ** 2 - v / n, mask)
+
+
+def relmse_corrected(img, ref, ref_var, ref_spp, *, eps: float = RELMSE_EPS, nan_policy: str = "propagate") -> float:
+    r"""relMSE against the *true* image: :func:`relmse` less the reference's own relative noise.
+
+    .. math:: \mathrm{relMSE}_{corr} = \frac{1}{HWC}\sum_{p,c}
+              \frac{(x_{pc} - r_{pc})^2 - \sigma^2_{ref,pc} / N_{ref}}{r_{pc}^2 + \epsilon}
+
+    As :func:`mse_corrected` for MSE (the weights are taken at the noisy reference, as
+    :func:`relmse` takes them); not clipped at zero.
+
+    Examples
+    --------
+    >>> relmse_corrected([[1.0, 2.0]], [[1.0, 4.0]], [[10.0, 30.0]], 100, eps=1.0)  # ((0 - 0.1)/2 + (4 - 0.3)/17) / 2
+    0.08382352941176471
+    """
+    if not eps > 0:
+        raise ValueError(f"eps must be positive; got {eps}")
+    x, r, v = as_image(img, "img"), as_image(ref, "ref"), as_image(ref_var, "ref_var")
+    same_shape(img=x, ref=r, ref_var=v)
+    n = positive_spp(ref_spp, "ref_spp")
+    if np.any(v < 0):
+        raise ValueError("ref_var has negative entries")
+    mask = nan_mask(nan_policy, img=x, ref=r, ref_var=v)
+    return masked_mean(((x - r) ** 2 - v / n) / (r * r + eps), mask)

@@ -74,15 +74,15 @@ CATALOGUE = (
            "energy of every path longer than rr_depth is lost in proportion to the termination probability: "
            "indirect light too dark",
            "cornell_box_rr3", "mis",
-           "the suite renders without Russian roulette (rr_depth=None), where the mutant is identical to the "
-           "tracer; cornell_box with rr_depth=3 (against Mitsuba's render of that same scene) has "
-           "interreflections long enough to lose"),
+           "the mutant needs paths longer than rr_depth; cornell_box with rr_depth=3 (against Mitsuba's render "
+           "of that same scene) starts roulette earlier than the suite's rr_depth=5 and has interreflections "
+           "long enough to lose"),
     Mutant("glass_no_eta_scale",
            "refraction through a dielectric does not scale radiance by (eta_i/eta_t)^2",
            "radiance carried across a single interface is off by eta^2 (2.25 for glass)",
            "glass_lamp", "mis",
-           "on closed glass lit and seen from outside (cornell_glass) the factors of entering and leaving "
-           "cancel exactly: the mutant renders cornell_glass bit-identically. In glass_lamp the light is "
+           "on closed glass lit and seen from outside (cornell_glass without roulette) the factors of entering "
+           "and leaving cancel exactly: the mutant renders it bit-identically. In glass_lamp the light is "
            "embedded in a glass slab, so every path that reaches it ends inside glass"),
     Mutant("ggx_masking_alpha",
            "GGX Smith masking G1 uses alpha where alpha^2 belongs (2 / (1 + sqrt(1 + alpha tan^2)))",

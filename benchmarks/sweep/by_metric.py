@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import metrics as M
-from ..constants import RELMSE_EPS
+from ..constants import MIN_SLOPE_BUDGETS, RELMSE_EPS
 from .coerce import as_float
 
 __all__ = ["MetricSpec", "SPECS", "METRICS", "DEFAULT_METRIC", "require_metric", "relative_noise", "curve_errors",
@@ -61,7 +61,8 @@ SPECS = {
 METRICS = tuple(SPECS)
 DEFAULT_METRIC = "relmse"
 #: the figures a metric changes in a summary row.
-COST_FIELDS = ("slope", "slope_ci", "efficiency", "efficiency_vs_mitsuba", "time_to_target", "target")
+COST_FIELDS = ("slope", "slope_ci", "slope_range", "slope_steep", "efficiency", "efficiency_vs_mitsuba",
+               "time_to_target", "target")
 
 
 def require_metric(metric: str) -> MetricSpec:
@@ -140,17 +141,20 @@ def metric_figures(metric: str, spps, errors, secs, *, target_rmse=None, unbiase
     secs = np.asarray(secs, dtype=np.float64)
     ok = np.isfinite(errors) & (errors > 0)
     fig = {"metric": metric, "label": spec.label, "unbiased_slope": spec.unbiased_slope, "slope": None,
-           "slope_ci": None, "error_at_top": None, "efficiency": None, "efficiency_source": None,
+           "slope_ci": None, "slope_steep": False, "error_at_top": None, "efficiency": None, "efficiency_source": None,
            "time_to_target": None, "target": spec.target if spec.target is not None else as_float(target_rmse)}
     if not math.isfinite(as_float(fig["target"])):
         fig["target"] = None
     fit = ok & (spps >= fit_from) if fit_from else ok
-    if len(set(spps[fit])) < 2:  # too few budgets left: the measured slope, marked by the summary
-        fit = ok
-    if fit.sum() >= 2 and len(set(spps[fit])) >= 2:
+    fig["slope_range"] = None
+    if len(set(spps[fit])) >= MIN_SLOPE_BUDGETS:  # two or three points fit any line: no slope from them
         s = M.convergence_slope(spps[fit], errors[fit])
         fig["slope"] = s.slope
         fig["slope_ci"] = [s.ci_low, s.ci_high] if math.isfinite(s.ci_low) else None
+        fig["slope_range"] = [int(spps[fit][0]), int(spps[fit][-1])]
+        # steeper than Monte Carlo allows, beyond its interval: the low budgets read low (rare paths unseen)
+        lo_hi = fig["slope_ci"] or [s.slope, s.slope]
+        fig["slope_steep"] = spec.unbiased_slope is not None and lo_hi[1] < spec.unbiased_slope
     top = int(spps[-1]) if spps.size else 0
     e_top = float(errors[-1]) if errors.size and ok[-1] else None
     fig["error_at_top"] = e_top

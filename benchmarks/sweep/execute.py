@@ -31,7 +31,8 @@ TIMING_FIELDS = ("seconds", "paths_per_second", "efficiency", "compile_seconds",
 def job_metrics(mean, variance, ref_mean, ref_variance, ref_spp) -> dict:
     """Error figures of one render against the reference (DESIGN.md section 4).
 
-    ``mse_corrected`` removes the reference's own noise, ``mean(ref_variance) / ref_spp``;
+    ``mse_corrected`` and ``relmse_corrected`` remove the reference's own noise,
+    ``ref_variance / ref_spp`` (relMSE's weights for the latter);
     ``flip`` is :func:`benchmarks.metrics.flip` (None where the ``flip-evaluator`` package
     is missing); ``variance`` is the mean per-pixel per-sample variance of the render,
     present only when the renderer gave one (ours at 2+ spp; a record never holds a null
@@ -50,7 +51,8 @@ def job_metrics(mean, variance, ref_mean, ref_variance, ref_spp) -> dict:
     out = {"mse": mse, "rmse": math.sqrt(mse) if mse >= 0 else math.nan,
            "relmse": M.relmse(mean, ref), "ssim": M.ssim(mean, ref),
            "flip": M.flip(mean, ref) if M.flip_available() else None,
-           "mse_corrected": M.mse_corrected(mean, ref, ref_variance, ref_spp)}
+           "mse_corrected": M.mse_corrected(mean, ref, ref_variance, ref_spp),
+           "relmse_corrected": M.relmse_corrected(mean, ref, ref_variance, ref_spp)}
     if variance is not None:
         v = np.asarray(variance, dtype=np.float64)
         if np.all(np.isfinite(v)):

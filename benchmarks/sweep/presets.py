@@ -6,16 +6,20 @@ suite, and the seed's own comparison (uniform vs light sampling on ``SEED_SCENE`
 issue 6; the three from :mod:`benchmarks.constants`).
 
 ``quick``
-    32x32 images, spp 1..256 (powers of two), 4 seeds, our five strategies and Mitsuba,
-    references at 8192 spp; seed comparison at 400x400 with spp 1, 2, 4, 16, 50 and one seed
-    (reference 256 spp). About 10 minutes on 2 cores for the whole suite, references
-    included. Sizing: on ``cornell_box`` at 32x32, 4 seeds at 256 spp flag the biased
-    ``light`` strategy with z >= 4.7 in 8 of 8 trials (``BIAS_TEST_ALPHA`` = 0.001 needs
-    z > 3.09).
+    32x32 images, spp 1, 4, 16, 64, 256 (five budgets: every slope is fitted to four or
+    more), 4 seeds, our five strategies and Mitsuba, references at 8192 spp; seed
+    comparison at 400x400 with spp 1, 2, 4, 16, 50 and one seed (reference 64 spp: the seed
+    figure's error maps and RMSE, no verdict, rest on it). Tail references at 16384 spp
+    and never more: where one's variance rests on single samples the curve says
+    "undetermined" with the budget that would decide (``escalate_tails`` False). Under
+    three minutes on 2 cores from an empty cache (README), seconds once cached. Sizing: on
+    ``cornell_box`` at 32x32, 4 seeds at 256 spp flag the biased ``light`` strategy with
+    z >= 4.7 in 8 of 8 trials (``BIAS_TEST_ALPHA`` = 0.001 needs z > 3.09).
 ``full``
     256x256 images, spp 1..1024, 4 seeds, references at 16384 spp; seed comparison at
-    400x400, spp 1..256 plus 50, 4 seeds, references at 4096 spp. Report quality; hours
-    on a small machine (``--scheduler`` spreads it over a Dask cluster).
+    400x400, spp 1..256 plus 50, 4 seeds, references at 4096 spp; tail references grow to
+    a million spp where their variance rests on single samples. Report quality; hours on a
+    small machine (``--scheduler`` spreads it over a Dask cluster).
 
 Examples
 --------
@@ -28,7 +32,7 @@ from __future__ import annotations
 from ..constants import SEED_SCENE, SEED_SIZE, SEED_SPP, STRATEGIES
 from .jobs import Group
 
-__all__ = ["PRESETS", "SEED_SCENE", "preset_groups", "describe_preset"]
+__all__ = ["PRESETS", "SEED_SCENE", "preset_groups", "describe_preset", "escalates_tails"]
 
 #: preset names, default first.
 PRESETS = ("quick", "full")
@@ -44,18 +48,31 @@ def _ladder(top: int) -> tuple:
 
 _SPECS = {
     "quick": {
-        "suite": dict(strategies=STRATEGIES, spps=_ladder(256), seeds=4, width=32, height=32, mitsuba=True,
+        "suite": dict(strategies=STRATEGIES, spps=(1, 4, 16, 64, 256), seeds=4, width=32, height=32, mitsuba=True,
                       reference_spp=8192),
         "seed": dict(strategies=("uniform", "light"), spps=(1, 2, 4, 16, SEED_SPP), seeds=1, width=SEED_SIZE,
-                     height=SEED_SIZE, mitsuba=False, reference_spp=256),
+                     height=SEED_SIZE, mitsuba=False, reference_spp=64),
+        "escalate_tails": False,
     },
     "full": {
         "suite": dict(strategies=STRATEGIES, spps=_ladder(1024), seeds=4, width=256, height=256, mitsuba=True,
                       reference_spp=16384),
         "seed": dict(strategies=("uniform", "light"), spps=tuple(sorted(set(_ladder(256)) | {SEED_SPP})),
                      seeds=4, width=SEED_SIZE, height=SEED_SIZE, mitsuba=False, reference_spp=4096),
+        "escalate_tails": True,
     },
 }
+
+
+def escalates_tails(name: str) -> bool:
+    """Whether preset ``name`` renders larger tail references where a variance rests on single samples.
+
+    >>> escalates_tails("quick"), escalates_tails("full")
+    (False, True)
+    """
+    if name not in _SPECS:
+        raise ValueError(f"unknown preset {name!r}; choose from {', '.join(PRESETS)}")
+    return bool(_SPECS[name]["escalate_tails"])
 
 
 def preset_groups(name: str = "quick", *, scenes=None) -> list:

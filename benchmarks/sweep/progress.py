@@ -1,47 +1,144 @@
-"""The sweep's progress bar (rich) over the estimated cost of its jobs."""
+"""One progress bar (rich) for a whole run: references, jobs, tail references, summary, report.
+
+Every step of the run is planned up front with a rough cost in seconds (:func:`render_cost`:
+samples times a per-sample time, plus a fixed overhead), so the bar shows one fraction and
+one time-left estimate from start to end; rich's rate estimate adapts the costs to the
+machine. Steps already done (a cached reference, a job of a resumed run) are not planned.
+
+:class:`Phases` records the wall time of each phase for the run's time breakdown.
+"""
 from __future__ import annotations
 
-__all__ = ["Progress"]
+import time
+
+__all__ = ["Progress", "Phases", "render_cost", "process_seconds", "OURS_US_PER_SAMPLE", "MITSUBA_US_PER_SAMPLE"]
+
+_IMPORTED = time.time()
+
+
+def process_seconds() -> float:
+    """Wall seconds since this process started (Linux: ``/proc``; elsewhere since this module
+    was imported), so that a run's total is the one ``time`` gives, start-up included."""
+    import os
+
+    try:
+        with open("/proc/self/stat") as f:
+            start_ticks = int(f.read().rsplit(")", 1)[1].split()[19])
+        with open("/proc/uptime") as f:
+            uptime = float(f.read().split()[0])
+        return max(0.0, uptime - start_ticks / os.sysconf("SC_CLK_TCK"))
+    except (OSError, ValueError, IndexError):
+        return time.time() - _IMPORTED
+
+#: rough microseconds per sample of a suite scene on two cores (the bar's rate adapts).
+OURS_US_PER_SAMPLE = 0.2
+MITSUBA_US_PER_SAMPLE = 0.35
+
+
+def render_cost(pixels: int, spp: int, *, renderer: str = "ours", overhead: float = 0.03) -> float:
+    """Estimated seconds of one render of ``pixels`` x ``spp`` samples.
+
+    >>> round(render_cost(32 * 32, 16384), 2)
+    3.39
+    """
+    us = MITSUBA_US_PER_SAMPLE if renderer == "mitsuba" else OURS_US_PER_SAMPLE
+    return pixels * spp * us * 1e-6 + overhead
 
 
 class Progress:
-    """A rich progress bar over estimated job cost: jobs done, current job, time left.
+    """A rich progress bar over the planned cost of a run's steps: steps done, current step, time left.
 
-    Disabled (every method a no-op) when ``enabled`` is false or there is no job.
+    Disabled (every method a no-op) when ``enabled`` is false. :meth:`plan` adds steps
+    (their number and total cost); :meth:`advance` marks one done.
     """
 
-    def __init__(self, total_cost: float, total_jobs: int, *, enabled: bool, console=None):
-        self.enabled = enabled and total_jobs > 0
-        self.jobs_total = total_jobs
-        self.jobs_done = 0
-        if not self.enabled:
-            return
+    def __init__(self, *, enabled: bool, console=None):
+        self.enabled = enabled
+        self.steps_total = 0
+        self.steps_done = 0
+        self.cost_total = 0.0
+        self._started = False
+        self._console = console
+
+    def _start(self):
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
         from rich.table import Column
 
-        self.progress = Progress(TextColumn("[bold]{task.fields[jobs]}[/] jobs", table_column=Column(no_wrap=True)),
+        self.progress = Progress(TextColumn("[bold]{task.fields[steps]}[/] steps", table_column=Column(no_wrap=True)),
                                  BarColumn(bar_width=24), TimeElapsedColumn(table_column=Column(no_wrap=True)),
                                  TextColumn("left", table_column=Column(no_wrap=True)),
                                  TimeRemainingColumn(table_column=Column(no_wrap=True)),
                                  TextColumn("{task.description}", table_column=Column(
                                      ratio=1, no_wrap=True, overflow="ellipsis")),
-                                 console=console, transient=False, speed_estimate_period=120)
-        self.task = self.progress.add_task("", total=total_cost, jobs=f"0/{total_jobs}")
+                                 console=self._console, transient=False, speed_estimate_period=120)
+        self.task = self.progress.add_task("", total=max(self.cost_total, 1e-9), steps=self._steps())
         self.progress.start()
+        self._started = True
 
-    def current(self, label: str):
+    def _steps(self) -> str:
+        return f"{self.steps_done}/{self.steps_total}"
+
+    def plan(self, cost: float, steps: int = 1) -> None:
+        """Add ``steps`` steps of total estimated ``cost`` seconds to the run."""
+        self.steps_total += int(steps)
+        self.cost_total += float(cost)
+        if self.enabled and self._started:
+            self.progress.update(self.task, total=self.cost_total, steps=self._steps())
+
+    def current(self, label: str) -> None:
         if self.enabled:
+            if not self._started:
+                self._start()
             self.progress.update(self.task, description=label)
 
-    def advance(self, cost: float):
-        self.jobs_done += 1
+    def advance(self, cost: float) -> None:
+        self.steps_done += 1
         if self.enabled:
-            self.progress.update(self.task, advance=cost, jobs=f"{self.jobs_done}/{self.jobs_total}")
+            if not self._started:
+                self._start()
+            self.progress.update(self.task, advance=cost, steps=self._steps())
 
-    def log(self, text: str):
-        if self.enabled:
-            self.progress.console.print(text, highlight=False, markup=False)
+    def log(self, text: str) -> None:
+        if self.enabled and self._started:
+            self.progress.console.print(text, highlight=False, markup=False, soft_wrap=True)
+        elif self.enabled:
+            from rich.console import Console
 
-    def stop(self):
-        if self.enabled:
+            (self._console or Console(stderr=True)).print(text, highlight=False, markup=False, soft_wrap=True)
+
+    def stop(self) -> None:
+        if self.enabled and self._started:
             self.progress.stop()
+            self._started = False
+
+
+class Phases:
+    """Wall seconds per phase of a run, in the order they ran.
+
+    >>> ph = Phases()
+    >>> with ph("references"):
+    ...     pass
+    >>> list(ph.seconds)
+    ['references']
+    """
+
+    def __init__(self):
+        self.seconds: dict = {}
+
+    def __call__(self, name: str):
+        phases = self
+
+        class _Timer:
+            def __enter__(self):
+                self.t0 = time.perf_counter()
+
+            def __exit__(self, *exc):
+                phases.seconds[name] = phases.seconds.get(name, 0.0) + time.perf_counter() - self.t0
+                return False
+
+        return _Timer()
+
+    def line(self, total: float | None = None) -> str:
+        """``references 16 s, jobs 25 s, ... (total 140 s)``."""
+        parts = ", ".join(f"{k} {v:.0f} s" for k, v in self.seconds.items())
+        return parts + (f" (total {total:.0f} s)" if total is not None else "")

@@ -22,7 +22,7 @@ from ..store import (META, file_sha256, finished_keys, job_records, read_json, r
                      store_path, update_meta, write_image, writer_lock)
 from .execute import machine_info, run_versions
 from .jobs import Group, check_int, default_threads, renderer_builds, scene_at
-from .progress import Progress
+from .progress import Phases, Progress, render_cost
 from .runners import run_dask, run_local
 from .summary import TARGET_RELATIVE_RMSE, summarize
 
@@ -35,7 +35,7 @@ class SweepResult:
 
     ``jobs`` in the plan, ``done`` rendered now, ``skipped`` already in the store,
     ``failed`` (job label, error text) pairs, ``seconds`` wall time, ``rows`` the
-    summary rows, ``store`` the folder.
+    summary rows, ``store`` the folder, ``phases`` the wall time of each phase.
     """
 
     store: Path
@@ -46,13 +46,14 @@ class SweepResult:
     seconds: float = 0.0
     rows: list = field(default_factory=list)
     interrupted: bool = False
+    phases: Phases = field(default_factory=Phases)
 
 
 def _now() -> str:
     return _dt.datetime.now().astimezone().isoformat(timespec="seconds")
 
 
-def prepare_references(groups, store: Path, *, variant, threads, cache, say) -> dict:
+def prepare_references(groups, store: Path, *, variant, threads, cache, say, bar=None) -> dict:
     """Ensure each (scene, width, height) has its reference; copy it into the store.
 
     The closed form where the scene has one, else Mitsuba's (cached, see
@@ -76,10 +77,14 @@ def prepare_references(groups, store: Path, *, variant, threads, cache, say) -> 
                                      f"reference spp ({refs[k].spp} and {g.reference_spp})")
                 continue
             t0 = time.perf_counter()
+            if bar is not None:
+                bar.current(f"reference {scene} {g.width}x{g.height} ({g.reference_spp} spp)")
             ref = closed_form_reference_of(scene, g.width, g.height)
             if ref is None:
                 ref = reference(scene_at(scene, g.width, g.height), spp=g.reference_spp, variant=variant,
                                 threads=threads, cache=cache, log=say)
+            if bar is not None:
+                bar.advance(_reference_cost(g, ref.cached or ref.variant == CLOSED_FORM))
             how = ("closed form" if ref.variant == CLOSED_FORM else
                    "cached" if ref.cached else f"rendered in {time.perf_counter() - t0:.1f} s")
             say(f"reference {scene} {g.width}x{g.height}: {ref.spp} spp, {ref.variant} ({how})")
@@ -95,6 +100,44 @@ def prepare_references(groups, store: Path, *, variant, threads, cache, say) -> 
     update_meta(store, references={**by_scene, **{k: v for k, v in old.items() if k not in by_scene}},
                 references_by_size=by_size)
     return refs
+
+
+def _reference_cost(g, cached: bool) -> float:
+    """Planned seconds of one reference of group ``g`` (a cached one costs a read)."""
+    return 0.05 if cached else render_cost(g.width * g.height, g.reference_spp, renderer="mitsuba", overhead=0.5)
+
+
+def _plan_progress(bar, groups, todo, *, variant, cache) -> dict:
+    """Plan every step of the run on ``bar``: references, jobs, tail references (cached ones
+    cost a read); returns ``{(scene, strategy, width, height): cost}`` of the tail references."""
+    from ..references import is_cached as reference_cached
+    from ..tails import DEFAULT_TAIL_SPP
+    from ..tails import is_cached as tail_cached
+
+    seen = set()
+    for g in groups:
+        for scene in g.scenes:
+            if (scene, g.width, g.height) in seen:
+                continue
+            seen.add((scene, g.width, g.height))
+            closed = closed_form_reference_of(scene, g.width, g.height) is not None
+            cached = closed or reference_cached(scene_at(scene, g.width, g.height), spp=g.reference_spp,
+                                                variant=variant, cache=cache)
+            bar.plan(_reference_cost(g, cached))
+    bar.plan(sum(j.cost for j in todo), len(todo))
+    tails = {}
+    for g in groups:
+        if g.seeds < 2:
+            continue
+        for scene in g.scenes:
+            scene_obj = scene_at(scene, g.width, g.height)
+            for strategy in g.strategies:
+                key = (scene, strategy, g.width, g.height)
+                if key not in tails:
+                    cached = tail_cached(scene_obj, strategy=strategy, cache=cache)
+                    tails[key] = 0.05 if cached else render_cost(g.width * g.height, DEFAULT_TAIL_SPP)
+    bar.plan(sum(tails.values()), len(tails))
+    return tails
 
 
 def _source_of(name: str):
@@ -250,7 +293,7 @@ def _end_run(store, index: int, *, seconds: float, done: int, interrupted: bool)
 def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, variant: str | None = None,
               progress: bool = True, cache=None, alpha: float = BIAS_TEST_ALPHA,
               target_relative: float = TARGET_RELATIVE_RMSE, preset: str | None = None,
-              console=None) -> SweepResult:
+              console=None, escalate_tails: bool = True) -> SweepResult:
     """Run (or resume) a sweep into a results store and write its summary.
 
     Steps: references for every (scene, size) (cached; copied into the store), then
@@ -305,7 +348,7 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
             _sweep(groups, store, result, threads=threads, scheduler=scheduler, variant=variant,
                    mitsuba_version=mitsuba_version, cache=cache,
                    alpha=alpha, target_relative=target_relative, preset=preset, progress=progress,
-                   console=console, say=say)
+                   console=console, say=say, escalate_tails=escalate_tails)
         except BaseException:
             result.interrupted = True
             raise
@@ -319,34 +362,43 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
 
 
 def _sweep(groups, store, result, *, threads, scheduler, variant, mitsuba_version, cache, alpha,
-           target_relative, preset,
-           progress, console, say) -> None:
-    """The steps of :func:`run_sweep`, with the store's writer lock held; fills ``result``."""
+           target_relative, preset, progress, console, say, escalate_tails) -> None:
+    """The steps of :func:`run_sweep`, with the store's writer lock held; fills ``result``.
+
+    ``progress`` is a :class:`benchmarks.sweep.progress.Progress` (the caller's, which may
+    plan more steps after these, such as the report) or a bool.
+    """
     _record_settings(store, groups, threads=threads, scheduler=scheduler, variant=variant, preset=preset,
                      alpha=alpha, target_relative=target_relative)
-    refs = prepare_references(groups, store, variant=variant, threads=threads, cache=cache, say=say)
     plan, top = _plan(groups, renderer_builds(variant, mitsuba_version))
     done_keys = finished_keys(store)
-    _warn_stale(store, refs, say)
     todo = [j for j in plan if j.key not in done_keys]
-    result.jobs, result.skipped = len(plan), len(plan) - len(todo)
-    if result.skipped:
-        say(f"resuming: {result.skipped} of {len(plan)} jobs already in {store}")
-    _say_new_builds(store, plan, done_keys, say)
-
-    def keep(job):  # (keep_image, keep_stats): seed 0's image; the top spp's for the bias test
-        return job.seed == 0, job.spp == top[job.curve]
-
-    bar = Progress(sum(j.cost for j in todo), len(todo), enabled=progress, console=console)
+    bar = progress if isinstance(progress, Progress) else Progress(enabled=bool(progress), console=console)
     log = bar.log if bar.enabled else say
+    tail_plan = _plan_progress(bar, groups, todo, variant=variant, cache=cache)
     try:
-        if scheduler is None:
-            run_local(todo, refs, store, threads=threads, variant=variant, keep=keep, bar=bar, say=log,
-                      failures=result.failed, tally=result)
-        else:
-            run_dask(todo, refs, store, address=scheduler, variant=variant, keep=keep, bar=bar, say=log,
-                     failures=result.failed, tally=result)
+        with result.phases("references"):
+            refs = prepare_references(groups, store, variant=variant, threads=threads, cache=cache, say=log, bar=bar)
+        _warn_stale(store, refs, log)
+        result.jobs, result.skipped = len(plan), len(plan) - len(todo)
+        if result.skipped:
+            log(f"resuming: {result.skipped} of {len(plan)} jobs already in {store}")
+        _say_new_builds(store, plan, done_keys, log)
+
+        def keep(job):  # (keep_image, keep_stats): seed 0's image; the top spp's for the bias test
+            return job.seed == 0, job.spp == top[job.curve]
+
+        with result.phases("jobs"):
+            if scheduler is None:
+                run_local(todo, refs, store, threads=threads, variant=variant, keep=keep, bar=bar, say=log,
+                          failures=result.failed, tally=result)
+            else:
+                run_dask(todo, refs, store, address=scheduler, variant=variant, keep=keep, bar=bar, say=log,
+                         failures=result.failed, tally=result)
+        with result.phases("tail references and summary"):
+            result.rows = summarize(store, alpha=alpha, target_relative=target_relative, cache=cache,
+                                    threads=threads, log=log, escalate=escalate_tails, bar=bar,
+                                    tail_plan=tail_plan)
     finally:
-        bar.stop()
-    result.rows = summarize(store, alpha=alpha, target_relative=target_relative, cache=cache, threads=threads,
-                            log=say)
+        if bar is not progress:
+            bar.stop()

@@ -15,10 +15,15 @@ import numpy as np
 from reference_tracer.estimate import ImageEstimate
 
 from .. import metrics as M
-from ..constants import BIAS_TEST_ALPHA, RELMSE_EPS, STRATEGIES
+from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM, MIN_SLOPE_BUDGETS, RELMSE_EPS, STRATEGIES
 from ..store import META, SUMMARY, read_image, read_json, read_records, update_meta, write_json
 from .by_metric import add_metric_ratios, curve_metrics, tail_variance_image
 from .coerce import as_float
+from .headline import add_noise_ratios, headline_rows, relative_noise_of
+from .progress import render_cost
+
+#: batches of a Mitsuba reference whose store entry does not say (``benchmarks.references``).
+DEFAULT_BATCHES = 16
 
 __all__ = ["TARGET_RELATIVE_RMSE", "target_rmse", "summarize"]
 
@@ -138,9 +143,13 @@ def _slope_status(row: dict):
     does not cover that. The slope is kept in the row (it is what was measured) and marked.
     """
     if row.get("bias_verdict") != "undetermined":
-        if row.get("slope_excluded_spps") and len(row["spps"]) - len(row["slope_excluded_spps"]) < 2:
+        kept = len(row["spps"]) - len(row.get("slope_excluded_spps") or [])
+        if row.get("slope_excluded_spps") and kept < MIN_SLOPE_BUDGETS:
             return (f"undetermined: heavy-tailed below {row['slope_fit_from']} spp (the measured MSE misses "
-                    f"rare paths there), and fewer than two budgets at or above it")
+                    f"rare paths there), and {kept} rendered budget(s) at or above it, fewer than "
+                    f"{MIN_SLOPE_BUDGETS}")
+        if row.get("slope") is None:
+            return f"no slope: fewer than {MIN_SLOPE_BUDGETS} rendered budgets"
         return None
     need = row.get("bias_spp_needed")
     return ("undetermined: heavy-tailed at these budgets (the measured MSE misses rare paths)"
@@ -196,22 +205,26 @@ def _reliable_points_only(spps, mse_c, mse_p, row: dict) -> dict:
     if not excluded:
         return {"slope_excluded_spps": []}
     out = _slope_stats([spps[i] for i in keep], mse_c[keep], mse_p[keep])
-    if out["slope"] is None:  # too few budgets left: keep what was measured, marked (_slope_status)
-        return {"slope_excluded_spps": excluded}
+    if out["slope"] is None:  # too few budgets left: no slope (_slope_status says why)
+        return {"slope_excluded_spps": excluded, "slope": None, "slope_ci": None, "slope_stderr": None,
+                "slope_range": None}
     return dict(out, slope_excluded_spps=excluded)
 
 
 def _slope_stats(spps, mse_c, mse_p) -> dict:
-    """Convergence: one point per spp, RMSE from the seed-averaged reference-noise-corrected MSE."""
+    """Convergence: one point per spp, RMSE from the seed-averaged reference-noise-corrected MSE;
+    no slope from fewer than :data:`MIN_SLOPE_BUDGETS` budgets (``slope_range``: the first and
+    last budget fitted)."""
     ok = np.isfinite(mse_c) & (mse_c > 0)
-    row = dict(slope=None, slope_ci=None, slope_stderr=None, slope_points=int(ok.sum()))
-    if ok.sum() >= 2 and len(set(np.asarray(spps)[ok])) >= 2:
+    row = dict(slope=None, slope_ci=None, slope_stderr=None, slope_points=int(ok.sum()), slope_range=None)
+    if len(set(np.asarray(spps)[ok])) >= MIN_SLOPE_BUDGETS:
         fit = M.convergence_slope(np.asarray(spps)[ok], np.sqrt(mse_c[ok]))
         row.update(slope=fit.slope, slope_stderr=fit.stderr,
-                   slope_ci=[fit.ci_low, fit.ci_high] if math.isfinite(fit.ci_low) else None)
+                   slope_ci=[fit.ci_low, fit.ci_high] if math.isfinite(fit.ci_low) else None,
+                   slope_range=[int(np.asarray(spps)[ok][0]), int(np.asarray(spps)[ok][-1])])
     okp = np.isfinite(mse_p) & (mse_p > 0)
     row["slope_uncorrected"] = None
-    if okp.sum() >= 2:
+    if len(set(np.asarray(spps)[okp])) >= MIN_SLOPE_BUDGETS:
         row["slope_uncorrected"] = M.convergence_slope(np.asarray(spps)[okp], np.sqrt(mse_p[okp])).slope
     return row
 
@@ -247,9 +260,34 @@ def _bias_stats(top_recs, top, ref: ImageEstimate | None, store, *, alpha, tails
         method = "samples"
     if bv is not None:
         row.update(bias2=bv.bias2, bias2_stderr=bv.bias2_se, bias_spp=top, bias_seeds=bv.k,
-                   relative_bias=bv.relative_bias, variance=bv.sample_variance, bias_method=method)
+                   relative_bias=bv.relative_bias, variance=bv.sample_variance, bias_method=method,
+                   relative_bias_ci=_relative_bias_ci(imgs, vars_, top, ref, tails))
         row.update(_bias_verdict(imgs, vars_, top, ref.mean, ref.variance, ref.spp, alpha=alpha, tails=tails))
     return row
+
+
+def _relative_bias_ci(imgs, vars_, spp, ref, tails):
+    """95% interval of the relative bias ``sum(mean - ref) / sum(ref)`` at the top budget: the
+    variance of the summed difference is the seeds' mean's (per-sample variance, floored by
+    the tail reference's where there is one, over K spp samples) plus the reference's own."""
+    k = len(imgs)
+    mean = np.mean(np.stack(imgs), axis=0)
+    if spp > 1 and all(v is not None for v in vars_):
+        per_sample = np.mean(np.stack(vars_), axis=0) * (spp / (spp - 1.0))
+    elif k >= 2:
+        per_sample = np.var(np.stack(imgs), axis=0, ddof=1) * spp
+    else:
+        return None
+    if tails is not None:
+        from .by_metric import tail_variance_image
+
+        per_sample = np.maximum(per_sample, tail_variance_image(tails))
+    total = float(np.sum(ref.mean))
+    if not total > 0:
+        return None
+    var_sum = float(np.sum(per_sample) / (k * spp) + np.sum(ref.variance) / max(int(ref.spp), 1))
+    centre, half = float(np.sum(mean - ref.mean)) / total, 1.959963984540054 * math.sqrt(var_sum) / total
+    return [centre - half, centre + half]
 
 
 def _exact(tails) -> bool:
@@ -269,8 +307,34 @@ def _tail_variance(tails) -> dict:
             "variance_lower_bound": variance_is_lower_bound(tails)}
 
 
-def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails=None) -> dict:
-    """Summary figures of one (scene, renderer, strategy, width, height) curve."""
+def _tail_noise(tails, ref) -> dict:
+    """The curve's noise figures for the headline (:mod:`benchmarks.sweep.headline`): its
+    per-sample relative variance from the tail reference, and the tail render's seconds per sample."""
+    from ..tails import variance_is_lower_bound
+    from .by_metric import tail_variance_image
+
+    out = {"noise": None, "noise_se": None, "noise_lower_bound": variance_is_lower_bound(tails),
+           "noise_source": f"tail reference, {tails.spp} spp", "exact": _exact(tails),
+           "seconds_per_sample": None}
+    if ref is not None:
+        out.update(relative_noise_of(tail_variance_image(tails), ref.mean, n=tails.spp, m4=tails.moments.m4))
+    if out["exact"]:
+        out.update(noise=0.0, noise_se=0.0)
+    pixels = int(np.prod(np.shape(tails.mean)[:2]))
+    if tails.seconds > 0:
+        out["seconds_per_sample"] = float(tails.seconds) / (tails.spp * pixels)
+    return out
+
+
+def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails=None,
+                 seconds_per_sample: float | None = None) -> dict:
+    """Summary figures of one (scene, renderer, strategy, width, height) curve.
+
+    With ``seconds_per_sample`` (from a seconds-long render of the same estimator: our tail
+    reference, Mitsuba's reference) a budget of ``n`` spp costs ``n`` x pixels x that time:
+    the renders of a small image take milliseconds, mostly per-render overhead, and would
+    make equal-time figures measure the overhead (``timing_source`` says which was used).
+    """
     by_spp = collections.defaultdict(list)
     for r in recs:
         by_spp[int(r["spp"])].append(r)
@@ -278,18 +342,25 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     mse_c = np.array([_nanmean(r.get("mse_corrected") for r in by_spp[s]) for s in spps])
     mse_p = np.array([_nanmean(r.get("mse") for r in by_spp[s]) for s in spps])
     secs = np.array([_nanmean(r.get("seconds") for r in by_spp[s]) for s in spps])
-    row = {"spps": spps, "seeds": max(len(by_spp[s]) for s in spps)}
+    row = {"spps": spps, "seeds": max(len(by_spp[s]) for s in spps), "timing_source": "each render's wall time"}
+    pixels = int(recs[0]["width"]) * int(recs[0]["height"]) if recs else 0
+    if seconds_per_sample and pixels:
+        secs = np.asarray(spps, dtype=np.float64) * pixels * seconds_per_sample
+        row["timing_source"] = "spp x pixels x seconds per sample of a high-budget render of the estimator"
     row.update(_slope_stats(spps, mse_c, mse_p))
     top = spps[-1]
     row.update(_bias_stats(by_spp[top], top, ref, store, alpha=alpha, tails=tails))
     row["slope_fit_from"] = mse_reliable_from(tails, seeds=row["seeds"]) if tails is not None else None
     row.update(_reliable_points_only(spps, mse_c, mse_p, row))
+    lo_hi = row.get("slope_ci") or ([row["slope"]] * 2 if row.get("slope") is not None else None)
+    row["slope_steep"] = bool(lo_hi is not None and lo_hi[1] < -0.5)  # RMSE's Monte Carlo slope
     row["slope_status"] = _slope_status(row)
     if row["variance"] is None:
         row["variance"] = _nanmean(r.get("variance") for r in recs)
     row["variance_source"], row["variance_lower_bound"] = "renders at the top spp", None
     if tails is not None:
         row.update(_tail_variance(tails))
+        row.update(_tail_noise(tails, ref))
 
     # cost: efficiency at the top spp, throughput, time to the target RMSE. An unbiased
     # estimator's expected MSE at n spp is its per-sample variance / n; from the tail
@@ -305,7 +376,8 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     elif math.isfinite(mse_c[-1]) and mse_c[-1] > 0 and secs[-1] > 0:
         row["efficiency"] = M.efficiency(mse_c[-1], secs[-1])
         row["efficiency_source"] = "measured MSE"
-    row["samples_per_second"] = _nanmean(r.get("paths_per_second") for r in by_spp[top])
+    row["samples_per_second"] = (1.0 / seconds_per_sample if seconds_per_sample else
+                                 _nanmean(r.get("paths_per_second") for r in by_spp[top]))
     row["seconds_at_top"] = secs[-1]
     row["target_rmse"] = target
     row["time_to_target"] = None
@@ -328,10 +400,13 @@ def _store_reference(store, info) -> ImageEstimate | None:
     if not info:
         return None
     try:
-        return ImageEstimate(mean=read_image(store, info["path"], sha256=info.get("sha256")).astype(np.float64),
-                             variance=read_image(store, info["variance_path"],
-                                                 sha256=info.get("variance_sha256")).astype(np.float64),
-                             spp=int(info["spp"]), source=str(info.get("variant", "")))
+        ref = ImageEstimate(mean=read_image(store, info["path"], sha256=info.get("sha256")).astype(np.float64),
+                            variance=read_image(store, info["variance_path"],
+                                                sha256=info.get("variance_sha256")).astype(np.float64),
+                            spp=int(info["spp"]), seconds=as_float(info.get("render_seconds")),
+                            source=str(info.get("variant", "")))
+        ref.batches = int(info.get("batches") or DEFAULT_BATCHES)
+        return ref
     except Exception:  # noqa: BLE001 - missing or corrupt (checksum) reference: figures that need it stay null
         return None
 
@@ -348,6 +423,13 @@ def _mitsuba_cost(row: dict, ref: ImageEstimate) -> None:
     ``path``), as ours come from our tail references: expected MSE = variance / spp."""
     var = float(np.mean(ref.variance, dtype=np.float64)) * ref.spp / max(ref.spp - 1.0, 1.0)
     row.update(variance=var, variance_source=f"Mitsuba reference, {ref.spp} spp", variance_lower_bound=None)
+    row.update(relative_noise_of(np.asarray(ref.variance, dtype=np.float64) * ref.spp / max(ref.spp - 1.0, 1.0),
+                                 ref.mean, batches=getattr(ref, "batches", None) or DEFAULT_BATCHES),
+               noise_lower_bound=None, noise_source=f"Mitsuba reference, {ref.spp} spp", exact=False,
+               seconds_per_sample=None)
+    ref_seconds = as_float(getattr(ref, "seconds", None))
+    if math.isfinite(ref_seconds) and ref_seconds > 0:
+        row["seconds_per_sample"] = ref_seconds / (ref.spp * int(np.prod(np.shape(ref.mean)[:2])))
     top, secs = row["spps"][-1], as_float(row.get("seconds_at_top"))
     if var > 0 and math.isfinite(secs) and secs > 0:
         row["efficiency"] = M.efficiency(var / top, secs)
@@ -371,25 +453,44 @@ def _add_mitsuba_ratios(rows) -> None:
                                                     m.get("samples_per_second") if m else None)
 
 
-def _curve_tails(scene, strategy, w, h, *, tail_spp, cache, threads, log):
-    """The tail reference of one of our curves (cached; rendered when missing; a larger
-    budget where its variance rests on single samples: ``variance_tail_reference``), or None."""
+def _curve_tails(scene, strategy, w, h, *, tail_spp, cache, threads, log, escalate=True):
+    """The tail reference of one of our curves (cached; rendered when missing; with ``escalate``
+    a larger budget where its variance rests on single samples: ``variance_tail_reference``),
+    or None."""
     if not tail_spp:
         return None
-    from ..tails import variance_tail_reference
+    from ..tails import DEFAULT_MAX_TAIL_SAMPLES, variance_tail_reference
     from .jobs import scene_at
 
+    cap = DEFAULT_MAX_TAIL_SAMPLES if escalate else tail_spp * w * h
     try:
         return variance_tail_reference(scene_at(scene, w, h), strategy=strategy, spp=tail_spp, cache=cache,
-                                       threads=threads, log=log)
+                                       threads=threads, log=log, max_samples=cap, what=f"{scene} {w}x{h}")
     except ValueError as exc:  # a scene no longer in the suite: no tail diagnostics for it
         if log:
             log(f"no tail reference for {scene} ({strategy}): {exc}")
         return None
 
 
+def _not_escalated(row: dict, tails, w: int, h: int) -> None:
+    """A verdict whose tail reference's variance rests on single samples, when the larger tail
+    reference that would settle it was not rendered (``escalate=False``, the quick preset):
+    undetermined, never pass or fail, with the budget that would decide."""
+    from ..tails import DEFAULT_MAX_TAIL_SAMPLES, variance_is_lower_bound
+
+    if tails is None or not variance_is_lower_bound(tails):
+        return
+    need = DEFAULT_MAX_TAIL_SAMPLES // (w * h)
+    row["tail_spp_needed"] = need
+    if row.get("bias_verdict") in ("pass", "fail"):
+        row.update(bias_verdict="undetermined", bias_significant=None,
+                   bias_reason=(f"the variance rests on single samples of the {tails.spp}-spp tail reference; a tail "
+                                f"reference of about {need} spp would decide (--preset full renders it)"))
+
+
 def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float = TARGET_RELATIVE_RMSE,
-              tail_spp: int | None = None, cache=None, threads=None, log=None) -> list:
+              tail_spp: int | None = None, cache=None, threads=None, log=None, escalate: bool = True,
+              bar=None, tail_plan=None) -> list:
     """Per (scene, renderer, strategy, width, height): the figures of ``summary.json``.
 
     From the store's records and images:
@@ -417,6 +518,9 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
       1 / (corrected MSE x seconds) (``efficiency_source``);
     * ``time_to_target``: seconds to reach ``target_rmse`` (= ``target_relative`` x the
       reference's RMS radiance), log-log interpolated, null if not reached;
+    * ``noise``, ``noise_se``, ``seconds_per_sample`` and the ``noise_vs_light`` ratios at
+      equal spp and equal time (:mod:`benchmarks.sweep.headline`); ``headline``: one entry
+      per scene and size, the first table of the report;
     * ``build``, ``build_git``: the build whose records make the curve (its latest one);
     * ``samples_per_second`` (pixel samples per second at the highest spp) and the
       ``*_vs_mitsuba`` ratios against Mitsuba's ``path`` curve of the same scene and size.
@@ -445,20 +549,35 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
                "build": recs[-1].get("build"), "build_git": recs[-1].get("build_git")}
         top = max(int(r["spp"]) for r in recs)  # the bias verdict needs 2+ seeds kept at the top spp
         seeds_at_top = len({r["seed"] for r in recs if int(r["spp"]) == top and r.get("stats_image")})
-        tails = (_curve_tails(scene, strategy, w, h, tail_spp=tail_spp, cache=cache, threads=threads, log=log)
-                 if renderer == "ours" and ref is not None and seeds_at_top >= 2 else None)
+        tails = None
+        if renderer == "ours" and ref is not None and seeds_at_top >= 2:
+            planned = (tail_plan or {}).get((scene, strategy, w, h))
+            if bar is not None:
+                if planned is None:  # a curve of an earlier run in this store: not planned yet
+                    planned = render_cost(w * h, tail_spp)
+                    bar.plan(planned)
+                bar.current(f"tail reference {scene} {w}x{h} {strategy} ({tail_spp} spp)")
+            tails = _curve_tails(scene, strategy, w, h, tail_spp=tail_spp, cache=cache, threads=threads, log=log,
+                                 escalate=escalate)
+            if bar is not None:
+                bar.advance(planned)
         row.update(_curve_stats(recs, ref, store, alpha=alpha, target=target, tails=tails))
-        if renderer == "mitsuba" and ref is not None and tail_spp:
+        if not escalate:
+            _not_escalated(row, tails, w, h)
+        row["reference_kind"] = (None if ref is None else CLOSED_FORM if ref.source == CLOSED_FORM
+                                 else f"Mitsuba {ref.spp} spp")
+        if renderer == "mitsuba" and ref is not None and ref.source != CLOSED_FORM and tail_spp:
             _mitsuba_cost(row, ref)
         rows.append(row)
     _add_mitsuba_ratios(rows)
+    add_noise_ratios(rows)
     add_metric_ratios(rows)
     order = {s: i for i, s in enumerate(STRATEGIES)}
     rows.sort(key=lambda r: (r["scene"], r["width"], r["height"], r["renderer"] != "ours",
                              order.get(r["strategy"], 9)))
     notes = {k: v.format(alpha=alpha, target=target_relative) for k, v in _NOTES.items()}
-    write_json(store / SUMMARY, {"rows": rows, "alpha": alpha, "target_relative_rmse": target_relative,
-                                 "notes": notes})
+    write_json(store / SUMMARY, {"rows": rows, "headline": headline_rows(rows), "alpha": alpha,
+                                 "target_relative_rmse": target_relative, "notes": notes})
     if targets:
         update_meta(store, target_rmse=targets)
     return rows

@@ -44,7 +44,7 @@ def short_box(material=rt.Lambertian(WHITE)) -> rt.Box:
     return rt.Box((0, 0, 0), (165, 165, 165), material).rotate_y(-18).translate((130, 0, 65))
 
 
-def build(*, width: int = 64, height: int = 64, max_depth: int = 50, rr_depth=None) -> rt.Scene:
+def build(*, width: int = 64, height: int = 64, max_depth: int = 50, rr_depth=5) -> rt.Scene:
     return rt.Scene(camera=camera(width, height),
                     shapes=[*room(), ceiling_light(), tall_box(), short_box()],
                     max_depth=max_depth, rr_depth=rr_depth)

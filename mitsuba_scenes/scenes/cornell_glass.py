@@ -21,7 +21,7 @@ from .cornell_box import camera, ceiling_light, room, tall_box
 IOR = 1.5
 
 
-def build(*, width: int = 64, height: int = 64, max_depth: int = 50, rr_depth=None,
+def build(*, width: int = 64, height: int = 64, max_depth: int = 50, rr_depth=5,
           ior: float = IOR) -> rt.Scene:
     glass = rt.Sphere((190, 90, 190), 90, rt.Dielectric(ior))
     return rt.Scene(camera=camera(width, height), shapes=[*room(), ceiling_light(), tall_box(), glass],

@@ -51,7 +51,7 @@ def torus(*, major: float, minor: float, segments: int = 32, rings: int = 16):
     return verts, faces
 
 
-def build(*, width: int = 64, height: int = 64, max_depth: int = 50, rr_depth=None,
+def build(*, width: int = 64, height: int = 64, max_depth: int = 50, rr_depth=5,
           segments: int = 32, rings: int = 16) -> rt.Scene:
     v, f = torus(major=80.0, minor=35.0, segments=segments, rings=rings)
     mesh = rt.Mesh(v, f, rt.Lambertian(WHITE)).rotate_x(30).rotate_y(-20).translate((190, 110, 170))

@@ -20,7 +20,7 @@ from .cornell_box import camera, ceiling_light, room, short_box, tall_box
 ALUMINIUM = (0.8, 0.85, 0.88)
 
 
-def build(*, width: int = 64, height: int = 64, max_depth: int = 50, rr_depth=None) -> rt.Scene:
+def build(*, width: int = 64, height: int = 64, max_depth: int = 50, rr_depth=5) -> rt.Scene:
     return rt.Scene(camera=camera(width, height),
                     shapes=[*room(), ceiling_light(), tall_box(rt.Metal(ALUMINIUM, fuzz=0.0)), short_box()],
                     max_depth=max_depth, rr_depth=rr_depth)

@@ -56,7 +56,7 @@ def plates():
     return out
 
 
-def build(*, width: int = 96, height: int = 64, max_depth: int = 50, rr_depth=None) -> rt.Scene:
+def build(*, width: int = 96, height: int = 64, max_depth: int = 50, rr_depth=5) -> rt.Scene:
     shapes = [rt.Quad(Q, u, v, rt.RoughConductor(PLATE_ALBEDO, alpha=a))
               for (Q, u, v), a in zip(plates(), ALPHAS)]
     shapes += [rt.Sphere((x, LIGHT_ROW[1], LIGHT_ROW[2]), r, rt.DiffuseLight(light_radiance(r)))

@@ -22,7 +22,7 @@ EXTENT = (30.0, 525.0)
 RADIANCE = LIGHT_RADIANCE * 130.0 * 105.0 / (EXTENT[1] - EXTENT[0]) ** 2
 
 
-def build(*, width: int = 64, height: int = 64, max_depth: int = 50, rr_depth=None) -> rt.Scene:
+def build(*, width: int = 64, height: int = 64, max_depth: int = 50, rr_depth=5) -> rt.Scene:
     light = ceiling_light(x=EXTENT, z=EXTENT, radiance=RADIANCE)
     return rt.Scene(camera=camera(width, height), shapes=[*room(), light, tall_box(), short_box()],
                     max_depth=max_depth, rr_depth=rr_depth)

@@ -20,7 +20,7 @@ from .cornell_box import LIGHT_RADIANCE, camera, ceiling_light, room, short_box,
 SHRINK = 5   # per side: 1/25 of the area, 25x the radiance
 
 
-def build(*, width: int = 64, height: int = 64, max_depth: int = 50, rr_depth=None) -> rt.Scene:
+def build(*, width: int = 64, height: int = 64, max_depth: int = 50, rr_depth=5) -> rt.Scene:
     cx, cz, w, d = 278.0, 279.5, 130.0 / SHRINK, 105.0 / SHRINK
     light = ceiling_light(x=(cx - w / 2, cx + w / 2), z=(cz - d / 2, cz + d / 2),
                           radiance=LIGHT_RADIANCE * SHRINK**2)

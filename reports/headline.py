@@ -1,0 +1,146 @@
+"""The report's first table, one row per scene: the answer to the run's question.
+
+For each scene: our tracer against the reference (the verdict of our ``mis`` curve: pass,
+fail or undetermined, with the smallest bias it would catch), the bias of light sampling
+in percent, and each strategy's noise relative to light sampling at equal spp and at
+equal time. The figures are the summary's (:mod:`benchmarks.sweep.headline`); this module
+only words them, once, for the page, ``summary.md``, ``headline.csv`` and the terminal.
+
+Examples
+--------
+>>> ratio_text(3.14159, [2.9, 3.4])
+'×3.14 (2.90–3.40)'
+>>> ratio_text(0.0, None, exact=True)
+'exact'
+"""
+from __future__ import annotations
+
+import math
+
+from benchmarks.constants import STRATEGIES
+from benchmarks.sweep.headline import BASELINE, VERDICT_STRATEGY
+
+from .store import Store, num
+
+__all__ = ["VERDICT_WORDS", "headline_entries", "headline_header", "headline_cells", "ratio_text", "verdict_text",
+           "percent_text", "HEADLINE_NOTE"]
+
+#: the three verdicts, worded the same on the page, in the CSVs and in the terminal.
+VERDICT_WORDS = {"pass": "pass", "fail": "fail", "undetermined": "undetermined", None: "–"}
+
+HEADLINE_NOTE = (
+    f"Noise: each strategy's per-sample relative variance, mean of Var/(ref²+0.01) over pixels, about its own "
+    f"expectation, from a high-budget render of the same estimator (ours: its 16384-spp tail reference; Mitsuba: "
+    f"its reference), relative to {BASELINE} sampling's; 95% intervals. At equal time: noise × seconds per sample "
+    f"(from those same seconds-long renders), relative to {BASELINE}'s. ≥: a lower bound (single samples carry the "
+    f"variance). Ours vs reference: the bias test of our {VERDICT_STRATEGY} curve against the reference at the "
+    f"sweep's top budget (pass / fail / undetermined), with the smallest relative bias it would catch. "
+    f"{BASELINE.capitalize()} bias: light sampling misses indirect light on purpose; its bias in percent of the "
+    f"reference (95% interval). Where {BASELINE} sampling is exact (zero noise, as in the furnace), a strategy's "
+    f"own relative noise per sample is shown instead of a ratio.")
+
+
+def _finite(v) -> bool:
+    return math.isfinite(num(v))
+
+
+def ratio_text(r, ci=None, *, exact: bool = False, lower_bound: bool = False) -> str:
+    """A noise ratio with its interval, ``×3.14 (2.90–3.40)``: two decimals below 10, three
+    digits above; ``exact`` for zero noise; ``≥`` instead of ``×`` for a lower bound."""
+    if exact:
+        return "exact"
+    if not _finite(r):
+        return "–"
+
+    def f(x):
+        x = num(x)
+        return f"{x:.2f}" if abs(x) < 10 else f"{x:.3g}" if abs(x) < 1000 else f"{x:.0f}"
+
+    out = f"{'≥' if lower_bound else '×'}{f(r)}"
+    if ci and all(_finite(c) for c in ci):
+        out += f" ({f(ci[0])}–{f(ci[1])})"
+    return out
+
+
+def percent_text(value, ci=None) -> str:
+    """A relative bias in percent with its interval: ``−21.3% (−21.9 to −20.7)``."""
+    if not _finite(value):
+        return "–"
+
+    def p(x):
+        return f"{100 * num(x):+.1f}".replace("-", "−")
+
+    out = f"{p(value)}%"
+    if ci and all(_finite(c) for c in ci):
+        out += f" ({p(ci[0])} to {p(ci[1])})"
+    return out
+
+
+def verdict_text(entry: dict) -> str:
+    """``pass (catches ≥ 3.3%)``, ``fail``, ``undetermined (needs ~120000 spp)``."""
+    v = entry.get("verdict")
+    word = VERDICT_WORDS.get(v, str(v))
+    if v == "pass" and _finite(entry.get("min_detectable_bias")):
+        word += f" (would catch ±{100 * num(entry['min_detectable_bias']):.2g}%)"
+    elif v == "undetermined" and _finite(entry.get("verdict_spp_needed")):
+        word += f" (needs ~{num(entry['verdict_spp_needed']):.0f} spp)"
+    elif v == "fail" and _finite(entry.get("min_detectable_bias")):
+        word += f" (resolution ±{100 * num(entry['min_detectable_bias']):.2g}%)"
+    return word
+
+
+def headline_entries(store: Store) -> list:
+    """The summary's headline entries (one per scene and size with noise figures: the sweep's
+    main sections, not the seed's single-seed one), in section order; empty if none."""
+    entries = [e for e in store.headline if isinstance(e, dict) and isinstance(e.get("scene"), str)
+               and any(_finite(c.get("noise")) for c in e.get("curves") or [])]  # sections without tails: none
+    order = {k: i for i, k in enumerate(store.sections())}
+    return sorted(entries, key=lambda e: order.get((e["scene"], e.get("width"), e.get("height")), 1e9))
+
+
+def _columns(entries) -> list:
+    """The curves shown: our strategies in order (light first, the baseline), then Mitsuba's."""
+    seen = {(c.get("renderer"), c.get("strategy")) for e in entries for c in e.get("curves") or []}
+    ours = [("ours", s) for s in (BASELINE,) + tuple(s for s in STRATEGIES if s != BASELINE) if ("ours", s) in seen]
+    return ours + sorted(k for k in seen if k[0] != "ours")
+
+
+def headline_header(entries) -> list:
+    cols = _columns(entries)
+    names = [s if r == "ours" else f"{'Mitsuba' if r == 'mitsuba' else r} {s}" for r, s in cols]
+    return ["scene", "ours vs reference", f"{BASELINE} bias"] + [f"{n}: equal spp | equal time" for n in names]
+
+
+def headline_cells(entries, *, intervals: bool = True) -> list:
+    """Rows of text cells (see :func:`headline_header`); without ``intervals`` (a terminal) the
+    ratios are shown alone."""
+    cols = _columns(entries)
+    rows = []
+    for e in entries:
+        by = {(c.get("renderer"), c.get("strategy")): c for c in e.get("curves") or []}
+        base = by.get(("ours", BASELINE)) or {}
+        base_exact = bool(base.get("exact"))
+        size = f" {e['width']}×{e['height']}" if e.get("width") and e.get("height") else ""
+        ref = f" vs {e['reference']}" if e.get("reference") else ""
+        row = [f"{e['scene']}{size}", verdict_text(e) + ref,
+               percent_text(e.get("light_bias"), e.get("light_bias_ci") if intervals else None)]
+        for key in cols:
+            c = by.get(key)
+            if c is None:
+                row.append("–")
+                continue
+            lb = bool(c.get("noise_lower_bound"))
+            if key == ("ours", BASELINE):
+                row.append("exact (baseline)" if base_exact else "baseline" + (" (≥)" if lb else ""))
+                continue
+            if base_exact and not c.get("exact") and _finite(c.get("noise")):
+                # no ratio to a zero: the strategy's own noise per sample instead
+                row.append(f"{'≥' if lb else ''}{num(c['noise']):.3g} per sample")
+                continue
+            spp = ratio_text(c.get("noise_vs_light"), c.get("noise_vs_light_ci") if intervals else None,
+                             exact=bool(c.get("exact")), lower_bound=lb)
+            tim = ratio_text(c.get("time_noise_vs_light"), c.get("time_noise_vs_light_ci") if intervals else None,
+                             exact=bool(c.get("exact")), lower_bound=lb)
+            row.append(spp if spp == tim == "exact" else f"{spp} | {tim}")
+        rows.append(row)
+    return rows
