@@ -9,7 +9,7 @@ only words them, once, for the page, ``summary.md``, ``headline.csv`` and the te
 Examples
 --------
 >>> ratio_text(3.14159, [2.9, 3.4])
-'×3.14 (2.90–3.40)'
+'×3.14 ±8.2%'
 >>> ratio_text(0.0, None, exact=True)
 'exact'
 """
@@ -29,15 +29,13 @@ __all__ = ["VERDICT_WORDS", "headline_entries", "headline_header", "headline_cel
 VERDICT_WORDS = {"pass": "pass", "fail": "fail", "undetermined": "undetermined", None: "–"}
 
 HEADLINE_NOTE = (
-    f"Noise: each strategy's per-sample relative variance, mean of Var/(ref²+0.01) over pixels, about its own "
-    f"expectation, from a high-budget render of the same estimator (ours: its 16384-spp tail reference; Mitsuba: "
-    f"its reference), relative to {BASELINE} sampling's; 95% intervals. At equal time: noise × seconds per sample "
-    f"(from those same seconds-long renders), relative to {BASELINE}'s. ≥: a lower bound (single samples carry the "
-    f"variance). Ours vs reference: the bias test of our {VERDICT_STRATEGY} curve against the reference at the "
-    f"sweep's top budget (pass / fail / undetermined), with the smallest relative bias it would catch. "
-    f"{BASELINE.capitalize()} bias: light sampling misses indirect light on purpose; its bias in percent of the "
-    f"reference (95% interval). Where {BASELINE} sampling is exact (zero noise, as in the furnace), a strategy's "
-    f"own relative noise per sample is shown instead of a ratio.")
+    f"Noise: each strategy's per-sample relative variance about its own expectation, mean of Var/(ref²+0.01), from "
+    f"a high-budget render of the same estimator (ours: its 16384-spp tail reference; Mitsuba: its reference), over "
+    f"{BASELINE} sampling's; at equal time, noise × seconds per sample over {BASELINE}'s; ± the half-width of the 95% "
+    f"interval; ≥ a lower bound (single samples carry the variance). Ours vs Mitsuba: the bias test of our "
+    f"{VERDICT_STRATEGY} curve against the reference (Mitsuba's, or the scene's closed form) at the top budget, with "
+    f"the smallest relative bias it would catch. {BASELINE.capitalize()} bias: {BASELINE} sampling misses indirect "
+    f"light by design. Where {BASELINE} sampling is exact (the furnace) a strategy's own noise per sample is shown.")
 
 
 def _finite(v) -> bool:
@@ -45,47 +43,48 @@ def _finite(v) -> bool:
 
 
 def ratio_text(r, ci=None, *, exact: bool = False, lower_bound: bool = False) -> str:
-    """A noise ratio with its interval, ``×3.14 (2.90–3.40)``: two decimals below 10, three
-    digits above; ``exact`` for zero noise; ``≥`` instead of ``×`` for a lower bound."""
+    """A noise ratio with the half-width of its 95% interval in percent, ``×3.14 ±2.1%``: two
+    decimals below 10, three digits above; ``exact`` for zero noise; ``≥`` for a lower bound.
+
+    >>> ratio_text(923.4, [916.0, 929.0])
+    '×923 ±0.8%'
+    """
     if exact:
         return "exact"
     if not _finite(r):
         return "–"
-
-    def f(x):
-        x = num(x)
-        return f"{x:.2f}" if abs(x) < 10 else f"{x:.3g}" if abs(x) < 1000 else f"{x:.0f}"
-
-    out = f"{'≥' if lower_bound else '×'}{f(r)}"
-    if ci and all(_finite(c) for c in ci):
-        out += f" ({f(ci[0])}–{f(ci[1])})"
+    x = num(r)
+    out = f"{'≥' if lower_bound else '×'}" + (f"{x:.2f}" if abs(x) < 10 else f"{x:.3g}" if abs(x) < 1000
+                                              else f"{x:.0f}")
+    if ci and all(_finite(c) for c in ci) and x > 0:
+        half = max(num(ci[1]) / x - 1.0, 1.0 - num(ci[0]) / x)
+        out += f" ±{100 * half:.2g}%"
     return out
 
 
 def percent_text(value, ci=None) -> str:
-    """A relative bias in percent with its interval: ``−21.3% (−21.9 to −20.7)``."""
+    """A relative bias in percent with the half-width of its 95% interval: ``−21.3% ±0.6``.
+
+    >>> percent_text(-0.2131, [-0.219, -0.2072])
+    '−21.3% ±0.59'
+    """
     if not _finite(value):
         return "–"
-
-    def p(x):
-        return f"{100 * num(x):+.1f}".replace("-", "−")
-
-    out = f"{p(value)}%"
+    out = f"{100 * num(value):+.1f}%".replace("-", "−")
     if ci and all(_finite(c) for c in ci):
-        out += f" ({p(ci[0])} to {p(ci[1])})"
+        out += f" ±{100 * (num(ci[1]) - num(ci[0])) / 2:.2g}"
     return out
 
 
 def verdict_text(entry: dict) -> str:
-    """``pass (catches ≥ 3.3%)``, ``fail``, ``undetermined (needs ~120000 spp)``."""
+    """``pass, catches ±3.3%``, ``fail``, ``undetermined, needs ~120000 spp``: the verdict
+    and the smallest relative bias it would catch (or the budget that would decide)."""
     v = entry.get("verdict")
     word = VERDICT_WORDS.get(v, str(v))
-    if v == "pass" and _finite(entry.get("min_detectable_bias")):
-        word += f" (would catch ±{100 * num(entry['min_detectable_bias']):.2g}%)"
+    if v in ("pass", "fail") and _finite(entry.get("min_detectable_bias")):
+        word += f", catches ±{100 * num(entry['min_detectable_bias']):.2g}%"
     elif v == "undetermined" and _finite(entry.get("verdict_spp_needed")):
-        word += f" (needs ~{num(entry['verdict_spp_needed']):.0f} spp)"
-    elif v == "fail" and _finite(entry.get("min_detectable_bias")):
-        word += f" (resolution ±{100 * num(entry['min_detectable_bias']):.2g}%)"
+        word += f", needs ~{num(entry['verdict_spp_needed']):.0f} spp"
     return word
 
 
@@ -108,7 +107,7 @@ def _columns(entries) -> list:
 def headline_header(entries) -> list:
     cols = _columns(entries)
     names = [s if r == "ours" else f"{'Mitsuba' if r == 'mitsuba' else r} {s}" for r, s in cols]
-    return ["scene", "ours vs reference", f"{BASELINE} bias"] + [f"{n}: equal spp | equal time" for n in names]
+    return ["scene", "ours vs Mitsuba", f"{BASELINE} bias"] + [f"{n}: equal spp | equal time" for n in names]
 
 
 def headline_cells(entries, *, intervals: bool = True) -> list:
@@ -121,7 +120,8 @@ def headline_cells(entries, *, intervals: bool = True) -> list:
         base = by.get(("ours", BASELINE)) or {}
         base_exact = bool(base.get("exact"))
         size = f" {e['width']}×{e['height']}" if e.get("width") and e.get("height") else ""
-        ref = f" vs {e['reference']}" if e.get("reference") else ""
+        ref = f" | vs {e['reference']}" if e.get("reference") and not str(e["reference"]).startswith("Mitsuba") \
+            else ""
         row = [f"{e['scene']}{size}", verdict_text(e) + ref,
                percent_text(e.get("light_bias"), e.get("light_bias_ci") if intervals else None)]
         for key in cols:

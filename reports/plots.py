@@ -83,8 +83,11 @@ def plain_text(plot):
     return wrapped
 
 
-def _new(title: str, *, size=(5.2, 3.7)):
-    fig = Figure(figsize=size, dpi=DPI, layout="constrained")
+def _new(title: str, *, size=(5.2, 4.5)):
+    # Fixed margins, not a layout engine: constrained layout measured every tick label on each
+    # save and took most of the report's time; the legend sits in the bottom band (_legend_below).
+    fig = Figure(figsize=size, dpi=DPI)
+    fig.subplots_adjust(left=0.14, right=0.97, top=0.93, bottom=0.43)
     ax = fig.add_subplot()
     ax.set_title(title, fontsize=10.5)
     ax.grid(True, which="major", alpha=0.35, linewidth=0.6)
@@ -128,9 +131,8 @@ def convergence_plot(curves: list[Curve], *, title: str, ylabel: str, slopes: di
     curves : list of Curve
     title, ylabel : str
     slopes : dict
-        (renderer, strategy) -> (slope, note); ``note`` is appended to the legend entry
-        (e.g. ``"fit"`` when the slope was fitted here and not read from the summary).
-        Curves without an entry get a slope fitted on their medians.
+        (renderer, strategy) -> (slope or None, note); ``note`` is appended to the legend
+        entry (the budgets fitted, or why there is no slope).
     guide_slope : float or None
         Slope of the dashed guide (-0.5 for RMSE, -1 for relMSE); None: no guide.
     target : float, optional
@@ -142,8 +144,9 @@ def convergence_plot(curves: list[Curve], *, title: str, ylabel: str, slopes: di
     ax.set_xscale("log")
     ax.set_yscale("log")
     for c in curves:
-        slope, note = slopes.get(c.key, (loglog_slope(c.spp, c.median), "fit"))
-        lab = f"{c.label}  (slope {fmt(slope, 3)}{', ' + note if note else ''})"
+        slope, note = slopes.get(c.key, (None, ""))
+        lab = (f"{c.label}: slope {fmt(slope, 3)}" + (f" ({note})" if note else "") if slope is not None
+               else f"{c.label}" + (f" ({note})" if note else ""))
         st = _style(c.key)
         if np.any(c.hi > c.lo):
             ax.fill_between(c.spp, np.maximum(c.lo, 1e-300), c.hi, color=st["color"], alpha=0.16, linewidth=0,
@@ -156,8 +159,16 @@ def convergence_plot(curves: list[Curve], *, title: str, ylabel: str, slopes: di
     _spp_ticks(ax, np.concatenate([c.spp for c in curves]))
     ax.set_xlabel("samples per pixel", fontsize=9)
     ax.set_ylabel(ylabel, fontsize=9)
-    ax.legend(fontsize=7.2, loc="lower left", framealpha=0.85)
+    _legend_below(fig, ax)
     return fig
+
+
+def _legend_below(fig, ax) -> None:
+    """The legend under the axes, outside the data (long entries: slopes and their ranges)."""
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.55, 0.325), ncols=1, fontsize=7.2,
+                   frameon=False)
 
 
 @plain_text
@@ -179,7 +190,7 @@ def ssim_plot(curves: list[Curve], *, title: str) -> Figure:
     _spp_ticks(ax, np.concatenate([c.spp for c in curves]))
     ax.set_xlabel("samples per pixel", fontsize=9)
     ax.set_ylabel("SSIM (display sRGB; 1 = identical)", fontsize=9)
-    ax.legend(fontsize=7.5, loc="lower right", framealpha=0.85)
+    _legend_below(fig, ax)
     return fig
 
 
@@ -211,16 +222,16 @@ def time_plot(curves: list[Curve], *, title: str, target: float | None = None,
         ax.axvline(budget, color="#444444", linestyle=":", linewidth=1.0, label=f"equal time {fmt(budget, 3)} s")
     if target is not None and math.isfinite(target) and target > 0:
         ax.axhline(target, color="#B22222", linestyle=":", linewidth=1.0, label=f"target {fmt(target, 3)}")
-    ax.set_xlabel("render time (s, median over seeds)", fontsize=9)
+    ax.set_xlabel("render time (s)", fontsize=9)
     ax.set_ylabel(ylabel, fontsize=9)
-    ax.legend(fontsize=7.0, loc="lower left", framealpha=0.85)
+    _legend_below(fig, ax)
     return fig, budget, at
 
 
 @plain_text
 def seed_plot(cmp: dict) -> Figure:
     """The seed's comparison: the error (``cmp["label"]``) vs spp of uniform and light at 400x400 with the matching point."""
-    fig, ax = _new("cornell_box 400x400: uniform vs light sampling", size=(5.6, 3.8))
+    fig, ax = _new("cornell_box 400x400: uniform vs light sampling", size=(5.6, 4.5))
     ax.set_xscale("log")
     ax.set_yscale("log")
     for name in ("uniform", "light"):
@@ -244,7 +255,7 @@ def seed_plot(cmp: dict) -> Figure:
     _spp_ticks(ax, spps)
     ax.set_xlabel("samples per pixel", fontsize=9)
     ax.set_ylabel(f"{cmp.get('label', 'RMSE')} (median over seeds)", fontsize=9)
-    ax.legend(fontsize=7.2, loc="best", framealpha=0.85)
+    _legend_below(fig, ax)
     return fig
 
 

@@ -25,7 +25,8 @@ from .tables import fmt, stats_table
 __all__ = ["PLOT_KINDS", "Cell", "Section", "build_section", "equal_time_text", "seed_lines", "slug",
            "metric_records"]
 
-#: plot kinds of a section, in page order ("time": the chosen metric's error vs render time).
+#: plot kinds of a section, in page order: the section's metric's convergence plot (one of the
+#: first four) and "time", that metric's error vs render time.
 PLOT_KINDS = ("rmse", "relmse", "ssim", "flip", "time")
 
 
@@ -114,7 +115,9 @@ def metric_records(recs: list[dict], metric: str) -> list[dict]:
     >>> metric_records([{"ssim": 0.75}], "ssim")[0]["_err"]
     0.25
     """
-    field = {"rmse": "rmse", "relmse": "relmse", "ssim": "ssim", "flip": "flip"}[metric]
+    field = PLOT_FIELDS[metric]
+    if not any(r.get(field) is not None for r in recs):
+        field = {"relmse_corrected": "relmse"}.get(field, field)  # stores without the corrected figure
     out = []
     for r in recs:
         v = num(r.get(field))
@@ -123,13 +126,23 @@ def metric_records(recs: list[dict], metric: str) -> list[dict]:
 
 
 def _slopes(sec: Section, cs, metric: str) -> dict:
-    """Legend slopes: the summary's under ``metric`` where it has one, else fitted here on the medians."""
-    summary = {}
+    """Legend slopes: the summary's under ``metric`` (fitted to four or more budgets, with the
+    range fitted, flagged when steeper than Monte Carlo allows); ``(None, why)`` where it has none."""
+    out = {}
     for r in sec.raw_rows:
-        s = num(view(r, metric).get("slope"))
+        v = view(r, metric)
+        s, rng = num(v.get("slope")), v.get("slope_range")
+        key = (r["renderer"], r["strategy"])
         if math.isfinite(s):
-            summary[(r["renderer"], r["strategy"])] = (s, "")
-    return {c.key: summary.get(c.key, (loglog_slope(c.spp, c.median), "fit here")) for c in cs}
+            note = f"{rng[0]:g}–{rng[1]:g} spp" if isinstance(rng, (list, tuple)) and len(rng) == 2 else ""
+            if v.get("slope_steep"):
+                note += ", steeper than Monte Carlo: low budgets read low"
+            out[key] = (s, note)
+        elif r.get("exact"):
+            out[key] = (None, "exact: zero error, off the log axes")
+        else:
+            out[key] = (None, f"no slope: {r.get('slope_status') or 'fewer than four budgets'}")
+    return {c.key: out.get(c.key, (None, "not in the summary")) for c in cs}
 
 
 def _add_plot(sec: Section, kind: str, fig, caption: str) -> None:
@@ -137,34 +150,32 @@ def _add_plot(sec: Section, kind: str, fig, caption: str) -> None:
     sec.plots[kind] = (plots.png_bytes(fig), caption)
 
 
+#: the record field behind each metric's convergence plot (relMSE and MSE less the reference's noise).
+PLOT_FIELDS = {"rmse": "rmse", "relmse": "relmse_corrected", "ssim": "ssim", "flip": "flip"}
+
+
 def _section_plots(sec: Section, recs: list[dict]) -> None:
-    title = sec.title
-    rmse = curves(recs, "rmse")
-    if rmse:
-        _add_plot(sec, "rmse", plots.convergence_plot(
-            rmse, title=f"{title}: RMSE vs spp", ylabel="RMSE", slopes=_slopes(sec, rmse, "rmse"), guide_slope=-0.5,
-            target=num(view(sec.raw_rows[0], "rmse").get("target")) if sec.raw_rows else None),
-            "RMSE against the reference vs samples per pixel (log-log). Lines: median over seeds; bands: min to "
-            "max; dashed: slope -1/2 (unbiased Monte Carlo). Legend slopes are the harness's fits (summary.json) "
-            "unless marked 'fit here'.")
-    rel = curves(recs, "relmse")
-    if rel:
-        _add_plot(sec, "relmse", plots.convergence_plot(
-            rel, title=f"{title}: relMSE vs spp", ylabel="relMSE", slopes=_slopes(sec, rel, "relmse"),
-            guide_slope=-1.0, target=SPECS["relmse"].target),
-            f"Relative MSE (eps = {RELMSE_EPS:g}) vs spp. relMSE is a squared error, so its unbiased slope is -1 "
-            "(the dashed guide); legend slopes are the harness's (reference noise removed) unless marked 'fit here'.")
-    ss = curves(recs, "ssim")
-    if ss:
-        _add_plot(sec, "ssim", plots.ssim_plot(ss, title=f"{title}: SSIM vs spp"),
+    """Two plots, both in the section's metric: its convergence with spp, and its error against time."""
+    title, metric, spec = sec.title, sec.metric, SPECS[sec.metric]
+    field = PLOT_FIELDS[metric]
+    if field == "relmse_corrected" and not any(r.get(field) is not None for r in recs):
+        field = "relmse"  # stores written before the corrected figure was recorded
+    cs = curves(recs, field)
+    exact = [r for r in sec.raw_rows if r.get("exact")]
+    if cs and metric == "ssim":
+        _add_plot(sec, metric, plots.ssim_plot(cs, title=f"{title}: SSIM vs spp"),
                   "SSIM of the display image against the reference's (higher is better).")
-    fl = curves(recs, "flip")
-    if fl:
-        _add_plot(sec, "flip", plots.convergence_plot(
-            fl, title=f"{title}: FLIP vs spp", ylabel="FLIP (mean, 0 = identical)", slopes=_slopes(sec, fl, "flip"),
-            guide_slope=None, target=SPECS["flip"].target),
-            "NVIDIA's FLIP of the display image against the reference's (lower is better; log-log). No theoretical "
-            "slope: FLIP saturates and is not a mean of squares.")
+    elif cs:
+        guide = spec.unbiased_slope
+        _add_plot(sec, metric, plots.convergence_plot(
+            cs, title=f"{title}: {spec.label} vs spp", ylabel=spec.label + (" (reference noise removed)"
+                                                                          if field.endswith("_corrected") else ""),
+            slopes=_slopes(sec, cs, metric), guide_slope=guide, target=sec.target),
+            f"{spec.label} against the reference vs samples per pixel (log-log); lines: median over seeds, bands: min "
+            "to max" + (f"; dashed: slope {guide:g} (unbiased Monte Carlo)" if guide is not None else "") +
+            ". Legend slopes are the summary's, fitted to four or more rendered budgets (the range fitted is given)."
+            + (f" Exact estimators ({', '.join(curve_label(r['renderer'], r['strategy']) for r in exact)}) have zero "
+               "error and are off the log axes." if exact else ""))
     spec = SPECS[sec.metric]
     timed, modelled = _timed_curves(sec, recs)
     if timed:

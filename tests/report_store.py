@@ -24,6 +24,7 @@ if str(ROOT) not in sys.path:
 from benchmarks import metrics as M  # noqa: E402
 from benchmarks.display import reference_exposure, to_display  # noqa: E402
 from benchmarks.sweep.by_metric import add_metric_ratios, curve_metrics  # noqa: E402
+from benchmarks.sweep.headline import add_noise_ratios, headline_rows  # noqa: E402
 from benchmarks.store import write_image  # noqa: E402
 
 #: per-sample relative noise of each (renderer, strategy)
@@ -141,8 +142,9 @@ def make_store(path, *, scenes=("cornell_box", "spheres"), strategies=("uniform"
                 r["efficiency_vs_mitsuba"] = r["efficiency"] / mits["efficiency"]
                 r["samples_per_second_vs_mitsuba"] = r["samples_per_second"] / mits["samples_per_second"]
     add_metric_ratios(rows)
+    add_noise_ratios(rows)
     if seed_comparison:
-        records += _seed_comparison_records(seeds)
+        records += _seed_comparison_records(seeds, root, meta)
     lines = [json.dumps(r) for r in records]
     if duplicate and records:
         stale = dict(records[0], rmse=999.0, mse=998001.0)
@@ -151,7 +153,7 @@ def make_store(path, *, scenes=("cornell_box", "spheres"), strategies=("uniform"
     if truncated:
         text += json.dumps(records[-1])[:40]
     (root / "results.jsonl").write_text(text)
-    (root / "summary.json").write_text(json.dumps({"rows": rows}, indent=1))
+    (root / "summary.json").write_text(json.dumps({"rows": rows, "headline": headline_rows(rows)}, indent=1))
     (root / "meta.json").write_text(json.dumps(meta, indent=1))
     return root
 
@@ -168,7 +170,16 @@ def _summary_row(records, scene, renderer, strategy, mean_img, ref, spps, size, 
     by_spp = {s: [r for r in recs if r["spp"] == s] for s in spps}
     secs = [float(np.mean([r["seconds"] for r in by_spp[s]])) for s in spps]
     by_metric = curve_metrics(by_spp, secs, target_rmse=target, unbiased=strategy != "light")
-    return {"by_metric": by_metric,
+    # noise figures as the summary gives them from tail references: sigma^2 of the synthetic
+    # noise in relMSE's weights, a 1% standard error, the cost model of COST
+    sigma = NOISE.get((renderer, strategy), 0.4)
+    r64 = ref.astype(np.float64)
+    noise = float(np.mean((sigma * (r64 + 0.05)) ** 2 / (r64 * r64 + 0.01)))
+    rel_bias = float(np.sum(mean_img - ref) / np.sum(ref))
+    return {"by_metric": by_metric, "noise": noise, "noise_se": 0.01 * noise, "noise_lower_bound": False,
+        "noise_source": "synthetic", "exact": False, "seconds_per_sample": COST.get((renderer, strategy), 1e-6),
+        "relative_bias": rel_bias, "relative_bias_ci": [rel_bias - 0.005, rel_bias + 0.005],
+        "bias_min_detectable": 0.02, "bias_spp": spps[-1], "reference_kind": "Mitsuba 4096 spp",
         "scene": scene, "renderer": renderer, "strategy": strategy, "width": size, "height": size,
         "slope": slope, "slope_ci": [slope - 0.04, slope + 0.04],
         "bias2": bias + float(rng.normal(0, 1e-6)), "bias2_stderr": 2e-6 + 1e-3 * bias,
@@ -181,18 +192,32 @@ def _summary_row(records, scene, renderer, strategy, mean_img, ref, spps, size, 
         "samples_per_second_vs_mitsuba": None}
 
 
-def _seed_comparison_records(seeds) -> list[dict]:
-    """cornell_box 400x400 uniform and light records (no images) on exact power laws (see make_store)."""
+def _seed_comparison_records(seeds, root, meta) -> list[dict]:
+    """cornell_box 400x400 uniform and light records on exact power laws (see make_store), with
+    the seed figure's images (uniform at 50 spp, light at 4 spp, seed 0) and its reference,
+    recorded in ``meta``'s ``references_by_size`` as a run records it."""
+    ref = scene_image(400)
+    write_image(root, "references/cornell_box_400x400.exr", ref)
+    write_image(root, "references/cornell_box_400x400_var.exr", (0.2 * ref) ** 2)
+    meta.setdefault("references_by_size", {})["cornell_box@400x400"] = {
+        "spp": 64, "seed": 1234, "variant": "llvm_ad_rgb", "path": "references/cornell_box_400x400.exr",
+        "variance_path": "references/cornell_box_400x400_var.exr"}
+    noise = np.random.default_rng(3).standard_normal(ref.shape)
     out = []
     for strategy, a in (("uniform", 0.5), ("light", 0.1)):
         for spp in (1, 4, 16, 50, 64):
             for seed in seeds:
+                image = None
+                if seed == seeds[0] and (strategy, spp) in (("uniform", 50), ("light", 4)):
+                    image = f"images/cornell_box_400x400/ours_{strategy}_spp{spp}_seed{seed}.exr"
+                    write_image(root, image, (ref + a * (ref + 0.05) * noise / math.sqrt(spp)).astype(np.float32))
                 rmse = a / math.sqrt(spp)
                 out.append({"scene": "cornell_box", "renderer": "ours", "strategy": strategy, "spp": spp,
                             "seed": seed, "width": 400, "height": 400, "mse": rmse ** 2, "rmse": rmse,
-                            "relmse": rmse ** 2 * 3, "ssim": 1 - rmse, "mse_corrected": rmse ** 2,
+                            "relmse": rmse ** 2 * 3, "relmse_corrected": rmse ** 2 * 3, "ssim": 1 - rmse,
+                            "mse_corrected": rmse ** 2,
                             "variance": a * a, "seconds": 0.01 * spp, "rays": 1000 * spp,
-                            "paths_per_second": 1.6e7, "threads": 2, "image": None, "versions": {}})
+                            "paths_per_second": 1.6e7, "threads": 2, "image": image, "versions": {}})
     return out
 
 
