@@ -16,7 +16,7 @@ from benchmarks.display import reference_exposure
 from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS, view
 
 from . import plots
-from .curves import curve_label, curves, loglog_slope
+from .curves import curve_label, curves
 from .images import (ERROR_CMAP, FLIP_CMAP, display_png, error_map, error_png, error_range, flip_map, flip_png,
                      pick_spps)
 from .store import Store, curve_order, num

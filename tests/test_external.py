@@ -21,7 +21,7 @@ pytestmark = pytest.mark.usefixtures("fresh_registries")
 def _curves(tmp_path, *renderers):
     out = tmp_path / "store"
     args = ["curves", "--scene", str(XML / "sphere_constant.xml"), "--width", "8", "--height", "6",
-            "--strategies", "mis", "--spp", "4,16,64", "--seeds", "2", "--reference-spp", "2048", "--no-mitsuba",
+            "--strategies", "mis", "--spp", "2,4,16,64", "--seeds", "2", "--reference-spp", "2048", "--no-mitsuba",
             "--out", str(out), "--quiet", "--threads", "1"]
     for r in renderers:
         args += ["--renderer", r]
@@ -34,7 +34,7 @@ def test_mitsuba_cli_as_an_external_renderer(tmp_path, capsys):
     assert code == 0, capsys.readouterr().err
     records = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
     ext = [r for r in records if r["renderer"] == "ext-mitsuba"]
-    assert len(ext) == 6 and {r["strategy"] for r in ext} == {"external"}
+    assert len(ext) == 8 and {r["strategy"] for r in ext} == {"external"}
     assert all(r["build"].startswith("ext-") and r["reference_variant"] != "scalar_rgb" for r in ext)
     rows = {r["renderer"]: r for r in json.loads((out / "summary.json").read_text())["rows"]}
     assert rows["ext-mitsuba"]["bias_significant"] is False      # agrees with the llvm reference

@@ -1,7 +1,6 @@
 """Translation to Mitsuba: dicts load, XML renders as the dict, refusals, variants, batching."""
 from __future__ import annotations
 
-import logging
 import os
 import subprocess
 import sys

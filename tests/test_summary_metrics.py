@@ -116,40 +116,44 @@ def test_a_slope_measured_while_heavy_tailed_is_marked_undetermined():
 def test_budgets_below_the_normal_start_are_left_out_of_the_slope():
     """Per-point rule: where the tail reference says the image mean is near normal only
     from 64 spp, the cheaper budgets' MSE (rare paths missed: too low) is left out of the
-    fit; with fewer than two budgets left the measured slope is kept and marked."""
+    fit; with fewer than four budgets left there is no slope, and the row says why."""
     from benchmarks.sweep.summary import _reliable_points_only, _slope_stats, _slope_status
 
-    spps = [4, 16, 64, 256, 1024]
+    spps = [4, 16, 64, 256, 1024, 4096]
     # an estimator of variance 1: MSE 1/n from 64 spp on, far below it at 4 and 16 spp
-    mse = np.array([0.01, 0.01, 1 / 64, 1 / 256, 1 / 1024])
+    mse = np.array([0.01, 0.01, 1 / 64, 1 / 256, 1 / 1024, 1 / 4096])
     row = dict(_slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=64)
     assert row["slope"] > -0.3                     # the low points flatten the whole fit
     row.update(_reliable_points_only(spps, mse, mse, row))
-    assert row["slope_excluded_spps"] == [4, 16]
-    assert row["slope"] == pytest.approx(-0.5) and row["slope_points"] == 3
+    assert row["slope_excluded_spps"] == [4, 16] and row["slope_range"] == [64, 4096]
+    assert row["slope"] == pytest.approx(-0.5) and row["slope_points"] == 4
     assert _slope_status(row) is None
     late = dict(_slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=1000)
-    measured = late["slope"]
     late.update(_reliable_points_only(spps, mse, mse, late))
-    assert late["slope_excluded_spps"] == [4, 16, 64, 256] and late["slope"] == measured
-    assert "below 1000 spp" in _slope_status(late)
+    assert late["slope_excluded_spps"] == [4, 16, 64, 256] and late["slope"] is None
+    assert "below 1000 spp" in _slope_status(late) and "fewer than 4" in _slope_status(late)
     # nothing to leave out: normal from 1 spp, or no tail reference (None)
     for start in (1, None):
         r = dict(_slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=start)
         assert _reliable_points_only(spps, mse, mse, r) == {"slope_excluded_spps": []}
+    # three budgets fit any line: no slope from them, whatever they say
+    assert _slope_stats(spps[:3], mse[:3], mse[:3])["slope"] is None
 
 
 def test_every_metric_slope_follows_the_per_point_rule():
     from benchmarks.sweep.by_metric import metric_figures
 
-    spps = [4, 16, 64, 256, 1024]
-    err = np.array([0.1, 0.1, 1 / 8, 1 / 16, 1 / 32])     # RMSE-like: -0.5 from 64 spp on
+    spps = [4, 16, 64, 256, 1024, 4096]
+    err = np.array([0.1, 0.1, 1 / 8, 1 / 16, 1 / 32, 1 / 64])     # RMSE-like: -0.5 from 64 spp on
     secs = np.array(spps, dtype=float)
     assert metric_figures("relmse", spps, err, secs)["slope"] > -0.3
-    assert metric_figures("relmse", spps, err, secs, fit_from=64)["slope"] == pytest.approx(-0.5)
-    # two budgets or fewer above: the measured slope stays
-    assert (metric_figures("relmse", spps, err, secs, fit_from=1000)["slope"]
-            == metric_figures("relmse", spps, err, secs)["slope"])
+    fig = metric_figures("relmse", spps, err, secs, fit_from=64)
+    assert fig["slope"] == pytest.approx(-0.5) and fig["slope_range"] == [64, 4096]
+    # fewer than four budgets above: no slope at all
+    assert metric_figures("relmse", spps, err, secs, fit_from=1000)["slope"] is None
+    # steeper than Monte Carlo allows, beyond its interval: flagged
+    steep = metric_figures("relmse", spps[2:], np.array([1.0, 1 / 16, 1 / 256, 1 / 4096]), secs[2:])
+    assert steep["slope"] == pytest.approx(-2.0) and steep["slope_steep"]
 
 
 def test_the_report_says_where_a_slope_was_fitted_from():
@@ -157,6 +161,8 @@ def test_the_report_says_where_a_slope_was_fitted_from():
     from reports.tables import stats_table
 
     row = {"renderer": "ours", "strategy": "uniform", "slope": -0.5, "slope_ci": [-0.6, -0.4], "bias_verdict": "pass",
-           "slope_status": None, "slope_excluded_spps": [4, 16], "slope_fit_from": 37}
-    assert stats_table([view(row, "rmse")])[0][1].endswith("(fit from 37 spp)")
-    assert "fit from" not in stats_table([view(dict(row, slope_excluded_spps=[]), "rmse")])[0][1]
+           "slope_status": None, "slope_excluded_spps": [4, 16], "slope_fit_from": 37, "slope_range": [64, 1024]}
+    cell = stats_table([view(row, "rmse")])[0][1]
+    assert cell.endswith("64–1024 spp") and "37" not in cell  # the budgets rendered, not a computed start
+    steep = stats_table([view(dict(row, slope=-0.8, slope_ci=[-0.9, -0.7], slope_steep=True), "rmse")])[0][1]
+    assert "steeper than -0.5" in steep

@@ -143,7 +143,7 @@ def _slope_status(row: dict):
     does not cover that. The slope is kept in the row (it is what was measured) and marked.
     """
     if row.get("bias_verdict") != "undetermined":
-        kept = len(row["spps"]) - len(row.get("slope_excluded_spps") or [])
+        kept = len(row.get("spps") or []) - len(row.get("slope_excluded_spps") or [])
         if row.get("slope_excluded_spps") and kept < MIN_SLOPE_BUDGETS:
             return (f"undetermined: heavy-tailed below {row['slope_fit_from']} spp (the measured MSE misses "
                     f"rare paths there), and {kept} rendered budget(s) at or above it, fewer than "
