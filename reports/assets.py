@@ -71,8 +71,11 @@ dl.formulas dt { font-weight:600; margin-top:6px; }
 dl.formulas dd { margin:0 0 0 18px; color:#333a45; }
 ul.problems li { color:var(--bad); }
 .big { font-size:15px; }
-table.headline td { white-space:nowrap; vertical-align:top; }
-table.headline td:nth-child(2) { white-space:normal; min-width:12em; }
+table.headline td { white-space:nowrap; padding:3px 7px; }
+table.headline td:nth-child(2), table.headline td:nth-child(3) { white-space:normal; max-width:12em; }
+table.headline td:nth-child(2) { min-width:11.5em; }
+table.headline td:nth-child(3) { min-width:7.5em; }
+table.headline th { padding:3px 7px; }
 table.headline th .sub { font-weight:400; color:var(--muted); font-size:11px; }
 .seedgrid { display:grid; grid-template-columns:repeat(auto-fill, minmax(min(180px, 100%), 1fr)); gap:10px;
             margin-bottom:8px; max-width:1300px; }

@@ -23,7 +23,7 @@ from benchmarks.sweep.headline import BASELINE, VERDICT_STRATEGY
 from .store import Store, num
 
 __all__ = ["VERDICT_WORDS", "headline_entries", "headline_header", "headline_cells", "ratio_text", "verdict_text",
-           "percent_text", "HEADLINE_NOTE"]
+           "percent_text", "pair_text", "HEADLINE_NOTE"]
 
 #: the three verdicts, worded the same on the page, in the CSVs and in the terminal.
 VERDICT_WORDS = {"pass": "pass", "fail": "fail", "undetermined": "undetermined", None: "–"}
@@ -98,16 +98,31 @@ def headline_entries(store: Store) -> list:
 
 
 def _columns(entries) -> list:
-    """The curves shown: our strategies in order (light first, the baseline), then Mitsuba's."""
+    """The curves shown: our strategies in order but the baseline, then Mitsuba's."""
     seen = {(c.get("renderer"), c.get("strategy")) for e in entries for c in e.get("curves") or []}
-    ours = [("ours", s) for s in (BASELINE,) + tuple(s for s in STRATEGIES if s != BASELINE) if ("ours", s) in seen]
+    ours = [("ours", s) for s in STRATEGIES if s != BASELINE and ("ours", s) in seen]
     return ours + sorted(k for k in seen if k[0] != "ours")
 
 
 def headline_header(entries) -> list:
     cols = _columns(entries)
     names = [s if r == "ours" else f"{'Mitsuba' if r == 'mitsuba' else r} {s}" for r, s in cols]
-    return ["scene", "ours vs Mitsuba", f"{BASELINE} bias"] + [f"{n}: equal spp | equal time" for n in names]
+    return ["scene", "ours vs Mitsuba", f"{BASELINE} bias"] + [f"{n}: equal spp / equal time" for n in names]
+
+
+def pair_text(c: dict, *, interval: bool = True) -> str:
+    """A curve's noise against the baseline at equal spp and at equal time, and the half-width of
+    their 95% interval (one: the timing's noise is not in it): ``×923 / ×1610 ±0.7%``."""
+    lb, exact = bool(c.get("noise_lower_bound")), bool(c.get("exact"))
+    if exact:
+        return "exact"
+    spp = ratio_text(c.get("noise_vs_light"), None, lower_bound=lb)
+    tim = ratio_text(c.get("time_noise_vs_light"), None, lower_bound=lb)
+    out = f"{spp} / {tim}"
+    ci = c.get("noise_vs_light_ci")
+    if interval and ci and all(_finite(v) for v in ci) and _finite(c.get("noise_vs_light")):
+        out += ratio_text(c["noise_vs_light"], ci)[len(spp):]
+    return out
 
 
 def headline_cells(entries, *, intervals: bool = True) -> list:
@@ -117,30 +132,20 @@ def headline_cells(entries, *, intervals: bool = True) -> list:
     rows = []
     for e in entries:
         by = {(c.get("renderer"), c.get("strategy")): c for c in e.get("curves") or []}
-        base = by.get(("ours", BASELINE)) or {}
-        base_exact = bool(base.get("exact"))
+        base_exact = bool((by.get(("ours", BASELINE)) or {}).get("exact"))
         size = f" {e['width']}×{e['height']}" if e.get("width") and e.get("height") else ""
-        ref = f" | vs {e['reference']}" if e.get("reference") and not str(e["reference"]).startswith("Mitsuba") \
+        ref = f" (vs {e['reference']})" if e.get("reference") and not str(e["reference"]).startswith("Mitsuba") \
             else ""
-        row = [f"{e['scene']}{size}", verdict_text(e) + ref,
-               percent_text(e.get("light_bias"), e.get("light_bias_ci") if intervals else None)]
+        bias = percent_text(e.get("light_bias"), e.get("light_bias_ci") if intervals else None)
+        row = [f"{e['scene']}{size}", verdict_text(e) + ref, bias + (f" ({BASELINE} exact)" if base_exact else "")]
         for key in cols:
             c = by.get(key)
             if c is None:
                 row.append("–")
-                continue
-            lb = bool(c.get("noise_lower_bound"))
-            if key == ("ours", BASELINE):
-                row.append("exact (baseline)" if base_exact else "baseline" + (" (≥)" if lb else ""))
-                continue
-            if base_exact and not c.get("exact") and _finite(c.get("noise")):
+            elif base_exact and not c.get("exact") and _finite(c.get("noise")):
                 # no ratio to a zero: the strategy's own noise per sample instead
-                row.append(f"{'≥' if lb else ''}{num(c['noise']):.3g} per sample")
-                continue
-            spp = ratio_text(c.get("noise_vs_light"), c.get("noise_vs_light_ci") if intervals else None,
-                             exact=bool(c.get("exact")), lower_bound=lb)
-            tim = ratio_text(c.get("time_noise_vs_light"), c.get("time_noise_vs_light_ci") if intervals else None,
-                             exact=bool(c.get("exact")), lower_bound=lb)
-            row.append(spp if spp == tim == "exact" else f"{spp} | {tim}")
+                row.append(f"{'≥' if c.get('noise_lower_bound') else ''}{num(c['noise']):.3g} per sample")
+            else:
+                row.append(pair_text(c, interval=intervals))
         rows.append(row)
     return rows

@@ -155,8 +155,8 @@ def _section_html(sec: Section, summary: str = "") -> str:
 
 def _headline_html(entries: list) -> str:
     """The first card: one row per scene, the run's answer (:mod:`reports.headline`)."""
-    out = ['<section class="card" id="headline"><h2>The answer: noise of each strategy against light sampling, '
-           'and our tracer against Mitsuba</h2>']
+    out = ['<section class="card" id="headline"><h2>The answer: each strategy\'s noise against light sampling, '
+           "and our tracer against Mitsuba</h2>"]
     if not entries:
         out.append('<p class="note">summary.json holds no headline yet (a run still going, or one without tail '
                    "references): the sections below show what there is.</p></section>")
@@ -173,8 +173,7 @@ def _headline_html(entries: list) -> str:
             cls = ""
             if i == 1:
                 cls = {"pass": "unbiased", "fail": "biased", "undetermined": "nocost"}.get(e.get("verdict"), "")
-            text = "<br>".join(_e(part) for part in c.split(" | "))  # equal spp over equal time
-            tds.append(f'<td class="{cls}">{text}</td>' if cls else f"<td>{text}</td>")
+            tds.append(f'<td class="{cls}">{_e(c)}</td>' if cls else f"<td>{_e(c)}</td>")
         body.append(f'<tr data-scene="{_e(e["scene"])}" data-verdict="{_e(e.get("verdict"))}">{"".join(tds)}</tr>')
     out.append(f'<div class="tablewrap"><table class="data headline" id="headline-table"><thead><tr>{"".join(head)}'
                f'</tr></thead><tbody>{"".join(body)}</tbody></table></div>'
@@ -255,7 +254,7 @@ def page_html(store: Store, sections: list[Section], cmp, seed_png, problems: li
     entries = headline_entries(store)
     title = f"rtbench report — {store.path.name}"
     toc = '<a href="#headline">answer</a>' + ('<a href="#seed">seed comparison</a>' if cmp is not None else "")
-    toc += "".join(f'<a href="#{s.id}">{_e(s.title)}</a>' for s in sections)
+    toc += f'<a href="#{sections[0].id}">scenes ({len(sections)})</a>' if sections else ""
     toc += '<a href="#facts">run facts</a><a href="#formulas">definitions</a>'
     if problems:
         toc += '<a href="#problems">problems</a>'

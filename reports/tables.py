@@ -12,7 +12,7 @@ from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS
 from benchmarks.sweep.headline import BASELINE
 
 from .curves import curve_label
-from .headline import VERDICT_WORDS, percent_text, ratio_text
+from .headline import VERDICT_WORDS, pair_text, percent_text
 from .store import num
 
 __all__ = ["fmt", "stats_table", "facts_table", "FORMULAS", "COLUMNS", "columns", "verdict_cell", "p_text",
@@ -39,7 +39,7 @@ def columns(metric: str = DEFAULT_METRIC) -> tuple:
         ("bias [95% CI]", "relative bias sum(mean - ref) / sum(ref), in percent, with its 95% interval"),
         ("p", "the bias test's p-value, as computed (its levels combined by Bonferroni; "
               "fail when below the run's alpha per curve)"),
-        ("noise vs light: equal spp | equal time", "per-sample relative variance (about the estimator's own "
+        ("noise vs light: equal spp / equal time", "per-sample relative variance (about the estimator's own "
                                                    "expectation) over light sampling's; at equal time x seconds "
                                                    "per sample"),
         (f"efficiency / Mitsuba ({lab})", f"1 / ({lab} x seconds), ours over Mitsuba's path; shown only where no "
@@ -118,9 +118,7 @@ def stats_table(rows: list[dict]) -> list[list[str]]:
         elif r.get("exact"):
             noise = "exact"
         elif r.get("noise_vs_light") is not None:
-            lb = bool(r.get("noise_lower_bound"))
-            noise = (f"{ratio_text(r['noise_vs_light'], r.get('noise_vs_light_ci'), lower_bound=lb)} | "
-                     f"{ratio_text(r.get('time_noise_vs_light'), r.get('time_noise_vs_light_ci'), lower_bound=lb)}")
+            noise = pair_text(r)
         out.append([
             curve_label(r["renderer"], r["strategy"]),
             slope_cell(r),

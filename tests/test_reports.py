@@ -340,11 +340,11 @@ def test_html_and_markdown_tables_hold_the_stores_numbers(store, report):
             assert math.isclose(pct[0], 100 * r["relative_bias"], abs_tol=0.06)
             (p,) = _numbers(cells[col["p"]])
             assert math.isclose(p, r["bias_p"], rel_tol=0.06)
-            noise = cells[col["noise vs light: equal spp | equal time"]]
+            noise = cells[col["noise vs light: equal spp / equal time"]]
             if r["strategy"] == "light":
                 assert noise == "baseline"
             else:
-                at_spp, at_time = noise.split(" | ")
+                at_spp, at_time = noise.split(" / ")
                 assert math.isclose(_numbers(at_spp)[0], r["noise_vs_light"], rel_tol=0.01)
                 assert math.isclose(_numbers(at_time)[0], r["time_noise_vs_light"], rel_tol=0.01)
             for name, key in (("efficiency / Mitsuba (relMSE)", "efficiency_vs_mitsuba"),

@@ -196,8 +196,8 @@ def print_headline(store, *, console=None) -> None:
     if not entries:
         console.print(f"{store}: no summary yet", highlight=False)
         return
-    header = [h.replace(": equal spp | equal time", "") for h in headline_header(entries)]
-    console.print("noise relative to light sampling, at equal spp | at equal time (x: times as noisy):",
+    header = [h.replace(": equal spp / equal time", "") for h in headline_header(entries)]
+    console.print("noise relative to light sampling, at equal spp / at equal time (x: times as noisy):",
                   highlight=False)
     console.print(text_table(header, headline_cells(entries, intervals=False)), highlight=False, markup=False)
     line = seed_comparison_line(read_records(store))
