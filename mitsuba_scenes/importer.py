@@ -304,12 +304,13 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
             except Exception as exc:  # Mitsuba raises RuntimeError with the reason
                 ctx.bad(node, f"{name} mesh could not be loaded: {exc}")
                 return None
-        if mesh_obj.has_vertex_normals():
-            ctx.bad(node, f"{name} mesh with smooth vertex normals (our meshes are flat: set face_normals=true)")
-            return None
         params = ctx.mi.traverse(mesh_obj)
         v = np.array(params["vertex_positions"], dtype=np.float64).reshape(-1, 3)
         f = np.array(params["faces"], dtype=np.int64).reshape(-1, 3)
+        if mesh_obj.has_vertex_normals() and not _normals_are_flat(params, v, f):
+            ctx.bad(node, f"{name} mesh with smooth vertex normals (they differ from the faces' normals: "
+                          "shading normals are not modelled; face_normals=true shades it flat)")
+            return None
         if len(f) == 0:
             ctx.bad(node, f"{name} mesh {node.props['filename'] if 'filename' in node.props.keys() else ''} "
                           "holds no triangles")
@@ -317,6 +318,25 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
         return rt.Mesh(v, f, mat, flip_normals=flip)
     ctx.bad(node, f"shape '{name}'")
     return None
+
+
+def _normals_are_flat(params, v, f, *, tol: float = 1e-5) -> bool:
+    """Whether every vertex normal of every triangle is that triangle's own normal: Mitsuba then
+    shades the mesh exactly as a flat one (a quad of two coplanar triangles, a box stored with
+    a vertex per face corner), and the vertex normals change nothing."""
+    n = np.array(params["vertex_normals"], dtype=np.float64).reshape(-1, 3)
+    if len(f) == 0 or n.shape != v.shape:
+        return False
+    e = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    length = np.linalg.norm(e, axis=1, keepdims=True)
+    ok = length[:, 0] > 0
+    fn = np.where(length > 0, e / np.where(length > 0, length, 1.0), 0.0)
+    for j in range(3):
+        vn = n[f[:, j]]
+        vn = vn / np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-300)
+        if np.any(np.abs(vn[ok] - fn[ok]) > tol):
+            return False
+    return True
 
 
 # --------------------------------------------------------------------------- sensor
@@ -547,10 +567,10 @@ def from_mitsuba(source, params=None) -> rt.Scene:
                 c = _colour(ctx, node, "radiance", 1.0)
                 if c is not None:
                     background = background + np.asarray(c)
-            else:
+            elif name != "area":  # an area emitter declared here is used by reference: checked on its shape
                 ctx.bad(node, f"emitter '{name}' (only 'area' on shapes and 'constant')")
         elif kind in (OT.BSDF, OT.Texture):
-            continue   # used through references; checked where used
+            continue   # declared here, used through references; checked where used
         else:
             ctx.bad(node, f"{str(kind).split('.')[-1].lower()} '{name}'")
 

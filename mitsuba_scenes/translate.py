@@ -16,8 +16,9 @@ ours                                   Mitsuba 3
                                        world-space vertices, no vertex normals (flat)
 ``flip_normals``                       ``flip_normals`` (baked into the winding of meshes)
 ``Lambertian``                         ``diffuse``
-``Metal(fuzz=0)``                      ``conductor``, ``material='none'``
-``RoughConductor``                     ``roughconductor``, ``distribution='ggx'``, ``material='none'``
+``Metal(fuzz=0)``                      ``conductor``: ``material='none'``, or RGB ``eta`` and ``k``
+``RoughConductor``                     ``roughconductor``: its ``distribution``, ``material='none'``
+                                       or RGB ``eta`` and ``k``
 ``Dielectric(ior)``                    ``dielectric``, ``int_ior=ior``, ``ext_ior=1.0``
 ``two_sided=True``                     ``twosided`` wrapper
 ``DiffuseLight(L, albedo=a)``          ``area`` emitter + ``diffuse`` BSDF of albedo a (black if None)
@@ -129,6 +130,13 @@ def _rgb(c) -> list:
     return [float(x) for x in _f32(c)]
 
 
+def _conductor_ior(m) -> dict:
+    """A conductor's Fresnel in Mitsuba's terms: ``material='none'`` (Fresnel 1) or RGB ``eta`` and ``k``."""
+    if m.eta is None:
+        return {"material": "none"}
+    return {"eta": {"type": "rgb", "value": _rgb(m.eta)}, "k": {"type": "rgb", "value": _rgb(m.k)}}
+
+
 def _bsdf_record(label: str, m) -> dict:
     """A nested dict (Mitsuba dict syntax, plain values) for material ``m``."""
     if isinstance(m, rt.Lambertian):
@@ -137,10 +145,10 @@ def _bsdf_record(label: str, m) -> dict:
         if m.fuzz > 0:
             raise ValueError(f"{label}: Metal(fuzz={m.fuzz}) has no Mitsuba equivalent (the book's fuzz is "
                              f"not a microfacet model); use RoughConductor(albedo, alpha) or fuzz=0")
-        b = {"type": "conductor", "material": "none",
+        b = {"type": "conductor", **_conductor_ior(m),
              "specular_reflectance": {"type": "rgb", "value": _rgb(m.albedo)}}
     elif isinstance(m, rt.RoughConductor):
-        b = {"type": "roughconductor", "distribution": "ggx", "material": "none",
+        b = {"type": "roughconductor", "distribution": m.distribution, **_conductor_ior(m),
              "alpha": float(_f32(m.alpha)),
              "specular_reflectance": {"type": "rgb", "value": _rgb(m.albedo)}}
     elif isinstance(m, rt.Dielectric):

@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .materials import Dielectric, DiffuseLight, Lambertian, Metal, RoughConductor
+from .materials import DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Metal, RoughConductor
 from .scene import Scene
 from .shapes import Box, Mesh, Quad, Sphere, Triangle
 
 # Material table columns; must match MaterialType and read_materials() in cpp/scene.cpp.
 MATERIAL_CODES = {Lambertian: 0, Metal: 1, Dielectric: 2, RoughConductor: 3, DiffuseLight: 4}
-MATERIAL_COLUMNS = 11  # type, albedo rgb, radiance rgb, param, two_sided, reflects, variant
+# type, albedo rgb, radiance rgb, param, two_sided, reflects, variant, distribution, fresnel, eta rgb, k rgb
+MATERIAL_COLUMNS = 19
 
 
 def _material_row(m) -> list:
@@ -26,7 +27,11 @@ def _material_row(m) -> list:
     two_sided = float(getattr(m, "two_sided", False))
     reflects = 0.0 if isinstance(m, DiffuseLight) and m.albedo is None else 1.0
     variant = 1.0 if isinstance(m, Dielectric) and m.fresnel == "schlick" else 0.0
-    return [code, *albedo, *radiance, param, two_sided, reflects, variant]
+    distribution = float(DISTRIBUTIONS.index(m.distribution)) if isinstance(m, RoughConductor) else 0.0
+    eta, k = getattr(m, "eta", None), getattr(m, "k", None)
+    fresnel = 0.0 if eta is None else 1.0
+    return [code, *albedo, *radiance, param, two_sided, reflects, variant, distribution, fresnel,
+            *(eta or (0.0, 0.0, 0.0)), *(k or (0.0, 0.0, 0.0))]
 
 
 #: Largest world-space coordinate magnitude a scene may reach. The BVH tests boxes in

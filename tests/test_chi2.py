@@ -45,7 +45,8 @@ def test_routine_passes_large_n(routine):
 def test_catalogue_covers_every_routine():
     names = {r.name for r in ROUTINES}
     assert {"warp.uniform_hemisphere", "warp.cosine_hemisphere", "warp.uniform_sphere", "warp.uniform_cone",
-            "warp.concentric_disk", "bsdf.lambertian", "bsdf.rough_conductor", "lobes.dielectric",
+            "warp.concentric_disk", "bsdf.lambertian", "bsdf.rough_conductor", "bsdf.rough_conductor_beckmann",
+            "lobes.dielectric",
             "lobes.dielectric_schlick", "light.quad", "light.triangle", "light.sphere", "light.scene"} <= names
     ggx = [dict(r.params) for r in ROUTINES if r.name == "bsdf.rough_conductor"]
     assert len({p["alpha"] for p in ggx}) >= 3 and len({p["theta_o"] for p in ggx}) >= 3
@@ -78,10 +79,11 @@ def test_pdf_scaled_by_1_1_fails_on_mass():
     assert r.p_value > 1e-3        # the shape is right: only the mass check can see a scale
 
 
+@pytest.mark.parametrize("material", ["rough_conductor", "rough_conductor_beckmann"])
 @pytest.mark.parametrize("theta", [0, 60])
-def test_ggx_pdf_with_wrong_alpha_fails(theta):
-    right = BsdfProbe("rough_conductor", direction(theta, 40.0), param=0.3)
-    wrong = BsdfProbe("rough_conductor", direction(theta, 40.0), param=0.33)
+def test_microfacet_pdf_with_wrong_alpha_fails(theta, material):
+    right = BsdfProbe(material, direction(theta, 40.0), param=0.3)
+    wrong = BsdfProbe(material, direction(theta, 40.0), param=0.33)
     r = chi2_test(right.sample, wrong.pdf, domain="hemisphere", n=100_000, seed=5, dims=3)
     assert r.verdict == "fail" and min(r.p_value, r.mass_p_value) < 1e-10
 

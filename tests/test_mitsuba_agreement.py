@@ -118,7 +118,13 @@ def _object_in_room(material, *, two_sided=False, max_depth=6, background=(0.2, 
     rt.RoughConductor((0.9, 0.8, 0.7), alpha=0.25),
     rt.RoughConductor((0.9, 0.8, 0.7), alpha=0.05, two_sided=True),
     rt.Lambertian((0.5, 0.6, 0.7), two_sided=True),
-], ids=["mirror", "glass", "rough_conductor", "rough_conductor_sharp_twosided", "lambertian_twosided"])
+    rt.Metal((1.0, 1.0, 1.0), material="Au"),
+    rt.Metal((0.9, 0.9, 0.9), eta=(0.2, 0.9, 1.1), k=(3.9, 2.4, 2.1)),
+    rt.RoughConductor((1.0, 1.0, 1.0), alpha=0.25, distribution="beckmann"),
+    rt.RoughConductor((1.0, 1.0, 1.0), alpha=0.1, distribution="beckmann", material="Cu"),
+    rt.RoughConductor((0.9, 0.8, 0.7), alpha=0.3, material="Al"),
+], ids=["mirror", "glass", "rough_conductor", "rough_conductor_sharp_twosided", "lambertian_twosided",
+        "mirror_gold", "mirror_eta_k", "beckmann", "beckmann_copper", "ggx_aluminium"])
 def test_material(material):
     res, _, _ = agree(_object_in_room(material), spp=64)
     assert res.ok, res.message

@@ -178,6 +178,8 @@ def _catalogue() -> tuple:
     routines += [_bsdf("lambertian", theta) for theta in (30, 85)]
     routines += [_bsdf("rough_conductor", theta, alpha)
                  for alpha in (0.1, 0.3, 0.6, 1.0) for theta in (0, 30, 60, 85)]
+    routines += [_bsdf("rough_conductor_beckmann", theta, alpha)
+                 for alpha in (0.1, 0.3, 0.6, 1.0) for theta in (0, 30, 60, 85)]
     routines += [_lobes("dielectric", 1.5, theta) for theta in (0, 45, 80)]
     routines += [_lobes("dielectric", 1.5, theta, inside=True) for theta in (20, 60)]   # 60: total reflection
     routines += [_lobes("dielectric", 1.33, 60), _lobes("dielectric", 0.7, 30), _lobes("dielectric", 0.7, 50),

@@ -108,7 +108,7 @@ public:
         if (width < 1 || height < 1) throw std::invalid_argument("image size must be positive");
         if (max_depth < 1) throw std::invalid_argument("max_depth must be >= 1 here (the Python layer maps -1)");
         if (triangle_test < 0 || triangle_test > 2) throw std::invalid_argument("unknown triangle test");
-        require_columns(materials, 11, "materials");
+        require_columns(materials, 19, "materials");
         require_columns(spheres, 6, "spheres");
         require_columns(quads, 10, "quads");
         require_columns(triangles, 9, "triangles");
@@ -127,6 +127,12 @@ public:
             m.two_sided = materials(i, 8) != 0.0;
             m.reflects = materials(i, 9) != 0.0;
             m.schlick = materials(i, 10) != 0.0;
+            const int distribution = int(materials(i, 11));
+            if (distribution < 0 || distribution > 1) throw std::invalid_argument("materials: unknown distribution");
+            m.distribution = rt::Distribution(distribution);
+            m.fresnel.enabled = materials(i, 12) != 0.0;
+            m.fresnel.eta = row3(materials, i, 13);
+            m.fresnel.k = row3(materials, i, 16);
             mats.push_back(m);
         }
         const size_t nm = mats.size();

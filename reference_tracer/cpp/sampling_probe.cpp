@@ -19,7 +19,7 @@
 // 1 - cos(theta_max), as square_to_uniform_cone takes it), concentric_disk (the concentric
 // map of square_to_cosine_hemisphere, which inlines it: the disk point is the direction's
 // (x, y) - Malley's method lifts it to the hemisphere without changing it).
-// Materials: lambertian, rough_conductor (param = alpha), dielectric and
+// Materials: lambertian, rough_conductor and rough_conductor_beckmann (param = alpha), dielectric and
 // dielectric_schlick (param = ior), metal (param = fuzz). Directions are in the local
 // shading frame (+z = normal), as the routines take them.
 #include "sampling_probe.h"
@@ -151,15 +151,17 @@ nb::ndarray<nb::numpy, double> probe_warp_pdf(const std::string& name, const Mat
 Material material_of(const std::string& name, const Vector& albedo, double param) {
     Material m;
     if (name == "lambertian") m.type = MaterialType::Lambertian;
-    else if (name == "rough_conductor") m.type = MaterialType::RoughConductor;
+    else if (name == "rough_conductor" || name == "rough_conductor_beckmann") m.type = MaterialType::RoughConductor;
     else if (name == "dielectric" || name == "dielectric_schlick") m.type = MaterialType::Dielectric;
     else if (name == "metal") m.type = MaterialType::Metal;
     else
         throw std::invalid_argument("unknown material '" + name +
-                                    "' (lambertian, rough_conductor, dielectric, dielectric_schlick, metal)");
+                                    "' (lambertian, rough_conductor, rough_conductor_beckmann, dielectric, "
+                                    "dielectric_schlick, metal)");
     m.albedo = vec3(albedo, "albedo");
     m.param = param;
     m.schlick = name == "dielectric_schlick";
+    if (name == "rough_conductor_beckmann") m.distribution = Distribution::Beckmann;
     if (m.type == MaterialType::RoughConductor && !(param > 0.0)) throw std::invalid_argument("alpha must be > 0");
     if (m.type == MaterialType::Dielectric && !(param > 0.0)) throw std::invalid_argument("ior must be > 0");
     return m;

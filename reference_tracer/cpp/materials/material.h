@@ -19,6 +19,12 @@ struct Material {
     bool two_sided = false;
     bool reflects = true;   // false for a DiffuseLight without albedo: a black surface
     bool schlick = false;   // Dielectric: Schlick's approximation instead of exact Fresnel
+    // Metal and RoughConductor: Fresnel of a complex index (off: Fresnel 1); RoughConductor:
+    // its microfacet distribution.
+    ConductorFresnel fresnel;
+    Distribution distribution = Distribution::GGX;
+
+    rough_conductor::Params rough() const { return {param, distribution, fresnel}; }
 
     bool emits() const { return type == MaterialType::DiffuseLight && max_component(radiance) > 0.0; }
     // Delta lobes: sampled directly, no pdf machinery, no light sampling at the vertex.
@@ -34,7 +40,7 @@ inline Vec3 bsdf_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
     switch (m.type) {
         case MaterialType::Lambertian:
         case MaterialType::DiffuseLight: return lambertian::eval<M>(m.albedo, wo, wi);
-        case MaterialType::RoughConductor: return rough_conductor::eval<M>(m.albedo, m.param, wo, wi);
+        case MaterialType::RoughConductor: return rough_conductor::eval<M>(m.albedo, m.rough(), wo, wi);
         default: return Vec3(0.0);
     }
 }
@@ -45,7 +51,7 @@ inline double bsdf_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
     switch (m.type) {
         case MaterialType::Lambertian:
         case MaterialType::DiffuseLight: return lambertian::pdf<M>(wo, wi);
-        case MaterialType::RoughConductor: return rough_conductor::pdf<M>(m.param, wo, wi);
+        case MaterialType::RoughConductor: return rough_conductor::pdf<M>(m.rough(), wo, wi);
         default: return 0.0;
     }
 }
@@ -56,8 +62,8 @@ template <Mutant M = Mutant::None>
 [[gnu::noinline]] inline BSDFSample bsdf_sample_other(const Material& m, const Vec3& wo, double u0, double u1,
                                                       double u2) {
     switch (m.type) {
-        case MaterialType::RoughConductor: return rough_conductor::sample<M>(m.albedo, m.param, wo, u1, u2);
-        case MaterialType::Metal: return conductor::sample(m.albedo, m.param, wo, u1, u2);
+        case MaterialType::RoughConductor: return rough_conductor::sample<M>(m.albedo, m.rough(), wo, u1, u2);
+        case MaterialType::Metal: return conductor::sample(m.albedo, m.param, m.fresnel, wo, u1, u2);
         case MaterialType::Dielectric: return dielectric::sample<M>(m.param, wo, u0, m.schlick);
         default: return {};
     }
