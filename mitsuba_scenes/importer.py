@@ -41,8 +41,10 @@ IOR_TABLE = {
 _DEFAULT_DIFFUSE = 0.5
 _SENSOR_OK = {"fov", "fov_axis", "to_world", "near_clip", "far_clip", "focus_distance", "film", "sampler",
               "x_fov", "srf"}
+# hdrfilm parameters that change no pixel value of the RGB image rendered: the output file's
+# format and channels, the banner (sample_border is checked where it matters).
 _FILM_OK = {"width", "height", "rfilter", "pixel_format", "component_format", "sample_border",
-            "compensate", "banner"}
+            "compensate", "banner", "file_format"}
 
 
 class _Ctx:
@@ -158,7 +160,16 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
                 ctx.bad(node, "twosided with two different BSDFs is not supported")
                 return None
         if emitter is not None:
-            ctx.bad(node, "an area emitter on a twosided BSDF (our DiffuseLight reflects on its front only)")
+            # Mitsuba's area emitter is one-sided whatever the BSDF: a black twosided BSDF
+            # reflects nothing on either side, exactly our DiffuseLight without albedo
+            inner = subs[0]
+            albedo = (_colour(ctx, inner, "reflectance", _DEFAULT_DIFFUSE)
+                      if inner.props.plugin_name() == "diffuse" and not set(_keys(inner)) - {"reflectance"}
+                      else None)
+            if albedo is not None and max(albedo) == 0.0:
+                return rt.DiffuseLight(emitter, albedo=None)
+            ctx.bad(node, "an area emitter on a twosided BSDF that reflects (our DiffuseLight reflects on its front "
+                          "only; a black twosided diffuse is supported)")
             return None
         return _bsdf(ctx, subs[0], two_sided=True)
     if name == "diffuse":
@@ -173,33 +184,29 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
         ctx.bad(node, f"an area emitter on a '{name}' BSDF (our emitters reflect as diffuse only)")
         return None
     if name == "conductor":
-        _extra(ctx, node, {"material", "specular_reflectance"}, "bsdf")
-        if _scalar(ctx, node, "material", "none") != "none":
-            ctx.bad(node, f"conductor material='{node.props['material']}' (only material='none', Fresnel 1)")
-            return None
+        _extra(ctx, node, {"material", "specular_reflectance", "eta", "k"}, "bsdf")
+        ior = _conductor_ior(ctx, node)
         albedo = _colour(ctx, node, "specular_reflectance", 1.0)
-        return None if albedo is None else rt.Metal(albedo, fuzz=0.0, two_sided=two_sided)
+        if ior is None or albedo is None:
+            return None
+        return rt.Metal(albedo, fuzz=0.0, two_sided=two_sided, **ior)
     if name == "roughconductor":
         _extra(ctx, node, {"material", "specular_reflectance", "distribution", "alpha", "alpha_u", "alpha_v",
-                           "sample_visible"}, "bsdf")
+                           "sample_visible", "eta", "k"}, "bsdf")
         ok = True
-        if _scalar(ctx, node, "material", "none") != "none":
-            ctx.bad(node, f"roughconductor material='{node.props['material']}' (only material='none')")
+        dist = _scalar(ctx, node, "distribution", "beckmann")
+        if dist not in rt.DISTRIBUTIONS:
+            ctx.bad(node, f"roughconductor distribution '{dist}' (ggx or beckmann)")
             ok = False
-        if _scalar(ctx, node, "distribution", "beckmann") != "ggx":
-            ctx.bad(node, "roughconductor distribution must be 'ggx' (Mitsuba's default is beckmann)")
+        if "sample_visible" in node.props.keys() and not bool(node.props["sample_visible"]):
+            ctx.bad(node, "roughconductor sample_visible=false (the estimator differs; its image does not)")
             ok = False
-        au, av = _scalar(ctx, node, "alpha_u", None), _scalar(ctx, node, "alpha_v", None)
-        alpha = _scalar(ctx, node, "alpha", 0.1)
-        if au is not None or av is not None:
-            if au != av:
-                ctx.bad(node, f"anisotropic roughconductor (alpha_u={au}, alpha_v={av})")
-                ok = False
-            alpha = au
+        alpha = _roughness(ctx, node)
+        ior = _conductor_ior(ctx, node)
         albedo = _colour(ctx, node, "specular_reflectance", 1.0)
-        if not ok or albedo is None or isinstance(alpha, str):
+        if not ok or alpha is None or ior is None or albedo is None:
             return None
-        return rt.RoughConductor(albedo, alpha=float(alpha), two_sided=two_sided)
+        return rt.RoughConductor(albedo, alpha=alpha, distribution=dist, two_sided=two_sided, **ior)
     if name == "dielectric":
         _extra(ctx, node, {"int_ior", "ext_ior", "specular_reflectance", "specular_transmittance"}, "bsdf")
         ok = True
@@ -215,6 +222,43 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
         return rt.Dielectric(i / e)
     ctx.bad(node, f"bsdf '{name}'")
     return None
+
+
+def _roughness(ctx, node):
+    """A microfacet BSDF's isotropic alpha (Mitsuba's default 0.1), or None after recording a problem:
+    a texture, or alpha_u differing from alpha_v (anisotropy), is not modelled."""
+    T = ctx.mi.Properties.Type
+    for key in ("alpha", "alpha_u", "alpha_v"):
+        if key in node.props.keys() and node.props.type(key) not in (T.Float, T.Integer):
+            ctx.bad(node, f"{node.props.plugin_name()} {key} given as a texture (only a number)")
+            return None
+    au, av = _scalar(ctx, node, "alpha_u", None), _scalar(ctx, node, "alpha_v", None)
+    if au is not None or av is not None:
+        if au != av:
+            ctx.bad(node, f"anisotropic {node.props.plugin_name()} (alpha_u={au}, alpha_v={av})")
+            return None
+        return float(au)
+    return float(_scalar(ctx, node, "alpha", 0.1))
+
+
+def _conductor_ior(ctx, node):
+    """``{"eta", "k"}`` or ``{"material"}`` keyword arguments of our conductors, as Mitsuba reads
+    them (``material`` defaults to "none", Fresnel 1; ``eta`` with ``k`` defaulting to 1), or None."""
+    from reference_tracer.conductors import CONDUCTORS
+
+    keys = node.props.keys()
+    if "eta" in keys or "k" in keys:
+        if "material" in keys:
+            ctx.bad(node, f"{node.props.plugin_name()} with both material and eta/k (Mitsuba refuses it too)")
+            return None
+        eta = _colour(ctx, node, "eta", 0.0)
+        k = _colour(ctx, node, "k", 1.0)
+        return None if eta is None or k is None else {"eta": eta, "k": k}
+    material = _scalar(ctx, node, "material", "none")
+    if not isinstance(material, str) or material not in CONDUCTORS:
+        ctx.bad(node, f"{node.props.plugin_name()} material='{material}' (not one of Mitsuba's named conductors)")
+        return None
+    return {"material": material}
 
 
 # --------------------------------------------------------------------------- shapes
