@@ -133,6 +133,9 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
 
     if strategy not in rt.STRATEGIES:
         raise ValueError(f"strategy must be one of {rt.STRATEGIES}, got {strategy!r}")
+    if not scene.camera.filter.is_box:
+        raise ValueError(f"no tail reference with a {scene.camera.filter.kind} filter: a filtered pixel is a ratio "
+                         "of weighted sums, its samples have no moments of their own")
     spp = positive_int("spp", spp, minimum=2)
     build = rt.build_id()
     key = tail_key(scene.content_hash(), build=build, strategy=strategy, spp=spp, seed=seed, variant=variant)

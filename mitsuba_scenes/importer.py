@@ -414,19 +414,15 @@ def _camera(ctx, sensor):
     OT = ctx.mi.ObjectType
     film, sampler = ctx.child(sensor, OT.Film), ctx.child(sensor, OT.Sampler)
     width = height = 768 if film is None else None
+    rfilter = rt.Filter("gaussian")  # Mitsuba's default film's filter
     if film is None:
         width, height = 768, 576
-        ctx.bad(sensor, "no film given: Mitsuba's default hdrfilm uses a gaussian filter (set rfilter to box)")
     else:
         if film.props.plugin_name() != "hdrfilm":
             ctx.bad(film, f"film '{film.props.plugin_name()}' (only 'hdrfilm')")
         _extra(ctx, film, _FILM_OK, "film")
         width, height = _film_size(ctx, film, "width", 768), _film_size(ctx, film, "height", 576)
-        rf = ctx.child(film, OT.ReconstructionFilter)
-        if rf is None:
-            ctx.bad(film, "hdrfilm without rfilter: Mitsuba's default is gaussian (set rfilter to box)")
-        elif rf.props.plugin_name() != "box":
-            ctx.bad(rf, f"rfilter '{rf.props.plugin_name()}' (only 'box': each pixel the plain mean)")
+        rfilter = _rfilter(ctx, ctx.child(film, OT.ReconstructionFilter))
         if "sample_border" in film.props.keys() and bool(film.props["sample_border"]):
             ctx.bad(film, "hdrfilm sample_border=true")
     if sampler is not None and sampler.props.plugin_name() != "independent":
@@ -445,7 +441,28 @@ def _camera(ctx, sensor):
     if vfov is None:
         return None
     origin = m[:3, 3]
-    return rt.Camera(lookfrom=origin, lookat=origin + fwd, vup=up, vfov=vfov, width=width, height=height)
+    if rfilter is None:
+        return None
+    return rt.Camera(lookfrom=origin, lookat=origin + fwd, vup=up, vfov=vfov, width=width, height=height,
+                     filter=rfilter)
+
+
+def _rfilter(ctx, node):
+    """Our :class:`reference_tracer.Filter` of a film's rfilter (Mitsuba's default: gaussian), or None."""
+    if node is None:
+        return rt.Filter("gaussian")
+    name = node.props.plugin_name()
+    if name == "box":
+        _extra(ctx, node, set(), "rfilter")
+        return rt.Filter("box")
+    if name == "tent":
+        _extra(ctx, node, {"radius"}, "rfilter")
+        return rt.Filter("tent", radius=float(_scalar(ctx, node, "radius", 1.0)))
+    if name == "gaussian":
+        _extra(ctx, node, {"stddev"}, "rfilter")
+        return rt.Filter("gaussian", stddev=float(_scalar(ctx, node, "stddev", 0.5)))
+    ctx.bad(node, f"rfilter '{name}' (box, tent and gaussian are supported)")
+    return None
 
 
 # --------------------------------------------------------------------------- entry point

@@ -8,7 +8,7 @@ ours                                   Mitsuba 3
 =====================================  ==================================================
 ``Camera(vfov, lookfrom, ...)``        ``perspective``, ``fov=vfov``, ``fov_axis='y'``,
                                        ``to_world = look_at(lookfrom, lookat, vup)``;
-                                       ``hdrfilm`` with a ``box`` rfilter; ``independent``
+                                       ``hdrfilm`` with the camera's rfilter; ``independent``
 ``Quad(Q, u, v)``                      ``rectangle``, to_world columns (u/2, v/2, n, centre)
 ``Box(pmin, pmax)``                    ``cube``, to_world = M . T(centre) . S(half size)
 ``Sphere(c, r)``                       ``sphere`` with world centre and radius
@@ -168,6 +168,15 @@ def _bsdf_record(label: str, m) -> dict:
     return b
 
 
+def _rfilter(f) -> dict:
+    """Mitsuba's rfilter of our :class:`reference_tracer.Filter`."""
+    if f.kind == "tent":
+        return {"type": "tent", "radius": float(f.radius)}
+    if f.kind == "gaussian":
+        return {"type": "gaussian", "stddev": float(f.stddev)}
+    return {"type": "box"}
+
+
 def _lower(scene: rt.Scene) -> dict:
     """Neutral description: camera, integrator, background and shape records."""
     if not isinstance(scene, rt.Scene):
@@ -179,7 +188,8 @@ def _lower(scene: rt.Scene) -> dict:
                    "lookat": (c.lookfrom, c.lookat, c.vup), "width": int(c.width), "height": int(c.height),
                    # Nothing of the scene may be clipped: near far below any feature, far beyond all.
                    "near_clip": float(_f32(min(1e-4, 1e-6 * extent))),
-                   "far_clip": float(_f32(4.0 * extent + 1.0))},
+                   "far_clip": float(_f32(4.0 * extent + 1.0)),
+                   "rfilter": _rfilter(c.filter)},
         "integrator": {"max_depth": int(scene.max_depth),
                        "rr_depth": mitsuba_rr_depth(scene.max_depth, scene.rr_depth)},
         "background": _rgb(scene.background) if scene.has_background else None,
@@ -304,7 +314,7 @@ def to_mitsuba(scene: rt.Scene, *, variant: str | None = None) -> dict:
             "to_world": _transform(mi, cam["to_world"]),
             "sampler": {"type": "independent", "sample_count": 4},
             "film": {"type": "hdrfilm", "width": cam["width"], "height": cam["height"],
-                     "rfilter": {"type": "box"}, "pixel_format": "rgb", "component_format": "float32",
+                     "rfilter": dict(cam["rfilter"]), "pixel_format": "rgb", "component_format": "float32",
                      "sample_border": False},
         },
     }
@@ -369,6 +379,13 @@ def _xml_props(rec: dict, indent: str) -> list:
         else:  # pragma: no cover - the neutral form holds only the above
             raise TypeError(f"cannot write {key}={val!r} to XML")
     return lines
+
+
+def _xml_rfilter(rf: dict) -> list:
+    params = [f'                <float name="{k}" value="{_num(v)}"/>' for k, v in rf.items() if k != "type"]
+    if not params:
+        return [f'            <rfilter type="{rf["type"]}"/>']
+    return [f'            <rfilter type="{rf["type"]}">', *params, "            </rfilter>"]
 
 
 def _xml_matrix(m: np.ndarray, indent: str) -> list:
@@ -465,7 +482,7 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
          '            <string name="pixel_format" value="rgb"/>',
          '            <string name="component_format" value="float32"/>',
          '            <boolean name="sample_border" value="false"/>',
-         '            <rfilter type="box"/>',
+         *_xml_rfilter(cam["rfilter"]),
          "        </film>",
          "    </sensor>"]
     if low["background"] is not None:

@@ -9,7 +9,7 @@ import numpy as np
 from ._compile import compile_scene
 from ._validate import positive_int
 from .estimate import ImageEstimate, SampleMoments
-from .scene import Scene
+from .scene import FILTERS, Scene
 from .strategies import STRATEGIES
 
 __all__ = ["render", "RenderResult", "ImageEstimate", "STRATEGIES", "TRIANGLE_TESTS", "INTEGRATORS", "core_scene"]
@@ -209,6 +209,12 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
     t0 = time.perf_counter()
     core = core_scene(scene, triangle_test=triangle_test)
     build = time.perf_counter() - t0
+    if not scene.camera.filter.is_box:
+        if moments:
+            raise ValueError("moments (tail diagnostics) need the box filter: a filtered pixel is a ratio of "
+                             "weighted sums, not a mean of samples")
+        return _render_filtered(core, scene, spp=spp, strategy=strategy, seed=int(seed), threads=threads,
+                                progress=progress, integrator=integrator, build=build)
     out = core.render(spp, STRATEGIES.index(strategy), int(seed), threads, progress, moments,
                       INTEGRATORS.index(integrator))
     n = float(spp)
@@ -224,3 +230,62 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
                         moments=(SampleMoments.from_shifted_sums(spp, max=out["max"],
                                                                  d=[out[f"d{k}"] for k in range(1, 5)])
                                  if moments else None))
+
+
+#: independent batches of a filtered render, for its per-pixel variance (as Mitsuba's references).
+FILTER_BATCHES = 16
+
+
+def _batch_seed(seed: int, k: int) -> int:
+    """Seed of batch ``k`` of a filtered render: far from ``seed`` and from the other batches'."""
+    import hashlib
+
+    digest = hashlib.sha256(f"filtered-batch:{seed}:{k}".encode()).digest()
+    return int.from_bytes(digest[:8], "little")
+
+
+def _render_filtered(core, scene: Scene, *, spp, strategy, seed, threads, progress, integrator, build):
+    """A render with a tent or Gaussian filter, in ``K = min(16, spp)`` independent batches.
+
+    The image is Mitsuba's estimator over all the samples: every pixel's summed weighted
+    radiance over its summed weights, the sums pooled over the batches. Its per-sample
+    variance comes from the batches, ``sum_k n_k (B_k - mean)^2 / (K - 1)`` with ``B_k`` batch
+    ``k``'s own image of ``n_k`` spp (so ``variance / spp`` is the variance of the mean), as
+    for Mitsuba's references: a filtered pixel is a ratio of correlated sums, whose samples
+    have no variance of their own. One batch (spp 1) has no variance: NaN.
+    """
+    f = scene.camera.filter
+    kind = FILTERS.index(f.kind)
+    param = f.radius if f.kind == "tent" else f.stddev
+    K = min(FILTER_BATCHES, spp)
+    sizes = [spp // K + (1 if k < spp % K else 0) for k in range(K)]
+    sums, images, seconds, rays, nonfinite = None, [], 0.0, 0, 0
+    for k, n in enumerate(sizes):
+        done = sum(sizes[:k])
+
+        def batch_progress(rows_done, rows_total, done=done, n=n):
+            if progress is not None:
+                progress(int((done + n * rows_done / max(rows_total, 1)) / spp * rows_total), rows_total)
+
+        out = core.render(n, STRATEGIES.index(strategy), _batch_seed(seed, k), threads,
+                          batch_progress if progress is not None else None, False, INTEGRATORS.index(integrator),
+                          filter=kind, filter_param=float(param))
+        acc = out["filtered"]
+        sums = acc.copy() if sums is None else sums + acc
+        with np.errstate(invalid="ignore", divide="ignore"):
+            images.append(acc[..., :3] / acc[..., 3:])
+        seconds += out["seconds"]
+        rays += int(out["rays"])
+        nonfinite += int(out["nonfinite"])
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        mean = sums[..., :3] / sums[..., 3:]
+        if K > 1:
+            n_k = np.asarray(sizes, dtype=np.float64)[:, None, None, None]
+            variance = np.sum(n_k * (np.stack(images) - mean) ** 2, axis=0) / (K - 1)
+        else:
+            variance = np.full_like(mean, np.nan)
+    mean, variance = mean.astype(np.float32), variance.astype(np.float32)
+    overflow = int(np.count_nonzero(~np.isfinite(mean).all(axis=-1)))
+    return RenderResult(mean=mean, variance=variance, overflow_pixels=overflow, seconds=seconds, spp=spp,
+                        strategy=strategy, seed=int(seed), rays=rays, nonfinite_samples=nonfinite,
+                        build_seconds=build, threads=threads, extra={"filter": f.kind, "batches": K})

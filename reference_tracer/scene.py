@@ -11,7 +11,7 @@ import numpy as np
 from ._validate import colour, finite_scalar, positive_int, vector3
 from .shapes import Shape
 
-__all__ = ["Camera", "Scene", "MAX_DEPTH_CAP"]
+__all__ = ["Camera", "Filter", "FILTERS", "Scene", "MAX_DEPTH_CAP"]
 
 #: Safety cap on path length when ``max_depth=-1`` (unlimited). A path that survives
 #: this many segments carries a throughput so small (or Russian roulette has long ended
@@ -20,11 +20,66 @@ MAX_DEPTH_CAP = 1024
 
 
 @dataclass(frozen=True)
+class Filter:
+    """Pixel reconstruction filter, as Mitsuba's ``rfilter``.
+
+    Samples are drawn uniformly inside their pixel (Mitsuba's independent sampler). With
+    ``"box"`` (the default) each pixel is the plain mean of its own samples. With
+    ``"tent"`` (``radius``, default 1) or ``"gaussian"`` (``stddev``, default 0.5,
+    truncated at 4 standard deviations and shifted to reach zero there) every sample is
+    splatted to each pixel the filter covers, weighted by the filter at the offset of that
+    pixel's centre, and a pixel is its weighted sum over its summed weights: Mitsuba's
+    ``hdrfilm``. A filtered pixel is a ratio of correlated sums; :func:`reference_tracer.render`
+    estimates its variance from independent batches (see there).
+
+    Examples
+    --------
+    >>> Filter("gaussian").radius
+    2.0
+    """
+
+    kind: str = "box"
+    radius: float | None = None
+    stddev: float | None = None
+
+    def __post_init__(self):
+        if self.kind not in FILTERS:
+            raise ValueError(f"Filter.kind must be one of {FILTERS}, got {self.kind!r}")
+        if self.kind == "gaussian":
+            if self.radius is not None:
+                raise ValueError("Filter('gaussian') takes stddev (its radius is 4 stddev), not radius")
+            sd = finite_scalar("Filter.stddev", 0.5 if self.stddev is None else self.stddev, lo=0.0, lo_open=True,
+                               hi=16.0)
+            object.__setattr__(self, "stddev", sd)
+            object.__setattr__(self, "radius", 4.0 * sd)
+        else:
+            if self.stddev is not None:
+                raise ValueError(f"Filter({self.kind!r}) takes no stddev")
+            r = 0.5 if self.kind == "box" else finite_scalar("Filter.radius", 1.0 if self.radius is None
+                                                             else self.radius, lo=0.0, lo_open=True, hi=64.0)
+            if self.kind == "box" and self.radius not in (None, 0.5):
+                raise ValueError("Filter('box') has radius 0.5 (the pixel itself)")
+            object.__setattr__(self, "radius", r)
+
+    @property
+    def is_box(self) -> bool:
+        return self.kind == "box"
+
+    def describe(self) -> dict:
+        return {"kind": self.kind, "radius": self.radius, "stddev": self.stddev}
+
+
+#: reconstruction filters of :class:`Filter`, in the core's order.
+FILTERS = ("box", "tent", "gaussian")
+
+
+@dataclass(frozen=True)
 class Camera:
     """Pinhole camera; ``vfov`` is the vertical field of view in degrees.
 
-    Pixel (0, 0) is the top-left corner of the image; each pixel is the plain mean of
-    samples jittered uniformly inside it (Mitsuba: box filter, independent sampler).
+    Pixel (0, 0) is the top-left corner of the image. Samples are jittered uniformly
+    inside their pixel (Mitsuba's independent sampler); ``filter`` decides how they make
+    the pixels (:class:`Filter`; the default box: each pixel the plain mean of its own).
 
     Examples
     --------
@@ -39,8 +94,11 @@ class Camera:
     vfov: float = 40.0
     width: int = 400
     height: int = 400
+    filter: Filter = field(default_factory=Filter, kw_only=True)
 
     def __post_init__(self):
+        if not isinstance(self.filter, Filter):
+            raise ValueError(f"Camera.filter must be a reference_tracer.Filter, got {self.filter!r}")
         for name in ("lookfrom", "lookat", "vup"):
             object.__setattr__(self, name, vector3(f"Camera.{name}", getattr(self, name)))
         object.__setattr__(self, "vfov", finite_scalar("Camera.vfov", self.vfov, lo=0.0, lo_open=True, hi=179.0))
@@ -66,7 +124,7 @@ class Camera:
         return w, right, up
 
     def with_size(self, width: int, height: int) -> "Camera":
-        return Camera(self.lookfrom, self.lookat, self.vup, self.vfov, width, height)
+        return Camera(self.lookfrom, self.lookat, self.vup, self.vfov, width, height, filter=self.filter)
 
 
 @dataclass(frozen=True, eq=False)
@@ -133,7 +191,9 @@ class Scene:
         c = self.camera
         return {
             "camera": {"lookfrom": c.lookfrom, "lookat": c.lookat, "vup": c.vup, "vfov": c.vfov,
-                       "width": c.width, "height": c.height},
+                       "width": c.width, "height": c.height,
+                       # box scenes keep the hash they always had (cached references stay valid)
+                       **({} if c.filter.is_box else {"filter": c.filter.describe()})},
             "shapes": [s.describe() for s in self.shapes],
             "max_depth": self.max_depth, "rr_depth": self.rr_depth,
             "background": self.background,

@@ -377,8 +377,11 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
                 tails = None
             else:
                 t0 = time.perf_counter()
+                # A filtered image has no per-sample moments: its comparison rests on the batches'
+                # variance alone (tile and image levels), as an external renderer's does.
                 tails = (tail_reference(scenes_built[name], strategy=strategy, spp=tail_spp, threads=threads,
-                                        cache=cache, log=log) if tail_spp else None)
+                                        cache=cache, log=log)
+                         if tail_spp and scenes_built[name].camera.filter.is_box else None)
                 tail_seconds += time.perf_counter() - t0
                 t0 = time.perf_counter()
                 out = rt.render(scenes_built[name], spp=spp, strategy=strategy, seed=seed, threads=threads)

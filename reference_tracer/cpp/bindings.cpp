@@ -169,7 +169,7 @@ public:
     // `mutant`: a seeded bug of the self-test (mutants.h), for benchmarks/selftest only;
     // 0 renders with the tracer itself. Only this module (reference_tracer._mutants) has it.
     nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress, bool moments,
-                    int integrator, int mutant) {
+                    int integrator, int mutant, int filter, double filter_param) {
         if (mutant < 0 || mutant >= int(rt::Mutant::Count))
             throw std::invalid_argument("mutant id out of range [0, " + std::to_string(int(rt::Mutant::Count)) + ")");
         // The seeded bugs live in the scalar integrator (Integrator<M>) only.
@@ -177,7 +177,7 @@ public:
             throw std::invalid_argument("seeded bugs run in the scalar integrator only: pass integrator=1");
 #else
     nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress, bool moments,
-                    int integrator) {
+                    int integrator, int filter, double filter_param) {
 #endif
         if (spp < 1) throw std::invalid_argument("spp must be >= 1");
         if (strategy < 0 || strategy > 4) throw std::invalid_argument("unknown strategy");
@@ -191,6 +191,13 @@ public:
         job.seed = seed;
         job.threads = threads;
         job.moments = moments;
+        // filter: 0 box, 1 tent (filter_param: radius), 2 Gaussian (filter_param: standard deviation)
+        if (filter < 0 || filter > 2) throw std::invalid_argument("unknown filter");
+        if (filter != 0 && !(filter_param > 0.0 && filter_param < 64.0))
+            throw std::invalid_argument("filter radius / standard deviation must be in (0, 64)");
+        if (filter != 0 && moments) throw std::invalid_argument("moments need the box filter");
+        job.filter = filter == 1 ? rt::PixelFilter::tent(filter_param)
+                   : filter == 2 ? rt::PixelFilter::gaussian(filter_param) : rt::PixelFilter::box();
 
         bool interrupted = false, callback_failed = false;
         rt::RenderOutput out;
@@ -226,6 +233,7 @@ public:
         nb::dict result;
         result["sum"] = to_numpy(std::move(out.sum), {H, W, 3});
         result["sum_sq"] = to_numpy(std::move(out.sum_sq), {H, W, 3});
+        if (filter != 0) result["filtered"] = to_numpy(std::move(out.filtered), {H, W, 4});
         if (moments) {
             rt::TailMoments& tm = out.tails;
             result["d1"] = to_numpy(std::move(tm.d1), {H, W, 3});
@@ -522,7 +530,7 @@ NB_MODULE(_core, m) {
 #ifdef RT_MUTANTS_MODULE
              , "mutant"_a = 0
 #endif
-             )
+             , "filter"_a = 0, "filter_param"_a = 0.0)
         .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false, "threads"_a = 1,
              "batch"_a = true, "wavefront"_a = false,
              "preliminary"_a = false)

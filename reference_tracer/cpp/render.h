@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "film_filter.h"
 #include "integrator.h"
 
 namespace rt {
@@ -22,6 +23,7 @@ struct TailMoments {
 
 struct RenderOutput {
     std::vector<double> sum, sum_sq;  // (H, W, 3): per-pixel sums of sample values and squares
+    std::vector<double> filtered;     // (H, W, 4): weighted radiance and weight sums (a non-box filter)
     TailMoments tails;                // empty unless the job asked for moments
     uint64_t rays = 0;
     uint64_t nonfinite = 0;           // samples discarded because a channel was NaN or Inf
@@ -45,6 +47,7 @@ struct RenderJob {
     uint64_t seed = 0;
     int threads = 1;
     bool moments = false;             // also accumulate TailMoments (a few flops per sample)
+    PixelFilter filter;               // box: per-pixel sums; else splats into RenderOutput::filtered
     static constexpr int kTileSize = 16;
 };
 
@@ -63,6 +66,7 @@ struct PixelSums {
     double* sum_sq;
     double* d[4] = {nullptr, nullptr, nullptr, nullptr};
     double* max = nullptr;
+    SplatImage* splat = nullptr;  // a non-box filter: samples go here, not into the sums
     const std::atomic<bool>* cancel = nullptr;
     static constexpr int kCancelPollSamples = 256;
 };

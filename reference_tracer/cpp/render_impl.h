@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -25,6 +26,8 @@ RenderOutput render_with(const RenderJob& job, Poll&& poll) {
         for (std::vector<double>* v : {&tm.d1, &tm.d2, &tm.d3, &tm.d4, &tm.max})
             v->assign(size_t(W) * H * 3, 0.0);
 
+    const bool filtered = job.filter.kind != FilterKind::Box;
+    if (filtered) out.filtered.assign(size_t(W) * H * 4, 0.0);
     const Integrator<M> integrator(scene, job.strategy);
     std::atomic<int> next_tile{0};
     std::atomic<uint64_t> pixels_done{0}, rays{0}, nonfinite{0};
@@ -36,8 +39,10 @@ RenderOutput render_with(const RenderJob& job, Poll&& poll) {
     auto worker = [&]() {
         uint64_t my_rays = 0, my_nonfinite = 0;
         bool scalar = true;
+        // A filter splats across pixels: each worker into an image of its own, summed at the end.
+        std::unique_ptr<SplatImage> splat = filtered ? std::make_unique<SplatImage>(W, H, job.filter) : nullptr;
         if constexpr (M == Mutant::None) {
-            if (job.integrator == IntegratorKind::Wavefront) {
+            if (job.integrator == IntegratorKind::Wavefront && !filtered) {
                 scalar = false;
                 TileCursor pixels(next_tile, W, H);
                 render_wavefront(integrator, job, pixels, out, cancel, pixels_done, my_rays, my_nonfinite);
@@ -50,6 +55,7 @@ RenderOutput render_with(const RenderJob& job, Poll&& poll) {
                 for (int x = x0; x < x1; ++x) {
                     PixelSums px = pixel_sums(out, job.moments, W, x, y);
                     px.cancel = &cancel;
+                    px.splat = splat.get();
                     render_pixel<M>(scene, integrator, x, y, job.spp, job.seed, px, my_rays, my_nonfinite);
                 }
             pixels_done.fetch_add(uint64_t(x1 - x0) * (y1 - y0), std::memory_order_relaxed);
@@ -57,6 +63,7 @@ RenderOutput render_with(const RenderJob& job, Poll&& poll) {
         rays.fetch_add(my_rays);
         nonfinite.fetch_add(my_nonfinite);
         std::lock_guard<std::mutex> lock(mutex);
+        if (splat) splat->add_to(out.filtered);
         if (--running == 0) finished.notify_all();
     };
 

@@ -70,6 +70,10 @@ void render_pixel(const Scene& scene, const Integrator<M>& integrator, int x, in
                 ++nonfinite;
                 continue;
             }
+            if (out.splat) {  // a reconstruction filter: the sample goes to the pixels it covers
+                out.splat->add(px, py, L);
+                continue;
+            }
             for (int c = 0; c < 3; ++c) {
                 s[c] += L[c];
                 s2[c] += L[c] * L[c];
@@ -77,6 +81,7 @@ void render_pixel(const Scene& scene, const Integrator<M>& integrator, int x, in
             if (tails) t.add(L);
         }
     }
+    if (out.splat) return;
     for (int c = 0; c < 3; ++c) {
         out.sum[c] = s[c];
         out.sum_sq[c] = s2[c];
