@@ -25,7 +25,7 @@ UNBIASED_STRATEGIES = tuple(s for s in STRATEGIES if s != "light")
 #: The name under which Mitsuba's renders are recorded: its ``path`` integrator (NEE + MIS).
 MITSUBA_STRATEGY = "path"
 
-#: relMSE's epsilon: ``mean(d^2 / (ref^2 + RELMSE_EPS))`` (``shared/DESIGN.md`` section 4).
+#: relMSE's epsilon: ``mean(d^2 / (ref^2 + RELMSE_EPS))`` (README.md, Conventions).
 RELMSE_EPS = 0.01
 
 #: Rec. 709 / sRGB luminance weights of linear R, G, B (a tuple: immutable; wrap in

@@ -154,7 +154,8 @@ def render_external_batches(renderer: ExternalRenderer, scene, *, spp: int, seed
 
     The spp are split into batches of nearly equal size, each run with its own seed
     (:func:`mitsuba_scenes.render.batch_seeds`); the variance is the size-weighted
-    between-batch variance times the batch size, as for Mitsuba (``DESIGN.md`` section 3).
+    between-batch variance times the batch size, as for Mitsuba
+    (:func:`mitsuba_scenes.render_mitsuba`; README.md, Conventions).
     """
     from mitsuba_scenes.render import batch_seeds, split_spp
 

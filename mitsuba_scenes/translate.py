@@ -1,6 +1,6 @@
 """Translate a :class:`reference_tracer.Scene` to Mitsuba 3: a dict and an XML file.
 
-The mapping follows ``shared/DESIGN.md`` section 3 exactly; anything without an exact
+The mapping follows the conventions of README.md (Conventions) exactly; anything without an exact
 Mitsuba equivalent raises ``ValueError`` naming the object, never an approximation:
 
 =====================================  ==================================================
@@ -455,8 +455,8 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
     (o, t, u) = cam["lookat"]
     plys = []  # (path, vertices, faces): written with the XML, by _write_all
     L = ['<?xml version="1.0" encoding="utf-8"?>',
-         "<!-- Written by mitsuba_scenes.to_xml: the reference_tracer scene, translated per",
-         "     shared/DESIGN.md section 3 (box filter, fov_axis y, ext_ior 1, one-sided emitters). -->",
+         "<!-- Written by mitsuba_scenes.to_xml: the reference_tracer scene, translated to",
+         "     Mitsuba's conventions (fov_axis y, ext_ior 1, one-sided emitters). -->",
          '<scene version="3.0.0">',
          f'    <default name="spp" value="{int(spp)}"/>',
          f'    <default name="seed" value="{int(seed)}"/>',

@@ -1,4 +1,4 @@
-"""The sampling strategies the tracer offers at non-specular bounces (``shared/DESIGN.md`` 2).
+"""The sampling strategies the tracer offers at non-specular bounces.
 
 Kept in a module of its own, free of the C++ core, so every layer (the harness's
 constants, the store, the report) can name the strategies without loading the core.

@@ -1,4 +1,4 @@
-"""Image-error metrics and Monte Carlo convergence statistics (``shared/DESIGN.md`` section 4).
+"""Image-error metrics and Monte Carlo convergence statistics, each defined once, here.
 
 One job: numbers that say how far a render is from its reference and how its error falls
 with samples. Pure numpy/scipy (plus scikit-image for SSIM; tone mapping is

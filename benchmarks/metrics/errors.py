@@ -55,7 +55,7 @@ def relmse(img, ref, *, eps: float = RELMSE_EPS, nan_policy: str = "propagate") 
     .. math:: \mathrm{relMSE} = \frac{1}{HWC} \sum_{p,c}
               \frac{(x_{pc} - r_{pc})^2}{r_{pc}^2 + \epsilon}, \qquad \epsilon = 0.01
 
-    The epsilon keeps black reference pixels from dominating (DESIGN.md section 4).
+    The epsilon keeps black reference pixels from dominating.
 
     Examples
     --------

@@ -14,7 +14,7 @@ _SSIM_WINDOW = 2 * int(3.5 * 1.5 + 0.5) + 1  # = 11
 
 
 def ssim(img, ref, *, exposure: float | None = None, nan_policy: str = "propagate") -> float:
-    r"""Structural similarity of the *display* images (DESIGN.md section 4).
+    r"""Structural similarity of the *display* images.
 
     Steps: exposure ``k`` from the reference
     (:func:`benchmarks.display.exposure_from_reference` unless given), both images scaled

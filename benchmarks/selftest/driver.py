@@ -16,7 +16,7 @@ For each mutant of the catalogue (:mod:`benchmarks.selftest.catalogue`) :func:`r
 4. records the verdict at ``spp`` and the smallest budget at which each rule caught the bug.
 
 A mutant is *caught* by the gate when the verdict is ``'fail'`` (``'undetermined'`` is not
-a catch: DESIGN.md section 6). With ``controls=True`` the unmutated tracer is judged the
+a catch: it says the test could not decide at that budget). With ``controls=True`` the unmutated tracer is judged the
 same way on each (scene, strategy) used, at ``spp``: a rule that also fails the tracer
 there has not shown that it caught the bug (the table shows the control beside each row).
 """

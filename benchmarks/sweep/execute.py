@@ -29,7 +29,7 @@ TIMING_FIELDS = ("seconds", "paths_per_second", "efficiency", "compile_seconds",
 
 
 def job_metrics(mean, variance, ref_mean, ref_variance, ref_spp) -> dict:
-    """Error figures of one render against the reference (DESIGN.md section 4).
+    """Error figures of one render against the reference (:mod:`benchmarks.metrics`).
 
     ``mse_corrected`` and ``relmse_corrected`` remove the reference's own noise,
     ``ref_variance / ref_spp`` (relMSE's weights for the latter);
