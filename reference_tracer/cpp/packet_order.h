@@ -5,8 +5,8 @@
 // of 16 x 1 pixels. Its rays' boxes overlap less than those of a square of 4 x 4 pixels,
 // so the packet visits more nodes and leaves for the same rays: at 1M triangles, where a
 // camera ray meets about one triangle a pixel, camera rays in tiles of 4 x 4 ran 1.24x
-// faster than in rows (2 threads; Embree's speed did not change with the order,
-// PERFORMANCE.md round 22).
+// faster than in rows (2 threads; Embree's speed did not change with the order;
+// PERFORMANCE.md, Ideas tried).
 //
 // PacketOrder finds the rows of such rays and gathers them into tiles, four rays wide and
 // kPacketRays / 4 rows high. It reads only the rays, so the caller needs no image size,

@@ -16,12 +16,12 @@ inline uint64_t mix64(uint64_t z) {
 }
 
 // PCG with 64-bit state and 64-bit output (O'Neill 2014, the "RXS M XS" output function):
-// one LCG step per double. The earlier generator, PCG32 (XSH RR, 32-bit output), took two
-// steps per double for 53 random bits, ~22 instructions a draw and 10-13% of a render's
-// instructions (PERFORMANCE.md round 16). RXS M XS at full state width is a bijection of
+// one LCG step per double. PCG32 (XSH RR, 32-bit output) needs two steps per double for 53
+// random bits, ~22 instructions a draw and 10-13% of a render's instructions
+// (PERFORMANCE.md, Ideas tried). RXS M XS at full state width is a bijection of
 // the state, so each 64-bit output occurs once per period (2^64 per stream), which is what
 // the PCG paper calls "insecure" and a sampler does not care about; it passes TestU01's
-// BigCrush in the paper's tests. Streams are selected by the LCG's increment, as before.
+// BigCrush in the paper's tests. Streams are selected by the LCG's increment.
 class PCG64 {
 public:
     PCG64(uint64_t seed, uint64_t stream) {

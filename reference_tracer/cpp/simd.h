@@ -111,7 +111,7 @@ inline VPd load_partial(const double* p, int m) {
 // place), read from each of objs[0..m) (m <= kPackWidth) as packs out[0..N); absent lanes
 // repeat objs[0]. On AVX-512 a gather a double at the objects' distances from objs[0]:
 // packs written lane by lane go through the stack as narrow stores that their wide reloads
-// wait for (store forwarding fails; PERFORMANCE.md round 18). Elsewhere one pass over the
+// wait for (store forwarding fails; PERFORMANCE.md, Ideas tried). Elsewhere one pass over the
 // objects.
 template <int N, typename T, typename Get>
 inline void gather_members(const T* const* objs, int m, Get&& get, VPd (&out)[N]) {
@@ -179,7 +179,7 @@ inline unsigned lane_mask(V4l lanes) {
 // The same for a pack of eight (one AVX-512 register, or two AVX ones). One instruction
 // with AVX-512 (a comparison's mask register, read back): lane_bits' portable loop
 // compiled to ~50 lane extractions there, as many as the quad test it follows
-// (PERFORMANCE.md round 15).
+// (PERFORMANCE.md, Ideas tried).
 inline unsigned lane_mask(VPl lanes) {
 #if defined(__AVX512F__)
     const __m512i v = reinterpret_cast<__m512i>(lanes);

@@ -40,10 +40,10 @@ void WideBVH::make_leaf(const BVHNode& leaf, const std::function<bool(uint32_t)>
 // with the binary tree's leaves kept): cost(n, i) is the least summed area of the wide
 // nodes inside n's subtree when n's subtree fills at most i slots of its parent, either as
 // one slot (a leaf, or a wide node of its own: area(n) plus its children spread over
-// kWidth slots) or opened, its two children sharing the i slots. The greedy collapse it
-// replaced (open the largest child until eight) left nodes 4.1-5.1 children full on the
-// ray benchmark's tori; this one fills 6.1 of 8, with 20-29% fewer nodes (PERFORMANCE.md
-// round 20).
+// kWidth slots) or opened, its two children sharing the i slots. A greedy collapse (open
+// the largest child until eight) leaves nodes 4.1-5.1 children full on the ray
+// benchmark's tori; this one fills 6.1 of 8, with 20-29% fewer nodes (PERFORMANCE.md,
+// Ideas tried).
 class WideBVH::CollapsePlan {
 public:
     explicit CollapsePlan(const BVH& binary)

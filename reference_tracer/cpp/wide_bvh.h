@@ -38,7 +38,7 @@ inline V8i mask_lanes(unsigned mask) {
 // targets AVX-512, so that a node's child is tested against sixteen camera rays with one
 // vector instruction a step, and the node fetch, the ordering of the hit children and the
 // stack serve sixteen rays (against eight, paired, 1 thread, camera rays: 1.05-1.10x at
-// 100k triangles, 0.99-1.04x at 1M; PERFORMANCE.md round 21). Eight elsewhere: GCC
+// 100k triangles, 0.99-1.04x at 1M; PERFORMANCE.md, Ideas tried). Eight elsewhere: GCC
 // compiles the 16-lane code for AVX2 into slow sequences (2.5x slower queries).
 // RT_PACKET_RAYS overrides it.
 #if defined(RT_PACKET_RAYS)
@@ -109,7 +109,7 @@ struct RaySlabs {
     // 2^-140 for zero and subnormals), more than the half ulp that rounding to nearest can
     // move, and no libm call (nextafter per axis cost ~20% on small scenes). The choices
     // by sign are lane selections: as branches on the signs of a random direction they
-    // were a mispredicted branch per ray (round 10). Lane for lane the same operations
+    // would be a mispredicted branch per ray. Lane for lane the same operations
     // whichever way the four values are grouped, so both groupings give the same bits.
     struct Lanes {
         V4f o_near, o_far, inv_near, inv_far;
@@ -230,7 +230,7 @@ struct RayPacket {
 // The slab constants of a packet, lane r for ray r, computed four rays at a time
 // (RaySlabs::Lanes on one axis of four rays) straight into the vectors the packet
 // traversal tests: per ray, a RaySlabs::Scalars and its transposition into the lanes
-// cost ~70 instructions a camera ray (round 11). Each lane holds the very bits
+// cost ~70 instructions a camera ray. Each lane holds the very bits
 // Scalars(rays[r]) holds. The rays share an octant, so ray 0's signs choose the rows.
 struct PacketSlabs {
     VRf o_near[3], o_far[3], inv_near[3], inv_far[3];
@@ -310,9 +310,10 @@ inline __m256i bitonic_step(__m256i v, __m256i partner) {
 // count[0..8) and t_near[0..8) (all eight written; those from k on are not children met);
 // returns k, their number: the nearest is at k - 1. The interleaved traversal's order. There,
 // a branch on how many children a random ray meets is one the predictor cannot know, and
-// each misprediction discards the other lanes' work in flight too: the insertion sort was
-// 5.1 of 8.8 mispredictions a random ray (round 12). A sorting network of the order keys
-// (24 vector instructions) gives the same order as sorted_hits without one.
+// each misprediction discards the other lanes' work in flight too: an insertion sort costs
+// 5.1 of 8.8 mispredictions a random ray (PERFORMANCE.md, Ideas tried). A sorting network
+// of the order keys (24 vector instructions) gives the same order as sorted_hits without
+// one.
 inline int far_to_near_hits(const WideNode& n, const V8i& met, const V8f& tn, int32_t* ref, int32_t* count,
                             float* t_near) {
 #ifdef __AVX2__
@@ -533,7 +534,7 @@ public:
     // (a core has about 16) for the ~150 ns of a DRAM access, and 40% of them are culled
     // unvisited: 1M triangles (67 MB of tree), random rays, 1 thread, paired: without them
     // 1.08-1.22x while the host's memory was busy, 1.01-1.06x when it was quieter; 300k
-    // triangles 1.17x; 100k triangles (6.5 MB) 0.95x and 0.98x (PERFORMANCE.md round 19).
+    // triangles 1.17x; 100k triangles (6.5 MB) 0.95x and 0.98x (PERFORMANCE.md, Ideas tried).
     // A template parameter: as a run-time flag tested in the push loop, the build lost the
     // gain (0.84x of the build without the prefetches).
     template <int kLanes, bool kPrefetchPushed, typename Query>
