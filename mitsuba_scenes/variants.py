@@ -332,8 +332,8 @@ def llvm_target() -> dict | None:
     """The CPU and vector width that Dr.Jit's LLVM backend compiles kernels for, in this process.
 
     Dr.Jit chooses them when its LLVM backend starts, from the running CPU: 8 float lanes
-    with AVX2, 16 with AVX-512. It sets the speed of ``llvm_ad_rgb`` (PERFORMANCE.md round
-    13: 1.1-1.7x between the two on one CPU). This asks Dr.Jit itself; ``mitsuba --help``'s
+    with AVX2, 16 with AVX-512. It sets the speed of ``llvm_ad_rgb`` (PERFORMANCE.md, How to
+    measure: 1.1-1.7x between the two on one CPU). This asks Dr.Jit itself; ``mitsuba --help``'s
     "8-wide SIMD" line stands beside the processor features Mitsuba's binary was compiled
     for, so it is not taken as the JIT's choice.
 

@@ -2,7 +2,7 @@
 """Time two builds of the C++ core against each other, paired run by run (renders or ray queries).
 
 For changes of a few per cent on a shared VM, where separate timed processes disagree by
-more than that (PERFORMANCE.md round 18): one worker process per build renders on request,
+more than that (PERFORMANCE.md, How to measure): one worker process per build renders on request,
 the two alternate render by render (never at the same time), and each round's ratio
 compares renders a fraction of a second apart. For example, the installed core against a
 build of a change:
@@ -21,9 +21,9 @@ rays (``--kinds``):
 
 The table gives each build's median seconds a render (or query) and the speed-up of B over A
 (time of A / time of B, above 1 where B is faster): the median of the rounds' ratios with a
-bootstrap 90% interval. Builds of the same code measured 0.99-1.01 this way on renders (40
+bootstrap 90% interval. Builds of the same code measure 0.99-1.01 this way on renders (40
 rounds), and 1.00-1.06 on 1M-triangle ray queries (20-30 rounds: the memory-bound queries
-are noisier; PERFORMANCE.md round 19). Images are not compared here:
+are noisier; PERFORMANCE.md, How to measure). Images are not compared here:
 ``scripts/compare_builds.py`` and ``benchmarks.speed.builds.agreement_arrays`` do that.
 """
 from __future__ import annotations

@@ -12,9 +12,9 @@ from benchmarks.compare import compare_stores
 from benchmarks.sweep import Group, run_sweep
 
 # The budget reaches 4096 spp so that a 5% bias flattens the error curve beyond doubt: with
-# spps (16, 64, 256) and a 256-spp reference the slope interval excluded zero for only 10 to
-# 13 of 20 random streams (a coin flip pinned to one stream); with these, 20 of 20, the
-# lowest lower bound 0.12 (PERFORMANCE.md round 16, where the render's generator changed).
+# spps (16, 64, 256) and a 256-spp reference the slope interval excludes zero for only 10 to
+# 13 of 20 random streams (passing would be a coin flip pinned to one stream); with these,
+# 20 of 20, the lowest lower bound 0.12.
 GROUP = dict(scenes=("large_light",), strategies=("mis",), spps=(16, 256, 4096), seeds=2, width=8, height=8,
              mitsuba=False, reference_spp=4096)
 

@@ -1,6 +1,6 @@
 """scripts/compare_builds.py: the tool that checks and times builds of the core on a
-machine (PERFORMANCE.md round 13 ran it on an AVX-512 CPU); scripts/ab_cores.py, which
-times two builds render by render (round 18)."""
+machine (an AVX-512 CPU, say); scripts/ab_cores.py, which times two builds render by render
+(PERFORMANCE.md, How to measure)."""
 from __future__ import annotations
 
 import re

@@ -106,9 +106,8 @@ def test_ctrl_c_records_the_run_history(cache, tmp_path):
     root, _ = cache
     store = tmp_path / "s"
     # Jobs of 65536 spp (one to two seconds each) after the small ones keep the run busy long
-    # after its first two records, when the interrupt is sent: with 1-4 spp alone the run
-    # could finish first, and the test skipped in every fresh clone instead of testing; with
-    # 16384 spp a faster tracer (PERFORMANCE.md round 16) finished first in a fresh clone.
+    # after its first two records, when the interrupt is sent: with 1-4 spp alone, or even
+    # 16384 spp on a fast machine, the run can finish first and the test would test nothing.
     args = list(_args(store))
     args[args.index("--spp") + 1] = "1,2,4,65536"
     proc = _popen(args, root)
@@ -133,9 +132,8 @@ def test_two_concurrent_runs_on_one_store(cache, tmp_path):
     store = tmp_path / "s"
     # The second run starts once the first holds the store's writer lock, and the first
     # holds it for a few seconds (two 65536-spp jobs after the small ones): with the small
-    # jobs alone the first run could end before the second had even started, and the
-    # second then found the store complete without waiting (with 16384 spp, a faster
-    # tracer did so in a fresh clone, PERFORMANCE.md round 16).
+    # jobs alone (or 16384 spp on a fast machine) the first run can end before the second
+    # has even started, and the second then finds the store complete without waiting.
     args = list(_args(store))
     args[args.index("--spp") + 1] = "1,2,4,65536"
     n_jobs = 4 * 2

@@ -328,7 +328,7 @@ def test_child_visit_order_rejects_bad_input():
 @pytest.mark.parametrize("threads", [1, 2])
 def test_interleaved_traversal_of_a_tree_beyond_the_cache_threshold(threads):
     # Trees over 8 MiB (Scene::kCachedTreeBytes) take another instance of the interleaved
-    # traversal, one that does not prefetch pushed children (PERFORMANCE.md round 19): its
+    # traversal, one that does not prefetch pushed children (wide_bvh.h, kPrefetchPushed): its
     # results must equal the one-ray-at-a-time traversal's, field by field.
     from benchmarks.speed.rays import mesh_scene, random_rays
 
@@ -611,7 +611,7 @@ def test_packet_order_keeps_the_order_of_rays_without_rows():
 @pytest.mark.parametrize("flat", [False, True])
 def test_bvh_equals_brute_force_at_any_scale(scale, offset, flat):
     # The tree tests its child boxes in single precision, rounded outward from the double
-    # boxes (wide_bvh.h; PERFORMANCE.md round 11 tried them as bytes on a grid per node).
+    # boxes (wide_bvh.h; boxes quantised to bytes are in PERFORMANCE.md, Ideas tried).
     # Meshes of every size the API accepts (coordinates up to 1e30), far from the origin,
     # and flat ones (every vertex at one z: boxes without extent in z; the triangles laid
     # out on a grid so that none overlaps another and no hit is a tie) must give exactly

@@ -148,8 +148,8 @@ def test_variant_selection(monkeypatch, caplog):
 @pytest.mark.skipif(not os.path.exists("/proc/cpuinfo"), reason="reads the CPU's flags from /proc/cpuinfo")
 def test_llvm_target_reports_the_width_dr_jit_compiles_for():
     # Dr.Jit compiles 16-wide kernels where the CPU has AVX-512 and 8-wide ones with AVX2
-    # (PERFORMANCE.md round 13: what it reported on a Sapphire Rapids host, and on this
-    # project's AVX2 machine), and the benchmark's footer prints it; so must llvm_target.
+    # (as on a Sapphire Rapids host and on an AVX2 machine: PERFORMANCE.md, How to measure),
+    # and the benchmark's footer prints it; so must llvm_target.
     try:
         select_variant("llvm_ad_rgb")
     except (RuntimeError, ValueError) as e:

@@ -236,9 +236,9 @@ def paired_render_times(modules, scenes, *, rounds: int = 40, spp: int = 16, siz
     One persistent worker process per module renders on request, one render at a time
     (never two at once), each round in turn starting with the next module. Renders a
     fraction of a second apart see the same machine, so the per-round ratios cancel the
-    slow drifts of a shared VM that separate timed processes do not (PERFORMANCE.md round
-    18: identical builds gave a 90% interval of +-1% in 40 pairs, where best-of-six
-    processes left quartiles of +-5-20%).
+    slow drifts of a shared VM that separate timed processes do not (PERFORMANCE.md, How to
+    measure: identical builds give a 90% interval of +-1% in 40 pairs, where best-of-six
+    processes leave quartiles of +-5-20%).
     """
     times = _paired_times(modules, _RENDER_WORKER.replace("SIZE", str(int(size))),
                           [f"{scene} {int(spp)}" for scene in scenes], rounds=rounds)
