@@ -325,24 +325,3 @@ def test_scaling_fields():
     assert set(fit) == {"a", "b", "per_doubling", "r2", "loglog_exponent"} and "mitsuba_ns_per_ray" not in res["fits"]
     with pytest.raises(ValueError, match="at least two"):
         speed.scaling_benchmark(triangles=(1000,))
-
-
-def test_segment_survival_and_packet_utilisation():
-    """Every path traces its camera segment; survival never grows with depth; Russian
-    roulette shortens paths; one lane is always busy; wider packets are busier on
-    nothing (utilisation falls with width)."""
-    import dataclasses
-
-    from mitsuba_scenes import get_scene
-
-    scene = get_scene("cornell_box", width=16, height=16, max_depth=8)
-    s = speed.segment_survival(scene, spp=4, seed=4)
-    assert s.shape == (8,) and s[0] == 1.0
-    assert np.all(np.diff(s) <= 0) and np.all(s >= 0)
-    s_rr = speed.segment_survival(dataclasses.replace(scene, rr_depth=2), spp=4, seed=4)
-    assert np.array_equal(s_rr[:2], s[:2]) and s_rr.sum() < s.sum()   # roulette from segment 3 on
-    one, eight, sixteen = (speed.packet_utilisation(s, w) for w in (1, 8, 16))
-    assert one["utilisation"] == 1.0 and math.isclose(one["mean_segments"], s.sum())
-    assert 0 < sixteen["utilisation"] <= eight["utilisation"] < 1
-    with pytest.raises(ValueError, match="width"):
-        speed.packet_utilisation(s, 0)

@@ -9,7 +9,7 @@ integrator divides by, as Mitsuba 3's ``mitsuba.chi2`` and pbrt-v4's sampling te
   :func:`sidak`, :func:`pearson` (pooling), :func:`integrate` (adaptive quadrature).
 * :mod:`.probes` - adapters from the C++ core's routines to ``sample`` / ``pdf``.
 * :mod:`.catalogue` - every routine with its parameters (``ROUTINES``) and the runner
-  (:func:`~.catalogue.run_routine`, :func:`~.catalogue.run_all`) behind ``rtbench chi2``.
+  (:func:`~.catalogue.run_routine`) behind ``rtbench chi2``.
 * :mod:`.plot` - observed-versus-expected images.
 
 The method (Pearson's statistic, pooling, Sidak's correction, the quadrature, what is

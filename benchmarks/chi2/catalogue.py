@@ -42,7 +42,7 @@ from .pearson import (DEFAULT_ALPHA, DEFAULT_N, DEFAULT_RESOLUTION, Chi2Result, 
 from .probes import (BsdfProbe, LightProbe, direction, frame, fresnel_exact, fresnel_schlick,
                      refract_expected, warp)
 
-__all__ = ["Routine", "Row", "ROUTINES", "select", "run_routine", "run_all"]
+__all__ = ["Routine", "Row", "ROUTINES", "select", "run_routine"]
 
 # Relative tolerance of the deterministic identities (weight = eval / pdf, the sampler's pdf
 # = pdf(), mirror and Snell directions): the same double-precision routines on both sides.
@@ -368,20 +368,3 @@ def run_routine(routine: Routine, *, n: int = DEFAULT_N, seed: int = 0, alpha: f
         message = "; ".join(filter(None, [message, "failed checks: " + ", ".join(failed)]))
     return Row(routine=routine.name, params=routine.param_text, n=n, p_value=res.p_value, verdict=verdict,
                seconds=time.perf_counter() - t0, message=message, checks=checks, result=res)
-
-
-def run_all(routines=None, *, n: int = DEFAULT_N, seed: int = 0, alpha_family: float = DEFAULT_ALPHA,
-            on_row: Callable[[Row], None] | None = None, on_start: Callable[[Routine], None] | None = None) -> list:
-    """Run ``routines`` (default: the whole catalogue) with ``alpha_family`` the false-positive
-    rate of the whole family: each routine is tested at ``sidak(alpha_family, len(routines))``."""
-    routines = ROUTINES if routines is None else tuple(routines)
-    per_test = sidak(alpha_family, len(routines))
-    rows = []
-    for r in routines:
-        if on_start:
-            on_start(r)
-        row = run_routine(r, n=n, seed=seed, alpha=per_test)
-        rows.append(row)
-        if on_row:
-            on_row(row)
-    return rows

@@ -113,12 +113,6 @@ class Grid:
     def dims(self) -> int:
         return 2 if self.domain == "disk" else 3
 
-    @property
-    def cell_measure(self) -> float:
-        """Solid angle (area for the disk) of one cell."""
-        jac = 0.5 if self.domain == "disk" else 1.0
-        return jac * (self.hi - self.lo) / self.n_u * 2.0 * math.pi / self.n_phi
-
     def points(self, u: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """Points of the domain at grid coordinates (u, phi)."""
         if self.domain == "disk":

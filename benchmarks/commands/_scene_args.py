@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-__all__ = ["add_scene_path_args", "resolve_scenes", "scene_files_of"]
+__all__ = ["add_scene_path_args", "resolve_scenes"]
 
 
 def add_scene_path_args(parser: argparse.ArgumentParser) -> None:
@@ -61,10 +61,3 @@ def resolve_scenes(args, *, suite_names=None, default=None) -> list:
     if not names:
         names = list(default or [])
     return list(dict.fromkeys(names))
-
-
-def scene_files_of(names) -> dict:
-    """``{name: SceneFile.to_dict()}`` for the scene files among ``names`` (for records and meta)."""
-    from mitsuba_scenes.scene_files import scene_file
-
-    return {n: scene_file(n).to_dict() for n in names if scene_file(n) is not None}

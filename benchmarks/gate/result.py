@@ -135,11 +135,6 @@ class GateResult:
     def failed(self) -> bool:
         return self.verdict == "fail"
 
-    def power_line(self) -> str:
-        """The power at this budget, in words."""
-        return (f"would catch a global bias of {self.min_detectable_bias:.2%} and an 8x8-tile bias of "
-                f"{self.min_detectable_tile_bias:.2%} with probability 0.8")
-
     def summary(self) -> str:
         """One line for a CLI table or failure message."""
         verdict = self.verdict.upper()

@@ -55,10 +55,6 @@ class ParityReport:
     def passed(self) -> bool:
         return not any(self.counts.values())
 
-    @property
-    def any_mask(self) -> np.ndarray:
-        return np.logical_or.reduce([self.masks[k] for k in AOVS])
-
     def summary(self) -> str:
         """One line: pass, or the mismatch counts per AOV."""
         n = self.width * self.height

@@ -12,9 +12,6 @@ prints them; its tables live in :mod:`benchmarks.commands.speed`):
 :func:`ray_benchmark` (:mod:`.rays`)
     Closest-hit queries on a generated torus with primary and random rays, ours vs
     Mitsuba (Embree) on the same rays: Mrays/s and hit agreement.
-:func:`segment_survival`, :func:`packet_utilisation` (:mod:`.lanes`)
-    How many paths reach each segment, and the share of busy lanes in a SIMD packet
-    that runs until its longest path ends.
 :func:`scaling_benchmark` (:mod:`.scaling`)
     Paths/s vs resolution and threads, and cost per ray vs triangle count fitted as
     ``a + b ln n``.
@@ -33,7 +30,6 @@ Examples
 from __future__ import annotations
 
 from .common import WALL_CLOCK_NOTE, environment
-from .lanes import packet_utilisation, segment_survival
 from .rays import (RAY_KINDS, hit_agreement, intersect_mitsuba, intersect_ours, mesh_scene, primary_rays,
                    random_rays, ray_benchmark, torus_mesh)
 from .render import (DEFAULT_RR_DEPTHS, DEFAULT_STRATEGIES, DEFAULT_VARIANTS, REFERENCE_KINDS, render_benchmark,
@@ -46,4 +42,4 @@ __all__ = ["WALL_CLOCK_NOTE", "DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT
            "ray_benchmark", "scaling_benchmark",
            "torus_mesh", "mesh_scene", "primary_rays", "random_rays",
            "intersect_ours", "intersect_mitsuba", "hit_agreement", "fit_log_growth",
-           "environment", "segment_survival", "packet_utilisation"]
+           "environment"]
