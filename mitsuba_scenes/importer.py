@@ -3,13 +3,16 @@
 The dict or XML file is parsed with Mitsuba's own parser (``mi.parser``: defaults,
 includes, references and transform chains resolved exactly as Mitsuba does), then
 walked node by node. Supported: ``perspective`` sensor (``fov`` with any
-``fov_axis``, ``to_world`` a rigid matrix or ``look_at``), ``hdrfilm`` with a ``box``
-filter, ``independent`` sampler, ``path`` integrator (``max_depth``, ``rr_depth``),
-shapes ``sphere``, ``rectangle``, ``cube``, ``obj``, ``ply`` (with ``to_world`` and
-``flip_normals``; meshes must be flat-shaded: ``face_normals=true``), BSDFs
-``diffuse``, ``conductor`` (``material='none'``), ``dielectric``, ``roughconductor``
-(``ggx``, isotropic, ``material='none'``), ``twosided`` around one of those,
-references by id, ``area`` and ``constant`` emitters, RGB or scalar values.
+``fov_axis``, ``to_world`` a rigid matrix or ``look_at``), ``hdrfilm`` with a ``box``,
+``tent`` or ``gaussian`` filter (film fields that change no pixel are ignored),
+``independent`` sampler, ``path`` integrator (``max_depth``, ``rr_depth``) and ``direct``
+(``emitter_samples``, ``bsdf_samples``, ``shading_samples``), shapes ``sphere``,
+``rectangle``, ``cube``, ``obj``, ``ply`` (with ``to_world`` and ``flip_normals``; meshes
+flat-shaded: ``face_normals=true``, or vertex normals equal to the faces'), BSDFs
+``diffuse``, ``conductor`` and ``roughconductor`` (``ggx`` or ``beckmann``, isotropic,
+``material`` names or RGB ``eta``/``k``), ``dielectric``, ``twosided`` around one of
+those, references by id, ``area`` emitters (on their shape or declared at the top level
+and referenced) and ``constant``, RGB or scalar values.
 Anything else is refused with one ``ValueError`` listing every unsupported item and
 where it is; no partial scene is ever returned.
 """
@@ -636,16 +639,19 @@ def from_mitsuba(source, params=None) -> rt.Scene:
             ctx.bad(node, f"{str(kind).split('.')[-1].lower()} '{name}'")
 
     camera = _camera(ctx, sensor)
-    max_depth, rr_depth = -1, 5
+    max_depth, rr_depth, direct = -1, 5, None
     if integrator is not None:
         iname = integrator.props.plugin_name()
-        if iname != "path":
-            ctx.bad(integrator, f"integrator '{iname}' (only 'path')")
-        _extra(ctx, integrator, {"max_depth", "rr_depth", "hide_emitters"}, "integrator")
-        if "hide_emitters" in integrator.props.keys() and bool(integrator.props["hide_emitters"]):
-            ctx.bad(integrator, "path hide_emitters=true")
-        max_depth = int(_scalar(ctx, integrator, "max_depth", -1))
-        rr_depth = int(_scalar(ctx, integrator, "rr_depth", 5))
+        if iname not in ("path", "direct"):
+            ctx.bad(integrator, f"integrator '{iname}' (only 'path' and 'direct')")
+        elif "hide_emitters" in integrator.props.keys() and bool(integrator.props["hide_emitters"]):
+            ctx.bad(integrator, f"{iname} hide_emitters=true")
+        if iname == "path":
+            _extra(ctx, integrator, {"max_depth", "rr_depth", "hide_emitters"}, "integrator")
+            max_depth = int(_scalar(ctx, integrator, "max_depth", -1))
+            rr_depth = int(_scalar(ctx, integrator, "rr_depth", 5))
+        elif iname == "direct":
+            direct = _direct(ctx, integrator)
     if ctx.problems:
         raise ValueError("from_mitsuba: the scene uses things outside the supported subset "
                          f"({len(ctx.problems)} found):\n  - " + "\n  - ".join(ctx.problems))
@@ -656,7 +662,23 @@ def from_mitsuba(source, params=None) -> rt.Scene:
     else:
         rr = rr_depth
     return rt.Scene(camera=camera, shapes=shapes, max_depth=max_depth, rr_depth=rr,
-                    background=tuple(background))
+                    background=tuple(background), direct=direct)
+
+
+def _direct(ctx, node):
+    """Mitsuba's ``direct``: ``shading_samples`` (default 1) sets both counts, which
+    ``emitter_samples`` and ``bsdf_samples`` override."""
+    _extra(ctx, node, {"shading_samples", "emitter_samples", "bsdf_samples", "hide_emitters"}, "integrator")
+    shading = _scalar(ctx, node, "shading_samples", 1)
+    counts = [_scalar(ctx, node, name, shading) for name in ("emitter_samples", "bsdf_samples")]
+    if any(isinstance(c, str) or not float(c).is_integer() for c in counts):
+        ctx.bad(node, f"direct sample counts must be whole numbers, got {counts}")
+        return None
+    try:
+        return rt.Direct(*(int(c) for c in counts))
+    except ValueError as e:
+        ctx.bad(node, f"direct: {e}")
+        return None
 
 
 def _mesh_object(ctx, root, key, mesh):

@@ -24,6 +24,7 @@ ours                                   Mitsuba 3
 ``DiffuseLight(L, albedo=a)``          ``area`` emitter + ``diffuse`` BSDF of albedo a (black if None)
 ``background``                         ``constant`` emitter (none when black)
 ``max_depth``, ``rr_depth``            ``path`` integrator; ``rr_depth=None`` -> larger than max_depth
+``direct=Direct(ne, nb)``              ``direct`` integrator, ``emitter_samples=ne``, ``bsdf_samples=nb``
 =====================================  ==================================================
 """
 from __future__ import annotations
@@ -190,8 +191,11 @@ def _lower(scene: rt.Scene) -> dict:
                    "near_clip": float(_f32(min(1e-4, 1e-6 * extent))),
                    "far_clip": float(_f32(4.0 * extent + 1.0)),
                    "rfilter": _rfilter(c.filter)},
-        "integrator": {"max_depth": int(scene.max_depth),
-                       "rr_depth": mitsuba_rr_depth(scene.max_depth, scene.rr_depth)},
+        "integrator": ({"type": "path", "max_depth": int(scene.max_depth),
+                        "rr_depth": mitsuba_rr_depth(scene.max_depth, scene.rr_depth), "hide_emitters": False}
+                       if scene.direct is None else
+                       {"type": "direct", "emitter_samples": scene.direct.emitter_samples,
+                        "bsdf_samples": scene.direct.bsdf_samples, "hide_emitters": False}),
         "background": _rgb(scene.background) if scene.has_background else None,
         "shapes": [],
     }
@@ -306,8 +310,7 @@ def to_mitsuba(scene: rt.Scene, *, variant: str | None = None) -> dict:
     cam, integ = low["camera"], low["integrator"]
     d = {
         "type": "scene",
-        "integrator": {"type": "path", "max_depth": integ["max_depth"], "rr_depth": integ["rr_depth"],
-                       "hide_emitters": False},
+        "integrator": dict(integ),
         "sensor": {
             "type": "perspective", "fov": cam["fov"], "fov_axis": "y",
             "near_clip": cam["near_clip"], "far_clip": cam["far_clip"],
@@ -460,9 +463,8 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
          '<scene version="3.0.0">',
          f'    <default name="spp" value="{int(spp)}"/>',
          f'    <default name="seed" value="{int(seed)}"/>',
-         '    <integrator type="path">',
-         f'        <integer name="max_depth" value="{integ["max_depth"]}"/>',
-         f'        <integer name="rr_depth" value="{integ["rr_depth"]}"/>',
+         f'    <integrator type="{integ["type"]}">',
+         *(f'        <integer name="{k}" value="{v}"/>' for k, v in integ.items() if k not in ("type", "hide_emitters")),
          '        <boolean name="hide_emitters" value="false"/>',
          "    </integrator>",
          '    <sensor type="perspective">',

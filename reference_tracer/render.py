@@ -149,7 +149,9 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
     strategy : {'uniform', 'cosine', 'light', 'mixture', 'mis'}, keyword-only
         Direction sampling at non-specular bounces. ``light`` is biased on purpose: it
         samples only directions toward emitters and so sees only light that arrives
-        straight from an emitter (no indirect light at diffuse surfaces).
+        straight from an emitter (no indirect light at diffuse surfaces). In a scene with
+        ``direct`` (Mitsuba's ``direct`` integrator) it picks the techniques of the first
+        surface's samples: :meth:`Direct.counts`.
     seed : int, keyword-only
         Seed of the random streams, 0 <= seed < 2**64.
     threads : int or None, keyword-only
@@ -216,7 +218,7 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
         return _render_filtered(core, scene, spp=spp, strategy=strategy, seed=int(seed), threads=threads,
                                 progress=progress, integrator=integrator, build=build)
     out = core.render(spp, STRATEGIES.index(strategy), int(seed), threads, progress, moments,
-                      INTEGRATORS.index(integrator))
+                      INTEGRATORS.index(integrator), **_direct_counts(scene, strategy))
     n = float(spp)
     mean = out["sum"] / n
     with np.errstate(over="ignore", invalid="ignore"):
@@ -230,6 +232,14 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
                         moments=(SampleMoments.from_shifted_sums(spp, max=out["max"],
                                                                  d=[out[f"d{k}"] for k in range(1, 5)])
                                  if moments else None))
+
+
+def _direct_counts(scene: Scene, strategy: str) -> dict:
+    """The core's keyword arguments for Mitsuba's ``direct`` (none: the path integrator)."""
+    if scene.direct is None:
+        return {}
+    ne, nb = scene.direct.counts(strategy)
+    return {"direct_emitter": ne, "direct_bsdf": nb}
 
 
 #: independent batches of a filtered render, for its per-pixel variance (as Mitsuba's references).
@@ -269,7 +279,7 @@ def _render_filtered(core, scene: Scene, *, spp, strategy, seed, threads, progre
 
         out = core.render(n, STRATEGIES.index(strategy), _batch_seed(seed, k), threads,
                           batch_progress if progress is not None else None, False, INTEGRATORS.index(integrator),
-                          filter=kind, filter_param=float(param))
+                          filter=kind, filter_param=float(param), **_direct_counts(scene, strategy))
         acc = out["filtered"]
         sums = acc.copy() if sums is None else sums + acc
         with np.errstate(invalid="ignore", divide="ignore"):

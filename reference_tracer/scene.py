@@ -11,7 +11,7 @@ import numpy as np
 from ._validate import colour, finite_scalar, positive_int, vector3
 from .shapes import Shape
 
-__all__ = ["Camera", "Filter", "FILTERS", "Scene", "MAX_DEPTH_CAP"]
+__all__ = ["Camera", "Direct", "Filter", "FILTERS", "Scene", "MAX_DEPTH_CAP"]
 
 #: Safety cap on path length when ``max_depth=-1`` (unlimited). A path that survives
 #: this many segments carries a throughput so small (or Russian roulette has long ended
@@ -127,6 +127,67 @@ class Camera:
         return Camera(self.lookfrom, self.lookat, self.vup, self.vfov, width, height, filter=self.filter)
 
 
+#: Largest sample count of either kind of :class:`Direct`.
+MAX_DIRECT_SAMPLES = 4096
+
+
+@dataclass(frozen=True)
+class Direct:
+    """Mitsuba's ``direct`` integrator: direct light only, by light and BSDF samples.
+
+    A camera ray adds the emission of what it hits (emitters emit from their front only) and,
+    at that surface, ``emitter_samples`` samples toward the emitters (with a shadow ray) and
+    ``bsdf_samples`` directions sampled from the material, each kind averaged over its own
+    count. With both kinds each sample is weighted by the power heuristic on densities scaled
+    by the kind's share of the samples (``n_e / (n_e + n_b)`` and ``n_b / (n_e + n_b)``), as
+    Mitsuba does. Nothing is traced beyond the first surface: a mirror shows only emitters
+    seen in it, and only through BSDF samples.
+
+    The render's ``strategy`` picks the techniques (:meth:`counts`): ``mis`` uses both counts
+    as given; ``light`` only light samples and ``cosine`` only material samples, as many as
+    the integrator gives that kind (or the other kind's count where it gives none);
+    ``uniform`` and ``mixture`` draw the directions uniformly on the hemisphere or from the
+    half-and-half mixture of light and material sampling. Mitsuba's own ``direct`` with
+    ``emitter_samples=0`` is our ``cosine``, with ``bsdf_samples=0`` our ``light``.
+
+    Parameters
+    ----------
+    emitter_samples, bsdf_samples : int
+        Samples of each kind per camera ray, 0 to 4096, not both 0 (Mitsuba's defaults: 1).
+
+    Examples
+    --------
+    >>> Direct(emitter_samples=1, bsdf_samples=0).counts("light")
+    (1, 0)
+    >>> Direct(1, 1).counts("cosine")
+    (0, 1)
+    """
+
+    emitter_samples: int = 1
+    bsdf_samples: int = 1
+
+    def __post_init__(self):
+        for name in ("emitter_samples", "bsdf_samples"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 <= v <= MAX_DIRECT_SAMPLES:
+                raise ValueError(f"Direct.{name} must be an integer in [0, {MAX_DIRECT_SAMPLES}], got {v!r}")
+            object.__setattr__(self, name, int(v))
+        if self.emitter_samples + self.bsdf_samples == 0:
+            raise ValueError("Direct needs at least one emitter or BSDF sample (Mitsuba refuses 0 and 0 too)")
+
+    def counts(self, strategy: str) -> tuple[int, int]:
+        """``(emitter, bsdf)`` samples per camera ray that ``strategy`` takes."""
+        ne, nb = self.emitter_samples, self.bsdf_samples
+        if strategy == "mis":
+            return ne, nb
+        if strategy == "light":
+            return ne or nb, 0
+        return 0, nb or ne
+
+    def describe(self) -> dict:
+        return {"emitter_samples": self.emitter_samples, "bsdf_samples": self.bsdf_samples}
+
+
 @dataclass(frozen=True, eq=False)
 class Scene:
     """A camera, a list of shapes and the integrator settings.
@@ -142,6 +203,9 @@ class Scene:
         Depth from which Russian roulette runs (Mitsuba's rule); None disables it.
     background : float or (3,) array_like
         Constant radiance of every ray that escapes (Mitsuba ``constant`` emitter).
+    direct : Direct or None
+        Mitsuba's ``direct`` integrator instead of ``path`` (``max_depth`` and ``rr_depth``
+        then play no part).
 
     Examples
     --------
@@ -158,6 +222,7 @@ class Scene:
     max_depth: int = 50
     rr_depth: int | None = None
     background: tuple = (0.0, 0.0, 0.0)
+    direct: Direct | None = None
     # The compiled C++ scene, per triangle test. Not an __init__ field, so that
     # dataclasses.replace(scene, ...) gives the new scene an empty cache of its own rather
     # than the original's compiled core (which rendered the old scene: issue 15, case 0).
@@ -181,6 +246,8 @@ class Scene:
         if self.rr_depth is not None:
             object.__setattr__(self, "rr_depth", positive_int("Scene.rr_depth", self.rr_depth))
         object.__setattr__(self, "background", colour("Scene.background", self.background, upper=None))
+        if self.direct is not None and not isinstance(self.direct, Direct):
+            raise ValueError(f"Scene.direct must be a reference_tracer.Direct or None, got {self.direct!r}")
 
     @property
     def effective_max_depth(self) -> int:
@@ -197,6 +264,8 @@ class Scene:
             "shapes": [s.describe() for s in self.shapes],
             "max_depth": self.max_depth, "rr_depth": self.rr_depth,
             "background": self.background,
+            # path scenes keep the hash they always had
+            **({} if self.direct is None else {"direct": self.direct.describe()}),
         }
 
     def content_hash(self) -> str:
@@ -206,7 +275,7 @@ class Scene:
 
     def with_camera_size(self, width: int, height: int) -> "Scene":
         return Scene(self.camera.with_size(width, height), self.shapes, self.max_depth,
-                     self.rr_depth, self.background)
+                     self.rr_depth, self.background, self.direct)
 
     @property
     def emitters(self):

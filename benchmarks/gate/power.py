@@ -72,7 +72,7 @@ def _replace_shape(scene, index, shape):
     shapes = list(scene.shapes)
     shapes[index] = shape
     return rt.Scene(camera=scene.camera, shapes=shapes, max_depth=scene.max_depth, rr_depth=scene.rr_depth,
-                    background=scene.background)
+                    background=scene.background, direct=scene.direct)
 
 
 def injected_scene(scene, edit):

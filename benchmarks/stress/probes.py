@@ -88,7 +88,7 @@ def transform_scene(scene: rt.Scene, *, scale: float = 1.0, offset=(0.0, 0.0, 0.
                     width=c.width, height=c.height)
     shapes = [s.scale(scale).translate(tuple(off)) for s in scene.shapes]
     return rt.Scene(camera=cam, shapes=shapes, max_depth=scene.max_depth, rr_depth=scene.rr_depth,
-                    background=scene.background)
+                    background=scene.background, direct=scene.direct)
 
 
 def white_furnace_scene(*, width: int = 24, height: int | None = None, max_depth: int = 50) -> rt.Scene:

@@ -169,7 +169,7 @@ public:
     // `mutant`: a seeded bug of the self-test (mutants.h), for benchmarks/selftest only;
     // 0 renders with the tracer itself. Only this module (reference_tracer._mutants) has it.
     nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress, bool moments,
-                    int integrator, int mutant, int filter, double filter_param) {
+                    int integrator, int mutant, int filter, double filter_param, int direct_emitter, int direct_bsdf) {
         if (mutant < 0 || mutant >= int(rt::Mutant::Count))
             throw std::invalid_argument("mutant id out of range [0, " + std::to_string(int(rt::Mutant::Count)) + ")");
         // The seeded bugs live in the scalar integrator (Integrator<M>) only.
@@ -177,7 +177,7 @@ public:
             throw std::invalid_argument("seeded bugs run in the scalar integrator only: pass integrator=1");
 #else
     nb::dict render(int spp, int strategy, uint64_t seed, int threads, nb::object progress, bool moments,
-                    int integrator, int filter, double filter_param) {
+                    int integrator, int filter, double filter_param, int direct_emitter, int direct_bsdf) {
 #endif
         if (spp < 1) throw std::invalid_argument("spp must be >= 1");
         if (strategy < 0 || strategy > 4) throw std::invalid_argument("unknown strategy");
@@ -198,6 +198,10 @@ public:
         if (filter != 0 && moments) throw std::invalid_argument("moments need the box filter");
         job.filter = filter == 1 ? rt::PixelFilter::tent(filter_param)
                    : filter == 2 ? rt::PixelFilter::gaussian(filter_param) : rt::PixelFilter::box();
+        // Mitsuba's `direct` with these sample counts; both 0: the path integrator.
+        if (direct_emitter < 0 || direct_bsdf < 0 || direct_emitter > 4096 || direct_bsdf > 4096)
+            throw std::invalid_argument("direct sample counts must be in [0, 4096]");
+        job.direct = rt::DirectCounts{direct_emitter, direct_bsdf};
 
         bool interrupted = false, callback_failed = false;
         rt::RenderOutput out;
@@ -530,7 +534,7 @@ NB_MODULE(_core, m) {
 #ifdef RT_MUTANTS_MODULE
              , "mutant"_a = 0
 #endif
-             , "filter"_a = 0, "filter_param"_a = 0.0)
+             , "filter"_a = 0, "filter_param"_a = 0.0, "direct_emitter"_a = 0, "direct_bsdf"_a = 0)
         .def("intersect", &PyScene::intersect, "origins"_a, "directions"_a, "brute_force"_a = false, "threads"_a = 1,
              "batch"_a = true, "wavefront"_a = false,
              "preliminary"_a = false)

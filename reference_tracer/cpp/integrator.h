@@ -21,16 +21,32 @@ enum class Strategy : int {
     MIS = 4,      // next-event estimation + material sampling, power heuristic (Mitsuba `path`)
 };
 
+// Mitsuba's `direct` integrator: what the camera ray sees, plus the direct light at its
+// first surface from `emitter` light samples and `bsdf` direction samples. Both counts 0:
+// the path integrator.
+struct DirectCounts {
+    int emitter = 0;
+    int bsdf = 0;
+
+    bool enabled() const { return emitter + bsdf > 0; }
+};
+
 // M: a self-test mutant (mutants.h). Integrator<Mutant::None> is the tracer; the others
 // are instantiated only in the self-test's module (mutants.cpp).
 template <Mutant M>
 class Integrator {
 public:
-    Integrator(const Scene& scene, Strategy strategy) : scene_(scene), strategy_(strategy) {}
+    Integrator(const Scene& scene, Strategy strategy, DirectCounts direct = {})
+        : scene_(scene), strategy_(strategy), direct_(direct) {}
 
     // Radiance arriving along `ray`; `rays` counts every ray cast (camera, continuation,
     // shadow/light rays).
-    Vec3 Li(Ray ray, PCG64& rng, uint64_t& rays) const;
+    Vec3 Li(Ray ray, PCG64& rng, uint64_t& rays) const {
+        return direct_.enabled() ? Li_direct(ray, rng, rays) : Li_path(ray, rng, rays);
+    }
+
+    // Whether this integrator is Mitsuba's `direct` (only the scalar steps implement it).
+    bool is_direct() const { return direct_.enabled(); }
 
 private:
     // The wavefront integrator (wavefront.h) runs the same steps as Li on batches of paths.
@@ -111,8 +127,19 @@ private:
     // black, and Russian roulette from rr_depth on (reweighting beta of the survivors).
     bool survives(int depth, double eta, Vec3& beta, PCG64& rng) const;
 
+    // The path integrator (Mitsuba `path`) with the strategy at every non-delta vertex.
+    Vec3 Li_path(Ray ray, PCG64& rng, uint64_t& rays) const;
+    // Mitsuba's `direct` (integrator_direct.h): the strategy picks the direction sampling
+    // of the `bsdf` samples; `mis` weighs them against the light samples.
+    Vec3 Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays) const;
+    // The emission that arrives at v's reference point `ref` along the sampled direction
+    // s->wi, weighted against the light samples' density (Li_direct's BSDF technique).
+    Vec3 direct_bsdf_sample(const Interaction& it, const Vertex& v, const Vec3& ref, const Scatter& s,
+                            double frac_light, double frac_bsdf, uint64_t& rays) const;
+
     const Scene& scene_;
     Strategy strategy_;
+    DirectCounts direct_;
 };
 
 // Defined in integrator_impl.h: the tracer's instantiation in integrator.cpp, the mutants'

@@ -179,7 +179,7 @@ template <Mutant M>
 }
 
 template <Mutant M>
-Vec3 Integrator<M>::Li(Ray ray, PCG64& rng, uint64_t& rays) const {
+Vec3 Integrator<M>::Li_path(Ray ray, PCG64& rng, uint64_t& rays) const {
     const SceneSettings& cfg = scene_.settings();
     Vec3 L(0.0), beta(1.0);
     double eta = 1.0;  // product of relative IORs crossed (Russian roulette)
@@ -234,3 +234,5 @@ Vec3 Integrator<M>::Li(Ray ray, PCG64& rng, uint64_t& rays) const {
 }
 
 }  // namespace rt
+
+#include "integrator_direct.h"

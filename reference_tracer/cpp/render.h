@@ -48,6 +48,7 @@ struct RenderJob {
     int threads = 1;
     bool moments = false;             // also accumulate TailMoments (a few flops per sample)
     PixelFilter filter;               // box: per-pixel sums; else splats into RenderOutput::filtered
+    DirectCounts direct;              // Mitsuba's `direct` (scalar steps only); none: `path`
     static constexpr int kTileSize = 16;
 };
 

@@ -28,7 +28,7 @@ RenderOutput render_with(const RenderJob& job, Poll&& poll) {
 
     const bool filtered = job.filter.kind != FilterKind::Box;
     if (filtered) out.filtered.assign(size_t(W) * H * 4, 0.0);
-    const Integrator<M> integrator(scene, job.strategy);
+    const Integrator<M> integrator(scene, job.strategy, job.direct);
     std::atomic<int> next_tile{0};
     std::atomic<uint64_t> pixels_done{0}, rays{0}, nonfinite{0};
     std::atomic<bool> cancel{false};
@@ -42,7 +42,7 @@ RenderOutput render_with(const RenderJob& job, Poll&& poll) {
         // A filter splats across pixels: each worker into an image of its own, summed at the end.
         std::unique_ptr<SplatImage> splat = filtered ? std::make_unique<SplatImage>(W, H, job.filter) : nullptr;
         if constexpr (M == Mutant::None) {
-            if (job.integrator == IntegratorKind::Wavefront && !filtered) {
+            if (job.integrator == IntegratorKind::Wavefront && !filtered && !integrator.is_direct()) {
                 scalar = false;
                 TileCursor pixels(next_tile, W, H);
                 render_wavefront(integrator, job, pixels, out, cancel, pixels_done, my_rays, my_nonfinite);
