@@ -23,6 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from benchmarks.stats import sidak
+
 
 #: Relative float32 rounding allowed between renderers (a few ulps of a pixel mean).
 RELATIVE_ROUNDING = 1e-5
@@ -41,8 +43,7 @@ class Agreement:
 
 
 def sidak_z(alpha: float, n_tests: int) -> float:
-    p_each = 1.0 - (1.0 - alpha) ** (1.0 / n_tests)
-    return float(stats.norm.isf(p_each / 2.0))
+    return float(stats.norm.isf(sidak(alpha, n_tests) / 2.0))
 
 
 def compare(mean_a, var_a, n_a, mean_b, var_b, n_b, *, alpha: float = 1e-3) -> Agreement:

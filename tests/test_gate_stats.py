@@ -30,7 +30,8 @@ try:
 except ModuleNotFoundError:  # not installed (no `pip install -e .` yet): use the checkout
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from benchmarks.gate import compare, mitsuba_rule, sidak  # noqa: E402
+from benchmarks.gate import compare, mitsuba_rule  # noqa: E402
+from benchmarks.stats import sidak, sidak_p_value  # noqa: E402
 
 LIGHT_RGB = np.array([17.0, 12.0, 4.0])
 
@@ -133,16 +134,18 @@ def test_welch_pixel_matches_scipy():
 
 
 def test_sidak_and_levels_by_hand():
-    assert sidak(0.01, 1) == pytest.approx(0.01)
-    assert sidak(1e-6, 1000) == pytest.approx(1 - (1 - 1e-6) ** 1000, rel=1e-9)
-    assert sidak(0.0, 5) == 0.0 and sidak(0.3, 0) == 1.0
+    assert sidak_p_value(0.01, 1) == pytest.approx(0.01)
+    assert sidak_p_value(1e-6, 1000) == pytest.approx(1 - (1 - 1e-6) ** 1000, rel=1e-9)
+    assert sidak_p_value(0.0, 5) == 0.0 and sidak_p_value(0.3, 0) == 1.0
+    for alpha, m in ((0.01, 1), (0.01, 768), (1e-3, 3)):   # the level and the p-value are inverses
+        assert sidak_p_value(sidak(alpha, m), m) == pytest.approx(alpha, rel=1e-9)
     rng = np.random.default_rng(1)
     x, v = rng.normal(1, 0.05, (16, 16, 3)), np.full((16, 16, 3), 0.16)
     g = compare(x, v, 64, np.ones_like(x), v, 4096, tile=8)
     # without tail diagnostics the correlation level is not tested (p = 1)
     assert g.n_tests == {"pixel": 768, "tile": 12, "image": 3, "correlation": 0}
     assert g.level_p["correlation"] == 1.0
-    assert g.level_p["pixel"] == pytest.approx(sidak(g.pixel_p.min(), 768))
+    assert g.level_p["pixel"] == pytest.approx(sidak_p_value(g.pixel_p.min(), 768))
     assert g.p_value == pytest.approx(min(1.0, 4 * min(g.level_p.values())))
     assert g.passed == (g.p_value >= 0.01)
 

@@ -4,8 +4,8 @@
 grid, integrates ``pdf`` over every cell for the expected counts and runs Pearson's test
 with low-expectation cells pooled; it also checks that the density's mass over the domain
 equals the fraction of samples the routine returned. :func:`discrete_test` is the same test
-for a finite set of outcomes (the lobes of glass). :func:`sidak` gives the per-test level
-of a family of tests.
+for a finite set of outcomes (the lobes of glass). :func:`sidak` (:mod:`benchmarks.stats`)
+gives the per-test level of a family of tests.
 """
 from __future__ import annotations
 
@@ -15,6 +15,8 @@ from typing import Callable
 
 import numpy as np
 from scipy import stats
+
+from ..stats import sidak
 
 __all__ = ["DOMAINS", "DEFAULT_N", "DEFAULT_RESOLUTION", "DEFAULT_ALPHA", "MIN_EXPECTED", "Grid", "Chi2Result",
            "sidak", "pearson", "integrate", "chi2_test", "discrete_test", "excess_p_value"]
@@ -70,16 +72,6 @@ _CHUNK = 1 << 20
 # Samples this close outside the grid's range (rounding: z = -1e-17 in a hemisphere, or on
 # a cap's edge) are binned into the edge cells; |d| may differ from 1 by _UNIT_TOL.
 _EDGE_EPS, _UNIT_TOL = 1e-9, 1e-6
-
-
-def sidak(alpha_family: float, m: int) -> float:
-    """Level of each of ``m`` independent tests so that the family's false-positive rate is
-    ``alpha_family`` (Sidak): ``1 - (1 - alpha_family) ** (1 / m)``."""
-    if not 0.0 < alpha_family < 1.0:
-        raise ValueError(f"alpha must be in (0, 1), got {alpha_family}")
-    if m < 1:
-        raise ValueError(f"a family needs at least one test, got {m}")
-    return -math.expm1(math.log1p(-alpha_family) / m)
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ import numpy as np
 from scipy import stats
 from scipy.ndimage import uniform_filter
 
-__all__ = ["DEFAULT_VALIDITY", "sidak_level", "edgeworth_error", "spp_needed", "tail_moments", "pixel_shape",
+__all__ = ["DEFAULT_VALIDITY", "edgeworth_error", "spp_needed", "tail_moments", "pixel_shape",
            "neighbourhood_floor"]
 
 #: Largest relative error of the normal tail probability at a level's critical value
@@ -31,17 +31,6 @@ def neighbourhood_floor(v: np.ndarray, size: int) -> np.ndarray:
     """``max(v, mean of v over the size x size neighbourhood)`` per channel."""
     pooled = np.stack([uniform_filter(v[..., c], size=size, mode="nearest") for c in range(v.shape[2])], axis=-1)
     return np.maximum(v, pooled)
-
-
-def sidak_level(alpha: float, m: int) -> float:
-    """Per-test level that gives family-wise ``alpha`` over ``m`` independent tests.
-
-    Examples
-    --------
-    >>> round(sidak_level(0.01, 100), 7)
-    0.0001005
-    """
-    return float(-math.expm1(math.log1p(-alpha) / max(int(m), 1)))
 
 
 def edgeworth_error(z, g1, g2):

@@ -7,12 +7,12 @@ same data.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import stats
 
+from ..stats import sidak
 from .statistics import _image3, _spp
 
 __all__ = ["MitsubaRuleResult", "mitsuba_rule"]
@@ -85,7 +85,7 @@ def mitsuba_rule(test_mean, ref_mean, ref_var, test_spp, *, alpha: float = MITSU
     p = 2.0 * stats.norm.sf(z)
     p = np.where(np.isnan(p), 0.0, p)  # NaN test pixels fail (Mitsuba: NaN > alpha is False)
     pixel_count = H * W
-    alpha_s = float(-math.expm1(math.log1p(-alpha) / pixel_count))
+    alpha_s = sidak(alpha, pixel_count)
     success = p > alpha_s
     n_pass = int(np.count_nonzero(success))
     return MitsubaRuleResult(

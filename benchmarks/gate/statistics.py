@@ -85,30 +85,14 @@ import numpy as np
 from scipy import stats
 
 from ..constants import GATE_ALPHA
-from .heavy_tails import (DEFAULT_VALIDITY, edgeworth_error, neighbourhood_floor, pixel_shape, sidak_level,
-                          spp_needed, tail_moments)
+from ..stats import sidak, sidak_p_value
+from .heavy_tails import (DEFAULT_VALIDITY, edgeworth_error, neighbourhood_floor, pixel_shape, spp_needed,
+                          tail_moments)
 from .correlation import MIN_PAIRS, neighbour_products
 from .findings import POWER_TILE, locate, power, relative_bias
 from .result import LEVELS, GateResult
 
-__all__ = ["compare", "sidak"]
-
-
-def sidak(p_min: float, m: int) -> float:
-    """Sidak-adjusted p-value of the smallest of ``m`` p-values, ``1 - (1 - p_min)^m``.
-
-    Computed as ``-expm1(m * log1p(-p_min))`` so tiny p-values keep their precision.
-
-    >>> round(sidak(0.01, 1), 12), round(sidak(1e-12, 1000), 15)
-    (0.01, 1e-09)
-    """
-    if m <= 0:
-        return 1.0
-    if p_min >= 1.0:
-        return 1.0
-    if p_min <= 0.0:
-        return 0.0
-    return float(-math.expm1(m * math.log1p(-p_min)))
+__all__ = ["compare"]
 
 
 def _image3(a, name: str) -> np.ndarray:
@@ -420,7 +404,7 @@ def _level(d: _Inputs, reduce, diff, K3, K4, *, alpha_level, validity) -> _Level
         pos = var > 0
         g1 = np.where(pos, K3 / np.where(pos, var, 1.0) ** 1.5, 0.0)
         g2 = np.where(pos, K4 / np.where(pos, var, 1.0) ** 2, 0.0)
-    z_crit = float(stats.norm.isf(sidak_level(alpha_level, max(int(testable.sum()), 1)) / 2.0))
+    z_crit = float(stats.norm.isf(sidak(alpha_level, max(int(testable.sum()), 1)) / 2.0))
     valid = testable & (~pos | (edgeworth_error(z_crit, g1, g2) <= validity))
     at = np.minimum(np.where(np.isfinite(z), np.abs(z), z_crit), z_crit)
     p = np.where(pos, np.minimum(1.0, p * (1.0 + edgeworth_error(at, g1, g2))), p)
@@ -489,7 +473,7 @@ def _correlation_level(pix: _Level, with_tails: bool, *, alpha_level, validity) 
     testable = (n >= MIN_PAIRS) & with_tails
     n1 = np.where(n > 0, n, 1.0)
     z, g1, g2 = S / np.sqrt(n1), K3 / n1 ** 1.5, K4 / n1 ** 2
-    z_crit = float(stats.norm.isf(sidak_level(alpha_level, max(int(testable.sum()), 1))))
+    z_crit = float(stats.norm.isf(sidak(alpha_level, max(int(testable.sum()), 1))))
     valid = testable & (edgeworth_error(z_crit, g1, g2) <= validity)
     at = np.clip(z, 0.0, z_crit)
     p = np.where(testable, np.minimum(1.0, stats.norm.sf(z) * (1.0 + edgeworth_error(at, g1, g2))), 1.0)
@@ -504,7 +488,7 @@ def _family_p(levels: list) -> tuple:
     (all tile sizes form one family)."""
     p = np.concatenate([lv.p[lv.valid].ravel() for lv in levels])
     m = int(p.size)
-    return (sidak(float(p.min()), m) if m else 1.0), m
+    return (sidak_p_value(float(p.min()), m) if m else 1.0), m
 
 
 def _decide(failed: list, img: _Level, n_t: float, validity: float, rho) -> tuple:

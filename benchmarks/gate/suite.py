@@ -57,6 +57,7 @@ from ..constants import GATE_ALPHA, STRATEGIES
 from ..files import slug
 from ..references import Reference, closed_form_reference_of
 from ..references import reference as mitsuba_reference
+from ..stats import sidak
 from ..tails import DEFAULT_TAIL_SPP, tail_reference
 from .result import GateResult
 from .statistics import compare
@@ -430,7 +431,7 @@ def write_p_images(case: GateCase, out) -> list:
     # the raw per-pixel p at which the pixel level alone reaches the comparison's alpha:
     # Bonferroni over 3 levels and Sidak over the pixel tests
     m = max(int(r.n_tests.get("pixel", 1)), 1)
-    p_pix = -math.expm1(math.log1p(-case.alpha / 3.0) / m)
+    p_pix = sidak(case.alpha / 3.0, m)
     thresh = -math.log10(p_pix)
     vmax = max(2.0 * thresh, float(np.nanmax(logp[logp < 300])) if np.any(logp < 300) else 0.0)
     h, w = logp.shape
