@@ -7,9 +7,11 @@ One module decides the exposure and the tone curve, so that the SSIM metric
   (99th-percentile luminance) to white; SSIM's exposure (README.md, Conventions).
 * :func:`reference_exposure`: the report's exposure in stops, the brighter of that scale
   and the reference's median luminance at 18% grey.
-* :func:`to_display`: scale, clip to [0, 1], sRGB transfer. It is the tracer's own
-  :func:`reference_tracer.imageio.to_display` (the one implementation of the curve) with the
-  image checks of the metrics and a NaN policy: SSIM keeps NaN visible, a picture shows 0.
+* :func:`to_display`: scale (``exposure`` in stops, or a linear ``scale=``), clip to
+  [0, 1], sRGB transfer. It *is* the tracer's :func:`reference_tracer.imageio.to_display`,
+  the one implementation of the curve, imported here so the metrics and the report name
+  their tone map in one place; ``keep_nan=True`` keeps NaN visible (SSIM), the default
+  shows it as 0 (pictures).
 
 The same exposure is applied to a test image and its reference, so a too-bright render is
 not normalised away.
@@ -20,7 +22,7 @@ import math
 
 import numpy as np
 
-from reference_tracer import imageio
+from reference_tracer.imageio import to_display
 
 from .constants import LUMINANCE_WEIGHTS
 
@@ -75,7 +77,7 @@ def exposure_from_reference(ref, *, percentile: float = 99.0) -> float:
 
 
 def reference_exposure(ref) -> float:
-    """Display exposure in stops (for ``to_display(..., stops=)``) from the reference image.
+    """Display exposure in stops (``to_display``'s ``exposure``) from the reference image.
 
     The larger of two scales: the reference's median positive luminance to 18% grey
     (:data:`MIDDLE_GREY`), and the SSIM exposure (:func:`exposure_from_reference`: the
@@ -101,41 +103,3 @@ def reference_exposure(ref) -> float:
         return 0.0
     return float(np.clip(math.log2(k), -60.0, 60.0))
 
-
-def to_display(img, scale: float | None = None, *, stops: float | None = None,
-               keep_nan: bool = True) -> np.ndarray:
-    """Linear radiance -> display sRGB in [0, 1]: scale, clip to [0, 1], sRGB transfer.
-
-    The tone curve is :func:`reference_tracer.imageio.to_display` (colour-science's sRGB
-    inverse EOTF); this adds the image checks of the metrics and picks the NaN policy.
-
-    Parameters
-    ----------
-    img : array_like, shape (H, W) or (H, W, C)
-        Linear radiance.
-    scale : float, optional
-        Linear exposure factor (e.g. :func:`exposure_from_reference`). Give ``scale`` or
-        ``stops``, not both; neither means 1.
-    stops : float, optional
-        Exposure in stops (e.g. :func:`reference_exposure`): the factor is ``2**stops``.
-    keep_nan : bool
-        True (default, the metrics' policy): NaN stays NaN, so SSIM's ``nan_policy`` sees
-        it; infinities clip to 1 or 0. False (pictures): every non-finite value shows as 0.
-
-    Returns
-    -------
-    ndarray of float64, same shape as ``img``
-
-    Examples
-    --------
-    >>> to_display(np.array([[0.0, 0.5, 4.0]]), 0.5).round(4).tolist()
-    [[0.0, 0.5371, 1.0]]
-    >>> to_display(np.array([[np.nan, 0.25]]), stops=1.0, keep_nan=False).round(4).tolist()
-    [[0.0, 0.7354]]
-    """
-    if scale is not None and stops is not None:
-        raise ValueError("to_display: give scale or stops, not both")
-    x = as_image(img, "img")
-    if stops is not None:
-        return imageio.to_display(x, float(stops), keep_nan=keep_nan)
-    return imageio.to_display(x, scale=1.0 if scale is None else float(scale), keep_nan=keep_nan)

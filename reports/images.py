@@ -32,7 +32,7 @@ def _png(rgb_uint8: np.ndarray) -> bytes:
 
 def display_png(img: np.ndarray, exposure: float) -> bytes:
     """Linear radiance -> 8-bit sRGB PNG bytes, ``exposure`` in stops (non-finite pixels black)."""
-    d = to_display(np.asarray(img)[..., :3], stops=exposure, keep_nan=False)
+    d = to_display(np.asarray(img)[..., :3], exposure)
     return _png(np.round(np.clip(d, 0.0, 1.0) * 255.0).astype(np.uint8))
 
 

@@ -60,7 +60,7 @@ def _metrics(img, ref, exposure):
     d = img.astype(np.float64) - ref
     mse = float(np.mean(d ** 2))
     relmse = float(np.mean(d ** 2 / (ref.astype(np.float64) ** 2 + 0.01)))
-    disp = lambda a: to_display(a, stops=exposure, keep_nan=False)  # noqa: E731 - as the report shows them
+    disp = lambda a: to_display(a, exposure)  # noqa: E731 - as the report shows them
     ssim = float(structural_similarity(disp(img), disp(ref), data_range=1.0,
                                        channel_axis=-1, gaussian_weights=True, sigma=1.5,
                                        use_sample_covariance=False, win_size=7))

@@ -109,8 +109,8 @@ def flip(img, ref, *, exposure: float | None = None, error_map: bool = False, na
     if nan_mask(nan_policy, img=x, ref=r) is not None:
         return (math.nan, np.full(x.shape[:2], np.nan)) if error_map else math.nan
     k = exposure_from_reference(r) if exposure is None else float(exposure)
-    xd = np.ascontiguousarray(to_display(x, k, keep_nan=False), dtype=np.float32)
-    rd = np.ascontiguousarray(to_display(r, k, keep_nan=False), dtype=np.float32)
+    xd = np.ascontiguousarray(to_display(x, scale=k), dtype=np.float32)
+    rd = np.ascontiguousarray(to_display(r, scale=k), dtype=np.float32)
     fmap, mean, _ = _module().evaluate(rd, xd, "LDR", inputsRGB=True, applyMagma=False, computeMeanError=True)
     value = float(mean)
     if error_map:

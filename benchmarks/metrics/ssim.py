@@ -58,7 +58,7 @@ def ssim(img, ref, *, exposure: float | None = None, nan_policy: str = "propagat
                       RuntimeWarning, stacklevel=2)
         return math.nan
     k = exposure_from_reference(r) if exposure is None else float(exposure)
-    xd, rd = to_display(x, k, keep_nan=True), to_display(r, k, keep_nan=True)
+    xd, rd = to_display(x, scale=k, keep_nan=True), to_display(r, scale=k, keep_nan=True)
     win = None if side >= _SSIM_WINDOW else (side if side % 2 == 1 else side - 1)
     return float(structural_similarity(
         xd, rd, data_range=1.0, channel_axis=-1 if x.ndim == 3 else None,
