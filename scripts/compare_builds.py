@@ -41,6 +41,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.speed.builds import agreement_arrays, build_core, build_target, run_with_core  # noqa: E402
+from benchmarks.sweep.jobs import default_threads  # noqa: E402
 
 _TIMING = """
 import dataclasses, json
@@ -77,7 +78,7 @@ def _compare(argv) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--build", action="append", required=True, metavar="NAME=ARGS",
                         help="a configuration: name, '=', extra cmake arguments (repeat; the first is the baseline)")
-    parser.add_argument("--threads", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--threads", type=int, default=default_threads())
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--triangles", type=int, default=1_000_000)
     parser.add_argument("--spp", type=int, default=256)
@@ -99,7 +100,7 @@ def _compare(argv) -> int:
     work.mkdir(parents=True, exist_ok=True)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs; "
           f"python {platform.python_version()}; work folder {work}", flush=True)
-    jobs = max(1, (os.cpu_count() or 2) // len(builds))
+    jobs = max(1, default_threads() // len(builds))
     with ThreadPoolExecutor(len(builds)) as pool:
         futures = {name: pool.submit(build_core, work / name, *args, jobs=jobs) for name, args in builds}
     modules = {}

@@ -151,3 +151,41 @@ def test_render_names_every_setting_and_renders_mitsuba_on_request(tmp_path, cap
                      "cornell_box_8x8_mis_spp2_seed0.exr", "cornell_box_8x8_mis_spp2_seed1.exr",
                      "cornell_box_8x8_mitsuba-scalar_rgb_spp2_seed0.exr"]
     assert "NaN/Inf" not in capsys.readouterr().out  # --quiet: only the 'wrote' lines
+
+
+def _cgroup(tmp_path, member: str, limits: dict):
+    """A fake cgroup v2 tree under tmp_path: ``limits`` maps a cgroup path to its cpu.max."""
+    root = tmp_path / "cgroup"
+    for rel, text in limits.items():
+        folder = root / rel.strip("/")
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "cpu.max").write_text(text + "\n")
+    (tmp_path / "membership").write_text(f"1:cpu:/\n0::{member}\n")
+    return dict(root=root, membership=tmp_path / "membership")
+
+
+def test_cgroup_cpu_limit_reads_the_smallest_quota_on_the_way_to_the_root(tmp_path):
+    from benchmarks.sweep.jobs import cgroup_cpu_limit
+
+    assert cgroup_cpu_limit(**_cgroup(tmp_path / "a", "/", {"/": "max 100000"})) is None
+    assert cgroup_cpu_limit(**_cgroup(tmp_path / "b", "/", {"/": "150000 100000"})) == 1.5
+    nested = _cgroup(tmp_path / "c", "/job/step", {"/": "max 100000", "/job": "400000 100000",
+                                                    "/job/step": "600000 100000"})
+    assert cgroup_cpu_limit(**nested) == 4.0                  # the parent's quota caps the child's
+    assert cgroup_cpu_limit(**_cgroup(tmp_path / "d", "/x", {"/": "garbage"})) is None
+    assert cgroup_cpu_limit(root=tmp_path / "none", membership=tmp_path / "none") is None
+
+
+def test_all_cores_respects_affinity_and_the_cgroup_quota(monkeypatch):
+    from benchmarks.sweep import jobs
+
+    monkeypatch.setattr(jobs.os, "sched_getaffinity", lambda pid: {0, 1, 2, 3, 4, 5, 6, 7}, raising=False)
+    monkeypatch.setattr(jobs, "cgroup_cpu_limit", lambda: None)
+    assert jobs.default_threads() == 8
+    monkeypatch.setattr(jobs, "cgroup_cpu_limit", lambda: 2.5)  # a container with --cpus 2.5
+    assert jobs.default_threads() == 3
+    monkeypatch.setattr(jobs, "cgroup_cpu_limit", lambda: 0.2)
+    assert jobs.default_threads() == 1
+    monkeypatch.setattr(jobs, "cgroup_cpu_limit", lambda: 16.0)  # a quota above the affinity mask
+    assert jobs.default_threads() == 8
+    assert A.resolve_threads(None) == 8 and A.resolve_threads(3) == 3

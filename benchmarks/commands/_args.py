@@ -307,10 +307,10 @@ def add_threads_args(parser) -> None:
 
 
 def resolve_threads(threads) -> int:
-    """``--threads`` as a number: all cores when unset."""
-    import os
+    """``--threads`` as a number: all cores when unset (:func:`benchmarks.sweep.jobs.default_threads`)."""
+    from benchmarks.sweep.jobs import default_threads
 
-    return int(threads) if threads else (os.cpu_count() or 1)
+    return int(threads) if threads else default_threads()
 
 
 def add_cache_arg(parser) -> None:

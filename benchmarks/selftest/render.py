@@ -10,7 +10,6 @@ into a second extension module, ``reference_tracer._mutants``, whose ``Scene.ren
 from __future__ import annotations
 
 import hashlib
-import os
 from pathlib import Path
 
 import numpy as np
@@ -71,7 +70,9 @@ def render_mutant(scene, mutant: str, *, spp: int, strategy: str, seed: int = 0,
     if strategy not in rt.STRATEGIES:
         raise ValueError(f"strategy must be one of {rt.STRATEGIES}, got {strategy!r}")
     if threads is None:
-        threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+        from ..sweep.jobs import default_threads
+
+        threads = default_threads()
     threads = positive_int("threads", threads)
     # The seeded bugs live in the scalar integrator; the tracer's images are the same with
     # either integrator (tests/test_wavefront.py), so every self-test render uses it.

@@ -105,8 +105,9 @@ def environment() -> dict:
         load = list(os.getloadavg())
     except OSError:
         load = None
-    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return {"cpu_count": cpus, "loadavg": load, "machine": platform.machine(),
+    from ..sweep.jobs import default_threads
+
+    return {"cpu_count": default_threads(), "loadavg": load, "machine": platform.machine(),
             "python": platform.python_version(), "reference_tracer": getattr(rt, "__version__", None),
             "note": WALL_CLOCK_NOTE}
 

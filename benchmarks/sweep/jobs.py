@@ -7,16 +7,18 @@ scene x curve x spp x seed at one image size.
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from ..constants import MITSUBA_STRATEGY, STRATEGIES
+from ..constants import MITSUBA_DIRECT, MITSUBA_STRATEGY, STRATEGIES
 from ..files import slug
 from ..store import KEY_FIELDS
 
-__all__ = ["Job", "Group", "validate_group", "make_jobs", "renderer_builds", "render_seed", "default_threads", "scene_at",
+__all__ = ["Job", "Group", "validate_group", "make_jobs", "mitsuba_strategies", "mitsuba_twin", "mitsuba_pairs", "renderer_builds", "render_seed", "default_threads", "cgroup_cpu_limit", "scene_at",
            "image_paths", "check_int", "check_int_list"]
 
 
@@ -187,11 +189,62 @@ def make_jobs(scenes, *, strategies, spps, seeds: int, width: int, height: int,
     spps = check_int_list("spps", spps)
     from ..external import STRATEGY as EXTERNAL
 
-    curves = [("ours", s) for s in strategies] + ([("mitsuba", MITSUBA_STRATEGY)] if mitsuba else [])
-    curves += [(e, EXTERNAL) for e in externals]
+    ours = [("ours", s) for s in strategies]
+    others = [(e, EXTERNAL) for e in externals]
+    per_scene = {scene: ours + ([("mitsuba", s) for s in mitsuba_strategies(scene)] if mitsuba else []) + others
+                 for scene in scenes}
     return [Job(scene, renderer, strategy, spp, seed, int(width), int(height))
             for scene in scenes for spp in sorted(spps) for seed in range(int(seeds))
-            for renderer, strategy in curves]
+            for renderer, strategy in per_scene[scene]]
+
+
+def mitsuba_strategies(scene: str) -> tuple:
+    """Mitsuba's curves of suite scene or scene file ``scene``: its ``path`` integrator, or for a
+    scene with Mitsuba's ``direct`` integrator the three of Veach's comparison (:data:`MITSUBA_DIRECT`).
+
+    Examples
+    --------
+    >>> mitsuba_strategies("cornell_box")
+    ('path',)
+    """
+    from mitsuba_scenes import get_scene
+
+    return tuple(MITSUBA_DIRECT) if get_scene(scene).direct is not None else (MITSUBA_STRATEGY,)
+
+
+def mitsuba_twin(strategy: str, available) -> str | None:
+    """The Mitsuba curve among ``available`` that our ``strategy`` is compared with: ``path``
+    where Mitsuba renders the path integrator; under ``direct`` the one with the same counts
+    (``cosine`` - ``direct_bsdf``, ``light`` - ``direct_light``), else ``direct_mis``.
+
+    Examples
+    --------
+    >>> mitsuba_twin("light", ["direct_bsdf", "direct_light", "direct_mis"])
+    'direct_light'
+    >>> mitsuba_twin("uniform", ["path"])
+    'path'
+    """
+    available = list(available)
+    if MITSUBA_STRATEGY in available:
+        return MITSUBA_STRATEGY
+    twin = {ours: name for name, ours in MITSUBA_DIRECT.items()}.get(strategy, "direct_mis")
+    return twin if twin in available else ("direct_mis" if "direct_mis" in available else None)
+
+
+def mitsuba_pairs(rows):
+    """``(row, Mitsuba's row it is compared with or None)`` for every summary row: the
+    :func:`mitsuba_twin` curve of the same scene and size (a Mitsuba row: itself)."""
+    mits = {}
+    for r in rows:
+        if r["renderer"] == "mitsuba":
+            mits.setdefault((r["scene"], r["width"], r["height"]), {})[r["strategy"]] = r
+    for r in rows:
+        if r["renderer"] == "mitsuba":
+            yield r, r
+            continue
+        same = mits.get((r["scene"], r["width"], r["height"]), {})
+        twin = mitsuba_twin(r["strategy"], same)
+        yield r, same.get(twin) if twin else None
 
 
 def renderer_builds(variant: str | None, mitsuba_version: str | None) -> dict:
@@ -223,11 +276,55 @@ def render_seed(seed: int, spp: int) -> int:
     return int.from_bytes(h[:8], "little") >> 2
 
 
+def cgroup_cpu_limit(root="/sys/fs/cgroup", membership="/proc/self/cgroup") -> float | None:
+    """CPUs the cgroup v2 CPU quota lets this process use, or None where no quota is set.
+
+    ``cpu.max`` holds ``QUOTA PERIOD`` (microseconds of CPU time per period) or ``max
+    PERIOD`` (no quota). The process's cgroup is read from ``membership`` (the ``0::/path``
+    line); a quota anywhere from that cgroup up to ``root`` applies, so the smallest
+    ``QUOTA / PERIOD`` of them is returned. In a container the ``root`` itself is usually
+    the container's cgroup. Unreadable files count as no quota.
+
+    Examples
+    --------
+    >>> cgroup_cpu_limit(root="/nonexistent", membership="/nonexistent") is None
+    True
+    """
+    root = Path(root)
+    rel = ""
+    try:
+        for line in Path(membership).read_text().splitlines():
+            if line.startswith("0::"):
+                rel = line[3:].strip().lstrip("/")
+                break
+    except OSError:
+        pass
+    folder = root / rel if rel and ".." not in Path(rel).parts else root
+    limits = []
+    while True:
+        try:
+            fields = (folder / "cpu.max").read_text().split()
+            quota, period = int(fields[0]), int(fields[1])
+        except (OSError, ValueError, IndexError):   # no file, "max", or garbage: no quota here
+            pass
+        else:
+            if quota > 0 and period > 0:
+                limits.append(quota / period)
+        if folder == root or root not in folder.parents:
+            break
+        folder = folder.parent
+    return min(limits) if limits else None
+
+
 def default_threads() -> int:
-    """All cores this process may use."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
+    """All cores this process may use: the CPUs of its affinity mask (``taskset``, a
+    cpuset), fewer where a cgroup CPU quota (:func:`cgroup_cpu_limit`, a container's
+    ``--cpus``) allows fewer, rounded up; at least 1. What ``--threads`` means unset."""
+    n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    limit = cgroup_cpu_limit()
+    if limit is not None:
+        n = min(n, math.ceil(limit))
+    return max(1, n)
 
 
 def scene_at(name: str, width: int, height: int):
