@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from .constants import GATE_ALPHA
+from .metrics import convergence_slope
 from .store import curve_of, read_image, read_records
 
 __all__ = ["BOOTSTRAP_RESAMPLES", "CurveComparison", "EstimatorKnowledge", "compare_stores", "curve_points",
@@ -111,16 +112,17 @@ def curve_points(records) -> dict:
 
 
 def _slope(points: dict, pick) -> float | None:
-    """Least-squares slope of log RMSE over log spp with ``pick(list) -> list`` choosing seeds."""
-    xs, ys = [], []
+    """:func:`~benchmarks.metrics.convergence_slope` of RMSE over spp, with ``pick(list) -> list``
+    choosing seeds; None with fewer than two budgets of positive MSE."""
+    spps, rmses = [], []
     for spp, pts in points.items():
         m = float(np.mean([p[0] for p in pick(pts)]))
         if m > 0:
-            xs.append(math.log(spp))
-            ys.append(0.5 * math.log(m))
-    if len(xs) < 2:
+            spps.append(spp)
+            rmses.append(math.sqrt(m))
+    if len(spps) < 2:
         return None
-    return float(np.polyfit(xs, ys, 1)[0])
+    return convergence_slope(spps, rmses).slope
 
 
 def _efficiency(pts, pick) -> float | None:

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP
+from benchmarks.metrics import convergence_slope
 
 from .store import curve_order, num
 
@@ -104,13 +105,14 @@ def curves(records: list[dict], metric: str) -> list[Curve]:
 
 
 def loglog_slope(x, y) -> float:
-    """Least-squares slope of log y over log x on the positive finite pairs (NaN with < 2 distinct x)."""
+    """:func:`benchmarks.metrics.convergence_slope` of y over x on the positive finite pairs
+    (NaN with < 2 distinct x)."""
     x = np.asarray(x, dtype=float)
     y = np.asarray(y, dtype=float)
     ok = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
     if np.unique(x[ok]).size < 2:
         return math.nan
-    return float(np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
+    return convergence_slope(x[ok], y[ok]).slope
 
 
 def loglog_interp(x, y, at: float) -> float:

@@ -1,6 +1,7 @@
 """Convergence and cost: log-log slope of RMSE over spp, efficiency, time to reach an error."""
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import asdict, dataclass
 
@@ -32,6 +33,12 @@ class SlopeFit:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+@functools.lru_cache(maxsize=64)
+def _t_quantile(q: float, dof: int) -> float:
+    """Student t quantile, cached: bootstraps fit thousands of slopes at a few (q, dof)."""
+    return float(stats.t.ppf(q, dof))
 
 
 def convergence_slope(spp, rmse, *, confidence: float = 0.95,
@@ -96,7 +103,7 @@ def convergence_slope(spp, rmse, *, confidence: float = 0.95,
     r2 = 1.0 - ss_res / ss_tot if ss_tot > 0 else 1.0
     if n >= 3:
         stderr = math.sqrt(ss_res / (n - 2) / sxx)
-        half = float(stats.t.ppf(0.5 + confidence / 2, n - 2)) * stderr
+        half = _t_quantile(0.5 + confidence / 2, n - 2) * stderr
         lo, hi = slope - half, slope + half
     else:
         stderr, lo, hi = math.nan, math.nan, math.nan

@@ -19,6 +19,7 @@ import math
 import numpy as np
 
 from benchmarks.constants import STRATEGIES
+from benchmarks.metrics import convergence_slope
 from reference_tracer._validate import positive_int
 
 from .common import (check_jit_variant, environment, load_mitsuba, median, mitsuba_render_fn, spread, timed,
@@ -215,7 +216,8 @@ def fit_log_growth(n, cost) -> dict:
     >>> round(f["b"], 6), round(f["r2"], 6)
     (2.0, 1.0)
     """
-    x = np.log(np.asarray(n, dtype=np.float64))
+    n = np.asarray(n, dtype=np.float64)
+    x = np.log(n)
     y = np.asarray(cost, dtype=np.float64)
     if x.shape != y.shape or x.size < 2 or not np.all(np.isfinite(x)) or not np.all(np.isfinite(y)):
         raise ValueError("fit_log_growth needs at least two finite (n, cost) pairs of equal length")
@@ -223,6 +225,6 @@ def fit_log_growth(n, cost) -> dict:
     pred = a + b * x
     ss = float(np.sum((y - y.mean()) ** 2))
     r2 = 1.0 - float(np.sum((y - pred) ** 2)) / ss if ss > 0 else 1.0
-    expo = float(np.polyfit(x, np.log(np.maximum(y, 1e-300)), 1)[0]) if np.all(y > 0) else float("nan")
+    expo = convergence_slope(n, y).slope if np.all(y > 0) and np.ptp(x) > 0 else float("nan")
     return {"a": float(a), "b": float(b), "per_doubling": float(b * math.log(2)), "r2": r2,
             "loglog_exponent": expo}
