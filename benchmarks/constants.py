@@ -10,7 +10,7 @@ from __future__ import annotations
 from reference_tracer.strategies import STRATEGIES
 
 __all__ = [
-    "STRATEGIES", "UNBIASED_STRATEGIES", "MITSUBA_STRATEGY", "RELMSE_EPS", "LUMINANCE_WEIGHTS",
+    "STRATEGIES", "UNBIASED_STRATEGIES", "MITSUBA_STRATEGY", "MITSUBA_DIRECT", "RELMSE_EPS", "LUMINANCE_WEIGHTS",
     "SEED_SCENE", "SEED_SIZE", "SEED_SPP", "SEED_LIGHT_SPP", "MIN_SLOPE_BUDGETS", "GATE_ALPHA", "BIAS_TEST_ALPHA", "CLOSED_FORM",
     "CLOSED_FORM_SPP",
 ]
@@ -24,6 +24,11 @@ UNBIASED_STRATEGIES = tuple(s for s in STRATEGIES if s != "light")
 
 #: The name under which Mitsuba's renders are recorded: its ``path`` integrator (NEE + MIS).
 MITSUBA_STRATEGY = "path"
+
+#: Mitsuba's curves of a scene rendered with its ``direct`` integrator (Veach's comparison):
+#: each name maps to our strategy whose sample counts it takes (``reference_tracer.Direct.counts``):
+#: BSDF samples only, emitter samples only, and both with MIS.
+MITSUBA_DIRECT = {"direct_bsdf": "cosine", "direct_light": "light", "direct_mis": "mis"}
 
 #: relMSE's epsilon: ``mean(d^2 / (ref^2 + RELMSE_EPS))`` (README.md, Conventions).
 RELMSE_EPS = 0.01

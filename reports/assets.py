@@ -81,6 +81,9 @@ table.headline th .sub { font-weight:400; color:var(--muted); font-size:11px; }
             margin-bottom:8px; max-width:1300px; }
 .seedgrid img { width:100%; height:auto; border-radius:2px; background:#000; display:block; }
 .seedgrid figcaption { font-size:12px; }
+table.direct-grid td, table.direct-grid th { padding:4px 6px; vertical-align:top; font-size:12px; }
+table.direct-grid img { width:min(150px, 11vw); height:auto; image-rendering:pixelated; background:#000;
+                        display:block; border-radius:2px; }
 details.scene-details > summary { cursor:pointer; list-style:revert; }
 details.scene-details > summary h2 { display:inline; margin-right:12px; }
 .cmp-grid img.shot, .cmp-grid canvas.zoom { min-width:0; }

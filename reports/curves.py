@@ -56,10 +56,17 @@ class Curve:
         return curve_label(self.renderer, self.strategy)
 
 
+#: How Mitsuba's curves of a ``direct`` scene read (Veach's comparison).
+DIRECT_LABELS = {"direct_bsdf": "Mitsuba direct, BSDF samples", "direct_light": "Mitsuba direct, emitter samples",
+                 "direct_mis": "Mitsuba direct, MIS"}
+
+
 def curve_label(renderer: str, strategy: str) -> str:
-    """Human label of a curve: our strategy name, or ``Mitsuba path``."""
+    """Human label of a curve: our strategy name, ``Mitsuba path``, or ``Mitsuba direct, MIS``."""
     if renderer == "ours":
         return str(strategy)
+    if renderer == "mitsuba" and strategy in DIRECT_LABELS:
+        return DIRECT_LABELS[strategy]
     return f"{'Mitsuba' if renderer == 'mitsuba' else renderer} {strategy}"
 
 

@@ -20,6 +20,7 @@ import math
 from benchmarks.constants import STRATEGIES
 from benchmarks.sweep.headline import BASELINE, VERDICT_STRATEGY
 
+from .curves import curve_label
 from .store import Store, num
 
 __all__ = ["VERDICT_WORDS", "headline_entries", "headline_header", "headline_cells", "ratio_text", "verdict_text",
@@ -101,12 +102,16 @@ def _columns(entries) -> list:
     """The curves shown: our strategies in order but the baseline, then Mitsuba's."""
     seen = {(c.get("renderer"), c.get("strategy")) for e in entries for c in e.get("curves") or []}
     ours = [("ours", s) for s in STRATEGIES if s != BASELINE and ("ours", s) in seen]
-    return ours + sorted(k for k in seen if k[0] != "ours")
+    # another renderer's curve only where it has a noise figure (Mitsuba's: from its reference,
+    # the render of its own estimator)
+    measured = {(c.get("renderer"), c.get("strategy")) for e in entries for c in e.get("curves") or []
+                if _finite(c.get("noise"))}
+    return ours + sorted(k for k in seen if k[0] != "ours" and k in measured)
 
 
 def headline_header(entries) -> list:
     cols = _columns(entries)
-    names = [s if r == "ours" else f"{'Mitsuba' if r == 'mitsuba' else r} {s}" for r, s in cols]
+    names = [curve_label(r, s) for r, s in cols]
     return ["scene", "ours vs Mitsuba", f"{BASELINE} bias"] + [f"{n}: equal spp / equal time" for n in names]
 
 

@@ -10,7 +10,7 @@ from benchmarks.constants import SEED_LIGHT_SPP, SEED_SCENE, SEED_SIZE, SEED_SPP
 from . import plots
 from .assets import CSS, JS
 from .headline import HEADLINE_NOTE, headline_cells, headline_entries, headline_header, verdict_text
-from .sections import PLOT_KINDS, Section, equal_time_text, seed_lines
+from .sections import PLOT_KINDS, Section, direct_images, equal_time_text, seed_lines
 from .store import Store
 from .tables import FORMULAS, columns, facts_table, fmt
 
@@ -181,6 +181,41 @@ def _headline_html(entries: list) -> str:
     return "".join(out)
 
 
+def _direct_grid(spp, cells) -> str:
+    """The images of Veach's comparison: a column per technique, ours above Mitsuba's."""
+    head = "".join(f"<th>{_e(label)}</th>" for label, _, _ in cells)
+    rows = []
+    for who, pick in (("ours", 1), ("Mitsuba", 2)):
+        tds = []
+        for cell in (c[pick] for c in cells):
+            shot = "not rendered" if cell is None else (
+                _img(cell.png, alt=f"{who} {cell.label}", extra='data-kind="image"')
+                + f'<span class="sub">{_e(cell.caption)}</span>')
+            tds.append(f"<td>{shot}</td>")
+        rows.append(f"<tr><th>{who}</th>{''.join(tds)}</tr>")
+    return (f'<div class="tablewrap"><table class="direct-grid"><thead><tr><th>{spp:g} spp</th>{head}</tr></thead>'
+            f'<tbody>{"".join(rows)}</tbody></table></div><p class="note">Same exposure for every image; each '
+            "column takes the same emitter and BSDF sample counts in both renderers.</p>")
+
+
+def _direct_html(sections: list[Section]) -> str:
+    """Veach's comparison, one card per scene rendered with Mitsuba's ``direct``: the images of
+    BSDF sampling, light sampling and MIS at equal spp, ours above Mitsuba's, and their error curves."""
+    out = []
+    for sec in sections:
+        if "direct" not in sec.plots:
+            continue
+        spp, cells = direct_images(sec)
+        png, cap = sec.plots["direct"]
+        out.append(f'<section class="card direct" id="direct-{_e(sec.id)}"><h2>{_e(sec.title)}: BSDF sampling, '
+                   "light sampling and MIS (Mitsuba's direct integrator)</h2>"
+                   f'<div class="plots"><div>{_direct_grid(spp, cells) if cells else ""}</div>'
+                   '<figure class="plot">' + _img(png, alt=f"{sec.title} direct comparison plot",
+                                                  extra='data-kind="plot" data-plot="direct"')
+                   + f"<figcaption>{_e(cap)}</figcaption></figure></div></section>")
+    return "".join(out)
+
+
 def _seed_cells(sections: list[Section]) -> list:
     """The seed figure's images: uniform at SEED_SPP, light at SEED_LIGHT_SPP and the reference,
     from the seed section's image rows (each with its error map), where they were stored."""
@@ -266,7 +301,8 @@ def page_html(store: Store, sections: list[Section], cmp, seed_png, problems: li
            "than light sampling, at equal samples and at equal time, and does our tracer agree with Mitsuba 3? "
            f"Preset {_e(preset)}, {len(sections)} scene section(s), {len(store.records)} job records; one error "
            f"metric throughout: {_e(SPECS[metric].label)}.</div></header>",
-           f'<nav class="toc">{toc}</nav><main>', _headline_html(entries), _seed_html(cmp, seed_png, sections),
+           f'<nav class="toc">{toc}</nav><main>', _headline_html(entries), _direct_html(sections),
+           _seed_html(cmp, seed_png, sections),
            '<p class="note">Per scene and size below (click to open): convergence plots, per-strategy statistics '
            "and images at equal spp.</p>"]
     out += [_section_html(s, _scene_summary(s, entries)) for s in sections]

@@ -9,12 +9,15 @@ from __future__ import annotations
 import functools
 import io
 import math
+import textwrap
 
 import matplotlib
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter, NullLocator
+
+from benchmarks.constants import MITSUBA_DIRECT
 
 from .curves import SEED_SPP, Curve, equal_time, loglog_slope
 from .tables import fmt
@@ -35,9 +38,12 @@ DPI = 110
 
 
 def colour(key: tuple[str, str]) -> str:
-    """Plot colour of a (renderer, strategy) curve: Mitsuba black, unknown strategies from a spare list."""
+    """Plot colour of a (renderer, strategy) curve: Mitsuba black (under ``direct``, the colour of
+    our strategy with the same sample counts), unknown strategies from a spare list."""
     if str(key[0]).startswith("ext-"):   # external renderers (benchmarks.external)
         return _SPARE[sum(map(ord, str(key[0]))) % len(_SPARE)]
+    if key[0] == "mitsuba" and key[1] in MITSUBA_DIRECT:  # the colour of our strategy with its counts
+        return COLOURS[("ours", MITSUBA_DIRECT[key[1]])]
     if key[0] != "ours":
         return "#000000"
     if key in COLOURS:
@@ -167,8 +173,12 @@ def _legend_below(fig, ax) -> None:
     """The legend under the axes, outside the data (long entries: slopes and their ranges)."""
     handles, labels = ax.get_legend_handles_labels()
     if handles:
-        fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.55, 0.325), ncols=1, fontsize=7.2,
-                   frameon=False)
+        # Long entries (a slope's range and why it has none) wrap within the figure's width;
+        # many lines take a smaller font to stay inside the bottom band.
+        labels = [textwrap.fill(lab, 84, subsequent_indent="    ") for lab in labels]
+        lines = sum(lab.count("\n") + 1 for lab in labels)
+        fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.55, 0.325), ncols=1,
+                   fontsize=7.2 if lines <= 13 else 6.0, frameon=False)
 
 
 @plain_text

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from benchmarks.constants import CLOSED_FORM, RELMSE_EPS, SEED_SCENE, SEED_SIZE, SEED_SPP
+from benchmarks.constants import CLOSED_FORM, MITSUBA_DIRECT, RELMSE_EPS, SEED_SCENE, SEED_SIZE, SEED_SPP
 from benchmarks.display import reference_exposure
 from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS, view
 
@@ -176,6 +176,8 @@ def _section_plots(sec: Section, recs: list[dict]) -> None:
             ". Legend slopes are the summary's, fitted to four or more rendered budgets (the range fitted is given)."
             + (f" Exact estimators ({', '.join(curve_label(r['renderer'], r['strategy']) for r in exact)}) have zero "
                "error and are off the log axes." if exact else ""))
+    if cs and metric != "ssim":
+        _direct_plot(sec, cs, field)
     spec = SPECS[sec.metric]
     timed, modelled = _timed_curves(sec, recs)
     if timed:
@@ -192,6 +194,44 @@ def _section_plots(sec: Section, recs: list[dict]) -> None:
     missing = [k for k in PLOT_KINDS if k not in sec.plots]
     if missing:
         sec.notes.append(f"No data for plot(s): {', '.join(missing)}.")
+
+
+#: Veach's comparison under Mitsuba's ``direct``: (technique, our curve, Mitsuba's curve).
+DIRECT_TECHNIQUES = tuple((label, ("ours", MITSUBA_DIRECT[name]), ("mitsuba", name)) for label, name in
+                          (("BSDF sampling", "direct_bsdf"), ("light sampling", "direct_light"), ("MIS", "direct_mis")))
+#: The budget whose images Veach's comparison shows (the nearest rendered one): noisy enough
+#: to tell the techniques apart at a glance.
+DIRECT_SPP = 16
+
+
+def _direct_plot(sec: Section, cs, field: str) -> None:
+    """Veach's comparison, for a scene with Mitsuba's ``direct``: the error of BSDF sampling,
+    light sampling and MIS against spp, ours and Mitsuba's with the same sample counts."""
+    keys = [k for _, ours, mits in DIRECT_TECHNIQUES for k in (ours, mits)]
+    chosen = sorted((c for c in cs if c.key in keys), key=lambda c: keys.index(c.key))
+    if not any(c.key[0] == "mitsuba" for c in chosen):
+        return
+    spec = SPECS[sec.metric]
+    _add_plot(sec, "direct", plots.convergence_plot(
+        chosen, title=f"{sec.title}: BSDF vs light sampling vs MIS", ylabel=spec.label + (
+            " (reference noise removed)" if field.endswith("_corrected") else ""),
+        slopes=_slopes(sec, chosen, sec.metric), guide_slope=spec.unbiased_slope, target=None),
+        f"{spec.label} vs samples per pixel of the three techniques of Mitsuba's direct integrator, ours "
+        "(solid) beside Mitsuba's (dashed, same colour) with the same emitter and BSDF sample counts; lines: "
+        "median over seeds, bands: min to max.")
+
+
+def direct_images(sec: Section) -> tuple:
+    """``(spp, [(technique, our Cell or None, Mitsuba's Cell or None)])`` of Veach's comparison
+    at the rendered budget nearest :data:`DIRECT_SPP` where the images are; ``(None, [])``
+    for a scene without Mitsuba's ``direct`` curves."""
+    rows = [(spp, {c.key: c for c in cells if c.png is not None}) for spp, cells in sec.image_rows]
+    keys = [k for _, ours, mits in DIRECT_TECHNIQUES for k in (ours, mits)]
+    rows = [(spp, cells) for spp, cells in rows if any(k in cells for k in keys if k[0] == "mitsuba")]
+    if not rows:
+        return None, []
+    spp, cells = min(rows, key=lambda r: (-sum(k in r[1] for k in keys), abs(math.log(r[0] / DIRECT_SPP))))
+    return spp, [(label, cells.get(ours), cells.get(mits)) for label, ours, mits in DIRECT_TECHNIQUES]
 
 
 def _timed_curves(sec: Section, recs: list[dict]) -> tuple:

@@ -142,3 +142,43 @@ def test_direct_round_trips_through_xml(tmp_path):
     scene = _glossy(rt.Direct(3, 2), width=8, height=8)
     back = from_mitsuba(to_xml(scene, tmp_path / "g.xml"))
     assert back.direct == rt.Direct(3, 2)
+
+
+def test_a_run_shows_veachs_comparison_ours_beside_mitsubas(tmp_path, tmp_path_factory):
+    """A sweep of a scene with ``direct``: Mitsuba's curves are its three techniques, each ours
+    is compared with the one of the same counts, and the report's first screen after the
+    headline shows the six images at equal spp and their error curves."""
+    from benchmarks.sweep import Group, make_jobs, run_sweep
+    from mitsuba_scenes.scene_files import clear_registry, register_scene_file
+    from reports import build_report
+
+    from harness_util import cache_root
+
+    xml = to_xml(_glossy(rt.Direct(1, 1), width=16, height=12), tmp_path / "glossy_direct.xml")
+    entry = register_scene_file(xml)
+    try:
+        jobs = make_jobs([entry.name], strategies=["cosine", "light", "mis"], spps=[1], seeds=1, width=16,
+                         height=12)
+        assert [(j.renderer, j.strategy) for j in jobs] == [
+            ("ours", "cosine"), ("ours", "light"), ("ours", "mis"),
+            ("mitsuba", "direct_bsdf"), ("mitsuba", "direct_light"), ("mitsuba", "direct_mis")]
+        g = Group(scenes=(entry.name,), strategies=("cosine", "light", "mis"), spps=(1, 4, 16, 64), seeds=2,
+                  width=16, height=12, reference_spp=1024)
+        out = tmp_path / "store"
+        result = run_sweep([g], out=out, progress=False, cache=cache_root(tmp_path_factory), threads=2)
+        assert not result.failed and result.done == 4 * 2 * 6
+        rows = {(r["renderer"], r["strategy"]): r for r in result.rows}
+        # ours is compared with Mitsuba's technique of the same counts (its efficiency ratio uses it)
+        for ours, mits in (("cosine", "direct_bsdf"), ("light", "direct_light"), ("mis", "direct_mis")):
+            a, b = rows[("ours", ours)], rows[("mitsuba", mits)]
+            assert a["efficiency_vs_mitsuba"] == pytest.approx(a["efficiency"] / b["efficiency"])
+        build_report(out)
+        page = (out / "index.html").read_text()
+        card = page[page.index('class="card direct"'):]
+        card = card[:card.index("</section>")]
+        assert card.count('data-kind="image"') == 6 and 'data-plot="direct"' in card
+        for label in ("BSDF sampling", "light sampling", "MIS", "16 spp"):
+            assert label in card
+        assert page.index('class="card direct"') < page.index('class="card scene"')
+    finally:
+        clear_registry()

@@ -32,6 +32,7 @@ import numpy as np
 from .. import metrics as M
 from ..constants import MIN_SLOPE_BUDGETS, RELMSE_EPS
 from .coerce import as_float
+from .jobs import mitsuba_pairs
 
 __all__ = ["MetricSpec", "SPECS", "METRICS", "DEFAULT_METRIC", "require_metric", "relative_noise", "curve_errors",
            "tail_variance_image", "metric_figures", "curve_metrics",
@@ -184,9 +185,7 @@ def curve_metrics(by_spp: dict, secs, *, ref=None, target_rmse=None, unbiased: b
 
 def add_metric_ratios(rows) -> None:
     """``by_metric[m]["efficiency_vs_mitsuba"]``: each curve's efficiency over Mitsuba's, same scene and size."""
-    mits = {(r["scene"], r["width"], r["height"]): r for r in rows if r["renderer"] == "mitsuba"}
-    for r in rows:
-        m = mits.get((r["scene"], r["width"], r["height"]))
+    for r, m in mitsuba_pairs(rows):
         for name, fig in (r.get("by_metric") or {}).items():
             other = ((m or {}).get("by_metric") or {}).get(name) or {}
             a, b = as_float(fig.get("efficiency")), as_float(other.get("efficiency"))

@@ -15,12 +15,12 @@ import time
 import numpy as np
 
 from .. import metrics as M
-from ..constants import MITSUBA_STRATEGY
+from ..constants import MITSUBA_DIRECT, MITSUBA_STRATEGY
 from ..store import KEY_FIELDS
 from .coerce import finite
 from .jobs import Job, default_threads, image_paths, render_seed, scene_at
 
-__all__ = ["TIMING_FIELDS", "job_metrics", "scene_info", "execute_job", "reference_info", "run_versions", "machine_info"]
+__all__ = ["TIMING_FIELDS", "mitsuba_scene", "job_metrics", "scene_info", "execute_job", "reference_info", "run_versions", "machine_info"]
 
 #: record fields that depend on timing, the machine or the checkout (ignore them to compare two runs):
 #: ``build_git`` (git describe) changes with any commit, the build id only with the tracer.
@@ -86,6 +86,22 @@ def scene_info(name: str, scene) -> dict:
             "scene_params": None if entry is None or not entry.params else dict(entry.params)}
 
 
+def mitsuba_scene(scene, strategy: str):
+    """``scene`` as Mitsuba renders curve ``strategy``: as it is (``path``), or for a scene with
+    the ``direct`` integrator with the sample counts of :data:`MITSUBA_DIRECT`'s strategy."""
+    import dataclasses
+
+    import reference_tracer as rt
+
+    direct = getattr(scene, "direct", None)
+    if strategy == MITSUBA_STRATEGY and direct is None:
+        return scene
+    if strategy in MITSUBA_DIRECT and direct is not None:
+        return dataclasses.replace(scene, direct=rt.Direct(*direct.counts(MITSUBA_DIRECT[strategy])))
+    allowed = tuple(MITSUBA_DIRECT) if direct is not None else (MITSUBA_STRATEGY,)
+    raise ValueError(f"Mitsuba renders this scene as curve(s) {', '.join(allowed)}, not {strategy!r}")
+
+
 def _render(job: Job, scene, rseed: int, *, threads: int, variant) -> tuple:
     """``(mean, variance or None, seconds, extra record fields)`` of the job's render."""
     if job.renderer == "ours":
@@ -99,8 +115,7 @@ def _render(job: Job, scene, rseed: int, *, threads: int, variant) -> tuple:
     if job.renderer == "mitsuba":
         from mitsuba_scenes import render_mitsuba
 
-        if job.strategy != MITSUBA_STRATEGY:
-            raise ValueError(f"Mitsuba jobs use strategy {MITSUBA_STRATEGY!r}, got {job.strategy!r}")
+        scene = mitsuba_scene(scene, job.strategy)
         out = render_mitsuba(scene, spp=job.spp, seed=rseed,
                              variant=variant, threads=threads, batches=1)
         extra = {"rays": None, "nonfinite_samples": None, "compile_seconds": float(out.compile_seconds),

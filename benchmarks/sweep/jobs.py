@@ -14,11 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..constants import MITSUBA_STRATEGY, STRATEGIES
+from ..constants import MITSUBA_DIRECT, MITSUBA_STRATEGY, STRATEGIES
 from ..files import slug
 from ..store import KEY_FIELDS
 
-__all__ = ["Job", "Group", "validate_group", "make_jobs", "renderer_builds", "render_seed", "default_threads", "cgroup_cpu_limit", "scene_at",
+__all__ = ["Job", "Group", "validate_group", "make_jobs", "mitsuba_strategies", "mitsuba_twin", "mitsuba_pairs", "renderer_builds", "render_seed", "default_threads", "cgroup_cpu_limit", "scene_at",
            "image_paths", "check_int", "check_int_list"]
 
 
@@ -189,11 +189,62 @@ def make_jobs(scenes, *, strategies, spps, seeds: int, width: int, height: int,
     spps = check_int_list("spps", spps)
     from ..external import STRATEGY as EXTERNAL
 
-    curves = [("ours", s) for s in strategies] + ([("mitsuba", MITSUBA_STRATEGY)] if mitsuba else [])
-    curves += [(e, EXTERNAL) for e in externals]
+    ours = [("ours", s) for s in strategies]
+    others = [(e, EXTERNAL) for e in externals]
+    per_scene = {scene: ours + ([("mitsuba", s) for s in mitsuba_strategies(scene)] if mitsuba else []) + others
+                 for scene in scenes}
     return [Job(scene, renderer, strategy, spp, seed, int(width), int(height))
             for scene in scenes for spp in sorted(spps) for seed in range(int(seeds))
-            for renderer, strategy in curves]
+            for renderer, strategy in per_scene[scene]]
+
+
+def mitsuba_strategies(scene: str) -> tuple:
+    """Mitsuba's curves of suite scene or scene file ``scene``: its ``path`` integrator, or for a
+    scene with Mitsuba's ``direct`` integrator the three of Veach's comparison (:data:`MITSUBA_DIRECT`).
+
+    Examples
+    --------
+    >>> mitsuba_strategies("cornell_box")
+    ('path',)
+    """
+    from mitsuba_scenes import get_scene
+
+    return tuple(MITSUBA_DIRECT) if get_scene(scene).direct is not None else (MITSUBA_STRATEGY,)
+
+
+def mitsuba_twin(strategy: str, available) -> str | None:
+    """The Mitsuba curve among ``available`` that our ``strategy`` is compared with: ``path``
+    where Mitsuba renders the path integrator; under ``direct`` the one with the same counts
+    (``cosine`` - ``direct_bsdf``, ``light`` - ``direct_light``), else ``direct_mis``.
+
+    Examples
+    --------
+    >>> mitsuba_twin("light", ["direct_bsdf", "direct_light", "direct_mis"])
+    'direct_light'
+    >>> mitsuba_twin("uniform", ["path"])
+    'path'
+    """
+    available = list(available)
+    if MITSUBA_STRATEGY in available:
+        return MITSUBA_STRATEGY
+    twin = {ours: name for name, ours in MITSUBA_DIRECT.items()}.get(strategy, "direct_mis")
+    return twin if twin in available else ("direct_mis" if "direct_mis" in available else None)
+
+
+def mitsuba_pairs(rows):
+    """``(row, Mitsuba's row it is compared with or None)`` for every summary row: the
+    :func:`mitsuba_twin` curve of the same scene and size (a Mitsuba row: itself)."""
+    mits = {}
+    for r in rows:
+        if r["renderer"] == "mitsuba":
+            mits.setdefault((r["scene"], r["width"], r["height"]), {})[r["strategy"]] = r
+    for r in rows:
+        if r["renderer"] == "mitsuba":
+            yield r, r
+            continue
+        same = mits.get((r["scene"], r["width"], r["height"]), {})
+        twin = mitsuba_twin(r["strategy"], same)
+        yield r, same.get(twin) if twin else None
 
 
 def renderer_builds(variant: str | None, mitsuba_version: str | None) -> dict:

@@ -29,7 +29,7 @@ Examples
 """
 from __future__ import annotations
 
-from ..constants import SEED_SCENE, SEED_SIZE, SEED_SPP, STRATEGIES
+from ..constants import MITSUBA_STRATEGY, SEED_SCENE, SEED_SIZE, SEED_SPP, STRATEGIES
 from .jobs import Group
 
 __all__ = ["PRESETS", "SEED_SCENE", "preset_groups", "describe_preset", "escalates_tails"]
@@ -130,7 +130,13 @@ def describe_preset(name: str, *, scenes=None) -> str:
     """
     lines = []
     for g in preset_groups(name, scenes=scenes):
-        who = ", ".join(g.strategies) + (" + Mitsuba path" if g.mitsuba else "")
+        who = ", ".join(g.strategies)
+        if g.mitsuba:
+            from .jobs import mitsuba_strategies
+
+            kinds = {"path" if mitsuba_strategies(s) == (MITSUBA_STRATEGY,) else
+                     "direct (BSDF, emitter and MIS samples)" for s in g.scenes}
+            who += " + Mitsuba " + " / ".join(sorted(kinds, reverse=True))
         spp = f"{min(g.spps)}..{max(g.spps)}" if len(g.spps) > 3 else ",".join(map(str, g.spps))
         lines.append(f"{g.name}: {len(g.scenes)} scene(s) at {g.width}x{g.height}, spp {spp}, {g.seeds} seeds, "
                      f"{who}; reference {g.reference_spp} spp")

@@ -15,11 +15,12 @@ import numpy as np
 from reference_tracer.estimate import ImageEstimate
 
 from .. import metrics as M
-from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM, MIN_SLOPE_BUDGETS, RELMSE_EPS, STRATEGIES
+from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM, MIN_SLOPE_BUDGETS, MITSUBA_STRATEGY, RELMSE_EPS, STRATEGIES
 from ..store import META, SUMMARY, read_image, read_json, read_records, update_meta, write_json
 from .by_metric import add_metric_ratios, curve_metrics, tail_variance_image
 from .coerce import as_float
 from .headline import add_noise_ratios, headline_rows, relative_noise_of
+from .jobs import mitsuba_pairs
 from .progress import render_cost
 
 #: batches of a Mitsuba reference whose store entry does not say (``benchmarks.references``).
@@ -445,9 +446,7 @@ def _mitsuba_cost(row: dict, ref: ImageEstimate) -> None:
 
 def _add_mitsuba_ratios(rows) -> None:
     """``*_vs_mitsuba``: each curve against Mitsuba's curve of the same scene and size."""
-    mits = {(r["scene"], r["width"], r["height"]): r for r in rows if r["renderer"] == "mitsuba"}
-    for r in rows:
-        m = mits.get((r["scene"], r["width"], r["height"]))
+    for r, m in mitsuba_pairs(rows):
         r["efficiency_vs_mitsuba"] = _ratio(r.get("efficiency"), m.get("efficiency") if m else None)
         r["samples_per_second_vs_mitsuba"] = _ratio(r.get("samples_per_second"),
                                                     m.get("samples_per_second") if m else None)
@@ -566,7 +565,10 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
             _not_escalated(row, tails, w, h)
         row["reference_kind"] = (None if ref is None else CLOSED_FORM if ref.source == CLOSED_FORM
                                  else f"Mitsuba {ref.spp} spp")
-        if renderer == "mitsuba" and ref is not None and ref.source != CLOSED_FORM and tail_spp:
+        # the reference is Mitsuba's own estimator only for its `path` curve (or, under
+        # `direct`, the curve with the scene's own counts)
+        if (renderer == "mitsuba" and strategy in (MITSUBA_STRATEGY, "direct_mis") and ref is not None
+                and ref.source != CLOSED_FORM and tail_spp):
             _mitsuba_cost(row, ref)
         rows.append(row)
     _add_mitsuba_ratios(rows)
