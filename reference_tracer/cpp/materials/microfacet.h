@@ -105,8 +105,10 @@ inline void beckmann_visible_slope(double cos_i, double u1, double u2, double& s
     sy = erfinv(2.0 * u2 - 1.0);
 }
 
-// A visible microfacet normal for the view direction wo (wo.z > 0).
-inline Vec3 beckmann_sample_visible(const Vec3& wo, double alpha, double u1, double u2) {
+// A visible microfacet normal for the view direction wo (wo.z > 0), given slope(cos, sx,
+// sy), a slope of the distribution's alpha = 1 visible normals at incidence cos.
+template <typename Slope>
+inline Vec3 sample_visible_with(const Vec3& wo, double alpha, Slope&& slope) {
     const Vec3 s = normalize(Vec3(alpha * wo.x, alpha * wo.y, wo.z));  // stretch
     const double sin2 = 1.0 - s.z * s.z;
     double sin_phi = 0.0, cos_phi = 1.0;
@@ -116,10 +118,17 @@ inline Vec3 beckmann_sample_visible(const Vec3& wo, double alpha, double u1, dou
         cos_phi = std::clamp(s.x * inv, -1.0, 1.0);
     }
     double sx, sy;
-    beckmann_visible_slope(s.z, u1, u2, sx, sy);
-    const double x = (cos_phi * sx - sin_phi * sy) * alpha;  // rotate and unstretch
-    const double y = (sin_phi * sx + cos_phi * sy) * alpha;
+    slope(s.z, sx, sy);
+    // rotate and unstretch; each product rounded on its own (see unfused)
+    const double x = (unfused(cos_phi * sx) - unfused(sin_phi * sy)) * alpha;
+    const double y = (unfused(sin_phi * sx) + unfused(cos_phi * sy)) * alpha;
     return normalize(Vec3(-x, -y, 1.0));
+}
+
+inline Vec3 beckmann_sample_visible(const Vec3& wo, double alpha, double u1, double u2) {
+    return sample_visible_with(wo, alpha, [&](double c, double& sx, double& sy) {
+        beckmann_visible_slope(c, u1, u2, sx, sy);
+    });
 }
 
 }  // namespace microfacet
