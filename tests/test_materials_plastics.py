@@ -3,8 +3,9 @@
 
 Here: the rough coating's table against Mitsuba's, the BSDF values and densities against
 Mitsuba's own BSDFs, energy, the integrator's treatment of the smooth plastic's Dirac lobe
-under every strategy (a closed form), validation. (Sampling against the density:
-test_chi2's catalogue; scalar against wavefront: test_wavefront.)
+under every strategy (a closed form), validation, translation and import. (Renders against
+Mitsuba's: test_mitsuba_agreement; sampling against the density: test_chi2's catalogue;
+scalar against wavefront: test_wavefront.)
 
 Statistical assertions are |z| <= 4 (or z <= 4 where one-sided) under the normal
 approximation of a mean of many bounded weights: a false alarm of 6.3e-5 per two-sided
@@ -263,3 +264,162 @@ def test_smooth_plastic_takes_equal_indices_as_mitsuba_does():
     s = BsdfProbe("plastic", direction(30.0), albedo=(0.5, 0.5, 0.5), coating={"eta": 1.0}).sample_full(
         np.random.default_rng(0).random((1000, 3)))
     assert m.relative_ior == 1.0 and not s["delta"].any()
+
+
+# ------------------------------------------------------------------ translation and import
+def test_translation_gives_mitsuba_every_parameter():
+    from mitsuba_scenes.translate import _bsdf_record
+
+    rec = _bsdf_record("x", rt.RoughPlastic((0.1, 0.2, 0.3), alpha=0.25, distribution="ggx", int_ior=1.6,
+                                            ext_ior=1.1, specular_reflectance=0.8, nonlinear=True, two_sided=True))
+    assert rec["type"] == "twosided"
+    b = rec["bsdf"]
+    assert (b["type"], b["distribution"], b["nonlinear"]) == ("roughplastic", "ggx", True)
+    assert b["alpha"] == pytest.approx(0.25) and (b["int_ior"], b["ext_ior"]) == pytest.approx((1.6, 1.1))
+    np.testing.assert_allclose(b["diffuse_reflectance"]["value"], (0.1, 0.2, 0.3), rtol=1e-7)
+    np.testing.assert_allclose(b["specular_reflectance"]["value"], (0.8, 0.8, 0.8), rtol=1e-7)
+    smooth = _bsdf_record("x", rt.Plastic(0.5))
+    assert smooth["type"] == "plastic" and "alpha" not in smooth and smooth["int_ior"] == pytest.approx(1.49)
+
+
+def test_xml_round_trip_keeps_every_parameter(tmp_path):
+    """to_xml then from_mitsuba gives the same plastics back (to float32, what Mitsuba stores)."""
+    from dataclasses import fields
+
+    from mitsuba_scenes import from_mitsuba, to_xml
+
+    mats = [rt.Plastic((0.1, 0.2, 0.3), specular_reflectance=(0.9, 0.8, 0.7), int_ior=1.7, ext_ior=1.2,
+                       nonlinear=True),
+            rt.RoughPlastic((0.4, 0.5, 0.6), alpha=0.05, distribution="ggx", int_ior=1.0, ext_ior=1.5,
+                            specular_reflectance=0.6, two_sided=True),
+            rt.RoughPlastic(0.5)]
+    cam = rt.Camera(lookfrom=(0, 0, -3), lookat=(0, 0, 0), width=4, height=4)
+    scene = rt.Scene(camera=cam, shapes=[rt.Sphere((i, 0, 0), 0.2, m) for i, m in enumerate(mats)])
+    back = [s.material for s in from_mitsuba(to_xml(scene, tmp_path / "p.xml")).shapes]
+    for a, b in zip(mats, back):
+        assert type(a) is type(b)
+        for f in fields(a):
+            va, vb = getattr(a, f.name), getattr(b, f.name)
+            if isinstance(va, str) or isinstance(va, bool):
+                assert va == vb, f.name
+            else:
+                np.testing.assert_allclose(vb, va, rtol=1e-6, err_msg=f.name)
+
+
+def _xml(body: str) -> str:
+    return textwrap.dedent(f"""\
+        <scene version="3.0.0">
+            <integrator type="path"><integer name="max_depth" value="3"/></integrator>
+            <sensor type="perspective">
+                <float name="fov" value="40"/>
+                <transform name="to_world"><lookat origin="0, 0, -4" target="0, 0, 0" up="0, 1, 0"/></transform>
+                <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>
+                    <rfilter type="box"/></film>
+            </sensor>
+        {textwrap.indent(textwrap.dedent(body), "    ")}
+        </scene>
+        """)
+
+
+def test_import_reads_every_parameter(tmp_path):
+    from mitsuba_scenes import from_mitsuba
+
+    path = tmp_path / "plastics.xml"
+    path.write_text(_xml("""\
+        <shape type="sphere">
+            <bsdf type="plastic">
+                <rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/>
+                <rgb name="specular_reflectance" value="0.9, 0.8, 0.7"/>
+                <string name="int_ior" value="BK7"/>
+                <string name="ext_ior" value="water"/>
+                <boolean name="nonlinear" value="true"/>
+            </bsdf>
+        </shape>
+        <shape type="sphere">
+            <point name="center" x="2" y="0" z="0"/>
+            <bsdf type="twosided">
+                <bsdf type="roughplastic">
+                    <string name="distribution" value="ggx"/>
+                    <float name="alpha" value="0.3"/>
+                    <float name="int_ior" value="1.7"/>
+                </bsdf>
+            </bsdf>
+        </shape>
+        <shape type="sphere">
+            <point name="center" x="-2" y="0" z="0"/>
+            <bsdf type="roughplastic"><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.2"/></bsdf>
+        </shape>
+        <shape type="sphere">
+            <point name="center" x="0" y="2" z="0"/>
+            <bsdf type="roughplastic"/>
+        </shape>
+        """))
+    a, b, c, d = (s.material for s in from_mitsuba(path).shapes)
+    assert a == rt.Plastic((0.1, 0.2, 0.3), specular_reflectance=(0.9, 0.8, 0.7), int_ior=1.5046, ext_ior=1.333,
+                           nonlinear=True)
+    assert b == rt.RoughPlastic(0.5, alpha=0.3, distribution="ggx", int_ior=1.7, two_sided=True)
+    assert c == rt.RoughPlastic(0.5, alpha=0.2)
+    assert d == rt.RoughPlastic(0.5)   # Mitsuba's defaults: Beckmann, 0.1, polypropylene in air
+
+
+def test_import_refuses_what_is_not_modelled_with_its_place(tmp_path):
+    from mitsuba_scenes import from_mitsuba
+
+    path = tmp_path / "bad.xml"
+    path.write_text(_xml("""\
+        <shape type="sphere">
+            <bsdf type="plastic">
+                <texture type="checkerboard" name="diffuse_reflectance"/>
+                <string name="int_ior" value="glass"/>
+            </bsdf>
+        </shape>
+        <shape type="sphere">
+            <bsdf type="roughplastic">
+                <float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/>
+                <boolean name="sample_visible" value="false"/>
+            </bsdf>
+        </shape>
+        <shape type="sphere">
+            <bsdf type="roughplastic"><float name="int_ior" value="1.333"/><string name="ext_ior" value="water"/></bsdf>
+        </shape>
+        <shape type="sphere">
+            <bsdf type="roughplastic"><string name="distribution" value="phong"/></bsdf>
+        </shape>
+        <shape type="sphere">
+            <bsdf type="plastic"><integer name="int_ior" value="2"/><float name="roughness" value="1"/></bsdf>
+        </shape>
+        """))
+    with pytest.raises(ValueError) as err:
+        from_mitsuba(path)
+    msg = str(err.value)
+    for needle in ("texture 'checkerboard' for plastic.diffuse_reflectance", "int_ior='glass' is not a known IOR name",
+                   "anisotropic roughplastic", "roughplastic sample_visible=false", "roughplastic distribution 'phong'",
+                   "int_ior and ext_ior must differ", "plastic int_ior of type", "parameter 'roughness' is not supported"):
+        assert needle in msg, (needle, msg)
+    assert "bad.xml (line" in msg
+
+
+def test_a_veach_scene_with_rough_plastic_plates_imports():
+    """The plates of Mitsuba's documentation scene of Veach's MIS test (include/veach_mis.xml:
+    roughplastic, Beckmann by default, int_ior 2, alpha 0.005 to 0.1) import as RoughPlastic."""
+    from mitsuba_scenes import from_mitsuba
+
+    plates = {f"plate{i}": {"type": "rectangle", "to_world": _translate(0, i, 0),
+                            "bsdf": {"type": "roughplastic", "int_ior": 2.0, "alpha": a,
+                                     "diffuse_reflectance": {"type": "rgb", "value": [0.07, 0.09, 0.13]},
+                                     "specular_reflectance": {"type": "rgb", "value": [1, 1, 1]}}}
+              for i, a in enumerate((0.005, 0.02, 0.05, 0.1))}
+    d = {"type": "scene", "integrator": {"type": "path"},
+         "sensor": {"type": "perspective", "film": {"type": "hdrfilm", "width": 8, "height": 8,
+                                                     "rfilter": {"type": "box"}}}, **plates}
+    mats = [s.material for s in from_mitsuba(d).shapes]
+    assert [m.alpha for m in mats] == pytest.approx([0.005, 0.02, 0.05, 0.1])
+    assert all(m.distribution == "beckmann" and m.int_ior == 2.0 and m.ext_ior == pytest.approx(1.000277)
+               for m in mats)
+
+
+def _translate(x, y, z):
+    from mitsuba_scenes.variants import import_mitsuba
+
+    mi = import_mitsuba()
+    return mi.ScalarTransform4f().translate([x, y, z])
