@@ -3,12 +3,17 @@ imported unmodified and judged by Mitsuba itself: ``mi.load_file`` of the same f
 our tracer through ``from_mitsuba``, at a small film size set through the files' own
 parameters.
 
-The statistic: per pixel and channel ``z = (ours - Mitsuba) / sqrt(var_ours / N + var_mitsuba
-/ N)`` and, per channel, the same for the image's sum. Both renders are 4096 spp (Mitsuba in
-16 batches of 256 for its variance; ours with a filter in 16 batches too). The scene agrees when
-every channel's global |z| <= 4 (3 tests at alpha 6e-5 each under the normal approximation)
-and at most 1% of the pixel values have |z| > 4 (about 0.006% expected of agreeing images;
-filtered neighbours are correlated, so the share is noisy, hence the margin).
+The statistic (``mitsuba_stats.published_agreement``): per pixel and channel ``z = (ours -
+Mitsuba) / sqrt(var_ours / N + var_mitsuba / N)`` and, per channel, the same for the image's
+sum. Both renders are 4096 spp (Mitsuba in 16 batches of 256 for its variance; ours with a
+filter in 16 batches too). The scene agrees when every channel's global |z| <= 4 (3 tests at
+alpha 6e-5 each under the normal approximation) and at most 1% of the pixel values have
+|z| > 4 (about 0.006% expected of agreeing images; filtered neighbours are correlated, so the
+share is noisy, hence the margin).
+
+Scenes: Bitterli's Cornell Box and Veach MIS, and Mitsuba's own Cornell box (``cbox-rgb.xml``
+of mitsuba-data, the scene Mitsuba's tests and docs use): OBJ meshes, one of them (the red
+wall, a slightly warped quad without ``vn``) shaded with the vertex normals Mitsuba computes.
 """
 from __future__ import annotations
 
@@ -19,34 +24,48 @@ import pytest
 
 import reference_tracer as rt
 from mitsuba_scenes import from_mitsuba, render_mitsuba
+from mitsuba_stats import published_agreement
 
 PUBLISHED = Path(__file__).resolve().parent / "fixtures" / "published"
 SPP = 4096
 
+# folder: (scene file, its $name parameters, the film size they give (height, width))
 SCENES = {
-    "bitterli/cornell-box": {"resx": "32", "resy": "32"},
-    "bitterli/veach-mis": {"resx": "48", "resy": "27"},
+    "bitterli/cornell-box": ("scene_v3.xml", {"resx": "32", "resy": "32"}, (32, 32)),
+    "bitterli/veach-mis": ("scene_v3.xml", {"resx": "48", "resy": "27"}, (27, 48)),
+    "mitsuba/cbox": ("cbox-rgb.xml", {"res": "32"}, (32, 32)),
 }
 
 
 def _agreement(ours, mit, n):
-    se = np.sqrt(ours.variance.astype(np.float64) / n + mit.variance.astype(np.float64) / n)
-    d = ours.mean.astype(np.float64) - mit.mean.astype(np.float64)
-    z = np.where(se > 0, d / np.where(se > 0, se, 1.0), 0.0)
-    glob = [float(d[..., c].sum() / np.sqrt((se[..., c] ** 2).sum())) for c in range(3)]
-    return glob, float((np.abs(z) > 4).mean())
+    return published_agreement(ours.mean, ours.variance, mit.mean, mit.variance, n)
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_published_scene_imports_unmodified_and_agrees_with_mitsuba(name):
-    path = PUBLISHED / name / "scene_v3.xml"
-    params = SCENES[name]
+    file, params, size = SCENES[name]
+    path = PUBLISHED / name / file
     scene = from_mitsuba(path, params=params)
     ours = rt.render(scene, spp=SPP, strategy="mis", seed=1, threads=2)
     mit = render_mitsuba(path, spp=SPP, seed=1, batches=16, params=params, threads=2)
-    assert ours.mean.shape == mit.mean.shape == (int(params["resy"]), int(params["resx"]), 3)
+    assert ours.mean.shape == mit.mean.shape == (*size, 3)
     glob, share = _agreement(ours, mit, SPP)
     assert max(abs(g) for g in glob) <= 4.0 and share <= 0.01, (glob, share)
+
+
+def test_mitsuba_cbox_red_wall_is_shaded_with_computed_normals():
+    """The red wall's OBJ has no ``vn``: Mitsuba computes vertex normals (the quad is warped,
+    so they differ from its triangles' normals) and the import keeps them; the other meshes'
+    normals equal their faces' and stay flat."""
+    scene = from_mitsuba(PUBLISHED / "mitsuba/cbox/cbox-rgb.xml", params={"res": "8"})
+    smooth = [s for s in scene.shapes if s.normals is not None]
+    assert len(smooth) == 1 and len(scene.shapes) == 8
+    red = smooth[0]
+    assert red.material.albedo == pytest.approx((0.570068, 0.0430135, 0.0443706))
+    fn = np.cross(*(red.world_triangles()[:, k] - red.world_triangles()[:, 0] for k in (1, 2)))
+    fn /= np.linalg.norm(fn, axis=1, keepdims=True)
+    tilt = np.degrees(np.arccos(np.clip(np.einsum("fkc,fc->fk", red.world_triangle_normals(), fn), -1, 1)))
+    assert 0.05 < tilt.max() < 2.0
 
 
 def test_the_agreement_test_sees_a_wrong_import():
@@ -54,7 +73,7 @@ def test_the_agreement_test_sees_a_wrong_import():
     import dataclasses
 
     path = PUBLISHED / "bitterli/veach-mis/scene_v3.xml"
-    params = SCENES["bitterli/veach-mis"]
+    params = SCENES["bitterli/veach-mis"][1]
     scene = from_mitsuba(path, params=params)
     shapes = [dataclasses.replace(s, material=dataclasses.replace(s.material, alpha=2 * s.material.alpha))
               if isinstance(s.material, rt.RoughConductor) else s for s in scene.shapes]
