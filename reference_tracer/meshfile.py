@@ -26,6 +26,7 @@ import math
 import os
 import re
 import stat
+from array import array
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -242,28 +243,31 @@ def parse_obj(text: str, *, name: str = "OBJ", normals: bool = True) -> MeshData
     ...
     ValueError: m.obj line 4: vertex normal 'vn 0 0 0' is zero or not finite
     """
-    positions, vn = [], []
-    n_vt = 0
+    # Flat arrays of doubles and indices, not lists of lists: a few times the file's bytes
+    # at most (check_mesh_file's budget), whatever its lines hold.
+    positions, vn, faces = array("d"), array("d"), array("q")
+    n_v = n_vn = n_vt = 0
     ids: dict = {}          # (v, vt, vn) -> vertex id
     missing_vn = 0          # first line with a face corner that has no normal index (0: none)
-    faces = []
-    for number, line in enumerate(text.splitlines(), 1):
+    for number, line in enumerate(io.StringIO(text), 1):   # lines end at "\n", as Mitsuba's
         words = line.split()
         if not words:
             continue
         head = words[0]
         if head == "v":
-            positions.append(_floats(words, 3, "a vertex", f"{name} line {number}"))
+            positions.extend(_floats(words, 3, "a vertex", f"{name} line {number}"))
+            n_v += 1
         elif head == "vn":
             if normals:
                 n = _floats(words, 3, "a vertex normal", f"{name} line {number}")
                 if not (all(map(math.isfinite, n)) and any(n)):
                     raise ValueError(f"{name} line {number}: vertex normal {line.strip()[:80]!r} is zero or not finite")
-                vn.append(n)
+                vn.extend(n)
+                n_vn += 1
         elif head == "vt":
             n_vt += 1
         elif head == "f":
-            corners = []
+            first = previous = corners = 0
             idx = [0, 0, 0]   # Mitsuba keeps a line's indices from corner to corner
             for token in words[1:]:
                 if token.startswith("#"):
@@ -276,7 +280,7 @@ def parse_obj(text: str, *, name: str = "OBJ", normals: bool = True) -> MeshData
                         idx[k] = int(part)
                     except ValueError:
                         raise ValueError(f"{name} line {number}: face corner {token!r} does not parse") from None
-                    count = (len(positions), n_vt, len(vn) if normals else None)[k]
+                    count = (n_v, n_vt, n_vn if normals else None)[k]
                     if count is None:          # normals not read: the index only splits vertices
                         continue
                     if idx[k] < 0:
@@ -287,24 +291,31 @@ def parse_obj(text: str, *, name: str = "OBJ", normals: bool = True) -> MeshData
                                          f"(the file has {count} so far)")
                 if not parts[0]:
                     raise ValueError(f"{name} line {number}: face corner {token!r} has no vertex index")
-                key = tuple(idx)
+                if not (idx[0] < 1 << 32 and 0 <= idx[1] < 1 << 32):
+                    raise ValueError(f"{name} line {number}: face corner {token!r} out of range")
+                key = idx[0] | idx[1] << 32 | idx[2] << 64   # one int: a third of a tuple's memory
                 vid = ids.get(key)
                 if vid is None:
                     vid = ids[key] = len(ids)
-                    if key[2] == 0 and not missing_vn:
+                    if idx[2] == 0 and not missing_vn:
                         missing_vn = number
-                corners.append(vid)
-            faces.extend((corners[0], corners[k - 1], corners[k]) for k in range(2, len(corners)))
-    keys = np.array(list(ids), dtype=np.int64).reshape(-1, 3)
-    vertices = np.asarray(positions, dtype=np.float64).reshape(-1, 3)[keys[:, 0] - 1]
+                if corners >= 2:          # a fan around the first corner
+                    faces.extend((first, previous, vid))
+                elif corners == 0:
+                    first = vid
+                previous = vid
+                corners += 1
+    v_index = np.fromiter((k & 0xFFFFFFFF for k in ids), dtype=np.int64, count=len(ids))
+    vertices = np.frombuffer(positions, dtype=np.float64).reshape(-1, 3)[v_index - 1]
     out_normals = None
-    if normals and vn:
+    if normals and n_vn:
         if missing_vn:
             raise ValueError(f"{name} line {missing_vn}: a face corner without a normal index, in a file with "
                              "vertex normals (Mitsuba leaves that vertex's normal undefined); give the face's "
                              "first corner one, or load with face_normals=True")
-        out_normals = np.asarray(vn, dtype=np.float64)[keys[:, 2] - 1]
-    return MeshData(vertices, np.asarray(faces, dtype=np.int64).reshape(-1, 3), out_normals)
+        vn_index = np.fromiter((k >> 64 for k in ids), dtype=np.int64, count=len(ids))
+        out_normals = np.frombuffer(vn, dtype=np.float64).reshape(-1, 3)[vn_index - 1]
+    return MeshData(vertices, np.frombuffer(faces, dtype=np.int64).reshape(-1, 3), out_normals)
 
 
 def obj_undefined_normal(text: str) -> int | None:
@@ -357,8 +368,6 @@ def read_mesh(path, *, normals: bool = True) -> MeshData:
     than the file holds, a face index 0, a bad normal, trimesh's own errors),
     ``MemoryError`` for a mesh too large for the memory available (:func:`check_mesh_file`).
     """
-    import trimesh
-
     path = Path(path)
     try:
         check_mesh_file(path)
@@ -376,6 +385,8 @@ def read_mesh(path, *, normals: bool = True) -> MeshData:
         return parse_obj(text, name=str(path), normals=normals)
     else:
         raise ValueError(f"{path} is not an OBJ or PLY mesh (its name should end in .obj or .ply)")
+    import trimesh
+
     try:
         tm = trimesh.load(file_obj, file_type="ply", process=False, force="mesh")
     except Exception as exc:  # noqa: BLE001 - trimesh raises many types; name the file in all cases
