@@ -341,8 +341,10 @@ def obj_undefined_normal(text: str) -> int | None:
     return None
 
 
-def _ply_normals(tm, name: str) -> np.ndarray | None:
-    """The ``nx ny nz`` vertex properties trimesh read from a PLY (None unless all three)."""
+def _ply_normals(tm, faces: np.ndarray, name: str) -> np.ndarray | None:
+    """The ``nx ny nz`` vertex properties trimesh read from a PLY (None unless all three).
+    A normal that is zero or not finite is refused where a face uses its vertex (Mitsuba's
+    shading would be NaN there), and replaced by (1, 0, 0) elsewhere (never shaded)."""
     raw = (tm.metadata or {}).get("_ply_raw", {}).get("vertex", {})
     data = raw.get("data")
     try:
@@ -352,8 +354,12 @@ def _ply_normals(tm, name: str) -> np.ndarray | None:
     n = np.stack(columns, axis=1)
     bad = ~(np.all(np.isfinite(n), axis=1) & np.any(n != 0.0, axis=1))
     if bad.any():
-        i = int(np.argmax(bad))
-        raise ValueError(f"{name}: vertex normal {i} is {n[i].tolist()}: zero or not finite")
+        used = np.zeros(len(n), dtype=bool)
+        used[faces[(faces >= 0) & (faces < len(n))]] = True
+        if (bad & used).any():
+            i = int(np.argmax(bad & used))
+            raise ValueError(f"{name}: vertex normal {i} is {n[i].tolist()}: zero or not finite")
+        n[bad] = (1.0, 0.0, 0.0)
     return n
 
 
@@ -392,7 +398,8 @@ def read_mesh(path, *, normals: bool = True) -> MeshData:
     except Exception as exc:  # noqa: BLE001 - trimesh raises many types; name the file in all cases
         raise ValueError(f"{path} is not an OBJ or PLY mesh trimesh can read: {type(exc).__name__}: {exc}") from exc
     vertices = np.asarray(tm.vertices, dtype=np.float64).reshape(-1, 3)
-    n = _ply_normals(tm, str(path)) if normals else None
+    faces = np.asarray(tm.faces, dtype=np.int64).reshape(-1, 3)
+    n = _ply_normals(tm, faces, str(path)) if normals else None
     if n is not None and n.shape != vertices.shape:  # trimesh changed the vertices: not the file's
         raise ValueError(f"{path}: {len(n)} vertex normals for {len(vertices)} vertices")
-    return MeshData(vertices, np.asarray(tm.faces, dtype=np.int64).reshape(-1, 3), n)
+    return MeshData(vertices, faces, n)

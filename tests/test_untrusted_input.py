@@ -391,6 +391,10 @@ def test_bad_ply_normals_are_refused(tmp_path, normal):
     write_ply(mesh, np.eye(3), [[0, 1, 2]], [(0.0, 0.0, 1.0), normal, (0.0, 0.0, 1.0)])
     with pytest.raises(ValueError, match="n.ply: vertex normal 1"):
         rt.Mesh.load(mesh, rt.Lambertian(0.5))
+    # a vertex no face uses is never shaded: its normal does not matter
+    write_ply(tmp_path / "unused.ply", np.vstack([np.eye(3), [[5.0, 5.0, 5.0]]]), [[0, 1, 2]],
+              [(0.0, 0.0, 1.0)] * 3 + [normal])
+    assert rt.Mesh.load(tmp_path / "unused.ply", rt.Lambertian(0.5)).normals[3].tolist() == [1.0, 0.0, 0.0]
     proc = _rtbench("render", "--scene", _xml_with_mesh(tmp_path, str(mesh), face_normals=False),
                     "--out", tmp_path / "r", timeout=120)
     assert proc.returncode == 2 and "n.ply" in proc.stderr and "not a unit vector" in proc.stderr, proc.stderr
