@@ -7,14 +7,15 @@ walked node by node. Supported: ``perspective`` sensor (``fov`` with any
 ``tent`` or ``gaussian`` filter (film fields that change no pixel are ignored),
 ``independent`` sampler, ``path`` integrator (``max_depth``, ``rr_depth``) and ``direct``
 (``emitter_samples``, ``bsdf_samples``, ``shading_samples``), shapes ``sphere``,
-``rectangle``, ``cube``, ``obj``, ``ply`` (with ``to_world`` and ``flip_normals``; meshes
-flat-shaded: ``face_normals=true``, or vertex normals equal to the faces'), BSDFs
-``diffuse``, ``conductor`` and ``roughconductor`` (``ggx`` or ``beckmann``, isotropic,
-``material`` names or RGB ``eta``/``k``), ``dielectric``, ``plastic`` and ``roughplastic``
-(constant reflectances, named or numeric ``int_ior``/``ext_ior``, ``nonlinear``; rough:
-``ggx`` or ``beckmann``, isotropic), ``twosided`` around one of those, references by id,
-``area`` emitters (on their shape or declared at the top level and referenced) and
-``constant``, RGB or scalar values.
+``rectangle``, ``cube``, ``obj``, ``ply`` (with ``to_world``, ``flip_normals`` and
+``face_normals``: the vertex normals Mitsuba's loader gives, read from the file or
+computed where it has none, shade the mesh smooth as in Mitsuba), BSDFs ``diffuse``,
+``conductor`` and ``roughconductor`` (``ggx`` or ``beckmann``, isotropic, ``material``
+names or RGB ``eta``/``k``), ``dielectric``, ``plastic`` and ``roughplastic`` (constant
+reflectances, named or numeric ``int_ior``/``ext_ior``, ``nonlinear``; rough: ``ggx`` or
+``beckmann``, isotropic), ``twosided`` around one of those, references by id, ``area``
+emitters (on their shape or declared at the top level and referenced) and ``constant``,
+RGB or scalar values.
 Anything else is refused with one ``ValueError`` listing every unsupported item and
 where it is; no partial scene is ever returned.
 """
@@ -440,28 +441,78 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
             except (ValueError, OSError) as exc:
                 ctx.bad(node, f"{name} mesh {fname} cannot be used: {exc}")
                 return None
+            face_normals = bool(node.props["face_normals"]) if "face_normals" in node.props.keys() else False
+            if name == "obj" and not face_normals:
+                line = _obj_undefined_normal(fname)
+                if line is not None:
+                    ctx.bad(node, f"obj mesh {fname} line {line}: a face whose first corner has no normal index, in "
+                                  "a file with vertex normals (Mitsuba leaves that vertex's normal undefined)")
+                    return None
             try:
                 mesh_obj = ctx.mi.load_dict({"type": name, "filename": fname,
                                              "to_world": ctx.mi.ScalarTransform4f(m.tolist()),
-                                             "face_normals": bool(node.props["face_normals"])
-                                             if "face_normals" in node.props.keys() else False})
+                                             "face_normals": face_normals})
             except Exception as exc:  # Mitsuba raises RuntimeError with the reason
                 ctx.bad(node, f"{name} mesh could not be loaded: {exc}")
                 return None
         params = ctx.mi.traverse(mesh_obj)
         v = np.array(params["vertex_positions"], dtype=np.float64).reshape(-1, 3)
         f = np.array(params["faces"], dtype=np.int64).reshape(-1, 3)
-        if mesh_obj.has_vertex_normals() and not _normals_are_flat(params, v, f):
-            ctx.bad(node, f"{name} mesh with smooth vertex normals (they differ from the faces' normals: "
-                          "shading normals are not modelled; face_normals=true shades it flat)")
-            return None
         if len(f) == 0:
             ctx.bad(node, f"{name} mesh {node.props['filename'] if 'filename' in node.props.keys() else ''} "
                           "holds no triangles")
             return None
-        return rt.Mesh(v, f, mat, flip_normals=flip)
+        normals = _mesh_normals(params, mesh_obj, v, f)
+        if isinstance(normals, str):
+            source = f" {node.props['filename']}:" if "filename" in node.props.keys() else ""
+            ctx.bad(node, f"{name} mesh{source} {normals}")
+            return None
+        return rt.Mesh(v, f, mat, flip_normals=flip, normals=normals)
     ctx.bad(node, f"shape '{name}'")
     return None
+
+
+def _obj_undefined_normal(fname):
+    """:func:`reference_tracer.meshfile.obj_undefined_normal` of an OBJ file (None if unreadable:
+    Mitsuba's loader then says why)."""
+    from reference_tracer.meshfile import decode_obj, obj_undefined_normal
+
+    try:
+        return obj_undefined_normal(decode_obj(Path(fname).read_bytes()))
+    except (OSError, ValueError):
+        return None
+
+
+def _mesh_normals(params, mesh, v, f):
+    """The vertex normals Mitsuba shades ``mesh`` with (world space, as its loader stored
+    them: the file's, or computed), None where it shades flat, or a sentence saying why
+    they cannot be used.
+
+    Flat also where every vertex normal equals its triangle's own normal (a quad of two
+    coplanar triangles, a box stored with a vertex per face corner): Mitsuba's shading is
+    then the flat one (to 1e-5), and the mesh keeps the flat fast path. A normal that is
+    not a unit vector is refused: Mitsuba normalises every normal it reads or computes, so
+    another value is one it left undefined (an OBJ face corner without a normal index in a
+    file with normals) or a zero or non-number normal of a PLY file (Mitsuba's shading
+    there is NaN)."""
+    if not mesh.has_vertex_normals():
+        return None
+    n = np.array(params["vertex_normals"], dtype=np.float64).reshape(-1, 3)
+    if n.shape != v.shape:
+        return f"has {len(n)} vertex normals for {len(v)} vertices"
+    used = np.zeros(len(v), dtype=bool)
+    used[f.ravel()] = True
+    length = np.linalg.norm(n, axis=1)
+    bad = used & ~(np.abs(length - 1.0) <= 1e-3)
+    if bad.any():
+        i = int(np.argmax(bad))
+        return (f"vertex normal {i} is {n[i].tolist()}, not a unit vector: undefined in Mitsuba (a zero or "
+                "non-number normal in the file, or an OBJ face corner without a normal index in a file "
+                "with normals)")
+    if _normals_are_flat(params, v, f):
+        return None
+    n[~used] = (1.0, 0.0, 0.0)   # vertices of no face: never shaded
+    return n
 
 
 def _normals_are_flat(params, v, f, *, tol: float = 1e-5) -> bool:
@@ -642,14 +693,18 @@ def from_mitsuba(source, params=None) -> rt.Scene:
 
     Notes
     -----
+    Meshes are shaded as Mitsuba shades them: with the vertex normals its ``obj`` / ``ply``
+    loader gives (the file's; computed from the faces where the file has none, so an OBJ
+    without ``vn`` is smooth; none with ``face_normals=true``), and no reconciliation of
+    shading and geometric normals (:class:`reference_tracer.Mesh`).
     A shape without a BSDF gets Mitsuba's default (``diffuse``, reflectance 0.5), except an
     emitter shape, which Mitsuba makes black (it reflects nothing: ``DiffuseLight`` with no
     albedo); a
     ``dielectric`` becomes ``Dielectric(int_ior / ext_ior)`` (exact: Mitsuba uses only
     the ratio); Mitsuba's default ``fov_axis`` is ``'x'``; ``rr_depth`` larger than
     ``max_depth`` means no Russian roulette (``rr_depth=None``). ``sample_count`` is
-    not imported: spp is chosen when rendering. Meshes must be flat shaded
-    (``face_normals=true``); ``obj``/``ply`` files are read by Mitsuba itself.
+    not imported: spp is chosen when rendering. ``obj``/``ply`` files are read by Mitsuba
+    itself.
 
     Examples
     --------
@@ -807,9 +862,6 @@ def _parse_with_search_paths(mi, parse) -> tuple:
 def _mesh_object(ctx, root, key, mesh):
     """A ``mi.Mesh`` given as an object in the dict (as :func:`to_mitsuba` makes them)."""
     where = f'dictionary node "{key}"'
-    if mesh.has_vertex_normals():
-        ctx.problems.append(f"mesh object with vertex normals (smooth shading) ({where})")
-        return None
     params = ctx.mi.traverse(mesh)
     keys = set(params.keys())
     bsdf = mesh.bsdf()
@@ -835,4 +887,9 @@ def _mesh_object(ctx, root, key, mesh):
         mat = rt.Lambertian(albedo)
     v = np.array(params["vertex_positions"], dtype=np.float64).reshape(-1, 3)
     f = np.array(params["faces"], dtype=np.int64).reshape(-1, 3)
-    return rt.Mesh(v, f, mat)
+    normals = _mesh_normals(params, mesh, v, f)
+    if isinstance(normals, str):
+        ctx.problems.append(f"mesh object whose {normals} ({where})")
+        return None
+    flip = bool(mesh.has_flipped_normals())
+    return rt.Mesh(v, f, mat, flip_normals=flip, normals=normals)

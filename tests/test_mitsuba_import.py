@@ -78,12 +78,20 @@ def test_unsupported_scene_lists_everything(mi):
         assert needle in msg, (needle, msg)
 
 
-def test_smooth_mesh_refused(mi, tmp_path):
+def test_mesh_without_face_normals_gets_mitsubas_computed_normals(mi, tmp_path):
+    """A PLY without normals and face_normals=false: Mitsuba computes vertex normals (the
+    angle-weighted face normals) and shades it smooth; the import takes the same normals."""
+    from reference_tracer.shapes import vertex_normals
+
     scene = get_scene("cornell_mesh", width=8, height=8)
     path = to_xml(scene, tmp_path / "m.xml")
     path.write_text(path.read_text().replace('name="face_normals" value="true"', 'name="face_normals" value="false"'))
-    with pytest.raises(ValueError, match="smooth vertex normals"):
-        from_mitsuba(path)
+    imported = [s for s in from_mitsuba(path).shapes if isinstance(s, rt.Mesh)]
+    assert len(imported) == 1 and imported[0].normals is not None
+    mesh = [s for s in mi.load_file(str(path)).shapes() if s.has_vertex_normals()]
+    theirs = np.array(mi.traverse(mesh[0])["vertex_normals"], dtype=np.float64).reshape(-1, 3)
+    np.testing.assert_allclose(imported[0].world_normals(), theirs, atol=1e-6)
+    np.testing.assert_allclose(vertex_normals(imported[0].vertices, imported[0].faces), theirs, atol=1e-5)
 
 
 def test_dielectric_ior_ratio_and_defaults(mi):

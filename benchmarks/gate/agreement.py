@@ -1,6 +1,7 @@
 """Do two renders of one scene agree? The two figures of the published-scene checks.
 
-Per pixel and channel ``z = (x - y) / sqrt(var_x / n_x + var_y / n_y)``, and per channel the
+Per pixel and channel ``z = (x - y) / sqrt(var_x / n_x + var_y / n_y + (1e-5 y)^2)`` (the last
+term, float32 rounding, only where there is noise), and per channel the
 whole image's ``Z = sum(x - y) / sqrt(Var(sum x) + Var(sum y))``. The scenes agree when
 every ``|Z| <= 4`` and at most 1% of the pixel values have ``|z| > 4`` (for agreeing
 renders, 3 whole-image tests at about 6e-5 each under the normal approximation, and about
@@ -28,6 +29,10 @@ __all__ = ["Agreement", "agreement", "Z_LIMIT", "SHARE_LIMIT"]
 #: The largest |whole-image z| and share of |pixel z| > Z_LIMIT of agreeing renders.
 Z_LIMIT = 4.0
 SHARE_LIMIT = 0.01
+#: Relative float32 rounding that joins a noisy pixel's standard error: a pixel that is
+#: constant in one renderer (the background seen directly) differs from the other's by
+#: rounding alone.
+RELATIVE_ROUNDING = 1e-5
 
 
 @dataclass(frozen=True)
@@ -75,7 +80,8 @@ def agreement(ours, theirs, *, pixel_filter=None) -> Agreement:
         vx = m2
         sum_x = np.asarray(samples.variance, dtype=np.float64) / nx
         sum_y = vy / ny / fw.variance_ratio
-    se = np.sqrt(vx / nx + vy / ny)
+    se2 = vx / nx + vy / ny
+    se = np.sqrt(np.where(se2 > 0, se2 + (RELATIVE_ROUNDING * np.abs(y)) ** 2, 0.0))
     d = x - y
     z = np.where(se > 0, d / np.where(se > 0, se, 1.0), 0.0)
     total = np.sqrt(sum_x.sum(axis=(0, 1)) + sum_y.sum(axis=(0, 1)))

@@ -92,8 +92,8 @@ def our_aovs(scene: rt.Scene, *, offset=(0.5, 0.5)) -> dict:
     Returns
     -------
     dict
-        ``t`` (H, W) hit distance (inf on a miss), ``normal`` (H, W, 3) unit normal of the
-        front side (0 on a miss), ``albedo`` (H, W, 3), ``emitted`` (H, W, 3) radiance
+        ``t`` (H, W) hit distance (inf on a miss), ``normal`` (H, W, 3) unit shading normal
+        of the front side (0 on a miss), ``albedo`` (H, W, 3), ``emitted`` (H, W, 3) radiance
         toward the camera (the background on a miss), ``shape`` (H, W) shape index (-1
         on a miss).
     """
@@ -109,7 +109,10 @@ def our_aovs(scene: rt.Scene, *, offset=(0.5, 0.5)) -> dict:
     prims = np.asarray(hit["prim"], dtype=np.int64)
     shape = np.full(t.shape, -1, dtype=np.int64)
     shape[valid] = prim_shapes(scene)[prims[valid]]
-    normal = np.where(valid[:, None], np.asarray(hit["normal"], dtype=np.float64), 0.0)
+    # the shading normal (Mitsuba's AOV is si.sh_frame.n): the interpolated vertex normals
+    # on smooth meshes, else the geometric normal; emission's side is the shading normal's
+    shading = hit.get("shading_normal", hit["normal"])
+    normal = np.where(valid[:, None], np.asarray(shading, dtype=np.float64), 0.0)
     albedo = np.zeros((t.size, 3))
     emitted = np.tile(np.asarray(scene.background, dtype=np.float64), (t.size, 1))
     front = np.einsum("ij,ij->i", normal, -d) > 0
