@@ -78,3 +78,39 @@ def test_the_agreement_test_sees_a_wrong_import():
     mit = render_mitsuba(path, spp=SPP, seed=1, batches=16, params=params, threads=2)
     a = agreement(ours, mit, pixel_filter=scene.camera.filter)
     assert not a.agrees, a.describe()
+
+
+def _veach_docs_copy(tmp_path):
+    """Mitsuba's documentation scene of Veach's comparison, copied with only its film's size
+    changed (768x512 -> 48x32, in ``include/veach_mis.xml``, the file that declares it)."""
+    import shutil
+
+    root = tmp_path / "mitsuba"
+    shutil.copytree(PUBLISHED / "mitsuba" / "docs", root / "docs")
+    shutil.copytree(PUBLISHED / "mitsuba" / "common", root / "common")
+    include = root / "docs" / "scenes" / "include" / "veach_mis.xml"
+    text = include.read_text()
+    for old, new in (('name="width" value="768"', 'name="width" value="48"'),
+                     ('name="height" value="512"', 'name="height" value="32"')):
+        assert text.count(old) == 1
+        text = text.replace(old, new)
+    include.write_text(text)
+    return root / "docs" / "scenes"
+
+
+@pytest.mark.parametrize("file,counts,strategy", [("integrator_direct_both.xml", (1, 1), "mis"),
+                                                  ("integrator_direct_bsdf.xml", (0, 1), "cosine"),
+                                                  ("integrator_direct_lum.xml", (1, 0), "light")])
+def test_mitsubas_veach_scene_imports_unmodified_and_agrees(tmp_path, file, counts, strategy):
+    """The Veach MIS scene of Mitsuba's documentation (its ``direct`` integrator with emitter
+    and BSDF samples, roughplastic plates, spheres lights, OBJ meshes, Gaussian film), each of
+    its three files, against ``mi.load_file`` of the same file."""
+    path = _veach_docs_copy(tmp_path) / file
+    scene = from_mitsuba(path)
+    assert scene.direct == rt.Direct(*counts) and scene.camera.filter == rt.Filter("gaussian")
+    assert sum(isinstance(s.material, rt.RoughPlastic) for s in scene.shapes) == 4
+    ours = rt.render(scene, spp=SPP, strategy=strategy, seed=1, threads=2)
+    mit = render_mitsuba(path, spp=SPP, seed=1, batches=16, threads=2)
+    assert ours.mean.shape == mit.mean.shape == (32, 48, 3)
+    a = agreement(ours, mit, pixel_filter=scene.camera.filter)
+    assert a.agrees, a.describe()
