@@ -47,6 +47,11 @@ class RenderResult(ImageEstimate):
         of 1e300 (0 in a correct render).
     moments : SampleMoments or None
         Per-pixel tail diagnostics, when the render was asked for them (``moments=True``).
+    pixel_samples : ImageEstimate or None
+        A render with a tent or Gaussian filter only: the plain mean and per-sample variance
+        of the samples drawn inside each pixel (the box filter's estimate from the same
+        samples). The statistics of a filtered pixel are computed from these
+        (``benchmarks.gate.filtered``).
     """
 
     strategy: str
@@ -59,6 +64,7 @@ class RenderResult(ImageEstimate):
     threads: int = 1
     moments: SampleMoments | None = field(default=None, repr=False)
     extra: dict = field(default_factory=dict)
+    pixel_samples: ImageEstimate | None = field(default=None, repr=False)
 
     @property
     def paths_per_second(self) -> float:
@@ -213,7 +219,8 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
     build = time.perf_counter() - t0
     if not scene.camera.filter.is_box:
         if moments:
-            raise ValueError("moments (tail diagnostics) need the box filter: a filtered pixel is a ratio of "
+            raise ValueError("moments (tail diagnostics) describe the samples, not the filter: render the scene "
+                             "with the box filter for them (the samples are the same); a filtered pixel is a ratio of "
                              "weighted sums, not a mean of samples")
         return _render_filtered(core, scene, spp=spp, strategy=strategy, seed=int(seed), threads=threads,
                                 progress=progress, integrator=integrator, build=build)
@@ -270,6 +277,7 @@ def _render_filtered(core, scene: Scene, *, spp, strategy, seed, threads, progre
     K = min(FILTER_BATCHES, spp)
     sizes = [spp // K + (1 if k < spp % K else 0) for k in range(K)]
     sums, images, seconds, rays, nonfinite = None, [], 0.0, 0, 0
+    box_sum = box_sq = 0.0
     for k, n in enumerate(sizes):
         done = sum(sizes[:k])
 
@@ -281,6 +289,7 @@ def _render_filtered(core, scene: Scene, *, spp, strategy, seed, threads, progre
                           batch_progress if progress is not None else None, False, INTEGRATORS.index(integrator),
                           filter=kind, filter_param=float(param), **_direct_counts(scene, strategy))
         acc = out["filtered"]
+        box_sum, box_sq = box_sum + out["sum"], box_sq + out["sum_sq"]
         sums = acc.copy() if sums is None else sums + acc
         with np.errstate(invalid="ignore", divide="ignore"):
             images.append(acc[..., :3] / acc[..., 3:])
@@ -294,8 +303,13 @@ def _render_filtered(core, scene: Scene, *, spp, strategy, seed, threads, progre
             variance = np.sum(n_k * (np.stack(images) - mean) ** 2, axis=0) / (K - 1)
         else:
             variance = np.full_like(mean, np.nan)
+        box_mean = box_sum / spp
+        box_var = np.maximum(box_sq / spp - box_mean * box_mean, 0.0)
     mean, variance = mean.astype(np.float32), variance.astype(np.float32)
     overflow = int(np.count_nonzero(~np.isfinite(mean).all(axis=-1)))
+    pixels = ImageEstimate(mean=box_mean.astype(np.float32), variance=box_var.astype(np.float32), spp=spp,
+                           seconds=seconds, source="ours")
     return RenderResult(mean=mean, variance=variance, overflow_pixels=overflow, seconds=seconds, spp=spp,
                         strategy=strategy, seed=int(seed), rays=rays, nonfinite_samples=nonfinite,
-                        build_seconds=build, threads=threads, extra={"filter": f.kind, "batches": K})
+                        build_seconds=build, threads=threads, extra={"filter": f.kind, "batches": K},
+                        pixel_samples=pixels)

@@ -7,7 +7,6 @@ import json
 import os
 import subprocess
 import sys
-import time
 import warnings
 
 import numpy as np
@@ -147,17 +146,21 @@ def test_store_files_are_created_with_the_umask_not_0600(tmp_path):
 # ------------------------------------------------------------------------- case 2: the writer lock
 
 def test_writer_lock_makes_a_second_writer_wait(tmp_path):
-    code = ("import sys, time; from benchmarks.store import writer_lock\n"
+    """A second writer says it waits (naming the holder), takes the lock only once the first
+    lets go, and then holds it: an order of events read from the child's output and the lock
+    file, with no sleep and no clock."""
+    code = ("import os, sys; from benchmarks.store import writer_lock\n"
             "with writer_lock(sys.argv[1], say=lambda t: print(t, flush=True)):\n"
-            "    print('got', time.time(), flush=True)\n")
+            "    print('got', os.getpid(), flush=True)\n")
+    lock_file = tmp_path / WRITER_LOCK
     with writer_lock(tmp_path):
         assert WRITER_LOCK in os.listdir(tmp_path)
         proc = subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], cwd=ROOT, stdout=subprocess.PIPE,
                                 text=True)
-        time.sleep(1.0)
-        assert proc.poll() is None  # waiting for us
-        released = time.time()
-    out, _ = proc.communicate(timeout=60)
-    lines = out.splitlines()
-    assert lines[0].startswith("waiting for the other run writing to") and f"pid {os.getpid()}" in lines[0]
-    assert float(lines[1].split()[1]) >= released
+        # Blocks until the child has met the lock: it prints this only when it must wait.
+        first = proc.stdout.readline()
+        assert first.startswith("waiting for the other run writing to") and f"pid {os.getpid()}" in first, first
+        assert proc.poll() is None and lock_file.read_text().startswith(f"pid {os.getpid()} ")  # still ours
+    rest, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 0 and rest.split() == ["got", str(proc.pid)], rest
+    assert lock_file.read_text().startswith(f"pid {proc.pid} ")   # the child wrote it once it held the lock

@@ -1,5 +1,5 @@
 """Degenerate input (issue 8): zero-area, collinear and all-equal triangles, duplicate
-vertices, 100,000 triangles with one bounding box - bounded build time, never hit, no NaN."""
+vertices, 100,000 triangles with one bounding box - a balanced tree, never hit, no NaN."""
 import numpy as np
 import pytest
 
@@ -32,14 +32,15 @@ def test_duplicate_vertices_stay_watertight(record):
     assert record.details["split_vertex_escapes"] == 0
 
 
-def test_coincident_centroids_build_time_bounded(record):
-    """1e5 triangles with one bounding box build in O(n log n): no slower than 4x an
-    ordinary mesh of as many triangles (quadratic would be ~1e4x), and under 5 s."""
+def test_coincident_centroids_build_a_balanced_tree(record):
+    """1e5 triangles with one bounding box (no SAH split possible) still build a balanced
+    tree, which the O(n log n) build needs: at most log2(1e5) = 17 levels (a builder that
+    peeled one leaf off a level would need thousands) and leaves of a few triangles (no leaf
+    of them all). Counted, not timed: the build time is reported in the record only."""
     d = record.details
     print(record.figure)
-    t = d["build_seconds"]["same_box"]["100000"]
-    assert t < 5.0
-    assert d["build_ratio_to_ordinary"] <= 4.0
+    assert d["bvh_depth_bound"] == 17 and 1 <= d["bvh_depth"] <= 17, d["bvh_depth"]
+    assert 4 * d["bvh_blocks"] >= 100_000 and d["bvh_nodes"] < 100_000
     assert d["coincident_brute_force_mismatch"] == 0
     assert record.passed
 

@@ -22,8 +22,9 @@ from dataclasses import asdict, dataclass
 from reference_tracer._validate import positive_int
 
 from ..constants import GATE_ALPHA, UNBIASED_STRATEGIES
-from ..tails import DEFAULT_TAIL_SPP, tail_reference
-from .suite import DEFAULT_REF_SPP, DEFAULT_WIDTH, compare_render, gate_reference, gate_scene, resolve_scenes
+from ..tails import DEFAULT_TAIL_SPP
+from .suite import (DEFAULT_REF_SPP, DEFAULT_WIDTH, compare_render, gate_reference, gate_scene, gate_tails,
+                    resolve_scenes)
 
 __all__ = ["CalibrationRow", "calibrate", "clopper_pearson", "DEFAULT_CALIBRATION_SPPS", "DEFAULT_CALIBRATION_SEEDS"]
 
@@ -146,8 +147,7 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
             todo = [spp for spp in spps if (name, strategy, spp) not in skip]
             if not todo:
                 continue
-            tails = (tail_reference(scene, strategy=strategy, spp=tail_spp, threads=threads, cache=cache, log=log)
-                     if tail_spp else None)
+            tails = gate_tails(scene, strategy, tail_spp=tail_spp, threads=threads, cache=cache, log=log)
             for spp in todo:
                 results = []
                 for k in range(seeds):
@@ -156,7 +156,9 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
                                                      alpha=alpha, threads=threads))
                     else:
                         out = rt.render(scene, spp=spp, strategy=strategy, seed=FIRST_SEED + k, threads=threads)
-                        results.append(compare_render(out.mean, out.variance, spp, ref, alpha=alpha, tails=tails))
+                        results.append(compare_render(out.mean, out.variance, spp, ref, alpha=alpha, tails=tails,
+                                                      pixel_samples=out.pixel_samples,
+                                                      pixel_filter=scene.camera.filter))
                     if on_render:
                         on_render()
                 row = _row(name, strategy, spp, alpha, results)

@@ -78,6 +78,7 @@ identical samples (``rt.render`` gives ~1e-15 on a directly seen light), and wit
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -89,6 +90,7 @@ from ..stats import sidak, sidak_p_value
 from .heavy_tails import (DEFAULT_VALIDITY, edgeworth_error, neighbourhood_floor, pixel_shape, spp_needed,
                           tail_moments)
 from .correlation import MIN_PAIRS, neighbour_products
+from .filtered import filtered_moments
 from .findings import POWER_TILE, locate, power, relative_bias
 from .result import LEVELS, GateResult
 
@@ -170,7 +172,7 @@ def _welch_from_sums(diff, a, b, a2, b2, n_t, n_r, tol, fa=None, fa2=None):
 def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
             alpha: float = GATE_ALPHA, tile=(8, 16, 32), variance_floor: str = "reference",
             var_ddof: int = 0, zero_var_rtol: float = 1e-4, pixel_pool: int = 3, tails=None,
-            validity: float = DEFAULT_VALIDITY) -> GateResult:
+            validity: float = DEFAULT_VALIDITY, pixel_samples=None, filter_weights=None) -> GateResult:
     """Test whether a render and a reference have the same expectation (see module doc).
 
     Parameters
@@ -215,6 +217,18 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
         taken as normal, which heavy-tailed estimators break (``benchmarks/STATISTICS.md``).
     validity : float
         Largest :func:`edgeworth_error` at which a statistic is still tested.
+    pixel_samples : (mean, variance) pair of array_like, optional
+        A test render with a tent or Gaussian filter: the mean and per-sample variance of
+        the samples drawn inside each pixel (``rt.render``'s ``pixel_samples``), from which
+        the filtered pixels' statistics are computed (:mod:`benchmarks.gate.filtered`); with
+        ``filter_weights``. ``test_var`` is then not used, and ``tails`` (if given) are the
+        per-sample moments of the same estimator with the box filter. The reference's
+        per-sample variance is that of its filtered pixels (Mitsuba's, from its batches).
+        The tile and image levels take the sums' variance from the samples' (a sum of
+        filtered pixels counts each interior sample with weight ~1); the correlation level
+        is not tested (the filter correlates neighbours by design).
+    filter_weights : benchmarks.gate.filtered.FilterWeights, optional
+        The filter's weights (:func:`benchmarks.gate.filtered.filter_weights`).
 
     Returns
     -------
@@ -232,15 +246,18 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
     ['tile', 'image']
     """
     tiles = _check_options(alpha, tile, pixel_pool, variance_floor, validity)
+    if (pixel_samples is None) != (filter_weights is None):
+        raise ValueError("pixel_samples and filter_weights go together (a filtered test render)")
     d = _prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, var_ddof=var_ddof,
-                 zero_var_rtol=zero_var_rtol, variance_floor=variance_floor, tails=tails)
+                 zero_var_rtol=zero_var_rtol, variance_floor=variance_floor, tails=tails,
+                 pixel_samples=pixel_samples, filter_weights=filter_weights)
     crit = dict(alpha_level=alpha / len(LEVELS), validity=validity)
     pix = _pixel_level(d, pixel_pool, **crit)
     # pixels with no noise and equal means contribute exactly nothing to the sums
     diff = np.where(pix.testable & ~d.bad, d.diff, 0.0)
     tile_levels = [_tile_level(d, diff, ts, **crit) for ts in tiles]
     img = _image_level(d, diff, **crit)
-    corr, rho = _correlation_level(pix, tails is not None, **crit)
+    corr, rho = _correlation_level(pix, tails is not None and filter_weights is None, **crit)
 
     # ---- combine: Sidak within a level (over the tested statistics), Bonferroni over the levels
     levels = {"pixel": [pix], "tile": tile_levels, "image": [img], "correlation": [corr]}
@@ -296,7 +313,10 @@ class _Inputs:
     or None; ``k3``, ``k4``: third and fourth cumulants of the test's pixel means (zero
     without tail diagnostics); ``g1``, ``g2``: per-sample skewness and excess kurtosis of
     each pixel for the pixel level (the worse of the pixel's own and its neighbourhood's);
-    ``diff = x - r``; ``abs_scale = max(|x|, |r|)``.
+    ``diff = x - r``; ``abs_scale = max(|x|, |r|)``. ``summed``: the same variances and
+    cumulants for sums over tiles and the image (for a filtered render those of the samples
+    drawn in each pixel: a sum of filtered pixels weighs each interior sample ~1), or None
+    where they are the pixels' own.
     """
 
     x: np.ndarray
@@ -314,10 +334,15 @@ class _Inputs:
     n_t: float
     n_r: float
     zero_var_rtol: float
+    summed: dict | None = None
 
-    def sums(self, reduce) -> dict:
+    def for_sums(self, name: str) -> np.ndarray:
+        """``a``, ``b``, ``fa``, ``k3`` or ``k4`` as the tile and image levels sum them."""
+        return getattr(self, name) if self.summed is None else self.summed[name]
+
+    def sums(self, reduce, *, summed: bool = False) -> dict:
         """The variance sums :func:`_welch_from_sums` takes, each reduced by ``reduce``."""
-        a, b, fa = self.a, self.b, self.fa
+        a, b, fa = ((self.for_sums(k) for k in ("a", "b", "fa")) if summed else (self.a, self.b, self.fa))
         out = dict(a=reduce(a), b=reduce(b), a2=reduce(a * a), b2=reduce(b * b))
         if fa is not None:
             out.update(fa=reduce(fa), fa2=reduce(fa * fa))
@@ -346,8 +371,12 @@ class _Level:
 
 
 def _prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *, var_ddof, zero_var_rtol,
-             variance_floor, tails) -> _Inputs:
+             variance_floor, tails, pixel_samples=None, filter_weights=None) -> _Inputs:
     """Validate and convert the images of :func:`compare` (see its parameters)."""
+    if filter_weights is not None:
+        return _prepare_filtered(test_mean, test_spp, ref_mean, ref_var, ref_spp, var_ddof=var_ddof,
+                                 zero_var_rtol=zero_var_rtol, variance_floor=variance_floor, tails=tails,
+                                 pixel_samples=pixel_samples, weights=filter_weights)
     x, vx = _image3(test_mean, "test_mean"), _image3(test_var, "test_var")
     r, vr = _image3(ref_mean, "ref_mean"), _image3(ref_var, "ref_var")
     shapes = {"test_mean": x.shape, "test_var": vx.shape, "ref_mean": r.shape, "ref_var": vr.shape}
@@ -384,7 +413,44 @@ def _prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *, var_d
                    zero_var_rtol=zero_var_rtol)
 
 
-def _level(d: _Inputs, reduce, diff, K3, K4, *, alpha_level, validity) -> _Level:
+def _prepare_filtered(test_mean, test_spp, ref_mean, ref_var, ref_spp, *, var_ddof, zero_var_rtol,
+                      variance_floor, tails, pixel_samples, weights) -> _Inputs:
+    """:func:`_prepare` for a filtered test render: the filtered pixels' moments from the
+    samples drawn inside each pixel (:func:`benchmarks.gate.filtered.filtered_moments`), the
+    samples' own for the sums."""
+    try:
+        box_mean, box_var = pixel_samples
+    except (TypeError, ValueError):
+        raise ValueError("pixel_samples must be a (mean, variance) pair of images") from None
+    d = _prepare(test_mean, box_var, test_spp, ref_mean, ref_var, ref_spp, var_ddof=var_ddof,
+                 zero_var_rtol=zero_var_rtol, variance_floor="none", tails=None)
+    mu = _image3(box_mean, "pixel_samples mean")
+    if mu.shape != d.x.shape or not np.all(np.isfinite(mu)):
+        raise ValueError(f"pixel_samples mean must be finite with the images' shape {d.x.shape}")
+    n_t = d.n_t
+    v_box = d.a * n_t  # the samples' per-sample variance, de-biased and zero below rounding
+    m3 = k4 = None
+    if tails is not None:
+        m2t, m3, k4 = tail_moments(tails, d.x.shape)
+        if variance_floor == "reference":
+            v_box = np.maximum(v_box, m2t * (tails.n / (tails.n - 1.0)))
+    m2f, m3f, k4f = filtered_moments(weights, mean=mu, variance=v_box, filtered_mean=d.x, m3=m3, k4=k4)
+    a = np.where(d.bad, 0.0, m2f) / n_t
+    a_sum = np.where(d.bad, 0.0, v_box) / n_t
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # the reference shares the filter: its sums' variance relates to its pixels' as ours
+        inflate = np.where(a > 0, a_sum / np.where(a > 0, a, 1.0), 1.0)
+    fa = d.b * d.n_r / n_t if variance_floor == "reference" and tails is None else None
+    summed = dict(a=a_sum, b=d.b * inflate, fa=None if fa is None else fa * inflate, k3=d.k3, k4=d.k4)
+    shape = {}
+    if tails is not None:
+        summed.update(k3=m3 / n_t ** 2, k4=k4 / n_t ** 3)
+        g1, g2 = pixel_shape(m2f, m3f, k4f, exact=(a == 0) & (d.b == 0), n_t=n_t)
+        shape = dict(k3=m3f / n_t ** 2, k4=k4f / n_t ** 3, g1=g1, g2=g2)
+    return dataclasses.replace(d, a=a, fa=fa, summed=summed, **shape)
+
+
+def _level(d: _Inputs, reduce, diff, K3, K4, *, alpha_level, validity, summed: bool = False) -> _Level:
     """The Welch statistics of ``diff`` (already reduced: a pixel's, a tile's or the
     image's summed difference) with the variances reduced by ``reduce``, and which of them
     may be tested.
@@ -395,7 +461,7 @@ def _level(d: _Inputs, reduce, diff, K3, K4, *, alpha_level, validity) -> _Level
     ``p (1 + e(min(|z|, z_crit)))``: the error of the normal tail is paid for in the
     p-value rather than ignored, so the level holds for skewed statistics too.
     """
-    sums = d.sums(reduce)
+    sums = d.sums(reduce, summed=summed)
     tol = d.zero_var_rtol * reduce(d.abs_scale)
     z, p, testable = _welch_from_sums(diff, n_t=d.n_t, n_r=d.n_r, tol=tol, **sums)
     a = sums["a"] if d.fa is None else np.maximum(sums["a"], sums["fa"])
@@ -447,13 +513,14 @@ def _tile_level(d: _Inputs, diff: np.ndarray, ts: int, **crit) -> _Level:
         padded[:H, :W] = img
         return padded.reshape(ty, ts, tx, ts, C).sum(axis=(1, 3))
 
-    return _level(d, tile_sum, tile_sum(diff), tile_sum(d.k3), tile_sum(d.k4), **crit)
+    return _level(d, tile_sum, tile_sum(diff), tile_sum(d.for_sums("k3")), tile_sum(d.for_sums("k4")), summed=True,
+                  **crit)
 
 
 def _image_level(d: _Inputs, diff: np.ndarray, **crit) -> _Level:
     """Welch test of the whole image per channel."""
     total = lambda v: v.sum(axis=(0, 1))  # noqa: E731
-    return _level(d, total, total(diff), total(d.k3), total(d.k4), **crit)
+    return _level(d, total, total(diff), total(d.for_sums("k3")), total(d.for_sums("k4")), summed=True, **crit)
 
 
 def _correlation_level(pix: _Level, with_tails: bool, *, alpha_level, validity) -> tuple:

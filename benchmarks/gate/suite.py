@@ -60,9 +60,10 @@ from ..references import reference as mitsuba_reference
 from ..stats import sidak
 from ..tails import DEFAULT_TAIL_SPP, tail_reference
 from .result import GateResult
+from .filtered import filter_weights
 from .statistics import compare
 
-__all__ = ["DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_SEED", "DEFAULT_STRATEGY", "GateCase",
+__all__ = ["gate_tails", "DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_SEED", "DEFAULT_STRATEGY", "GateCase",
            "GateReport", "gate_scene", "resolve_scenes", "resolve_strategies", "gate_reference", "compare_render",
            "run_gate", "write_p_images"]
 
@@ -237,12 +238,29 @@ def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=
     return mitsuba_reference(scene, spp=ref_spp, threads=threads, cache=cache, log=log, variant=variant)
 
 
+def gate_tails(scene, strategy: str, *, tail_spp: int, threads, cache, log):
+    """The tail reference a comparison of ``strategy`` on ``scene`` rests on, or None (``tail_spp``
+    0). The moments are the samples': a filtered scene's are those of its box-filtered twin
+    (:func:`benchmarks.tails.tail_reference`), from which the filtered pixels' are computed."""
+    if not tail_spp:
+        return None
+    return tail_reference(scene, strategy=strategy, spp=tail_spp, threads=threads, cache=cache, log=log)
+
+
 def compare_render(mean, variance, spp: int, reference: Reference, *, alpha: float = GATE_ALPHA,
-                   tails=None) -> GateResult:
+                   tails=None, pixel_samples=None, pixel_filter=None) -> GateResult:
     """:func:`benchmarks.gate.compare` of a render with a :class:`benchmarks.references.Reference`;
-    ``tails``: the tail reference of the same estimator (:func:`benchmarks.tails.tail_reference`)."""
+    ``tails``: the tail reference of the same estimator (:func:`benchmarks.tails.tail_reference`);
+    a render with a tent or Gaussian ``pixel_filter`` (a ``reference_tracer.Filter``) passes
+    its ``pixel_samples`` (``RenderResult.pixel_samples``), from which its pixels' statistics
+    are computed (:mod:`benchmarks.gate.filtered`)."""
+    filtered = pixel_filter is not None and not pixel_filter.is_box
+    if filtered and pixel_samples is None:
+        raise ValueError("a filtered render needs its pixel_samples for the gate's statistics")
     return compare(mean, variance, spp, reference.mean, reference.variance, reference.spp, alpha=alpha,
-                   tails=None if tails is None else tails.moments)
+                   tails=None if tails is None else tails.moments,
+                   pixel_samples=(pixel_samples.mean, pixel_samples.variance) if filtered else None,
+                   filter_weights=filter_weights(pixel_filter) if filtered else None)
 
 
 def resolve_scenes(scenes) -> list:
@@ -378,17 +396,16 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
                 tails = None
             else:
                 t0 = time.perf_counter()
-                # A filtered image has no per-sample moments: its comparison rests on the batches'
-                # variance alone (tile and image levels), as an external renderer's does.
-                tails = (tail_reference(scenes_built[name], strategy=strategy, spp=tail_spp, threads=threads,
-                                        cache=cache, log=log)
-                         if tail_spp and scenes_built[name].camera.filter.is_box else None)
+                tails = gate_tails(scenes_built[name], strategy, tail_spp=tail_spp, threads=threads, cache=cache,
+                                   log=log)
                 tail_seconds += time.perf_counter() - t0
                 t0 = time.perf_counter()
                 out = rt.render(scenes_built[name], spp=spp, strategy=strategy, seed=seed, threads=threads)
                 took = time.perf_counter() - t0
             render_seconds += took
-            result = compare_render(out.mean, out.variance, spp, refs[name], alpha=case_alpha, tails=tails)
+            result = compare_render(out.mean, out.variance, spp, refs[name], alpha=case_alpha, tails=tails,
+                                    pixel_samples=getattr(out, "pixel_samples", None),
+                                    pixel_filter=scenes_built[name].camera.filter if renderer is None else None)
             case = GateCase(scene=name, strategy=strategy, width=width, height=height, spp=spp, seed=seed,
                             alpha=case_alpha, reference=refs[name], result=result, render_seconds=took,
                             mean=out.mean, variance=out.variance, tail_spp=tail_spp)

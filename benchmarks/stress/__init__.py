@@ -15,7 +15,7 @@ Cases (one module each)
     hit/miss compared with exact rational arithmetic on the same float64 ray.
 ``degenerate_input`` (:mod:`.degenerate`)
     Zero-area, collinear and all-equal-vertex triangles, duplicate vertices, 100,000
-    triangles with one bounding box: build time, never hit, no NaN.
+    triangles with one bounding box: a balanced tree, never hit, no NaN.
 ``scale_invariance`` (:mod:`.scale`)
     The Cornell box at scale 1e-4, 1, 1e4 and translated 1e5 away: the same image
     within noise; a white furnace with creases at every scale: exactly 1 per sample.

@@ -20,7 +20,7 @@ from ..store import META, SUMMARY, read_image, read_json, read_records, update_m
 from .by_metric import add_metric_ratios, curve_metrics, tail_variance_image
 from .coerce import as_float
 from .headline import add_noise_ratios, headline_rows, relative_noise_of
-from .jobs import mitsuba_pairs
+from .jobs import mitsuba_pairs, scene_at
 from .progress import render_cost
 
 #: batches of a Mitsuba reference whose store entry does not say (``benchmarks.references``).
@@ -75,7 +75,24 @@ def _nanmean(vals):
     return float(a.mean()) if a.size else math.nan
 
 
-def _bias_verdict(imgs, vars_, spp, ref_mean, ref_var, ref_spp, *, alpha, tails=None):
+def _filtered_inputs(pixel_filter, mean, per_sample, tails) -> dict:
+    """``compare``'s keywords for a scene with a tent or Gaussian filter (none for a box): the
+    per-sample moments of the samples are the tail reference's (its box twin's, 16384 spp);
+    without one, the filtered pixels' own variance over the filter's variance reduction (the
+    noise taken as locally even)."""
+    if pixel_filter is None or pixel_filter.is_box:
+        return {}
+    from ..gate.filtered import filter_weights
+
+    fw = filter_weights(pixel_filter)
+    if tails is not None:
+        samples = (np.asarray(tails.mean, dtype=np.float64), np.asarray(tails.moments.m2, dtype=np.float64))
+    else:
+        samples = (mean, per_sample / fw.variance_ratio)
+    return {"pixel_samples": samples, "filter_weights": fw}
+
+
+def _bias_verdict(imgs, vars_, spp, ref_mean, ref_var, ref_spp, *, alpha, tails=None, pixel_filter=None):
     """Is the curve's expectation different from the reference's? The regression gate's test.
 
     The mean over K seeds is the mean of K * spp samples; its per-sample variance is the
@@ -113,15 +130,17 @@ def _bias_verdict(imgs, vars_, spp, ref_mean, ref_var, ref_spp, *, alpha, tails=
     n = k * spp
     if n < 2:
         return {"bias_significant": None, "bias_p": None, "bias_z": None}
+    filtered = _filtered_inputs(pixel_filter, mean, per_sample, tails)
     if tails is not None:
         res = compare(mean, per_sample, n, ref_mean, ref_var, max(int(ref_spp), 2), alpha=alpha, var_ddof=1,
-                      tails=tails.moments)
+                      tails=tails.moments, **filtered)
         p = res.p_value
         z = float(min(stats.norm.isf(p / 2.0), 40.0)) if p > 0 else 40.0
         return {"bias_significant": {"fail": True, "pass": False}.get(res.verdict), "bias_p": p, "bias_z": z,
                 "bias_levels": res.failed_levels, "bias_verdict": res.verdict, "bias_reason": res.reason,
                 "bias_spp_needed": res.spp_needed, "bias_min_detectable": res.min_detectable_bias}
-    res = compare(mean, per_sample, n, ref_mean, ref_var, max(int(ref_spp), 2), alpha=alpha, var_ddof=1)
+    res = compare(mean, per_sample, n, ref_mean, ref_var, max(int(ref_spp), 2), alpha=alpha, var_ddof=1,
+                  **filtered)
     # Tile and image levels only (Bonferroni over the two): a biased *estimator* shows in
     # pooled statistics, while single-pixel tests are unreliable where a pixel's samples
     # are dominated by rare events (uniform sampling of a small light: a few seeds carry
@@ -242,7 +261,17 @@ def _read_stats_images(store, recs) -> tuple:
     return imgs, vars_
 
 
-def _bias_stats(top_recs, top, ref: ImageEstimate | None, store, *, alpha, tails=None) -> dict:
+def _scene_filter(scene: str, w: int, h: int, cache: dict):
+    """The pixel filter of a store's scene (None where the scene is no longer known here)."""
+    if scene not in cache:
+        try:
+            cache[scene] = scene_at(scene, w, h).camera.filter
+        except (ValueError, KeyError):
+            cache[scene] = None
+    return cache[scene]
+
+
+def _bias_stats(top_recs, top, ref: ImageEstimate | None, store, *, alpha, tails=None, pixel_filter=None) -> dict:
     """Bias and variance over seeds at the highest spp ``top`` (the records that kept their images)."""
     row = dict(bias2=None, bias2_stderr=None, bias_z=None, bias_p=None, bias_significant=None, bias_levels=None,
                bias_spp=None, bias_seeds=None, relative_bias=None, variance=None, bias_method=None)
@@ -263,7 +292,8 @@ def _bias_stats(top_recs, top, ref: ImageEstimate | None, store, *, alpha, tails
         row.update(bias2=bv.bias2, bias2_stderr=bv.bias2_se, bias_spp=top, bias_seeds=bv.k,
                    relative_bias=bv.relative_bias, variance=bv.sample_variance, bias_method=method,
                    relative_bias_ci=_relative_bias_ci(imgs, vars_, top, ref, tails))
-        row.update(_bias_verdict(imgs, vars_, top, ref.mean, ref.variance, ref.spp, alpha=alpha, tails=tails))
+        row.update(_bias_verdict(imgs, vars_, top, ref.mean, ref.variance, ref.spp, alpha=alpha, tails=tails,
+                                 pixel_filter=pixel_filter))
     return row
 
 
@@ -328,7 +358,7 @@ def _tail_noise(tails, ref) -> dict:
 
 
 def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails=None,
-                 seconds_per_sample: float | None = None) -> dict:
+                 seconds_per_sample: float | None = None, pixel_filter=None) -> dict:
     """Summary figures of one (scene, renderer, strategy, width, height) curve.
 
     With ``seconds_per_sample`` (from a seconds-long render of the same estimator: our tail
@@ -350,7 +380,7 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
         row["timing_source"] = "spp x pixels x seconds per sample of a high-budget render of the estimator"
     row.update(_slope_stats(spps, mse_c, mse_p))
     top = spps[-1]
-    row.update(_bias_stats(by_spp[top], top, ref, store, alpha=alpha, tails=tails))
+    row.update(_bias_stats(by_spp[top], top, ref, store, alpha=alpha, tails=tails, pixel_filter=pixel_filter))
     row["slope_fit_from"] = mse_reliable_from(tails, seeds=row["seeds"]) if tails is not None else None
     row.update(_reliable_points_only(spps, mse_c, mse_p, row))
     lo_hi = row.get("slope_ci") or ([row["slope"]] * 2 if row.get("slope") is not None else None)
@@ -536,7 +566,7 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
     curves = collections.defaultdict(list)
     for r in records:
         curves[(r["scene"], r["renderer"], r["strategy"], r["width"], r["height"])].append(r)
-    ref_cache, targets, rows = {}, {}, []
+    ref_cache, targets, rows, filters = {}, {}, [], {}
     for (scene, renderer, strategy, w, h), recs in curves.items():
         if (scene, w, h) not in ref_cache:
             ref_cache[(scene, w, h)] = _store_reference(store, refs_meta.get(f"{scene}@{w}x{h}"))
@@ -560,7 +590,8 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
                                  escalate=escalate)
             if bar is not None:
                 bar.advance(planned)
-        row.update(_curve_stats(recs, ref, store, alpha=alpha, target=target, tails=tails))
+        row.update(_curve_stats(recs, ref, store, alpha=alpha, target=target, tails=tails,
+                                pixel_filter=_scene_filter(scene, w, h, filters)))
         if not escalate:
             _not_escalated(row, tails, w, h)
         row["reference_kind"] = (None if ref is None else CLOSED_FORM if ref.source == CLOSED_FORM

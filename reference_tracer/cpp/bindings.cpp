@@ -195,7 +195,6 @@ public:
         if (filter < 0 || filter > 2) throw std::invalid_argument("unknown filter");
         if (filter != 0 && !(filter_param > 0.0 && filter_param < 64.0))
             throw std::invalid_argument("filter radius / standard deviation must be in (0, 64)");
-        if (filter != 0 && moments) throw std::invalid_argument("moments need the box filter");
         job.filter = filter == 1 ? rt::PixelFilter::tent(filter_param)
                    : filter == 2 ? rt::PixelFilter::gaussian(filter_param) : rt::PixelFilter::box();
         // Mitsuba's `direct` with these sample counts; both 0: the path integrator.

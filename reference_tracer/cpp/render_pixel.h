@@ -70,10 +70,10 @@ void render_pixel(const Scene& scene, const Integrator<M>& integrator, int x, in
                 ++nonfinite;
                 continue;
             }
-            if (out.splat) {  // a reconstruction filter: the sample goes to the pixels it covers
-                out.splat->add(px, py, L);
-                continue;
-            }
+            // A reconstruction filter: the sample also goes to the pixels it covers. The plain
+            // sums below stay: the per-sample moments of the samples drawn in this pixel are
+            // what the statistics of a filtered pixel are computed from.
+            if (out.splat) out.splat->add(px, py, L);
             for (int c = 0; c < 3; ++c) {
                 s[c] += L[c];
                 s2[c] += L[c] * L[c];
@@ -81,7 +81,6 @@ void render_pixel(const Scene& scene, const Integrator<M>& integrator, int x, in
             if (tails) t.add(L);
         }
     }
-    if (out.splat) return;
     for (int c = 0; c < 3; ++c) {
         out.sum[c] = s[c];
         out.sum_sq[c] = s2[c];
