@@ -68,8 +68,20 @@ class _Ctx:
     def __init__(self, mi, state):
         self.mi, self.state, self.problems = mi, state, []
         self.features = {}     # problem line -> the same without its location
-        self.base_dir = None   # folder of the XML file: relative mesh paths resolve there
         self.film_size = None  # (width, height) replacing the film's, or None
+        self.base_dir = None   # folder of the XML file: relative mesh paths resolve there,
+        self.search = []       # then in the folders of its <path> elements, in order
+
+    def resolve(self, fname: str) -> str:
+        """A file named by the scene, found as Mitsuba finds it: absolute, else in the XML's
+        folder, else in its ``<path>`` folders (the first that has it)."""
+        if os.path.isabs(fname) or self.base_dir is None:
+            return fname
+        for folder in [self.base_dir, *self.search]:
+            candidate = os.path.join(folder, fname)
+            if os.path.exists(candidate):
+                return candidate
+        return os.path.join(self.base_dir, fname)
 
     def where(self, node) -> str:
         return self.mi.parser.file_location(self.state, node)
@@ -114,6 +126,8 @@ def _colour(ctx, node, key, default):
         return (float(p[key]),) * 3
     if t == T.Color:
         return tuple(float(x) for x in np.array(p[key]).ravel()[:3])
+    if t == T.Spectrum:
+        return _spectrum_rgb(ctx, node, key)
     if t == T.ResolvedReference:
         sub = ctx.node(p[key])
         if sub.props.plugin_name() in ("rgb", "srgb") and "value" in sub.props.keys():
@@ -123,6 +137,33 @@ def _colour(ctx, node, key, default):
         return None
     ctx.bad(node, f"{node.props.plugin_name()}.{key} of type {t} (only RGB or scalar values are supported)")
     return None
+
+
+#: Parameters Mitsuba reads as unbounded textures (an index of refraction, a roughness):
+#: their spectra are not clipped to reflectances when converted to RGB.
+_UNBOUNDED = {"eta", "k", "alpha", "alpha_u", "alpha_v"}
+
+
+def _spectrum_rgb(ctx, node, key) -> tuple:
+    """A ``<spectrum>`` as Mitsuba's RGB variants see it (``Properties::get_texture``): a
+    uniform value is grey, or for an emitter that value times the sRGB of XYZ (1, 1, 1) (so
+    that RGB and spectral variants agree); wavelength:value pairs are integrated against
+    the CIE curves (``spectrum_list_to_srgb``), bounded unless an emitter's or an unbounded
+    parameter's, under D65 unless an emitter's."""
+    mi = ctx.mi
+    sp = node.props[key]
+    emitter = node.type == mi.ObjectType.Emitter
+    values = [float(v) for v in sp.values]
+    if not values or not all(math.isfinite(v) for v in values):
+        ctx.bad(node, f"{node.props.plugin_name()}.{key}: a spectrum with no or non-finite values")
+        return None
+    if sp.is_uniform():
+        if emitter:
+            return tuple(float(c) * values[0] for c in np.ravel(mi.xyz_to_srgb(mi.Color3f(1.0)))[:3])
+        return (values[0],) * 3
+    rgb = mi.spectrum_list_to_srgb([float(w) for w in sp.wavelengths], values,
+                                   not (emitter or key in _UNBOUNDED), not emitter)
+    return tuple(float(c) for c in np.ravel(rgb)[:3])
 
 
 def _scalar(ctx, node, key, default):
@@ -352,9 +393,7 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
         if mesh_obj is None:
             _extra(ctx, node, {"filename", "to_world", "flip_normals", "bsdf", "emitter", "face_normals",
                                "flip_tex_coords"}, "shape")
-            fname = str(node.props["filename"])
-            if ctx.base_dir is not None and not os.path.isabs(fname):
-                fname = os.path.join(ctx.base_dir, fname)
+            fname = ctx.resolve(str(node.props["filename"]))
             try:  # before Mitsuba allocates what a header declares: a regular file, counts it can hold
                 check_mesh_file(fname)
             except (ValueError, OSError) as exc:
@@ -610,7 +649,7 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
             raise ValueError(f"from_mitsuba: no such file {path}")
         check_xml_depth(path)
         with _as_value_error(f"from_mitsuba: {path}"):  # a malformed file or an unknown $name
-            state = mi.parser.parse_file(cfg, str(path), **params)
+            state, search = _parse_with_search_paths(mi, lambda: mi.parser.parse_file(cfg, str(path), **params))
     else:
         raise ValueError(f"from_mitsuba takes a dict or an XML path, got {type(source).__name__}")
     with _as_value_error("from_mitsuba"):
@@ -620,6 +659,7 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
     ctx.film_size = film_size
     if not isinstance(source, dict):
         ctx.base_dir = str(Path(source).resolve().parent)
+        ctx.search = search
     root = state.root
     T, OT = mi.Properties.Type, mi.ObjectType
 
@@ -668,6 +708,15 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
 
     camera = _camera(ctx, sensor)
     max_depth, rr_depth, direct = -1, 5, None
+    if integrator is not None and integrator.props.plugin_name() == "moment":
+        # `moment` adds the second moment of the wrapped integrator's samples as extra
+        # channels; the image (the mean) is the wrapped integrator's own
+        inner = [c for c in ctx.children(integrator) if c.type == OT.Integrator]
+        if len(inner) != 1:
+            ctx.bad(integrator, f"integrator 'moment' wrapping {len(inner)} integrators (one is Mitsuba's use)")
+            integrator = None
+        else:
+            integrator = inner[0]
     if integrator is not None:
         iname = integrator.props.plugin_name()
         if iname not in ("path", "direct"):
@@ -718,6 +767,22 @@ def _direct(ctx, node):
     except ValueError as e:
         ctx.bad(node, f"direct: {e}")
         return None
+
+
+def _parse_with_search_paths(mi, parse) -> tuple:
+    """``(state, folders)``: the parsed file and the folders its ``<path>`` elements add to
+    Mitsuba's file resolver, which is left as it was (the resolver is global: another
+    scene's folders must not serve this one's files)."""
+    resolver = mi.file_resolver()
+    before = [str(p) for p in resolver]
+    try:
+        state = parse()
+        added = [str(p) for p in resolver if str(p) not in before]
+    finally:
+        resolver.clear()
+        for p in before:
+            resolver.append(p)
+    return state, added
 
 
 def _mesh_object(ctx, root, key, mesh):

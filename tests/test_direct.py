@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import reference_tracer as rt
+from benchmarks.gate.agreement import agreement
 from mitsuba_scenes import from_mitsuba, get_scene, render_mitsuba, to_mitsuba, to_xml
 
 SPP = 4096
@@ -22,14 +23,6 @@ SPP = 4096
 def _glossy(direct, **size):
     scene = get_scene("glossy_plates", **(size or dict(width=48, height=32)))
     return dataclasses.replace(scene, direct=direct)
-
-
-def _agreement(ours, mit, n):
-    se = np.sqrt(ours.variance.astype(np.float64) / n + mit.variance.astype(np.float64) / n)
-    d = ours.mean.astype(np.float64) - mit.mean.astype(np.float64)
-    z = np.where(se > 0, d / np.where(se > 0, se, 1.0), 0.0)
-    glob = [float(d[..., c].sum() / np.sqrt((se[..., c] ** 2).sum())) for c in range(3)]
-    return glob, float((np.abs(z) > 4).mean())
 
 
 def test_direct_is_validated():
@@ -84,8 +77,8 @@ def test_agrees_with_mitsubas_direct(counts, strategy):
                                               "hide_emitters": False}
     ours = rt.render(scene, spp=SPP, strategy=strategy, seed=1, threads=2)
     mit = render_mitsuba(scene, spp=SPP, seed=1, batches=16, threads=2)
-    glob, share = _agreement(ours, mit, SPP)
-    assert max(abs(g) for g in glob) <= 4.0 and share <= 0.01, (glob, share)
+    a = agreement(ours, mit)
+    assert a.agrees, a.describe()
 
 
 def test_the_agreement_test_sees_missing_weights():
@@ -99,8 +92,8 @@ def test_the_agreement_test_sees_missing_weights():
     wrong = dataclasses.replace(light, mean=light.mean + bsdf.mean - seen.mean,
                                 variance=light.variance + bsdf.variance + seen.variance)
     mit = render_mitsuba(scene, spp=SPP, seed=1, batches=16, threads=2)
-    glob, share = _agreement(wrong, mit, SPP)
-    assert max(abs(g) for g in glob) > 4.0 and share > 0.01, (glob, share)
+    a = agreement(wrong, mit)
+    assert max(abs(g) for g in a.global_z) > 4.0 and a.share > 0.01, a.describe()
 
 
 def _xml(tmp_path, integrator: str) -> str:

@@ -94,3 +94,62 @@ def test_dielectric_ior_ratio_and_defaults(mi):
     glass, plain = s.shapes[-2:]
     assert glass.material.ior == pytest.approx(1.2)
     assert plain.material == rt.Lambertian(0.5)
+
+
+def _scene_xml(body: str, film: str = '<rfilter type="box"/>') -> str:
+    return (f'<scene version="3.0.0">{body}<sensor type="perspective"><film type="hdrfilm">'
+            f'<integer name="width" value="4"/><integer name="height" value="4"/>{film}</film></sensor></scene>')
+
+
+@pytest.mark.parametrize("shape,ours,theirs", [
+    ('<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="400:0.2, 500:0.4, 600:0.6, '
+     '700:0.8"/></bsdf></shape>', "albedo", "reflectance.value"),
+    ('<shape type="rectangle"><emitter type="area"><spectrum name="radiance" value="400:2, 550:3, 700:1"/>'
+     '</emitter></shape>', "radiance", "radiance.value"),
+    ('<shape type="rectangle"><emitter type="area"><spectrum name="radiance" value="2"/></emitter></shape>',
+     "radiance", "radiance.value"),
+    ('<shape type="rectangle"><bsdf type="conductor"><spectrum name="eta" value="400:1.8, 600:0.2, 800:0.18"/>'
+     '<spectrum name="k" value="3"/></bsdf></shape>', "eta", "eta.value"),
+])
+def test_spectra_become_the_rgb_mitsubas_rgb_variants_use(mi, tmp_path, shape, ours, theirs):
+    """Wavelength:value lists and uniform spectra, as Mitsuba's own RGB variant converts them
+    (read back from the loaded scene): a reflectance, an unbounded index and an emitter's
+    radiance (a uniform one is not grey: RGB variants match the spectral ones)."""
+    path = tmp_path / "spectra.xml"
+    path.write_text(_scene_xml(shape))
+    (got,) = from_mitsuba(path).shapes
+    (mine,) = mi.load_file(str(path)).shapes()
+    obj = mine.emitter() if "radiance" in theirs else mine.bsdf()
+    want = np.ravel(np.array(mi.traverse(obj)[theirs]))
+    # Mitsuba holds the spectrum in single precision: agreement to float32's rounding of the sums
+    np.testing.assert_allclose(getattr(got.material, ours), np.broadcast_to(want, 3) if want.size == 1 else want[:3],
+                               rtol=2e-4)
+
+
+def test_moment_integrator_is_the_integrator_it_wraps(tmp_path):
+    path = tmp_path / "moment.xml"
+    path.write_text(_scene_xml('<integrator type="moment"><integrator type="path"><integer name="max_depth" '
+                               'value="7"/></integrator></integrator><shape type="sphere"><emitter type="area"/>'
+                               '</shape>'))
+    assert from_mitsuba(path).max_depth == 7
+
+
+def test_path_elements_find_meshes_as_mitsuba_does_and_leave_no_trace(mi, tmp_path):
+    """A mesh named relative to a ``<path>`` folder is found there; the folder is not left in
+    Mitsuba's global resolver, where it would serve a later scene's files."""
+    common = tmp_path / "common" / "meshes"
+    common.mkdir(parents=True)
+    (common / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    scene_dir = tmp_path / "scenes" / "a"
+    scene_dir.mkdir(parents=True)
+    path = scene_dir / "s.xml"
+    path.write_text(_scene_xml('<path value="../../common"/><shape type="obj"><string name="filename" '
+                               'value="meshes/tri.obj"/><emitter type="area"/></shape>'))
+    before = [str(p) for p in mi.file_resolver()]
+    scene = from_mitsuba(path)
+    assert len(scene.shapes) == 1 and [str(p) for p in mi.file_resolver()] == before
+    other = tmp_path / "scenes" / "b.xml"  # no <path>: the same name is not found
+    other.write_text(_scene_xml('<shape type="obj"><string name="filename" value="meshes/tri.obj"/>'
+                                '<emitter type="area"/></shape>'))
+    with pytest.raises(ValueError, match="tri.obj"):
+        from_mitsuba(other)

@@ -3,12 +3,13 @@ imported unmodified and judged by Mitsuba itself: ``mi.load_file`` of the same f
 our tracer through ``from_mitsuba``, at a small film size set through the files' own
 parameters.
 
-The statistic: per pixel and channel ``z = (ours - Mitsuba) / sqrt(var_ours / N + var_mitsuba
-/ N)`` and, per channel, the same for the image's sum. Both renders are 4096 spp (Mitsuba in
-16 batches of 256 for its variance; ours with a filter in 16 batches too). The scene agrees when
-every channel's global |z| <= 4 (3 tests at alpha 6e-5 each under the normal approximation)
-and at most 1% of the pixel values have |z| > 4 (about 0.006% expected of agreeing images;
-filtered neighbours are correlated, so the share is noisy, hence the margin).
+The statistic (``benchmarks.gate.agreement``): per pixel and channel ``z = (ours - Mitsuba) /
+sqrt(var_ours / N + var_mitsuba / N)`` and, per channel, the same for the image's sum, with the
+variances of filtered pixels and of their sums computed from the samples. Both renders are
+4096 spp (Mitsuba in 16 batches of 256 for its variance). The scene agrees when every channel's
+global |z| <= 4 (3 tests at alpha 6e-5 each under the normal approximation) and at most 1% of
+the pixel values have |z| > 4 (about 0.006% expected of agreeing images; filtered neighbours
+are correlated, so the share is noisy, hence the margin).
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ import numpy as np
 import pytest
 
 import reference_tracer as rt
+from benchmarks.gate.agreement import agreement
 from mitsuba_scenes import from_mitsuba, render_mitsuba
 
 PUBLISHED = Path(__file__).resolve().parent / "fixtures" / "published"
@@ -29,14 +31,6 @@ SCENES = {
 }
 
 
-def _agreement(ours, mit, n):
-    se = np.sqrt(ours.variance.astype(np.float64) / n + mit.variance.astype(np.float64) / n)
-    d = ours.mean.astype(np.float64) - mit.mean.astype(np.float64)
-    z = np.where(se > 0, d / np.where(se > 0, se, 1.0), 0.0)
-    glob = [float(d[..., c].sum() / np.sqrt((se[..., c] ** 2).sum())) for c in range(3)]
-    return glob, float((np.abs(z) > 4).mean())
-
-
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_published_scene_imports_unmodified_and_agrees_with_mitsuba(name):
     path = PUBLISHED / name / "scene_v3.xml"
@@ -45,8 +39,8 @@ def test_published_scene_imports_unmodified_and_agrees_with_mitsuba(name):
     ours = rt.render(scene, spp=SPP, strategy="mis", seed=1, threads=2)
     mit = render_mitsuba(path, spp=SPP, seed=1, batches=16, params=params, threads=2)
     assert ours.mean.shape == mit.mean.shape == (int(params["resy"]), int(params["resx"]), 3)
-    glob, share = _agreement(ours, mit, SPP)
-    assert max(abs(g) for g in glob) <= 4.0 and share <= 0.01, (glob, share)
+    a = agreement(ours, mit, pixel_filter=scene.camera.filter)
+    assert a.agrees, a.describe()
 
 
 def test_the_agreement_test_sees_a_wrong_import():
@@ -61,5 +55,5 @@ def test_the_agreement_test_sees_a_wrong_import():
     wrong = dataclasses.replace(scene, shapes=shapes)
     ours = rt.render(wrong, spp=SPP, strategy="mis", seed=1, threads=2)
     mit = render_mitsuba(path, spp=SPP, seed=1, batches=16, params=params, threads=2)
-    glob, share = _agreement(ours, mit, SPP)
-    assert max(abs(g) for g in glob) > 4.0 or share > 0.01
+    a = agreement(ours, mit, pixel_filter=scene.camera.filter)
+    assert not a.agrees, a.describe()

@@ -1,0 +1,83 @@
+"""Do two renders of one scene agree? The two figures of the published-scene checks.
+
+Per pixel and channel ``z = (x - y) / sqrt(var_x / n_x + var_y / n_y)``, and per channel the
+whole image's ``Z = sum(x - y) / sqrt(Var(sum x) + Var(sum y))``. The scenes agree when
+every ``|Z| <= 4`` and at most 1% of the pixel values have ``|z| > 4`` (for agreeing
+renders, 3 whole-image tests at about 6e-5 each under the normal approximation, and about
+0.006% of pixel values beyond 4). It is a coarse screen, not the gate: no heavy-tail
+diagnostics, no multiple-testing correction of the pixels.
+
+With a tent or Gaussian filter the pixels share samples: a filtered pixel's variance comes
+from the samples drawn inside each pixel (``RenderResult.pixel_samples``, through the
+filter's weights: :mod:`benchmarks.gate.filtered`) and the variance of the image's sum is
+the samples' own (each interior sample counts with weight ~1), not the sum of the pixels'
+variances, which is about a third of it for Mitsuba's Gaussian. For a render that keeps no
+samples (Mitsuba's), the sum's variance is its pixels' over the filter's variance
+reduction.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .filtered import filter_weights, filtered_moments
+
+__all__ = ["Agreement", "agreement", "Z_LIMIT", "SHARE_LIMIT"]
+
+#: The largest |whole-image z| and share of |pixel z| > Z_LIMIT of agreeing renders.
+Z_LIMIT = 4.0
+SHARE_LIMIT = 0.01
+
+
+@dataclass(frozen=True)
+class Agreement:
+    """``global_z``: one per channel; ``share``: of pixel values with ``|z| > 4``; ``z``: the map."""
+
+    global_z: tuple
+    share: float
+    z: np.ndarray
+
+    @property
+    def agrees(self) -> bool:
+        return max(abs(g) for g in self.global_z) <= Z_LIMIT and self.share <= SHARE_LIMIT
+
+    def describe(self) -> str:
+        zs = ", ".join(f"{g:+.2f}" for g in self.global_z)
+        return f"global z {zs}; {100 * self.share:.2f}% of pixel values |z| > {Z_LIMIT:g}"
+
+
+def agreement(ours, theirs, *, pixel_filter=None) -> Agreement:
+    """The figures of :class:`Agreement` for two estimates (``mean``, per-sample ``variance``,
+    ``spp``) of the same image; ``pixel_filter``: the scene's ``reference_tracer.Filter``.
+
+    ``ours`` must carry ``pixel_samples`` (``reference_tracer.render`` of a filtered scene)
+    when the filter is a tent or Gaussian; ``theirs`` is taken as keeping none.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from reference_tracer import ImageEstimate
+    >>> a = ImageEstimate(mean=np.full((4, 4, 3), 1.0), variance=np.full((4, 4, 3), 4.0), spp=16)
+    >>> agreement(a, a).agrees
+    True
+    """
+    x, y = (np.asarray(e.mean, dtype=np.float64) for e in (ours, theirs))
+    vx, vy = (np.asarray(e.variance, dtype=np.float64) for e in (ours, theirs))
+    nx, ny = float(ours.spp), float(theirs.spp)
+    sum_x, sum_y = vx / nx, vy / ny
+    if pixel_filter is not None and not pixel_filter.is_box:
+        samples = getattr(ours, "pixel_samples", None)
+        if samples is None:
+            raise ValueError("agreement: a filtered render of ours needs its pixel_samples")
+        fw = filter_weights(pixel_filter)
+        m2, _, _ = filtered_moments(fw, mean=samples.mean, variance=samples.variance, filtered_mean=x)
+        vx = m2
+        sum_x = np.asarray(samples.variance, dtype=np.float64) / nx
+        sum_y = vy / ny / fw.variance_ratio
+    se = np.sqrt(vx / nx + vy / ny)
+    d = x - y
+    z = np.where(se > 0, d / np.where(se > 0, se, 1.0), 0.0)
+    total = np.sqrt(sum_x.sum(axis=(0, 1)) + sum_y.sum(axis=(0, 1)))
+    glob = tuple(float(d[..., c].sum() / total[c]) if total[c] > 0 else 0.0 for c in range(d.shape[2]))
+    return Agreement(global_z=glob, share=float((np.abs(z) > Z_LIMIT).mean()), z=z)
