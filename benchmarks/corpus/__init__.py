@@ -4,7 +4,7 @@
 folder, unmodified, and records one status per scene (:data:`~benchmarks.corpus.judge.STATUSES`):
 
 * ``agrees`` / ``disagrees``: Mitsuba loads it, we import it, and the two renders at a small
-  film size agree or not (:func:`~benchmarks.corpus.judge.agreement`);
+  film size agree or not (:func:`benchmarks.gate.agreement.agreement`);
 * ``render-error``: it imports but our import or a render raised (or the worker died);
 * ``refused``: in scope, but our importer refuses it: the features it still needs;
 * ``out-of-scope``: our refusal names a plugin outside the tracer's scope (participating
@@ -20,7 +20,7 @@ the tables, ``corpus.md``).
 """
 from __future__ import annotations
 
-from .judge import OUT_OF_SCOPE, STATUSES, agreement, small_film, verdict
+from .judge import OUT_OF_SCOPE, STATUSES, small_film
 from .scan import scan
 
-__all__ = ["STATUSES", "OUT_OF_SCOPE", "agreement", "small_film", "verdict", "scan"]
+__all__ = ["STATUSES", "OUT_OF_SCOPE", "small_film", "scan"]

@@ -11,7 +11,10 @@ The steps, each on the unmodified file:
 3. We import it (:func:`mitsuba_scenes.from_mitsuba`) with the same film size.
 4. Both render it, ours with ``mis`` (Mitsuba's path estimator; in a scene with Mitsuba's
    ``direct`` integrator, the same integrator's techniques) and Mitsuba in batches for its
-   variance, and :func:`agreement` judges the pair.
+   variance, and :func:`benchmarks.gate.agreement.agreement` judges the pair (every channel's
+   global ``|z| <= 4``, at most 1% of pixel values with ``|z| > 4``; a filtered image's
+   variances through the filter's weights), with no pixel value differing where neither
+   render has spread (:func:`spreadless_differences`).
 
 The status (:data:`STATUSES`) is the first that applies: ``out-of-scope`` (our refusal
 names a plugin of :data:`OUT_OF_SCOPE`, or Mitsuba needs a spectral variant),
@@ -26,8 +29,11 @@ import time
 
 import numpy as np
 
-__all__ = ["STATUSES", "OUT_OF_SCOPE", "OUT_OF_SCOPE_KINDS", "Z_LIMIT", "SHARE_LIMIT", "small_film", "agreement",
-           "verdict", "out_of_scope", "compact_feature", "clean_message", "judge_scene", "setup"]
+from benchmarks.gate.agreement import SHARE_LIMIT, Z_LIMIT, agreement
+
+__all__ = ["STATUSES", "OUT_OF_SCOPE", "OUT_OF_SCOPE_KINDS", "Z_LIMIT", "SHARE_LIMIT", "small_film",
+           "spreadless_differences", "out_of_scope", "compact_feature", "clean_message", "scene_plugins",
+           "judge_scene", "setup"]
 
 #: every status, in the order tables list them.
 STATUSES = ("agrees", "disagrees", "render-error", "refused", "out-of-scope", "mitsuba-fails", "timeout")
@@ -44,11 +50,6 @@ OUT_OF_SCOPE = {
 #: object kinds outside the scope whatever their plugin.
 OUT_OF_SCOPE_KINDS = {"medium": "participating media", "phase": "participating media",
                       "volume": "participating media"}
-#: a scene agrees when every channel's global |z| is at most this ...
-Z_LIMIT = 4.0
-#: ... and at most this share of its pixel values have |z| above it (filtered neighbours are
-#: correlated, so the share is noisy: about 0.006% are expected of agreeing images).
-SHARE_LIMIT = 0.01
 
 _PLUGIN = re.compile(r"\b([a-z_]+) '([^']*)'")
 _SPECTRAL = re.compile(r"spectral (variant|mode)|only (be used|supported) in spectral|requires a spectral", re.I)
@@ -70,39 +71,20 @@ def small_film(width: int, height: int, max_width: int) -> tuple:
     return int(max_width), max(1, int(round(height * max_width / width)))
 
 
-def agreement(ours_mean, ours_var, n_ours, mit_mean, mit_var, n_mit) -> tuple:
-    """``(global_z, share)``: per channel the z-score of the image sums, and the share of
-    pixel values with ``|z| > Z_LIMIT``, where ``z = (ours - Mitsuba) / sqrt(var_ours / n_ours
-    + var_mitsuba / n_mitsuba)`` from per-sample variances (``tests/test_published_scenes.py``).
+def spreadless_differences(ours_mean, ours_var, mit_mean, mit_var) -> int:
+    """How many pixel values differ (beyond float precision) where neither render has any
+    spread (a directly seen constant background, say). :func:`benchmarks.gate.agreement.agreement`
+    gives such a value ``z = 0`` (it has no standard error), so a deterministic difference
+    would pass unseen; the corpus counts them and does not call such a scene agreeing.
 
-    A pixel value without spread in either render (a directly seen constant background) has
-    no standard error: there ``z`` is 0 when the two agree to float precision and infinite
-    otherwise, so a deterministic difference is not hidden.
-
-    >>> m = np.full((2, 2, 3), 1.0); v = np.full((2, 2, 3), 4.0)
-    >>> g, s = agreement(m, v, 16, m + 0.1, v, 16); [round(x, 2) for x in g], s
-    ([-0.28, -0.28, -0.28], 0.0)
+    >>> m, v = np.ones((2, 2, 3)), np.zeros((2, 2, 3))
+    >>> spreadless_differences(m, v, m, v), spreadless_differences(m, v, m * 1.01, v)
+    (0, 12)
     """
     om, mm = np.asarray(ours_mean, np.float64), np.asarray(mit_mean, np.float64)
-    se2 = np.asarray(ours_var, np.float64) / n_ours + np.asarray(mit_var, np.float64) / n_mit
-    d = om - mm
+    none = (np.asarray(ours_var) == 0) & (np.asarray(mit_var) == 0)
     tol = 1e-5 * np.maximum(1.0, np.maximum(np.abs(om), np.abs(mm)))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = np.where(se2 > 0, d / np.sqrt(np.where(se2 > 0, se2, 1.0)),
-                     np.where(np.abs(d) <= tol, 0.0, np.inf))
-    glob = []
-    for c in range(d.shape[-1]):
-        s2, dc = float(se2[..., c].sum()), float(d[..., c].sum())
-        if s2 > 0:
-            glob.append(dc / math.sqrt(s2))
-        else:
-            glob.append(0.0 if abs(dc) <= float(tol[..., c].sum()) else math.copysign(math.inf, dc))
-    return glob, float((np.abs(z) > Z_LIMIT).mean())
-
-
-def verdict(global_z, share) -> bool:
-    """True (agrees) when every ``|global_z| <= Z_LIMIT`` and ``share <= SHARE_LIMIT``."""
-    return all(abs(g) <= Z_LIMIT for g in global_z) and share <= SHARE_LIMIT
+    return int((none & (np.abs(om - mm) > tol)).sum())
 
 
 _FILE_TOKEN = re.compile(r"'?[^\s':]*\.(?:obj|ply|serialized|xml|exr|png|jpe?g|hdr|pfm|bmp|tga|spd|vol|m3hair)'?",
@@ -295,13 +277,21 @@ def _judge(job, rec, seconds, mi, root, path) -> None:
     if problems:
         rec["status"], rec["reasons"] = "render-error", problems
         return
-    glob, share = agreement(ours.mean, ours.variance, spp, mit.mean, mit.variance, spp)
+    try:
+        a = agreement(ours, mit, pixel_filter=scene.camera.filter)
+    except Exception as exc:  # noqa: BLE001 - e.g. a filtered render without its pixel samples
+        rec["status"], rec["reasons"] = "render-error", [clean_message(f"agreement: {exc}", root)]
+        return
+    glob, share = list(a.global_z), a.share
+    fixed = spreadless_differences(ours.mean, ours.variance, mit.mean, mit.variance)
     rec["global_z"] = [g if math.isfinite(g) else str(g) for g in glob]
     rec["share_z4"] = share
+    rec["spreadless_differences"] = fixed
     rec["mean_ours"] = [float(x) for x in ours.mean.reshape(-1, 3).mean(axis=0)]
     rec["mean_mitsuba"] = [float(x) for x in mit.mean.reshape(-1, 3).mean(axis=0)]
-    rec["status"] = "agrees" if verdict(glob, share) else "disagrees"
+    rec["status"] = "agrees" if a.agrees and not fixed else "disagrees"
     if rec["status"] == "disagrees":
         worst = max(range(3), key=lambda c: abs(glob[c]))
         rec["reasons"] = [f"global z {glob[worst]:+.1f} in {'RGB'[worst]}, {100 * share:.1f}% of pixel values "
-                          f"with |z| > {Z_LIMIT:g}"]
+                          f"with |z| > {Z_LIMIT:g}"
+                          + (f", {fixed} pixel value(s) differ where neither render has spread" if fixed else "")]

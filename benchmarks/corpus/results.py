@@ -41,7 +41,8 @@ MARKDOWN_REASON = 160
 @functools.lru_cache(maxsize=1)
 def corpus_build() -> dict:
     """What a verdict depends on besides the scene: our build (``reference_tracer.build_id``),
-    the sources of ``mitsuba_scenes`` (the importer) and of this package, Mitsuba's version."""
+    the sources of ``mitsuba_scenes`` (the importer), of this package and of the agreement
+    statistic (``benchmarks.gate.agreement``), Mitsuba's version."""
     from importlib import metadata
 
     from reference_tracer.build import build_info
@@ -50,9 +51,10 @@ def corpus_build() -> dict:
     info = build_info()
     h.update(info["build"].encode())
     here = Path(__file__).resolve().parent
-    for folder in (here.parent.parent / "mitsuba_scenes", here):
-        for path in sorted(folder.glob("*.py")):
-            h.update(path.name.encode() + b"\0" + path.read_bytes())
+    gate = here.parent / "gate"
+    for path in [*sorted((here.parent.parent / "mitsuba_scenes").glob("*.py")), *sorted(here.glob("*.py")),
+                 gate / "agreement.py", gate / "filtered.py"]:
+        h.update(path.name.encode() + b"\0" + path.read_bytes())
     try:
         mitsuba = metadata.version("mitsuba")
     except metadata.PackageNotFoundError:
