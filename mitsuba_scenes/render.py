@@ -7,6 +7,7 @@ own seed, and the between-batch spread gives the variance.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import time
@@ -16,8 +17,8 @@ import numpy as np
 
 import reference_tracer as rt
 
-__all__ = ["render_mitsuba", "MitsubaRender", "load_file", "film_sizes", "mesh_merge_safe", "batch_seeds", "split_spp",
-           "DEFAULT_BATCHES"]
+__all__ = ["render_mitsuba", "MitsubaRender", "load_file", "film_sizes", "file_resolver_scope", "mesh_merge_safe",
+           "batch_seeds", "split_spp", "DEFAULT_BATCHES"]
 
 #: Batches used when ``batches=None`` (capped by ``spp``).
 DEFAULT_BATCHES = 16
@@ -118,14 +119,34 @@ def _film_nodes(mi, state) -> list:
     return [n for n in state.nodes if n.type == mi.ObjectType.Film]
 
 
+@contextlib.contextmanager
+def file_resolver_scope(folder=None):
+    """Mitsuba's (thread's) file resolver replaced by a copy for the block, ``folder`` first
+    on it when given, and restored afterwards: the ``<path>`` folders that parsing a file adds
+    to it do not stay for the next file (nor hide from ``from_mitsuba`` that a file adds them)."""
+    import mitsuba as mi
+
+    backup = mi.file_resolver()
+    resolver = mi.FileResolver(backup)
+    if folder is not None:
+        resolver.prepend(str(folder))
+    mi.set_file_resolver(resolver)
+    try:
+        yield resolver
+    finally:
+        mi.set_file_resolver(backup)
+
+
 def film_sizes(path, *, params=None) -> list:
     """``(width, height)`` of each film of Mitsuba XML file ``path``, as its parser reads
     them (``$name`` values from ``params`` or the file's defaults; Mitsuba's 768x576 where
-    a film leaves them out). Parses only: nothing is loaded. The active variant is used."""
+    a film leaves them out). Parses only: nothing is loaded, the file resolver is left as it
+    was. The active variant is used."""
     import mitsuba as mi
 
     cfg = mi.parser.ParserConfig(mi.variant())
-    state = mi.parser.parse_file(cfg, str(path), **{str(k): str(v) for k, v in (params or {}).items()})
+    with file_resolver_scope():
+        state = mi.parser.parse_file(cfg, str(path), **{str(k): str(v) for k, v in (params or {}).items()})
     return [(int(n.props["width"]) if "width" in n.props.keys() else 768,
              int(n.props["height"]) if "height" in n.props.keys() else 576) for n in _film_nodes(mi, state)]
 
@@ -145,15 +166,12 @@ def load_file(path, *, params=None, film_size=None):
 
     params = {str(k): str(v) for k, v in (params or {}).items()}
     if film_size is None:
-        return mi.load_file(str(path), **params)
+        with file_resolver_scope():
+            return mi.load_file(str(path), **params)
     from .importer import _checked_film_size
 
     width, height = _checked_film_size(film_size)
-    backup = mi.file_resolver()
-    resolver = mi.FileResolver(backup)
-    resolver.prepend(os.path.dirname(os.path.abspath(str(path))))
-    mi.set_file_resolver(resolver)
-    try:
+    with file_resolver_scope(os.path.dirname(os.path.abspath(str(path)))):
         cfg = mi.parser.ParserConfig(mi.variant())
         state = mi.parser.parse_file(cfg, str(path), **params)
         films = _film_nodes(mi, state)
@@ -164,8 +182,6 @@ def load_file(path, *, params=None, film_size=None):
             node.props["height"] = height
         mi.parser.transform_all(cfg, state)
         return mi.parser.instantiate(cfg, state)
-    finally:
-        mi.set_file_resolver(backup)
 
 
 def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None,

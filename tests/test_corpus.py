@@ -171,3 +171,23 @@ def test_film_size_is_the_scene_at_another_size_on_both_sides():
     assert str(mi.traverse(a.sensors()[0])["x_fov"]) == str(mi.traverse(b.sensors()[0])["x_fov"])
     with pytest.raises(ValueError, match="film_size"):
         from_mitsuba(path, film_size=(0, 27))
+
+
+def test_reading_a_file_first_leaves_its_path_folders_to_the_import():
+    """film_sizes and load_file restore Mitsuba's file resolver, so from_mitsuba still sees the
+    folders a file's ``<path>`` adds (it finds meshes there) after the corpus has parsed it."""
+    from mitsuba_scenes import from_mitsuba
+    from mitsuba_scenes.importer import UnsupportedSceneError
+    from mitsuba_scenes.render import film_sizes, load_file
+    from mitsuba_scenes.variants import import_mitsuba
+
+    mi = import_mitsuba("scalar_rgb")
+    path = CORPUS / OUT_OF_SCOPE            # its meshes are in ../../common, through <path>
+    before = [str(p) for p in mi.file_resolver()]
+    film_sizes(path)
+    with pytest.raises(RuntimeError, match="polarized mode"):   # Mitsuba's RGB variants refuse stokes
+        load_file(path, film_size=(8, 8))
+    assert [str(p) for p in mi.file_resolver()] == before
+    with pytest.raises(UnsupportedSceneError) as info:
+        from_mitsuba(path, film_size=(8, 8))
+    assert not any("cannot be used" in f for f in info.value.features), info.value.features

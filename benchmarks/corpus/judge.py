@@ -153,7 +153,10 @@ def setup(variant: str | None, threads: int | None) -> str:
 def scene_plugins(mi, path, params) -> list:
     """Sorted distinct ``(kind, plugin)`` pairs of every object of the XML file, includes and
     nested objects too, as Mitsuba's parser reads them."""
-    state = mi.parser.parse_file(mi.parser.ParserConfig(mi.variant()), str(path), **params)
+    from mitsuba_scenes.render import file_resolver_scope
+
+    with file_resolver_scope():
+        state = mi.parser.parse_file(mi.parser.ParserConfig(mi.variant()), str(path), **params)
     pairs = {(str(n.type).split(".")[-1].lower(), n.props.plugin_name()) for n in list(state.nodes)[1:]}
     return sorted(pairs)
 
