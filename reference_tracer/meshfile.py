@@ -21,7 +21,8 @@ import re
 import stat
 from pathlib import Path
 
-__all__ = ["read_mesh", "decode_obj", "check_obj_faces", "check_mesh_file", "ply_header_counts"]
+__all__ = ["read_mesh", "decode_obj", "check_obj_faces", "check_mesh_file", "ply_header_counts",
+           "check_serialized_file", "serialized_header"]
 
 #: bytes a PLY scalar type takes in a binary file.
 _PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
@@ -33,6 +34,12 @@ _PLY_HEADER_MAX = 1 << 16
 _OBJ_MEMORY_PER_BYTE = 16
 #: bytes of memory per declared PLY vertex and per face (float64 arrays and their copies).
 _PLY_MEMORY_PER_ELEMENT = 96
+#: Mitsuba's serialized format: identifier, versions, flags (src/shapes/serialized.cpp).
+_SERIALIZED_ID, _SERIALIZED_VERSIONS = 0x041C, (3, 4)
+_SER_NORMALS, _SER_TEXCOORDS, _SER_COLORS, _SER_DOUBLE = 0x0001, 0x0002, 0x0008, 0x2000
+#: memory per byte of a serialized mesh's decompressed data: Mitsuba's buffers, then ours in
+#: float64 with their copies (an upper estimate).
+_SERIALIZED_MEMORY_PER_BYTE = 6
 
 
 def ply_header_counts(head: bytes, *, name: str = "PLY") -> tuple:
@@ -136,6 +143,105 @@ def check_mesh_file(path) -> int:
         raise MemoryError(f"{path}: reading this mesh needs about {memory / 2**30:.1f} GiB, "
                           f"{available / 2**30:.1f} GiB of memory is available")
     return size
+
+def serialized_header(path, shape_index: int = 0) -> dict:
+    """The header of sub-mesh ``shape_index`` of a Mitsuba ``.serialized`` file, read without
+    decompressing its arrays: ``flags``, ``name``, ``vertices``, ``triangles`` and
+    ``data_bytes`` (the size of its decompressed arrays).
+
+    Raises
+    ------
+    ValueError
+        Not a serialized mesh, an unknown version, a shape index beyond the file's count,
+        an offset outside the file, or a header that does not decompress.
+
+    Examples
+    --------
+    >>> import struct, zlib, tempfile, os
+    >>> body = struct.pack("<I", 0x1000) + b"tri\\x00" + struct.pack("<QQ", 3, 1) + bytes(36 + 12)
+    >>> data = struct.pack("<HH", 0x041C, 4) + zlib.compress(body) + struct.pack("<QI", 0, 1)
+    >>> f = tempfile.NamedTemporaryFile(suffix=".serialized", delete=False); _ = f.write(data); f.close()
+    >>> h = serialized_header(f.name); os.unlink(f.name)
+    >>> h["vertices"], h["triangles"], h["data_bytes"]
+    (3, 1, 48)
+    """
+    import struct
+    import zlib
+
+    path = Path(path)
+    if isinstance(shape_index, bool) or not isinstance(shape_index, int) or shape_index < 0:
+        raise ValueError(f"{path}: shape_index must be an integer >= 0, got {shape_index!r}")
+    with open(path, "rb") as f:
+        size = os.fstat(f.fileno()).st_size
+        head = f.read(4)
+        if len(head) < 4 or struct.unpack("<H", head[:2])[0] != _SERIALIZED_ID:
+            raise ValueError(f"{path} is not a Mitsuba serialized mesh (no 0x041C identifier)")
+        version = struct.unpack("<H", head[2:4])[0]
+        if version not in _SERIALIZED_VERSIONS:
+            raise ValueError(f"{path}: serialized format version {version} (Mitsuba reads 3 and 4)")
+        offset = 0
+        if shape_index > 0:
+            wide = 8 if version == 4 else 4
+            if size < 4 + wide:
+                raise ValueError(f"{path}: too short for its end-of-file dictionary")
+            f.seek(size - 4)
+            count = struct.unpack("<I", f.read(4))[0]
+            if shape_index >= count:
+                raise ValueError(f"{path}: shape_index {shape_index}, but the file holds {count} mesh(es)")
+            f.seek(size - 4 - wide * (count - shape_index))
+            offset = struct.unpack("<Q" if wide == 8 else "<I", f.read(wide))[0]
+            if not 0 <= offset <= size - 4:
+                raise ValueError(f"{path}: mesh {shape_index} starts at byte {offset}, outside the file")
+            f.seek(offset)
+            if struct.unpack("<H", f.read(2))[0] != _SERIALIZED_ID:
+                raise ValueError(f"{path}: mesh {shape_index} has no 0x041C identifier at byte {offset}")
+            f.read(2)
+        compressed = f.read(1 << 16)
+    inflate = zlib.decompressobj()
+    try:
+        raw = inflate.decompress(compressed, 4 + 4096 + 16)
+    except zlib.error as exc:
+        raise ValueError(f"{path}: mesh {shape_index}'s header does not decompress ({exc})") from None
+    end = raw.find(b"\0", 4) if version == 4 else 3
+    if len(raw) < 4 or end < 0 or len(raw) < end + 17:
+        raise ValueError(f"{path}: mesh {shape_index}'s header is truncated")
+    flags = struct.unpack("<I", raw[:4])[0]
+    name = raw[4:end].decode("utf-8", "replace") if version == 4 else ""
+    vertices, triangles = struct.unpack("<QQ", raw[end + 1:end + 17])
+    real = 8 if flags & _SER_DOUBLE else 4
+    per_vertex = 3 + 3 * bool(flags & _SER_NORMALS) + 2 * bool(flags & _SER_TEXCOORDS) + 3 * bool(flags & _SER_COLORS)
+    index = 8 if vertices > 0xFFFFFFFF else 4
+    return {"flags": flags, "name": name, "vertices": vertices, "triangles": triangles,
+            "data_bytes": vertices * per_vertex * real + triangles * 3 * index}
+
+
+def check_serialized_file(path, shape_index: int = 0) -> dict:
+    """:func:`check_mesh_file` for a Mitsuba ``.serialized`` mesh: a regular file whose
+    sub-mesh ``shape_index`` declares no more data than the memory available can hold
+    (its arrays are compressed: a small file may declare a huge mesh). Returns its header.
+
+    Raises
+    ------
+    ValueError
+        Not a regular file or not a readable serialized mesh (:func:`serialized_header`).
+    MemoryError
+        The mesh would need more memory than is available.
+    """
+    path = Path(path)
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise ValueError(f"{path} is not a mesh file: not a regular file")
+    finally:
+        os.close(fd)
+    header = serialized_header(path, shape_index)
+    memory, available = _SERIALIZED_MEMORY_PER_BYTE * header["data_bytes"], _available_memory()
+    if memory > available:
+        raise MemoryError(f"{path}: mesh {shape_index} declares {header['vertices']} vertices and "
+                          f"{header['triangles']} triangles, about {memory / 2**30:.1f} GiB to read; "
+                          f"{available / 2**30:.1f} GiB of memory is available")
+    return header
+
 
 #: bytes that never occur in OBJ text (control characters other than tab, CR, LF, FF).
 _BINARY = re.compile(rb"[\x00-\x08\x0e-\x1f]")

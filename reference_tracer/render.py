@@ -1,13 +1,13 @@
 """``render``: run the C++ path tracer on a :class:`Scene`."""
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ._compile import compile_scene
 from ._validate import positive_int
+from .cpus import default_threads
 from .estimate import ImageEstimate, SampleMoments
 from .scene import FILTERS, Scene
 from .strategies import STRATEGIES
@@ -201,7 +201,7 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**64:
         raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
     if threads is None:
-        threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+        threads = default_threads()
     threads = positive_int("threads", threads)
     if progress is not None and not callable(progress):
         raise ValueError("progress must be callable or None")

@@ -4,7 +4,7 @@ Each shape is immutable and carries a similarity transform (rotation, uniform sc
 translation) that the transform methods compose; ``world_*`` methods return the
 geometry after the transform, which is what both renderers consume.
 
-Orientation conventions (``shared/DESIGN.md`` section 3): a quad's normal is
+Orientation conventions (README.md, Conventions): a quad's normal is
 ``u x v``; a triangle's front face is counter-clockwise (``(b - a) x (c - a)``);
 a box's faces point outward; ``flip_normals=True`` reverses the front side.
 """

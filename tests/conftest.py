@@ -16,3 +16,15 @@ def fresh_registries():
     yield
     clear_registry()
     clear_externals()
+
+
+@pytest.fixture(scope="session")
+def jit_variant():
+    """'llvm_ad_rgb' when it works here (the timed Mitsuba side of the speed benchmarks), else None."""
+    from mitsuba_scenes.variants import select_variant
+
+    try:
+        select_variant("llvm_ad_rgb")
+        return "llvm_ad_rgb"
+    except (RuntimeError, ValueError):
+        return None

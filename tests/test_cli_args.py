@@ -165,7 +165,7 @@ def _cgroup(tmp_path, member: str, limits: dict):
 
 
 def test_cgroup_cpu_limit_reads_the_smallest_quota_on_the_way_to_the_root(tmp_path):
-    from benchmarks.sweep.jobs import cgroup_cpu_limit
+    from reference_tracer.cpus import cgroup_cpu_limit
 
     assert cgroup_cpu_limit(**_cgroup(tmp_path / "a", "/", {"/": "max 100000"})) is None
     assert cgroup_cpu_limit(**_cgroup(tmp_path / "b", "/", {"/": "150000 100000"})) == 1.5
@@ -177,7 +177,7 @@ def test_cgroup_cpu_limit_reads_the_smallest_quota_on_the_way_to_the_root(tmp_pa
 
 
 def test_all_cores_respects_affinity_and_the_cgroup_quota(monkeypatch):
-    from benchmarks.sweep import jobs
+    from reference_tracer import cpus as jobs
 
     monkeypatch.setattr(jobs.os, "sched_getaffinity", lambda pid: {0, 1, 2, 3, 4, 5, 6, 7}, raising=False)
     monkeypatch.setattr(jobs, "cgroup_cpu_limit", lambda: None)

@@ -379,3 +379,38 @@ def test_concurrent_appends_never_interleave(tmp_path):
     write_image(store, "images/x.exr", np.zeros((2, 2, 3)))
     with pytest.raises(ValueError):
         write_image(store, "../x.exr", np.zeros((2, 2, 3)))
+
+
+def _serialized(tmp_path, body: bytes, *, version=4, meshes=1, name="m.serialized") -> str:
+    import struct
+    import zlib
+
+    data = struct.pack("<HH", 0x041C, version) + zlib.compress(body)
+    data += struct.pack("<Q" if version == 4 else "<I", 0) * meshes + struct.pack("<I", meshes)
+    path = tmp_path / name
+    path.write_bytes(data)
+    return str(path)
+
+
+def test_serialized_mesh_headers_are_checked_before_anything_is_allocated(tmp_path):
+    """A Mitsuba .serialized mesh is compressed: a few bytes may declare billions of vertices.
+    Its header is read (and only its header decompressed) before Mitsuba loads it."""
+    import struct
+
+    from reference_tracer.meshfile import check_serialized_file
+
+    ok = _serialized(tmp_path, struct.pack("<I", 0x1000) + b"tri\x00" + struct.pack("<QQ", 3, 1) + bytes(48))
+    assert check_serialized_file(ok)["vertices"] == 3
+    huge = _serialized(tmp_path, struct.pack("<I", 0x2001) + b"x\x00" + struct.pack("<QQ", 2**40, 2**40),
+                       name="huge.serialized")
+    with pytest.raises(MemoryError, match="declares 1099511627776 vertices"):
+        check_serialized_file(huge)
+    with pytest.raises(ValueError, match="holds 1 mesh"):
+        check_serialized_file(ok, 3)
+    with pytest.raises(ValueError, match="not a Mitsuba serialized mesh"):
+        check_serialized_file(__file__)
+    (tmp_path / "bad.serialized").write_bytes(b"\x1c\x04\x04\x00" + b"not zlib at all")
+    with pytest.raises(ValueError, match="does not decompress|truncated"):
+        check_serialized_file(tmp_path / "bad.serialized")
+    with pytest.raises(ValueError, match="not a regular file"):
+        check_serialized_file("/dev/zero")

@@ -6,6 +6,13 @@ in Mitsuba's default Russian-roulette configuration (``rr_depth`` 5) and then th
 mean of the ratios, per configuration). ``--rays`` runs
 the ray-casting micro-benchmark instead, ``--scaling`` the scaling sweeps; give both
 to run both, and ``--render`` as well to add the render benchmark to them.
+
+The output ends with one verdict line per speed target the run bears on
+(``benchmarks.speed.targets``: met, not met or not judged, with the median ratio and
+its 90% interval over the rounds); ``--json`` carries them as ``verdicts``. A target
+not met is a measurement, not a failed correctness verdict: the exit status is 0 unless
+``--require-targets`` is given, then 1 when a judged target is not met (targets not
+judged never fail it).
 """
 from __future__ import annotations
 
@@ -14,6 +21,7 @@ import json
 import math
 
 from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+from benchmarks.errors import EXIT_FAIL
 
 HELP = "time ours vs Mitsuba (paired, interleaved): paths/s, rays/s, ms/spp, RMSE, efficiency; --rays, --scaling"
 
@@ -85,6 +93,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="--scaling mesh sizes")
     parser.add_argument("--scaling-spp", type=int, default=16, help="--scaling spp")
     A.add_renderer_arg(parser)  # timed in the same paired rounds as ours and Mitsuba
+    parser.add_argument("--require-targets", action="store_true",
+                        help="exit 1 when a judged speed target is not met (its median ratio below the "
+                             "threshold; benchmarks/PERFORMANCE.md, Targets and verdicts); without it a speed "
+                             "target is reported, never a failure")
     A.add_json_arg(parser)
     A.add_quiet_arg(parser)
     add_scene_path_args(parser)
@@ -404,11 +416,35 @@ def run(args) -> int:
     console.print(f"  note: {speed.WALL_CLOCK_NOTE}. Load average at start "
                   f"{'/'.join(f'{x:.1f}' for x in load) if load else '?'} on {first['environment']['cpu_count']} "
                   f"cores.", markup=False, highlight=False)
+    verdicts = speed.speed_verdicts(out)
+    for line in verdict_lines(verdicts):   # final lines: printed with --quiet too
+        print(line, flush=True)
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump(_finite(out), fh, indent=1, default=_json_default, allow_nan=False)
+            json.dump(_finite({**out, "verdicts": verdicts}), fh, indent=1, default=_json_default, allow_nan=False)
         print(f"  JSON: {args.json}", flush=True)
-    return 0
+    missed = any(v["status"] == "not met" for v in verdicts)
+    return EXIT_FAIL if args.require_targets and missed else 0
+
+
+def verdict_lines(verdicts) -> list:
+    """The closing lines of ``rtbench speed``: a heading, then one line per verdict.
+
+    Examples
+    --------
+    >>> from benchmarks.speed.targets import SCENE_PATHS, judge
+    >>> verdict_lines([judge(SCENE_PATHS, "a", [1.6] * 5)])[1]
+    '  a paths/s vs Mitsuba llvm_ad_rgb >= 1.5x: met, clearly (1.60x, 90% interval 1.60-1.60, 5 rounds)'
+    >>> verdict_lines([])
+    ['speed targets: none applies to --scaling']
+    """
+    if not verdicts:
+        return ["speed targets: none applies to --scaling"]
+    counts = {s: sum(v["status"] == s for v in verdicts) for s in ("met", "not met", "not judged")}
+    renders = "; renders at rr_depth 5" if any(v["benchmark"] == "render" for v in verdicts) else ""
+    head = (f"speed targets (median of the paired rounds' ratios, its 90% interval from order statistics{renders}; "
+            f"benchmarks/PERFORMANCE.md, Targets and verdicts): " + ", ".join(f"{n} {s}" for s, n in counts.items()))
+    return [head] + [f"  {v['line']}" for v in verdicts]
 
 
 def _finite(x):

@@ -16,9 +16,12 @@ prints them; its tables live in :mod:`benchmarks.commands.speed`):
     Paths/s vs resolution and threads, and cost per ray vs triangle count fitted as
     ``a + b ln n``.
 
-Timing, machine identity and Mitsuba variant selection are shared (:mod:`.common`):
-wall and process CPU time are recorded side by side, since the machine may be shared.
-Speed is measured and reported, never asserted.
+Timing, robust summaries (the median and its order-statistics interval), machine
+identity and Mitsuba variant selection are shared (:mod:`.common`): wall and process CPU
+time are recorded side by side, since the machine may be shared. Speed is measured and
+reported, never asserted by the tests; the speed targets (:mod:`.targets`) are judged
+from a run's own results: :func:`speed_verdicts`, one verdict per target (met, not met or
+not judged, with the median ratio and its 90% interval over the rounds).
 
 Examples
 --------
@@ -29,17 +32,19 @@ Examples
 """
 from __future__ import annotations
 
-from .common import WALL_CLOCK_NOTE, environment
+from .common import WALL_CLOCK_NOTE, environment, median_order_interval
 from .rays import (RAY_KINDS, hit_agreement, intersect_mitsuba, intersect_ours, mesh_scene, primary_rays,
                    random_rays, ray_benchmark, torus_mesh)
 from .render import (DEFAULT_RR_DEPTHS, DEFAULT_STRATEGIES, DEFAULT_VARIANTS, REFERENCE_KINDS, render_benchmark,
                      rr_label)
 from .scaling import fit_log_growth, scaling_benchmark
 from .suite import GEOMEAN, geometric_mean, suite_summary
+from .targets import TARGETS, Target, ray_verdicts, render_verdicts, speed_verdicts
 
 __all__ = ["WALL_CLOCK_NOTE", "DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT_RR_DEPTHS", "REFERENCE_KINDS",
            "RAY_KINDS", "render_benchmark", "rr_label", "suite_summary", "geometric_mean", "GEOMEAN",
            "ray_benchmark", "scaling_benchmark",
            "torus_mesh", "mesh_scene", "primary_rays", "random_rays",
            "intersect_ours", "intersect_mitsuba", "hit_agreement", "fit_log_growth",
-           "environment"]
+           "environment", "median_order_interval", "Target", "TARGETS", "render_verdicts", "ray_verdicts",
+           "speed_verdicts"]

@@ -9,18 +9,27 @@ included). The machine these run on may be shared: wall-clock figures are then n
 and biased by other load, and ``cpu/wall`` below the thread count shows contention (or
 idle workers). CPU-time throughputs (``paths_per_cpu_second``) are reported beside the
 wall-clock ones for that reason. Speed is measured and reported, never asserted.
+
+Robust summaries
+----------------
+Rounds are summarised by their median (:func:`median`), their scatter by
+:func:`spread`, and the median's uncertainty by :func:`median_order_interval`: a
+distribution-free confidence interval from order statistics, which assumes only that
+the rounds are independent draws of one distribution (no normality, no bootstrap).
 """
 from __future__ import annotations
 
 import math
 import os
+from fractions import Fraction
 import platform
 import statistics
 import time
 
 import numpy as np
 
-__all__ = ["WALL_CLOCK_NOTE", "environment", "timed", "median", "spread", "name_list", "use_variant",
+__all__ = ["WALL_CLOCK_NOTE", "environment", "timed", "median", "spread", "median_order_interval",
+           "median_coverage", "rounds_for_coverage", "name_list", "use_variant",
            "available_variants", "check_jit_variant", "mitsuba_versions", "mitsuba_render_fn", "load_mitsuba"]
 
 #: printed under every table and stored in every JSON.
@@ -82,6 +91,101 @@ def spread(xs) -> float:
         return float("nan")
     m = statistics.median(xs)
     return (max(xs) - min(xs)) / m if m > 0 else float("nan")
+
+
+def median_coverage(n: int, k: int) -> float:
+    """Coverage of ``[x_(k), x_(n+1-k)]``, the k-th lowest and k-th highest of ``n``
+    independent draws, as a confidence interval for their distribution's median.
+
+    Each draw falls below the median with probability 1/2, so the interval misses it when
+    fewer than ``k`` draws fall on one side: the coverage is
+    ``1 - 2 P(Binomial(n, 1/2) <= k - 1)``, exact for a continuous distribution and a
+    lower bound otherwise. ``ValueError`` unless ``1 <= k <= n / 2`` (rounded up).
+
+    Examples
+    --------
+    >>> median_coverage(5, 1), median_coverage(9, 2)
+    (0.9375, 0.9609375)
+    """
+    n, k = int(n), int(k)
+    if n < 1 or not 1 <= k <= (n + 1) // 2:
+        raise ValueError(f"need 1 <= k <= (n + 1) / 2 order statistics of n >= 1 values, got n={n}, k={k}")
+    return float(_coverage(n, k))
+
+
+def _coverage(n: int, k: int) -> Fraction:
+    """:func:`median_coverage` as an exact fraction."""
+    return 1 - Fraction(2 * sum(math.comb(n, i) for i in range(k)), 2 ** n)
+
+
+def rounds_for_coverage(coverage: float = 0.90) -> int:
+    """The fewest values whose lowest and highest bracket the median with ``coverage``.
+
+    Examples
+    --------
+    >>> rounds_for_coverage(0.90), rounds_for_coverage(0.95), rounds_for_coverage(0.99)
+    (5, 6, 8)
+    """
+    target = _check_coverage(coverage)
+    n = 2
+    while _coverage(n, 1) < target:
+        n += 1
+    return n
+
+
+def _check_coverage(coverage) -> Fraction:
+    """``coverage`` as an exact fraction; ``ValueError`` unless ``0 < coverage < 1``."""
+    if isinstance(coverage, bool) or not isinstance(coverage, (int, float)) or not 0.0 < coverage < 1.0:
+        raise ValueError(f"coverage must be in (0, 1), got {coverage!r}")
+    return Fraction(coverage)
+
+
+def median_order_interval(values, *, coverage: float = 0.90) -> dict:
+    """Median of the finite ``values`` and a distribution-free confidence interval for it.
+
+    The interval is ``[x_(k), x_(n+1-k)]`` of the ``n`` sorted finite values, with the
+    largest ``k`` whose coverage (:func:`median_coverage`) is at least ``coverage``: the
+    narrowest such interval from order statistics. Valid for any distribution of
+    independent values (for paired rounds: any distribution of the per-round ratio), and
+    its coverage holds in few rounds, where that of a bootstrap interval (the A/B runs'
+    ``benchmarks.speed.builds.median_interval``, over 40 rounds and more) is approximate.
+
+    Parameters
+    ----------
+    values : iterable of float or None
+        E.g. the per-round ratios; None, NaN and infinities are left out.
+    coverage : float, keyword-only
+        Least coverage asked for, in (0, 1).
+
+    Returns
+    -------
+    dict
+        ``median`` (NaN when no value is finite), ``rounds`` (the finite values counted),
+        ``low`` and ``high`` (None when ``rounds`` is too few for ``coverage``: fewer than
+        :func:`rounds_for_coverage`), ``coverage`` (the interval's own, at least the one
+        asked for; None without an interval), ``rank`` (``k``; None without an interval)
+        and ``rounds_needed`` (:func:`rounds_for_coverage`).
+
+    Examples
+    --------
+    >>> iv = median_order_interval([1.6, 1.52, 1.7, 1.61, float("nan"), 1.65])
+    >>> iv["median"], iv["low"], iv["high"], iv["coverage"], iv["rounds"]
+    (1.61, 1.52, 1.7, 0.9375, 5)
+    >>> median_order_interval([1.0, 2.0])["low"] is None
+    True
+    """
+    target = _check_coverage(coverage)
+    xs = sorted(float(x) for x in values if x is not None and math.isfinite(x))
+    n = len(xs)
+    out = {"median": statistics.median(xs) if xs else float("nan"), "rounds": n, "low": None, "high": None,
+           "coverage": None, "rank": None, "rounds_needed": rounds_for_coverage(coverage)}
+    if n < 2 or _coverage(n, 1) < target:
+        return out
+    k = 1
+    while k + 1 <= (n + 1) // 2 and _coverage(n, k + 1) >= target:
+        k += 1
+    out.update(low=xs[k - 1], high=xs[n - k], coverage=float(_coverage(n, k)), rank=k)
+    return out
 
 
 def timed(fn):

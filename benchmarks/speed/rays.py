@@ -295,12 +295,14 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
     Returns
     -------
     dict
-        ``rows``: per (triangles, kind) ``ours_mrays_per_second`` (distance and primitive,
+        ``rows``: per (triangles, kind), ``requested_triangles`` (the size asked for;
+        ``triangles`` is the mesh's own count), ``ours_mrays_per_second`` (distance and primitive,
         as Mitsuba's preliminary intersection; timed from the Python call to its return, as
         Mitsuba's side is; ``ours_query_seconds``: the query's own wall time inside it),
         ``ours_full_mrays_per_second`` (with the hit point and normal), ``mitsuba_mrays_per_second``, ``ratio`` and ``ratio_full``
         (ours / Mitsuba, median of the paired per-repeat ratios; ``ratio_min`` /
-        ``ratio_max`` and ``ratio_full_min`` / ``_max`` their range), CPU-time figures, agreement (:func:`hit_agreement`), ours'
+        ``ratio_max`` and ``ratio_full_min`` / ``_max`` their range, ``round_ratios`` and
+        ``round_ratios_full`` each repeat's), CPU-time figures, agreement (:func:`hit_agreement`), ours'
         ``build_seconds`` and ``build_seconds_per_mtri``, Mitsuba's ``load_seconds``
         and ``first_call_seconds``; plus ``config``, ``environment``, ``mitsuba``.
     """
@@ -338,7 +340,7 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
         for kind in kinds:
             row = _ray_row(core, mscene, kind, triangles=ntri, built=built, load_seconds=load, rays=rays,
                            threads=threads, repeats=repeats, variant=variant, seed=seed)
-            out["rows"].append(row)
+            out["rows"].append({"requested_triangles": n_target, **row})
             if log:
                 msg = (f"  {kind}: ours {row['ours_mrays_per_second']:.2f} Mrays/s "
                        f"({row['ours_full_mrays_per_second']:.2f} with hit point and normal)")
@@ -397,8 +399,9 @@ def _ray_row(core, mscene, kind, *, triangles, built, load_seconds, rays, thread
         both = np.isfinite(ours["t"]) & np.isfinite(mres["t"])
         row.update({**_rate_columns("mitsuba", n, mi_secs, mi_cpu),
                     "ratio": median(ratios), "ratio_min": min(ratios), "ratio_max": max(ratios),
+                    "round_ratios": ratios,
                     "ratio_full": median(ratios_full), "ratio_full_min": min(ratios_full),
-                    "ratio_full_max": max(ratios_full),
+                    "ratio_full_max": max(ratios_full), "round_ratios_full": ratios_full,
                     "mitsuba_load_seconds": load_seconds, "mitsuba_first_call_seconds": first,
                     "prim_agreement": float(np.mean(ours["prim"][both] == mres["prim"][both]))
                     if both.any() else float("nan"),

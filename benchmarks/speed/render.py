@@ -121,8 +121,9 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
         (per scene), ``runs`` (one record per timed render) and ``summary`` (one row per
         scene, Russian-roulette configuration and renderer configuration: medians
         and, for ours, ``ratio`` / ``efficiency_ratio`` / ``cpu_ratio`` per variant, each
-        the median over rounds of the paired per-round ratio, and ``round_ratios`` per
-        variant, the paths/s ratio of each round), and ``suite``, the headline
+        the median over rounds of the paired per-round ratio, and ``round_ratios`` and
+        ``round_efficiency_ratios`` per variant, each round's paths/s and efficiency
+        ratio, NaN where an MSE was not positive), and ``suite``, the headline
         (:func:`benchmarks.speed.suite_summary`: every scene and the geometric mean per
         configuration).
     """
@@ -130,7 +131,7 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
                             strategies=strategies, integrators=integrators, variants=variants,
                             reference=reference, reference_spp=reference_spp, seed=seed)
     max_depth, rr_depths = _depth_overrides(max_depth, rr_depths)
-    config["rr_depths"] = list(rr_depths)
+    config["max_depth"], config["rr_depths"] = max_depth, list(rr_depths)
     config["externals"] = {e.name: e.template for e in externals}
 
     env_before = environment()
@@ -450,6 +451,9 @@ def _summary_rows(name, per, variants) -> list:
                 row[f"round_ratios_{v}"] = rounds  # per round, in round order: their spread is the noise
                 row[f"cpu_ratio_{v}"] = median([a["paths_per_cpu_second"] / b["paths_per_cpu_second"]
                                                 for a, b in pairs])
-                row[f"efficiency_ratio_{v}"] = median([a["efficiency"] / b["efficiency"] for a, b in pairs])
+                # NaN in a round where an MSE was not positive; the median leaves it out
+                efficiency = [a["efficiency"] / b["efficiency"] for a, b in pairs]
+                row[f"efficiency_ratio_{v}"] = median(efficiency)
+                row[f"round_efficiency_ratios_{v}"] = efficiency
         rows.append(row)
     return rows

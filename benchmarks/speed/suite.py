@@ -22,12 +22,14 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["GEOMEAN", "geometric_mean", "suite_summary"]
+__all__ = ["GEOMEAN", "geometric_mean", "round_geometric_means", "suite_summary"]
 
 #: the ``scene`` of each configuration's closing row.
 GEOMEAN = "geometric mean"
 #: the per-variant ratios carried into the headline (each suffixed ``_<variant>``).
 _RATIOS = ("ratio", "cpu_ratio", "efficiency_ratio")
+#: the per-round ratio lists carried into the headline (each suffixed ``_<variant>``).
+_ROUNDS = ("round_ratios", "round_efficiency_ratios")
 
 
 def geometric_mean(values) -> float:
@@ -42,6 +44,32 @@ def geometric_mean(values) -> float:
     """
     xs = [float(v) for v in values if v is not None and math.isfinite(v) and v > 0]
     return math.exp(sum(math.log(x) for x in xs) / len(xs)) if xs else float("nan")
+
+
+def round_geometric_means(rounds):
+    """Each round's geometric mean over scenes: ``rounds`` holds one list per scene, round
+    ``k`` of each at index ``k``.
+
+    A round whose value is missing or not finite and positive in some scene has no mean
+    (NaN), rather than a mean over fewer scenes. None when ``rounds`` is empty, a scene has
+    no list, or the lists differ in length.
+
+    Examples
+    --------
+    >>> [round(x, 9) for x in round_geometric_means([[1.0, 2.0, 3.0], [4.0, 8.0, float("nan")]])[:2]]
+    [2.0, 4.0]
+    >>> round_geometric_means([[1.0, 2.0], [1.0]]) is None
+    True
+    """
+    rounds = list(rounds)
+    if not rounds or not all(rounds) or len({len(x) for x in rounds}) != 1:
+        return None
+
+    def ok(v):
+        return v is not None and math.isfinite(v) and v > 0
+
+    return [geometric_mean(x[k] for x in rounds) if all(ok(x[k]) for x in rounds) else float("nan")
+            for k in range(len(rounds[0]))]
 
 
 def suite_summary(result) -> dict:
@@ -60,10 +88,11 @@ def suite_summary(result) -> dict:
         and ``rows``: per configuration
         in run order, one row per scene in run order (``configuration``, ``rr_depth``,
         ``scene``, ``ours_paths_per_second``, ``mitsuba_paths_per_second_<variant>`` and
-        ``ratio_`` / ``cpu_ratio_`` / ``efficiency_ratio_<variant>`` and
-        ``round_ratios_<variant>``, each round's paths/s ratio), then a row with ``scene``
-        :data:`GEOMEAN` holding the geometric means of the ratios, each round's geometric
-        mean over the scenes, and ``scenes``, the number of scenes behind them.
+        ``ratio_`` / ``cpu_ratio_`` / ``efficiency_ratio_<variant>``,
+        ``round_ratios_<variant>`` and ``round_efficiency_ratios_<variant>``, each round's
+        paths/s and efficiency ratio), then a row with ``scene`` :data:`GEOMEAN` holding
+        the geometric means of the ratios, each round's geometric mean over the scenes
+        (:func:`round_geometric_means`), and ``scenes``, the number of scenes behind them.
     """
     strategy = result["config"]["strategies"][0]
     integrator = result["config"].get("integrators", ["wavefront"])[0]
@@ -98,7 +127,8 @@ def _headline_row(row, summary, variants) -> dict:
         out[f"mitsuba_paths_per_second_{v}"] = theirs[0]["paths_per_second"] if theirs else None
         for key in _RATIOS:
             out[f"{key}_{v}"] = row.get(f"{key}_{v}")
-        out[f"round_ratios_{v}"] = row.get(f"round_ratios_{v}")
+        for key in _ROUNDS:
+            out[f"{key}_{v}"] = row.get(f"{key}_{v}")
     return out
 
 
@@ -110,11 +140,7 @@ def _geomean_row(label, block, variants) -> dict:
         out[f"mitsuba_paths_per_second_{v}"] = None
         for key in _RATIOS:
             out[f"{key}_{v}"] = geometric_mean(r[f"{key}_{v}"] for r in block)
-        # Round k's geometric mean over the scenes (their k-th rounds ran in the same pass
-        # over the suite); None where a scene lacks its rounds.
-        rounds = [r.get(f"round_ratios_{v}") for r in block]
-        if block and all(rounds) and len({len(x) for x in rounds}) == 1:
-            out[f"round_ratios_{v}"] = [geometric_mean(x[k] for x in rounds) for k in range(len(rounds[0]))]
-        else:
-            out[f"round_ratios_{v}"] = None
+        # Round k's geometric mean over the scenes; None where a scene lacks its rounds.
+        for key in _ROUNDS:
+            out[f"{key}_{v}"] = round_geometric_means(r.get(f"{key}_{v}") for r in block)
     return out

@@ -207,6 +207,9 @@ public:
         {
             nb::gil_scoped_release release;
             auto poll = [&](uint64_t done, uint64_t total) {
+                // Once cancelled, the workers are stopping and a Python error is set: touch
+                // nothing of Python again until render() returns and raises it.
+                if (interrupted || callback_failed) return false;
                 nb::gil_scoped_acquire acquire;
                 if (PyErr_CheckSignals() != 0) {  // Ctrl-C: the KeyboardInterrupt is now set
                     interrupted = true;

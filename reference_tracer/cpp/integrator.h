@@ -1,5 +1,5 @@
 // The path integrator: one radiance estimate per camera ray, with the direction sampling
-// strategy at non-specular bounces chosen per render (shared/DESIGN.md section 2).
+// strategy at non-specular bounces chosen per render (README.md, Conventions).
 #pragma once
 
 #include <cstdint>

@@ -235,7 +235,7 @@ namespace {
 
 // Rays rays[0 .. m) (m <= kPackWidth) as a pack; absent lanes repeat ray 0. Gathered field
 // by field (simd.h): written lane by lane, the pack's wide reloads waited on the narrow
-// stores, 5% of the closest-hit packs' time on cornell_box (PERFORMANCE.md round 18).
+// stores, 5% of the closest-hit packs' time on cornell_box (PERFORMANCE.md, Ideas tried).
 static_assert(sizeof(Vec3) == 3 * sizeof(double) && offsetof(Ray, d) == sizeof(Vec3),
               "pack_rays gathers a ray as six consecutive doubles");
 RayPack pack_rays(const Ray* const* rays, size_t m) {

@@ -109,7 +109,7 @@ public:
     // or 8 with AVX-512) at a time against every primitive (the wavefront integrator's
     // batches), then any mesh through a tree of its own; others go ray by ray. Rays and
     // hits by pointer: the wavefront integrator's lanes hold them, and copying them into
-    // arrays and back cost 3% of its instructions (PERFORMANCE.md round 16).
+    // arrays and back cost 3% of its instructions (PERFORMANCE.md, Ideas tried).
     void intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interaction* const* it) const;
     // occluded(*rays[i], t_max[i]) for i < n, into occluded[i], the same way.
     void occluded_batch(size_t n, const Ray* const* rays, const double* t_max, bool* occluded) const;
@@ -131,7 +131,7 @@ public:
     }
     // Trees up to this size count as cache-resident for prefetching pushed entries
     // (WideBVH::traverse_interleaved): between the 6.5 MB of a 100k-triangle mesh, where the
-    // prefetches paid, and the 20 MB of a 300k one, where they cost 15% (round 19).
+    // prefetches paid, and the 20 MB of a 300k one, where they cost 15% (PERFORMANCE.md, Ideas tried).
     static constexpr size_t kCachedTreeBytes = size_t{8} << 20;
     size_t primitive_count() const { return spheres_.size() + quads_.size() + triangles_.size(); }
     size_t sphere_count() const { return spheres_.size(); }

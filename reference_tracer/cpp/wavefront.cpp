@@ -81,7 +81,7 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
     if (flags & kScattersDiffusely) {
         // Vertex's constructor less its frame's tangents, which only scatter_diffuse() needs
         // (and builds a pack at a time): the shading normal, wo's local z and whether the
-        // path can scatter here (PERFORMANCE.md round 17).
+        // path can scatter here (PERFORMANCE.md, Ideas tried).
         lane.normal = front ? it.n : -it.n;
         lane.wo_z = dot_fused(-lane.ray.d, lane.normal);
         if (!(m.reflects && (front || m.two_sided) && lane.wo_z != 0.0)) {
@@ -428,7 +428,7 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
             Lane& lane = *active[k];
             if (!shade(lane, hit[k], rays)) continue;
             // One loop: as passes of their own, the draws cost 2% of cornell_box's
-            // instructions (PERFORMANCE.md round 16).
+            // instructions (PERFORMANCE.md, Ideas tried).
             const bool queued = queue_vertex(lane, queue, n_queued);
             if (!(queued && queue.scatter[n_queued] != 0.0)) others[n_others++] = &lane;
             n_queued += queued;

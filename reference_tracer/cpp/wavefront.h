@@ -7,7 +7,7 @@
 // other, drawing from the pixel's own random stream in the same order as render_pixel
 // and Integrator::Li do; a lane whose path ends starts the pixel's next sample (or a new
 // pixel) before the next bounce, so lanes never idle while work is left (the "busy
-// lanes" loss of a packet that runs until its longest path ends, PERFORMANCE.md round 5).
+// lanes" loss of a packet that runs until its longest path ends: PERFORMANCE.md, Ideas tried).
 // Every sample is therefore the very number the scalar integrator computes, summed in
 // the same order: the two integrators' images are the same bit for bit.
 //
@@ -33,7 +33,7 @@ class WavefrontIntegrator {
 public:
     // Paths in flight per worker: every lane is refilled each bounce, so the batches are
     // full packs (simd.h) but for the render's last pixels; few enough that the lanes, rays
-    // and hits stay in L1. 16 and 64 measured slower than 32 (PERFORMANCE.md round 8).
+    // and hits stay in L1. 16 and 64 measured slower than 32 (PERFORMANCE.md, Ideas tried).
     static constexpr int kLanes = 32;
 
     WavefrontIntegrator(const Integrator<Mutant::None>& integrator, const RenderJob& job);
@@ -90,8 +90,8 @@ private:
     // lane. The light
     // samples, the whole estimate at diffuse vertices and their continuation then run a pack
     // of positions at a time and load their inputs as vectors: packs that gathered them from
-    // the lanes' structures, field by field, cost what they saved (PERFORMANCE.md rounds
-    // 14-16; round 17 for this queue).
+    // the lanes' structures, field by field, cost what they saved (PERFORMANCE.md, Ideas
+    // tried).
     struct VertexQueue {
         alignas(64) double light[kLanes];    // 1 where the vertex takes a light sample, else 0
         alignas(64) double diffuse[kLanes];  // 1 where its material is diffuse, else 0
@@ -132,13 +132,13 @@ private:
     void camera_rays(Lane* const* lanes, int n) const;
     // One vertex of Integrator::Li's loop in parts, each run over the whole batch before
     // the next, so that the independent lanes overlap each part's long chains of dependent
-    // arithmetic instead of waiting on them one lane after another (PERFORMANCE.md round 8:
-    // cornell_box +8%, cornell_mesh +11%, furnace +5%).
+    // arithmetic instead of waiting on them one lane after another (cornell_box +8%,
+    // cornell_mesh +11%, furnace +5%: PERFORMANCE.md, Ideas tried).
     // shade(), after the closest hit of lane.ray (lane.it where `hit`): emission and the
     // vertex; returns whether the path goes on. queue_vertex(): the lane's draws in Li's
     // order, `mis`'s three light-sample uniforms and a diffuse direction's, and its place in
     // the queue at position k where it takes either step (returns whether it did); it runs
-    // in shade()'s loop, lane by lane (PERFORMANCE.md round 16). next_events(): the queue's
+    // in shade()'s loop, lane by lane (PERFORMANCE.md, Ideas tried). next_events(): the queue's
     // light samples a pack at a time (LightSampler::sample_pack), the estimates of its
     // diffuse vertices from them (estimate_diffuse), the others' by next_event(); lists the
     // lanes with a shadow ray. scatter(): the next direction and Russian roulette, for lanes
@@ -176,7 +176,7 @@ private:
     static void reference_points(const VPd (&p)[3], const VPd (&n)[3], VPd (&ref)[3]);
     void scatter(Lane& lane) const;
     // sample_scatter at the queue's diffuse vertices: the cosine-weighted direction
-    // (square_to_cosine_hemisphere, PERFORMANCE.md round 9), lambertian::sample_with, the
+    // (square_to_cosine_hemisphere; PERFORMANCE.md, Ideas tried), lambertian::sample_with, the
     // frame's to_world and the ray's offset origin lane-wise, bit for bit; then each lane's
     // throughput, previous vertex, ray and Russian roulette.
     void scatter_diffuse(const VertexQueue& q, int n) const;

@@ -32,7 +32,7 @@ struct LightSample {
 // LightSamples of a pack of reference points (simd.h), lane by lane, in structure-of-arrays
 // form: the packed samplers write them as vectors, and the wavefront integrator finishes
 // the next-event estimates of a pack of diffuse vertices from them without unpacking
-// (PERFORMANCE.md round 17). A lane holds LightSample()'s values until a sample is set.
+// (PERFORMANCE.md, Ideas tried). A lane holds LightSample()'s values until a sample is set.
 struct LightSamplePack {
     VPd wi[3], dist, pdf, radiance[3];
     unsigned valid = 0, background = 0;  // bit l: lane l's flag

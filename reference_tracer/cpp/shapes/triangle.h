@@ -57,7 +57,7 @@ struct WatertightRay {
         // swapped where d[kz] < 0 to keep the winding of the sheared triangle. Looked up in
         // tables indexed by the comparisons: as conditional expressions (and as bit
         // arithmetic) GCC compiled them to branches, each a coin toss on random directions
-        // (1.4 mispredictions per ray; round 10 of PERFORMANCE.md).
+        // (1.4 mispredictions per ray; PERFORMANCE.md, Ideas tried).
         const double ax = std::abs(d.x), ay = std::abs(d.y), az = std::abs(d.z);
         // Index bits: |x| > |y|, |x| > |z|, |y| > |z|.
         static constexpr int kLargest[8] = {2, 1, 2, 1, 2, 2, 0, 0};
