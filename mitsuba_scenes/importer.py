@@ -10,9 +10,11 @@ walked node by node. Supported: ``perspective`` sensor (``fov`` with any
 ``rectangle``, ``cube``, ``obj``, ``ply`` (with ``to_world`` and ``flip_normals``; meshes
 flat-shaded: ``face_normals=true``, or vertex normals equal to the faces'), BSDFs
 ``diffuse``, ``conductor`` and ``roughconductor`` (``ggx`` or ``beckmann``, isotropic,
-``material`` names or RGB ``eta``/``k``), ``dielectric``, ``twosided`` around one of
-those, references by id, ``area`` emitters (on their shape or declared at the top level
-and referenced) and ``constant``, RGB or scalar values.
+``material`` names or RGB ``eta``/``k``), ``dielectric``, ``plastic`` and ``roughplastic``
+(constant reflectances, named or numeric ``int_ior``/``ext_ior``, ``nonlinear``; rough:
+``ggx`` or ``beckmann``, isotropic), ``twosided`` around one of those, references by id,
+``area`` emitters (on their shape or declared at the top level and referenced) and
+``constant``, RGB or scalar values.
 Anything else is refused with one ``ValueError`` listing every unsupported item and
 where it is; no partial scene is ever returned.
 """
@@ -190,13 +192,67 @@ def _extra(ctx, node, allowed, kind):
 
 
 def _ior(ctx, node, key, default):
+    """An index of refraction as Mitsuba reads it: a float, or a name of its table (any case)."""
+    p = node.props
+    if key in p.keys() and p.type(key) not in (ctx.mi.Properties.Type.Float, ctx.mi.Properties.Type.String):
+        ctx.bad(node, f"{p.plugin_name()} {key} of type {p.type(key)} (a float or one of Mitsuba's IOR names)")
+        return None
     v = _scalar(ctx, node, key, default)
     if isinstance(v, str):
         if v.lower() not in IOR_TABLE:
-            ctx.bad(node, f"dielectric {key}='{v}' is not a known IOR name")
+            ctx.bad(node, f"{p.plugin_name()} {key}='{v}' is not a known IOR name "
+                          f"(Mitsuba's: {', '.join(IOR_TABLE)})")
             return None
         return IOR_TABLE[v.lower()]
     return float(v)
+
+
+def _bool(ctx, node, key, default: bool):
+    """A boolean property (Mitsuba refuses any other type for one), or None after recording a problem."""
+    p = node.props
+    if key not in p.keys():
+        return default
+    if p.type(key) != ctx.mi.Properties.Type.Bool:
+        ctx.bad(node, f"{p.plugin_name()} {key} of type {p.type(key)} (a boolean)")
+        return None
+    return bool(p[key])
+
+
+def _plastic(ctx, node, name, two_sided):
+    """Our Plastic or RoughPlastic for Mitsuba's ``plastic`` / ``roughplastic`` node, or None."""
+    rough = name == "roughplastic"
+    allowed = {"diffuse_reflectance", "specular_reflectance", "int_ior", "ext_ior", "nonlinear"}
+    if rough:
+        allowed |= {"distribution", "alpha", "alpha_u", "alpha_v", "sample_visible"}
+    _extra(ctx, node, allowed, "bsdf")
+    ok = True
+    diffuse = _colour(ctx, node, "diffuse_reflectance", _DEFAULT_DIFFUSE)
+    specular = _colour(ctx, node, "specular_reflectance", 1.0)
+    int_ior, ext_ior = _ior(ctx, node, "int_ior", "polypropylene"), _ior(ctx, node, "ext_ior", "air")
+    nonlinear = _bool(ctx, node, "nonlinear", False)
+    kw = {}
+    if rough:
+        dist = _scalar(ctx, node, "distribution", "beckmann")
+        if dist not in rt.DISTRIBUTIONS:
+            ctx.bad(node, f"roughplastic distribution '{dist}' (ggx or beckmann)")
+            ok = False
+        if _bool(ctx, node, "sample_visible", True) is not True:
+            ctx.bad(node, "roughplastic sample_visible=false (the estimator differs; its image does not)")
+            ok = False
+        alpha = _roughness(ctx, node)
+        if alpha is None:
+            ok = False
+        else:
+            kw = {"alpha": max(alpha, 1e-4), "distribution": dist}  # Mitsuba clamps alpha to 1e-4 too
+    if not ok or None in (diffuse, specular, int_ior, ext_ior, nonlinear):
+        return None
+    try:
+        return (rt.RoughPlastic if rough else rt.Plastic)(
+            diffuse, specular_reflectance=specular, int_ior=int_ior, ext_ior=ext_ior, nonlinear=nonlinear,
+            two_sided=two_sided, **kw)
+    except ValueError as exc:  # values Mitsuba takes and we do not (or neither does), with the place
+        ctx.bad(node, f"{name}: {exc}")
+        return None
 
 
 # --------------------------------------------------------------------------- BSDFs
@@ -268,6 +324,8 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
         if not ok or alpha is None or ior is None or albedo is None:
             return None
         return rt.RoughConductor(albedo, alpha=alpha, distribution=dist, two_sided=two_sided, **ior)
+    if name in ("plastic", "roughplastic"):
+        return _plastic(ctx, node, name, two_sided)
     if name == "dielectric":
         _extra(ctx, node, {"int_ior", "ext_ior", "specular_reflectance", "specular_transmittance"}, "bsdf")
         ok = True

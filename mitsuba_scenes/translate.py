@@ -20,6 +20,10 @@ ours                                   Mitsuba 3
 ``RoughConductor``                     ``roughconductor``: its ``distribution``, ``material='none'``
                                        or RGB ``eta`` and ``k``
 ``Dielectric(ior)``                    ``dielectric``, ``int_ior=ior``, ``ext_ior=1.0``
+``Plastic``                            ``plastic``: its reflectances (RGB), ``int_ior``,
+                                       ``ext_ior`` and ``nonlinear``
+``RoughPlastic``                       ``roughplastic``: as ``plastic``, with its
+                                       ``distribution`` and ``alpha``
 ``two_sided=True``                     ``twosided`` wrapper
 ``DiffuseLight(L, albedo=a)``          ``area`` emitter + ``diffuse`` BSDF of albedo a (black if None)
 ``background``                         ``constant`` emitter (none when black)
@@ -152,6 +156,14 @@ def _bsdf_record(label: str, m) -> dict:
         b = {"type": "roughconductor", "distribution": m.distribution, **_conductor_ior(m),
              "alpha": float(_f32(m.alpha)),
              "specular_reflectance": {"type": "rgb", "value": _rgb(m.albedo)}}
+    elif isinstance(m, (rt.Plastic, rt.RoughPlastic)):
+        # specular_reflectance always given: Mitsuba multiplies by it only then, and its
+        # mean (1 when absent) steers the lobe choice the same either way
+        b = {"type": "plastic", "diffuse_reflectance": {"type": "rgb", "value": _rgb(m.diffuse_reflectance)},
+             "specular_reflectance": {"type": "rgb", "value": _rgb(m.specular_reflectance)},
+             "int_ior": float(_f32(m.int_ior)), "ext_ior": float(_f32(m.ext_ior)), "nonlinear": bool(m.nonlinear)}
+        if isinstance(m, rt.RoughPlastic):
+            b.update(type="roughplastic", distribution=m.distribution, alpha=float(_f32(m.alpha)))
     elif isinstance(m, rt.Dielectric):
         if m.fresnel != "exact":
             raise ValueError(f"{label}: Dielectric(fresnel={m.fresnel!r}) has no Mitsuba equivalent (Mitsuba's "
@@ -354,7 +366,7 @@ def _xml_escape(s: str) -> str:
 
 
 _CHILD_TAG = {"diffuse": "bsdf", "conductor": "bsdf", "roughconductor": "bsdf", "dielectric": "bsdf",
-              "twosided": "bsdf", "area": "emitter", "constant": "emitter"}
+              "plastic": "bsdf", "roughplastic": "bsdf", "twosided": "bsdf", "area": "emitter", "constant": "emitter"}
 
 
 def _xml_props(rec: dict, indent: str) -> list:

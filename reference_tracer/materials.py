@@ -4,11 +4,14 @@ Every material validates its parameters on construction and is immutable. The
 conventions follow Mitsuba 3: surfaces are one-sided unless ``two_sided=True``;
 emission is one-sided (front face only). Conductors reflect with Fresnel 1 unless given
 a complex index of refraction (``eta``, ``k``) or one of Mitsuba's named materials
-(:mod:`reference_tracer.conductors`).
+(:mod:`reference_tracer.conductors`). Plastics are a diffuse base under a smooth
+(:class:`Plastic`) or rough (:class:`RoughPlastic`) dielectric coating.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from ._validate import colour, finite_scalar
 from .conductors import conductor_ior
@@ -35,10 +38,50 @@ def _complex_ior(owner: str, eta, k, material):
     return (colour(f"{owner}.eta", eta, upper=None),
             colour(f"{owner}.k", 1.0 if k is None else k, upper=None))
 
-__all__ = ["Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "DiffuseLight", "DISTRIBUTIONS"]
+__all__ = ["Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic",
+           "DiffuseLight", "DISTRIBUTIONS", "PLASTIC_INT_IOR", "PLASTIC_EXT_IOR"]
 
-#: microfacet distributions of :class:`RoughConductor`, in the core's order.
+#: microfacet distributions of :class:`RoughConductor` and :class:`RoughPlastic`, in the core's order.
 DISTRIBUTIONS = ("ggx", "beckmann")
+
+#: Mitsuba's default plastic coating: polypropylene (``int_ior``) in air (``ext_ior``).
+PLASTIC_INT_IOR, PLASTIC_EXT_IOR = 1.49, 1.000277
+
+
+def _flag(name: str, value) -> bool:
+    """``value`` as a bool: True, False (or 1, 0); anything else (a string, None) is refused."""
+    if isinstance(value, (bool, np.bool_)) or (isinstance(value, (int, np.integer)) and value in (0, 1)):
+        return bool(value)
+    raise ValueError(f"{name} must be True or False, got {value!r}")
+
+
+def _fresnel_diffuse_reflectance(eta: float) -> float:
+    """Mitsuba's fit of the hemispherical mean of the Fresnel reflectance at relative index ``eta``."""
+    if eta < 1.0:
+        return -1.4399 * eta * eta + 0.7099 * eta + 0.6681 + 0.0636 / eta
+    x = 1.0 / eta
+    return 0.919317 + x * (-3.4793 + x * (6.75335 + x * (-7.80989 + x * (4.98554 - 1.36881 * x))))
+
+
+def _validate_plastic(m, owner: str, *, rough: bool) -> None:
+    """The fields both plastics share, validated and normalised in place (frozen dataclass)."""
+    set_ = object.__setattr__
+    set_(m, "diffuse_reflectance", colour(f"{owner}.diffuse_reflectance", m.diffuse_reflectance, upper=1.0))
+    set_(m, "specular_reflectance", colour(f"{owner}.specular_reflectance", m.specular_reflectance, upper=1.0))
+    int_ior = finite_scalar(f"{owner}.int_ior", m.int_ior, lo=0.0, lo_open=True)
+    ext_ior = finite_scalar(f"{owner}.ext_ior", m.ext_ior, lo=0.0, lo_open=True)
+    set_(m, "int_ior", int_ior)
+    set_(m, "ext_ior", ext_ior)
+    set_(m, "nonlinear", _flag(f"{owner}.nonlinear", m.nonlinear))
+    set_(m, "two_sided", _flag(f"{owner}.two_sided", m.two_sided))
+    # Mitsuba compares its single-precision values.
+    if rough and np.float32(int_ior) == np.float32(ext_ior):
+        raise ValueError(f"{owner}: int_ior and ext_ior must differ (got {int_ior} for both): a coating of "
+                         "relative index 1 has no rough interface (Mitsuba's roughplastic refuses it too)")
+    if not rough and _fresnel_diffuse_reflectance(ext_ior / int_ior) >= 1.0:
+        raise ValueError(f"{owner}: int_ior / ext_ior = {int_ior / ext_ior:.4g} is beyond Mitsuba's fit of the "
+                         "coating's internal reflectance (it reaches 1 near 3.7: the diffuse lobe would be "
+                         "negative or infinite)")
 
 
 class Material:
@@ -186,6 +229,115 @@ class RoughConductor(Material):
         eta, k = _complex_ior("RoughConductor", self.eta, self.k, self.material)
         object.__setattr__(self, "eta", eta)
         object.__setattr__(self, "k", k)
+
+
+@dataclass(frozen=True)
+class Plastic(Material):
+    """A diffuse base under a smooth dielectric coating: Mitsuba ``plastic``.
+
+    The coating reflects specularly, a Dirac lobe of weight ``F(cos) specular_reflectance``
+    (exact unpolarised Fresnel of the relative index ``int_ior / ext_ior``); the light it
+    transmits scatters off the base of reflectance ``diffuse_reflectance``, and from the
+    coating's inside, before leaving as a diffuse lobe. One-sided unless ``two_sided``.
+
+    Parameters
+    ----------
+    diffuse_reflectance : float or (3,) array_like
+        The base's reflectance per RGB channel, in [0, 1] (Mitsuba's default 0.5).
+    specular_reflectance : float or (3,) array_like, keyword-only
+        Scale of the specular lobe, in [0, 1] (default 1).
+    int_ior, ext_ior : float, keyword-only
+        Indices of refraction inside the coating and outside, > 0 (defaults: Mitsuba's
+        polypropylene 1.49 and air 1.000277). Only their ratio matters. Beyond about 3.7
+        Mitsuba's fit of the coating's internal reflectance exceeds 1 and is refused.
+    nonlinear : bool, keyword-only
+        Mitsuba's ``nonlinear``: the base's light divided by ``1 - rho Fi`` (the exact sum of
+        its internal scattering, which darkens and saturates colours) instead of ``1 - Fi``
+        (default False, which keeps the colour of ``diffuse_reflectance``).
+    two_sided : bool, keyword-only
+        Reflect on both sides (Mitsuba ``twosided``); black from the back otherwise.
+
+    Notes
+    -----
+    Used with the ``light`` strategy, which takes only the direct light that light sampling
+    finds at the first vertex that is not a mirror or glass, a smooth plastic shows its
+    diffuse lobe alone: no light sample can meet the specular one. The other strategies
+    sample the specular lobe with the material's own probability.
+
+    Examples
+    --------
+    >>> Plastic((0.1, 0.3, 0.7)).int_ior
+    1.49
+    >>> round(Plastic(0.5, int_ior=1.5, ext_ior=1.0).relative_ior, 3)
+    1.5
+    """
+
+    diffuse_reflectance: tuple
+    specular_reflectance: tuple = field(default=1.0, kw_only=True)
+    int_ior: float = field(default=PLASTIC_INT_IOR, kw_only=True)
+    ext_ior: float = field(default=PLASTIC_EXT_IOR, kw_only=True)
+    nonlinear: bool = field(default=False, kw_only=True)
+    two_sided: bool = field(default=False, kw_only=True)
+
+    def __post_init__(self):
+        _validate_plastic(self, "Plastic", rough=False)
+
+    @property
+    def relative_ior(self) -> float:
+        """``int_ior / ext_ior``: all of the coating that the BSDF depends on."""
+        return self.int_ior / self.ext_ior
+
+
+@dataclass(frozen=True)
+class RoughPlastic(Material):
+    """A diffuse base under a rough dielectric coating: Mitsuba ``roughplastic``.
+
+    As :class:`Plastic` with a microfacet coating: a glossy lobe (``distribution``
+    ``'beckmann'``, Mitsuba's default, or ``'ggx'``, isotropic ``alpha`` as Mitsuba's), and a
+    diffuse lobe scaled by the coating's transmittance on the way in and out (Mitsuba's
+    table of it, and the coating's internal reflectance, computed once per coating when
+    the scene is compiled).
+
+    Parameters
+    ----------
+    diffuse_reflectance : float or (3,) array_like
+        The base's reflectance per RGB channel, in [0, 1] (Mitsuba's default 0.5).
+    alpha : float, keyword-only
+        Roughness, in [1e-4, 4] (Mitsuba's default 0.1; roughness = alpha, not alpha squared).
+    distribution : {'beckmann', 'ggx'}, keyword-only
+        The microfacet distribution (default ``'beckmann'``, as Mitsuba's).
+    specular_reflectance, int_ior, ext_ior, nonlinear, two_sided : keyword-only
+        As :class:`Plastic`; ``int_ior`` and ``ext_ior`` must differ (as Mitsuba requires).
+
+    Examples
+    --------
+    >>> RoughPlastic((0.1, 0.3, 0.7), alpha=0.2).distribution
+    'beckmann'
+    >>> RoughPlastic(0.5, int_ior=1.5, ext_ior=1.5)
+    Traceback (most recent call last):
+    ...
+    ValueError: RoughPlastic: int_ior and ext_ior must differ (got 1.5 for both): a coating of relative index 1 has no rough interface (Mitsuba's roughplastic refuses it too)
+    """
+
+    diffuse_reflectance: tuple
+    alpha: float = field(default=0.1, kw_only=True)
+    distribution: str = field(default="beckmann", kw_only=True)
+    specular_reflectance: tuple = field(default=1.0, kw_only=True)
+    int_ior: float = field(default=PLASTIC_INT_IOR, kw_only=True)
+    ext_ior: float = field(default=PLASTIC_EXT_IOR, kw_only=True)
+    nonlinear: bool = field(default=False, kw_only=True)
+    two_sided: bool = field(default=False, kw_only=True)
+
+    def __post_init__(self):
+        object.__setattr__(self, "alpha", finite_scalar("RoughPlastic.alpha", self.alpha, lo=1e-4, hi=4.0))
+        if self.distribution not in DISTRIBUTIONS:
+            raise ValueError(f"RoughPlastic.distribution must be one of {DISTRIBUTIONS}, got {self.distribution!r}")
+        _validate_plastic(self, "RoughPlastic", rough=True)
+
+    @property
+    def relative_ior(self) -> float:
+        """``int_ior / ext_ior``: all of the coating that the BSDF depends on."""
+        return self.int_ior / self.ext_ior
 
 
 @dataclass(frozen=True)

@@ -46,10 +46,16 @@ def test_catalogue_covers_every_routine():
     names = {r.name for r in ROUTINES}
     assert {"warp.uniform_hemisphere", "warp.cosine_hemisphere", "warp.uniform_sphere", "warp.uniform_cone",
             "warp.concentric_disk", "bsdf.lambertian", "bsdf.rough_conductor", "bsdf.rough_conductor_beckmann",
-            "lobes.dielectric",
+            "bsdf.plastic", "bsdf.rough_plastic", "bsdf.rough_plastic_beckmann", "lobes.dielectric",
             "lobes.dielectric_schlick", "light.quad", "light.triangle", "light.sphere", "light.scene"} <= names
     ggx = [dict(r.params) for r in ROUTINES if r.name == "bsdf.rough_conductor"]
     assert len({p["alpha"] for p in ggx}) >= 3 and len({p["theta_o"] for p in ggx}) >= 3
+    for name in ("bsdf.rough_plastic", "bsdf.rough_plastic_beckmann", "bsdf.plastic"):
+        ps = [dict(r.params) for r in ROUTINES if r.name == name]
+        assert len({p["theta_o"] for p in ps}) >= 4 and any(p.get("nonlinear") for p in ps)
+        assert any(p.get("eta", 1.5) < 1 for p in ps) or name == "bsdf.rough_plastic"
+        if name != "bsdf.plastic":
+            assert len({p["alpha"] for p in ps}) >= 3
     spheres = " ".join(dict(r.params)["ref"] for r in ROUTINES if r.name == "light.sphere")
     assert "outside" in spheres and "inside" in spheres and "on the surface" in spheres
     assert len({r.label for r in ROUTINES}) == len(ROUTINES)
@@ -86,6 +92,29 @@ def test_microfacet_pdf_with_wrong_alpha_fails(theta, material):
     wrong = BsdfProbe(material, direction(theta, 40.0), param=0.33)
     r = chi2_test(right.sample, wrong.pdf, domain="hemisphere", n=100_000, seed=5, dims=3)
     assert r.verdict == "fail" and min(r.p_value, r.mass_p_value) < 1e-10
+
+
+@pytest.mark.parametrize("change", [{"coating": {"eta": 2.5}}, {"material": "rough_plastic_beckmann"},
+                                    {"albedo": (0.4, 0.3, 0.2)}], ids=["eta", "distribution", "sampling_weight"])
+def test_rough_plastic_pdf_of_another_plastic_fails(change):
+    """The density of a rough plastic with another coating index (its table and lobe choice:
+    1.49 against 2.5; against 1.6 the lobe probabilities differ too little for 1e5 samples),
+    another distribution, or another diffuse reflectance (Mitsuba's sampling weight)."""
+    kw = dict(material="rough_plastic", wo=direction(60.0, 40.0), param=0.3)
+    right = BsdfProbe(**kw)
+    wrong = BsdfProbe(**{**kw, **change})
+    r = chi2_test(right.sample, wrong.pdf, domain="hemisphere", n=100_000, seed=5, dims=3)
+    assert r.verdict == "fail" and min(r.p_value, r.mass_p_value) < 1e-10
+
+
+def test_smooth_plastic_specular_share_without_the_sampling_weight_fails():
+    """The share of specular samples is Mitsuba's F sw / (F sw + (1 - F)(1 - sw)), not F."""
+    probe = BsdfProbe("plastic", direction(60.0, 25.0))
+    s = probe.sample_full(np.random.default_rng(4).random((100_000, 3)))
+    specular = int(s["delta"].sum())
+    F = fresnel_exact(float(probe.wo[2]), 1.49 / 1.000277)
+    r = discrete_test([specular, 100_000 - specular], [F, 1 - F], alpha=0.01)
+    assert r.verdict == "fail" and r.p_value < 1e-10
 
 
 def test_light_pdf_from_the_wrong_point_fails():

@@ -66,14 +66,14 @@ def test_fov_axis_variants_import(mi):
 
 def test_unsupported_scene_lists_everything(mi):
     d = mi.cornell_box()
-    d["white"] = {"type": "plastic"}
+    d["white"] = {"type": "roughdielectric"}
     d["integrator"] = {"type": "volpath"}
     d["env"] = {"type": "envmap", "filename": "sky.exr"}
     d["red"] = {"type": "diffuse", "reflectance": {"type": "checkerboard"}}
     with pytest.raises(ValueError) as err:
         from_mitsuba(d)
     msg = str(err.value)
-    for needle in ("plastic", "volpath", "envmap", "checkerboard", 'dictionary node "white"',
+    for needle in ("roughdielectric", "volpath", "envmap", "checkerboard", 'dictionary node "white"',
                    'dictionary node "env"'):
         assert needle in msg, (needle, msg)
 

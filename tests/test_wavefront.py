@@ -109,6 +109,36 @@ def test_wavefront_equals_scalar_on_mixed_vertices(strategy, rr_depth):
     assert a.mean.max() > 0
 
 
+def _plastics_scene():
+    # Plastics run the scalar steps lane by lane in the wavefront integrator (its packs are
+    # for Lambertian vertices): smooth plastic, whose samples are a Dirac lobe's or not, one
+    # sample at a time (the MIS weight of the emitter hit next and the ray's offset follow
+    # the sample), one-sided and two-sided, beside rough plastics of both distributions and
+    # Lambertian walls that do run in packs.
+    shapes = list(_mixed_vertices_scene().shapes[:6])
+    shapes += [
+        rt.Sphere(center=(-1, 1, 0), radius=0.8, material=rt.Plastic((0.2, 0.4, 0.7), specular_reflectance=0.9)),
+        rt.Sphere(center=(1.2, 0.7, 0.5), radius=0.6, material=rt.RoughPlastic(0.6, alpha=0.05, nonlinear=True)),
+        rt.Sphere(center=(0.5, 0.4, -1.5), radius=0.4, material=rt.RoughPlastic((0.7, 0.2, 0.1), alpha=0.4,
+                                                                                distribution="ggx", int_ior=1.9)),
+        rt.Quad(Q=(-2.5, 0.3, 1.5), u=(0, 1.5, 0), v=(1.5, 0, -0.5), material=rt.Plastic(0.3, two_sided=True)),
+    ]
+    scene = _mixed_vertices_scene()
+    return rt.Scene(shapes=shapes, background=scene.background, camera=scene.camera)
+
+
+@pytest.mark.parametrize("rr_depth", [None, 2])
+@pytest.mark.parametrize("strategy", rt.STRATEGIES)
+def test_wavefront_equals_scalar_with_plastics(strategy, rr_depth):
+    import dataclasses
+
+    scene = dataclasses.replace(_plastics_scene(), rr_depth=rr_depth)
+    a, b = (rt.render(scene, spp=8, strategy=strategy, seed=17, threads=2, moments=True, integrator=i)
+            for i in ("scalar", "wavefront"))
+    _assert_same_render(a, b)
+    assert a.mean.max() > 0
+
+
 @pytest.mark.parametrize("integrator", rt.INTEGRATORS)
 def test_each_integrator_is_deterministic_whatever_the_thread_count(integrator):
     scene = get_scene("glossy_plates", width=24, height=20)

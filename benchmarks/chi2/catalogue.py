@@ -11,6 +11,15 @@ that change its distribution:
   albedo, the integral of ``f cos`` over the hemisphere, equals the mean sample weight (the
   pdf itself integrates to the probability that a sample is valid: 1 for Lambertian, the
   share of reflected microfacet directions above the horizon for GGX).
+* ``bsdf.rough_plastic*`` - the rough plastic (GGX and Beckmann coatings at several alphas,
+  incidences and indices, linear and ``nonlinear``): as the other ``bsdf.*``, its sampling
+  density being the mixture of its glossy and diffuse lobes.
+* ``bsdf.plastic`` - the smooth plastic, a Dirac lobe beside a diffuse one: the diffuse
+  samples against ``pdf()`` (whose mass is the diffuse lobe's probability, 1 - Ps), the
+  share of specular samples against Ps from an independent Fresnel formula and Mitsuba's
+  sampling weight; every specular sample is the mirror direction with weight ks F / Ps,
+  every diffuse one has weight ``eval / pdf``; the mean weight is ks F plus the diffuse
+  lobe's albedo.
 * ``lobes.*`` - the smooth dielectric's discrete choice: reflection with probability F
   against an independent Fresnel formula (exact, or Schlick's for the Schlick variant),
   from outside, inside, and under total internal reflection; every reflected direction
@@ -60,7 +69,7 @@ class Routine:
 
     name: str
     params: tuple              # ((key, value), ...), shown in tables
-    kind: str                  # 'warp', 'bsdf', 'lobes' or 'light'
+    kind: str                  # 'warp', 'bsdf', 'mixed' (a Dirac lobe beside a density), 'lobes' or 'light'
     make: Callable[[], dict] = field(compare=False, repr=False)   # -> the probe and its test settings
 
     @property
@@ -114,14 +123,47 @@ def _warp(name, domain, param=0.0, cos_range=None, params=()):
     return Routine(f"warp.{name}", tuple(params), "warp", make)
 
 
-def _bsdf(material, theta, alpha=None, resolution=DEFAULT_RESOLUTION):
-    params = (("theta_o", theta),) + ((("alpha", alpha),) if alpha is not None else ())
+def _bsdf(material, theta, alpha=None, resolution=DEFAULT_RESOLUTION, *, coating=None, albedo=None):
+    """``coating``: a plastic's options (``eta``, ``specular``, ``nonlinear``), also shown in the label."""
+    coating = dict(coating or {})
+    params = ((("theta_o", theta),) + ((("alpha", alpha),) if alpha is not None else ())
+              + tuple((k, v) for k, v in coating.items()))
 
     def make():
-        probe = BsdfProbe(material, direction(theta, 40.0), param=alpha or 0.0)
+        probe = BsdfProbe(material, direction(theta, 40.0), param=alpha or 0.0, coating=coating,
+                          **({"albedo": albedo} if albedo is not None else {}))
         return {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": "hemisphere", "dims": 3,
                 "resolution": resolution}
     return Routine(f"bsdf.{material}", params, "bsdf", make)
+
+
+#: Mitsuba's default coating of its plastics: polypropylene in air.
+PLASTIC_ETA = 1.49 / 1.000277
+
+
+def _plastic(theta, *, coating=None, albedo=(0.8, 0.6, 0.4)):
+    """The smooth plastic at incidence ``theta``: its diffuse samples against pdf(), its
+    specular ones counted against Ps = F sw / (F sw + (1 - F)(1 - sw)), F from
+    :func:`fresnel_exact` and sw = mean(ks) / (mean(rho) + mean(ks)) (Mitsuba's weight)."""
+    coating = dict(coating or {})
+    params = (("theta_o", theta),) + tuple((k, v) for k, v in coating.items())
+
+    def make():
+        wo = direction(theta, 40.0)
+        eta = coating.get("eta", PLASTIC_ETA)
+        ks = np.broadcast_to(np.asarray(coating.get("specular", 1.0), dtype=np.float64), (3,))
+        F = fresnel_exact(float(wo[2]), eta)
+        sw = ks.mean() / (np.mean(albedo) + ks.mean())
+        p_specular = F * sw / (F * sw + (1.0 - F) * (1.0 - sw))
+        probe = BsdfProbe("plastic", wo, albedo=albedo, coating=coating)
+
+        def diffuse_samples(u):   # the specular samples count as failed here: the density has no Dirac part
+            s = probe.sample_full(u)
+            keep = s["valid"].astype(bool) & ~s["delta"].astype(bool)
+            return np.where(keep[:, None], s["wi"], np.nan)
+        return {"probe": probe, "sample": diffuse_samples, "pdf": probe.pdf, "domain": "hemisphere", "dims": 3,
+                "F": F, "p_specular": p_specular, "specular": ks}
+    return Routine("bsdf.plastic", params, "mixed", make)
 
 
 def _lobes(material, ior, theta, inside=False):
@@ -180,6 +222,16 @@ def _catalogue() -> tuple:
                  for alpha in (0.1, 0.3, 0.6, 1.0) for theta in (0, 30, 60, 85)]
     routines += [_bsdf("rough_conductor_beckmann", theta, alpha)
                  for alpha in (0.1, 0.3, 0.6, 1.0) for theta in (0, 30, 60, 85)]
+    routines += [_bsdf(m, theta, alpha) for m in ("rough_plastic", "rough_plastic_beckmann")
+                 for alpha in (0.1, 0.3, 0.7) for theta in (0, 30, 60, 85)]
+    routines += [_bsdf("rough_plastic_beckmann", 45, 0.2, coating={"nonlinear": True}),
+                 _bsdf("rough_plastic", 60, 0.3, coating={"eta": 1.9, "specular": (0.9, 0.5, 0.2)}),
+                 _bsdf("rough_plastic_beckmann", 30, 0.3, coating={"eta": 0.75}),   # coating thinner than outside
+                 _bsdf("rough_plastic", 70, 0.05, coating={"nonlinear": True}, albedo=(0.1, 0.9, 0.3))]
+    routines += [_plastic(theta) for theta in (0, 30, 60, 85)]
+    routines += [_plastic(45, coating={"nonlinear": True}),
+                 _plastic(60, coating={"eta": 1.9, "specular": (0.9, 0.5, 0.2)}),
+                 _plastic(30, coating={"eta": 0.75})]
     routines += [_lobes("dielectric", 1.5, theta) for theta in (0, 45, 80)]
     routines += [_lobes("dielectric", 1.5, theta, inside=True) for theta in (20, 60)]   # 60: total reflection
     routines += [_lobes("dielectric", 1.33, 60), _lobes("dielectric", 0.7, 30), _lobes("dielectric", 0.7, 50),
@@ -286,6 +338,54 @@ def _bsdf_checks(probe: BsdfProbe, grid: Grid, n: int, seed: int, level: float) 
     }
 
 
+def _mixed_checks(spec: dict, grid: Grid, n: int, seed: int, level: float):
+    """The smooth plastic's samples: the specular ones in the mirror direction with weight
+    ks F / Ps, the diffuse ones with weight eval / pdf and pdf = pdf(); their counts against
+    Ps (a discrete test at ``level``); the mean weight against ks F plus the diffuse lobe's
+    albedo (at ``level``). Returns the discrete test's result and the checks."""
+    probe: BsdfProbe = spec["probe"]
+    wo, F, ks = probe.wo, spec["F"], spec["specular"]
+    p_specular = spec["p_specular"]
+    mirror = np.array([-wo[0], -wo[1], wo[2]])
+    lum = np.asarray(LUMINANCE_WEIGHTS)
+    bad_dir = bad_spec = bad_weight = bad_pdf = n_spec = n_diff = 0
+    w_sum = w_sq = 0.0
+    for u in _chunks(n, seed):
+        s = probe.sample_full(u)
+        valid, delta = s["valid"].astype(bool), s["delta"].astype(bool)
+        spec_rows = valid & delta
+        bad_dir += int((~np.all(np.abs(s["wi"][spec_rows] - mirror) <= _RTOL, axis=1)).sum())
+        bad_spec += int((~np.isclose(s["weight"][spec_rows], ks * (F / p_specular), rtol=_RTOL, atol=0))
+                        .any(axis=1).sum())
+        diff_rows = valid & ~delta
+        ev = probe.eval_pdf(s["wi"][diff_rows])
+        ratio = ev["value"] / ev["pdf"][:, None]
+        bad_weight += int((~np.isclose(s["weight"][diff_rows], ratio, rtol=_RTOL, atol=0)).any(axis=1).sum())
+        bad_pdf += int((~np.isclose(s["pdf"][diff_rows], ev["pdf"], rtol=_RTOL, atol=0)).sum())
+        n_spec += int(spec_rows.sum())
+        n_diff += int(diff_rows.sum())
+        wl = np.where(valid, s["weight"] @ lum, 0.0)
+        w_sum += float(wl.sum())
+        w_sq += float((wl * wl).sum())
+    res = discrete_test([n_spec, n - n_spec], [p_specular, 1.0 - p_specular], alpha=level)
+    res.details.update(p_specular=p_specular, specular=n_spec, other=n - n_spec)
+    mean = w_sum / n
+    se = math.sqrt(max(w_sq / n - mean * mean, 0.0) / max(n - 1, 1))
+    integ, err, _, bad = integrate(lambda d: probe.eval_pdf(d)["value"] @ lum, grid, n=n)
+    albedo = float(ks @ lum) * F + float(integ.sum())
+    p_albedo = excess_p_value(albedo - mean, err + _RTOL * abs(albedo), se)
+    checks = {
+        "specular_is_mirror": {"ok": bad_dir == 0, "mismatches": bad_dir, "samples": n_spec},
+        "specular_weight_is_ks_F_over_Ps": {"ok": bad_spec == 0, "mismatches": bad_spec},
+        "diffuse_weight_is_eval_over_pdf": {"ok": bad_weight == 0, "mismatches": bad_weight, "samples": n_diff},
+        "sample_pdf_is_pdf": {"ok": bad_pdf == 0, "mismatches": bad_pdf},
+        "every_sample_valid": {"ok": n_spec + n_diff == n, "invalid": n - n_spec - n_diff},
+        "albedo": {"ok": p_albedo >= level and bad == 0, "expected": albedo, "mean_weight": mean, "se": se,
+                   "integration_error": err, "p_value": p_albedo},
+    }
+    return res, checks
+
+
 def _light_checks(probe: LightProbe, single: bool, n: int, seed: int) -> dict:
     """A sample's pdf equals light_pdf in its direction (one emitter) or is at most it."""
     bad = bad_all = valid_count = 0
@@ -351,7 +451,8 @@ def run_routine(routine: Routine, *, n: int = DEFAULT_N, seed: int = 0, alpha: f
     if routine.kind == "lobes":
         res, checks = _lobe_run(spec, n, s, alpha)
     else:
-        stat_tests = 2 if routine.kind == "bsdf" else 1
+        # the chi-square test (itself two: shape and mass), the albedo, the lobe counts
+        stat_tests = {"bsdf": 2, "mixed": 3}.get(routine.kind, 1)
         a = sidak(alpha, stat_tests)
         res = chi2_test(spec["sample"], spec["pdf"], domain=spec["domain"], n=n, seed=s, alpha=a,
                         dims=spec["dims"], cos_range=spec.get("cos_range"),
@@ -359,6 +460,10 @@ def run_routine(routine: Routine, *, n: int = DEFAULT_N, seed: int = 0, alpha: f
         if routine.kind == "bsdf":
             grid = Grid.make("hemisphere", res.resolution)
             checks = _bsdf_checks(spec["probe"], grid, n, s + 1, a)
+        elif routine.kind == "mixed":
+            lobes, checks = _mixed_checks(spec, Grid.make("hemisphere", res.resolution), n, s + 1, a)
+            checks["specular_share"] = {"ok": lobes.verdict == "pass", "p_value": lobes.p_value,
+                                        **lobes.details}
         elif routine.kind == "light":
             checks = _light_checks(spec["probe"], spec["single"], n, s + 1)
     failed = [k for k, v in checks.items() if not v["ok"]]

@@ -69,22 +69,28 @@ class BsdfProbe:
     """One material at one outgoing direction ``wo`` (local frame, unit), through
     ``rt::bsdf_sample``, ``rt::bsdf_eval`` and ``rt::bsdf_pdf``.
 
-    ``param`` is alpha for ``rough_conductor`` and the index of refraction for
-    ``dielectric`` / ``dielectric_schlick``.
+    ``param`` is alpha for ``rough_conductor`` and the rough plastics, and the index of
+    refraction for ``dielectric`` / ``dielectric_schlick``. ``albedo`` is a plastic's
+    diffuse reflectance; ``coating`` its other options, as the probe takes them: ``eta``
+    (int_ior / ext_ior), ``specular`` (specular_reflectance, (3,)) and ``nonlinear``
+    (Mitsuba's defaults where not given).
     """
 
     material: str
     wo: np.ndarray
     param: float = 0.0
     albedo: tuple = (0.8, 0.6, 0.4)
+    coating: dict = field(default_factory=dict)
 
     def __post_init__(self):
         self.wo = _c(self.wo)
         self.wo = self.wo / np.linalg.norm(self.wo)
+        self._options = {k: (_c(v) if k == "specular" else v) for k, v in self.coating.items()}
 
     def sample_full(self, u) -> dict:
         """Every field of the samples of (n, 3) uniforms: wi, weight, pdf, eta, delta, valid."""
-        return _core().bsdf_sample(self.material, self.wo, _c(u), _c(self.albedo), float(self.param))
+        return _core().bsdf_sample(self.material, self.wo, _c(u), _c(self.albedo), float(self.param),
+                                   **self._options)
 
     def sample(self, u) -> np.ndarray:
         """Directions of (n, 3) uniforms, NaN rows where the sampler failed."""
@@ -93,7 +99,8 @@ class BsdfProbe:
 
     def eval_pdf(self, wi) -> dict:
         """``value`` (f * cos, (n, 3)) and ``pdf`` ((n,)) at directions wi."""
-        return _core().bsdf_eval_pdf(self.material, self.wo, _c(wi), _c(self.albedo), float(self.param))
+        return _core().bsdf_eval_pdf(self.material, self.wo, _c(wi), _c(self.albedo), float(self.param),
+                                     **self._options)
 
     def pdf(self, wi) -> np.ndarray:
         return self.eval_pdf(wi)["pdf"]

@@ -75,9 +75,12 @@ def prim_shapes(scene: rt.Scene) -> np.ndarray:
 
 
 def albedo_of(material) -> tuple:
-    """The diffuse albedo an AOV shows: a Lambertian's, an emitter's own, else black."""
+    """The diffuse albedo an AOV shows: a Lambertian's, an emitter's own, a plastic's base
+    (Mitsuba's eval_diffuse_reflectance of its diffuse lobe), else black."""
     if isinstance(material, rt.Lambertian):
         return tuple(material.albedo)
+    if isinstance(material, (rt.Plastic, rt.RoughPlastic)):
+        return tuple(material.diffuse_reflectance)
     if isinstance(material, rt.DiffuseLight) and material.albedo is not None:
         return tuple(material.albedo)
     return (0.0, 0.0, 0.0)

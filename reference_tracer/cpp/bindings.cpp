@@ -108,7 +108,7 @@ public:
         if (width < 1 || height < 1) throw std::invalid_argument("image size must be positive");
         if (max_depth < 1) throw std::invalid_argument("max_depth must be >= 1 here (the Python layer maps -1)");
         if (triangle_test < 0 || triangle_test > 2) throw std::invalid_argument("unknown triangle test");
-        require_columns(materials, 19, "materials");
+        require_columns(materials, 24, "materials");
         require_columns(spheres, 6, "spheres");
         require_columns(quads, 10, "quads");
         require_columns(triangles, 9, "triangles");
@@ -119,7 +119,7 @@ public:
         for (size_t i = 0; i < materials.shape(0); ++i) {
             rt::Material m;
             const int type = int(materials(i, 0));
-            if (type < 0 || type > 4) throw std::invalid_argument("materials: unknown material type");
+            if (type < 0 || type > 6) throw std::invalid_argument("materials: unknown material type");
             m.type = rt::MaterialType(type);
             m.albedo = row3(materials, i, 1);
             m.radiance = row3(materials, i, 4);
@@ -133,6 +133,16 @@ public:
             m.fresnel.enabled = materials(i, 12) != 0.0;
             m.fresnel.eta = row3(materials, i, 13);
             m.fresnel.k = row3(materials, i, 16);
+            if (m.type == rt::MaterialType::Plastic || m.type == rt::MaterialType::RoughPlastic) {
+                // Plastic: int_ior / ext_ior, specular_reflectance, nonlinear (the Python
+                // layer validates them; these checks keep the core's own invariants).
+                const double eta = materials(i, 19);
+                if (!(eta > 0.0) || !std::isfinite(eta))
+                    throw std::invalid_argument("materials: plastic eta must be > 0");
+                if (m.type == rt::MaterialType::RoughPlastic && (eta == 1.0 || !(m.param > 0.0)))
+                    throw std::invalid_argument("materials: rough plastic needs eta != 1 and alpha > 0");
+                rt::make_plastic(m, row3(materials, i, 20), eta, materials(i, 23) != 0.0);
+            }
             mats.push_back(m);
         }
         const size_t nm = mats.size();

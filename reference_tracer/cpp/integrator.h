@@ -74,6 +74,7 @@ private:
         Vec3 weight;       // what the throughput is multiplied by: f |cos| / pdf
         double pdf = 0.0;  // solid-angle density of wi (MIS weight of an emitter hit next)
         double eta = 1.0;  // relative index of refraction crossed (Russian roulette)
+        bool delta = false;  // a Dirac lobe's: the next vertex sees it as a mirror bounce
     };
 
     // What the MIS weight of emission found by BSDF sampling needs of the vertex that
@@ -109,14 +110,21 @@ private:
                                    uint64_t& rays) const;
     // The next direction: the material's own sampling at a delta vertex (whatever the
     // strategy: light sampling could never meet a Dirac lobe); elsewhere the strategy's.
+    // A Dirac lobe beside other lobes (smooth plastic) is left to the material's sampling,
+    // with its own probability, by every strategy but `light`, whose estimate at such a
+    // vertex (light_only) is the other lobes' direct light alone.
     std::optional<Scatter> sample_scatter(const Vertex& v, const Vec3& ref, PCG64& rng) const;
     static std::optional<Scatter> sample_material(const Vertex& v, PCG64& rng);
     // The continuation of a material sample bs (local frame) at v; none if it failed.
     static std::optional<Scatter> scatter_of(const Vertex& v, const BSDFSample& bs) {
         if (!bs.valid) return std::nullopt;
-        return Scatter{v.frame.to_world(bs.wi), bs.weight, bs.pdf, bs.eta};
+        return Scatter{v.frame.to_world(bs.wi), bs.weight, bs.pdf, bs.eta, bs.delta};
     }
     static std::optional<Scatter> sample_uniform(const Vertex& v, PCG64& rng);
+    // sample_uniform at a vertex whose material has a Dirac lobe beside its others (smooth
+    // plastic), given the direction's uniforms: the Dirac lobe with the material's own
+    // probability (no uniform direction can meet it), the uniform direction otherwise.
+    static std::optional<Scatter> sample_uniform_beside_delta(const Vertex& v, double u1, double u2, PCG64& rng);
     std::optional<Scatter> sample_mixture(const Vertex& v, const Vec3& ref, PCG64& rng) const;
 
     // Radiance along (o, wi) that comes straight from an emitter or the background: the

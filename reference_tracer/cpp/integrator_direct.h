@@ -57,7 +57,9 @@ Vec3 Integrator<M>::Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays) const 
 template <Mutant M>
 Vec3 Integrator<M>::direct_bsdf_sample(const Interaction& it, const Vertex& v, const Vec3& ref, const Scatter& s,
                                        double frac_light, double frac_bsdf, uint64_t& rays) const {
-    const bool delta = v.m.is_delta();
+    // A sample of a Dirac lobe (a mirror, glass, a smooth plastic's coating) could not come
+    // from a light sample: its emission counts fully, as in Mitsuba.
+    const bool delta = s.delta;
     const Ray ray{offset_origin(it.p, delta ? it.n : v.frame.n, s.wi), s.wi};
     ++rays;
     Interaction hit;

@@ -114,10 +114,25 @@ template <Mutant M>
 template <Mutant M>
 auto Integrator<M>::sample_uniform(const Vertex& v, PCG64& rng) -> std::optional<Scatter> {
     const double u2 = rng.next_double(), u1 = rng.next_double();  // last first, as sample_material
+    if (v.m.has_delta_lobe()) return sample_uniform_beside_delta(v, u1, u2, rng);
     const Vec3 local = square_to_uniform_hemisphere(u1, u2);
     const Vec3 f = bsdf_eval<M>(v.m, v.wo, local);
     if (is_black(f)) return std::nullopt;
     return Scatter{v.frame.to_world(local), f * (1.0 / kUniformHemispherePdf), kUniformHemispherePdf};
+}
+
+template <Mutant M>
+auto Integrator<M>::sample_uniform_beside_delta(const Vertex& v, double u1, double u2, PCG64& rng)
+    -> std::optional<Scatter> {
+    const double u0 = rng.next_double();
+    const double p_delta = bsdf_delta_probability(v.m, v.wo);
+    // The material's sample with the same u0 is its Dirac lobe, weighted by 1 / p_delta.
+    if (u0 < p_delta) return scatter_of(v, bsdf_sample<M>(v.m, v.wo, u0, u1, u2));
+    const Vec3 local = square_to_uniform_hemisphere(u1, u2);
+    const Vec3 f = bsdf_eval<M>(v.m, v.wo, local);
+    if (is_black(f)) return std::nullopt;
+    const double pdf = (1.0 - p_delta) * kUniformHemispherePdf;
+    return Scatter{v.frame.to_world(local), f * (1.0 / pdf), pdf};
 }
 
 template <Mutant M>
@@ -138,6 +153,10 @@ auto Integrator<M>::sample_mixture(const Vertex& v, const Vec3& ref, PCG64& rng)
     } else {
         const BSDFSample bs = bsdf_sample<M>(v.m, v.wo, u0, u1, u2);
         if (!bs.valid) return std::nullopt;
+        // A Dirac lobe beside the others (smooth plastic): only this half meets it, so its
+        // probability is the material's times this half's.
+        if (bs.delta)
+            return Scatter{v.frame.to_world(bs.wi), bs.weight * (has_lights ? 2.0 : 1.0), bs.pdf, bs.eta, true};
         local = bs.wi;
         wi = v.frame.to_world(local);
     }
@@ -224,11 +243,15 @@ Vec3 Integrator<M>::Li_path(Ray ray, PCG64& rng, uint64_t& rays) const {
         if (!s) return L;
         beta *= s->weight;
         eta *= s->eta;
-        prev = PrevVertex{m.is_delta(), s->pdf, ref};
+        // Whether the sample is a Dirac lobe's, not whether the material has one: the
+        // same for the mirror and glass (all delta) and the others (none), but per
+        // sample for smooth plastic, whose specular bounce is a mirror's to the next
+        // vertex (an emitter hit there is not weighted: no light sample could have met it).
+        prev = PrevVertex{s->delta, s->pdf, ref};
         // Delta lobes leave along the geometric normal, the others along the shading normal;
-        // the two differ only on the back of two-sided metal, and there only for a
+        // the two differ only on the back of two-sided reflectors, and there only for a
         // direction exactly in the tangent plane (offset_origin's tie).
-        ray = Ray{offset_origin(it.p, m.is_delta() ? it.n : v.frame.n, s->wi), s->wi};
+        ray = Ray{offset_origin(it.p, s->delta ? it.n : v.frame.n, s->wi), s->wi};
         if (!survives(depth + 1, eta, beta, rng)) return L;
     }
 }

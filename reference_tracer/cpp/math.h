@@ -52,6 +52,20 @@ inline double mul_add(double a, double b, double c) {
     return a * b + c;
 #endif
 }
+// x, as a value the optimiser cannot see through. GCC 12 fuses the pair a*b - c*d and
+// e*f + g*h into one vector fused multiply-add-subtract (its SLP vectoriser's add-sub
+// pattern) even under -ffp-contract=off, and only where the code around the pair lets it
+// vectorise the two: the same source then rounds differently depending on where it is
+// inlined (the Beckmann sampler's rotation changed by an ulp when the material dispatch
+// grew). A product passed through here is rounded on its own wherever it is inlined.
+inline double unfused(double x) {
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+    __asm__("" : "+x"(x));
+#elif defined(__GNUC__)
+    __asm__("" : "+m"(x));
+#endif
+    return x;
+}
 // dot(a, b) with two of its additions fused: x first, then y and z added by mul_add.
 inline double dot_fused(const Vec3& a, const Vec3& b) { return mul_add(a.z, b.z, mul_add(a.y, b.y, a.x * b.x)); }
 inline Vec3 cross(const Vec3& a, const Vec3& b) {

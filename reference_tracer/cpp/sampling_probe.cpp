@@ -12,23 +12,33 @@
 //   warp_sample(name, u (n, 2), param=0, packed=False) -> (n, 3) unit vectors; (n, 2) points
 //       for the disk; packed: the wavefront's pack version (the cosine warp only)
 //   warp_pdf(name, points, param=0)      -> (n,) density (solid angle; area for the disk)
-//   bsdf_sample(material, wo (3,), u (n, 3), albedo (3,), param) -> dict of arrays
-//   bsdf_eval_pdf(material, wo (3,), wi (n, 3), albedo (3,), param) -> dict of arrays
+//   bsdf_sample(material, wo (3,), u (n, 3), albedo (3,), param, eta=, specular=, nonlinear=)
+//       -> dict of arrays
+//   bsdf_eval_pdf(material, wo (3,), wi (n, 3), albedo (3,), param, eta=, specular=, nonlinear=)
+//       -> dict of arrays
+//   rough_plastic_table(distribution, alpha, eta) -> dict: the coating's transmittance
+//       table (64,) and internal reflectance, as a scene's rough plastic uses them
 //
 // Warp names: uniform_hemisphere, cosine_hemisphere, uniform_sphere, uniform_cone (param =
 // 1 - cos(theta_max), as square_to_uniform_cone takes it), concentric_disk (the concentric
 // map of square_to_cosine_hemisphere, which inlines it: the disk point is the direction's
 // (x, y) - Malley's method lifts it to the hemisphere without changing it).
 // Materials: lambertian, rough_conductor and rough_conductor_beckmann (param = alpha), dielectric and
-// dielectric_schlick (param = ior), metal (param = fuzz). Directions are in the local
-// shading frame (+z = normal), as the routines take them.
+// dielectric_schlick (param = ior), metal (param = fuzz), plastic, rough_plastic (GGX) and
+// rough_plastic_beckmann (param = alpha; albedo = diffuse_reflectance; eta = int_ior /
+// ext_ior, specular = specular_reflectance and nonlinear as Mitsuba's, its defaults when
+// not given). Directions are in the local shading frame (+z = normal), as the routines take them.
 #include "sampling_probe.h"
 
+#include <cmath>
+#include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <nanobind/ndarray.h>
+#include <nanobind/stl/optional.h>
 #include <nanobind/stl/string.h>
 
 #include "materials/material.h"
@@ -148,23 +158,39 @@ nb::ndarray<nb::numpy, double> probe_warp_pdf(const std::string& name, const Mat
     return to_numpy(std::move(out), {n});
 }
 
-Material material_of(const std::string& name, const Vector& albedo, double param) {
+// Mitsuba's default plastic coating: polypropylene (1.49) in air (1.000277).
+constexpr double kPlasticEta = 1.49 / 1.000277;
+
+Material material_of(const std::string& name, const Vector& albedo, double param, double eta = kPlasticEta,
+                     const Vec3& specular = Vec3(1.0), bool nonlinear = false) {
     Material m;
     if (name == "lambertian") m.type = MaterialType::Lambertian;
     else if (name == "rough_conductor" || name == "rough_conductor_beckmann") m.type = MaterialType::RoughConductor;
     else if (name == "dielectric" || name == "dielectric_schlick") m.type = MaterialType::Dielectric;
     else if (name == "metal") m.type = MaterialType::Metal;
+    else if (name == "plastic") m.type = MaterialType::Plastic;
+    else if (name == "rough_plastic" || name == "rough_plastic_beckmann") m.type = MaterialType::RoughPlastic;
     else
         throw std::invalid_argument("unknown material '" + name +
                                     "' (lambertian, rough_conductor, rough_conductor_beckmann, dielectric, "
-                                    "dielectric_schlick, metal)");
+                                    "dielectric_schlick, metal, plastic, rough_plastic, rough_plastic_beckmann)");
     m.albedo = vec3(albedo, "albedo");
     m.param = param;
     m.schlick = name == "dielectric_schlick";
-    if (name == "rough_conductor_beckmann") m.distribution = Distribution::Beckmann;
-    if (m.type == MaterialType::RoughConductor && !(param > 0.0)) throw std::invalid_argument("alpha must be > 0");
+    if (name == "rough_conductor_beckmann" || name == "rough_plastic_beckmann") m.distribution = Distribution::Beckmann;
+    if ((m.type == MaterialType::RoughConductor || m.type == MaterialType::RoughPlastic) && !(param > 0.0))
+        throw std::invalid_argument("alpha must be > 0");
     if (m.type == MaterialType::Dielectric && !(param > 0.0)) throw std::invalid_argument("ior must be > 0");
+    if (m.type == MaterialType::Plastic || m.type == MaterialType::RoughPlastic) {
+        if (!(eta > 0.0) || !std::isfinite(eta) || (m.type == MaterialType::RoughPlastic && eta == 1.0))
+            throw std::invalid_argument("eta must be > 0 (and != 1 for a rough plastic)");
+        make_plastic(m, specular, eta, nonlinear);
+    }
     return m;
+}
+
+Vec3 specular_of(const std::optional<Vector>& specular) {
+    return specular ? vec3(*specular, "specular") : Vec3(1.0);
 }
 
 Vec3 unit_wo(const Vector& wo) {
@@ -176,8 +202,8 @@ Vec3 unit_wo(const Vector& wo) {
 // rt::bsdf_sample for each row of u = (u0, u1, u2): u0 picks a lobe (glass), u1 and u2
 // the direction.
 nb::dict probe_bsdf_sample(const std::string& material, const Vector& wo_, const Matrix& u, const Vector& albedo,
-                     double param) {
-    const Material m = material_of(material, albedo, param);
+                     double param, double coating_eta, const std::optional<Vector>& specular, bool nonlinear) {
+    const Material m = material_of(material, albedo, param, coating_eta, specular_of(specular), nonlinear);
     const Vec3 wo = unit_wo(wo_);
     require_columns(u, 3, "u");
     const size_t n = u.shape(0);
@@ -209,8 +235,8 @@ nb::dict probe_bsdf_sample(const std::string& material, const Vector& wo_, const
 
 // rt::bsdf_eval (f * cos) and rt::bsdf_pdf for each row of wi; both zero for delta lobes.
 nb::dict probe_bsdf_eval_pdf(const std::string& material, const Vector& wo_, const Matrix& wi, const Vector& albedo,
-                       double param) {
-    const Material m = material_of(material, albedo, param);
+                       double param, double eta, const std::optional<Vector>& specular, bool nonlinear) {
+    const Material m = material_of(material, albedo, param, eta, specular_of(specular), nonlinear);
     const Vec3 wo = unit_wo(wo_);
     require_columns(wi, 3, "wi");
     const size_t n = wi.shape(0);
@@ -230,6 +256,27 @@ nb::dict probe_bsdf_eval_pdf(const std::string& material, const Vector& wo_, con
     return r;
 }
 
+// The rough plastic coating's table, computed as make_plastic computes it for a scene.
+nb::dict probe_rough_plastic_table(const std::string& distribution, double alpha, double eta) {
+    rough_plastic::Microfacet mf;
+    if (distribution == "ggx") mf.distribution = Distribution::GGX;
+    else if (distribution == "beckmann") mf.distribution = Distribution::Beckmann;
+    else throw std::invalid_argument("unknown distribution '" + distribution + "' (ggx, beckmann)");
+    if (!(alpha > 0.0) || !(eta > 0.0) || eta == 1.0 || !std::isfinite(alpha) || !std::isfinite(eta))
+        throw std::invalid_argument("alpha must be > 0 and eta > 0, != 1");
+    mf.alpha = alpha;
+    std::shared_ptr<const rough_plastic::Transmittance> t;
+    {
+        nb::gil_scoped_release release;
+        t = rough_plastic::transmittance(mf, eta);
+    }
+    std::vector<double> table(t->table.begin(), t->table.end());
+    nb::dict r;
+    r["transmittance"] = to_numpy(std::move(table), {size_t(rough_plastic::Transmittance::kSize)});
+    r["internal_reflectance"] = t->internal_reflectance;
+    return r;
+}
+
 }  // namespace
 
 void register_sampling_probe(nb::module_& m) {
@@ -240,10 +287,17 @@ void register_sampling_probe(nb::module_& m) {
     m.def("warp_pdf", &probe_warp_pdf, "name"_a, "points"_a, "param"_a = 0.0,
           "Density of warp_sample's output at (n, 3) directions (solid angle) or (n, 2) disk points (area).");
     m.def("bsdf_sample", &probe_bsdf_sample, "material"_a, "wo"_a, "u"_a, "albedo"_a, "param"_a,
+          "eta"_a = kPlasticEta, "specular"_a = nb::none(), "nonlinear"_a = false,
           "rt::bsdf_sample for each row (u0, u1, u2) of u; wo is the unit local outgoing direction. "
-          "Returns dict wi (n, 3), weight (n, 3) = f cos / pdf, pdf (n,), eta (n,), delta (n,), valid (n,).");
+          "Returns dict wi (n, 3), weight (n, 3) = f cos / pdf, pdf (n,), eta (n,), delta (n,), valid (n,). "
+          "eta, specular (3,) and nonlinear: the plastics' coating (Mitsuba's defaults when not given).");
     m.def("bsdf_eval_pdf", &probe_bsdf_eval_pdf, "material"_a, "wo"_a, "wi"_a, "albedo"_a, "param"_a,
+          "eta"_a = kPlasticEta, "specular"_a = nb::none(), "nonlinear"_a = false,
           "rt::bsdf_eval (f * cos, (n, 3)) and rt::bsdf_pdf ((n,)) for each row of wi: dict value, pdf.");
+    m.def("rough_plastic_table", &probe_rough_plastic_table, "distribution"_a, "alpha"_a, "eta"_a,
+          "The rough plastic coating's transmittance at the 64 cosines max(1e-6, k / 63) and its internal "
+          "diffuse reflectance, as a scene's material computes them: dict transmittance (64,), "
+          "internal_reflectance.");
 }
 
 }  // namespace rt

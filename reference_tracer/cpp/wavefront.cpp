@@ -344,7 +344,6 @@ void WavefrontIntegrator::scatter_diffuse(const VertexQueue& q, int n) const {
 void WavefrontIntegrator::continue_path(Lane& lane, const std::optional<Integrator<Mutant::None>::Scatter>& s) const {
     const Integrator<Mutant::None>& li = integrator_;
     const Vertex& v = *lane.vertex;
-    const Material& m = v.m;
     const Interaction& it = lane.it;
     const Vec3& ref = lane.ref;
     if (!s) {
@@ -353,8 +352,9 @@ void WavefrontIntegrator::continue_path(Lane& lane, const std::optional<Integrat
     }
     lane.beta *= s->weight;
     lane.eta *= s->eta;
-    lane.prev = PrevVertex{m.is_delta(), s->pdf, ref};
-    lane.ray = Ray{offset_origin(it.p, m.is_delta() ? it.n : v.frame.n, s->wi), s->wi};
+    // As Li: the sample's own delta flag (smooth plastic's specular bounce is a mirror's).
+    lane.prev = PrevVertex{s->delta, s->pdf, ref};
+    lane.ray = Ray{offset_origin(it.p, s->delta ? it.n : v.frame.n, s->wi), s->wi};
     const bool goes_on = li.survives(lane.depth + 1, lane.eta, lane.beta, lane.rng);
     lane.path_done = !goes_on;
     lane.depth += goes_on;

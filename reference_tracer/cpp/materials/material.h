@@ -5,17 +5,27 @@
 #include "conductor.h"
 #include "dielectric.h"
 #include "lambertian.h"
+#include "plastic.h"
 #include "rough_conductor.h"
+#include "rough_plastic.h"
 
 namespace rt {
 
-enum class MaterialType : int { Lambertian = 0, Metal = 1, Dielectric = 2, RoughConductor = 3, DiffuseLight = 4 };
+enum class MaterialType : int {
+    Lambertian = 0,
+    Metal = 1,
+    Dielectric = 2,
+    RoughConductor = 3,
+    DiffuseLight = 4,
+    Plastic = 5,
+    RoughPlastic = 6,
+};
 
 struct Material {
     MaterialType type = MaterialType::Lambertian;
-    Vec3 albedo;
+    Vec3 albedo;            // Plastic and RoughPlastic: the diffuse base's reflectance
     Vec3 radiance;          // emitted radiance (DiffuseLight)
-    double param = 0.0;     // Metal: fuzz; Dielectric: ior; RoughConductor: alpha
+    double param = 0.0;     // Metal: fuzz; Dielectric: ior; RoughConductor and RoughPlastic: alpha
     bool two_sided = false;
     bool reflects = true;   // false for a DiffuseLight without albedo: a black surface
     bool schlick = false;   // Dielectric: Schlick's approximation instead of exact Fresnel
@@ -23,14 +33,34 @@ struct Material {
     // its microfacet distribution.
     ConductorFresnel fresnel;
     Distribution distribution = Distribution::GGX;
+    // Plastic and RoughPlastic: the coating over the base (make_plastic); RoughPlastic: the
+    // coating's transmittance table, shared by the materials of equal coatings.
+    plastic::Coating coating;
+    std::shared_ptr<const rough_plastic::Transmittance> transmittance;
 
     rough_conductor::Params rough() const { return {param, distribution, fresnel}; }
+    rough_plastic::Params rough_plastic() const { return {{distribution, param}, coating, *transmittance}; }
 
     bool emits() const { return type == MaterialType::DiffuseLight && max_component(radiance) > 0.0; }
     // Delta lobes: sampled directly, no pdf machinery, no light sampling at the vertex.
     bool is_delta() const { return type == MaterialType::Metal || type == MaterialType::Dielectric; }
     bool is_glass() const { return type == MaterialType::Dielectric; }
+    // A Dirac lobe beside lobes of finite density (smooth plastic): light sampling at the
+    // vertex, and a sample of the Dirac lobe continues the path as a mirror's would.
+    bool has_delta_lobe() const { return type == MaterialType::Plastic; }
 };
+
+// Makes m (type Plastic or RoughPlastic, its albedo, param and distribution set) a plastic of
+// relative index eta = int_ior / ext_ior: its coating and, for the rough one, the coating's
+// table (computed here, once per coating: scene load).
+inline void make_plastic(Material& m, const Vec3& specular, double eta, bool nonlinear) {
+    double internal_reflectance = plastic::fresnel_diffuse_reflectance(1.0 / eta);
+    if (m.type == MaterialType::RoughPlastic) {
+        m.transmittance = rough_plastic::transmittance({m.distribution, m.param}, eta);
+        internal_reflectance = m.transmittance->internal_reflectance;
+    }
+    m.coating = plastic::Coating::make(m.albedo, specular, eta, nonlinear, internal_reflectance);
+}
 
 // M, in the functions below: a self-test mutant (mutants.h); Mutant::None is the tracer.
 
@@ -41,6 +71,8 @@ inline Vec3 bsdf_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
         case MaterialType::Lambertian:
         case MaterialType::DiffuseLight: return lambertian::eval<M>(m.albedo, wo, wi);
         case MaterialType::RoughConductor: return rough_conductor::eval<M>(m.albedo, m.rough(), wo, wi);
+        case MaterialType::Plastic: return plastic::eval(m.coating, wo, wi);
+        case MaterialType::RoughPlastic: return rough_plastic::eval(m.rough_plastic(), wo, wi);
         default: return Vec3(0.0);
     }
 }
@@ -52,8 +84,16 @@ inline double bsdf_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
         case MaterialType::Lambertian:
         case MaterialType::DiffuseLight: return lambertian::pdf<M>(wo, wi);
         case MaterialType::RoughConductor: return rough_conductor::pdf<M>(m.rough(), wo, wi);
+        case MaterialType::Plastic: return plastic::pdf(m.coating, wo, wi);
+        case MaterialType::RoughPlastic: return rough_plastic::pdf(m.rough_plastic(), wo, wi);
         default: return 0.0;
     }
+}
+
+// Probability that bsdf_sample picks the material's Dirac lobe, for a material that has one
+// beside lobes of finite density (Material::has_delta_lobe); 0 for the others.
+inline double bsdf_delta_probability(const Material& m, const Vec3& wo) {
+    return m.type == MaterialType::Plastic ? plastic::delta_probability(m.coating, wo) : 0.0;
 }
 
 // The specular and rough lobes, kept out of line so that the diffuse case below inlines
@@ -65,6 +105,8 @@ template <Mutant M = Mutant::None>
         case MaterialType::RoughConductor: return rough_conductor::sample<M>(m.albedo, m.rough(), wo, u1, u2);
         case MaterialType::Metal: return conductor::sample(m.albedo, m.param, m.fresnel, wo, u1, u2);
         case MaterialType::Dielectric: return dielectric::sample<M>(m.param, wo, u0, m.schlick);
+        case MaterialType::Plastic: return plastic::sample(m.coating, wo, u0, u1, u2);
+        case MaterialType::RoughPlastic: return rough_plastic::sample(m.rough_plastic(), wo, u0, u1, u2);
         default: return {};
     }
 }

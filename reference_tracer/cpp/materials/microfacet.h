@@ -2,12 +2,14 @@
 // normal distribution D, Smith's masking with Walter's rational approximation, and the
 // sampling of visible normals by a numerical inversion of the slope CDF (the stretch,
 // sample, rotate and unstretch steps of Heitz and d'Eon 2014). Isotropic: one alpha.
-// The GGX counterparts live in rough_conductor.h. Local frame: +z the macrosurface normal.
+// The GGX counterparts live in rough_conductor.h, but for a second map of the square to
+// GGX's visible normals, Mitsuba's, here. Local frame: +z the macrosurface normal.
 #pragma once
 
 #include <cmath>
 
 #include "../math.h"
+#include "../sampling/warp.h"
 
 namespace rt {
 
@@ -105,8 +107,10 @@ inline void beckmann_visible_slope(double cos_i, double u1, double u2, double& s
     sy = erfinv(2.0 * u2 - 1.0);
 }
 
-// A visible microfacet normal for the view direction wo (wo.z > 0).
-inline Vec3 beckmann_sample_visible(const Vec3& wo, double alpha, double u1, double u2) {
+// A visible microfacet normal for the view direction wo (wo.z > 0), given slope(cos, sx,
+// sy), a slope of the distribution's alpha = 1 visible normals at incidence cos.
+template <typename Slope>
+inline Vec3 sample_visible_with(const Vec3& wo, double alpha, Slope&& slope) {
     const Vec3 s = normalize(Vec3(alpha * wo.x, alpha * wo.y, wo.z));  // stretch
     const double sin2 = 1.0 - s.z * s.z;
     double sin_phi = 0.0, cos_phi = 1.0;
@@ -116,10 +120,41 @@ inline Vec3 beckmann_sample_visible(const Vec3& wo, double alpha, double u1, dou
         cos_phi = std::clamp(s.x * inv, -1.0, 1.0);
     }
     double sx, sy;
-    beckmann_visible_slope(s.z, u1, u2, sx, sy);
-    const double x = (cos_phi * sx - sin_phi * sy) * alpha;  // rotate and unstretch
-    const double y = (sin_phi * sx + cos_phi * sy) * alpha;
+    slope(s.z, sx, sy);
+    // rotate and unstretch; each product rounded on its own (see unfused)
+    const double x = (unfused(cos_phi * sx) - unfused(sin_phi * sy)) * alpha;
+    const double y = (unfused(sin_phi * sx) + unfused(cos_phi * sy)) * alpha;
     return normalize(Vec3(-x, -y, 1.0));
+}
+
+inline Vec3 beckmann_sample_visible(const Vec3& wo, double alpha, double u1, double u2) {
+    return sample_visible_with(wo, alpha, [&](double c, double& sx, double& sy) {
+        beckmann_visible_slope(c, u1, u2, sx, sy);
+    });
+}
+
+// A slope of the alpha = 1 GGX distribution of visible normals at incidence cos_i > 0, by
+// Mitsuba's map of the square: a point of the concentric disk, squeezed onto the part of
+// the disk that the visible hemisphere projects to (Heitz 2018), lifted to it and turned
+// into a slope. The density is that of rough_conductor::sample_visible_normal, which maps
+// the square through polar coordinates instead; the rough plastic's tables integrate over
+// the square through this map, so that their quadrature, and its error, are Mitsuba's.
+inline void ggx_visible_slope(double cos_i, double u1, double u2, double& sx, double& sy) {
+    const Vec3 disk = square_to_cosine_hemisphere(u1, u2);  // its (x, y): the concentric map
+    const double s = 0.5 * (1.0 + cos_i);
+    const double x = disk.x;
+    const double y = (1.0 - s) * safe_sqrt(1.0 - x * x) + s * disk.y;
+    const double z = safe_sqrt(1.0 - x * x - y * y);
+    const double sin_i = safe_sqrt(1.0 - cos_i * cos_i);
+    const double norm = 1.0 / (sin_i * y + cos_i * z);
+    sx = (cos_i * y - sin_i * z) * norm;
+    sy = x * norm;
+}
+
+inline Vec3 ggx_sample_visible(const Vec3& wo, double alpha, double u1, double u2) {
+    return sample_visible_with(wo, alpha, [&](double c, double& sx, double& sy) {
+        ggx_visible_slope(c, u1, u2, sx, sy);
+    });
 }
 
 }  // namespace microfacet
