@@ -31,7 +31,7 @@ import numpy as np
 import reference_tracer as rt
 from reference_tracer.meshfile import check_mesh_file
 
-__all__ = ["from_mitsuba", "IOR_TABLE"]
+__all__ = ["from_mitsuba", "UnsupportedSceneError", "IOR_TABLE"]
 
 #: Named indices of refraction that Mitsuba accepts (its documented table).
 IOR_TABLE = {
@@ -53,9 +53,25 @@ _FILM_OK = {"width", "height", "rfilter", "pixel_format", "component_format", "s
             "compensate", "banner", "file_format"}
 
 
+class UnsupportedSceneError(ValueError):
+    """``from_mitsuba``'s refusal of a scene that uses things outside the supported subset.
+
+    A ``ValueError`` whose message lists every item with its location; ``problems`` holds
+    the same lines, ``features`` each one without its location (what the scene needs, e.g.
+    ``"bsdf 'plastic'"``), in the same order.
+    """
+
+    def __init__(self, problems, features):
+        self.problems, self.features = list(problems), list(features)
+        super().__init__("from_mitsuba: the scene uses things outside the supported subset "
+                         f"({len(self.problems)} found):\n  - " + "\n  - ".join(self.problems))
+
+
 class _Ctx:
     def __init__(self, mi, state):
         self.mi, self.state, self.problems = mi, state, []
+        self.features = {}     # problem line -> the same without its location
+        self.film_size = None  # (width, height) replacing the film's, or None
         self.base_dir = None   # folder of the XML file: relative mesh paths resolve there,
         self.search = []       # then in the folders of its <path> elements, in order
 
@@ -77,6 +93,7 @@ class _Ctx:
         msg = f"{what} ({self.where(node)})"
         if msg not in self.problems:
             self.problems.append(msg)
+            self.features[msg] = what
 
     def node(self, ref):
         return self.state.nodes[ref.index()]
@@ -576,6 +593,8 @@ def _camera(ctx, sensor):
         rfilter = _rfilter(ctx, ctx.child(film, OT.ReconstructionFilter))
         if "sample_border" in film.props.keys() and bool(film.props["sample_border"]):
             ctx.bad(film, "hdrfilm sample_border=true")
+    if ctx.film_size is not None:
+        width, height = ctx.film_size
     if sampler is not None and sampler.props.plugin_name() != "independent":
         ctx.bad(sampler, f"sampler '{sampler.props.plugin_name()}' (only 'independent')")
     if "x_fov" in sensor.props.keys():
@@ -669,7 +688,7 @@ def _as_value_error(where: str):
         raise ValueError(f"{where}: {' '.join(str(exc).split())}") from exc
 
 
-def from_mitsuba(source, params=None) -> rt.Scene:
+def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
     """Import a Mitsuba 3 scene (dict or XML file) as a :class:`reference_tracer.Scene`.
 
     Parameters
@@ -679,6 +698,10 @@ def from_mitsuba(source, params=None) -> rt.Scene:
     params : dict, optional
         XML only: values of the file's ``$name`` parameters (overriding its
         ``<default>`` values), as ``mi.load_file(path, **params)`` takes them.
+    film_size : (int, int), optional
+        ``(width, height)`` in pixels replacing the film's own, as if the file said so (the
+        field of view follows its ``fov_axis`` as in Mitsuba); the same scene at another size
+        is :func:`mitsuba_scenes.render.load_file` with the same ``film_size``.
 
     Returns
     -------
@@ -686,10 +709,12 @@ def from_mitsuba(source, params=None) -> rt.Scene:
 
     Raises
     ------
-    ValueError
+    UnsupportedSceneError
         If the scene uses anything outside the supported subset (see the module
-        docstring): one error listing every unsupported plugin or parameter with its
-        location (file, line and column, or dictionary path).
+        docstring): one error (a ``ValueError``) listing every unsupported plugin or
+        parameter with its location (file, line and column, or dictionary path).
+    ValueError
+        A file that is missing or malformed, or an unknown ``$name``.
 
     Notes
     -----
@@ -722,6 +747,8 @@ def from_mitsuba(source, params=None) -> rt.Scene:
     mi = import_mitsuba()
     cfg = mi.parser.ParserConfig(mi.variant())
     params = {str(k): str(v) for k, v in (params or {}).items()}
+    if film_size is not None:
+        film_size = _checked_film_size(film_size)
     if isinstance(source, dict):
         if params:
             raise ValueError("from_mitsuba: params apply to XML files only")
@@ -742,6 +769,7 @@ def from_mitsuba(source, params=None) -> rt.Scene:
         mi.parser.transform_upgrade(cfg, state)
         mi.parser.transform_resolve(cfg, state)
     ctx = _Ctx(mi, state)
+    ctx.film_size = film_size
     if not isinstance(source, dict):
         ctx.base_dir = str(Path(source).resolve().parent)
         ctx.search = search
@@ -815,8 +843,7 @@ def from_mitsuba(source, params=None) -> rt.Scene:
         elif iname == "direct":
             direct = _direct(ctx, integrator)
     if ctx.problems:
-        raise ValueError("from_mitsuba: the scene uses things outside the supported subset "
-                         f"({len(ctx.problems)} found):\n  - " + "\n  - ".join(ctx.problems))
+        raise UnsupportedSceneError(ctx.problems, [ctx.features.get(p, p) for p in ctx.problems])
     if max_depth != -1 and rr_depth > max_depth:
         rr = None
     elif max_depth == -1 and rr_depth >= rt.MAX_DEPTH_CAP:
@@ -825,6 +852,18 @@ def from_mitsuba(source, params=None) -> rt.Scene:
         rr = rr_depth
     return rt.Scene(camera=camera, shapes=shapes, max_depth=max_depth, rr_depth=rr,
                     background=tuple(background), direct=direct)
+
+
+def _checked_film_size(size) -> tuple:
+    """``(width, height)`` as two whole numbers >= 1, else ``ValueError``."""
+    try:
+        w, h = size
+    except (TypeError, ValueError):
+        raise ValueError(f"film_size must be (width, height), got {size!r}") from None
+    for v in (w, h):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= 2**31 - 1:
+            raise ValueError(f"film_size must be two whole numbers >= 1, got {size!r}")
+    return int(w), int(h)
 
 
 def _direct(ctx, node):
