@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -882,20 +883,37 @@ def _direct(ctx, node):
         return None
 
 
+#: A ``<path value="...">`` element of a Mitsuba XML file.
+_PATH_ELEMENT = re.compile(rb"<path\s+value\s*=\s*(\"[^\"]*\"|'[^']*')")
+
+
 def _parse_with_search_paths(mi, parse) -> tuple:
-    """``(state, folders)``: the parsed file and the folders its ``<path>`` elements add to
-    Mitsuba's file resolver, which is left as it was (the resolver is global: another
-    scene's folders must not serve this one's files)."""
+    """``(state, folders)``: the parsed file and the folders its ``<path>`` elements name
+    (in the file and the files it includes, each relative to its own file, in order), read
+    from the files themselves. Mitsuba's global file resolver is left as it was: parsing
+    adds those folders to it, where they would serve another scene's files (and would
+    already be there when a file was loaded before, by Mitsuba or by us)."""
     resolver = mi.file_resolver()
     before = [str(p) for p in resolver]
     try:
         state = parse()
-        added = [str(p) for p in resolver if str(p) not in before]
     finally:
         resolver.clear()
         for p in before:
             resolver.append(p)
-    return state, added
+    folders = []
+    for f in state.files:
+        f = Path(str(f))
+        try:
+            text = f.read_bytes()
+        except OSError:
+            continue
+        for m in _PATH_ELEMENT.finditer(text):
+            value = m.group(1)[1:-1].decode("utf-8", "replace")
+            folder = str((f.parent / value).resolve()) if not os.path.isabs(value) else value
+            if folder not in folders:
+                folders.append(folder)
+    return state, folders
 
 
 def _mesh_object(ctx, root, key, mesh):

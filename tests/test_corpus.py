@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from benchmarks.cli import main
-from benchmarks.corpus.judge import compact_feature, out_of_scope, small_film, spreadless_differences
+from benchmarks.corpus.judge import compact_feature, out_of_scope, small_film
 from benchmarks.corpus.results import feature_ranking, needs_text
 from benchmarks.corpus.scan import scan
 
@@ -117,11 +117,19 @@ def test_scan_finds_fragments_by_include_and_by_root(tmp_path):
 
 
 def test_a_difference_without_spread_is_seen():
+    from reference_tracer import ImageEstimate
+
+    from benchmarks.gate.agreement import agreement
+
+    def est(mean, var):
+        return ImageEstimate(mean=mean, variance=var, spp=64)
+
     mean, var = np.ones((4, 4, 3)), np.zeros((4, 4, 3))
-    assert spreadless_differences(mean, var, mean, var) == 0
-    assert spreadless_differences(mean, var, mean * (1 + 1e-7), var) == 0   # float precision
-    assert spreadless_differences(mean, var, mean * 1.01, var) == 48         # no spread, yet different
-    assert spreadless_differences(mean, var + 0.1, mean * 1.01, var) == 0    # spread: the z-scores judge it
+    assert agreement(est(mean, var), est(mean, var)).spreadless == 0
+    assert agreement(est(mean, var), est(mean * (1 + 1e-7), var)).spreadless == 0   # float precision
+    a = agreement(est(mean, var), est(mean * 1.01, var))
+    assert a.spreadless == 48 and not a.agrees                                      # no spread, yet different
+    assert agreement(est(mean, var + 0.1), est(mean * 1.01, var)).spreadless == 0   # spread: the z-scores judge it
 
 
 def test_small_film_and_features():

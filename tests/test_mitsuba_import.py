@@ -156,6 +156,11 @@ def test_path_elements_find_meshes_as_mitsuba_does_and_leave_no_trace(mi, tmp_pa
     before = [str(p) for p in mi.file_resolver()]
     scene = from_mitsuba(path)
     assert len(scene.shapes) == 1 and [str(p) for p in mi.file_resolver()] == before
+    from mitsuba_scenes.render import file_resolver_scope
+
+    with file_resolver_scope():  # Mitsuba's own loading leaves the folder in its resolver
+        mi.load_file(str(path))
+        assert len(from_mitsuba(path).shapes) == 1
     other = tmp_path / "scenes" / "b.xml"  # no <path>: the same name is not found
     other.write_text(_scene_xml('<shape type="obj"><string name="filename" value="meshes/tri.obj"/>'
                                 '<emitter type="area"/></shape>'))

@@ -14,7 +14,7 @@ The steps, each on the unmodified file:
    variance, and :func:`benchmarks.gate.agreement.agreement` judges the pair (every channel's
    global ``|z| <= 4``, at most 1% of pixel values with ``|z| > 4``; a filtered image's
    variances through the filter's weights), with no pixel value differing where neither
-   render has spread (:func:`spreadless_differences`).
+   render has spread.
 
 The status (:data:`STATUSES`) is the first that applies: ``out-of-scope`` (our refusal
 names a plugin of :data:`OUT_OF_SCOPE`, or Mitsuba needs a spectral variant),
@@ -32,7 +32,7 @@ import numpy as np
 from benchmarks.gate.agreement import SHARE_LIMIT, Z_LIMIT, agreement
 
 __all__ = ["STATUSES", "OUT_OF_SCOPE", "OUT_OF_SCOPE_KINDS", "Z_LIMIT", "SHARE_LIMIT", "small_film",
-           "spreadless_differences", "out_of_scope", "compact_feature", "clean_message", "scene_plugins",
+           "out_of_scope", "compact_feature", "clean_message", "scene_plugins",
            "judge_scene", "setup"]
 
 #: every status, in the order tables list them.
@@ -69,22 +69,6 @@ def small_film(width: int, height: int, max_width: int) -> tuple:
     if width <= max_width:
         return int(width), int(height)
     return int(max_width), max(1, int(round(height * max_width / width)))
-
-
-def spreadless_differences(ours_mean, ours_var, mit_mean, mit_var) -> int:
-    """How many pixel values differ (beyond float precision) where neither render has any
-    spread (a directly seen constant background, say). :func:`benchmarks.gate.agreement.agreement`
-    gives such a value ``z = 0`` (it has no standard error), so a deterministic difference
-    would pass unseen; the corpus counts them and does not call such a scene agreeing.
-
-    >>> m, v = np.ones((2, 2, 3)), np.zeros((2, 2, 3))
-    >>> spreadless_differences(m, v, m, v), spreadless_differences(m, v, m * 1.01, v)
-    (0, 12)
-    """
-    om, mm = np.asarray(ours_mean, np.float64), np.asarray(mit_mean, np.float64)
-    none = (np.asarray(ours_var) == 0) & (np.asarray(mit_var) == 0)
-    tol = 1e-5 * np.maximum(1.0, np.maximum(np.abs(om), np.abs(mm)))
-    return int((none & (np.abs(om - mm) > tol)).sum())
 
 
 _FILE_TOKEN = re.compile(r"'?[^\s':]*\.(?:obj|ply|serialized|xml|exr|png|jpe?g|hdr|pfm|bmp|tga|spd|vol|m3hair)'?",
@@ -286,13 +270,13 @@ def _judge(job, rec, seconds, mi, root, path) -> None:
         rec["status"], rec["reasons"] = "render-error", [clean_message(f"agreement: {exc}", root)]
         return
     glob, share = list(a.global_z), a.share
-    fixed = spreadless_differences(ours.mean, ours.variance, mit.mean, mit.variance)
+    fixed = a.spreadless
     rec["global_z"] = [g if math.isfinite(g) else str(g) for g in glob]
     rec["share_z4"] = share
     rec["spreadless_differences"] = fixed
     rec["mean_ours"] = [float(x) for x in ours.mean.reshape(-1, 3).mean(axis=0)]
     rec["mean_mitsuba"] = [float(x) for x in mit.mean.reshape(-1, 3).mean(axis=0)]
-    rec["status"] = "agrees" if a.agrees and not fixed else "disagrees"
+    rec["status"] = "agrees" if a.agrees else "disagrees"
     if rec["status"] == "disagrees":
         worst = max(range(3), key=lambda c: abs(glob[c]))
         rec["reasons"] = [f"global z {glob[worst]:+.1f} in {'RGB'[worst]}, {100 * share:.1f}% of pixel values "
