@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.meshfile import check_mesh_file
+from reference_tracer.meshfile import check_mesh_file, check_serialized_file
 
 __all__ = ["from_mitsuba", "UnsupportedSceneError", "IOR_TABLE"]
 
@@ -449,13 +449,23 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
         tf = np.eye(4)
         tf[:3, :3], tf[:3, 3] = R, m[:3, 3]
         return rt.Box(-s, s, mat, flip_normals=flip, transform=tuple(map(tuple, tf)))
-    if name in ("ply", "obj") or mesh_obj is not None:
+    if name in ("ply", "obj", "serialized") or mesh_obj is not None:
         if mesh_obj is None:
             _extra(ctx, node, {"filename", "to_world", "flip_normals", "bsdf", "emitter", "face_normals",
-                               "flip_tex_coords"}, "shape")
+                               "flip_tex_coords", "shape_index"}, "shape")
             fname = ctx.resolve(str(node.props["filename"]))
+            extra = {}
             try:  # before Mitsuba allocates what a header declares: a regular file, counts it can hold
-                check_mesh_file(fname)
+                if name == "serialized":
+                    index = _scalar(ctx, node, "shape_index", 0)
+                    if isinstance(index, str) or not float(index).is_integer() or index < 0:
+                        raise ValueError(f"shape_index must be a whole number >= 0, got {index!r}")
+                    extra = {"shape_index": int(index)}
+                    check_serialized_file(fname, int(index))
+                else:
+                    if "shape_index" in node.props.keys():
+                        ctx.bad(node, f"{name} parameter 'shape_index' (serialized meshes only)")
+                    check_mesh_file(fname)
             except (ValueError, OSError) as exc:
                 ctx.bad(node, f"{name} mesh {fname} cannot be used: {exc}")
                 return None
@@ -469,7 +479,7 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
             try:
                 mesh_obj = ctx.mi.load_dict({"type": name, "filename": fname,
                                              "to_world": ctx.mi.ScalarTransform4f(m.tolist()),
-                                             "face_normals": face_normals})
+                                             "face_normals": face_normals, **extra})
             except Exception as exc:  # Mitsuba raises RuntimeError with the reason
                 ctx.bad(node, f"{name} mesh could not be loaded: {exc}")
                 return None
