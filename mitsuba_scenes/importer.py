@@ -827,6 +827,9 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
                 ctx.bad(node, f"emitter '{name}' (only 'area' on shapes and 'constant')")
         elif kind in (OT.BSDF, OT.Texture):
             continue   # declared here, used through references; checked where used
+        elif kind == OT.Sampler:  # declared here for a sensor to reference: the same rule as inside one
+            if name != "independent":
+                ctx.bad(node, f"sampler '{name}' (only 'independent')")
         else:
             ctx.bad(node, f"{str(kind).split('.')[-1].lower()} '{name}'")
 

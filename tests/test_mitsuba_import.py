@@ -166,3 +166,16 @@ def test_path_elements_find_meshes_as_mitsuba_does_and_leave_no_trace(mi, tmp_pa
                                 '<emitter type="area"/></shape>'))
     with pytest.raises(ValueError, match="tri.obj"):
         from_mitsuba(other)
+
+
+def test_a_sampler_declared_at_the_top_level_and_referenced(tmp_path):
+    path = tmp_path / "s.xml"
+    body = ('<sampler type="{t}" id="smp"><integer name="sample_count" value="16"/></sampler>'
+            '<sensor type="perspective"><ref id="smp"/><film type="hdrfilm"><integer name="width" value="4"/>'
+            '<integer name="height" value="4"/><rfilter type="box"/></film></sensor>'
+            '<shape type="sphere"><emitter type="area"/></shape>')
+    path.write_text(f'<scene version="3.0.0">{body.format(t="independent")}</scene>')
+    assert len(from_mitsuba(path).shapes) == 1
+    path.write_text(f'<scene version="3.0.0">{body.format(t="stratified")}</scene>')
+    with pytest.raises(ValueError, match="sampler 'stratified'"):
+        from_mitsuba(path)
