@@ -114,7 +114,8 @@ def our_aovs(scene: rt.Scene, *, offset=(0.5, 0.5)) -> dict:
     shading = hit.get("shading_normal", hit["normal"])
     normal = np.where(valid[:, None], np.asarray(shading, dtype=np.float64), 0.0)
     albedo = np.zeros((t.size, 3))
-    emitted = np.tile(np.asarray(scene.background, dtype=np.float64), (t.size, 1))
+    # on a miss, the environment's radiance in the ray's direction (a constant or an EnvMap)
+    emitted = np.asarray(core_scene(scene).background(np.ascontiguousarray(d, dtype=np.float64)), dtype=np.float64)
     front = np.einsum("ij,ij->i", normal, -d) > 0
     for i, s in enumerate(scene.shapes):
         m = shape == i
