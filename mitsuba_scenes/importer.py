@@ -24,11 +24,15 @@ import contextlib
 import math
 import os
 from pathlib import Path
+from xml.parsers import expat
 
 import numpy as np
 
 import reference_tracer as rt
+from reference_tracer.conductors import CONDUCTORS
 from reference_tracer.meshfile import check_mesh_file
+
+from .variants import import_mitsuba
 
 __all__ = ["from_mitsuba", "IOR_TABLE"]
 
@@ -346,8 +350,6 @@ def _roughness(ctx, node):
 def _conductor_ior(ctx, node):
     """``{"eta", "k"}`` or ``{"material"}`` keyword arguments of our conductors, as Mitsuba reads
     them (``material`` defaults to "none", Fresnel 1; ``eta`` with ``k`` defaulting to 1), or None."""
-    from reference_tracer.conductors import CONDUCTORS
-
     keys = node.props.keys()
     if "eta" in keys or "k" in keys:
         if "material" in keys:
@@ -587,8 +589,6 @@ def check_xml_depth(path, *, limit: int = MAX_XML_DEPTH) -> None:
     ...     print(str(exc).split(" nests ")[1])
     elements more than 4 deep (line 1); refused before Mitsuba's parser
     """
-    from xml.parsers import expat
-
     depth = {"now": 0}
     parser = expat.ParserCreate()
 
@@ -662,8 +662,6 @@ def from_mitsuba(source, params=None) -> rt.Scene:
     >>> len(scene.shapes), scene.max_depth
     (8, 8)
     """
-    from .variants import import_mitsuba
-
     mi = import_mitsuba()
     cfg = mi.parser.ParserConfig(mi.variant())
     params = {str(k): str(v) for k, v in (params or {}).items()}

@@ -16,6 +16,9 @@ import numpy as np
 
 import reference_tracer as rt
 
+from .translate import to_mitsuba
+from .variants import select_variant
+
 __all__ = ["render_mitsuba", "MitsubaRender", "mesh_merge_safe", "batch_seeds", "split_spp", "DEFAULT_BATCHES"]
 
 #: Batches used when ``batches=None`` (capped by ``spp``).
@@ -155,9 +158,6 @@ def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None
     >>> mean.shape, var.shape
     ((16, 16, 3), (16, 16, 3))
     """
-    from .translate import to_mitsuba
-    from .variants import select_variant
-
     if not isinstance(scene, (rt.Scene, dict, str, os.PathLike)):
         raise ValueError(f"scene must be a reference_tracer.Scene, a Mitsuba scene dict or an XML path, "
                          f"got {type(scene).__name__}")

@@ -35,11 +35,14 @@ from __future__ import annotations
 
 import contextlib
 from pathlib import Path
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.imageio import atomic_write
+
+from .variants import import_mitsuba
 
 __all__ = ["to_mitsuba", "to_xml", "write_ply", "look_at_matrix", "mitsuba_rr_depth", "scene_extent", "NO_RR_DEPTH"]
 
@@ -315,8 +318,6 @@ def to_mitsuba(scene: rt.Scene, *, variant: str | None = None) -> dict:
     ('y', 'box')
     >>> scene = mi.load_dict(d)
     """
-    from .variants import import_mitsuba
-
     low = _lower(scene)
     mi = import_mitsuba(variant)
     cam, integ = low["camera"], low["integrator"]
@@ -360,8 +361,6 @@ def _num(x) -> str:
 
 
 def _xml_escape(s: str) -> str:
-    from xml.sax.saxutils import quoteattr
-
     return quoteattr(str(s))
 
 
