@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import colour, finite_scalar
+from .validation import colour, finite_scalar
 from .conductors import conductor_ior
 
 

@@ -19,6 +19,8 @@ import io
 import os
 import re
 import stat
+import struct
+import zlib
 from pathlib import Path
 
 __all__ = ["read_mesh", "decode_obj", "check_obj_faces", "check_mesh_file", "ply_header_counts",
@@ -165,9 +167,6 @@ def serialized_header(path, shape_index: int = 0) -> dict:
     >>> h["vertices"], h["triangles"], h["data_bytes"]
     (3, 1, 48)
     """
-    import struct
-    import zlib
-
     path = Path(path)
     if isinstance(shape_index, bool) or not isinstance(shape_index, int) or shape_index < 0:
         raise ValueError(f"{path}: shape_index must be an integer >= 0, got {shape_index!r}")
