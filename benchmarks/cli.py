@@ -36,6 +36,7 @@ COMMANDS = {
     "report": "benchmarks.commands.report",
     "compare": "benchmarks.commands.compare",
     "parity": "benchmarks.commands.parity",
+    "corpus": "benchmarks.commands.corpus",
     "gate": "benchmarks.commands.gate",
     "stress": "benchmarks.commands.stress",
     "speed": "benchmarks.commands.speed",

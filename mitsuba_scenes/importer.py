@@ -7,14 +7,15 @@ walked node by node. Supported: ``perspective`` sensor (``fov`` with any
 ``tent`` or ``gaussian`` filter (film fields that change no pixel are ignored),
 ``independent`` sampler, ``path`` integrator (``max_depth``, ``rr_depth``) and ``direct``
 (``emitter_samples``, ``bsdf_samples``, ``shading_samples``), shapes ``sphere``,
-``rectangle``, ``cube``, ``obj``, ``ply`` (with ``to_world`` and ``flip_normals``; meshes
-flat-shaded: ``face_normals=true``, or vertex normals equal to the faces'), BSDFs
-``diffuse``, ``conductor`` and ``roughconductor`` (``ggx`` or ``beckmann``, isotropic,
-``material`` names or RGB ``eta``/``k``), ``dielectric``, ``plastic`` and ``roughplastic``
-(constant reflectances, named or numeric ``int_ior``/``ext_ior``, ``nonlinear``; rough:
-``ggx`` or ``beckmann``, isotropic), ``twosided`` around one of those, references by id,
-``area`` emitters (on their shape or declared at the top level and referenced) and
-``constant``, RGB or scalar values.
+``rectangle``, ``cube``, ``obj``, ``ply`` (with ``to_world``, ``flip_normals`` and
+``face_normals``: the vertex normals Mitsuba's loader gives, read from the file or
+computed where it has none, shade the mesh smooth as in Mitsuba), BSDFs ``diffuse``,
+``conductor`` and ``roughconductor`` (``ggx`` or ``beckmann``, isotropic, ``material``
+names or RGB ``eta``/``k``), ``dielectric``, ``plastic`` and ``roughplastic`` (constant
+reflectances, named or numeric ``int_ior``/``ext_ior``, ``nonlinear``; rough: ``ggx`` or
+``beckmann``, isotropic), ``twosided`` around one of those, references by id, ``area``
+emitters (on their shape or declared at the top level and referenced) and ``constant``,
+RGB or scalar values.
 Anything else is refused with one ``ValueError`` listing every unsupported item and
 where it is; no partial scene is ever returned.
 """
@@ -23,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import re
 from pathlib import Path
 from xml.parsers import expat
 
@@ -30,11 +32,11 @@ import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.conductors import CONDUCTORS
-from reference_tracer.meshfile import check_mesh_file
+from reference_tracer.meshfile import check_mesh_file, check_serialized_file, decode_obj, obj_undefined_normal
 
 from .variants import import_mitsuba
 
-__all__ = ["from_mitsuba", "IOR_TABLE"]
+__all__ = ["from_mitsuba", "UnsupportedSceneError", "IOR_TABLE"]
 
 #: Named indices of refraction that Mitsuba accepts (its documented table).
 IOR_TABLE = {
@@ -56,9 +58,25 @@ _FILM_OK = {"width", "height", "rfilter", "pixel_format", "component_format", "s
             "compensate", "banner", "file_format"}
 
 
+class UnsupportedSceneError(ValueError):
+    """``from_mitsuba``'s refusal of a scene that uses things outside the supported subset.
+
+    A ``ValueError`` whose message lists every item with its location; ``problems`` holds
+    the same lines, ``features`` each one without its location (what the scene needs, e.g.
+    ``"bsdf 'plastic'"``), in the same order.
+    """
+
+    def __init__(self, problems, features):
+        self.problems, self.features = list(problems), list(features)
+        super().__init__("from_mitsuba: the scene uses things outside the supported subset "
+                         f"({len(self.problems)} found):\n  - " + "\n  - ".join(self.problems))
+
+
 class _Ctx:
     def __init__(self, mi, state):
         self.mi, self.state, self.problems = mi, state, []
+        self.features = {}     # problem line -> the same without its location
+        self.film_size = None  # (width, height) replacing the film's, or None
         self.base_dir = None   # folder of the XML file: relative mesh paths resolve there,
         self.search = []       # then in the folders of its <path> elements, in order
 
@@ -80,6 +98,7 @@ class _Ctx:
         msg = f"{what} ({self.where(node)})"
         if msg not in self.problems:
             self.problems.append(msg)
+            self.features[msg] = what
 
     def node(self, ref):
         return self.state.nodes[ref.index()]
@@ -432,38 +451,96 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
         tf = np.eye(4)
         tf[:3, :3], tf[:3, 3] = R, m[:3, 3]
         return rt.Box(-s, s, mat, flip_normals=flip, transform=tuple(map(tuple, tf)))
-    if name in ("ply", "obj") or mesh_obj is not None:
+    if name in ("ply", "obj", "serialized") or mesh_obj is not None:
         if mesh_obj is None:
             _extra(ctx, node, {"filename", "to_world", "flip_normals", "bsdf", "emitter", "face_normals",
-                               "flip_tex_coords"}, "shape")
+                               "flip_tex_coords", "shape_index"}, "shape")
             fname = ctx.resolve(str(node.props["filename"]))
+            extra = {}
             try:  # before Mitsuba allocates what a header declares: a regular file, counts it can hold
-                check_mesh_file(fname)
+                if name == "serialized":
+                    index = _scalar(ctx, node, "shape_index", 0)
+                    if isinstance(index, str) or not float(index).is_integer() or index < 0:
+                        raise ValueError(f"shape_index must be a whole number >= 0, got {index!r}")
+                    extra = {"shape_index": int(index)}
+                    check_serialized_file(fname, int(index))
+                else:
+                    if "shape_index" in node.props.keys():
+                        ctx.bad(node, f"{name} parameter 'shape_index' (serialized meshes only)")
+                    check_mesh_file(fname)
             except (ValueError, OSError) as exc:
                 ctx.bad(node, f"{name} mesh {fname} cannot be used: {exc}")
                 return None
+            face_normals = bool(node.props["face_normals"]) if "face_normals" in node.props.keys() else False
+            if name == "obj" and not face_normals:
+                line = _obj_undefined_normal(fname)
+                if line is not None:
+                    ctx.bad(node, f"obj mesh {fname} line {line}: a face whose first corner has no normal index, in "
+                                  "a file with vertex normals (Mitsuba leaves that vertex's normal undefined)")
+                    return None
             try:
                 mesh_obj = ctx.mi.load_dict({"type": name, "filename": fname,
                                              "to_world": ctx.mi.ScalarTransform4f(m.tolist()),
-                                             "face_normals": bool(node.props["face_normals"])
-                                             if "face_normals" in node.props.keys() else False})
+                                             "face_normals": face_normals, **extra})
             except Exception as exc:  # Mitsuba raises RuntimeError with the reason
                 ctx.bad(node, f"{name} mesh could not be loaded: {exc}")
                 return None
         params = ctx.mi.traverse(mesh_obj)
         v = np.array(params["vertex_positions"], dtype=np.float64).reshape(-1, 3)
         f = np.array(params["faces"], dtype=np.int64).reshape(-1, 3)
-        if mesh_obj.has_vertex_normals() and not _normals_are_flat(params, v, f):
-            ctx.bad(node, f"{name} mesh with smooth vertex normals (they differ from the faces' normals: "
-                          "shading normals are not modelled; face_normals=true shades it flat)")
-            return None
         if len(f) == 0:
             ctx.bad(node, f"{name} mesh {node.props['filename'] if 'filename' in node.props.keys() else ''} "
                           "holds no triangles")
             return None
-        return rt.Mesh(v, f, mat, flip_normals=flip)
+        normals = _mesh_normals(params, mesh_obj, v, f)
+        if isinstance(normals, str):
+            source = f" {node.props['filename']}:" if "filename" in node.props.keys() else ""
+            ctx.bad(node, f"{name} mesh{source} {normals}")
+            return None
+        return rt.Mesh(v, f, mat, flip_normals=flip, normals=normals)
     ctx.bad(node, f"shape '{name}'")
     return None
+
+
+def _obj_undefined_normal(fname):
+    """:func:`reference_tracer.meshfile.obj_undefined_normal` of an OBJ file (None if unreadable:
+    Mitsuba's loader then says why)."""
+    try:
+        return obj_undefined_normal(decode_obj(Path(fname).read_bytes()))
+    except (OSError, ValueError):
+        return None
+
+
+def _mesh_normals(params, mesh, v, f):
+    """The vertex normals Mitsuba shades ``mesh`` with (world space, as its loader stored
+    them: the file's, or computed), None where it shades flat, or a sentence saying why
+    they cannot be used.
+
+    Flat also where every vertex normal equals its triangle's own normal (a quad of two
+    coplanar triangles, a box stored with a vertex per face corner): Mitsuba's shading is
+    then the flat one (to 1e-5), and the mesh keeps the flat fast path. A normal that is
+    not a unit vector is refused: Mitsuba normalises every normal it reads or computes, so
+    another value is one it left undefined (an OBJ face corner without a normal index in a
+    file with normals) or a zero or non-number normal of a PLY file (Mitsuba's shading
+    there is NaN)."""
+    if not mesh.has_vertex_normals():
+        return None
+    n = np.array(params["vertex_normals"], dtype=np.float64).reshape(-1, 3)
+    if n.shape != v.shape:
+        return f"has {len(n)} vertex normals for {len(v)} vertices"
+    used = np.zeros(len(v), dtype=bool)
+    used[f.ravel()] = True
+    length = np.linalg.norm(n, axis=1)
+    bad = used & ~(np.abs(length - 1.0) <= 1e-3)
+    if bad.any():
+        i = int(np.argmax(bad))
+        return (f"vertex normal {i} is {n[i].tolist()}, not a unit vector: undefined in Mitsuba (a zero or "
+                "non-number normal in the file, or an OBJ face corner without a normal index in a file "
+                "with normals)")
+    if _normals_are_flat(params, v, f):
+        return None
+    n[~used] = (1.0, 0.0, 0.0)   # vertices of no face: never shaded
+    return n
 
 
 def _normals_are_flat(params, v, f, *, tol: float = 1e-5) -> bool:
@@ -527,6 +604,8 @@ def _camera(ctx, sensor):
         rfilter = _rfilter(ctx, ctx.child(film, OT.ReconstructionFilter))
         if "sample_border" in film.props.keys() and bool(film.props["sample_border"]):
             ctx.bad(film, "hdrfilm sample_border=true")
+    if ctx.film_size is not None:
+        width, height = ctx.film_size
     if sampler is not None and sampler.props.plugin_name() != "independent":
         ctx.bad(sampler, f"sampler '{sampler.props.plugin_name()}' (only 'independent')")
     if "x_fov" in sensor.props.keys():
@@ -618,7 +697,7 @@ def _as_value_error(where: str):
         raise ValueError(f"{where}: {' '.join(str(exc).split())}") from exc
 
 
-def from_mitsuba(source, params=None) -> rt.Scene:
+def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
     """Import a Mitsuba 3 scene (dict or XML file) as a :class:`reference_tracer.Scene`.
 
     Parameters
@@ -628,6 +707,10 @@ def from_mitsuba(source, params=None) -> rt.Scene:
     params : dict, optional
         XML only: values of the file's ``$name`` parameters (overriding its
         ``<default>`` values), as ``mi.load_file(path, **params)`` takes them.
+    film_size : (int, int), optional
+        ``(width, height)`` in pixels replacing the film's own, as if the file said so (the
+        field of view follows its ``fov_axis`` as in Mitsuba); the same scene at another size
+        is :func:`mitsuba_scenes.render.load_file` with the same ``film_size``.
 
     Returns
     -------
@@ -635,21 +718,27 @@ def from_mitsuba(source, params=None) -> rt.Scene:
 
     Raises
     ------
-    ValueError
+    UnsupportedSceneError
         If the scene uses anything outside the supported subset (see the module
-        docstring): one error listing every unsupported plugin or parameter with its
-        location (file, line and column, or dictionary path).
+        docstring): one error (a ``ValueError``) listing every unsupported plugin or
+        parameter with its location (file, line and column, or dictionary path).
+    ValueError
+        A file that is missing or malformed, or an unknown ``$name``.
 
     Notes
     -----
+    Meshes are shaded as Mitsuba shades them: with the vertex normals its ``obj`` / ``ply``
+    loader gives (the file's; computed from the faces where the file has none, so an OBJ
+    without ``vn`` is smooth; none with ``face_normals=true``), and no reconciliation of
+    shading and geometric normals (:class:`reference_tracer.Mesh`).
     A shape without a BSDF gets Mitsuba's default (``diffuse``, reflectance 0.5), except an
     emitter shape, which Mitsuba makes black (it reflects nothing: ``DiffuseLight`` with no
     albedo); a
     ``dielectric`` becomes ``Dielectric(int_ior / ext_ior)`` (exact: Mitsuba uses only
     the ratio); Mitsuba's default ``fov_axis`` is ``'x'``; ``rr_depth`` larger than
     ``max_depth`` means no Russian roulette (``rr_depth=None``). ``sample_count`` is
-    not imported: spp is chosen when rendering. Meshes must be flat shaded
-    (``face_normals=true``); ``obj``/``ply`` files are read by Mitsuba itself.
+    not imported: spp is chosen when rendering. ``obj``/``ply`` files are read by Mitsuba
+    itself.
 
     Examples
     --------
@@ -665,6 +754,8 @@ def from_mitsuba(source, params=None) -> rt.Scene:
     mi = import_mitsuba()
     cfg = mi.parser.ParserConfig(mi.variant())
     params = {str(k): str(v) for k, v in (params or {}).items()}
+    if film_size is not None:
+        film_size = _checked_film_size(film_size)
     if isinstance(source, dict):
         if params:
             raise ValueError("from_mitsuba: params apply to XML files only")
@@ -685,6 +776,7 @@ def from_mitsuba(source, params=None) -> rt.Scene:
         mi.parser.transform_upgrade(cfg, state)
         mi.parser.transform_resolve(cfg, state)
     ctx = _Ctx(mi, state)
+    ctx.film_size = film_size
     if not isinstance(source, dict):
         ctx.base_dir = str(Path(source).resolve().parent)
         ctx.search = search
@@ -731,6 +823,9 @@ def from_mitsuba(source, params=None) -> rt.Scene:
                 ctx.bad(node, f"emitter '{name}' (only 'area' on shapes and 'constant')")
         elif kind in (OT.BSDF, OT.Texture):
             continue   # declared here, used through references; checked where used
+        elif kind == OT.Sampler:  # declared here for a sensor to reference: the same rule as inside one
+            if name != "independent":
+                ctx.bad(node, f"sampler '{name}' (only 'independent')")
         else:
             ctx.bad(node, f"{str(kind).split('.')[-1].lower()} '{name}'")
 
@@ -758,8 +853,7 @@ def from_mitsuba(source, params=None) -> rt.Scene:
         elif iname == "direct":
             direct = _direct(ctx, integrator)
     if ctx.problems:
-        raise ValueError("from_mitsuba: the scene uses things outside the supported subset "
-                         f"({len(ctx.problems)} found):\n  - " + "\n  - ".join(ctx.problems))
+        raise UnsupportedSceneError(ctx.problems, [ctx.features.get(p, p) for p in ctx.problems])
     if max_depth != -1 and rr_depth > max_depth:
         rr = None
     elif max_depth == -1 and rr_depth >= rt.MAX_DEPTH_CAP:
@@ -768,6 +862,18 @@ def from_mitsuba(source, params=None) -> rt.Scene:
         rr = rr_depth
     return rt.Scene(camera=camera, shapes=shapes, max_depth=max_depth, rr_depth=rr,
                     background=tuple(background), direct=direct)
+
+
+def _checked_film_size(size) -> tuple:
+    """``(width, height)`` as two whole numbers >= 1, else ``ValueError``."""
+    try:
+        w, h = size
+    except (TypeError, ValueError):
+        raise ValueError(f"film_size must be (width, height), got {size!r}") from None
+    for v in (w, h):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= 2**31 - 1:
+            raise ValueError(f"film_size must be two whole numbers >= 1, got {size!r}")
+    return int(w), int(h)
 
 
 def _direct(ctx, node):
@@ -786,28 +892,42 @@ def _direct(ctx, node):
         return None
 
 
+#: A ``<path value="...">`` element of a Mitsuba XML file.
+_PATH_ELEMENT = re.compile(rb"<path\s+value\s*=\s*(\"[^\"]*\"|'[^']*')")
+
+
 def _parse_with_search_paths(mi, parse) -> tuple:
-    """``(state, folders)``: the parsed file and the folders its ``<path>`` elements add to
-    Mitsuba's file resolver, which is left as it was (the resolver is global: another
-    scene's folders must not serve this one's files)."""
+    """``(state, folders)``: the parsed file and the folders its ``<path>`` elements name
+    (in the file and the files it includes, each relative to its own file, in order), read
+    from the files themselves. Mitsuba's global file resolver is left as it was: parsing
+    adds those folders to it, where they would serve another scene's files (and would
+    already be there when a file was loaded before, by Mitsuba or by us)."""
     resolver = mi.file_resolver()
     before = [str(p) for p in resolver]
     try:
         state = parse()
-        added = [str(p) for p in resolver if str(p) not in before]
     finally:
         resolver.clear()
         for p in before:
             resolver.append(p)
-    return state, added
+    folders = []
+    for f in state.files:
+        f = Path(str(f))
+        try:
+            text = f.read_bytes()
+        except OSError:
+            continue
+        for m in _PATH_ELEMENT.finditer(text):
+            value = m.group(1)[1:-1].decode("utf-8", "replace")
+            folder = str((f.parent / value).resolve()) if not os.path.isabs(value) else value
+            if folder not in folders:
+                folders.append(folder)
+    return state, folders
 
 
 def _mesh_object(ctx, root, key, mesh):
     """A ``mi.Mesh`` given as an object in the dict (as :func:`to_mitsuba` makes them)."""
     where = f'dictionary node "{key}"'
-    if mesh.has_vertex_normals():
-        ctx.problems.append(f"mesh object with vertex normals (smooth shading) ({where})")
-        return None
     params = ctx.mi.traverse(mesh)
     keys = set(params.keys())
     bsdf = mesh.bsdf()
@@ -833,4 +953,9 @@ def _mesh_object(ctx, root, key, mesh):
         mat = rt.Lambertian(albedo)
     v = np.array(params["vertex_positions"], dtype=np.float64).reshape(-1, 3)
     f = np.array(params["faces"], dtype=np.int64).reshape(-1, 3)
-    return rt.Mesh(v, f, mat)
+    normals = _mesh_normals(params, mesh, v, f)
+    if isinstance(normals, str):
+        ctx.problems.append(f"mesh object whose {normals} ({where})")
+        return None
+    flip = bool(mesh.has_flipped_normals())
+    return rt.Mesh(v, f, mat, flip_normals=flip, normals=normals)

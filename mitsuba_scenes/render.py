@@ -7,6 +7,7 @@ own seed, and the between-batch spread gives the variance.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import time
@@ -16,10 +17,12 @@ import numpy as np
 
 import reference_tracer as rt
 
+from .importer import _checked_film_size
 from .translate import to_mitsuba
 from .variants import select_variant
 
-__all__ = ["render_mitsuba", "MitsubaRender", "mesh_merge_safe", "batch_seeds", "split_spp", "DEFAULT_BATCHES"]
+__all__ = ["render_mitsuba", "MitsubaRender", "load_file", "film_sizes", "file_resolver_scope", "mesh_merge_safe",
+           "batch_seeds", "split_spp", "DEFAULT_BATCHES"]
 
 #: Batches used when ``batches=None`` (capped by ``spp``).
 DEFAULT_BATCHES = 16
@@ -116,8 +119,77 @@ def mesh_merge_safe(scene) -> bool:
     return not any(s.flip_normals for s in scene.shapes if isinstance(s, rt.Box))
 
 
+def _film_nodes(mi, state) -> list:
+    return [n for n in state.nodes if n.type == mi.ObjectType.Film]
+
+
+@contextlib.contextmanager
+def file_resolver_scope(folder=None):
+    """Mitsuba's (thread's) file resolver replaced by a copy for the block, ``folder`` first
+    on it when given, and restored afterwards: the ``<path>`` folders that parsing a file adds
+    to it do not stay for the next file (nor hide from ``from_mitsuba`` that a file adds them)."""
+    import mitsuba as mi
+
+    backup = mi.file_resolver()
+    resolver = mi.FileResolver(backup)
+    if folder is not None:
+        resolver.prepend(str(folder))
+    mi.set_file_resolver(resolver)
+    try:
+        yield resolver
+    finally:
+        mi.set_file_resolver(backup)
+
+
+def film_sizes(path, *, params=None) -> list:
+    """``(width, height)`` of each film of Mitsuba XML file ``path``, as its parser reads
+    them (``$name`` values from ``params`` or the file's defaults; Mitsuba's 768x576 where
+    a film leaves them out). Parses only: nothing is loaded, the file resolver is left as it
+    was. The active variant is used."""
+    import mitsuba as mi
+
+    cfg = mi.parser.ParserConfig(mi.variant())
+    with file_resolver_scope():
+        state = mi.parser.parse_file(cfg, str(path), **{str(k): str(v) for k, v in (params or {}).items()})
+    return [(int(n.props["width"]) if "width" in n.props.keys() else 768,
+             int(n.props["height"]) if "height" in n.props.keys() else 576) for n in _film_nodes(mi, state)]
+
+
+def load_file(path, *, params=None, film_size=None):
+    """``mi.load_file(path, **params)``, with every film's width and height set to ``film_size``.
+
+    With ``film_size=(width, height)`` the file is loaded by the steps of ``mi.load_file``
+    (parse with the file's folder first on the file resolver, transform, instantiate), the
+    films' ``width`` and ``height`` replaced after parsing: the same scene at another size,
+    includes and relative paths resolved as Mitsuba resolves them, no file written. The
+    thread's file resolver is restored afterwards (``<path>`` entries do not leak into the
+    next load). ``ValueError`` when the scene has no ``<film>`` to resize; Mitsuba's own
+    errors (``RuntimeError``) pass through. The active variant is used.
+    """
+    import mitsuba as mi
+
+    params = {str(k): str(v) for k, v in (params or {}).items()}
+    if film_size is None:
+        with file_resolver_scope():
+            return mi.load_file(str(path), **params)
+
+    width, height = _checked_film_size(film_size)
+    with file_resolver_scope(os.path.dirname(os.path.abspath(str(path)))):
+        cfg = mi.parser.ParserConfig(mi.variant())
+        state = mi.parser.parse_file(cfg, str(path), **params)
+        films = _film_nodes(mi, state)
+        if not films:
+            raise ValueError(f"{path}: no <film> whose size could be set (Mitsuba's default film is 768x576)")
+        for node in films:
+            node.props["width"] = width
+            node.props["height"] = height
+        mi.parser.transform_all(cfg, state)
+        return mi.parser.instantiate(cfg, state)
+
+
 def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None,
-                   threads: int | None = None, batches: int | None = None, params=None) -> MitsubaRender:
+                   threads: int | None = None, batches: int | None = None, params=None,
+                   film_size=None) -> MitsubaRender:
     """Render ``scene`` with Mitsuba's ``path`` integrator, in independent batches.
 
     Parameters
@@ -136,6 +208,9 @@ def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None
         Worker threads (``drjit.set_thread_count``); None leaves Dr.Jit's setting.
     params : dict or None, keyword-only
         XML files only: ``$name`` values, as ``mi.load_file(path, **params)`` takes them.
+    film_size : (int, int) or None, keyword-only
+        XML files only: ``(width, height)`` replacing the size of the file's film
+        (:func:`load_file`); ``from_mitsuba(path, film_size=...)`` is our side of it.
     batches : int or None, keyword-only
         Number of batches K (default ``min(16, spp)``; capped at ``spp``). When K does
         not divide ``spp`` the batch sizes differ by one and the estimators below
@@ -161,8 +236,8 @@ def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None
     if not isinstance(scene, (rt.Scene, dict, str, os.PathLike)):
         raise ValueError(f"scene must be a reference_tracer.Scene, a Mitsuba scene dict or an XML path, "
                          f"got {type(scene).__name__}")
-    if params and not isinstance(scene, (str, os.PathLike)):
-        raise ValueError("params apply to Mitsuba XML files only")
+    if (params or film_size is not None) and not isinstance(scene, (str, os.PathLike)):
+        raise ValueError("params and film_size apply to Mitsuba XML files only")
     if isinstance(spp, bool) or not isinstance(spp, (int, np.integer)) or spp < 1:
         raise ValueError(f"spp must be an integer >= 1, got {spp!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
@@ -183,7 +258,7 @@ def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None
         dr.set_thread_count(int(threads))
     t0 = time.perf_counter()
     if isinstance(scene, (str, os.PathLike)):
-        mscene = mi.load_file(str(scene), **{str(k): str(v) for k, v in (params or {}).items()})
+        mscene = load_file(scene, params=params, film_size=film_size)
     else:
         mscene = mi.load_dict(to_mitsuba(scene) if isinstance(scene, rt.Scene) else scene,
                               optimize=mesh_merge_safe(scene))

@@ -13,7 +13,8 @@ ours                                   Mitsuba 3
 ``Box(pmin, pmax)``                    ``cube``, to_world = M . T(centre) . S(half size)
 ``Sphere(c, r)``                       ``sphere`` with world centre and radius
 ``Triangle``, ``Mesh``                 a mesh (``mi.Mesh`` in the dict, PLY in the XML),
-                                       world-space vertices, no vertex normals (flat)
+                                       world-space vertices; a Mesh's vertex normals (world
+                                       space) where it has them (smooth), else none (flat)
 ``flip_normals``                       ``flip_normals`` (baked into the winding of meshes)
 ``Lambertian``                         ``diffuse``
 ``Metal(fuzz=0)``                      ``conductor``: ``material='none'``, or RGB ``eta`` and ``k``
@@ -252,12 +253,16 @@ def _shape_record(i: int, label: str, s) -> dict:
     elif isinstance(s, (rt.Triangle, rt.Mesh)):
         # Exactly the world-space triangles our tracer intersects (flip_normals baked
         # into the winding, as reference_tracer._compile does), shared vertices kept.
+        # Vertex normals likewise: world space, negated when flipped.
+        normals = None
         if isinstance(s, rt.Triangle):
             verts, faces = s.world_vertices(), np.array([[0, 1, 2]])
         else:
             verts = s.world_vertices()
             faces = s.faces[:, [0, 2, 1]] if s.flip_normals else s.faces
-        rec.update(type="mesh", vertices=verts.astype(np.float32), faces=np.asarray(faces, dtype=np.uint32))
+            normals = s.world_normals()
+        rec.update(type="mesh", vertices=verts.astype(np.float32), faces=np.asarray(faces, dtype=np.uint32),
+                   normals=None if normals is None else normals.astype(np.float32))
     else:
         raise ValueError(f"{label}: shape type {type(s).__name__} has no Mitsuba translation")
     return rec
@@ -269,18 +274,22 @@ def _transform(mi, m: np.ndarray):
 
 
 def _make_mesh(mi, rec: dict):
-    """An ``mi.Mesh`` (flat shaded: no vertex normals) carrying its BSDF and emitter."""
+    """An ``mi.Mesh`` carrying its BSDF and emitter; with vertex normals where the record
+    has them (smooth shading), else none (flat)."""
     props = mi.Properties()
     props["bsdf"] = mi.load_dict(rec["bsdf"])
     if "emitter" in rec:
         props["emitter"] = mi.load_dict({"type": "area", "radiance": {"type": "rgb", "value": rec["emitter"]}})
-    vertices, faces = rec["vertices"], rec["faces"]
+    vertices, faces, normals = rec["vertices"], rec["faces"], rec.get("normals")
     mesh = mi.Mesh(rec["name"], vertex_count=len(vertices), face_count=len(faces), props=props,
-                   has_vertex_normals=False, has_vertex_texcoords=False)
+                   has_vertex_normals=normals is not None, has_vertex_texcoords=False)
     params = mi.traverse(mesh)
     params["vertex_positions"] = type(params["vertex_positions"])(
         np.ascontiguousarray(vertices, dtype=np.float32).ravel())
     params["faces"] = type(params["faces"])(np.ascontiguousarray(faces, dtype=np.uint32).ravel())
+    if normals is not None:  # given with the positions: the update keeps them (no recomputation)
+        params["vertex_normals"] = type(params["vertex_normals"])(
+            np.ascontiguousarray(normals, dtype=np.float32).ravel())
     params.update()
     return mesh
 
@@ -408,10 +417,12 @@ def _xml_matrix(m: np.ndarray, indent: str) -> list:
             f"{indent}</transform>"]
 
 
-def write_ply(path, vertices, faces) -> None:
-    """Write a binary little-endian PLY with float32 positions and int32 faces only.
+def write_ply(path, vertices, faces, normals=None) -> None:
+    """Write a binary little-endian PLY with float32 positions (and ``normals``, as
+    ``nx ny nz``, where given) and int32 faces.
 
-    No normals are written, so Mitsuba (with ``face_normals=true``) shades it flat.
+    Without normals, Mitsuba shades it flat when loaded with ``face_normals=true`` (and
+    computes smooth normals without it); with them, Mitsuba's ``ply`` shades it smooth.
 
     Examples
     --------
@@ -421,8 +432,15 @@ def write_ply(path, vertices, faces) -> None:
     f = np.asarray(faces, dtype=np.int64)
     if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3:
         raise ValueError(f"write_ply needs (N, 3) vertices and (M, 3) faces, got {v.shape} and {f.shape}")
+    props = "property float x\nproperty float y\nproperty float z\n"
+    if normals is not None:
+        n = np.ascontiguousarray(normals, dtype="<f4")
+        if n.shape != v.shape:
+            raise ValueError(f"write_ply needs one normal per vertex, got {n.shape} for {v.shape}")
+        v = np.ascontiguousarray(np.concatenate([v, n], axis=1))
+        props += "property float nx\nproperty float ny\nproperty float nz\n"
     header = (f"ply\nformat binary_little_endian 1.0\ncomment written by mitsuba_scenes\n"
-              f"element vertex {len(v)}\nproperty float x\nproperty float y\nproperty float z\n"
+              f"element vertex {len(v)}\n{props}"
               f"element face {len(f)}\nproperty list uchar int vertex_indices\nend_header\n")
     rec = np.zeros(len(f), dtype=[("n", "u1"), ("idx", "<i4", (3,))])
     rec["n"], rec["idx"] = 3, f
@@ -438,8 +456,9 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
     The file holds exactly what :func:`to_mitsuba` gives (every number is written as
     the exact float32 value Mitsuba stores), so ``mi.load_file(path)`` renders the same
     image as ``mi.load_dict(to_mitsuba(scene))`` for the same seed. Meshes are written
-    as ``<stem>_<shape name>.ply`` in the same folder, referenced by relative path,
-    with ``face_normals=true`` (flat shading, as our tracer).
+    as ``<stem>_<shape name>.ply`` in the same folder, referenced by relative path: with
+    their vertex normals where they have them (smooth shading), else with
+    ``face_normals=true`` (flat, as our tracer shades them).
 
     Parameters
     ----------
@@ -467,7 +486,7 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
         raise ValueError(f"to_xml: folder {path.parent} does not exist")
     cam, integ = low["camera"], low["integrator"]
     (o, t, u) = cam["lookat"]
-    plys = []  # (path, vertices, faces): written with the XML, by _write_all
+    plys = []  # (path, vertices, faces, normals): written with the XML, by _write_all
     L = ['<?xml version="1.0" encoding="utf-8"?>',
          "<!-- Written by mitsuba_scenes.to_xml: the reference_tracer scene, translated to",
          "     Mitsuba's conventions (fov_axis y, ext_ior 1, one-sided emitters). -->",
@@ -508,9 +527,10 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
         ind = "        "
         if rec["type"] == "mesh":
             ply = f"{path.stem}_{rec['name']}.ply"
-            plys.append((path.parent / ply, rec["vertices"], rec["faces"]))
-            L += [f"{ind}<string name=\"filename\" value={_xml_escape(ply)}/>",
-                  f'{ind}<boolean name="face_normals" value="true"/>']
+            plys.append((path.parent / ply, rec["vertices"], rec["faces"], rec.get("normals")))
+            L.append(f"{ind}<string name=\"filename\" value={_xml_escape(ply)}/>")
+            if rec.get("normals") is None:
+                L.append(f'{ind}<boolean name="face_normals" value="true"/>')
         elif rec["type"] == "sphere":
             c = rec["center"]
             L += [f'{ind}<point name="center" x="{_num(c[0])}" y="{_num(c[1])}" z="{_num(c[2])}"/>',
@@ -532,13 +552,13 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
 def _write_all(path: Path, text: str, plys: list) -> None:
     """The meshes' PLY files, then the XML, each written atomically (never a partial file);
     on any error the files this call created are removed (nothing stray is left)."""
-    for target in (path, *(p for p, _, _ in plys)):
+    for target in (path, *(p for p, _, _, _ in plys)):
         _check_target(target)
     created = []
     try:
-        for ply, vertices, faces in plys:
+        for ply, vertices, faces, normals in plys:
             existed = ply.exists()
-            atomic_write(ply, lambda tmp, v=vertices, f=faces: write_ply(tmp, v, f))
+            atomic_write(ply, lambda tmp, v=vertices, f=faces, n=normals: write_ply(tmp, v, f, n))
             if not existed:
                 created.append(ply)
         atomic_write(path, text)

@@ -2,7 +2,10 @@
 
 Boxes become six quads, meshes become triangles, transforms are applied and
 ``flip_normals`` is baked into the winding (quads: u and v swapped; triangles: b and c
-swapped; spheres: a flag). Materials are deduplicated into a table.
+swapped; spheres: a flag). Materials are deduplicated into a table. A mesh with vertex
+normals adds its triangles' corner normals (``triangle_normals``, world space, negated
+when flipped) and their indices (``smooth_triangles``); a scene shaded flat passes
+neither, and the core then stores nothing for normals.
 """
 from __future__ import annotations
 
@@ -77,6 +80,8 @@ def compile_scene(scene: Scene) -> dict:
         return index[key]
 
     spheres, quads, tris, tri_mats = [], [], [], []
+    smooth, smooth_normals = [], []   # indices of smooth triangles, their (k, 9) corner normals
+    n_tris = 0
     for i, s in enumerate(scene.shapes):
         mid = mat_id(s.material)
         n_rows = (len(spheres), len(quads), len(tris))
@@ -91,10 +96,16 @@ def compile_scene(scene: Scene) -> dict:
         elif isinstance(s, Triangle):
             tris.append(s.world_vertices().reshape(1, 9))
             tri_mats.append(np.array([mid], dtype=np.int32))
+            n_tris += 1
         elif isinstance(s, Mesh):
             t = s.world_triangles().reshape(-1, 9)
             tris.append(t)
             tri_mats.append(np.full(len(t), mid, dtype=np.int32))
+            corner_normals = s.world_triangle_normals()
+            if corner_normals is not None:
+                smooth.append(np.arange(n_tris, n_tris + len(t), dtype=np.int32))
+                smooth_normals.append(corner_normals.reshape(-1, 9))
+            n_tris += len(t)
         else:  # pragma: no cover - Scene validation admits only these
             raise ValueError(f"unsupported shape {type(s).__name__}")
         what = f"shapes[{i}] ({type(s).__name__})"
@@ -108,6 +119,12 @@ def compile_scene(scene: Scene) -> dict:
 
     c = scene.camera
     _check_extent("the camera", [c.lookfrom])
+    normals = {}
+    if smooth:  # only then: a flat scene's arguments are what they always were
+        if n_tris >= 2**31:
+            raise ValueError(f"{n_tris} triangles: smooth shading indexes at most 2^31 - 1 of them")
+        normals = dict(smooth_triangles=np.concatenate(smooth),
+                       triangle_normals=np.ascontiguousarray(np.concatenate(smooth_normals), dtype=np.float64))
     return dict(
         lookfrom=np.asarray(c.lookfrom), lookat=np.asarray(c.lookat), vup=np.asarray(c.vup),
         vfov=float(c.vfov), width=int(c.width), height=int(c.height),
@@ -119,4 +136,5 @@ def compile_scene(scene: Scene) -> dict:
         background=np.asarray(scene.background, dtype=np.float64),
         max_depth=int(scene.effective_max_depth),
         rr_depth=int(scene.rr_depth) if scene.rr_depth is not None else -1,
+        **normals,
     )

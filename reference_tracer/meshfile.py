@@ -1,12 +1,18 @@
 """Reading OBJ and PLY files for :meth:`reference_tracer.Mesh.load`, robustly.
 
-trimesh parses the files; this module decides what reaches it. The file is read as bytes
-and its kind checked first, so that a file that is not a mesh gets a clear ``ValueError``
-("not an OBJ or PLY mesh") instead of whatever trimesh's guess produces (it tries an
-optional character-set detector on undecodable text). OBJ text is decoded here (UTF-8,
-else Latin-1, where every byte is a character: a stray accented byte in a comment is
-harmless) and checked for face index 0, which OBJ does not allow (indices start at 1;
-negative ones count back from the last vertex) and trimesh would silently read as 1.
+PLY files are parsed by trimesh, OBJ files here (:func:`parse_obj`: trimesh merges and
+reorders an OBJ's vertices and drops its normals, where Mitsuba's loader keeps one vertex
+per distinct index triple and the file's normals). The file is read as bytes and its kind
+checked first, so that a file that is not a mesh gets a clear ``ValueError`` ("not an OBJ
+or PLY mesh") instead of whatever a parser's guess produces (trimesh tries an optional
+character-set detector on undecodable text). OBJ text is decoded here (UTF-8, else
+Latin-1, where every byte is a character: a stray accented byte in a comment is harmless)
+and checked for face index 0, which OBJ does not allow (indices start at 1; negative ones
+count back from the last vertex).
+
+Vertex normals are input like the rest: a normal that is zero or not a number, and a face
+corner without a normal in an OBJ that has normals (Mitsuba leaves that vertex's normal
+undefined), are refused with the file and line.
 
 A mesh file is untrusted input: before any parser allocates for it,
 :func:`check_mesh_file` refuses what is not a regular file (``/dev/zero``, a FIFO), a PLY
@@ -16,15 +22,20 @@ fit in the memory available (``MemoryError``).
 from __future__ import annotations
 
 import io
+import math
 import os
 import re
 import stat
 import struct
 import zlib
+from array import array
+from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["read_mesh", "decode_obj", "check_obj_faces", "check_mesh_file", "ply_header_counts",
-           "check_serialized_file", "serialized_header"]
+import numpy as np
+
+__all__ = ["read_mesh", "decode_obj", "check_obj_faces", "check_mesh_file", "ply_header_counts", "parse_obj",
+           "obj_undefined_normal", "MeshData", "check_serialized_file", "serialized_header"]
 
 #: bytes a PLY scalar type takes in a binary file.
 _PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
@@ -292,16 +303,181 @@ def check_obj_faces(text: str, *, name: str = "OBJ") -> None:
                                  "(OBJ indices start at 1)")
 
 
-def read_mesh(path):
-    """A ``trimesh.Trimesh`` from an OBJ or PLY file (no processing: vertex order kept).
+@dataclass(frozen=True)
+class MeshData:
+    """A mesh file's contents: ``vertices`` (N, 3) and ``faces`` (M, 3) int64, and the
+    file's vertex ``normals`` (N, 3), or None where it has none (or they were not read)."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray | None = None
+
+
+def _floats(words, count: int, what: str, where: str) -> list:
+    try:
+        values = [float(w) for w in words[1:1 + count]]
+    except ValueError:
+        values = []
+    if len(values) != count:
+        raise ValueError(f"{where}: {what} needs {count} numbers, got {' '.join(words)[:80]!r}")
+    return values
+
+
+def parse_obj(text: str, *, name: str = "OBJ", normals: bool = True) -> MeshData:
+    """An OBJ's triangles as Mitsuba's ``obj`` plugin reads them (src/shapes/obj.cpp).
+
+    One vertex per distinct (position, texture coordinate, normal) index triple of the
+    faces, numbered in the order the faces first use them (positions no face uses are
+    left out); polygons split into fans (0, 1, 2), (0, 2, 3), ...; ``vn`` lines are the
+    vertex normals, read only with ``normals`` (Mitsuba's ``face_normals=false``). As in
+    Mitsuba's parser, an index a face corner leaves out is the previous corner's on the
+    same line (``f 1//1 2 3`` gives all three corners normal 1). Negative indices count
+    back from the last element read (the OBJ convention; Mitsuba refuses them). Raises
+    ``ValueError`` with the line for an index out of range, a number that does not parse,
+    a normal that is zero or not finite, and a face whose first corner has no normal
+    index in a file with normals (Mitsuba leaves that normal undefined).
+
+    Examples
+    --------
+    >>> m = parse_obj("v 0 0 0\\nv 1 0 0\\nv 0 1 0\\nv 1 1 0\\nvn 0 0 2\\nf 1//1 2//1 4//1 3//1\\n")
+    >>> m.faces.tolist(), m.normals.tolist()[0]
+    ([[0, 1, 2], [0, 2, 3]], [0.0, 0.0, 2.0])
+    >>> parse_obj("v 0 0 0\\nv 1 0 0\\nv 0 1 0\\nvn 0 0 0\\nf 1//1 2//1 3//1\\n", name="m.obj")
+    Traceback (most recent call last):
+    ...
+    ValueError: m.obj line 4: vertex normal 'vn 0 0 0' is zero or not finite
+    """
+    # Flat arrays of doubles and indices, not lists of lists: a few times the file's bytes
+    # at most (check_mesh_file's budget), whatever its lines hold.
+    positions, vn, faces = array("d"), array("d"), array("q")
+    n_v = n_vn = n_vt = 0
+    ids: dict = {}          # (v, vt, vn) -> vertex id
+    missing_vn = 0          # first line with a face corner that has no normal index (0: none)
+    for number, line in enumerate(io.StringIO(text), 1):   # lines end at "\n", as Mitsuba's
+        words = line.split()
+        if not words:
+            continue
+        head = words[0]
+        if head == "v":
+            positions.extend(_floats(words, 3, "a vertex", f"{name} line {number}"))
+            n_v += 1
+        elif head == "vn":
+            if normals:
+                n = _floats(words, 3, "a vertex normal", f"{name} line {number}")
+                if not (all(map(math.isfinite, n)) and any(n)):
+                    raise ValueError(f"{name} line {number}: vertex normal {line.strip()[:80]!r} is zero or not finite")
+                vn.extend(n)
+                n_vn += 1
+        elif head == "vt":
+            n_vt += 1
+        elif head == "f":
+            first = previous = corners = 0
+            idx = [0, 0, 0]   # Mitsuba keeps a line's indices from corner to corner
+            for token in words[1:]:
+                if token.startswith("#"):
+                    break
+                parts = token.split("/")[:3]
+                for k, part in enumerate(parts):
+                    if not part:
+                        continue
+                    try:
+                        idx[k] = int(part)
+                    except ValueError:
+                        raise ValueError(f"{name} line {number}: face corner {token!r} does not parse") from None
+                    count = (n_v, n_vt, n_vn if normals else None)[k]
+                    if count is None:          # normals not read: the index only splits vertices
+                        continue
+                    if idx[k] < 0:
+                        idx[k] += count + 1
+                    if not 1 <= idx[k] <= count:
+                        what = ("vertex", "texture coordinate", "normal")[k]
+                        raise ValueError(f"{name} line {number}: {what} index in {token!r} out of range "
+                                         f"(the file has {count} so far)")
+                if not parts[0]:
+                    raise ValueError(f"{name} line {number}: face corner {token!r} has no vertex index")
+                if not (idx[0] < 1 << 32 and 0 <= idx[1] < 1 << 32):
+                    raise ValueError(f"{name} line {number}: face corner {token!r} out of range")
+                key = idx[0] | idx[1] << 32 | idx[2] << 64   # one int: a third of a tuple's memory
+                vid = ids.get(key)
+                if vid is None:
+                    vid = ids[key] = len(ids)
+                    if idx[2] == 0 and not missing_vn:
+                        missing_vn = number
+                if corners >= 2:          # a fan around the first corner
+                    faces.extend((first, previous, vid))
+                elif corners == 0:
+                    first = vid
+                previous = vid
+                corners += 1
+    v_index = np.fromiter((k & 0xFFFFFFFF for k in ids), dtype=np.int64, count=len(ids))
+    vertices = np.frombuffer(positions, dtype=np.float64).reshape(-1, 3)[v_index - 1]
+    out_normals = None
+    if normals and n_vn:
+        if missing_vn:
+            raise ValueError(f"{name} line {missing_vn}: a face corner without a normal index, in a file with "
+                             "vertex normals (Mitsuba leaves that vertex's normal undefined); give the face's "
+                             "first corner one, or load with face_normals=True")
+        vn_index = np.fromiter((k >> 64 for k in ids), dtype=np.int64, count=len(ids))
+        out_normals = np.frombuffer(vn, dtype=np.float64).reshape(-1, 3)[vn_index - 1]
+    return MeshData(vertices, np.frombuffer(faces, dtype=np.int64).reshape(-1, 3), out_normals)
+
+
+def obj_undefined_normal(text: str) -> int | None:
+    """The first line of an OBJ with ``vn`` lines whose face leaves a vertex normal undefined
+    in Mitsuba's loader (its first corner has no normal index; later corners keep the
+    previous one's), or None.
+
+    Examples
+    --------
+    >>> obj_undefined_normal("v 0 0 0\\nvn 0 0 1\\nf 1//1 1 1\\nf 1 1//1 1\\n")
+    4
+    >>> obj_undefined_normal("v 0 0 0\\nf 1 1 1\\n") is None
+    True
+    """
+    if not re.search(r"^\s*vn\s", text, re.MULTILINE):
+        return None
+    for number, line in enumerate(text.splitlines(), 1):
+        words = line.split()
+        if len(words) > 1 and words[0] == "f" and not words[1].startswith("#"):
+            parts = words[1].split("/")
+            if len(parts) < 3 or not parts[2]:
+                return number
+    return None
+
+
+def _ply_normals(tm, faces: np.ndarray, name: str) -> np.ndarray | None:
+    """The ``nx ny nz`` vertex properties trimesh read from a PLY (None unless all three).
+    A normal that is zero or not finite is refused where a face uses its vertex (Mitsuba's
+    shading would be NaN there), and replaced by (1, 0, 0) elsewhere (never shaded)."""
+    raw = (tm.metadata or {}).get("_ply_raw", {}).get("vertex", {})
+    data = raw.get("data")
+    try:
+        columns = [np.asarray(data[k], dtype=np.float64).reshape(-1) for k in ("nx", "ny", "nz")]
+    except (KeyError, ValueError, TypeError, IndexError):
+        return None
+    n = np.stack(columns, axis=1)
+    bad = ~(np.all(np.isfinite(n), axis=1) & np.any(n != 0.0, axis=1))
+    if bad.any():
+        used = np.zeros(len(n), dtype=bool)
+        used[faces[(faces >= 0) & (faces < len(n))]] = True
+        if (bad & used).any():
+            i = int(np.argmax(bad & used))
+            raise ValueError(f"{name}: vertex normal {i} is {n[i].tolist()}: zero or not finite")
+        n[bad] = (1.0, 0.0, 0.0)
+    return n
+
+
+def read_mesh(path, *, normals: bool = True) -> MeshData:
+    """The vertices, faces and (with ``normals``) vertex normals of an OBJ or PLY file.
+
+    PLY: through trimesh (no processing: vertex order kept), normals from ``nx ny nz``;
+    OBJ: :func:`parse_obj`.
 
     Raises ``ValueError`` naming the file for anything that is not a readable OBJ or PLY
     mesh (missing file, not a regular file, binary junk, a PLY header that declares more
-    than the file holds, a face index 0, trimesh's own errors), ``MemoryError`` for a mesh
-    too large for the memory available (:func:`check_mesh_file`).
+    than the file holds, a face index 0, a bad normal, trimesh's own errors),
+    ``MemoryError`` for a mesh too large for the memory available (:func:`check_mesh_file`).
     """
-    import trimesh
-
     path = Path(path)
     try:
         check_mesh_file(path)
@@ -310,17 +486,24 @@ def read_mesh(path):
         raise ValueError(f"Mesh.load could not read {path}: {exc.strerror or exc}") from exc
     suffix = path.suffix.lower()
     if data.startswith(b"ply"):
-        kind, file_obj = "ply", io.BytesIO(data)
+        file_obj = io.BytesIO(data)
     elif suffix == ".ply":
         raise ValueError(f"{path} is not an OBJ or PLY mesh: a PLY file starts with 'ply'")
     elif suffix == ".obj":
         text = decode_obj(data, name=str(path))
         check_obj_faces(text, name=str(path))
-        kind, file_obj = "obj", io.BytesIO(text.encode("utf-8"))
+        return parse_obj(text, name=str(path), normals=normals)
     else:
         raise ValueError(f"{path} is not an OBJ or PLY mesh (its name should end in .obj or .ply)")
-    try:  # the resolver finds files an OBJ names (mtllib) beside it
-        return trimesh.load(file_obj, file_type=kind, process=False, force="mesh",
-                            resolver=trimesh.resolvers.FilePathResolver(str(path)))
+    import trimesh
+
+    try:
+        tm = trimesh.load(file_obj, file_type="ply", process=False, force="mesh")
     except Exception as exc:  # noqa: BLE001 - trimesh raises many types; name the file in all cases
         raise ValueError(f"{path} is not an OBJ or PLY mesh trimesh can read: {type(exc).__name__}: {exc}") from exc
+    vertices = np.asarray(tm.vertices, dtype=np.float64).reshape(-1, 3)
+    faces = np.asarray(tm.faces, dtype=np.int64).reshape(-1, 3)
+    n = _ply_normals(tm, faces, str(path)) if normals else None
+    if n is not None and n.shape != vertices.shape:  # trimesh changed the vertices: not the file's
+        raise ValueError(f"{path}: {len(n)} vertex normals for {len(vertices)} vertices")
+    return MeshData(vertices, faces, n)

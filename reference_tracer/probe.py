@@ -13,8 +13,8 @@ Ray queries
     - ``intersect(origins, directions, brute_force=False, threads=1, batch=True,
       wavefront=False, preliminary=False)``: dict of ``t`` (inf on a miss), ``prim``
       (primitive id, -1 on a miss; :func:`primitive_shapes` maps it to a shape), ``point``
-      and front ``normal`` (not with ``preliminary``), ``seconds``, ``packet_rays``,
-      ``chunk``, ``chunk_offset``;
+      and front ``normal`` (not with ``preliminary``; ``shading_normal`` too where a mesh
+      has vertex normals), ``seconds``, ``packet_rays``, ``chunk``, ``chunk_offset``;
     - ``occluded(origins, directions, t_max, wavefront=False)``: (N,) uint8;
     - ``sample_lights(refs, u, wavefront=False)``: light sampling from points ``refs`` with
       uniforms ``u`` (N, 3): dict ``wi``, ``pdf``, ``pdf_all``, ``dist``, ``valid`` and the
@@ -193,8 +193,8 @@ def first_hit_aovs(scene: Scene, *, offset=(0.5, 0.5)) -> dict:
     Returns
     -------
     dict
-        ``t`` (H, W) hit distance (inf on a miss), ``normal`` (H, W, 3) unit normal of the
-        front side (0 on a miss), ``albedo`` (H, W, 3) (:func:`diffuse_albedo`),
+        ``t`` (H, W) hit distance (inf on a miss), ``normal`` (H, W, 3) unit shading normal
+        of the front side (0 on a miss), ``albedo`` (H, W, 3) (:func:`diffuse_albedo`),
         ``emitted`` (H, W, 3) radiance toward the camera (the background on a miss),
         ``shape`` (H, W) shape index (-1 on a miss).
 
@@ -217,7 +217,10 @@ def first_hit_aovs(scene: Scene, *, offset=(0.5, 0.5)) -> dict:
     prims = np.asarray(hit["prim"], dtype=np.int64)
     shape = np.full(t.shape, -1, dtype=np.int64)
     shape[valid] = primitive_shapes(scene)[prims[valid]]
-    normal = np.where(valid[:, None], np.asarray(hit["normal"], dtype=np.float64), 0.0)
+    # the shading normal (Mitsuba's AOV is si.sh_frame.n): the interpolated vertex normals
+    # on smooth meshes, else the geometric normal; emission's side is the shading normal's
+    shading = hit.get("shading_normal", hit["normal"])
+    normal = np.where(valid[:, None], np.asarray(shading, dtype=np.float64), 0.0)
     albedo = np.zeros((t.size, 3))
     emitted = np.tile(np.asarray(scene.background, dtype=np.float64), (t.size, 1))
     front = np.einsum("ij,ij->i", normal, -d) > 0

@@ -20,7 +20,7 @@ from .validation import finite_scalar, vector3
 from .materials import Material
 from .meshfile import read_mesh
 
-__all__ = ["Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh", "rotation_matrix"]
+__all__ = ["Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh", "rotation_matrix", "vertex_normals"]
 
 _IDENTITY = tuple(map(tuple, np.eye(4)))
 
@@ -357,9 +357,20 @@ class Triangle(Shape):
 class Mesh(Shape):
     """Triangle mesh from an (N, 3) vertex array and an (M, 3) integer face array.
 
-    Faces are counter-clockwise seen from the front, as in OBJ and PLY. Shading is
-    flat (Mitsuba shades meshes without vertex normals flat). Degenerate (zero-area)
-    faces are allowed and never hit, but a mesh with no face of non-zero area is refused.
+    Faces are counter-clockwise seen from the front, as in OBJ and PLY. Degenerate
+    (zero-area) faces are allowed and never hit, but a mesh with no face of non-zero area
+    is refused.
+
+    Shading: without ``normals`` the mesh is shaded flat (each triangle's own normal).
+    With ``normals``, an (N, 3) array of per-vertex normals (object space, any non-zero
+    length), it is shaded smooth as Mitsuba shades a mesh with vertex normals: the
+    shading normal at a point is the normalised interpolation of its triangle's vertex
+    normals (barycentric weights); it sets the BSDF's frame, which side of a surface
+    emits and reflects, and the cosine of light sampling on an emitting mesh, while rays
+    still leave along the geometric normal. Like Mitsuba, nothing reconciles the two
+    normals: where they disagree, light may leak through or a region go black (README,
+    Conventions). The normals follow the transform as normals do (its inverse transpose)
+    and flip with ``flip_normals``.
 
     Examples
     --------
@@ -368,6 +379,9 @@ class Mesh(Shape):
     >>> m = Mesh(np.eye(3), [[0, 1, 2]], Lambertian(0.5))
     >>> m.world_vertices().shape
     (3, 3)
+    >>> s = Mesh(np.eye(3), [[0, 1, 2]], Lambertian(0.5), normals=[[1, 1, 1], [1, 1, 2], [2, 1, 1]])
+    >>> s.world_normals().round(3).tolist()[0]
+    [0.577, 0.577, 0.577]
     """
 
     vertices: np.ndarray
@@ -375,6 +389,7 @@ class Mesh(Shape):
     material: Material
     flip_normals: bool = False
     transform: tuple = field(default=_IDENTITY, repr=False)
+    normals: np.ndarray | None = field(default=None, repr=False)
 
     def __post_init__(self):
         try:
@@ -402,24 +417,44 @@ class Mesh(Shape):
         f.setflags(write=False)
         object.__setattr__(self, "vertices", v)
         object.__setattr__(self, "faces", f)
+        if self.normals is not None:
+            object.__setattr__(self, "normals", _check_normals(self.normals, v.shape[0]))
         self._post()
 
     @classmethod
-    def load(cls, path, material: Material, *, flip_normals: bool = False) -> "Mesh":
-        """Read an OBJ or PLY file with trimesh (no processing: vertex order kept).
+    def load(cls, path, material: Material, *, flip_normals: bool = False, face_normals: bool = False) -> "Mesh":
+        """Read an OBJ or PLY file, with its normals as Mitsuba's ``obj`` and ``ply`` read them.
+
+        Shading follows Mitsuba's loaders: the file's vertex normals (OBJ ``vn``, PLY
+        ``nx ny nz``) where it has them; where it has none, normals computed from the faces
+        (each vertex: the sum of its faces' unit normals weighted by the face's angle
+        there, normalised), so a mesh file without normals is shaded smooth; with
+        ``face_normals=True`` no normals at all (flat shading), whatever the file holds.
+        An OBJ's vertices are one per distinct (position, texture, normal) index triple of
+        its faces, in the order the faces first use them, and polygons are split into fans,
+        as Mitsuba does.
 
         An OBJ's text may be UTF-8 or Latin-1 (a comment with an accented name); an OBJ
-        face index 0 (indices start at 1) and a file that is neither OBJ nor PLY raise
-        ``ValueError`` (:func:`reference_tracer.meshfile.read_mesh`).
+        face index 0 (indices start at 1), a normal that is zero or not a number, a face
+        corner without a normal in a file that has normals (Mitsuba would leave that
+        normal undefined) and a file that is neither OBJ nor PLY raise ``ValueError``
+        (:func:`reference_tracer.meshfile.read_mesh`).
 
         Examples
         --------
         >>> Mesh.load("bunny.ply", Lambertian(0.5))  # doctest: +SKIP
         """
-        tm = read_mesh(path)
-        if len(tm.faces) == 0:
+        m = read_mesh(path, normals=not face_normals)
+        if len(m.faces) == 0:
             raise ValueError(f"Mesh.load: {path!s} holds no triangles")
-        return cls(np.asarray(tm.vertices), np.asarray(tm.faces), material, flip_normals=flip_normals)
+        normals = None
+        if not face_normals:
+            normals = m.normals if m.normals is not None else vertex_normals(m.vertices, m.faces)
+            try:
+                normals = _check_normals(normals, len(m.vertices))
+            except ValueError as exc:
+                raise ValueError(f"{path!s}: {exc}") from None
+        return cls(m.vertices, m.faces, material, flip_normals=flip_normals, normals=normals)
 
     def _check_world(self) -> None:
         w = self.world_vertices()
@@ -432,6 +467,13 @@ class Mesh(Shape):
         if not any_area(self.faces[:1024]) and not any_area(self.faces):
             raise ValueError(f"Mesh has zero area{' after its transform' if self.transform != _IDENTITY else ''}: "
                              f"all {len(self.faces)} triangles are degenerate (collinear or repeated vertices)")
+        if self.normals is not None:
+            n = self._normal_directions()
+            bad = ~(np.all(np.isfinite(n), axis=1) & np.any(n != 0.0, axis=1))
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise ValueError(f"Mesh.normals[{i}] = {self.normals[i].tolist()} vanishes under Mesh.transform "
+                                 "(singular in its direction): its shading normal would be undefined")
 
     def world_vertices(self) -> np.ndarray:
         m = self.matrix
@@ -442,6 +484,109 @@ class Mesh(Shape):
         f = self.faces[:, [0, 2, 1]] if self.flip_normals else self.faces
         return self.world_vertices()[f]
 
+    def _normal_directions(self) -> np.ndarray:
+        """The vertex normals through the transform's inverse transpose, unnormalised: the
+        transpose of the cofactor matrix, signed by the determinant (defined where the
+        linear part is singular too, for the normals it does not collapse)."""
+        lin = self.matrix[:3, :3]
+        # rows: the cross products of the columns, cyclically (= det * inv(lin)); n @ rows is
+        # det * inv(lin).T @ n for each normal n
+        rows = np.cross(lin[:, [1, 2, 0]].T, lin[:, [2, 0, 1]].T)
+        sign = -1.0 if np.linalg.det(lin) < 0 else 1.0
+        # normals scaled to a largest component of 1 first: no overflow or underflow on the way
+        n = self.normals / np.max(np.abs(self.normals), axis=1, keepdims=True)
+        return sign * (n @ rows)
+
+    def world_normals(self) -> np.ndarray | None:
+        """(N, 3) unit world-space vertex normals (negated when the normals are flipped), or
+        None for a flat-shaded mesh."""
+        if self.normals is None:
+            return None
+        n = self._normal_directions()
+        n = n / np.max(np.abs(n), axis=1, keepdims=True)
+        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        return -n if self.flip_normals else n
+
+    def world_triangle_normals(self) -> np.ndarray | None:
+        """(M, 3, 3) unit world-space normals at each triangle's corners, in the order of
+        :meth:`world_triangles` (None when flat)."""
+        n = self.world_normals()
+        if n is None:
+            return None
+        f = self.faces[:, [0, 2, 1]] if self.flip_normals else self.faces
+        return n[f]
+
     def _describe_geometry(self):
-        h = hashlib.sha256(self.vertices.tobytes() + self.faces.tobytes()).hexdigest()
+        data = self.vertices.tobytes() + self.faces.tobytes()
+        if self.normals is not None:  # flat meshes keep the hashes they always had
+            data += b"normals" + self.normals.tobytes()
+        h = hashlib.sha256(data).hexdigest()
         return {"mesh_sha256": h, "n_vertices": int(len(self.vertices)), "n_faces": int(len(self.faces))}
+
+
+def _check_normals(normals, n_vertices: int) -> np.ndarray:
+    """Per-vertex normals as a read-only (N, 3) float64 array: finite and non-zero.
+
+    Examples
+    --------
+    >>> _check_normals([[0, 0, 2]], 1).tolist()
+    [[0.0, 0.0, 2.0]]
+    >>> _check_normals([[0, 0, 0]], 1)
+    Traceback (most recent call last):
+    ...
+    ValueError: Mesh.normals[0] is [0.0, 0.0, 0.0]: a vertex normal must be finite and non-zero
+    """
+    try:
+        n = np.array(normals, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError("Mesh.normals must be an (N, 3) array of numbers") from None
+    if n.shape != (n_vertices, 3):
+        raise ValueError(f"Mesh.normals must have one row per vertex, shape ({n_vertices}, 3), got {n.shape}")
+    bad = ~(np.all(np.isfinite(n), axis=1) & np.any(n != 0.0, axis=1))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(f"Mesh.normals[{i}] is {n[i].tolist()}: a vertex normal must be finite and non-zero")
+    n.setflags(write=False)
+    return n
+
+
+def _unit_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angles between unit vectors (rows), stably near 0 and pi (Mitsuba's unit_angle)."""
+    d = np.einsum("ij,ij->i", a, b)
+    plus = np.linalg.norm(a + b, axis=1)
+    minus = np.linalg.norm(a - b, axis=1)
+    return np.where(d < 0, np.pi - 2.0 * np.arcsin(np.minimum(plus / 2, 1.0)), 2.0 * np.arcsin(np.minimum(minus / 2, 1.0)))
+
+
+def vertex_normals(vertices, faces) -> np.ndarray:
+    """Vertex normals as Mitsuba computes them for a mesh file without any
+    (``Mesh::recompute_vertex_normals``): each vertex gets the sum, over the faces using it,
+    of the face's unit normal times the face's angle at that vertex (Thuermer and Wuethrich
+    1998), normalised; a vertex of no face of non-zero area gets (1, 0, 0).
+
+    Examples
+    --------
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    >>> vertex_normals(v, [[0, 1, 2]]).tolist()
+    [[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    n = np.cross(p1 - p0, p2 - p0)
+    length = np.linalg.norm(n, axis=1)
+    ok = length > 0
+    n, f, p0, p1, p2 = n[ok] / length[ok, None], f[ok], p0[ok], p1[ok], p2[ok]
+
+    def unit(x):
+        norm = np.linalg.norm(x, axis=1, keepdims=True)
+        return x / np.where(norm > 0, norm, 1.0)
+
+    angles = (_unit_angle(unit(p1 - p0), unit(p2 - p0)),
+              _unit_angle(unit(p2 - p1), unit(p0 - p1)),
+              _unit_angle(unit(p0 - p2), unit(p1 - p2)))
+    out = np.zeros_like(v)
+    for j in range(3):
+        np.add.at(out, f[:, j], n * angles[j][:, None])
+    norm = np.linalg.norm(out, axis=1, keepdims=True)
+    return np.where(norm > 0, out / np.where(norm > 0, norm, 1.0), np.array([1.0, 0.0, 0.0]))

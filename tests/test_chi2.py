@@ -47,7 +47,8 @@ def test_catalogue_covers_every_routine():
     assert {"warp.uniform_hemisphere", "warp.cosine_hemisphere", "warp.uniform_sphere", "warp.uniform_cone",
             "warp.concentric_disk", "bsdf.lambertian", "bsdf.rough_conductor", "bsdf.rough_conductor_beckmann",
             "bsdf.plastic", "bsdf.rough_plastic", "bsdf.rough_plastic_beckmann", "lobes.dielectric",
-            "lobes.dielectric_schlick", "light.quad", "light.triangle", "light.sphere", "light.scene"} <= names
+            "lobes.dielectric_schlick", "light.quad", "light.triangle", "light.smooth_triangle", "light.sphere",
+            "light.scene"} <= names
     ggx = [dict(r.params) for r in ROUTINES if r.name == "bsdf.rough_conductor"]
     assert len({p["alpha"] for p in ggx}) >= 3 and len({p["theta_o"] for p in ggx}) >= 3
     for name in ("bsdf.rough_plastic", "bsdf.rough_plastic_beckmann", "bsdf.plastic"):
@@ -125,6 +126,19 @@ def test_light_pdf_from_the_wrong_point_fails():
     moved = LightProbe(quad, np.array([0.3, 0.35, -0.2]))
     r = chi2_test(right.sample, moved.pdf, domain="sphere", n=100_000, seed=2, dims=3)
     assert r.verdict == "fail" and r.p_value < 1e-10
+
+
+def test_smooth_light_draws_by_area_not_by_its_reported_density():
+    """A triangle light with leaning vertex normals reports Mitsuba's density, with the shading
+    cosine (light_pdf); the directions it draws follow the geometric cosine. Tested against
+    the reported density, the draw fails: the catalogue's routine rightly takes the other."""
+    import reference_tracer as rt
+
+    tri = [(-1.0, 1.0, -1.0), (1.0, 1.0, -1.0), (0.0, 1.0, 1.0)]
+    normals = [(0.6, -1.0, 0.0), (-0.3, -1.0, 0.5), (0.0, -1.0, -0.8)]
+    probe = LightProbe([rt.Mesh(tri, [[0, 1, 2]], rt.DiffuseLight(1.0), normals=normals)], np.array([0.2, 0.3, 0.1]))
+    r = chi2_test(probe.sample, probe.pdf, domain="sphere", n=100_000, seed=2, dims=3)
+    assert r.verdict == "fail" and min(r.p_value, r.mass_p_value) < 1e-10
 
 
 def test_disk_with_a_linear_radius_fails():

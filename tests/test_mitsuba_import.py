@@ -78,12 +78,20 @@ def test_unsupported_scene_lists_everything(mi):
         assert needle in msg, (needle, msg)
 
 
-def test_smooth_mesh_refused(mi, tmp_path):
+def test_mesh_without_face_normals_gets_mitsubas_computed_normals(mi, tmp_path):
+    """A PLY without normals and face_normals=false: Mitsuba computes vertex normals (the
+    angle-weighted face normals) and shades it smooth; the import takes the same normals."""
+    from reference_tracer.shapes import vertex_normals
+
     scene = get_scene("cornell_mesh", width=8, height=8)
     path = to_xml(scene, tmp_path / "m.xml")
     path.write_text(path.read_text().replace('name="face_normals" value="true"', 'name="face_normals" value="false"'))
-    with pytest.raises(ValueError, match="smooth vertex normals"):
-        from_mitsuba(path)
+    imported = [s for s in from_mitsuba(path).shapes if isinstance(s, rt.Mesh)]
+    assert len(imported) == 1 and imported[0].normals is not None
+    mesh = [s for s in mi.load_file(str(path)).shapes() if s.has_vertex_normals()]
+    theirs = np.array(mi.traverse(mesh[0])["vertex_normals"], dtype=np.float64).reshape(-1, 3)
+    np.testing.assert_allclose(imported[0].world_normals(), theirs, atol=1e-6)
+    np.testing.assert_allclose(vertex_normals(imported[0].vertices, imported[0].faces), theirs, atol=1e-5)
 
 
 def test_dielectric_ior_ratio_and_defaults(mi):
@@ -148,8 +156,26 @@ def test_path_elements_find_meshes_as_mitsuba_does_and_leave_no_trace(mi, tmp_pa
     before = [str(p) for p in mi.file_resolver()]
     scene = from_mitsuba(path)
     assert len(scene.shapes) == 1 and [str(p) for p in mi.file_resolver()] == before
+    from mitsuba_scenes.render import file_resolver_scope
+
+    with file_resolver_scope():  # Mitsuba's own loading leaves the folder in its resolver
+        mi.load_file(str(path))
+        assert len(from_mitsuba(path).shapes) == 1
     other = tmp_path / "scenes" / "b.xml"  # no <path>: the same name is not found
     other.write_text(_scene_xml('<shape type="obj"><string name="filename" value="meshes/tri.obj"/>'
                                 '<emitter type="area"/></shape>'))
     with pytest.raises(ValueError, match="tri.obj"):
         from_mitsuba(other)
+
+
+def test_a_sampler_declared_at_the_top_level_and_referenced(tmp_path):
+    path = tmp_path / "s.xml"
+    body = ('<sampler type="{t}" id="smp"><integer name="sample_count" value="16"/></sampler>'
+            '<sensor type="perspective"><ref id="smp"/><film type="hdrfilm"><integer name="width" value="4"/>'
+            '<integer name="height" value="4"/><rfilter type="box"/></film></sensor>'
+            '<shape type="sphere"><emitter type="area"/></shape>')
+    path.write_text(f'<scene version="3.0.0">{body.format(t="independent")}</scene>')
+    assert len(from_mitsuba(path).shapes) == 1
+    path.write_text(f'<scene version="3.0.0">{body.format(t="stratified")}</scene>')
+    with pytest.raises(ValueError, match="sampler 'stratified'"):
+        from_mitsuba(path)

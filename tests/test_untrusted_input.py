@@ -259,12 +259,12 @@ HUGE_PLY = (b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\np
             b"end_header\n" + b"\0" * 64)
 
 
-def _xml_with_mesh(tmp_path, mesh: str, kind: str = "ply") -> Path:
+def _xml_with_mesh(tmp_path, mesh: str, kind: str = "ply", face_normals: bool = True) -> Path:
     xml = tmp_path / "scene.xml"
     xml.write_text(f"""<scene version="3.0.0">
   <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>
     <integer name="height" value="8"/><rfilter type="box"/></film></sensor>
-  <shape type="{kind}"><string name="filename" value="{mesh}"/><boolean name="face_normals" value="true"/></shape>
+  <shape type="{kind}"><string name="filename" value="{mesh}"/><boolean name="face_normals" value="{str(face_normals).lower()}"/></shape>
 </scene>
 """)
     return xml
@@ -359,6 +359,55 @@ def test_a_text_file_as_a_mesh_names_the_file(tmp_path):
         rt.Mesh.load(mesh, rt.Lambertian(0.5))
     proc = _rtbench("render", "--scene", _xml_with_mesh(tmp_path, str(mesh), kind="obj"), timeout=60)
     assert proc.returncode == 2 and "passwd.obj" in proc.stderr and "holds no triangles" in proc.stderr
+
+
+OBJ_HEAD = "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
+
+
+@pytest.mark.parametrize("body, line", [
+    ("vn nan 0 1\nf 1//1 2//1 3//1\n", 4),          # not a number
+    ("vn 0 0 0\nf 1//1 2//1 3//1\n", 4),            # zero: no direction
+    ("vn 1e999 0 0\nf 1//1 2//1 3//1\n", 4),        # overflows to infinity
+    ("vn 0 0 1\nf 1 2//1 3//1\n", 5),               # a corner Mitsuba leaves undefined
+    ("vn 0 0 1\nf 1//2 2//1 3//1\n", 5),            # an index past the normals
+])
+def test_bad_obj_normals_are_refused_with_their_line(tmp_path, body, line):
+    mesh = tmp_path / "n.obj"
+    mesh.write_text(OBJ_HEAD + body)
+    with pytest.raises(ValueError, match=rf"n.obj line {line}"):
+        rt.Mesh.load(mesh, rt.Lambertian(0.5))
+    # face_normals=True ignores the normals, as Mitsuba's loader does (an index still counts)
+    if "1//2" not in body:
+        assert rt.Mesh.load(mesh, rt.Lambertian(0.5), face_normals=True).normals is None
+
+
+@pytest.mark.parametrize("normal", [(np.nan, 0.0, 1.0), (0.0, 0.0, 0.0), (np.inf, 0.0, 0.0)])
+def test_bad_ply_normals_are_refused(tmp_path, normal):
+    """Mitsuba's PLY loader stores such a normal as it comes (NaN once normalised) and its
+    shading turns NaN: Mesh.load and the importer refuse the file, naming it; rtbench exits 2."""
+    from mitsuba_scenes.translate import write_ply
+
+    mesh = tmp_path / "n.ply"
+    write_ply(mesh, np.eye(3), [[0, 1, 2]], [(0.0, 0.0, 1.0), normal, (0.0, 0.0, 1.0)])
+    with pytest.raises(ValueError, match="n.ply: vertex normal 1"):
+        rt.Mesh.load(mesh, rt.Lambertian(0.5))
+    # a vertex no face uses is never shaded: its normal does not matter
+    write_ply(tmp_path / "unused.ply", np.vstack([np.eye(3), [[5.0, 5.0, 5.0]]]), [[0, 1, 2]],
+              [(0.0, 0.0, 1.0)] * 3 + [normal])
+    assert rt.Mesh.load(tmp_path / "unused.ply", rt.Lambertian(0.5)).normals[3].tolist() == [1.0, 0.0, 0.0]
+    proc = _rtbench("render", "--scene", _xml_with_mesh(tmp_path, str(mesh), face_normals=False),
+                    "--out", tmp_path / "r", timeout=120)
+    assert proc.returncode == 2 and "n.ply" in proc.stderr and "not a unit vector" in proc.stderr, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_obj_with_an_undefined_normal_exits_2_naming_its_line(tmp_path):
+    mesh = tmp_path / "n.obj"
+    mesh.write_text(OBJ_HEAD + "vn 0 0 1\nf 1//1 2//1 3//1\nf 1 2//1 3//1\n")
+    proc = _rtbench("render", "--scene", _xml_with_mesh(tmp_path, str(mesh), kind="obj", face_normals=False),
+                    "--out", tmp_path / "r", timeout=120)
+    assert proc.returncode == 2 and "n.obj line 6" in proc.stderr, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
 
 
 def test_concurrent_appends_never_interleave(tmp_path):

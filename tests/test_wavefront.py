@@ -127,6 +127,39 @@ def _plastics_scene():
     return rt.Scene(shapes=shapes, background=scene.background, camera=scene.camera)
 
 
+def _smooth_scene():
+    # Smooth-shaded meshes (vertex normals) of every material kind, where shading and
+    # geometric normals disagree: the offsets along the geometric normal, the reference
+    # points and shadow-ray origins of the queue's packs, an emitting mesh sampled by its
+    # shading normal (with a quad light: light sampling lane by lane), and flat shapes
+    # between them (a lane's interaction switching between smooth and flat hits).
+    rng = np.random.default_rng(5)
+    t = (1 + 5 ** 0.5) / 2
+    v = np.array([(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t),
+                  (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)], dtype=float)
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4), (11, 10, 2), (10, 7, 6),
+         (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10),
+         (8, 6, 7), (9, 8, 1)]
+    bent = v + rng.normal(scale=0.5, size=v.shape)       # far from the faces' normals
+    floor_v = [(-3, 0, -3), (-3, 0, 3), (3, 0, 3), (3, 0, -3)]
+    lean = [(0.5, 1, 0.2), (-0.4, 1, 0), (0, 1, -0.6), (0.3, 1, 0.3)]
+    shapes = [
+        rt.Mesh(floor_v, [(0, 1, 2), (0, 2, 3)], rt.Lambertian((0.7, 0.7, 0.7)), normals=lean),
+        rt.Mesh(v, f, rt.Lambertian((0.8, 0.5, 0.3)), normals=bent).translate((-1.5, 1, 0)),
+        rt.Mesh(v, f, rt.Lambertian((0.3, 0.5, 0.8), two_sided=True), normals=bent).scale(0.6).translate((0, 0.7, -1)),
+        rt.Mesh(v, f, rt.RoughConductor((0.9, 0.8, 0.6), alpha=0.3), normals=v).scale(0.7).translate((1.4, 0.8, 0)),
+        rt.Mesh(v, f, rt.Dielectric(1.5), normals=bent).scale(0.5).translate((0.2, 0.6, 1.2)),
+        rt.Mesh(v, f, rt.Metal((0.9, 0.9, 0.9)), normals=v).scale(0.4).translate((-0.4, 0.5, 1.6)),
+        rt.Mesh(v, f, rt.DiffuseLight((6, 5, 4), albedo=(0.5, 0.5, 0.5)), normals=bent).scale(0.4).translate((0, 3, 0)),
+        rt.Quad((-2.5, 3.5, -2), (1, 0, 0), (0, 0, 1), rt.DiffuseLight((3, 3, 3))),
+        rt.Sphere((2, 0.4, 1.5), 0.4, rt.Lambertian((0.5, 0.5, 0.5))),
+    ]
+    return rt.Scene(shapes=shapes, background=(0.1, 0.12, 0.15),
+                    camera=rt.Camera(lookfrom=(0.5, 2.5, 6), lookat=(0, 0.8, 0), vup=(0, 1, 0), vfov=55, width=24,
+                                     height=18))
+
+
 @pytest.mark.parametrize("rr_depth", [None, 2])
 @pytest.mark.parametrize("strategy", rt.STRATEGIES)
 def test_wavefront_equals_scalar_with_plastics(strategy, rr_depth):
@@ -137,6 +170,18 @@ def test_wavefront_equals_scalar_with_plastics(strategy, rr_depth):
             for i in ("scalar", "wavefront"))
     _assert_same_render(a, b)
     assert a.mean.max() > 0
+
+
+@pytest.mark.parametrize("rr_depth", [None, 2])
+@pytest.mark.parametrize("strategy", rt.STRATEGIES)
+def test_wavefront_equals_scalar_with_shading_normals(strategy, rr_depth):
+    import dataclasses
+
+    scene = dataclasses.replace(_smooth_scene(), rr_depth=rr_depth)
+    a, b = (rt.render(scene, spp=8, strategy=strategy, seed=17, threads=2, moments=True, integrator=i)
+            for i in ("scalar", "wavefront"))
+    _assert_same_render(a, b)
+    assert a.mean.max() > 0 and a.nonfinite_samples == 0
 
 
 @pytest.mark.parametrize("integrator", rt.INTEGRATORS)

@@ -30,6 +30,13 @@ that change its distribution:
   (area sampling), and a scene with three emitters and a background (selection by power;
   the triangle faces away, so its samples fail and its density is 0).
   Each sample's pdf equals ``light_pdf`` in its direction.
+  ``light.smooth_triangle``: a triangle light with vertex normals, sampled as Mitsuba
+  samples a mesh emitter: points uniform by area, the side test and the cosine of the
+  density taken with the interpolated shading normal. Its reported density (``light_pdf``,
+  dist^2 / (|cos_shading| area)) is then Mitsuba's estimator, not the density of the
+  directions drawn (dist^2 / (|cos_geometric| area) where the shading normal faces the
+  point): the chi-square test takes the latter, computed independently here, and a check
+  asserts that ``light_pdf`` is the former.
 
 Not here: the mirror (a Dirac delta: no distribution) and the fuzzy metal (defined by its
 sampling procedure; the tracer has no density for it to be tested against).
@@ -193,17 +200,65 @@ def _polygon_boundary(vertices, k=400):
     return np.concatenate([(1 - t) * v[i] + t * v[(i + 1) % len(v)] for i in range(len(v))])
 
 
-def _light(label, shapes_fn, ref, *, background=0.0, cap=None, params=()):
-    """``cap``: None (the whole sphere), or a function (ref) -> (rotation, cos_range)."""
+def _light(label, shapes_fn, ref, *, background=0.0, cap=None, params=(), densities=None):
+    """``cap``: None (the whole sphere), or a function (ref) -> (rotation, cos_range).
+    ``densities``: None (the directions' density is ``light_pdf``), or a function (ref) ->
+    (true, reported): the density of the directions drawn and the one ``light_pdf`` must
+    report, each a function of (m, 3) world directions (a smooth emitter's)."""
     def make():
         r = np.asarray(ref, float)
         rot, cos_range = cap(r) if cap else (np.eye(3), None)
         shapes = shapes_fn()
         probe = LightProbe(shapes, r, background=background, rotation=rot)
         emitters = sum(1 for s in shapes if s.material.emits) + (1 if background > 0 else 0)
-        return {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": "sphere", "dims": 3,
+        spec = {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": "sphere", "dims": 3,
                 "cos_range": cos_range, "single": emitters == 1}
+        if densities is not None:
+            true, reported = densities(r)
+            spec["pdf"] = lambda dirs: true(np.asarray(dirs) @ rot)
+            spec["reported"] = reported
+        return spec
     return Routine(f"light.{label}", tuple(params), "light", make)
+
+
+def _smooth_triangle_densities(vertices, normals):
+    """For a triangle light with vertex normals, seen from ``ref``: (the density of the
+    directions light sampling draws, the density it reports), as functions of unit world
+    directions. A direction meets the triangle at p, barycentrics b, shading normal
+    n_s = normalize(sum b_i n_i): both vanish unless -d . n_s > 0 (the side test);
+    there the drawn density is dist^2 / (|d . n_g| area) (points uniform by area) and the
+    reported one Mitsuba's dist^2 / (-d . n_s area)."""
+    a, b, c = (np.asarray(x, float) for x in vertices)
+    n = np.asarray(normals, float)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    e1, e2 = b - a, c - a
+    g = np.cross(e1, e2)
+    area = 0.5 * np.linalg.norm(g)
+    g = g / np.linalg.norm(g)
+
+    def densities(ref):
+        def at(dirs):
+            d = np.asarray(dirs, float)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                cos_g = d @ g
+                t = ((a - ref) @ g) / cos_g
+                p = ref + t[:, None] * d
+                dp = p - a
+                d11, d12, d22 = e1 @ e1, e1 @ e2, e2 @ e2
+                d1, d2 = dp @ e1, dp @ e2
+                den = d11 * d22 - d12 * d12
+                b1, b2 = (d22 * d1 - d12 * d2) / den, (d11 * d2 - d12 * d1) / den
+                b0 = 1.0 - b1 - b2
+                ns = b0[:, None] * n[0] + b1[:, None] * n[1] + b2[:, None] * n[2]
+                ns /= np.linalg.norm(ns, axis=1, keepdims=True)
+                cos_s = -np.einsum("ij,ij->i", ns, d)
+                hit = (t > 0) & (b0 >= 0) & (b1 >= 0) & (b2 >= 0) & (cos_s > 0) & np.isfinite(t)
+                dist2 = t * t
+                true = np.where(hit, dist2 / (np.abs(cos_g) * area), 0.0)
+                reported = np.where(hit, dist2 / (cos_s * area), 0.0)
+            return true, reported
+        return (lambda dirs: at(dirs)[0]), (lambda dirs: at(dirs)[1])
+    return densities
 
 
 def _catalogue() -> tuple:
@@ -262,6 +317,16 @@ def _catalogue() -> tuple:
     def tri_cap(r):
         return _cap(r, np.mean(tri, axis=0), _polygon_boundary(tri))
 
+    # vertex normals leaning up to ~40 degrees off the triangle's -y: seen from below, every
+    # point faces the reference; from beside, part of the triangle faces away by its shading
+    # normal (no samples there) while its geometry faces the point
+    smooth_normals = [(0.6, -1.0, 0.0), (-0.3, -1.0, 0.5), (0.0, -1.0, -0.8)]
+
+    def smooth_triangle():
+        return [rt.Mesh(tri, [[0, 1, 2]], light, normals=smooth_normals)]
+
+    smooth_densities = _smooth_triangle_densities(tri, smooth_normals)
+
     def mixed():
         return [rt.Quad((-2.0, 1.5, -1.0), (1.5, 0.0, 0.0), (0.0, 0.0, 1.5), rt.DiffuseLight(2.0)),
                 rt.Triangle((1.0, -1.0, 1.5), (2.0, 1.0, 1.5), (0.5, 1.0, 1.5), rt.DiffuseLight((1.0, 3.0, 0.5))),
@@ -271,6 +336,10 @@ def _catalogue() -> tuple:
         _light("quad", quad, (0.3, 0.4, -0.2), params=(("ref", "0.6 below"),)),
         _light("quad", quad, (2.0, 0.5, 0.3), cap=quad_cap, params=(("ref", "beside, 0.5 below"),)),
         _light("triangle", triangle, (0.2, 0.3, 0.1), params=(("ref", "0.7 below"),)),
+        _light("smooth_triangle", smooth_triangle, (0.2, 0.3, 0.1), densities=smooth_densities,
+               params=(("ref", "0.7 below"), ("normals", "leaning"))),
+        _light("smooth_triangle", smooth_triangle, (-2.0, 0.85, 0.2), cap=tri_cap, densities=smooth_densities,
+               params=(("ref", "beside, 0.15 below"), ("normals", "leaning"))),
         _light("sphere", sphere(), (0.9, -0.6, -1.0), cap=sphere_cap, params=(("ref", "outside, d=1.48 r"),)),
         _light("sphere", sphere(), (2.4, 0.0, -3.2), cap=sphere_cap, params=(("ref", "outside, d=4 r"),)),
         _light("sphere", sphere(True), (0.3, -0.2, 0.4), params=(("ref", "inside, inward normals"),)),
@@ -386,9 +455,10 @@ def _mixed_checks(spec: dict, grid: Grid, n: int, seed: int, level: float):
     return res, checks
 
 
-def _light_checks(probe: LightProbe, single: bool, n: int, seed: int) -> dict:
-    """A sample's pdf equals light_pdf in its direction (one emitter) or is at most it."""
-    bad = bad_all = valid_count = 0
+def _light_checks(probe: LightProbe, single: bool, n: int, seed: int, reported=None) -> dict:
+    """A sample's pdf equals light_pdf in its direction (one emitter) or is at most it; with
+    ``reported`` (a function of world directions), light_pdf at every sample equals it."""
+    bad = bad_all = valid_count = bad_reported = 0
     worst = 0.0
     for u in _chunks(n, seed):
         s = probe.sample_full(u)
@@ -403,10 +473,15 @@ def _light_checks(probe: LightProbe, single: bool, n: int, seed: int) -> dict:
         else:
             bad += int((pdf > lp * (1 + _LIGHT_RTOL)).sum())
         bad_all += int((~np.isclose(pdf_all, lp, rtol=_RTOL, atol=0)).sum())
+        if reported is not None:
+            bad_reported += int((~np.isclose(lp, reported(wi), rtol=_LIGHT_RTOL, atol=0)).sum())
         valid_count += int(valid.sum())
-    return {"sample_pdf_matches_light_pdf": {"ok": bad == 0, "mismatches": bad, "samples": valid_count,
-                                             "worst_relative": worst if single else None},
-            "pdf_all_is_light_pdf": {"ok": bad_all == 0, "mismatches": bad_all}}
+    checks = {"sample_pdf_matches_light_pdf": {"ok": bad == 0, "mismatches": bad, "samples": valid_count,
+                                               "worst_relative": worst if single else None},
+              "pdf_all_is_light_pdf": {"ok": bad_all == 0, "mismatches": bad_all}}
+    if reported is not None:
+        checks["light_pdf_is_mitsubas_shading_density"] = {"ok": bad_reported == 0, "mismatches": bad_reported}
+    return checks
 
 
 def _lobe_run(spec: dict, n: int, seed: int, alpha: float):
@@ -465,7 +540,7 @@ def run_routine(routine: Routine, *, n: int = DEFAULT_N, seed: int = 0, alpha: f
             checks["specular_share"] = {"ok": lobes.verdict == "pass", "p_value": lobes.p_value,
                                         **lobes.details}
         elif routine.kind == "light":
-            checks = _light_checks(spec["probe"], spec["single"], n, s + 1)
+            checks = _light_checks(spec["probe"], spec["single"], n, s + 1, spec.get("reported"))
     failed = [k for k, v in checks.items() if not v["ok"]]
     verdict, message = res.verdict, res.message
     if failed:

@@ -1,10 +1,11 @@
 """Do two renders of one scene agree? The two figures of the published-scene checks.
 
-Per pixel and channel ``z = (x - y) / sqrt(var_x / n_x + var_y / n_y)``, and per channel the
+Per pixel and channel ``z = (x - y) / sqrt(var_x / n_x + var_y / n_y + (1e-5 y)^2)`` (the last
+term, float32 rounding, only where there is noise), and per channel the
 whole image's ``Z = sum(x - y) / sqrt(Var(sum x) + Var(sum y))``. The scenes agree when
 every ``|Z| <= 4`` and at most 1% of the pixel values have ``|z| > 4`` (for agreeing
 renders, 3 whole-image tests at about 6e-5 each under the normal approximation, and about
-0.006% of pixel values beyond 4). It is a coarse screen, not the gate: no heavy-tail
+0.006% of pixel values beyond 4) and no pixel value differs where neither render has noise. It is a coarse screen, not the gate: no heavy-tail
 diagnostics, no multiple-testing correction of the pixels.
 
 With a tent or Gaussian filter the pixels share samples: a filtered pixel's variance comes
@@ -28,23 +29,34 @@ __all__ = ["Agreement", "agreement", "Z_LIMIT", "SHARE_LIMIT"]
 #: The largest |whole-image z| and share of |pixel z| > Z_LIMIT of agreeing renders.
 Z_LIMIT = 4.0
 SHARE_LIMIT = 0.01
+#: Relative float32 rounding that joins a noisy pixel's standard error: a pixel that is
+#: constant in one renderer (the background seen directly) differs from the other's by
+#: rounding alone.
+RELATIVE_ROUNDING = 1e-5
 
 
 @dataclass(frozen=True)
 class Agreement:
-    """``global_z``: one per channel; ``share``: of pixel values with ``|z| > 4``; ``z``: the map."""
+    """``global_z``: one per channel; ``share``: of pixel values with ``|z| > 4``; ``z``: the map;
+    ``spreadless``: pixel values that differ (beyond float32 rounding) where neither render
+    has any spread (a constant background seen directly): a certain difference, which no z
+    can show."""
 
     global_z: tuple
     share: float
     z: np.ndarray
+    spreadless: int = 0
 
     @property
     def agrees(self) -> bool:
-        return max(abs(g) for g in self.global_z) <= Z_LIMIT and self.share <= SHARE_LIMIT
+        return (max(abs(g) for g in self.global_z) <= Z_LIMIT and self.share <= SHARE_LIMIT
+                and self.spreadless == 0)
 
     def describe(self) -> str:
         zs = ", ".join(f"{g:+.2f}" for g in self.global_z)
-        return f"global z {zs}; {100 * self.share:.2f}% of pixel values |z| > {Z_LIMIT:g}"
+        out = f"global z {zs}; {100 * self.share:.2f}% of pixel values |z| > {Z_LIMIT:g}"
+        return out + (f"; {self.spreadless} pixel value(s) differ where neither render has spread"
+                      if self.spreadless else "")
 
 
 def agreement(ours, theirs, *, pixel_filter=None) -> Agreement:
@@ -75,9 +87,12 @@ def agreement(ours, theirs, *, pixel_filter=None) -> Agreement:
         vx = m2
         sum_x = np.asarray(samples.variance, dtype=np.float64) / nx
         sum_y = vy / ny / fw.variance_ratio
-    se = np.sqrt(vx / nx + vy / ny)
+    se2 = vx / nx + vy / ny
+    se = np.sqrt(np.where(se2 > 0, se2 + (RELATIVE_ROUNDING * np.abs(y)) ** 2, 0.0))
     d = x - y
     z = np.where(se > 0, d / np.where(se > 0, se, 1.0), 0.0)
     total = np.sqrt(sum_x.sum(axis=(0, 1)) + sum_y.sum(axis=(0, 1)))
     glob = tuple(float(d[..., c].sum() / total[c]) if total[c] > 0 else 0.0 for c in range(d.shape[2]))
-    return Agreement(global_z=glob, share=float((np.abs(z) > Z_LIMIT).mean()), z=z)
+    tol = RELATIVE_ROUNDING * np.maximum(1.0, np.maximum(np.abs(x), np.abs(y)))
+    spreadless = int(((se == 0) & (np.abs(d) > tol)).sum())
+    return Agreement(global_z=glob, share=float((np.abs(z) > Z_LIMIT).mean()), z=z, spreadless=spreadless)

@@ -4,6 +4,8 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <cmath>
+#include <optional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -13,6 +15,7 @@
 
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
+#include <nanobind/stl/optional.h>
 
 #include "render.h"
 #include "sampling_probe.h"
@@ -104,7 +107,8 @@ public:
     PyScene(const Vector& lookfrom, const Vector& lookat, const Vector& vup, double vfov, int width, int height,
             const Matrix& materials, const Matrix& spheres, const Matrix& quads, const Matrix& triangles,
             const IndexVector& triangle_materials, const Vector& background, int max_depth, int rr_depth,
-            int triangle_test) {
+            int triangle_test, const std::optional<IndexVector>& smooth_triangles,
+            const std::optional<Matrix>& triangle_normals) {
         if (width < 1 || height < 1) throw std::invalid_argument("image size must be positive");
         if (max_depth < 1) throw std::invalid_argument("max_depth must be >= 1 here (the Python layer maps -1)");
         if (triangle_test < 0 || triangle_test > 2) throw std::invalid_argument("unknown triangle test");
@@ -159,6 +163,37 @@ public:
             tris.push_back({row3(triangles, i, 0), row3(triangles, i, 3), row3(triangles, i, 6),
                             material_id(double(triangle_materials(i)), nm, "triangle_materials")});
 
+        // Smooth shading: row k of triangle_normals holds the vertex normals (at a, b, c) of
+        // triangle smooth_triangles[k]; the other triangles are flat.
+        std::vector<rt::TriangleNormals> normals;
+        if (smooth_triangles.has_value() != triangle_normals.has_value())
+            throw std::invalid_argument("smooth_triangles and triangle_normals come together");
+        if (smooth_triangles) {
+            const IndexVector& index = *smooth_triangles;
+            const Matrix& rows = *triangle_normals;
+            require_columns(rows, 9, "triangle_normals");
+            if (index.shape(0) != rows.shape(0))
+                throw std::invalid_argument("triangle_normals: one row per entry of smooth_triangles expected");
+            normals.reserve(index.shape(0));
+            for (size_t k = 0; k < index.shape(0); ++k) {
+                const int64_t i = index(k);
+                if (i < 0 || size_t(i) >= tris.size())
+                    throw std::invalid_argument("smooth_triangles: triangle index out of range");
+                if (tris[size_t(i)].normals != rt::Triangle::kFlat)
+                    throw std::invalid_argument("smooth_triangles: a triangle is listed twice");
+                rt::TriangleNormals tn;
+                for (int v = 0; v < 3; ++v) {
+                    const rt::Vec3 n = row3(rows, k, size_t(3 * v));
+                    const double len = rt::length(n);
+                    if (!(len > 0.0) || !std::isfinite(len))
+                        throw std::invalid_argument("triangle_normals: every normal must be finite and non-zero");
+                    tn.n[v] = n / len;
+                }
+                tris[size_t(i)].normals = static_cast<uint32_t>(k);
+                normals.push_back(tn);
+            }
+        }
+
         rt::SceneSettings settings;
         settings.background = vec3(background);
         settings.max_depth = max_depth;
@@ -170,7 +205,7 @@ public:
         {
             nb::gil_scoped_release release;
             scene_ = std::make_unique<rt::Scene>(camera, std::move(mats), std::move(sph), std::move(qs),
-                                                 std::move(tris), settings);
+                                                 std::move(tris), settings, std::move(normals));
         }
         build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
@@ -264,7 +299,8 @@ public:
         return result;
     }
 
-    // Closest hits of N rays: t (inf on a miss), primitive id (-1), point and front normal;
+    // Closest hits of N rays: t (inf on a miss), primitive id (-1), point and front normal
+    // (geometric), and the shading normal where the scene has smooth triangles;
     // with `preliminary` only t and the primitive (what Mitsuba's ray_intersect_preliminary
     // gives; the batch queries then skip the point and normal).
     // `wavefront`: through Scene::intersect_batch, as the wavefront integrator asks.
@@ -276,8 +312,10 @@ public:
         const size_t n = origins.shape(0);
         if (threads < 1) throw std::invalid_argument("threads must be >= 1");
         // Every entry is written once, by store() (zeros for a miss's point and normal).
+        // Shading normals only where the scene has smooth triangles (elsewhere the normal).
+        const bool shading = !preliminary && scene_->has_shading_normals();
         std::vector<double, UninitialisedAllocator<double>> t(n), p(preliminary ? 0 : 3 * n),
-            nrm(preliminary ? 0 : 3 * n);
+            nrm(preliminary ? 0 : 3 * n), sh(shading ? 3 * n : 0);
         std::vector<int64_t, UninitialisedAllocator<int64_t>> prim(n);
         auto store = [&](size_t i, bool hit, const rt::Interaction& it) {
             t[i] = hit ? it.t : rt::kInf;
@@ -287,6 +325,8 @@ public:
                 p[3 * i + c] = hit ? it.p[c] : 0.0;
                 nrm[3 * i + c] = hit ? it.n[c] : 0.0;
             }
+            if (shading)
+                for (int c = 0; c < 3; ++c) sh[3 * i + c] = hit ? it.ns[c] : 0.0;
         };
         // Rows of the C-contiguous (N, 3) arrays (checked above), read directly.
         const double* o_rows = origins.data();
@@ -355,6 +395,7 @@ public:
         if (!preliminary) {
             r["point"] = to_numpy(std::move(p), {n, 3});
             r["normal"] = to_numpy(std::move(nrm), {n, 3});
+            if (shading) r["shading_normal"] = to_numpy(std::move(sh), {n, 3});
         }
         r["seconds"] = seconds;
         size_t in_packets = 0;
@@ -537,10 +578,11 @@ NB_MODULE(_core, m) {
     }, "t_near"_a, "met"_a);
     nb::class_<PyScene>(m, "Scene")
         .def(nb::init<const Vector&, const Vector&, const Vector&, double, int, int, const Matrix&, const Matrix&,
-                      const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int>(),
+                      const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int,
+                      const std::optional<IndexVector>&, const std::optional<Matrix>&>(),
              "lookfrom"_a, "lookat"_a, "vup"_a, "vfov"_a, "width"_a, "height"_a, "materials"_a, "spheres"_a,
              "quads"_a, "triangles"_a, "triangle_materials"_a, "background"_a, "max_depth"_a, "rr_depth"_a,
-             "triangle_test"_a = 0)
+             "triangle_test"_a = 0, "smooth_triangles"_a = nb::none(), "triangle_normals"_a = nb::none())
         .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none(),
              "moments"_a = false, "integrator"_a = 0
 #ifdef RT_MUTANTS_MODULE

@@ -58,6 +58,7 @@ private:
     // std::optional<Vertex> returned by a function was copied through the stack twice
     // per bounce.
     struct Vertex {
+        const Interaction& it;  // the hit (ray offsets of a smooth triangle's vertex)
         const Material& m;
         Frame frame;  // around the shading normal: the front normal, flipped on the back
                       // of a two-sided reflector
@@ -67,6 +68,29 @@ private:
         Vertex(const Interaction& it, const Material& m, const Vec3& d, bool front);
         explicit operator bool() const { return can_scatter; }
     };
+
+    // Origins of the rays that leave a vertex: pushed off the surface along the geometric
+    // normal, to the side the ray goes (Mitsuba's spawn_ray). Where the surface is flat,
+    // the frame's normal is the geometric one up to its sign, and these keep the
+    // arithmetic flat scenes have always had, bit for bit.
+    // The reference point of light sampling: off the surface on the side of the frame.
+    [[gnu::always_inline]] static Vec3 reference_point(const Vertex& v) {
+        return offset_origin(v.it.p, v.it.smooth ? v.it.n : v.frame.n, v.frame.n);
+    }
+    // A shadow ray's origin toward wi, given the reference point ref: ref itself, except at
+    // a smooth triangle's vertex, where a light sample may lie below the geometric surface
+    // while above the shading one (the ray then starts below the surface, as Mitsuba's
+    // spawn_ray_to does).
+    [[gnu::always_inline]] static Vec3 shadow_origin(const Vertex& v, const Vec3& ref, const Vec3& wi) {
+        return v.it.smooth ? offset_origin(v.it.p, v.it.n, wi) : ref;
+    }
+    // The next segment's origin toward wi. Delta lobes leave along the geometric normal,
+    // the others along the frame's (the two differ only on the back of two-sided metal, and
+    // there only for a direction exactly in the tangent plane: offset_origin's tie); a
+    // smooth triangle's vertex always along the geometric normal.
+    [[gnu::always_inline]] static Vec3 continuation_origin(const Vertex& v, const Vec3& wi, bool delta) {
+        return offset_origin(v.it.p, delta || v.it.smooth ? v.it.n : v.frame.n, wi);
+    }
 
     // A sampled continuation of the path.
     struct Scatter {
@@ -142,8 +166,8 @@ private:
     Vec3 Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays) const;
     // The emission that arrives at v's reference point `ref` along the sampled direction
     // s->wi, weighted against the light samples' density (Li_direct's BSDF technique).
-    Vec3 direct_bsdf_sample(const Interaction& it, const Vertex& v, const Vec3& ref, const Scatter& s,
-                            double frac_light, double frac_bsdf, uint64_t& rays) const;
+    Vec3 direct_bsdf_sample(const Vertex& v, const Vec3& ref, const Scatter& s, double frac_light,
+                            double frac_bsdf, uint64_t& rays) const;
 
     const Scene& scene_;
     Strategy strategy_;

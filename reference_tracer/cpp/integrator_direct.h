@@ -19,14 +19,14 @@ Vec3 Integrator<M>::Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays) const 
     Interaction it;
     if (!scene_.intersect(ray, it)) return scene_.settings().background;
     const Material& m = scene_.material(it.material);
-    const bool front = dot(ray.d, it.n) < 0.0;
-    Vec3 L = (front && m.emits()) ? m.radiance : Vec3(0.0);  // one-sided, as the area emitter
+    const bool front = dot(ray.d, it.ns) < 0.0;
+    Vec3 L = (front && m.emits()) ? m.radiance : Vec3(0.0);  // one-sided (shading normal), as the area emitter
     const Vertex v(it, m, ray.d, front);
     if (!v) return L;
 
     const double n_e = direct_.emitter, n_b = direct_.bsdf;
     const double frac_light = n_e / (n_e + n_b), frac_bsdf = n_b / (n_e + n_b);
-    const Vec3 ref = offset_origin(it.p, v.frame.n, v.frame.n);
+    const Vec3 ref = reference_point(v);
     const LightSampler& lights = scene_.lights();
 
     // Light samples: only where the material has a lobe they could meet (not a Dirac one).
@@ -40,7 +40,7 @@ Vec3 Integrator<M>::Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays) const 
             if (is_black(f)) continue;
             ++rays;
             const double t_max = ls.background ? kInf : ls.dist * (1.0 - kShadowEpsilon);
-            if (scene_.occluded(Ray{ref, ls.wi}, t_max)) continue;
+            if (scene_.occluded(Ray{shadow_origin(v, ref, ls.wi), ls.wi}, t_max)) continue;
             const double w = power_heuristic(frac_light * ls.pdf, frac_bsdf * bsdf_pdf<M>(m, v.wo, local));
             L += f * ls.radiance * (w / (ls.pdf * n_e));
         }
@@ -49,18 +49,18 @@ Vec3 Integrator<M>::Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays) const 
     // Direction samples, drawn by the strategy's technique (the material's for `mis`).
     for (int i = 0; i < direct_.bsdf; ++i) {
         const std::optional<Scatter> s = sample_scatter(v, ref, rng);
-        if (s) L += direct_bsdf_sample(it, v, ref, *s, frac_light, frac_bsdf, rays) * (1.0 / n_b);
+        if (s) L += direct_bsdf_sample(v, ref, *s, frac_light, frac_bsdf, rays) * (1.0 / n_b);
     }
     return L;
 }
 
 template <Mutant M>
-Vec3 Integrator<M>::direct_bsdf_sample(const Interaction& it, const Vertex& v, const Vec3& ref, const Scatter& s,
-                                       double frac_light, double frac_bsdf, uint64_t& rays) const {
+Vec3 Integrator<M>::direct_bsdf_sample(const Vertex& v, const Vec3& ref, const Scatter& s, double frac_light,
+                                       double frac_bsdf, uint64_t& rays) const {
     // A sample of a Dirac lobe (a mirror, glass, a smooth plastic's coating) could not come
     // from a light sample: its emission counts fully, as in Mitsuba.
     const bool delta = s.delta;
-    const Ray ray{offset_origin(it.p, delta ? it.n : v.frame.n, s.wi), s.wi};
+    const Ray ray{continuation_origin(v, s.wi, delta), s.wi};
     ++rays;
     Interaction hit;
     Vec3 Le;
@@ -70,9 +70,9 @@ Vec3 Integrator<M>::direct_bsdf_sample(const Interaction& it, const Vertex& v, c
         if (!delta) light_pdf = scene_.lights().background_pdf();
     } else {
         const Material& e = scene_.material(hit.material);
-        if (!e.emits() || dot(s.wi, hit.n) >= 0.0) return Vec3(0.0);  // no emitter, or its back
+        if (!e.emits() || dot(s.wi, hit.ns) >= 0.0) return Vec3(0.0);  // no emitter, or its back
         Le = e.radiance;
-        if (!delta) light_pdf = scene_.lights().pdf_emitter(ref, s.wi, hit.prim, hit.p, hit.n);
+        if (!delta) light_pdf = scene_.lights().pdf_emitter(ref, s.wi, hit.prim, hit.p, hit.ns);
     }
     if (is_black(Le)) return Vec3(0.0);
     const double w = strategy_ == Strategy::MIS ? power_heuristic(frac_bsdf * s.pdf, frac_light * light_pdf) : 1.0;

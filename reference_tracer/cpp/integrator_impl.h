@@ -15,12 +15,15 @@ constexpr double kShadowEpsilon = 1e-7;
 constexpr double kLeakyShadowEpsilon = 1e-2;
 
 // Glass keeps its front normal (inside/outside matters); reflectors are black from the
-// back unless two-sided, in which case the frame flips.
+// back unless two-sided, in which case the frame flips. Front and back are those of the
+// shading normal it.ns (Mitsuba's BSDFs test only the cosines of its shading frame, with
+// no check against the geometric normal: a smooth triangle's light leaks and black
+// regions stay as Mitsuba has them).
 // Always inline here, in sample_scatter and sample_material: with two callers (Li and the wavefront
 // integrator) GCC left both out of line, +4% instructions per sample.
 template <Mutant M>
-[[gnu::always_inline]] inline Integrator<M>::Vertex::Vertex(const Interaction& it, const Material& m_, const Vec3& d, bool front)
-    : m(m_), frame(front || m_.is_glass() ? it.n : -it.n), wo(frame.to_local(-d)),
+[[gnu::always_inline]] inline Integrator<M>::Vertex::Vertex(const Interaction& it_, const Material& m_, const Vec3& d, bool front)
+    : it(it_), m(m_), frame(front || m_.is_glass() ? it_.ns : -it_.ns), wo(frame.to_local(-d)),
       can_scatter(m_.reflects && (front || m_.is_glass() || m_.two_sided) &&
                   (wo.z != 0.0 || m_.is_glass())) {}  // exactly grazing: no reflection
 
@@ -29,7 +32,7 @@ double Integrator<M>::emitter_weight(const PrevVertex& prev, const Ray& ray, con
     // Only `mis` samples lights and directions both, and only at non-delta vertices.
     if (strategy_ != Strategy::MIS || prev.delta) return 1.0;
     if constexpr (M == Mutant::EmitterWeightOne) return 1.0;  // seeded bug: NEE and BSDF hits both count fully
-    return power_heuristic(prev.pdf, scene_.lights().pdf_emitter(prev.ref, ray.d, it.prim, it.p, it.n));
+    return power_heuristic(prev.pdf, scene_.lights().pdf_emitter(prev.ref, ray.d, it.prim, it.p, it.ns));
 }
 
 template <Mutant M>
@@ -61,7 +64,7 @@ std::optional<Vec3> Integrator<M>::estimate_ld(const Vertex& v, const Vec3& beta
     // count as an occluder.
     constexpr double eps = M == Mutant::ShadowEpsilonLeak ? kLeakyShadowEpsilon : kShadowEpsilon;
     const double t_max = ls.background ? kInf : ls.dist * (1.0 - eps);
-    if (occluded(Ray{ref, ls.wi}, t_max)) return std::nullopt;
+    if (occluded(Ray{shadow_origin(v, ref, ls.wi), ls.wi}, t_max)) return std::nullopt;
     const double w = power_heuristic(ls.pdf, bsdf_pdf<M>(v.m, v.wo, local));
     // beta enters the product first, as it always has: the order fixes the rounding.
     return beta * f * ls.radiance * (w / ls.pdf);
@@ -81,7 +84,7 @@ std::optional<Vec3> Integrator<M>::light_only(const Vertex& v, const Vec3& ref, 
     // line meets could have produced it), and the radiance is whatever the ray meets first.
     const double pdf = lights.pdf_all(ref, ls.wi);
     if (!(pdf > 0.0)) return std::nullopt;
-    return beta * f * direct_emission(ref, ls.wi, rays) / pdf;
+    return beta * f * direct_emission(shadow_origin(v, ref, ls.wi), ls.wi, rays) / pdf;
 }
 
 template <Mutant M>
@@ -177,7 +180,7 @@ Vec3 Integrator<M>::direct_emission(const Vec3& o, const Vec3& wi, uint64_t& ray
     if (!scene_.intersect(Ray{o, wi}, it)) return scene_.settings().background;
     const Material& m = scene_.material(it.material);
     if constexpr (M == Mutant::TwoSidedLight) return m.emits() ? m.radiance : Vec3(0.0);  // seeded bug
-    return (m.emits() && dot(wi, it.n) < 0.0) ? m.radiance : Vec3(0.0);
+    return (m.emits() && dot(wi, it.ns) < 0.0) ? m.radiance : Vec3(0.0);
 }
 
 // Always inline: the wavefront integrator called it out of line, a call per vertex (1.2% of
@@ -212,9 +215,9 @@ Vec3 Integrator<M>::Li_path(Ray ray, PCG64& rng, uint64_t& rays) const {
             return L;
         }
         const Material& m = scene_.material(it.material);
-        const bool front = dot(ray.d, it.n) < 0.0;
-        // Emission is one-sided: front face only, as Mitsuba's area emitter.
-        // (Mutant::TwoSidedLight: the back emits too.)
+        const bool front = dot(ray.d, it.ns) < 0.0;
+        // Emission is one-sided: front face only, as Mitsuba's area emitter (the front
+        // of the shading normal). (Mutant::TwoSidedLight: the back emits too.)
         if ((front || M == Mutant::TwoSidedLight) && m.emits()) L += beta * m.radiance * emitter_weight(prev, ray, it);
 
         // Another segment is allowed only while depth + 1 < max_depth (Mitsuba's rule).
@@ -227,8 +230,9 @@ Vec3 Integrator<M>::Li_path(Ray ray, PCG64& rng, uint64_t& rays) const {
         Vec3 ref;
         if (!m.is_delta()) {
             // Reference point for light sampling: just off the surface on the reflecting
-            // side, so sphere lights are seen from the correct side.
-            ref = offset_origin(it.p, v.frame.n, v.frame.n);
+            // side, so sphere lights are seen from the correct side (along the geometric
+            // normal: reference_point).
+            ref = reference_point(v);
             if (strategy_ == Strategy::Light) {  // all of `light`'s estimate: its path ends here
                 if (const std::optional<Vec3> Ld = light_only(v, ref, beta, rng, rays)) L += *Ld;
                 return L;
@@ -248,10 +252,7 @@ Vec3 Integrator<M>::Li_path(Ray ray, PCG64& rng, uint64_t& rays) const {
         // sample for smooth plastic, whose specular bounce is a mirror's to the next
         // vertex (an emitter hit there is not weighted: no light sample could have met it).
         prev = PrevVertex{s->delta, s->pdf, ref};
-        // Delta lobes leave along the geometric normal, the others along the shading normal;
-        // the two differ only on the back of two-sided reflectors, and there only for a
-        // direction exactly in the tangent plane (offset_origin's tie).
-        ray = Ray{offset_origin(it.p, s->delta ? it.n : v.frame.n, s->wi), s->wi};
+        ray = Ray{continuation_origin(v, s->wi, s->delta), s->wi};
         if (!survives(depth + 1, eta, beta, rng)) return L;
     }
 }

@@ -22,9 +22,11 @@ AABB padded(AABB b) {
 }  // namespace
 
 Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere> spheres,
-             std::vector<Quad> quads, std::vector<Triangle> triangles, SceneSettings settings)
+             std::vector<Quad> quads, std::vector<Triangle> triangles, SceneSettings settings,
+             std::vector<TriangleNormals> normals)
     : camera_(camera), materials_(std::move(materials)), spheres_(std::move(spheres)),
-      quads_(std::move(quads)), triangles_(std::move(triangles)), settings_(settings) {
+      quads_(std::move(quads)), triangles_(std::move(triangles)), normals_(std::move(normals)),
+      settings_(settings) {
     quad_base_ = static_cast<uint32_t>(spheres_.size());
     tri_base_ = quad_base_ + static_cast<uint32_t>(quads_.size());
 
@@ -104,7 +106,7 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
         if (materials_[triangles_[i].material].emits() && !triangles_[i].degenerate())
             emitters.push_back({EmitterKind::Triangle, tri_base_ + i, i, materials_[triangles_[i].material].radiance});
     lights_ = LightSampler(std::move(emitters), &spheres_, &quads_, &triangles_, settings_.background,
-                           primitive_count());
+                           primitive_count(), &normals_);
 }
 
 void Scene::choose_quad_runs(const AABB& world) {
@@ -178,21 +180,26 @@ void Scene::fill_interaction(const Ray& ray, double t, uint32_t prim, Interactio
     if (prim < quad_base_) {
         const Sphere& s = spheres_[prim];
         s.surface(ray.at(t), it.p, it.n);
+        it.ns = it.n;
+        it.smooth = false;  // the batch queries reuse their interactions
         it.material = s.material;
     } else if (prim < tri_base_) {
         const Quad& q = quads_[prim - quad_base_];
         // o + t d carries the error of the ray's origin (large for a distant camera);
         // projecting onto the plane leaves only a few ulps of |p| off the surface.
         it.p = project_to_plane(ray.at(t), q.Q, q.normal);
-        it.n = q.normal;
+        it.n = it.ns = q.normal;
+        it.smooth = false;
         it.material = q.material;
     } else {
         fill_triangle(ray, t, triangles_[prim - tri_base_], it);
+        if (!normals_.empty()) shade_smooth(it);
     }
 }
 
 void Scene::fill_triangle(const Ray& ray, double t, const Triangle& tri, Interaction& it) {
-    it.n = tri.normal();
+    it.n = it.ns = tri.normal();
+    it.smooth = false;
     it.p = project_to_plane(ray.at(t), tri.a, it.n);
     it.material = tri.material;
 }

@@ -59,9 +59,12 @@ struct Camera {
 struct Interaction {
     double t = kInf;
     Vec3 p;          // hit point
-    Vec3 n;          // unit normal of the primitive's front side
+    Vec3 n;          // unit geometric normal of the primitive's front side (ray offsets)
+    Vec3 ns;         // unit shading normal: n, or the interpolated vertex normals of a
+                     // smooth triangle (BSDF frame, front side of emission and scattering)
     uint32_t prim = 0;
     uint32_t material = 0;
+    bool smooth = false;  // ns comes from vertex normals (it may differ from n)
 };
 
 struct SceneSettings {
@@ -73,8 +76,11 @@ struct SceneSettings {
 
 class Scene {
 public:
+    // `normals`: the vertex normals of the smooth triangles, which refer to them by index
+    // (Triangle::normals); none for a scene shaded flat.
     Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere> spheres,
-          std::vector<Quad> quads, std::vector<Triangle> triangles, SceneSettings settings);
+          std::vector<Quad> quads, std::vector<Triangle> triangles, SceneSettings settings,
+          std::vector<TriangleNormals> normals = {});
     // Copies would leave the light sampler pointing into the source's arrays.
     Scene(const Scene&) = delete;
     Scene& operator=(const Scene&) = delete;
@@ -137,6 +143,8 @@ public:
     size_t sphere_count() const { return spheres_.size(); }
     size_t quad_count() const { return quads_.size(); }
     size_t triangle_count() const { return triangles_.size(); }
+    // Whether any triangle has vertex normals (smooth shading).
+    bool has_shading_normals() const { return !normals_.empty(); }
 
 private:
     // Tests primitive `prim`; on a hit closer than t_max, lowers t_max and records it.
@@ -289,17 +297,29 @@ private:
             it.prim = best.prim;
             fill_triangle(ray, t, float_blocks_ ? tri4f_[best.block].triangle(best.lane)
                                                 : tri4_[best.block].triangle(best.lane), it);
+            if (!normals_.empty()) shade_smooth(it);
         } else {
             fill_interaction(ray, t, best.prim, it);
         }
     }
     static void fill_triangle(const Ray& ray, double t, const Triangle& tri, Interaction& it);
+    // The shading normal of a triangle hit (it.prim, it.p) where the triangle has vertex
+    // normals; leaves a flat triangle's hit as fill_triangle made it.
+    void shade_smooth(Interaction& it) const {
+        const Triangle& tri = triangles_[it.prim - tri_base_];
+        if (tri.normals == Triangle::kFlat) return;
+        double w[3];
+        tri.barycentrics(it.p, w);
+        it.ns = normals_[tri.normals].at(w, it.n);
+        it.smooth = true;
+    }
 
     Camera camera_;
     std::vector<Material> materials_;
     std::vector<Sphere> spheres_;
     std::vector<Quad> quads_;
     std::vector<Triangle> triangles_;
+    std::vector<TriangleNormals> normals_;  // of the smooth triangles (Triangle::normals)
     SceneSettings settings_;
     WideBVH bvh_;
     // Scenes of at most kDirectTestLimit spheres and quads skip the tree (see the constructor).

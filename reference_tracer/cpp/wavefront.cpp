@@ -11,7 +11,7 @@
 namespace rt {
 
 WavefrontIntegrator::WavefrontIntegrator(const Integrator<Mutant::None>& integrator, const RenderJob& job)
-    : integrator_(integrator), scene_(*job.scene), job_(job) {
+    : integrator_(integrator), scene_(*job.scene), job_(job), smooth_(job.scene->has_shading_normals()) {
     const bool light_samples = integrator_.strategy_ == Strategy::MIS && !scene_.lights().empty();
     for (uint32_t id = 0; id < scene_.material_count(); ++id) {
         const Material& m = scene_.material(id);
@@ -72,7 +72,7 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
     }
     const Material& m = scene_.material(it.material);
     const unsigned flags = material_flags_[it.material];
-    const bool front = dot(lane.ray.d, it.n) < 0.0;
+    const bool front = dot(lane.ray.d, it.ns) < 0.0;
     if (front && (flags & kEmits)) lane.L += lane.beta * m.radiance * li.emitter_weight(lane.prev, lane.ray, it);
     if (lane.depth + 1 >= cfg.max_depth) {
         lane.path_done = true;
@@ -82,7 +82,7 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
         // Vertex's constructor less its frame's tangents, which only scatter_diffuse() needs
         // (and builds a pack at a time): the shading normal, wo's local z and whether the
         // path can scatter here (PERFORMANCE.md, Ideas tried).
-        lane.normal = front ? it.n : -it.n;
+        lane.normal = front ? it.ns : -it.ns;
         lane.wo_z = dot_fused(-lane.ray.d, lane.normal);
         if (!(m.reflects && (front || m.two_sided) && lane.wo_z != 0.0)) {
             lane.path_done = true;
@@ -102,7 +102,7 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
     Vec3& ref = lane.ref;
     ref = Vec3();
     if (!m.is_delta()) {
-        ref = offset_origin(it.p, v.frame.n, v.frame.n);
+        ref = li.reference_point(v);
         if (li.strategy_ == Strategy::Light) {  // the path ends with one query of its own
             if (const std::optional<Vec3> Ld = li.light_only(v, ref, lane.beta, lane.rng, rays)) lane.L += *Ld;
             lane.path_done = true;
@@ -145,6 +145,13 @@ bool WavefrontIntegrator::queue_vertex(Lane& lane, VertexQueue& q, int k) const 
         q.p[a][k] = lane.it.p[a];
     }
     q.wo_z[k] = lane.wo_z;
+    if (smooth_) {
+        // The normal its rays are offset along: the geometric one at a smooth triangle,
+        // elsewhere the frame's (what offset_origin takes in Integrator::Li).
+        const Interaction& it = lane.it;
+        q.smooth[k] = it.smooth ? 1.0 : 0.0;
+        for (int a = 0; a < 3; ++a) q.g[a][k] = it.smooth ? it.n[a] : lane.normal[a];
+    }
     return true;
 }
 
@@ -208,7 +215,13 @@ int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, con
             nv[a] = load_pack(q.n[a] + base);
             u[a] = load_pack(q.u[a] + base);
         }
-        reference_points(p, nv, ref);
+        if (smooth_) {
+            VPd g[3];
+            for (int a = 0; a < 3; ++a) g[a] = load_pack(q.g[a] + base);
+            offset_toward(p, g, nv, offset_epsilon(p), ref);  // Integrator::reference_point
+        } else {
+            reference_points(p, nv, ref);
+        }
         const LightSamplePack ls = scene_.lights().sample_pack(ref, u, light);
         const unsigned diffuse = lane_mask(load_pack(q.diffuse + base) != 0.0) & light;
         VPd value[3], t_far;
@@ -221,7 +234,10 @@ int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, con
             const int l = __builtin_ctz(left);
             Lane& lane = *q.lanes[base + l];
             // What estimate_ld does after its checks: count the shadow ray (above) and queue it.
-            lane.shadow_ray = Ray{Vec3(ref[0][l], ref[1][l], ref[2][l]), Vec3(ls.wi[0][l], ls.wi[1][l], ls.wi[2][l])};
+            const Vec3 wi(ls.wi[0][l], ls.wi[1][l], ls.wi[2][l]);
+            lane.shadow_ray = Ray{Vec3(ref[0][l], ref[1][l], ref[2][l]), wi};
+            if (smooth_ && q.smooth[base + l] != 0.0)  // Integrator::shadow_origin
+                lane.shadow_ray.o = offset_origin(lane.it.p, lane.it.n, wi);
             lane.shadow_t_max = t_far[l];
             lane.shadow_value = Vec3(value[0][l], value[1][l], value[2][l]);
             shadowed[n_shadow] = &lane;
@@ -316,11 +332,20 @@ void WavefrontIntegrator::scatter_diffuse(const VertexQueue& q, int n) const {
         frame_tangents(nv, fs, ft);
         VPd wi[3];
         for (int a = 0; a < 3; ++a) wi[a] = mul_add(nv[a], w[2], mul_add(ft[a], w[1], fs[a] * w[0]));
-        // offset_origin(p, n, wi) (math.h), and the reference point offset_origin(p, n, n).
+        // offset_origin(p, n, wi) (math.h), and the reference point offset_origin(p, n, n);
+        // along the geometric normal g at smooth triangles (Integrator::continuation_origin,
+        // reference_point).
         const VPd eps = offset_epsilon(p);
         VPd origin[3], ref[3];
-        offset_toward(p, nv, wi, eps, origin);
-        offset_toward(p, nv, nv, eps, ref);
+        if (smooth_) {
+            VPd g[3];
+            for (int a = 0; a < 3; ++a) g[a] = load_pack(q.g[a] + base);
+            offset_toward(p, g, wi, eps, origin);
+            offset_toward(p, g, nv, eps, ref);
+        } else {
+            offset_toward(p, nv, wi, eps, origin);
+            offset_toward(p, nv, nv, eps, ref);
+        }
         // continue_path, lane by lane. The sample's eta is 1 (eta *= 1 changes nothing).
         for (unsigned left = lanes; left != 0; left &= left - 1) {
             const int l = __builtin_ctz(left);
@@ -344,7 +369,6 @@ void WavefrontIntegrator::scatter_diffuse(const VertexQueue& q, int n) const {
 void WavefrontIntegrator::continue_path(Lane& lane, const std::optional<Integrator<Mutant::None>::Scatter>& s) const {
     const Integrator<Mutant::None>& li = integrator_;
     const Vertex& v = *lane.vertex;
-    const Interaction& it = lane.it;
     const Vec3& ref = lane.ref;
     if (!s) {
         lane.path_done = true;
@@ -354,7 +378,7 @@ void WavefrontIntegrator::continue_path(Lane& lane, const std::optional<Integrat
     lane.eta *= s->eta;
     // As Li: the sample's own delta flag (smooth plastic's specular bounce is a mirror's).
     lane.prev = PrevVertex{s->delta, s->pdf, ref};
-    lane.ray = Ray{offset_origin(it.p, s->delta ? it.n : v.frame.n, s->wi), s->wi};
+    lane.ray = Ray{li.continuation_origin(v, s->wi, s->delta), s->wi};
     const bool goes_on = li.survives(lane.depth + 1, lane.eta, lane.beta, lane.rng);
     lane.path_done = !goes_on;
     lane.depth += goes_on;

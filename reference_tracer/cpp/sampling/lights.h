@@ -2,6 +2,11 @@
 // fixed share), then a point on it, and return the direction with its solid-angle density.
 //
 // Quads and triangles are sampled uniformly by area: pdf = dist^2 / (|cos_light| area).
+// On a smooth triangle (vertex normals) cos_light and the side test take the shading normal
+// at the sampled point, as Mitsuba's mesh emitters do (Mesh::sample_position interpolates
+// the vertex normals; the area emitter's sample_direction and pdf_direction use it): the
+// density then differs from the true one of area sampling by |cos_geometric / cos_shading|,
+// which is Mitsuba's estimator and the one matched here on purpose.
 // Spheres seen from outside are sampled uniformly inside the cone they subtend (every
 // sample visible, no wasted back side); from inside (or the surface, e.g. a furnace),
 // uniformly by area. Emission is one-sided: a sampled point seen from its back emits
@@ -83,9 +88,10 @@ public:
     LightSampler() = default;
     LightSampler(std::vector<Emitter> emitters, const std::vector<Sphere>* spheres,
                  const std::vector<Quad>* quads, const std::vector<Triangle>* triangles,
-                 const Vec3& background, size_t prim_count)
+                 const Vec3& background, size_t prim_count,
+                 const std::vector<TriangleNormals>* normals = nullptr)
         : emitters_(std::move(emitters)), spheres_(spheres), quads_(quads), triangles_(triangles),
-          background_(background) {
+          normals_(normals), background_(background) {
         std::vector<double> power;
         for (const Emitter& e : emitters_) power.push_back(area(e) * luminance(e.radiance));
         select_ = DiscreteDistribution(power);
@@ -319,8 +325,8 @@ public:
     }
 
     // Density of sample() for the emitter `prim` in direction wi from ref, where the ray
-    // (ref, wi) meets that emitter at `p` with front normal `n` (used for MIS weights of
-    // emitters hit by BSDF sampling).
+    // (ref, wi) meets that emitter at `p` with front (shading) normal `n` (used for MIS
+    // weights of emitters hit by BSDF sampling).
     double pdf_emitter(const Vec3& ref, const Vec3& wi, uint32_t prim, const Vec3& p, const Vec3& n) const {
         const int i = emitter_of_prim(prim);
         if (i < 0) return 0.0;
@@ -354,7 +360,15 @@ public:
                 case EmitterKind::Triangle: {
                     const Triangle& tr = (*triangles_)[e.index];
                     hit = intersect_watertight(tr, r, WatertightRay(wi), 0.0, kInf, t);
-                    if (hit) { p = r.at(t); n = tr.normal(); }
+                    if (hit) {
+                        p = r.at(t);
+                        n = tr.normal();
+                        if (tr.normals != Triangle::kFlat) {
+                            double w[3];
+                            tr.barycentrics(p, w);
+                            n = (*normals_)[tr.normals].at(w, n);
+                        }
+                    }
                     break;
                 }
             }
@@ -444,8 +458,14 @@ private:
             }
             case EmitterKind::Triangle: {
                 const Triangle& t = (*triangles_)[e.index];
-                p = t.point(u1, u2);
-                n = t.normal();
+                if (t.normals == Triangle::kFlat) {
+                    p = t.point(u1, u2);
+                    n = t.normal();
+                } else {  // the shading normal at the sampled point
+                    double w[3];
+                    p = t.point(u1, u2, w);
+                    n = (*normals_)[t.normals].at(w, t.normal());
+                }
                 return true;
             }
             case EmitterKind::Sphere: return sample_sphere(e, ref, u1, u2, p, n, pdf_dir);
@@ -490,6 +510,7 @@ private:
     const std::vector<Sphere>* spheres_ = nullptr;
     const std::vector<Quad>* quads_ = nullptr;
     const std::vector<Triangle>* triangles_ = nullptr;
+    const std::vector<TriangleNormals>* normals_ = nullptr;  // of smooth triangles (Triangle::normals)
     Vec3 background_;
     DiscreteDistribution select_;
     std::vector<int32_t> prim_to_emitter_;

@@ -24,8 +24,14 @@ namespace rt {
 enum class TriangleTest : int { Watertight = 0, Cramer = 1, Cramer32 = 2 };
 
 struct Triangle {
+    // `normals` of a triangle shaded flat: it has no vertex normals.
+    static constexpr uint32_t kFlat = UINT32_MAX;
+
     Vec3 a, b, c;
     uint32_t material;
+    // Index of its vertex normals in the scene's TriangleNormals (smooth shading), or
+    // kFlat. It fills the padding after `material`: flat scenes pay nothing for it.
+    uint32_t normals = kFlat;
 
     AABB bounds() const {
         AABB box;
@@ -43,6 +49,42 @@ struct Triangle {
     Vec3 point(double u1, double u2) const {
         const double su = std::sqrt(u1);
         return (1.0 - su) * a + (su * (1.0 - u2)) * b + (su * u2) * c;
+    }
+    // The same point with its barycentric coordinates (weights of a, b, c).
+    Vec3 point(double u1, double u2, double (&w)[3]) const {
+        const double su = std::sqrt(u1);
+        w[0] = 1.0 - su;
+        w[1] = su * (1.0 - u2);
+        w[2] = su * u2;
+        return w[0] * a + w[1] * b + w[2] * c;
+    }
+    // Barycentric coordinates (weights of a, b, c) of a point p in the triangle's plane.
+    void barycentrics(const Vec3& p, double (&w)[3]) const {
+        const Vec3 e1 = b - a, e2 = c - a, d = p - a;
+        const double d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2);
+        const double d1 = dot(d, e1), d2 = dot(d, e2);
+        const double inv = 1.0 / (d11 * d22 - d12 * d12);
+        w[1] = (d22 * d1 - d12 * d2) * inv;
+        w[2] = (d11 * d2 - d12 * d1) * inv;
+        w[0] = 1.0 - w[1] - w[2];
+    }
+};
+static_assert(sizeof(Triangle) == 80, "Triangle: the normals index lives in the padding after the material");
+
+// The unit vertex normals (world space) of a smooth-shaded triangle, at a, b and c.
+struct TriangleNormals {
+    Vec3 n[3];
+
+    // Mitsuba's shading normal at barycentric coordinates w (weights of a, b, c): the
+    // interpolated vertex normals, normalised (src/render/mesh.cpp,
+    // compute_surface_interaction and sample_position). Where they cancel (vertex
+    // normals facing opposite ways), the length is 0 and Mitsuba's normal would be NaN:
+    // the triangle's own normal `flat` is used there instead.
+    Vec3 at(const double (&w)[3], const Vec3& flat) const {
+        const Vec3 s = n[2] * w[2] + (n[1] * w[1] + n[0] * w[0]);
+        const double len2 = dot(s, s);
+        if (!(len2 > 0.0) || !std::isfinite(len2)) return flat;
+        return s / std::sqrt(len2);
     }
 };
 

@@ -1,0 +1,208 @@
+"""The XML files of a folder: scenes, fragments, and what each one reads.
+
+A file is a *fragment*, not judged on its own, when another XML file of the folder
+``<include>``s it or when its root element is not ``<scene>``. Each scene's *content
+hash* covers the file and every file it names that can be found (includes, meshes,
+textures, spectra: ``filename`` values resolved, as Mitsuba does, against the including
+file's folder, the scene's folder and its ``<path>`` folders, with ``$name`` defaults
+substituted); a rerun reuses a verdict only while that hash is the same.
+
+Everything here reads files only: Python's ``xml.etree`` (no external entities; expat
+bounds entity expansion), files larger than :data:`MAX_XML_BYTES` and special files are
+skipped. Nothing Mitsuba-specific is imported.
+
+Examples
+--------
+>>> import tempfile, pathlib
+>>> d = pathlib.Path(tempfile.mkdtemp())
+>>> _ = (d / "a.xml").write_text('<scene version="3.0.0"><include filename="inc/b.xml"/></scene>')
+>>> (d / "inc").mkdir(); _ = (d / "inc/b.xml").write_text('<scene version="3.0.0"/>')
+>>> found = scan(d)
+>>> [p.name for p in found.scenes], {p.name: [q.name for q in by] for p, by in found.fragments.items()}
+(['a.xml'], {'b.xml': ['a.xml']})
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import stat
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from benchmarks.files import open_regular
+
+__all__ = ["MAX_XML_BYTES", "Scan", "scan", "xml_files", "referenced_files", "content_hash", "display_path",
+           "printable"]
+
+#: larger XML files are not parsed here (Mitsuba still judges them as scenes).
+MAX_XML_BYTES = 16 << 20
+#: include chains deeper than this are not followed (Mitsuba's own limit is 15).
+MAX_INCLUDE_DEPTH = 16
+
+_PARAM = re.compile(r"\$(\w+)")
+
+
+@dataclass
+class Scan:
+    """What :func:`scan` found: ``scenes`` to judge (sorted), ``fragments`` (path -> the
+    files that include it, or ``[]`` when its root is not a scene) and ``roots`` (path ->
+    the root element's tag, for fragments whose root is not ``<scene>``)."""
+
+    scenes: list = field(default_factory=list)
+    fragments: dict = field(default_factory=dict)
+    roots: dict = field(default_factory=dict)
+
+
+def printable(path) -> str:
+    """A path as text that encodes to UTF-8 (bytes that are not UTF-8 shown as ``\\udcNN``)."""
+    return os.fspath(path).encode("utf-8", "backslashreplace").decode("utf-8")
+
+
+def display_path(path, root) -> str:
+    """``path`` relative to ``root``, :func:`printable`.
+
+    >>> display_path("/data/scenes/a b.xml", "/data")
+    'scenes/a b.xml'
+    """
+    return printable(os.path.relpath(os.fspath(path), os.fspath(root)))
+
+
+def xml_files(root) -> list:
+    """Every regular ``*.xml`` file under ``root`` (recursive, symbolic links not followed), sorted."""
+    root = Path(root)
+    out = []
+    for folder, dirs, files in os.walk(root, followlinks=False):
+        dirs.sort()
+        for name in files:
+            if not name.lower().endswith(".xml"):
+                continue
+            path = Path(folder) / name
+            try:
+                if stat.S_ISREG(os.lstat(path).st_mode):
+                    out.append(path)
+            except OSError:
+                continue
+    return sorted(out)
+
+
+def _parse(path: Path):
+    """The root element of ``path``, or None when it cannot be read or parsed here."""
+    try:
+        with open_regular(path, max_bytes=MAX_XML_BYTES) as f:
+            return ET.fromstring(f.read())
+    except (OSError, ValueError, ET.ParseError, RecursionError):
+        return None
+
+
+def _subst(text, defaults: dict):
+    if text is None:
+        return None
+    return _PARAM.sub(lambda m: str(defaults.get(m.group(1), m.group(0))), text)
+
+
+def _find(name, folders) -> Path | None:
+    if not name or "\x00" in name:
+        return None
+    for folder in folders:
+        cand = Path(folder) / name
+        try:
+            if cand.is_file():
+                return cand.resolve()
+        except (OSError, ValueError):
+            continue
+    return None
+
+
+def _walk(path: Path, *, scene_dir: Path, search: list, defaults: dict, seen: set, depth: int,
+          includes: list, files: list) -> None:
+    path = path.resolve()
+    if path in seen or depth > MAX_INCLUDE_DEPTH:
+        return
+    seen.add(path)
+    root = _parse(path)
+    if root is None:
+        return
+    defaults = {**{d.get("name"): d.get("value") for d in root.iter("default")}, **defaults}
+    search = list(search)
+    for p in root.iter("path"):
+        value = _subst(p.get("value"), defaults)
+        if value:
+            search.insert(0, (path.parent / value))
+    folders = [path.parent, scene_dir] + search
+    for el in root.iter():
+        if el.tag == "include":
+            found = _find(_subst(el.get("filename"), defaults), folders)
+            if found is not None:
+                includes.append(found)
+                files.append(found)
+                _walk(found, scene_dir=scene_dir, search=search, defaults=defaults, seen=seen, depth=depth + 1,
+                      includes=includes, files=files)
+        elif el.get("name") == "filename" and el.get("value") is not None:
+            found = _find(_subst(el.get("value"), defaults), folders)
+            if found is not None:
+                files.append(found)
+
+
+def _references(path) -> tuple:
+    path = Path(path).resolve()
+    includes, files = [], []
+    _walk(path, scene_dir=path.parent, search=[], defaults={}, seen=set(), depth=0, includes=includes, files=files)
+    return list(dict.fromkeys(includes)), list(dict.fromkeys(files))
+
+
+def referenced_files(path) -> list:
+    """The files ``path`` names that can be found (includes first met first), without repeats."""
+    return _references(path)[1]
+
+
+def scan(root) -> Scan:
+    """The scenes and fragments among the XML files under ``root`` (see the module docstring)."""
+    root = Path(root).resolve()
+    found = Scan()
+    files = xml_files(root)
+    included_by: dict = {}
+    for path in files:
+        top = _parse(path)
+        if top is not None and top.tag != "scene":
+            found.roots[path] = str(top.tag)
+        for inc in _references(path)[0]:
+            included_by.setdefault(inc, []).append(path)
+    for path in files:
+        by = included_by.get(path.resolve())
+        if by:
+            found.fragments[path] = sorted(by)
+        elif path in found.roots:
+            found.fragments[path] = []
+        else:
+            found.scenes.append(path)
+    return found
+
+
+def _file_digest(path: Path, cache: dict) -> str:
+    if path not in cache:
+        h = hashlib.sha256()
+        try:
+            with open_regular(path) as f:
+                for chunk in iter(lambda: f.read(1 << 20), b""):
+                    h.update(chunk)
+            cache[path] = h.hexdigest()
+        except (OSError, ValueError) as exc:
+            cache[path] = f"unreadable: {type(exc).__name__}"
+    return cache[path]
+
+
+def content_hash(path, root, *, cache: dict | None = None) -> str:
+    """SHA-256 over scene ``path`` and every file it names (:func:`referenced_files`), each
+    with its path relative to ``root``: it changes when any of them changes, moves or appears.
+
+    ``cache`` (path -> digest) spares re-reading files shared by several scenes.
+    """
+    cache = {} if cache is None else cache
+    path = Path(path).resolve()
+    h = hashlib.sha256()
+    for f in [path] + sorted(set(referenced_files(path)) - {path}):
+        h.update(os.path.relpath(f, Path(root).resolve()).encode("utf-8", "surrogateescape"))
+        h.update(b"\0" + _file_digest(f, cache).encode() + b"\n")
+    return h.hexdigest()

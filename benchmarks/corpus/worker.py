@@ -1,0 +1,131 @@
+"""The corpus worker: a process that judges scenes one at a time, killed when one runs too long.
+
+Mitsuba and our tracer run in C++ that Python cannot interrupt, and a scene from a corpus
+may crash either. So scenes are judged in a worker process (``multiprocessing``, spawned):
+:meth:`SceneWorker.judge` sends it one job and waits at most the scene's time limit; past
+it the worker is killed and the scene recorded as ``timeout``; a worker that dies (a
+crash) gives ``render-error`` with its exit code. The next scene starts a fresh worker.
+The worker's stdout and stderr (Mitsuba's log) go to a log file, not the terminal; it
+ignores Ctrl-C, which the parent handles by stopping it.
+"""
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import time
+
+__all__ = ["SceneWorker"]
+
+#: seconds a fresh worker may take to import Mitsuba and choose its variant.
+START_TIMEOUT_S = 600
+
+
+def _serve(conn, log_path: str, variant, threads) -> None:
+    """The worker's main loop (in the child process)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops the worker
+    fd = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+    os.dup2(fd, 1)
+    os.dup2(fd, 2)
+    os.close(fd)
+    from benchmarks.corpus.judge import judge_scene, setup
+
+    try:
+        conn.send(("ready", setup(variant, threads)))
+    except Exception as exc:  # noqa: BLE001 - reported to the parent, which stops the run
+        conn.send(("error", f"{type(exc).__name__}: {exc}"))
+        return
+    while True:
+        try:
+            job = conn.recv()
+        except EOFError:
+            return
+        if job is None:
+            return
+        try:
+            conn.send(("done", judge_scene(job)))
+        except Exception as exc:  # noqa: BLE001 - judge_scene records scene errors; this is a bug
+            conn.send(("done", {"status": "render-error", "reasons": [f"{type(exc).__name__}: {exc}"]}))
+
+
+class SceneWorker:
+    """One worker process at a time, started when needed (see the module docstring)."""
+
+    def __init__(self, *, log_path, variant=None, threads=None):
+        self.log_path, self.variant, self.threads = str(log_path), variant, threads
+        self.proc = self.conn = None
+        self.active_variant = None
+
+    def _start(self) -> None:
+        ctx = multiprocessing.get_context("spawn")
+        parent, child = ctx.Pipe()
+        self.proc = ctx.Process(target=_serve, args=(child, self.log_path, self.variant, self.threads), daemon=True)
+        self.proc.start()
+        child.close()
+        self.conn = parent
+        if not self.conn.poll(START_TIMEOUT_S):
+            self.close()
+            raise RuntimeError(f"the corpus worker did not start within {START_TIMEOUT_S} s (log: {self.log_path})")
+        try:
+            kind, value = self.conn.recv()
+        except EOFError:
+            code = self.proc.exitcode
+            self.close()
+            raise RuntimeError(f"the corpus worker exited while starting (exit code {code}; log: "
+                               f"{self.log_path})") from None
+        if kind != "ready":
+            self.close()
+            raise RuntimeError(f"the corpus worker could not set up Mitsuba: {value}")
+        self.active_variant = value
+
+    def judge(self, job: dict, *, timeout: float) -> dict:
+        """The record of ``job``, or a ``timeout`` / ``render-error`` record when the worker
+        ran out of time or died. Raises ``RuntimeError`` when no worker can start."""
+        if self.proc is None or not self.proc.is_alive():
+            self.close()
+            self._start()
+        t0 = time.perf_counter()
+        self.conn.send(job)
+        if self.conn.poll(timeout):
+            try:
+                kind, rec = self.conn.recv()
+                return rec
+            except (EOFError, OSError):
+                pass
+        elapsed = round(time.perf_counter() - t0, 3)
+        alive = self.proc.is_alive()
+        self.close()
+        if alive:
+            return {"status": "timeout", "reasons": [f"no verdict within the time limit of {timeout:g} s"],
+                    "seconds": elapsed, "timeout_s": timeout}
+        return {"status": "render-error", "seconds": elapsed,
+                "reasons": [f"the worker process died (exit code {self._exitcode}); see {os.path.basename(self.log_path)}"]}
+
+    _exitcode = None
+
+    def close(self) -> None:
+        """Stop the worker (politely, then by force)."""
+        if self.proc is not None:
+            try:
+                if self.proc.is_alive() and self.conn is not None:
+                    try:
+                        self.conn.send(None)
+                    except (OSError, ValueError):
+                        pass
+                    self.proc.join(0.5)
+                if self.proc.is_alive():
+                    self.proc.kill()
+                self.proc.join(5)
+                self._exitcode = self.proc.exitcode
+            finally:
+                self.proc = None
+        if self.conn is not None:
+            self.conn.close()
+            self.conn = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
