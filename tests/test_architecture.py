@@ -26,7 +26,8 @@ LAYERS = {
                      "benchmarks.store", "benchmarks.metrics"],
     "sources": ["benchmarks.references", "benchmarks.tails", "benchmarks.external"],
     "runners": ["benchmarks.gate", "benchmarks.sweep", "benchmarks.compare", "benchmarks.selftest",
-                "benchmarks.chi2", "benchmarks.parity", "benchmarks.speed", "benchmarks.stress"],
+                "benchmarks.corpus", "benchmarks.chi2", "benchmarks.parity", "benchmarks.speed",
+                "benchmarks.stress"],
     "report": ["reports"],
     "commands": ["benchmarks.commands", "benchmarks.cli"],
 }
@@ -52,6 +53,8 @@ RUNNER_EDGES = {
     ("benchmarks.compare", "benchmarks.gate"),
     # the self-test measures the gate's power: it renders the gate's scenes and references
     ("benchmarks.selftest", "benchmarks.gate"),
+    # rtbench corpus judges each scene's two renders with the gate's agreement statistic
+    ("benchmarks.corpus", "benchmarks.gate"),
 }
 
 #: What a module outside the CLI may import inside a function: optional heavy dependencies,
@@ -68,6 +71,10 @@ COMPILED = ("reference_tracer._core", "reference_tracer._mutants")
 PRIVATE_ALLOWED = {
     # checks that the tracer's own extension module holds no seeded bug: it must name it
     ("tests/test_selftest.py", "reference_tracer._core"),
+    # white-box tests of the scene compiler's arrays and of the core's checks of arrays that
+    # the public API never produces (malformed vertex normals)
+    ("tests/test_shading_normals.py", "reference_tracer._compile"),
+    ("tests/test_shading_normals.py", "reference_tracer._core"),
 }
 
 UNIT_LAYER = {unit: layer for layer, units in LAYERS.items() for unit in units}
