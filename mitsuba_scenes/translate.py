@@ -42,11 +42,14 @@ from __future__ import annotations
 
 import contextlib
 from pathlib import Path
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.imageio import atomic_write
+from reference_tracer.imageio import atomic_write, write_exr
+
+from .variants import import_mitsuba
 
 __all__ = ["to_mitsuba", "to_xml", "write_ply", "look_at_matrix", "mitsuba_rr_depth", "scene_extent", "NO_RR_DEPTH"]
 
@@ -359,8 +362,6 @@ def to_mitsuba(scene: rt.Scene, *, variant: str | None = None) -> dict:
     ('y', 'box')
     >>> scene = mi.load_dict(d)
     """
-    from .variants import import_mitsuba
-
     low = _lower(scene)
     mi = import_mitsuba(variant)
     cam, integ = low["camera"], low["integrator"]
@@ -411,8 +412,6 @@ def _num(x) -> str:
 
 
 def _xml_escape(s: str) -> str:
-    from xml.sax.saxutils import quoteattr
-
     return quoteattr(str(s))
 
 
@@ -614,8 +613,6 @@ def _write_all(path: Path, text: str, plys: list, images=()) -> None:
     """The meshes' PLY files and the envmaps' OpenEXR files, then the XML, each written
     atomically (never a partial file); on any error the files this call created are
     removed (nothing stray is left)."""
-    from reference_tracer.imageio import write_exr
-
     for target in (path, *(p for p, _, _, _ in plys), *(p for p, _ in images)):
         _check_target(target)
     created = []

@@ -23,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validate import FLOAT32_MAX, colour, finite_scalar, vector3
+from .imageio import read_exr, read_hdr
+from .validation import FLOAT32_MAX, colour, finite_scalar, vector3
 
 __all__ = ["Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight", "ENVMAP_FORMATS", "MAX_ENVMAP_PIXELS"]
 
@@ -81,8 +82,6 @@ def _regular_file(path: Path) -> None:
 
 
 def _read_image(path: Path) -> np.ndarray:
-    from .imageio import read_exr, read_hdr
-
     ext = path.suffix.lower()
     if ext not in ENVMAP_FORMATS:
         raise ValueError(f"EnvMap: {path}: only {', '.join(ENVMAP_FORMATS)} files are read (HDR formats), "

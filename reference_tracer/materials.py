@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import colour, finite_scalar
+from .validation import colour, finite_scalar
 from .conductors import conductor_ior
 
 
@@ -231,8 +231,17 @@ class RoughConductor(Material):
         object.__setattr__(self, "k", k)
 
 
+class _Coated(Material):
+    """A diffuse base under a dielectric coating (plastic and rough plastic)."""
+
+    @property
+    def relative_ior(self) -> float:
+        """``int_ior / ext_ior``: all of the coating that the BSDF depends on."""
+        return self.int_ior / self.ext_ior
+
+
 @dataclass(frozen=True)
-class Plastic(Material):
+class Plastic(_Coated):
     """A diffuse base under a smooth dielectric coating: Mitsuba ``plastic``.
 
     The coating reflects specularly, a Dirac lobe of weight ``F(cos) specular_reflectance``
@@ -282,14 +291,9 @@ class Plastic(Material):
     def __post_init__(self):
         _validate_plastic(self, "Plastic", rough=False)
 
-    @property
-    def relative_ior(self) -> float:
-        """``int_ior / ext_ior``: all of the coating that the BSDF depends on."""
-        return self.int_ior / self.ext_ior
-
 
 @dataclass(frozen=True)
-class RoughPlastic(Material):
+class RoughPlastic(_Coated):
     """A diffuse base under a rough dielectric coating: Mitsuba ``roughplastic``.
 
     As :class:`Plastic` with a microfacet coating: a glossy lobe (``distribution``
@@ -333,11 +337,6 @@ class RoughPlastic(Material):
         if self.distribution not in DISTRIBUTIONS:
             raise ValueError(f"RoughPlastic.distribution must be one of {DISTRIBUTIONS}, got {self.distribution!r}")
         _validate_plastic(self, "RoughPlastic", rough=True)
-
-    @property
-    def relative_ior(self) -> float:
-        """``int_ior / ext_ior``: all of the coating that the BSDF depends on."""
-        return self.int_ior / self.ext_ior
 
 
 @dataclass(frozen=True)

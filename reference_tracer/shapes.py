@@ -16,8 +16,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ._validate import finite_scalar, vector3
+from .validation import finite_scalar, vector3
 from .materials import Material
+from .meshfile import read_mesh
 
 __all__ = ["Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh", "rotation_matrix", "vertex_normals"]
 
@@ -443,8 +444,6 @@ class Mesh(Shape):
         --------
         >>> Mesh.load("bunny.ply", Lambertian(0.5))  # doctest: +SKIP
         """
-        from .meshfile import read_mesh
-
         m = read_mesh(path, normals=not face_normals)
         if len(m.faces) == 0:
             raise ValueError(f"Mesh.load: {path!s} holds no triangles")

@@ -30,6 +30,7 @@ import pytest
 import reference_tracer as rt
 from benchmarks.gate.agreement import agreement
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
+from reference_tracer import probe
 from reference_tracer.render import BLIND_TO_DELTA_LIGHTS
 
 PUBLISHED = Path(__file__).resolve().parent / "fixtures" / "published"
@@ -218,9 +219,7 @@ def test_envmap_lookup_is_mitsubas(tmp_path, mi):
     rot = np.array([[math.cos(angle), 0, math.sin(angle)], [0, 1, 0], [-math.sin(angle), 0, math.cos(angle)]])
     env = rt.EnvMap(path, scale=1.5, to_world=rot)
     assert env.source == path
-    from reference_tracer.render import core_scene
-
-    core = core_scene(rt.Scene(_camera(), [], lights=[env]))
+    core = probe.core_scene(rt.Scene(_camera(), [], lights=[env]))
     d = np.random.default_rng(0).normal(size=(300, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     ours = core.background(np.ascontiguousarray(d))
