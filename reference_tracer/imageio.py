@@ -196,8 +196,12 @@ def read_hdr(path, *, max_pixels: int = MAX_READ_PIXELS) -> np.ndarray:
 
     Examples
     --------
-    >>> read_hdr("sky.hdr").shape  # doctest: +SKIP
-    (256, 512, 3)
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "grey.hdr")   # two pixels of radiance 1
+    >>> with open(path, "wb") as f:
+    ...     _ = f.write(b"#?RADIANCE\\nFORMAT=32-bit_rle_rgbe\\n\\n-Y 1 +X 2\\n" + bytes([128, 128, 128, 129]) * 2)
+    >>> read_hdr(path).tolist()
+    [[[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]]]
     """
     path = Path(path)
     with open(path, "rb") as fh:

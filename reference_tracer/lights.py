@@ -38,7 +38,13 @@ _ORTHONORMAL_TOL = 1e-5
 
 class Light:
     """Base class of the lights that are not shapes (:class:`EnvMap`, :class:`PointLight`,
-    :class:`SpotLight`, :class:`DirectionalLight`)."""
+    :class:`SpotLight`, :class:`DirectionalLight`).
+
+    Examples
+    --------
+    >>> PointLight((0, 1, 0)).delta, EnvMap([[1.0, 1.0]]).delta
+    (True, False)
+    """
 
     #: Whether the light has no extent (no direction sampled from a surface meets it).
     delta = False
@@ -232,6 +238,13 @@ class PointLight(Light):
     distance d receives ``intensity / d^2`` (times its cosine). A delta light (see the
     module's notes: seen by ``mis`` and ``light`` only).
 
+    Parameters
+    ----------
+    position : (3,) array_like
+        Where it sits (world space, finite).
+    intensity : float or (3,) array_like
+        Radiant intensity (W/sr), >= 0 and finite; Mitsuba's default 1.
+
     Examples
     --------
     >>> PointLight((0, 2, 0), 10).intensity
@@ -265,9 +278,9 @@ class SpotLight(Light):
         The axis it shines along (normalised; non-zero).
     intensity : float or (3,) array_like
         Radiant intensity on the axis (W/sr), >= 0; Mitsuba's default 1.
-    cutoff_angle : float
+    cutoff_angle : float, keyword-only
         Degrees, in (0, 180]; Mitsuba's default 20.
-    beam_width : float or None
+    beam_width : float or None, keyword-only
         Degrees, in [0, cutoff_angle]; None: three quarters of ``cutoff_angle`` (Mitsuba's default).
 
     Examples
@@ -279,8 +292,8 @@ class SpotLight(Light):
     position: tuple
     direction: tuple
     intensity: tuple = (1.0, 1.0, 1.0)
-    cutoff_angle: float = 20.0
-    beam_width: float | None = None
+    cutoff_angle: float = field(default=20.0, kw_only=True)
+    beam_width: float | None = field(default=None, kw_only=True)
     delta = True
 
     def __post_init__(self):
@@ -294,7 +307,23 @@ class SpotLight(Light):
         object.__setattr__(self, "beam_width", beam)
 
     def falloff(self, cos_theta):
-        """Mitsuba's falloff at the cosine of the angle to the axis (array_like)."""
+        """Mitsuba's falloff at the cosine of the angle to the axis.
+
+        Parameters
+        ----------
+        cos_theta : float or array_like
+            Cosine of the angle between the axis and the direction from the light.
+
+        Returns
+        -------
+        ndarray
+            1 within ``beam_width``, linear in the angle down to 0 at ``cutoff_angle``, 0 beyond.
+
+        Examples
+        --------
+        >>> SpotLight((0, 0, 0), (0, 0, 1), cutoff_angle=40, beam_width=20).falloff([1.0, 0.0]).tolist()
+        [1.0, 0.0]
+        """
         c = np.asarray(cos_theta, dtype=np.float64)
         cutoff, beam = math.radians(self.cutoff_angle), math.radians(self.beam_width)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -313,6 +342,13 @@ class DirectionalLight(Light):
     Light travelling along ``direction`` (normalised) from infinitely far away, of
     ``irradiance`` (W/m^2, RGB) on a surface facing it. A delta light (seen by ``mis`` and
     ``light`` only).
+
+    Parameters
+    ----------
+    direction : (3,) array_like
+        The direction its light travels (normalised; non-zero), Mitsuba's ``direction``.
+    irradiance : float or (3,) array_like
+        Irradiance on a surface facing the light (W/m^2), >= 0 and finite; Mitsuba's default 1.
 
     Examples
     --------
