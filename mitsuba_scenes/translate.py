@@ -1,6 +1,6 @@
 """Translate a :class:`reference_tracer.Scene` to Mitsuba 3: a dict and an XML file.
 
-The mapping follows the conventions of README.md (Conventions) exactly; anything without an exact
+The mapping follows the conventions of docs/conventions.md exactly; anything without an exact
 Mitsuba equivalent raises ``ValueError`` naming the object, never an approximation:
 
 =====================================  ==================================================
