@@ -606,8 +606,8 @@ def _camera(ctx, sensor):
             ctx.bad(film, "hdrfilm sample_border=true")
     if ctx.film_size is not None:
         width, height = ctx.film_size
-    if sampler is not None and sampler.props.plugin_name() != "independent":
-        ctx.bad(sampler, f"sampler '{sampler.props.plugin_name()}' (only 'independent')")
+    if sampler is not None:
+        _sampler(ctx, sampler)
     if "x_fov" in sensor.props.keys():
         fov, axis = _scalar(ctx, sensor, "x_fov", 39.3077), "x"
     else:
@@ -626,6 +626,35 @@ def _camera(ctx, sensor):
         return None
     return rt.Camera(lookfrom=origin, lookat=origin + fwd, vup=up, vfov=vfov, width=width, height=height,
                      filter=rfilter)
+
+
+# Mitsuba's randomised samplers: each places a pixel's samples differently (strata, jittered
+# grids, scrambled low-discrepancy points) but every sample is uniform over the pixel, so
+# the expected image is the independent sampler's; only the noise differs. Our tracer
+# samples independently. A sampler whose jitter is off puts samples at cell centres: a
+# different (biased) image, refused.
+_RANDOMISED_SAMPLERS = {
+    "independent": set(),
+    "stratified": {"jitter"},
+    "multijitter": {"jitter"},
+    "orthogonal": {"jitter", "strength"},
+    "ldsampler": set(),
+    "sobol": set(),
+    "pmj02": set(),
+}
+
+
+def _sampler(ctx, node):
+    """Check a sampler: one of Mitsuba's randomised samplers, read as ``independent``."""
+    name = node.props.plugin_name()
+    if name not in _RANDOMISED_SAMPLERS:
+        ctx.bad(node, f"sampler '{name}' (only Mitsuba's randomised samplers: "
+                      f"{', '.join(sorted(_RANDOMISED_SAMPLERS))})")
+        return
+    _extra(ctx, node, _RANDOMISED_SAMPLERS[name] | {"sample_count", "seed"}, "sampler")
+    if "jitter" in node.props.keys() and not bool(node.props["jitter"]):
+        ctx.bad(node, f"sampler '{name}' with jitter=false (samples at cell centres: not the independent "
+                      "sampler's expected image)")
 
 
 def _rfilter(ctx, node):
@@ -824,8 +853,7 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
         elif kind in (OT.BSDF, OT.Texture):
             continue   # declared here, used through references; checked where used
         elif kind == OT.Sampler:  # declared here for a sensor to reference: the same rule as inside one
-            if name != "independent":
-                ctx.bad(node, f"sampler '{name}' (only 'independent')")
+            _sampler(ctx, node)
         else:
             ctx.bad(node, f"{str(kind).split('.')[-1].lower()} '{name}'")
 
