@@ -11,7 +11,7 @@ walked node by node. Supported: ``perspective`` sensor (``fov`` with any
 ``face_normals``: the vertex normals Mitsuba's loader gives, read from the file or
 computed where it has none, shade the mesh smooth as in Mitsuba), BSDFs ``diffuse``,
 ``conductor`` and ``roughconductor`` (``ggx`` or ``beckmann``, isotropic, ``material``
-names or RGB ``eta``/``k``), ``dielectric``, ``plastic`` and ``roughplastic`` (constant
+names or RGB ``eta``/``k``), ``dielectric``, ``thindielectric``, ``plastic`` and ``roughplastic`` (constant
 reflectances, named or numeric ``int_ior``/``ext_ior``, ``nonlinear``; rough: ``ggx`` or
 ``beckmann``, isotropic), ``twosided`` around one of those, references by id, ``area``
 emitters (on their shape or declared at the top level and referenced) and ``constant``,
@@ -332,19 +332,19 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
         return rt.RoughConductor(albedo, alpha=alpha, distribution=dist, two_sided=two_sided, **ior)
     if name in ("plastic", "roughplastic"):
         return _plastic(ctx, node, name, two_sided)
-    if name == "dielectric":
+    if name in ("dielectric", "thindielectric"):
         _extra(ctx, node, {"int_ior", "ext_ior", "specular_reflectance", "specular_transmittance"}, "bsdf")
         ok = True
         for k in ("specular_reflectance", "specular_transmittance"):
             c = _colour(ctx, node, k, 1.0)
             if c is not None and c != (1.0, 1.0, 1.0):
-                ctx.bad(node, f"dielectric {k}={c} (only 1)")
+                ctx.bad(node, f"{name} {k}={c} (only 1)")
                 ok = False
         i, e = _ior(ctx, node, "int_ior", "bk7"), _ior(ctx, node, "ext_ior", "air")
         if not ok or i is None or e is None:
             return None
-        # Mitsuba's dielectric depends on int_ior / ext_ior only: exact with ext = 1.
-        return rt.Dielectric(i / e)
+        # Mitsuba's (thin) dielectric depends on int_ior / ext_ior only: exact with ext = 1.
+        return rt.Dielectric(i / e) if name == "dielectric" else rt.ThinDielectric(i / e)
     ctx.bad(node, f"bsdf '{name}'")
     return None
 
