@@ -44,7 +44,7 @@ Vec3 Integrator<M>::Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays) const 
             if (ls.delta) {
                 // A delta light's sample is weighted 1 and, as in Mitsuba 3.9.1's direct.cpp
                 // (which leaves out its 1 / emitter_samples there), not averaged over n_e:
-                // reproduced, so that imported scenes agree (README, Known differences).
+                // reproduced, so that imported scenes agree (docs/mitsuba.md, Known differences).
                 L += f * ls.radiance * (1.0 / ls.pdf);
                 continue;
             }
