@@ -31,6 +31,7 @@ import pytest
 
 import reference_tracer as rt
 from benchmarks.gate.agreement import agreement
+from benchmarks.parity import run_parity
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
 from reference_tracer import probe
 from reference_tracer.render import BLIND_TO_DELTA_LIGHTS
@@ -417,6 +418,14 @@ def test_translated_lights_agree_with_mitsuba():
     mit = render_mitsuba(scene, spp=SPP, seed=1, batches=16, threads=2)
     a = agreement(ours, mit)
     assert a.agrees, a.describe()
+
+
+@pytest.mark.usefixtures("fresh_registries")
+def test_first_hit_aovs_agree_with_mitsuba_under_an_envmap():
+    """``rtbench parity``'s check: what a camera ray that escapes sees (the map, rotated and
+    scaled) and every first hit, ours against Mitsuba's at each pixel centre."""
+    report = run_parity(_all_lights_scene(width=24, height=18), name="lights")
+    assert report.passed, (report.summary(), report.findings)
 
 
 # --------------------------------------------------------------------------- import and translation
