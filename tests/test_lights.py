@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 
 import reference_tracer as rt
+from benchmarks.cli import main
 from benchmarks.gate.agreement import agreement
 from benchmarks.parity import run_parity
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
@@ -277,6 +278,20 @@ def test_wavefront_equals_scalar_with_these_lights(subset, strategy):
             for i in ("scalar", "wavefront"))
     assert np.array_equal(a.mean, b.mean) and np.array_equal(a.variance, b.variance) and a.rays == b.rays
     assert a.nonfinite_samples == 0 and a.mean.max() > 0
+
+
+@pytest.mark.usefixtures("fresh_registries")
+def test_a_sweep_refuses_blind_strategies_before_rendering(tmp_path, capsys):
+    """``rtbench curves`` with a strategy that cannot see a scene's delta lights: one line,
+    exit 2 (bad input), nothing rendered or written."""
+    xml = tmp_path / "point.xml"
+    xml.write_text(_SCENE.format(integrator=_PATH, emitters=_EMITTERS["point"][1]))
+    out = tmp_path / "store"
+    code = main(["curves", "--scene", str(xml), "--strategies", "cosine,mis", "--spps", "1", "--seeds", "1",
+                 "--width", "8", "--out", str(out), "--reference-spp", "16"])
+    err = capsys.readouterr().err
+    assert code == 2 and "strategies ['cosine'] cannot see the point, spot or directional lights" in err, err
+    assert not out.exists()
 
 
 def test_delta_lights_reach_every_strategy_that_samples_lights():
