@@ -2,8 +2,10 @@
 
 The dict or XML file is parsed with Mitsuba's own parser (``mi.parser``: defaults,
 includes, references and transform chains resolved exactly as Mitsuba does), then
-walked node by node. Supported: ``perspective`` sensor (``fov`` with any
-``fov_axis``, ``to_world`` a rigid matrix or ``look_at``), ``hdrfilm`` with a ``box``,
+walked node by node. Supported: ``perspective`` and ``thinlens`` sensors (``fov`` with any
+``fov_axis``, ``to_world`` a rigid matrix or ``look_at``; the lens's ``aperture_radius``,
+``focus_distance`` and clip planes), ``orthographic`` (``to_world`` a rotation and scale,
+clip planes), ``hdrfilm`` with a ``box``,
 ``tent`` or ``gaussian`` filter (film fields that change no pixel are ignored),
 ``independent`` sampler, ``path`` integrator (``max_depth``, ``rr_depth``) and ``direct``
 (``emitter_samples``, ``bsdf_samples``, ``shading_samples``), shapes ``sphere``,
@@ -590,7 +592,7 @@ def _vfov(ctx, node, fov, axis, width, height):
 
 def _camera(ctx, sensor):
     if sensor is None:
-        ctx.problems.append("no sensor (a perspective sensor is required)")
+        ctx.problems.append("no sensor (a perspective, thinlens or orthographic sensor is required)")
         return None
     kind = sensor.props.plugin_name()
     if kind not in _SENSORS:
@@ -637,7 +639,7 @@ def _camera(ctx, sensor):
     lens = {}
     if kind == "thinlens":
         # Mitsuba's thinlens starts rays on its near plane and ends them at the far one: ours
-        # the same. (The perspective sensor's clip planes are still not read: see docs/mitsuba.md.)
+        # the same. (The perspective sensor's planes are not read: docs/mitsuba.md, sensor row.)
         clip = _clip_planes(ctx, sensor)
         if clip is None:
             return None
