@@ -129,10 +129,10 @@ def compile_scene(scene: Scene) -> dict:
     camera = {}
     if not c.is_pinhole:  # only then: a pinhole's arguments are what they always were
         view_w, view_h = c.view_size or (0.0, 0.0)
+        focus = 1.0 if c.focus_distance is None else float(c.focus_distance)  # (a pinhole's is unused)
         camera = dict(projection=PROJECTIONS.index(c.projection), view_width=float(view_w),
                       view_height=float(view_h), aperture_radius=float(c.aperture_radius),
-                      focus_distance=float(c.focus_distance or 1.0), near_clip=float(c.near_clip),
-                      far_clip=float(c.far_clip))
+                      focus_distance=focus, near_clip=float(c.near_clip), far_clip=float(c.far_clip))
     return dict(
         lookfrom=np.asarray(c.lookfrom), lookat=np.asarray(c.lookat), vup=np.asarray(c.vup),
         # an orthographic camera has no field of view; the core's perspective set-up reads one
