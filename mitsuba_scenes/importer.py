@@ -2,8 +2,10 @@
 
 The dict or XML file is parsed with Mitsuba's own parser (``mi.parser``: defaults,
 includes, references and transform chains resolved exactly as Mitsuba does), then
-walked node by node. Supported: ``perspective`` sensor (``fov`` with any
-``fov_axis``, ``to_world`` a rigid matrix or ``look_at``), ``hdrfilm`` with a ``box``,
+walked node by node. Supported: ``perspective`` and ``thinlens`` sensors (``fov`` with any
+``fov_axis``, ``to_world`` a rigid matrix or ``look_at``; the lens's ``aperture_radius``,
+``focus_distance`` and clip planes), ``orthographic`` (``to_world`` a rotation and scale,
+clip planes), ``hdrfilm`` with a ``box``,
 ``tent`` or ``gaussian`` filter (film fields that change no pixel are ignored),
 ``independent`` sampler, ``path`` integrator (``max_depth``, ``rr_depth``) and ``direct``
 (``emitter_samples``, ``bsdf_samples``, ``shading_samples``), shapes ``sphere``,
@@ -56,6 +58,12 @@ IOR_TABLE = {
 _DEFAULT_DIFFUSE = 0.5
 _SENSOR_OK = {"fov", "fov_axis", "to_world", "near_clip", "far_clip", "focus_distance", "film", "sampler",
               "x_fov", "srf", "focal_length"}
+# The sensors read, and the parameters each takes (the orthographic one has no field of
+# view: its to_world's scale is the view's extent).
+_SENSORS = {"perspective": _SENSOR_OK, "thinlens": _SENSOR_OK | {"aperture_radius"},
+            "orthographic": {"to_world", "near_clip", "far_clip", "film", "sampler", "srf"}}
+# ProjectiveCamera's defaults (src/render/sensor.cpp).
+_NEAR_CLIP, _FAR_CLIP = 1e-2, 1e4
 # hdrfilm parameters that change no pixel value of the RGB image rendered: the output file's
 # format and channels, the banner (sample_border is checked where it matters).
 _FILM_OK = {"width", "height", "rfilter", "pixel_format", "component_format", "sample_border",
@@ -724,12 +732,13 @@ def _focal_length_fov(ctx, sensor):
 
 def _camera(ctx, sensor):
     if sensor is None:
-        ctx.problems.append("no sensor (a perspective sensor is required)")
+        ctx.problems.append("no sensor (a perspective, thinlens or orthographic sensor is required)")
         return None
-    if sensor.props.plugin_name() != "perspective":
-        ctx.bad(sensor, f"sensor '{sensor.props.plugin_name()}' (only 'perspective')")
+    kind = sensor.props.plugin_name()
+    if kind not in _SENSORS:
+        ctx.bad(sensor, f"sensor '{kind}' (only {', '.join(repr(k) for k in _SENSORS)})")
         return None
-    _extra(ctx, sensor, _SENSOR_OK, "sensor")
+    _extra(ctx, sensor, _SENSORS[kind], "sensor")
     OT = ctx.mi.ObjectType
     film, sampler = ctx.child(sensor, OT.Film), ctx.child(sensor, OT.Sampler)
     width = height = 768 if film is None else None
@@ -748,6 +757,9 @@ def _camera(ctx, sensor):
         width, height = ctx.film_size
     if sampler is not None:
         _sampler(ctx, sampler)
+    if kind == "orthographic":  # (its own problems are reported even where the rfilter's are)
+        camera = _orthographic(ctx, sensor, width, height, rfilter or rt.Filter())
+        return camera if rfilter is not None else None
     if "x_fov" in sensor.props.keys():
         fov, axis = _scalar(ctx, sensor, "x_fov", 39.3077), "x"
     elif "fov" in sensor.props.keys():
@@ -768,8 +780,66 @@ def _camera(ctx, sensor):
     origin = m[:3, 3]
     if rfilter is None:
         return None
+    lens = {}
+    if kind == "thinlens":
+        # Mitsuba's thinlens starts rays on its near plane and ends them at the far one: ours
+        # the same. (The perspective sensor's planes are not read: docs/mitsuba.md, sensor row.)
+        clip = _clip_planes(ctx, sensor)
+        if clip is None:
+            return None
+        if "aperture_radius" not in sensor.props.keys():
+            ctx.bad(sensor, "thinlens without aperture_radius (Mitsuba requires it)")
+            return None
+        radius = _scalar(ctx, sensor, "aperture_radius", 0.0)
+        focus = _scalar(ctx, sensor, "focus_distance", clip[1])
+        if isinstance(radius, str) or isinstance(focus, str) or not radius >= 0 or not focus > 0:
+            ctx.bad(sensor, f"thinlens aperture_radius {radius!r} / focus_distance {focus!r} (need >= 0 and > 0)")
+            return None
+        # Mitsuba widens a zero aperture to float epsilon: a pinhole to within 1e-7.
+        lens = dict(near_clip=clip[0], far_clip=clip[1])
+        if radius > 0:
+            lens.update(aperture_radius=float(radius), focus_distance=float(focus))
     return rt.Camera(lookfrom=origin, lookat=origin + fwd, vup=up, vfov=vfov, width=width, height=height,
-                     filter=rfilter)
+                     filter=rfilter, **lens)
+
+
+def _clip_planes(ctx, sensor):
+    """(near_clip, far_clip) of a projective camera, Mitsuba's defaults where not given; None if bad."""
+    near = _scalar(ctx, sensor, "near_clip", _NEAR_CLIP)
+    far = _scalar(ctx, sensor, "far_clip", _FAR_CLIP)
+    if isinstance(near, str) or isinstance(far, str) or not 0 < near < far or not math.isfinite(far):
+        ctx.bad(sensor, f"sensor near_clip {near!r} / far_clip {far!r} (need 0 < near_clip < far_clip, finite)")
+        return None
+    return float(near), float(far)
+
+
+def _orthographic(ctx, sensor, width, height, rfilter):
+    """Mitsuba's orthographic sensor: to_world = look_at . scale(sx, sy, sz) (any rotation).
+
+    In camera space the view is [-1, 1] x [-1/aspect, 1/aspect] (orthographic_projection in
+    transform.h, aspect = width / height), scaled by to_world: a view 2 sx wide and
+    2 sy / aspect high. A ray starts at camera z = near_clip, that is near_clip * sz along the
+    view direction in world space, and reaches far_clip - near_clip beyond it.
+    """
+    clip = _clip_planes(ctx, sensor)
+    m = _matrix(ctx, sensor)
+    rs = _rigid_scale(m)
+    if rs is None or clip is None:
+        if rs is None:
+            ctx.bad(sensor, "orthographic to_world is not a rotation and scale along the camera's axes (shear or "
+                            "a mirrored image)")
+        return None
+    R, (sx, sy, sz) = rs
+    left, up, fwd = R[:, 0], R[:, 1], R[:, 2]
+    origin = m[:3, 3]
+    near, far = clip
+    aspect = width / height
+    view_w, view_h = 2.0 * sx, 2.0 * sy / aspect
+    # square pixels (equal x and y scales, to float precision) leave view_width to the aspect
+    square = abs(sx - sy) <= 1e-6 * max(sx, sy)
+    return rt.Camera(lookfrom=origin, lookat=origin + fwd, vup=up, width=width, height=height, filter=rfilter,
+                     projection="orthographic", view_height=view_h, view_width=None if square else view_w,
+                     near_clip=near * sz, far_clip=near * sz + (far - near))
 
 
 # Mitsuba's randomised samplers: each places a pixel's samples differently (strata, jittered

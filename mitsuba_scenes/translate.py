@@ -9,6 +9,11 @@ ours                                   Mitsuba 3
 ``Camera(vfov, lookfrom, ...)``        ``perspective``, ``fov=vfov``, ``fov_axis='y'``,
                                        ``to_world = look_at(lookfrom, lookat, vup)``;
                                        ``hdrfilm`` with the camera's rfilter; ``independent``
+``aperture_radius > 0``                ``thinlens``, ``aperture_radius``, ``focus_distance``
+``projection='orthographic'``          ``orthographic``, ``to_world = look_at . scale(w/2,
+                                       h/2 * aspect, 1)`` for a view of w x h
+``near_clip``, ``far_clip``            the same (where 0 / inf: a near plane below any
+                                       feature, a far one beyond all)
 ``Quad(Q, u, v)``                      ``rectangle``, to_world columns (u/2, v/2, n, centre)
 ``Box(pmin, pmax)``                    ``cube``, to_world = M . T(centre) . S(half size)
 ``Sphere(c, r)``                       ``sphere`` with world centre and radius
@@ -207,15 +212,8 @@ def _lower(scene: rt.Scene) -> dict:
     """Neutral description: camera, integrator, background and shape records."""
     if not isinstance(scene, rt.Scene):
         raise ValueError(f"scene must be a reference_tracer.Scene, got {type(scene).__name__}")
-    c = scene.camera
-    extent = scene_extent(scene)
     out = {
-        "camera": {"fov": float(c.vfov), "to_world": _f32(look_at_matrix(c.lookfrom, c.lookat, c.vup)),
-                   "lookat": (c.lookfrom, c.lookat, c.vup), "width": int(c.width), "height": int(c.height),
-                   # Nothing of the scene may be clipped: near far below any feature, far beyond all.
-                   "near_clip": float(_f32(min(1e-4, 1e-6 * extent))),
-                   "far_clip": float(_f32(4.0 * extent + 1.0)),
-                   "rfilter": _rfilter(c.filter)},
+        "camera": _camera_record(scene),
         "integrator": ({"type": "path", "max_depth": int(scene.max_depth),
                         "rr_depth": mitsuba_rr_depth(scene.max_depth, scene.rr_depth), "hide_emitters": False}
                        if scene.direct is None else
@@ -263,6 +261,44 @@ def _light_record(light) -> dict:
         return {"type": "directional", "direction": [float(x) for x in _f32(light.direction)],
                 "irradiance": {"type": "rgb", "value": _rgb(light.irradiance)}}
     raise ValueError(f"light {type(light).__name__} has no Mitsuba translation")  # pragma: no cover
+
+
+def _camera_record(scene: rt.Scene) -> dict:
+    """The sensor: ``perspective``, ``thinlens`` or ``orthographic``, with its film's size and rfilter."""
+    c = scene.camera
+    extent = scene_extent(scene)
+    to_world = look_at_matrix(c.lookfrom, c.lookat, c.vup)
+    # Our clip planes where the camera has them; else nothing of the scene may be clipped
+    # (Mitsuba needs near_clip > 0): near far below any feature, far beyond all.
+    near = c.near_clip if c.near_clip > 0.0 else min(1e-4, 1e-6 * extent)
+    far = c.far_clip if c.far_clip != float("inf") else c.near_clip + 4.0 * extent + 1.0
+    rec = {"type": "perspective", "lookat": (c.lookfrom, c.lookat, c.vup), "width": int(c.width),
+           "height": int(c.height), "near_clip": float(_f32(near)), "far_clip": float(_f32(far)),
+           "rfilter": _rfilter(c.filter)}
+    if c.is_orthographic:
+        # Mitsuba's view is [-1, 1] x [-1/aspect, 1/aspect] in camera space, scaled by to_world
+        # (transform.h's orthographic_projection): our extents are its scale's x and y.
+        view_w, view_h = c.view_size
+        to_world = to_world @ np.diag([0.5 * view_w, 0.5 * view_h * c.aspect, 1.0, 1.0])
+        rec.update(type="orthographic")
+    else:
+        rec["fov"] = float(c.vfov)
+        if c.is_thin_lens:
+            rec.update(type="thinlens", aperture_radius=float(_f32(c.aperture_radius)),
+                       focus_distance=float(_f32(c.focus_distance)))
+    rec["to_world"] = _f32(to_world)
+    return rec
+
+
+def _sensor_params(cam: dict) -> dict:
+    """The sensor's own parameters (besides to_world, film and sampler), in Mitsuba's names."""
+    out = {}
+    if "fov" in cam:
+        out.update(fov=cam["fov"], fov_axis="y")
+    for k in ("aperture_radius", "focus_distance", "near_clip", "far_clip"):
+        if k in cam:
+            out[k] = cam[k]
+    return out
 
 
 def _shape_record(i: int, label: str, s) -> dict:
@@ -372,8 +408,7 @@ def to_mitsuba(scene: rt.Scene, *, variant: str | None = None) -> dict:
         "type": "scene",
         "integrator": dict(integ),
         "sensor": {
-            "type": "perspective", "fov": cam["fov"], "fov_axis": "y",
-            "near_clip": cam["near_clip"], "far_clip": cam["far_clip"],
+            "type": cam["type"], **_sensor_params(cam),
             "to_world": _transform(mi, cam["to_world"]),
             "sampler": {"type": "independent", "sample_count": 4},
             "film": {"type": "hdrfilm", "width": cam["width"], "height": cam["height"],
@@ -542,11 +577,9 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
          *(f'        <integer name="{k}" value="{v}"/>' for k, v in integ.items() if k not in ("type", "hide_emitters")),
          '        <boolean name="hide_emitters" value="false"/>',
          "    </integrator>",
-         '    <sensor type="perspective">',
-         f'        <float name="fov" value="{_num(cam["fov"])}"/>',
-         '        <string name="fov_axis" value="y"/>',
-         f'        <float name="near_clip" value="{_num(cam["near_clip"])}"/>',
-         f'        <float name="far_clip" value="{_num(cam["far_clip"])}"/>',
+         f'    <sensor type="{cam["type"]}">',
+         *(f'        <string name="{k}" value="{v}"/>' if isinstance(v, str) else
+           f'        <float name="{k}" value="{_num(v)}"/>' for k, v in _sensor_params(cam).items()),
          f"        <!-- look_at origin={tuple(o)} target={tuple(t)} up={tuple(u)} -->",
          *_xml_matrix(cam["to_world"], "        "),
          '        <sampler type="independent">',

@@ -16,7 +16,7 @@ import numpy as np
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Metal, Plastic, RoughConductor,
                         RoughPlastic, ThinDielectric)
 from .lights import DirectionalLight, PointLight, SpotLight
-from .scene import Scene
+from .scene import DEFAULT_VFOV, PROJECTIONS, Scene
 from .shapes import Box, Mesh, Quad, Sphere, Triangle
 
 # Material table columns; must match MaterialType and the material rows read in cpp/bindings.cpp.
@@ -162,9 +162,17 @@ def compile_scene(scene: Scene) -> dict:
             raise ValueError(f"{n_tris} triangles: smooth shading indexes at most 2^31 - 1 of them")
         normals = dict(smooth_triangles=np.concatenate(smooth),
                        triangle_normals=np.ascontiguousarray(np.concatenate(smooth_normals), dtype=np.float64))
+    camera = {}
+    if not c.is_pinhole:  # only then: a pinhole's arguments are what they always were
+        view_w, view_h = c.view_size or (0.0, 0.0)
+        focus = 1.0 if c.focus_distance is None else float(c.focus_distance)  # (a pinhole's is unused)
+        camera = dict(projection=PROJECTIONS.index(c.projection), view_width=float(view_w),
+                      view_height=float(view_h), aperture_radius=float(c.aperture_radius),
+                      focus_distance=focus, near_clip=float(c.near_clip), far_clip=float(c.far_clip))
     return dict(
         lookfrom=np.asarray(c.lookfrom), lookat=np.asarray(c.lookat), vup=np.asarray(c.vup),
-        vfov=float(c.vfov), width=int(c.width), height=int(c.height),
+        # an orthographic camera has no field of view; the core's perspective set-up reads one
+        vfov=float(c.vfov) if c.vfov is not None else DEFAULT_VFOV, width=int(c.width), height=int(c.height),
         materials=np.asarray(materials, dtype=np.float64).reshape(-1, MATERIAL_COLUMNS),
         spheres=np.asarray(spheres, dtype=np.float64).reshape(-1, 6),
         quads=np.asarray(quads, dtype=np.float64).reshape(-1, 10),
@@ -175,4 +183,5 @@ def compile_scene(scene: Scene) -> dict:
         rr_depth=int(scene.rr_depth) if scene.rr_depth is not None else -1,
         **normals,
         **_lights(scene),
+        **camera,
     )

@@ -1,6 +1,7 @@
 """Camera and Scene: the description that both renderers consume."""
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -12,7 +13,7 @@ from .lights import EnvMap, Light
 from .validation import colour, finite_scalar, positive_int, vector3
 from .shapes import Shape
 
-__all__ = ["Camera", "Direct", "Filter", "FILTERS", "Scene", "MAX_DEPTH_CAP"]
+__all__ = ["Camera", "Direct", "Filter", "FILTERS", "PROJECTIONS", "Scene", "MAX_DEPTH_CAP"]
 
 #: Safety cap on path length when ``max_depth=-1`` (unlimited). A path that survives
 #: this many segments carries a throughput so small (or Russian roulette has long ended
@@ -74,37 +75,149 @@ class Filter:
 FILTERS = ("box", "tent", "gaussian")
 
 
+#: projections of :class:`Camera`, in the core's order.
+PROJECTIONS = ("perspective", "orthographic")
+
+#: ``Camera.vfov`` when none is given (perspective cameras).
+DEFAULT_VFOV = 40.0
+
+
 @dataclass(frozen=True)
 class Camera:
-    """Pinhole camera; ``vfov`` is the vertical field of view in degrees.
+    """Camera: a pinhole by default, a thin lens or an orthographic view by option.
 
-    Pixel (0, 0) is the top-left corner of the image. Samples are jittered uniformly
-    inside their pixel (Mitsuba's independent sampler); ``filter`` decides how they make
-    the pixels (:class:`Filter`; the default box: each pixel the plain mean of its own).
+    ``vfov`` is the vertical field of view in degrees. Pixel (0, 0) is the top-left corner
+    of the image. Samples are jittered uniformly inside their pixel (Mitsuba's independent
+    sampler); ``filter`` decides how they make the pixels (:class:`Filter`; the default box:
+    each pixel the plain mean of its own).
+
+    The keyword-only options are Mitsuba 3's ``thinlens`` and ``orthographic`` sensors:
+
+    * ``aperture_radius > 0`` (perspective only) makes a thin lens (Mitsuba's ``thinlens``):
+      each camera ray leaves a point drawn uniformly on a disk of that radius about
+      ``lookfrom``, perpendicular to the view, and passes through the point the pinhole's ray
+      of the same film point meets at distance ``focus_distance`` along the view direction
+      (the plane in focus). ``focus_distance`` is then required.
+    * ``projection="orthographic"`` (Mitsuba's ``orthographic``): parallel rays along the
+      view direction from a ``view_width`` x ``view_height`` rectangle (world units) centred
+      on ``lookfrom``; ``view_width`` defaults to ``view_height`` times the image's aspect
+      (square pixels). It takes no ``vfov``.
+    * ``near_clip`` and ``far_clip``: distances along the view direction. A camera ray starts
+      on the near plane (nothing nearer is seen) and a hit at or beyond the far plane is a
+      miss, as in Mitsuba. The defaults (0 and infinity) clip nothing; Mitsuba's own defaults
+      are 0.01 and 10000.
+
+    Parameters
+    ----------
+    lookfrom, lookat, vup : (3,) array_like
+        Eye (lens centre, or the view's centre), a point it looks at, the image's up.
+    vfov : float, optional
+        Vertical field of view in degrees, in (0, 179] (default 40); perspective only.
+    width, height : int
+        Image size in pixels.
+    filter : Filter, optional
+    aperture_radius : float, optional
+        Lens radius, >= 0 (default 0: the pinhole).
+    focus_distance : float, optional
+        Distance of the plane in focus, > 0; only with ``aperture_radius > 0``.
+    projection : {"perspective", "orthographic"}, optional
+    view_height, view_width : float, optional
+        The orthographic view's extent in world units (``view_height`` required there).
+    near_clip, far_clip : float, optional
+        Clip planes, ``0 <= near_clip < far_clip <= inf``.
+
+    Raises
+    ------
+    ValueError
+        For a value out of range or an option the projection does not take (a thin-lens
+        orthographic camera, ``vfov`` with ``projection="orthographic"``, ...).
 
     Examples
     --------
     >>> Camera(lookfrom=(278, 278, -800), lookat=(278, 278, 0), vup=(0, 1, 0),
     ...        vfov=40.0, width=64, height=64).aspect
     1.0
+    >>> lens = Camera(lookfrom=(0, 1, -5), lookat=(0, 1, 0), vfov=30, width=64, height=48,
+    ...               aperture_radius=0.1, focus_distance=5.0)
+    >>> lens.is_thin_lens
+    True
+    >>> ortho = Camera(lookfrom=(0, 0, -5), lookat=(0, 0, 0), width=64, height=32,
+    ...                projection="orthographic", view_height=2.0)
+    >>> ortho.view_size
+    (4.0, 2.0)
+    >>> Camera(lookfrom=(0, 0, -5), lookat=(0, 0, 0), vfov=40, projection="orthographic", view_height=2.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: Camera.vfov is a perspective camera's; an orthographic one's extent is view_height (and view_width)
     """
 
     lookfrom: tuple
     lookat: tuple
     vup: tuple = (0.0, 1.0, 0.0)
-    vfov: float = 40.0
+    vfov: float | None = None
     width: int = 400
     height: int = 400
     filter: Filter = field(default_factory=Filter, kw_only=True)
+    aperture_radius: float = field(default=0.0, kw_only=True)
+    focus_distance: float | None = field(default=None, kw_only=True)
+    projection: str = field(default="perspective", kw_only=True)
+    view_height: float | None = field(default=None, kw_only=True)
+    view_width: float | None = field(default=None, kw_only=True)
+    near_clip: float = field(default=0.0, kw_only=True)
+    far_clip: float = field(default=math.inf, kw_only=True)
 
     def __post_init__(self):
         if not isinstance(self.filter, Filter):
             raise ValueError(f"Camera.filter must be a reference_tracer.Filter, got {self.filter!r}")
         for name in ("lookfrom", "lookat", "vup"):
             object.__setattr__(self, name, vector3(f"Camera.{name}", getattr(self, name)))
-        object.__setattr__(self, "vfov", finite_scalar("Camera.vfov", self.vfov, lo=0.0, lo_open=True, hi=179.0))
+        if not isinstance(self.projection, str) or self.projection not in PROJECTIONS:
+            raise ValueError(f"Camera.projection must be one of {PROJECTIONS}, got {self.projection!r}")
+        ortho = self.projection == "orthographic"
+        if ortho:
+            if self.vfov is not None:
+                raise ValueError("Camera.vfov is a perspective camera's; an orthographic one's extent is "
+                                 "view_height (and view_width)")
+            if self.view_height is None:
+                raise ValueError("Camera(projection='orthographic') needs view_height (the view's height in "
+                                 "world units)")
+            object.__setattr__(self, "view_height", finite_scalar("Camera.view_height", self.view_height, lo=0.0,
+                                                                  lo_open=True))
+            if self.view_width is not None:
+                object.__setattr__(self, "view_width", finite_scalar("Camera.view_width", self.view_width,
+                                                                     lo=0.0, lo_open=True))
+        else:
+            for name in ("view_height", "view_width"):
+                if getattr(self, name) is not None:
+                    raise ValueError(f"Camera.{name} is an orthographic camera's (projection='orthographic'); "
+                                     f"a perspective one's extent is vfov")
+            vfov = DEFAULT_VFOV if self.vfov is None else self.vfov
+            object.__setattr__(self, "vfov", finite_scalar("Camera.vfov", vfov, lo=0.0, lo_open=True, hi=179.0))
         object.__setattr__(self, "width", positive_int("Camera.width", self.width))
         object.__setattr__(self, "height", positive_int("Camera.height", self.height))
+        r = finite_scalar("Camera.aperture_radius", self.aperture_radius, lo=0.0)
+        object.__setattr__(self, "aperture_radius", r)
+        if r > 0.0:
+            if ortho:
+                raise ValueError("Camera.aperture_radius: an orthographic camera has no lens (Mitsuba's thinlens "
+                                 "is a perspective camera)")
+            if self.focus_distance is None:
+                raise ValueError("Camera.aperture_radius > 0 (a thin lens) needs focus_distance, the distance "
+                                 "of the plane in focus")
+            object.__setattr__(self, "focus_distance", finite_scalar("Camera.focus_distance", self.focus_distance,
+                                                                     lo=0.0, lo_open=True))
+        elif self.focus_distance is not None:
+            raise ValueError("Camera.focus_distance is a thin lens's: give aperture_radius > 0 with it (a pinhole "
+                             "is in focus everywhere)")
+        near = finite_scalar("Camera.near_clip", self.near_clip, lo=0.0)
+        object.__setattr__(self, "near_clip", near)
+        try:
+            far = float(self.far_clip)
+        except (TypeError, ValueError):
+            raise ValueError(f"Camera.far_clip must be a number, got {self.far_clip!r}") from None
+        if not far > near:  # NaN too
+            raise ValueError(f"Camera.far_clip must exceed near_clip ({near}), got {self.far_clip!r}")
+        object.__setattr__(self, "far_clip", far)
         d = np.subtract(self.lookat, self.lookfrom)
         if np.linalg.norm(d) == 0:
             raise ValueError("Camera.lookat must differ from Camera.lookfrom")
@@ -114,6 +227,28 @@ class Camera:
     @property
     def aspect(self) -> float:
         return self.width / self.height
+
+    @property
+    def is_thin_lens(self) -> bool:
+        return self.aperture_radius > 0.0
+
+    @property
+    def is_orthographic(self) -> bool:
+        return self.projection == "orthographic"
+
+    @property
+    def is_pinhole(self) -> bool:
+        """The plain pinhole: perspective, no lens, no clip planes (the camera of every scene before options)."""
+        return (not self.is_orthographic and not self.is_thin_lens and self.near_clip == 0.0
+                and self.far_clip == math.inf)
+
+    @property
+    def view_size(self) -> tuple[float, float] | None:
+        """``(width, height)`` of an orthographic view in world units (None for perspective)."""
+        if not self.is_orthographic:
+            return None
+        w = self.view_height * self.aspect if self.view_width is None else self.view_width
+        return (float(w), float(self.view_height))
 
     def basis(self):
         """(forward, right, up) unit vectors of the camera in world space."""
@@ -125,7 +260,28 @@ class Camera:
         return w, right, up
 
     def with_size(self, width: int, height: int) -> "Camera":
-        return Camera(self.lookfrom, self.lookat, self.vup, self.vfov, width, height, filter=self.filter)
+        return dataclasses.replace(self, width=width, height=height)
+
+    def describe(self) -> dict:
+        """The camera's part of :meth:`Scene.describe`: options only where they differ from the defaults."""
+        out = {"lookfrom": self.lookfrom, "lookat": self.lookat, "vup": self.vup, "vfov": self.vfov,
+               "width": self.width, "height": self.height}
+        # pinhole box-filtered scenes keep the hash they always had (cached references stay valid)
+        if not self.filter.is_box:
+            out["filter"] = self.filter.describe()
+        if self.is_orthographic:
+            out["projection"] = self.projection
+            out["view_height"] = self.view_height
+            if self.view_width is not None:
+                out["view_width"] = self.view_width
+        if self.is_thin_lens:
+            out["aperture_radius"] = self.aperture_radius
+            out["focus_distance"] = self.focus_distance
+        if self.near_clip != 0.0:
+            out["near_clip"] = self.near_clip
+        if self.far_clip != math.inf:
+            out["far_clip"] = self.far_clip
+        return out
 
 
 #: Largest sample count of either kind of :class:`Direct`.
@@ -283,12 +439,8 @@ class Scene:
 
     def describe(self) -> dict:
         """A JSON-able description of everything that determines the image."""
-        c = self.camera
         return {
-            "camera": {"lookfrom": c.lookfrom, "lookat": c.lookat, "vup": c.vup, "vfov": c.vfov,
-                       "width": c.width, "height": c.height,
-                       # box scenes keep the hash they always had (cached references stay valid)
-                       **({} if c.filter.is_box else {"filter": c.filter.describe()})},
+            "camera": self.camera.describe(),
             "shapes": [s.describe() for s in self.shapes],
             "max_depth": self.max_depth, "rr_depth": self.rr_depth,
             "background": self.background,

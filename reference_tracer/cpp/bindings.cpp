@@ -112,7 +112,9 @@ public:
             int triangle_test, const std::optional<IndexVector>& smooth_triangles,
             const std::optional<Matrix>& triangle_normals, const std::optional<Matrix>& delta_lights,
             const std::optional<Image>& environment, double environment_scale,
-            const std::optional<Matrix>& environment_to_world) {
+            const std::optional<Matrix>& environment_to_world, int projection, double view_width,
+            double view_height, double aperture_radius, double focus_distance, double near_clip,
+            double far_clip) {
         if (width < 1 || height < 1) throw std::invalid_argument("image size must be positive");
         if (max_depth < 1) throw std::invalid_argument("max_depth must be >= 1 here (the Python layer maps -1)");
         if (triangle_test < 0 || triangle_test > 2) throw std::invalid_argument("unknown triangle test");
@@ -261,7 +263,26 @@ public:
         settings.max_depth = max_depth;
         settings.rr_depth = rr_depth;
         settings.triangle_test = rt::TriangleTest(triangle_test);
-        const rt::Camera camera(vec3(lookfrom), vec3(lookat), vec3(vup), vfov, width, height);
+        // The camera's options (the Python layer validates them; these checks keep the
+        // core's own invariants).
+        if (projection < 0 || projection > 1) throw std::invalid_argument("unknown projection");
+        if (!(aperture_radius >= 0.0) || !std::isfinite(aperture_radius))
+            throw std::invalid_argument("aperture_radius must be finite and >= 0");
+        if (aperture_radius > 0.0 && (projection != 0 || !(focus_distance > 0.0) || !std::isfinite(focus_distance)))
+            throw std::invalid_argument("a thin lens needs a perspective projection and a focus_distance > 0");
+        if (!(near_clip >= 0.0) || !std::isfinite(near_clip) || !(far_clip > near_clip))
+            throw std::invalid_argument("clip planes need 0 <= near_clip < far_clip");
+        rt::Camera camera(vec3(lookfrom), vec3(lookat), vec3(vup), vfov, width, height);
+        if (projection == 1) {
+            if (!(view_width > 0.0) || !(view_height > 0.0) || !std::isfinite(view_width) || !std::isfinite(view_height))
+                throw std::invalid_argument("an orthographic view needs a finite width and height > 0");
+            camera = rt::Camera::orthographic(vec3(lookfrom), vec3(lookat), vec3(vup), view_width, view_height,
+                                              width, height);
+        }
+        camera.aperture_radius = aperture_radius;
+        if (aperture_radius > 0.0) camera.focus_distance = focus_distance;
+        camera.near_clip = near_clip;
+        camera.far_clip = far_clip;
 
         const auto t0 = std::chrono::steady_clock::now();
         {
@@ -663,12 +684,15 @@ NB_MODULE(_core, m) {
         .def(nb::init<const Vector&, const Vector&, const Vector&, double, int, int, const Matrix&, const Matrix&,
                       const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int,
                       const std::optional<IndexVector>&, const std::optional<Matrix>&, const std::optional<Matrix>&,
-                      const std::optional<Image>&, double, const std::optional<Matrix>&>(),
+                      const std::optional<Image>&, double, const std::optional<Matrix>&, int, double, double, double,
+                      double, double, double>(),
              "lookfrom"_a, "lookat"_a, "vup"_a, "vfov"_a, "width"_a, "height"_a, "materials"_a, "spheres"_a,
              "quads"_a, "triangles"_a, "triangle_materials"_a, "background"_a, "max_depth"_a, "rr_depth"_a,
              "triangle_test"_a = 0, "smooth_triangles"_a = nb::none(), "triangle_normals"_a = nb::none(),
              "delta_lights"_a = nb::none(), "environment"_a = nb::none(), "environment_scale"_a = 1.0,
-             "environment_to_world"_a = nb::none())
+             "environment_to_world"_a = nb::none(), "projection"_a = 0, "view_width"_a = 0.0,
+             "view_height"_a = 0.0, "aperture_radius"_a = 0.0, "focus_distance"_a = 1.0, "near_clip"_a = 0.0,
+             "far_clip"_a = rt::kInf)
         .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none(),
              "moments"_a = false, "integrator"_a = 0
 #ifdef RT_MUTANTS_MODULE

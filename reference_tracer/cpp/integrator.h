@@ -40,9 +40,10 @@ public:
         : scene_(scene), strategy_(strategy), direct_(direct) {}
 
     // Radiance arriving along `ray`; `rays` counts every ray cast (camera, continuation,
-    // shadow/light rays).
-    Vec3 Li(Ray ray, PCG64& rng, uint64_t& rays) const {
-        return direct_.enabled() ? Li_direct(ray, rng, rays) : Li_path(ray, rng, rays);
+    // shadow/light rays). A hit of the camera ray at or beyond `reach` (the camera's far clip
+    // plane) is a miss.
+    Vec3 Li(Ray ray, PCG64& rng, uint64_t& rays, double reach = kInf) const {
+        return direct_.enabled() ? Li_direct(ray, rng, rays, reach) : Li_path(ray, rng, rays, reach);
     }
 
     // Whether this integrator is Mitsuba's `direct` (only the scalar steps implement it).
@@ -162,10 +163,10 @@ private:
     bool survives(int depth, double eta, Vec3& beta, PCG64& rng) const;
 
     // The path integrator (Mitsuba `path`) with the strategy at every non-delta vertex.
-    Vec3 Li_path(Ray ray, PCG64& rng, uint64_t& rays) const;
+    Vec3 Li_path(Ray ray, PCG64& rng, uint64_t& rays, double reach) const;
     // Mitsuba's `direct` (integrator_direct.h): the strategy picks the direction sampling
     // of the `bsdf` samples; `mis` weighs them against the light samples.
-    Vec3 Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays) const;
+    Vec3 Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays, double reach) const;
     // The emission that arrives at v's reference point `ref` along the sampled direction
     // s->wi, weighted against the light samples' density (Li_direct's BSDF technique).
     Vec3 direct_bsdf_sample(const Vertex& v, const Vec3& ref, const Scatter& s, double frac_light,

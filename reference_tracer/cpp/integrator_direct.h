@@ -14,10 +14,10 @@
 namespace rt {
 
 template <Mutant M>
-Vec3 Integrator<M>::Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays) const {
+Vec3 Integrator<M>::Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays, double reach) const {
     ++rays;
     Interaction it;
-    if (!scene_.intersect(ray, it)) return scene_.background(ray.d);
+    if (!scene_.intersect(ray, it) || !(it.t < reach)) return scene_.background(ray.d);
     const Material& m = scene_.material(it.material);
     const bool front = dot(ray.d, it.ns) < 0.0;
     Vec3 L = (front && m.emits()) ? m.radiance : Vec3(0.0);  // one-sided (shading normal), as the area emitter

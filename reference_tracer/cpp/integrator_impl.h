@@ -212,7 +212,7 @@ template <Mutant M>
 }
 
 template <Mutant M>
-Vec3 Integrator<M>::Li_path(Ray ray, PCG64& rng, uint64_t& rays) const {
+Vec3 Integrator<M>::Li_path(Ray ray, PCG64& rng, uint64_t& rays, double reach) const {
     const SceneSettings& cfg = scene_.settings();
     Vec3 L(0.0), beta(1.0);
     double eta = 1.0;  // product of relative IORs crossed (Russian roulette)
@@ -221,7 +221,9 @@ Vec3 Integrator<M>::Li_path(Ray ray, PCG64& rng, uint64_t& rays) const {
     for (int depth = 0;; ++depth) {
         ++rays;
         Interaction it;
-        if (!scene_.intersect(ray, it)) {
+        // reach: the camera ray's (inf for the plain pinhole and for every later segment:
+        // their hits are what they always were).
+        if (!scene_.intersect(ray, it) || !(it.t < reach)) {
             if (scene_.has_background()) L += beta * scene_.background(ray.d) * background_weight(prev, ray.d);
             return L;
         }
@@ -264,6 +266,7 @@ Vec3 Integrator<M>::Li_path(Ray ray, PCG64& rng, uint64_t& rays) const {
         // vertex (an emitter hit there is not weighted: no light sample could have met it).
         prev = PrevVertex{s->delta, s->pdf, ref};
         ray = Ray{continuation_origin(v, s->wi, s->delta), s->wi};
+        reach = kInf;
         if (!survives(depth + 1, eta, beta, rng)) return L;
     }
 }

@@ -65,7 +65,16 @@ void render_pixel(const Scene& scene, const Integrator<M>& integrator, int x, in
                 px -= 0.5;
                 py -= 0.5;
             }
-            const Vec3 L = integrator.Li(cam.generate(px, py), rng, rays);
+            // A thin lens's aperture point: two numbers more, drawn only for it (the pinhole's
+            // stream of numbers, and so its images, stay as they were).
+            double lens[2] = {0.0, 0.0};
+            if (cam.thin_lens()) {
+                lens[0] = rng.next_double();
+                lens[1] = rng.next_double();
+            }
+            double reach;
+            const Ray ray = cam.generate(px, py, lens, reach);
+            const Vec3 L = integrator.Li(ray, rng, rays, reach);
             if (!is_finite(L)) {  // counted and reported; must stay 0 in every suite scene
                 ++nonfinite;
                 continue;

@@ -18,31 +18,114 @@
 
 namespace rt {
 
-// Pinhole camera; pixel (0, 0) is the top-left corner, +x right, +y down in the image.
+// Mitsuba's perspective and orthographic sensors, the first with an optional thin lens
+// (its thinlens); pixel (0, 0) is the top-left corner, +x right, +y down in the image.
+enum class Projection { Perspective = 0, Orthographic = 1 };
+
 struct Camera {
     Vec3 origin, forward, right, up;
+    // Perspective: the half extents of the image plane at distance 1 (tan of half the field
+    // of view); orthographic: the half extents of the view, in world units.
     double half_width = 1, half_height = 1;
     int width = 1, height = 1;
+    Projection projection = Projection::Perspective;
+    double aperture_radius = 0.0;  // > 0: a thin lens (perspective only)
+    double focus_distance = 1.0;   // of a thin lens, along `forward`
+    // Rays start on the near plane and end at the far one (distances along `forward`, as
+    // Mitsuba's near_clip and far_clip); 0 and inf clip nothing.
+    double near_clip = 0.0, far_clip = kInf;
 
     Camera() = default;
     Camera(const Vec3& lookfrom, const Vec3& lookat, const Vec3& vup, double vfov_deg, int w, int h)
         : origin(lookfrom), width(w), height(h) {
-        forward = normalize(lookat - lookfrom);
-        right = normalize(cross(forward, vup));
-        up = cross(right, forward);
+        basis(lookfrom, lookat, vup);
         half_height = std::tan(0.5 * vfov_deg * kPi / 180.0);
         half_width = half_height * double(w) / double(h);
     }
+    // An orthographic camera whose view is view_width x view_height world units.
+    static Camera orthographic(const Vec3& lookfrom, const Vec3& lookat, const Vec3& vup, double view_width,
+                               double view_height, int w, int h) {
+        Camera c;
+        c.origin = lookfrom;
+        c.width = w;
+        c.height = h;
+        c.basis(lookfrom, lookat, vup);
+        c.projection = Projection::Orthographic;
+        c.half_width = 0.5 * view_width;
+        c.half_height = 0.5 * view_height;
+        return c;
+    }
 
-    // Ray through the film point (px, py), in pixel units from the top-left corner.
+    // The pinhole without clip planes: rays from the eye through the film, unbounded. Its
+    // rays come from direction() alone, which the wavefront integrator runs a pack at a
+    // time; every other camera goes through generate() one ray at a time.
+    bool plain() const {
+        return projection == Projection::Perspective && aperture_radius == 0.0 && near_clip == 0.0 &&
+               far_clip == kInf;
+    }
+    // Whether a camera ray takes two uniform numbers for its point on the aperture (drawn
+    // after the film point's two; the pinhole draws none, so its images stay as they were).
+    bool thin_lens() const { return aperture_radius > 0.0; }
+
+    // Ray through the film point (px, py), in pixel units from the top-left corner, for the
+    // plain pinhole.
     Ray generate(double px, double py) const {
         Ray r{origin, Vec3()};
         direction(px, py, r.d.x, r.d.y, r.d.z);
         return r;
     }
-    // Its unit direction, written once for a double and for a pack of them (simd.h; the
-    // wavefront integrator starts several lanes' samples at once): every lane performs the
-    // operations of normalize(forward + sx * right + sy * up) in their order.
+    // Ray through the film point (px, py) of any camera, and how far it reaches (t_max: a
+    // hit at or beyond it is a miss); `lens` holds the aperture's uniform numbers of a thin
+    // lens (unused otherwise). The arithmetic of Mitsuba's sample_ray in double.
+    Ray generate(double px, double py, const double (&lens)[2], double& t_max) const {
+        if (plain()) {
+            t_max = kInf;
+            return generate(px, py);
+        }
+        const double sx = (2.0 * px / double(width) - 1.0) * half_width;
+        const double sy = (1.0 - 2.0 * py / double(height)) * half_height;
+        if (projection == Projection::Orthographic) {
+            // The film point on the near plane, looking along `forward`.
+            t_max = far_clip - near_clip;
+            return Ray{origin + sx * right + sy * up + near_clip * forward, forward};
+        }
+        // Camera coordinates (right, up, forward): the film point's ray meets the plane in
+        // focus at f * (sx, sy, 1); the ray leaves the aperture point a toward it.
+        double ar = 0.0, au = 0.0, f = 1.0;
+        if (thin_lens()) {
+            double dx, dy;
+            square_to_uniform_disk_concentric(lens[0], lens[1], dx, dy);
+            // Mitsuba's camera x axis points left: its disk's x is our -right.
+            ar = -aperture_radius * dx;
+            au = aperture_radius * dy;
+            f = focus_distance;
+        }
+        const double lx = f * sx - ar, ly = f * sy - au, lz = f;
+        const double len = std::sqrt(lx * lx + ly * ly + lz * lz);
+        const Vec3 d = normalize(lx * right + ly * up + lz * forward);
+        // Clip distances are along `forward`: along the ray they are distance / cos.
+        const double inv_z = len / lz;
+        const double near_t = near_clip * inv_z;
+        t_max = far_clip == kInf ? kInf : far_clip * inv_z - near_t;
+        return Ray{origin + ar * right + au * up + near_t * d, d};
+    }
+    // Mitsuba's warp::square_to_uniform_disk_concentric (Shirley and Chiu's map).
+    static void square_to_uniform_disk_concentric(double u1, double u2, double& x, double& y) {
+        const double a = 2.0 * u1 - 1.0, b = 2.0 * u2 - 1.0;
+        if (a == 0.0 && b == 0.0) {
+            x = y = 0.0;
+            return;
+        }
+        const bool quadrant_1_or_3 = std::abs(a) < std::abs(b);
+        const double r = quadrant_1_or_3 ? b : a, rp = quadrant_1_or_3 ? a : b;
+        double phi = 0.25 * kPi * rp / r;
+        if (quadrant_1_or_3) phi = 0.5 * kPi - phi;
+        x = r * std::cos(phi);
+        y = r * std::sin(phi);
+    }
+    // The pinhole's unit direction, written once for a double and for a pack of them
+    // (simd.h; the wavefront integrator starts several lanes' samples at once): every lane
+    // performs the operations of normalize(forward + sx * right + sy * up) in their order.
     template <typename T>
     void direction(T px, T py, T& dx, T& dy, T& dz) const {
         const T sx = (2.0 * px / double(width) - 1.0) * half_width;
@@ -53,6 +136,13 @@ struct Camera {
         dx = x * inv;
         dy = y * inv;
         dz = z * inv;
+    }
+
+private:
+    void basis(const Vec3& lookfrom, const Vec3& lookat, const Vec3& vup) {
+        forward = normalize(lookat - lookfrom);
+        right = normalize(cross(forward, vup));
+        up = cross(right, forward);
     }
 };
 

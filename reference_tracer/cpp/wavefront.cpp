@@ -40,6 +40,11 @@ void WavefrontIntegrator::start_sample(Lane& lane) const {
     // Box filter, as render_pixel: a sample jittered in the pixel.
     lane.film[0] = lane.x + lane.rng.next_double();
     lane.film[1] = lane.y + lane.rng.next_double();
+    // A thin lens's aperture numbers, as render_pixel draws them.
+    if (scene_.camera().thin_lens()) {
+        lane.lens[0] = lane.rng.next_double();
+        lane.lens[1] = lane.rng.next_double();
+    }
     lane.L = Vec3(0.0);
     lane.beta = Vec3(1.0);
     lane.eta = 1.0;
@@ -50,6 +55,13 @@ void WavefrontIntegrator::start_sample(Lane& lane) const {
 
 void WavefrontIntegrator::camera_rays(Lane* const* lanes, int n) const {
     const Camera& camera = scene_.camera();
+    if (!camera.plain()) {  // clip planes, a lens or an orthographic view: a ray at a time
+        for (int l = 0; l < n; ++l) {
+            Lane& lane = *lanes[l];
+            lane.ray = camera.generate(lane.film[0], lane.film[1], lane.lens, lane.reach);
+        }
+        return;
+    }
     for (int base = 0; base < n; base += kPackWidth) {
         const int m = std::min(kPackWidth, n - base);
         VPd film[2];
@@ -448,6 +460,10 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
 
         rays += uint64_t(n);
         scene_.intersect_batch(size_t(n), batch, hit, hits);
+        // A camera ray's hit at or beyond its reach is a miss, as in Integrator::Li.
+        if (!scene_.camera().plain())
+            for (int k = 0; k < n; ++k)
+                if (active[k]->depth == 0 && !(active[k]->it.t < active[k]->reach)) hit[k] = false;
         int n_queued = 0, n_others = 0;
         for (int k = 0; k < n; ++k) {
             Lane& lane = *active[k];

@@ -59,7 +59,9 @@ private:
         detail::TailSums tails;
 
         double film[2] = {0, 0};  // the sample's film point (px, py), until camera_rays()
+        double lens[2] = {0, 0};  // a thin lens's aperture numbers, until camera_rays()
         Ray ray;               // the path's next segment
+        double reach = kInf;   // the camera ray's (Camera::generate), while depth is 0
         Vec3 L, beta;
         double eta = 1.0;
         PrevVertex prev;
