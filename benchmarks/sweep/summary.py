@@ -22,7 +22,7 @@ from ..store import META, SUMMARY, read_image, read_json, read_records, update_m
 from ..tails import DEFAULT_MAX_TAIL_SAMPLES, DEFAULT_TAIL_SPP
 from .bias import bias_stats
 from .by_metric import add_metric_ratios, curve_metrics, tail_variance_image
-from .coerce import as_float
+from .coerce import as_float, finite_mean
 from .headline import add_noise_ratios, headline_rows
 from .jobs import mitsuba_pairs
 from .noise import DEFAULT_BATCHES, exact, mitsuba_cost, tail_noise, tail_variance
@@ -72,12 +72,6 @@ def target_rmse(ref_mean, *, relative: float = TARGET_RELATIVE_RMSE) -> float:
     return float(relative * math.sqrt(float(np.mean(r * r))))
 
 
-def _nanmean(vals):
-    a = np.asarray([as_float(v) for v in vals], dtype=np.float64)
-    a = a[np.isfinite(a)]
-    return float(a.mean()) if a.size else math.nan
-
-
 
 def _scene_filter(scene: str, w: int, h: int, cache: dict):
     """The pixel filter of a store's scene (None where the scene is no longer known here)."""
@@ -102,9 +96,9 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     for r in recs:
         by_spp[int(r["spp"])].append(r)
     spps = sorted(by_spp)
-    mse_c = np.array([_nanmean(r.get("mse_corrected") for r in by_spp[s]) for s in spps])
-    mse_p = np.array([_nanmean(r.get("mse") for r in by_spp[s]) for s in spps])
-    secs = np.array([_nanmean(r.get("seconds") for r in by_spp[s]) for s in spps])
+    mse_c = np.array([finite_mean(r.get("mse_corrected") for r in by_spp[s]) for s in spps])
+    mse_p = np.array([finite_mean(r.get("mse") for r in by_spp[s]) for s in spps])
+    secs = np.array([finite_mean(r.get("seconds") for r in by_spp[s]) for s in spps])
     row = {"spps": spps, "seeds": max(len(by_spp[s]) for s in spps), "timing_source": "each render's wall time"}
     pixels = int(recs[0]["width"]) * int(recs[0]["height"]) if recs else 0
     if seconds_per_sample and pixels:
@@ -119,7 +113,7 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     row["slope_steep"] = bool(lo_hi is not None and lo_hi[1] < -0.5)  # RMSE's Monte Carlo slope
     row["slope_status"] = slope_status(row)
     if row["variance"] is None:
-        row["variance"] = _nanmean(r.get("variance") for r in recs)
+        row["variance"] = finite_mean(r.get("variance") for r in recs)
     row["variance_source"], row["variance_lower_bound"] = "renders at the top spp", None
     if tails is not None:
         row.update(tail_variance(tails))
@@ -140,7 +134,7 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
         row["efficiency"] = M.efficiency(mse_c[-1], secs[-1])
         row["efficiency_source"] = "measured MSE"
     row["samples_per_second"] = (1.0 / seconds_per_sample if seconds_per_sample else
-                                 _nanmean(r.get("paths_per_second") for r in by_spp[top]))
+                                 finite_mean(r.get("paths_per_second") for r in by_spp[top]))
     row["seconds_at_top"] = secs[-1]
     row["target_rmse"] = target
     row["time_to_target"] = None
