@@ -3,7 +3,7 @@ import numpy as np
 
 import reference_tracer as rt
 from benchmarks.references import CLOSED_FORM, closed_form_reference_of
-from benchmarks.sweep import _bias_verdict
+from benchmarks.sweep.bias import bias_verdict
 from mitsuba_scenes import get_scene
 from mitsuba_scenes.scenes.furnace import expected_radiance
 
@@ -17,7 +17,7 @@ def test_furnace_reference_is_the_closed_form():
     # every bounce), so the bias verdict sees no evidence at all.
     r = rt.render(get_scene("furnace", width=8, height=6), spp=16, strategy="cosine", seed=0)
     np.testing.assert_allclose(r.mean, ref.mean, rtol=1e-6)
-    verdict = _bias_verdict([r.mean, r.mean], [r.variance, r.variance], 16, ref.mean, ref.variance, ref.spp,
+    verdict = bias_verdict([r.mean, r.mean], [r.variance, r.variance], 16, ref.mean, ref.variance, ref.spp,
                             alpha=0.001)
     assert verdict["bias_significant"] is False
 
@@ -35,9 +35,9 @@ def test_bias_verdict_catches_a_global_one_percent_bias_hidden_by_noisy_pixels()
     var[:2, :2] = 5e4  # four pixels with enormous variance
     ref_spp = 8192
     imgs = [ref * 0.99 + rng.normal(size=ref.shape) * np.sqrt(var / spp) for _ in range(k)]
-    verdict = _bias_verdict(imgs, [var] * k, spp, ref, var, ref_spp, alpha=0.001)
+    verdict = bias_verdict(imgs, [var] * k, spp, ref, var, ref_spp, alpha=0.001)
     assert verdict["bias_significant"] is True, verdict
     unbiased = [ref + rng.normal(size=ref.shape) * np.sqrt(var / spp) for _ in range(k)]
-    assert _bias_verdict(unbiased, [var] * k, spp, ref, var, ref_spp, alpha=0.001)["bias_significant"] is False
+    assert bias_verdict(unbiased, [var] * k, spp, ref, var, ref_spp, alpha=0.001)["bias_significant"] is False
     # One render alone gets no verdict (its own variance is unreliable for heavy tails).
-    assert _bias_verdict(imgs[:1], [var], spp, ref, var, ref_spp, alpha=0.001)["bias_significant"] is None
+    assert bias_verdict(imgs[:1], [var], spp, ref, var, ref_spp, alpha=0.001)["bias_significant"] is None

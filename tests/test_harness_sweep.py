@@ -87,7 +87,7 @@ def test_unbiased_strategies_converge_at_minus_one_half(stat_store, curve):
     assert excluded == [s for s in STAT.spps if s < (row["slope_fit_from"] or 1)]
     if 10 - len(excluded) >= 2:
         assert row["slope_points"] == 10 - len(excluded)
-    else:  # too few budgets left: the full fit is kept and marked (summary._slope_status)
+    else:  # too few budgets left: the full fit is kept and marked (sweep.slopes.slope_status)
         assert row["slope_points"] == 10 and row["slope_status"].startswith("undetermined")
     assert abs(row["slope"] + 0.5) <= 0.1, row["slope"]
     lo, hi = row["slope_ci"]

@@ -99,15 +99,15 @@ def test_a_slope_measured_while_heavy_tailed_is_marked_undetermined():
     met the paths that carry the variance and the fitted slope reads shallower than the
     estimator's: the summary row and the report's table say so, and keep the number."""
     from benchmarks.metrics import view
-    from benchmarks.sweep.summary import _slope_status
+    from benchmarks.sweep.slopes import slope_status
     from reports.tables import stats_table
 
     heavy = {"renderer": "ours", "strategy": "uniform", "slope": -0.21, "slope_ci": [-0.3, -0.12],
              "bias_verdict": "undetermined", "bias_spp_needed": 120000}
-    assert "undetermined: heavy-tailed" in _slope_status(heavy) and "120000" in _slope_status(heavy)
-    assert _slope_status(dict(heavy, bias_verdict="pass")) is None
-    assert _slope_status(dict(heavy, bias_verdict="fail")) is None
-    heavy["slope_status"] = _slope_status(heavy)
+    assert "undetermined: heavy-tailed" in slope_status(heavy) and "120000" in slope_status(heavy)
+    assert slope_status(dict(heavy, bias_verdict="pass")) is None
+    assert slope_status(dict(heavy, bias_verdict="fail")) is None
+    heavy["slope_status"] = slope_status(heavy)
     cell = stats_table([view(heavy, "rmse")])[0][1]
     assert cell.startswith("-0.21") and cell.endswith("(undetermined: heavy-tailed)")
     ok = dict(heavy, bias_verdict="pass", slope_status=None)
@@ -118,27 +118,27 @@ def test_budgets_below_the_normal_start_are_left_out_of_the_slope():
     """Per-point rule: where the tail reference says the image mean is near normal only
     from 64 spp, the cheaper budgets' MSE (rare paths missed: too low) is left out of the
     fit; with fewer than four budgets left there is no slope, and the row says why."""
-    from benchmarks.sweep.summary import _reliable_points_only, _slope_stats, _slope_status
+    from benchmarks.sweep.slopes import reliable_points_only, slope_stats, slope_status
 
     spps = [4, 16, 64, 256, 1024, 4096]
     # an estimator of variance 1: MSE 1/n from 64 spp on, far below it at 4 and 16 spp
     mse = np.array([0.01, 0.01, 1 / 64, 1 / 256, 1 / 1024, 1 / 4096])
-    row = dict(_slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=64)
+    row = dict(slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=64)
     assert row["slope"] > -0.3                     # the low points flatten the whole fit
-    row.update(_reliable_points_only(spps, mse, mse, row))
+    row.update(reliable_points_only(spps, mse, mse, row))
     assert row["slope_excluded_spps"] == [4, 16] and row["slope_range"] == [64, 4096]
     assert row["slope"] == pytest.approx(-0.5) and row["slope_points"] == 4
-    assert _slope_status(row) is None
-    late = dict(_slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=1000)
-    late.update(_reliable_points_only(spps, mse, mse, late))
+    assert slope_status(row) is None
+    late = dict(slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=1000)
+    late.update(reliable_points_only(spps, mse, mse, late))
     assert late["slope_excluded_spps"] == [4, 16, 64, 256] and late["slope"] is None
-    assert "below 1000 spp" in _slope_status(late) and "fewer than 4" in _slope_status(late)
+    assert "below 1000 spp" in slope_status(late) and "fewer than 4" in slope_status(late)
     # nothing to leave out: normal from 1 spp, or no tail reference (None)
     for start in (1, None):
-        r = dict(_slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=start)
-        assert _reliable_points_only(spps, mse, mse, r) == {"slope_excluded_spps": []}
+        r = dict(slope_stats(spps, mse, mse), spps=spps, bias_verdict="pass", slope_fit_from=start)
+        assert reliable_points_only(spps, mse, mse, r) == {"slope_excluded_spps": []}
     # three budgets fit any line: no slope from them, whatever they say
-    assert _slope_stats(spps[:3], mse[:3], mse[:3])["slope"] is None
+    assert slope_stats(spps[:3], mse[:3], mse[:3])["slope"] is None
 
 
 def test_every_metric_slope_follows_the_per_point_rule():

@@ -3,8 +3,9 @@
 One job, in three modules:
 
 - :mod:`~benchmarks.gate.statistics`: :func:`compare`, the test of one render against
-  one reference (pixel, tile and image levels; its value :class:`GateResult` is in
-  :mod:`~benchmarks.gate.result`); Sidak's correction is :mod:`benchmarks.stats`'s. :mod:`~benchmarks.gate.mitsuba_rule`
+  one reference (its inputs checked once in :mod:`~benchmarks.gate.inputs`, its pixel, tile,
+  image and correlation levels in :mod:`~benchmarks.gate.levels`; its value
+  :class:`GateResult` is in :mod:`~benchmarks.gate.result`); Sidak's correction is :mod:`benchmarks.stats`'s. :mod:`~benchmarks.gate.mitsuba_rule`
   re-implements Mitsuba 3's own per-pixel rule (:func:`mitsuba_rule`) to compare the two;
   :mod:`~benchmarks.gate.paired`: :func:`judge`, the same test of one render against another
   of the same estimator (``rtbench compare``'s verdict).

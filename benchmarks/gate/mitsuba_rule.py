@@ -13,7 +13,7 @@ import numpy as np
 from scipy import stats
 
 from ..stats import sidak
-from .statistics import _image3, _spp
+from .inputs import check_spp, image3
 
 __all__ = ["MitsubaRuleResult", "mitsuba_rule"]
 
@@ -72,12 +72,12 @@ def mitsuba_rule(test_mean, ref_mean, ref_var, test_spp, *, alpha: float = MITSU
     >>> mitsuba_rule(ref * 1.001, ref, np.full_like(ref, 1.0), 64).passed
     True
     """
-    x = _image3(test_mean, "test_mean")
-    r = _image3(ref_mean, "ref_mean")
-    v = _image3(ref_var, "ref_var")
+    x = image3(test_mean, "test_mean")
+    r = image3(ref_mean, "ref_mean")
+    v = image3(ref_var, "ref_var")
     if not (x.shape == r.shape == v.shape):
         raise ValueError(f"image shapes differ: test_mean{x.shape}, ref_mean{r.shape}, ref_var{v.shape}")
-    n = _spp(test_spp, "test_spp", 1)
+    n = check_spp(test_spp, "test_spp", 1)
     H, W, C = x.shape
     v = np.maximum(np.nan_to_num(v, nan=0.0), var_floor)
     with np.errstate(invalid="ignore"):

@@ -78,95 +78,16 @@ identical samples (``rt.render`` gives ~1e-15 on a directly seen light), and wit
 """
 from __future__ import annotations
 
-import dataclasses
-import math
-from dataclasses import dataclass
-
 import numpy as np
-from scipy import stats
 
 from ..constants import GATE_ALPHA
-from ..stats import sidak, sidak_p_value
-from .heavy_tails import (DEFAULT_VALIDITY, edgeworth_error, neighbourhood_floor, pixel_shape, spp_needed,
-                          tail_moments)
-from .correlation import MIN_PAIRS, neighbour_products
-from .filtered import filtered_moments
 from .findings import POWER_TILE, locate, power, relative_bias
+from .heavy_tails import DEFAULT_VALIDITY, spp_needed
+from .inputs import prepare
+from .levels import Level, correlation_level, family_p, image_level, pixel_level, tile_level
 from .result import LEVELS, GateResult
 
 __all__ = ["compare"]
-
-
-def _image3(a, name: str) -> np.ndarray:
-    arr = np.asarray(a, dtype=np.float64)
-    if arr.ndim == 2:
-        arr = arr[..., None]
-    if arr.ndim != 3 or arr.size == 0:
-        raise ValueError(f"{name} must have shape (H, W) or (H, W, C); got {np.shape(a)}")
-    return arr
-
-
-def _spp(n, name: str, minimum: int) -> float:
-    v = float(n)
-    if not (math.isfinite(v) and v >= minimum):
-        raise ValueError(f"{name} must be a number >= {minimum}; got {n!r}")
-    return v
-
-
-def _variance(v: np.ndarray, name: str, n: float, ddof: int) -> np.ndarray:
-    if not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} has non-finite entries")
-    # second moment minus squared mean can come out slightly negative in float32
-    scale = max(np.abs(v).max(), 1.0)
-    if np.any(v < -1e-5 * scale):
-        raise ValueError(f"{name} has negative entries (min {v.min():g})")
-    v = np.maximum(v, 0.0)
-    if ddof not in (0, 1):
-        raise ValueError(f"var_ddof must be 0 or 1; got {ddof}")
-    if ddof == 0:
-        v = v * (n / (n - 1.0))  # second moment minus squared mean -> unbiased
-    return v
-
-
-def _two_sided_p(stat: np.ndarray, dof: np.ndarray) -> np.ndarray:
-    """2 * P(T > |stat|) with Student t(dof); dof = inf -> normal."""
-    a = np.abs(stat)
-    p = np.empty_like(a)
-    inf_dof = ~np.isfinite(dof)
-    p[inf_dof] = 2.0 * stats.norm.sf(a[inf_dof])
-    fin = ~inf_dof
-    p[fin] = 2.0 * stats.t.sf(a[fin], dof[fin])
-    return np.minimum(p, 1.0)
-
-
-def _welch_from_sums(diff, a, b, a2, b2, n_t, n_r, tol, fa=None, fa2=None):
-    """Welch statistic of a summed difference.
-
-    ``diff``: sum of differences; ``a``, ``b``: sums of the test's / reference's variances
-    of the mean; ``a2``, ``b2``: sums of their squares (for Welch-Satterthwaite dof);
-    ``fa``, ``fa2``: optional floor for ``a`` (and its squares), applied to the *sum*;
-    ``tol``: differences with ``|diff| <= tol`` count as equal when both variances are 0.
-    Returns (stat, p, testable).
-    """
-    if fa is not None:
-        use_floor = fa > a
-        a = np.where(use_floor, fa, a)
-        a2 = np.where(use_floor, fa2, a2)
-    se2 = a + b
-    pos = se2 > 0
-    stat = np.zeros_like(diff)
-    p = np.ones_like(diff)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        stat[pos] = diff[pos] / np.sqrt(se2[pos])
-        denom = a2 / (n_t - 1.0) + b2 / (n_r - 1.0)
-        dof = np.where(denom > 0, se2 * se2 / np.where(denom > 0, denom, 1.0), np.inf)
-    p[pos] = _two_sided_p(stat[pos], dof[pos])
-    zero = ~pos
-    differs = zero & (np.abs(diff) > tol)
-    stat[differs] = np.copysign(np.inf, diff[differs])
-    p[differs] = 0.0
-    testable = pos | differs
-    return stat, p, testable
 
 
 def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
@@ -248,21 +169,21 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
     tiles = _check_options(alpha, tile, pixel_pool, variance_floor, validity)
     if (pixel_samples is None) != (filter_weights is None):
         raise ValueError("pixel_samples and filter_weights go together (a filtered test render)")
-    d = _prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, var_ddof=var_ddof,
+    d = prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, var_ddof=var_ddof,
                  zero_var_rtol=zero_var_rtol, variance_floor=variance_floor, tails=tails,
                  pixel_samples=pixel_samples, filter_weights=filter_weights)
     crit = dict(alpha_level=alpha / len(LEVELS), validity=validity)
-    pix = _pixel_level(d, pixel_pool, **crit)
+    pix = pixel_level(d, pixel_pool, **crit)
     # pixels with no noise and equal means contribute exactly nothing to the sums
     diff = np.where(pix.testable & ~d.bad, d.diff, 0.0)
-    tile_levels = [_tile_level(d, diff, ts, **crit) for ts in tiles]
-    img = _image_level(d, diff, **crit)
-    corr, rho = _correlation_level(pix, tails is not None and filter_weights is None, **crit)
+    tile_levels = [tile_level(d, diff, ts, **crit) for ts in tiles]
+    img = image_level(d, diff, **crit)
+    corr, rho = correlation_level(pix, tails is not None and filter_weights is None, **crit)
 
     # ---- combine: Sidak within a level (over the tested statistics), Bonferroni over the levels
     levels = {"pixel": [pix], "tile": tile_levels, "image": [img], "correlation": [corr]}
-    level_p = {k: _family_p(lvs)[0] for k, lvs in levels.items()}
-    n_tests = {k: _family_p(lvs)[1] for k, lvs in levels.items()}
+    level_p = {k: family_p(lvs)[0] for k, lvs in levels.items()}
+    n_tests = {k: family_p(lvs)[1] for k, lvs in levels.items()}
     n_cand = {k: int(sum(lv.testable.sum() for lv in lvs)) for k, lvs in levels.items()}
     p_value = min(1.0, len(LEVELS) * min(level_p.values()))
     failed = [k for k, v in level_p.items() if len(LEVELS) * v < alpha]
@@ -303,262 +224,8 @@ def _check_options(alpha, tile, pixel_pool, variance_floor, validity) -> tuple:
     return tiles
 
 
-@dataclass(frozen=True)
-class _Inputs:
-    """Validated inputs of :func:`compare`, as float64 ``(H, W, C)`` images.
 
-    ``x``, ``r``: test and reference means (``x`` set to ``r`` where the test is
-    non-finite, ``bad``); ``a``, ``b``: variances of the test's and the reference's pixel
-    means; ``fa``: floor of ``a`` (the reference's per-sample variance at the test's spp)
-    or None; ``k3``, ``k4``: third and fourth cumulants of the test's pixel means (zero
-    without tail diagnostics); ``g1``, ``g2``: per-sample skewness and excess kurtosis of
-    each pixel for the pixel level (the worse of the pixel's own and its neighbourhood's);
-    ``diff = x - r``; ``abs_scale = max(|x|, |r|)``. ``summed``: the same variances and
-    cumulants for sums over tiles and the image (for a filtered render those of the samples
-    drawn in each pixel: a sum of filtered pixels weighs each interior sample ~1), or None
-    where they are the pixels' own.
-    """
-
-    x: np.ndarray
-    r: np.ndarray
-    a: np.ndarray
-    b: np.ndarray
-    fa: np.ndarray | None
-    k3: np.ndarray
-    k4: np.ndarray
-    g1: np.ndarray
-    g2: np.ndarray
-    bad: np.ndarray
-    diff: np.ndarray
-    abs_scale: np.ndarray
-    n_t: float
-    n_r: float
-    zero_var_rtol: float
-    summed: dict | None = None
-
-    def for_sums(self, name: str) -> np.ndarray:
-        """``a``, ``b``, ``fa``, ``k3`` or ``k4`` as the tile and image levels sum them."""
-        return getattr(self, name) if self.summed is None else self.summed[name]
-
-    def sums(self, reduce, *, summed: bool = False) -> dict:
-        """The variance sums :func:`_welch_from_sums` takes, each reduced by ``reduce``."""
-        a, b, fa = ((self.for_sums(k) for k in ("a", "b", "fa")) if summed else (self.a, self.b, self.fa))
-        out = dict(a=reduce(a), b=reduce(b), a2=reduce(a * a), b2=reduce(b * b))
-        if fa is not None:
-            out.update(fa=reduce(fa), fa2=reduce(fa * fa))
-        return out
-
-
-@dataclass
-class _Level:
-    """One level's statistics (a pixel, a tile size or the image), arrays of one shape.
-
-    ``testable``: carries evidence (noise, or a difference between noiseless values);
-    ``valid``: testable and normal enough at ``z_crit`` to be tested; ``var``: variance of
-    the statistic; ``ref_sum``: the reference summed over the statistic's pixels.
-    """
-
-    z: np.ndarray
-    p: np.ndarray
-    testable: np.ndarray
-    valid: np.ndarray
-    g1: np.ndarray
-    g2: np.ndarray
-    z_crit: float
-    var: np.ndarray
-    ref_sum: np.ndarray
-    tol: np.ndarray | float = 0.0
-
-
-def _prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *, var_ddof, zero_var_rtol,
-             variance_floor, tails, pixel_samples=None, filter_weights=None) -> _Inputs:
-    """Validate and convert the images of :func:`compare` (see its parameters)."""
-    if filter_weights is not None:
-        return _prepare_filtered(test_mean, test_spp, ref_mean, ref_var, ref_spp, var_ddof=var_ddof,
-                                 zero_var_rtol=zero_var_rtol, variance_floor=variance_floor, tails=tails,
-                                 pixel_samples=pixel_samples, weights=filter_weights)
-    x, vx = _image3(test_mean, "test_mean"), _image3(test_var, "test_var")
-    r, vr = _image3(ref_mean, "ref_mean"), _image3(ref_var, "ref_var")
-    shapes = {"test_mean": x.shape, "test_var": vx.shape, "ref_mean": r.shape, "ref_var": vr.shape}
-    if len(set(shapes.values())) > 1:
-        raise ValueError("image shapes differ: " + ", ".join(f"{k}{s}" for k, s in shapes.items()))
-    n_t = _spp(test_spp, "test_spp", 2)
-    n_r = _spp(ref_spp, "ref_spp", 2)
-    if not np.all(np.isfinite(r)):
-        raise ValueError("ref_mean has non-finite entries")
-    vr = _variance(vr, "ref_var", n_r, var_ddof)
-    bad = ~np.isfinite(x) | ~np.isfinite(vx)
-    vx = _variance(np.where(bad, 0.0, vx), "test_var", n_t, var_ddof)
-    x = np.where(bad, r, x)  # neutral stand-in; these pixel-channels fail at the pixel level
-    zeros = np.zeros_like(x)
-    k3 = k4 = g1 = g2 = zeros
-    fa = vr / n_t if variance_floor == "reference" else None
-    if tails is not None:
-        m2, m3, k4s = tail_moments(tails, x.shape)
-        if variance_floor == "reference":
-            # the same estimator's variance, from many more samples: the floor that holds
-            vx = np.maximum(vx, m2 * (tails.n / (tails.n - 1.0)))
-            fa = None
-        k3, k4 = m3 / n_t ** 2, k4s / n_t ** 3
-    # A per-sample variance at float-rounding level is zero: identical samples give a
-    # second moment minus squared mean of ~1e-15 (a directly seen light), which would
-    # otherwise make a 1e-6 relative difference in the constants "significant". Below
-    # (zero_var_rtol / 10 * |mean|)^2 the pixel mean is pinned far inside the tolerance.
-    vx = np.where(vx <= (0.1 * zero_var_rtol * x) ** 2, 0.0, vx)
-    vr = np.where(vr <= (0.1 * zero_var_rtol * r) ** 2, 0.0, vr)
-    if tails is not None:
-        g1, g2 = pixel_shape(m2, m3, k4s, exact=(vx == 0) & (vr == 0), n_t=n_t)
-    return _Inputs(x=x, r=r, a=vx / n_t, b=vr / n_r, fa=fa, k3=k3, k4=k4, g1=g1, g2=g2, bad=bad,
-                   diff=x - r, abs_scale=np.maximum(np.abs(x), np.abs(r)), n_t=n_t, n_r=n_r,
-                   zero_var_rtol=zero_var_rtol)
-
-
-def _prepare_filtered(test_mean, test_spp, ref_mean, ref_var, ref_spp, *, var_ddof, zero_var_rtol,
-                      variance_floor, tails, pixel_samples, weights) -> _Inputs:
-    """:func:`_prepare` for a filtered test render: the filtered pixels' moments from the
-    samples drawn inside each pixel (:func:`benchmarks.gate.filtered.filtered_moments`), the
-    samples' own for the sums."""
-    try:
-        box_mean, box_var = pixel_samples
-    except (TypeError, ValueError):
-        raise ValueError("pixel_samples must be a (mean, variance) pair of images") from None
-    d = _prepare(test_mean, box_var, test_spp, ref_mean, ref_var, ref_spp, var_ddof=var_ddof,
-                 zero_var_rtol=zero_var_rtol, variance_floor="none", tails=None)
-    mu = _image3(box_mean, "pixel_samples mean")
-    if mu.shape != d.x.shape or not np.all(np.isfinite(mu)):
-        raise ValueError(f"pixel_samples mean must be finite with the images' shape {d.x.shape}")
-    n_t = d.n_t
-    v_box = d.a * n_t  # the samples' per-sample variance, de-biased and zero below rounding
-    m3 = k4 = None
-    if tails is not None:
-        m2t, m3, k4 = tail_moments(tails, d.x.shape)
-        if variance_floor == "reference":
-            v_box = np.maximum(v_box, m2t * (tails.n / (tails.n - 1.0)))
-    m2f, m3f, k4f = filtered_moments(weights, mean=mu, variance=v_box, filtered_mean=d.x, m3=m3, k4=k4)
-    a = np.where(d.bad, 0.0, m2f) / n_t
-    a_sum = np.where(d.bad, 0.0, v_box) / n_t
-    with np.errstate(divide="ignore", invalid="ignore"):
-        # the reference shares the filter: its sums' variance relates to its pixels' as ours
-        inflate = np.where(a > 0, a_sum / np.where(a > 0, a, 1.0), 1.0)
-    fa = d.b * d.n_r / n_t if variance_floor == "reference" and tails is None else None
-    summed = dict(a=a_sum, b=d.b * inflate, fa=None if fa is None else fa * inflate, k3=d.k3, k4=d.k4)
-    shape = {}
-    if tails is not None:
-        summed.update(k3=m3 / n_t ** 2, k4=k4 / n_t ** 3)
-        g1, g2 = pixel_shape(m2f, m3f, k4f, exact=(a == 0) & (d.b == 0), n_t=n_t)
-        shape = dict(k3=m3f / n_t ** 2, k4=k4f / n_t ** 3, g1=g1, g2=g2)
-    return dataclasses.replace(d, a=a, fa=fa, summed=summed, **shape)
-
-
-def _level(d: _Inputs, reduce, diff, K3, K4, *, alpha_level, validity, summed: bool = False) -> _Level:
-    """The Welch statistics of ``diff`` (already reduced: a pixel's, a tile's or the
-    image's summed difference) with the variances reduced by ``reduce``, and which of them
-    may be tested.
-
-    ``K3``, ``K4``: the statistics' third and fourth cumulants. A statistic is tested where
-    :func:`edgeworth_error` at the level's critical value (Sidak over its candidates) is at
-    most ``validity``, and its p-value is then inflated by that bound,
-    ``p (1 + e(min(|z|, z_crit)))``: the error of the normal tail is paid for in the
-    p-value rather than ignored, so the level holds for skewed statistics too.
-    """
-    sums = d.sums(reduce, summed=summed)
-    tol = d.zero_var_rtol * reduce(d.abs_scale)
-    z, p, testable = _welch_from_sums(diff, n_t=d.n_t, n_r=d.n_r, tol=tol, **sums)
-    a = sums["a"] if d.fa is None else np.maximum(sums["a"], sums["fa"])
-    var = a + sums["b"]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        pos = var > 0
-        g1 = np.where(pos, K3 / np.where(pos, var, 1.0) ** 1.5, 0.0)
-        g2 = np.where(pos, K4 / np.where(pos, var, 1.0) ** 2, 0.0)
-    z_crit = float(stats.norm.isf(sidak(alpha_level, max(int(testable.sum()), 1)) / 2.0))
-    valid = testable & (~pos | (edgeworth_error(z_crit, g1, g2) <= validity))
-    at = np.minimum(np.where(np.isfinite(z), np.abs(z), z_crit), z_crit)
-    p = np.where(pos, np.minimum(1.0, p * (1.0 + edgeworth_error(at, g1, g2))), p)
-    return _Level(z=z, p=p, testable=testable, valid=valid, g1=g1, g2=g2, z_crit=z_crit, var=var,
-                  ref_sum=reduce(d.r), tol=tol)
-
-
-def _pixel_level(d: _Inputs, pixel_pool: int, **crit) -> _Level:
-    """Welch test per pixel-channel; non-finite test pixels fail.
-
-    Variances are floored by their neighbourhood mean (see ``pixel_pool``); the difference
-    is the pixel's own (pooling it too, as an earlier version did, turned a pixel 10
-    standard errors too dark into one 1 too dark: the floor's max only lifts). Pixels with
-    no noise on either side (a directly seen light) stay exact: their neighbours' noise
-    says nothing about them, and flooring them would turn the float rounding of the
-    emitters' constants (~3e-6 relative) into "significant" differences.
-    """
-    exact = (d.a == 0) & (d.b == 0)
-    pool = ((lambda v: v) if pixel_pool <= 1 else
-            (lambda v: np.where(exact, v, neighbourhood_floor(v, pixel_pool))))
-    var = pool(d.a if d.fa is None else np.maximum(d.a, d.fa)) + pool(d.b)
-    lv = _level(d, pool, d.diff, d.g1 * var ** 1.5, d.g2 * var * var, **crit)
-    lv.z[d.bad] = np.inf
-    lv.p[d.bad] = 0.0
-    lv.testable |= d.bad
-    lv.valid |= d.bad
-    return lv
-
-
-def _tile_level(d: _Inputs, diff: np.ndarray, ts: int, **crit) -> _Level:
-    """Welch test per ``ts x ts`` tile and channel.
-
-    Images are padded to whole tiles with zeros (padding contributes nothing to the sums).
-    """
-    H, W, C = d.x.shape
-    ty, tx = -(-H // ts), -(-W // ts)
-
-    def tile_sum(img):
-        padded = np.zeros((ty * ts, tx * ts, C))
-        padded[:H, :W] = img
-        return padded.reshape(ty, ts, tx, ts, C).sum(axis=(1, 3))
-
-    return _level(d, tile_sum, tile_sum(diff), tile_sum(d.for_sums("k3")), tile_sum(d.for_sums("k4")), summed=True,
-                  **crit)
-
-
-def _image_level(d: _Inputs, diff: np.ndarray, **crit) -> _Level:
-    """Welch test of the whole image per channel."""
-    total = lambda v: v.sum(axis=(0, 1))  # noqa: E731
-    return _level(d, total, total(diff), total(d.for_sums("k3")), total(d.for_sums("k4")), summed=True, **crit)
-
-
-def _correlation_level(pix: _Level, with_tails: bool, *, alpha_level, validity) -> tuple:
-    """``(level, rho)``: the one-sided test of positive correlation between neighbouring
-    pixels' differences per channel (:mod:`benchmarks.gate.correlation`) and the estimated
-    neighbour correlation ``S / N_pairs``.
-
-    It takes the pixel level's statistics: their variances are floored by the pixel's
-    neighbourhood and their shape is the worse of the pixel's and its neighbourhood's, so a
-    pixel whose rare paths neither the render nor the tail reference saw (its difference
-    hundreds of its standard errors) does not pass for correlated noise. Tested only with
-    tail diagnostics: without them a heavy-tailed estimator's own variance is too small and
-    its skewness unknown.
-    """
-    use = pix.testable & np.isfinite(pix.z) & (pix.var > 0)
-    S, n, K3, K4 = neighbour_products(pix.z, pix.g1, pix.g2, use)
-    testable = (n >= MIN_PAIRS) & with_tails
-    n1 = np.where(n > 0, n, 1.0)
-    z, g1, g2 = S / np.sqrt(n1), K3 / n1 ** 1.5, K4 / n1 ** 2
-    z_crit = float(stats.norm.isf(sidak(alpha_level, max(int(testable.sum()), 1))))
-    valid = testable & (edgeworth_error(z_crit, g1, g2) <= validity)
-    at = np.clip(z, 0.0, z_crit)
-    p = np.where(testable, np.minimum(1.0, stats.norm.sf(z) * (1.0 + edgeworth_error(at, g1, g2))), 1.0)
-    zeros = np.zeros_like(z)
-    level = _Level(z=np.where(testable, z, 0.0), p=p, testable=testable, valid=valid, g1=g1, g2=g2,
-                   z_crit=z_crit, var=zeros, ref_sum=zeros)
-    return level, np.where(valid, S / n1, np.nan)
-
-
-def _family_p(levels: list) -> tuple:
-    """``(Sidak-adjusted smallest p, number of tests)`` over the tested statistics of ``levels``
-    (all tile sizes form one family)."""
-    p = np.concatenate([lv.p[lv.valid].ravel() for lv in levels])
-    m = int(p.size)
-    return (sidak_p_value(float(p.min()), m) if m else 1.0), m
-
-
-def _decide(failed: list, img: _Level, n_t: float, validity: float, rho) -> tuple:
+def _decide(failed: list, img: Level, n_t: float, validity: float, rho) -> tuple:
     """``(verdict, reason, spp_needed)``: a failure needs one tested statistic; a pass needs
     the whole image tested in every channel with evidence; otherwise undetermined."""
     if failed:

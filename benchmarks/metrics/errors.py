@@ -82,11 +82,22 @@ def reference_noise(ref_var, ref_spp, *, nan_policy: str = "propagate") -> float
     0.03
     """
     v = as_image(ref_var, "ref_var")
+    return masked_mean(_noise_of_means(v, ref_spp), nan_mask(nan_policy, ref_var=v))
+
+
+def _noise_of_means(v: np.ndarray, ref_spp) -> np.ndarray:
+    """The variance of the reference's pixel means, ``ref_var / ref_spp`` (both checked)."""
     n = positive_spp(ref_spp, "ref_spp")
     if np.any(v < 0):
         raise ValueError("ref_var has negative entries")
-    mask = nan_mask(nan_policy, ref_var=v)
-    return masked_mean(v / n, mask)
+    return v / n
+
+
+def _corrected_terms(img, ref, ref_var, ref_spp, nan_policy) -> tuple:
+    """``(r, (x - r)^2 - ref_var / ref_spp, mask)`` of the corrected metrics, inputs checked."""
+    x, r, v = as_image(img, "img"), as_image(ref, "ref"), as_image(ref_var, "ref_var")
+    same_shape(img=x, ref=r, ref_var=v)
+    return r, (x - r) ** 2 - _noise_of_means(v, ref_spp), nan_mask(nan_policy, img=x, ref=r, ref_var=v)
 
 
 def mse_corrected(img, ref, ref_var, ref_spp, *, nan_policy: str = "propagate") -> float:
@@ -122,13 +133,8 @@ def mse_corrected(img, ref, ref_var, ref_spp, *, nan_policy: str = "propagate") 
     >>> mse_corrected([[1.0, 2.0]], [[1.0, 4.0]], [[10.0, 30.0]], 100)  # 2 - 0.2
     1.8
     """
-    x, r, v = as_image(img, "img"), as_image(ref, "ref"), as_image(ref_var, "ref_var")
-    same_shape(img=x, ref=r, ref_var=v)
-    n = positive_spp(ref_spp, "ref_spp")
-    if np.any(v < 0):
-        raise ValueError("ref_var has negative entries")
-    mask = nan_mask(nan_policy, img=x, ref=r, ref_var=v)
-    return masked_mean((x - r) ** 2 - v / n, mask)
+    _, err, mask = _corrected_terms(img, ref, ref_var, ref_spp, nan_policy)
+    return masked_mean(err, mask)
 
 
 def relmse_corrected(img, ref, ref_var, ref_spp, *, eps: float = RELMSE_EPS, nan_policy: str = "propagate") -> float:
@@ -147,10 +153,5 @@ def relmse_corrected(img, ref, ref_var, ref_spp, *, eps: float = RELMSE_EPS, nan
     """
     if not eps > 0:
         raise ValueError(f"eps must be positive; got {eps}")
-    x, r, v = as_image(img, "img"), as_image(ref, "ref"), as_image(ref_var, "ref_var")
-    same_shape(img=x, ref=r, ref_var=v)
-    n = positive_spp(ref_spp, "ref_spp")
-    if np.any(v < 0):
-        raise ValueError("ref_var has negative entries")
-    mask = nan_mask(nan_policy, img=x, ref=r, ref_var=v)
-    return masked_mean(((x - r) ** 2 - v / n) / (r * r + eps), mask)
+    r, err, mask = _corrected_terms(img, ref, ref_var, ref_spp, nan_policy)
+    return masked_mean(err / (r * r + eps), mask)

@@ -13,8 +13,11 @@ interrupted sweep resumes where it stopped and never renders a finished job agai
 Modules: :mod:`~benchmarks.sweep.jobs` (the job list and its validation),
 :mod:`~benchmarks.sweep.execute` (one job, anywhere), :mod:`~benchmarks.sweep.runners`
 (local and Dask), :mod:`~benchmarks.sweep.run` (``run_sweep``),
-:mod:`~benchmarks.sweep.summary` (``summary.json``), :mod:`~benchmarks.sweep.presets`
-(``rtbench run``'s presets).
+:mod:`~benchmarks.sweep.summary` (``summary.json``: per curve its
+:mod:`~benchmarks.sweep.slopes`, :mod:`~benchmarks.sweep.bias`,
+:mod:`~benchmarks.sweep.noise` and :mod:`~benchmarks.sweep.by_metric` figures, the
+:mod:`~benchmarks.sweep.headline`), :mod:`~benchmarks.sweep.presets` (``rtbench run``'s
+presets).
 
 Seeds
 -----
@@ -51,7 +54,7 @@ from .coerce import as_float, finite
 from .execute import TIMING_FIELDS, execute_job, job_metrics, machine_info, reference_info, run_versions
 from .jobs import Group, Job, check_int, check_int_list, image_paths, make_jobs, render_seed, validate_group
 from .run import SweepResult, prepare_references, run_sweep
-from .summary import TARGET_RELATIVE_RMSE, _bias_verdict, summarize, target_rmse  # noqa: F401 - _bias_verdict: tests
+from .summary import TARGET_RELATIVE_RMSE, summarize, target_rmse
 
 __all__ = ["Job", "Group", "SweepResult", "MITSUBA_STRATEGY", "DEFAULT_ALPHA", "TARGET_RELATIVE_RMSE",
            "TIMING_FIELDS", "make_jobs", "render_seed", "validate_group",

@@ -31,7 +31,7 @@ import numpy as np
 from .. import metrics as M
 from ..constants import MIN_SLOPE_BUDGETS, RELMSE_EPS
 from ..metrics.specs import METRICS, SPECS
-from .coerce import as_float
+from .coerce import as_float, finite_mean
 from .jobs import mitsuba_pairs
 
 __all__ = ["relative_noise", "curve_errors", "tail_variance_image", "metric_figures", "curve_metrics",
@@ -47,12 +47,6 @@ def relative_noise(ref) -> float:
                          / (mean * mean + RELMSE_EPS)))
 
 
-def _seed_mean(values) -> float:
-    a = np.asarray([as_float(v) for v in values], dtype=np.float64)
-    a = a[np.isfinite(a)]
-    return float(a.mean()) if a.size else math.nan
-
-
 def curve_errors(by_spp: dict, metric: str, *, rel_noise: float = 0.0) -> np.ndarray:
     """The metric's error per spp (sorted), mean over the seeds of ``by_spp[spp]`` (records).
 
@@ -62,7 +56,7 @@ def curve_errors(by_spp: dict, metric: str, *, rel_noise: float = 0.0) -> np.nda
     spec = SPECS[metric]
     out = []
     for s in sorted(by_spp):
-        v = _seed_mean(r.get(spec.field) for r in by_spp[s])
+        v = finite_mean(r.get(spec.field) for r in by_spp[s])
         if metric == "rmse":
             v = math.sqrt(v) if v > 0 else math.nan
         elif metric == "relmse":

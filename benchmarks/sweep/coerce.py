@@ -1,13 +1,15 @@
 """Numbers read back from the store (JSON numbers, nulls, strings) coerced before use.
 
 The sweep's records and summary keep ``None`` for a figure that could not be computed;
-these two coercions are what the sweep, its summary and the printed tables apply.
+these coercions are what the sweep, its summary and the printed tables apply.
 """
 from __future__ import annotations
 
 import math
 
-__all__ = ["finite", "as_float"]
+import numpy as np
+
+__all__ = ["finite", "as_float", "finite_mean"]
 
 
 def finite(v):
@@ -39,3 +41,15 @@ def as_float(v) -> float:
         return float(v)
     except (TypeError, ValueError):
         return math.nan
+
+
+def finite_mean(values) -> float:
+    """The mean of the finite ones of ``values`` (each :func:`as_float`): a figure's mean over
+    seeds, skipping those that could not be computed; NaN when none is finite.
+
+    >>> finite_mean([1, "3", None, float("inf")])
+    2.0
+    """
+    a = np.asarray([as_float(v) for v in values], dtype=np.float64)
+    a = a[np.isfinite(a)]
+    return float(a.mean()) if a.size else math.nan

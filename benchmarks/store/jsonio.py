@@ -1,0 +1,76 @@
+"""The store's folder and its JSON files: created on demand, written atomically, read defensively.
+
+JSON has no NaN: every value written goes through :func:`json_safe` first.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from reference_tracer.imageio import atomic_write
+
+from ..files import open_regular
+
+#: largest ``meta.json`` / ``summary.json`` read (a store's are kilobytes).
+MAX_JSON_BYTES = 64 << 20
+
+
+def store_path(path) -> Path:
+    """Validate a store folder path and create the folder (and parents) if needed.
+
+    Raises ``ValueError`` if ``path`` exists and is not a folder.
+    """
+    p = Path(path).expanduser()
+    if p.exists() and not p.is_dir():
+        raise ValueError(f"results store {p} exists and is not a folder")
+    p.mkdir(parents=True, exist_ok=True)
+    return p
+
+
+
+def json_safe(value):
+    """NaN/inf -> None and numpy scalars -> Python, recursively (JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {str(k): json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    if isinstance(value, (np.bool_,)):
+        return bool(value)
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        v = float(value)
+        return v if math.isfinite(v) else None
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def write_json(path, obj) -> Path:
+    """Write ``obj`` as indented JSON atomically (temp file in the same folder + rename)."""
+    return atomic_write(path, json.dumps(json_safe(obj), indent=1, allow_nan=False) + "\n")
+
+
+def read_json(path, default=None, *, problems: list | None = None):
+    """Read a JSON file; ``default`` if it is missing or does not parse.
+
+    With a ``problems`` list, what went wrong is appended to it as a sentence (a reader
+    that reports instead of failing, like the report).
+    """
+    path = Path(path)
+    try:
+        with open_regular(path, max_bytes=MAX_JSON_BYTES) as f:
+            return json.loads(f.read())
+    except FileNotFoundError:
+        if problems is not None:
+            problems.append(f"{path.name} is missing")
+    except RecursionError:
+        if problems is not None:
+            problems.append(f"{path.name} could not be read: JSON nested too deeply")
+    except (OSError, ValueError) as exc:
+        if problems is not None:
+            problems.append(f"{path.name} could not be read: {exc}")
+    return default

@@ -1,0 +1,169 @@
+"""``meta.json`` (the run's metadata and references) and ``summary.json`` (the summary's rows),
+each checked once where it is read: after that a reader may index what it reads.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .jsonio import read_json, store_path, write_json
+
+META = "meta.json"
+SUMMARY = "summary.json"
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _is_scalar(v) -> bool:
+    return v is None or isinstance(v, (str, int, float, bool))
+
+
+#: the type of each field of a reference entry of ``meta.json`` (STORE.md).
+_REFERENCE_FIELDS = {"path": str, "variance_path": str, "sha256": str, "variance_sha256": str, "variant": str,
+                     "key": str, "scene_hash": str, "scene_source": str, "spp": "number", "seed": "number",
+                     "width": "number", "height": "number", "render_seconds": "number"}
+_SCENE_FILE_FIELDS = {"name": str, "source": str, "kind": str, "hash": str, "params": "scalars"}
+
+
+def _fits(value, kind) -> bool:
+    if value is None:
+        return True
+    if kind == "number":
+        return _is_number(value)
+    if kind == "scalars":
+        return isinstance(value, dict) and all(_is_scalar(v) for v in value.values())
+    return isinstance(value, kind)
+
+
+def _clean_entry(entry, fields: dict):
+    """A dict of known fields of the right type (others dropped), or None if ``entry`` is no dict."""
+    if not isinstance(entry, dict):
+        return None
+    return {k: v for k, v in entry.items() if k in fields and _fits(v, fields[k])}
+
+
+def _clean_meta(meta: dict, problems: list | None) -> dict:
+    """``meta.json`` as its readers expect it (STORE.md): each known key with its type, entries of
+    the wrong shape dropped (and said in ``problems``), unknown keys kept only as plain values.
+
+    The one check of ``meta.json`` at the boundary: after it a reader may index what it reads.
+
+    Examples
+    --------
+    >>> _clean_meta({"references": {"a": [1], "b": {"spp": 4, "path": 7}}, "threads": "x"}, None)
+    {'references': {'b': {'spp': 4}}}
+    """
+    out, dropped = {}, []
+    for key, value in meta.items():
+        if key in ("date", "preset"):
+            ok = isinstance(value, str)
+        elif key in ("total_seconds", "threads"):
+            ok = _is_number(value)
+        elif key in ("machine", "versions"):
+            ok = _fits(value, "scalars")
+        elif key in ("references", "references_by_size", "scene_files"):
+            ok = isinstance(value, dict)
+            if ok:
+                fields = _SCENE_FILE_FIELDS if key == "scene_files" else _REFERENCE_FIELDS
+                entries = {str(k): _clean_entry(v, fields) for k, v in value.items()}
+                dropped += [f"{key}.{k}" for k, v in entries.items() if v is None]
+                value = {k: v for k, v in entries.items() if v is not None}
+        elif key == "target_rmse":
+            ok = isinstance(value, dict)
+            if ok:
+                dropped += [f"{key}.{k}" for k, v in value.items() if not _is_number(v)]
+                value = {str(k): v for k, v in value.items() if _is_number(v)}
+        elif key == "runs":
+            ok = isinstance(value, list)
+            if ok:
+                value = [r for r in value if isinstance(r, dict) and all(_is_scalar(v) for v in r.values())]
+        else:
+            ok = _is_scalar(value)
+        if ok:
+            out[key] = value
+        else:
+            dropped.append(key)
+    if dropped and problems is not None:
+        problems.append(f"{META}: {len(dropped)} field(s) of the wrong type ignored: {', '.join(dropped[:8])}"
+                        + (", ..." if len(dropped) > 8 else ""))
+    return out
+
+
+def read_meta(store, *, problems: list | None = None) -> dict:
+    """A store's ``meta.json`` as a dict (empty when missing or not a JSON object).
+
+    Any key may be missing after an interrupted run (``STORE.md``). The file is checked
+    here, once, against the fields STORE.md gives (:func:`_clean_meta`): a field of the
+    wrong type is dropped, so readers may rely on the types. Problems are appended to
+    ``problems`` when given.
+    """
+    meta = read_json(Path(store) / META, problems=problems)
+    if meta is not None and not isinstance(meta, dict):
+        if problems is not None:
+            problems.append(f"{META} is not a JSON object; ignored")
+        meta = None
+    return _clean_meta(meta or {}, problems)
+
+
+def read_summary_rows(store, *, problems: list | None = None) -> list:
+    """The ``rows`` of a store's ``summary.json`` (empty when missing or without a list).
+
+    Problems are appended to ``problems`` when given; a row that is not a JSON object
+    raises ``ValueError`` (the file is not a summary this code wrote).
+    """
+    path = Path(store) / SUMMARY
+    summ = read_json(path, problems=problems)
+    if summ is None:
+        return []
+    rows = summ.get("rows") if isinstance(summ, dict) else None
+    if not isinstance(rows, list):
+        if problems is not None:
+            problems.append(f"{SUMMARY} has no 'rows' list; ignored")
+        return []
+    for i, row in enumerate(rows):
+        if not isinstance(row, dict):
+            raise ValueError(f"{path}: row {i} is not a JSON object")
+    return rows
+
+
+def read_headline(store, *, problems: list | None = None) -> list:
+    """The ``headline`` entries of a store's ``summary.json`` (one per scene and size; empty
+    when missing): each a JSON object with a string ``scene``; others are dropped and said."""
+    summ = read_json(Path(store) / SUMMARY)
+    entries = summ.get("headline") if isinstance(summ, dict) else None
+    if not isinstance(entries, list):
+        return []
+    good = [e for e in entries if isinstance(e, dict) and isinstance(e.get("scene"), str)
+            and isinstance(e.get("curves", []), list)]
+    for e in good:
+        e["curves"] = [c for c in e.get("curves") or [] if isinstance(c, dict)]
+    if len(good) < len(entries) and problems is not None:
+        problems.append(f"{SUMMARY}: {len(entries) - len(good)} headline entr(ies) that are not scene entries ignored")
+    return good
+
+
+def update_meta(store, **fields) -> dict:
+    """Merge ``fields`` into ``meta.json`` (dict values are merged one level deep).
+
+    Returns the new metadata.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = tempfile.mkdtemp()
+    >>> _ = update_meta(d, preset="quick", references={"a": {"spp": 4}})
+    >>> update_meta(d, references={"b": {"spp": 8}})["references"]
+    {'a': {'spp': 4}, 'b': {'spp': 8}}
+    """
+    path = store_path(store) / META
+    meta = read_json(path, default={})
+    if not isinstance(meta, dict):
+        meta = {}
+    for k, v in fields.items():
+        if isinstance(v, dict) and isinstance(meta.get(k), dict):
+            meta[k] = {**meta[k], **v}
+        else:
+            meta[k] = v
+    write_json(path, meta)
+    return meta

@@ -1,0 +1,361 @@
+"""``results.jsonl``: one job record per line, appended durably, read with torn lines skipped.
+
+A record's key (:data:`KEY_FIELDS` and the build) identifies its job; the readers
+deduplicate by it and keep each curve's latest build. See the durability and concurrency
+rules in :mod:`benchmarks.store`.
+"""
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import json
+import os
+import socket
+import warnings
+from pathlib import Path
+from typing import NamedTuple
+
+from ..files import open_regular
+from .jsonio import json_safe, store_path
+
+#: fields that identify a job (``STORE.md``): a resumed run skips records with these.
+KEY_FIELDS = ("scene", "renderer", "strategy", "spp", "seed", "width", "height")
+#: the build that rendered a record (ours: ``reference_tracer.build_id()``; Mitsuba: its
+#: version and variant): the last part of a job's key, so that a run with another build
+#: renders again instead of reusing the old build's records (``STORE.md``).
+BUILD_FIELD = "build"
+RESULTS = "results.jsonl"
+#: the lock file of :func:`writer_lock`.
+WRITER_LOCK = ".writer.lock"
+
+
+def record_key(record: dict, *, partial: bool = False) -> tuple:
+    """The identity of a job record, ``(scene, renderer, strategy, spp, seed, width, height, build)``.
+
+    Raises ``ValueError`` if a field of :data:`KEY_FIELDS` is missing, unless ``partial``:
+    then a missing field reads as ``None`` (a reader that tolerates incomplete records,
+    like the report). The build (:data:`BUILD_FIELD`) may be missing (stores written
+    before builds were recorded): it reads as ``None``.
+
+    Examples
+    --------
+    >>> record_key({"scene": "s", "renderer": "ours", "strategy": "mis", "spp": 4,
+    ...             "seed": 0, "width": 8, "height": 8, "build": "ab12", "mse": 1.0})
+    ('s', 'ours', 'mis', 4, 0, 8, 8, 'ab12')
+    >>> record_key({"scene": "s", "renderer": "ours", "strategy": "mis", "spp": 4}, partial=True)
+    ('s', 'ours', 'mis', 4, None, None, None, None)
+    """
+    if partial:
+        return tuple(record.get(k) for k in KEY_FIELDS) + (record.get(BUILD_FIELD),)
+    missing = [k for k in KEY_FIELDS if k not in record]
+    if missing:
+        raise ValueError(f"record lacks key field(s) {missing}: {record!r:.200}")
+    return tuple(record[k] for k in KEY_FIELDS) + (record.get(BUILD_FIELD),)
+
+
+def _last_line_start(f, size: int) -> int:
+    """Offset just after the last newline of an open file of ``size`` bytes (0 if none)."""
+    block = 1 << 16
+    pos = size
+    while pos > 0:
+        start = max(0, pos - block)
+        f.seek(start)
+        chunk = f.read(pos - start)
+        i = chunk.rfind(b"\n")
+        if i >= 0:
+            return start + i + 1
+        pos = start
+    return 0
+
+
+def _repair_tail(fd: int) -> bytes:
+    """Make the end of ``results.jsonl`` ready for an append; return the bytes to write first.
+
+    A final line without its newline is either a complete record (written by hand or by a
+    tool that omits the last newline): it is kept and gets its newline (returned as
+    ``b"\\n"``); or a fragment that does not parse (a writer killed half-way): it is cut
+    off. Called with the file locked (:func:`append_record`), so no live writer is in the
+    middle of that line.
+    """
+    size = os.fstat(fd).st_size
+    if size == 0:
+        return b""
+    with open(fd, "rb", closefd=False) as f:
+        f.seek(size - 1)
+        if f.read(1) == b"\n":
+            return b""
+        cut = _last_line_start(f, size)
+        f.seek(cut)
+        tail = f.read()
+    try:
+        json.loads(tail)
+    except (ValueError, UnicodeDecodeError):
+        os.ftruncate(fd, cut)
+        os.fsync(fd)
+        return b""
+    return b"\n"
+
+
+@contextlib.contextmanager
+def _flocked(fd: int):
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    try:
+        yield
+    finally:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+
+
+def append_record(store, record: dict) -> None:
+    """Append one job record to ``results.jsonl`` durably (write, flush, fsync).
+
+    NaN and infinite floats are written as ``null``. The file is locked (``flock``) while
+    its end is checked and the line written, so appends of several processes never
+    interleave. A final line left without its newline is kept if it is a complete JSON
+    value (it gets its newline) and cut off if it does not parse (a killed writer).
+
+    Parameters
+    ----------
+    store : str or Path
+        The store folder (created if missing).
+    record : dict
+        Must hold :data:`KEY_FIELDS`.
+    """
+    record_key(record)
+    path = store_path(store) / RESULTS
+    data = (json.dumps(json_safe(record), sort_keys=False, allow_nan=False) + "\n").encode()
+    fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o666)  # 0o666 less the umask
+    try:
+        with _flocked(fd):
+            data = _repair_tail(fd) + data
+            written = 0
+            while written < len(data):
+                written += os.write(fd, data[written:])
+            os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def writer_lock(store, *, say=None):
+    """Hold the store's writer lock: one run writes to a store at a time.
+
+    A second run on the same store waits here (``say`` is told once who holds it) until
+    the first one ends, then resumes: it finds the first run's jobs in
+    ``results.jsonl`` and renders only what is missing, so two runs never duplicate or
+    lose a record. The lock is an ``flock`` on ``STORE/.writer.lock``, released by the
+    kernel when its holder exits or is killed. Readers never take it.
+
+    Raises ``OSError`` when the store is not writable (a read-only folder or file system).
+    """
+    path = store_path(store) / WRITER_LOCK
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            if say is not None:
+                holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "?"
+                say(f"waiting for the other run writing to {Path(store)} ({holder}) to finish")
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
+        try:
+            yield path
+        finally:
+            fcntl.flock(fd, fcntl.LOCK_UN)
+    finally:
+        os.close(fd)
+
+
+class ResultLine(NamedTuple):
+    """One non-blank line of ``results.jsonl`` as read, before any check of its fields."""
+
+    #: 1-based line number in the file.
+    number: int
+    #: The parsed JSON value (``None`` when the line does not parse).
+    value: object
+    #: False: the line is not JSON (or not UTF-8).
+    parsed: bool
+    #: The file's last non-blank line: where a killed writer leaves a torn record, which
+    #: readers skip without complaint.
+    last: bool
+
+
+def result_lines(store) -> list:
+    """Every non-blank line of a store's ``results.jsonl`` as a :class:`ResultLine`.
+
+    The raw view the readers build on: :func:`read_records` (the harness) and the
+    report's loader (which lists bad lines instead of warning) decide what to do with a
+    line that does not parse or is not a job record.
+
+    Returns
+    -------
+    list of ResultLine
+        Empty when the store or its ``results.jsonl`` does not exist.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = (d / RESULTS).write_text('{"a": 1}\\n\\n{"a": 2')
+    >>> [(ln.number, ln.value, ln.parsed, ln.last) for ln in result_lines(d)]
+    [(1, {'a': 1}, True, False), (3, None, False, True)]
+    """
+    path = Path(store) / RESULTS
+    if not path.exists():
+        return []
+    with open_regular(path) as f:
+        lines = f.read().split(b"\n")
+    last = len(lines) - 1
+    while last >= 0 and not lines[last].strip():
+        last -= 1
+    out = []
+    for i, raw in enumerate(lines[:last + 1]):
+        if not raw.strip():
+            continue
+        try:
+            value, parsed = json.loads(raw), True
+        except (ValueError, UnicodeDecodeError, RecursionError):  # nested too deeply: not a record
+            value, parsed = None, False
+        out.append(ResultLine(i + 1, value, parsed, i == last))
+    return out
+
+
+def skipped_line(line: ResultLine, *, partial: bool = False) -> str | None:
+    """Why a line of ``results.jsonl`` is not a job record (a sentence), or None if it is one.
+
+    The one rule of every reader (the harness's :func:`read_records`, the report): a line
+    that is not JSON, not a JSON object, lacks a key field (:data:`KEY_FIELDS`; with
+    ``partial`` only ``scene``, ``renderer``, ``strategy`` and ``spp`` are needed) or
+    fails :func:`check_identity` is skipped with this sentence. A torn last line (a killed
+    writer) is "truncated".
+
+    Examples
+    --------
+    >>> skipped_line(ResultLine(3, [1, 2], True, False))
+    'line 3 is not a JSON object'
+    >>> skipped_line(ResultLine(4, None, False, True))
+    'last line 4 is truncated (interrupted run?)'
+    """
+    if not line.parsed:
+        return (f"last line {line.number} is truncated (interrupted run?)" if line.last
+                else f"line {line.number} is not valid JSON")
+    if not isinstance(line.value, dict):
+        return f"line {line.number} is not a JSON object"
+    missing = [k for k in KEY_FIELDS if k not in line.value and not (partial and k in ("seed", "width", "height"))]
+    if missing:
+        return f"line {line.number} is not a job record (no {', '.join(missing)})"
+    try:
+        check_identity(line.value, f"line {line.number} is not a job record:")
+    except ValueError as exc:
+        return str(exc).replace(":: ", ": ")
+    return None
+
+
+def job_records(store, *, partial: bool = False) -> tuple:
+    """``(records, skipped)``: the job records of ``results.jsonl`` in file order (not
+    deduplicated) and one sentence per line skipped (:func:`skipped_line`).
+    """
+    records, skipped = [], []
+    for line in result_lines(store):
+        why = skipped_line(line, partial=partial)
+        if why is None:
+            records.append(line.value)
+        else:
+            skipped.append((line, why))
+    return records, skipped
+
+
+def read_records(store, *, dedupe: bool = True) -> list:
+    """Job records of a store, in file order.
+
+    A last line that does not parse (a killed writer) is skipped silently; any other line
+    that is not a job record (:func:`skipped_line`) is skipped with one ``RuntimeWarning``
+    for the whole file, the report lists the same lines. With ``dedupe`` (default), a job
+    that occurs several times keeps its last record, at the position of its first
+    (:func:`dedupe_records`), and each curve keeps only the records of its latest build
+    (:func:`latest_builds`): a store never mixes two builds in one curve.
+
+    Returns
+    -------
+    list of dict
+        Empty when the store or its ``results.jsonl`` does not exist.
+    """
+    out, skipped = job_records(store)
+    loud = [why for line, why in skipped if not (line.last and not line.parsed)]
+    if loud:
+        warnings.warn(f"{Path(store) / RESULTS}: {len(loud)} line(s) skipped: {'; '.join(loud[:5])}"
+                      f"{'; ...' if len(loud) > 5 else ''}", RuntimeWarning, stacklevel=2)
+    return latest_builds(dedupe_records(out)) if dedupe else out
+
+
+def curve_of(record: dict) -> tuple:
+    """The curve a record belongs to: ``(scene, renderer, strategy, width, height)``."""
+    return tuple(record.get(k) for k in ("scene", "renderer", "strategy", "width", "height"))
+
+
+def latest_builds(records) -> list:
+    """Per curve (:func:`curve_of`), only the records of the build of its last record.
+
+    Records of older builds stay in ``results.jsonl`` (nothing is deleted) but are not
+    read as part of the curve: a run with a new build renders every job again, and the
+    curve is then the new build's alone, even while that run is incomplete.
+
+    Examples
+    --------
+    >>> rs = [{"scene": "a", "spp": 1, "build": "old"}, {"scene": "a", "spp": 2, "build": "old"},
+    ...       {"scene": "a", "spp": 1, "build": "new"}]
+    >>> [(r["spp"], r["build"]) for r in latest_builds(rs)]
+    [(1, 'new')]
+    """
+    records = list(records)
+    last = {curve_of(r): r.get(BUILD_FIELD) for r in records}
+    return [r for r in records if r.get(BUILD_FIELD) == last[curve_of(r)]]
+
+
+def dedupe_records(records) -> list:
+    """One record per job key (:func:`record_key`): the last one, at the position of the first.
+
+    A resumed or repeated run may append a job again; the last write wins. Missing key
+    fields read as ``None`` here, so incomplete records are deduplicated too.
+
+    Examples
+    --------
+    >>> rs = [{"scene": "a", "spp": 1, "v": 1}, {"scene": "b", "spp": 1, "v": 2},
+    ...       {"scene": "a", "spp": 1, "v": 3}]
+    >>> [r["v"] for r in dedupe_records(rs)]
+    [3, 2]
+    """
+    by_key: dict = {}
+    for rec in records:
+        # a dict keeps the first position, takes the last value; a later build replaces an earlier one
+        by_key[record_key(rec, partial=True)[:len(KEY_FIELDS)]] = rec
+    return list(by_key.values())
+
+
+def check_identity(record: dict, where: str, *, need_spp: bool = True) -> None:
+    """Raise ``ValueError`` unless a record (or summary row) says which curve it belongs to.
+
+    ``scene``, ``renderer`` and ``strategy`` must be non-empty strings and, for a job
+    record (``need_spp``), ``spp`` a positive number. ``where`` starts the message
+    (e.g. ``"results.jsonl line 3"``). Other fields may be missing or ``null``.
+
+    Examples
+    --------
+    >>> check_identity({"scene": "a", "renderer": "ours", "strategy": "mis", "spp": 0}, "line 1")
+    Traceback (most recent call last):
+    ...
+    ValueError: line 1: 'spp' must be a positive number, got 0
+    """
+    for k in ("scene", "renderer", "strategy"):
+        if not isinstance(record.get(k), str) or not record[k]:
+            raise ValueError(f"{where}: missing or non-string {k!r}")
+    if need_spp:
+        spp = record.get("spp")
+        if isinstance(spp, bool) or not isinstance(spp, (int, float)) or not spp > 0:
+            raise ValueError(f"{where}: 'spp' must be a positive number, got {spp!r}")
+
+
+def finished_keys(store) -> set:
+    """Keys (:func:`record_key`) of the jobs already recorded in a store."""
+    return {record_key(r) for r in read_records(store, dedupe=False)}
