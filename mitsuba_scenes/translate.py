@@ -382,7 +382,8 @@ def _xml_escape(s: str) -> str:
 
 
 _CHILD_TAG = {"diffuse": "bsdf", "conductor": "bsdf", "roughconductor": "bsdf", "dielectric": "bsdf",
-              "plastic": "bsdf", "roughplastic": "bsdf", "twosided": "bsdf", "area": "emitter", "constant": "emitter"}
+              "thindielectric": "bsdf", "roughdielectric": "bsdf", "plastic": "bsdf", "roughplastic": "bsdf",
+              "twosided": "bsdf", "area": "emitter", "constant": "emitter"}
 
 
 def _xml_props(rec: dict, indent: str) -> list:
