@@ -352,6 +352,9 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
             if "sample_visible" in node.props.keys() and not bool(node.props["sample_visible"]):
                 ctx.bad(node, "roughdielectric sample_visible=false (the estimator differs; its image does not)")
                 ok = False
+            if two_sided:
+                ctx.bad(node, "twosided around a roughdielectric (Mitsuba's twosided refuses BSDFs that transmit)")
+                ok = False
             alpha = _roughness(ctx, node)
             if not ok or alpha is None or i is None or e is None:
                 return None

@@ -220,13 +220,16 @@ def test_import_reads_mitsubas_defaults_and_options(tmp_path):
     (m,) = {s.material for s in from_mitsuba(xml).shapes}
     # Mitsuba's defaults: Beckmann, alpha 0.1, bk7 inside air
     assert m == rt.RoughDielectric(1.5046 / 1.000277, 0.1, distribution="beckmann")
-    xml = _one_sphere_xml(tmp_path, '<bsdf type="twosided"><bsdf type="roughdielectric">'
-                                    '<string name="distribution" value="ggx"/><float name="alpha_u" value="0.25"/>'
-                                    '<float name="alpha_v" value="0.25"/><string name="int_ior" value="water"/>'
-                                    '<float name="ext_ior" value="1.0"/><rgb name="specular_transmittance" '
-                                    'value="1"/></bsdf></bsdf>')
+    options = ('<string name="distribution" value="ggx"/><float name="alpha_u" value="0.25"/>'
+               '<float name="alpha_v" value="0.25"/><string name="int_ior" value="water"/>'
+               '<float name="ext_ior" value="1.0"/><rgb name="specular_transmittance" value="1"/>')
+    xml = _one_sphere_xml(tmp_path, f'<bsdf type="roughdielectric">{options}</bsdf>')
     (m,) = {s.material for s in from_mitsuba(xml).shapes}
     assert m == rt.RoughDielectric(1.333, 0.25, distribution="ggx")
+    # Mitsuba's twosided refuses a BSDF that transmits
+    xml = _one_sphere_xml(tmp_path, f'<bsdf type="twosided"><bsdf type="roughdielectric">{options}</bsdf></bsdf>')
+    with pytest.raises(ValueError, match="twosided around a roughdielectric"):
+        from_mitsuba(xml)
 
 
 def test_translation_and_import_round_trip(tmp_path):

@@ -14,6 +14,10 @@ that change its distribution:
 * ``bsdf.rough_plastic*`` - the rough plastic (GGX and Beckmann coatings at several alphas,
   incidences and indices, linear and ``nonlinear``): as the other ``bsdf.*``, its sampling
   density being the mixture of its glossy and diffuse lobes.
+* ``bsdf.rough_dielectric*`` - rough glass (GGX and Beckmann at several alphas, indices
+  above and below 1, wo outside and inside): as the other ``bsdf.*`` over the whole
+  sphere of directions, reflection and transmission together; its albedo is reflectance
+  plus transmittance, the latter with the 1/eta^2 radiance scale.
 * ``bsdf.plastic`` - the smooth plastic, a Dirac lobe beside a diffuse one: the diffuse
   samples against ``pdf()`` (whose mass is the diffuse lobe's probability, 1 - Ps), the
   share of specular samples against Ps from an independent Fresnel formula and Mitsuba's

@@ -31,7 +31,6 @@ struct Material {
     Vec3 radiance;          // emitted radiance (DiffuseLight)
     double param = 0.0;     // Metal: fuzz; Dielectric and ThinDielectric: ior; RoughConductor, RoughPlastic and
                             // RoughDielectric: alpha
-    double eta = 1.0;       // RoughDielectric: int_ior / ext_ior
     bool two_sided = false;
     bool reflects = true;   // false for a DiffuseLight without albedo: a black surface
     bool schlick = false;   // Dielectric: Schlick's approximation instead of exact Fresnel
@@ -43,6 +42,8 @@ struct Material {
     // coating's transmittance table, shared by the materials of equal coatings.
     plastic::Coating coating;
     std::shared_ptr<const rough_plastic::Transmittance> transmittance;
+    // RoughDielectric: int_ior / ext_ior (last: the other members keep their offsets).
+    double eta = 1.0;
 
     rough_conductor::Params rough() const { return {param, distribution, fresnel}; }
     rough_plastic::Params rough_plastic() const { return {{distribution, param}, coating, *transmittance}; }
