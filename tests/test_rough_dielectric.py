@@ -9,7 +9,8 @@
   is at most 1 and within 1e-3 of 1 at alpha 0.01 (see the test for why these bounds); a
   white furnace sees a rough glass sphere at most as bright as its sky.
 * Agreement with ``mi.load_file`` of the same XML (sphere and tilted slab of rough glass over
-  a diffuse floor, area light and constant sky) under the published scenes' screen
+  a diffuse floor, area light and constant sky; Mitsuba's ``path`` and ``direct``) under the
+  published scenes' screen
   (``benchmarks.gate.agreement``: every |global z| <= 4 and at most 1% of pixel values with
   |z| > 4; about 6e-5 per channel under the normal approximation).
 * The wavefront integrator's images equal the scalar one's bit for bit under every strategy.
@@ -160,6 +161,23 @@ def test_rough_glass_agrees_with_mitsuba(tmp_path, distribution, strategy):
     assert len(glass) == 2 and {m.distribution for m in glass} == {distribution}
     ours = rt.render(scene, spp=4096, strategy=strategy, seed=1, threads=2)
     mit = render_mitsuba(xml, spp=4096, seed=1, batches=16, threads=2)
+    a = agreement(ours, mit, pixel_filter=scene.camera.filter)
+    assert a.agrees, a.describe()
+
+
+@pytest.mark.parametrize("distribution", ["ggx", "beckmann"])
+def test_rough_glass_agrees_with_mitsubas_direct_integrator(tmp_path, distribution):
+    # Mitsuba's `direct`: light samples at the glass from both sides of its surface, weighed
+    # against its BSDF samples, at the first hit only.
+    xml = _scene_xml(tmp_path, distribution)
+    xml.write_text(xml.read_text().replace(
+        '<integrator type="path"><integer name="max_depth" value="8"/></integrator>',
+        '<integrator type="direct"><integer name="emitter_samples" value="2"/>'
+        '<integer name="bsdf_samples" value="1"/></integrator>'))
+    scene = from_mitsuba(xml)
+    assert scene.direct is not None
+    ours = rt.render(scene, spp=1024, strategy="mis", seed=1, threads=2)
+    mit = render_mitsuba(xml, spp=1024, seed=1, batches=16, threads=2)
     a = agreement(ours, mit, pixel_filter=scene.camera.filter)
     assert a.agrees, a.describe()
 
