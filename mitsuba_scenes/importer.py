@@ -13,7 +13,8 @@ clip planes), ``hdrfilm`` with a ``box``,
 ``face_normals``: the vertex normals Mitsuba's loader gives, read from the file or
 computed where it has none, shade the mesh smooth as in Mitsuba), BSDFs ``diffuse``,
 ``conductor`` and ``roughconductor`` (``ggx`` or ``beckmann``, isotropic, ``material``
-names or RGB ``eta``/``k``), ``dielectric``, ``thindielectric``, ``plastic`` and ``roughplastic`` (constant
+names or RGB ``eta``/``k``), ``dielectric``, ``thindielectric``, ``roughdielectric`` (``ggx`` or
+``beckmann``, isotropic), ``plastic`` and ``roughplastic`` (constant
 reflectances, named or numeric ``int_ior``/``ext_ior``, ``nonlinear``; rough: ``ggx`` or
 ``beckmann``, isotropic), ``twosided`` around one of those, references by id, ``area``
 emitters (on their shape or declared at the top level and referenced), ``constant``,
@@ -344,8 +345,10 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
         return rt.RoughConductor(albedo, alpha=alpha, distribution=dist, two_sided=two_sided, **ior)
     if name in ("plastic", "roughplastic"):
         return _plastic(ctx, node, name, two_sided)
-    if name in ("dielectric", "thindielectric"):
-        _extra(ctx, node, {"int_ior", "ext_ior", "specular_reflectance", "specular_transmittance"}, "bsdf")
+    if name in ("dielectric", "thindielectric", "roughdielectric"):
+        rough = name == "roughdielectric"
+        _extra(ctx, node, {"int_ior", "ext_ior", "specular_reflectance", "specular_transmittance"}
+               | ({"distribution", "alpha", "alpha_u", "alpha_v", "sample_visible"} if rough else set()), "bsdf")
         ok = True
         for k in ("specular_reflectance", "specular_transmittance"):
             c = _colour(ctx, node, k, 1.0)
@@ -353,6 +356,21 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
                 ctx.bad(node, f"{name} {k}={c} (only 1)")
                 ok = False
         i, e = _ior(ctx, node, "int_ior", "bk7"), _ior(ctx, node, "ext_ior", "air")
+        if rough:
+            dist = _scalar(ctx, node, "distribution", "beckmann")
+            if dist not in rt.DISTRIBUTIONS:
+                ctx.bad(node, f"roughdielectric distribution '{dist}' (ggx or beckmann)")
+                ok = False
+            if "sample_visible" in node.props.keys() and not bool(node.props["sample_visible"]):
+                ctx.bad(node, "roughdielectric sample_visible=false (the estimator differs; its image does not)")
+                ok = False
+            if two_sided:
+                ctx.bad(node, "twosided around a roughdielectric (Mitsuba's twosided refuses BSDFs that transmit)")
+                ok = False
+            alpha = _roughness(ctx, node)
+            if not ok or alpha is None or i is None or e is None:
+                return None
+            return rt.RoughDielectric(i / e, alpha, distribution=dist)
         if not ok or i is None or e is None:
             return None
         # Mitsuba's (thin) dielectric depends on int_ior / ext_ior only: exact with ext = 1.

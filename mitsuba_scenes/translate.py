@@ -27,6 +27,8 @@ ours                                   Mitsuba 3
                                        or RGB ``eta`` and ``k``
 ``Dielectric(ior)``                    ``dielectric``, ``int_ior=ior``, ``ext_ior=1.0``
 ``ThinDielectric(ior)``                ``thindielectric``, ``int_ior=ior``, ``ext_ior=1.0``
+``RoughDielectric(ior, alpha)``        ``roughdielectric``, ``int_ior=ior``, ``ext_ior=1.0``, its
+                                       ``distribution`` and ``alpha``
 ``Plastic``                            ``plastic``: its reflectances (RGB), ``int_ior``,
                                        ``ext_ior`` and ``nonlinear``
 ``RoughPlastic``                       ``roughplastic``: as ``plastic``, with its
@@ -187,6 +189,9 @@ def _bsdf_record(label: str, m) -> dict:
         return {"type": "dielectric", "int_ior": float(_f32(m.ior)), "ext_ior": 1.0}
     elif isinstance(m, rt.ThinDielectric):
         return {"type": "thindielectric", "int_ior": float(_f32(m.ior)), "ext_ior": 1.0}
+    elif isinstance(m, rt.RoughDielectric):
+        return {"type": "roughdielectric", "distribution": m.distribution, "alpha": float(_f32(m.alpha)),
+                "int_ior": float(_f32(m.ior)), "ext_ior": 1.0}
     elif isinstance(m, rt.DiffuseLight):
         # A light without albedo reflects nothing: a black diffuse BSDF (Mitsuba would
         # otherwise give the shape its default 0.5 grey diffuse BSDF).
@@ -454,7 +459,8 @@ def _xml_escape(s: str) -> str:
 
 
 _CHILD_TAG = {"diffuse": "bsdf", "conductor": "bsdf", "roughconductor": "bsdf", "dielectric": "bsdf",
-              "plastic": "bsdf", "roughplastic": "bsdf", "twosided": "bsdf", "area": "emitter", "constant": "emitter"}
+              "thindielectric": "bsdf", "roughdielectric": "bsdf", "plastic": "bsdf", "roughplastic": "bsdf",
+              "twosided": "bsdf", "area": "emitter", "constant": "emitter"}
 
 
 def _xml_props(rec: dict, indent: str) -> list:

@@ -15,7 +15,7 @@ from .estimate import ImageEstimate, SampleMoments
 from .imageio import write_exr, write_png, read_exr, read_hdr, to_display
 from .lights import DirectionalLight, EnvMap, Light, PointLight, SpotLight
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Material, Metal, Plastic, RoughConductor,
-                        RoughPlastic, ThinDielectric)
+                        RoughDielectric, RoughPlastic, ThinDielectric)
 from .render import INTEGRATORS, STRATEGIES, TRIANGLE_TESTS, RenderResult, render
 from .scene import FILTERS, MAX_DEPTH_CAP, Camera, Direct, Filter, Scene
 from .shapes import Box, Mesh, Quad, Shape, Sphere, Triangle
@@ -24,7 +24,8 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Camera", "Direct", "Filter", "FILTERS", "Scene", "Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh",
-    "Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic", "ThinDielectric", "DiffuseLight",
+    "Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic", "ThinDielectric",
+    "RoughDielectric", "DiffuseLight",
     "DISTRIBUTIONS", "Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight",
     "render", "RenderResult", "ImageEstimate", "SampleMoments", "STRATEGIES", "TRIANGLE_TESTS", "INTEGRATORS", "MAX_DEPTH_CAP",
     "build_id", "write_exr", "read_exr", "read_hdr", "write_png", "to_display", "__version__",

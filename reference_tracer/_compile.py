@@ -14,16 +14,17 @@ import math
 import numpy as np
 
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Metal, Plastic, RoughConductor,
-                        RoughPlastic, ThinDielectric)
+                        RoughDielectric, RoughPlastic, ThinDielectric)
 from .lights import DirectionalLight, PointLight, SpotLight
 from .scene import DEFAULT_VFOV, PROJECTIONS, Scene
 from .shapes import Box, Mesh, Quad, Sphere, Triangle
 
 # Material table columns; must match MaterialType and the material rows read in cpp/bindings.cpp.
 MATERIAL_CODES = {Lambertian: 0, Metal: 1, Dielectric: 2, RoughConductor: 3, DiffuseLight: 4, Plastic: 5,
-                  RoughPlastic: 6, ThinDielectric: 7}
+                  RoughPlastic: 6, ThinDielectric: 7, RoughDielectric: 8}
 # type, albedo rgb, radiance rgb, param, two_sided, reflects, variant, distribution, fresnel, eta rgb, k rgb,
-# plastic: int_ior / ext_ior, specular_reflectance rgb, nonlinear
+# plastic: int_ior / ext_ior, specular_reflectance rgb, nonlinear (rough dielectric: its int_ior / ext_ior in
+# the first of these)
 MATERIAL_COLUMNS = 24
 
 
@@ -34,16 +35,18 @@ def _material_row(m) -> list:
     albedo = (m.diffuse_reflectance if plastic else getattr(m, "albedo", None)) or (0.0, 0.0, 0.0)
     radiance = m.radiance if isinstance(m, DiffuseLight) else (0.0, 0.0, 0.0)
     param = {Metal: lambda: m.fuzz, Dielectric: lambda: m.ior, RoughConductor: lambda: m.alpha,
-             RoughPlastic: lambda: m.alpha, ThinDielectric: lambda: m.ior}.get(type(m), lambda: 0.0)()
+             RoughPlastic: lambda: m.alpha, ThinDielectric: lambda: m.ior,
+             RoughDielectric: lambda: m.alpha}.get(type(m), lambda: 0.0)()
     # a thin pane is the same from both sides
     two_sided = float(isinstance(m, ThinDielectric) or getattr(m, "two_sided", False))
     reflects = 0.0 if isinstance(m, DiffuseLight) and m.albedo is None else 1.0
     variant = 1.0 if isinstance(m, Dielectric) and m.fresnel == "schlick" else 0.0
-    distribution = (float(DISTRIBUTIONS.index(m.distribution)) if isinstance(m, (RoughConductor, RoughPlastic))
-                    else 0.0)
+    distribution = (float(DISTRIBUTIONS.index(m.distribution))
+                    if isinstance(m, (RoughConductor, RoughPlastic, RoughDielectric)) else 0.0)
     eta, k = (None, None) if plastic else (getattr(m, "eta", None), getattr(m, "k", None))
     fresnel = 0.0 if eta is None else 1.0
     coating = ([m.relative_ior, *m.specular_reflectance, float(m.nonlinear)] if plastic
+               else [m.ior, 0.0, 0.0, 0.0, 0.0] if isinstance(m, RoughDielectric)
                else [1.0, 0.0, 0.0, 0.0, 0.0])
     return [code, *albedo, *radiance, param, two_sided, reflects, variant, distribution, fresnel,
             *(eta or (0.0, 0.0, 0.0)), *(k or (0.0, 0.0, 0.0)), *coating]

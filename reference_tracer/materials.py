@@ -38,10 +38,11 @@ def _complex_ior(owner: str, eta, k, material):
     return (colour(f"{owner}.eta", eta, upper=None),
             colour(f"{owner}.k", 1.0 if k is None else k, upper=None))
 
-__all__ = ["Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic",
-           "DiffuseLight", "DISTRIBUTIONS", "PLASTIC_INT_IOR", "PLASTIC_EXT_IOR"]
+__all__ = ["Material", "Lambertian", "Metal", "Dielectric", "ThinDielectric", "RoughDielectric", "RoughConductor",
+           "Plastic", "RoughPlastic", "DiffuseLight", "DISTRIBUTIONS", "PLASTIC_INT_IOR", "PLASTIC_EXT_IOR"]
 
-#: microfacet distributions of :class:`RoughConductor` and :class:`RoughPlastic`, in the core's order.
+#: microfacet distributions of :class:`RoughConductor`, :class:`RoughPlastic` and :class:`RoughDielectric`,
+#: in the core's order.
 DISTRIBUTIONS = ("ggx", "beckmann")
 
 #: Mitsuba's default plastic coating: polypropylene (``int_ior``) in air (``ext_ior``).
@@ -221,6 +222,56 @@ class ThinDielectric(Material):
 
     def __post_init__(self):
         object.__setattr__(self, "ior", finite_scalar("ThinDielectric.ior", self.ior, lo=1e-3))
+
+
+@dataclass(frozen=True)
+class RoughDielectric(Material):
+    """Rough glass, a microfacet interface (Walter et al. 2007): Mitsuba ``roughdielectric``.
+
+    Reflects and refracts through microfacets of an isotropic ``distribution`` of roughness
+    ``alpha`` (Mitsuba's alpha: roughness = alpha, not alpha squared), each microfacet
+    choosing reflection with its own exact Fresnel reflectance. Both lobes have a density,
+    so lights are sampled at the surface, on both sides of it. As :class:`Dielectric`, the
+    outside has index 1 and transmitted radiance is scaled by ``1/eta^2``; the surface is
+    glass from both sides (no ``two_sided`` option: inside and outside differ).
+
+    Parameters
+    ----------
+    ior : float
+        Index inside relative to outside (Mitsuba's ``int_ior / ext_ior``), > 0 and not 1
+        (Mitsuba refuses equal indices: no interface).
+    alpha : float
+        Roughness, in [1e-4, 4] (Mitsuba's default 0.1).
+    distribution : {'beckmann', 'ggx'}, keyword-only
+        The microfacet distribution (default ``'beckmann'``, as Mitsuba's).
+
+    Examples
+    --------
+    >>> RoughDielectric(1.5, 0.1).distribution
+    'beckmann'
+    >>> RoughDielectric(1.33, 0.3, distribution="ggx").alpha
+    0.3
+    >>> RoughDielectric(1.5, -0.1)
+    Traceback (most recent call last):
+    ...
+    ValueError: RoughDielectric.alpha must be >= 0.0001, got -0.1
+    """
+
+    ior: float
+    alpha: float
+    distribution: str = field(default="beckmann", kw_only=True)
+
+    def __post_init__(self):
+        ior = finite_scalar("RoughDielectric.ior", self.ior, lo=1e-3)
+        # Mitsuba compares its single-precision indices.
+        if np.float32(ior) == np.float32(1.0):
+            raise ValueError(f"RoughDielectric.ior must differ from 1, got {ior}: a relative index of 1 has no "
+                             "interface (Mitsuba's roughdielectric refuses int_ior == ext_ior too)")
+        object.__setattr__(self, "ior", ior)
+        object.__setattr__(self, "alpha", finite_scalar("RoughDielectric.alpha", self.alpha, lo=1e-4, hi=4.0))
+        if self.distribution not in DISTRIBUTIONS:
+            raise ValueError(f"RoughDielectric.distribution must be one of {DISTRIBUTIONS}, "
+                             f"got {self.distribution!r}")
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,8 @@ def test_catalogue_covers_every_routine():
     names = {r.name for r in ROUTINES}
     assert {"warp.uniform_hemisphere", "warp.cosine_hemisphere", "warp.uniform_sphere", "warp.uniform_cone",
             "warp.concentric_disk", "bsdf.lambertian", "bsdf.rough_conductor", "bsdf.rough_conductor_beckmann",
-            "bsdf.plastic", "bsdf.rough_plastic", "bsdf.rough_plastic_beckmann", "lobes.dielectric",
+            "bsdf.plastic", "bsdf.rough_plastic", "bsdf.rough_plastic_beckmann", "bsdf.rough_dielectric",
+            "bsdf.rough_dielectric_beckmann", "lobes.dielectric",
             "lobes.dielectric_schlick", "light.quad", "light.triangle", "light.smooth_triangle", "light.sphere",
             "light.scene", "light.envmap", "light.scene_envmap"} <= names
     ggx = [dict(r.params) for r in ROUTINES if r.name == "bsdf.rough_conductor"]

@@ -14,6 +14,10 @@ that change its distribution:
 * ``bsdf.rough_plastic*`` - the rough plastic (GGX and Beckmann coatings at several alphas,
   incidences and indices, linear and ``nonlinear``): as the other ``bsdf.*``, its sampling
   density being the mixture of its glossy and diffuse lobes.
+* ``bsdf.rough_dielectric*`` - rough glass (GGX and Beckmann at several alphas, indices
+  above and below 1, wo outside and inside): as the other ``bsdf.*`` over the whole
+  sphere of directions, reflection and transmission together; its albedo is reflectance
+  plus transmittance, the latter with the 1/eta^2 radiance scale.
 * ``bsdf.plastic`` - the smooth plastic, a Dirac lobe beside a diffuse one: the diffuse
   samples against ``pdf()`` (whose mass is the diffuse lobe's probability, 1 - Ps), the
   share of specular samples against Ps from an independent Fresnel formula and Mitsuba's
@@ -139,8 +143,11 @@ def _warp(name, domain, param=0.0, cos_range=None, params=()):
     return Routine(f"warp.{name}", tuple(params), "warp", make)
 
 
-def _bsdf(material, theta, alpha=None, resolution=DEFAULT_RESOLUTION, *, coating=None, albedo=None):
-    """``coating``: a plastic's options (``eta``, ``specular``, ``nonlinear``), also shown in the label."""
+def _bsdf(material, theta, alpha=None, resolution=DEFAULT_RESOLUTION, *, coating=None, albedo=None,
+          domain="hemisphere"):
+    """``coating``: a plastic's options (``eta``, ``specular``, ``nonlinear``), or a rough
+    dielectric's ``eta``, also shown in the label. ``domain``: where the directions lie
+    (``'sphere'`` for a BSDF that transmits; ``theta`` > 90 puts wo below the surface)."""
     coating = dict(coating or {})
     params = ((("theta_o", theta),) + ((("alpha", alpha),) if alpha is not None else ())
               + tuple((k, v) for k, v in coating.items()))
@@ -148,7 +155,7 @@ def _bsdf(material, theta, alpha=None, resolution=DEFAULT_RESOLUTION, *, coating
     def make():
         probe = BsdfProbe(material, direction(theta, 40.0), param=alpha or 0.0, coating=coating,
                           **({"albedo": albedo} if albedo is not None else {}))
-        return {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": "hemisphere", "dims": 3,
+        return {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": domain, "dims": 3,
                 "resolution": resolution}
     return Routine(f"bsdf.{material}", params, "bsdf", make)
 
@@ -298,6 +305,16 @@ def _catalogue() -> tuple:
                  _bsdf("rough_plastic", 60, 0.3, coating={"eta": 1.9, "specular": (0.9, 0.5, 0.2)}),
                  _bsdf("rough_plastic_beckmann", 30, 0.3, coating={"eta": 0.75}),   # coating thinner than outside
                  _bsdf("rough_plastic", 70, 0.05, coating={"nonlinear": True}, albedo=(0.1, 0.9, 0.3))]
+    # rough glass over the whole sphere, wo outside (theta < 90) and inside (> 90: 110 is
+    # beyond the critical angle of 1.5, most microfacets reflect totally); twice the cells
+    # along cos theta, so that each hemisphere is binned as finely as the others' one
+    sphere_cells = (2 * DEFAULT_RESOLUTION[0], DEFAULT_RESOLUTION[1])
+    routines += [_bsdf(m, theta, alpha, sphere_cells, coating={"eta": 1.5}, domain="sphere")
+                 for m in ("rough_dielectric", "rough_dielectric_beckmann")
+                 for alpha in (0.1, 0.3, 0.7) for theta in (0, 45, 80, 110, 160)]
+    routines += [_bsdf("rough_dielectric", 60, 0.2, sphere_cells, coating={"eta": 0.7}, domain="sphere"),
+                 _bsdf("rough_dielectric_beckmann", 130, 0.4, sphere_cells, coating={"eta": 0.7}, domain="sphere"),
+                 _bsdf("rough_dielectric", 30, 1.0, sphere_cells, coating={"eta": 2.4}, domain="sphere")]
     routines += [_plastic(theta) for theta in (0, 30, 60, 85)]
     routines += [_plastic(45, coating={"nonlinear": True}),
                  _plastic(60, coating={"eta": 1.9, "specular": (0.9, 0.5, 0.2)}),
@@ -682,7 +699,7 @@ def run_routine(routine: Routine, *, n: int = DEFAULT_N, seed: int = 0, alpha: f
                         dims=spec["dims"], cos_range=spec.get("cos_range"),
                         resolution=spec.get("resolution", DEFAULT_RESOLUTION))
         if routine.kind == "bsdf":
-            grid = Grid.make("hemisphere", res.resolution)
+            grid = Grid.make(spec["domain"], res.resolution)
             checks = _bsdf_checks(spec["probe"], grid, n, s + 1, a)
         elif routine.kind == "mixed":
             lobes, checks = _mixed_checks(spec, Grid.make("hemisphere", res.resolution), n, s + 1, a)

@@ -129,7 +129,7 @@ public:
         for (size_t i = 0; i < materials.shape(0); ++i) {
             rt::Material m;
             const int type = int(materials(i, 0));
-            if (type < 0 || type > 7) throw std::invalid_argument("materials: unknown material type");
+            if (type < 0 || type > 8) throw std::invalid_argument("materials: unknown material type");
             m.type = rt::MaterialType(type);
             m.albedo = row3(materials, i, 1);
             m.radiance = row3(materials, i, 4);
@@ -152,6 +152,12 @@ public:
                 if (m.type == rt::MaterialType::RoughPlastic && (eta == 1.0 || !(m.param > 0.0)))
                     throw std::invalid_argument("materials: rough plastic needs eta != 1 and alpha > 0");
                 rt::make_plastic(m, row3(materials, i, 20), eta, materials(i, 23) != 0.0);
+            }
+            if (m.type == rt::MaterialType::RoughDielectric) {
+                // int_ior / ext_ior, in the plastics' column
+                m.eta = materials(i, 19);
+                if (!(m.eta > 0.0) || !std::isfinite(m.eta) || m.eta == 1.0 || !(m.param > 0.0))
+                    throw std::invalid_argument("materials: rough dielectric needs eta > 0, != 1 and alpha > 0");
             }
             mats.push_back(m);
         }

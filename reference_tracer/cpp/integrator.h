@@ -81,9 +81,11 @@ private:
     // A shadow ray's origin toward wi, given the reference point ref: ref itself, except at
     // a smooth triangle's vertex, where a light sample may lie below the geometric surface
     // while above the shading one (the ray then starts below the surface, as Mitsuba's
-    // spawn_ray_to does).
+    // spawn_ray_to does), and at a vertex whose BSDF transmits with a density (rough glass),
+    // where the light may be on either side: the ray starts on the light's.
     [[gnu::always_inline]] static Vec3 shadow_origin(const Vertex& v, const Vec3& ref, const Vec3& wi) {
-        return v.it.smooth ? offset_origin(v.it.p, v.it.n, wi) : ref;
+        if (v.it.smooth) return offset_origin(v.it.p, v.it.n, wi);
+        return v.m.has_glossy_transmission() ? offset_origin(v.it.p, v.frame.n, wi) : ref;
     }
     // The next segment's origin toward wi. Delta lobes leave along the geometric normal,
     // the others along the frame's (the two differ only on the back of two-sided metal, and
@@ -147,6 +149,8 @@ private:
         if (!bs.valid) return std::nullopt;
         return Scatter{v.frame.to_world(bs.wi), bs.weight, bs.pdf, bs.eta, bs.delta};
     }
+    // A direction uniform on the hemisphere of the frame's normal; on the whole sphere at a
+    // vertex whose BSDF transmits with a density (rough glass).
     static std::optional<Scatter> sample_uniform(const Vertex& v, PCG64& rng);
     // sample_uniform at a vertex whose material has a Dirac lobe beside its others (smooth
     // plastic), given the direction's uniforms: the Dirac lobe with the material's own

@@ -127,6 +127,13 @@ template <Mutant M>
 auto Integrator<M>::sample_uniform(const Vertex& v, PCG64& rng) -> std::optional<Scatter> {
     const double u2 = rng.next_double(), u1 = rng.next_double();  // last first, as sample_material
     if (v.m.has_delta_lobe()) return sample_uniform_beside_delta(v, u1, u2, rng);
+    if (v.m.has_glossy_transmission()) {
+        const Vec3 local = square_to_uniform_sphere(u1, u2);
+        const Vec3 f = bsdf_eval<M>(v.m, v.wo, local);
+        if (is_black(f)) return std::nullopt;
+        const double eta = rough_dielectric::eta_crossed(v.m.rough_dielectric(), v.wo, local);
+        return Scatter{v.frame.to_world(local), f * (1.0 / kUniformSpherePdf), kUniformSpherePdf, eta};
+    }
     const Vec3 local = square_to_uniform_hemisphere(u1, u2);
     const Vec3 f = bsdf_eval<M>(v.m, v.wo, local);
     if (is_black(f)) return std::nullopt;
@@ -181,6 +188,9 @@ auto Integrator<M>::sample_mixture(const Vertex& v, const Vec3& ref, PCG64& rng)
     const double pdf_m = bsdf_pdf<M>(v.m, v.wo, local);
     const double pdf = has_lights ? 0.5 * lights.pdf_all(ref, wi) + 0.5 * pdf_m : pdf_m;
     if (!(pdf > 0.0)) return std::nullopt;
+    // Rough glass: the index crossed, as its own samples report it (Russian roulette).
+    if (v.m.has_glossy_transmission())
+        return Scatter{wi, f / pdf, pdf, rough_dielectric::eta_crossed(v.m.rough_dielectric(), v.wo, local)};
     return Scatter{wi, f / pdf, pdf};
 }
 

@@ -27,7 +27,9 @@
 // dielectric_schlick (param = ior), metal (param = fuzz), plastic, rough_plastic (GGX) and
 // rough_plastic_beckmann (param = alpha; albedo = diffuse_reflectance; eta = int_ior /
 // ext_ior, specular = specular_reflectance and nonlinear as Mitsuba's, its defaults when
-// not given). Directions are in the local shading frame (+z = normal), as the routines take them.
+// not given), rough_dielectric (GGX) and rough_dielectric_beckmann (param = alpha, eta =
+// int_ior / ext_ior; wo and the directions on either side of the surface, +z outside).
+// Directions are in the local shading frame (+z = normal), as the routines take them.
 #include "sampling_probe.h"
 
 #include <cmath>
@@ -170,16 +172,24 @@ Material material_of(const std::string& name, const Vector& albedo, double param
     else if (name == "metal") m.type = MaterialType::Metal;
     else if (name == "plastic") m.type = MaterialType::Plastic;
     else if (name == "rough_plastic" || name == "rough_plastic_beckmann") m.type = MaterialType::RoughPlastic;
+    else if (name == "rough_dielectric" || name == "rough_dielectric_beckmann") m.type = MaterialType::RoughDielectric;
     else
         throw std::invalid_argument("unknown material '" + name +
                                     "' (lambertian, rough_conductor, rough_conductor_beckmann, dielectric, "
-                                    "dielectric_schlick, metal, plastic, rough_plastic, rough_plastic_beckmann)");
+                                    "dielectric_schlick, metal, plastic, rough_plastic, rough_plastic_beckmann, "
+                                    "rough_dielectric, rough_dielectric_beckmann)");
     m.albedo = vec3(albedo, "albedo");
     m.param = param;
     m.schlick = name == "dielectric_schlick";
-    if (name == "rough_conductor_beckmann" || name == "rough_plastic_beckmann") m.distribution = Distribution::Beckmann;
-    if ((m.type == MaterialType::RoughConductor || m.type == MaterialType::RoughPlastic) && !(param > 0.0))
+    if (name == "rough_conductor_beckmann" || name == "rough_plastic_beckmann" || name == "rough_dielectric_beckmann")
+        m.distribution = Distribution::Beckmann;
+    if ((m.type == MaterialType::RoughConductor || m.type == MaterialType::RoughPlastic ||
+         m.type == MaterialType::RoughDielectric) && !(param > 0.0))
         throw std::invalid_argument("alpha must be > 0");
+    if (m.type == MaterialType::RoughDielectric) {
+        if (!(eta > 0.0) || !std::isfinite(eta) || eta == 1.0) throw std::invalid_argument("eta must be > 0 and != 1");
+        m.eta = eta;
+    }
     if (m.type == MaterialType::Dielectric && !(param > 0.0)) throw std::invalid_argument("ior must be > 0");
     if (m.type == MaterialType::Plastic || m.type == MaterialType::RoughPlastic) {
         if (!(eta > 0.0) || !std::isfinite(eta) || (m.type == MaterialType::RoughPlastic && eta == 1.0))
@@ -290,7 +300,8 @@ void register_sampling_probe(nb::module_& m) {
           "eta"_a = kPlasticEta, "specular"_a = nb::none(), "nonlinear"_a = false,
           "rt::bsdf_sample for each row (u0, u1, u2) of u; wo is the unit local outgoing direction. "
           "Returns dict wi (n, 3), weight (n, 3) = f cos / pdf, pdf (n,), eta (n,), delta (n,), valid (n,). "
-          "eta, specular (3,) and nonlinear: the plastics' coating (Mitsuba's defaults when not given).");
+          "eta, specular (3,) and nonlinear: the plastics' coating (Mitsuba's defaults when not given); eta: "
+          "the rough dielectric's int_ior / ext_ior.");
     m.def("bsdf_eval_pdf", &probe_bsdf_eval_pdf, "material"_a, "wo"_a, "wi"_a, "albedo"_a, "param"_a,
           "eta"_a = kPlasticEta, "specular"_a = nb::none(), "nonlinear"_a = false,
           "rt::bsdf_eval (f * cos, (n, 3)) and rt::bsdf_pdf ((n,)) for each row of wi: dict value, pdf.");

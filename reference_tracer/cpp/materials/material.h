@@ -7,6 +7,7 @@
 #include "lambertian.h"
 #include "plastic.h"
 #include "rough_conductor.h"
+#include "rough_dielectric.h"
 #include "rough_plastic.h"
 #include "thin_dielectric.h"
 
@@ -21,34 +22,43 @@ enum class MaterialType : int {
     Plastic = 5,
     RoughPlastic = 6,
     ThinDielectric = 7,
+    RoughDielectric = 8,
 };
 
 struct Material {
     MaterialType type = MaterialType::Lambertian;
     Vec3 albedo;            // Plastic and RoughPlastic: the diffuse base's reflectance
     Vec3 radiance;          // emitted radiance (DiffuseLight)
-    double param = 0.0;     // Metal: fuzz; Dielectric and ThinDielectric: ior; RoughConductor and RoughPlastic: alpha
+    double param = 0.0;     // Metal: fuzz; Dielectric and ThinDielectric: ior; RoughConductor, RoughPlastic and
+                            // RoughDielectric: alpha
     bool two_sided = false;
     bool reflects = true;   // false for a DiffuseLight without albedo: a black surface
     bool schlick = false;   // Dielectric: Schlick's approximation instead of exact Fresnel
-    // Metal and RoughConductor: Fresnel of a complex index (off: Fresnel 1); RoughConductor:
-    // its microfacet distribution.
+    // Metal and RoughConductor: Fresnel of a complex index (off: Fresnel 1); RoughConductor,
+    // RoughPlastic and RoughDielectric: the microfacet distribution.
     ConductorFresnel fresnel;
     Distribution distribution = Distribution::GGX;
     // Plastic and RoughPlastic: the coating over the base (make_plastic); RoughPlastic: the
     // coating's transmittance table, shared by the materials of equal coatings.
     plastic::Coating coating;
     std::shared_ptr<const rough_plastic::Transmittance> transmittance;
+    // RoughDielectric: int_ior / ext_ior (last: the other members keep their offsets).
+    double eta = 1.0;
 
     rough_conductor::Params rough() const { return {param, distribution, fresnel}; }
     rough_plastic::Params rough_plastic() const { return {{distribution, param}, coating, *transmittance}; }
+    rough_dielectric::Params rough_dielectric() const { return {param, distribution, eta}; }
 
     bool emits() const { return type == MaterialType::DiffuseLight && max_component(radiance) > 0.0; }
     // Delta lobes: sampled directly, no pdf machinery, no light sampling at the vertex.
     bool is_delta() const {
         return type == MaterialType::Metal || type == MaterialType::Dielectric || type == MaterialType::ThinDielectric;
     }
-    bool is_glass() const { return type == MaterialType::Dielectric; }
+    // Glass keeps its front normal as the local frame's +z, whichever side the path is on.
+    bool is_glass() const { return type == MaterialType::Dielectric || type == MaterialType::RoughDielectric; }
+    // Lobes of finite density on both sides of the surface: light sampling meets lights
+    // behind it too, and uniform direction sampling covers the whole sphere.
+    bool has_glossy_transmission() const { return type == MaterialType::RoughDielectric; }
     // A Dirac lobe beside lobes of finite density (smooth plastic): light sampling at the
     // vertex, and a sample of the Dirac lobe continues the path as a mirror's would.
     bool has_delta_lobe() const { return type == MaterialType::Plastic; }
@@ -68,7 +78,8 @@ inline void make_plastic(Material& m, const Vec3& specular, double eta, bool non
 
 // M, in the functions below: a self-test mutant (mutants.h); Mutant::None is the tracer.
 
-// f * cos for a non-delta material in its local frame (wo.z > 0 assumed by the caller).
+// f * |cos| for a non-delta material in its local frame (wo.z > 0 assumed by the caller, but
+// for glass, whose wo.z < 0 means inside).
 template <Mutant M = Mutant::None>
 inline Vec3 bsdf_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
     switch (m.type) {
@@ -77,6 +88,7 @@ inline Vec3 bsdf_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
         case MaterialType::RoughConductor: return rough_conductor::eval<M>(m.albedo, m.rough(), wo, wi);
         case MaterialType::Plastic: return plastic::eval(m.coating, wo, wi);
         case MaterialType::RoughPlastic: return rough_plastic::eval(m.rough_plastic(), wo, wi);
+        case MaterialType::RoughDielectric: return rough_dielectric::eval(m.rough_dielectric(), wo, wi);
         default: return Vec3(0.0);
     }
 }
@@ -90,6 +102,7 @@ inline double bsdf_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
         case MaterialType::RoughConductor: return rough_conductor::pdf<M>(m.rough(), wo, wi);
         case MaterialType::Plastic: return plastic::pdf(m.coating, wo, wi);
         case MaterialType::RoughPlastic: return rough_plastic::pdf(m.rough_plastic(), wo, wi);
+        case MaterialType::RoughDielectric: return rough_dielectric::pdf(m.rough_dielectric(), wo, wi);
         default: return 0.0;
     }
 }
@@ -112,6 +125,7 @@ template <Mutant M = Mutant::None>
         case MaterialType::ThinDielectric: return thin_dielectric::sample(m.param, wo, u0);
         case MaterialType::Plastic: return plastic::sample(m.coating, wo, u0, u1, u2);
         case MaterialType::RoughPlastic: return rough_plastic::sample(m.rough_plastic(), wo, u0, u1, u2);
+        case MaterialType::RoughDielectric: return rough_dielectric::sample(m.rough_dielectric(), wo, u0, u1, u2);
         default: return {};
     }
 }
