@@ -18,13 +18,14 @@ from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Mat
 from .render import INTEGRATORS, STRATEGIES, TRIANGLE_TESTS, RenderResult, render
 from .scene import FILTERS, MAX_DEPTH_CAP, Camera, Direct, Filter, Scene
 from .shapes import Box, Mesh, Quad, Shape, Sphere, Triangle
+from .textures import Bitmap, Checkerboard, Texture
 
 __version__ = "0.1.0"
 
 __all__ = [
     "Camera", "Direct", "Filter", "FILTERS", "Scene", "Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh",
     "Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic", "DiffuseLight",
-    "DISTRIBUTIONS",
+    "DISTRIBUTIONS", "Texture", "Checkerboard", "Bitmap",
     "render", "RenderResult", "ImageEstimate", "SampleMoments", "STRATEGIES", "TRIANGLE_TESTS", "INTEGRATORS", "MAX_DEPTH_CAP",
     "build_id", "write_exr", "read_exr", "write_png", "to_display", "__version__",
 ]

@@ -69,7 +69,7 @@ def test_unsupported_scene_lists_everything(mi):
     d["white"] = {"type": "roughdielectric"}
     d["integrator"] = {"type": "volpath"}
     d["env"] = {"type": "envmap", "filename": "sky.exr"}
-    d["red"] = {"type": "diffuse", "reflectance": {"type": "checkerboard"}}
+    d["red"] = {"type": "plastic", "specular_reflectance": {"type": "checkerboard"}}  # a texture not read there
     with pytest.raises(ValueError) as err:
         from_mitsuba(d)
     msg = str(err.value)

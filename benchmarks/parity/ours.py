@@ -74,16 +74,19 @@ def prim_shapes(scene: rt.Scene) -> np.ndarray:
     return np.array(spheres + quads + tris, dtype=np.int64)
 
 
-def albedo_of(material) -> tuple:
+def albedo_of(material):
     """The diffuse albedo an AOV shows: a Lambertian's, an emitter's own, a plastic's base
-    (Mitsuba's eval_diffuse_reflectance of its diffuse lobe), else black."""
+    (Mitsuba's eval_diffuse_reflectance of its diffuse lobe), else black; a texture where
+    it is one (its value at each hit: the core's ``reflectance``)."""
     if isinstance(material, rt.Lambertian):
-        return tuple(material.albedo)
-    if isinstance(material, (rt.Plastic, rt.RoughPlastic)):
-        return tuple(material.diffuse_reflectance)
-    if isinstance(material, rt.DiffuseLight) and material.albedo is not None:
-        return tuple(material.albedo)
-    return (0.0, 0.0, 0.0)
+        value = material.albedo
+    elif isinstance(material, (rt.Plastic, rt.RoughPlastic)):
+        value = material.diffuse_reflectance
+    elif isinstance(material, rt.DiffuseLight) and material.albedo is not None:
+        value = material.albedo
+    else:
+        return (0.0, 0.0, 0.0)
+    return value if isinstance(value, rt.Texture) else tuple(value)
 
 
 def our_aovs(scene: rt.Scene, *, offset=(0.5, 0.5)) -> dict:
@@ -120,7 +123,8 @@ def our_aovs(scene: rt.Scene, *, offset=(0.5, 0.5)) -> dict:
         m = shape == i
         if not m.any():
             continue
-        albedo[m] = albedo_of(s.material)
+        value = albedo_of(s.material)
+        albedo[m] = np.asarray(hit["reflectance"])[m.ravel()] if isinstance(value, rt.Texture) else value
         emitted[m] = 0.0
         if isinstance(s.material, rt.DiffuseLight):
             emitted[m & front] = s.material.radiance

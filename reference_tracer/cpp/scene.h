@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "packet_order.h"
@@ -15,6 +16,7 @@
 #include "shapes/quad.h"
 #include "shapes/sphere.h"
 #include "shapes/triangle.h"
+#include "texture.h"
 
 namespace rt {
 
@@ -67,6 +69,16 @@ struct Interaction {
     bool smooth = false;  // ns comes from vertex normals (it may differ from n)
 };
 
+// A scene's textures and its primitives' texture coordinates (texture.h): one record per
+// sphere, quad and triangle where `textures` is not empty; all empty in a scene without
+// textures, which then stores and computes nothing for them.
+struct SceneTextures {
+    std::vector<Texture> textures;
+    std::vector<SphereUV> spheres;
+    std::vector<QuadUV> quads;
+    std::vector<TriangleUV> triangles;
+};
+
 struct SceneSettings {
     Vec3 background;
     int max_depth = 50;     // path segments, as Mitsuba's path integrator counts them
@@ -77,10 +89,11 @@ struct SceneSettings {
 class Scene {
 public:
     // `normals`: the vertex normals of the smooth triangles, which refer to them by index
-    // (Triangle::normals); none for a scene shaded flat.
+    // (Triangle::normals); none for a scene shaded flat. `textures`: the textures that
+    // materials refer to (Material::texture) and the primitives' texture coordinates.
     Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere> spheres,
           std::vector<Quad> quads, std::vector<Triangle> triangles, SceneSettings settings,
-          std::vector<TriangleNormals> normals = {});
+          std::vector<TriangleNormals> normals = {}, SceneTextures textures = {});
     // Copies would leave the light sampler pointing into the source's arrays.
     Scene(const Scene&) = delete;
     Scene& operator=(const Scene&) = delete;
@@ -145,6 +158,27 @@ public:
     size_t triangle_count() const { return triangles_.size(); }
     // Whether any triangle has vertex normals (smooth shading).
     bool has_shading_normals() const { return !normals_.empty(); }
+
+    // Whether any material has a texture.
+    bool has_textures() const { return !textures_.textures.empty(); }
+    // The texture coordinates (u, v) of hit `it`, Mitsuba's parameterisation of its shape
+    // (texture.h); a scene with textures only.
+    void texture_uv(const Interaction& it, double& u, double& v) const;
+    // The reflectance of material m at hit `it`: its texture's value there, else its albedo.
+    Vec3 reflectance(const Material& m, const Interaction& it) const {
+        if (!m.textured()) return m.albedo;
+        double u, v;
+        texture_uv(it, u, v);
+        return textures_.textures[size_t(m.texture)].eval(u, v);
+    }
+    // The material whose BSDF scatters at hit `it`: m itself, or where m has a texture,
+    // `local` made a copy of m with the texture's value there.
+    const Material& shade(const Material& m, const Interaction& it, std::optional<Material>& local) const {
+        if (!m.textured()) return m;
+        local.emplace(m);
+        local->set_reflectance(reflectance(m, it));
+        return *local;
+    }
 
 private:
     // Tests primitive `prim`; on a hit closer than t_max, lowers t_max and records it.
@@ -320,6 +354,7 @@ private:
     std::vector<Quad> quads_;
     std::vector<Triangle> triangles_;
     std::vector<TriangleNormals> normals_;  // of the smooth triangles (Triangle::normals)
+    SceneTextures textures_;
     SceneSettings settings_;
     WideBVH bvh_;
     // Scenes of at most kDirectTestLimit spheres and quads skip the tree (see the constructor).

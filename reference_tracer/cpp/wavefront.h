@@ -79,6 +79,10 @@ private:
         Ray shadow_ray;
         double shadow_t_max = 0.0;
         Vec3 shadow_value;     // what it adds to L when unoccluded
+
+        // The vertex's material with its texture's value at the hit, where it has a texture
+        // and the vertex is built (Scene::shade); last, away from the fields every bounce reads.
+        std::optional<Material> textured;
     };
 
     // The work queue of one bounce's vertices that run in packs: the lanes that take a light
