@@ -7,7 +7,7 @@ For every curve (scene, renderer, strategy, width, height) present in both store
   B / A (efficiency = 1 / (MSE x seconds) at the highest spp both curves reach), each
   with a 95% percentile-bootstrap interval: seeds are resampled with replacement within
   each spp, independently in A and B (fixed generator seed, :data:`BOOTSTRAP_RESAMPLES`);
-* the gate's verdict (:func:`benchmarks.gate.compare`) of B's images at the top spp
+* the gate's verdict (:func:`benchmarks.gate.judge`, the test :func:`benchmarks.gate.compare`) of B's images at the top spp
   against A's as the reference (seed means pooled; per-sample variances from the stored
   variance images, or from the spread of the seeds' means when none are stored), at a
   run-wide false-alarm rate split over the curves (Bonferroni).
@@ -38,12 +38,20 @@ from pathlib import Path
 
 import numpy as np
 
-from .constants import GATE_ALPHA
-from .metrics import convergence_slope
-from .store import curve_of, read_image, read_records
+import reference_tracer as rt
+from mitsuba_scenes.scene_files import scene_file
+from mitsuba_scenes.suite import SUITE
 
-__all__ = ["BOOTSTRAP_RESAMPLES", "CurveComparison", "EstimatorKnowledge", "compare_stores", "curve_points",
-           "estimator_knowledge", "judge"]
+from .constants import GATE_ALPHA
+from .external import render_external_batches
+from .gate.paired import EstimatorKnowledge, judge
+from .gate.store_reference import pooled_image
+from .metrics import convergence_slope
+from .scenes import scene_at
+from .store import curve_of, read_records
+from .tails import tail_reference
+
+__all__ = ["BOOTSTRAP_RESAMPLES", "CurveComparison", "compare_stores", "curve_points", "estimator_knowledge"]
 
 BOOTSTRAP_RESAMPLES = 2000
 
@@ -167,40 +175,6 @@ def _bootstrap(cmp: CurveComparison, pa: dict, pb: dict, rng) -> None:
         cmp.efficiency_ratio_ci = _ci(ratios)
 
 
-def pooled_image(store, records, spp: int):
-    """``(mean, per-sample variance, total spp)`` of a curve's stored images at ``spp``, or None.
-
-    Seeds' means are averaged; the per-sample variance is the mean of the stored variance
-    images, else ``spp`` x the between-seed variance of the means (2+ seeds).
-    """
-    recs = [r for r in records if int(r["spp"]) == spp and (r.get("stats_image") or r.get("image"))]
-    if not recs:
-        return None
-    means = np.stack([read_image(store, r.get("stats_image") or r["image"], rgb=True) for r in recs])
-    var_paths = [r.get("stats_variance_image") for r in recs]
-    if all(var_paths):
-        var = np.mean([read_image(store, p, rgb=True) for p in var_paths], axis=0)
-    elif len(recs) >= 2:
-        var = means.var(axis=0, ddof=1) * spp
-    else:
-        return None
-    return means.mean(axis=0), var, spp * len(recs)
-
-
-@dataclass
-class EstimatorKnowledge:
-    """What is known of B's estimator from a high budget (module docstring, "Heavy tails").
-
-    ``moments``: per-pixel :class:`reference_tracer.SampleMoments` of the same estimator
-    (ours); ``variance``: per-sample variance image (an external renderer's batches);
-    ``note``: one line saying which, or why neither.
-    """
-
-    note: str
-    moments: object = None
-    variance: np.ndarray | None = None
-
-
 def estimator_knowledge(*, tail_spp: int, threads=None, cache=None, externals=(), log=None):
     """The ``estimator=`` callable of :func:`compare_stores` for this process's build.
 
@@ -219,8 +193,6 @@ def estimator_knowledge(*, tail_spp: int, threads=None, cache=None, externals=()
         ``knowledge(key, records_b) -> EstimatorKnowledge`` with ``key`` the curve
         (:func:`benchmarks.store.curve_of`).
     """
-    import reference_tracer as rt
-
     by_build = {e.build: e for e in externals}
     here = rt.build_id()
 
@@ -239,12 +211,8 @@ def estimator_knowledge(*, tail_spp: int, threads=None, cache=None, externals=()
         if scene is None:
             return EstimatorKnowledge(f"none: {why}")
         if renderer == "ours":
-            from .tails import tail_reference
-
             ref = tail_reference(scene, strategy=strategy, spp=tail_spp, threads=threads, cache=cache, log=log)
             return EstimatorKnowledge(f"tail reference of ours {strategy} at {tail_spp} spp", moments=ref.moments)
-        from .external import render_external_batches
-
         ext = by_build[last.get("build")]
         if log:
             log(f"{name}: rendering {ext.name} at {tail_spp} spp in 16 batches for its per-pixel variance")
@@ -265,11 +233,6 @@ def _scene_of(name, width, height, record) -> tuple:
     records name (``scene_source``) is never loaded from there, since a Python scene file
     is code and the store may come from anybody.
     """
-    from mitsuba_scenes.scene_files import scene_file
-    from mitsuba_scenes.suite import SUITE
-
-    from .sweep.jobs import scene_at
-
     if name not in SUITE and scene_file(name) is None:
         source = record.get("scene_source")
         named = f" (B rendered it from {str(source)[:200]!r})" if source else ""
@@ -283,53 +246,6 @@ def _scene_of(name, width, height, record) -> tuple:
     if want and scene.content_hash()[:16] != want:
         return None, f"scene {name!r} changed since B rendered it (content hash)"
     return scene, ""
-
-
-def _with_knowledge(known: EstimatorKnowledge, ref, test) -> tuple:
-    """``(ref, test, moments)`` with B's high-budget variance floored into both sides.
-
-    Under the null hypothesis (nothing changed) A's estimator is B's, so the known
-    per-sample variance floors A's as well as B's: heavy-tailed renders that missed their
-    rare paths no longer look precise. A floor only ever widens the test (fewer alarms,
-    never more).
-    """
-    if known.moments is not None:
-        from .gate.heavy_tails import tail_moments
-
-        m2, _, _ = tail_moments(known.moments, np.shape(test[0]))
-        floor = m2 * (known.moments.n / (known.moments.n - 1.0))
-        moments = known.moments
-    elif known.variance is not None:
-        floor, moments = np.asarray(known.variance, dtype=np.float64), None
-    else:
-        return ref, test, None
-    test = (test[0], np.maximum(test[1], floor), test[2])
-    ref = (ref[0], np.maximum(ref[1], floor), ref[2])
-    return ref, test, moments
-
-
-def judge(ref, test, *, known: EstimatorKnowledge, alpha: float):
-    """The gate's verdict of B's image against A's, as :func:`compare_stores` gives it.
-
-    Parameters
-    ----------
-    ref, test : tuple
-        ``(mean, per-sample variance, spp)`` of A (the baseline) and of B.
-    known : EstimatorKnowledge, keyword-only
-        B's estimator at a high budget (floored into both sides, see ``_with_knowledge``).
-    alpha : float, keyword-only
-        Level of this one comparison.
-
-    Returns
-    -------
-    benchmarks.gate.GateResult
-        With ``verdict`` "pass", "fail" or "undetermined". ``rtbench gate --calibrate
-        --compare-pairs`` measures its false-alarm rate on pairs of renders of one build.
-    """
-    from .gate import compare
-
-    ref, test, moments = _with_knowledge(known, ref, test)
-    return compare(test[0], test[1], test[2], ref[0], ref[1], ref[2], alpha=alpha, tails=moments)
 
 
 def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0, estimator=None) -> list:

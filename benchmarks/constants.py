@@ -12,7 +12,7 @@ from reference_tracer.strategies import STRATEGIES
 __all__ = [
     "STRATEGIES", "UNBIASED_STRATEGIES", "MITSUBA_STRATEGY", "MITSUBA_DIRECT", "RELMSE_EPS", "LUMINANCE_WEIGHTS",
     "SEED_SCENE", "SEED_SIZE", "SEED_SPP", "SEED_LIGHT_SPP", "MIN_SLOPE_BUDGETS", "GATE_ALPHA", "BIAS_TEST_ALPHA", "CLOSED_FORM",
-    "CLOSED_FORM_SPP",
+    "CLOSED_FORM_SPP", "BASELINE", "VERDICT_STRATEGY",
 ]
 
 #: Our sampling strategies, in the order tables and plots list them (the tracer owns them).
@@ -21,6 +21,11 @@ STRATEGIES = STRATEGIES
 
 #: The strategies that must be unbiased: every one but ``light``.
 UNBIASED_STRATEGIES = tuple(s for s in STRATEGIES if s != "light")
+
+#: The strategy every noise ratio of the headline is relative to.
+BASELINE = "light"
+#: Our strategy whose bias test is the headline's verdict "ours vs Mitsuba" (Mitsuba's ``path`` is MIS).
+VERDICT_STRATEGY = "mis"
 
 #: The name under which Mitsuba's renders are recorded: its ``path`` integrator (NEE + MIS).
 MITSUBA_STRATEGY = "path"

@@ -28,6 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
+import reference_tracer as rt
+from mitsuba_scenes import to_xml
+from mitsuba_scenes.render import batch_seeds, split_spp
+
 __all__ = ["PLACEHOLDERS", "STRATEGY", "ExternalRenderer", "register_external", "external", "registered_externals",
            "restore_externals", "clear_externals", "render_external", "render_external_batches"]
 
@@ -123,9 +127,6 @@ def render_external(renderer: ExternalRenderer, scene, *, spp: int, seed: int) -
         The command failed (exit status, its last output lines), timed out, or wrote no
         or a wrongly sized image.
     """
-    import reference_tracer as rt
-    from mitsuba_scenes import to_xml
-
     w, h = scene.camera.width, scene.camera.height
     with tempfile.TemporaryDirectory(prefix="rtbench-ext-") as tmp:
         xml, out = Path(tmp) / "scene.xml", Path(tmp) / "out.exr"
@@ -157,8 +158,6 @@ def render_external_batches(renderer: ExternalRenderer, scene, *, spp: int, seed
     between-batch variance times the batch size, as for Mitsuba
     (:func:`mitsuba_scenes.render_mitsuba`; README.md, Conventions).
     """
-    from mitsuba_scenes.render import batch_seeds, split_spp
-
     sizes = split_spp(int(spp), int(batches))
     if len(sizes) < 2:
         raise ValueError(f"{renderer.name}: a variance needs at least 2 batches (spp {spp}, batches {batches})")

@@ -36,6 +36,7 @@ True
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import hashlib
 import json
 import os
@@ -45,15 +46,18 @@ from pathlib import Path
 
 import numpy as np
 
-from reference_tracer._validate import SEED_MAX, positive_int
+import mitsuba_scenes
+import reference_tracer as rt
+from mitsuba_scenes.suite import closed_form_reference
+from mitsuba_scenes.variants import select_variant, versions
 from reference_tracer.estimate import ImageEstimate
 from reference_tracer.imageio import atomic_write, write_exr
+from reference_tracer.validation import SEED_MAX, positive_int
 
 from .constants import CLOSED_FORM, CLOSED_FORM_SPP
 from .store import file_sha256
 
-
-__all__ = ["is_cached", "CACHE_ENV", "DEFAULT_REFERENCE_SEED", "DEFAULT_REFERENCE_BATCHES", "FORMAT_VERSION",
+__all__ = ["is_cached", "cache_lock", "CACHE_ENV", "DEFAULT_REFERENCE_SEED", "DEFAULT_REFERENCE_BATCHES", "FORMAT_VERSION",
            "Reference", "cache_dir", "reference_key", "reference", "load_reference", "mitsuba_identity",
            "CLOSED_FORM", "CLOSED_FORM_SPP", "CLOSED_FORM_REASONS", "closed_form_reference_of"]
 
@@ -156,14 +160,12 @@ def reference_key(scene_hash: str, *, mitsuba_version: str, variant: str, spp: i
 
 def mitsuba_identity(variant: str | None = None) -> tuple:
     """``(variant, mitsuba_version)`` after selecting the variant (see ``mitsuba_scenes.variants``)."""
-    from mitsuba_scenes.variants import select_variant, versions
-
     chosen = select_variant(variant)
     return chosen, versions()["mitsuba"]
 
 
 @contextlib.contextmanager
-def _lock(path: Path):
+def cache_lock(path: Path):
     """Hold an ``flock`` on ``path`` (created, 0666 less the umask).
 
     Only a process that is about to write an entry takes it: reading a valid entry needs
@@ -171,8 +173,6 @@ def _lock(path: Path):
     serves its valid entries. When the lock cannot be created (a read-only cache, say)
     ``OSError`` says which cache and why.
     """
-    import fcntl
-
     try:
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
     except OSError as exc:
@@ -215,8 +215,6 @@ def load_reference(key: str, *, shape=None, cache=None):
     cache : str or Path, optional
         Cache root (see :func:`cache_dir`).
     """
-    import reference_tracer as rt
-
     folder = cache_dir(cache)
     mean_path, var_path, meta_path = _paths(folder, key)
     if not meta_path.exists():
@@ -287,8 +285,6 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
     >>> ref.variance.shape  # doctest: +SKIP
     (8, 8, 3)
     """
-    import reference_tracer as rt
-
     if not isinstance(scene, rt.Scene):
         raise ValueError(f"scene must be a reference_tracer.Scene, got {type(scene).__name__}")
     spp = positive_int("spp", spp, minimum=2)
@@ -306,20 +302,19 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
         ref, _ = load_reference(key, shape=shape, cache=cache)
         if ref is not None:
             return ref
-    with _lock(folder / f"{key}.lock"):
+    with cache_lock(folder / f"{key}.lock"):
         if not force:  # again under the lock: another process may have rendered it meanwhile
             ref, why = load_reference(key, shape=shape, cache=cache)
             if ref is not None:
                 return ref
             if why != "not cached" and log is not None:
                 log(f"reference cache entry {key[:12]} is unusable ({why}); re-rendering")
-        from mitsuba_scenes import render_mitsuba
 
         # invalidate first: a crash from here on leaves no sidecar, hence no false hit
         with contextlib.suppress(FileNotFoundError):
             meta_path.unlink()
         t0 = time.perf_counter()
-        out = render_mitsuba(scene, spp=spp, seed=seed, variant=chosen, threads=threads, batches=batches)
+        out = mitsuba_scenes.render_mitsuba(scene, spp=spp, seed=seed, variant=chosen, threads=threads, batches=batches)
         wall = time.perf_counter() - t0
         mean = np.asarray(out.mean, dtype=np.float32)
         var = np.asarray(out.variance, dtype=np.float32)
@@ -354,8 +349,6 @@ def closed_form_reference_of(name: str, width: int, height: int):
     >>> closed_form_reference_of("cornell_box", 4, 4) is None
     True
     """
-    from mitsuba_scenes.suite import closed_form_reference
-
     mean = closed_form_reference(name, width=width, height=height)
     if mean is None:
         return None

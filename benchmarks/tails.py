@@ -12,6 +12,7 @@ and seed. See ``benchmarks/STATISTICS.md``.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
 import io
 import json
@@ -20,11 +21,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+import reference_tracer as rt
 from reference_tracer.estimate import ImageEstimate, SampleMoments
-from reference_tracer._validate import positive_int
-
-from .references import _lock, cache_dir
 from reference_tracer.imageio import atomic_write
+from reference_tracer.validation import positive_int
+
+from .references import cache_dir, cache_lock
 
 __all__ = ["TailReference", "is_cached", "tail_reference", "tail_key", "sample_variance", "variance_is_lower_bound",
            "variance_tail_reference",
@@ -98,8 +100,6 @@ def is_cached(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: int = 
               cache=None) -> bool:
     """Whether :func:`tail_reference` would find this tail reference in the cache (its sidecar
     exists; the file is checked when it is read). For planning a run's progress."""
-    import reference_tracer as rt
-
     key = tail_key(scene.content_hash(), build=rt.build_id(), strategy=strategy, spp=spp, seed=seed)
     return (cache_dir(cache) / f"{key}.tails.json").exists()
 
@@ -129,15 +129,11 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
     what : str, keyword-only
         What the tail reference is of (``"cornell_box 32x32"``), for the log lines.
     """
-    import reference_tracer as rt
-
     if strategy not in rt.STRATEGIES:
         raise ValueError(f"strategy must be one of {rt.STRATEGIES}, got {strategy!r}")
     if not scene.camera.filter.is_box:
         # The moments are the samples', whatever pools them: a filtered scene's are those of
         # its box-filtered twin (benchmarks.gate.filtered computes the filtered pixels' from them).
-        import dataclasses
-
         scene = dataclasses.replace(scene, camera=dataclasses.replace(scene.camera, filter=rt.Filter("box")))
     spp = positive_int("spp", spp, minimum=2)
     build = rt.build_id()
@@ -146,7 +142,7 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
     path, meta_path = folder / f"{key}.tails.npz", folder / f"{key}.tails.json"
     shape = (scene.camera.height, scene.camera.width)
     loaded, _ = _load(path, meta_path, key, shape)  # a valid entry needs no lock (read-only caches)
-    with contextlib.nullcontext() if loaded is not None else _lock(folder / f"{key}.lock"):
+    with contextlib.nullcontext() if loaded is not None else cache_lock(folder / f"{key}.lock"):
         if loaded is None:  # again under the lock: another process may have rendered it meanwhile
             loaded, why = _load(path, meta_path, key, shape)
         if loaded is None:

@@ -29,11 +29,16 @@ import math
 import os
 import re
 from pathlib import Path
+from xml.parsers import expat
 
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.meshfile import check_mesh_file, check_serialized_file
+from reference_tracer.conductors import CONDUCTORS
+from reference_tracer.materials import reflectance_of
+from reference_tracer.meshfile import check_mesh_file, check_serialized_file, decode_obj, obj_undefined_normal
+
+from .variants import import_mitsuba
 
 __all__ = ["from_mitsuba", "UnsupportedSceneError", "IOR_TABLE"]
 
@@ -447,8 +452,6 @@ def _roughness(ctx, node):
 def _conductor_ior(ctx, node):
     """``{"eta", "k"}`` or ``{"material"}`` keyword arguments of our conductors, as Mitsuba reads
     them (``material`` defaults to "none", Fresnel 1; ``eta`` with ``k`` defaulting to 1), or None."""
-    from reference_tracer.conductors import CONDUCTORS
-
     keys = node.props.keys()
     if "eta" in keys or "k" in keys:
         if "material" in keys:
@@ -499,8 +502,6 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
     mat = _bsdf(ctx, bsdf_node, emitter=emitter)
     if mat is None:
         return None
-    from reference_tracer._compile import reflectance_of
-
     # a textured shape keeps what its texture coordinates follow: a sphere's rotation, a
     # rectangle's own axes, a mesh's coordinates
     textured = isinstance(reflectance_of(mat), rt.Texture)
@@ -611,8 +612,6 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
 def _obj_undefined_normal(fname, *, texcoords: bool = False):
     """:func:`reference_tracer.meshfile.obj_undefined_normal` of an OBJ file (None if unreadable:
     Mitsuba's loader then says why); of its texture coordinates with ``texcoords``."""
-    from reference_tracer.meshfile import decode_obj, obj_undefined_normal
-
     try:
         return obj_undefined_normal(decode_obj(Path(fname).read_bytes()), texcoords=texcoords)
     except (OSError, ValueError):
@@ -776,8 +775,6 @@ def check_xml_depth(path, *, limit: int = MAX_XML_DEPTH) -> None:
     ...     print(str(exc).split(" nests ")[1])
     elements more than 4 deep (line 1); refused before Mitsuba's parser
     """
-    from xml.parsers import expat
-
     depth = {"now": 0}
     parser = expat.ParserCreate()
 
@@ -861,8 +858,6 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
     >>> len(scene.shapes), scene.max_depth
     (8, 8)
     """
-    from .variants import import_mitsuba
-
     mi = import_mitsuba()
     cfg = mi.parser.ParserConfig(mi.variant())
     params = {str(k): str(v) for k, v in (params or {}).items()}

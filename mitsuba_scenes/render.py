@@ -17,6 +17,10 @@ import numpy as np
 
 import reference_tracer as rt
 
+from .importer import _checked_film_size
+from .translate import to_mitsuba
+from .variants import select_variant
+
 __all__ = ["render_mitsuba", "MitsubaRender", "load_file", "film_sizes", "file_resolver_scope", "mesh_merge_safe",
            "batch_seeds", "split_spp", "DEFAULT_BATCHES"]
 
@@ -168,7 +172,6 @@ def load_file(path, *, params=None, film_size=None):
     if film_size is None:
         with file_resolver_scope():
             return mi.load_file(str(path), **params)
-    from .importer import _checked_film_size
 
     width, height = _checked_film_size(film_size)
     with file_resolver_scope(os.path.dirname(os.path.abspath(str(path)))):
@@ -230,9 +233,6 @@ def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None
     >>> mean.shape, var.shape
     ((16, 16, 3), (16, 16, 3))
     """
-    from .translate import to_mitsuba
-    from .variants import select_variant
-
     if not isinstance(scene, (rt.Scene, dict, str, os.PathLike)):
         raise ValueError(f"scene must be a reference_tracer.Scene, a Mitsuba scene dict or an XML path, "
                          f"got {type(scene).__name__}")

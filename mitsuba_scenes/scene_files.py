@@ -25,6 +25,9 @@ from pathlib import Path
 
 import reference_tracer as rt
 
+from .importer import from_mitsuba
+from .scenes import SUITE
+
 __all__ = ["SceneFile", "params_used", "register_scene_file", "registered", "scene_file", "restore_registry", "clear_registry",
            "parse_params", "load_scene_file"]
 
@@ -134,8 +137,6 @@ def load_scene_file(path, params=None) -> rt.Scene:
     if not path.is_file():
         raise ValueError(f"no such scene file: {path}")
     if path.suffix.lower() == ".xml":
-        from .importer import from_mitsuba
-
         return from_mitsuba(path, params=params or {})
     if path.suffix.lower() == ".py":
         return _build_python(str(path), params or {}, None, None)
@@ -239,8 +240,6 @@ def register_scene_file(path, params=None, *, name: str | None = None) -> SceneF
         The file is missing, not a scene, uses unsupported features (with file:line), or
         its name is a suite scene's or another registered file's.
     """
-    from .suite import SUITE
-
     path = Path(path).resolve()
     params = {str(k): str(v) for k, v in (params or {}).items()}
     scene = load_scene_file(path, params)

@@ -16,9 +16,8 @@ import inspect
 
 import reference_tracer as rt
 
-#: Scene names in suite order; each is a module in ``mitsuba_scenes.scenes``.
-SUITE = ("cornell_box", "cornell_glass", "cornell_mirror", "cornell_mesh", "small_light",
-         "large_light", "glossy_plates", "furnace")
+from .scene_files import registered, scene_file
+from .scenes import SUITE
 
 
 def list_scenes() -> list:
@@ -28,8 +27,6 @@ def list_scenes() -> list:
 
 def known_scenes() -> list:
     """The suite's scenes, then the scene files registered in this process."""
-    from .scene_files import registered
-
     return list(SUITE) + [e.name for e in registered()]
 
 
@@ -42,8 +39,6 @@ def scene_module(name: str):
 
 def describe_scene(name: str) -> str:
     """The first line of the scene module's docstring: what the scene tests (a file: its path)."""
-    from .scene_files import scene_file
-
     entry = scene_file(name)
     if entry is not None:
         return entry.describe()
@@ -56,8 +51,6 @@ def get_scene(name: str, **params) -> rt.Scene:
     A registered scene file takes ``width`` and ``height`` only (its own parameters were
     fixed when it was registered).
     """
-    from .scene_files import scene_file
-
     entry = scene_file(name)
     if entry is not None:
         unknown = sorted(set(params) - {"width", "height"})
@@ -80,8 +73,6 @@ def closed_form_reference(name: str, **params):
     (``furnace``); the harness and the gate use it as a zero-variance reference instead of
     a Mitsuba render (Mitsuba 3.9.1 is measurably biased on ``furnace``).
     """
-    from .scene_files import scene_file
-
     if scene_file(name) is not None:
         return None
     module = scene_module(name)

@@ -43,11 +43,15 @@ from __future__ import annotations
 
 import contextlib
 from pathlib import Path
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.imageio import atomic_write
+from reference_tracer.imageio import atomic_write, write_exr
+from reference_tracer.materials import reflectance_of
+
+from .variants import import_mitsuba
 
 __all__ = ["to_mitsuba", "to_xml", "write_ply", "look_at_matrix", "mitsuba_rr_depth", "scene_extent", "NO_RR_DEPTH"]
 
@@ -176,13 +180,8 @@ def _value_record(v) -> dict:
     return {"type": "rgb", "value": _rgb(v)}
 
 
-def _reflectance(m):
-    """The material's texturable reflectance (a plastic's base, else its albedo), or None."""
-    return m.diffuse_reflectance if isinstance(m, (rt.Plastic, rt.RoughPlastic)) else getattr(m, "albedo", None)
-
-
 def _textured(m) -> bool:
-    return isinstance(_reflectance(m), rt.Texture)
+    return isinstance(reflectance_of(m), rt.Texture)
 
 
 def _bsdf_record(label: str, m) -> dict:
@@ -404,8 +403,6 @@ def to_mitsuba(scene: rt.Scene, *, variant: str | None = None) -> dict:
     ('y', 'box')
     >>> scene = mi.load_dict(d)
     """
-    from .variants import import_mitsuba
-
     low = _lower(scene)
     mi = import_mitsuba(variant)
     cam, integ = low["camera"], low["integrator"]
@@ -449,8 +446,6 @@ def _num(x) -> str:
 
 
 def _xml_escape(s: str) -> str:
-    from xml.sax.saxutils import quoteattr
-
     return quoteattr(str(s))
 
 
@@ -657,8 +652,6 @@ def _write_all(path: Path, text: str, plys: list, images: list = ()) -> None:
     """The meshes' PLY files and the bitmaps' EXR files, then the XML, each written
     atomically (never a partial file); on any error the files this call created are removed
     (nothing stray is left)."""
-    from reference_tracer.imageio import write_exr
-
     for target in (path, *(p[0] for p in plys), *(p for p, _ in images)):
         _check_target(target)
     created = []

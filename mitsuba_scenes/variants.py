@@ -20,7 +20,9 @@ Examples
 """
 from __future__ import annotations
 
+import ctypes
 import glob
+import importlib.util
 import logging
 import os
 import re
@@ -148,8 +150,6 @@ def _compiled_variants() -> list:
     Importing ``mitsuba`` would import Dr.Jit, which reads ``DRJIT_LIBLLVM_PATH`` at
     import time; so this looks at the files instead.
     """
-    import importlib.util
-
     mod = sys.modules.get("mitsuba")
     origin = getattr(mod, "__file__", None) if mod is not None else None
     if origin is None:
@@ -350,8 +350,6 @@ def llvm_target() -> dict | None:
     >>> target is None or target["vector_width"] in (4, 8, 16)
     True
     """
-    import ctypes
-
     import drjit as dr
 
     try:

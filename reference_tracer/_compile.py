@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Metal, Plastic, RoughConductor,
-                        RoughPlastic)
+                        RoughPlastic, reflectance_of)
 from .scene import Scene
 from .shapes import Box, Mesh, Quad, Sphere, Triangle
 from .textures import FILTER_TYPES, WRAP_MODES, Bitmap, Checkerboard, Texture
@@ -25,11 +25,6 @@ MATERIAL_CODES = {Lambertian: 0, Metal: 1, Dielectric: 2, RoughConductor: 3, Dif
 # type, albedo rgb, radiance rgb, param, two_sided, reflects, variant, distribution, fresnel, eta rgb, k rgb,
 # plastic: int_ior / ext_ior, specular_reflectance rgb, nonlinear
 MATERIAL_COLUMNS = 24
-
-
-def reflectance_of(m):
-    """The material's texturable reflectance (a plastic's base, else its albedo), or None."""
-    return m.diffuse_reflectance if isinstance(m, (Plastic, RoughPlastic)) else getattr(m, "albedo", None)
 
 
 def _material_row(m) -> list:

@@ -9,10 +9,57 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import importlib.util
 import subprocess
+import sys
 from pathlib import Path
 
-__all__ = ["build_id", "git_describe", "build_info"]
+__all__ = ["build_id", "git_describe", "build_info", "core_path", "use_core"]
+
+
+def core_path() -> Path:
+    """The file of the compiled core this interpreter runs (loading it).
+
+    Examples
+    --------
+    >>> core_path().suffix
+    '.so'
+    """
+    from . import _core  # the C++ core loads on first use: the package's pure-Python parts work without it
+
+    return Path(_core.__file__)
+
+
+def use_core(path) -> None:
+    """Make the compiled core at ``path`` the one this interpreter runs.
+
+    For comparing builds of the core (``benchmarks.speed.builds``): call it first thing
+    in a fresh interpreter, before anything loads the core; the installed core is then
+    never loaded.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A compiled ``_core`` extension module (another build of the same sources).
+
+    Raises
+    ------
+    RuntimeError
+        When this interpreter has already loaded a core.
+    ImportError
+        When ``path`` is not a loadable core module.
+    """
+    name = f"{__package__}._core"
+    if name in sys.modules:
+        raise RuntimeError(f"a core is already loaded ({sys.modules[name].__file__}); call use_core first thing "
+                           "in a fresh interpreter")
+    spec = importlib.util.spec_from_file_location(name, str(path))
+    if spec is None or spec.loader is None:
+        raise ImportError(f"no core module at {path}")
+    core = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(core)
+    sys.modules[name] = core
+    setattr(sys.modules[__package__], "_core", core)
 
 
 @functools.lru_cache(maxsize=1)
@@ -24,11 +71,9 @@ def build_id() -> str:
     >>> len(build_id())
     16
     """
-    from . import _core
-
     h = hashlib.sha256()
     here = Path(__file__).resolve().parent
-    for path in [Path(_core.__file__)] + sorted(here.glob("*.py")):
+    for path in [core_path()] + sorted(here.glob("*.py")):
         h.update(path.name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .validation import finite_scalar
+
 __all__ = ["write_exr", "read_exr", "write_png", "to_display", "atomic_write", "new_file_mode"]
 
 
@@ -191,8 +193,6 @@ def check_exposure(exposure) -> float:
     ...
     ValueError: exposure (stops) must be <= 1000.0, got 2000.0
     """
-    from ._validate import finite_scalar
-
     return finite_scalar("exposure (stops)", exposure, lo=-MAX_EXPOSURE_STOPS, hi=MAX_EXPOSURE_STOPS)
 
 

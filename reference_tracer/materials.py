@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import colour, finite_scalar
+from .validation import colour, finite_scalar
 from .conductors import conductor_ior
 from .textures import check_reflectance
 
@@ -40,7 +40,7 @@ def _complex_ior(owner: str, eta, k, material):
             colour(f"{owner}.k", 1.0 if k is None else k, upper=None))
 
 __all__ = ["Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic",
-           "DiffuseLight", "DISTRIBUTIONS", "PLASTIC_INT_IOR", "PLASTIC_EXT_IOR"]
+           "DiffuseLight", "DISTRIBUTIONS", "PLASTIC_INT_IOR", "PLASTIC_EXT_IOR", "reflectance_of"]
 
 #: microfacet distributions of :class:`RoughConductor` and :class:`RoughPlastic`, in the core's order.
 DISTRIBUTIONS = ("ggx", "beckmann")
@@ -235,8 +235,17 @@ class RoughConductor(Material):
         object.__setattr__(self, "k", k)
 
 
+class _Coated(Material):
+    """A diffuse base under a dielectric coating (plastic and rough plastic)."""
+
+    @property
+    def relative_ior(self) -> float:
+        """``int_ior / ext_ior``: all of the coating that the BSDF depends on."""
+        return self.int_ior / self.ext_ior
+
+
 @dataclass(frozen=True)
-class Plastic(Material):
+class Plastic(_Coated):
     """A diffuse base under a smooth dielectric coating: Mitsuba ``plastic``.
 
     The coating reflects specularly, a Dirac lobe of weight ``F(cos) specular_reflectance``
@@ -288,14 +297,9 @@ class Plastic(Material):
     def __post_init__(self):
         _validate_plastic(self, "Plastic", rough=False)
 
-    @property
-    def relative_ior(self) -> float:
-        """``int_ior / ext_ior``: all of the coating that the BSDF depends on."""
-        return self.int_ior / self.ext_ior
-
 
 @dataclass(frozen=True)
-class RoughPlastic(Material):
+class RoughPlastic(_Coated):
     """A diffuse base under a rough dielectric coating: Mitsuba ``roughplastic``.
 
     As :class:`Plastic` with a microfacet coating: a glossy lobe (``distribution``
@@ -306,8 +310,9 @@ class RoughPlastic(Material):
 
     Parameters
     ----------
-    diffuse_reflectance : float or (3,) array_like
-        The base's reflectance per RGB channel, in [0, 1] (Mitsuba's default 0.5).
+    diffuse_reflectance : float, (3,) array_like or Texture
+        The base's reflectance per RGB channel, in [0, 1] (Mitsuba's default 0.5), or a
+        texture of it (as :class:`Plastic`'s).
     alpha : float, keyword-only
         Roughness, in [1e-4, 4] (Mitsuba's default 0.1; roughness = alpha, not alpha squared).
     distribution : {'beckmann', 'ggx'}, keyword-only
@@ -340,11 +345,6 @@ class RoughPlastic(Material):
             raise ValueError(f"RoughPlastic.distribution must be one of {DISTRIBUTIONS}, got {self.distribution!r}")
         _validate_plastic(self, "RoughPlastic", rough=True)
 
-    @property
-    def relative_ior(self) -> float:
-        """``int_ior / ext_ior``: all of the coating that the BSDF depends on."""
-        return self.int_ior / self.ext_ior
-
 
 @dataclass(frozen=True)
 class DiffuseLight(Material):
@@ -375,3 +375,24 @@ class DiffuseLight(Material):
     @property
     def emits(self) -> bool:
         return max(self.radiance) > 0.0
+
+
+def reflectance_of(material: Material):
+    """The reflectance of ``material`` that a texture may give: a plastic's
+    ``diffuse_reflectance``, else its ``albedo`` (a Lambertian's, a conductor's
+    ``specular_reflectance``, a reflecting light's); None for a material without one.
+
+    Returns
+    -------
+    tuple, Texture or None
+        An RGB triple, a :class:`~reference_tracer.Texture`, or None (a dielectric, a light
+        that reflects nothing).
+
+    Examples
+    --------
+    >>> reflectance_of(Plastic(0.3)), reflectance_of(Dielectric(1.5))
+    ((0.3, 0.3, 0.3), None)
+    """
+    if isinstance(material, _Coated):
+        return material.diffuse_reflectance
+    return getattr(material, "albedo", None)

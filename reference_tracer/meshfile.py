@@ -26,6 +26,8 @@ import math
 import os
 import re
 import stat
+import struct
+import zlib
 from array import array
 from dataclasses import dataclass
 from pathlib import Path
@@ -176,9 +178,6 @@ def serialized_header(path, shape_index: int = 0) -> dict:
     >>> h["vertices"], h["triangles"], h["data_bytes"]
     (3, 1, 48)
     """
-    import struct
-    import zlib
-
     path = Path(path)
     if isinstance(shape_index, bool) or not isinstance(shape_index, int) or shape_index < 0:
         raise ValueError(f"{path}: shape_index must be an integer >= 0, got {shape_index!r}")

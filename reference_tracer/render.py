@@ -1,12 +1,14 @@
 """``render``: run the C++ path tracer on a :class:`Scene`."""
 from __future__ import annotations
 
+import hashlib
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ._compile import compile_scene
-from ._validate import positive_int
+from .validation import positive_int
 from .cpus import default_threads
 from .estimate import ImageEstimate, SampleMoments
 from .scene import FILTERS, Scene
@@ -72,12 +74,28 @@ class RenderResult(ImageEstimate):
         return h * w * self.spp / self.seconds if self.seconds > 0 else float("inf")
 
 
-def core_scene(scene: Scene, *, triangle_test: str = "watertight"):
-    """Return the compiled C++ scene (BVH built), cached on the Scene object."""
+def core_scene(scene: Scene, *, triangle_test: str = "watertight", cached: bool = True):
+    """Return the compiled C++ scene (BVH built), cached on the Scene object.
+
+    The compiled scene's ray queries are documented in :mod:`reference_tracer.probe`, which
+    is where code outside the package gets it.
+
+    Parameters
+    ----------
+    scene : Scene
+    triangle_test : str, optional
+        One of :data:`TRIANGLE_TESTS`.
+    cached : bool, optional
+        ``False`` builds afresh every call and leaves the cache alone (to time builds).
+    """
     if triangle_test not in TRIANGLE_TESTS:
         raise ValueError(f"triangle_test must be one of {TRIANGLE_TESTS}, got {triangle_test!r}")
+    if not isinstance(cached, bool):
+        raise ValueError(f"cached must be True or False, got {cached!r}")
     from . import _core  # the C++ core loads on first use: image I/O and the scene model work without it
 
+    if not cached:
+        return _core.Scene(**compile_scene(scene), triangle_test=TRIANGLE_TESTS.index(triangle_test))
     cache = scene._core_cache
     if triangle_test not in cache:
         cache[triangle_test] = _core.Scene(**compile_scene(scene),
@@ -212,8 +230,6 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
         raise ValueError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
     check_memory(scene.camera.width, scene.camera.height, moments=moments)
 
-    import time
-
     t0 = time.perf_counter()
     core = core_scene(scene, triangle_test=triangle_test)
     build = time.perf_counter() - t0
@@ -255,8 +271,6 @@ FILTER_BATCHES = 16
 
 def _batch_seed(seed: int, k: int) -> int:
     """Seed of batch ``k`` of a filtered render: far from ``seed`` and from the other batches'."""
-    import hashlib
-
     digest = hashlib.sha256(f"filtered-batch:{seed}:{k}".encode()).digest()
     return int.from_bytes(digest[:8], "little")
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import colour, finite_scalar, positive_int, vector3
+from .validation import colour, finite_scalar, positive_int, vector3
 from .shapes import Shape
 
 __all__ = ["Camera", "Direct", "Filter", "FILTERS", "Scene", "MAX_DEPTH_CAP"]

@@ -16,8 +16,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ._validate import finite_scalar, vector3
-from .materials import Material
+from .validation import finite_scalar, vector3
+from .materials import Material, reflectance_of
+from .meshfile import read_mesh
+from .textures import Texture
 
 __all__ = ["Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh", "rotation_matrix", "vertex_normals"]
 
@@ -129,8 +131,6 @@ class Shape:
 
 
 def _describe_material(m: Material) -> dict:
-    from .textures import Texture
-
     d = {"type": type(m).__name__}
     d.update({k: (v.describe() if isinstance(v, Texture) else v) for k, v in m.__dict__.items()})
     return d
@@ -461,8 +461,6 @@ class Mesh(Shape):
         --------
         >>> Mesh.load("bunny.ply", Lambertian(0.5))  # doctest: +SKIP
         """
-        from .meshfile import read_mesh
-
         m = read_mesh(path, normals=not face_normals)
         if len(m.faces) == 0:
             raise ValueError(f"Mesh.load: {path!s} holds no triangles")
@@ -474,11 +472,7 @@ class Mesh(Shape):
             except ValueError as exc:
                 raise ValueError(f"{path!s}: {exc}") from None
         uv = None
-        from .textures import Texture
-
-        rho = material.diffuse_reflectance if hasattr(material, "diffuse_reflectance") else getattr(material, "albedo",
-                                                                                                     None)
-        if isinstance(rho, Texture) and m.uv is not None:
+        if isinstance(reflectance_of(material), Texture) and m.uv is not None:
             used = np.zeros(len(m.vertices), dtype=bool)
             used[m.faces.ravel()] = True
             if np.isnan(m.uv[used]).any():

@@ -23,12 +23,14 @@ import hashlib
 import os
 import stat
 import struct
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ._validate import colour
+from .imageio import read_exr
+from .validation import colour
 
 __all__ = ["Texture", "Checkerboard", "Bitmap", "read_image", "srgb_to_linear", "FILTER_TYPES", "WRAP_MODES",
            "MAX_TEXTURE_PIXELS", "texture_uv", "is_texture"]
@@ -110,7 +112,7 @@ def is_texture(value) -> bool:
 
 
 def check_reflectance(name: str, value):
-    """``value`` as an RGB triple in [0, 1] (``_validate.colour``), or a texture whose values
+    """``value`` as an RGB triple in [0, 1] (``validation.colour``), or a texture whose values
     lie there: a reflectance above 1 would make light."""
     if isinstance(value, Texture):
         lo, hi = value.value_range()
@@ -278,8 +280,6 @@ def _read_pillow(f, path, fmt: str, head: bytes, raw: bool, max_pixels: int) -> 
     """A PNG or JPEG through Pillow, as Mitsuba's libpng and libjpeg readers give it: 8 bits
     a channel, sRGB; grey (with or without alpha) one channel, colour three (palettes
     expanded, alpha dropped: Mitsuba's texture keeps Y or RGB)."""
-    import warnings
-
     from PIL import Image
 
     if fmt == "PNG":
@@ -354,8 +354,6 @@ def read_image(path, *, raw: bool = False, max_pixels: int = MAX_TEXTURE_PIXELS)
 
 
 def _read_exr(path: Path, max_pixels: int) -> np.ndarray:
-    from .imageio import read_exr
-
     try:
         px = read_exr(path, max_pixels=max_pixels)
     except ValueError:

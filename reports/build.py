@@ -3,14 +3,17 @@ every plot as SVG and PDF (svg, pdf), tidy CSVs of the curves and the summary (c
 from __future__ import annotations
 
 import math
+import shutil
+import subprocess
+import tempfile
 from pathlib import Path
 
 from reference_tracer.imageio import atomic_write
 
 from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP
 from benchmarks.files import slug
+from benchmarks.metrics import DEFAULT_METRIC, SPECS, require_metric, view
 from benchmarks.text import markdown, markdown_table, text_table
-from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS, require_metric, view
 
 from . import plots
 from .curves import curve_label, seed_comparison
@@ -99,8 +102,6 @@ def _vector_files(dest: Path, sections: list[Section], seed_fig, fmt_: str) -> l
 
 
 def _chromium():
-    import shutil
-
     for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
         exe = shutil.which(name)
         if exe:
@@ -114,9 +115,6 @@ def report_pdf(page: str, path: Path, *, figures=()) -> Path:
     Without Chromium the PDF holds the report's figures, one per page, after a first page
     that says so (the tables are in ``index.html`` and ``summary.md``).
     """
-    import subprocess
-    import tempfile
-
     exe = _chromium()
     if exe is not None:
         with tempfile.TemporaryDirectory() as tmp:

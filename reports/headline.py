@@ -17,8 +17,7 @@ from __future__ import annotations
 
 import math
 
-from benchmarks.constants import STRATEGIES
-from benchmarks.sweep.headline import BASELINE, VERDICT_STRATEGY
+from benchmarks.constants import BASELINE, STRATEGIES, VERDICT_STRATEGY
 
 from .curves import curve_label
 from .store import Store, num

@@ -6,6 +6,7 @@ import datetime as _dt
 import html
 
 from benchmarks.constants import SEED_LIGHT_SPP, SEED_SCENE, SEED_SIZE, SEED_SPP
+from benchmarks.metrics import SPECS
 
 from . import plots
 from .assets import CSS, JS
@@ -282,8 +283,6 @@ def _scene_summary(sec: Section, entries: list) -> str:
 
 def page_html(store: Store, sections: list[Section], cmp, seed_png, problems: list, *, metric: str = "relmse") -> str:
     """The whole ``index.html``: run facts, sections, seed comparison (when the store has it), definitions, problems."""
-    from benchmarks.sweep.by_metric import SPECS
-
     facts = facts_table(store.meta, n_records=len(store.records), n_raw=store.n_raw_records,
                         records=store.records)
     entries = headline_entries(store)

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from benchmarks import metrics as M
 from benchmarks.constants import RELMSE_EPS
 from benchmarks.display import to_display
 
@@ -81,8 +82,6 @@ def flip_map(img: np.ndarray, ref: np.ndarray):
 
     Its mean is the record's ``flip`` (same display images).
     """
-    from benchmarks import metrics as M
-
     if not M.flip_available():
         return None
     _, fmap = M.flip(np.asarray(img)[..., :3], np.asarray(ref)[..., :3], error_map=True)

@@ -13,7 +13,7 @@ import numpy as np
 
 from benchmarks.constants import CLOSED_FORM, MITSUBA_DIRECT, RELMSE_EPS, SEED_SCENE, SEED_SIZE, SEED_SPP
 from benchmarks.display import reference_exposure
-from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS, view
+from benchmarks.metrics import DEFAULT_METRIC, SPECS, view
 
 from . import plots
 from .curves import curve_label, curves

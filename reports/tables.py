@@ -7,9 +7,8 @@ from __future__ import annotations
 
 import math
 
-from benchmarks.constants import MIN_SLOPE_BUDGETS, RELMSE_EPS
-from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS
-from benchmarks.sweep.headline import BASELINE
+from benchmarks.constants import BASELINE, MIN_SLOPE_BUDGETS, RELMSE_EPS
+from benchmarks.metrics import DEFAULT_METRIC, SPECS
 
 from .curves import curve_label
 from .headline import VERDICT_WORDS, pair_text, percent_text
@@ -108,7 +107,7 @@ def _cost(row: dict, key: str) -> str:
 def stats_table(rows: list[dict]) -> list[list[str]]:
     """Cells of the per-(renderer, strategy) table of one section, one list per summary row.
 
-    ``rows`` are :func:`benchmarks.sweep.by_metric.view` s of the summary rows (one metric).
+    ``rows`` are :func:`benchmarks.metrics.view` s of the summary rows (one metric).
     """
     out = []
     for r in rows:

@@ -13,10 +13,11 @@ import csv
 import io
 import math
 
-from benchmarks.sweep.by_metric import METRICS, view
+from benchmarks.metrics import METRICS, view
 from benchmarks.text import csv_cell
 
 from .curves import curves
+from .headline import headline_entries
 from .store import Store, num
 
 __all__ = ["CURVE_COLUMNS", "SUMMARY_COLUMNS", "HEADLINE_COLUMNS", "curves_csv", "summary_csv", "headline_csv"]
@@ -64,8 +65,6 @@ HEADLINE_COLUMNS = ("scene", "width", "height", "renderer", "strategy", "scene_v
 def headline_csv(store: Store) -> str:
     """``headline.csv``: the report's first table as numbers, one line per (scene, size, curve);
     verdicts in the page's words (pass, fail, undetermined)."""
-    from .headline import headline_entries
-
     def ci(c, key, i):
         v = c.get(key)
         return v[i] if isinstance(v, list) and len(v) == 2 else None

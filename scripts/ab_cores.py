@@ -37,9 +37,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
 def _installed_core() -> Path:
-    import reference_tracer._core as core
+    from reference_tracer.build import core_path
 
-    return Path(core.__file__)
+    return core_path()
 
 
 def main(argv=None) -> int:

@@ -41,7 +41,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.speed.builds import agreement_arrays, build_core, build_target, run_with_core  # noqa: E402
-from benchmarks.sweep.jobs import default_threads  # noqa: E402
+from reference_tracer.cpus import default_threads  # noqa: E402
 
 _TIMING = """
 import dataclasses, json
@@ -49,7 +49,7 @@ import numpy as np
 import reference_tracer as rt
 from mitsuba_scenes import get_scene
 from benchmarks.speed.rays import mesh_scene, primary_rays, random_rays
-from reference_tracer.render import core_scene
+from reference_tracer.probe import core_scene
 
 row = {}
 mesh = core_scene(mesh_scene(TRIANGLES))

@@ -210,7 +210,7 @@ def test_gate_cli_writes_verdicts_and_power(small_calibration, tmp_path):
 
 
 def test_compare_false_alarms_on_pairs_of_real_renders(small_calibration, monkeypatch):
-    """``rtbench compare``'s verdict (``benchmarks.compare.judge``) on 48 pairs of unbiased
+    """``rtbench compare``'s verdict (``benchmarks.gate.judge``) on 48 pairs of unbiased
     renders of one build, the noisiest strategy included: at most 2 may fail (P(>= 3 | rate
     0.01) = 0.013, the test's false-positive rate), every row consistent with alpha. No
     Mitsuba reference is asked for: under "nothing changed" A is the reference."""
@@ -236,7 +236,7 @@ def test_judge_fails_a_real_change_between_builds():
     against A with ``mis`` fails, with B's tail knowledge floored in."""
     from mitsuba_scenes import get_scene
 
-    from benchmarks.compare import EstimatorKnowledge, judge
+    from benchmarks.gate import EstimatorKnowledge, judge
 
     scene = get_scene("cornell_box", width=16, height=16)
     a = rt.render(scene, spp=64, strategy="mis", seed=1)

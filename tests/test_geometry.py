@@ -6,8 +6,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import reference_tracer as rt
-from reference_tracer import _core
-from reference_tracer.render import core_scene
+from reference_tracer import probe
+from reference_tracer.probe import core_scene
 
 MAT = rt.Lambertian(0.5)
 CAM = rt.Camera(lookfrom=(0, 0, -10), lookat=(0, 0, 0), width=4, height=4)
@@ -236,11 +236,9 @@ def test_float_box_test_never_misses_thin_boxes(offset, dir_y, packets):
     # through a triangle. A box test that merely rounded the origin to float would put
     # most origins outside these slabs and miss every such hit; the conservative test
     # must find exactly what brute force finds.
-    from reference_tracer import _core
-
     rng = np.random.default_rng(17)
     # One packet's rays a triangle (with packets).
-    h, w, n_tri, per_tri = 1e-6, 1e-6, 400, _core.PACKET_RAYS
+    h, w, n_tri, per_tri = 1e-6, 1e-6, 400, probe.PACKET_RAYS
     corner = offset + rng.uniform(-3, 3, size=(n_tri, 3))
     a = corner + (0.0, -h, 0.0)
     b = corner + (w, h, 0.0)
@@ -312,7 +310,7 @@ def test_children_are_visited_nearest_first_in_both_traversals(t_near, met, clos
     # the order of the same key, or their results could differ on ties. `close` puts two
     # distances a few ulps apart, where the key's slot bits decide.
     t_near[close] = float(np.nextafter(np.float32(t_near[(close + 1) % 8]), np.float32(np.inf)))
-    network, insertion = _core.child_visit_order(t_near, met)
+    network, insertion = probe.child_visit_order(t_near, met)
     expected = sorted((c for c in range(8) if met[c]), key=lambda c: _child_order_key(t_near[c], c))
     assert list(network) == expected
     assert list(insertion) == expected
@@ -320,9 +318,9 @@ def test_children_are_visited_nearest_first_in_both_traversals(t_near, met, clos
 
 def test_child_visit_order_rejects_bad_input():
     with pytest.raises(ValueError, match="one entry per child"):
-        _core.child_visit_order([1.0] * 7, [True] * 7)
+        probe.child_visit_order([1.0] * 7, [True] * 7)
     with pytest.raises(ValueError, match="not NaN"):
-        _core.child_visit_order([1.0] * 7 + [float("nan")], [True] * 8)
+        probe.child_visit_order([1.0] * 7 + [float("nan")], [True] * 8)
 
 
 @pytest.mark.parametrize("threads", [1, 2])
@@ -332,10 +330,8 @@ def test_interleaved_traversal_of_a_tree_beyond_the_cache_threshold(threads):
     # results must equal the one-ray-at-a-time traversal's, field by field.
     from benchmarks.speed.rays import mesh_scene, random_rays
 
-    from reference_tracer import _core
-
     c = core_scene(mesh_scene(200_000))
-    assert c.bvh_float_blocks and c.bvh_bytes > _core.CACHED_TREE_BYTES
+    assert c.bvh_float_blocks and c.bvh_bytes > probe.CACHED_TREE_BYTES
     origins, dirs = random_rays(3000, seed=11)
     interleaved = cast(c, origins, dirs, threads=threads)
     single = cast(c, origins, dirs, threads=threads, batch=False)
@@ -539,9 +535,9 @@ def test_packet_order_gathers_scanline_rays_into_tiles(width, height, skip, jitt
     po = c.packet_order(np.ascontiguousarray(o), np.ascontiguousarray(d))
     order, sizes = np.asarray(po["order"]), np.asarray(po["sizes"])
     assert np.array_equal(np.sort(order), np.arange(len(o)))
-    assert sizes.sum() == len(o) and sizes.max() <= _core.PACKET_RAYS
+    assert sizes.sum() == len(o) and sizes.max() <= probe.PACKET_RAYS
     assert po["row_width"] == width and po["first_row"] == (width - skip % width) % width
-    rows = _core.PACKET_RAYS // 4
+    rows = probe.PACKET_RAYS // 4
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     band_end = po["first_row"] + (len(o) - po["first_row"]) // (rows * width) * rows * width
     first_tile = True
@@ -566,12 +562,12 @@ def test_intersect_chunks_hold_whole_bands_of_rows(width, skip):
     # single-ray traversal's.
     rng = np.random.default_rng(width)
     c = core(random_primitives(10, rng) + [random_mesh(2000, rng)])
-    o, d, _, _ = scanline_camera(width, max(12, 2 * _core.RAY_CHUNK // width + 3), jitter=0.5, rng=rng)
+    o, d, _, _ = scanline_camera(width, max(12, 2 * probe.RAY_CHUNK // width + 3), jitter=0.5, rng=rng)
     o, d = o[skip:], d[skip:]
     batch = cast(c, o, d, threads=2, preliminary=True)
-    band = _core.PACKET_RAYS // 4 * width
+    band = probe.PACKET_RAYS // 4 * width
     chunk, offset = batch["chunk"], batch["chunk_offset"]
-    assert chunk % band == 0 and chunk >= max(2 * band, _core.RAY_CHUNK) and chunk - band < max(_core.RAY_CHUNK, 2 * band)
+    assert chunk % band == 0 and chunk >= max(2 * band, probe.RAY_CHUNK) and chunk - band < max(probe.RAY_CHUNK, 2 * band)
     assert offset == (width - skip) % width
     bounds = [0] + list(range(offset + chunk, len(o), chunk)) + [len(o)]
     for begin, end in zip(bounds[:-1], bounds[1:]):

@@ -8,7 +8,7 @@ import pytest
 
 import mitsuba_scenes
 from benchmarks.references import cache_dir, load_reference, reference, reference_key
-from benchmarks.sweep import scene_at
+from benchmarks.scenes import scene_at
 from harness_util import rtbench
 
 SPP = 64

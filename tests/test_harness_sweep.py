@@ -219,7 +219,7 @@ def test_slope_spread_matches_the_derivation(tmp_path_factory):
     import reference_tracer as rt
 
     from benchmarks.references import reference
-    from benchmarks.sweep import scene_at
+    from benchmarks.scenes import scene_at
 
     scene = scene_at("cornell_box", 16, 16)
     ref = reference(scene, spp=STAT.reference_spp, cache=cache_root(tmp_path_factory))

@@ -21,7 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from report_store import make_store  # noqa: E402
 
 import reports  # noqa: E402
-from benchmarks.sweep.by_metric import view  # noqa: E402
+from benchmarks.metrics import view  # noqa: E402
 from reports.curves import curves, loglog_interp, loglog_slope, seed_comparison  # noqa: E402
 from benchmarks.display import reference_exposure  # noqa: E402
 from reports.images import error_map, pick_spps  # noqa: E402

@@ -32,16 +32,16 @@ def test_mutants_cannot_be_reached_through_render():
     scene = selftest_scene("cornell_box", width=4)
     with pytest.raises(TypeError):
         rt.render(scene, spp=1, strategy="mis", mutant=1)  # noqa - the keyword does not exist
-    # the tracer's module has no mutant at all
-    from reference_tracer import _core, _mutants
-    from reference_tracer._compile import compile_scene
-    from reference_tracer.render import core_scene
+    # the tracer's module has no mutant at all (this test names the private modules on purpose)
+    from reference_tracer import _core
+    from reference_tracer.probe import core_scene
+    from reference_tracer.testing import mutant_core_scene
 
     with pytest.raises(TypeError):
         core_scene(scene).render(1, 4, 0, 1, None, False, mutant=1)
     assert not any("mutant" in name for name in dir(_core))
     # the self-test's module range-checks the id
-    bugged = _mutants.Scene(**compile_scene(scene), triangle_test=0)
+    bugged = mutant_core_scene(scene)
     for bad in (-1, len(mutant_names()), 1000):
         with pytest.raises(ValueError, match="mutant id out of range"):
             bugged.render(1, 4, 0, 1, None, False, mutant=bad)
@@ -148,7 +148,7 @@ def test_correlation_level_catches_correlated_pixel_streams(cache):
     probability <= alpha = 0.01."""
     from benchmarks.gate.suite import compare_render
     from benchmarks.selftest.driver import scene_reference
-    from benchmarks.selftest.render import mutants_build_id
+    from reference_tracer.testing import mutants_build_id
     from benchmarks.tails import tail_reference
 
     scene = selftest_scene("cornell_box", width=32)

@@ -253,7 +253,7 @@ def test_hits_agree_with_mitsuba_on_same_rays(jit_variant):
     """Real correctness check: > 99.9% of rays agree on hit/miss, distances agree."""
     from mitsuba_scenes import to_mitsuba
     from mitsuba_scenes.variants import select_variant
-    from reference_tracer.render import core_scene
+    from reference_tracer.probe import core_scene
 
     scene = speed.mesh_scene(3000, seed=5)
     core = core_scene(scene)

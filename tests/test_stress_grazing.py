@@ -14,7 +14,7 @@ from hypothesis import given, settings, strategies as st
 
 import reference_tracer as rt
 from benchmarks import stress
-from reference_tracer.render import core_scene
+from reference_tracer.probe import core_scene
 
 
 def test_exact_oracle_on_a_known_ray():

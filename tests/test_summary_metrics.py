@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from benchmarks.commands._summary import summary_table
-from benchmarks.sweep.by_metric import add_metric_ratios, cost_status, curve_metrics, require_metric, view
+from benchmarks.metrics import cost_status, require_metric, view
+from benchmarks.sweep.by_metric import add_metric_ratios, curve_metrics
 
 
 def _by_spp(c_rel, c_flip, spps=(1, 2, 4, 8, 16)):
@@ -97,7 +98,7 @@ def test_a_slope_measured_while_heavy_tailed_is_marked_undetermined():
     """Where the gate cannot decide at the curve's top budget, the renders have mostly not
     met the paths that carry the variance and the fitted slope reads shallower than the
     estimator's: the summary row and the report's table say so, and keep the number."""
-    from benchmarks.sweep.by_metric import view
+    from benchmarks.metrics import view
     from benchmarks.sweep.summary import _slope_status
     from reports.tables import stats_table
 
@@ -157,7 +158,7 @@ def test_every_metric_slope_follows_the_per_point_rule():
 
 
 def test_the_report_says_where_a_slope_was_fitted_from():
-    from benchmarks.sweep.by_metric import view
+    from benchmarks.metrics import view
     from reports.tables import stats_table
 
     row = {"renderer": "ours", "strategy": "uniform", "slope": -0.5, "slope_ci": [-0.6, -0.4], "bias_verdict": "pass",

@@ -10,7 +10,7 @@ import pytest
 
 import reference_tracer as rt
 from mitsuba_scenes import SUITE, get_scene
-from reference_tracer.render import core_scene
+from reference_tracer.probe import core_scene
 
 
 def _assert_same_render(a, b):
@@ -193,9 +193,9 @@ def test_each_integrator_is_deterministic_whatever_the_thread_count(integrator):
 
 
 def test_the_pack_width_is_the_machines():
-    from reference_tracer import _core
+    from reference_tracer import probe
 
-    assert _core.PACK_WIDTH in (4, 8)
+    assert probe.PACK_WIDTH in (4, 8)
 
 
 @pytest.mark.parametrize("bad", ["Scalar", "simd", "", None, 0])
@@ -328,11 +328,11 @@ print("ok")
 
 
 def test_seeded_bugs_run_in_the_scalar_integrator_only():
-    # The self-test's mutants (reference_tracer._mutants) exist in Integrator<M> alone: a
+    # The self-test's mutants (reference_tracer.testing) exist in Integrator<M> alone: a
     # mutant render asked of the wavefront integrator is refused, not silently rerouted.
-    from benchmarks.selftest.render import _compiled, mutant_id
+    from reference_tracer.testing import mutant_core_scene, mutant_id
 
-    core = _compiled(get_scene("cornell_box", width=4, height=4))
+    core = mutant_core_scene(get_scene("cornell_box", width=4, height=4))
     k = mutant_id("two_sided_light")
     with pytest.raises(ValueError, match="scalar integrator only"):
         core.render(1, 4, 0, 1, None, False, integrator=0, mutant=k)
@@ -388,17 +388,17 @@ def test_packed_cosine_warp_equals_scalar_one(warp):
     # The wavefront draws the directions of a pack of diffuse vertices at once with the same
     # template as the scalar warp (warp.h: square_to_cosine_hemisphere); bit for bit on
     # random numbers and on the concentric map's special points (centre, diagonals, edges).
-    from reference_tracer import _core
+    from reference_tracer import probe
 
     rng = np.random.default_rng(3)
     edges = np.array([0.0, 0.25, 0.5, 0.75, np.nextafter(1.0, 0.0), np.nextafter(0.5, 0.0), np.nextafter(0.5, 1.0)])
     grid = np.stack(np.meshgrid(edges, edges), axis=-1).reshape(-1, 2)
     u = np.ascontiguousarray(np.concatenate([grid, rng.random((9999, 2))]))
-    assert np.array_equal(_core.warp_sample(warp, u, packed=True), _core.warp_sample(warp, u))
+    assert np.array_equal(probe.warp_sample(warp, u, packed=True), probe.warp_sample(warp, u))
 
 
 def test_only_the_cosine_warp_has_a_packed_version():
-    from reference_tracer import _core
+    from reference_tracer import probe
 
     with pytest.raises(ValueError, match="packed"):
-        _core.warp_sample("uniform_sphere", np.zeros((3, 2)), packed=True)
+        probe.warp_sample("uniform_sphere", np.zeros((3, 2)), packed=True)

@@ -51,7 +51,9 @@ from typing import Callable
 
 import numpy as np
 
-from benchmarks.constants import LUMINANCE_WEIGHTS
+import reference_tracer as rt
+
+from ..constants import LUMINANCE_WEIGHTS
 
 from .pearson import (DEFAULT_ALPHA, DEFAULT_N, DEFAULT_RESOLUTION, Chi2Result, Grid, chi2_test,
                       discrete_test, excess_p_value, integrate, sidak)
@@ -260,8 +262,6 @@ def _smooth_triangle_densities(vertices, normals):
 
 
 def _catalogue() -> tuple:
-    import reference_tracer as rt
-
     routines = [
         _warp("uniform_hemisphere", "hemisphere"),
         _warp("cosine_hemisphere", "hemisphere"),

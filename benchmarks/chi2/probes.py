@@ -1,7 +1,8 @@
 """Adapters from the tracer's sampling routines to ``sample(u)`` / ``pdf(points)`` callables.
 
-Warps and BSDFs run through the C++ core's batch probes (``_core.warp_sample``,
-``warp_pdf``, ``bsdf_sample``, ``bsdf_eval_pdf``: reference_tracer/cpp/sampling_probe.cpp),
+Warps and BSDFs run through the C++ core's batch probes (:mod:`reference_tracer.probe`:
+``warp_sample``, ``warp_pdf``, ``bsdf_sample``, ``bsdf_eval_pdf``, from
+reference_tracer/cpp/sampling_probe.cpp),
 which call the routines of ``sampling/warp.h`` and the material dispatch the integrator
 uses. Light sampling runs through a compiled scene's ``sample_lights`` / ``light_pdf``,
 i.e. the scene's own LightSampler (emitter selection by power, background share,
@@ -20,14 +21,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+import reference_tracer as rt
+from reference_tracer import probe
+
 __all__ = ["direction", "frame", "warp", "BsdfProbe", "LightProbe", "fresnel_exact", "fresnel_schlick",
            "refract_expected"]
-
-
-def _core():
-    from reference_tracer import _core  # loads the compiled extension on first use
-
-    return _core
 
 
 def _c(a) -> np.ndarray:
@@ -53,13 +51,11 @@ def frame(axis) -> np.ndarray:
 
 def warp(name: str, param: float = 0.0):
     """``(sample, pdf)`` of the warp ``name`` of sampling/warp.h (see sampling_probe.cpp)."""
-    core = _core()
-
     def sample(u):
-        return core.warp_sample(name, _c(u), float(param))
+        return probe.warp_sample(name, _c(u), float(param))
 
     def pdf(points):
-        return core.warp_pdf(name, _c(points), float(param))
+        return probe.warp_pdf(name, _c(points), float(param))
 
     return sample, pdf
 
@@ -89,8 +85,8 @@ class BsdfProbe:
 
     def sample_full(self, u) -> dict:
         """Every field of the samples of (n, 3) uniforms: wi, weight, pdf, eta, delta, valid."""
-        return _core().bsdf_sample(self.material, self.wo, _c(u), _c(self.albedo), float(self.param),
-                                   **self._options)
+        return probe.bsdf_sample(self.material, self.wo, _c(u), _c(self.albedo), float(self.param),
+                                 **self._options)
 
     def sample(self, u) -> np.ndarray:
         """Directions of (n, 3) uniforms, NaN rows where the sampler failed."""
@@ -99,8 +95,8 @@ class BsdfProbe:
 
     def eval_pdf(self, wi) -> dict:
         """``value`` (f * cos, (n, 3)) and ``pdf`` ((n,)) at directions wi."""
-        return _core().bsdf_eval_pdf(self.material, self.wo, _c(wi), _c(self.albedo), float(self.param),
-                                     **self._options)
+        return probe.bsdf_eval_pdf(self.material, self.wo, _c(wi), _c(self.albedo), float(self.param),
+                                   **self._options)
 
     def pdf(self, wi) -> np.ndarray:
         return self.eval_pdf(wi)["pdf"]
@@ -125,13 +121,10 @@ class LightProbe:
     @property
     def core(self):
         if self._core_scene is None:
-            import reference_tracer as rt
-            from reference_tracer.render import core_scene
-
             cam = rt.Camera(lookfrom=(0.0, 0.0, -10.0), lookat=(0.0, 0.0, 0.0), vup=(0, 1, 0), vfov=60.0,
                             width=2, height=2)
-            self._core_scene = core_scene(rt.Scene(camera=cam, shapes=list(self.shapes),
-                                                   background=self.background))
+            self._core_scene = probe.core_scene(rt.Scene(camera=cam, shapes=list(self.shapes),
+                                                         background=self.background))
         return self._core_scene
 
     def _refs(self, m: int) -> np.ndarray:

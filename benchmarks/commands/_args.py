@@ -172,7 +172,7 @@ def check(args):
     if getattr(args, "format", None) is not None:
         args.format = formats(args.format)
     if getattr(args, "metric", None) is not None:
-        from benchmarks.sweep.by_metric import require_metric
+        from benchmarks.metrics import require_metric
 
         require_metric(args.metric)  # FLIP without its package: a clear error before any work
     return args
@@ -307,8 +307,8 @@ def add_threads_args(parser) -> None:
 
 
 def resolve_threads(threads) -> int:
-    """``--threads`` as a number: all cores when unset (:func:`benchmarks.sweep.jobs.default_threads`)."""
-    from benchmarks.sweep.jobs import default_threads
+    """``--threads`` as a number: all cores when unset (:func:`reference_tracer.cpus.default_threads`)."""
+    from reference_tracer.cpus import default_threads
 
     return int(threads) if threads else default_threads()
 

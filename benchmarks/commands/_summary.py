@@ -20,7 +20,7 @@ import math
 
 from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP, STRATEGIES
 from benchmarks.sweep import finite
-from benchmarks.sweep.by_metric import DEFAULT_METRIC, SPECS, view
+from benchmarks.metrics import DEFAULT_METRIC, SPECS, view
 from benchmarks.text import terminal
 
 __all__ = ["summary_table", "print_summary", "print_headline", "seed_comparison_line"]
@@ -94,7 +94,7 @@ def summary_table(rows, *, title: str = "rtbench summary", metric: str = DEFAULT
     rows : list of dict
     title : str, keyword-only
     metric : {'rmse', 'relmse', 'ssim', 'flip'}, keyword-only
-        The error behind slopes and efficiency (:func:`benchmarks.sweep.by_metric.view`).
+        The error behind slopes and efficiency (:func:`benchmarks.metrics.view`).
 
     Returns
     -------

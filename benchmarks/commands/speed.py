@@ -388,15 +388,15 @@ def run(args) -> int:
         out["rays"] = res
         for table in rays_tables(res):
             console.print(table)
-        from reference_tracer import _core
+        from reference_tracer import probe
 
         console.print("  ratio = ours Mrays/s / Mitsuba Mrays/s (median of the rounds' paired ratios; range: the "
                       "lowest and highest round); Mitsuba: "
                       "ray_intersect_preliminary + dr.eval + dr.sync_thread (distance and primitive), kernel compiled "
                       "before timing; ours: core_scene(...).intersect(preliminary=True), the same outputs, timed from "
                       "the Python call to its return as Mitsuba's (chunks of "
-                      f"{_core.RAY_CHUNK} rays handed to the threads; in each, rows of camera rays gathered into tiles of 4 x "
-                      f"{_core.PACKET_RAYS // 4}, coherent tiles or runs of {_core.PACKET_RAYS} rays traced as packets, the others 8 at a "
+                      f"{probe.RAY_CHUNK} rays handed to the threads; in each, rows of camera rays gathered into tiles of 4 x "
+                      f"{probe.PACKET_RAYS // 4}, coherent tiles or runs of {probe.PACKET_RAYS} rays traced as packets, the others 8 at a "
                       "time interleaved; float64 copies of the same float32 rays); ours full / full ratio: the same query with our hit point and normal filled "
                       "in, timed in the same rounds; "
                       f"t agree: relative difference <= {res['rows'][0].get('agree_t_rtol', 1e-4):g}",

@@ -29,7 +29,13 @@ import time
 
 import numpy as np
 
-from benchmarks.gate.agreement import SHARE_LIMIT, Z_LIMIT, agreement
+import reference_tracer as rt
+from mitsuba_scenes import from_mitsuba, render_mitsuba
+from mitsuba_scenes.importer import UnsupportedSceneError
+from mitsuba_scenes.render import file_resolver_scope, film_sizes, load_file
+from mitsuba_scenes.variants import select_variant
+
+from ..gate.agreement import SHARE_LIMIT, Z_LIMIT, agreement
 
 __all__ = ["STATUSES", "OUT_OF_SCOPE", "OUT_OF_SCOPE_KINDS", "Z_LIMIT", "SHARE_LIMIT", "small_film",
            "out_of_scope", "compact_feature", "clean_message", "scene_plugins",
@@ -124,8 +130,6 @@ def _param_value(name: str, spp: int) -> str:
 
 def setup(variant: str | None, threads: int | None) -> str:
     """Choose the Mitsuba variant (once per process) and the thread count; return the variant."""
-    from mitsuba_scenes.variants import select_variant
-
     chosen = select_variant(variant)
     if threads:
         import drjit as dr
@@ -137,8 +141,6 @@ def setup(variant: str | None, threads: int | None) -> str:
 def scene_plugins(mi, path, params) -> list:
     """Sorted distinct ``(kind, plugin)`` pairs of every object of the XML file, includes and
     nested objects too, as Mitsuba's parser reads them."""
-    from mitsuba_scenes.render import file_resolver_scope
-
     with file_resolver_scope():
         state = mi.parser.parse_file(mi.parser.ParserConfig(mi.variant()), str(path), **params)
     pairs = {(str(n.type).split(".")[-1].lower(), n.props.plugin_name()) for n in list(state.nodes)[1:]}
@@ -165,10 +167,6 @@ def judge_scene(job: dict) -> dict:
 
 
 def _judge(job, rec, seconds, mi, root, path) -> None:
-    from mitsuba_scenes import from_mitsuba, render_mitsuba
-    from mitsuba_scenes.importer import UnsupportedSceneError
-    from mitsuba_scenes.render import film_sizes, load_file
-
     # 1. parameters the file leaves to its caller, its film and its plugins
     params, sizes, parse_error, plugins = {}, None, None, []
     t = time.perf_counter()
@@ -241,8 +239,6 @@ def _judge(job, rec, seconds, mi, root, path) -> None:
         return
 
     # 4. both render it
-    import reference_tracer as rt
-
     spp, seed, threads = int(job["spp"]), int(job["seed"]), job.get("threads")
     try:
         t = time.perf_counter()

@@ -19,9 +19,13 @@ import hashlib
 import json
 import math
 import re
+from importlib import metadata
 from pathlib import Path
 
-from benchmarks.text import markdown, markdown_table, text_table
+from reference_tracer.build import build_info
+
+from ..store import read_json, write_json
+from ..text import markdown, markdown_table, text_table
 
 from .judge import STATUSES, Z_LIMIT, compact_feature
 
@@ -43,10 +47,6 @@ def corpus_build() -> dict:
     """What a verdict depends on besides the scene: our build (``reference_tracer.build_id``),
     the sources of ``mitsuba_scenes`` (the importer), of this package and of the agreement
     statistic (``benchmarks.gate.agreement``), Mitsuba's version."""
-    from importlib import metadata
-
-    from reference_tracer.build import build_info
-
     h = hashlib.sha256()
     info = build_info()
     h.update(info["build"].encode())
@@ -77,8 +77,6 @@ def load_results(path, *, folder: str) -> dict:
     overwritten: give another ``--out``). Records that are not what a run writes are
     dropped (they are judged again).
     """
-    from benchmarks.store import read_json
-
     data = read_json(path)
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         return {}
@@ -96,8 +94,6 @@ def load_results(path, *, folder: str) -> dict:
 def save_results(path, *, provenance: dict, records: dict, fragments: dict) -> None:
     """Write ``corpus.json`` atomically: provenance (``updated`` set to now), counts, scene
     records, fragments."""
-    from benchmarks.store import write_json
-
     provenance["updated"] = _now()
     scenes = [records[k] for k in sorted(records)]
     write_json(path, {"format": FORMAT, **provenance, "counts": counts(scenes),

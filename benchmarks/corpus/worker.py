@@ -15,6 +15,8 @@ import os
 import signal
 import time
 
+from .judge import judge_scene, setup
+
 __all__ = ["SceneWorker"]
 
 #: seconds a fresh worker may take to import Mitsuba and choose its variant.
@@ -28,7 +30,6 @@ def _serve(conn, log_path: str, variant, threads) -> None:
     os.dup2(fd, 1)
     os.dup2(fd, 2)
     os.close(fd)
-    from benchmarks.corpus.judge import judge_scene, setup
 
     try:
         conn.send(("ready", setup(variant, threads)))

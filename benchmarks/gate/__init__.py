@@ -5,7 +5,9 @@ One job, in three modules:
 - :mod:`~benchmarks.gate.statistics`: :func:`compare`, the test of one render against
   one reference (pixel, tile and image levels; its value :class:`GateResult` is in
   :mod:`~benchmarks.gate.result`); Sidak's correction is :mod:`benchmarks.stats`'s. :mod:`~benchmarks.gate.mitsuba_rule`
-  re-implements Mitsuba 3's own per-pixel rule (:func:`mitsuba_rule`) to compare the two.
+  re-implements Mitsuba 3's own per-pixel rule (:func:`mitsuba_rule`) to compare the two;
+  :mod:`~benchmarks.gate.paired`: :func:`judge`, the same test of one render against another
+  of the same estimator (``rtbench compare``'s verdict).
 - :mod:`~benchmarks.gate.suite`: the suite driver behind ``rtbench gate``
   (:func:`run_gate`: scenes, references, renders, p-value images of failures).
 - :mod:`~benchmarks.gate.power`: the measured power of the gate on injected biases
@@ -38,6 +40,7 @@ from .mitsuba_rule import MITSUBA_ALPHA, MitsubaRuleResult, mitsuba_rule
 from .power import INJECTIONS, QUICK_SUITE_COMPARISONS, PowerRow, injected_scene, power_row, power_table
 from .result import LEVELS, GateResult
 from .heavy_tails import DEFAULT_VALIDITY, edgeworth_error, spp_needed
+from .paired import EstimatorKnowledge, judge
 from .statistics import compare
 from .suite import (DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_STRATEGY, DEFAULT_WIDTH, GateCase,
                     GateReport, compare_render, gate_reference, gate_scene, resolve_scenes, resolve_strategies,
@@ -46,6 +49,7 @@ from .suite import (DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_STRATEGY
 __all__ = [
     # statistics
     "compare", "edgeworth_error", "spp_needed", "DEFAULT_VALIDITY", "LEVELS", "GateResult", "mitsuba_rule", "MitsubaRuleResult", "MITSUBA_ALPHA",
+    "EstimatorKnowledge", "judge",
     # suite driver
     "DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_SEED", "DEFAULT_STRATEGY", "GateCase",
     "GateReport", "gate_scene", "gate_reference", "compare_render", "resolve_scenes", "resolve_strategies",

@@ -10,7 +10,7 @@ pass in a power table; both show it. ``rtbench gate --calibrate`` prints the tab
 
 With ``pairs=True`` (``--compare-pairs``) it measures ``rtbench compare``'s verdict
 instead: two renders of this build per seed, B (seed ``FIRST_SEED + 2k + 1``) judged
-against A (seed ``FIRST_SEED + 2k``) by :func:`benchmarks.compare.judge`, the function
+against A (seed ``FIRST_SEED + 2k``) by :func:`benchmarks.gate.judge`, the function
 ``compare_stores`` uses, with the tail reference as ``compare`` takes it for two stores of
 this build. No Mitsuba reference is involved: under "nothing changed" A is the reference.
 """
@@ -19,10 +19,14 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-from reference_tracer._validate import positive_int
+from scipy import stats
+
+import reference_tracer as rt
+from reference_tracer.validation import positive_int
 
 from ..constants import GATE_ALPHA, UNBIASED_STRATEGIES
 from ..tails import DEFAULT_TAIL_SPP
+from .paired import EstimatorKnowledge, judge
 from .suite import (DEFAULT_REF_SPP, DEFAULT_WIDTH, compare_render, gate_reference, gate_scene, gate_tails,
                     resolve_scenes)
 
@@ -45,8 +49,6 @@ def clopper_pearson(k: int, n: int, confidence: float = 0.95) -> tuple:
     >>> lo, round(hi, 4)
     (0.0, 0.0362)
     """
-    from scipy import stats
-
     if n <= 0:
         return math.nan, math.nan
     a = 1.0 - confidence
@@ -128,8 +130,6 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
     >>> rows[0].passed + rows[0].failed + rows[0].undetermined  # doctest: +SKIP
     2
     """
-    import reference_tracer as rt
-
     names = resolve_scenes(scenes)
     seeds = positive_int("seeds", seeds)
     spps = [positive_int("spp", s, minimum=2) for s in spps]
@@ -170,9 +170,6 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
 
 def _compare_pair(scene, strategy: str, spp: int, seed: int, tails, *, alpha: float, threads):
     """``rtbench compare``'s verdict on two renders of this build: B (``seed + 1``) against A (``seed``)."""
-    import reference_tracer as rt
-    from ..compare import EstimatorKnowledge, judge
-
     a, b = (rt.render(scene, spp=spp, strategy=strategy, seed=s, threads=threads) for s in (seed, seed + 1))
     known = (EstimatorKnowledge(f"tail reference of ours {strategy} at {tails.spp} spp", moments=tails.moments)
              if tails is not None else EstimatorKnowledge("none: --tail-spp 0"))

@@ -43,6 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import reference_tracer as rt
+
 from ..constants import GATE_ALPHA
 from .mitsuba_rule import MITSUBA_ALPHA, mitsuba_rule
 from .suite import DEFAULT_REF_SPP, DEFAULT_SPP, DEFAULT_WIDTH, compare_render, gate_reference, gate_scene
@@ -67,8 +69,6 @@ INJECTIONS = {
 
 
 def _replace_shape(scene, index, shape):
-    import reference_tracer as rt
-
     shapes = list(scene.shapes)
     shapes[index] = shape
     return rt.Scene(camera=scene.camera, shapes=shapes, max_depth=scene.max_depth, rr_depth=scene.rr_depth,
@@ -85,8 +85,6 @@ def injected_scene(scene, edit):
     >>> s.shapes[5].Q
     (214.3, 554.0, 227.0)
     """
-    import reference_tracer as rt
-
     if edit is None:
         return scene
     if edit == "red_wall":
@@ -131,8 +129,6 @@ def power_row(name: str, *, seed: int = 1, spp: int = DEFAULT_SPP, width: int = 
               ref_spp: int = DEFAULT_REF_SPP, case_alpha: float = GATE_ALPHA / QUICK_SUITE_COMPARISONS,
               mitsuba_alpha: float = MITSUBA_ALPHA, threads=None, cache=None) -> PowerRow:
     """Render injection ``name`` and test it with both rules (see the module doc)."""
-    import reference_tracer as rt
-
     if name not in INJECTIONS:
         raise ValueError(f"unknown injection {name!r}; choose from {', '.join(INJECTIONS)}")
     scene_name, strategy, scale, edit = INJECTIONS[name]

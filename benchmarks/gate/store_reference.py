@@ -13,12 +13,17 @@ from pathlib import Path
 
 import numpy as np
 
+import reference_tracer as rt
+from reference_tracer.build import build_info
+from reference_tracer.validation import positive_int
+
 from ..files import slug
 from ..references import DEFAULT_REFERENCE_SEED, Reference
-from ..store import (append_record, dedupe_records, finished_keys, read_records, result_lines, write_image,
-                     writer_lock)
+from ..scenes import scene_at, scene_info
+from ..store import (append_record, dedupe_records, finished_keys, read_image, read_records, result_lines,
+                     write_image, writer_lock)
 
-__all__ = ["write_reference_store", "store_reference"]
+__all__ = ["write_reference_store", "store_reference", "pooled_image"]
 
 
 def write_reference_store(names, store, *, spp: int, width: int, height: int | None = None,
@@ -31,18 +36,13 @@ def write_reference_store(names, store, *, spp: int, width: int, height: int | N
     second writer waits, then finds this build's records there and renders only what is
     missing, so no job is ever recorded twice. Returns the records written.
     """
-    import reference_tracer as rt
-    from reference_tracer.build import build_info
-
-    from ..sweep.execute import scene_info
-    from .suite import gate_scene
-
-    height = width if height is None else height
+    width = positive_int("width", width)
+    height = width if height is None else positive_int("height", height)
     out = []
     with writer_lock(store, say=log):  # one writer at a time; a second one waits, then resumes
         done = finished_keys(store)
         for name in names:
-            scene = gate_scene(name, width=width, height=height)
+            scene = scene_at(name, width, height)
             key = (name, "ours", strategy, int(spp), 0, width, height, build_info()["build"])
             if key in done:
                 if log:
@@ -89,8 +89,6 @@ def store_reference(store, name: str, scene, *, build: str | None = None) -> Ref
     ValueError
         No image of the scene at this size (with a variance image), or the scene changed.
     """
-    from ..compare import pooled_image
-
     store = Path(store)
     if not (store / "results.jsonl").is_file():
         raise ValueError(f"--reference {store} is not a results store (no results.jsonl)")
@@ -122,3 +120,23 @@ def store_reference(store, name: str, scene, *, build: str | None = None) -> Ref
                      cached=True, scene_hash=want, source="store",
                      description=f"our build {b}" + (f" (git {git})" if git else "") + f", {strategy} {n} spp, "
                                  f"from {store}")
+
+
+def pooled_image(store, records, spp: int):
+    """``(mean, per-sample variance, total spp)`` of a curve's stored images at ``spp``, or None.
+
+    Seeds' means are averaged; the per-sample variance is the mean of the stored variance
+    images, else ``spp`` x the between-seed variance of the means (2+ seeds).
+    """
+    recs = [r for r in records if int(r["spp"]) == spp and (r.get("stats_image") or r.get("image"))]
+    if not recs:
+        return None
+    means = np.stack([read_image(store, r.get("stats_image") or r["image"], rgb=True) for r in recs])
+    var_paths = [r.get("stats_variance_image") for r in recs]
+    if all(var_paths):
+        var = np.mean([read_image(store, p, rgb=True) for p in var_paths], axis=0)
+    elif len(recs) >= 2:
+        var = means.var(axis=0, ddof=1) * spp
+    else:
+        return None
+    return means.mean(axis=0), var, spp * len(recs)

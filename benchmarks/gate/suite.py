@@ -51,17 +51,22 @@ from pathlib import Path
 
 import numpy as np
 
-from reference_tracer._validate import SEED_MAX, positive_int
+import reference_tracer as rt
+from mitsuba_scenes import known_scenes, list_scenes
+from reference_tracer.validation import SEED_MAX, positive_int
 
 from ..constants import GATE_ALPHA, STRATEGIES
+from ..external import render_external_batches
 from ..files import slug
 from ..references import Reference, closed_form_reference_of
 from ..references import reference as mitsuba_reference
+from ..scenes import scene_at
 from ..stats import sidak
 from ..tails import DEFAULT_TAIL_SPP, tail_reference
 from .result import GateResult
 from .filtered import filter_weights
 from .statistics import compare
+from .store_reference import store_reference
 
 __all__ = ["gate_tails", "DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_SEED", "DEFAULT_STRATEGY", "GateCase",
            "GateReport", "gate_scene", "resolve_scenes", "resolve_strategies", "gate_reference", "compare_render",
@@ -194,11 +199,9 @@ def gate_scene(name: str, *, width: int = DEFAULT_WIDTH, height: int | None = No
     >>> gate_scene("cornell_box", width=16).camera.height
     16
     """
-    from mitsuba_scenes import get_scene
-
     width = positive_int("width", width)
     height = width if height is None else positive_int("height", height)
-    return get_scene(name).with_camera_size(width, height)
+    return scene_at(name, width, height)
 
 
 def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=None, cache=None,
@@ -265,8 +268,6 @@ def compare_render(mean, variance, spp: int, reference: Reference, *, alpha: flo
 
 def resolve_scenes(scenes) -> list:
     """Validated scene names (None: the whole suite; a string may be comma-separated)."""
-    from mitsuba_scenes import known_scenes, list_scenes
-
     suite = known_scenes()
     if scenes is None:
         return list_scenes()
@@ -350,8 +351,6 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
     -------
     GateReport
     """
-    import reference_tracer as rt
-
     names = resolve_scenes(scenes)
     strategies = resolve_strategies(strategies) if renderer is None else [renderer.name]
     spp = positive_int("spp", spp, minimum=2)
@@ -376,8 +375,6 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
             on_reference(name, "start", None)
         t0 = time.perf_counter()
         if reference_store is not None:
-            from .store_reference import store_reference
-
             refs[name] = store_reference(reference_store, name, scenes_built[name], build=reference_build)
         else:
             refs[name] = gate_reference(name, scenes_built[name], ref_spp=ref_spp, threads=threads, cache=cache,
@@ -389,8 +386,6 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
     for name in names:
         for strategy in strategies:
             if renderer is not None:
-                from ..external import render_external_batches
-
                 mean, variance, took = render_external_batches(renderer, scenes_built[name], spp=spp, seed=seed)
                 out = rt.ImageEstimate(mean=mean, variance=variance, spp=spp, seconds=took, source=renderer.name)
                 tails = None
@@ -432,8 +427,6 @@ def write_p_images(case: GateCase, out) -> list:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
-
-    import reference_tracer as rt
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

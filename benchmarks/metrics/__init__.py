@@ -10,8 +10,10 @@ dataclasses, so the harness can write them straight into ``results.jsonl`` /
 Modules: :mod:`~benchmarks.metrics.errors` (MSE, RMSE, relMSE, reference noise),
 :mod:`~benchmarks.metrics.ssim`, :mod:`~benchmarks.metrics.flip` (NVIDIA's FLIP, on the
 same display images as SSIM), :mod:`~benchmarks.metrics.bias` (bias and variance over
-seeds), :mod:`~benchmarks.metrics.convergence` (slope, efficiency, time to error). Every
-public name is re-exported here: ``from benchmarks import metrics as M; M.rmse(...)``.
+seeds), :mod:`~benchmarks.metrics.convergence` (slope, efficiency, time to error),
+:mod:`~benchmarks.metrics.specs` (the metrics a summary reports, ``--metric``, and a summary
+row read under one of them). Every public name is re-exported here: ``from benchmarks
+import metrics as M; M.rmse(...)``.
 
 Conventions
 -----------
@@ -46,14 +48,16 @@ from ..display import exposure_from_reference, to_display
 from .bias import BiasVariance, bias_variance
 from .convergence import SlopeFit, convergence_slope, efficiency, time_to_error
 from .errors import mse, mse_corrected, reference_noise, relmse, relmse_corrected, rmse
-from .flip import flip, flip_available
+from .flip import FLIP_PACKAGE, flip, flip_available
+from .specs import COST_FIELDS, DEFAULT_METRIC, METRICS, SPECS, MetricSpec, cost_status, require_metric, view
 from .ssim import ssim
 
 __all__ = [
     "mse", "rmse", "relmse", "mse_corrected", "relmse_corrected", "reference_noise",
-    "exposure_from_reference", "to_display", "ssim", "flip", "flip_available",
+    "exposure_from_reference", "to_display", "ssim", "flip", "flip_available", "FLIP_PACKAGE",
     "BiasVariance", "bias_variance",
     "SlopeFit", "convergence_slope",
     "efficiency", "time_to_error",
     "RELMSE_EPS", "LUMINANCE_WEIGHTS",
+    "MetricSpec", "SPECS", "METRICS", "DEFAULT_METRIC", "COST_FIELDS", "require_metric", "cost_status", "view",
 ]

@@ -8,9 +8,11 @@ Deterministic and fast, it catches translation errors - a camera (fov, fov axis,
 film size), a winding or ``flip_normals``, one-sidedness, a material or an emitter - that a
 statistical gate would only see as a biased image, and it says where.
 
-Modules: :mod:`~benchmarks.parity.ours` and :mod:`~benchmarks.parity.mitsuba` compute the
-AOVs, :mod:`~benchmarks.parity.compare` compares them and names the culprits,
-:mod:`~benchmarks.parity.maps` writes the mismatch maps (PNG and EXR).
+Our AOVs come from the tracer's probe (:func:`reference_tracer.probe.first_hit_aovs`);
+:mod:`~benchmarks.parity.mitsuba` computes Mitsuba's, :mod:`~benchmarks.parity.ours` the
+bounding boxes that match the two renderers' shapes; :mod:`~benchmarks.parity.compare`
+compares the AOVs and names the culprits, :mod:`~benchmarks.parity.maps` writes the
+mismatch maps (PNG and EXR).
 
 Examples
 --------
@@ -21,13 +23,15 @@ True
 """
 from __future__ import annotations
 
+from reference_tracer.probe import first_hit_aovs
+
 from .compare import AOVS, ParityReport, compare_aovs
 from .maps import write_mismatch_maps
 from .mitsuba import mitsuba_aovs, mitsuba_scene_for
-from .ours import camera_rays, our_aovs, shape_bounds
+from .ours import shape_bounds
 
 __all__ = ["AOVS", "ParityReport", "compare_aovs", "run_parity", "write_mismatch_maps", "mitsuba_aovs",
-           "mitsuba_scene_for", "our_aovs", "camera_rays", "shape_bounds"]
+           "mitsuba_scene_for", "shape_bounds"]
 
 
 def run_parity(scene, *, mitsuba=None, name: str = "scene", params=None) -> ParityReport:
@@ -50,5 +54,5 @@ def run_parity(scene, *, mitsuba=None, name: str = "scene", params=None) -> Pari
     ParityReport
     """
     mscene = mitsuba_scene_for(scene, mitsuba, params=params)
-    return compare_aovs(scene, our_aovs(scene), mitsuba_aovs(mscene, scene), name=name,
+    return compare_aovs(scene, first_hit_aovs(scene), mitsuba_aovs(mscene, scene), name=name,
                         theirs_at=lambda off: mitsuba_aovs(mscene, scene, offset=off))

@@ -17,6 +17,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import reference_tracer as rt
+from reference_tracer.probe import diffuse_albedo, first_hit_aovs
+
+from .ours import shape_bounds
 
 __all__ = ["AOVS", "ParityReport", "compare_aovs", "T_RTOL", "NORMAL_COS", "VALUE_RTOL", "VALUE_ATOL",
            "CAMERA_FRACTION"]
@@ -79,8 +82,6 @@ def _close(a, b, rtol=VALUE_RTOL, atol=VALUE_ATOL) -> np.ndarray:
 
 def _classes(scene: rt.Scene) -> np.ndarray:
     """Class of each shape: shapes with the same bounding box are indistinguishable to the match."""
-    from .ours import shape_bounds
-
     b = shape_bounds(scene)
     extent = max(float(np.abs(b).max()) if b.size else 1.0, 1e-6)
     cls = np.arange(len(b))
@@ -94,8 +95,6 @@ def _classes(scene: rt.Scene) -> np.ndarray:
 def _edge_forgiven(scene, ours, theirs, suspect, cls, theirs_at=None) -> np.ndarray:
     """Suspect pixels where a ray a hundredth of a pixel away in one renderer sees what the
     other saw at the centre."""
-    from .ours import our_aovs
-
     ok = np.zeros_like(suspect)
     if not suspect.any():
         return ok
@@ -104,7 +103,7 @@ def _edge_forgiven(scene, ours, theirs, suspect, cls, theirs_at=None) -> np.ndar
         return np.where(s >= 0, cls[np.maximum(s, 0)], s)
 
     for off in _EDGE_OFFSETS:
-        ok |= suspect & (klass(our_aovs(scene, offset=off)["shape"]) == klass(theirs["shape"]))
+        ok |= suspect & (klass(first_hit_aovs(scene, offset=off)["shape"]) == klass(theirs["shape"]))
         if theirs_at is not None and not ok[suspect].all():
             ok |= suspect & (klass(theirs_at(off)["shape"]) == klass(ours["shape"]))
     return ok
@@ -122,7 +121,7 @@ def compare_aovs(scene: rt.Scene, ours: dict, theirs: dict, *, name: str = "scen
     ----------
     scene : reference_tracer.Scene
     ours, theirs : dict
-        AOVs of :func:`benchmarks.parity.ours.our_aovs` and
+        AOVs of :func:`reference_tracer.probe.first_hit_aovs` and
         :func:`benchmarks.parity.mitsuba.mitsuba_aovs` (same image size).
     name : str
     theirs_at : callable or None
@@ -166,17 +165,13 @@ def compare_aovs(scene: rt.Scene, ours: dict, theirs: dict, *, name: str = "scen
 def _texture_edge_forgiven(scene, ours, theirs, suspect, theirs_at=None) -> np.ndarray:
     """Suspect albedo pixels of textured shapes where a ray a hundredth of a pixel away in
     one renderer sees the albedo the other saw at the centre: an edge of the texture."""
-    from reference_tracer._compile import reflectance_of
-
-    from .ours import our_aovs
-
-    textured = np.array([isinstance(reflectance_of(s.material), rt.Texture) for s in scene.shapes] + [False])
+    textured = np.array([isinstance(diffuse_albedo(s.material), rt.Texture) for s in scene.shapes] + [False])
     suspect = suspect & textured[np.where(ours["shape"] >= 0, ours["shape"], len(scene.shapes))]
     ok = np.zeros_like(suspect)
     if not suspect.any():
         return ok
     for off in _EDGE_OFFSETS:
-        ok |= suspect & _close(our_aovs(scene, offset=off)["albedo"], theirs["albedo"])
+        ok |= suspect & _close(first_hit_aovs(scene, offset=off)["albedo"], theirs["albedo"])
         if theirs_at is not None and not ok[suspect].all():
             ok |= suspect & _close(theirs_at(off)["albedo"], ours["albedo"])
     return ok

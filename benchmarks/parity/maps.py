@@ -5,6 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
+import reference_tracer as rt
+
 from ..files import slug
 from .compare import AOVS, ParityReport
 
@@ -30,8 +32,6 @@ def write_mismatch_maps(report: ParityReport, out) -> list:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    import reference_tracer as rt
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

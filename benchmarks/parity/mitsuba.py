@@ -15,6 +15,8 @@ import os
 import numpy as np
 
 import reference_tracer as rt
+from mitsuba_scenes import to_mitsuba
+from mitsuba_scenes.variants import select_variant
 
 from .ours import shape_bounds
 
@@ -26,9 +28,6 @@ BOX_RTOL = 1e-4
 
 def mitsuba_scene_for(scene: rt.Scene, source=None, *, params=None):
     """The loaded Mitsuba scene: ``source`` (dict or XML path) or ``to_mitsuba(scene)``; no mesh merging."""
-    from mitsuba_scenes import to_mitsuba
-    from mitsuba_scenes.variants import select_variant
-
     select_variant(None)
     import mitsuba as mi
 
@@ -71,7 +70,7 @@ def _arr(x, n: int, width: int) -> np.ndarray:
 
 def mitsuba_aovs(mscene, scene: rt.Scene, *, offset=(0.5, 0.5)) -> dict:
     """Mitsuba's AOVs through ``pixel + offset`` (default: the centres), in the form of
-    :func:`benchmarks.parity.ours.our_aovs` (shape: our indices)."""
+    :func:`reference_tracer.probe.first_hit_aovs` (shape: our indices)."""
     import drjit as dr
     import mitsuba as mi
 

@@ -2,13 +2,13 @@
 
 Each mutant is written into the tracer's C++ sources (``reference_tracer/cpp/mutants.h``:
 one ``if constexpr`` at the place where the bug would be made), compiled into the
-self-test's own extension module ``reference_tracer._mutants`` (never into the tracer's
-``_core``) and selectable only through :func:`benchmarks.selftest.render.render_mutant`. Each is tested on one scene with one
+self-test's own extension module (never into the tracer's) and selectable only through
+:func:`reference_tracer.testing.render_mutant`. Each is tested on one scene with one
 strategy, chosen so that the bug changes the image there: several real bugs are invisible
 in most scenes (a wrong pdf used consistently in both MIS weights cancels; the 1/eta^2 of
 refraction cancels on closed glass lit from outside; a two-sided light changes nothing
 where no one sees its back), and a self-test that only confirmed the obvious ones would
-overstate the gate's power. The order is the module's (``_mutants.mutant_names()``).
+overstate the gate's power. The order is the module's (:func:`reference_tracer.testing.mutant_names`).
 
 Examples
 --------

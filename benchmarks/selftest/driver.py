@@ -25,15 +25,16 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-from reference_tracer._validate import SEED_MAX, positive_int
+from reference_tracer.testing import mutants_build_id, render_mutant
+from reference_tracer.validation import SEED_MAX, positive_int
 
 from ..constants import GATE_ALPHA
 from ..gate.mitsuba_rule import MITSUBA_ALPHA, mitsuba_rule
 from ..gate.power import QUICK_SUITE_COMPARISONS
 from ..gate.suite import DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_WIDTH, compare_render, gate_reference
+from ..references import reference
 from ..tails import DEFAULT_TAIL_SPP, tail_reference
 from .catalogue import resolve_mutants
-from .render import mutants_build_id, render_mutant
 from .scenes import is_suite_scene, selftest_scene
 
 __all__ = ["DEFAULT_SPP_LADDER", "DEFAULT_CASE_ALPHA", "SelftestReport", "ladder", "run_selftest",
@@ -99,7 +100,6 @@ def scene_reference(name: str, scene, *, ref_spp: int, threads=None, cache=None,
     cached Mitsuba render), the cached Mitsuba render for the self-test's own scenes."""
     if is_suite_scene(name):
         return gate_reference(name, scene, ref_spp=ref_spp, threads=threads, cache=cache, log=log)
-    from ..references import reference
 
     return reference(scene, spp=ref_spp, threads=threads, cache=cache, log=log)
 
@@ -193,7 +193,7 @@ def run_selftest(mutants=None, *, spp: int = DEFAULT_SPP, width: int = DEFAULT_W
         def render(sc, *, _name=mut.name, **kw):
             return render_mutant(sc, _name, **kw)
 
-        # keyed by the mutant and the build of _mutants (rt.build_id() covers _core only)
+        # keyed by the mutant and the build of the mutants module (rt.build_id() covers the tracer's only)
         tails = tail_reference(scene, strategy=mut.strategy, spp=tail_spp, threads=threads, cache=cache,
                                render=render, variant=f"{mut.name}@{mutants_build_id()}", log=say)
         steps, final = [], None

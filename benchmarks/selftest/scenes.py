@@ -32,6 +32,10 @@ Examples
 from __future__ import annotations
 
 import reference_tracer as rt
+from mitsuba_scenes import get_scene, list_scenes
+from mitsuba_scenes.scenes.cornell_box import WHITE, camera, ceiling_light, room, short_box, tall_box
+
+from ..gate.suite import gate_scene
 
 __all__ = ["SELFTEST_SCENES", "selftest_scene", "is_suite_scene"]
 
@@ -45,14 +49,10 @@ GLASS_IOR = 1.5
 
 
 def _cornell_box_rr3(width: int, height: int) -> rt.Scene:
-    from mitsuba_scenes import get_scene
-
     return get_scene("cornell_box", width=width, height=height, rr_depth=3)
 
 
 def _hanging_lamp(width: int, height: int) -> rt.Scene:
-    from mitsuba_scenes.scenes.cornell_box import WHITE, camera, ceiling_light, room, short_box, tall_box
-
     x, z = (213.0, 343.0), (227.0, 332.0)  # the cornell_box light's extent
     w, d = x[1] - x[0], z[1] - z[0]
     plate = rt.Quad((x[0] + w / 4, HANGING_LIGHT_Y - PLATE_GAP, z[0] + d / 4), (w / 2, 0, 0), (0, 0, d / 2),
@@ -63,8 +63,6 @@ def _hanging_lamp(width: int, height: int) -> rt.Scene:
 
 
 def _glass_lamp(width: int, height: int) -> rt.Scene:
-    from mitsuba_scenes.scenes.cornell_box import camera, ceiling_light, room, short_box, tall_box
-
     slab = rt.Box(GLASS_SLAB[0], GLASS_SLAB[1], rt.Dielectric(GLASS_IOR))
     return rt.Scene(camera=camera(width, height),
                     shapes=[*room(), ceiling_light(y=GLASS_LIGHT_Y), slab, tall_box(), short_box()],
@@ -80,16 +78,12 @@ SELFTEST_SCENES = {
 
 
 def is_suite_scene(name: str) -> bool:
-    from mitsuba_scenes import list_scenes
-
     return name in list_scenes()
 
 
 def selftest_scene(name: str, *, width: int, height: int | None = None) -> rt.Scene:
     """Scene ``name`` at ``width`` x ``height`` (default square): a suite scene as the gate
     builds it (:func:`benchmarks.gate.gate_scene`) or one of :data:`SELFTEST_SCENES`."""
-    from ..gate.suite import gate_scene
-
     height = width if height is None else height
     if name in SELFTEST_SCENES:
         return SELFTEST_SCENES[name](width, height)

@@ -4,8 +4,8 @@ The core's configurations (``-march``, the pack width ``RT_PACK_WIDTH``, the com
 give the same images bit for bit on one machine: fused multiply-adds are off
 (``-ffp-contract=off``), the explicit ones are correctly rounded, IEEE semantics are kept.
 These functions build a configuration with CMake into a folder of its own, run code against
-that build in a fresh interpreter (as ``reference_tracer._core``, so that the calling
-process keeps its module), and collect the arrays that must agree. Used by
+that build in a fresh interpreter (:func:`reference_tracer.build.use_core`, so that the
+calling process keeps its module), and collect the arrays that must agree. Used by
 ``scripts/compare_builds.py`` and by the tests that rebuild the core
 (``tests/test_builds.py``, ``tests/test_wavefront.py``).
 
@@ -22,7 +22,10 @@ import shlex
 import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
+
+import numpy as np
 
 __all__ = ["ROOT", "AGREEMENT_SCRIPT", "build_core", "run_with_core", "agreement_arrays", "build_target",
            "paired_render_times", "paired_ray_times", "median_interval"]
@@ -30,13 +33,12 @@ __all__ = ["ROOT", "AGREEMENT_SCRIPT", "build_core", "run_with_core", "agreement
 #: The repository's root (the CMake project).
 ROOT = Path(__file__).resolve().parents[2]
 
-# Makes `module` the fresh interpreter's reference_tracer._core before anything imports it.
+# Makes `module` the fresh interpreter's core before anything loads it.
 _PREAMBLE = """
-import importlib.util, sys
+import sys
 sys.path.insert(0, {root!r})
-spec = importlib.util.spec_from_file_location("reference_tracer._core", {module!r})
-core = importlib.util.module_from_spec(spec); spec.loader.exec_module(core)
-sys.modules["reference_tracer._core"] = core
+from reference_tracer.build import use_core
+use_core({module!r})
 """
 
 #: What every build must give bit for bit (PATH: the .npz written, THREADS: the thread
@@ -48,7 +50,7 @@ import numpy as np
 import reference_tracer as rt
 from mitsuba_scenes import SUITE, get_scene
 from benchmarks.speed.rays import mesh_scene, random_rays
-from reference_tracer.render import core_scene
+from reference_tracer.probe import core_scene
 
 out = {}
 for name in SUITE:
@@ -91,7 +93,7 @@ def build_core(build_dir: Path, *cmake_args: str, cxx: str | None = None, jobs: 
 
 
 def run_with_core(module: Path, script: str, **values) -> str:
-    """Run ``script`` in a fresh interpreter whose ``reference_tracer._core`` is ``module``;
+    """Run ``script`` in a fresh interpreter whose core is ``module`` (:func:`~reference_tracer.build.use_core`);
     return its stdout. Each ``values`` key in the script is replaced by the value's repr.
     Raises ``RuntimeError`` with the script's stderr where it fails."""
     body = script
@@ -108,8 +110,6 @@ def run_with_core(module: Path, script: str, **values) -> str:
 def agreement_arrays(module: Path, path: Path, *, threads: int = 2):
     """The arrays of :data:`AGREEMENT_SCRIPT` rendered by ``module``, saved to ``path``
     (``.npz``) and loaded (``numpy.lib.npyio.NpzFile``: a mapping of name to array)."""
-    import numpy as np
-
     run_with_core(module, AGREEMENT_SCRIPT, PATH=str(path), THREADS=int(threads))
     return np.load(path)
 
@@ -158,7 +158,7 @@ _RAY_WORKER = """
 import time
 import numpy as np
 from benchmarks.speed.rays import mesh_scene, primary_rays, random_rays
-from reference_tracer.render import core_scene
+from reference_tracer.probe import core_scene
 meshes, rays = {}, {}
 for line in sys.stdin:
     triangles, kind, count = line.split()
@@ -181,7 +181,6 @@ def _paired_times(modules, worker_script: str, requests, *, rounds: int) -> dict
     module; one untimed warm-up request per module first."""
     if rounds < 1:
         raise ValueError("rounds must be at least 1")
-    import tempfile
 
     workers, errors = [], []
     try:
@@ -267,8 +266,6 @@ def median_interval(ratios, *, level: float = 0.90, resamples: int = 2000, seed:
     >>> median_interval([1.0, 1.0, 1.0])
     (1.0, 1.0, 1.0)
     """
-    import numpy as np
-
     x = np.asarray(ratios, dtype=float)
     if x.size == 0 or not np.all(np.isfinite(x)):
         raise ValueError("ratios must be finite and not empty")

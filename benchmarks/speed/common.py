@@ -28,6 +28,12 @@ import time
 
 import numpy as np
 
+import reference_tracer as rt
+from mitsuba_scenes import to_mitsuba
+from mitsuba_scenes.render import mesh_merge_safe
+from mitsuba_scenes.variants import select_variant, versions
+from reference_tracer.cpus import default_threads
+
 __all__ = ["WALL_CLOCK_NOTE", "environment", "timed", "median", "spread", "median_order_interval",
            "median_coverage", "rounds_for_coverage", "name_list", "use_variant",
            "available_variants", "check_jit_variant", "mitsuba_versions", "mitsuba_render_fn", "load_mitsuba"]
@@ -203,13 +209,10 @@ def environment() -> dict:
     >>> sorted(environment())[:3]
     ['cpu_count', 'loadavg', 'machine']
     """
-    import reference_tracer as rt
-
     try:
         load = list(os.getloadavg())
     except OSError:
         load = None
-    from ..sweep.jobs import default_threads
 
     return {"cpu_count": default_threads(), "loadavg": load, "machine": platform.machine(),
             "python": platform.python_version(), "reference_tracer": getattr(rt, "__version__", None),
@@ -221,8 +224,6 @@ def use_variant(variant, threads=None):
 
     Raises ``RuntimeError`` or ``ValueError`` when the variant does not work here.
     """
-    from mitsuba_scenes.variants import select_variant
-
     select_variant(variant)
     import drjit as dr
     import mitsuba as mi
@@ -268,8 +269,6 @@ def check_jit_variant(variant, benchmark, log):
 def mitsuba_versions() -> dict:
     """Mitsuba's and Dr.Jit's versions, the libLLVM in use and its kernels' target
     (``llvm_target``: CPU and vector width, None where the LLVM backend did not run)."""
-    from mitsuba_scenes.variants import versions
-
     v = versions()
     return {"mitsuba": v["mitsuba"], "drjit": v["drjit"], "libllvm": os.environ.get("DRJIT_LIBLLVM_PATH"),
             "llvm_target": v["llvm_target"]}
@@ -290,9 +289,6 @@ def load_mitsuba(variant, scene, threads, *, check_merge=True):
     turned off where it would flip normals); ``False`` keeps Mitsuba's defaults (the ray
     benchmark's lone torus).
     """
-    from mitsuba_scenes import to_mitsuba
-    from mitsuba_scenes.render import mesh_merge_safe
-
     mi, _ = use_variant(variant, threads)
     kwargs = {"optimize": mesh_merge_safe(scene)} if check_merge else {}
     mscene, load, _ = timed(lambda: mi.load_dict(to_mitsuba(scene), **kwargs))

@@ -19,7 +19,9 @@ import math
 
 import numpy as np
 
-from reference_tracer._validate import positive_int
+import reference_tracer as rt
+from reference_tracer.probe import core_scene
+from reference_tracer.validation import positive_int
 
 from .common import (check_jit_variant, environment, load_mitsuba, median, mitsuba_versions, name_list, timed,
                      use_variant)
@@ -89,8 +91,6 @@ def mesh_scene(triangles: int, *, seed: int = 0, width: int = 64, height: int = 
     >>> len(mesh_scene(1000).shapes)
     1
     """
-    import reference_tracer as rt
-
     v, f = torus_mesh(triangles, seed=seed)
     cam = rt.Camera(width=width, height=height, **_CAM)
     return rt.Scene(camera=cam, shapes=[rt.Mesh(v, f, rt.Lambertian(0.5))], max_depth=8,
@@ -306,8 +306,6 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
         ``build_seconds`` and ``build_seconds_per_mtri``, Mitsuba's ``load_seconds``
         and ``first_call_seconds``; plus ``config``, ``environment``, ``mitsuba``.
     """
-    from reference_tracer.render import core_scene
-
     sizes = [positive_int("triangles", t, minimum=32)
              for t in (triangles if not isinstance(triangles, (int, np.integer)) else [triangles])]
     if not sizes:

@@ -29,13 +29,24 @@ Examples
 """
 from __future__ import annotations
 
+import dataclasses
 import math
+import resource
 
 import numpy as np
 
-from benchmarks.constants import MITSUBA_STRATEGY, STRATEGIES, UNBIASED_STRATEGIES
-from benchmarks.external import STRATEGY as EXTERNAL_STRATEGY
-from reference_tracer._validate import positive_int
+import reference_tracer as rt
+from mitsuba_scenes import MitsubaRender, get_scene, known_scenes
+from mitsuba_scenes.render import batch_seeds
+from reference_tracer import INTEGRATORS
+from reference_tracer.probe import core_scene
+from reference_tracer.validation import positive_int
+
+from ..constants import MITSUBA_STRATEGY, STRATEGIES, UNBIASED_STRATEGIES
+from ..external import STRATEGY as EXTERNAL_STRATEGY
+from ..external import render_external
+from ..metrics import efficiency, mse, mse_corrected
+from ..references import reference
 
 from .common import (available_variants, environment, load_mitsuba, median, mitsuba_render_fn, mitsuba_versions,
                      name_list, spread, timed, use_variant)
@@ -155,9 +166,6 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
 def _render_config(scenes, *, width, height, spp, threads, repeats, strategies, integrators, variants, reference,
                    reference_spp, seed) -> dict:
     """The validated settings, as stored under ``config``; ``ValueError`` names a bad one."""
-    from mitsuba_scenes import known_scenes
-    from reference_tracer import INTEGRATORS
-
     scenes = name_list("scenes", scenes, known_scenes())
     strategies = name_list("strategies", strategies, STRATEGIES)
     integrators = name_list("integrators", integrators, INTEGRATORS)
@@ -205,8 +213,6 @@ def rr_label(rr_depth) -> str:
 
 def _with_depths(scene, max_depth, rr_depth):
     """``scene`` with ``max_depth`` (None keeps) and ``rr_depth`` (``'scene'`` keeps) set."""
-    import dataclasses
-
     if max_depth is None and rr_depth == "scene":
         return scene
     return dataclasses.replace(scene, max_depth=scene.max_depth if max_depth is None else max_depth,
@@ -215,10 +221,6 @@ def _with_depths(scene, max_depth, rr_depth):
 
 def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cache, log, externals=()):
     """Set up, time and summarise one scene in every Russian-roulette configuration."""
-    import reference_tracer as rt
-    from mitsuba_scenes import get_scene
-    from reference_tracer.render import core_scene
-
     width, height, spp, threads = config["width"], config["height"], config["spp"], config["threads"]
     base = _with_depths(get_scene(name).with_camera_size(width, height), max_depth, "scene")
     # set-up, untimed: our BVH build, the reference (one per scene: roulette keeps the expectation)
@@ -260,11 +262,7 @@ def _reference(scene, *, kind, spp, variant, threads, cache, log):
     record : dict
         ``spp``, ``kind``, ``variant``, ``cached``, ``seconds`` (of this call), ``label``.
     """
-    import reference_tracer as rt
-
     if kind == "mitsuba":
-        from benchmarks.references import reference
-
         ref, took, _ = timed(lambda: reference(scene, spp=spp, variant=variant, threads=threads, cache=cache,
                                                log=log))
         if log and not ref.cached:
@@ -297,8 +295,6 @@ def _warm_mitsuba(scene, variants, *, spp, threads, log):
 def _warm_externals(scene, externals, *, spp, log):
     """One small untimed run of each external renderer: a command that fails does so here,
     before any timing, with its own message."""
-    from benchmarks.external import render_external
-
     for ext in externals:
         _, secs = render_external(ext, scene, spp=max(1, spp // 8), seed=0x5EED)
         if log:
@@ -310,8 +306,6 @@ def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, ext
 
     Each run record is appended to ``runs`` as well.
     """
-    from mitsuba_scenes.render import batch_seeds
-
     spp, threads, seed = config["spp"], config["threads"], config["seed"]
     ours = [(s, i) for s in config["strategies"] for i in config.get("integrators", ["wavefront"])]
     width, height, repeats = config["width"], config["height"], config["repeats"]
@@ -359,8 +353,6 @@ def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, ext
 
 def _ours_run(scene, *, spp, strategy, integrator="wavefront", seed, threads, ref):
     """One timed render of ours; its run record (:func:`_run_record`)."""
-    import reference_tracer as rt
-
     r, wall, cpu = timed(lambda: rt.render(scene, spp=spp, strategy=strategy, seed=seed, threads=threads,
                                            integrator=integrator))
     return _run_record(r, wall=wall, cpu=cpu, ref=ref, rays=r.rays, nonfinite=r.nonfinite_samples)
@@ -368,8 +360,6 @@ def _ours_run(scene, *, spp, strategy, integrator="wavefront", seed, threads, re
 
 def _mitsuba_run(variant, mscene, *, spp, seed, threads, ref, shape):
     """One timed render of Mitsuba (wall time of the call); its run record."""
-    from mitsuba_scenes import MitsubaRender
-
     mi, _ = use_variant(variant, threads)
     img, wall, cpu = timed(mitsuba_render_fn(mi, mscene, spp, seed))
     if img.shape != shape:
@@ -384,11 +374,6 @@ def _external_run(ext, scene, *, spp, seed, ref):
     """One timed run of an external renderer (wall time of the command); its run record.
 
     The CPU time is the child processes' (``RUSAGE_CHILDREN``), not this process's."""
-    import resource
-
-    import reference_tracer as rt
-    from benchmarks.external import render_external
-
     def children_cpu():
         u = resource.getrusage(resource.RUSAGE_CHILDREN)
         return u.ru_utime + u.ru_stime
@@ -407,8 +392,6 @@ def _run_record(est, *, wall, cpu, ref, rays, nonfinite) -> dict:
     ``wall`` and ``cpu`` the call's wall and process CPU time, ``rays`` the rays cast
     (None when not counted).
     """
-    from benchmarks.metrics import mse, mse_corrected
-
     secs = est.seconds
     paths = est.height * est.width * est.spp
     raw = mse(est.mean, ref.mean)
@@ -423,8 +406,6 @@ def _run_record(est, *, wall, cpu, ref, rays, nonfinite) -> dict:
 
 def _efficiency(mse_value, seconds):
     """1 / (MSE * seconds); NaN when the (noise-corrected) MSE is not positive."""
-    from benchmarks.metrics import efficiency
-
     if not (math.isfinite(mse_value) and mse_value > 0 and seconds > 0):
         return float("nan")
     return efficiency(mse_value, seconds)

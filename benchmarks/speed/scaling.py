@@ -18,9 +18,13 @@ import math
 
 import numpy as np
 
-from benchmarks.constants import STRATEGIES
-from benchmarks.metrics import convergence_slope
-from reference_tracer._validate import positive_int
+import reference_tracer as rt
+from mitsuba_scenes import get_scene, list_scenes
+from reference_tracer.probe import core_scene
+from reference_tracer.validation import positive_int
+
+from ..constants import STRATEGIES
+from ..metrics import convergence_slope
 
 from .common import (check_jit_variant, environment, load_mitsuba, median, mitsuba_render_fn, spread, timed,
                      use_variant)
@@ -61,8 +65,6 @@ def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128), 
         ``fits``: :func:`fit_log_growth` of ours' (and Mitsuba's) ns per ray on
         triangle count.
     """
-    from mitsuba_scenes import get_scene, list_scenes
-
     if scene not in list_scenes():
         raise ValueError(f"unknown scene {scene!r}; the suite has: {', '.join(list_scenes())}")
     resolutions = sorted({positive_int("resolution", r) for r in resolutions})
@@ -102,9 +104,6 @@ def _paths_per_second(sc, *, spp, threads, strategy, seed, repeats, variant) -> 
 
     Both get a warm-up render first; then ``repeats`` interleaved rounds.
     """
-    import reference_tracer as rt
-    from reference_tracer.render import core_scene
-
     core_scene(sc)
     rt.render(sc, spp=1, strategy=strategy, seed=1, threads=threads)   # warm-up
     mscene = None
@@ -171,8 +170,6 @@ def _thread_rows(base, thread_counts, *, resolution, spp, measure, log) -> list:
 
 def _mesh_rows(sizes, *, rays, mesh_spp, threads, repeats, seed, variant, measure, log) -> list:
     """Random-ray cost and lit-render paths/s of a torus of each size (Mitsuba's too unless None)."""
-    from reference_tracer.render import core_scene
-
     rows = []
     for n_target in sizes:
         lit = mesh_scene(n_target, seed=seed, lit=True)

@@ -51,6 +51,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from mitsuba_scenes import list_scenes
+
 from .common import median_order_interval
 from .suite import GEOMEAN, round_geometric_means
 
@@ -247,8 +249,6 @@ def render_verdicts(result, *, suite_scenes=None) -> list:
     ['met', 'met', 'not judged', 'not judged']
     """
     if suite_scenes is None:
-        from mitsuba_scenes import list_scenes
-
         suite_scenes = list_scenes()
     suite_scenes = list(suite_scenes)
     if not suite_scenes:

@@ -9,7 +9,7 @@ import time
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.render import core_scene
+from reference_tracer.probe import core_scene
 
 from .probes import contiguous, count_escapes, edge_and_vertex_rays, icosphere, probe_scene
 from .record import StressRecord, make_record
@@ -19,14 +19,9 @@ __all__ = ["degenerate_input", "same_box_triangles"]
 
 def _build_seconds(scene: rt.Scene, repeats: int) -> tuple:
     """Minimum C++ build time over ``repeats`` fresh builds, and the last core scene."""
-    # Straight to the core (not core_scene, which caches): every repeat must build afresh.
-    from reference_tracer import _core
-    from reference_tracer._compile import compile_scene
-
-    kwargs = compile_scene(scene)
     best, core = math.inf, None
     for _ in range(repeats):
-        core = _core.Scene(**kwargs, triangle_test=0)
+        core = core_scene(scene, cached=False)  # every repeat builds afresh
         best = min(best, core.build_seconds)
     return best, core
 

@@ -6,7 +6,10 @@ import time
 import numpy as np
 
 import reference_tracer as rt
-from benchmarks.constants import LUMINANCE_WEIGHTS
+from mitsuba_scenes import get_scene, list_scenes
+from mitsuba_scenes.scenes.cornell_box import LIGHT_RADIANCE, camera, ceiling_light, room, short_box, tall_box
+
+from ..constants import LUMINANCE_WEIGHTS
 
 from .record import StressRecord, make_record
 
@@ -15,11 +18,8 @@ __all__ = ["fireflies", "firefly_counts", "small_light_scene"]
 
 def small_light_scene(*, width: int = 64, height: int | None = None, max_depth: int = 50) -> rt.Scene:
     """The suite's ``small_light`` scene (its own build when the suite has not got it yet)."""
-    from mitsuba_scenes import get_scene, list_scenes
-
     if "small_light" in list_scenes():
         return get_scene("small_light", width=width, height=height or width, max_depth=max_depth)
-    from mitsuba_scenes.scenes.cornell_box import LIGHT_RADIANCE, camera, ceiling_light, room, short_box, tall_box
 
     shrink = 5
     cx, cz, w, d = 278.0, 279.5, 130.0 / shrink, 105.0 / shrink

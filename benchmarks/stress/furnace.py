@@ -8,6 +8,8 @@ import time
 import numpy as np
 
 import reference_tracer as rt
+from mitsuba_scenes import get_scene, list_scenes
+from mitsuba_scenes.scenes.furnace import ALBEDO, RADIANCE, expected_radiance
 
 from .probes import creased_furnace_scene, white_furnace_scene
 from .record import StressRecord, make_record
@@ -37,16 +39,12 @@ def white_furnace(*, width: int = 24, spp: int = 64, seed: int = 0) -> StressRec
       per sample (``light`` at its own closed form Le (1 + rho), the direct part only);
       ``uniform`` in expectation (global test; weight 2 cos over up to n bounces).
     """
-    from mitsuba_scenes import get_scene, list_scenes
-
     t0 = time.perf_counter()
     plan = [("sphere", white_furnace_scene(width=width), {"cosine": ("exact", 1.0), "uniform": ("expect", 1.0),
              "light": ("expect", 1.0), "mixture": ("expect", 1.0), "mis": ("expect", 1.0)}),
             ("creased", creased_furnace_scene(width=width), {"cosine": ("exact", 1.0), "mis": ("expect", 1.0),
              "uniform": ("global", 1.0), "mixture": ("global", 1.0)})]
     if "furnace" in list_scenes():
-        from mitsuba_scenes.scenes.furnace import ALBEDO, RADIANCE, expected_radiance
-
         scene = get_scene("furnace", width=width, height=width)
         exact = expected_radiance(max_depth=scene.max_depth)
         direct = expected_radiance(max_depth=min(2, scene.max_depth))   # Le (1 + rho)

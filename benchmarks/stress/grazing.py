@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.render import core_scene
+from reference_tracer.probe import core_scene
 
 from .exact import classify_rays
 from .probes import contiguous, probe_scene

@@ -9,7 +9,7 @@ import time
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.render import core_scene
+from reference_tracer.probe import core_scene
 
 from .probes import contiguous, probe_scene
 from .record import StressRecord, make_record

@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.render import core_scene
+from reference_tracer.probe import core_scene
 
 __all__ = [
     "contiguous", "probe_scene", "icosphere", "edge_and_vertex_rays", "count_escapes", "transform_scene",

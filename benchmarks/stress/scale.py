@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 
 import reference_tracer as rt
+from mitsuba_scenes import get_scene
 
 from .probes import creased_furnace_scene, transform_scene
 from .record import StressRecord, make_record
@@ -37,8 +38,6 @@ def scale_invariance(*, width: int = 32, spp: int = 64, strategies=("mis",), fur
     that stays exact. (An earlier offset of 1e-9 (1 + max |p|) closed the creases up near
     1e-8; float64 hit points within a few ulps of the surface allow far smaller ratios.)
     """
-    from mitsuba_scenes import get_scene
-
     t0 = time.perf_counter()
     base_scene = get_scene("cornell_box", width=width, height=width)
     comparisons, nonfinite = {}, 0

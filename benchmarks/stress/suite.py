@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 
 import reference_tracer as rt
+from mitsuba_scenes import get_scene, list_scenes
 
 from .record import StressRecord, make_record
 
@@ -13,8 +14,6 @@ __all__ = ["suite_nonfinite"]
 
 def suite_nonfinite(*, width: int = 16, spp: int = 4, seed: int = 0) -> StressRecord:
     """Every suite scene under every strategy (and Cramer's tests for meshes): NaN/Inf samples."""
-    from mitsuba_scenes import get_scene, list_scenes
-
     t0 = time.perf_counter()
     counts, renders = {}, 0
     for name in list_scenes():

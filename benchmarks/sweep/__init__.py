@@ -49,13 +49,12 @@ from __future__ import annotations
 from ..constants import BIAS_TEST_ALPHA, MITSUBA_STRATEGY
 from .coerce import as_float, finite
 from .execute import TIMING_FIELDS, execute_job, job_metrics, machine_info, reference_info, run_versions
-from .jobs import (Group, Job, check_int, check_int_list, default_threads, image_paths, make_jobs, render_seed,
-                   scene_at, validate_group)
+from .jobs import Group, Job, check_int, check_int_list, image_paths, make_jobs, render_seed, validate_group
 from .run import SweepResult, prepare_references, run_sweep
 from .summary import TARGET_RELATIVE_RMSE, _bias_verdict, summarize, target_rmse  # noqa: F401 - _bias_verdict: tests
 
 __all__ = ["Job", "Group", "SweepResult", "MITSUBA_STRATEGY", "DEFAULT_ALPHA", "TARGET_RELATIVE_RMSE",
-           "TIMING_FIELDS", "make_jobs", "render_seed", "default_threads", "scene_at", "validate_group",
+           "TIMING_FIELDS", "make_jobs", "render_seed", "validate_group",
            "image_paths", "check_int", "check_int_list", "execute_job", "job_metrics", "reference_info",
            "prepare_references", "run_sweep", "summarize", "target_rmse", "machine_info", "run_versions",
            "finite", "as_float"]

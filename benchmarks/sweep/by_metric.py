@@ -2,10 +2,10 @@
 
 ``summary.json``'s top-level ``slope``, ``efficiency`` and ``time_to_target`` are RMSE's
 (as before). Each row also holds ``by_metric``: the same three figures under every metric
-of :data:`SPECS`, so a report or a table can switch metric without re-rendering
-(:func:`view`). Efficiency and time to target are only meaningful for an estimator with
-no bias detected: :func:`cost_status` says "biased" or "undetermined" where a table must
-show that word instead of a number.
+of :data:`benchmarks.metrics.SPECS`, so a report or a table can switch metric without
+re-rendering (:func:`benchmarks.metrics.view`). Efficiency and time to target are only
+meaningful for an estimator with no bias detected: :func:`benchmarks.metrics.cost_status`
+says "biased" or "undetermined" where a table must show that word instead of a number.
 
 Errors per metric, each a mean over the seeds at one spp:
 
@@ -25,58 +25,17 @@ interpolated (RMSE: the scene's target RMSE; relMSE 0.01, i.e. 10% relative RMS 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from .. import metrics as M
 from ..constants import MIN_SLOPE_BUDGETS, RELMSE_EPS
+from ..metrics.specs import METRICS, SPECS
 from .coerce import as_float
 from .jobs import mitsuba_pairs
 
-__all__ = ["MetricSpec", "SPECS", "METRICS", "DEFAULT_METRIC", "require_metric", "relative_noise", "curve_errors",
-           "tail_variance_image", "metric_figures", "curve_metrics",
-           "add_metric_ratios", "view", "cost_status", "COST_FIELDS"]
-
-
-@dataclass(frozen=True)
-class MetricSpec:
-    """How one metric enters the summary."""
-
-    name: str
-    label: str            # what plots and tables call the error
-    field: str            # record field
-    unbiased_slope: float | None
-    target: float | None  # None: the scene's target RMSE
-    note: str
-
-
-SPECS = {
-    "rmse": MetricSpec("rmse", "RMSE", "mse_corrected", -0.5, None,
-                       "sqrt of the seed-mean reference-noise-corrected MSE"),
-    "relmse": MetricSpec("relmse", "relMSE", "relmse", -1.0, 0.01,
-                         f"seed-mean relMSE (eps {RELMSE_EPS:g}) minus the reference's own relative noise"),
-    "ssim": MetricSpec("ssim", "1 - SSIM", "ssim", None, 0.05, "seed-mean 1 - SSIM of the display images"),
-    "flip": MetricSpec("flip", "FLIP", "flip", None, 0.05, "seed-mean LDR-FLIP of the display images"),
-}
-METRICS = tuple(SPECS)
-DEFAULT_METRIC = "relmse"
-#: the figures a metric changes in a summary row.
-COST_FIELDS = ("slope", "slope_ci", "slope_range", "slope_steep", "efficiency", "efficiency_vs_mitsuba",
-               "time_to_target", "target")
-
-
-def require_metric(metric: str) -> MetricSpec:
-    """The spec of ``metric``; ``ValueError`` for an unknown one or for FLIP without its package.
-
-    >>> require_metric("relmse").unbiased_slope
-    -1.0
-    """
-    if metric not in SPECS:
-        raise ValueError(f"unknown metric {metric!r}; choose from {', '.join(METRICS)}")
-    if metric == "flip" and not M.flip_available():
-        raise ValueError(f"--metric flip needs NVIDIA's FLIP: pip install {M.FLIP_PACKAGE}")
-    return SPECS[metric]
+__all__ = ["relative_noise", "curve_errors", "tail_variance_image", "metric_figures", "curve_metrics",
+           "add_metric_ratios"]
 
 
 def relative_noise(ref) -> float:
@@ -190,44 +149,3 @@ def add_metric_ratios(rows) -> None:
             other = ((m or {}).get("by_metric") or {}).get(name) or {}
             a, b = as_float(fig.get("efficiency")), as_float(other.get("efficiency"))
             fig["efficiency_vs_mitsuba"] = a / b if math.isfinite(a) and math.isfinite(b) and b > 0 else None
-
-
-def cost_status(row: dict) -> str | None:
-    """``'biased'`` or ``'undetermined'`` where efficiency and time to target must not be shown, else None.
-
-    >>> cost_status({"bias_verdict": "fail", "bias_significant": True}), cost_status({"bias_verdict": "pass"})
-    ('biased', None)
-    >>> cost_status({"bias_verdict": "undetermined", "bias_significant": None})
-    'undetermined'
-    """
-    if row.get("bias_significant") is True or row.get("bias_verdict") == "fail":
-        return "biased"
-    if row.get("bias_verdict") == "undetermined":
-        return "undetermined"
-    return None
-
-
-def view(row: dict, metric: str = DEFAULT_METRIC) -> dict:
-    """``row`` with the figures of :data:`COST_FIELDS` under ``metric`` (RMSE's are the top-level ones).
-
-    Adds ``metric``, ``metric_label``, ``unbiased_slope`` and ``cost_status``. A row written
-    before ``by_metric`` existed keeps its RMSE figures only under ``rmse``; other metrics
-    then read as null.
-
-    >>> r = {"slope": -0.5, "target_rmse": 0.1, "by_metric": {"relmse": {"slope": -1.0, "target": 0.01}}}
-    >>> v = view(r, "relmse"); v["slope"], v["target"], v["metric_label"]
-    (-1.0, 0.01, 'relMSE')
-    >>> view(r, "rmse")["target"]
-    0.1
-    """
-    spec = SPECS[metric]
-    out = dict(row)
-    if metric == "rmse":
-        out["target"] = row.get("target_rmse")
-    else:
-        fig = (row.get("by_metric") or {}).get(metric) or {}
-        for k in COST_FIELDS:
-            out[k] = fig.get(k)
-    out.update(metric=metric, metric_label=spec.label, unbiased_slope=spec.unbiased_slope,
-               cost_status=cost_status(row))
-    return out

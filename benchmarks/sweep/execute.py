@@ -6,21 +6,33 @@ recorded with every job and in ``meta.json``.
 """
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import math
 import platform
 import socket
 import time
+from importlib.metadata import version
 
 import numpy as np
 
+import mitsuba_scenes
+import reference_tracer as rt
+from mitsuba_scenes.scene_files import restore_registry
+from mitsuba_scenes.scene_files import scene_file as registered_scene_file
+from mitsuba_scenes.variants import select_variant, versions
+from reference_tracer.build import git_describe
+from reference_tracer.cpus import default_threads
+
 from .. import metrics as M
+from .. import external as externals
 from ..constants import MITSUBA_DIRECT, MITSUBA_STRATEGY
+from ..scenes import scene_at, scene_info
 from ..store import KEY_FIELDS
 from .coerce import finite
-from .jobs import Job, default_threads, image_paths, render_seed, scene_at
+from .jobs import Job, image_paths, render_seed
 
-__all__ = ["TIMING_FIELDS", "mitsuba_scene", "job_metrics", "scene_info", "execute_job", "reference_info", "run_versions", "machine_info"]
+__all__ = ["TIMING_FIELDS", "mitsuba_scene", "job_metrics", "execute_job", "reference_info", "run_versions", "machine_info"]
 
 #: record fields that depend on timing, the machine or the checkout (ignore them to compare two runs):
 #: ``build_git`` (git describe) changes with any commit, the build id only with the tracer.
@@ -68,31 +80,9 @@ def reference_info(reference) -> dict:
     return {"spp": reference.spp, "seed": reference.seed, "key": reference.key, "variant": reference.variant}
 
 
-def scene_info(name: str, scene) -> dict:
-    """What a record says of its scene: content hash and, for a scene file, its path and parameters.
-
-    Examples
-    --------
-    >>> from mitsuba_scenes import get_scene
-    >>> info = scene_info("furnace", get_scene("furnace", width=4, height=4))
-    >>> len(info["scene_hash"]), info["scene_source"]
-    (16, None)
-    """
-    from mitsuba_scenes.scene_files import scene_file
-
-    entry = scene_file(name)
-    return {"scene_hash": scene.content_hash()[:16],
-            "scene_source": None if entry is None else entry.path,
-            "scene_params": None if entry is None or not entry.params else dict(entry.params)}
-
-
 def mitsuba_scene(scene, strategy: str):
     """``scene`` as Mitsuba renders curve ``strategy``: as it is (``path``), or for a scene with
     the ``direct`` integrator with the sample counts of :data:`MITSUBA_DIRECT`'s strategy."""
-    import dataclasses
-
-    import reference_tracer as rt
-
     direct = getattr(scene, "direct", None)
     if strategy == MITSUBA_STRATEGY and direct is None:
         return scene
@@ -105,46 +95,33 @@ def mitsuba_scene(scene, strategy: str):
 def _render(job: Job, scene, rseed: int, *, threads: int, variant) -> tuple:
     """``(mean, variance or None, seconds, extra record fields)`` of the job's render."""
     if job.renderer == "ours":
-        import reference_tracer as rt
-
         res = rt.render(scene, spp=job.spp, strategy=job.strategy,
                         seed=rseed, threads=threads)
         extra = {"rays": int(res.rays), "nonfinite_samples": int(res.nonfinite_samples),
                  "build_seconds": float(res.build_seconds)}
         return res.mean, res.variance, float(res.seconds), extra
     if job.renderer == "mitsuba":
-        from mitsuba_scenes import render_mitsuba
-
         scene = mitsuba_scene(scene, job.strategy)
-        out = render_mitsuba(scene, spp=job.spp, seed=rseed,
-                             variant=variant, threads=threads, batches=1)
+        out = mitsuba_scenes.render_mitsuba(scene, spp=job.spp, seed=rseed,
+                                            variant=variant, threads=threads, batches=1)
         extra = {"rays": None, "nonfinite_samples": None, "compile_seconds": float(out.compile_seconds),
                  "load_seconds": float(out.load_seconds)}
         # one batch at the full spp: no per-pixel variance (summary.json has the between-seed one)
         return out.mean, None, float(out.seconds), extra
-    from ..external import external, render_external
 
-    ext = external(job.renderer)
+    ext = externals.external(job.renderer)
     if ext is not None:
-        mean, seconds = render_external(ext, scene, spp=job.spp, seed=rseed & 0x7FFFFFFF)
+        mean, seconds = externals.render_external(ext, scene, spp=job.spp, seed=rseed & 0x7FFFFFFF)
         return mean, None, seconds, {"rays": None, "nonfinite_samples": int((~np.isfinite(mean)).sum())}
     raise ValueError(f"renderer must be 'ours', 'mitsuba' or a registered external renderer, got {job.renderer!r}")
 
 
 def _register_here(scene_file, external) -> None:
     """Register the job's scene file and external renderer in this process if missing."""
-    if scene_file is not None:
-        from mitsuba_scenes.scene_files import restore_registry
-        from mitsuba_scenes.scene_files import scene_file as registered_scene_file
-
-        if registered_scene_file(scene_file.name) is None:
-            restore_registry([scene_file])
-    if external is not None:
-        from ..external import external as registered_external
-        from ..external import restore_externals
-
-        if registered_external(external.name) is None:
-            restore_externals([external])
+    if scene_file is not None and registered_scene_file(scene_file.name) is None:
+        restore_registry([scene_file])
+    if external is not None and externals.external(external.name) is None:
+        externals.restore_externals([external])
 
 
 def _check_build(job: Job) -> dict:
@@ -152,9 +129,6 @@ def _check_build(job: Job) -> dict:
     than the job was planned with (a Dask worker running other code than the client)."""
     if job.renderer != "ours":
         return {"build": job.build, "build_git": None}
-    from reference_tracer.build import git_describe
-
-    import reference_tracer as rt
 
     here = rt.build_id()
     if job.build is not None and job.build != here:
@@ -233,16 +207,10 @@ def execute_job(job: Job, reference, *, threads: int, variant=None, keep_image: 
 
 def run_versions(variant: str | None = None) -> dict:
     """Versions recorded with every job: rtbench, our tracer, Mitsuba, Dr.Jit, variant, Python, NumPy."""
-    import reference_tracer as rt
-
     out = {"rtbench": _rtbench_version(), "reference_tracer": rt.__version__,
            "python": platform.python_version(), "numpy": np.__version__}
     try:
-        from mitsuba_scenes.variants import versions
-
         if variant is not None:
-            from mitsuba_scenes.variants import select_variant
-
             select_variant(variant)
         out.update({k: v for k, v in versions().items() if k != "libllvm"})
     except Exception:  # noqa: BLE001 - Mitsuba missing: ours-only records still carry versions
@@ -252,8 +220,6 @@ def run_versions(variant: str | None = None) -> dict:
 
 def _rtbench_version() -> str:
     try:
-        from importlib.metadata import version
-
         return version("rtbench")
     except Exception:  # noqa: BLE001
         return "unknown"

@@ -38,15 +38,9 @@ import math
 
 import numpy as np
 
-from ..constants import RELMSE_EPS
+from ..constants import BASELINE, RELMSE_EPS, VERDICT_STRATEGY
 
-__all__ = ["BASELINE", "VERDICT_STRATEGY", "Z95", "relative_noise_of", "ratio_ci", "add_noise_ratios",
-           "headline_rows"]
-
-#: the strategy every noise ratio is relative to.
-BASELINE = "light"
-#: our strategy whose bias test is the verdict "ours vs Mitsuba" (Mitsuba's ``path`` is MIS).
-VERDICT_STRATEGY = "mis"
+__all__ = ["Z95", "relative_noise_of", "ratio_ci", "add_noise_ratios", "headline_rows"]
 #: two-sided 95% normal quantile.
 Z95 = 1.959963984540054
 

@@ -11,13 +11,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from reference_tracer.cpus import cgroup_cpu_limit, default_threads
+import reference_tracer as rt
+from mitsuba_scenes import get_scene, known_scenes
 
 from ..constants import MITSUBA_DIRECT, MITSUBA_STRATEGY, STRATEGIES
+from ..external import STRATEGY as EXTERNAL
+from ..external import external, registered_externals
 from ..files import slug
 from ..store import KEY_FIELDS
 
-__all__ = ["Job", "Group", "validate_group", "make_jobs", "mitsuba_strategies", "mitsuba_twin", "mitsuba_pairs", "renderer_builds", "render_seed", "default_threads", "cgroup_cpu_limit", "scene_at",
+__all__ = ["Job", "Group", "validate_group", "make_jobs", "mitsuba_strategies", "mitsuba_twin", "mitsuba_pairs", "renderer_builds", "render_seed",
            "image_paths", "check_int", "check_int_list"]
 
 
@@ -148,8 +151,6 @@ def check_int_list(name: str, values, minimum: int = 1) -> tuple:
 
 def validate_group(g: Group) -> None:
     """Raise ``ValueError`` with a clear message for a malformed :class:`Group`."""
-    from mitsuba_scenes import known_scenes
-
     suite = known_scenes()
     if isinstance(g.scenes, str) or not g.scenes:
         raise ValueError(f"scenes must be a non-empty sequence of names, got {g.scenes!r}")
@@ -163,8 +164,6 @@ def validate_group(g: Group) -> None:
         raise ValueError(f"unknown strategy/strategies {bad}; choose from {', '.join(STRATEGIES)}")
     if len(set(g.strategies)) != len(tuple(g.strategies)):
         raise ValueError(f"strategies has repeated names: {list(g.strategies)}")
-    from ..external import external
-
     if isinstance(g.externals, str) or any(external(e) is None for e in g.externals):
         raise ValueError(f"externals must name registered external renderers, got {g.externals!r}")
     if not g.strategies and not g.mitsuba and not g.externals:
@@ -186,7 +185,6 @@ def make_jobs(scenes, *, strategies, spps, seeds: int, width: int, height: int,
     (8, 'cornell_box 8x8 mis 1 spp seed 0')
     """
     spps = check_int_list("spps", spps)
-    from ..external import STRATEGY as EXTERNAL
 
     ours = [("ours", s) for s in strategies]
     others = [(e, EXTERNAL) for e in externals]
@@ -206,8 +204,6 @@ def mitsuba_strategies(scene: str) -> tuple:
     >>> mitsuba_strategies("cornell_box")
     ('path',)
     """
-    from mitsuba_scenes import get_scene
-
     return tuple(MITSUBA_DIRECT) if get_scene(scene).direct is not None else (MITSUBA_STRATEGY,)
 
 
@@ -255,10 +251,6 @@ def renderer_builds(variant: str | None, mitsuba_version: str | None) -> dict:
     >>> renderer_builds("scalar_rgb", "3.9.1")["mitsuba"]
     'mitsuba-3.9.1-scalar_rgb'
     """
-    import reference_tracer as rt
-
-    from ..external import registered_externals
-
     return {"ours": rt.build_id(), "mitsuba": f"mitsuba-{mitsuba_version}-{variant}",
             **{e.name: e.build for e in registered_externals()}}
 
@@ -273,13 +265,6 @@ def render_seed(seed: int, spp: int) -> int:
     """
     h = hashlib.sha256(f"rtbench-sweep:{int(seed)}:{int(spp)}".encode()).digest()
     return int.from_bytes(h[:8], "little") >> 2
-
-
-def scene_at(name: str, width: int, height: int):
-    """Suite scene ``name`` with its camera resized to ``width`` x ``height``."""
-    from mitsuba_scenes import get_scene
-
-    return get_scene(name).with_camera_size(int(width), int(height))
 
 
 def image_paths(job: Job) -> tuple:

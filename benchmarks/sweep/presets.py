@@ -29,8 +29,10 @@ Examples
 """
 from __future__ import annotations
 
+from mitsuba_scenes import known_scenes, list_scenes
+
 from ..constants import MITSUBA_STRATEGY, SEED_SCENE, SEED_SIZE, SEED_SPP, STRATEGIES
-from .jobs import Group
+from .jobs import Group, mitsuba_strategies
 
 __all__ = ["PRESETS", "SEED_SCENE", "preset_groups", "describe_preset", "escalates_tails"]
 
@@ -95,8 +97,6 @@ def preset_groups(name: str = "quick", *, scenes=None) -> list:
     >>> g.width, max(g.spps), g.seeds
     (256, 1024, 4)
     """
-    from mitsuba_scenes import known_scenes, list_scenes
-
     if name not in _SPECS:
         raise ValueError(f"unknown preset {name!r}; choose from {', '.join(PRESETS)}")
     suite = known_scenes()  # the suite and the registered scene files (--scene)
@@ -132,8 +132,6 @@ def describe_preset(name: str, *, scenes=None) -> str:
     for g in preset_groups(name, scenes=scenes):
         who = ", ".join(g.strategies)
         if g.mitsuba:
-            from .jobs import mitsuba_strategies
-
             kinds = {"path" if mitsuba_strategies(s) == (MITSUBA_STRATEGY,) else
                      "direct (BSDF, emitter and MIS samples)" for s in g.scenes}
             who += " + Mitsuba " + " / ".join(sorted(kinds, reverse=True))

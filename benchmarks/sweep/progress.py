@@ -9,7 +9,12 @@ machine. Steps already done (a cached reference, a job of a resumed run) are not
 """
 from __future__ import annotations
 
+import os
 import time
+
+from rich import progress as rich_progress
+from rich.console import Console
+from rich.table import Column
 
 __all__ = ["Progress", "Phases", "render_cost", "process_seconds", "OURS_US_PER_SAMPLE", "MITSUBA_US_PER_SAMPLE"]
 
@@ -19,8 +24,6 @@ _IMPORTED = time.time()
 def process_seconds() -> float:
     """Wall seconds since this process started (Linux: ``/proc``; elsewhere since this module
     was imported), so that a run's total is the one ``time`` gives, start-up included."""
-    import os
-
     try:
         with open("/proc/self/stat") as f:
             start_ticks = int(f.read().rsplit(")", 1)[1].split()[19])
@@ -61,16 +64,15 @@ class Progress:
         self._console = console
 
     def _start(self):
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-        from rich.table import Column
-
-        self.progress = Progress(TextColumn("[bold]{task.fields[steps]}[/] steps", table_column=Column(no_wrap=True)),
-                                 BarColumn(bar_width=24), TimeElapsedColumn(table_column=Column(no_wrap=True)),
-                                 TextColumn("left", table_column=Column(no_wrap=True)),
-                                 TimeRemainingColumn(table_column=Column(no_wrap=True)),
-                                 TextColumn("{task.description}", table_column=Column(
-                                     ratio=1, no_wrap=True, overflow="ellipsis")),
-                                 console=self._console, transient=False, speed_estimate_period=120)
+        rp = rich_progress
+        self.progress = rp.Progress(rp.TextColumn("[bold]{task.fields[steps]}[/] steps",
+                                                  table_column=Column(no_wrap=True)),
+                                    rp.BarColumn(bar_width=24), rp.TimeElapsedColumn(table_column=Column(no_wrap=True)),
+                                    rp.TextColumn("left", table_column=Column(no_wrap=True)),
+                                    rp.TimeRemainingColumn(table_column=Column(no_wrap=True)),
+                                    rp.TextColumn("{task.description}", table_column=Column(
+                                        ratio=1, no_wrap=True, overflow="ellipsis")),
+                                    console=self._console, transient=False, speed_estimate_period=120)
         self.task = self.progress.add_task("", total=max(self.cost_total, 1e-9), steps=self._steps())
         self.progress.start()
         self._started = True
@@ -102,8 +104,6 @@ class Progress:
         if self.enabled and self._started:
             self.progress.console.print(text, highlight=False, markup=False, soft_wrap=True)
         elif self.enabled:
-            from rich.console import Console
-
             (self._console or Console(stderr=True)).print(text, highlight=False, markup=False, soft_wrap=True)
 
     def stop(self) -> None:

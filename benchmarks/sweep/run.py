@@ -14,14 +14,22 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mitsuba_scenes.scene_files import scene_file
+from rich.console import Console
+from reference_tracer.cpus import default_threads
+
+from .. import references as R
+from .. import tails as T
 from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM
 from ..external import external
 from ..files import slug
 from ..references import closed_form_reference_of, mitsuba_identity, reference
+from ..scenes import scene_at
 from ..store import (META, file_sha256, finished_keys, job_records, read_json, read_records, record_key,
                      store_path, update_meta, write_image, writer_lock)
+from ..tails import DEFAULT_TAIL_SPP
 from .execute import machine_info, run_versions
-from .jobs import Group, check_int, default_threads, renderer_builds, scene_at
+from .jobs import Group, check_int, renderer_builds
 from .progress import Phases, Progress, render_cost
 from .runners import run_dask, run_local
 from .summary import TARGET_RELATIVE_RMSE, summarize
@@ -110,10 +118,6 @@ def _reference_cost(g, cached: bool) -> float:
 def _plan_progress(bar, groups, todo, *, variant, cache) -> dict:
     """Plan every step of the run on ``bar``: references, jobs, tail references (cached ones
     cost a read); returns ``{(scene, strategy, width, height): cost}`` of the tail references."""
-    from ..references import is_cached as reference_cached
-    from ..tails import DEFAULT_TAIL_SPP
-    from ..tails import is_cached as tail_cached
-
     seen = set()
     for g in groups:
         for scene in g.scenes:
@@ -121,8 +125,8 @@ def _plan_progress(bar, groups, todo, *, variant, cache) -> dict:
                 continue
             seen.add((scene, g.width, g.height))
             closed = closed_form_reference_of(scene, g.width, g.height) is not None
-            cached = closed or reference_cached(scene_at(scene, g.width, g.height), spp=g.reference_spp,
-                                                variant=variant, cache=cache)
+            cached = closed or R.is_cached(scene_at(scene, g.width, g.height), spp=g.reference_spp,
+                                           variant=variant, cache=cache)
             bar.plan(_reference_cost(g, cached))
     bar.plan(sum(j.cost for j in todo), len(todo))
     tails = {}
@@ -134,7 +138,7 @@ def _plan_progress(bar, groups, todo, *, variant, cache) -> dict:
             for strategy in g.strategies:
                 key = (scene, strategy, g.width, g.height)
                 if key not in tails:
-                    cached = tail_cached(scene_obj, strategy=strategy, cache=cache)
+                    cached = T.is_cached(scene_obj, strategy=strategy, cache=cache)
                     tails[key] = 0.05 if cached else render_cost(g.width * g.height, DEFAULT_TAIL_SPP)
     bar.plan(sum(tails.values()), len(tails))
     return tails
@@ -142,8 +146,6 @@ def _plan_progress(bar, groups, todo, *, variant, cache) -> dict:
 
 def _source_of(name: str):
     """The path of scene file ``name`` (``--scene``), or None for a suite scene."""
-    from mitsuba_scenes.scene_files import scene_file
-
     entry = scene_file(name)
     return None if entry is None else entry.path
 
@@ -172,8 +174,6 @@ def _messages(progress: bool, console) -> tuple:
     """``(console, say)``: where messages go (stderr by default) and a ``say(text)`` that is
     silent unless ``progress``."""
     if progress and console is None:
-        from rich.console import Console
-
         console = Console(stderr=True)
 
     def say(text):
@@ -217,8 +217,6 @@ def _record_settings(store, groups, *, threads, scheduler, variant, preset, alph
 
 def _scene_files(groups) -> dict:
     """``{name: path, kind, params, hash}`` of the scene files (``--scene``) among the groups' scenes."""
-    from mitsuba_scenes.scene_files import scene_file
-
     names = dict.fromkeys(s for g in groups for s in g.scenes)
     return {n: scene_file(n).to_dict() for n in names if scene_file(n) is not None}
 

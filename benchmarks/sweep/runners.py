@@ -7,9 +7,13 @@ sweep loses nothing it finished. A failed job is reported and counted, never fat
 from __future__ import annotations
 
 import collections
+import inspect
 import time
 from pathlib import Path
 
+from mitsuba_scenes.scene_files import scene_file
+
+from ..external import external
 from ..store import append_record, write_image
 from .execute import execute_job
 
@@ -145,10 +149,6 @@ class _DaskQueue:
 
     def _submit(self, pending, pool, scattered) -> None:
         """Give each idle worker the next pending job, pinned to it."""
-        from mitsuba_scenes.scene_files import scene_file
-
-        from ..external import external
-
         for addr in list(pool):
             if addr in self.busy or not pending:
                 continue
@@ -190,8 +190,6 @@ class _DaskQueue:
 
 
 def _accepts_n_workers(client) -> bool:
-    import inspect
-
     try:
         return "n_workers" in inspect.signature(client.scheduler_info).parameters
     except (TypeError, ValueError):

@@ -11,16 +11,22 @@ import math
 from pathlib import Path
 
 import numpy as np
+from scipy import stats
 
 from reference_tracer.estimate import ImageEstimate
 
 from .. import metrics as M
+from .. import tails as T
 from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM, MIN_SLOPE_BUDGETS, MITSUBA_STRATEGY, RELMSE_EPS, STRATEGIES
+from ..gate import compare
+from ..gate.filtered import filter_weights
+from ..scenes import scene_at
 from ..store import META, SUMMARY, read_image, read_json, read_records, update_meta, write_json
+from ..tails import DEFAULT_MAX_TAIL_SAMPLES, DEFAULT_TAIL_SPP
 from .by_metric import add_metric_ratios, curve_metrics, tail_variance_image
 from .coerce import as_float
 from .headline import add_noise_ratios, headline_rows, relative_noise_of
-from .jobs import mitsuba_pairs, scene_at
+from .jobs import mitsuba_pairs
 from .progress import render_cost
 
 #: batches of a Mitsuba reference whose store entry does not say (``benchmarks.references``).
@@ -82,7 +88,6 @@ def _filtered_inputs(pixel_filter, mean, per_sample, tails) -> dict:
     noise taken as locally even)."""
     if pixel_filter is None or pixel_filter.is_box:
         return {}
-    from ..gate.filtered import filter_weights
 
     fw = filter_weights(pixel_filter)
     if tails is not None:
@@ -110,10 +115,6 @@ def _bias_verdict(imgs, vars_, spp, ref_mean, ref_var, ref_spp, *, alpha, tails=
     False or None accordingly. Without it only the tile and image levels are used (the
     older rule, which reads rare paths not yet sampled as bias).
     """
-    from scipy import stats
-
-    from ..gate import compare
-
     k = len(imgs)
     if k < 2:
         # One render's own sample variance is no basis for a verdict where the samples
@@ -196,8 +197,6 @@ def mse_reliable_from(tails, *, seeds: int) -> int:
     >>> mse_reliable_from(SimpleNamespace(moments=m, mean=np.ones((4, 4, 3))), seeds=2)
     5
     """
-    from ..constants import RELMSE_EPS
-
     m2 = np.asarray(tails.moments.m2, dtype=np.float64)
     k4 = np.asarray(tails.moments.kappa4, dtype=np.float64)
     mu = np.asarray(tails.mean, dtype=np.float64)
@@ -310,8 +309,6 @@ def _relative_bias_ci(imgs, vars_, spp, ref, tails):
     else:
         return None
     if tails is not None:
-        from .by_metric import tail_variance_image
-
         per_sample = np.maximum(per_sample, tail_variance_image(tails))
     total = float(np.sum(ref.mean))
     if not total > 0:
@@ -323,28 +320,21 @@ def _relative_bias_ci(imgs, vars_, spp, ref, tails):
 
 def _exact(tails) -> bool:
     """Whether an estimator has no noise beyond float rounding in any pixel (relative spread < 1e-6)."""
-    from ..tails import sample_variance
-
-    return not np.any(sample_variance(tails) > 0)
+    return not np.any(T.sample_variance(tails) > 0)
 
 
 def _tail_variance(tails) -> dict:
     """The estimator's per-sample variance (mean over pixels) from its tail reference, and
     whether it is only a lower bound: where one sample carries more than half of a pixel's
     sum of squared deviations, the rarer paths that set the true variance were not seen."""
-    from ..tails import sample_variance, variance_is_lower_bound
-
-    return {"variance": float(sample_variance(tails).mean()), "variance_source": f"tail reference, {tails.spp} spp",
-            "variance_lower_bound": variance_is_lower_bound(tails)}
+    return {"variance": float(T.sample_variance(tails).mean()), "variance_source": f"tail reference, {tails.spp} spp",
+            "variance_lower_bound": T.variance_is_lower_bound(tails)}
 
 
 def _tail_noise(tails, ref) -> dict:
     """The curve's noise figures for the headline (:mod:`benchmarks.sweep.headline`): its
     per-sample relative variance from the tail reference, and the tail render's seconds per sample."""
-    from ..tails import variance_is_lower_bound
-    from .by_metric import tail_variance_image
-
-    out = {"noise": None, "noise_se": None, "noise_lower_bound": variance_is_lower_bound(tails),
+    out = {"noise": None, "noise_se": None, "noise_lower_bound": T.variance_is_lower_bound(tails),
            "noise_source": f"tail reference, {tails.spp} spp", "exact": _exact(tails),
            "seconds_per_sample": None}
     if ref is not None:
@@ -488,13 +478,11 @@ def _curve_tails(scene, strategy, w, h, *, tail_spp, cache, threads, log, escala
     or None."""
     if not tail_spp:
         return None
-    from ..tails import DEFAULT_MAX_TAIL_SAMPLES, variance_tail_reference
-    from .jobs import scene_at
 
     cap = DEFAULT_MAX_TAIL_SAMPLES if escalate else tail_spp * w * h
     try:
-        return variance_tail_reference(scene_at(scene, w, h), strategy=strategy, spp=tail_spp, cache=cache,
-                                       threads=threads, log=log, max_samples=cap, what=f"{scene} {w}x{h}")
+        return T.variance_tail_reference(scene_at(scene, w, h), strategy=strategy, spp=tail_spp, cache=cache,
+                                         threads=threads, log=log, max_samples=cap, what=f"{scene} {w}x{h}")
     except ValueError as exc:  # a scene no longer in the suite: no tail diagnostics for it
         if log:
             log(f"no tail reference for {scene} ({strategy}): {exc}")
@@ -505,9 +493,7 @@ def _not_escalated(row: dict, tails, w: int, h: int) -> None:
     """A verdict whose tail reference's variance rests on single samples, when the larger tail
     reference that would settle it was not rendered (``escalate=False``, the quick preset):
     undetermined, never pass or fail, with the budget that would decide."""
-    from ..tails import DEFAULT_MAX_TAIL_SAMPLES, variance_is_lower_bound
-
-    if tails is None or not variance_is_lower_bound(tails):
+    if tails is None or not T.variance_is_lower_bound(tails):
         return
     need = DEFAULT_MAX_TAIL_SAMPLES // (w * h)
     row["tail_spp_needed"] = need
@@ -556,8 +542,6 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
 
     Writes ``summary.json`` and returns its rows.
     """
-    from ..tails import DEFAULT_TAIL_SPP
-
     tail_spp = DEFAULT_TAIL_SPP if tail_spp is None else int(tail_spp)
     store = Path(store)
     records = read_records(store)

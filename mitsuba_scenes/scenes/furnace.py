@@ -16,6 +16,8 @@ Examples
 """
 from __future__ import annotations
 
+import numpy as np
+
 import reference_tracer as rt
 
 RADIANCE = 0.5
@@ -55,8 +57,6 @@ def closed_form_image(*, width: int = 32, height: int = 32, max_depth: int = 8, 
     >>> closed_form_image(width=2, height=2, max_depth=1).tolist()[0][0]
     [0.5, 0.5, 0.5]
     """
-    import numpy as np
-
     value = expected_radiance(radiance=radiance, albedo=albedo, max_depth=max_depth)
     return np.full((height, width, 3), value, dtype=np.float32)
 

@@ -636,7 +636,7 @@ using namespace mutants;
 
 #ifdef RT_MUTANTS_MODULE
 // reference_tracer._mutants: the same scene and render loop with the self-test's seeded
-// bugs selectable (render's `mutant`); used by benchmarks/selftest only.
+// bugs selectable (render's `mutant`); reached only through reference_tracer.testing (the self-test).
 NB_MODULE(_mutants, m) {
     m.doc() = "The C++ core built with the self-test's seeded bugs (benchmarks/selftest); not the tracer.";
     // The seeded bugs by id (index 0: "none", the tracer).

@@ -1,0 +1,404 @@
+"""Probes of the C++ core: ray queries, first-hit AOVs and the sampling routines, one batch at a time.
+
+This module is the public door to what the tracer computes *inside* a render, for the
+code that checks it (the harness's chi-square tests, AOV parity, stress cases and speed
+benchmarks, and the tests). Nothing here renders an image: :func:`reference_tracer.render`
+does. The compiled extension loads on first use, as for ``render``.
+
+Ray queries
+    :func:`core_scene` compiles a :class:`~reference_tracer.Scene` (BVH built) and returns
+    the core's scene object, whose batch queries take C-contiguous float64 arrays of
+    origins and directions, shape (N, 3):
+
+    - ``intersect(origins, directions, brute_force=False, threads=1, batch=True,
+      wavefront=False, preliminary=False)``: dict of ``t`` (inf on a miss), ``prim``
+      (primitive id, -1 on a miss; :func:`primitive_shapes` maps it to a shape), ``point``
+      and front ``normal`` (not with ``preliminary``; ``shading_normal`` too where a mesh
+      has vertex normals; ``uv``, Mitsuba's texture coordinates, and ``reflectance``, the
+      material's reflectance there, where a material has a texture), ``seconds``, ``packet_rays``, ``chunk``, ``chunk_offset``;
+    - ``occluded(origins, directions, t_max, wavefront=False)``: (N,) uint8;
+    - ``sample_lights(refs, u, wavefront=False)``: light sampling from points ``refs`` with
+      uniforms ``u`` (N, 3): dict ``wi``, ``pdf``, ``pdf_all``, ``dist``, ``valid`` and the
+      radiance fields;
+    - ``light_pdf(refs, dirs)``: density of light sampling (every emitter and the background);
+    - ``packet_order(origins, directions)``: how ``intersect`` gathers rays into packets;
+    - properties ``primitive_count``, ``emitter_count``, ``bvh_nodes``, ``bvh_depth``,
+      ``bvh_blocks``, ``bvh_float_blocks``, ``bvh_bytes``, ``build_seconds``.
+
+    :func:`camera_rays` gives the camera's rays through film points, :func:`first_hit_aovs`
+    the first-hit AOVs of every pixel (what AOV parity compares with Mitsuba's).
+
+Sampling routines
+    :func:`warp_sample`, :func:`warp_pdf`, :func:`bsdf_sample`, :func:`bsdf_eval_pdf` and
+    :func:`rough_plastic_table` run the core's own inline routines (``sampling/warp.h``,
+    the material dispatch of ``materials/material.h``) once per row of an array
+    (``reference_tracer/cpp/sampling_probe.cpp``).
+
+Layout of the core
+    :func:`child_visit_order` and the constants ``PACK_WIDTH`` (rays per pack of the
+    batched queries: 8 in AVX-512 builds, else 4), ``PACKET_RAYS`` (rays per packet of
+    coherent rays), ``RAY_CHUNK`` (rays a thread of ``intersect`` orders into packets at a
+    time) and ``CACHED_TREE_BYTES`` (trees above it are traversed without prefetching),
+    read from the compiled core on first access.
+
+Examples
+--------
+>>> import numpy as np
+>>> import reference_tracer as rt
+>>> from reference_tracer import probe
+>>> cam = rt.Camera(lookfrom=(0, 0, -3), lookat=(0, 0, 0), width=4, height=4)
+>>> scene = rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1, rt.Lambertian(0.5))])
+>>> hit = probe.core_scene(scene).intersect(np.array([[0.0, 0, -3]]), np.array([[0.0, 0, 1]]))
+>>> float(hit["t"][0]), int(hit["prim"][0])
+(2.0, 0)
+>>> probe.first_hit_aovs(scene)["shape"].tolist()
+[[-1, 0, 0, -1], [0, 0, 0, 0], [0, 0, 0, 0], [-1, 0, 0, -1]]
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .materials import DiffuseLight, Lambertian, Plastic, RoughPlastic, reflectance_of
+from .render import core_scene
+from .scene import Camera, Scene
+from .shapes import Box, Quad, Sphere, Triangle
+from .textures import Texture
+
+__all__ = ["core_scene", "camera_rays", "primitive_shapes", "diffuse_albedo", "first_hit_aovs",
+           "warp_sample", "warp_pdf", "bsdf_sample", "bsdf_eval_pdf", "rough_plastic_table",
+           "child_visit_order"]
+
+_CORE_CONSTANTS = ("PACK_WIDTH", "PACKET_RAYS", "RAY_CHUNK", "CACHED_TREE_BYTES")
+
+
+def _core():
+    from . import _core  # the C++ core loads on first use, as for render: importing this module does not need it
+
+    return _core
+
+
+def __getattr__(name: str):
+    # The layout constants live in the compiled core; reading one loads it.
+    if name in _CORE_CONSTANTS:
+        return int(getattr(_core(), name))
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def camera_rays(camera: Camera, px, py) -> tuple:
+    """The camera's rays through film points ``(px, py)``, in pixels.
+
+    The formula of ``Camera::generate`` in ``reference_tracer/cpp/scene.h``: pixel (0, 0)
+    is top left, ``vfov`` vertical, pixel centres at ``x + 0.5``.
+
+    Parameters
+    ----------
+    camera : Camera
+    px, py : array_like
+        Film coordinates in pixels, one entry per ray.
+
+    Returns
+    -------
+    origins, directions : ndarray
+        C-contiguous float64 arrays of shape (N, 3), directions of unit length.
+
+    Examples
+    --------
+    >>> import reference_tracer as rt
+    >>> cam = rt.Camera(lookfrom=(0, 0, 1), lookat=(0, 0, 0), vfov=90, width=2, height=2)
+    >>> o, d = camera_rays(cam, [1.0], [1.0])
+    >>> d.round(6).tolist()
+    [[0.0, 0.0, -1.0]]
+    """
+    eye = np.asarray(camera.lookfrom, dtype=np.float64)
+    fwd = np.subtract(camera.lookat, eye)
+    fwd = fwd / np.linalg.norm(fwd)
+    right = np.cross(fwd, camera.vup)
+    right = right / np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    hh = np.tan(0.5 * np.radians(camera.vfov))
+    hw = hh * camera.width / camera.height
+    sx = (2.0 * np.asarray(px, dtype=np.float64) / camera.width - 1.0) * hw
+    sy = (1.0 - 2.0 * np.asarray(py, dtype=np.float64) / camera.height) * hh
+    d = fwd[None, :] + sx[:, None] * right[None, :] + sy[:, None] * up[None, :]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return np.ascontiguousarray(np.broadcast_to(eye, d.shape)), np.ascontiguousarray(d)
+
+
+def primitive_shapes(scene: Scene) -> np.ndarray:
+    """The shape index of each primitive of the compiled scene (what ``intersect``'s ``prim`` counts).
+
+    The core holds spheres, then quads (six per box), then triangles (one per triangle,
+    every triangle of a mesh), each block in shape order.
+
+    Parameters
+    ----------
+    scene : Scene
+
+    Returns
+    -------
+    ndarray of int64, shape (primitive_count,)
+
+    Examples
+    --------
+    >>> import reference_tracer as rt
+    >>> m = rt.Lambertian(0.5)
+    >>> cam = rt.Camera(lookfrom=(0, 0, -3), lookat=(0, 0, 0), width=4, height=4)
+    >>> scene = rt.Scene(camera=cam, shapes=[rt.Box((0, 0, 0), (1, 1, 1), m), rt.Sphere((0, 0, 0), 1, m)])
+    >>> primitive_shapes(scene).tolist()
+    [1, 0, 0, 0, 0, 0, 0]
+    """
+    spheres, quads, tris = [], [], []
+    for i, s in enumerate(scene.shapes):
+        if isinstance(s, Sphere):
+            spheres.append(i)
+        elif isinstance(s, Quad):
+            quads.append(i)
+        elif isinstance(s, Box):
+            quads.extend([i] * 6)
+        elif isinstance(s, Triangle):
+            tris.append(i)
+        else:
+            tris.extend([i] * len(s.world_triangles()))
+    return np.array(spheres + quads + tris, dtype=np.int64)
+
+
+def diffuse_albedo(material):
+    """The diffuse albedo a first-hit AOV shows for ``material``.
+
+    A Lambertian's albedo, an emitter's own (when it reflects), a plastic's diffuse
+    reflectance (Mitsuba's ``eval_diffuse_reflectance`` of its diffuse lobe), else black.
+    Where that albedo is a texture, the texture itself (:func:`first_hit_aovs` shows its
+    value at each hit, which the core computes).
+
+    Examples
+    --------
+    >>> import reference_tracer as rt
+    >>> diffuse_albedo(rt.Lambertian(0.5)), diffuse_albedo(rt.Metal(0.9))
+    ((0.5, 0.5, 0.5), (0.0, 0.0, 0.0))
+    """
+    if isinstance(material, (Lambertian, Plastic, RoughPlastic, DiffuseLight)):
+        value = reflectance_of(material)
+        if value is not None:
+            return value if isinstance(value, Texture) else tuple(value)
+    return (0.0, 0.0, 0.0)
+
+
+def first_hit_aovs(scene: Scene, *, offset=(0.5, 0.5)) -> dict:
+    """First-hit AOVs of the camera's ray through ``pixel + offset`` of every pixel.
+
+    Parameters
+    ----------
+    scene : Scene
+    offset : tuple of float, optional
+        Where in each pixel the ray passes (default: the centre).
+
+    Returns
+    -------
+    dict
+        ``t`` (H, W) hit distance (inf on a miss), ``normal`` (H, W, 3) unit shading normal
+        of the front side (0 on a miss), ``albedo`` (H, W, 3) (:func:`diffuse_albedo`),
+        ``emitted`` (H, W, 3) radiance toward the camera (the background on a miss),
+        ``shape`` (H, W) shape index (-1 on a miss).
+
+    Examples
+    --------
+    >>> import reference_tracer as rt
+    >>> cam = rt.Camera(lookfrom=(0, 0, -3), lookat=(0, 0, 0), width=2, height=2)
+    >>> scene = rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1, rt.Lambertian(0.5))])
+    >>> aovs = first_hit_aovs(scene, offset=(1.0, 1.0))
+    >>> float(aovs["t"][0, 0]), aovs["albedo"][0, 0].tolist()
+    (2.0, [0.5, 0.5, 0.5])
+    """
+    cam = scene.camera
+    h, w = cam.height, cam.width
+    yy, xx = np.mgrid[0:h, 0:w]
+    o, d = camera_rays(cam, xx.ravel() + offset[0], yy.ravel() + offset[1])
+    hit = core_scene(scene).intersect(o, d, threads=1)
+    t = np.asarray(hit["t"], dtype=np.float64)
+    valid = np.isfinite(t)
+    prims = np.asarray(hit["prim"], dtype=np.int64)
+    shape = np.full(t.shape, -1, dtype=np.int64)
+    shape[valid] = primitive_shapes(scene)[prims[valid]]
+    # the shading normal (Mitsuba's AOV is si.sh_frame.n): the interpolated vertex normals
+    # on smooth meshes, else the geometric normal; emission's side is the shading normal's
+    shading = hit.get("shading_normal", hit["normal"])
+    normal = np.where(valid[:, None], np.asarray(shading, dtype=np.float64), 0.0)
+    albedo = np.zeros((t.size, 3))
+    emitted = np.tile(np.asarray(scene.background, dtype=np.float64), (t.size, 1))
+    front = np.einsum("ij,ij->i", normal, -d) > 0
+    for i, s in enumerate(scene.shapes):
+        m = shape == i
+        if not m.any():
+            continue
+        value = diffuse_albedo(s.material)
+        albedo[m] = np.asarray(hit["reflectance"])[m] if isinstance(value, Texture) else value
+        emitted[m] = 0.0
+        if isinstance(s.material, DiffuseLight):
+            emitted[m & front] = s.material.radiance
+    return {"t": t.reshape(h, w), "normal": normal.reshape(h, w, 3), "albedo": albedo.reshape(h, w, 3),
+            "emitted": emitted.reshape(h, w, 3), "shape": shape.reshape(h, w)}
+
+
+def warp_sample(name: str, u, param: float = 0.0, *, packed: bool = False) -> np.ndarray:
+    """Warp uniform numbers with a routine of ``sampling/warp.h``.
+
+    Parameters
+    ----------
+    name : str
+        ``uniform_hemisphere``, ``cosine_hemisphere``, ``uniform_sphere``, ``uniform_cone``
+        or ``concentric_disk``.
+    u : ndarray, shape (n, 2)
+        C-contiguous float64 uniform numbers in [0, 1).
+    param : float, optional
+        ``1 - cos(theta_max)`` for ``uniform_cone``.
+    packed : bool, optional
+        The pack version the wavefront integrator runs (``cosine_hemisphere`` and
+        ``concentric_disk`` only).
+
+    Returns
+    -------
+    ndarray
+        (n, 3) local directions (+z the normal), (n, 2) points for ``concentric_disk``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> warp_sample("cosine_hemisphere", np.array([[0.5, 0.5]])).round(6).tolist()
+    [[0.0, 0.0, 1.0]]
+    """
+    return _core().warp_sample(name, u, float(param), packed=packed)
+
+
+def warp_pdf(name: str, points, param: float = 0.0) -> np.ndarray:
+    """Density of :func:`warp_sample`'s output at ``points``.
+
+    Parameters
+    ----------
+    name : str
+        As for :func:`warp_sample`.
+    points : ndarray
+        (n, 3) C-contiguous float64 directions (density per solid angle) or (n, 2) disk
+        points (per area).
+    param : float, optional
+        As for :func:`warp_sample`.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> round(float(warp_pdf("uniform_sphere", np.array([[0.0, 0.0, 1.0]]))[0]) * 4 * np.pi, 12)
+    1.0
+    """
+    return _core().warp_pdf(name, points, float(param))
+
+
+def bsdf_sample(material: str, wo, u, albedo, param: float, **coating) -> dict:
+    """``rt::bsdf_sample`` of a material for each row of ``u``, as the integrator calls it.
+
+    Parameters
+    ----------
+    material : str
+        ``lambertian``, ``metal`` (``param``: fuzz), ``rough_conductor`` and
+        ``rough_conductor_beckmann`` (alpha), ``dielectric`` and ``dielectric_schlick``
+        (index of refraction), ``plastic``, ``rough_plastic`` and ``rough_plastic_beckmann``
+        (alpha).
+    wo : ndarray, shape (3,)
+        The unit outgoing direction in the local shading frame (+z the normal).
+    u : ndarray, shape (n, 3)
+        C-contiguous float64 uniform numbers.
+    albedo : ndarray, shape (3,)
+        The albedo (a plastic's diffuse reflectance).
+    param : float
+        The material's parameter (above).
+    **coating
+        A plastic's ``eta`` (int_ior / ext_ior), ``specular`` ((3,) specular reflectance)
+        and ``nonlinear``: Mitsuba's defaults where not given.
+
+    Returns
+    -------
+    dict
+        ``wi`` (n, 3), ``weight`` (n, 3) = f cos / pdf, ``pdf`` (n,), ``eta`` (n,),
+        ``delta`` (n,), ``valid`` (n,).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> s = bsdf_sample("lambertian", np.array([0.0, 0, 1]), np.full((1, 3), 0.5), np.full(3, 0.5), 0.0)
+    >>> s["weight"].round(6).tolist(), int(s["valid"][0])
+    ([[0.5, 0.5, 0.5]], 1)
+    """
+    return _core().bsdf_sample(material, wo, u, albedo, float(param), **coating)
+
+
+def bsdf_eval_pdf(material: str, wo, wi, albedo, param: float, **coating) -> dict:
+    """``rt::bsdf_eval`` and ``rt::bsdf_pdf`` of a material for each row of ``wi``.
+
+    Parameters as for :func:`bsdf_sample`, with ``wi`` (n, 3) incident directions in
+    place of the uniforms.
+
+    Returns
+    -------
+    dict
+        ``value`` (n, 3), f cos, and ``pdf`` (n,).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> e = bsdf_eval_pdf("lambertian", np.array([0.0, 0, 1]), np.array([[0.0, 0, 1]]), np.full(3, 0.5), 0.0)
+    >>> round(float(e["pdf"][0]) * np.pi, 12)
+    1.0
+    """
+    return _core().bsdf_eval_pdf(material, wo, wi, albedo, float(param), **coating)
+
+
+def rough_plastic_table(distribution: str, alpha: float, eta: float) -> dict:
+    """The rough plastic coating's tables, as a scene's ``RoughPlastic`` computes them.
+
+    Parameters
+    ----------
+    distribution : str
+        ``ggx`` or ``beckmann``.
+    alpha : float
+        Roughness.
+    eta : float
+        ``int_ior / ext_ior``.
+
+    Returns
+    -------
+    dict
+        ``transmittance`` (64,) at the cosines ``max(1e-6, k / 63)`` and
+        ``internal_reflectance``.
+
+    Examples
+    --------
+    >>> rough_plastic_table("ggx", 0.1, 1.5)["transmittance"].shape
+    (64,)
+    """
+    return _core().rough_plastic_table(distribution, float(alpha), float(eta))
+
+
+def child_visit_order(t_near, met) -> tuple:
+    """The order in which the BVH traversals visit the children a ray meets in a node of the wide tree.
+
+    Parameters
+    ----------
+    t_near : sequence of float, length 8
+        The children's entry distances (>= 0, not NaN).
+    met : sequence of bool, length 8
+        Which children the ray meets.
+
+    Returns
+    -------
+    network, insertion : list of int
+        The slots met, nearest first, as the interleaved traversal's sorting network orders
+        them and as the single-ray traversal's insertion sort does (the two must agree).
+
+    Examples
+    --------
+    >>> child_visit_order([3.0, 1.0, 2.0, 0, 0, 0, 0, 0], [True, True, True] + [False] * 5)
+    ([1, 2, 0], [1, 2, 0])
+    """
+    return _core().child_visit_order(list(t_near), list(met))

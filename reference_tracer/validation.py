@@ -1,0 +1,208 @@
+"""Loud validation of user input: every error names the offending field.
+
+The tracer's constructors and :func:`reference_tracer.render` check their arguments with
+these functions once, at the boundary; the harness (``benchmarks``) checks its own
+options with the same functions, so a count or a seed is held to the same limits
+everywhere (the C++ core's ``int`` and ``uint64_t``).
+
+Examples
+--------
+>>> from reference_tracer.validation import positive_int, vector3
+>>> positive_int("spp", 64)
+64
+>>> vector3("lookfrom", [0, 1, -4])
+(0.0, 1.0, -4.0)
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["finite_scalar", "vector3", "colour", "positive_int", "FLOAT32_MAX", "INT_MAX", "SEED_MAX"]
+
+
+def finite_scalar(name: str, value, *, lo: float | None = None, hi: float | None = None,
+                  lo_open: bool = False) -> float:
+    """Return ``value`` as a finite float within the given bounds.
+
+    Parameters
+    ----------
+    name : str
+        The field's name, quoted in the error.
+    value : object
+        Anything ``float()`` accepts.
+    lo, hi : float, optional
+        Inclusive lower and upper bounds (``lo`` exclusive with ``lo_open=True``).
+    lo_open : bool, optional
+        Make the lower bound exclusive.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ValueError
+        When ``value`` is not a number, is NaN or infinite, or lies outside the bounds.
+
+    Examples
+    --------
+    >>> finite_scalar("fuzz", "0.25", lo=0, hi=1)
+    0.25
+    >>> finite_scalar("ior", 0.0, lo=0, lo_open=True)
+    Traceback (most recent call last):
+    ...
+    ValueError: ior must be > 0, got 0.0
+    """
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(x):
+        raise ValueError(f"{name} must be finite, got {x!r}")
+    if lo is not None and (x < lo or (lo_open and x == lo)):
+        raise ValueError(f"{name} must be {'>' if lo_open else '>='} {lo}, got {x!r}")
+    if hi is not None and x > hi:
+        raise ValueError(f"{name} must be <= {hi}, got {x!r}")
+    return x
+
+
+def vector3(name: str, value) -> tuple:
+    """Return a finite 3-vector as a tuple of floats.
+
+    Parameters
+    ----------
+    name : str
+        The field's name, quoted in the error.
+    value : array_like
+        Three numbers.
+
+    Returns
+    -------
+    tuple of float
+
+    Raises
+    ------
+    ValueError
+        When ``value`` is not three finite numbers.
+
+    Examples
+    --------
+    >>> vector3("vup", (0, 1, 0))
+    (0.0, 1.0, 0.0)
+    >>> vector3("vup", (0, 1))
+    Traceback (most recent call last):
+    ...
+    ValueError: vup must be a 3-vector, got shape (2,)
+    """
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a 3-vector of numbers, got {value!r}") from None
+    if a.shape != (3,):
+        raise ValueError(f"{name} must be a 3-vector, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite (no NaN/Inf), got {tuple(a.tolist())}")
+    return tuple(float(x) for x in a)
+
+
+#: the largest value of the float32 images both renderers write: radiance above it is infinite there.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def colour(name: str, value, *, upper: float | None) -> tuple:
+    """Return an RGB triple with components in ``[0, upper]``; a scalar is broadcast.
+
+    Parameters
+    ----------
+    name : str
+        The field's name, quoted in the error.
+    value : float or array_like
+        A number or three numbers.
+    upper : float or None
+        The largest component (1 for a reflectance). ``None`` (radiance) means
+        :data:`FLOAT32_MAX`: a radiance the image cannot hold would turn every pixel it
+        reaches infinite.
+
+    Returns
+    -------
+    tuple of float
+
+    Raises
+    ------
+    ValueError
+        When ``value`` is not one or three finite numbers in range.
+
+    Examples
+    --------
+    >>> colour("albedo", 0.5, upper=1.0)
+    (0.5, 0.5, 0.5)
+    >>> colour("albedo", (0.2, 1.5, 0.1), upper=1.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: albedo must lie in [0, 1.0], got (0.2, 1.5, 0.1)
+    """
+    a = np.asarray(value, dtype=np.float64) if not isinstance(value, (str, bytes)) else None
+    if a is None or a.ndim > 1 or (a.ndim == 1 and a.shape != (3,)):
+        raise ValueError(f"{name} must be a number or an RGB triple, got {value!r}")
+    a = np.broadcast_to(a, (3,))
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite (no NaN/Inf), got {tuple(a.tolist())}")
+    if np.any(a < 0):
+        raise ValueError(f"{name} must be >= 0, got {tuple(a.tolist())}")
+    if upper is not None and np.any(a > upper):
+        raise ValueError(f"{name} must lie in [0, {upper}], got {tuple(a.tolist())}")
+    if upper is None and np.any(a > FLOAT32_MAX):
+        raise ValueError(f"{name} must be at most {FLOAT32_MAX:.7g} (the largest value of a float32 image), "
+                         f"got {tuple(a.tolist())}")
+    return tuple(float(x) for x in a)
+
+
+#: the largest count the C++ core takes (its ``int``: spp, threads, image size, depth).
+INT_MAX = 2**31 - 1
+#: the largest seed (the core's ``uint64_t``).
+SEED_MAX = 2**64 - 1
+
+
+def positive_int(name: str, value, *, minimum: int = 1, maximum: int = INT_MAX) -> int:
+    """Return ``value`` as an int in ``[minimum, maximum]``.
+
+    Parameters
+    ----------
+    name : str
+        The field's name, quoted in the error.
+    value : int
+        A Python or numpy integer (``bool`` is refused).
+    minimum : int, optional
+        The smallest value accepted (default 1).
+    maximum : int, optional
+        The largest value accepted. The default, :data:`INT_MAX`, is the C++ core's
+        ``int``: a larger value would reach the binding and fail there with a message
+        naming no field. Seeds pass ``maximum=SEED_MAX``.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    ValueError
+        When ``value`` is not an integer or lies outside the bounds.
+
+    Examples
+    --------
+    >>> positive_int("seed", 0, minimum=0, maximum=SEED_MAX)
+    0
+    >>> positive_int("spp", 2**31)
+    Traceback (most recent call last):
+    ...
+    ValueError: spp must be <= 2147483647, got 2147483648
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} must be an integer, got {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {value}")
+    if value > maximum:
+        raise ValueError(f"{name} must be <= {maximum}, got {value}")
+    return int(value)
