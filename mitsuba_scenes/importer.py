@@ -96,6 +96,21 @@ class _Ctx:
                 return candidate
         return os.path.join(self.base_dir, fname)
 
+    def confined(self, fname: str) -> str | None:
+        """:meth:`resolve`'s file, or None where it lies outside the XML's folder and its
+        ``<path>`` folders once symbolic links are resolved (an image a scene names is data
+        of that scene: a shared scene may not make us read other files as textures). A
+        scene given as a dict (Python code, no folder) is not confined."""
+        path = self.resolve(fname)
+        if self.base_dir is None:
+            return path
+        real = os.path.realpath(path)
+        for folder in [self.base_dir, *self.search]:
+            root = os.path.realpath(folder)
+            if os.path.commonpath([root, real]) == root:
+                return path
+        return None
+
     def where(self, node) -> str:
         return self.mi.parser.file_location(self.state, node)
 
@@ -209,7 +224,11 @@ def _bitmap(ctx, node):
     raw = _bool(ctx, node, "raw", False)
     if raw is None:
         return None
-    fname = ctx.resolve(str(p["filename"]))
+    fname = ctx.confined(str(p["filename"]))
+    if fname is None:
+        ctx.bad(node, f"bitmap {p['filename']!r} lies outside the scene's folder and its <path> folders (an image "
+                      "a scene reads must be part of it)")
+        return None
     try:
         return rt.Bitmap(fname, filter=_scalar(ctx, node, "filter_type", "bilinear"),
                          wrap=_scalar(ctx, node, "wrap_mode", "repeat"), raw=raw, to_uv=_to_uv(ctx, node))
@@ -438,7 +457,8 @@ def _roughness(ctx, node):
     T = ctx.mi.Properties.Type
     for key in ("alpha", "alpha_u", "alpha_v"):
         if key in node.props.keys() and node.props.type(key) not in (T.Float, T.Integer):
-            ctx.bad(node, f"{node.props.plugin_name()} {key} given as a texture (only a number)")
+            ctx.bad(node, f"{node.props.plugin_name()} {key} given as a texture (a textured roughness is not "
+                          "supported: only a number; textures are read for reflectances)")
             return None
     au, av = _scalar(ctx, node, "alpha_u", None), _scalar(ctx, node, "alpha_v", None)
     if au is not None or av is not None:

@@ -576,15 +576,21 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
     plys = []  # (path, vertices, faces, normals, uv): written with the XML, by _write_all
     images = []  # (path, array): the bitmaps made from arrays, as EXR files beside the XML
 
-    def bsdf_with_files(bsdf):
-        """The BSDF record with each array bitmap's data written to an EXR beside the XML."""
+    def bsdf_with_files(bsdf, tex):
+        """The BSDF record with its bitmap named relative to the XML: its own file where
+        that lies in the XML's folder (an importer of the XML reads no file outside it),
+        else its linear texels written to an EXR beside the XML."""
         if not isinstance(bsdf, dict):
             return bsdf
-        if bsdf.get("type") == "bitmap" and "data" in bsdf:
+        if bsdf.get("type") == "bitmap":
+            rest = {k: v for k, v in bsdf.items() if k not in ("data", "filename", "raw")}
+            own = Path(bsdf["filename"]).resolve() if "filename" in bsdf else None
+            if own is not None and own.parent == path.parent.resolve():
+                return rest | {"filename": own.name, "raw": bsdf["raw"]}
             name = f"{path.stem}_texture_{len(images)}.exr"
-            images.append((path.parent / name, bsdf["data"]))
-            return {k: v for k, v in bsdf.items() if k != "data"} | {"filename": name}
-        return {k: bsdf_with_files(v) for k, v in bsdf.items()}
+            images.append((path.parent / name, tex.data))
+            return rest | {"filename": name}
+        return {k: bsdf_with_files(v, tex) for k, v in bsdf.items()}
 
     L = ['<?xml version="1.0" encoding="utf-8"?>',
          "<!-- Written by mitsuba_scenes.to_xml: the reference_tracer scene, translated to",
@@ -620,7 +626,7 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
         L += ['    <emitter type="constant">',
               f'        <rgb name="radiance" value="{", ".join(_num(c) for c in low["background"])}"/>',
               "    </emitter>"]
-    for rec in low["shapes"]:
+    for shape, rec in zip(scene.shapes, low["shapes"]):
         kind = "ply" if rec["type"] == "mesh" else rec["type"]
         L.append(f'    <shape type="{kind}" id="{rec["name"]}">')
         ind = "        "
@@ -638,7 +644,7 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
             L += _xml_matrix(rec["to_world"], ind)
         if rec["flip_normals"]:
             L.append(f'{ind}<boolean name="flip_normals" value="true"/>')
-        L += _xml_props({"bsdf": bsdf_with_files(rec["bsdf"])}, ind)
+        L += _xml_props({"bsdf": bsdf_with_files(rec["bsdf"], reflectance_of(shape.material))}, ind)
         if "emitter" in rec:
             L += _xml_props({"emitter": {"type": "area", "radiance": {"type": "rgb", "value": rec["emitter"]}}},
                             ind)

@@ -362,7 +362,11 @@ def _read_exr(path: Path, max_pixels: int) -> np.ndarray:
         raise ValueError(f"{path}: not a readable EXR image ({exc})") from None
     if px.ndim != 3 or px.shape[2] not in (1, 3, 4):
         raise ValueError(f"{path}: an EXR image of {px.shape[-1]} channels (Y, RGB or RGBA are read)")
-    return np.ascontiguousarray(px[..., :3] if px.shape[2] == 4 else px, dtype=np.float32)
+    px = px[..., :3] if px.shape[2] == 4 else px   # alpha: not part of a reflectance
+    bad = int(np.count_nonzero(~np.isfinite(px)))
+    if bad:   # Mitsuba would look them up; a NaN reflectance has no meaning
+        raise ValueError(f"{path}: {bad} texel value(s) of the EXR image not finite (NaN or infinite)")
+    return np.ascontiguousarray(px, dtype=np.float32)
 
 
 @dataclass(frozen=True, eq=False)
