@@ -35,7 +35,7 @@ MITSUBA_STRATEGY = "path"
 #: BSDF samples only, emitter samples only, and both with MIS.
 MITSUBA_DIRECT = {"direct_bsdf": "cosine", "direct_light": "light", "direct_mis": "mis"}
 
-#: relMSE's epsilon: ``mean(d^2 / (ref^2 + RELMSE_EPS))`` (README.md, Conventions).
+#: relMSE's epsilon: ``mean(d^2 / (ref^2 + RELMSE_EPS))`` (docs/conventions.md).
 RELMSE_EPS = 0.01
 
 #: Rec. 709 / sRGB luminance weights of linear R, G, B (a tuple: immutable; wrap in

@@ -4,7 +4,7 @@ One module decides the exposure and the tone curve, so that the SSIM metric
 (:func:`benchmarks.metrics.ssim`) and the report's pictures show the same thing:
 
 * :func:`exposure_from_reference`: the linear scale that maps the reference's bright end
-  (99th-percentile luminance) to white; SSIM's exposure (README.md, Conventions).
+  (99th-percentile luminance) to white; SSIM's exposure (docs/conventions.md).
 * :func:`reference_exposure`: the report's exposure in stops, the brighter of that scale
   and the reference's median luminance at 18% grey.
 * :func:`to_display`: scale (``exposure`` in stops, or a linear ``scale=``), clip to

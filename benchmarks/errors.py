@@ -1,6 +1,6 @@
 """The harness's error classes and the exit status of each kind of failure.
 
-``rtbench`` exits with one of four codes (README.md, Exit status and errors), decided in one place,
+``rtbench`` exits with one of four codes (docs/rtbench.md, Exit status and errors), decided in one place,
 :func:`exit_code`, from the exception a command raised:
 
 * 0: pass (or nothing to judge);

@@ -1,6 +1,6 @@
 """External renderers: any program that renders a Mitsuba XML scene to an EXR.
 
-The protocol (README, "External renderers"): ``--renderer 'CMD'`` is a command template
+The protocol (docs/rtbench.md, "External renderers"): ``--renderer 'CMD'`` is a command template
 with the placeholders ``{scene_xml}`` (the scene written by :func:`mitsuba_scenes.to_xml`,
 whose sampler takes ``$spp`` and ``$seed`` parameters), ``{spp}``, ``{seed}`` (31-bit),
 ``{width}``, ``{height}`` and ``{out}`` (the EXR to write: linear RGB, the per-pixel mean
@@ -156,7 +156,7 @@ def render_external_batches(renderer: ExternalRenderer, scene, *, spp: int, seed
     The spp are split into batches of nearly equal size, each run with its own seed
     (:func:`mitsuba_scenes.render.batch_seeds`); the variance is the size-weighted
     between-batch variance times the batch size, as for Mitsuba
-    (:func:`mitsuba_scenes.render_mitsuba`; README.md, Conventions).
+    (:func:`mitsuba_scenes.render_mitsuba`; docs/conventions.md).
     """
     sizes = split_spp(int(spp), int(batches))
     if len(sizes) < 2:

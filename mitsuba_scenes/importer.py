@@ -11,7 +11,7 @@ walked node by node. Supported: ``perspective`` sensor (``fov`` with any
 ``face_normals``: the vertex normals Mitsuba's loader gives, read from the file or
 computed where it has none, shade the mesh smooth as in Mitsuba), BSDFs ``diffuse``,
 ``conductor`` and ``roughconductor`` (``ggx`` or ``beckmann``, isotropic, ``material``
-names or RGB ``eta``/``k``), ``dielectric``, ``plastic`` and ``roughplastic`` (constant
+names or RGB ``eta``/``k``), ``dielectric``, ``thindielectric``, ``plastic`` and ``roughplastic`` (constant
 reflectances, named or numeric ``int_ior``/``ext_ior``, ``nonlinear``; rough: ``ggx`` or
 ``beckmann``, isotropic), ``twosided`` around one of those, references by id, ``area``
 emitters (on their shape or declared at the top level and referenced) and ``constant``,
@@ -434,19 +434,19 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
                          **ior)
     if name in ("plastic", "roughplastic"):
         return _plastic(ctx, node, name, two_sided)
-    if name == "dielectric":
+    if name in ("dielectric", "thindielectric"):
         _extra(ctx, node, {"int_ior", "ext_ior", "specular_reflectance", "specular_transmittance"}, "bsdf")
         ok = True
         for k in ("specular_reflectance", "specular_transmittance"):
             c = _colour(ctx, node, k, 1.0)
             if c is not None and c != (1.0, 1.0, 1.0):
-                ctx.bad(node, f"dielectric {k}={c} (only 1)")
+                ctx.bad(node, f"{name} {k}={c} (only 1)")
                 ok = False
         i, e = _ior(ctx, node, "int_ior", "bk7"), _ior(ctx, node, "ext_ior", "air")
         if not ok or i is None or e is None:
             return None
-        # Mitsuba's dielectric depends on int_ior / ext_ior only: exact with ext = 1.
-        return rt.Dielectric(i / e)
+        # Mitsuba's (thin) dielectric depends on int_ior / ext_ior only: exact with ext = 1.
+        return rt.Dielectric(i / e) if name == "dielectric" else rt.ThinDielectric(i / e)
     ctx.bad(node, f"bsdf '{name}'")
     return None
 
@@ -733,8 +733,8 @@ def _camera(ctx, sensor):
             ctx.bad(film, "hdrfilm sample_border=true")
     if ctx.film_size is not None:
         width, height = ctx.film_size
-    if sampler is not None and sampler.props.plugin_name() != "independent":
-        ctx.bad(sampler, f"sampler '{sampler.props.plugin_name()}' (only 'independent')")
+    if sampler is not None:
+        _sampler(ctx, sampler)
     if "x_fov" in sensor.props.keys():
         fov, axis = _scalar(ctx, sensor, "x_fov", 39.3077), "x"
     else:
@@ -753,6 +753,35 @@ def _camera(ctx, sensor):
         return None
     return rt.Camera(lookfrom=origin, lookat=origin + fwd, vup=up, vfov=vfov, width=width, height=height,
                      filter=rfilter)
+
+
+# Mitsuba's randomised samplers: each places a pixel's samples differently (strata, jittered
+# grids, scrambled low-discrepancy points) but every sample is uniform over the pixel, so
+# the expected image is the independent sampler's; only the noise differs. Our tracer
+# samples independently. A sampler whose jitter is off puts samples at cell centres: a
+# different (biased) image, refused.
+_RANDOMISED_SAMPLERS = {
+    "independent": set(),
+    "stratified": {"jitter"},
+    "multijitter": {"jitter"},
+    "orthogonal": {"jitter", "strength"},
+    "ldsampler": set(),
+    "sobol": set(),
+    "pmj02": set(),
+}
+
+
+def _sampler(ctx, node):
+    """Check a sampler: one of Mitsuba's randomised samplers, read as ``independent``."""
+    name = node.props.plugin_name()
+    if name not in _RANDOMISED_SAMPLERS:
+        ctx.bad(node, f"sampler '{name}' (only Mitsuba's randomised samplers: "
+                      f"{', '.join(sorted(_RANDOMISED_SAMPLERS))})")
+        return
+    _extra(ctx, node, _RANDOMISED_SAMPLERS[name] | {"sample_count", "seed"}, "sampler")
+    if "jitter" in node.props.keys() and not bool(node.props["jitter"]):
+        ctx.bad(node, f"sampler '{name}' with jitter=false (samples at cell centres: not the independent "
+                      "sampler's expected image)")
 
 
 def _rfilter(ctx, node):
@@ -951,8 +980,7 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
         elif kind in (OT.BSDF, OT.Texture):
             continue   # declared here, used through references; checked where used
         elif kind == OT.Sampler:  # declared here for a sensor to reference: the same rule as inside one
-            if name != "independent":
-                ctx.bad(node, f"sampler '{name}' (only 'independent')")
+            _sampler(ctx, node)
         else:
             ctx.bad(node, f"{str(kind).split('.')[-1].lower()} '{name}'")
 

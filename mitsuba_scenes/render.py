@@ -1,7 +1,7 @@
 """``render_mitsuba``: render a scene with Mitsuba 3, with per-pixel RGB variance.
 
 Mitsuba's ``moment`` integrator gives second moments in XYZ only, so the per-sample
-RGB variance is estimated from K independent batches (README.md, Conventions):
+RGB variance is estimated from K independent batches (docs/conventions.md):
 the spp are split into K batches of as equal size as possible, each rendered with its
 own seed, and the between-batch spread gives the variance.
 """

@@ -1,6 +1,6 @@
 """Translate a :class:`reference_tracer.Scene` to Mitsuba 3: a dict and an XML file.
 
-The mapping follows the conventions of README.md (Conventions) exactly; anything without an exact
+The mapping follows the conventions of docs/conventions.md exactly; anything without an exact
 Mitsuba equivalent raises ``ValueError`` naming the object, never an approximation:
 
 =====================================  ==================================================
@@ -28,6 +28,7 @@ ours                                   Mitsuba 3
 ``RoughConductor``                     ``roughconductor``: its ``distribution``, ``material='none'``
                                        or RGB ``eta`` and ``k``
 ``Dielectric(ior)``                    ``dielectric``, ``int_ior=ior``, ``ext_ior=1.0``
+``ThinDielectric(ior)``                ``thindielectric``, ``int_ior=ior``, ``ext_ior=1.0``
 ``Plastic``                            ``plastic``: its reflectances (RGB), ``int_ior``,
                                        ``ext_ior`` and ``nonlinear``
 ``RoughPlastic``                       ``roughplastic``: as ``plastic``, with its
@@ -209,6 +210,8 @@ def _bsdf_record(label: str, m) -> dict:
             raise ValueError(f"{label}: Dielectric(fresnel={m.fresnel!r}) has no Mitsuba equivalent (Mitsuba's "
                              f"dielectric uses the exact Fresnel equations); use fresnel='exact'")
         return {"type": "dielectric", "int_ior": float(_f32(m.ior)), "ext_ior": 1.0}
+    elif isinstance(m, rt.ThinDielectric):
+        return {"type": "thindielectric", "int_ior": float(_f32(m.ior)), "ext_ior": 1.0}
     elif isinstance(m, rt.DiffuseLight):
         # A light without albedo reflects nothing: a black diffuse BSDF (Mitsuba would
         # otherwise give the shape its default 0.5 grey diffuse BSDF).

@@ -14,7 +14,7 @@ from .build import build_id
 from .estimate import ImageEstimate, SampleMoments
 from .imageio import write_exr, write_png, read_exr, to_display
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Material, Metal, Plastic, RoughConductor,
-                        RoughPlastic)
+                        RoughPlastic, ThinDielectric)
 from .render import INTEGRATORS, STRATEGIES, TRIANGLE_TESTS, RenderResult, render
 from .scene import FILTERS, MAX_DEPTH_CAP, Camera, Direct, Filter, Scene
 from .shapes import Box, Mesh, Quad, Shape, Sphere, Triangle
@@ -24,7 +24,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Camera", "Direct", "Filter", "FILTERS", "Scene", "Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh",
-    "Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic", "DiffuseLight",
+    "Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic", "ThinDielectric", "DiffuseLight",
     "DISTRIBUTIONS", "Texture", "Checkerboard", "Bitmap",
     "render", "RenderResult", "ImageEstimate", "SampleMoments", "STRATEGIES", "TRIANGLE_TESTS", "INTEGRATORS", "MAX_DEPTH_CAP",
     "build_id", "write_exr", "read_exr", "write_png", "to_display", "__version__",

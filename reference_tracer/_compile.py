@@ -14,14 +14,14 @@ from __future__ import annotations
 import numpy as np
 
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Metal, Plastic, RoughConductor,
-                        RoughPlastic, reflectance_of)
+                        RoughPlastic, ThinDielectric, reflectance_of)
 from .scene import Scene
 from .shapes import Box, Mesh, Quad, Sphere, Triangle
 from .textures import FILTER_TYPES, WRAP_MODES, Bitmap, Checkerboard, Texture
 
 # Material table columns; must match MaterialType and the material rows read in cpp/bindings.cpp.
 MATERIAL_CODES = {Lambertian: 0, Metal: 1, Dielectric: 2, RoughConductor: 3, DiffuseLight: 4, Plastic: 5,
-                  RoughPlastic: 6}
+                  RoughPlastic: 6, ThinDielectric: 7}
 # type, albedo rgb, radiance rgb, param, two_sided, reflects, variant, distribution, fresnel, eta rgb, k rgb,
 # plastic: int_ior / ext_ior, specular_reflectance rgb, nonlinear
 MATERIAL_COLUMNS = 24
@@ -37,8 +37,9 @@ def _material_row(m) -> list:
         albedo = (albedo.mean(),) * 3
     radiance = m.radiance if isinstance(m, DiffuseLight) else (0.0, 0.0, 0.0)
     param = {Metal: lambda: m.fuzz, Dielectric: lambda: m.ior, RoughConductor: lambda: m.alpha,
-             RoughPlastic: lambda: m.alpha}.get(type(m), lambda: 0.0)()
-    two_sided = float(getattr(m, "two_sided", False))
+             RoughPlastic: lambda: m.alpha, ThinDielectric: lambda: m.ior}.get(type(m), lambda: 0.0)()
+    # a thin pane is the same from both sides
+    two_sided = float(isinstance(m, ThinDielectric) or getattr(m, "two_sided", False))
     reflects = 0.0 if isinstance(m, DiffuseLight) and m.albedo is None else 1.0
     variant = 1.0 if isinstance(m, Dielectric) and m.fresnel == "schlick" else 0.0
     distribution = (float(DISTRIBUTIONS.index(m.distribution)) if isinstance(m, (RoughConductor, RoughPlastic))

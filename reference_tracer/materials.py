@@ -199,6 +199,35 @@ class Dielectric(Material):
 
 
 @dataclass(frozen=True)
+class ThinDielectric(Material):
+    """A thin pane of glass: Mitsuba ``thindielectric``.
+
+    Light that enters the pane leaves it where it entered, undeflected: both faces are
+    one sheet. The pane reflects ``R' = 2R / (1 + R)`` (``R`` the exact Fresnel
+    reflectance of one face at relative index ``ior``: all internal round trips summed)
+    and transmits the rest straight through; both lobes are Dirac and both sides behave
+    alike (no ``two_sided`` option: it always is).
+
+    Parameters
+    ----------
+    ior : float
+        Index of the pane relative to the medium around it (Mitsuba's ``int_ior /
+        ext_ior``), > 0.
+
+    Examples
+    --------
+    >>> ThinDielectric(1.5).ior
+    1.5
+    """
+
+    ior: float
+    is_specular = True
+
+    def __post_init__(self):
+        object.__setattr__(self, "ior", finite_scalar("ThinDielectric.ior", self.ior, lo=1e-3))
+
+
+@dataclass(frozen=True)
 class RoughConductor(Material):
     """Microfacet conductor, scaled by ``albedo``: Mitsuba ``roughconductor``.
 

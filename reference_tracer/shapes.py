@@ -4,7 +4,7 @@ Each shape is immutable and carries a similarity transform (rotation, uniform sc
 translation) that the transform methods compose; ``world_*`` methods return the
 geometry after the transform, which is what both renderers consume.
 
-Orientation conventions (README.md, Conventions): a quad's normal is
+Orientation conventions (docs/conventions.md): a quad's normal is
 ``u x v``; a triangle's front face is counter-clockwise (``(b - a) x (c - a)``);
 a box's faces point outward; ``flip_normals=True`` reverses the front side.
 """
@@ -369,8 +369,8 @@ class Mesh(Shape):
     normals (barycentric weights); it sets the BSDF's frame, which side of a surface
     emits and reflects, and the cosine of light sampling on an emitting mesh, while rays
     still leave along the geometric normal. Like Mitsuba, nothing reconciles the two
-    normals: where they disagree, light may leak through or a region go black (README,
-    Conventions). The normals follow the transform as normals do (its inverse transpose)
+    normals: where they disagree, light may leak through or a region go black
+    (docs/conventions.md). The normals follow the transform as normals do (its inverse transpose)
     and flip with ``flip_normals``.
 
     Texture coordinates: ``uv``, an (N, 2) array of per-vertex coordinates, interpolated

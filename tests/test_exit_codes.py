@@ -1,4 +1,4 @@
-"""Exit codes of ``rtbench`` (README.md, Exit status and errors): 0 pass, 1 a verdict
+"""Exit codes of ``rtbench`` (docs/rtbench.md, Exit status and errors): 0 pass, 1 a verdict
 failed, 2 usage or bad input, 3 internal or I/O error; one line on stderr for 2 and 3, the
 traceback only with ``--debug``. Decided once, in ``benchmarks.cli`` (issue 15, case 8)."""
 from __future__ import annotations

@@ -43,7 +43,7 @@ def test_mitsuba_cli_as_an_external_renderer(tmp_path, capsys):
 
 def test_a_failing_command_fails_its_jobs_with_the_reason(tmp_path, capsys):
     code, out = _curves(tmp_path, "false {scene_xml} {out}")
-    assert code == 3  # a job that could not be rendered: an error, not a verdict (README, exit status)
+    assert code == 3  # a job that could not be rendered: an error, not a verdict (docs/rtbench.md, exit status)
     err = capsys.readouterr().err
     assert "ext-false exited with status 1" in err
 

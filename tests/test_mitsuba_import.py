@@ -176,6 +176,25 @@ def test_a_sampler_declared_at_the_top_level_and_referenced(tmp_path):
             '<shape type="sphere"><emitter type="area"/></shape>')
     path.write_text(f'<scene version="3.0.0">{body.format(t="independent")}</scene>')
     assert len(from_mitsuba(path).shapes) == 1
-    path.write_text(f'<scene version="3.0.0">{body.format(t="stratified")}</scene>')
-    with pytest.raises(ValueError, match="sampler 'stratified'"):
+    path.write_text(f'<scene version="3.0.0">{body.format(t="halton")}</scene>')
+    with pytest.raises(ValueError, match="sampler 'halton'"):
+        from_mitsuba(path)
+
+
+@pytest.mark.parametrize("sampler", ["stratified", "multijitter", "orthogonal", "ldsampler", "sobol", "pmj02"])
+def test_randomised_samplers_read_as_independent(tmp_path, sampler):
+    # Each places every sample uniformly over its pixel: the same expected image.
+    path = tmp_path / "s.xml"
+    path.write_text(_scene_xml('<shape type="sphere"><emitter type="area"/></shape>').replace(
+        "<film", f'<sampler type="{sampler}"><integer name="sample_count" value="16"/></sampler><film', 1))
+    assert len(from_mitsuba(path).shapes) == 1
+
+
+@pytest.mark.parametrize("sampler", ["stratified", "multijitter"])
+def test_samplers_without_jitter_are_refused(tmp_path, sampler):
+    # jitter=false puts the samples at cell centres: another image than the independent one
+    path = tmp_path / "s.xml"
+    path.write_text(_scene_xml('<shape type="sphere"><emitter type="area"/></shape>').replace(
+        "<film", f'<sampler type="{sampler}"><boolean name="jitter" value="false"/></sampler><film', 1))
+    with pytest.raises(ValueError, match="jitter=false"):
         from_mitsuba(path)

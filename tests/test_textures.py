@@ -487,3 +487,13 @@ def test_png_reads_as_mitsuba_reads_it(tmp_path):
     np.testing.assert_allclose(read_image(tmp_path / "t.png"), linear, rtol=1e-6, atol=1e-7)   # 1 ulp: two float32 decodings
     np.testing.assert_array_equal(read_image(tmp_path / "t.png", raw=True),
                                   PNG_PIXELS.astype(np.float32) * np.float32(1.0 / 255.0))   # Mitsuba's decode()
+
+
+def test_a_symbolic_link_out_of_the_scene_folder_is_refused(tmp_path):
+    (tmp_path / "sub").mkdir()
+    _write_png(tmp_path / "secret.png", PNG_PIXELS)
+    (tmp_path / "sub" / "t.png").symlink_to(tmp_path / "secret.png")
+    path = _xml(tmp_path / "sub", '<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" '
+                                  'name="reflectance"><string name="filename" value="t.png"/></texture></bsdf></shape>')
+    with pytest.raises(UnsupportedSceneError, match="outside the scene's folder"):
+        from_mitsuba(path)

@@ -336,12 +336,12 @@ def add_scheduler_arg(parser) -> None:
 # ----------------------------------------------------------------------------------------- what to write
 
 def add_renderer_arg(parser) -> None:
-    """``--renderer CMD``: an external renderer (README: External renderers), repeatable."""
+    """``--renderer CMD``: an external renderer (docs/rtbench.md: External renderers), repeatable."""
     parser.add_argument("--renderer", action="append", default=[], metavar="CMD",
                         help="an external renderer (repeatable where a command takes several; default: none): a "
                              "command template with {scene_xml} {spp} {seed} {width} {height} {out} that renders "
                              "the Mitsuba XML to an EXR at {out}, e.g. 'mitsuba -m scalar_rgb -D spp={spp} "
-                             "-D seed={seed} -o {out} {scene_xml}' (README: External renderers)")
+                             "-D seed={seed} -o {out} {scene_xml}' (docs/rtbench.md: External renderers)")
 
 
 def add_quiet_arg(parser) -> None:

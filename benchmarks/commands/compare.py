@@ -20,7 +20,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from benchmarks.tails import DEFAULT_TAIL_SPP
 
     A.add_alpha_args(parser, default=GATE_ALPHA)
-    A.add_tail_spp_arg(parser, default=DEFAULT_TAIL_SPP)  # of ours when B is this build; README: Comparing builds
+    A.add_tail_spp_arg(parser, default=DEFAULT_TAIL_SPP)  # of ours when B is this build; docs/rtbench.md: Comparing builds
     A.add_threads_args(parser)
     A.add_cache_arg(parser)
     A.add_renderer_arg(parser)  # external renderers whose B curves may be re-run for their variance

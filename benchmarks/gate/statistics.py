@@ -7,7 +7,7 @@ the two can be compared on the same data. Pure numpy/scipy.
 Inputs are per-pixel *means* and *per-sample variances* (``rt.render``'s ``mean`` and
 ``variance``; for Mitsuba, the between-batch variance times the batch spp) with their
 sample counts. Pixels are assumed independent (independent sampler, box filter), which
-holds for both renderers as configured (README.md, Conventions); a ``tent`` or
+holds for both renderers as configured (docs/conventions.md); a ``tent`` or
 ``gaussian`` filter correlates neighbours.
 
 How :func:`compare` tests

@@ -12,7 +12,7 @@ issue 6; the three from :mod:`benchmarks.constants`).
     figure's error maps and RMSE, no verdict, rest on it). Tail references at 16384 spp
     and never more: where one's variance rests on single samples the curve says
     "undetermined" with the budget that would decide (``escalate_tails`` False). Under
-    three minutes on 2 cores from an empty cache (README), seconds once cached. Sizing: on
+    three minutes on 2 cores from an empty cache (docs/rtbench.md, Presets), seconds once cached. Sizing: on
     ``cornell_box`` at 32x32, 4 seeds at 256 spp flag the biased ``light`` strategy with
     z >= 4.7 in 8 of 8 trials (``BIAS_TEST_ALPHA`` = 0.001 needs z > 3.09).
 ``full``

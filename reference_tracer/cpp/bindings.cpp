@@ -206,7 +206,7 @@ public:
         for (size_t i = 0; i < materials.shape(0); ++i) {
             rt::Material m;
             const int type = int(materials(i, 0));
-            if (type < 0 || type > 6) throw std::invalid_argument("materials: unknown material type");
+            if (type < 0 || type > 7) throw std::invalid_argument("materials: unknown material type");
             m.type = rt::MaterialType(type);
             m.albedo = row3(materials, i, 1);
             m.radiance = row3(materials, i, 4);

@@ -8,6 +8,7 @@
 #include "plastic.h"
 #include "rough_conductor.h"
 #include "rough_plastic.h"
+#include "thin_dielectric.h"
 
 namespace rt {
 
@@ -19,13 +20,14 @@ enum class MaterialType : int {
     DiffuseLight = 4,
     Plastic = 5,
     RoughPlastic = 6,
+    ThinDielectric = 7,
 };
 
 struct Material {
     MaterialType type = MaterialType::Lambertian;
     Vec3 albedo;            // Plastic and RoughPlastic: the diffuse base's reflectance
     Vec3 radiance;          // emitted radiance (DiffuseLight)
-    double param = 0.0;     // Metal: fuzz; Dielectric: ior; RoughConductor and RoughPlastic: alpha
+    double param = 0.0;     // Metal: fuzz; Dielectric and ThinDielectric: ior; RoughConductor and RoughPlastic: alpha
     bool two_sided = false;
     bool reflects = true;   // false for a DiffuseLight without albedo: a black surface
     bool schlick = false;   // Dielectric: Schlick's approximation instead of exact Fresnel
@@ -56,7 +58,9 @@ struct Material {
         if (type == MaterialType::Plastic || type == MaterialType::RoughPlastic) coating.diffuse = coating.base(rho);
     }
     // Delta lobes: sampled directly, no pdf machinery, no light sampling at the vertex.
-    bool is_delta() const { return type == MaterialType::Metal || type == MaterialType::Dielectric; }
+    bool is_delta() const {
+        return type == MaterialType::Metal || type == MaterialType::Dielectric || type == MaterialType::ThinDielectric;
+    }
     bool is_glass() const { return type == MaterialType::Dielectric; }
     // A Dirac lobe beside lobes of finite density (smooth plastic): light sampling at the
     // vertex, and a sample of the Dirac lobe continues the path as a mirror's would.
@@ -118,6 +122,7 @@ template <Mutant M = Mutant::None>
         case MaterialType::RoughConductor: return rough_conductor::sample<M>(m.albedo, m.rough(), wo, u1, u2);
         case MaterialType::Metal: return conductor::sample(m.albedo, m.param, m.fresnel, wo, u1, u2);
         case MaterialType::Dielectric: return dielectric::sample<M>(m.param, wo, u0, m.schlick);
+        case MaterialType::ThinDielectric: return thin_dielectric::sample(m.param, wo, u0);
         case MaterialType::Plastic: return plastic::sample(m.coating, wo, u0, u1, u2);
         case MaterialType::RoughPlastic: return rough_plastic::sample(m.rough_plastic(), wo, u0, u1, u2);
         default: return {};
