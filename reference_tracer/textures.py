@@ -2,7 +2,7 @@
 
 A texture gives a material's reflectance per surface point, looked up at the point's
 texture coordinates ``(u, v)`` after the texture's ``to_uv`` transform. The coordinates are
-Mitsuba's parameterisation of each shape (README.md, Conventions): a sphere's spherical
+Mitsuba's parameterisation of each shape (docs/conventions.md, Geometry): a sphere's spherical
 angles, a quad's ``(s, t)`` along its edges, each face of a box the unit square (Mitsuba's
 ``cube``), a mesh's per-vertex coordinates interpolated by the barycentrics (or the
 barycentrics themselves where it has none).
