@@ -209,6 +209,19 @@ void Scene::texture_uv(const Interaction& it, double& u, double& v) const {
     }
 }
 
+Vec3 Scene::texture_value(const Material& m, const Interaction& it) const {
+    double u, v;
+    texture_uv(it, u, v);
+    return textures_.textures[size_t(m.texture)].eval(u, v);
+}
+
+const Material& Scene::shade_textured(const Material& m, const Interaction& it,
+                                      std::optional<Material>& local) const {
+    local.emplace(m);
+    local->set_reflectance(texture_value(m, it));
+    return *local;
+}
+
 void Scene::fill_interaction(const Ray& ray, double t, uint32_t prim, Interaction& it) const {
     it.t = t;
     it.prim = prim;

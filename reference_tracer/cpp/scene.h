@@ -165,22 +165,24 @@ public:
     // (texture.h); a scene with textures only.
     void texture_uv(const Interaction& it, double& u, double& v) const;
     // The reflectance of material m at hit `it`: its texture's value there, else its albedo.
+    // Only the test is inline: the lookup (scene.cpp) stays out of the integrators' loops,
+    // which untextured materials run as before.
     Vec3 reflectance(const Material& m, const Interaction& it) const {
-        if (!m.textured()) return m.albedo;
-        double u, v;
-        texture_uv(it, u, v);
-        return textures_.textures[size_t(m.texture)].eval(u, v);
+        if (__builtin_expect(!m.textured(), 1)) return m.albedo;
+        return texture_value(m, it);
     }
     // The material whose BSDF scatters at hit `it`: m itself, or where m has a texture,
     // `local` made a copy of m with the texture's value there.
     const Material& shade(const Material& m, const Interaction& it, std::optional<Material>& local) const {
-        if (!m.textured()) return m;
-        local.emplace(m);
-        local->set_reflectance(reflectance(m, it));
-        return *local;
+        if (__builtin_expect(!m.textured(), 1)) return m;
+        return shade_textured(m, it, local);
     }
 
 private:
+    // m's texture at hit `it`, and m with that value in `local` (reflectance(), shade()).
+    [[gnu::noinline]] Vec3 texture_value(const Material& m, const Interaction& it) const;
+    [[gnu::noinline]] const Material& shade_textured(const Material& m, const Interaction& it,
+                                                     std::optional<Material>& local) const;
     // Tests primitive `prim`; on a hit closer than t_max, lowers t_max and records it.
     bool hit_primitive(uint32_t prim, const Ray& ray, const WatertightRay& wray, double& t_max,
                        uint32_t& best) const {

@@ -90,7 +90,7 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
         }
         return true;  // the reference point: reference_points(), a pack at a time
     }
-    lane.vertex.emplace(it, scene_.shade(m, it, lane.textured), lane.ray.d, front);
+    lane.vertex.emplace(it, m.textured() ? scene_.shade(m, it, *lane.textured) : m, lane.ray.d, front);
     const Vertex& v = *lane.vertex;
     if (!v) {
         lane.path_done = true;
@@ -411,6 +411,8 @@ void WavefrontIntegrator::write_pixel(const Lane& lane, RenderOutput& out) const
 void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::atomic<bool>& cancel,
                               std::atomic<uint64_t>& pixels_done, uint64_t& rays, uint64_t& nonfinite) const {
     std::vector<Lane> lanes(kLanes);
+    std::vector<std::optional<Material>> textured(scene_.has_textures() ? kLanes : 0);
+    for (size_t i = 0; i < textured.size(); ++i) lanes[i].textured = &textured[i];
     // The batch's queries, compacted: the busy lanes, those with a shadow ray, and those
     // whose path ended.
     Lane* active[kLanes];

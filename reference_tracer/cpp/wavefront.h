@@ -80,9 +80,10 @@ private:
         double shadow_t_max = 0.0;
         Vec3 shadow_value;     // what it adds to L when unoccluded
 
-        // The vertex's material with its texture's value at the hit, where it has a texture
-        // and the vertex is built (Scene::shade); last, away from the fields every bounce reads.
-        std::optional<Material> textured;
+        // Where the scene has textures, this lane's slot for a textured vertex's material
+        // (Scene::shade), kept beside the lanes by run(): a pointer, so that a lane of a
+        // scene without textures is no larger than it was (the lanes stay in L1).
+        std::optional<Material>* textured = nullptr;
     };
 
     // The work queue of one bounce's vertices that run in packs: the lanes that take a light
