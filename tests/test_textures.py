@@ -497,3 +497,19 @@ def test_a_symbolic_link_out_of_the_scene_folder_is_refused(tmp_path):
                                   'name="reflectance"><string name="filename" value="t.png"/></texture></bsdf></shape>')
     with pytest.raises(UnsupportedSceneError, match="outside the scene's folder"):
         from_mitsuba(path)
+
+
+def test_mesh_load_reads_texture_coordinates_as_mitsuba(tmp_path):
+    """Mesh.load of the OBJ (``vt`` flipped, Mitsuba's default) gives the coordinates the
+    importer takes from Mitsuba's own loader, vertex for vertex."""
+    path = _mesh_folder(tmp_path, raw=False)
+    imported = next(s for s in from_mitsuba(path).shapes if isinstance(s, rt.Mesh))
+    loaded = rt.Mesh.load(tmp_path / "pyramid.obj", rt.Lambertian(CHECKER))
+    assert loaded.uv.shape == imported.uv.shape == (5, 2)
+    np.testing.assert_allclose(loaded.uv, imported.uv, atol=1e-6)
+    # vertices in the order the faces first use them (Mitsuba's): matched by position
+    order = [int(np.argmin(np.linalg.norm(PYRAMID_V * [0.7, 0.7, 1.0] - v, axis=1))) for v in loaded.vertices]
+    np.testing.assert_allclose(loaded.uv, np.column_stack([1.5 * PYRAMID_UV[order, 0],
+                                                           1.0 - 1.5 * PYRAMID_UV[order, 1]]), atol=1e-12)
+    flat = rt.Mesh.load(tmp_path / "pyramid.obj", rt.Lambertian(0.5))
+    assert flat.uv is None   # untextured: nothing read, the mesh hashes as before
