@@ -14,11 +14,16 @@ computed where it has none, shade the mesh smooth as in Mitsuba), BSDFs ``diffus
 names or RGB ``eta``/``k``), ``dielectric``, ``thindielectric``, ``plastic`` and ``roughplastic`` (constant
 reflectances, named or numeric ``int_ior``/``ext_ior``, ``nonlinear``; rough: ``ggx`` or
 ``beckmann``, isotropic), ``twosided`` around one of those, references by id, ``area``
-emitters (on their shape or declared at the top level and referenced) and ``constant``,
-RGB or scalar values, and ``checkerboard`` and ``bitmap`` textures (with ``to_uv``; bitmap
-``filter_type``, ``wrap_mode``, ``raw``; declared inline or at the top level and referenced)
-for ``diffuse.reflectance``, a plastic's ``diffuse_reflectance`` and a conductor's
-``specular_reflectance``, with the texture coordinates of each shape (a mesh file's own).
+emitters (on their shape or declared at the top level and referenced), ``constant``,
+``envmap`` (an OpenEXR or RGBE ``filename`` read by our own checked readers, or a
+``bitmap``; ``scale``, a rotation ``to_world``), ``point`` (``position`` or ``to_world``,
+``intensity``), ``spot`` (``to_world`` a similarity, ``intensity``, ``cutoff_angle``,
+``beam_width``; no ``texture``) and ``directional`` (``direction`` or ``to_world``,
+``irradiance``), RGB or scalar values, and ``checkerboard`` and ``bitmap`` textures (with
+``to_uv``; bitmap ``filter_type``, ``wrap_mode``, ``raw``; declared inline or at the top
+level and referenced) for ``diffuse.reflectance``, a plastic's ``diffuse_reflectance`` and a
+conductor's ``specular_reflectance``, with the texture coordinates of each shape (a mesh
+file's own).
 Anything else is refused with one ``ValueError`` listing every unsupported item and
 where it is; no partial scene is ever returned.
 """
@@ -55,7 +60,7 @@ IOR_TABLE = {
 # Mitsuba defaults that matter here.
 _DEFAULT_DIFFUSE = 0.5
 _SENSOR_OK = {"fov", "fov_axis", "to_world", "near_clip", "far_clip", "focus_distance", "film", "sampler",
-              "x_fov", "srf"}
+              "x_fov", "srf", "focal_length"}
 # hdrfilm parameters that change no pixel value of the RGB image rendered: the output file's
 # format and channels, the banner (sample_border is checked where it matters).
 _FILM_OK = {"width", "height", "rfilter", "pixel_format", "component_format", "sample_border",
@@ -487,6 +492,122 @@ def _conductor_ior(ctx, node):
     return {"material": material}
 
 
+# --------------------------------------------------------------------------- lights
+#: Parameters every emitter may have that change Mitsuba's variance, never its image: the
+#: share of light samples it gets (our selection is by power; docs/conventions.md, Light transport).
+_EMITTER_ANY = {"sampling_weight"}
+
+
+def _point3(ctx, node, key):
+    """A ``<point>`` / ``<vector>`` property as a 3-vector, or None after recording a problem."""
+    p = node.props
+    try:
+        v = np.array(p[key], dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        v = None
+    if v is None or v.shape != (3,) or not np.all(np.isfinite(v)):
+        ctx.bad(node, f"{p.plugin_name()}.{key} must be a finite 3-vector")
+        return None
+    return v
+
+
+def _conformal_axis(ctx, node, m):
+    """The unit +z axis of ``to_world`` (a spot's or directional light's direction), or None
+    after recording a problem: its linear part must be a rotation times a uniform scale
+    (a stretch would change the shape of a spot's cone)."""
+    rs = _rigid_scale(m)
+    if rs is None or not np.allclose(rs[1], rs[1][0], rtol=1e-5):
+        ctx.bad(node, f"{node.props.plugin_name()} to_world is not a similarity (rotation, uniform scale, "
+                      "translation)")
+        return None
+    z = m[:3, :3] @ np.array([0.0, 0.0, 1.0])
+    return z / np.linalg.norm(z)
+
+
+def _envmap(ctx, node):
+    """Our EnvMap for Mitsuba's ``envmap`` node (its file read by our checked readers), or None."""
+    _extra(ctx, node, {"filename", "bitmap", "scale", "to_world", "mis_compensation"} | _EMITTER_ANY, "emitter")
+    keys = node.props.keys()
+    scale = _scalar(ctx, node, "scale", 1.0)
+    if isinstance(scale, str):
+        ctx.bad(node, f"envmap scale={scale!r} (a number)")
+        return None
+    m = _matrix(ctx, node)
+    try:
+        if "bitmap" in keys:   # a mi.Bitmap object, as load_dict takes it (and to_mitsuba gives it)
+            if "filename" in keys:
+                ctx.bad(node, "envmap with both bitmap and filename (Mitsuba refuses it too)")
+                return None
+            image = np.array(node.props["bitmap"], dtype=np.float64)
+        elif "filename" in keys:
+            image = ctx.resolve(str(node.props["filename"]))
+        else:
+            ctx.bad(node, "envmap without a filename")
+            return None
+        return rt.EnvMap(image, scale=float(scale), to_world=m)
+    except (ValueError, OSError) as exc:
+        ctx.bad(node, f"envmap: {exc}")
+        return None
+
+
+def _light(ctx, node):
+    """Our light for a top-level Mitsuba emitter other than ``area`` and ``constant``: an
+    EnvMap, PointLight, SpotLight or DirectionalLight; None after recording a problem."""
+    name = node.props.plugin_name()
+    keys = node.props.keys()
+    if name == "envmap":
+        return _envmap(ctx, node)
+    try:
+        if name == "point":
+            _extra(ctx, node, {"position", "to_world", "intensity"} | _EMITTER_ANY, "emitter")
+            if "position" in keys and "to_world" in keys:
+                ctx.bad(node, "point light with both position and to_world (Mitsuba refuses it too)")
+                return None
+            position = _point3(ctx, node, "position") if "position" in keys else _matrix(ctx, node)[:3, 3]
+            intensity = _colour(ctx, node, "intensity", 1.0)
+            if position is None or intensity is None:
+                return None
+            return rt.PointLight(position, intensity)
+        if name == "spot":
+            if "texture" in keys:
+                ctx.bad(node, "spot light with a projected texture")
+                return None
+            _extra(ctx, node, {"to_world", "intensity", "cutoff_angle", "beam_width"} | _EMITTER_ANY, "emitter")
+            m = _matrix(ctx, node)
+            axis = _conformal_axis(ctx, node, m)
+            intensity = _colour(ctx, node, "intensity", 1.0)
+            cutoff = _scalar(ctx, node, "cutoff_angle", 20.0)
+            beam = _scalar(ctx, node, "beam_width", None)
+            if axis is None or intensity is None:
+                return None
+            return rt.SpotLight(m[:3, 3], axis, intensity, cutoff_angle=cutoff,
+                                beam_width=None if beam is None else beam)
+        if name == "directional":
+            _extra(ctx, node, {"direction", "to_world", "irradiance"} | _EMITTER_ANY, "emitter")
+            if "direction" in keys and "to_world" in keys:
+                ctx.bad(node, "directional light with both direction and to_world (Mitsuba refuses it too)")
+                return None
+            if "direction" in keys:
+                direction = _point3(ctx, node, "direction")
+            else:
+                m = _matrix(ctx, node)
+                direction = m[:3, :3] @ np.array([0.0, 0.0, 1.0])
+                if not abs(np.linalg.norm(direction) - 1.0) < 1e-5:
+                    # Mitsuba uses to_world's +z axis as the light's direction without
+                    # normalising it: a scaled axis would scale its light
+                    ctx.bad(node, "directional to_world scales its +z axis (Mitsuba would not normalise it)")
+                    return None
+            irradiance = _colour(ctx, node, "irradiance", 1.0)
+            if direction is None or irradiance is None:
+                return None
+            return rt.DirectionalLight(direction, irradiance)
+    except ValueError as exc:   # a value Mitsuba takes and we do not (or neither does), with the place
+        ctx.bad(node, f"{name}: {exc}")
+        return None
+    ctx.bad(node, f"emitter '{name}' (area on shapes, constant, envmap, point, spot and directional are supported)")
+    return None
+
+
 # --------------------------------------------------------------------------- shapes
 def _matrix(ctx, node, key="to_world") -> np.ndarray:
     p = node.props
@@ -709,6 +830,26 @@ def _vfov(ctx, node, fov, axis, width, height):
     return math.degrees(2 * math.atan(ty))
 
 
+def _focal_length_fov(ctx, sensor):
+    """The diagonal field of view of a sensor without ``fov``, as Mitsuba's ``parse_fov``
+    derives it: from ``focal_length`` ("<x>mm", default 50mm) on a 36 x 24 mm film."""
+    p = sensor.props
+    text = "50mm"
+    if "focal_length" in p.keys():
+        if p.type("focal_length") != ctx.mi.Properties.Type.String:
+            ctx.bad(sensor, f"perspective focal_length of type {p.type('focal_length')} (a string such as '50mm')")
+            return None
+        text = str(p["focal_length"])
+    try:
+        value = float(text[:-2] if text.endswith("mm") else text)
+    except ValueError:
+        value = math.nan
+    if not (value > 0 and math.isfinite(value)):
+        ctx.bad(sensor, f"perspective focal_length={text!r} (a positive length in mm)")
+        return None
+    return math.degrees(2.0 * math.atan(math.hypot(36.0, 24.0) / (2.0 * value)))
+
+
 def _camera(ctx, sensor):
     if sensor is None:
         ctx.problems.append("no sensor (a perspective sensor is required)")
@@ -737,8 +878,12 @@ def _camera(ctx, sensor):
         _sampler(ctx, sampler)
     if "x_fov" in sensor.props.keys():
         fov, axis = _scalar(ctx, sensor, "x_fov", 39.3077), "x"
-    else:
+    elif "fov" in sensor.props.keys():
         fov, axis = _scalar(ctx, sensor, "fov", 39.3077), _scalar(ctx, sensor, "fov_axis", "x")
+    else:
+        fov, axis = _focal_length_fov(ctx, sensor), "diagonal"
+        if fov is None:
+            return None
     vfov = _vfov(ctx, sensor, float(fov), axis, width, height)
     m = _matrix(ctx, sensor)
     lin = m[:3, :3]
@@ -940,7 +1085,8 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
     T, OT = mi.Properties.Type, mi.ObjectType
 
     sensor = integrator = None
-    shapes, background = [], np.zeros(3)
+    shapes, background, lights = [], np.zeros(3), []
+    environments = []  # the nodes of constant and envmap emitters (Mitsuba allows one)
     for key in root.props.keys():
         t = root.props.type(key)
         if t == T.Object:
@@ -970,13 +1116,17 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
             if shape is not None:
                 shapes.append(shape)
         elif kind == OT.Emitter:
+            if name in ("constant", "envmap"):
+                environments.append(node)
             if name == "constant":
-                _extra(ctx, node, {"radiance"}, "emitter")
+                _extra(ctx, node, {"radiance"} | _EMITTER_ANY, "emitter")
                 c = _colour(ctx, node, "radiance", 1.0)
                 if c is not None:
                     background = background + np.asarray(c)
             elif name != "area":  # an area emitter declared here is used by reference: checked on its shape
-                ctx.bad(node, f"emitter '{name}' (only 'area' on shapes and 'constant')")
+                light = _light(ctx, node)
+                if light is not None:
+                    lights.append(light)
         elif kind in (OT.BSDF, OT.Texture):
             continue   # declared here, used through references; checked where used
         elif kind == OT.Sampler:  # declared here for a sensor to reference: the same rule as inside one
@@ -984,6 +1134,9 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
         else:
             ctx.bad(node, f"{str(kind).split('.')[-1].lower()} '{name}'")
 
+    if len(environments) > 1:
+        ctx.bad(environments[1], f"a second environment emitter ({environments[1].props.plugin_name()} after "
+                                 f"{environments[0].props.plugin_name()}; Mitsuba allows one)")
     camera = _camera(ctx, sensor)
     max_depth, rr_depth, direct = -1, 5, None
     if integrator is not None and integrator.props.plugin_name() == "moment":
@@ -1016,7 +1169,7 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
     else:
         rr = rr_depth
     return rt.Scene(camera=camera, shapes=shapes, max_depth=max_depth, rr_depth=rr,
-                    background=tuple(background), direct=direct)
+                    background=tuple(background), direct=direct, lights=lights)
 
 
 def _checked_film_size(size) -> tuple:

@@ -36,6 +36,12 @@ ours                                   Mitsuba 3
 ``two_sided=True``                     ``twosided`` wrapper
 ``DiffuseLight(L, albedo=a)``          ``area`` emitter + ``diffuse`` BSDF of albedo a (black if None)
 ``background``                         ``constant`` emitter (none when black)
+``EnvMap(image, scale, to_world)``     ``envmap`` with its texels (a ``bitmap`` in the dict, an
+                                       OpenEXR file beside the XML), ``scale``, ``to_world``
+``PointLight(position, intensity)``    ``point``, ``position``, ``intensity``
+``SpotLight(position, direction, ...)`` ``spot``, ``to_world = look_at(position, position +
+                                       direction, up)``, ``intensity``, ``cutoff_angle``, ``beam_width``
+``DirectionalLight(direction, E)``     ``directional``, ``direction``, ``irradiance``
 ``max_depth``, ``rr_depth``            ``path`` integrator; ``rr_depth=None`` -> larger than max_depth
 ``direct=Direct(ne, nb)``              ``direct`` integrator, ``emitter_samples=ne``, ``bsdf_samples=nb``
 =====================================  ==================================================
@@ -253,6 +259,7 @@ def _lower(scene: rt.Scene) -> dict:
                         "bsdf_samples": scene.direct.bsdf_samples, "hide_emitters": False}),
         "background": _rgb(scene.background) if scene.has_background else None,
         "shapes": [],
+        "lights": [_light_record(light) for light in scene.lights],
     }
     errors = []
     for i, s in enumerate(scene.shapes):
@@ -264,6 +271,34 @@ def _lower(scene: rt.Scene) -> dict:
     if errors:
         raise ValueError("scene cannot be translated to Mitsuba exactly:\n  " + "\n  ".join(errors))
     return out
+
+
+def _perpendicular(d) -> np.ndarray:
+    """A unit vector perpendicular to the unit vector ``d`` (a look_at's up)."""
+    axis = np.eye(3)[int(np.argmin(np.abs(d)))]
+    up = np.cross(d, axis)
+    return up / np.linalg.norm(up)
+
+
+def _light_record(light) -> dict:
+    """A light that is not a shape, in Mitsuba's dict syntax (plain values; the envmap's
+    texels as an array, its rotation as a 4x4 matrix)."""
+    if isinstance(light, rt.EnvMap):
+        tw = np.eye(4)
+        tw[:3, :3] = light.to_world
+        return {"type": "envmap", "pixels": light.pixels, "scale": float(_f32(light.scale)), "to_world": _f32(tw)}
+    if isinstance(light, rt.PointLight):
+        return {"type": "point", "position": [float(x) for x in _f32(light.position)],
+                "intensity": {"type": "rgb", "value": _rgb(light.intensity)}}
+    if isinstance(light, rt.SpotLight):
+        p, d = np.asarray(light.position), np.asarray(light.direction)
+        return {"type": "spot", "to_world": _f32(look_at_matrix(p, p + d, _perpendicular(d))),
+                "intensity": {"type": "rgb", "value": _rgb(light.intensity)},
+                "cutoff_angle": float(_f32(light.cutoff_angle)), "beam_width": float(_f32(light.beam_width))}
+    if isinstance(light, rt.DirectionalLight):
+        return {"type": "directional", "direction": [float(x) for x in _f32(light.direction)],
+                "irradiance": {"type": "rgb", "value": _rgb(light.irradiance)}}
+    raise ValueError(f"light {type(light).__name__} has no Mitsuba translation")  # pragma: no cover
 
 
 def _shape_record(i: int, label: str, s) -> dict:
@@ -424,6 +459,13 @@ def to_mitsuba(scene: rt.Scene, *, variant: str | None = None) -> dict:
     }
     if low["background"] is not None:
         d["background"] = {"type": "constant", "radiance": {"type": "rgb", "value": low["background"]}}
+    for i, rec in enumerate(low["lights"]):
+        entry = dict(rec)
+        if rec["type"] == "envmap":
+            entry["bitmap"] = mi.Bitmap(np.array(entry.pop("pixels"), dtype=np.float32, order="C"))  # a writable copy
+        if "to_world" in entry:
+            entry["to_world"] = _transform(mi, entry["to_world"])
+        d[f"light_{i:03d}_{rec['type']}"] = entry
     for rec in low["shapes"]:
         name = rec["name"]
         if rec["type"] == "mesh":
@@ -577,7 +619,7 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
     cam, integ = low["camera"], low["integrator"]
     (o, t, u) = cam["lookat"]
     plys = []  # (path, vertices, faces, normals, uv): written with the XML, by _write_all
-    images = []  # (path, array): the bitmaps made from arrays, as EXR files beside the XML
+    images = []  # (path, array): OpenEXR files written beside the XML: bitmaps' and envmaps' texels
 
     def bsdf_with_files(bsdf, tex):
         """The BSDF record with its bitmap named relative to the XML: its own file where
@@ -629,6 +671,23 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
         L += ['    <emitter type="constant">',
               f'        <rgb name="radiance" value="{", ".join(_num(c) for c in low["background"])}"/>',
               "    </emitter>"]
+    for i, rec in enumerate(low["lights"]):
+        rec = dict(rec)
+        L.append(f'    <emitter type="{rec.pop("type")}" id="light_{i:03d}">')
+        ind = "        "
+        if "pixels" in rec:
+            exr = f"{path.stem}_light_{i:03d}.exr"
+            images.append((path.parent / exr, rec.pop("pixels")))
+            L.append(f"{ind}<string name=\"filename\" value={_xml_escape(exr)}/>")
+        if "to_world" in rec:
+            L += _xml_matrix(rec.pop("to_world"), ind)
+        for key in ("position", "direction"):
+            if key in rec:
+                x, y, z = rec.pop(key)
+                tag = "point" if key == "position" else "vector"
+                L.append(f'{ind}<{tag} name="{key}" x="{_num(x)}" y="{_num(y)}" z="{_num(z)}"/>')
+        L += _xml_props(rec, ind)
+        L.append("    </emitter>")
     for shape, rec in zip(scene.shapes, low["shapes"]):
         kind = "ply" if rec["type"] == "mesh" else rec["type"]
         L.append(f'    <shape type="{kind}" id="{rec["name"]}">')
@@ -657,10 +716,10 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
     return path
 
 
-def _write_all(path: Path, text: str, plys: list, images: list = ()) -> None:
-    """The meshes' PLY files and the bitmaps' EXR files, then the XML, each written
-    atomically (never a partial file); on any error the files this call created are removed
-    (nothing stray is left)."""
+def _write_all(path: Path, text: str, plys: list, images=()) -> None:
+    """The meshes' PLY files and the envmaps' and bitmaps' OpenEXR files, then the XML, each
+    written atomically (never a partial file); on any error the files this call created are
+    removed (nothing stray is left)."""
     for target in (path, *(p[0] for p in plys), *(p for p, _ in images)):
         _check_target(target)
     created = []

@@ -12,7 +12,8 @@ Examples
 """
 from .build import build_id
 from .estimate import ImageEstimate, SampleMoments
-from .imageio import write_exr, write_png, read_exr, to_display
+from .imageio import write_exr, write_png, read_exr, read_hdr, to_display
+from .lights import DirectionalLight, EnvMap, Light, PointLight, SpotLight
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Material, Metal, Plastic, RoughConductor,
                         RoughPlastic, ThinDielectric)
 from .render import INTEGRATORS, STRATEGIES, TRIANGLE_TESTS, RenderResult, render
@@ -25,7 +26,8 @@ __version__ = "0.1.0"
 __all__ = [
     "Camera", "Direct", "Filter", "FILTERS", "Scene", "Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh",
     "Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic", "ThinDielectric", "DiffuseLight",
-    "DISTRIBUTIONS", "Texture", "Checkerboard", "Bitmap",
+    "DISTRIBUTIONS", "Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight", "Texture", "Checkerboard",
+    "Bitmap",
     "render", "RenderResult", "ImageEstimate", "SampleMoments", "STRATEGIES", "TRIANGLE_TESTS", "INTEGRATORS", "MAX_DEPTH_CAP",
-    "build_id", "write_exr", "read_exr", "write_png", "to_display", "__version__",
+    "build_id", "write_exr", "read_exr", "read_hdr", "write_png", "to_display", "__version__",
 ]

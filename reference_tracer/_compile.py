@@ -11,10 +11,13 @@ coordinates in Mitsuba's parameterisation of its shape); a scene without passes 
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Metal, Plastic, RoughConductor,
                         RoughPlastic, ThinDielectric, reflectance_of)
+from .lights import DirectionalLight, PointLight, SpotLight
 from .scene import Scene
 from .shapes import Box, Mesh, Quad, Sphere, Triangle
 from .textures import FILTER_TYPES, WRAP_MODES, Bitmap, Checkerboard, Texture
@@ -66,6 +69,39 @@ def _check_extent(what: str, points) -> None:
     if not reach <= MAX_COORDINATE:
         raise ValueError(f"{what} reaches |coordinate| = {reach:.3g}, beyond {MAX_COORDINATE:g}: the BVH tests "
                          "boxes in single precision; rescale the scene")
+
+
+#: Columns of a delta light's row (cpp/bindings.cpp): kind (0 point, 1 spot, 2 directional),
+#: position (3), direction (3), intensity or irradiance (3), a spot's cutoff and beam angles (radians).
+DELTA_LIGHT_COLUMNS = 12
+
+
+def _delta_light_row(light) -> list:
+    if isinstance(light, PointLight):
+        return [0.0, *light.position, 0.0, 0.0, 0.0, *light.intensity, 0.0, 0.0]
+    if isinstance(light, SpotLight):
+        return [1.0, *light.position, *light.direction, *light.intensity,
+                math.radians(light.cutoff_angle), math.radians(light.beam_width)]
+    if isinstance(light, DirectionalLight):
+        return [2.0, 0.0, 0.0, 0.0, *light.direction, *light.irradiance, 0.0, 0.0]
+    raise ValueError(f"unsupported light {type(light).__name__}")  # pragma: no cover - Scene admits only these
+
+
+def _lights(scene: Scene) -> dict:
+    """The core's arguments for the scene's lights that are not shapes (none without them:
+    a scene's arguments stay what they always were)."""
+    out = {}
+    deltas = [_delta_light_row(light) for light in scene.lights if light.delta]
+    if deltas:
+        for light in scene.delta_lights:
+            if isinstance(light, (PointLight, SpotLight)):
+                _check_extent(f"{type(light).__name__}.position", [light.position])
+        out["delta_lights"] = np.asarray(deltas, dtype=np.float64).reshape(-1, DELTA_LIGHT_COLUMNS)
+    env = scene.environment
+    if env is not None:
+        out.update(environment=env.pixels, environment_scale=float(env.scale),
+                   environment_to_world=np.ascontiguousarray(env.to_world, dtype=np.float64))
+    return out
 
 
 def compile_scene(scene: Scene) -> dict:
@@ -148,6 +184,7 @@ def compile_scene(scene: Scene) -> dict:
         max_depth=int(scene.effective_max_depth),
         rr_depth=int(scene.rr_depth) if scene.rr_depth is not None else -1,
         **normals,
+        **_lights(scene),
         **({"textures": textures} if textures is not None else {}),
     )
 

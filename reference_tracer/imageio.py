@@ -17,7 +17,7 @@ import numpy as np
 
 from .validation import finite_scalar
 
-__all__ = ["write_exr", "read_exr", "write_png", "to_display", "atomic_write", "new_file_mode"]
+__all__ = ["write_exr", "read_exr", "read_hdr", "write_png", "to_display", "atomic_write", "new_file_mode"]
 
 
 def new_file_mode() -> int:
@@ -176,6 +176,114 @@ def read_exr(path, *, max_pixels: int = MAX_READ_PIXELS) -> np.ndarray:
         key = next(iter(channels))
         px = np.asarray(channels[key].pixels, dtype=np.float32)
         return px if px.ndim == 3 else px[..., None]
+
+
+#: the longest header line :func:`read_hdr` reads before its resolution line, and how many lines.
+_HDR_LINE_MAX, _HDR_LINES_MAX = 4096, 1024
+
+
+def read_hdr(path, *, max_pixels: int = MAX_READ_PIXELS) -> np.ndarray:
+    """Read a Radiance RGBE file (``.hdr``, ``.rgbe``) as an (H, W, 3) float32 array, as
+    Mitsuba 3 reads one (``Bitmap::read_rgbe``).
+
+    The header (``#?`` first, a ``FORMAT=32-bit_rle_rgbe`` line, then the resolution line
+    ``-Y H +X W``, the only orientation Mitsuba reads) is read first: an image of more than
+    ``max_pixels`` pixels, another format or orientation, or a truncated or malformed file
+    is refused with ``ValueError`` before anything is allocated for its pixels. Scanlines
+    are run-length encoded (the "new" scheme) or flat, as Mitsuba decodes them; each pixel
+    is ``mantissa * 2^(exponent - 136)`` (0 for exponent 0), Mitsuba's conversion (no
+    ``EXPOSURE`` applied, as there).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "grey.hdr")   # two pixels of radiance 1
+    >>> with open(path, "wb") as f:
+    ...     _ = f.write(b"#?RADIANCE\\nFORMAT=32-bit_rle_rgbe\\n\\n-Y 1 +X 2\\n" + bytes([128, 128, 128, 129]) * 2)
+    >>> read_hdr(path).tolist()
+    [[[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]]]
+    """
+    path = Path(path)
+    with open(path, "rb") as fh:
+        first = fh.readline(_HDR_LINE_MAX)
+        if not first.startswith(b"#?"):
+            raise ValueError(f"{path}: not a Radiance RGBE file (no '#?' header)")
+        fmt = None
+        for _ in range(_HDR_LINES_MAX):
+            line = fh.readline(_HDR_LINE_MAX)
+            if not line:
+                raise ValueError(f"{path}: RGBE header without a resolution line")
+            text = line.decode("latin-1").strip()
+            if text.startswith("FORMAT="):
+                fmt = text[len("FORMAT="):]
+                continue
+            tokens = text.split()
+            if len(tokens) == 4 and tokens[0] in ("-Y", "+Y") and tokens[2] in ("+X", "-X"):
+                if (tokens[0], tokens[2]) != ("-Y", "+X"):
+                    raise ValueError(f"{path}: RGBE orientation {tokens[0]} {tokens[2]} (Mitsuba reads -Y +X only)")
+                try:
+                    h, w = int(tokens[1]), int(tokens[3])
+                except ValueError:
+                    raise ValueError(f"{path}: bad RGBE resolution line {text!r}") from None
+                break
+        else:
+            raise ValueError(f"{path}: RGBE header longer than {_HDR_LINES_MAX} lines")
+        if fmt != "32-bit_rle_rgbe":
+            raise ValueError(f"{path}: RGBE format {fmt!r} (only 32-bit_rle_rgbe is read)")
+        if not (h >= 1 and w >= 1):
+            raise ValueError(f"{path}: RGBE image of {w}x{h} pixels")
+        if h * w > max_pixels:
+            raise ValueError(f"{path}: an RGBE image of {h * w} pixels, more than the {max_pixels} read at most")
+        data = fh.read(4 * h * w * 2 + 4 * h + 1)  # flat pixels, or RLE at worst twice as long
+    rgbe = _rgbe_pixels(data, h, w, path)
+    mant = rgbe[..., :3].astype(np.float32)
+    exp = rgbe[..., 3].astype(np.int32)
+    scale = np.where(exp > 0, np.ldexp(np.float32(1.0), exp - 136).astype(np.float32), np.float32(0.0))
+    return (mant * scale[..., None]).astype(np.float32)
+
+
+def _rgbe_pixels(data: bytes, h: int, w: int, path) -> np.ndarray:
+    """The (h, w, 4) bytes of an RGBE file's pixel data: flat, or new-style run-length encoded."""
+    def flat(offset: int) -> np.ndarray:
+        need = 4 * h * w
+        if len(data) - offset < need:
+            raise ValueError(f"{path}: RGBE pixel data truncated ({len(data) - offset} of {need} bytes)")
+        return np.frombuffer(data, dtype=np.uint8, count=need, offset=offset).reshape(h, w, 4)
+
+    if w < 8 or w > 0x7FFF or len(data) < 4:
+        return flat(0)
+    first = data[:4]
+    if first[0] != 2 or first[1] != 2 or first[2] & 0x80:
+        return flat(0)  # not run-length encoded (Mitsuba decides on the first scanline)
+    out = np.empty((h, 4, w), dtype=np.uint8)
+    pos, n = 0, len(data)
+    for y in range(h):
+        if pos + 4 > n:
+            raise ValueError(f"{path}: RGBE data truncated at scanline {y}")
+        head = data[pos:pos + 4]
+        pos += 4
+        if head[0] != 2 or head[1] != 2 or head[2] & 0x80 or ((head[2] << 8) | head[3]) != w:
+            raise ValueError(f"{path}: RGBE scanline {y} has a bad header")
+        for c in range(4):
+            row = out[y, c]
+            x = 0
+            while x < w:
+                if pos + 2 > n:
+                    raise ValueError(f"{path}: RGBE data truncated at scanline {y}")
+                count = data[pos]
+                if count > 128:
+                    count -= 128
+                    if count > w - x:
+                        raise ValueError(f"{path}: RGBE scanline {y}: a run past the line's end")
+                    row[x:x + count] = data[pos + 1]
+                    pos += 2
+                else:
+                    if count == 0 or count > w - x or pos + 1 + count > n:
+                        raise ValueError(f"{path}: RGBE scanline {y}: bad run")
+                    row[x:x + count] = np.frombuffer(data, dtype=np.uint8, count=count, offset=pos + 1)
+                    pos += 1 + count
+                x += count
+    return np.ascontiguousarray(out.transpose(0, 2, 1))
 
 
 #: largest exposure (in stops, either sign) of :func:`to_display`: 2**1000 is still a finite double.

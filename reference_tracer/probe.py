@@ -197,7 +197,8 @@ def first_hit_aovs(scene: Scene, *, offset=(0.5, 0.5)) -> dict:
     dict
         ``t`` (H, W) hit distance (inf on a miss), ``normal`` (H, W, 3) unit shading normal
         of the front side (0 on a miss), ``albedo`` (H, W, 3) (:func:`diffuse_albedo`),
-        ``emitted`` (H, W, 3) radiance toward the camera (the background on a miss),
+        ``emitted`` (H, W, 3) radiance toward the camera (on a miss the environment's in
+        the ray's direction: the constant background or an EnvMap),
         ``shape`` (H, W) shape index (-1 on a miss).
 
     Examples
@@ -213,7 +214,8 @@ def first_hit_aovs(scene: Scene, *, offset=(0.5, 0.5)) -> dict:
     h, w = cam.height, cam.width
     yy, xx = np.mgrid[0:h, 0:w]
     o, d = camera_rays(cam, xx.ravel() + offset[0], yy.ravel() + offset[1])
-    hit = core_scene(scene).intersect(o, d, threads=1)
+    core = core_scene(scene)
+    hit = core.intersect(o, d, threads=1)
     t = np.asarray(hit["t"], dtype=np.float64)
     valid = np.isfinite(t)
     prims = np.asarray(hit["prim"], dtype=np.int64)
@@ -224,7 +226,8 @@ def first_hit_aovs(scene: Scene, *, offset=(0.5, 0.5)) -> dict:
     shading = hit.get("shading_normal", hit["normal"])
     normal = np.where(valid[:, None], np.asarray(shading, dtype=np.float64), 0.0)
     albedo = np.zeros((t.size, 3))
-    emitted = np.tile(np.asarray(scene.background, dtype=np.float64), (t.size, 1))
+    # on a miss, the environment's radiance in the ray's direction (a constant or an EnvMap)
+    emitted = np.asarray(core.background(np.ascontiguousarray(d, dtype=np.float64)), dtype=np.float64)
     front = np.einsum("ij,ij->i", normal, -d) > 0
     for i, s in enumerate(scene.shapes):
         m = shape == i

@@ -14,13 +14,19 @@ from .estimate import ImageEstimate, SampleMoments
 from .scene import FILTERS, Scene
 from .strategies import STRATEGIES
 
-__all__ = ["render", "RenderResult", "ImageEstimate", "STRATEGIES", "TRIANGLE_TESTS", "INTEGRATORS", "core_scene"]
+__all__ = ["render", "RenderResult", "ImageEstimate", "STRATEGIES", "TRIANGLE_TESTS", "INTEGRATORS", "BLIND_TO_DELTA_LIGHTS",
+           "core_scene"]
 
 
 #: Ray-triangle tests: ``watertight`` (Woop, Benthin and Wald 2013, the default: no ray
 #: leaks through shared edges), ``cramer`` (the seed's Cramer's-rule barycentric test in
 #: double precision) and ``cramer32`` (the same in single precision).
 TRIANGLE_TESTS = ("watertight", "cramer", "cramer32")
+
+#: Strategies that find light only by meeting emitters with sampled directions: they cannot
+#: see delta lights (PointLight, SpotLight, DirectionalLight), and ``render`` refuses scenes
+#: with such lights for them.
+BLIND_TO_DELTA_LIGHTS = ("uniform", "cosine", "mixture")
 
 #: How the C++ core runs the paths: ``wavefront`` (the default: a batch of paths per
 #: thread, each bounce's intersection queries answered together) and ``scalar`` (one path
@@ -175,7 +181,9 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
         samples only directions toward emitters and so sees only light that arrives
         straight from an emitter (no indirect light at diffuse surfaces). In a scene with
         ``direct`` (Mitsuba's ``direct`` integrator) it picks the techniques of the first
-        surface's samples: :meth:`Direct.counts`.
+        surface's samples: :meth:`Direct.counts`. A scene with delta lights (``PointLight``,
+        ``SpotLight``, ``DirectionalLight``) renders with ``mis`` or ``light`` only: the
+        others (:data:`BLIND_TO_DELTA_LIGHTS`) cannot see such lights and are refused.
     seed : int, keyword-only
         Seed of the random streams, 0 <= seed < 2**64.
     threads : int or None, keyword-only
@@ -216,6 +224,11 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
     spp = positive_int("spp", spp)
     if strategy not in STRATEGIES:
         raise ValueError(f"strategy must be one of {STRATEGIES}, got {strategy!r}")
+    if strategy in BLIND_TO_DELTA_LIGHTS and scene.delta_lights:
+        names = ", ".join(sorted({type(light).__name__ for light in scene.delta_lights}))
+        raise ValueError(f"strategy {strategy!r} cannot see the scene's delta lights ({names}): it collects light "
+                         "only where a sampled direction meets an emitter, and no direction meets a point, spot or "
+                         "directional light; render with 'mis' or 'light'")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**64:
         raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
     if threads is None:

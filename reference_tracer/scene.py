@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .lights import EnvMap, Light
 from .validation import colour, finite_scalar, positive_int, vector3
 from .shapes import Shape
 
@@ -206,6 +207,13 @@ class Scene:
     direct : Direct or None
         Mitsuba's ``direct`` integrator instead of ``path`` (``max_depth`` and ``rr_depth``
         then play no part).
+    lights : sequence of Light
+        Lights that are not shapes: at most one :class:`~reference_tracer.EnvMap` (the
+        scene's environment, in place of ``background``, which must then be black: Mitsuba
+        allows one environment emitter), and any number of
+        :class:`~reference_tracer.PointLight`, :class:`~reference_tracer.SpotLight` and
+        :class:`~reference_tracer.DirectionalLight` (delta lights: only the ``mis`` and
+        ``light`` strategies can see them).
 
     Examples
     --------
@@ -223,6 +231,7 @@ class Scene:
     rr_depth: int | None = None
     background: tuple = (0.0, 0.0, 0.0)
     direct: Direct | None = None
+    lights: tuple = ()
     # The compiled C++ scene, per triangle test. Not an __init__ field, so that
     # dataclasses.replace(scene, ...) gives the new scene an empty cache of its own rather
     # than the original's compiled core (which rendered the old scene: issue 15, case 0).
@@ -248,6 +257,25 @@ class Scene:
         object.__setattr__(self, "background", colour("Scene.background", self.background, upper=None))
         if self.direct is not None and not isinstance(self.direct, Direct):
             raise ValueError(f"Scene.direct must be a reference_tracer.Direct or None, got {self.direct!r}")
+        if isinstance(self.lights, (Light, str, bytes)):
+            raise ValueError("Scene.lights must be a sequence of lights (EnvMap, PointLight, SpotLight, "
+                             "DirectionalLight), not one")
+        try:
+            lights = tuple(self.lights)
+        except TypeError:
+            raise ValueError("Scene.lights must be a sequence of lights") from None
+        for i, light in enumerate(lights):
+            if not isinstance(light, Light):
+                raise ValueError(f"Scene.lights[{i}] must be a reference_tracer light (EnvMap, PointLight, SpotLight, "
+                                 f"DirectionalLight), got {light!r}")
+        envs = [i for i, light in enumerate(lights) if isinstance(light, EnvMap)]
+        if len(envs) > 1:
+            raise ValueError(f"Scene.lights holds {len(envs)} EnvMaps (at {envs}): a scene has one environment "
+                             "(as in Mitsuba)")
+        if envs and max(self.background) > 0.0:
+            raise ValueError("Scene.background must be black when Scene.lights holds an EnvMap: a scene has one "
+                             "environment, a constant or a map (as in Mitsuba)")
+        object.__setattr__(self, "lights", lights)
 
     @property
     def effective_max_depth(self) -> int:
@@ -266,6 +294,7 @@ class Scene:
             "background": self.background,
             # path scenes keep the hash they always had
             **({} if self.direct is None else {"direct": self.direct.describe()}),
+            **({"lights": [light.describe() for light in self.lights]} if self.lights else {}),
         }
 
     def content_hash(self) -> str:
@@ -275,7 +304,7 @@ class Scene:
 
     def with_camera_size(self, width: int, height: int) -> "Scene":
         return Scene(self.camera.with_size(width, height), self.shapes, self.max_depth,
-                     self.rr_depth, self.background, self.direct)
+                     self.rr_depth, self.background, self.direct, self.lights)
 
     @property
     def emitters(self):
@@ -283,7 +312,18 @@ class Scene:
 
     @property
     def has_background(self) -> bool:
+        """Whether the constant ``background`` is lit (an EnvMap is :attr:`environment`)."""
         return max(self.background) > 0.0
+
+    @property
+    def environment(self):
+        """The scene's :class:`~reference_tracer.EnvMap`, or None."""
+        return next((light for light in self.lights if isinstance(light, EnvMap)), None)
+
+    @property
+    def delta_lights(self) -> list:
+        """The point, spot and directional lights of ``lights``."""
+        return [light for light in self.lights if light.delta]
 
 
 def _json_default(x):

@@ -48,7 +48,7 @@ def test_catalogue_covers_every_routine():
             "warp.concentric_disk", "bsdf.lambertian", "bsdf.rough_conductor", "bsdf.rough_conductor_beckmann",
             "bsdf.plastic", "bsdf.rough_plastic", "bsdf.rough_plastic_beckmann", "lobes.dielectric",
             "lobes.dielectric_schlick", "light.quad", "light.triangle", "light.smooth_triangle", "light.sphere",
-            "light.scene"} <= names
+            "light.scene", "light.envmap", "light.scene_envmap"} <= names
     ggx = [dict(r.params) for r in ROUTINES if r.name == "bsdf.rough_conductor"]
     assert len({p["alpha"] for p in ggx}) >= 3 and len({p["theta_o"] for p in ggx}) >= 3
     for name in ("bsdf.rough_plastic", "bsdf.rough_plastic_beckmann", "bsdf.plastic"):
@@ -139,6 +139,58 @@ def test_smooth_light_draws_by_area_not_by_its_reported_density():
     probe = LightProbe([rt.Mesh(tri, [[0, 1, 2]], rt.DiffuseLight(1.0), normals=normals)], np.array([0.2, 0.3, 0.1]))
     r = chi2_test(probe.sample, probe.pdf, domain="sphere", n=100_000, seed=2, dims=3)
     assert r.verdict == "fail" and min(r.p_value, r.mass_p_value) < 1e-10
+
+
+def _envmap_probe(image, **kw):
+    import reference_tracer as rt
+
+    env = rt.EnvMap(image, **kw)
+    return env, LightProbe([], np.zeros(3), lights=(env,))
+
+
+def test_envmap_sampling_against_wrong_densities_fails():
+    """The environment map's sampler against its density stated independently passes (the
+    catalogue's test); against the same cells uniform in (u, v) instead of in solid angle (no
+    sin theta: too much density at the poles), against the map rotated by a tenth of a texel
+    column, or with the cells' weights taken from their first corner alone, it fails."""
+    from benchmarks.chi2.catalogue import _envmap_density, _envmap_image
+
+    img = _envmap_image(11, (8, 16), sun=(2, 9))
+    env, probe = _envmap_probe(img)
+    right = chi2_test(probe.sample, _envmap_density(env), domain="sphere", n=100_000, seed=6, dims=3)
+    assert right.verdict == "pass"
+
+    h, w = env.height, env.width
+    lum = np.asarray(env.pixels, float) @ np.array([0.2126, 0.7152, 0.0722])
+    cell = 0.25 * (lum[:-1] + np.roll(lum[:-1], -1, axis=1) + lum[1:] + np.roll(lum[1:], -1, axis=1))
+
+    def uv_density(dirs):   # piecewise constant in (u, v): p(omega) = p(u, v) / (2 pi^2 sin theta)
+        u = np.mod(np.arctan2(dirs[:, 0], -dirs[:, 2]) / (2 * np.pi), 1.0)
+        theta = np.arccos(np.clip(dirs[:, 1], -1, 1))
+        j = np.mod(np.floor(u * w - 0.5).astype(int), w)
+        k = np.minimum(np.floor(theta / np.pi * (h - 1)).astype(int), h - 2)
+        p_uv = cell[k, j] / (cell.sum() / (w * (h - 1)))
+        return p_uv / (2 * np.pi ** 2 * np.maximum(np.sin(theta), 1e-12))
+    wrong_uv = chi2_test(probe.sample, uv_density, domain="sphere", n=100_000, seed=6, dims=3)
+    assert wrong_uv.verdict == "fail" and min(wrong_uv.p_value, wrong_uv.mass_p_value) < 1e-10
+
+    a = 2 * np.pi / w / 10   # a tenth of a column, about the vertical axis
+    turned = _envmap_density(_envmap_probe(img, to_world=[[np.cos(a), 0, np.sin(a)], [0, 1, 0],
+                                                          [-np.sin(a), 0, np.cos(a)]])[0])
+    wrong_turn = chi2_test(probe.sample, turned, domain="sphere", n=100_000, seed=6, dims=3)
+    assert wrong_turn.verdict == "fail" and wrong_turn.p_value < 1e-10
+
+    corner = lum[:-1] / float((lum[:-1] * ((2 * np.pi / w) * (np.cos(np.arange(h - 1) * np.pi / (h - 1))
+                                                             - np.cos(np.arange(1, h) * np.pi / (h - 1))))[:, None]).sum())
+
+    def corner_density(dirs):
+        u = np.mod(np.arctan2(dirs[:, 0], -dirs[:, 2]) / (2 * np.pi), 1.0)
+        v = np.arccos(np.clip(dirs[:, 1], -1, 1)) / np.pi
+        j = np.mod(np.floor(u * w - 0.5).astype(int), w)
+        k = np.minimum(np.floor(v * (h - 1)).astype(int), h - 2)
+        return corner[k, j]
+    wrong_corner = chi2_test(probe.sample, corner_density, domain="sphere", n=100_000, seed=6, dims=3)
+    assert wrong_corner.verdict == "fail" and min(wrong_corner.p_value, wrong_corner.mass_p_value) < 1e-10
 
 
 def test_disk_with_a_linear_radius_fails():

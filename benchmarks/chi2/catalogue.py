@@ -30,6 +30,13 @@ that change its distribution:
   (area sampling), and a scene with three emitters and a background (selection by power;
   the triangle faces away, so its samples fail and its density is 0).
   Each sample's pdf equals ``light_pdf`` in its direction.
+  ``light.envmap``: an environment map alone (rotated, mirrored, a tiny padded map),
+  tested against its density stated independently here (its cells of four texels chosen
+  by mean luminance times solid angle, uniform in solid angle within), which ``light_pdf``
+  must report too; ``light.scene_envmap``: the map beside a quad, a point, a spot and a
+  directional light, the delta lights' samples checked on their own (direction toward the
+  light, radiance, pdf and share equal to the selection by power, computed here
+  independently), the others by the chi-square test.
   ``light.smooth_triangle``: a triangle light with vertex normals, sampled as Mitsuba
   samples a mesh emitter: points uniform by area, the side test and the cosine of the
   density taken with the interpolated shading normal. Its reported density (``light_pdf``,
@@ -200,19 +207,27 @@ def _polygon_boundary(vertices, k=400):
     return np.concatenate([(1 - t) * v[i] + t * v[(i + 1) % len(v)] for i in range(len(v))])
 
 
-def _light(label, shapes_fn, ref, *, background=0.0, cap=None, params=(), densities=None):
+def _light(label, shapes_fn, ref, *, background=0.0, cap=None, params=(), densities=None, lights_fn=None,
+           deltas=None, resolution=DEFAULT_RESOLUTION):
     """``cap``: None (the whole sphere), or a function (ref) -> (rotation, cos_range).
     ``densities``: None (the directions' density is ``light_pdf``), or a function (ref) ->
     (true, reported): the density of the directions drawn and the one ``light_pdf`` must
-    report, each a function of (m, 3) world directions (a smooth emitter's)."""
+    report, each a function of (m, 3) world directions (a smooth emitter's).
+    ``lights_fn``: the scene's lights that are not shapes (an EnvMap, delta lights).
+    ``deltas``: a function (ref) -> the delta lights' expected samples, ``(name, wi,
+    radiance, pmf)`` each (:func:`_delta_checks`)."""
     def make():
         r = np.asarray(ref, float)
         rot, cos_range = cap(r) if cap else (np.eye(3), None)
         shapes = shapes_fn()
-        probe = LightProbe(shapes, r, background=background, rotation=rot)
-        emitters = sum(1 for s in shapes if s.material.emits) + (1 if background > 0 else 0)
+        lights = tuple(lights_fn()) if lights_fn else ()
+        probe = LightProbe(shapes, r, background=background, rotation=rot, lights=lights)
+        emitters = (sum(1 for s in shapes if s.material.emits) + (1 if background > 0 else 0)
+                    + len(lights))
         spec = {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": "sphere", "dims": 3,
-                "cos_range": cos_range, "single": emitters == 1}
+                "cos_range": cos_range, "single": emitters == 1, "resolution": resolution}
+        if deltas is not None:
+            spec["deltas"] = deltas(r)
         if densities is not None:
             true, reported = densities(r)
             spec["pdf"] = lambda dirs: true(np.asarray(dirs) @ rot)
@@ -348,7 +363,102 @@ def _catalogue() -> tuple:
         _light("scene", mixed, (0.0, 0.0, 0.0), background=0.2,
                params=(("emitters", "quad+sphere+background+triangle seen from behind"),)),
     ]
+    routines += _envmap_routines(rt)
     return tuple(routines)
+
+
+def _envmap_image(seed: int, shape, sun=None) -> np.ndarray:
+    """A test environment: texels of luminance spread over two decades (a few black), and
+    optionally a "sun" of radiance 200 at texel ``sun`` (row, column)."""
+    rng = np.random.default_rng(seed)
+    img = rng.uniform(0.0, 1.0, (*shape, 3)) ** 3 * 2.0
+    img[rng.random(shape) < 0.05] = 0.0
+    if sun is not None:
+        img[sun] = (200.0, 180.0, 150.0)
+    return img
+
+
+def _envmap_density(env):
+    """The density of an EnvMap's light sampling, stated independently of the tracer (see
+    ``sampling/environment.h``): the map's cells between texel centres (columns wrapping
+    around, rows from pole to pole), each of weight the mean luminance of its four corner
+    texels, chosen with probability weight times solid angle, uniform in solid angle within;
+    so the density at a direction is its cell's weight over the sum of weight times solid
+    angle. A function of (m, 3) world directions."""
+    px = np.asarray(env.pixels, dtype=np.float64)
+    h, w = px.shape[:2]
+    lum = px @ np.asarray(LUMINANCE_WEIGHTS)
+    cell = 0.25 * (lum[:-1] + np.roll(lum[:-1], -1, axis=1) + lum[1:] + np.roll(lum[1:], -1, axis=1))
+    cos = np.cos(np.arange(h) * math.pi / (h - 1))
+    total = float((cell * ((2 * math.pi / w) * (cos[:-1] - cos[1:]))[:, None]).sum())
+    rot = np.asarray(env.to_world)
+
+    def pdf(dirs):
+        d = np.asarray(dirs, dtype=np.float64) @ rot            # the map's frame: R^T d
+        u = np.mod(np.arctan2(d[:, 0], -d[:, 2]) / (2 * math.pi), 1.0)
+        v = np.arccos(np.clip(d[:, 1] / np.linalg.norm(d, axis=1), -1.0, 1.0)) / math.pi
+        j = np.mod(np.floor(u * w - 0.5).astype(np.int64), w)
+        k = np.minimum(np.floor(v * (h - 1)).astype(np.int64), h - 2)
+        return cell[k, j] / total
+    return pdf
+
+
+def _envmap_routines(rt) -> list:
+    """The environment map alone (its distribution: cells of four texels, uniform in solid
+    angle; rotated, mirrored, a tiny padded map whose cells span quarter spheres), and a
+    scene of every kind of light: the map, a quad, a point, a spot and a directional light
+    (delta lights' samples checked by :func:`_delta_checks`, the rest by the chi-square test
+    against ``light_pdf``)."""
+    tilt = [[0.6, 0.0, 0.8], [0.64, 0.6, -0.48], [-0.48, 0.8, 0.36]]   # a rotation
+    mirror = [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]     # a reflection
+
+    def env(shape, sun=None, seed=3, to_world=None):
+        return lambda: [rt.EnvMap(_envmap_image(seed, shape, sun), to_world=to_world)]
+
+    def stated(lights_fn):   # the independent density, as both the drawn and the reported one
+        def densities(ref):
+            pdf = _envmap_density(lights_fn()[0])
+            return pdf, pdf
+        return densities
+
+    maps = [(env((12, 24), sun=(3, 17), to_world=tilt), (0.0, 0.0, 0.0), (("map", "12x24, a sun"), ("to_world", "rotation"))),
+            (env((9, 16), seed=5, to_world=mirror), (0.3, -2.0, 5.0), (("map", "9x16"), ("to_world", "reflection"))),
+            (lambda: [rt.EnvMap([[[1.0, 0.2, 0.1], [0.1, 0.3, 2.0]]])], (0.0, 0.0, 0.0),
+             (("map", "1x2, padded to 3x2: cells of quarter spheres, one across u = 0"),))]
+
+    # Every light of the mixed scene, and what its delta lights' samples must be from ref.
+    big = rt.Sphere((0.0, 0.0, 0.0), 3.0, rt.Lambertian(0.5))        # the scene's bounds: R = 3 sqrt(3)
+    quad = rt.Quad((-1.0, 1.0, -1.0), (2.0, 0.0, 0.0), (0.0, 0.0, 2.0), rt.DiffuseLight((2.0, 1.0, 0.5)))
+    point = rt.PointLight((1.0, 0.5, 1.5), (3.0, 2.0, 1.0))
+    spot = rt.SpotLight((-1.0, -1.5, 0.5), (0.8, 1.0, -0.3), (40.0, 30.0, 20.0), cutoff_angle=50.0, beam_width=20.0)
+    sun = rt.DirectionalLight((0.3, -1.0, 0.2), (1.5, 1.4, 1.2))
+    lum = np.asarray(LUMINANCE_WEIGHTS)
+
+    def mixed_deltas(ref):
+        c, b = math.radians(spot.cutoff_angle), math.radians(spot.beam_width)
+        weights = {"quad": 4.0 * float(np.asarray(quad.material.radiance) @ lum),
+                   "point": 4.0 * float(np.asarray(point.intensity) @ lum),
+                   "spot": 2.0 * float(np.asarray(spot.intensity) @ lum) * (1.0 - (math.sin(c) - math.sin(b)) / (c - b)),
+                   "directional": 27.0 * float(np.asarray(sun.irradiance) @ lum)}
+        total = sum(weights.values())
+        pmf = {k: 0.5 * w / total for k, w in weights.items()}   # the environment takes half
+        out = []
+        for name, light in (("point", point), ("spot", spot)):
+            d = np.asarray(light.position) - ref
+            dist2 = float(d @ d)
+            wi = d / math.sqrt(dist2)
+            falloff = 1.0 if light is point else float(light.falloff(-wi @ np.asarray(light.direction)))
+            out.append((name, wi, np.asarray(light.intensity) * (falloff / dist2), pmf[name]))
+        out.append(("directional", -np.asarray(sun.direction), np.asarray(sun.irradiance), pmf["directional"]))
+        return out
+
+    return [
+        *(_light("envmap", lambda: [], ref, lights_fn=fn, densities=stated(fn), params=params)
+          for fn, ref, params in maps),
+        _light("scene_envmap", lambda: [big, quad], (0.2, -0.3, 0.1),
+               lights_fn=lambda: [*env((8, 16), sun=(2, 5), seed=7)(), point, spot, sun], deltas=mixed_deltas,
+               params=(("lights", "envmap+quad+point+spot+directional"),)),
+    ]
 
 
 #: Every routine of the catalogue, in table order.
@@ -457,12 +567,13 @@ def _mixed_checks(spec: dict, grid: Grid, n: int, seed: int, level: float):
 
 def _light_checks(probe: LightProbe, single: bool, n: int, seed: int, reported=None) -> dict:
     """A sample's pdf equals light_pdf in its direction (one emitter) or is at most it; with
-    ``reported`` (a function of world directions), light_pdf at every sample equals it."""
+    ``reported`` (a function of world directions), light_pdf at every sample equals it.
+    Delta lights' samples have no density: :func:`_delta_checks` takes them."""
     bad = bad_all = valid_count = bad_reported = 0
     worst = 0.0
     for u in _chunks(n, seed):
         s = probe.sample_full(u)
-        valid = s["valid"].astype(bool)
+        valid = s["valid"].astype(bool) & ~s["delta"].astype(bool)
         wi = np.ascontiguousarray(s["wi"][valid])
         pdf, pdf_all = s["pdf"][valid], s["pdf_all"][valid]
         lp = probe.core.light_pdf(np.ascontiguousarray(np.broadcast_to(probe.ref, wi.shape)), wi)
@@ -482,6 +593,44 @@ def _light_checks(probe: LightProbe, single: bool, n: int, seed: int, reported=N
     if reported is not None:
         checks["light_pdf_is_mitsubas_shading_density"] = {"ok": bad_reported == 0, "mismatches": bad_reported}
     return checks
+
+
+def _delta_checks(probe: LightProbe, expected: list, n: int, seed: int, alpha: float):
+    """The delta lights' samples: each points along one expected direction ``wi`` (toward a
+    point or spot light from the reference point, against a directional light's travel),
+    with the expected radiance (intensity / dist^2, times a spot's falloff; a directional
+    light's irradiance) and pdf (its selection's probability, from the powers of
+    ``lights.h``'s rule computed here independently); their counts against those
+    probabilities (a discrete test at ``alpha``, the other samples one outcome). Returns the
+    test's result and the checks."""
+    names = [e[0] for e in expected]
+    wis = np.array([e[1] for e in expected], dtype=np.float64)
+    counts = np.zeros(len(expected) + 1, dtype=np.int64)
+    bad_dir = bad_value = bad_pdf = unmatched = 0
+    for u in _chunks(n, seed):
+        s = probe.sample_full(u)
+        valid, delta = s["valid"].astype(bool), s["delta"].astype(bool)
+        rows = valid & delta
+        wi, pdf, radiance = s["wi"][rows], s["pdf"][rows], s["radiance"][rows]
+        which = np.argmax(wi @ wis.T, axis=1) if len(wi) else np.zeros(0, dtype=int)
+        for k, (_, w, value, pmf) in enumerate(expected):
+            m = which == k
+            close = np.all(np.abs(wi[m] - np.asarray(w)) <= 1e-12, axis=1)
+            bad_dir += int((~close).sum())
+            bad_value += int((~np.isclose(radiance[m], np.asarray(value, dtype=float), rtol=_RTOL, atol=0))
+                             .any(axis=1).sum())
+            bad_pdf += int((~np.isclose(pdf[m], pmf, rtol=_RTOL, atol=0)).sum())
+            counts[k] += int(m.sum())
+        unmatched += int((delta & ~valid).sum())   # a delta sample that failed (none expected here)
+        counts[-1] += int((~rows).sum())
+    probs = [e[3] for e in expected]
+    res = discrete_test(list(counts), probs + [1.0 - sum(probs)], alpha=alpha)
+    res.details.update({f"count_{name}": int(c) for name, c in zip(names, counts)})
+    checks = {"delta_direction": {"ok": bad_dir == 0, "mismatches": bad_dir},
+              "delta_radiance": {"ok": bad_value == 0, "mismatches": bad_value},
+              "delta_pdf_is_selection": {"ok": bad_pdf == 0, "mismatches": bad_pdf},
+              "delta_samples_valid": {"ok": unmatched == 0, "failed": unmatched}}
+    return res, checks
 
 
 def _lobe_run(spec: dict, n: int, seed: int, alpha: float):
@@ -527,7 +676,7 @@ def run_routine(routine: Routine, *, n: int = DEFAULT_N, seed: int = 0, alpha: f
         res, checks = _lobe_run(spec, n, s, alpha)
     else:
         # the chi-square test (itself two: shape and mass), the albedo, the lobe counts
-        stat_tests = {"bsdf": 2, "mixed": 3}.get(routine.kind, 1)
+        stat_tests = {"bsdf": 2, "mixed": 3}.get(routine.kind, 1) + (1 if spec.get("deltas") else 0)
         a = sidak(alpha, stat_tests)
         res = chi2_test(spec["sample"], spec["pdf"], domain=spec["domain"], n=n, seed=s, alpha=a,
                         dims=spec["dims"], cos_range=spec.get("cos_range"),
@@ -541,6 +690,11 @@ def run_routine(routine: Routine, *, n: int = DEFAULT_N, seed: int = 0, alpha: f
                                         **lobes.details}
         elif routine.kind == "light":
             checks = _light_checks(spec["probe"], spec["single"], n, s + 1, spec.get("reported"))
+            if spec.get("deltas"):
+                shares, delta_checks = _delta_checks(spec["probe"], spec["deltas"], n, s + 2, a)
+                checks.update(delta_checks)
+                checks["delta_shares"] = {"ok": shares.verdict == "pass", "p_value": shares.p_value,
+                                          **shares.details}
     failed = [k for k, v in checks.items() if not v["ok"]]
     verdict, message = res.verdict, res.message
     if failed:

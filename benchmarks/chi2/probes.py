@@ -105,17 +105,20 @@ class BsdfProbe:
 @dataclass
 class LightProbe:
     """Light sampling from the point ``ref`` of a scene holding ``shapes`` (emitters and
-    any other shapes) and a constant ``background``.
+    any other shapes), a constant ``background`` and ``lights`` (an EnvMap, delta lights).
 
     ``rotation`` (rows: a basis, see :func:`frame`) expresses directions in a frame of the
     caller's choice (e.g. +z toward a small light, to bin a concentrated density on a
-    cap): ``sample`` returns local directions and ``pdf`` takes them.
+    cap): ``sample`` returns local directions and ``pdf`` takes them. A delta light's
+    sample has no density: ``sample`` returns it as a failed one (NaN), and the density
+    then integrates to the share of the other samples.
     """
 
     shapes: list
     ref: np.ndarray
     background: float = 0.0
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    lights: tuple = ()
     _core_scene: object = field(default=None, init=False, repr=False)
 
     @property
@@ -124,7 +127,7 @@ class LightProbe:
             cam = rt.Camera(lookfrom=(0.0, 0.0, -10.0), lookat=(0.0, 0.0, 0.0), vup=(0, 1, 0), vfov=60.0,
                             width=2, height=2)
             self._core_scene = probe.core_scene(rt.Scene(camera=cam, shapes=list(self.shapes),
-                                                         background=self.background))
+                                                         background=self.background, lights=tuple(self.lights)))
         return self._core_scene
 
     def _refs(self, m: int) -> np.ndarray:
@@ -137,7 +140,8 @@ class LightProbe:
 
     def sample(self, u) -> np.ndarray:
         s = self.sample_full(u)
-        wi = np.where(s["valid"].astype(bool)[:, None], s["wi"], np.nan)
+        keep = s["valid"].astype(bool) & ~s["delta"].astype(bool)
+        wi = np.where(keep[:, None], s["wi"], np.nan)
         return wi @ self.rotation.T
 
     def pdf(self, dirs) -> np.ndarray:

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import reference_tracer as rt
+from reference_tracer.render import BLIND_TO_DELTA_LIGHTS
 from mitsuba_scenes import get_scene, known_scenes
 
 from ..constants import MITSUBA_DIRECT, MITSUBA_STRATEGY, STRATEGIES
@@ -164,6 +165,13 @@ def validate_group(g: Group) -> None:
         raise ValueError(f"unknown strategy/strategies {bad}; choose from {', '.join(STRATEGIES)}")
     if len(set(g.strategies)) != len(tuple(g.strategies)):
         raise ValueError(f"strategies has repeated names: {list(g.strategies)}")
+    blind = [s for s in g.strategies if s in BLIND_TO_DELTA_LIGHTS]
+    if blind:
+        # refused before any job renders: each of these renders would raise the same error
+        dark = [name for name in g.scenes if get_scene(name).delta_lights]
+        if dark:
+            raise ValueError(f"strategies {blind} cannot see the point, spot or directional lights of scene(s) "
+                             f"{dark} (no sampled direction meets a delta light): render them with mis or light")
     if isinstance(g.externals, str) or any(external(e) is None for e in g.externals):
         raise ValueError(f"externals must name registered external renderers, got {g.externals!r}")
     if not g.strategies and not g.mitsuba and not g.externals:

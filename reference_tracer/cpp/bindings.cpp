@@ -1,6 +1,7 @@
 // Python bindings (nanobind): the compiled scene, rendering with the GIL released, and
 // ray queries used by tests and benchmarks. Input arrays are validated by the Python
 // layer (reference_tracer/_compile.py); the checks here guard the C++ invariants only.
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -33,6 +34,7 @@ namespace mutants {
 using Matrix = nb::ndarray<const double, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
 using Vector = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 using IndexVector = nb::ndarray<const int32_t, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using Image = nb::ndarray<const float, nb::ndim<3>, nb::c_contig, nb::device::cpu>;
 
 rt::Vec3 vec3(const Vector& a) {
     if (a.shape(0) != 3) throw std::invalid_argument("expected a 3-vector");
@@ -191,7 +193,9 @@ public:
             const Matrix& materials, const Matrix& spheres, const Matrix& quads, const Matrix& triangles,
             const IndexVector& triangle_materials, const Vector& background, int max_depth, int rr_depth,
             int triangle_test, const std::optional<IndexVector>& smooth_triangles,
-            const std::optional<Matrix>& triangle_normals, const std::optional<nb::dict>& textures) {
+            const std::optional<Matrix>& triangle_normals, const std::optional<Matrix>& delta_lights,
+            const std::optional<Image>& environment, double environment_scale,
+            const std::optional<Matrix>& environment_to_world, const std::optional<nb::dict>& textures) {
         if (width < 1 || height < 1) throw std::invalid_argument("image size must be positive");
         if (max_depth < 1) throw std::invalid_argument("max_depth must be >= 1 here (the Python layer maps -1)");
         if (triangle_test < 0 || triangle_test > 2) throw std::invalid_argument("unknown triangle test");
@@ -277,6 +281,63 @@ public:
             }
         }
 
+        // Delta lights, one row each: kind (0 point, 1 spot, 2 directional), position (3),
+        // direction (3: a spot's axis, the direction a directional light's light travels;
+        // unit), intensity (3: a directional light's irradiance), a spot's cutoff and beam
+        // angles (radians, 0 <= beam <= cutoff <= pi, cutoff > 0).
+        std::vector<rt::DeltaLight> deltas;
+        if (delta_lights) {
+            const Matrix& rows = *delta_lights;
+            require_columns(rows, 12, "delta_lights");
+            for (size_t i = 0; i < rows.shape(0); ++i) {
+                rt::DeltaLight d;
+                const int kind = int(rows(i, 0));
+                if (kind < 0 || kind > 2 || double(kind) != rows(i, 0))
+                    throw std::invalid_argument("delta_lights: unknown kind");
+                d.kind = kind == 0 ? rt::EmitterKind::Point : kind == 1 ? rt::EmitterKind::Spot
+                                                                        : rt::EmitterKind::Directional;
+                d.position = row3(rows, i, 1);
+                d.direction = row3(rows, i, 4);
+                d.intensity = row3(rows, i, 7);
+                if (!rt::is_finite(d.position) || !rt::is_finite(d.intensity) || !(std::min({d.intensity.x, d.intensity.y, d.intensity.z}) >= 0.0))
+                    throw std::invalid_argument("delta_lights: position and intensity must be finite, intensity >= 0");
+                if (kind != 0 && !(std::abs(rt::length(d.direction) - 1.0) < 1e-9))
+                    throw std::invalid_argument("delta_lights: direction must be a unit vector");
+                d.cutoff = rows(i, 10);
+                d.beam = rows(i, 11);
+                if (kind == 1) {
+                    if (!(d.beam >= 0.0 && d.beam <= d.cutoff && d.cutoff > 0.0 && d.cutoff <= rt::kPi))
+                        throw std::invalid_argument("delta_lights: a spot needs 0 <= beam <= cutoff <= pi, cutoff > 0");
+                    d.cos_cutoff = std::cos(d.cutoff);
+                    d.cos_beam = std::cos(d.beam);
+                }
+                deltas.push_back(d);
+            }
+        }
+        // An environment map: (H, W, 3) linear RGB (padded as Mitsuba pads it), its scale
+        // and rotation (3 x 3, map to world).
+        std::unique_ptr<rt::EnvironmentMap> env;
+        if (environment.has_value() != environment_to_world.has_value())
+            throw std::invalid_argument("environment and environment_to_world come together");
+        if (environment) {
+            const Image& img = *environment;
+            const Matrix& m = *environment_to_world;
+            if (img.shape(2) != 3 || img.shape(1) < 2 || img.shape(0) < 3)
+                throw std::invalid_argument("environment: expected an (H >= 3, W >= 2, 3) image");
+            if (m.shape(0) != 3 || m.shape(1) != 3) throw std::invalid_argument("environment_to_world: expected 3 x 3");
+            if (!(environment_scale >= 0.0) || !std::isfinite(environment_scale))
+                throw std::invalid_argument("environment_scale must be finite and >= 0");
+            const size_t n = img.shape(0) * img.shape(1) * 3;
+            std::vector<float> rgb(img.data(), img.data() + n);
+            for (float x : rgb)
+                if (!(x >= 0.0f) || !std::isfinite(x))
+                    throw std::invalid_argument("environment: every value must be finite and >= 0");
+            double r[3][3];
+            for (int a = 0; a < 3; ++a)
+                for (int b = 0; b < 3; ++b) r[a][b] = m(a, b);
+            env = std::make_unique<rt::EnvironmentMap>(std::move(rgb), int(img.shape(1)), int(img.shape(0)),
+                                                       environment_scale, r);
+        }
         rt::SceneTextures scene_textures;
         if (textures) scene_textures = read_textures(*textures, mats, sph.size(), qs.size(), tris.size());
 
@@ -291,8 +352,8 @@ public:
         {
             nb::gil_scoped_release release;
             scene_ = std::make_unique<rt::Scene>(camera, std::move(mats), std::move(sph), std::move(qs),
-                                                 std::move(tris), settings, std::move(normals),
-                                                 std::move(scene_textures));
+                                                 std::move(tris), settings, std::move(normals), std::move(deltas),
+                                                 std::move(env), std::move(scene_textures));
         }
         build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
@@ -572,8 +633,8 @@ public:
         require_columns(u, 3, "u");
         if (refs.shape(0) != u.shape(0)) throw std::invalid_argument("refs and u differ in length");
         const size_t n = refs.shape(0);
-        std::vector<double> wi(3 * n, 0.0), pdf(n, 0.0), dist(n, 0.0), pdf_all(n, 0.0);
-        std::vector<uint8_t> valid(n, 0);
+        std::vector<double> wi(3 * n, 0.0), pdf(n, 0.0), dist(n, 0.0), pdf_all(n, 0.0), radiance(3 * n, 0.0);
+        std::vector<uint8_t> valid(n, 0), delta(n, 0);
         std::vector<rt::LightSample> packed;
         if (wavefront && scene_->lights().packed_sampling()) {
             packed.resize(n);
@@ -588,8 +649,12 @@ public:
             const rt::LightSample ls =
                 packed.empty() ? scene_->lights().sample(ref, u(i, 0), u(i, 1), u(i, 2)) : packed[i];
             valid[i] = ls.valid;
+            delta[i] = ls.delta;
             if (!ls.valid) continue;
-            for (int c = 0; c < 3; ++c) wi[3 * i + c] = ls.wi[c];
+            for (int c = 0; c < 3; ++c) {
+                wi[3 * i + c] = ls.wi[c];
+                radiance[3 * i + c] = ls.radiance[c];
+            }
             pdf[i] = ls.pdf;
             dist[i] = ls.dist;
             pdf_all[i] = scene_->lights().pdf_all(ref, ls.wi);
@@ -600,7 +665,22 @@ public:
         r["pdf_all"] = to_numpy(std::move(pdf_all), {n});
         r["dist"] = to_numpy(std::move(dist), {n});
         r["valid"] = to_numpy(std::move(valid), {n});
+        r["delta"] = to_numpy(std::move(delta), {n});
+        r["radiance"] = to_numpy(std::move(radiance), {n, 3});
         return r;
+    }
+
+    // The radiance that rays escaping in N directions carry (the background, or the
+    // environment map's value).
+    nb::ndarray<nb::numpy, double> background(const Matrix& dirs) const {
+        require_columns(dirs, 3, "dirs");
+        const size_t n = dirs.shape(0);
+        std::vector<double> out(3 * n);
+        for (size_t i = 0; i < n; ++i) {
+            const rt::Vec3 L = scene_->background(rt::normalize(row3(dirs, i, 0)));
+            for (int c = 0; c < 3; ++c) out[3 * i + c] = L[c];
+        }
+        return to_numpy(std::move(out), {n, 3});
     }
 
     // Density of light sampling (all emitters and the background) for N directions.
@@ -616,6 +696,7 @@ public:
 
     size_t primitive_count() const { return scene_->primitive_count(); }
     size_t emitter_count() const { return scene_->lights().emitter_count(); }
+    bool has_delta_lights() const { return scene_->has_delta_lights(); }
     size_t bvh_nodes() const { return scene_->bvh().node_count(); }
     int bvh_depth() const { return scene_->bvh().depth(); }
     size_t bvh_blocks() const { return scene_->bvh().blocks().size(); }
@@ -686,12 +767,14 @@ NB_MODULE(_core, m) {
     nb::class_<PyScene>(m, "Scene")
         .def(nb::init<const Vector&, const Vector&, const Vector&, double, int, int, const Matrix&, const Matrix&,
                       const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int,
-                      const std::optional<IndexVector>&, const std::optional<Matrix>&,
+                      const std::optional<IndexVector>&, const std::optional<Matrix>&, const std::optional<Matrix>&,
+                      const std::optional<Image>&, double, const std::optional<Matrix>&,
                       const std::optional<nb::dict>&>(),
              "lookfrom"_a, "lookat"_a, "vup"_a, "vfov"_a, "width"_a, "height"_a, "materials"_a, "spheres"_a,
              "quads"_a, "triangles"_a, "triangle_materials"_a, "background"_a, "max_depth"_a, "rr_depth"_a,
              "triangle_test"_a = 0, "smooth_triangles"_a = nb::none(), "triangle_normals"_a = nb::none(),
-             "textures"_a = nb::none())
+             "delta_lights"_a = nb::none(), "environment"_a = nb::none(), "environment_scale"_a = 1.0,
+             "environment_to_world"_a = nb::none(), "textures"_a = nb::none())
         .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none(),
              "moments"_a = false, "integrator"_a = 0
 #ifdef RT_MUTANTS_MODULE
@@ -705,8 +788,10 @@ NB_MODULE(_core, m) {
         .def("occluded", &PyScene::occluded, "origins"_a, "directions"_a, "t_max"_a, "wavefront"_a = false)
         .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a, "wavefront"_a = false)
         .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)
+        .def("background", &PyScene::background, "dirs"_a)
         .def_prop_ro("primitive_count", &PyScene::primitive_count)
         .def_prop_ro("emitter_count", &PyScene::emitter_count)
+        .def_prop_ro("has_delta_lights", &PyScene::has_delta_lights)
         .def_prop_ro("bvh_nodes", &PyScene::bvh_nodes)
         .def_prop_ro("bvh_depth", &PyScene::bvh_depth)
         .def_prop_ro("bvh_blocks", &PyScene::bvh_blocks)

@@ -113,7 +113,8 @@ private:
     // MIS weights (1 unless `mis` after a non-delta vertex) of emission reached by the
     // previous vertex's BSDF sample: an emitter's surface at `it`, or the background.
     double emitter_weight(const PrevVertex& prev, const Ray& ray, const Interaction& it) const;
-    double background_weight(const PrevVertex& prev) const;
+    // d: the escaping ray's direction (an environment map's density depends on it).
+    double background_weight(const PrevVertex& prev, const Vec3& d) const;
 
     // Next-event estimation for `mis` (pbrt's SampleLd): beta times one light sample's
     // contribution at v, seen from ref; none if the sample brings nothing. `occluded(ray,
@@ -129,7 +130,8 @@ private:
     std::optional<Vec3> estimate_ld(const Vertex& v, const Vec3& beta, const LightSample& ls, uint64_t& rays,
                                     const Vec3& ref, Occluded&& occluded) const;
     // The `light` strategy at a non-delta vertex, where its path ends: beta times the
-    // radiance arriving straight along one direction sampled toward the emitters.
+    // radiance arriving straight along one direction sampled toward the emitters (or, for a
+    // delta light's sample, what it brings, unless a shadow ray finds it occluded).
     std::optional<Vec3> light_only(const Vertex& v, const Vec3& ref, const Vec3& beta, PCG64& rng,
                                    uint64_t& rays) const;
     // The next direction: the material's own sampling at a delta vertex (whatever the

@@ -17,7 +17,7 @@ template <Mutant M>
 Vec3 Integrator<M>::Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays) const {
     ++rays;
     Interaction it;
-    if (!scene_.intersect(ray, it)) return scene_.settings().background;
+    if (!scene_.intersect(ray, it)) return scene_.background(ray.d);
     std::optional<Material> textured;  // the material with its texture's value at the hit, where it has one
     const Material& m = scene_.shade(scene_.material(it.material), it, textured);
     const bool front = dot(ray.d, it.ns) < 0.0;
@@ -42,6 +42,13 @@ Vec3 Integrator<M>::Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays) const 
             ++rays;
             const double t_max = ls.background ? kInf : ls.dist * (1.0 - kShadowEpsilon);
             if (scene_.occluded(Ray{shadow_origin(v, ref, ls.wi), ls.wi}, t_max)) continue;
+            if (ls.delta) {
+                // A delta light's sample is weighted 1 and, as in Mitsuba 3.9.1's direct.cpp
+                // (which leaves out its 1 / emitter_samples there), not averaged over n_e:
+                // reproduced, so that imported scenes agree (docs/mitsuba.md, Known differences).
+                L += f * ls.radiance * (1.0 / ls.pdf);
+                continue;
+            }
             const double w = power_heuristic(frac_light * ls.pdf, frac_bsdf * bsdf_pdf<M>(m, v.wo, local));
             L += f * ls.radiance * (w / (ls.pdf * n_e));
         }
@@ -67,8 +74,8 @@ Vec3 Integrator<M>::direct_bsdf_sample(const Vertex& v, const Vec3& ref, const S
     Vec3 Le;
     double light_pdf = 0.0;  // the light samples' density of this direction (none for a Dirac lobe)
     if (!scene_.intersect(ray, hit)) {
-        Le = scene_.settings().background;
-        if (!delta) light_pdf = scene_.lights().background_pdf();
+        Le = scene_.background(s.wi);
+        if (!delta) light_pdf = scene_.lights().background_pdf(s.wi);
     } else {
         const Material& e = scene_.material(hit.material);
         if (!e.emits() || dot(s.wi, hit.ns) >= 0.0) return Vec3(0.0);  // no emitter, or its back

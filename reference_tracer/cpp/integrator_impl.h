@@ -36,9 +36,9 @@ double Integrator<M>::emitter_weight(const PrevVertex& prev, const Ray& ray, con
 }
 
 template <Mutant M>
-double Integrator<M>::background_weight(const PrevVertex& prev) const {
+double Integrator<M>::background_weight(const PrevVertex& prev, const Vec3& d) const {
     if (strategy_ != Strategy::MIS || prev.delta) return 1.0;
-    return power_heuristic(prev.pdf, scene_.lights().background_pdf());
+    return power_heuristic(prev.pdf, scene_.lights().background_pdf(d));
 }
 
 template <Mutant M>
@@ -65,7 +65,8 @@ std::optional<Vec3> Integrator<M>::estimate_ld(const Vertex& v, const Vec3& beta
     constexpr double eps = M == Mutant::ShadowEpsilonLeak ? kLeakyShadowEpsilon : kShadowEpsilon;
     const double t_max = ls.background ? kInf : ls.dist * (1.0 - eps);
     if (occluded(Ray{shadow_origin(v, ref, ls.wi), ls.wi}, t_max)) return std::nullopt;
-    const double w = power_heuristic(ls.pdf, bsdf_pdf<M>(v.m, v.wo, local));
+    // A delta light's sample is weighted 1: no BSDF sample can meet it (Mitsuba's ds.delta).
+    const double w = ls.delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf<M>(v.m, v.wo, local));
     // beta enters the product first, as it always has: the order fixes the rounding.
     return beta * f * ls.radiance * (w / ls.pdf);
 }
@@ -80,6 +81,14 @@ std::optional<Vec3> Integrator<M>::light_only(const Vertex& v, const Vec3& ref, 
     if (!ls.valid) return std::nullopt;
     const Vec3 f = bsdf_eval<M>(v.m, v.wo, v.frame.to_local(ls.wi));
     if (is_black(f)) return std::nullopt;
+    if (ls.delta) {
+        // A delta light: only this sample reaches it (no direction has a density of it), so
+        // its estimate is what it brings over its selection's probability, if unoccluded.
+        ++rays;
+        const double t_max = ls.background ? kInf : ls.dist * (1.0 - kShadowEpsilon);
+        if (scene_.occluded(Ray{shadow_origin(v, ref, ls.wi), ls.wi}, t_max)) return std::nullopt;
+        return beta * f * ls.radiance * (1.0 / ls.pdf);
+    }
     // The density of the direction is that of the whole light sampler (every emitter the
     // line meets could have produced it), and the radiance is whatever the ray meets first.
     const double pdf = lights.pdf_all(ref, ls.wi);
@@ -150,7 +159,9 @@ auto Integrator<M>::sample_mixture(const Vertex& v, const Vec3& ref, PCG64& rng)
     Vec3 wi, local;
     if (has_lights && choose < 0.5) {
         const LightSample ls = lights.sample<M>(ref, u0, u1, u2);
-        if (!ls.valid) return std::nullopt;
+        // A delta light's direction has no density to continue the path with: the sample
+        // fails (`mixture` cannot see delta lights; rt.render refuses such scenes for it).
+        if (!ls.valid || ls.delta) return std::nullopt;
         wi = ls.wi;
         local = v.frame.to_local(wi);
     } else {
@@ -177,7 +188,7 @@ template <Mutant M>
 Vec3 Integrator<M>::direct_emission(const Vec3& o, const Vec3& wi, uint64_t& rays) const {
     ++rays;
     Interaction it;
-    if (!scene_.intersect(Ray{o, wi}, it)) return scene_.settings().background;
+    if (!scene_.intersect(Ray{o, wi}, it)) return scene_.background(wi);
     const Material& m = scene_.material(it.material);
     if constexpr (M == Mutant::TwoSidedLight) return m.emits() ? m.radiance : Vec3(0.0);  // seeded bug
     return (m.emits() && dot(wi, it.ns) < 0.0) ? m.radiance : Vec3(0.0);
@@ -211,7 +222,7 @@ Vec3 Integrator<M>::Li_path(Ray ray, PCG64& rng, uint64_t& rays) const {
         ++rays;
         Interaction it;
         if (!scene_.intersect(ray, it)) {
-            if (max_component(cfg.background) > 0.0) L += beta * cfg.background * background_weight(prev);
+            if (scene_.has_background()) L += beta * scene_.background(ray.d) * background_weight(prev, ray.d);
             return L;
         }
         const Material& m = scene_.material(it.material);

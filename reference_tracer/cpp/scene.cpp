@@ -1,6 +1,7 @@
 #include "scene.h"
 
 #include <cstddef>
+#include <stdexcept>
 
 namespace rt {
 
@@ -23,10 +24,16 @@ AABB padded(AABB b) {
 
 Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere> spheres,
              std::vector<Quad> quads, std::vector<Triangle> triangles, SceneSettings settings,
-             std::vector<TriangleNormals> normals, SceneTextures textures)
+             std::vector<TriangleNormals> normals, std::vector<DeltaLight> deltas,
+             std::unique_ptr<EnvironmentMap> environment, SceneTextures textures)
     : camera_(camera), materials_(std::move(materials)), spheres_(std::move(spheres)),
       quads_(std::move(quads)), triangles_(std::move(triangles)), normals_(std::move(normals)),
-      textures_(std::move(textures)), settings_(settings) {
+      textures_(std::move(textures)), settings_(settings), deltas_(std::move(deltas)),
+      environment_(std::move(environment)) {
+    if (environment_ != nullptr && max_component(settings_.background) > 0.0)
+        throw std::invalid_argument("a scene has one environment: an environment map or a constant background");
+    if (environment_ != nullptr && !environment_->lit()) environment_.reset();  // black: no light
+    has_background_ = environment_ != nullptr || max_component(settings_.background) > 0.0;
     quad_base_ = static_cast<uint32_t>(spheres_.size());
     tri_base_ = quad_base_ + static_cast<uint32_t>(quads_.size());
 
@@ -105,8 +112,12 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
     for (uint32_t i = 0; i < triangles_.size(); ++i)
         if (materials_[triangles_[i].material].emits() && !triangles_[i].degenerate())
             emitters.push_back({EmitterKind::Triangle, tri_base_ + i, i, materials_[triangles_[i].material].radiance});
+    // The radius of the scene's bounding sphere (a directional light's power).
+    const double radius = world.valid() && is_finite(world.lo) && is_finite(world.hi)
+                              ? 0.5 * length(world.hi - world.lo) : 0.0;
     lights_ = LightSampler(std::move(emitters), &spheres_, &quads_, &triangles_, settings_.background,
-                           primitive_count(), &normals_);
+                           primitive_count(), &normals_, environment_.get(), &deltas_,
+                           radius > 0.0 ? radius : 1.0);
 }
 
 void Scene::choose_quad_runs(const AABB& world) {

@@ -89,11 +89,15 @@ struct SceneSettings {
 class Scene {
 public:
     // `normals`: the vertex normals of the smooth triangles, which refer to them by index
-    // (Triangle::normals); none for a scene shaded flat. `textures`: the textures that
-    // materials refer to (Material::texture) and the primitives' texture coordinates.
+    // (Triangle::normals); none for a scene shaded flat.
+    // `deltas`: point, spot and directional lights; `environment`: an environment map, in
+    // place of the constant settings.background (which must then be black). `textures`: the
+    // textures that materials refer to (Material::texture) and the primitives' texture
+    // coordinates.
     Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere> spheres,
           std::vector<Quad> quads, std::vector<Triangle> triangles, SceneSettings settings,
-          std::vector<TriangleNormals> normals = {}, SceneTextures textures = {});
+          std::vector<TriangleNormals> normals = {}, std::vector<DeltaLight> deltas = {},
+          std::unique_ptr<EnvironmentMap> environment = nullptr, SceneTextures textures = {});
     // Copies would leave the light sampler pointing into the source's arrays.
     Scene(const Scene&) = delete;
     Scene& operator=(const Scene&) = delete;
@@ -140,6 +144,15 @@ public:
     const Material& material(uint32_t id) const { return materials_[id]; }
     size_t material_count() const { return materials_.size(); }
     const LightSampler& lights() const { return lights_; }
+    // Whether rays that escape carry light: a constant background or an environment map.
+    bool has_background() const { return has_background_; }
+    // The radiance an escaping ray in direction d carries (unit d; 0 where there is no
+    // background).
+    Vec3 background(const Vec3& d) const {
+        return environment_ != nullptr ? environment_->eval(d) : settings_.background;
+    }
+    // Whether the scene has delta lights (point, spot, directional).
+    bool has_delta_lights() const { return !deltas_.empty(); }
     const WideBVH& bvh() const { return bvh_; }
     // Whether the triangle blocks are stored in float (every vertex exactly a float).
     bool float_blocks() const { return float_blocks_; }
@@ -401,6 +414,9 @@ private:
     std::vector<Triangle4> tri4_;
     std::vector<Triangle4f> tri4f_;
     bool float_blocks_ = false;
+    std::vector<DeltaLight> deltas_;
+    std::unique_ptr<EnvironmentMap> environment_;  // null: none, or an unlit map
+    bool has_background_ = false;
     LightSampler lights_;
     uint32_t quad_base_ = 0, tri_base_ = 0;
     double coherent_origin_radius_ = 0.0;  // 1% of the diagonal of the scene's bounds

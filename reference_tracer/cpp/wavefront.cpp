@@ -65,8 +65,8 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
     const Interaction& it = lane.it;
     const SceneSettings& cfg = scene_.settings();
     if (!hit) {
-        if (max_component(cfg.background) > 0.0)
-            lane.L += lane.beta * cfg.background * li.background_weight(lane.prev);
+        if (scene_.has_background())
+            lane.L += lane.beta * scene_.background(lane.ray.d) * li.background_weight(lane.prev, lane.ray.d);
         lane.path_done = true;
         return false;
     }
@@ -286,7 +286,8 @@ unsigned WavefrontIntegrator::estimate_diffuse(const VertexQueue& q, int base, c
     const VPd pdf_b = (wo_z > 0.0) & (cos_i > 0.0) ? cos_i * kInvPi : VPd{};
     const VPd a2 = ls.pdf * ls.pdf, b2 = pdf_b * pdf_b;
     const VPd w_raw = a2 / (a2 + b2);
-    const VPd w = (w_raw - w_raw) == 0.0 ? w_raw : VPd{};  // std::isfinite(w) ? w : 0
+    VPd w = (w_raw - w_raw) == 0.0 ? w_raw : VPd{};  // std::isfinite(w) ? w : 0
+    if (ls.delta != 0) w = lanes_of_bits(ls.delta) ? splat(1.0) : w;  // a delta light's: 1
     // beta * f * radiance * (w / pdf), in estimate_ld's order.
     const VPd scale = w / ls.pdf;
     for (int c = 0; c < 3; ++c) value[c] = ((beta[c] * f[c]) * ls.radiance[c]) * scale;

@@ -1,5 +1,19 @@
-// Light sampling: pick an emitter (area lights by power, the constant background with a
-// fixed share), then a point on it, and return the direction with its solid-angle density.
+// Light sampling: pick an emitter (area and delta lights by power, the environment - the
+// constant background or an environment map - with a fixed share), then a point on it, and
+// return the direction with its solid-angle density.
+//
+// Emitters are chosen by their power (area * luminance for area lights, in the same units
+// 4 luminance(I) for a point light, the share of its cone's for a spot, R^2 luminance(E)
+// for a directional light over the scene's bounding sphere of radius R); the environment,
+// where there is one, takes half (all where it is the only light). Mitsuba picks uniformly
+// among its emitters: the two differ in variance, never in expectation.
+// Delta lights (PointLight, SpotLight, DirectionalLight: Mitsuba's point, spot and
+// directional) sit at one point or come from one direction: a sample of one is flagged
+// `delta`, its pdf is the selection's probability alone, its radiance what arrives at the
+// reference point (intensity / dist^2 times a spot's falloff; the irradiance of a
+// directional light), and no other direction has any density of them (pdf_all and
+// pdf_emitter ignore them): only light sampling can see them, and their samples take no
+// MIS weight (as Mitsuba's ds.delta).
 //
 // Quads and triangles are sampled uniformly by area: pdf = dist^2 / (|cos_light| area).
 // On a smooth triangle (vertex normals) cos_light and the side test take the shading normal
@@ -21,6 +35,7 @@
 #include "../shapes/quad.h"
 #include "../shapes/sphere.h"
 #include "../shapes/triangle.h"
+#include "environment.h"
 #include "warp.h"
 
 namespace rt {
@@ -29,8 +44,9 @@ struct LightSample {
     Vec3 wi;            // unit direction from the reference point
     double dist = kInf; // distance to the sampled point (inf for the background)
     double pdf = 0.0;   // solid-angle density of this emitter's procedure times its selection
-    Vec3 radiance;      // emitted radiance toward the reference point
-    bool background = false;
+    Vec3 radiance;      // emitted radiance toward the reference point (delta: what arrives there)
+    bool background = false;  // the environment's or a directional light's: the shadow ray is unbounded
+    bool delta = false;       // a delta light's: no other technique can sample it (no MIS weight)
     bool valid = false;
 };
 
@@ -40,7 +56,7 @@ struct LightSample {
 // (PERFORMANCE.md, Ideas tried). A lane holds LightSample()'s values until a sample is set.
 struct LightSamplePack {
     VPd wi[3], dist, pdf, radiance[3];
-    unsigned valid = 0, background = 0;  // bit l: lane l's flag
+    unsigned valid = 0, background = 0, delta = 0;  // bit l: lane l's flag
 
     // Zeros (dist infinite), set from a register: with default member initialisers GCC
     // zeroed the arrays with `rep stos` on AVX2 targets, a microcoded start-up a pack.
@@ -58,6 +74,7 @@ struct LightSamplePack {
         ls.pdf = pdf[l];
         ls.radiance = Vec3(radiance[0][l], radiance[1][l], radiance[2][l]);
         ls.background = (background >> l) & 1u;
+        ls.delta = (delta >> l) & 1u;
         ls.valid = (valid >> l) & 1u;
         return ls;
     }
@@ -71,35 +88,89 @@ struct LightSamplePack {
         const unsigned bit = 1u << l;
         valid = ls.valid ? valid | bit : valid & ~bit;
         background = ls.background ? background | bit : background & ~bit;
+        delta = ls.delta ? delta | bit : delta & ~bit;
     }
 };
 
-enum class EmitterKind : uint8_t { Sphere, Quad, Triangle };
+// Area lights first; the delta lights after them (is_delta).
+enum class EmitterKind : uint8_t { Sphere, Quad, Triangle, Point, Spot, Directional };
 
 struct Emitter {
     EmitterKind kind;
-    uint32_t prim;   // scene primitive id
-    uint32_t index;  // index into the scene's array of that kind
+    uint32_t prim;   // scene primitive id (area lights)
+    uint32_t index;  // index into the scene's array of that kind (delta lights: of DeltaLight)
     Vec3 radiance;
+};
+
+inline bool is_delta(EmitterKind k) { return k >= EmitterKind::Point; }
+
+// A light without extent (Mitsuba's point, spot and directional emitters).
+struct DeltaLight {
+    EmitterKind kind = EmitterKind::Point;  // Point, Spot or Directional
+    Vec3 position;   // point, spot
+    Vec3 direction;  // spot: the axis it shines along; directional: the direction its light travels (unit)
+    Vec3 intensity;  // point, spot: radiant intensity (W/sr); directional: irradiance
+    // spot: Mitsuba's falloff (src/emitters/spot.cpp): 1 within beam_width of the axis,
+    // falling linearly in the angle to 0 at cutoff_angle, 0 beyond.
+    double cutoff = 0.0, beam = 0.0;          // radians, beam <= cutoff
+    double cos_cutoff = -1.0, cos_beam = -1.0;
+
+    double falloff(double cos_theta) const {
+        if (!(cos_theta > cos_cutoff)) return 0.0;
+        if (cos_theta >= cos_beam) return 1.0;
+        return (cutoff - std::acos(std::min(cos_theta, 1.0))) / (cutoff - beam);
+    }
+
+    // Power / pi, in the units of the area lights' selection weight (area * luminance):
+    // 4 pi I / pi for a point; 2 pi I (1 - (sin c - sin b) / (c - b)) / pi, the falloff's
+    // integral over the sphere, for a spot (2 (1 - cos c) when b = c); and R^2 E for a
+    // directional light over the disk of radius R (the scene's bounding sphere).
+    double power(double scene_radius) const {
+        const double lum = luminance(intensity);
+        switch (kind) {
+            case EmitterKind::Point: return 4.0 * lum;
+            case EmitterKind::Spot: {
+                const double cone = cutoff > beam ? 1.0 - (std::sin(cutoff) - std::sin(beam)) / (cutoff - beam)
+                                                  : 1.0 - std::cos(cutoff);
+                return 2.0 * lum * cone;
+            }
+            case EmitterKind::Directional: return scene_radius * scene_radius * lum;
+            default: return 0.0;
+        }
+    }
 };
 
 class LightSampler {
 public:
     LightSampler() = default;
+    // `emitters`: the area lights; `deltas`: the delta lights (appended to the emitters, in
+    // their order); `environment`: an environment map (lit), replacing the constant
+    // `background` (which must then be black); `scene_radius`: of the scene's bounding
+    // sphere (a directional light's power).
     LightSampler(std::vector<Emitter> emitters, const std::vector<Sphere>* spheres,
                  const std::vector<Quad>* quads, const std::vector<Triangle>* triangles,
                  const Vec3& background, size_t prim_count,
-                 const std::vector<TriangleNormals>* normals = nullptr)
+                 const std::vector<TriangleNormals>* normals = nullptr,
+                 const EnvironmentMap* environment = nullptr, const std::vector<DeltaLight>* deltas = nullptr,
+                 double scene_radius = 1.0)
         : emitters_(std::move(emitters)), spheres_(spheres), quads_(quads), triangles_(triangles),
-          normals_(normals), background_(background) {
+          normals_(normals), deltas_(deltas), environment_(environment), background_(background) {
         std::vector<double> power;
         for (const Emitter& e : emitters_) power.push_back(area(e) * luminance(e.radiance));
+        if (deltas_ != nullptr) {
+            for (uint32_t i = 0; i < deltas_->size(); ++i) {
+                const DeltaLight& d = (*deltas_)[i];
+                emitters_.push_back({d.kind, ~uint32_t(0), i, d.intensity});
+                power.push_back(d.power(scene_radius));
+            }
+        }
         select_ = DiscreteDistribution(power);
-        const bool has_bg = max_component(background_) > 0.0;
+        const bool has_bg = max_component(background_) > 0.0 || environment_ != nullptr;
         p_background_ = has_bg ? (select_.empty() ? 1.0 : 0.5) : 0.0;
         if (select_.empty()) emitters_.clear();
         prim_to_emitter_.assign(prim_count, -1);
-        for (size_t i = 0; i < emitters_.size(); ++i) prim_to_emitter_[emitters_[i].prim] = int32_t(i);
+        for (size_t i = 0; i < emitters_.size(); ++i)
+            if (!is_delta(emitters_[i].kind)) prim_to_emitter_[emitters_[i].prim] = int32_t(i);
         several_spheres_ = emitters_.size() >= 2 && p_background_ == 0.0 &&
                            std::all_of(emitters_.begin(), emitters_.end(),
                                        [](const Emitter& e) { return e.kind == EmitterKind::Sphere; });
@@ -107,7 +178,12 @@ public:
 
     bool empty() const { return emitters_.empty() && p_background_ == 0.0; }
     size_t emitter_count() const { return emitters_.size(); }
-    double background_pdf() const { return p_background_ * kUniformSpherePdf; }
+    // Density of sample() in direction wi through the environment (the constant
+    // background's uniform sphere, or the environment map's distribution).
+    double background_pdf(const Vec3& wi) const {
+        if (environment_ != nullptr) return p_background_ * environment_->pdf(wi);
+        return p_background_ * kUniformSpherePdf;
+    }
     int emitter_of_prim(uint32_t prim) const { return prim < prim_to_emitter_.size() ? prim_to_emitter_[prim] : -1; }
 
     // M: a self-test mutant (mutants.h); Mutant::None is the tracer.
@@ -115,8 +191,9 @@ public:
     LightSample sample(const Vec3& ref, double u0, double u1, double u2) const {
         LightSample ls;
         if (p_background_ > 0.0 && (emitters_.empty() || u0 < p_background_)) {
+            if (environment_ != nullptr) return sample_environment(u1, u2);
             ls.wi = square_to_uniform_sphere(u1, u2);
-            ls.pdf = background_pdf();
+            ls.pdf = p_background_ * kUniformSpherePdf;
             ls.radiance = background_;
             ls.background = true;
             ls.valid = true;
@@ -128,6 +205,7 @@ public:
         const size_t i = select_.sample(u);
         const Emitter& e = emitters_[i];
         const double sel = select_.pmf(i) * (1.0 - p_background_);
+        if (is_delta(e.kind)) return sample_delta((*deltas_)[e.index], ref, sel);
         Vec3 p, n;
         double pdf_dir = 0.0;
         if (!sample_point(e, ref, u1, u2, p, n, pdf_dir)) return ls;
@@ -337,7 +415,7 @@ public:
     // (occluded or not) plus the background share. The `mixture` strategy needs this,
     // the density of the whole procedure.
     double pdf_all(const Vec3& ref, const Vec3& wi) const {
-        double pdf = background_pdf();
+        double pdf = background_pdf(wi);
         const Ray r{ref, wi};
         for (size_t i = 0; i < emitters_.size(); ++i) {
             const Emitter& e = emitters_[i];
@@ -371,6 +449,7 @@ public:
                     }
                     break;
                 }
+                default: break;  // a delta light: no direction has a density
             }
             if (hit) pdf += select_.pmf(i) * (1.0 - p_background_) * direction_pdf(e, ref, wi, p, n);
         }
@@ -407,6 +486,7 @@ private:
         out.pdf = good ? pdf : (set ? VPd{} : out.pdf);
         out.valid = (out.valid & ~lanes) | valid;
         out.background &= ~lanes;
+        out.delta &= ~lanes;
     }
 
     // finish_lanes for the scene's one emitter, sampled by area in every lane.
@@ -421,8 +501,46 @@ private:
             case EmitterKind::Sphere: return (*spheres_)[e.index].area();
             case EmitterKind::Quad: return (*quads_)[e.index].area();
             case EmitterKind::Triangle: return (*triangles_)[e.index].area();
+            default: break;
         }
         return 0.0;
+    }
+
+    // sample() for the environment map (its own pdf times the environment's share).
+    [[gnu::noinline]] LightSample sample_environment(double u1, double u2) const {
+        LightSample ls;
+        double pdf;
+        if (!environment_->sample(u1, u2, ls.wi, pdf, ls.radiance)) return ls;
+        ls.pdf = p_background_ * pdf;
+        ls.background = true;
+        ls.valid = ls.pdf > 0.0 && std::isfinite(ls.pdf);
+        return ls;
+    }
+
+    // sample() for a delta light, selected with probability sel: the direction toward it
+    // (or against a directional light's travel), what arrives at ref, pdf = sel.
+    [[gnu::noinline]] static LightSample sample_delta(const DeltaLight& d, const Vec3& ref, double sel) {
+        LightSample ls;
+        ls.delta = true;
+        ls.pdf = sel;
+        if (!(sel > 0.0)) return ls;
+        if (d.kind == EmitterKind::Directional) {
+            ls.wi = -d.direction;
+            ls.radiance = d.intensity;
+            ls.background = true;  // no point to stop at: the shadow ray is unbounded
+            ls.valid = !is_black(ls.radiance);
+            return ls;
+        }
+        const Vec3 to = d.position - ref;
+        const double dist2 = dot(to, to);
+        if (!(dist2 > 0.0) || !std::isfinite(dist2)) return ls;
+        ls.dist = std::sqrt(dist2);
+        ls.wi = to / ls.dist;
+        double falloff = 1.0;
+        if (d.kind == EmitterKind::Spot) falloff = d.falloff(-dot(ls.wi, d.direction));
+        ls.radiance = d.intensity * (falloff / dist2);
+        ls.valid = !is_black(ls.radiance) && is_finite(ls.radiance);
+        return ls;
     }
 
     // Solid-angle density of this emitter's point sampling for the direction wi that
@@ -469,6 +587,7 @@ private:
                 return true;
             }
             case EmitterKind::Sphere: return sample_sphere(e, ref, u1, u2, p, n, pdf_dir);
+            default: break;  // delta lights: sample_delta
         }
         return false;
     }
@@ -511,6 +630,8 @@ private:
     const std::vector<Quad>* quads_ = nullptr;
     const std::vector<Triangle>* triangles_ = nullptr;
     const std::vector<TriangleNormals>* normals_ = nullptr;  // of smooth triangles (Triangle::normals)
+    const std::vector<DeltaLight>* deltas_ = nullptr;       // the scene's delta lights (Emitter::index)
+    const EnvironmentMap* environment_ = nullptr;           // the environment map, if any
     Vec3 background_;
     DiscreteDistribution select_;
     std::vector<int32_t> prim_to_emitter_;
