@@ -22,7 +22,11 @@ emitters (on their shape or declared at the top level and referenced), ``constan
 ``bitmap``; ``scale``, a rotation ``to_world``), ``point`` (``position`` or ``to_world``,
 ``intensity``), ``spot`` (``to_world`` a similarity, ``intensity``, ``cutoff_angle``,
 ``beam_width``; no ``texture``) and ``directional`` (``direction`` or ``to_world``,
-``irradiance``), RGB or scalar values.
+``irradiance``), RGB or scalar values, and ``checkerboard`` and ``bitmap`` textures (with
+``to_uv``; bitmap ``filter_type``, ``wrap_mode``, ``raw``; declared inline or at the top
+level and referenced) for ``diffuse.reflectance``, a plastic's ``diffuse_reflectance`` and a
+conductor's ``specular_reflectance``, with the texture coordinates of each shape (a mesh
+file's own).
 Anything else is refused with one ``ValueError`` listing every unsupported item and
 where it is; no partial scene is ever returned.
 """
@@ -39,6 +43,7 @@ import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.conductors import CONDUCTORS
+from reference_tracer.materials import reflectance_of
 from reference_tracer.meshfile import check_mesh_file, check_serialized_file, decode_obj, obj_undefined_normal
 
 from .variants import import_mitsuba
@@ -88,6 +93,7 @@ class UnsupportedSceneError(ValueError):
 class _Ctx:
     def __init__(self, mi, state):
         self.mi, self.state, self.problems = mi, state, []
+        self.textures = {}     # node index -> its texture (one object for every use), or None
         self.features = {}     # problem line -> the same without its location
         self.film_size = None  # (width, height) replacing the film's, or None
         self.base_dir = None   # folder of the XML file: relative mesh paths resolve there,
@@ -103,6 +109,21 @@ class _Ctx:
             if os.path.exists(candidate):
                 return candidate
         return os.path.join(self.base_dir, fname)
+
+    def confined(self, fname: str) -> str | None:
+        """:meth:`resolve`'s file, or None where it lies outside the XML's folder and its
+        ``<path>`` folders once symbolic links are resolved (an image a scene names is data
+        of that scene: a shared scene may not make us read other files as textures). A
+        scene given as a dict (Python code, no folder) is not confined."""
+        path = self.resolve(fname)
+        if self.base_dir is None:
+            return path
+        real = os.path.realpath(path)
+        for folder in [self.base_dir, *self.search]:
+            root = os.path.realpath(folder)
+            if os.path.commonpath([root, real]) == root:
+                return path
+        return None
 
     def where(self, node) -> str:
         return self.mi.parser.file_location(self.state, node)
@@ -153,11 +174,91 @@ def _colour(ctx, node, key, default):
         sub = ctx.node(p[key])
         if sub.props.plugin_name() in ("rgb", "srgb") and "value" in sub.props.keys():
             return _colour(ctx, sub, "value", 0.0)
-        ctx.bad(sub, f"texture '{sub.props.plugin_name()}' for {node.props.plugin_name()}.{key} "
-                     f"(only constant RGB values are supported)")
+        where = (node.props.plugin_name(), key)
+        why = ("only checkerboard and bitmap textures" if where in _TEXTURED else
+               "only constant values here; " + _TEXTURES_READ)
+        ctx.bad(sub, f"texture '{sub.props.plugin_name()}' for {node.props.plugin_name()}.{key} ({why})")
         return None
     ctx.bad(node, f"{node.props.plugin_name()}.{key} of type {t} (only RGB or scalar values are supported)")
     return None
+
+
+#: (plugin, parameter) pairs that take a texture: the reflectances our materials texture.
+_TEXTURED = {("diffuse", "reflectance"), ("plastic", "diffuse_reflectance"), ("roughplastic", "diffuse_reflectance"),
+             ("conductor", "specular_reflectance"), ("roughconductor", "specular_reflectance")}
+_TEXTURES_READ = ("textures are read for diffuse.reflectance, a plastic's diffuse_reflectance and a conductor's "
+                  "specular_reflectance")
+
+
+def _reflectance(ctx, node, key, default):
+    """A reflectance that may be textured: an RGB triple (:func:`_colour`), a texture
+    (``checkerboard``, ``bitmap``), or None after recording a problem."""
+    p = node.props
+    if key in p.keys() and p.type(key) == ctx.mi.Properties.Type.ResolvedReference:
+        index = p[key].index()
+        sub = ctx.node(p[key])
+        if sub.props.plugin_name() in ("checkerboard", "bitmap"):
+            if index not in ctx.textures:   # a texture referenced twice is one object
+                ctx.textures[index] = (_checkerboard if sub.props.plugin_name() == "checkerboard" else _bitmap)(
+                    ctx, sub)
+            return ctx.textures[index]
+    return _colour(ctx, node, key, default)
+
+
+def _to_uv(ctx, node):
+    """A texture's ``to_uv`` (Mitsuba keeps rows and columns 0, 1 and the translation of
+    the 4x4 matrix) as the 4x4 matrix, or None."""
+    return _matrix(ctx, node, "to_uv") if "to_uv" in node.props.keys() else None
+
+
+def _checkerboard(ctx, node):
+    _extra(ctx, node, {"color0", "color1", "to_uv"}, "texture")
+    c0, c1 = _colour(ctx, node, "color0", 0.4), _colour(ctx, node, "color1", 0.2)
+    if c0 is None or c1 is None:
+        return None
+    try:
+        return rt.Checkerboard(c0, c1, to_uv=_to_uv(ctx, node))
+    except ValueError as exc:
+        ctx.bad(node, f"checkerboard: {exc}")
+        return None
+
+
+def _bitmap(ctx, node):
+    """Mitsuba's ``bitmap`` from its file (read by :func:`reference_tracer.textures.read_image`,
+    which checks the file and its header first), or None after recording a problem."""
+    _extra(ctx, node, {"filename", "filter_type", "wrap_mode", "raw", "to_uv", "format", "accel"}, "texture")
+    p = node.props
+    if "filename" not in p.keys():
+        ctx.bad(node, "bitmap without a filename (only bitmaps read from files)")
+        return None
+    fmt = _scalar(ctx, node, "format", "auto")
+    if fmt != "auto":
+        ctx.bad(node, f"bitmap format='{fmt}' (only 'auto': the file's own precision)")
+        return None
+    raw = _bool(ctx, node, "raw", False)
+    if raw is None:
+        return None
+    fname = ctx.confined(str(p["filename"]))
+    if fname is None:
+        ctx.bad(node, f"bitmap {p['filename']!r} lies outside the scene's folder and its <path> folders (an image "
+                      "a scene reads must be part of it)")
+        return None
+    try:
+        return rt.Bitmap(fname, filter=_scalar(ctx, node, "filter_type", "bilinear"),
+                         wrap=_scalar(ctx, node, "wrap_mode", "repeat"), raw=raw, to_uv=_to_uv(ctx, node))
+    except (ValueError, OSError) as exc:
+        ctx.bad(node, f"bitmap {fname} cannot be used: {exc}")
+        return None
+
+
+def _material(ctx, node, factory, *args, **kwargs):
+    """``factory(*args, **kwargs)``, or None after recording its ``ValueError`` (a value
+    Mitsuba takes and we do not, such as a texture beyond [0, 1]) with the place."""
+    try:
+        return factory(*args, **kwargs)
+    except ValueError as exc:
+        ctx.bad(node, f"{node.props.plugin_name()}: {exc}")
+        return None
 
 
 #: Parameters Mitsuba reads as unbounded textures (an index of refraction, a roughness):
@@ -245,7 +346,7 @@ def _plastic(ctx, node, name, two_sided):
         allowed |= {"distribution", "alpha", "alpha_u", "alpha_v", "sample_visible"}
     _extra(ctx, node, allowed, "bsdf")
     ok = True
-    diffuse = _colour(ctx, node, "diffuse_reflectance", _DEFAULT_DIFFUSE)
+    diffuse = _reflectance(ctx, node, "diffuse_reflectance", _DEFAULT_DIFFUSE)
     specular = _colour(ctx, node, "specular_reflectance", 1.0)
     int_ior, ext_ior = _ior(ctx, node, "int_ior", "polypropylene"), _ior(ctx, node, "ext_ior", "air")
     nonlinear = _bool(ctx, node, "nonlinear", False)
@@ -299,10 +400,10 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
             # Mitsuba's area emitter is one-sided whatever the BSDF: a black twosided BSDF
             # reflects nothing on either side, exactly our DiffuseLight without albedo
             inner = subs[0]
-            albedo = (_colour(ctx, inner, "reflectance", _DEFAULT_DIFFUSE)
+            albedo = (_reflectance(ctx, inner, "reflectance", _DEFAULT_DIFFUSE)
                       if inner.props.plugin_name() == "diffuse" and not set(_keys(inner)) - {"reflectance"}
                       else None)
-            if albedo is not None and max(albedo) == 0.0:
+            if albedo is not None and not isinstance(albedo, rt.Texture) and max(albedo) == 0.0:
                 return rt.DiffuseLight(emitter, albedo=None)
             ctx.bad(node, "an area emitter on a twosided BSDF that reflects (our DiffuseLight reflects on its front "
                           "only; a black twosided diffuse is supported)")
@@ -310,22 +411,23 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
         return _bsdf(ctx, subs[0], two_sided=True)
     if name == "diffuse":
         _extra(ctx, node, {"reflectance"}, "bsdf")
-        albedo = _colour(ctx, node, "reflectance", _DEFAULT_DIFFUSE)
+        albedo = _reflectance(ctx, node, "reflectance", _DEFAULT_DIFFUSE)
         if albedo is None:
             return None
         if emitter is not None:
-            return rt.DiffuseLight(emitter, albedo=None if max(albedo) == 0 else albedo)
-        return rt.Lambertian(albedo, two_sided=two_sided)
+            black = not isinstance(albedo, rt.Texture) and max(albedo) == 0
+            return _material(ctx, node, rt.DiffuseLight, emitter, albedo=None if black else albedo)
+        return _material(ctx, node, rt.Lambertian, albedo, two_sided=two_sided)
     if emitter is not None:
         ctx.bad(node, f"an area emitter on a '{name}' BSDF (our emitters reflect as diffuse only)")
         return None
     if name == "conductor":
         _extra(ctx, node, {"material", "specular_reflectance", "eta", "k"}, "bsdf")
         ior = _conductor_ior(ctx, node)
-        albedo = _colour(ctx, node, "specular_reflectance", 1.0)
+        albedo = _reflectance(ctx, node, "specular_reflectance", 1.0)
         if ior is None or albedo is None:
             return None
-        return rt.Metal(albedo, fuzz=0.0, two_sided=two_sided, **ior)
+        return _material(ctx, node, rt.Metal, albedo, fuzz=0.0, two_sided=two_sided, **ior)
     if name == "roughconductor":
         _extra(ctx, node, {"material", "specular_reflectance", "distribution", "alpha", "alpha_u", "alpha_v",
                            "sample_visible", "eta", "k"}, "bsdf")
@@ -339,10 +441,11 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
             ok = False
         alpha = _roughness(ctx, node)
         ior = _conductor_ior(ctx, node)
-        albedo = _colour(ctx, node, "specular_reflectance", 1.0)
+        albedo = _reflectance(ctx, node, "specular_reflectance", 1.0)
         if not ok or alpha is None or ior is None or albedo is None:
             return None
-        return rt.RoughConductor(albedo, alpha=alpha, distribution=dist, two_sided=two_sided, **ior)
+        return _material(ctx, node, rt.RoughConductor, albedo, alpha=alpha, distribution=dist, two_sided=two_sided,
+                         **ior)
     if name in ("plastic", "roughplastic"):
         return _plastic(ctx, node, name, two_sided)
     if name in ("dielectric", "thindielectric", "roughdielectric"):
@@ -385,7 +488,8 @@ def _roughness(ctx, node):
     T = ctx.mi.Properties.Type
     for key in ("alpha", "alpha_u", "alpha_v"):
         if key in node.props.keys() and node.props.type(key) not in (T.Float, T.Integer):
-            ctx.bad(node, f"{node.props.plugin_name()} {key} given as a texture (only a number)")
+            ctx.bad(node, f"{node.props.plugin_name()} {key} given as a texture (a textured roughness is not "
+                          "supported: only a number; textures are read for reflectances)")
             return None
     au, av = _scalar(ctx, node, "alpha_u", None), _scalar(ctx, node, "alpha_v", None)
     if au is not None or av is not None:
@@ -565,6 +669,9 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
     mat = _bsdf(ctx, bsdf_node, emitter=emitter)
     if mat is None:
         return None
+    # a textured shape keeps what its texture coordinates follow: a sphere's rotation, a
+    # rectangle's own axes, a mesh's coordinates
+    textured = isinstance(reflectance_of(mat), rt.Texture)
     flip = bool(node.props["flip_normals"]) if "flip_normals" in node.props.keys() else False
     m = _matrix(ctx, node)
     if name == "sphere":
@@ -575,6 +682,8 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
         if rs is None or not np.allclose(rs[1], rs[1][0], rtol=1e-5):
             ctx.bad(node, "sphere to_world is not a similarity (rotation, uniform scale, translation)")
             return None
+        if textured:
+            return rt.Sphere(c, r, mat, flip_normals=flip, transform=tuple(map(tuple, m)))
         return rt.Sphere(m[:3, :3] @ c + m[:3, 3], r * rs[1][0], mat, flip_normals=flip)
     if name == "rectangle":
         _extra(ctx, node, {"to_world", "flip_normals", "bsdf", "emitter"}, "shape")
@@ -585,7 +694,10 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
             ctx.bad(node, "rectangle to_world is singular")
             return None
         if det < 0:   # Mitsuba's normal is to_world's inverse transpose of +z: -(u x v) here
-            u, v = v, u
+            if textured:
+                flip = not flip   # the same quad, keeping u and v (its texture coordinates)
+            else:
+                u, v = v, u
         return rt.Quad(Q, u, v, mat, flip_normals=flip)
     if name == "cube":
         _extra(ctx, node, {"to_world", "flip_normals", "bsdf", "emitter"}, "shape")
@@ -613,6 +725,8 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
                 else:
                     if "shape_index" in node.props.keys():
                         ctx.bad(node, f"{name} parameter 'shape_index' (serialized meshes only)")
+                    if "flip_tex_coords" in node.props.keys():
+                        extra = {"flip_tex_coords": bool(node.props["flip_tex_coords"])}
                     check_mesh_file(fname)
             except (ValueError, OSError) as exc:
                 ctx.bad(node, f"{name} mesh {fname} cannot be used: {exc}")
@@ -623,6 +737,13 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
                 if line is not None:
                     ctx.bad(node, f"obj mesh {fname} line {line}: a face whose first corner has no normal index, in "
                                   "a file with vertex normals (Mitsuba leaves that vertex's normal undefined)")
+                    return None
+            if name == "obj" and textured:
+                line = _obj_undefined_normal(fname, texcoords=True)
+                if line is not None:
+                    ctx.bad(node, f"obj mesh {fname} line {line}: a face whose first corner has no texture "
+                                  "coordinate index, in a file with texture coordinates (Mitsuba leaves that "
+                                  "vertex's coordinates undefined)")
                     return None
             try:
                 mesh_obj = ctx.mi.load_dict({"type": name, "filename": fname,
@@ -643,16 +764,23 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
             source = f" {node.props['filename']}:" if "filename" in node.props.keys() else ""
             ctx.bad(node, f"{name} mesh{source} {normals}")
             return None
-        return rt.Mesh(v, f, mat, flip_normals=flip, normals=normals)
+        uv = None
+        if textured and mesh_obj.has_vertex_texcoords():  # else Mitsuba's: each triangle's barycentrics
+            uv = np.array(params["vertex_texcoords"], dtype=np.float64).reshape(-1, 2)
+            if uv.shape != (len(v), 2) or not np.all(np.isfinite(uv[np.unique(f)])):
+                ctx.bad(node, f"{name} mesh: texture coordinates that are not one finite pair per vertex")
+                return None
+            uv = np.where(np.isfinite(uv), uv, 0.0)   # vertices of no face: never looked up
+        return rt.Mesh(v, f, mat, flip_normals=flip, normals=normals, uv=uv)
     ctx.bad(node, f"shape '{name}'")
     return None
 
 
-def _obj_undefined_normal(fname):
+def _obj_undefined_normal(fname, *, texcoords: bool = False):
     """:func:`reference_tracer.meshfile.obj_undefined_normal` of an OBJ file (None if unreadable:
-    Mitsuba's loader then says why)."""
+    Mitsuba's loader then says why); of its texture coordinates with ``texcoords``."""
     try:
-        return obj_undefined_normal(decode_obj(Path(fname).read_bytes()))
+        return obj_undefined_normal(decode_obj(Path(fname).read_bytes()), texcoords=texcoords)
     except (OSError, ValueError):
         return None
 

@@ -16,11 +16,18 @@ ours                                   Mitsuba 3
                                        feature, a far one beyond all)
 ``Quad(Q, u, v)``                      ``rectangle``, to_world columns (u/2, v/2, n, centre)
 ``Box(pmin, pmax)``                    ``cube``, to_world = M . T(centre) . S(half size)
-``Sphere(c, r)``                       ``sphere`` with world centre and radius
+``Sphere(c, r)``                       ``sphere`` with world centre and radius (textured:
+                                       ``to_world`` with the transform's rotation, which
+                                       sets Mitsuba's texture coordinates)
 ``Triangle``, ``Mesh``                 a mesh (``mi.Mesh`` in the dict, PLY in the XML),
                                        world-space vertices; a Mesh's vertex normals (world
                                        space) where it has them (smooth), else none (flat)
-``flip_normals``                       ``flip_normals`` (baked into the winding of meshes)
+``flip_normals``                       ``flip_normals`` (baked into the winding of meshes
+                                       and the axes of quads, but for textured ones, whose
+                                       coordinates follow the unflipped order)
+``Checkerboard``, ``Bitmap``           ``checkerboard``, ``bitmap`` (the file, or an array
+                                       as an ``mi.Bitmap`` / an EXR beside the XML), with
+                                       ``to_uv``; a mesh's ``uv`` as its texture coordinates
 ``Lambertian``                         ``diffuse``
 ``Metal(fuzz=0)``                      ``conductor``: ``material='none'``, or RGB ``eta`` and ``k``
 ``RoughConductor``                     ``roughconductor``: its ``distribution``, ``material='none'``
@@ -56,6 +63,7 @@ import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.imageio import atomic_write, write_exr
+from reference_tracer.materials import reflectance_of
 
 from .variants import import_mitsuba
 
@@ -160,24 +168,52 @@ def _conductor_ior(m) -> dict:
     return {"eta": {"type": "rgb", "value": _rgb(m.eta)}, "k": {"type": "rgb", "value": _rgb(m.k)}}
 
 
+def _uv_matrix(to_uv) -> np.ndarray:
+    """A texture's ``to_uv`` as the 4x4 matrix Mitsuba's ``<transform>`` holds (rows and
+    columns 0 and 1, the translation in column 3)."""
+    m = np.eye(4)
+    a = np.asarray(to_uv, dtype=np.float64)
+    m[:2, :2], m[:2, 3] = a[:, :2], a[:, 2]
+    return _f32(m)
+
+
+def _value_record(v) -> dict:
+    """A reflectance in Mitsuba's dict syntax: an RGB value or a texture (plain values; a
+    bitmap from an array keeps the array under ``data``: the dict and XML writers give it
+    to Mitsuba their own way)."""
+    if isinstance(v, rt.Checkerboard):
+        return {"type": "checkerboard", "color0": {"type": "rgb", "value": _rgb(v.color0)},
+                "color1": {"type": "rgb", "value": _rgb(v.color1)}, "to_uv": _uv_matrix(v.to_uv)}
+    if isinstance(v, rt.Bitmap):
+        rec = {"type": "bitmap", "filter_type": v.filter, "wrap_mode": v.wrap, "to_uv": _uv_matrix(v.to_uv)}
+        if v.filename is not None:
+            rec.update(filename=v.filename, raw=v.raw)
+        else:
+            rec["data"] = v.data
+        return rec
+    return {"type": "rgb", "value": _rgb(v)}
+
+
+def _textured(m) -> bool:
+    return isinstance(reflectance_of(m), rt.Texture)
+
+
 def _bsdf_record(label: str, m) -> dict:
     """A nested dict (Mitsuba dict syntax, plain values) for material ``m``."""
     if isinstance(m, rt.Lambertian):
-        b = {"type": "diffuse", "reflectance": {"type": "rgb", "value": _rgb(m.albedo)}}
+        b = {"type": "diffuse", "reflectance": _value_record(m.albedo)}
     elif isinstance(m, rt.Metal):
         if m.fuzz > 0:
             raise ValueError(f"{label}: Metal(fuzz={m.fuzz}) has no Mitsuba equivalent (the book's fuzz is "
                              f"not a microfacet model); use RoughConductor(albedo, alpha) or fuzz=0")
-        b = {"type": "conductor", **_conductor_ior(m),
-             "specular_reflectance": {"type": "rgb", "value": _rgb(m.albedo)}}
+        b = {"type": "conductor", **_conductor_ior(m), "specular_reflectance": _value_record(m.albedo)}
     elif isinstance(m, rt.RoughConductor):
         b = {"type": "roughconductor", "distribution": m.distribution, **_conductor_ior(m),
-             "alpha": float(_f32(m.alpha)),
-             "specular_reflectance": {"type": "rgb", "value": _rgb(m.albedo)}}
+             "alpha": float(_f32(m.alpha)), "specular_reflectance": _value_record(m.albedo)}
     elif isinstance(m, (rt.Plastic, rt.RoughPlastic)):
         # specular_reflectance always given: Mitsuba multiplies by it only then, and its
         # mean (1 when absent) steers the lobe choice the same either way
-        b = {"type": "plastic", "diffuse_reflectance": {"type": "rgb", "value": _rgb(m.diffuse_reflectance)},
+        b = {"type": "plastic", "diffuse_reflectance": _value_record(m.diffuse_reflectance),
              "specular_reflectance": {"type": "rgb", "value": _rgb(m.specular_reflectance)},
              "int_ior": float(_f32(m.int_ior)), "ext_ior": float(_f32(m.ext_ior)), "nonlinear": bool(m.nonlinear)}
         if isinstance(m, rt.RoughPlastic):
@@ -196,7 +232,7 @@ def _bsdf_record(label: str, m) -> dict:
         # A light without albedo reflects nothing: a black diffuse BSDF (Mitsuba would
         # otherwise give the shape its default 0.5 grey diffuse BSDF).
         albedo = m.albedo if m.albedo is not None else (0.0, 0.0, 0.0)
-        return {"type": "diffuse", "reflectance": {"type": "rgb", "value": _rgb(albedo)}}
+        return {"type": "diffuse", "reflectance": _value_record(albedo)}
     else:
         raise ValueError(f"{label}: material {type(m).__name__} has no Mitsuba translation")
     if getattr(m, "two_sided", False):
@@ -312,12 +348,22 @@ def _shape_record(i: int, label: str, s) -> dict:
     mat = s.material
     if isinstance(mat, rt.DiffuseLight) and mat.emits:
         rec["emitter"] = _rgb(mat.radiance)
+    textured = _textured(mat)
     if isinstance(s, rt.Sphere):
         _check_linear(label, m, similarity=True)
-        rec.update(type="sphere", center=[float(x) for x in _f32(s.world_center())],
-                   radius=float(_f32(s.world_radius())), flip_normals=s.flip_normals)
+        if textured:  # the texture coordinates follow the sphere's frame: its rotation goes along
+            tw = np.eye(4)
+            tw[:3, :3] = m[:3, :3] / s.scale_factor * s.world_radius()
+            tw[:3, 3] = s.world_center()
+            rec.update(type="sphere", to_world=_f32(tw), flip_normals=s.flip_normals)
+        else:
+            rec.update(type="sphere", center=[float(x) for x in _f32(s.world_center())],
+                       radius=float(_f32(s.world_radius())), flip_normals=s.flip_normals)
     elif isinstance(s, rt.Quad):
         Q, u, v = s.world_corners()          # flip_normals already swaps u and v
+        if textured and s.flip_normals:      # but the texture coordinates follow the quad's own u and v
+            Q, u, v = s._point(s.Q), s._vector(s.u), s._vector(s.v)
+            rec["flip_normals"] = True
         n = np.cross(u, v)
         tw = np.eye(4)
         tw[:3, 0], tw[:3, 1], tw[:3, 2], tw[:3, 3] = u / 2, v / 2, n / np.linalg.norm(n), Q + (u + v) / 2
@@ -333,15 +379,24 @@ def _shape_record(i: int, label: str, s) -> dict:
         # Exactly the world-space triangles our tracer intersects (flip_normals baked
         # into the winding, as reference_tracer._compile does), shared vertices kept.
         # Vertex normals likewise: world space, negated when flipped.
-        normals = None
+        # Textured and flipped: the faces in their own order with Mitsuba's flip_normals,
+        # since the texture coordinates (the barycentrics where there are none) follow it.
+        normals, uv = None, None
+        unbaked = textured and s.flip_normals
         if isinstance(s, rt.Triangle):
             verts, faces = s.world_vertices(), np.array([[0, 1, 2]])
+            if unbaked:
+                verts = verts[[0, 2, 1]]
         else:
             verts = s.world_vertices()
-            faces = s.faces[:, [0, 2, 1]] if s.flip_normals else s.faces
+            faces = s.faces[:, [0, 2, 1]] if s.flip_normals and not unbaked else s.faces
             normals = s.world_normals()
+            if unbaked and normals is not None:
+                normals = -normals
+            uv = s.uv if textured else None
         rec.update(type="mesh", vertices=verts.astype(np.float32), faces=np.asarray(faces, dtype=np.uint32),
-                   normals=None if normals is None else normals.astype(np.float32))
+                   normals=None if normals is None else normals.astype(np.float32),
+                   uv=None if uv is None else uv.astype(np.float32), flip_normals=bool(unbaked))
     else:
         raise ValueError(f"{label}: shape type {type(s).__name__} has no Mitsuba translation")
     return rec
@@ -352,16 +407,35 @@ def _transform(mi, m: np.ndarray):
     return mi.ScalarTransform4f(np.asarray(m, dtype=np.float64).tolist())
 
 
+def _mitsuba_values(mi, rec):
+    """A record in Mitsuba's dict syntax with its plain values made Mitsuba's: a ``to_uv``
+    matrix a transform, a bitmap's ``data`` array an ``mi.Bitmap`` (float32: linear)."""
+    if not isinstance(rec, dict):
+        return rec
+    out = {}
+    for key, val in rec.items():
+        if key == "to_uv":
+            out[key] = _transform(mi, val)
+        elif key == "data" and rec.get("type") == "bitmap":
+            out["bitmap"] = mi.Bitmap(np.array(val, dtype=np.float32, order="C"))  # a writable copy
+        else:
+            out[key] = _mitsuba_values(mi, val)
+    return out
+
+
 def _make_mesh(mi, rec: dict):
     """An ``mi.Mesh`` carrying its BSDF and emitter; with vertex normals where the record
-    has them (smooth shading), else none (flat)."""
+    has them (smooth shading), else none (flat); with its texture coordinates where it has
+    them."""
     props = mi.Properties()
-    props["bsdf"] = mi.load_dict(rec["bsdf"])
+    props["bsdf"] = mi.load_dict(_mitsuba_values(mi, rec["bsdf"]))
     if "emitter" in rec:
         props["emitter"] = mi.load_dict({"type": "area", "radiance": {"type": "rgb", "value": rec["emitter"]}})
-    vertices, faces, normals = rec["vertices"], rec["faces"], rec.get("normals")
+    if rec.get("flip_normals"):
+        props["flip_normals"] = True
+    vertices, faces, normals, uv = rec["vertices"], rec["faces"], rec.get("normals"), rec.get("uv")
     mesh = mi.Mesh(rec["name"], vertex_count=len(vertices), face_count=len(faces), props=props,
-                   has_vertex_normals=normals is not None, has_vertex_texcoords=False)
+                   has_vertex_normals=normals is not None, has_vertex_texcoords=uv is not None)
     params = mi.traverse(mesh)
     params["vertex_positions"] = type(params["vertex_positions"])(
         np.ascontiguousarray(vertices, dtype=np.float32).ravel())
@@ -369,6 +443,8 @@ def _make_mesh(mi, rec: dict):
     if normals is not None:  # given with the positions: the update keeps them (no recomputation)
         params["vertex_normals"] = type(params["vertex_normals"])(
             np.ascontiguousarray(normals, dtype=np.float32).ravel())
+    if uv is not None:
+        params["vertex_texcoords"] = type(params["vertex_texcoords"])(np.ascontiguousarray(uv, dtype=np.float32).ravel())
     params.update()
     return mesh
 
@@ -435,8 +511,8 @@ def to_mitsuba(scene: rt.Scene, *, variant: str | None = None) -> dict:
         if rec["type"] == "mesh":
             d[name] = _make_mesh(mi, rec)
             continue
-        entry = {"type": rec["type"], "bsdf": rec["bsdf"]}
-        if rec["type"] == "sphere":
+        entry = {"type": rec["type"], "bsdf": _mitsuba_values(mi, rec["bsdf"])}
+        if "center" in rec:
             entry.update(center=rec["center"], radius=rec["radius"])
         else:
             entry["to_world"] = _transform(mi, rec["to_world"])
@@ -460,7 +536,8 @@ def _xml_escape(s: str) -> str:
 
 _CHILD_TAG = {"diffuse": "bsdf", "conductor": "bsdf", "roughconductor": "bsdf", "dielectric": "bsdf",
               "thindielectric": "bsdf", "roughdielectric": "bsdf", "plastic": "bsdf", "roughplastic": "bsdf",
-              "twosided": "bsdf", "area": "emitter", "constant": "emitter"}
+              "twosided": "bsdf", "area": "emitter", "constant": "emitter", "checkerboard": "texture",
+              "bitmap": "texture"}
 
 
 def _xml_props(rec: dict, indent: str) -> list:
@@ -469,7 +546,11 @@ def _xml_props(rec: dict, indent: str) -> list:
     for key, val in rec.items():
         if key == "type":
             continue
-        if isinstance(val, dict) and val.get("type") == "rgb":
+        if key == "to_uv":
+            vals = " ".join(_num(x) for x in np.asarray(val).ravel())
+            lines += [f'{indent}<transform name="to_uv">', f'{indent}    <matrix value="{vals}"/>',
+                      f"{indent}</transform>"]
+        elif isinstance(val, dict) and val.get("type") == "rgb":
             lines.append(f'{indent}<rgb name="{key}" value="{", ".join(_num(c) for c in val["value"])}"/>')
         elif isinstance(val, dict):
             tag = _CHILD_TAG[val["type"]]
@@ -503,9 +584,9 @@ def _xml_matrix(m: np.ndarray, indent: str) -> list:
             f"{indent}</transform>"]
 
 
-def write_ply(path, vertices, faces, normals=None) -> None:
+def write_ply(path, vertices, faces, normals=None, *, uv=None) -> None:
     """Write a binary little-endian PLY with float32 positions (and ``normals``, as
-    ``nx ny nz``, where given) and int32 faces.
+    ``nx ny nz``, and texture coordinates ``uv``, as ``u v``, where given) and int32 faces.
 
     Without normals, Mitsuba shades it flat when loaded with ``face_normals=true`` (and
     computes smooth normals without it); with them, Mitsuba's ``ply`` shades it smooth.
@@ -525,6 +606,12 @@ def write_ply(path, vertices, faces, normals=None) -> None:
             raise ValueError(f"write_ply needs one normal per vertex, got {n.shape} for {v.shape}")
         v = np.ascontiguousarray(np.concatenate([v, n], axis=1))
         props += "property float nx\nproperty float ny\nproperty float nz\n"
+    if uv is not None:
+        t = np.ascontiguousarray(uv, dtype="<f4")
+        if t.shape != (len(v), 2):
+            raise ValueError(f"write_ply needs one (u, v) per vertex, got {t.shape} for {len(v)} vertices")
+        v = np.ascontiguousarray(np.concatenate([v, t], axis=1))
+        props += "property float u\nproperty float v\n"
     header = (f"ply\nformat binary_little_endian 1.0\ncomment written by mitsuba_scenes\n"
               f"element vertex {len(v)}\n{props}"
               f"element face {len(f)}\nproperty list uchar int vertex_indices\nend_header\n")
@@ -572,7 +659,25 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
         raise ValueError(f"to_xml: folder {path.parent} does not exist")
     cam, integ = low["camera"], low["integrator"]
     (o, t, u) = cam["lookat"]
-    plys = []  # (path, vertices, faces, normals): written with the XML, by _write_all
+    plys = []  # (path, vertices, faces, normals, uv): written with the XML, by _write_all
+    images = []  # (path, array): OpenEXR files written beside the XML: bitmaps' and envmaps' texels
+
+    def bsdf_with_files(bsdf, tex):
+        """The BSDF record with its bitmap named relative to the XML: its own file where
+        that lies in the XML's folder (an importer of the XML reads no file outside it),
+        else its linear texels written to an EXR beside the XML."""
+        if not isinstance(bsdf, dict):
+            return bsdf
+        if bsdf.get("type") == "bitmap":
+            rest = {k: v for k, v in bsdf.items() if k not in ("data", "filename", "raw")}
+            own = Path(bsdf["filename"]).resolve() if "filename" in bsdf else None
+            if own is not None and own.parent == path.parent.resolve():
+                return rest | {"filename": own.name, "raw": bsdf["raw"]}
+            name = f"{path.stem}_texture_{len(images)}.exr"
+            images.append((path.parent / name, tex.data))
+            return rest | {"filename": name}
+        return {k: bsdf_with_files(v, tex) for k, v in bsdf.items()}
+
     L = ['<?xml version="1.0" encoding="utf-8"?>',
          "<!-- Written by mitsuba_scenes.to_xml: the reference_tracer scene, translated to",
          "     Mitsuba's conventions (fov_axis y, ext_ior 1, one-sided emitters). -->",
@@ -605,7 +710,6 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
         L += ['    <emitter type="constant">',
               f'        <rgb name="radiance" value="{", ".join(_num(c) for c in low["background"])}"/>',
               "    </emitter>"]
-    images = []  # (path, pixels): an envmap's texels, written with the XML as float32 OpenEXR
     for i, rec in enumerate(low["lights"]):
         rec = dict(rec)
         L.append(f'    <emitter type="{rec.pop("type")}" id="light_{i:03d}">')
@@ -623,17 +727,17 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
                 L.append(f'{ind}<{tag} name="{key}" x="{_num(x)}" y="{_num(y)}" z="{_num(z)}"/>')
         L += _xml_props(rec, ind)
         L.append("    </emitter>")
-    for rec in low["shapes"]:
+    for shape, rec in zip(scene.shapes, low["shapes"]):
         kind = "ply" if rec["type"] == "mesh" else rec["type"]
         L.append(f'    <shape type="{kind}" id="{rec["name"]}">')
         ind = "        "
         if rec["type"] == "mesh":
             ply = f"{path.stem}_{rec['name']}.ply"
-            plys.append((path.parent / ply, rec["vertices"], rec["faces"], rec.get("normals")))
+            plys.append((path.parent / ply, rec["vertices"], rec["faces"], rec.get("normals"), rec.get("uv")))
             L.append(f"{ind}<string name=\"filename\" value={_xml_escape(ply)}/>")
             if rec.get("normals") is None:
                 L.append(f'{ind}<boolean name="face_normals" value="true"/>')
-        elif rec["type"] == "sphere":
+        elif "center" in rec:
             c = rec["center"]
             L += [f'{ind}<point name="center" x="{_num(c[0])}" y="{_num(c[1])}" z="{_num(c[2])}"/>',
                   f'{ind}<float name="radius" value="{_num(rec["radius"])}"/>']
@@ -641,7 +745,7 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
             L += _xml_matrix(rec["to_world"], ind)
         if rec["flip_normals"]:
             L.append(f'{ind}<boolean name="flip_normals" value="true"/>')
-        L += _xml_props({"bsdf": rec["bsdf"]}, ind)
+        L += _xml_props({"bsdf": bsdf_with_files(rec["bsdf"], reflectance_of(shape.material))}, ind)
         if "emitter" in rec:
             L += _xml_props({"emitter": {"type": "area", "radiance": {"type": "rgb", "value": rec["emitter"]}}},
                             ind)
@@ -652,28 +756,28 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
 
 
 def _write_all(path: Path, text: str, plys: list, images=()) -> None:
-    """The meshes' PLY files and the envmaps' OpenEXR files, then the XML, each written
-    atomically (never a partial file); on any error the files this call created are
+    """The meshes' PLY files and the envmaps' and bitmaps' OpenEXR files, then the XML, each
+    written atomically (never a partial file); on any error the files this call created are
     removed (nothing stray is left)."""
-    for target in (path, *(p for p, _, _, _ in plys), *(p for p, _ in images)):
+    for target in (path, *(p[0] for p in plys), *(p for p, _ in images)):
         _check_target(target)
     created = []
     try:
-        for ply, vertices, faces, normals in plys:
+        for ply, vertices, faces, normals, uv in plys:
             existed = ply.exists()
-            atomic_write(ply, lambda tmp, v=vertices, f=faces, n=normals: write_ply(tmp, v, f, n))
+            atomic_write(ply, lambda tmp, v=vertices, f=faces, n=normals, t=uv: write_ply(tmp, v, f, n, uv=t))
             if not existed:
                 created.append(ply)
-        for exr, pixels in images:
+        for exr, data in images:
             existed = exr.exists()
-            write_exr(exr, pixels)
+            write_exr(exr, data)
             if not existed:
                 created.append(exr)
         atomic_write(path, text)
     except BaseException:
-        for f in created:
+        for done in created:
             with contextlib.suppress(OSError):
-                f.unlink()
+                done.unlink()
         raise
 
 

@@ -19,6 +19,7 @@ from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Mat
 from .render import INTEGRATORS, STRATEGIES, TRIANGLE_TESTS, RenderResult, render
 from .scene import FILTERS, MAX_DEPTH_CAP, Camera, Direct, Filter, Scene
 from .shapes import Box, Mesh, Quad, Shape, Sphere, Triangle
+from .textures import Bitmap, Checkerboard, Texture
 
 __version__ = "0.1.0"
 
@@ -26,7 +27,8 @@ __all__ = [
     "Camera", "Direct", "Filter", "FILTERS", "Scene", "Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh",
     "Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic", "ThinDielectric",
     "RoughDielectric", "DiffuseLight",
-    "DISTRIBUTIONS", "Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight",
+    "DISTRIBUTIONS", "Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight", "Texture", "Checkerboard",
+    "Bitmap",
     "render", "RenderResult", "ImageEstimate", "SampleMoments", "STRATEGIES", "TRIANGLE_TESTS", "INTEGRATORS", "MAX_DEPTH_CAP",
     "build_id", "write_exr", "read_exr", "read_hdr", "write_png", "to_display", "__version__",
 ]

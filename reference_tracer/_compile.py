@@ -5,7 +5,9 @@ Boxes become six quads, meshes become triangles, transforms are applied and
 swapped; spheres: a flag). Materials are deduplicated into a table. A mesh with vertex
 normals adds its triangles' corner normals (``triangle_normals``, world space, negated
 when flipped) and their indices (``smooth_triangles``); a scene shaded flat passes
-neither, and the core then stores nothing for normals.
+neither, and the core then stores nothing for normals. A scene with textures passes them
+(``textures``: their table, each material's texture, and every primitive's texture
+coordinates in Mitsuba's parameterisation of its shape); a scene without passes nothing.
 """
 from __future__ import annotations
 
@@ -14,10 +16,11 @@ import math
 import numpy as np
 
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Metal, Plastic, RoughConductor,
-                        RoughDielectric, RoughPlastic, ThinDielectric)
+                        RoughDielectric, RoughPlastic, ThinDielectric, reflectance_of)
 from .lights import DirectionalLight, PointLight, SpotLight
 from .scene import DEFAULT_VFOV, PROJECTIONS, Scene
 from .shapes import Box, Mesh, Quad, Sphere, Triangle
+from .textures import FILTER_TYPES, WRAP_MODES, Bitmap, Checkerboard, Texture
 
 # Material table columns; must match MaterialType and the material rows read in cpp/bindings.cpp.
 MATERIAL_CODES = {Lambertian: 0, Metal: 1, Dielectric: 2, RoughConductor: 3, DiffuseLight: 4, Plastic: 5,
@@ -31,8 +34,11 @@ MATERIAL_COLUMNS = 24
 def _material_row(m) -> list:
     code = MATERIAL_CODES[type(m)]
     plastic = isinstance(m, (Plastic, RoughPlastic))
-    # a plastic's albedo column is its base's reflectance
-    albedo = (m.diffuse_reflectance if plastic else getattr(m, "albedo", None)) or (0.0, 0.0, 0.0)
+    # a plastic's albedo column is its base's reflectance; a texture's is its mean (what a
+    # plastic's lobe choice takes; the core replaces it by the texture's value at each hit)
+    albedo = reflectance_of(m) or (0.0, 0.0, 0.0)
+    if isinstance(albedo, Texture):
+        albedo = (albedo.mean(),) * 3
     radiance = m.radiance if isinstance(m, DiffuseLight) else (0.0, 0.0, 0.0)
     param = {Metal: lambda: m.fuzz, Dielectric: lambda: m.ior, RoughConductor: lambda: m.alpha,
              RoughPlastic: lambda: m.alpha, ThinDielectric: lambda: m.ior,
@@ -112,11 +118,14 @@ def compile_scene(scene: Scene) -> dict:
     materials: list = []
     index: dict = {}
 
+    material_objects: list = []
+
     def mat_id(m) -> int:
         key = (type(m), tuple(sorted(m.__dict__.items())))
         if key not in index:
             index[key] = len(materials)
             materials.append(_material_row(m))
+            material_objects.append(m)
         return index[key]
 
     spheres, quads, tris, tri_mats = [], [], [], []
@@ -159,6 +168,7 @@ def compile_scene(scene: Scene) -> dict:
 
     c = scene.camera
     _check_extent("the camera", [c.lookfrom])
+    textures = _textures(scene, material_objects)
     normals = {}
     if smooth:  # only then: a flat scene's arguments are what they always were
         if n_tris >= 2**31:
@@ -187,4 +197,99 @@ def compile_scene(scene: Scene) -> dict:
         **normals,
         **_lights(scene),
         **camera,
+        **({"textures": textures} if textures is not None else {}),
+    )
+
+
+#: columns of a row of the texture table; must match kTextureColumns in cpp/bindings.cpp.
+TEXTURE_COLUMNS = 19
+
+#: Mitsuba's cube (src/shapes/cube.cpp): each face's corners in [-1, 1]^3 and their texture
+#: coordinates, four a face, in Mitsuba's order.
+_CUBE_VERTICES = np.array([
+    (1, -1, -1), (1, -1, 1), (-1, -1, 1), (-1, -1, -1), (1, 1, -1), (-1, 1, -1), (-1, 1, 1), (1, 1, 1),
+    (1, -1, -1), (1, 1, -1), (1, 1, 1), (1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1), (-1, -1, 1),
+    (-1, -1, 1), (-1, 1, 1), (-1, 1, -1), (-1, -1, -1), (1, 1, -1), (1, -1, -1), (-1, -1, -1), (-1, 1, -1)],
+    dtype=np.float64)
+_CUBE_UV = np.array([(0, 1), (1, 1), (1, 0), (0, 0)] * 6, dtype=np.float64)
+
+
+def _cube_face_uv(normal: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Mitsuba's texture coordinates of ``points`` (in [-1, 1]^3) on the cube's face of
+    outward ``normal``: the affine map of that face's corners to theirs."""
+    for f in range(6):
+        p = _CUBE_VERTICES[4 * f:4 * f + 4]
+        n = np.cross(p[1] - p[0], p[2] - p[0])
+        if np.dot(n, normal) > 0.5 * np.linalg.norm(n) * np.linalg.norm(normal):
+            uv = _CUBE_UV[4 * f:4 * f + 4]
+            # points = p0 + a (p1 - p0) + b (p3 - p0): the face's two edges from its corner 0
+            e = np.stack([p[1] - p[0], p[3] - p[0]], axis=1)
+            ab = np.linalg.lstsq(e, (points - p[0]).T, rcond=None)[0].T
+            return uv[0] + ab[:, :1] * (uv[1] - uv[0]) + ab[:, 1:] * (uv[3] - uv[0])
+    raise AssertionError("a box face of no axis")  # pragma: no cover
+
+
+def _quad_uv(a, b, c, flipped: bool) -> list:
+    """``uv = a + s b + t c`` of a quad's own ``Q + s u + t v`` as the core's record: the
+    core's u and v are swapped when the normals are flipped."""
+    return [*a, *(c if flipped else b), *(b if flipped else c)]
+
+
+def _textures(scene: Scene, materials: list):
+    """The core's ``textures`` argument, or None for a scene without textures."""
+    textures, tex_index, material_textures = [], {}, [-1] * len(materials)
+    for row, m in enumerate(materials):
+        rho = reflectance_of(m)
+        if isinstance(rho, Texture):
+            if id(rho) not in tex_index:
+                tex_index[id(rho)] = len(textures)
+                textures.append(rho)
+            material_textures[row] = tex_index[id(rho)]
+    if not textures:
+        return None
+    table, texels, offset = [], [], 0
+    for t in textures:
+        m = np.asarray(t.to_uv, dtype=np.float64).ravel().tolist()
+        if isinstance(t, Checkerboard):
+            table.append([0, 0, 0, *m, *t.color0, *t.color1, 0, 0, 0, 0])
+        else:
+            assert isinstance(t, Bitmap)
+            h, w, ch = t.data.shape
+            table.append([1, FILTER_TYPES.index(t.filter), WRAP_MODES.index(t.wrap), *m, 0, 0, 0, 0, 0, 0,
+                          w, h, ch, offset])
+            texels.append(t.data.ravel())
+            offset += t.data.size
+    spheres, quads, tris = [], [], []
+    for s in scene.shapes:
+        if isinstance(s, Sphere):
+            lin = s.matrix[:3, :3]
+            rotation = lin / s.scale_factor
+            spheres.append((rotation.T / s.world_radius()).ravel())
+        elif isinstance(s, Quad):  # (s, t) themselves, as Mitsuba's rectangle
+            quads.append(_quad_uv((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), s.flip_normals))
+        elif isinstance(s, Box):  # each face the unit square, as Mitsuba's cube
+            lo, hi = np.asarray(s.pmin), np.asarray(s.pmax)
+            centre, half = (lo + hi) / 2, (hi - lo) / 2
+            for Q, u, v in s.local_quads():
+                Q, u, v = (np.asarray(x, dtype=np.float64) for x in (Q, u, v))
+                a, au, av = _cube_face_uv(np.sign(np.cross(u, v)), (np.array([Q, Q + u, Q + v]) - centre) / half)
+                quads.append(_quad_uv(a, au - a, av - a, s.flip_normals))
+        elif isinstance(s, Triangle):
+            corners = np.array([(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)])
+            tris.append((corners[[0, 2, 1]] if s.flip_normals else corners).reshape(1, 6))
+        elif isinstance(s, Mesh):
+            f = s.faces[:, [0, 2, 1]] if s.flip_normals else s.faces
+            if s.uv is not None:
+                tris.append(s.uv[f].reshape(-1, 6))
+            else:  # Mitsuba's mesh without texture coordinates: the barycentrics (b1, b2)
+                corners = np.array([(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)])
+                rows = (corners[[0, 2, 1]] if s.flip_normals else corners).reshape(1, 6)
+                tris.append(np.repeat(rows, len(f), axis=0))
+    return dict(
+        table=np.asarray(table, dtype=np.float64).reshape(-1, TEXTURE_COLUMNS),
+        texels=np.ascontiguousarray(np.concatenate(texels) if texels else np.zeros(0), dtype=np.float32),
+        materials=np.asarray(material_textures, dtype=np.int32),
+        spheres=np.asarray(spheres, dtype=np.float64).reshape(-1, 9),
+        quads=np.asarray(quads, dtype=np.float64).reshape(-1, 6),
+        triangles=np.ascontiguousarray(np.concatenate(tris) if tris else np.zeros((0, 6)), dtype=np.float64),
     )

@@ -15,6 +15,7 @@ import numpy as np
 
 from .validation import colour, finite_scalar
 from .conductors import conductor_ior
+from .textures import check_reflectance
 
 
 def _complex_ior(owner: str, eta, k, material):
@@ -39,7 +40,8 @@ def _complex_ior(owner: str, eta, k, material):
             colour(f"{owner}.k", 1.0 if k is None else k, upper=None))
 
 __all__ = ["Material", "Lambertian", "Metal", "Dielectric", "ThinDielectric", "RoughDielectric", "RoughConductor",
-           "Plastic", "RoughPlastic", "DiffuseLight", "DISTRIBUTIONS", "PLASTIC_INT_IOR", "PLASTIC_EXT_IOR"]
+           "Plastic", "RoughPlastic", "DiffuseLight", "DISTRIBUTIONS", "PLASTIC_INT_IOR", "PLASTIC_EXT_IOR",
+           "reflectance_of"]
 
 #: microfacet distributions of :class:`RoughConductor`, :class:`RoughPlastic` and :class:`RoughDielectric`,
 #: in the core's order.
@@ -67,7 +69,7 @@ def _fresnel_diffuse_reflectance(eta: float) -> float:
 def _validate_plastic(m, owner: str, *, rough: bool) -> None:
     """The fields both plastics share, validated and normalised in place (frozen dataclass)."""
     set_ = object.__setattr__
-    set_(m, "diffuse_reflectance", colour(f"{owner}.diffuse_reflectance", m.diffuse_reflectance, upper=1.0))
+    set_(m, "diffuse_reflectance", check_reflectance(f"{owner}.diffuse_reflectance", m.diffuse_reflectance))
     set_(m, "specular_reflectance", colour(f"{owner}.specular_reflectance", m.specular_reflectance, upper=1.0))
     int_ior = finite_scalar(f"{owner}.int_ior", m.int_ior, lo=0.0, lo_open=True)
     ext_ior = finite_scalar(f"{owner}.ext_ior", m.ext_ior, lo=0.0, lo_open=True)
@@ -102,8 +104,10 @@ class Lambertian(Material):
 
     Parameters
     ----------
-    albedo : float or (3,) array_like
-        Reflectance per RGB channel, each in [0, 1].
+    albedo : float, (3,) array_like or Texture
+        Reflectance per RGB channel, each in [0, 1], or a texture of it
+        (:class:`reference_tracer.Checkerboard`, :class:`reference_tracer.Bitmap`: Mitsuba's
+        ``reflectance`` given a texture).
     two_sided : bool, keyword-only
         Reflect on both sides (Mitsuba ``twosided``). One-sided surfaces are black
         seen from the back, as in Mitsuba.
@@ -118,7 +122,7 @@ class Lambertian(Material):
     two_sided: bool = False
 
     def __post_init__(self):
-        object.__setattr__(self, "albedo", colour("Lambertian.albedo", self.albedo, upper=1.0))
+        object.__setattr__(self, "albedo", check_reflectance("Lambertian.albedo", self.albedo))
         object.__setattr__(self, "two_sided", bool(self.two_sided))
 
 
@@ -129,7 +133,8 @@ class Metal(Material):
     ``fuzz=0`` is an ideal mirror, Mitsuba ``conductor`` with ``specular_reflectance=albedo``:
     Fresnel 1 (``material='none'``) by default, or the Fresnel reflectance of a complex
     index ``eta + i k`` (RGB; ``k`` defaults to 1) or of one of Mitsuba's named materials
-    (``material="Au"``). ``fuzz > 0`` perturbs the mirror direction by a point in a ball of
+    (``material="Au"``). ``albedo`` may be a texture (Mitsuba's ``specular_reflectance``
+    given one). ``fuzz > 0`` perturbs the mirror direction by a point in a ball of
     radius ``fuzz``; it has no Mitsuba equivalent (translation to Mitsuba refuses it; use
     :class:`RoughConductor`) and no Fresnel.
 
@@ -150,7 +155,7 @@ class Metal(Material):
     is_specular = True
 
     def __post_init__(self):
-        object.__setattr__(self, "albedo", colour("Metal.albedo", self.albedo, upper=1.0))
+        object.__setattr__(self, "albedo", check_reflectance("Metal.albedo", self.albedo))
         object.__setattr__(self, "fuzz", finite_scalar("Metal.fuzz", self.fuzz, lo=0.0, hi=1.0))
         object.__setattr__(self, "two_sided", bool(self.two_sided))
         eta, k = _complex_ior("Metal", self.eta, self.k, self.material)
@@ -282,7 +287,7 @@ class RoughConductor(Material):
     ``distribution`` ``'ggx'`` (the default here) or ``'beckmann'`` (Mitsuba's default);
     Fresnel 1 (``material='none'``) unless given a complex index ``eta + i k`` (RGB; ``k``
     defaults to 1) or one of Mitsuba's named materials (``material="Cu"``); albedo is
-    Mitsuba's ``specular_reflectance``.
+    Mitsuba's ``specular_reflectance`` (an RGB value or a texture).
 
     Examples
     --------
@@ -301,7 +306,7 @@ class RoughConductor(Material):
     material: str | None = field(default=None, kw_only=True)
 
     def __post_init__(self):
-        object.__setattr__(self, "albedo", colour("RoughConductor.albedo", self.albedo, upper=1.0))
+        object.__setattr__(self, "albedo", check_reflectance("RoughConductor.albedo", self.albedo))
         object.__setattr__(self, "alpha", finite_scalar("RoughConductor.alpha", self.alpha, lo=1e-4, hi=4.0))
         object.__setattr__(self, "two_sided", bool(self.two_sided))
         if self.distribution not in DISTRIBUTIONS:
@@ -331,8 +336,10 @@ class Plastic(_Coated):
 
     Parameters
     ----------
-    diffuse_reflectance : float or (3,) array_like
-        The base's reflectance per RGB channel, in [0, 1] (Mitsuba's default 0.5).
+    diffuse_reflectance : float, (3,) array_like or Texture
+        The base's reflectance per RGB channel, in [0, 1] (Mitsuba's default 0.5), or a
+        texture of it; the lobe choice then takes the texture's mean (Mitsuba's
+        ``Texture::mean``), as Mitsuba's does.
     specular_reflectance : float or (3,) array_like, keyword-only
         Scale of the specular lobe, in [0, 1] (default 1).
     int_ior, ext_ior : float, keyword-only
@@ -384,8 +391,9 @@ class RoughPlastic(_Coated):
 
     Parameters
     ----------
-    diffuse_reflectance : float or (3,) array_like
-        The base's reflectance per RGB channel, in [0, 1] (Mitsuba's default 0.5).
+    diffuse_reflectance : float, (3,) array_like or Texture
+        The base's reflectance per RGB channel, in [0, 1] (Mitsuba's default 0.5), or a
+        texture of it (as :class:`Plastic`'s).
     alpha : float, keyword-only
         Roughness, in [1e-4, 4] (Mitsuba's default 0.1; roughness = alpha, not alpha squared).
     distribution : {'beckmann', 'ggx'}, keyword-only
@@ -427,7 +435,7 @@ class DiffuseLight(Material):
     ----------
     radiance : float or (3,) array_like
         Emitted radiance per channel, finite and >= 0.
-    albedo : float or (3,) array_like, optional, keyword-only
+    albedo : float, (3,) array_like or Texture, optional, keyword-only
         If given, the surface also reflects as a one-sided Lambertian of this albedo
         (Mitsuba: the shape carries both a ``diffuse`` BSDF and an ``area`` emitter).
 
@@ -443,8 +451,29 @@ class DiffuseLight(Material):
     def __post_init__(self):
         object.__setattr__(self, "radiance", colour("DiffuseLight.radiance", self.radiance, upper=None))
         if self.albedo is not None:
-            object.__setattr__(self, "albedo", colour("DiffuseLight.albedo", self.albedo, upper=1.0))
+            object.__setattr__(self, "albedo", check_reflectance("DiffuseLight.albedo", self.albedo))
 
     @property
     def emits(self) -> bool:
         return max(self.radiance) > 0.0
+
+
+def reflectance_of(material: Material):
+    """The reflectance of ``material`` that a texture may give: a plastic's
+    ``diffuse_reflectance``, else its ``albedo`` (a Lambertian's, a conductor's
+    ``specular_reflectance``, a reflecting light's); None for a material without one.
+
+    Returns
+    -------
+    tuple, Texture or None
+        An RGB triple, a :class:`~reference_tracer.Texture`, or None (a dielectric, a light
+        that reflects nothing).
+
+    Examples
+    --------
+    >>> reflectance_of(Plastic(0.3)), reflectance_of(Dielectric(1.5))
+    ((0.3, 0.3, 0.3), None)
+    """
+    if isinstance(material, _Coated):
+        return material.diffuse_reflectance
+    return getattr(material, "albedo", None)

@@ -305,12 +305,15 @@ def check_obj_faces(text: str, *, name: str = "OBJ") -> None:
 
 @dataclass(frozen=True)
 class MeshData:
-    """A mesh file's contents: ``vertices`` (N, 3) and ``faces`` (M, 3) int64, and the
-    file's vertex ``normals`` (N, 3), or None where it has none (or they were not read)."""
+    """A mesh file's contents: ``vertices`` (N, 3) and ``faces`` (M, 3) int64, the file's
+    vertex ``normals`` (N, 3), or None where it has none (or they were not read), and its
+    texture coordinates ``uv`` (N, 2) as the file holds them (NaN for a vertex a face gives
+    none), or None where it has none."""
 
     vertices: np.ndarray
     faces: np.ndarray
     normals: np.ndarray | None = None
+    uv: np.ndarray | None = None
 
 
 def _floats(words, count: int, what: str, where: str) -> list:
@@ -349,7 +352,7 @@ def parse_obj(text: str, *, name: str = "OBJ", normals: bool = True) -> MeshData
     """
     # Flat arrays of doubles and indices, not lists of lists: a few times the file's bytes
     # at most (check_mesh_file's budget), whatever its lines hold.
-    positions, vn, faces = array("d"), array("d"), array("q")
+    positions, vn, vt, faces = array("d"), array("d"), array("d"), array("q")
     n_v = n_vn = n_vt = 0
     ids: dict = {}          # (v, vt, vn) -> vertex id
     missing_vn = 0          # first line with a face corner that has no normal index (0: none)
@@ -369,6 +372,7 @@ def parse_obj(text: str, *, name: str = "OBJ", normals: bool = True) -> MeshData
                 vn.extend(n)
                 n_vn += 1
         elif head == "vt":
+            vt.extend(_floats(words, 2, "a texture coordinate", f"{name} line {number}"))
             n_vt += 1
         elif head == "f":
             first = previous = corners = 0
@@ -419,13 +423,19 @@ def parse_obj(text: str, *, name: str = "OBJ", normals: bool = True) -> MeshData
                              "first corner one, or load with face_normals=True")
         vn_index = np.fromiter((k >> 64 for k in ids), dtype=np.int64, count=len(ids))
         out_normals = np.frombuffer(vn, dtype=np.float64).reshape(-1, 3)[vn_index - 1]
-    return MeshData(vertices, np.frombuffer(faces, dtype=np.int64).reshape(-1, 3), out_normals)
+    out_uv = None
+    if n_vt:
+        vt_index = np.fromiter(((k >> 32) & 0xFFFFFFFF for k in ids), dtype=np.int64, count=len(ids))
+        table = np.concatenate([np.full((1, 2), np.nan), np.frombuffer(vt, dtype=np.float64).reshape(-1, 2)])
+        out_uv = table[vt_index]   # index 0 (a corner without one): NaN, undefined in Mitsuba
+    return MeshData(vertices, np.frombuffer(faces, dtype=np.int64).reshape(-1, 3), out_normals, out_uv)
 
 
-def obj_undefined_normal(text: str) -> int | None:
+def obj_undefined_normal(text: str, *, texcoords: bool = False) -> int | None:
     """The first line of an OBJ with ``vn`` lines whose face leaves a vertex normal undefined
     in Mitsuba's loader (its first corner has no normal index; later corners keep the
-    previous one's), or None.
+    previous one's), or None; with ``texcoords`` the same for ``vt`` lines and texture
+    coordinate indices.
 
     Examples
     --------
@@ -433,14 +443,17 @@ def obj_undefined_normal(text: str) -> int | None:
     4
     >>> obj_undefined_normal("v 0 0 0\\nf 1 1 1\\n") is None
     True
+    >>> obj_undefined_normal("v 0 0 0\\nvt 0 0\\nf 1/1 1 1\\nf 1//1 1 1\\n", texcoords=True)
+    4
     """
-    if not re.search(r"^\s*vn\s", text, re.MULTILINE):
+    slot, tag = (1, "vt") if texcoords else (2, "vn")
+    if not re.search(rf"^\s*{tag}\s", text, re.MULTILINE):
         return None
     for number, line in enumerate(text.splitlines(), 1):
         words = line.split()
         if len(words) > 1 and words[0] == "f" and not words[1].startswith("#"):
             parts = words[1].split("/")
-            if len(parts) < 3 or not parts[2]:
+            if len(parts) <= slot or not parts[slot]:
                 return number
     return None
 
@@ -506,4 +519,21 @@ def read_mesh(path, *, normals: bool = True) -> MeshData:
     n = _ply_normals(tm, faces, str(path)) if normals else None
     if n is not None and n.shape != vertices.shape:  # trimesh changed the vertices: not the file's
         raise ValueError(f"{path}: {len(n)} vertex normals for {len(vertices)} vertices")
-    return MeshData(vertices, faces, n)
+    uv = _ply_texcoords(tm)
+    if uv is not None and len(uv) != len(vertices):
+        raise ValueError(f"{path}: {len(uv)} texture coordinates for {len(vertices)} vertices")
+    return MeshData(vertices, faces, n, uv)
+
+
+def _ply_texcoords(tm) -> np.ndarray | None:
+    """A PLY's vertex texture coordinates under Mitsuba's names (``u v``, else ``texture_u
+    texture_v``, else ``s t``), or None."""
+    raw = (tm.metadata or {}).get("_ply_raw", {}).get("vertex", {})
+    data = raw.get("data")
+    for names in (("u", "v"), ("texture_u", "texture_v"), ("s", "t")):
+        try:
+            columns = [np.asarray(data[k], dtype=np.float64).reshape(-1) for k in names]
+        except (KeyError, ValueError, TypeError, IndexError):
+            continue
+        return np.stack(columns, axis=1)
+    return None

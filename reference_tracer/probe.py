@@ -14,7 +14,8 @@ Ray queries
       wavefront=False, preliminary=False)``: dict of ``t`` (inf on a miss), ``prim``
       (primitive id, -1 on a miss; :func:`primitive_shapes` maps it to a shape), ``point``
       and front ``normal`` (not with ``preliminary``; ``shading_normal`` too where a mesh
-      has vertex normals), ``seconds``, ``packet_rays``, ``chunk``, ``chunk_offset``;
+      has vertex normals; ``uv``, Mitsuba's texture coordinates, and ``reflectance``, the
+      material's reflectance there, where a material has a texture), ``seconds``, ``packet_rays``, ``chunk``, ``chunk_offset``;
     - ``occluded(origins, directions, t_max, wavefront=False)``: (N,) uint8;
     - ``sample_lights(refs, u, wavefront=False)``: light sampling from points ``refs`` with
       uniforms ``u`` (N, 3): dict ``wi``, ``pdf``, ``pdf_all``, ``dist``, ``valid`` and the
@@ -57,10 +58,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .materials import DiffuseLight, Lambertian, Plastic, RoughPlastic
+from .materials import DiffuseLight, Lambertian, Plastic, RoughPlastic, reflectance_of
 from .render import core_scene
 from .scene import Camera, Scene
 from .shapes import Box, Quad, Sphere, Triangle
+from .textures import Texture
 
 __all__ = ["core_scene", "camera_rays", "camera_rays_with_reach", "primitive_shapes", "diffuse_albedo", "first_hit_aovs",
            "warp_sample", "warp_pdf", "bsdf_sample", "bsdf_eval_pdf", "rough_plastic_table",
@@ -237,11 +239,13 @@ def primitive_shapes(scene: Scene) -> np.ndarray:
     return np.array(spheres + quads + tris, dtype=np.int64)
 
 
-def diffuse_albedo(material) -> tuple:
+def diffuse_albedo(material):
     """The diffuse albedo a first-hit AOV shows for ``material``.
 
     A Lambertian's albedo, an emitter's own (when it reflects), a plastic's diffuse
     reflectance (Mitsuba's ``eval_diffuse_reflectance`` of its diffuse lobe), else black.
+    Where that albedo is a texture, the texture itself (:func:`first_hit_aovs` shows its
+    value at each hit, which the core computes).
 
     Examples
     --------
@@ -249,12 +253,10 @@ def diffuse_albedo(material) -> tuple:
     >>> diffuse_albedo(rt.Lambertian(0.5)), diffuse_albedo(rt.Metal(0.9))
     ((0.5, 0.5, 0.5), (0.0, 0.0, 0.0))
     """
-    if isinstance(material, Lambertian):
-        return tuple(material.albedo)
-    if isinstance(material, (Plastic, RoughPlastic)):
-        return tuple(material.diffuse_reflectance)
-    if isinstance(material, DiffuseLight) and material.albedo is not None:
-        return tuple(material.albedo)
+    if isinstance(material, (Lambertian, Plastic, RoughPlastic, DiffuseLight)):
+        value = reflectance_of(material)
+        if value is not None:
+            return value if isinstance(value, Texture) else tuple(value)
     return (0.0, 0.0, 0.0)
 
 
@@ -312,7 +314,8 @@ def first_hit_aovs(scene: Scene, *, offset=(0.5, 0.5)) -> dict:
         m = shape == i
         if not m.any():
             continue
-        albedo[m] = diffuse_albedo(s.material)
+        value = diffuse_albedo(s.material)
+        albedo[m] = np.asarray(hit["reflectance"])[m] if isinstance(value, Texture) else value
         emitted[m] = 0.0
         if isinstance(s.material, DiffuseLight):
             emitted[m & front] = s.material.radiance

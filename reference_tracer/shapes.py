@@ -17,8 +17,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .validation import finite_scalar, vector3
-from .materials import Material
+from .materials import Material, reflectance_of
 from .meshfile import read_mesh
+from .textures import Texture
 
 __all__ = ["Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh", "rotation_matrix", "vertex_normals"]
 
@@ -131,7 +132,7 @@ class Shape:
 
 def _describe_material(m: Material) -> dict:
     d = {"type": type(m).__name__}
-    d.update({k: v for k, v in m.__dict__.items()})
+    d.update({k: (v.describe() if isinstance(v, Texture) else v) for k, v in m.__dict__.items()})
     return d
 
 
@@ -372,6 +373,11 @@ class Mesh(Shape):
     (docs/conventions.md). The normals follow the transform as normals do (its inverse transpose)
     and flip with ``flip_normals``.
 
+    Texture coordinates: ``uv``, an (N, 2) array of per-vertex coordinates, interpolated
+    by the barycentrics as Mitsuba's mesh does (a file's: :meth:`load`); without it a
+    triangle's coordinates are its barycentrics, ``(0, 0)``, ``(1, 0)`` and ``(0, 1)`` at
+    its corners in the face's order, as Mitsuba's mesh without texture coordinates.
+
     Examples
     --------
     >>> import numpy as np
@@ -390,6 +396,7 @@ class Mesh(Shape):
     flip_normals: bool = False
     transform: tuple = field(default=_IDENTITY, repr=False)
     normals: np.ndarray | None = field(default=None, repr=False)
+    uv: np.ndarray | None = field(default=None, repr=False, kw_only=True)
 
     def __post_init__(self):
         try:
@@ -419,10 +426,13 @@ class Mesh(Shape):
         object.__setattr__(self, "faces", f)
         if self.normals is not None:
             object.__setattr__(self, "normals", _check_normals(self.normals, v.shape[0]))
+        if self.uv is not None:
+            object.__setattr__(self, "uv", _check_uv(self.uv, v.shape[0]))
         self._post()
 
     @classmethod
-    def load(cls, path, material: Material, *, flip_normals: bool = False, face_normals: bool = False) -> "Mesh":
+    def load(cls, path, material: Material, *, flip_normals: bool = False, face_normals: bool = False,
+             flip_tex_coords: bool | None = None) -> "Mesh":
         """Read an OBJ or PLY file, with its normals as Mitsuba's ``obj`` and ``ply`` read them.
 
         Shading follows Mitsuba's loaders: the file's vertex normals (OBJ ``vn``, PLY
@@ -433,6 +443,13 @@ class Mesh(Shape):
         An OBJ's vertices are one per distinct (position, texture, normal) index triple of
         its faces, in the order the faces first use them, and polygons are split into fans,
         as Mitsuba does.
+
+        Texture coordinates, where the material has a texture: the file's (OBJ ``vt``,
+        PLY ``u v``, ``texture_u texture_v`` or ``s t``), with ``v`` replaced by ``1 - v``
+        when ``flip_tex_coords`` (Mitsuba's default: True for OBJ, False for PLY); where the
+        file has none, each triangle's barycentrics (Mitsuba's). A face corner without a
+        texture coordinate in a file with them (Mitsuba would leave it undefined) raises
+        ``ValueError``.
 
         An OBJ's text may be UTF-8 or Latin-1 (a comment with an accented name); an OBJ
         face index 0 (indices start at 1), a normal that is zero or not a number, a face
@@ -454,7 +471,22 @@ class Mesh(Shape):
                 normals = _check_normals(normals, len(m.vertices))
             except ValueError as exc:
                 raise ValueError(f"{path!s}: {exc}") from None
-        return cls(m.vertices, m.faces, material, flip_normals=flip_normals, normals=normals)
+        uv = None
+        if isinstance(reflectance_of(material), Texture) and m.uv is not None:
+            used = np.zeros(len(m.vertices), dtype=bool)
+            used[m.faces.ravel()] = True
+            if np.isnan(m.uv[used]).any():
+                raise ValueError(f"Mesh.load: {path!s}: a face corner without a texture coordinate, in a file with "
+                                 "them (Mitsuba leaves that vertex's coordinates undefined)")
+            if flip_tex_coords is None:   # Mitsuba's defaults: OBJ flips, PLY does not
+                with open(path, "rb") as fh:
+                    flip = fh.read(3) != b"ply"
+            else:
+                flip = bool(flip_tex_coords)
+            uv = np.where(used[:, None], m.uv, 0.0)
+            if flip:
+                uv = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]])
+        return cls(m.vertices, m.faces, material, flip_normals=flip_normals, normals=normals, uv=uv)
 
     def _check_world(self) -> None:
         w = self.world_vertices()
@@ -520,8 +552,36 @@ class Mesh(Shape):
         data = self.vertices.tobytes() + self.faces.tobytes()
         if self.normals is not None:  # flat meshes keep the hashes they always had
             data += b"normals" + self.normals.tobytes()
+        if self.uv is not None:  # and meshes without texture coordinates theirs
+            data += b"uv" + self.uv.tobytes()
         h = hashlib.sha256(data).hexdigest()
         return {"mesh_sha256": h, "n_vertices": int(len(self.vertices)), "n_faces": int(len(self.faces))}
+
+
+def _check_uv(uv, n_vertices: int) -> np.ndarray:
+    """Per-vertex texture coordinates as a read-only (N, 2) float64 array, finite.
+
+    Examples
+    --------
+    >>> _check_uv([[0, 1]], 1).tolist()
+    [[0.0, 1.0]]
+    >>> _check_uv([[0, np.nan]], 1)
+    Traceback (most recent call last):
+    ...
+    ValueError: Mesh.uv[0] is [0.0, nan]: texture coordinates must be finite
+    """
+    try:
+        a = np.array(uv, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError("Mesh.uv must be an (N, 2) array of numbers") from None
+    if a.shape != (n_vertices, 2):
+        raise ValueError(f"Mesh.uv must have one row per vertex, shape ({n_vertices}, 2), got {a.shape}")
+    bad = ~np.all(np.isfinite(a), axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(f"Mesh.uv[{i}] is {a[i].tolist()}: texture coordinates must be finite")
+    a.setflags(write=False)
+    return a
 
 
 def _check_normals(normals, n_vertices: int) -> np.ndarray:

@@ -369,7 +369,7 @@ def test_import_refuses_what_is_not_modelled_with_its_place(tmp_path):
     path.write_text(_xml("""\
         <shape type="sphere">
             <bsdf type="plastic">
-                <texture type="checkerboard" name="diffuse_reflectance"/>
+                <texture type="checkerboard" name="specular_reflectance"/>
                 <string name="int_ior" value="glass"/>
             </bsdf>
         </shape>
@@ -392,7 +392,7 @@ def test_import_refuses_what_is_not_modelled_with_its_place(tmp_path):
     with pytest.raises(ValueError) as err:
         from_mitsuba(path)
     msg = str(err.value)
-    for needle in ("texture 'checkerboard' for plastic.diffuse_reflectance", "int_ior='glass' is not a known IOR name",
+    for needle in ("texture 'checkerboard' for plastic.specular_reflectance", "int_ior='glass' is not a known IOR name",
                    "anisotropic roughplastic", "roughplastic sample_visible=false", "roughplastic distribution 'phong'",
                    "int_ior and ext_ior must differ", "plastic int_ior of type", "parameter 'roughness' is not supported"):
         assert needle in msg, (needle, msg)

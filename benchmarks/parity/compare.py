@@ -6,6 +6,9 @@ relative plus 1e-4 absolute. A pixel whose ray grazes an edge may hit different 
 the two renderers by rounding alone (Mitsuba's float32 rectangles leave hairline cracks
 where two meet): such a pixel is forgiven when one of four rays a hundredth of a pixel
 away in our tracer sees what Mitsuba saw at the centre, or one in Mitsuba what we saw.
+The same holds for the albedo of a textured shape at an edge of its texture (a
+checkerboard's, a nearest-texel bitmap's), where float32 texture coordinates may fall on
+the other side.
 """
 from __future__ import annotations
 
@@ -14,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.probe import first_hit_aovs
+from reference_tracer.probe import diffuse_albedo, first_hit_aovs
 
 from .ours import shape_bounds
 
@@ -38,7 +41,8 @@ class ParityReport:
 
     ``masks`` maps each AOV to an (H, W) boolean mismatch mask; ``counts`` to its number
     of pixels; ``findings`` are one-line diagnoses (the shape, the camera, the background);
-    ``ours`` and ``theirs`` the AOVs; ``edge_pixels`` the shape mismatches forgiven as edges.
+    ``ours`` and ``theirs`` the AOVs; ``edge_pixels`` the shape mismatches forgiven as edges
+    (and the albedo mismatches forgiven as texture edges).
     """
 
     scene: str
@@ -149,10 +153,28 @@ def compare_aovs(scene: rt.Scene, ours: dict, theirs: dict, *, name: str = "scen
     cos = np.einsum("hwc,hwc->hw", ours["normal"], theirs["normal"])
     n_bad = same & (cos < NORMAL_COS)
     a_bad = same & ~_close(ours["albedo"], theirs["albedo"])
+    texture_edges = _texture_edge_forgiven(scene, ours, theirs, a_bad, theirs_at)
+    a_bad &= ~texture_edges
+    forgiven_pixels = int(forgiven.sum() + texture_edges.sum())
     e_bad = (~shape_bad & ~forgiven) & ~_close(ours["emitted"], theirs["emitted"])
     masks = {"shape": shape_bad, "t": t_bad, "normal": n_bad, "albedo": a_bad, "emitted": e_bad}
     findings = _findings(scene, ours, theirs, masks, cos)
-    return ParityReport(name, w, h, masks, findings, ours, theirs, edge_pixels=int(forgiven.sum()))
+    return ParityReport(name, w, h, masks, findings, ours, theirs, edge_pixels=forgiven_pixels)
+
+
+def _texture_edge_forgiven(scene, ours, theirs, suspect, theirs_at=None) -> np.ndarray:
+    """Suspect albedo pixels of textured shapes where a ray a hundredth of a pixel away in
+    one renderer sees the albedo the other saw at the centre: an edge of the texture."""
+    textured = np.array([isinstance(diffuse_albedo(s.material), rt.Texture) for s in scene.shapes] + [False])
+    suspect = suspect & textured[np.where(ours["shape"] >= 0, ours["shape"], len(scene.shapes))]
+    ok = np.zeros_like(suspect)
+    if not suspect.any():
+        return ok
+    for off in _EDGE_OFFSETS:
+        ok |= suspect & _close(first_hit_aovs(scene, offset=off)["albedo"], theirs["albedo"])
+        if theirs_at is not None and not ok[suspect].all():
+            ok |= suspect & _close(theirs_at(off)["albedo"], ours["albedo"])
+    return ok
 
 
 def _findings(scene, ours, theirs, masks, cos) -> list:

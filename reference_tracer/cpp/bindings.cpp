@@ -74,6 +74,89 @@ void require_columns(const Matrix& m, size_t cols, const char* name) {
         throw std::invalid_argument(std::string(name) + ": expected " + std::to_string(cols) + " columns");
 }
 
+using FloatVector = nb::ndarray<const float, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+// Columns of a row of the texture table (reference_tracer/_compile.py, TEXTURE_COLUMNS):
+// kind, filter (bitmap: 0 bilinear, 1 nearest), wrap (0 repeat, 1 mirror, 2 clamp), to_uv
+// (6), color0 (3), color1 (3), width, height, channels, offset of the texels in `texels`.
+constexpr size_t kTextureColumns = 19;
+
+// The scene's textures (the Python layer's dict: `table`, `texels`, `materials`, `spheres`,
+// `quads`, `triangles`), each material's texture set in mats[i].texture.
+rt::SceneTextures read_textures(const nb::dict& d, std::vector<rt::Material>& mats, size_t n_spheres,
+                                size_t n_quads, size_t n_triangles) {
+    auto get = [&](const char* key) {
+        if (!d.contains(key)) throw std::invalid_argument(std::string("textures: missing '") + key + "'");
+        return d[key];
+    };
+    const Matrix table = nb::cast<Matrix>(get("table"));
+    const FloatVector texels = nb::cast<FloatVector>(get("texels"));
+    const IndexVector materials = nb::cast<IndexVector>(get("materials"));
+    const Matrix spheres = nb::cast<Matrix>(get("spheres")), quads = nb::cast<Matrix>(get("quads")),
+                 triangles = nb::cast<Matrix>(get("triangles"));
+    require_columns(table, kTextureColumns, "textures.table");
+    require_columns(spheres, 9, "textures.spheres");
+    require_columns(quads, 6, "textures.quads");
+    require_columns(triangles, 6, "textures.triangles");
+    if (table.shape(0) == 0) throw std::invalid_argument("textures: an empty table (pass none instead)");
+    if (materials.shape(0) != mats.size()) throw std::invalid_argument("textures.materials: one entry per material");
+    if (spheres.shape(0) != n_spheres || quads.shape(0) != n_quads || triangles.shape(0) != n_triangles)
+        throw std::invalid_argument("textures: one row of texture coordinates per sphere, quad and triangle");
+    rt::SceneTextures out;
+    const size_t n_texels = texels.shape(0);
+    for (size_t i = 0; i < table.shape(0); ++i) {
+        const double* row = table.data() + i * kTextureColumns;
+        rt::Texture t;
+        const int kind = int(row[0]), filter = int(row[1]), wrap = int(row[2]);
+        if (kind < 0 || kind > 1 || filter < 0 || filter > 1 || wrap < 0 || wrap > 2)
+            throw std::invalid_argument("textures.table: unknown kind, filter or wrap mode");
+        t.kind = rt::TextureKind(kind);
+        t.nearest = filter == 1;
+        t.wrap = rt::TextureWrap(wrap);
+        for (int k = 0; k < 6; ++k) t.to_uv[k] = row[3 + k];
+        t.color0 = {row[9], row[10], row[11]};
+        t.color1 = {row[12], row[13], row[14]};
+        if (t.kind == rt::TextureKind::Bitmap) {
+            const double w = row[15], h = row[16], c = row[17], offset = row[18];
+            if (!(w >= 2 && h >= 2 && w <= 1e9 && h <= 1e9) || (c != 1 && c != 3) || !(offset >= 0) ||
+                w != std::floor(w) || h != std::floor(h) || offset != std::floor(offset))
+                throw std::invalid_argument("textures.table: a bitmap needs whole sizes >= 2, 1 or 3 channels");
+            const double count = w * h * c;
+            if (offset + count > double(n_texels))
+                throw std::invalid_argument("textures.table: a bitmap's texels lie beyond `texels`");
+            t.width = int(w);
+            t.height = int(h);
+            t.channels = int(c);
+            const float* first = texels.data() + size_t(offset);
+            t.texels.assign(first, first + size_t(count));
+        }
+        out.textures.push_back(std::move(t));
+    }
+    for (size_t i = 0; i < mats.size(); ++i) {
+        const int32_t id = materials(i);
+        if (id < -1 || id >= int32_t(out.textures.size()))
+            throw std::invalid_argument("textures.materials: texture index out of range");
+        mats[i].texture = id;
+    }
+    out.spheres.resize(n_spheres);
+    for (size_t i = 0; i < n_spheres; ++i)
+        for (int k = 0; k < 9; ++k) out.spheres[i].m[k] = spheres(i, size_t(k));
+    out.quads.resize(n_quads);
+    for (size_t i = 0; i < n_quads; ++i)
+        for (int k = 0; k < 2; ++k) {
+            out.quads[i].a[k] = quads(i, size_t(k));
+            out.quads[i].b[k] = quads(i, size_t(2 + k));
+            out.quads[i].c[k] = quads(i, size_t(4 + k));
+        }
+    out.triangles.resize(n_triangles);
+    for (size_t i = 0; i < n_triangles; ++i) {
+        const double* row = triangles.data() + 6 * i;
+        for (int v = 0; v < 3; ++v)
+            for (int k = 0; k < 2; ++k) out.triangles[i].uv[v][k] = row[2 * v + k];
+    }
+    return out;
+}
+
 uint32_t material_id(double value, size_t n_materials, const char* name) {
     if (!(value >= 0.0) || value >= double(n_materials) || value != double(uint32_t(value)))
         throw std::invalid_argument(std::string(name) + ": material index out of range");
@@ -114,7 +197,7 @@ public:
             const std::optional<Image>& environment, double environment_scale,
             const std::optional<Matrix>& environment_to_world, int projection, double view_width,
             double view_height, double aperture_radius, double focus_distance, double near_clip,
-            double far_clip) {
+            double far_clip, const std::optional<nb::dict>& textures) {
         if (width < 1 || height < 1) throw std::invalid_argument("image size must be positive");
         if (max_depth < 1) throw std::invalid_argument("max_depth must be >= 1 here (the Python layer maps -1)");
         if (triangle_test < 0 || triangle_test > 2) throw std::invalid_argument("unknown triangle test");
@@ -263,6 +346,8 @@ public:
             env = std::make_unique<rt::EnvironmentMap>(std::move(rgb), int(img.shape(1)), int(img.shape(0)),
                                                        environment_scale, r);
         }
+        rt::SceneTextures scene_textures;
+        if (textures) scene_textures = read_textures(*textures, mats, sph.size(), qs.size(), tris.size());
 
         rt::SceneSettings settings;
         settings.background = vec3(background);
@@ -295,7 +380,7 @@ public:
             nb::gil_scoped_release release;
             scene_ = std::make_unique<rt::Scene>(camera, std::move(mats), std::move(sph), std::move(qs),
                                                  std::move(tris), settings, std::move(normals), std::move(deltas),
-                                                 std::move(env));
+                                                 std::move(env), std::move(scene_textures));
         }
         build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
@@ -390,7 +475,8 @@ public:
     }
 
     // Closest hits of N rays: t (inf on a miss), primitive id (-1), point and front normal
-    // (geometric), and the shading normal where the scene has smooth triangles;
+    // (geometric), the shading normal where the scene has smooth triangles, the texture
+    // coordinates and the material's reflectance at the hit where it has textures;
     // with `preliminary` only t and the primitive (what Mitsuba's ray_intersect_preliminary
     // gives; the batch queries then skip the point and normal).
     // `wavefront`: through Scene::intersect_batch, as the wavefront integrator asks.
@@ -404,8 +490,12 @@ public:
         // Every entry is written once, by store() (zeros for a miss's point and normal).
         // Shading normals only where the scene has smooth triangles (elsewhere the normal).
         const bool shading = !preliminary && scene_->has_shading_normals();
+        // Texture coordinates and each hit's reflectance (its texture's value) where the
+        // scene has textures.
+        const bool textured = !preliminary && scene_->has_textures();
         std::vector<double, UninitialisedAllocator<double>> t(n), p(preliminary ? 0 : 3 * n),
-            nrm(preliminary ? 0 : 3 * n), sh(shading ? 3 * n : 0);
+            nrm(preliminary ? 0 : 3 * n), sh(shading ? 3 * n : 0), uvs(textured ? 2 * n : 0),
+            refl(textured ? 3 * n : 0);
         std::vector<int64_t, UninitialisedAllocator<int64_t>> prim(n);
         auto store = [&](size_t i, bool hit, const rt::Interaction& it) {
             t[i] = hit ? it.t : rt::kInf;
@@ -417,6 +507,17 @@ public:
             }
             if (shading)
                 for (int c = 0; c < 3; ++c) sh[3 * i + c] = hit ? it.ns[c] : 0.0;
+            if (textured) {
+                double u = 0.0, v = 0.0;
+                rt::Vec3 rho(0.0);
+                if (hit) {
+                    scene_->texture_uv(it, u, v);
+                    rho = scene_->reflectance(scene_->material(it.material), it);
+                }
+                uvs[2 * i] = u;
+                uvs[2 * i + 1] = v;
+                for (int c = 0; c < 3; ++c) refl[3 * i + c] = rho[c];
+            }
         };
         // Rows of the C-contiguous (N, 3) arrays (checked above), read directly.
         const double* o_rows = origins.data();
@@ -486,6 +587,10 @@ public:
             r["point"] = to_numpy(std::move(p), {n, 3});
             r["normal"] = to_numpy(std::move(nrm), {n, 3});
             if (shading) r["shading_normal"] = to_numpy(std::move(sh), {n, 3});
+            if (textured) {
+                r["uv"] = to_numpy(std::move(uvs), {n, 2});
+                r["reflectance"] = to_numpy(std::move(refl), {n, 3});
+            }
         }
         r["seconds"] = seconds;
         size_t in_packets = 0;
@@ -691,14 +796,14 @@ NB_MODULE(_core, m) {
                       const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int,
                       const std::optional<IndexVector>&, const std::optional<Matrix>&, const std::optional<Matrix>&,
                       const std::optional<Image>&, double, const std::optional<Matrix>&, int, double, double, double,
-                      double, double, double>(),
+                      double, double, double, const std::optional<nb::dict>&>(),
              "lookfrom"_a, "lookat"_a, "vup"_a, "vfov"_a, "width"_a, "height"_a, "materials"_a, "spheres"_a,
              "quads"_a, "triangles"_a, "triangle_materials"_a, "background"_a, "max_depth"_a, "rr_depth"_a,
              "triangle_test"_a = 0, "smooth_triangles"_a = nb::none(), "triangle_normals"_a = nb::none(),
              "delta_lights"_a = nb::none(), "environment"_a = nb::none(), "environment_scale"_a = 1.0,
              "environment_to_world"_a = nb::none(), "projection"_a = 0, "view_width"_a = 0.0,
              "view_height"_a = 0.0, "aperture_radius"_a = 0.0, "focus_distance"_a = 1.0, "near_clip"_a = 0.0,
-             "far_clip"_a = rt::kInf)
+             "far_clip"_a = rt::kInf, "textures"_a = nb::none())
         .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none(),
              "moments"_a = false, "integrator"_a = 0
 #ifdef RT_MUTANTS_MODULE

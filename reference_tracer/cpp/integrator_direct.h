@@ -18,7 +18,8 @@ Vec3 Integrator<M>::Li_direct(const Ray& ray, PCG64& rng, uint64_t& rays, double
     ++rays;
     Interaction it;
     if (!scene_.intersect(ray, it) || !(it.t < reach)) return scene_.background(ray.d);
-    const Material& m = scene_.material(it.material);
+    std::optional<Material> textured;  // the material with its texture's value at the hit, where it has one
+    const Material& m = scene_.shade(scene_.material(it.material), it, textured);
     const bool front = dot(ray.d, it.ns) < 0.0;
     Vec3 L = (front && m.emits()) ? m.radiance : Vec3(0.0);  // one-sided (shading normal), as the area emitter
     const Vertex v(it, m, ray.d, front);

@@ -246,7 +246,8 @@ Vec3 Integrator<M>::Li_path(Ray ray, PCG64& rng, uint64_t& rays, double reach) c
         // Another segment is allowed only while depth + 1 < max_depth (Mitsuba's rule).
         // (Mutant::MaxDepthOffByOne: `>` for `>=`, one segment more.)
         if (M == Mutant::MaxDepthOffByOne ? depth + 1 > cfg.max_depth : depth + 1 >= cfg.max_depth) return L;
-        const Vertex v(it, m, ray.d, front);
+        std::optional<Material> textured;  // the material with its texture's value at the hit, where it has one
+        const Vertex v(it, scene_.shade(m, it, textured), ray.d, front);
         if (!v) return L;
 
         // Light sampling, at non-delta vertices only (it could never meet a Dirac lobe).

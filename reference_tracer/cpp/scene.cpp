@@ -25,10 +25,11 @@ AABB padded(AABB b) {
 Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere> spheres,
              std::vector<Quad> quads, std::vector<Triangle> triangles, SceneSettings settings,
              std::vector<TriangleNormals> normals, std::vector<DeltaLight> deltas,
-             std::unique_ptr<EnvironmentMap> environment)
+             std::unique_ptr<EnvironmentMap> environment, SceneTextures textures)
     : camera_(camera), materials_(std::move(materials)), spheres_(std::move(spheres)),
       quads_(std::move(quads)), triangles_(std::move(triangles)), normals_(std::move(normals)),
-      settings_(settings), deltas_(std::move(deltas)), environment_(std::move(environment)) {
+      textures_(std::move(textures)), settings_(settings), deltas_(std::move(deltas)),
+      environment_(std::move(environment)) {
     if (environment_ != nullptr && max_component(settings_.background) > 0.0)
         throw std::invalid_argument("a scene has one environment: an environment map or a constant background");
     if (environment_ != nullptr && !environment_->lit()) environment_.reset();  // black: no light
@@ -182,6 +183,54 @@ bool Scene::hit_other(uint32_t prim, const Ray& ray, const WatertightRay& wray, 
     }
     if (hit) { t_max = t; best = prim; }
     return hit;
+}
+
+void Scene::texture_uv(const Interaction& it, double& u, double& v) const {
+    const uint32_t prim = it.prim;
+    if (prim < quad_base_) {
+        // Mitsuba's sphere: the spherical angles of the hit's direction in the sphere's frame.
+        const Sphere& s = spheres_[prim];
+        const double* m = textures_.spheres[prim].m;
+        const Vec3 d = it.p - s.center;
+        Vec3 local(m[0] * d.x + m[1] * d.y + m[2] * d.z, m[3] * d.x + m[4] * d.y + m[5] * d.z,
+                   m[6] * d.x + m[7] * d.y + m[8] * d.z);
+        const double len = length(local);
+        local = len > 0.0 ? local / len : Vec3(0.0, 0.0, 1.0);
+        const double theta = std::acos(std::min(1.0, std::max(-1.0, local.z)));
+        double phi = std::atan2(local.y, local.x);
+        if (phi < 0.0) phi += 2.0 * kPi;
+        u = phi * (0.5 * kInvPi);
+        v = theta * kInvPi;
+    } else if (prim < tri_base_) {
+        // The quad's own planar coordinates (its intersection test's), mapped affinely.
+        const Quad& q = quads_[prim - quad_base_];
+        const QuadUV& m = textures_.quads[prim - quad_base_];
+        const Vec3 d = it.p - q.Q;
+        const double s = dot(d, q.ea), t = dot(d, q.eb);
+        u = m.a[0] + s * m.b[0] + t * m.c[0];
+        v = m.a[1] + s * m.b[1] + t * m.c[1];
+    } else {
+        // The corners' coordinates interpolated by the barycentrics (Mitsuba's mesh).
+        const uint32_t i = prim - tri_base_;
+        double w[3];
+        triangles_[i].barycentrics(it.p, w);
+        const TriangleUV& c = textures_.triangles[i];
+        u = c.uv[2][0] * w[2] + (c.uv[1][0] * w[1] + c.uv[0][0] * w[0]);
+        v = c.uv[2][1] * w[2] + (c.uv[1][1] * w[1] + c.uv[0][1] * w[0]);
+    }
+}
+
+Vec3 Scene::texture_value(const Material& m, const Interaction& it) const {
+    double u, v;
+    texture_uv(it, u, v);
+    return textures_.textures[size_t(m.texture)].eval(u, v);
+}
+
+const Material& Scene::shade_textured(const Material& m, const Interaction& it,
+                                      std::optional<Material>& local) const {
+    local.emplace(m);
+    local->set_reflectance(texture_value(m, it));
+    return *local;
 }
 
 void Scene::fill_interaction(const Ray& ray, double t, uint32_t prim, Interaction& it) const {

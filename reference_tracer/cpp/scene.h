@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "packet_order.h"
@@ -15,6 +16,7 @@
 #include "shapes/quad.h"
 #include "shapes/sphere.h"
 #include "shapes/triangle.h"
+#include "texture.h"
 
 namespace rt {
 
@@ -157,6 +159,16 @@ struct Interaction {
     bool smooth = false;  // ns comes from vertex normals (it may differ from n)
 };
 
+// A scene's textures and its primitives' texture coordinates (texture.h): one record per
+// sphere, quad and triangle where `textures` is not empty; all empty in a scene without
+// textures, which then stores and computes nothing for them.
+struct SceneTextures {
+    std::vector<Texture> textures;
+    std::vector<SphereUV> spheres;
+    std::vector<QuadUV> quads;
+    std::vector<TriangleUV> triangles;
+};
+
 struct SceneSettings {
     Vec3 background;
     int max_depth = 50;     // path segments, as Mitsuba's path integrator counts them
@@ -169,11 +181,13 @@ public:
     // `normals`: the vertex normals of the smooth triangles, which refer to them by index
     // (Triangle::normals); none for a scene shaded flat.
     // `deltas`: point, spot and directional lights; `environment`: an environment map, in
-    // place of the constant settings.background (which must then be black).
+    // place of the constant settings.background (which must then be black). `textures`: the
+    // textures that materials refer to (Material::texture) and the primitives' texture
+    // coordinates.
     Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere> spheres,
           std::vector<Quad> quads, std::vector<Triangle> triangles, SceneSettings settings,
           std::vector<TriangleNormals> normals = {}, std::vector<DeltaLight> deltas = {},
-          std::unique_ptr<EnvironmentMap> environment = nullptr);
+          std::unique_ptr<EnvironmentMap> environment = nullptr, SceneTextures textures = {});
     // Copies would leave the light sampler pointing into the source's arrays.
     Scene(const Scene&) = delete;
     Scene& operator=(const Scene&) = delete;
@@ -248,7 +262,30 @@ public:
     // Whether any triangle has vertex normals (smooth shading).
     bool has_shading_normals() const { return !normals_.empty(); }
 
+    // Whether any material has a texture.
+    bool has_textures() const { return !textures_.textures.empty(); }
+    // The texture coordinates (u, v) of hit `it`, Mitsuba's parameterisation of its shape
+    // (texture.h); a scene with textures only.
+    void texture_uv(const Interaction& it, double& u, double& v) const;
+    // The reflectance of material m at hit `it`: its texture's value there, else its albedo.
+    // Only the test is inline: the lookup (scene.cpp) stays out of the integrators' loops,
+    // which untextured materials run as before.
+    Vec3 reflectance(const Material& m, const Interaction& it) const {
+        if (__builtin_expect(!m.textured(), 1)) return m.albedo;
+        return texture_value(m, it);
+    }
+    // The material whose BSDF scatters at hit `it`: m itself, or where m has a texture,
+    // `local` made a copy of m with the texture's value there.
+    const Material& shade(const Material& m, const Interaction& it, std::optional<Material>& local) const {
+        if (__builtin_expect(!m.textured(), 1)) return m;
+        return shade_textured(m, it, local);
+    }
+
 private:
+    // m's texture at hit `it`, and m with that value in `local` (reflectance(), shade()).
+    [[gnu::noinline]] Vec3 texture_value(const Material& m, const Interaction& it) const;
+    [[gnu::noinline]] const Material& shade_textured(const Material& m, const Interaction& it,
+                                                     std::optional<Material>& local) const;
     // Tests primitive `prim`; on a hit closer than t_max, lowers t_max and records it.
     bool hit_primitive(uint32_t prim, const Ray& ray, const WatertightRay& wray, double& t_max,
                        uint32_t& best) const {
@@ -422,6 +459,7 @@ private:
     std::vector<Quad> quads_;
     std::vector<Triangle> triangles_;
     std::vector<TriangleNormals> normals_;  // of the smooth triangles (Triangle::normals)
+    SceneTextures textures_;
     SceneSettings settings_;
     WideBVH bvh_;
     // Scenes of at most kDirectTestLimit spheres and quads skip the tree (see the constructor).

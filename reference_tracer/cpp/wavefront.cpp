@@ -102,7 +102,7 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
         }
         return true;  // the reference point: reference_points(), a pack at a time
     }
-    lane.vertex.emplace(it, m, lane.ray.d, front);
+    lane.vertex.emplace(it, m.textured() ? scene_.shade(m, it, *lane.textured) : m, lane.ray.d, front);
     const Vertex& v = *lane.vertex;
     if (!v) {
         lane.path_done = true;
@@ -150,9 +150,11 @@ bool WavefrontIntegrator::queue_vertex(Lane& lane, VertexQueue& q, int k) const 
     q.light[k] = light ? 1.0 : 0.0;
     q.diffuse[k] = (flags & kDiffuse) ? 1.0 : 0.0;
     q.scatter[k] = scatter ? 1.0 : 0.0;
+    // A textured material's reflectance at the hit (the diffuse packs read it as the albedo).
+    const Vec3 albedo = m.textured() ? scene_.reflectance(m, lane.it) : m.albedo;
     for (int a = 0; a < 3; ++a) {
         q.n[a][k] = lane.normal[a];
-        q.albedo[a][k] = m.albedo[a];
+        q.albedo[a][k] = albedo[a];
         q.beta[a][k] = lane.beta[a];
         q.p[a][k] = lane.it.p[a];
     }
@@ -422,6 +424,8 @@ void WavefrontIntegrator::write_pixel(const Lane& lane, RenderOutput& out) const
 void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::atomic<bool>& cancel,
                               std::atomic<uint64_t>& pixels_done, uint64_t& rays, uint64_t& nonfinite) const {
     std::vector<Lane> lanes(kLanes);
+    std::vector<std::optional<Material>> textured(scene_.has_textures() ? kLanes : 0);
+    for (size_t i = 0; i < textured.size(); ++i) lanes[i].textured = &textured[i];
     // The batch's queries, compacted: the busy lanes, those with a shadow ray, and those
     // whose path ended.
     Lane* active[kLanes];

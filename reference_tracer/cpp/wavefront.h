@@ -81,6 +81,11 @@ private:
         Ray shadow_ray;
         double shadow_t_max = 0.0;
         Vec3 shadow_value;     // what it adds to L when unoccluded
+
+        // Where the scene has textures, this lane's slot for a textured vertex's material
+        // (Scene::shade), kept beside the lanes by run(): a pointer, so that a lane of a
+        // scene without textures is no larger than it was (the lanes stay in L1).
+        std::optional<Material>* textured = nullptr;
     };
 
     // The work queue of one bounce's vertices that run in packs: the lanes that take a light

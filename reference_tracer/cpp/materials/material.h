@@ -39,9 +39,15 @@ struct Material {
     ConductorFresnel fresnel;
     Distribution distribution = Distribution::GGX;
     // Plastic and RoughPlastic: the coating over the base (make_plastic); RoughPlastic: the
-    // coating's transmittance table, shared by the materials of equal coatings.
+    // coating's transmittance table, shared by the materials of equal coatings (owned by
+    // rough_plastic::transmittance's cache, which keeps every table for the process's
+    // lifetime: a plain pointer, so that copying a material costs no reference count).
     plastic::Coating coating;
-    std::shared_ptr<const rough_plastic::Transmittance> transmittance;
+    const rough_plastic::Transmittance* transmittance = nullptr;
+    // The scene's texture of the reflectance (albedo; a plastic's base) or -1: constant.
+    // Where it has one, `albedo` holds its mean (what a plastic's lobe choice takes), and
+    // a hit's material is a copy with the texture's value there (with_reflectance).
+    int32_t texture = -1;
     // RoughDielectric: int_ior / ext_ior (last: the other members keep their offsets).
     double eta = 1.0;
 
@@ -50,6 +56,13 @@ struct Material {
     rough_dielectric::Params rough_dielectric() const { return {param, distribution, eta}; }
 
     bool emits() const { return type == MaterialType::DiffuseLight && max_component(radiance) > 0.0; }
+    bool textured() const { return texture >= 0; }
+    // This material with reflectance rho (a texture's value at a hit): the albedo, or a
+    // plastic's base under its coating (the lobe choice keeps the texture's mean).
+    void set_reflectance(const Vec3& rho) {
+        albedo = rho;
+        if (type == MaterialType::Plastic || type == MaterialType::RoughPlastic) coating.diffuse = coating.base(rho);
+    }
     // Delta lobes: sampled directly, no pdf machinery, no light sampling at the vertex.
     bool is_delta() const {
         return type == MaterialType::Metal || type == MaterialType::Dielectric || type == MaterialType::ThinDielectric;
@@ -70,7 +83,7 @@ struct Material {
 inline void make_plastic(Material& m, const Vec3& specular, double eta, bool nonlinear) {
     double internal_reflectance = plastic::fresnel_diffuse_reflectance(1.0 / eta);
     if (m.type == MaterialType::RoughPlastic) {
-        m.transmittance = rough_plastic::transmittance({m.distribution, m.param}, eta);
+        m.transmittance = rough_plastic::transmittance({m.distribution, m.param}, eta).get();
         internal_reflectance = m.transmittance->internal_reflectance;
     }
     m.coating = plastic::Coating::make(m.albedo, specular, eta, nonlinear, internal_reflectance);

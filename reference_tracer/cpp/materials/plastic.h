@@ -35,21 +35,39 @@ struct Coating {
     Vec3 specular{1.0};            // specular_reflectance, ks
     Vec3 diffuse;                  // rho': the base's reflectance with the internal scattering
     double specular_weight = 0.5;  // sw = mean(ks) / (mean(rho) + mean(ks))
+    double internal_reflectance = 0.0;  // Fi
+    bool nonlinear = false;
 
     // `internal_reflectance`: Fi (fresnel_diffuse_reflectance(1 / eta) for the smooth
     // coating, the rough one's own table for the rough).
     static Coating make(const Vec3& rho, const Vec3& ks, double eta, bool nonlinear, double internal_reflectance) {
+        // Mitsuba's mean of an RGB value is the plain mean of its channels.
+        return make(rho, ks, eta, nonlinear, internal_reflectance, (rho.x + rho.y + rho.z) / 3.0);
+    }
+    // The same with the mean of the base's reflectance given: a texture's (Mitsuba's
+    // Texture::mean), which sets the lobe choice over the whole surface.
+    static Coating make(const Vec3& rho, const Vec3& ks, double eta, bool nonlinear, double internal_reflectance,
+                        double d_mean) {
         Coating c;
         c.eta = eta;
         c.inv_eta2 = 1.0 / (eta * eta);
         c.specular = ks;
-        for (int i = 0; i < 3; ++i)
-            c.diffuse[i] = rho[i] / (1.0 - (nonlinear ? rho[i] * internal_reflectance : internal_reflectance));
-        // Mitsuba's mean of an RGB value is the plain mean of its channels. A coating over a
-        // black base with black ks reflects nothing; any weight then does (0/0 otherwise).
-        const double d_mean = (rho.x + rho.y + rho.z) / 3.0, s_mean = (ks.x + ks.y + ks.z) / 3.0;
+        c.internal_reflectance = internal_reflectance;
+        c.nonlinear = nonlinear;
+        c.diffuse = c.base(rho);
+        // A coating over a black base with black ks reflects nothing; any weight then does
+        // (0/0 otherwise).
+        const double s_mean = (ks.x + ks.y + ks.z) / 3.0;
         c.specular_weight = d_mean + s_mean > 0.0 ? s_mean / (d_mean + s_mean) : 0.5;
         return c;
+    }
+
+    // rho' of a base of reflectance rho under this coating.
+    Vec3 base(const Vec3& rho) const {
+        Vec3 d;
+        for (int i = 0; i < 3; ++i)
+            d[i] = rho[i] / (1.0 - (nonlinear ? rho[i] * internal_reflectance : internal_reflectance));
+        return d;
     }
 
     // Probability of sampling the specular lobe when a share `s` of the light meets it (F
