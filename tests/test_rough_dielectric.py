@@ -23,7 +23,8 @@ import pytest
 
 import reference_tracer as rt
 from benchmarks.chi2 import chi2_test, sidak
-from benchmarks.chi2.catalogue import ROUTINES, run_routine, select
+from benchmarks.chi2.catalogue import ROUTINES, select
+from benchmarks.chi2.runner import run_routine
 from benchmarks.chi2.probes import BsdfProbe, direction
 from benchmarks.gate.agreement import agreement
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml

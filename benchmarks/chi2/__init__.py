@@ -8,8 +8,9 @@ integrator divides by, as Mitsuba 3's ``mitsuba.chi2`` and pbrt-v4's sampling te
   ``pdf(points)`` on the sphere, hemisphere or disk), :func:`discrete_test`,
   :func:`sidak`, :func:`pearson` (pooling), :func:`integrate` (adaptive quadrature).
 * :mod:`.probes` - adapters from the C++ core's routines to ``sample`` / ``pdf``.
-* :mod:`.catalogue` - every routine with its parameters (``ROUTINES``) and the runner
-  (:func:`~.catalogue.run_routine`) behind ``rtbench chi2``.
+* :mod:`.catalogue` - every routine with its parameters (``ROUTINES``, :func:`~.catalogue.select`).
+* :mod:`.routine` - one routine (:class:`~.routine.Routine`) and its outcome (:class:`~.routine.Row`).
+* :mod:`.runner` - :func:`~.runner.run_routine`, behind ``rtbench chi2``.
 * :mod:`.plot` - observed-versus-expected images.
 
 The method (Pearson's statistic, pooling, Sidak's correction, the quadrature, what is

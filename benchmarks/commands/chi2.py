@@ -36,7 +36,8 @@ def run(args) -> int:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
-    from benchmarks.chi2.catalogue import run_routine, select
+    from benchmarks.chi2.catalogue import select
+    from benchmarks.chi2.runner import run_routine
     from benchmarks.chi2.pearson import sidak
 
     from benchmarks.commands._args import check
