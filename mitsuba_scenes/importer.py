@@ -43,7 +43,7 @@ import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.conductors import CONDUCTORS
-from reference_tracer.materials import reflectance_of
+from reference_tracer.materials import reflectance_of, textures_of
 from reference_tracer.meshfile import check_mesh_file, check_serialized_file, decode_obj, obj_undefined_normal
 
 from .variants import import_mitsuba
@@ -421,6 +421,8 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
     if emitter is not None:
         ctx.bad(node, f"an area emitter on a '{name}' BSDF (our emitters reflect as diffuse only)")
         return None
+    if name == "mask":
+        return _mask(ctx, node, two_sided)
     if name == "conductor":
         _extra(ctx, node, {"material", "specular_reflectance", "eta", "k"}, "bsdf")
         ior = _conductor_ior(ctx, node)
@@ -480,6 +482,48 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
         return rt.Dielectric(i / e) if name == "dielectric" else rt.ThinDielectric(i / e)
     ctx.bad(node, f"bsdf '{name}'")
     return None
+
+
+def _opacity(ctx, node):
+    """A mask's opacity as Mitsuba's ``eval_1`` reads it: a number (default 0.5), the mean of an
+    RGB value's channels (an ``rgb`` texture's ``eval_1``), or a ``checkerboard`` or ``bitmap``
+    texture (:class:`reference_tracer.Mask` reads its ``eval_1``); None after recording a problem."""
+    p = node.props
+    if "opacity" in p.keys() and p.type("opacity") == ctx.mi.Properties.Type.ResolvedReference:
+        sub = ctx.node(p["opacity"])
+        if sub.props.plugin_name() in ("checkerboard", "bitmap"):
+            return _reflectance(ctx, node, "opacity", 0.5)
+        if sub.props.plugin_name() not in ("rgb", "srgb"):
+            ctx.bad(sub, f"texture '{sub.props.plugin_name()}' for mask.opacity (a number, an RGB value, or a "
+                         "checkerboard or bitmap texture)")
+            return None
+    c = _colour(ctx, node, "opacity", 0.5)
+    if c is None:
+        return None
+    return sum(c) / 3.0
+
+
+def _mask(ctx, node, two_sided):
+    """Mitsuba's ``mask`` around one nested BSDF (within a ``twosided``, or around one: the
+    same BSDF), its opacity clipped to [0, 1] as Mitsuba clips it; None after recording a
+    problem."""
+    _extra(ctx, node, {"opacity"}, "bsdf")
+    nested = [c for c in ctx.children(node) if c.type == ctx.mi.ObjectType.BSDF]
+    if len(nested) != 1:
+        ctx.bad(node, "mask without a nested BSDF" if not nested else
+                f"mask with {len(nested)} nested BSDFs (Mitsuba takes exactly one)")
+        return None
+    opacity = _opacity(ctx, node)
+    if isinstance(opacity, float) and math.isnan(opacity):
+        ctx.bad(node, "mask opacity NaN")
+        return None
+    inner = _bsdf(ctx, nested[0], two_sided=two_sided)
+    if inner is None or opacity is None:
+        return None
+    if isinstance(inner, rt.Mask):
+        ctx.bad(node, "a mask around a mask (one mask only)")
+        return None
+    return _material(ctx, node, rt.Mask, inner, opacity, clip=True)
 
 
 def _roughness(ctx, node):
@@ -671,7 +715,7 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
         return None
     # a textured shape keeps what its texture coordinates follow: a sphere's rotation, a
     # rectangle's own axes, a mesh's coordinates
-    textured = isinstance(reflectance_of(mat), rt.Texture)
+    textured = bool(textures_of(mat))
     flip = bool(node.props["flip_normals"]) if "flip_normals" in node.props.keys() else False
     m = _matrix(ctx, node)
     if name == "sphere":

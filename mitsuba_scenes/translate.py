@@ -63,7 +63,7 @@ import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.imageio import atomic_write, write_exr
-from reference_tracer.materials import reflectance_of
+from reference_tracer.materials import textures_of
 
 from .variants import import_mitsuba
 
@@ -195,11 +195,16 @@ def _value_record(v) -> dict:
 
 
 def _textured(m) -> bool:
-    return isinstance(reflectance_of(m), rt.Texture)
+    return bool(textures_of(m))
 
 
 def _bsdf_record(label: str, m) -> dict:
     """A nested dict (Mitsuba dict syntax, plain values) for material ``m``."""
+    if isinstance(m, rt.Mask):
+        # the same texture: Mitsuba's mask reads its eval_1, as rt.Mask does
+        opacity = (_value_record(m.opacity) if isinstance(m.opacity, rt.Texture)
+                   else float(_f32(m.opacity)))
+        return {"type": "mask", "opacity": opacity, "bsdf": _bsdf_record(label, m.material)}
     if isinstance(m, rt.Lambertian):
         b = {"type": "diffuse", "reflectance": _value_record(m.albedo)}
     elif isinstance(m, rt.Metal):
@@ -536,7 +541,7 @@ def _xml_escape(s: str) -> str:
 
 _CHILD_TAG = {"diffuse": "bsdf", "conductor": "bsdf", "roughconductor": "bsdf", "dielectric": "bsdf",
               "thindielectric": "bsdf", "roughdielectric": "bsdf", "plastic": "bsdf", "roughplastic": "bsdf",
-              "twosided": "bsdf", "area": "emitter", "constant": "emitter", "checkerboard": "texture",
+              "twosided": "bsdf", "mask": "bsdf", "area": "emitter", "constant": "emitter", "checkerboard": "texture",
               "bitmap": "texture"}
 
 
@@ -662,10 +667,11 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
     plys = []  # (path, vertices, faces, normals, uv): written with the XML, by _write_all
     images = []  # (path, array): OpenEXR files written beside the XML: bitmaps' and envmaps' texels
 
-    def bsdf_with_files(bsdf, tex):
-        """The BSDF record with its bitmap named relative to the XML: its own file where
-        that lies in the XML's folder (an importer of the XML reads no file outside it),
-        else its linear texels written to an EXR beside the XML."""
+    def bsdf_with_files(bsdf, textures):
+        """The BSDF record with its bitmaps (a reflectance's, a mask's opacity's: of
+        ``textures``) named relative to the XML: each one's own file where that lies in the
+        XML's folder (an importer of the XML reads no file outside it), else its linear
+        texels written to an EXR beside the XML."""
         if not isinstance(bsdf, dict):
             return bsdf
         if bsdf.get("type") == "bitmap":
@@ -673,10 +679,15 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
             own = Path(bsdf["filename"]).resolve() if "filename" in bsdf else None
             if own is not None and own.parent == path.parent.resolve():
                 return rest | {"filename": own.name, "raw": bsdf["raw"]}
+            if "data" in bsdf:
+                data = bsdf["data"]
+            else:
+                data = next(t.data for t in textures if isinstance(t, rt.Bitmap)
+                            and t.filename == bsdf["filename"] and t.raw == bsdf["raw"])
             name = f"{path.stem}_texture_{len(images)}.exr"
-            images.append((path.parent / name, tex.data))
+            images.append((path.parent / name, data))
             return rest | {"filename": name}
-        return {k: bsdf_with_files(v, tex) for k, v in bsdf.items()}
+        return {k: bsdf_with_files(v, textures) for k, v in bsdf.items()}
 
     L = ['<?xml version="1.0" encoding="utf-8"?>',
          "<!-- Written by mitsuba_scenes.to_xml: the reference_tracer scene, translated to",
@@ -745,7 +756,7 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
             L += _xml_matrix(rec["to_world"], ind)
         if rec["flip_normals"]:
             L.append(f'{ind}<boolean name="flip_normals" value="true"/>')
-        L += _xml_props({"bsdf": bsdf_with_files(rec["bsdf"], reflectance_of(shape.material))}, ind)
+        L += _xml_props({"bsdf": bsdf_with_files(rec["bsdf"], textures_of(shape.material))}, ind)
         if "emitter" in rec:
             L += _xml_props({"emitter": {"type": "area", "radiance": {"type": "rgb", "value": rec["emitter"]}}},
                             ind)

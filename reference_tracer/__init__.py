@@ -14,8 +14,8 @@ from .build import build_id
 from .estimate import ImageEstimate, SampleMoments
 from .imageio import write_exr, write_png, read_exr, read_hdr, to_display
 from .lights import DirectionalLight, EnvMap, Light, PointLight, SpotLight
-from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Material, Metal, Plastic, RoughConductor,
-                        RoughDielectric, RoughPlastic, ThinDielectric)
+from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Mask, Material, Metal, Plastic,
+                        RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric)
 from .render import INTEGRATORS, STRATEGIES, TRIANGLE_TESTS, RenderResult, render
 from .scene import FILTERS, MAX_DEPTH_CAP, Camera, Direct, Filter, Scene
 from .shapes import Box, Mesh, Quad, Shape, Sphere, Triangle
@@ -26,7 +26,7 @@ __version__ = "0.1.0"
 __all__ = [
     "Camera", "Direct", "Filter", "FILTERS", "Scene", "Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh",
     "Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic", "ThinDielectric",
-    "RoughDielectric", "DiffuseLight",
+    "RoughDielectric", "DiffuseLight", "Mask",
     "DISTRIBUTIONS", "Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight", "Texture", "Checkerboard",
     "Bitmap",
     "render", "RenderResult", "ImageEstimate", "SampleMoments", "STRATEGIES", "TRIANGLE_TESTS", "INTEGRATORS", "MAX_DEPTH_CAP",

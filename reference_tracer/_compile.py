@@ -6,8 +6,9 @@ swapped; spheres: a flag). Materials are deduplicated into a table. A mesh with 
 normals adds its triangles' corner normals (``triangle_normals``, world space, negated
 when flipped) and their indices (``smooth_triangles``); a scene shaded flat passes
 neither, and the core then stores nothing for normals. A scene with textures passes them
-(``textures``: their table, each material's texture, and every primitive's texture
-coordinates in Mitsuba's parameterisation of its shape); a scene without passes nothing.
+(``textures``: their table, each material's texture, each masked material's opacity
+texture, and every primitive's texture coordinates in Mitsuba's parameterisation of its
+shape); a scene without passes nothing.
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ import math
 
 import numpy as np
 
-from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Metal, Plastic, RoughConductor,
+from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Mask, Metal, Plastic, RoughConductor,
                         RoughDielectric, RoughPlastic, ThinDielectric, reflectance_of)
 from .lights import DirectionalLight, PointLight, SpotLight
 from .scene import DEFAULT_VFOV, PROJECTIONS, Scene
@@ -27,11 +28,15 @@ MATERIAL_CODES = {Lambertian: 0, Metal: 1, Dielectric: 2, RoughConductor: 3, Dif
                   RoughPlastic: 6, ThinDielectric: 7, RoughDielectric: 8}
 # type, albedo rgb, radiance rgb, param, two_sided, reflects, variant, distribution, fresnel, eta rgb, k rgb,
 # plastic: int_ior / ext_ior, specular_reflectance rgb, nonlinear (rough dielectric: its int_ior / ext_ior in
-# the first of these)
-MATERIAL_COLUMNS = 24
+# the first of these), masked (a Mask around the material the row describes), opacity (a Mask's constant; its
+# texture's, where it has one, replaces it at each hit)
+MATERIAL_COLUMNS = 26
 
 
 def _material_row(m) -> list:
+    if isinstance(m, Mask):
+        opacity = m.opacity if not isinstance(m.opacity, Texture) else 1.0
+        return _material_row(m.material)[:-2] + [1.0, float(opacity)]
     code = MATERIAL_CODES[type(m)]
     plastic = isinstance(m, (Plastic, RoughPlastic))
     # a plastic's albedo column is its base's reflectance; a texture's is its mean (what a
@@ -55,7 +60,7 @@ def _material_row(m) -> list:
                else [m.ior, 0.0, 0.0, 0.0, 0.0] if isinstance(m, RoughDielectric)
                else [1.0, 0.0, 0.0, 0.0, 0.0])
     return [code, *albedo, *radiance, param, two_sided, reflects, variant, distribution, fresnel,
-            *(eta or (0.0, 0.0, 0.0)), *(k or (0.0, 0.0, 0.0)), *coating]
+            *(eta or (0.0, 0.0, 0.0)), *(k or (0.0, 0.0, 0.0)), *coating, 0.0, 1.0]
 
 
 #: Largest world-space coordinate magnitude a scene may reach. The BVH tests boxes in
@@ -238,13 +243,21 @@ def _quad_uv(a, b, c, flipped: bool) -> list:
 def _textures(scene: Scene, materials: list):
     """The core's ``textures`` argument, or None for a scene without textures."""
     textures, tex_index, material_textures = [], {}, [-1] * len(materials)
+    opacities = [-1] * len(materials)
+
+    def texture_id(key, make) -> int:
+        if key not in tex_index:
+            tex_index[key] = len(textures)
+            textures.append(make())
+        return tex_index[key]
+
     for row, m in enumerate(materials):
         rho = reflectance_of(m)
         if isinstance(rho, Texture):
-            if id(rho) not in tex_index:
-                tex_index[id(rho)] = len(textures)
-                textures.append(rho)
-            material_textures[row] = tex_index[id(rho)]
+            material_textures[row] = texture_id(id(rho), lambda: rho)
+        if isinstance(m, Mask) and isinstance(m.opacity, Texture):
+            # the texture of eval_1's values (one channel), which the core's lookup reads
+            opacities[row] = texture_id(("opacity", id(m.opacity)), m.opacity.scalar)
     if not textures:
         return None
     table, texels, offset = [], [], 0
@@ -289,6 +302,8 @@ def _textures(scene: Scene, materials: list):
         table=np.asarray(table, dtype=np.float64).reshape(-1, TEXTURE_COLUMNS),
         texels=np.ascontiguousarray(np.concatenate(texels) if texels else np.zeros(0), dtype=np.float32),
         materials=np.asarray(material_textures, dtype=np.int32),
+        # only where a mask has an opacity texture: other scenes' arguments are what they were
+        **({"opacities": np.asarray(opacities, dtype=np.int32)} if max(opacities) >= 0 else {}),
         spheres=np.asarray(spheres, dtype=np.float64).reshape(-1, 9),
         quads=np.asarray(quads, dtype=np.float64).reshape(-1, 6),
         triangles=np.ascontiguousarray(np.concatenate(tris) if tris else np.zeros((0, 6)), dtype=np.float64),

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .validation import finite_scalar, vector3
-from .materials import Material, reflectance_of
+from .materials import Material, textures_of
 from .meshfile import read_mesh
 from .textures import Texture
 
@@ -132,7 +132,8 @@ class Shape:
 
 def _describe_material(m: Material) -> dict:
     d = {"type": type(m).__name__}
-    d.update({k: (v.describe() if isinstance(v, Texture) else v) for k, v in m.__dict__.items()})
+    d.update({k: (v.describe() if isinstance(v, Texture) else _describe_material(v) if isinstance(v, Material)
+                  else v) for k, v in m.__dict__.items()})
     return d
 
 
@@ -472,7 +473,7 @@ class Mesh(Shape):
             except ValueError as exc:
                 raise ValueError(f"{path!s}: {exc}") from None
         uv = None
-        if isinstance(reflectance_of(material), Texture) and m.uv is not None:
+        if textures_of(material) and m.uv is not None:
             used = np.zeros(len(m.vertices), dtype=bool)
             used[m.faces.ravel()] = True
             if np.isnan(m.uv[used]).any():

@@ -108,6 +108,16 @@ class Texture:
         """The smallest and the largest value the texture takes, any channel."""
         raise NotImplementedError
 
+    def eval_1(self, uv) -> np.ndarray:
+        """Mitsuba's ``eval_1``: the texture's single value at (N, 2) texture coordinates
+        (before ``to_uv``), (N,); what a ``mask``'s opacity reads."""
+        return self.scalar().eval(uv)[:, 0]
+
+    def scalar(self) -> "Texture":
+        """A one-valued texture (equal channels) whose lookups are this texture's
+        :meth:`eval_1`: what the core looks up for an opacity."""
+        raise NotImplementedError
+
     def describe(self) -> dict:
         """A JSON-able description (hashed with the scene)."""
         raise NotImplementedError
@@ -196,6 +206,21 @@ class Checkerboard(Texture):
 
     def value_range(self) -> tuple:
         return min(self.color0 + self.color1), max(self.color0 + self.color1)
+
+    def scalar(self) -> "Checkerboard":
+        """Mitsuba 3.9.1's ``eval_1`` of a checkerboard: each colour's ``eval_1`` (the mean of
+        its channels: an ``rgb`` value's, or a ``float``'s value), with ``color0`` where the
+        fractional parts of u and v are one above 0.5 and one not, the opposite of its
+        ``eval`` (reproduced as Mitsuba has it: an opacity checkerboard's cells are swapped
+        against the same texture as a reflectance).
+
+        Examples
+        --------
+        >>> c = Checkerboard((0.0, 0.3, 0.6), 1.0)
+        >>> c.eval_1([[0.1, 0.1], [0.6, 0.1]]).round(6).tolist()
+        [1.0, 0.3]
+        """
+        return Checkerboard(sum(self.color1) / 3.0, sum(self.color0) / 3.0, to_uv=self.to_uv)
 
     def describe(self) -> dict:
         return {"type": "Checkerboard", "color0": self.color0, "color1": self.color1, "to_uv": self.to_uv}
@@ -504,6 +529,22 @@ class Bitmap(Texture):
 
     def value_range(self) -> tuple:
         return float(self.data.min()), float(self.data.max())
+
+    def scalar(self) -> "Bitmap":
+        """Mitsuba's ``eval_1`` of a bitmap: a grey image's value, a colour image's luminance
+        (Mitsuba's weights of linear sRGB; of the interpolated colour there, of each texel
+        here: the same up to rounding, the interpolation being linear).
+
+        Examples
+        --------
+        >>> b = Bitmap(np.array([[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]]), filter="nearest")
+        >>> b.eval_1([[0.25, 0.5], [0.75, 0.5]]).round(6).tolist()
+        [0.212671, 0.71516]
+        """
+        if self.channels == 1:
+            return self
+        lum = self.data.astype(np.float64) @ np.asarray(LUMINANCE)
+        return Bitmap(lum, filter=self.filter, wrap=self.wrap, to_uv=self.to_uv)
 
     def _wrap(self, i: np.ndarray, res: int) -> np.ndarray:
         if self.wrap == "clamp":

@@ -82,7 +82,8 @@ using FloatVector = nb::ndarray<const float, nb::ndim<1>, nb::c_contig, nb::devi
 constexpr size_t kTextureColumns = 19;
 
 // The scene's textures (the Python layer's dict: `table`, `texels`, `materials`, `spheres`,
-// `quads`, `triangles`), each material's texture set in mats[i].texture.
+// `quads`, `triangles`, optionally `opacities`), each material's texture set in
+// mats[i].texture, a masked one's opacity texture in mats[i].opacity_texture.
 rt::SceneTextures read_textures(const nb::dict& d, std::vector<rt::Material>& mats, size_t n_spheres,
                                 size_t n_quads, size_t n_triangles) {
     auto get = [&](const char* key) {
@@ -137,6 +138,19 @@ rt::SceneTextures read_textures(const nb::dict& d, std::vector<rt::Material>& ma
         if (id < -1 || id >= int32_t(out.textures.size()))
             throw std::invalid_argument("textures.materials: texture index out of range");
         mats[i].texture = id;
+    }
+    // `opacities` (optional): each masked material's opacity texture, or -1.
+    if (d.contains("opacities")) {
+        const IndexVector opacities = nb::cast<IndexVector>(d["opacities"]);
+        if (opacities.shape(0) != mats.size()) throw std::invalid_argument("textures.opacities: one entry per material");
+        for (size_t i = 0; i < mats.size(); ++i) {
+            const int32_t id = opacities(i);
+            if (id < -1 || id >= int32_t(out.textures.size()))
+                throw std::invalid_argument("textures.opacities: texture index out of range");
+            if (id >= 0 && !mats[i].masked())
+                throw std::invalid_argument("textures.opacities: an opacity texture on a material without a mask");
+            mats[i].opacity_texture = id;
+        }
     }
     out.spheres.resize(n_spheres);
     for (size_t i = 0; i < n_spheres; ++i)
@@ -201,7 +215,7 @@ public:
         if (width < 1 || height < 1) throw std::invalid_argument("image size must be positive");
         if (max_depth < 1) throw std::invalid_argument("max_depth must be >= 1 here (the Python layer maps -1)");
         if (triangle_test < 0 || triangle_test > 2) throw std::invalid_argument("unknown triangle test");
-        require_columns(materials, 24, "materials");
+        require_columns(materials, 26, "materials");
         require_columns(spheres, 6, "spheres");
         require_columns(quads, 10, "quads");
         require_columns(triangles, 9, "triangles");
@@ -241,6 +255,18 @@ public:
                 m.eta = materials(i, 19);
                 if (!(m.eta > 0.0) || !std::isfinite(m.eta) || m.eta == 1.0 || !(m.param > 0.0))
                     throw std::invalid_argument("materials: rough dielectric needs eta > 0, != 1 and alpha > 0");
+            }
+            // Mitsuba's mask around the material above: a flag, then the opacity (the
+            // constant's, clipped to [0, 1] as eval_opacity does; a texture's replaces it
+            // at each hit).
+            if (materials(i, 24) != 0.0) {
+                if (m.type == rt::MaterialType::DiffuseLight)
+                    throw std::invalid_argument("materials: a mask around an emitter is not supported");
+                const double opacity = materials(i, 25);
+                if (std::isnan(opacity)) throw std::invalid_argument("materials: a mask's opacity is NaN");
+                m.nested = m.type;
+                m.type = rt::MaterialType::Masked;
+                m.opacity = std::min(1.0, std::max(0.0, opacity));
             }
             mats.push_back(m);
         }

@@ -153,7 +153,7 @@ private:
     // vertex whose BSDF transmits with a density (rough glass).
     static std::optional<Scatter> sample_uniform(const Vertex& v, PCG64& rng);
     // sample_uniform at a vertex whose material has a Dirac lobe beside its others (smooth
-    // plastic), given the direction's uniforms: the Dirac lobe with the material's own
+    // plastic, a mask's null lobe), given the direction's uniforms: the Dirac lobe with the material's own
     // probability (no uniform direction can meet it), the uniform direction otherwise.
     static std::optional<Scatter> sample_uniform_beside_delta(const Vertex& v, double u1, double u2, PCG64& rng);
     std::optional<Scatter> sample_mixture(const Vertex& v, const Vec3& ref, PCG64& rng) const;

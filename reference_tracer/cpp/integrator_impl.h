@@ -15,7 +15,8 @@ constexpr double kShadowEpsilon = 1e-7;
 constexpr double kLeakyShadowEpsilon = 1e-2;
 
 // Glass keeps its front normal (inside/outside matters); reflectors are black from the
-// back unless two-sided, in which case the frame flips. Front and back are those of the
+// back unless two-sided, in which case the frame flips; a masked surface scatters from
+// both sides (its null lobe), in the front frame unless its nested material is two-sided. Front and back are those of the
 // shading normal it.ns (Mitsuba's BSDFs test only the cosines of its shading frame, with
 // no check against the geometric normal: a smooth triangle's light leaks and black
 // regions stay as Mitsuba has them).
@@ -23,8 +24,8 @@ constexpr double kLeakyShadowEpsilon = 1e-2;
 // integrator) GCC left both out of line, +4% instructions per sample.
 template <Mutant M>
 [[gnu::always_inline]] inline Integrator<M>::Vertex::Vertex(const Interaction& it_, const Material& m_, const Vec3& d, bool front)
-    : it(it_), m(m_), frame(front || m_.is_glass() ? it_.ns : -it_.ns), wo(frame.to_local(-d)),
-      can_scatter(m_.reflects && (front || m_.is_glass() || m_.two_sided) &&
+    : it(it_), m(m_), frame(front || m_.keeps_front_frame() ? it_.ns : -it_.ns), wo(frame.to_local(-d)),
+      can_scatter(m_.reflects && (front || m_.is_glass() || m_.two_sided || m_.masked()) &&
                   (wo.z != 0.0 || m_.is_glass())) {}  // exactly grazing: no reflection
 
 template <Mutant M>
@@ -147,6 +148,14 @@ auto Integrator<M>::sample_uniform_beside_delta(const Vertex& v, double u1, doub
     const double p_delta = bsdf_delta_probability(v.m, v.wo);
     // The material's sample with the same u0 is its Dirac lobe, weighted by 1 / p_delta.
     if (u0 < p_delta) return scatter_of(v, bsdf_sample<M>(v.m, v.wo, u0, u1, u2));
+    if (v.m.has_glossy_transmission()) {  // rough glass under a mask: the whole sphere
+        const Vec3 local = square_to_uniform_sphere(u1, u2);
+        const Vec3 f = bsdf_eval<M>(v.m, v.wo, local);
+        if (is_black(f)) return std::nullopt;
+        const double pdf = (1.0 - p_delta) * kUniformSpherePdf;
+        const double eta = rough_dielectric::eta_crossed(v.m.rough_dielectric(), v.wo, local);
+        return Scatter{v.frame.to_world(local), f * (1.0 / pdf), pdf, eta};
+    }
     const Vec3 local = square_to_uniform_hemisphere(u1, u2);
     const Vec3 f = bsdf_eval<M>(v.m, v.wo, local);
     if (is_black(f)) return std::nullopt;

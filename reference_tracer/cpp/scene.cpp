@@ -221,6 +221,7 @@ void Scene::texture_uv(const Interaction& it, double& u, double& v) const {
 }
 
 Vec3 Scene::texture_value(const Material& m, const Interaction& it) const {
+    if (m.texture < 0) return m.albedo;  // textured in its opacity only
     double u, v;
     texture_uv(it, u, v);
     return textures_.textures[size_t(m.texture)].eval(u, v);
@@ -228,8 +229,16 @@ Vec3 Scene::texture_value(const Material& m, const Interaction& it) const {
 
 const Material& Scene::shade_textured(const Material& m, const Interaction& it,
                                       std::optional<Material>& local) const {
+    double u, v;
+    texture_uv(it, u, v);
     local.emplace(m);
-    local->set_reflectance(texture_value(m, it));
+    if (m.texture >= 0) local->set_reflectance(textures_.textures[size_t(m.texture)].eval(u, v));
+    // Mitsuba's eval_opacity: clip(opacity.eval_1, 0, 1). The Python layer gives the
+    // texture eval_1's values (one channel: a colour bitmap's luminance; a checkerboard's
+    // colour means), so eval_1 is the lookup's first channel; std::min and std::max in this
+    // order send a NaN to 0.
+    if (m.opacity_texture >= 0)
+        local->opacity = std::min(1.0, std::max(0.0, textures_.textures[size_t(m.opacity_texture)].eval(u, v).x));
     return *local;
 }
 
