@@ -281,15 +281,18 @@ def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None
             warm[n] = time.perf_counter() - t
 
     w, h = (int(x) for x in mscene.sensors()[0].film().size())
+    # A `moment` integrator appends its AOVs (the wrapped integrator's mean and second moment,
+    # in XYZ) after the R, G, B of the image: the image is the first three channels.
+    extra = len(mscene.integrator().aov_names())
     means = np.empty((len(sizes), h, w, 3))
     times = []
     for k, (n, s) in enumerate(zip(sizes, seeds)):
         t = time.perf_counter()
         img = run(n, s)
         times.append(time.perf_counter() - t)
-        if img.shape != (h, w, 3):
-            raise RuntimeError(f"Mitsuba returned an image of shape {img.shape}, expected {(h, w, 3)}")
-        means[k] = img
+        if img.shape != (h, w, 3 + extra):
+            raise RuntimeError(f"Mitsuba returned an image of shape {img.shape}, expected {(h, w, 3 + extra)}")
+        means[k] = img[..., :3]
     if jit:
         for n, tw in warm.items():
             timed = [tk for tk, nk in zip(times, sizes) if nk == n]

@@ -145,6 +145,26 @@ def test_moment_integrator_is_the_integrator_it_wraps(tmp_path):
     assert from_mitsuba(path).max_depth == 7
 
 
+def test_mitsuba_renders_a_moment_file_as_its_image(tmp_path):
+    # Mitsuba's `moment` appends six AOV channels (the mean and second moment in XYZ) after
+    # R, G, B: render_mitsuba keeps the image, which equals the wrapped integrator's.
+    from mitsuba_scenes import render_mitsuba
+
+    scene = ('<scene version="3.0.0">{}<shape type="sphere"><emitter type="area"><rgb name="radiance" '
+             'value="0.3, 0.6, 0.9"/></emitter></shape><shape type="rectangle"><transform name="to_world">'
+             '<scale value="4"/><translate z="-2"/></transform></shape><sensor type="perspective"><transform '
+             'name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform><film '
+             'type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/><rfilter '
+             'type="box"/></film></sensor></scene>')
+    plain, moment = tmp_path / "plain.xml", tmp_path / "moment.xml"
+    plain.write_text(scene.format('<integrator type="path"/>'))
+    moment.write_text(scene.format('<integrator type="moment"><integrator type="path"/></integrator>'))
+    a = render_mitsuba(plain, spp=8, seed=3, batches=2, variant="scalar_rgb")
+    b = render_mitsuba(moment, spp=8, seed=3, batches=2, variant="scalar_rgb")
+    assert a.mean.shape == b.mean.shape == (4, 4, 3)
+    np.testing.assert_array_equal(a.mean, b.mean)
+
+
 def test_path_elements_find_meshes_as_mitsuba_does_and_leave_no_trace(mi, tmp_path):
     """A mesh named relative to a ``<path>`` folder is found there; the folder is not left in
     Mitsuba's global resolver, where it would serve a later scene's files."""
