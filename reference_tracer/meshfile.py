@@ -665,12 +665,11 @@ def ply_attributes(tm, n_vertices: int, n_faces: int, *, name: str = "PLY") -> d
             if dtype is None or dtype.kind not in "fiu" or dtype.shape != ():
                 continue  # a list (the faces' vertex indices): never an attribute
             scalar.append((str(p), dtype.str))
-        attrs = _ply_element_attributes(kind, scalar, data, rows, name)
-        if kind == "face" and attrs:
-            count = int(element.get("length", rows) or 0)
-            if count != rows:
-                raise ValueError(f"{name}: face attributes on {count} faces that are not all triangles "
-                                 f"({rows} triangles): Mitsuba's ply reads triangles only")
+        count = int(element.get("length", rows) or 0)
+        attrs = _ply_element_attributes(kind, scalar, data, count, name)
+        if attrs and count != rows:  # faces split into triangles: a face's values would not be a triangle's
+            raise ValueError(f"{name}: face attributes on {count} faces that are not all triangles "
+                             f"({rows} triangles): Mitsuba's ply reads triangles only")
         out.update(attrs)
     return out
 
