@@ -34,6 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .textures import srgb_to_linear
+
 __all__ = ["read_mesh", "ply_attributes", "decode_obj", "check_obj_faces", "check_mesh_file", "ply_header_counts", "parse_obj",
            "obj_undefined_normal", "MeshData", "check_serialized_file", "serialized_header"]
 
@@ -543,8 +545,6 @@ def _ply_property_values(column: np.ndarray, dtype: np.dtype) -> np.ndarray:
         return column.astype(np.float64)
     if dtype == np.uint8:
         return column.astype(np.float64)
-    from .textures import srgb_to_linear
-
     return srgb_to_linear(column.astype(np.float64) / float(np.iinfo(dtype).max)).astype(np.float64)
 
 
