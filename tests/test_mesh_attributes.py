@@ -187,6 +187,23 @@ def test_first_hit_albedo_is_the_attribute(flip):
             assert len(np.unique(np.round(albedo, 5), axis=0)) > 50
 
 
+@pytest.mark.parametrize("name,flip", [("vertex_color", False), ("vertex_color", True), ("face_color", False),
+                                       ("face_grey", True)])
+def test_first_hit_albedo_matches_mitsuba(name, flip):
+    """The albedo AOV at every pixel centre, ours and Mitsuba's (the scene translated with
+    its attribute: ``benchmarks.parity``), on a mesh seen from its front."""
+    from benchmarks.parity import run_parity
+
+    attrs = {"vertex_color": VERTEX_RGB, "face_color": FACE_RGB, "face_grey": FACE_RGB[:, 1:2]}
+    cam = rt.Camera(lookfrom=(0.3, 0.4, -2.6 if flip else 2.6), lookat=(0, 0, 0), width=40, height=32, vfov=50)
+    mesh = rt.Mesh(VERTICES, FACES, rt.Lambertian(rt.MeshAttribute(name, 0.8)), flip_normals=flip, attributes=attrs)
+    report = run_parity(rt.Scene(camera=cam, shapes=[mesh], background=(0.5, 0.5, 0.5)), name=name)
+    assert report.passed, (report.summary(), report.findings)
+    assert report.counts["albedo"] == 0
+    albedo = report.ours["albedo"][report.ours["shape"] == 0]
+    assert len(np.unique(albedo.round(6), axis=0)) > 5
+
+
 def test_interpolation_matches_the_barycentrics():
     # one triangle seen head-on, its corners pure red, green and blue: the centre pixel's
     # albedo is the barycentric mix at the centre ray's hit
