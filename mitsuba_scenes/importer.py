@@ -26,7 +26,8 @@ emitters (on their shape or declared at the top level and referenced), ``constan
 ``to_uv``; bitmap ``filter_type``, ``wrap_mode``, ``raw``; declared inline or at the top
 level and referenced) for ``diffuse.reflectance``, a plastic's ``diffuse_reflectance`` and a
 conductor's ``specular_reflectance``, with the texture coordinates of each shape (a mesh
-file's own).
+file's own), and ``mesh_attribute`` textures (``name``, ``scale``) on meshes, the attribute
+as Mitsuba's loader made it (a PLY's vertex or face properties).
 Anything else is refused with one ``ValueError`` listing every unsupported item and
 where it is; no partial scene is ever returned.
 """
@@ -175,7 +176,7 @@ def _colour(ctx, node, key, default):
         if sub.props.plugin_name() in ("rgb", "srgb") and "value" in sub.props.keys():
             return _colour(ctx, sub, "value", 0.0)
         where = (node.props.plugin_name(), key)
-        why = ("only checkerboard and bitmap textures" if where in _TEXTURED else
+        why = ("only checkerboard, bitmap and mesh_attribute textures" if where in _TEXTURED else
                "only constant values here; " + _TEXTURES_READ)
         ctx.bad(sub, f"texture '{sub.props.plugin_name()}' for {node.props.plugin_name()}.{key} ({why})")
         return None
@@ -197,10 +198,11 @@ def _reflectance(ctx, node, key, default):
     if key in p.keys() and p.type(key) == ctx.mi.Properties.Type.ResolvedReference:
         index = p[key].index()
         sub = ctx.node(p[key])
-        if sub.props.plugin_name() in ("checkerboard", "bitmap"):
+        if sub.props.plugin_name() in ("checkerboard", "bitmap", "mesh_attribute"):
             if index not in ctx.textures:   # a texture referenced twice is one object
-                ctx.textures[index] = (_checkerboard if sub.props.plugin_name() == "checkerboard" else _bitmap)(
-                    ctx, sub)
+                make = {"checkerboard": _checkerboard, "bitmap": _bitmap,
+                        "mesh_attribute": _mesh_attribute}[sub.props.plugin_name()]
+                ctx.textures[index] = make(ctx, sub)
             return ctx.textures[index]
     return _colour(ctx, node, key, default)
 
@@ -209,6 +211,39 @@ def _to_uv(ctx, node):
     """A texture's ``to_uv`` (Mitsuba keeps rows and columns 0, 1 and the translation of
     the 4x4 matrix) as the 4x4 matrix, or None."""
     return _matrix(ctx, node, "to_uv") if "to_uv" in node.props.keys() else None
+
+
+def _mesh_attribute(ctx, node):
+    """Mitsuba's ``mesh_attribute`` (its ``name`` and ``scale``); the values are the mesh's,
+    read where the shape is (:func:`_mesh_attributes`). None after recording a problem."""
+    _extra(ctx, node, {"name", "scale"}, "texture")
+    if "name" not in node.props.keys():
+        ctx.bad(node, "mesh_attribute without a name")
+        return None
+    scale = _scalar(ctx, node, "scale", 1.0)
+    try:
+        return rt.MeshAttribute(str(node.props["name"]), float(scale))
+    except (TypeError, ValueError) as exc:
+        ctx.bad(node, f"mesh_attribute: {exc}")
+        return None
+
+
+#: the buffers of Mitsuba's mesh that are its geometry, not attributes.
+_MESH_BUFFERS = {"vertex_positions", "vertex_normals", "vertex_texcoords", "faces"}
+
+
+def _mesh_attributes(params, mat) -> dict | None:
+    """The attributes of a Mitsuba mesh that ``mat``'s mesh_attribute textures read (as its
+    loader made them: ``mi.traverse``), or None where it has no such texture. A missing one is
+    left for :meth:`reference_tracer.MeshAttribute.values` to name."""
+    names = {t.name for t in textures_of(mat) if isinstance(t, rt.MeshAttribute)}
+    if not names:
+        return None
+    out = {}
+    for key in params.keys():
+        if key in names and key not in _MESH_BUFFERS:
+            out[key] = np.array(params[key], dtype=np.float64)
+    return out
 
 
 def _checkerboard(ctx, node):
@@ -491,7 +526,7 @@ def _opacity(ctx, node):
     p = node.props
     if "opacity" in p.keys() and p.type("opacity") == ctx.mi.Properties.Type.ResolvedReference:
         sub = ctx.node(p["opacity"])
-        if sub.props.plugin_name() in ("checkerboard", "bitmap"):
+        if sub.props.plugin_name() in ("checkerboard", "bitmap", "mesh_attribute"):
             return _reflectance(ctx, node, "opacity", 0.5)
         if sub.props.plugin_name() not in ("rgb", "srgb"):
             ctx.bad(sub, f"texture '{sub.props.plugin_name()}' for mask.opacity (a number, an RGB value, or a "
@@ -716,6 +751,10 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
     # a textured shape keeps what its texture coordinates follow: a sphere's rotation, a
     # rectangle's own axes, a mesh's coordinates
     textured = bool(textures_of(mat))
+    if name not in ("ply", "obj", "serialized") and mesh_obj is None and any(
+            isinstance(t, rt.MeshAttribute) for t in textures_of(mat)):
+        ctx.bad(node, f"a mesh_attribute texture on a '{name}' shape (only meshes have attributes)")
+        return None
     flip = bool(node.props["flip_normals"]) if "flip_normals" in node.props.keys() else False
     m = _matrix(ctx, node)
     if name == "sphere":
@@ -815,7 +854,23 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
                 ctx.bad(node, f"{name} mesh: texture coordinates that are not one finite pair per vertex")
                 return None
             uv = np.where(np.isfinite(uv), uv, 0.0)   # vertices of no face: never looked up
-        return rt.Mesh(v, f, mat, flip_normals=flip, normals=normals, uv=uv)
+        attributes = _mesh_attributes(params, mat)
+        if attributes is not None:
+            for key, a in list(attributes.items()):
+                rows = len(v) if key.startswith("vertex_") else len(f)
+                if a.size % rows:
+                    ctx.bad(node, f"{name} mesh: attribute {key!r} of {a.size} values for {rows} rows")
+                    return None
+                attributes[key] = a.reshape(rows, -1)
+        try:
+            mesh = rt.Mesh(v, f, mat, flip_normals=flip, normals=normals, uv=uv, attributes=attributes)
+            for t in textures_of(mat):
+                if isinstance(t, rt.MeshAttribute):
+                    t.values(mesh)
+        except ValueError as exc:
+            ctx.bad(node, f"{name} mesh: {exc}")
+            return None
+        return mesh
     ctx.bad(node, f"shape '{name}'")
     return None
 

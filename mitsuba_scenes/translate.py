@@ -28,6 +28,10 @@ ours                                   Mitsuba 3
 ``Checkerboard``, ``Bitmap``           ``checkerboard``, ``bitmap`` (the file, or an array
                                        as an ``mi.Bitmap`` / an EXR beside the XML), with
                                        ``to_uv``; a mesh's ``uv`` as its texture coordinates
+``MeshAttribute``                      ``mesh_attribute`` (``name``, ``scale``); the mesh's
+                                       attributes its textures read go along
+                                       (``Mesh.add_attribute`` in the dict, float PLY
+                                       properties Mitsuba's ``ply`` groups back in the XML)
 ``Lambertian``                         ``diffuse``
 ``Metal(fuzz=0)``                      ``conductor``: ``material='none'``, or RGB ``eta`` and ``k``
 ``RoughConductor``                     ``roughconductor``: its ``distribution``, ``material='none'``
@@ -184,6 +188,8 @@ def _value_record(v) -> dict:
     if isinstance(v, rt.Checkerboard):
         return {"type": "checkerboard", "color0": {"type": "rgb", "value": _rgb(v.color0)},
                 "color1": {"type": "rgb", "value": _rgb(v.color1)}, "to_uv": _uv_matrix(v.to_uv)}
+    if isinstance(v, rt.MeshAttribute):
+        return {"type": "mesh_attribute", "name": v.name, "scale": float(v.scale)}
     if isinstance(v, rt.Bitmap):
         rec = {"type": "bitmap", "filter_type": v.filter, "wrap_mode": v.wrap, "to_uv": _uv_matrix(v.to_uv)}
         if v.filename is not None:
@@ -399,11 +405,23 @@ def _shape_record(i: int, label: str, s) -> dict:
             if unbaked and normals is not None:
                 normals = -normals
             uv = s.uv if textured else None
+        attributes = {}
+        for t in textures_of(mat):
+            if isinstance(t, rt.MeshAttribute):
+                if not isinstance(s, rt.Mesh):
+                    raise ValueError(f"{label}: a MeshAttribute texture ({t.name!r}) on a {type(s).__name__}; only "
+                                     "a Mesh has attributes")
+                t.values(s)  # the attribute exists, with 1 or 3 channels
+                attributes[t.name] = np.asarray(s.attributes[t.name], dtype=np.float32)
+        if attributes:
+            rec["attributes"] = attributes
         rec.update(type="mesh", vertices=verts.astype(np.float32), faces=np.asarray(faces, dtype=np.uint32),
                    normals=None if normals is None else normals.astype(np.float32),
                    uv=None if uv is None else uv.astype(np.float32), flip_normals=bool(unbaked))
     else:
         raise ValueError(f"{label}: shape type {type(s).__name__} has no Mitsuba translation")
+    if "attributes" not in rec and any(isinstance(t, rt.MeshAttribute) for t in textures_of(mat)):
+        raise ValueError(f"{label}: a MeshAttribute texture on a {type(s).__name__}; only a Mesh has attributes")
     return rec
 
 
@@ -451,6 +469,8 @@ def _make_mesh(mi, rec: dict):
     if uv is not None:
         params["vertex_texcoords"] = type(params["vertex_texcoords"])(np.ascontiguousarray(uv, dtype=np.float32).ravel())
     params.update()
+    for name, values in rec.get("attributes", {}).items():
+        mesh.add_attribute(name, values.shape[1], np.ascontiguousarray(values, dtype=np.float32).ravel().tolist())
     return mesh
 
 
@@ -542,7 +562,7 @@ def _xml_escape(s: str) -> str:
 _CHILD_TAG = {"diffuse": "bsdf", "conductor": "bsdf", "roughconductor": "bsdf", "dielectric": "bsdf",
               "thindielectric": "bsdf", "roughdielectric": "bsdf", "plastic": "bsdf", "roughplastic": "bsdf",
               "twosided": "bsdf", "mask": "bsdf", "area": "emitter", "constant": "emitter", "checkerboard": "texture",
-              "bitmap": "texture"}
+              "bitmap": "texture", "mesh_attribute": "texture"}
 
 
 def _xml_props(rec: dict, indent: str) -> list:
@@ -589,9 +609,21 @@ def _xml_matrix(m: np.ndarray, indent: str) -> list:
             f"{indent}</transform>"]
 
 
-def write_ply(path, vertices, faces, normals=None, *, uv=None) -> None:
+def _ply_attribute_properties(name: str, channels: int) -> list:
+    """The float properties under which Mitsuba's ``ply`` reads attribute ``name`` back:
+    ``{p}_x [_y _z]`` for ``vertex_{p}`` / ``face_{p}``, ``{q}_r _g _b`` for a three-channel
+    ``{q}_color`` (its grouping turns ``_r _g _b`` into ``{q}_color``)."""
+    p = name.split("_", 1)[1]
+    if channels == 3 and p.endswith("_color"):
+        return [f"{p[:-6]}_{c}" for c in "rgb"]
+    return [f"{p}_{c}" for c in "xyz"[:channels]]
+
+
+def write_ply(path, vertices, faces, normals=None, *, uv=None, attributes=None) -> None:
     """Write a binary little-endian PLY with float32 positions (and ``normals``, as
-    ``nx ny nz``, and texture coordinates ``uv``, as ``u v``, where given) and int32 faces.
+    ``nx ny nz``, texture coordinates ``uv``, as ``u v``, and mesh ``attributes`` (a dict,
+    ``vertex_*`` and ``face_*``, 1 or 3 channels), as float properties Mitsuba groups back
+    into them, where given) and int32 faces.
 
     Without normals, Mitsuba shades it flat when loaded with ``face_normals=true`` (and
     computes smooth normals without it); with them, Mitsuba's ``ply`` shades it smooth.
@@ -617,11 +649,30 @@ def write_ply(path, vertices, faces, normals=None, *, uv=None) -> None:
             raise ValueError(f"write_ply needs one (u, v) per vertex, got {t.shape} for {len(v)} vertices")
         v = np.ascontiguousarray(np.concatenate([v, t], axis=1))
         props += "property float u\nproperty float v\n"
+    face_fields, face_values = [], []
+    for name, values in (attributes or {}).items():
+        a = np.ascontiguousarray(values, dtype="<f4")
+        rows = len(v) if name.startswith("vertex_") else len(f)
+        if a.ndim != 2 or a.shape[0] != rows or a.shape[1] not in (1, 3) or not name.startswith(("vertex_", "face_")):
+            raise ValueError(f"write_ply: attribute {name!r} needs one row of 1 or 3 values per "
+                             f"{'vertex' if name.startswith('vertex_') else 'face'}, got {a.shape}")
+        fields = _ply_attribute_properties(name, a.shape[1])
+        if name.startswith("vertex_"):
+            v = np.ascontiguousarray(np.concatenate([v, a], axis=1))
+            props += "".join(f"property float {p}\n" for p in fields)
+        else:
+            face_fields += fields
+            face_values.append(a)
     header = (f"ply\nformat binary_little_endian 1.0\ncomment written by mitsuba_scenes\n"
               f"element vertex {len(v)}\n{props}"
-              f"element face {len(f)}\nproperty list uchar int vertex_indices\nend_header\n")
-    rec = np.zeros(len(f), dtype=[("n", "u1"), ("idx", "<i4", (3,))])
+              f"element face {len(f)}\nproperty list uchar int vertex_indices\n"
+              + "".join(f"property float {p}\n" for p in face_fields) + "end_header\n")
+    rec = np.zeros(len(f), dtype=[("n", "u1"), ("idx", "<i4", (3,))] + [(p, "<f4") for p in face_fields])
     rec["n"], rec["idx"] = 3, f
+    if face_fields:
+        flat = np.concatenate(face_values, axis=1)
+        for k, p in enumerate(face_fields):
+            rec[p] = flat[:, k]
     with open(path, "wb") as fh:
         fh.write(header.encode("ascii"))
         fh.write(v.tobytes())
@@ -664,7 +715,7 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
         raise ValueError(f"to_xml: folder {path.parent} does not exist")
     cam, integ = low["camera"], low["integrator"]
     (o, t, u) = cam["lookat"]
-    plys = []  # (path, vertices, faces, normals, uv): written with the XML, by _write_all
+    plys = []  # (path, vertices, faces, normals, uv, attributes): written with the XML, by _write_all
     images = []  # (path, array): OpenEXR files written beside the XML: bitmaps' and envmaps' texels
 
     def bsdf_with_files(bsdf, textures):
@@ -744,7 +795,8 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
         ind = "        "
         if rec["type"] == "mesh":
             ply = f"{path.stem}_{rec['name']}.ply"
-            plys.append((path.parent / ply, rec["vertices"], rec["faces"], rec.get("normals"), rec.get("uv")))
+            plys.append((path.parent / ply, rec["vertices"], rec["faces"], rec.get("normals"), rec.get("uv"),
+                         rec.get("attributes")))
             L.append(f"{ind}<string name=\"filename\" value={_xml_escape(ply)}/>")
             if rec.get("normals") is None:
                 L.append(f'{ind}<boolean name="face_normals" value="true"/>')
@@ -774,9 +826,10 @@ def _write_all(path: Path, text: str, plys: list, images=()) -> None:
         _check_target(target)
     created = []
     try:
-        for ply, vertices, faces, normals, uv in plys:
+        for ply, vertices, faces, normals, uv, attributes in plys:
             existed = ply.exists()
-            atomic_write(ply, lambda tmp, v=vertices, f=faces, n=normals, t=uv: write_ply(tmp, v, f, n, uv=t))
+            atomic_write(ply, lambda tmp, v=vertices, f=faces, n=normals, t=uv, a=attributes: write_ply(
+                tmp, v, f, n, uv=t, attributes=a))
             if not existed:
                 created.append(ply)
         for exr, data in images:

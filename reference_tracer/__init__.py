@@ -19,7 +19,7 @@ from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Mas
 from .render import INTEGRATORS, STRATEGIES, TRIANGLE_TESTS, RenderResult, render
 from .scene import FILTERS, MAX_DEPTH_CAP, Camera, Direct, Filter, Scene
 from .shapes import Box, Mesh, Quad, Shape, Sphere, Triangle
-from .textures import Bitmap, Checkerboard, Texture
+from .textures import Bitmap, Checkerboard, MeshAttribute, Texture
 
 __version__ = "0.1.0"
 
@@ -27,7 +27,7 @@ __all__ = [
     "Camera", "Direct", "Filter", "FILTERS", "Scene", "Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh",
     "Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic", "ThinDielectric",
     "RoughDielectric", "DiffuseLight", "Mask",
-    "DISTRIBUTIONS", "Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight", "Texture", "Checkerboard",
+    "DISTRIBUTIONS", "Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight", "Texture", "Checkerboard", "MeshAttribute",
     "Bitmap",
     "render", "RenderResult", "ImageEstimate", "SampleMoments", "STRATEGIES", "TRIANGLE_TESTS", "INTEGRATORS", "MAX_DEPTH_CAP",
     "build_id", "write_exr", "read_exr", "read_hdr", "write_png", "to_display", "__version__",

@@ -8,7 +8,8 @@ when flipped) and their indices (``smooth_triangles``); a scene shaded flat pass
 neither, and the core then stores nothing for normals. A scene with textures passes them
 (``textures``: their table, each material's texture, each masked material's opacity
 texture, and every primitive's texture coordinates in Mitsuba's parameterisation of its
-shape); a scene without passes nothing.
+shape); a scene without passes nothing. A mesh attribute texture is bound to its mesh: the
+mesh gets a material row of its own, whose texture holds that mesh's values per triangle.
 """
 from __future__ import annotations
 
@@ -17,11 +18,11 @@ import math
 import numpy as np
 
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Mask, Metal, Plastic, RoughConductor,
-                        RoughDielectric, RoughPlastic, ThinDielectric, reflectance_of)
+                        RoughDielectric, RoughPlastic, ThinDielectric, reflectance_of, textures_of)
 from .lights import DirectionalLight, PointLight, SpotLight
 from .scene import DEFAULT_VFOV, PROJECTIONS, Scene
 from .shapes import Box, Mesh, Quad, Sphere, Triangle
-from .textures import FILTER_TYPES, WRAP_MODES, Bitmap, Checkerboard, Texture
+from .textures import FILTER_TYPES, WRAP_MODES, Bitmap, Checkerboard, MeshAttribute, Texture
 
 # Material table columns; must match MaterialType and the material rows read in cpp/bindings.cpp.
 MATERIAL_CODES = {Lambertian: 0, Metal: 1, Dielectric: 2, RoughConductor: 3, DiffuseLight: 4, Plastic: 5,
@@ -42,7 +43,9 @@ def _material_row(m) -> list:
     # a plastic's albedo column is its base's reflectance; a texture's is its mean (what a
     # plastic's lobe choice takes; the core replaces it by the texture's value at each hit)
     albedo = reflectance_of(m) or (0.0, 0.0, 0.0)
-    if isinstance(albedo, Texture):
+    if isinstance(albedo, MeshAttribute) and not plastic:
+        albedo = (0.0, 0.0, 0.0)  # a lobe choice's mean is a plastic's only; mean() refuses it there
+    elif isinstance(albedo, Texture):
         albedo = (albedo.mean(),) * 3
     radiance = m.radiance if isinstance(m, DiffuseLight) else (0.0, 0.0, 0.0)
     param = {Metal: lambda: m.fuzz, Dielectric: lambda: m.ior, RoughConductor: lambda: m.alpha,
@@ -125,19 +128,29 @@ def compile_scene(scene: Scene) -> dict:
 
     material_objects: list = []
 
-    def mat_id(m) -> int:
+    bound: dict = {}  # material row -> (mesh, its first triangle): rows with mesh attribute textures
+
+    def mat_id(m, mesh=None, first_triangle=0) -> int:
         key = (type(m), tuple(sorted(m.__dict__.items())))
+        if mesh is not None:  # its texture's values are this mesh's: a row of its own
+            key = (key, id(mesh))
         if key not in index:
             index[key] = len(materials)
             materials.append(_material_row(m))
             material_objects.append(m)
+            if mesh is not None:
+                bound[index[key]] = (mesh, first_triangle)
         return index[key]
 
     spheres, quads, tris, tri_mats = [], [], [], []
     smooth, smooth_normals = [], []   # indices of smooth triangles, their (k, 9) corner normals
     n_tris = 0
     for i, s in enumerate(scene.shapes):
-        mid = mat_id(s.material)
+        attribute_textures = [t for t in textures_of(s.material) if isinstance(t, MeshAttribute)]
+        if attribute_textures and not isinstance(s, Mesh):
+            raise ValueError(f"shapes[{i}] ({type(s).__name__}): a MeshAttribute texture "
+                             f"({attribute_textures[0].name!r}) reads a mesh's attributes; only a Mesh has them")
+        mid = mat_id(s.material, s, n_tris) if attribute_textures else mat_id(s.material)
         n_rows = (len(spheres), len(quads), len(tris))
         if isinstance(s, Sphere):
             spheres.append([*s.world_center(), s.world_radius(), mid, float(s.flip_normals)])
@@ -173,7 +186,7 @@ def compile_scene(scene: Scene) -> dict:
 
     c = scene.camera
     _check_extent("the camera", [c.lookfrom])
-    textures = _textures(scene, material_objects)
+    textures = _textures(scene, material_objects, bound)
     normals = {}
     if smooth:  # only then: a flat scene's arguments are what they always were
         if n_tris >= 2**31:
@@ -240,8 +253,32 @@ def _quad_uv(a, b, c, flipped: bool) -> list:
     return [*a, *(c if flipped else b), *(b if flipped else c)]
 
 
-def _textures(scene: Scene, materials: list):
-    """The core's ``textures`` argument, or None for a scene without textures."""
+def _bound_attribute(t: MeshAttribute, mesh: Mesh, first_triangle: int, opacity: bool) -> tuple:
+    """A mesh attribute texture bound to ``mesh``: (its values per triangle in the core's
+    corner order, as float32, channels); an opacity's one channel (Mitsuba's eval_1 reads no
+    other), a reflectance's values in [0, 1]."""
+    values = t.values(mesh)
+    channels = values.shape[1]
+    if opacity and channels != 1:
+        raise ValueError(f"MeshAttribute {t.name!r} as an opacity: {channels} channels; Mitsuba's eval_1 reads "
+                         "a one-channel attribute only")
+    if not opacity:
+        lo, hi = float(values.min()), float(values.max())
+        if not (lo >= 0.0 and hi <= 1.0):
+            raise ValueError(f"MeshAttribute {t.name!r} (scale {t.scale:g}) gives reflectances in [{lo:.6g}, "
+                             f"{hi:.6g}]; a reflectance must lie in [0, 1] (Mitsuba reads a PLY's uchar colours as "
+                             "0 to 255: a scale of 1/255 brings them there)")
+    if t.per_vertex:
+        f = mesh.faces[:, [0, 2, 1]] if mesh.flip_normals else mesh.faces
+        values = values[f]
+    return np.ascontiguousarray(values, dtype=np.float32).ravel(), channels
+
+
+def _textures(scene: Scene, materials: list, bound: dict | None = None):
+    """The core's ``textures`` argument, or None for a scene without textures. ``bound``:
+    the material rows whose mesh attribute textures are bound to a mesh (and its first
+    triangle in the scene)."""
+    bound = bound or {}
     textures, tex_index, material_textures = [], {}, [-1] * len(materials)
     opacities = [-1] * len(materials)
 
@@ -253,15 +290,28 @@ def _textures(scene: Scene, materials: list):
 
     for row, m in enumerate(materials):
         rho = reflectance_of(m)
-        if isinstance(rho, Texture):
+        mesh = bound.get(row)
+        if isinstance(rho, MeshAttribute):
+            material_textures[row] = texture_id((id(rho), id(mesh[0])), lambda: (rho, *mesh, False))
+        elif isinstance(rho, Texture):
             material_textures[row] = texture_id(id(rho), lambda: rho)
-        if isinstance(m, Mask) and isinstance(m.opacity, Texture):
+        if isinstance(m, Mask) and isinstance(m.opacity, MeshAttribute):
+            opacities[row] = texture_id(("opacity", id(m.opacity), id(mesh[0])), lambda: (m.opacity, *mesh, True))
+        elif isinstance(m, Mask) and isinstance(m.opacity, Texture):
             # the texture of eval_1's values (one channel), which the core's lookup reads
             opacities[row] = texture_id(("opacity", id(m.opacity)), m.opacity.scalar)
     if not textures:
         return None
     table, texels, offset = [], [], 0
     for t in textures:
+        if isinstance(t, tuple):  # a mesh attribute bound to its mesh
+            attribute, mesh, first, opacity = t
+            values, channels = _bound_attribute(attribute, mesh, first, opacity)
+            table.append([2, float(attribute.per_vertex), 0, *np.asarray(attribute.to_uv).ravel().tolist(),
+                          0, 0, 0, 0, 0, 0, len(mesh.faces), first, channels, offset])
+            texels.append(values)
+            offset += values.size
+            continue
         m = np.asarray(t.to_uv, dtype=np.float64).ravel().tolist()
         if isinstance(t, Checkerboard):
             table.append([0, 0, 0, *m, *t.color0, *t.color1, 0, 0, 0, 0])

@@ -15,7 +15,7 @@ import numpy as np
 
 from .validation import colour, finite_scalar
 from .conductors import conductor_ior
-from .textures import Texture, check_reflectance
+from .textures import MeshAttribute, Texture, check_reflectance
 
 
 def _complex_ior(owner: str, eta, k, material):
@@ -521,6 +521,8 @@ class Mask(Material):
             raise ValueError("Mask around a Mask: nest one mask only (its opacity the product of both, for "
                              "constants)")
         set_(self, "clip", _flag("Mask.clip", self.clip))
+        if isinstance(self.opacity, MeshAttribute):
+            return  # its values are its mesh's, clipped at each hit as Mitsuba's eval_opacity clips them
         if isinstance(self.opacity, Texture):
             lo, hi = self.opacity.scalar().value_range()
             if not (np.isfinite(lo) and np.isfinite(hi)):

@@ -379,6 +379,11 @@ class Mesh(Shape):
     triangle's coordinates are its barycentrics, ``(0, 0)``, ``(1, 0)`` and ``(0, 1)`` at
     its corners in the face's order, as Mitsuba's mesh without texture coordinates.
 
+    Attributes: ``attributes``, Mitsuba's mesh attributes, a dict from names to arrays:
+    ``vertex_*`` ones (N, C), one row per vertex, ``face_*`` ones (M, C), one row per face,
+    C from 1 to 4 channels, finite; what a :class:`reference_tracer.MeshAttribute` texture
+    reads (a file's: :meth:`load`).
+
     Examples
     --------
     >>> import numpy as np
@@ -398,6 +403,7 @@ class Mesh(Shape):
     transform: tuple = field(default=_IDENTITY, repr=False)
     normals: np.ndarray | None = field(default=None, repr=False)
     uv: np.ndarray | None = field(default=None, repr=False, kw_only=True)
+    attributes: dict | None = field(default=None, repr=False, kw_only=True)
 
     def __post_init__(self):
         try:
@@ -429,6 +435,8 @@ class Mesh(Shape):
             object.__setattr__(self, "normals", _check_normals(self.normals, v.shape[0]))
         if self.uv is not None:
             object.__setattr__(self, "uv", _check_uv(self.uv, v.shape[0]))
+        if self.attributes is not None:
+            object.__setattr__(self, "attributes", _check_attributes(self.attributes, v.shape[0], f.shape[0]))
         self._post()
 
     @classmethod
@@ -444,6 +452,12 @@ class Mesh(Shape):
         An OBJ's vertices are one per distinct (position, texture, normal) index triple of
         its faces, in the order the faces first use them, and polygons are split into fans,
         as Mitsuba does.
+
+        Attributes (:attr:`attributes`): a PLY's other vertex and face properties, as
+        Mitsuba's ``ply`` groups them (:func:`reference_tracer.meshfile.ply_attributes`):
+        ``r g b`` or ``red green blue`` (``a``/``alpha`` a fourth channel) become
+        ``vertex_color`` / ``face_color``, ``{prefix}_x y z`` (or ``r g b``, ``0 1 2``,
+        ``1 2 3``) ``vertex_{prefix}`` (``_color`` after a prefix of ``r g b`` fields).
 
         Texture coordinates, where the material has a texture: the file's (OBJ ``vt``,
         PLY ``u v``, ``texture_u texture_v`` or ``s t``), with ``v`` replaced by ``1 - v``
@@ -487,7 +501,9 @@ class Mesh(Shape):
             uv = np.where(used[:, None], m.uv, 0.0)
             if flip:
                 uv = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]])
-        return cls(m.vertices, m.faces, material, flip_normals=flip_normals, normals=normals, uv=uv)
+        attributes = m.attributes or None
+        return cls(m.vertices, m.faces, material, flip_normals=flip_normals, normals=normals, uv=uv,
+                   attributes=attributes)
 
     def _check_world(self) -> None:
         w = self.world_vertices()
@@ -555,6 +571,9 @@ class Mesh(Shape):
             data += b"normals" + self.normals.tobytes()
         if self.uv is not None:  # and meshes without texture coordinates theirs
             data += b"uv" + self.uv.tobytes()
+        for name in sorted(self.attributes or {}):  # and meshes without attributes theirs
+            a = self.attributes[name]
+            data += b"attribute" + name.encode() + str(a.shape).encode() + a.tobytes()
         h = hashlib.sha256(data).hexdigest()
         return {"mesh_sha256": h, "n_vertices": int(len(self.vertices)), "n_faces": int(len(self.faces))}
 
@@ -583,6 +602,48 @@ def _check_uv(uv, n_vertices: int) -> np.ndarray:
         raise ValueError(f"Mesh.uv[{i}] is {a[i].tolist()}: texture coordinates must be finite")
     a.setflags(write=False)
     return a
+
+
+def _check_attributes(attributes, n_vertices: int, n_faces: int) -> dict:
+    """Mesh attributes as a dict of read-only (rows, C) float32 arrays (Mitsuba stores them in
+    single precision): ``vertex_*`` one row per vertex, ``face_*`` one per face, 1 to 4
+    channels, finite.
+
+    Examples
+    --------
+    >>> _check_attributes({"face_color": [[0.5, 0.25, 1.0]]}, 3, 1)["face_color"].tolist()
+    [[0.5, 0.25, 1.0]]
+    >>> _check_attributes({"vertex_color": [[0.5], [np.nan], [1.0]]}, 3, 1)
+    Traceback (most recent call last):
+    ...
+    ValueError: Mesh.attributes['vertex_color'][1] is [nan]: attribute values must be finite
+    """
+    if not isinstance(attributes, dict):
+        raise ValueError(f"Mesh.attributes must be a dict of arrays, got {type(attributes).__name__}")
+    out = {}
+    for name, value in attributes.items():
+        if not isinstance(name, str) or not name.startswith(("vertex_", "face_")) or name in ("vertex_", "face_"):
+            raise ValueError(f"Mesh.attributes: a name must start with 'vertex_' or 'face_', got {name!r}")
+        rows = n_vertices if name.startswith("vertex_") else n_faces
+        try:
+            a = np.array(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"Mesh.attributes[{name!r}] must be an array of numbers") from None
+        if a.ndim == 1:
+            a = a.reshape(-1, 1)
+        if a.ndim != 2 or a.shape[0] != rows or not 1 <= a.shape[1] <= 4:
+            raise ValueError(f"Mesh.attributes[{name!r}] must have one row per {name.split('_')[0]} and 1 to 4 "
+                             f"channels, shape ({rows}, C), got {a.shape}")
+        bad = ~np.all(np.isfinite(a), axis=1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValueError(f"Mesh.attributes[{name!r}][{i}] is {a[i].tolist()}: attribute values must be finite")
+        a = a.astype(np.float32)
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"Mesh.attributes[{name!r}]: values beyond single precision")
+        a.setflags(write=False)
+        out[name] = a
+    return out
 
 
 def _check_normals(normals, n_vertices: int) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""Textures of reflectances, as Mitsuba 3 defines them: ``checkerboard`` and ``bitmap``.
+"""Textures of reflectances, as Mitsuba 3 defines them: ``checkerboard``, ``bitmap`` and
+``mesh_attribute``.
 
 A texture gives a material's reflectance per surface point, looked up at the point's
 texture coordinates ``(u, v)`` after the texture's ``to_uv`` transform. The coordinates are
@@ -12,6 +13,9 @@ u and v are both above one half or both not, else ``color1``). :class:`Bitmap` i
 ``bitmap``: an image, from a file or an array, looked up with bilinear interpolation or the
 nearest texel, repeated, mirrored or clamped beyond the unit square; 8-bit images are sRGB
 encoded and decoded to linear values texel by texel (unless ``raw``), EXR images are linear.
+:class:`MeshAttribute` is Mitsuba's ``mesh_attribute``: the values of a mesh's named
+attribute (:attr:`reference_tracer.Mesh.attributes`), per vertex interpolated by the hit's
+barycentrics or per face constant, times ``scale``; it has no texture coordinates.
 
 Image files are untrusted input (SECURITY.md): :func:`read_image` checks that the path is a
 regular file and reads the image's size from its header before anything is decoded or
@@ -20,6 +24,7 @@ allocated for its pixels.
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import stat
 import struct
@@ -32,7 +37,7 @@ import numpy as np
 from .imageio import read_exr
 from .validation import colour
 
-__all__ = ["Texture", "Checkerboard", "Bitmap", "read_image", "srgb_to_linear", "FILTER_TYPES", "WRAP_MODES",
+__all__ = ["Texture", "Checkerboard", "Bitmap", "MeshAttribute", "read_image", "srgb_to_linear", "FILTER_TYPES", "WRAP_MODES",
            "MAX_TEXTURE_PIXELS", "texture_uv", "is_texture"]
 
 #: Mitsuba's ``filter_type`` values of a bitmap, in the core's order.
@@ -152,6 +157,8 @@ def check_reflectance(name: str, value):
     ...
     ValueError: albedo: a Checkerboard texture with values in [0.2, 1.5]; a reflectance must lie in [0, 1]
     """
+    if isinstance(value, MeshAttribute):  # its values are its mesh's: checked where bound to it
+        return value
     if isinstance(value, Texture):
         lo, hi = value.value_range()
         if not (lo >= 0.0 and hi <= 1.0):
@@ -224,6 +231,88 @@ class Checkerboard(Texture):
 
     def describe(self) -> dict:
         return {"type": "Checkerboard", "color0": self.color0, "color1": self.color1, "to_uv": self.to_uv}
+
+
+@dataclass(frozen=True, eq=False)
+class MeshAttribute(Texture):
+    """Mitsuba's ``mesh_attribute``: the value of the hit mesh's attribute ``name`` times ``scale``.
+
+    A ``vertex_*`` attribute is interpolated by the hit's barycentrics, a ``face_*``
+    attribute is constant over each face (Mitsuba's ``Mesh::eval_attribute``); it must have
+    1 channel (a grey value) or 3 (RGB), as Mitsuba's RGB variants evaluate no other. The
+    values are the mesh's (:attr:`reference_tracer.Mesh.attributes`), so the texture can
+    only be used on a :class:`reference_tracer.Mesh` that has the attribute; as a
+    reflectance, its values times ``scale`` must lie in [0, 1]. It has no mean (Mitsuba's
+    ``Texture::mean`` is not implemented for it), so a plastic cannot take it.
+
+    Examples
+    --------
+    >>> MeshAttribute("vertex_color", scale=0.5).describe()
+    {'type': 'MeshAttribute', 'name': 'vertex_color', 'scale': 0.5}
+    >>> MeshAttribute("color")
+    Traceback (most recent call last):
+    ...
+    ValueError: MeshAttribute.name must start with 'vertex_' or 'face_', got 'color'
+    """
+
+    name: str
+    scale: float = 1.0
+    to_uv: tuple | None = field(default=None, kw_only=True, repr=False)
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name.startswith(("vertex_", "face_")):
+            raise ValueError(f"MeshAttribute.name must start with 'vertex_' or 'face_', got {self.name!r}")
+        try:
+            scale = float(self.scale)
+        except (TypeError, ValueError):
+            raise ValueError(f"MeshAttribute.scale must be a number, got {self.scale!r}") from None
+        if not math.isfinite(scale):
+            raise ValueError(f"MeshAttribute.scale must be finite, got {scale}")
+        object.__setattr__(self, "scale", scale)
+        object.__setattr__(self, "to_uv", _IDENTITY_UV)
+
+    @property
+    def per_vertex(self) -> bool:
+        return self.name.startswith("vertex_")
+
+    def values(self, mesh) -> np.ndarray:
+        """The attribute's values on ``mesh`` times ``scale``: (N, channels) per vertex or face.
+
+        Raises
+        ------
+        ValueError
+            The mesh has no attribute of that name, or it has other than 1 or 3 channels.
+        """
+        attributes = getattr(mesh, "attributes", None) or {}
+        if self.name not in attributes:
+            have = ", ".join(sorted(attributes)) or "none"
+            raise ValueError(f"MeshAttribute: the mesh has no attribute {self.name!r} (it has: {have})")
+        a = attributes[self.name]
+        if a.shape[1] not in (1, 3):
+            raise ValueError(f"MeshAttribute: attribute {self.name!r} has {a.shape[1]} channels; Mitsuba's "
+                             "eval_attribute reads 1 or 3")
+        return a * self.scale
+
+    def _unbound(self, what: str):
+        raise ValueError(f"MeshAttribute {self.name!r} has no {what} of its own: its values are its mesh's")
+
+    def eval(self, uv) -> np.ndarray:
+        self._unbound("values at texture coordinates")
+
+    def mean(self) -> float:
+        raise ValueError(f"MeshAttribute {self.name!r}: a plastic's reflectance cannot be a mesh attribute "
+                         "(Mitsuba's mesh_attribute has no mean(), which a plastic's lobe choice takes)")
+
+    def value_range(self) -> tuple:
+        self._unbound("value range")
+
+    def scalar(self) -> "MeshAttribute":
+        """Mitsuba's ``eval_1`` reads a one-channel attribute as it is (a three-channel one
+        is refused where the texture is bound to its mesh)."""
+        return self
+
+    def describe(self) -> dict:
+        return {"type": "MeshAttribute", "name": self.name, "scale": self.scale}
 
 
 # ------------------------------------------------------------------------------------- images

@@ -79,6 +79,8 @@ using FloatVector = nb::ndarray<const float, nb::ndim<1>, nb::c_contig, nb::devi
 // Columns of a row of the texture table (reference_tracer/_compile.py, TEXTURE_COLUMNS):
 // kind, filter (bitmap: 0 bilinear, 1 nearest), wrap (0 repeat, 1 mirror, 2 clamp), to_uv
 // (6), color0 (3), color1 (3), width, height, channels, offset of the texels in `texels`.
+// A mesh attribute (kind 2) uses filter for per-vertex (1) or per-face (0), width for its
+// mesh's triangle count and height for the first of them.
 constexpr size_t kTextureColumns = 19;
 
 // The scene's textures (the Python layer's dict: `table`, `texels`, `materials`, `spheres`,
@@ -109,7 +111,7 @@ rt::SceneTextures read_textures(const nb::dict& d, std::vector<rt::Material>& ma
         const double* row = table.data() + i * kTextureColumns;
         rt::Texture t;
         const int kind = int(row[0]), filter = int(row[1]), wrap = int(row[2]);
-        if (kind < 0 || kind > 1 || filter < 0 || filter > 1 || wrap < 0 || wrap > 2)
+        if (kind < 0 || kind > 2 || filter < 0 || filter > 1 || wrap < 0 || wrap > 2)
             throw std::invalid_argument("textures.table: unknown kind, filter or wrap mode");
         t.kind = rt::TextureKind(kind);
         t.nearest = filter == 1;
@@ -130,6 +132,23 @@ rt::SceneTextures read_textures(const nb::dict& d, std::vector<rt::Material>& ma
             t.channels = int(c);
             const float* first = texels.data() + size_t(offset);
             t.texels.assign(first, first + size_t(count));
+        } else if (t.kind == rt::TextureKind::MeshAttribute) {
+            const double count = row[15], first_tri = row[16], c = row[17], offset = row[18];
+            if (!(count >= 1 && first_tri >= 0 && offset >= 0) || (c != 1 && c != 3) ||
+                count != std::floor(count) || first_tri != std::floor(first_tri) || offset != std::floor(offset) ||
+                first_tri + count > double(n_triangles))
+                throw std::invalid_argument("textures.table: a mesh attribute needs 1 or 3 channels and a range "
+                                            "of the scene's triangles");
+            const double n = count * c * (filter == 1 ? 3.0 : 1.0);
+            if (offset + n > double(n_texels))
+                throw std::invalid_argument("textures.table: a mesh attribute's values lie beyond `texels`");
+            t.per_vertex = filter == 1;
+            t.nearest = false;
+            t.width = int(count);
+            t.first_triangle = uint32_t(first_tri);
+            t.channels = int(c);
+            const float* first = texels.data() + size_t(offset);
+            t.texels.assign(first, first + size_t(n));
         }
         out.textures.push_back(std::move(t));
     }

@@ -220,25 +220,41 @@ void Scene::texture_uv(const Interaction& it, double& u, double& v) const {
     }
 }
 
+Vec3 Scene::texture_at(const Texture& t, const Interaction& it, double& u, double& v, bool& have_uv) const {
+    if (t.kind == TextureKind::MeshAttribute) {
+        // bound to a mesh's triangles (the Python layer gives no other shape such a texture)
+        if (it.prim < tri_base_) return Vec3(0.0);
+        const uint32_t i = it.prim - tri_base_;
+        double w[3];
+        triangles_[i].barycentrics(it.p, w);
+        return t.attribute(i, w);
+    }
+    if (!have_uv) {
+        texture_uv(it, u, v);
+        have_uv = true;
+    }
+    return t.eval(u, v);
+}
+
 Vec3 Scene::texture_value(const Material& m, const Interaction& it) const {
     if (m.texture < 0) return m.albedo;  // textured in its opacity only
-    double u, v;
-    texture_uv(it, u, v);
-    return textures_.textures[size_t(m.texture)].eval(u, v);
+    double u = 0.0, v = 0.0;
+    bool have_uv = false;
+    return texture_at(textures_.textures[size_t(m.texture)], it, u, v, have_uv);
 }
 
 const Material& Scene::shade_textured(const Material& m, const Interaction& it,
                                       std::optional<Material>& local) const {
-    double u, v;
-    texture_uv(it, u, v);
+    double u = 0.0, v = 0.0;
+    bool have_uv = false;
     local.emplace(m);
-    if (m.texture >= 0) local->set_reflectance(textures_.textures[size_t(m.texture)].eval(u, v));
+    if (m.texture >= 0) local->set_reflectance(texture_at(textures_.textures[size_t(m.texture)], it, u, v, have_uv));
     // Mitsuba's eval_opacity: clip(opacity.eval_1, 0, 1). The Python layer gives the
     // texture eval_1's values (one channel: a colour bitmap's luminance; a checkerboard's
     // colour means), so eval_1 is the lookup's first channel; std::min and std::max in this
     // order send a NaN to 0.
     if (m.opacity_texture >= 0)
-        local->opacity = std::min(1.0, std::max(0.0, textures_.textures[size_t(m.opacity_texture)].eval(u, v).x));
+        local->opacity = std::min(1.0, std::max(0.0, texture_at(textures_.textures[size_t(m.opacity_texture)], it, u, v, have_uv).x));
     return *local;
 }
 

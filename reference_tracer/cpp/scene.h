@@ -284,6 +284,9 @@ public:
 private:
     // m's texture at hit `it`, and m with that value in `local` (reflectance(), shade()).
     [[gnu::noinline]] Vec3 texture_value(const Material& m, const Interaction& it) const;
+    // Texture t at hit `it`: a mesh attribute by the hit's triangle and barycentrics, another
+    // texture at the hit's texture coordinates (u, v), computed once into them (have_uv).
+    Vec3 texture_at(const Texture& t, const Interaction& it, double& u, double& v, bool& have_uv) const;
     [[gnu::noinline]] const Material& shade_textured(const Material& m, const Interaction& it,
                                                      std::optional<Material>& local) const;
     // Tests primitive `prim`; on a hit closer than t_max, lowers t_max and records it.

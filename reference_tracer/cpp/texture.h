@@ -1,5 +1,7 @@
 // Textures of reflectances (Mitsuba `checkerboard` and `bitmap`, src/textures/*.cpp), looked
-// up at a hit's texture coordinates (Scene::texture_uv) after the texture's to_uv map. The
+// up at a hit's texture coordinates (Scene::texture_uv) after the texture's to_uv map, and
+// Mitsuba's `mesh_attribute` (a mesh's per-vertex or per-face values, looked up by the hit's
+// triangle and barycentrics instead: Texture::attribute). The
 // Python layer (reference_tracer/textures.py) decodes image files into the linear texel
 // values Mitsuba stores (8-bit sRGB texels decoded one by one, EXR as it is) and validates
 // every parameter; this is the lookup alone.
@@ -13,7 +15,7 @@
 
 namespace rt {
 
-enum class TextureKind : int { Checkerboard = 0, Bitmap = 1 };
+enum class TextureKind : int { Checkerboard = 0, Bitmap = 1, MeshAttribute = 2 };
 enum class TextureWrap : int { Repeat = 0, Mirror = 1, Clamp = 2 };
 
 struct Texture {
@@ -27,6 +29,12 @@ struct Texture {
     bool nearest = false;  // filter_type nearest; else bilinear
     TextureWrap wrap = TextureWrap::Repeat;
     std::vector<float> texels;
+    // MeshAttribute: bound to one mesh, the scene's triangles [first_triangle, first_triangle +
+    // width); texels hold, per triangle, its three corners' values in the core's corner order
+    // (vertex attributes) or its one value (face attributes), `channels` (1 or 3) each, the
+    // texture's scale already applied.
+    uint32_t first_triangle = 0;
+    bool per_vertex = false;
 
     Vec3 eval(double u, double v) const {
         const double x = to_uv[0] * u + to_uv[1] * v + to_uv[2];
@@ -39,7 +47,21 @@ struct Texture {
         return lookup(x, y);
     }
 
+    // A mesh attribute at triangle `tri` (the scene's index) with corner weights w (Mitsuba's
+    // eval_attribute: the corners' values weighted by the barycentrics, or the face's value).
+    // A triangle of another mesh (which the Python layer never binds) reads 0.
+    Vec3 attribute(uint32_t tri, const double w[3]) const {
+        if (tri < first_triangle || tri - first_triangle >= uint32_t(width)) return Vec3(0.0);
+        const size_t i = tri - first_triangle, c = size_t(channels);
+        if (!per_vertex) return value(texels.data() + i * c);
+        const float* t = texels.data() + i * 3 * c;
+        return value(t + 2 * c) * w[2] + (value(t + c) * w[1] + value(t) * w[0]);
+    }
+
 private:
+    Vec3 value(const float* t) const {
+        return channels == 1 ? Vec3(double(t[0])) : Vec3(double(t[0]), double(t[1]), double(t[2]));
+    }
     // An integer texel coordinate mapped into [0, res) as Dr.Jit's tex_wrap does it.
     int64_t wrap_index(int64_t p, int64_t res) const {
         if (wrap == TextureWrap::Clamp) return p < 0 ? 0 : (p >= res ? res - 1 : p);
