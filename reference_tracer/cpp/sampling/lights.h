@@ -7,8 +7,8 @@
 // for a directional light over the scene's bounding sphere of radius R); the environment,
 // where there is one, takes half (all where it is the only light). Mitsuba picks uniformly
 // among its emitters: the two differ in variance, never in expectation.
-// Delta lights (PointLight, SpotLight, DirectionalLight: Mitsuba's point, spot and
-// directional) sit at one point or come from one direction: a sample of one is flagged
+// Delta lights (PointLight, SpotLight, DirectionalLight, ProjectorLight: Mitsuba's point, spot,
+// directional and projector) sit at one point or come from one direction: a sample of one is flagged
 // `delta`, its pdf is the selection's probability alone, its radiance what arrives at the
 // reference point (intensity / dist^2 times a spot's falloff; the irradiance of a
 // directional light), and no other direction has any density of them (pdf_all and
