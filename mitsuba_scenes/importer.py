@@ -21,8 +21,10 @@ emitters (on their shape or declared at the top level and referenced), ``constan
 ``envmap`` (an OpenEXR or RGBE ``filename`` read by our own checked readers, or a
 ``bitmap``; ``scale``, a rotation ``to_world``), ``point`` (``position`` or ``to_world``,
 ``intensity``), ``spot`` (``to_world`` a similarity, ``intensity``, ``cutoff_angle``,
-``beam_width``; no ``texture``) and ``directional`` (``direction`` or ``to_world``,
-``irradiance``), RGB or scalar values, and ``checkerboard`` and ``bitmap`` textures (with
+``beam_width``, a ``checkerboard`` or ``bitmap`` ``texture``), ``directional`` (``direction``
+or ``to_world``, ``irradiance``) and ``projector`` (``to_world`` a similarity, ``irradiance``
+a constant or a ``checkerboard`` or ``bitmap``, ``scale``, ``fov`` with ``fov_axis`` or
+``focal_length``), RGB or scalar values, and ``checkerboard`` and ``bitmap`` textures (with
 ``to_uv``; bitmap ``filter_type``, ``wrap_mode``, ``raw``; declared inline or at the top
 level and referenced) for ``diffuse.reflectance``, a plastic's ``diffuse_reflectance`` and a
 conductor's ``specular_reflectance``, with the texture coordinates of each shape (a mesh
@@ -186,7 +188,8 @@ def _colour(ctx, node, key, default):
 
 #: (plugin, parameter) pairs that take a texture: the reflectances our materials texture.
 _TEXTURED = {("diffuse", "reflectance"), ("plastic", "diffuse_reflectance"), ("roughplastic", "diffuse_reflectance"),
-             ("conductor", "specular_reflectance"), ("roughconductor", "specular_reflectance")}
+             ("conductor", "specular_reflectance"), ("roughconductor", "specular_reflectance"),
+             ("spot", "texture"), ("projector", "irradiance")}
 _TEXTURES_READ = ("textures are read for diffuse.reflectance, a plastic's diffuse_reflectance and a conductor's "
                   "specular_reflectance")
 
@@ -674,19 +677,29 @@ def _light(ctx, node):
                 return None
             return rt.PointLight(position, intensity)
         if name == "spot":
-            if "texture" in keys:
-                ctx.bad(node, "spot light with a projected texture")
-                return None
-            _extra(ctx, node, {"to_world", "intensity", "cutoff_angle", "beam_width"} | _EMITTER_ANY, "emitter")
+            _extra(ctx, node, {"to_world", "intensity", "cutoff_angle", "beam_width", "texture"} | _EMITTER_ANY,
+                   "emitter")
             m = _matrix(ctx, node)
             axis = _conformal_axis(ctx, node, m)
             intensity = _colour(ctx, node, "intensity", 1.0)
             cutoff = _scalar(ctx, node, "cutoff_angle", 20.0)
             beam = _scalar(ctx, node, "beam_width", None)
+            texture = None
+            if "texture" in keys:
+                texture = _reflectance(ctx, node, "texture", 1.0)
+                if texture is None:
+                    return None
+                if not isinstance(texture, rt.Texture):
+                    ctx.bad(node, "spot texture must be a checkerboard or bitmap (Mitsuba refuses a constant one: "
+                                  "the intensity is the constant)")
+                    return None
             if axis is None or intensity is None:
                 return None
             return rt.SpotLight(m[:3, 3], axis, intensity, cutoff_angle=cutoff,
-                                beam_width=None if beam is None else beam)
+                                beam_width=None if beam is None else beam, texture=texture,
+                                up=_axis_up(m))
+        if name == "projector":
+            return _projector(ctx, node)
         if name == "directional":
             _extra(ctx, node, {"direction", "to_world", "irradiance"} | _EMITTER_ANY, "emitter")
             if "direction" in keys and "to_world" in keys:
@@ -709,8 +722,54 @@ def _light(ctx, node):
     except ValueError as exc:   # a value Mitsuba takes and we do not (or neither does), with the place
         ctx.bad(node, f"{name}: {exc}")
         return None
-    ctx.bad(node, f"emitter '{name}' (area on shapes, constant, envmap, point, spot and directional are supported)")
+    ctx.bad(node, f"emitter '{name}' (area on shapes, constant, envmap, point, spot, directional and projector "
+                  "are supported)")
     return None
+
+
+def _axis_up(m: np.ndarray) -> tuple:
+    """The image of +y under ``to_world`` (a light's up: with its +z axis, Mitsuba's look_at
+    frame gives back the rotation of a similarity)."""
+    y = m[:3, :3] @ np.array([0.0, 1.0, 0.0])
+    return tuple(float(v) for v in y / np.linalg.norm(y))
+
+
+def _projector(ctx, node):
+    """Our ProjectorLight for Mitsuba's ``projector``, or None after recording a problem.
+    A uniform scale s of ``to_world`` multiplies what arrives by s (Mitsuba's 1 / (z_local^2
+    cos) with z_local = z / s and the axis n of length s), folded into ``scale``."""
+    _extra(ctx, node, {"to_world", "irradiance", "scale", "fov", "fov_axis", "focal_length"} | _EMITTER_ANY,
+           "emitter")
+    keys = node.props.keys()
+    m = _matrix(ctx, node)
+    axis = _conformal_axis(ctx, node, m)
+    irradiance = _reflectance(ctx, node, "irradiance", 1.0)
+    scale = _scalar(ctx, node, "scale", 1.0)
+    if isinstance(scale, str):
+        ctx.bad(node, f"projector scale={scale!r} (a number)")
+        return None
+    if "fov" in keys and "focal_length" in keys:
+        ctx.bad(node, "projector with both fov and focal_length (Mitsuba refuses it too)")
+        return None
+    if axis is None or irradiance is None:
+        return None
+    if "fov" in keys:
+        fov, fov_axis = _scalar(ctx, node, "fov", None), str(_scalar(ctx, node, "fov_axis", "x")).lower()
+    else:
+        text = str(_scalar(ctx, node, "focal_length", "50mm"))
+        try:
+            f = float(text[:-2] if text.endswith("mm") else text)
+        except ValueError:
+            ctx.bad(node, f"projector focal_length={text!r} (of the form <x>mm)")
+            return None
+        fov, fov_axis = 2.0 * math.degrees(math.atan(math.sqrt(36.0 ** 2 + 24.0 ** 2) / (2.0 * f))), "diagonal"
+    s = float(np.linalg.norm(m[:3, 2]))
+    try:
+        return rt.ProjectorLight(m[:3, 3], axis, irradiance, up=_axis_up(m), fov=fov, fov_axis=fov_axis,
+                                 scale=float(scale) * s)
+    except (TypeError, ValueError) as exc:
+        ctx.bad(node, f"projector: {exc}")
+        return None
 
 
 # --------------------------------------------------------------------------- shapes

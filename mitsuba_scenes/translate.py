@@ -51,7 +51,11 @@ ours                                   Mitsuba 3
                                        OpenEXR file beside the XML), ``scale``, ``to_world``
 ``PointLight(position, intensity)``    ``point``, ``position``, ``intensity``
 ``SpotLight(position, direction, ...)`` ``spot``, ``to_world = look_at(position, position +
-                                       direction, up)``, ``intensity``, ``cutoff_angle``, ``beam_width``
+                                       direction, up)``, ``intensity``, ``cutoff_angle``, ``beam_width``,
+                                       a ``texture`` (checkerboard or bitmap) where it has one
+``ProjectorLight(position, direction,`` ``projector``, ``to_world = look_at(position, position +
+``irradiance, ...)``                   direction, up)``, ``irradiance`` (RGB or a texture),
+                                       ``scale``, ``fov`` = x_fov with ``fov_axis`` x
 ``DirectionalLight(direction, E)``     ``directional``, ``direction``, ``irradiance``
 ``max_depth``, ``rr_depth``            ``path`` integrator; ``rr_depth=None`` -> larger than max_depth
 ``direct=Direct(ne, nb)``              ``direct`` integrator, ``emitter_samples=ne``, ``bsdf_samples=nb``
@@ -306,9 +310,20 @@ def _light_record(light) -> dict:
                 "intensity": {"type": "rgb", "value": _rgb(light.intensity)}}
     if isinstance(light, rt.SpotLight):
         p, d = np.asarray(light.position), np.asarray(light.direction)
-        return {"type": "spot", "to_world": _f32(look_at_matrix(p, p + d, _perpendicular(d))),
-                "intensity": {"type": "rgb", "value": _rgb(light.intensity)},
-                "cutoff_angle": float(_f32(light.cutoff_angle)), "beam_width": float(_f32(light.beam_width))}
+        # an untextured spot is symmetric about its axis: any up; a texture needs the light's own
+        up = _perpendicular(d) if light.texture is None else np.asarray(light.up)
+        rec = {"type": "spot", "to_world": _f32(look_at_matrix(p, p + d, up)),
+               "intensity": {"type": "rgb", "value": _rgb(light.intensity)},
+               "cutoff_angle": float(_f32(light.cutoff_angle)), "beam_width": float(_f32(light.beam_width))}
+        if light.texture is not None:
+            rec["texture"] = _value_record(light.texture)
+        return rec
+    if isinstance(light, rt.ProjectorLight):
+        p, d = np.asarray(light.position), np.asarray(light.direction)
+        # the horizontal field of view itself: Mitsuba's fov_axis 'x' needs no aspect ratio
+        return {"type": "projector", "to_world": _f32(look_at_matrix(p, p + d, np.asarray(light.up))),
+                "irradiance": _value_record(light.irradiance), "scale": float(_f32(light.scale)),
+                "fov": float(light.x_fov), "fov_axis": "x"}
     if isinstance(light, rt.DirectionalLight):
         return {"type": "directional", "direction": [float(x) for x in _f32(light.direction)],
                 "irradiance": {"type": "rgb", "value": _rgb(light.irradiance)}}
@@ -528,6 +543,9 @@ def to_mitsuba(scene: rt.Scene, *, variant: str | None = None) -> dict:
         entry = dict(rec)
         if rec["type"] == "envmap":
             entry["bitmap"] = mi.Bitmap(np.array(entry.pop("pixels"), dtype=np.float32, order="C"))  # a writable copy
+        for key in ("texture", "irradiance"):   # a textured spot's, a projector's
+            if isinstance(entry.get(key), dict) and entry[key]["type"] != "rgb":
+                entry[key] = _mitsuba_values(mi, entry[key])
         if "to_world" in entry:
             entry["to_world"] = _transform(mi, entry["to_world"])
         d[f"light_{i:03d}_{rec['type']}"] = entry
@@ -787,7 +805,10 @@ def to_xml(scene: rt.Scene, path, *, spp: int = 4, seed: int = 0) -> Path:
                 x, y, z = rec.pop(key)
                 tag = "point" if key == "position" else "vector"
                 L.append(f'{ind}<{tag} name="{key}" x="{_num(x)}" y="{_num(y)}" z="{_num(z)}"/>')
-        L += _xml_props(rec, ind)
+        light = scene.lights[i]
+        light_textures = [t for t in (getattr(light, "texture", None), getattr(light, "irradiance", None))
+                          if isinstance(t, rt.Texture)]
+        L += _xml_props(bsdf_with_files(rec, light_textures), ind)
         L.append("    </emitter>")
     for shape, rec in zip(scene.shapes, low["shapes"]):
         kind = "ply" if rec["type"] == "mesh" else rec["type"]

@@ -13,7 +13,7 @@ Examples
 from .build import build_id
 from .estimate import ImageEstimate, SampleMoments
 from .imageio import write_exr, write_png, read_exr, read_hdr, to_display
-from .lights import DirectionalLight, EnvMap, Light, PointLight, SpotLight
+from .lights import DirectionalLight, EnvMap, Light, PointLight, ProjectorLight, SpotLight
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Mask, Material, Metal, Plastic,
                         RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric)
 from .render import INTEGRATORS, STRATEGIES, TRIANGLE_TESTS, RenderResult, render
@@ -27,7 +27,8 @@ __all__ = [
     "Camera", "Direct", "Filter", "FILTERS", "Scene", "Shape", "Sphere", "Quad", "Box", "Triangle", "Mesh",
     "Material", "Lambertian", "Metal", "Dielectric", "RoughConductor", "Plastic", "RoughPlastic", "ThinDielectric",
     "RoughDielectric", "DiffuseLight", "Mask",
-    "DISTRIBUTIONS", "Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight", "Texture", "Checkerboard", "MeshAttribute",
+    "DISTRIBUTIONS", "Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight", "ProjectorLight", "Texture",
+    "Checkerboard", "MeshAttribute",
     "Bitmap",
     "render", "RenderResult", "ImageEstimate", "SampleMoments", "STRATEGIES", "TRIANGLE_TESTS", "INTEGRATORS", "MAX_DEPTH_CAP",
     "build_id", "write_exr", "read_exr", "read_hdr", "write_png", "to_display", "__version__",

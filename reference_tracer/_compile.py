@@ -19,7 +19,7 @@ import numpy as np
 
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Mask, Metal, Plastic, RoughConductor,
                         RoughDielectric, RoughPlastic, ThinDielectric, reflectance_of, textures_of)
-from .lights import DirectionalLight, PointLight, SpotLight
+from .lights import DirectionalLight, PointLight, ProjectorLight, SpotLight
 from .scene import DEFAULT_VFOV, PROJECTIONS, Scene
 from .shapes import Box, Mesh, Quad, Sphere, Triangle
 from .textures import FILTER_TYPES, WRAP_MODES, Bitmap, Checkerboard, MeshAttribute, Texture
@@ -82,19 +82,35 @@ def _check_extent(what: str, points) -> None:
                          "boxes in single precision; rescale the scene")
 
 
-#: Columns of a delta light's row (cpp/bindings.cpp): kind (0 point, 1 spot, 2 directional),
-#: position (3), direction (3), intensity or irradiance (3), a spot's cutoff and beam angles (radians).
-DELTA_LIGHT_COLUMNS = 12
+#: Columns of a delta light's row (cpp/bindings.cpp): kind (0 point, 1 spot, 2 directional,
+#: 3 projector), position (3), direction (3), intensity or irradiance (3), a spot's cutoff and
+#: beam angles (radians); a textured spot's or a projector's texture (index into the
+#: ``light_textures`` table, -1 none) and its mean, world to the light's frame (9, row-major),
+#: the uv factor (tan(cutoff), tan(x_fov / 2)) and a projector's aspect ratio.
+DELTA_LIGHT_COLUMNS = 25
+_NO_TEXTURE = [-1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0]
 
 
-def _delta_light_row(light) -> list:
+def _delta_light_row(light, texture_id) -> list:
     if isinstance(light, PointLight):
-        return [0.0, *light.position, 0.0, 0.0, 0.0, *light.intensity, 0.0, 0.0]
+        return [0.0, *light.position, 0.0, 0.0, 0.0, *light.intensity, 0.0, 0.0, *_NO_TEXTURE]
     if isinstance(light, SpotLight):
-        return [1.0, *light.position, *light.direction, *light.intensity,
-                math.radians(light.cutoff_angle), math.radians(light.beam_width)]
+        row = [1.0, *light.position, *light.direction, *light.intensity,
+               math.radians(light.cutoff_angle), math.radians(light.beam_width)]
+        if light.texture is None:
+            return row + _NO_TEXTURE
+        frame = [x for r in light.to_local for x in r]
+        return row + [float(texture_id(light.texture)), float(light.texture.mean()), *frame,
+                      math.tan(math.radians(light.cutoff_angle)), 1.0]
     if isinstance(light, DirectionalLight):
-        return [2.0, 0.0, 0.0, 0.0, *light.direction, *light.irradiance, 0.0, 0.0]
+        return [2.0, 0.0, 0.0, 0.0, *light.direction, *light.irradiance, 0.0, 0.0, *_NO_TEXTURE]
+    if isinstance(light, ProjectorLight):
+        e = (1.0, 1.0, 1.0) if light.textured else light.irradiance
+        row = [3.0, *light.position, *light.direction, *(light.scale * c for c in e), 0.0, 0.0]
+        tex, mean = (float(texture_id(light.irradiance)), float(light.irradiance.mean())) if light.textured \
+            else (-1.0, 1.0)
+        return row + [tex, mean, *(x for r in light.to_local for x in r),
+                      math.tan(math.radians(light.x_fov) / 2.0), light.aspect]
     raise ValueError(f"unsupported light {type(light).__name__}")  # pragma: no cover - Scene admits only these
 
 
@@ -102,12 +118,23 @@ def _lights(scene: Scene) -> dict:
     """The core's arguments for the scene's lights that are not shapes (none without them:
     a scene's arguments stay what they always were)."""
     out = {}
-    deltas = [_delta_light_row(light) for light in scene.lights if light.delta]
+    textures, index = [], {}
+
+    def texture_id(t) -> int:
+        if id(t) not in index:
+            index[id(t)] = len(textures)
+            textures.append(t)
+        return index[id(t)]
+
+    deltas = [_delta_light_row(light, texture_id) for light in scene.lights if light.delta]
     if deltas:
         for light in scene.delta_lights:
-            if isinstance(light, (PointLight, SpotLight)):
+            if isinstance(light, (PointLight, SpotLight, ProjectorLight)):
                 _check_extent(f"{type(light).__name__}.position", [light.position])
         out["delta_lights"] = np.asarray(deltas, dtype=np.float64).reshape(-1, DELTA_LIGHT_COLUMNS)
+    if textures:
+        table, texels = _texture_table(textures)
+        out["light_textures"] = dict(table=table, texels=texels)
     env = scene.environment
     if env is not None:
         out.update(environment=env.pixels, environment_scale=float(env.scale),
@@ -274,6 +301,34 @@ def _bound_attribute(t: MeshAttribute, mesh: Mesh, first_triangle: int, opacity:
     return np.ascontiguousarray(values, dtype=np.float32).ravel(), channels
 
 
+def _texture_table(textures: list) -> tuple:
+    """The core's table of ``textures`` (TEXTURE_COLUMNS a row) and their values: bitmaps'
+    texels, and mesh attributes bound to their mesh (``(attribute, mesh, first triangle,
+    opacity)`` tuples) as values per triangle."""
+    table, texels, offset = [], [], 0
+    for t in textures:
+        if isinstance(t, tuple):  # a mesh attribute bound to its mesh
+            attribute, mesh, first, opacity = t
+            values, channels = _bound_attribute(attribute, mesh, first, opacity)
+            table.append([2, float(attribute.per_vertex), 0, *np.asarray(attribute.to_uv).ravel().tolist(),
+                          0, 0, 0, 0, 0, 0, len(mesh.faces), first, channels, offset])
+            texels.append(values)
+            offset += values.size
+            continue
+        m = np.asarray(t.to_uv, dtype=np.float64).ravel().tolist()
+        if isinstance(t, Checkerboard):
+            table.append([0, 0, 0, *m, *t.color0, *t.color1, 0, 0, 0, 0])
+        else:
+            assert isinstance(t, Bitmap)
+            h, w, ch = t.data.shape
+            table.append([1, FILTER_TYPES.index(t.filter), WRAP_MODES.index(t.wrap), *m, 0, 0, 0, 0, 0, 0,
+                          w, h, ch, offset])
+            texels.append(t.data.ravel())
+            offset += t.data.size
+    return (np.asarray(table, dtype=np.float64).reshape(-1, TEXTURE_COLUMNS),
+            np.ascontiguousarray(np.concatenate(texels) if texels else np.zeros(0), dtype=np.float32))
+
+
 def _textures(scene: Scene, materials: list, bound: dict | None = None):
     """The core's ``textures`` argument, or None for a scene without textures. ``bound``:
     the material rows whose mesh attribute textures are bound to a mesh (and its first
@@ -302,26 +357,7 @@ def _textures(scene: Scene, materials: list, bound: dict | None = None):
             opacities[row] = texture_id(("opacity", id(m.opacity)), m.opacity.scalar)
     if not textures:
         return None
-    table, texels, offset = [], [], 0
-    for t in textures:
-        if isinstance(t, tuple):  # a mesh attribute bound to its mesh
-            attribute, mesh, first, opacity = t
-            values, channels = _bound_attribute(attribute, mesh, first, opacity)
-            table.append([2, float(attribute.per_vertex), 0, *np.asarray(attribute.to_uv).ravel().tolist(),
-                          0, 0, 0, 0, 0, 0, len(mesh.faces), first, channels, offset])
-            texels.append(values)
-            offset += values.size
-            continue
-        m = np.asarray(t.to_uv, dtype=np.float64).ravel().tolist()
-        if isinstance(t, Checkerboard):
-            table.append([0, 0, 0, *m, *t.color0, *t.color1, 0, 0, 0, 0])
-        else:
-            assert isinstance(t, Bitmap)
-            h, w, ch = t.data.shape
-            table.append([1, FILTER_TYPES.index(t.filter), WRAP_MODES.index(t.wrap), *m, 0, 0, 0, 0, 0, 0,
-                          w, h, ch, offset])
-            texels.append(t.data.ravel())
-            offset += t.data.size
+    table, texels = _texture_table(textures)
     spheres, quads, tris = [], [], []
     for s in scene.shapes:
         if isinstance(s, Sphere):
@@ -349,8 +385,8 @@ def _textures(scene: Scene, materials: list, bound: dict | None = None):
                 rows = (corners[[0, 2, 1]] if s.flip_normals else corners).reshape(1, 6)
                 tris.append(np.repeat(rows, len(f), axis=0))
     return dict(
-        table=np.asarray(table, dtype=np.float64).reshape(-1, TEXTURE_COLUMNS),
-        texels=np.ascontiguousarray(np.concatenate(texels) if texels else np.zeros(0), dtype=np.float32),
+        table=table,
+        texels=texels,
         materials=np.asarray(material_textures, dtype=np.int32),
         # only where a mask has an opacity texture: other scenes' arguments are what they were
         **({"opacities": np.asarray(opacities, dtype=np.int32)} if max(opacities) >= 0 else {}),

@@ -2,11 +2,12 @@
 
 :class:`EnvMap` is Mitsuba's ``envmap`` (an equirectangular image of the radiance arriving
 from far away), :class:`PointLight`, :class:`SpotLight` and :class:`DirectionalLight` its
-``point``, ``spot`` and ``directional`` emitters. They go into :class:`reference_tracer.Scene`'s
+``point``, ``spot`` and ``directional`` emitters, and :class:`ProjectorLight` its
+``projector``. They go into :class:`reference_tracer.Scene`'s
 ``lights``. A scene has at most one environment, as in Mitsuba: an ``EnvMap`` or a constant
 ``background``, not both.
 
-Delta lights (point, spot, directional) sit at one point or send light along one direction:
+Delta lights (point, spot, directional, projector) sit at one point or send light along one direction:
 no direction sampled from a surface can meet them, so only light sampling sees them. The
 ``mis`` and ``light`` strategies (and the ``direct`` integrator's emitter samples) do;
 ``uniform``, ``cosine`` and ``mixture`` cannot, and :func:`reference_tracer.render` refuses to
@@ -24,9 +25,11 @@ from pathlib import Path
 import numpy as np
 
 from .imageio import read_exr, read_hdr
+from .textures import LUMINANCE, Bitmap, Texture
 from .validation import FLOAT32_MAX, colour, finite_scalar, vector3
 
-__all__ = ["Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight", "ENVMAP_FORMATS", "MAX_ENVMAP_PIXELS"]
+__all__ = ["Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight", "ProjectorLight", "FOV_AXES",
+           "ENVMAP_FORMATS", "MAX_ENVMAP_PIXELS"]
 
 #: File extensions :class:`EnvMap` reads: OpenEXR and Radiance RGBE, Mitsuba's HDR formats.
 ENVMAP_FORMATS = (".exr", ".hdr", ".rgbe")
@@ -263,13 +266,44 @@ class PointLight(Light):
         return {"type": "point", "position": self.position, "intensity": self.intensity}
 
 
+def _light_texture(name: str, value) -> Texture:
+    """A light's texture: a :class:`~reference_tracer.Checkerboard` or
+    :class:`~reference_tracer.Bitmap` of values >= 0; ValueError otherwise."""
+    if not isinstance(value, Texture):
+        raise ValueError(f"{name} must be a texture (Checkerboard or Bitmap), got {type(value).__name__}: "
+                         f"{value!r:.80}")
+    lo, _ = value.value_range()
+    if not lo >= 0.0:
+        raise ValueError(f"{name} must be >= 0 everywhere (emitted light), its smallest value is {lo:.6g}")
+    return value
+
+
+def _look_at(name: str, direction, up) -> tuple:
+    """Mitsuba's look_at frame of a light shining along ``direction`` with ``up``: the rows
+    (left, new_up, dir), left = normalize(up x dir), new_up = dir x left (world to local)."""
+    d = np.asarray(direction, dtype=np.float64)
+    u = np.asarray(vector3(f"{name}.up", up))
+    left = np.cross(u, d)
+    n = float(np.linalg.norm(left))
+    if not n > 1e-9 * max(float(np.linalg.norm(u)), 1e-300):
+        raise ValueError(f"{name}.up must not be parallel to the direction (the texture's orientation "
+                         f"needs a frame), got up={tuple(u)} and direction={tuple(d)}")
+    left = left / n
+    return tuple(tuple(float(x) for x in row) for row in (left, np.cross(d, left), d))
+
+
 @dataclass(frozen=True)
 class SpotLight(Light):
-    """A spot light: Mitsuba's ``spot`` emitter (without its projected texture).
+    """A spot light: Mitsuba's ``spot`` emitter, with its optional projected texture.
 
     From ``position``, radiant ``intensity`` along ``direction``, with Mitsuba's falloff:
     full within ``beam_width`` degrees of the axis, falling linearly in the angle to 0 at
     ``cutoff_angle``, dark beyond. A delta light (seen by ``mis`` and ``light`` only).
+
+    With a ``texture``, the intensity toward local direction (x, y, z) (in the frame of
+    ``direction`` and ``up``, Mitsuba's ``look_at``: x = normalize(up x direction)) is also
+    multiplied by the texture at ``uv = 0.5 + 0.5 (x, y) / (z tan(cutoff_angle))``: the
+    unit square spans the square circumscribing the cone at the cutoff.
 
     Parameters
     ----------
@@ -282,11 +316,21 @@ class SpotLight(Light):
         Degrees, in (0, 180]; Mitsuba's default 20.
     beam_width : float or None, keyword-only
         Degrees, in [0, cutoff_angle]; None: three quarters of ``cutoff_angle`` (Mitsuba's default).
+    texture : Checkerboard, Bitmap or None, keyword-only
+        Mitsuba's ``texture``: a spatially varying texture (a constant is the ``intensity``'s
+        job, and Mitsuba refuses one), values >= 0.
+    up : (3,) array_like, keyword-only
+        The frame's up (with a ``texture`` only; not parallel to ``direction``). Mitsuba's
+        default spot (no ``to_world``) shines along +z with up +y.
 
     Examples
     --------
     >>> SpotLight((0, 3, 0), (0, -2, 0), 5, cutoff_angle=30).beam_width
     22.5
+    >>> from reference_tracer import Checkerboard
+    >>> s = SpotLight((0, 0, 0), (0, 0, 1), texture=Checkerboard(1.0, 0.0), cutoff_angle=45)
+    >>> s.arriving([[0.0, 0.0, 1.0], [0.4, -0.4, 1.0]]).round(6).tolist()  # uv (0.5, 0.5), (0.7, 0.3)
+    [[1.0, 1.0, 1.0], [0.0, 0.0, 0.0]]
     """
 
     position: tuple
@@ -294,6 +338,8 @@ class SpotLight(Light):
     intensity: tuple = (1.0, 1.0, 1.0)
     cutoff_angle: float = field(default=20.0, kw_only=True)
     beam_width: float | None = field(default=None, kw_only=True)
+    texture: Texture | None = field(default=None, kw_only=True)
+    up: tuple = field(default=(0.0, 1.0, 0.0), kw_only=True)
     delta = True
 
     def __post_init__(self):
@@ -305,6 +351,15 @@ class SpotLight(Light):
             "SpotLight.beam_width", self.beam_width, lo=0.0, hi=cutoff)
         object.__setattr__(self, "cutoff_angle", cutoff)
         object.__setattr__(self, "beam_width", beam)
+        object.__setattr__(self, "up", vector3("SpotLight.up", self.up))
+        if self.texture is not None:
+            _light_texture("SpotLight.texture", self.texture)
+            _look_at("SpotLight", self.direction, self.up)
+
+    @property
+    def to_local(self) -> tuple:
+        """World to the light's frame (rows: x, y, z = ``direction``), Mitsuba's look_at."""
+        return _look_at("SpotLight", self.direction, self.up)
 
     def falloff(self, cos_theta):
         """Mitsuba's falloff at the cosine of the angle to the axis.
@@ -330,9 +385,28 @@ class SpotLight(Light):
             ramp = (cutoff - np.arccos(np.clip(c, -1.0, 1.0))) / (cutoff - beam)
         return np.where(c > math.cos(cutoff), np.where(c >= math.cos(beam), 1.0, ramp), 0.0)
 
+    def arriving(self, points) -> np.ndarray:
+        """What arrives at each of (N, 3) points from the light (W/m^2/sr times sr, before
+        the receiver's cosine): ``intensity * falloff * texture / dist^2``, (N, 3)."""
+        p = np.atleast_2d(np.asarray(points, dtype=np.float64)) - np.asarray(self.position)
+        dist2 = np.sum(p * p, axis=1)
+        d = p / np.sqrt(dist2)[:, None]
+        f = self.falloff(d @ np.asarray(self.direction))
+        out = np.asarray(self.intensity)[None, :] * (f / dist2)[:, None]
+        if self.texture is not None:
+            lit = f > 0
+            loc = d[lit] @ np.asarray(self.to_local).T
+            t = math.tan(math.radians(self.cutoff_angle))
+            uv = 0.5 + 0.5 * loc[:, :2] / (loc[:, 2:] * t)
+            out[lit] = out[lit] * self.texture.eval(uv)
+        return out
+
     def describe(self) -> dict:
-        return {"type": "spot", "position": self.position, "direction": self.direction,
-                "intensity": self.intensity, "cutoff_angle": self.cutoff_angle, "beam_width": self.beam_width}
+        out = {"type": "spot", "position": self.position, "direction": self.direction,
+               "intensity": self.intensity, "cutoff_angle": self.cutoff_angle, "beam_width": self.beam_width}
+        if self.texture is not None:   # untextured spots keep the description (and scene hash) they had
+            out.update(texture=self.texture.describe(), up=self.up)
+        return out
 
 
 @dataclass(frozen=True)
@@ -366,3 +440,171 @@ class DirectionalLight(Light):
 
     def describe(self) -> dict:
         return {"type": "directional", "direction": self.direction, "irradiance": self.irradiance}
+
+
+#: Mitsuba's ``fov_axis`` values (src/render/sensor.cpp, parse_fov).
+FOV_AXES = ("x", "y", "diagonal", "smaller", "larger")
+
+
+def _x_fov(fov: float, axis: str, aspect: float) -> float:
+    """Mitsuba's parse_fov: the horizontal field of view (degrees) of ``fov`` along ``axis``."""
+    if axis == "smaller":
+        axis = "y" if aspect > 1 else "x"
+    elif axis == "larger":
+        axis = "x" if aspect > 1 else "y"
+    if axis == "x":
+        return fov
+    half = math.tan(0.5 * math.radians(fov))
+    if axis == "y":
+        return math.degrees(2.0 * math.atan(half * aspect))
+    width = 2.0 * half / math.sqrt(1.0 + 1.0 / (aspect * aspect))   # diagonal
+    return math.degrees(2.0 * math.atan(width * 0.5))
+
+
+@dataclass(frozen=True)
+class ProjectorLight(Light):
+    """A projector: Mitsuba's ``projector`` emitter, a perspective camera run backwards.
+
+    From ``position``, looking along ``direction`` (the frame of ``direction`` and ``up``,
+    Mitsuba's ``look_at``), it projects ``irradiance``, an image on its virtual image plane
+    at distance 1, into the scene. A point at local (x, y, z), z > 0, maps to
+    ``uv = (0.5 - 0.5 x / (z t), 0.5 - 0.5 aspect y / (z t))``, t = tan(x_fov / 2) (the
+    perspective camera's mapping: u = 0 on the local +x side, v = 0 at the top); outside
+    the unit square, or behind the projector, it is dark. What arrives there is
+    ``pi * scale * irradiance(uv) / (z^2 cos)``, cos between the axis and the direction from
+    the projector: Mitsuba's factor, so that a constant ``irradiance`` E lights a plane
+    facing the projector at distance 1 with irradiance pi E. A delta light (seen by ``mis``
+    and ``light`` only).
+
+    Parameters
+    ----------
+    position : (3,) array_like
+        The pinhole (world space, finite).
+    direction : (3,) array_like
+        The optical axis (normalised; non-zero).
+    irradiance : float, (3,) array_like or Texture
+        Mitsuba's ``irradiance``: a constant colour (>= 0; default 1) or a Checkerboard or
+        Bitmap (values >= 0). A Bitmap's width / height is the image's aspect ratio (as
+        Mitsuba's ``resolution()``); anything else is square.
+    up : (3,) array_like, keyword-only
+        The image's up (not parallel to ``direction``); default +y.
+    fov : float or None, keyword-only
+        Field of view in degrees, in (0, 180), along ``fov_axis``. None: Mitsuba's default,
+        a 50 mm focal length (a diagonal field of view of 46.8 degrees).
+    fov_axis : {'x', 'y', 'diagonal', 'smaller', 'larger'}, keyword-only
+        Which extent of the image ``fov`` spans (Mitsuba's ``fov_axis``; default 'x').
+    scale : float, keyword-only
+        Multiplies the irradiance (Mitsuba's ``scale``), >= 0.
+
+    Attributes
+    ----------
+    x_fov : float
+        The horizontal field of view (degrees) after ``fov_axis``.
+    aspect : float
+        The image's width / height.
+
+    Examples
+    --------
+    >>> p = ProjectorLight((0, 0, 0), (0, 0, 1), 2.0, fov=90)
+    >>> p.arriving([[0.0, 0.0, 1.0], [0.5, 0.0, 1.0], [2.0, 0.0, 1.0]]).round(4)[:, 0].tolist()
+    [6.2832, 7.0248, 0.0]
+    >>> round(p.power(), 4)   # pi * scale * E * the image plane's area (2 x 2)
+    25.1327
+    """
+
+    position: tuple
+    direction: tuple
+    irradiance: object = (1.0, 1.0, 1.0)
+    up: tuple = field(default=(0.0, 1.0, 0.0), kw_only=True)
+    fov: float | None = field(default=None, kw_only=True)
+    fov_axis: str = field(default="x", kw_only=True)
+    scale: float = field(default=1.0, kw_only=True)
+    x_fov: float = field(init=False)
+    aspect: float = field(init=False)
+    delta = True
+
+    def __post_init__(self):
+        object.__setattr__(self, "position", vector3("ProjectorLight.position", self.position))
+        object.__setattr__(self, "direction", _unit("ProjectorLight.direction", self.direction))
+        object.__setattr__(self, "up", vector3("ProjectorLight.up", self.up))
+        _look_at("ProjectorLight", self.direction, self.up)
+        if isinstance(self.irradiance, Texture):
+            _light_texture("ProjectorLight.irradiance", self.irradiance)
+        elif isinstance(self.irradiance, (str, bytes, os.PathLike, dict)):
+            raise ValueError("ProjectorLight.irradiance must be a colour or a texture (Checkerboard or Bitmap; "
+                             f"a file goes through Bitmap), got {self.irradiance!r:.80}")
+        else:
+            object.__setattr__(self, "irradiance", colour("ProjectorLight.irradiance", self.irradiance, upper=None))
+        object.__setattr__(self, "scale", finite_scalar("ProjectorLight.scale", self.scale, lo=0.0, hi=FLOAT32_MAX))
+        if self.fov_axis not in FOV_AXES:
+            raise ValueError(f"ProjectorLight.fov_axis must be one of {FOV_AXES}, got {self.fov_axis!r}")
+        t = self.irradiance
+        aspect = t.width / t.height if isinstance(t, Bitmap) else 1.0
+        if self.fov is None:   # Mitsuba's default focal length, 50 mm of a 36 x 24 mm film
+            fov, axis = 2.0 * math.degrees(math.atan(math.sqrt(36.0 ** 2 + 24.0 ** 2) / 100.0)), "diagonal"
+        else:
+            fov = finite_scalar("ProjectorLight.fov", self.fov, lo=0.0, lo_open=True, hi=180.0)
+            if fov >= 180.0:
+                raise ValueError(f"ProjectorLight.fov must be below 180 degrees, got {fov}")
+            object.__setattr__(self, "fov", fov)
+            axis = self.fov_axis
+        x_fov = _x_fov(fov, axis, aspect)
+        if not 0.0 < x_fov < 180.0:
+            raise ValueError(f"ProjectorLight: the horizontal field of view {x_fov} of fov={fov} along "
+                             f"{axis!r} is not within (0, 180) degrees")
+        object.__setattr__(self, "x_fov", x_fov)
+        object.__setattr__(self, "aspect", float(aspect))
+
+    @property
+    def to_local(self) -> tuple:
+        """World to the projector's frame (rows: x, y, z = ``direction``), Mitsuba's look_at."""
+        return _look_at("ProjectorLight", self.direction, self.up)
+
+    @property
+    def textured(self) -> bool:
+        return isinstance(self.irradiance, Texture)
+
+    def image_area(self) -> float:
+        """The image's area on the plane z = 1: 4 tan^2(x_fov / 2) / aspect (Mitsuba's
+        m_sensor_area)."""
+        t = math.tan(math.radians(self.x_fov) / 2.0)
+        return 4.0 * t * t / self.aspect
+
+    def power(self) -> float:
+        """The radiant power sent (luminance, W): pi * scale * mean(irradiance) * image_area
+        (the intensity pi scale E / cos^3 over the frustum, dw = cos^3 dA on the plane z = 1);
+        a texture's mean is :meth:`~reference_tracer.Texture.mean`."""
+        mean = self.irradiance.mean() if self.textured else float(np.asarray(self.irradiance) @ np.asarray(LUMINANCE))
+        return math.pi * self.scale * mean * self.image_area()
+
+    def uv(self, points) -> tuple:
+        """The image coordinates of (N, 3) points and whether the projector lights them
+        (in front of it and within the unit square): ((N, 2), (N,) bool)."""
+        p = np.atleast_2d(np.asarray(points, dtype=np.float64)) - np.asarray(self.position)
+        loc = p @ np.asarray(self.to_local).T
+        t = math.tan(math.radians(self.x_fov) / 2.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            uv = np.stack([0.5 - 0.5 * loc[:, 0] / (loc[:, 2] * t),
+                           0.5 - 0.5 * self.aspect * loc[:, 1] / (loc[:, 2] * t)], axis=1)
+        lit = (loc[:, 2] > 0) & np.all((uv >= 0) & (uv <= 1), axis=1)
+        return uv, lit
+
+    def arriving(self, points) -> np.ndarray:
+        """What arrives at each of (N, 3) points (before the receiver's cosine), (N, 3):
+        pi scale E(uv) / (z^2 cos) where lit, else 0."""
+        p = np.atleast_2d(np.asarray(points, dtype=np.float64))
+        uv, lit = self.uv(p)
+        d = p - np.asarray(self.position)
+        z = d @ np.asarray(self.direction)
+        cos = z / np.linalg.norm(d, axis=1)
+        out = np.zeros((len(p), 3))
+        if np.any(lit):
+            e = self.irradiance.eval(uv[lit]) if self.textured else np.asarray(self.irradiance)[None, :]
+            out[lit] = self.scale * e * (math.pi / (z[lit] ** 2 * cos[lit]))[:, None]
+        return out
+
+    def describe(self) -> dict:
+        e = self.irradiance.describe() if self.textured else self.irradiance
+        return {"type": "projector", "position": self.position, "direction": self.direction, "up": self.up,
+                "irradiance": e, "x_fov": self.x_fov, "aspect": self.aspect, "scale": self.scale}
+

@@ -24,7 +24,7 @@ __all__ = ["render", "RenderResult", "ImageEstimate", "STRATEGIES", "TRIANGLE_TE
 TRIANGLE_TESTS = ("watertight", "cramer", "cramer32")
 
 #: Strategies that find light only by meeting emitters with sampled directions: they cannot
-#: see delta lights (PointLight, SpotLight, DirectionalLight), and ``render`` refuses scenes
+#: see delta lights (PointLight, SpotLight, DirectionalLight, ProjectorLight), and ``render`` refuses scenes
 #: with such lights for them.
 BLIND_TO_DELTA_LIGHTS = ("uniform", "cosine", "mixture")
 
@@ -182,7 +182,7 @@ def render(scene: Scene, *, spp: int = 16, strategy: str = "mixture", seed: int 
         straight from an emitter (no indirect light at diffuse surfaces). In a scene with
         ``direct`` (Mitsuba's ``direct`` integrator) it picks the techniques of the first
         surface's samples: :meth:`Direct.counts`. A scene with delta lights (``PointLight``,
-        ``SpotLight``, ``DirectionalLight``) renders with ``mis`` or ``light`` only: the
+        ``SpotLight``, ``DirectionalLight``, ``ProjectorLight``) renders with ``mis`` or ``light`` only: the
         others (:data:`BLIND_TO_DELTA_LIGHTS`) cannot see such lights and are refused.
     seed : int, keyword-only
         Seed of the random streams, 0 <= seed < 2**64.

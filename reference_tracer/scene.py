@@ -367,8 +367,9 @@ class Scene:
         Lights that are not shapes: at most one :class:`~reference_tracer.EnvMap` (the
         scene's environment, in place of ``background``, which must then be black: Mitsuba
         allows one environment emitter), and any number of
-        :class:`~reference_tracer.PointLight`, :class:`~reference_tracer.SpotLight` and
-        :class:`~reference_tracer.DirectionalLight` (delta lights: only the ``mis`` and
+        :class:`~reference_tracer.PointLight`, :class:`~reference_tracer.SpotLight`,
+        :class:`~reference_tracer.DirectionalLight` and
+        :class:`~reference_tracer.ProjectorLight` (delta lights: only the ``mis`` and
         ``light`` strategies can see them).
 
     Examples
@@ -415,7 +416,7 @@ class Scene:
             raise ValueError(f"Scene.direct must be a reference_tracer.Direct or None, got {self.direct!r}")
         if isinstance(self.lights, (Light, str, bytes)):
             raise ValueError("Scene.lights must be a sequence of lights (EnvMap, PointLight, SpotLight, "
-                             "DirectionalLight), not one")
+                             "DirectionalLight, ProjectorLight), not one")
         try:
             lights = tuple(self.lights)
         except TypeError:
@@ -423,7 +424,7 @@ class Scene:
         for i, light in enumerate(lights):
             if not isinstance(light, Light):
                 raise ValueError(f"Scene.lights[{i}] must be a reference_tracer light (EnvMap, PointLight, SpotLight, "
-                                 f"DirectionalLight), got {light!r}")
+                                 f"DirectionalLight, ProjectorLight), got {light!r}")
         envs = [i for i, light in enumerate(lights) if isinstance(light, EnvMap)]
         if len(envs) > 1:
             raise ValueError(f"Scene.lights holds {len(envs)} EnvMaps (at {envs}): a scene has one environment "

@@ -483,8 +483,9 @@ def test_import_reads_emitter_parameters(tmp_path):
 
 
 @pytest.mark.parametrize("emitters,needle", [
-    ('<emitter type="projector"><float name="fov" value="30"/></emitter>', "emitter 'projector'"),
-    ('<emitter type="spot"><texture type="checkerboard" name="texture"/></emitter>', "projected texture"),
+    ('<emitter type="projector"><transform name="to_world"><scale x="2"/></transform></emitter>',
+     "not a similarity"),
+    ('<emitter type="spot"><rgb name="texture" value="0.5"/></emitter>', "spot texture"),
     ('<emitter type="envmap"><string name="filename" value="nowhere.exr"/></emitter>', "envmap: EnvMap: cannot open"),
     ('<emitter type="envmap"><string name="filename" value="sky.png"/></emitter>', "only .exr"),
     ('<emitter type="envmap"><string name="filename" value="sky.exr"/>'

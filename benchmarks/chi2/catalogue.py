@@ -404,9 +404,44 @@ def _envmap_routines(rt) -> list:
         out.append(("directional", -np.asarray(sun.direction), np.asarray(sun.irradiance), pmf["directional"]))
         return out
 
+    # A projector of a bitmap, one of a constant and a textured spot beside the quad, all
+    # aimed near the reference point (each lights it; off the image's centre).
+    pref = np.array([0.2, -0.3, 0.1])
+    bitmap = rt.Bitmap(np.random.default_rng(5).random((4, 6, 3)) + 0.1)
+    projectors = [rt.ProjectorLight((0.5, 2.5, 2.0), pref + (0.1, 0.05, 0.0) - (0.5, 2.5, 2.0), bitmap, fov=50,
+                                    scale=2.0),
+                  rt.ProjectorLight((-1.0, 2.0, 1.0), pref - (0.1, 0.0, 0.1) - (-1.0, 2.0, 1.0), (1.0, 2.0, 3.0),
+                                    fov=60, up=(0, 0, 1))]
+    tspot = rt.SpotLight((1.0, 2.0, -1.0), pref + (0.05, 0.0, 0.1) - (1.0, 2.0, -1.0), (20.0, 15.0, 10.0),
+                         cutoff_angle=40.0, beam_width=30.0,
+                         texture=rt.Checkerboard(1.0, 0.2, to_uv=np.diag([5.0, 5.0, 1.0])))
+
+    def projector_deltas(ref):
+        c, b = math.radians(tspot.cutoff_angle), math.radians(tspot.beam_width)
+
+        def projector_weight(p):   # lights.h: luminance(scale E) mean(texture) 4 tan^2(x_fov / 2) / aspect
+            e = (np.ones(3) if p.textured else np.asarray(p.irradiance)) * p.scale
+            mean = p.irradiance.mean() if p.textured else 1.0
+            return float(e @ lum) * mean * p.image_area()
+        weights = {"quad": 4.0 * float(np.asarray(quad.material.radiance) @ lum),
+                   "projector_bitmap": projector_weight(projectors[0]),
+                   "projector_constant": projector_weight(projectors[1]),
+                   "spot_texture": 2.0 * float(np.asarray(tspot.intensity) @ lum)
+                   * (1.0 - (math.sin(c) - math.sin(b)) / (c - b)) * tspot.texture.mean()}
+        total = sum(weights.values())
+        out = []
+        for name, light in (("projector_bitmap", projectors[0]), ("projector_constant", projectors[1]),
+                            ("spot_texture", tspot)):
+            d = np.asarray(light.position) - ref
+            out.append((name, d / np.linalg.norm(d), light.arriving(ref[None, :])[0], weights[name] / total))
+        return out
+
     return [
         *(_light("envmap", lambda: [], ref, lights_fn=fn, densities=stated(fn), params=params)
           for fn, ref, params in maps),
+        _light("scene_projector", lambda: [big, quad], tuple(pref), lights_fn=lambda: [*projectors, tspot],
+               deltas=projector_deltas,
+               params=(("lights", "quad+projector(bitmap)+projector(constant)+spot(texture)"),)),
         _light("scene_envmap", lambda: [big, quad], (0.2, -0.3, 0.1),
                lights_fn=lambda: [*env((8, 16), sun=(2, 5), seed=7)(), point, spot, sun], deltas=mixed_deltas,
                params=(("lights", "envmap+quad+point+spot+directional"),)),

@@ -83,6 +83,62 @@ using FloatVector = nb::ndarray<const float, nb::ndim<1>, nb::c_contig, nb::devi
 // mesh's triangle count and height for the first of them.
 constexpr size_t kTextureColumns = 19;
 
+// The textures of a table of kTextureColumns columns whose bitmaps' (and mesh attributes')
+// values lie in `texels`; a mesh attribute must name a range of the scene's n_triangles
+// (0 where the table's textures are not on shapes: a light's).
+std::vector<rt::Texture> read_texture_table(const Matrix& table, const FloatVector& texels, const std::string& name,
+                                            size_t n_triangles) {
+    require_columns(table, kTextureColumns, name.c_str());
+    std::vector<rt::Texture> out;
+    const size_t n_texels = texels.shape(0);
+    for (size_t i = 0; i < table.shape(0); ++i) {
+        const double* row = table.data() + i * kTextureColumns;
+        rt::Texture t;
+        const int kind = int(row[0]), filter = int(row[1]), wrap = int(row[2]);
+        if (kind < 0 || kind > 2 || filter < 0 || filter > 1 || wrap < 0 || wrap > 2)
+            throw std::invalid_argument(name + ": unknown kind, filter or wrap mode");
+        t.kind = rt::TextureKind(kind);
+        t.nearest = filter == 1;
+        t.wrap = rt::TextureWrap(wrap);
+        for (int k = 0; k < 6; ++k) t.to_uv[k] = row[3 + k];
+        t.color0 = {row[9], row[10], row[11]};
+        t.color1 = {row[12], row[13], row[14]};
+        if (t.kind == rt::TextureKind::Bitmap) {
+            const double w = row[15], h = row[16], c = row[17], offset = row[18];
+            if (!(w >= 2 && h >= 2 && w <= 1e9 && h <= 1e9) || (c != 1 && c != 3) || !(offset >= 0) ||
+                w != std::floor(w) || h != std::floor(h) || offset != std::floor(offset))
+                throw std::invalid_argument(name + ": a bitmap needs whole sizes >= 2, 1 or 3 channels");
+            const double count = w * h * c;
+            if (offset + count > double(n_texels))
+                throw std::invalid_argument(name + ": a bitmap's texels lie beyond `texels`");
+            t.width = int(w);
+            t.height = int(h);
+            t.channels = int(c);
+            const float* first = texels.data() + size_t(offset);
+            t.texels.assign(first, first + size_t(count));
+        } else if (t.kind == rt::TextureKind::MeshAttribute) {
+            const double count = row[15], first_tri = row[16], c = row[17], offset = row[18];
+            if (!(count >= 1 && first_tri >= 0 && offset >= 0) || (c != 1 && c != 3) ||
+                count != std::floor(count) || first_tri != std::floor(first_tri) || offset != std::floor(offset) ||
+                first_tri + count > double(n_triangles))
+                throw std::invalid_argument(name + ": a mesh attribute needs 1 or 3 channels and a range of the "
+                                            "scene's triangles");
+            const double n = count * c * (filter == 1 ? 3.0 : 1.0);
+            if (offset + n > double(n_texels))
+                throw std::invalid_argument(name + ": a mesh attribute's values lie beyond `texels`");
+            t.per_vertex = filter == 1;
+            t.nearest = false;
+            t.width = int(count);
+            t.first_triangle = uint32_t(first_tri);
+            t.channels = int(c);
+            const float* first = texels.data() + size_t(offset);
+            t.texels.assign(first, first + size_t(n));
+        }
+        out.push_back(std::move(t));
+    }
+    return out;
+}
+
 // The scene's textures (the Python layer's dict: `table`, `texels`, `materials`, `spheres`,
 // `quads`, `triangles`, optionally `opacities`), each material's texture set in
 // mats[i].texture, a masked one's opacity texture in mats[i].opacity_texture.
@@ -97,7 +153,6 @@ rt::SceneTextures read_textures(const nb::dict& d, std::vector<rt::Material>& ma
     const IndexVector materials = nb::cast<IndexVector>(get("materials"));
     const Matrix spheres = nb::cast<Matrix>(get("spheres")), quads = nb::cast<Matrix>(get("quads")),
                  triangles = nb::cast<Matrix>(get("triangles"));
-    require_columns(table, kTextureColumns, "textures.table");
     require_columns(spheres, 9, "textures.spheres");
     require_columns(quads, 6, "textures.quads");
     require_columns(triangles, 6, "textures.triangles");
@@ -106,52 +161,7 @@ rt::SceneTextures read_textures(const nb::dict& d, std::vector<rt::Material>& ma
     if (spheres.shape(0) != n_spheres || quads.shape(0) != n_quads || triangles.shape(0) != n_triangles)
         throw std::invalid_argument("textures: one row of texture coordinates per sphere, quad and triangle");
     rt::SceneTextures out;
-    const size_t n_texels = texels.shape(0);
-    for (size_t i = 0; i < table.shape(0); ++i) {
-        const double* row = table.data() + i * kTextureColumns;
-        rt::Texture t;
-        const int kind = int(row[0]), filter = int(row[1]), wrap = int(row[2]);
-        if (kind < 0 || kind > 2 || filter < 0 || filter > 1 || wrap < 0 || wrap > 2)
-            throw std::invalid_argument("textures.table: unknown kind, filter or wrap mode");
-        t.kind = rt::TextureKind(kind);
-        t.nearest = filter == 1;
-        t.wrap = rt::TextureWrap(wrap);
-        for (int k = 0; k < 6; ++k) t.to_uv[k] = row[3 + k];
-        t.color0 = {row[9], row[10], row[11]};
-        t.color1 = {row[12], row[13], row[14]};
-        if (t.kind == rt::TextureKind::Bitmap) {
-            const double w = row[15], h = row[16], c = row[17], offset = row[18];
-            if (!(w >= 2 && h >= 2 && w <= 1e9 && h <= 1e9) || (c != 1 && c != 3) || !(offset >= 0) ||
-                w != std::floor(w) || h != std::floor(h) || offset != std::floor(offset))
-                throw std::invalid_argument("textures.table: a bitmap needs whole sizes >= 2, 1 or 3 channels");
-            const double count = w * h * c;
-            if (offset + count > double(n_texels))
-                throw std::invalid_argument("textures.table: a bitmap's texels lie beyond `texels`");
-            t.width = int(w);
-            t.height = int(h);
-            t.channels = int(c);
-            const float* first = texels.data() + size_t(offset);
-            t.texels.assign(first, first + size_t(count));
-        } else if (t.kind == rt::TextureKind::MeshAttribute) {
-            const double count = row[15], first_tri = row[16], c = row[17], offset = row[18];
-            if (!(count >= 1 && first_tri >= 0 && offset >= 0) || (c != 1 && c != 3) ||
-                count != std::floor(count) || first_tri != std::floor(first_tri) || offset != std::floor(offset) ||
-                first_tri + count > double(n_triangles))
-                throw std::invalid_argument("textures.table: a mesh attribute needs 1 or 3 channels and a range "
-                                            "of the scene's triangles");
-            const double n = count * c * (filter == 1 ? 3.0 : 1.0);
-            if (offset + n > double(n_texels))
-                throw std::invalid_argument("textures.table: a mesh attribute's values lie beyond `texels`");
-            t.per_vertex = filter == 1;
-            t.nearest = false;
-            t.width = int(count);
-            t.first_triangle = uint32_t(first_tri);
-            t.channels = int(c);
-            const float* first = texels.data() + size_t(offset);
-            t.texels.assign(first, first + size_t(n));
-        }
-        out.textures.push_back(std::move(t));
-    }
+    out.textures = read_texture_table(table, texels, "textures.table", n_triangles);
     for (size_t i = 0; i < mats.size(); ++i) {
         const int32_t id = materials(i);
         if (id < -1 || id >= int32_t(out.textures.size()))
@@ -230,7 +240,8 @@ public:
             const std::optional<Image>& environment, double environment_scale,
             const std::optional<Matrix>& environment_to_world, int projection, double view_width,
             double view_height, double aperture_radius, double focus_distance, double near_clip,
-            double far_clip, const std::optional<nb::dict>& textures) {
+            double far_clip, const std::optional<nb::dict>& textures,
+            const std::optional<nb::dict>& light_textures) {
         if (width < 1 || height < 1) throw std::invalid_argument("image size must be positive");
         if (max_depth < 1) throw std::invalid_argument("max_depth must be >= 1 here (the Python layer maps -1)");
         if (triangle_test < 0 || triangle_test > 2) throw std::invalid_argument("unknown triangle test");
@@ -334,21 +345,36 @@ public:
             }
         }
 
-        // Delta lights, one row each: kind (0 point, 1 spot, 2 directional), position (3),
-        // direction (3: a spot's axis, the direction a directional light's light travels;
-        // unit), intensity (3: a directional light's irradiance), a spot's cutoff and beam
-        // angles (radians, 0 <= beam <= cutoff <= pi, cutoff > 0).
+        // Delta lights, one row each (reference_tracer/_compile.py, DELTA_LIGHT_COLUMNS): kind
+        // (0 point, 1 spot, 2 directional, 3 projector), position (3), direction (3: a spot's
+        // axis, the direction a directional light's light travels, a projector's optical
+        // axis; unit), intensity (3: a directional light's irradiance, a projector's
+        // irradiance times its scale), a spot's cutoff and beam angles (radians,
+        // 0 <= beam <= cutoff <= pi, cutoff > 0); then a textured spot's or a projector's
+        // texture (an index into `light_textures`, -1: none) and its mean, the rotation from
+        // world to the light's frame (9, row-major), the uv factor (a spot's tan(cutoff), a
+        // projector's tan(fov_x / 2)) and a projector's aspect ratio.
         std::vector<rt::DeltaLight> deltas;
+        std::vector<std::shared_ptr<const rt::Texture>> light_texture_list;
+        if (light_textures) {
+            const nb::dict& d = *light_textures;
+            if (!d.contains("table") || !d.contains("texels"))
+                throw std::invalid_argument("light_textures: expected 'table' and 'texels'");
+            for (rt::Texture& t : read_texture_table(nb::cast<Matrix>(d["table"]), nb::cast<FloatVector>(d["texels"]),
+                                                     "light_textures.table", 0))
+                light_texture_list.push_back(std::make_shared<const rt::Texture>(std::move(t)));
+        }
         if (delta_lights) {
             const Matrix& rows = *delta_lights;
-            require_columns(rows, 12, "delta_lights");
+            require_columns(rows, 25, "delta_lights");
             for (size_t i = 0; i < rows.shape(0); ++i) {
                 rt::DeltaLight d;
                 const int kind = int(rows(i, 0));
-                if (kind < 0 || kind > 2 || double(kind) != rows(i, 0))
+                if (kind < 0 || kind > 3 || double(kind) != rows(i, 0))
                     throw std::invalid_argument("delta_lights: unknown kind");
-                d.kind = kind == 0 ? rt::EmitterKind::Point : kind == 1 ? rt::EmitterKind::Spot
-                                                                        : rt::EmitterKind::Directional;
+                constexpr rt::EmitterKind kinds[] = {rt::EmitterKind::Point, rt::EmitterKind::Spot,
+                                                     rt::EmitterKind::Directional, rt::EmitterKind::Projector};
+                d.kind = kinds[kind];
                 d.position = row3(rows, i, 1);
                 d.direction = row3(rows, i, 4);
                 d.intensity = row3(rows, i, 7);
@@ -363,6 +389,26 @@ public:
                         throw std::invalid_argument("delta_lights: a spot needs 0 <= beam <= cutoff <= pi, cutoff > 0");
                     d.cos_cutoff = std::cos(d.cutoff);
                     d.cos_beam = std::cos(d.beam);
+                }
+                const double tex = rows(i, 12);
+                if (tex != -1.0) {
+                    if (kind != 1 && kind != 3)
+                        throw std::invalid_argument("delta_lights: only a spot or a projector has a texture");
+                    if (!(tex >= 0.0 && tex < double(light_texture_list.size())) || tex != std::floor(tex))
+                        throw std::invalid_argument("delta_lights: texture index out of range of light_textures");
+                    d.texture = light_texture_list[size_t(tex)];
+                }
+                d.texture_mean = rows(i, 13);
+                for (int k = 0; k < 9; ++k) d.to_local[k] = rows(i, size_t(14 + k));
+                d.uv_factor = rows(i, 23);
+                d.aspect = rows(i, 24);
+                if (d.texture || kind == 3) {
+                    bool finite = std::isfinite(d.uv_factor) && std::isfinite(d.aspect);
+                    for (double x : d.to_local) finite = finite && std::isfinite(x);
+                    if (!finite || !(d.texture_mean >= 0.0) || !std::isfinite(d.texture_mean))
+                        throw std::invalid_argument("delta_lights: a texture's mean must be >= 0, the frame finite");
+                    if (kind == 3 && !(d.uv_factor > 0.0 && d.aspect > 0.0))
+                        throw std::invalid_argument("delta_lights: a projector needs tan(fov / 2) > 0 and an aspect > 0");
                 }
                 deltas.push_back(d);
             }
@@ -841,14 +887,14 @@ NB_MODULE(_core, m) {
                       const Matrix&, const Matrix&, const IndexVector&, const Vector&, int, int, int,
                       const std::optional<IndexVector>&, const std::optional<Matrix>&, const std::optional<Matrix>&,
                       const std::optional<Image>&, double, const std::optional<Matrix>&, int, double, double, double,
-                      double, double, double, const std::optional<nb::dict>&>(),
+                      double, double, double, const std::optional<nb::dict>&, const std::optional<nb::dict>&>(),
              "lookfrom"_a, "lookat"_a, "vup"_a, "vfov"_a, "width"_a, "height"_a, "materials"_a, "spheres"_a,
              "quads"_a, "triangles"_a, "triangle_materials"_a, "background"_a, "max_depth"_a, "rr_depth"_a,
              "triangle_test"_a = 0, "smooth_triangles"_a = nb::none(), "triangle_normals"_a = nb::none(),
              "delta_lights"_a = nb::none(), "environment"_a = nb::none(), "environment_scale"_a = 1.0,
              "environment_to_world"_a = nb::none(), "projection"_a = 0, "view_width"_a = 0.0,
              "view_height"_a = 0.0, "aperture_radius"_a = 0.0, "focus_distance"_a = 1.0, "near_clip"_a = 0.0,
-             "far_clip"_a = rt::kInf, "textures"_a = nb::none())
+             "far_clip"_a = rt::kInf, "textures"_a = nb::none(), "light_textures"_a = nb::none())
         .def("render", &PyScene::render, "spp"_a, "strategy"_a, "seed"_a, "threads"_a, "progress"_a = nb::none(),
              "moments"_a = false, "integrator"_a = 0
 #ifdef RT_MUTANTS_MODULE

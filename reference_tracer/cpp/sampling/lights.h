@@ -7,8 +7,8 @@
 // for a directional light over the scene's bounding sphere of radius R); the environment,
 // where there is one, takes half (all where it is the only light). Mitsuba picks uniformly
 // among its emitters: the two differ in variance, never in expectation.
-// Delta lights (PointLight, SpotLight, DirectionalLight: Mitsuba's point, spot and
-// directional) sit at one point or come from one direction: a sample of one is flagged
+// Delta lights (PointLight, SpotLight, DirectionalLight, ProjectorLight: Mitsuba's point, spot,
+// directional and projector) sit at one point or come from one direction: a sample of one is flagged
 // `delta`, its pdf is the selection's probability alone, its radiance what arrives at the
 // reference point (intensity / dist^2 times a spot's falloff; the irradiance of a
 // directional light), and no other direction has any density of them (pdf_all and
@@ -29,12 +29,14 @@
 #pragma once
 
 #include <algorithm>
+#include <memory>
 #include <vector>
 
 #include "../mutants.h"
 #include "../shapes/quad.h"
 #include "../shapes/sphere.h"
 #include "../shapes/triangle.h"
+#include "../texture.h"
 #include "environment.h"
 #include "warp.h"
 
@@ -93,7 +95,7 @@ struct LightSamplePack {
 };
 
 // Area lights first; the delta lights after them (is_delta).
-enum class EmitterKind : uint8_t { Sphere, Quad, Triangle, Point, Spot, Directional };
+enum class EmitterKind : uint8_t { Sphere, Quad, Triangle, Point, Spot, Directional, Projector };
 
 struct Emitter {
     EmitterKind kind;
@@ -104,16 +106,36 @@ struct Emitter {
 
 inline bool is_delta(EmitterKind k) { return k >= EmitterKind::Point; }
 
-// A light without extent (Mitsuba's point, spot and directional emitters).
+// A light without extent (Mitsuba's point, spot, directional and projector emitters).
 struct DeltaLight {
-    EmitterKind kind = EmitterKind::Point;  // Point, Spot or Directional
-    Vec3 position;   // point, spot
-    Vec3 direction;  // spot: the axis it shines along; directional: the direction its light travels (unit)
-    Vec3 intensity;  // point, spot: radiant intensity (W/sr); directional: irradiance
+    EmitterKind kind = EmitterKind::Point;  // Point, Spot, Directional or Projector
+    Vec3 position;   // point, spot, projector
+    // spot: the axis it shines along; directional: the direction its light travels;
+    // projector: its optical axis (the world image of its local +z); unit
+    Vec3 direction;
+    // point, spot: radiant intensity (W/sr); directional: irradiance; projector: the
+    // irradiance on its image plane at z = 1 times its scale (times the texture's value)
+    Vec3 intensity;
     // spot: Mitsuba's falloff (src/emitters/spot.cpp): 1 within beam_width of the axis,
     // falling linearly in the angle to 0 at cutoff_angle, 0 beyond.
     double cutoff = 0.0, beam = 0.0;          // radians, beam <= cutoff
     double cos_cutoff = -1.0, cos_beam = -1.0;
+    // A textured spot's projected texture, or a projector's irradiance texture (null: a
+    // constant). Shared: the scene's vector of lights copies the record, not the texels.
+    std::shared_ptr<const Texture> texture;
+    double texture_mean = 1.0;  // the texture's mean (luminance), for power() alone
+    // World to the light's frame (rotation, row-major): Mitsuba's to_world^-1, which is
+    // what both emitters map directions or points through before their uv.
+    double to_local[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    // spot: tan(cutoff), Mitsuba's m_uv_factor; projector: tan(fov_x / 2).
+    double uv_factor = 1.0;
+    double aspect = 1.0;  // projector: its texture's width / height (Mitsuba's resolution())
+
+    Vec3 local(const Vec3& w) const {
+        return Vec3(to_local[0] * w.x + to_local[1] * w.y + to_local[2] * w.z,
+                    to_local[3] * w.x + to_local[4] * w.y + to_local[5] * w.z,
+                    to_local[6] * w.x + to_local[7] * w.y + to_local[8] * w.z);
+    }
 
     double falloff(double cos_theta) const {
         if (!(cos_theta > cos_cutoff)) return 0.0;
@@ -123,8 +145,12 @@ struct DeltaLight {
 
     // Power / pi, in the units of the area lights' selection weight (area * luminance):
     // 4 pi I / pi for a point; 2 pi I (1 - (sin c - sin b) / (c - b)) / pi, the falloff's
-    // integral over the sphere, for a spot (2 (1 - cos c) when b = c); and R^2 E for a
-    // directional light over the disk of radius R (the scene's bounding sphere).
+    // integral over the sphere, for a spot (2 (1 - cos c) when b = c), times a textured
+    // spot's texture mean (the texture's variation across the cone is not integrated: a
+    // selection weight needs only to be positive where the light is); R^2 E for a
+    // directional light over the disk of radius R (the scene's bounding sphere). A
+    // projector sends pi scale E / cos^3 over its frustum, dw = cos^3 dA on the plane
+    // z = 1: its power is pi scale mean(E) times the image plane's area 4 tan^2(fov_x / 2) / aspect.
     double power(double scene_radius) const {
         const double lum = luminance(intensity);
         switch (kind) {
@@ -132,9 +158,12 @@ struct DeltaLight {
             case EmitterKind::Spot: {
                 const double cone = cutoff > beam ? 1.0 - (std::sin(cutoff) - std::sin(beam)) / (cutoff - beam)
                                                   : 1.0 - std::cos(cutoff);
-                return 2.0 * lum * cone;
+                const double p = 2.0 * lum * cone;
+                return texture ? p * texture_mean : p;
             }
             case EmitterKind::Directional: return scene_radius * scene_radius * lum;
+            case EmitterKind::Projector:
+                return lum * texture_mean * 4.0 * uv_factor * uv_factor / aspect;
             default: return 0.0;
         }
     }
@@ -536,9 +565,38 @@ private:
         if (!(dist2 > 0.0) || !std::isfinite(dist2)) return ls;
         ls.dist = std::sqrt(dist2);
         ls.wi = to / ls.dist;
+        if (d.kind == EmitterKind::Projector) return projector(d, ref, ls);
         double falloff = 1.0;
         if (d.kind == EmitterKind::Spot) falloff = d.falloff(-dot(ls.wi, d.direction));
         ls.radiance = d.intensity * (falloff / dist2);
+        // Mitsuba's spot texture: looked up where the falloff is positive, at
+        // uv = 0.5 + 0.5 (x, y) / (z tan(cutoff)) of the local direction from the light.
+        if (d.texture && falloff > 0.0) {
+            const Vec3 l = d.local(-ls.wi);
+            ls.radiance = ls.radiance * d.texture->eval(0.5 + 0.5 * l.x / (l.z * d.uv_factor),
+                                                        0.5 + 0.5 * l.y / (l.z * d.uv_factor));
+        }
+        ls.valid = !is_black(ls.radiance) && is_finite(ls.radiance);
+        return ls;
+    }
+
+    // The rest of sample_delta for a projector (Mitsuba's src/emitters/projector.cpp,
+    // sample_direction): ref in the light's frame maps through the inverse perspective
+    // projection to uv = (0.5 - 0.5 x / (z t), 0.5 - 0.5 aspect y / (z t)), t = tan(fov_x / 2);
+    // outside [0, 1]^2 or behind it (z <= 0) it is dark. What arrives is
+    // pi scale E(uv) / (z^2 cos), cos between the optical axis and the direction from the
+    // light: the inverse of a perspective camera's importance, so that a constant texture
+    // projected onto a plane facing it lights it evenly.
+    static LightSample& projector(const DeltaLight& d, const Vec3& ref, LightSample& ls) {
+        const Vec3 l = d.local(ref - d.position);
+        if (!(l.z > 0.0)) return ls;
+        const double u = 0.5 - 0.5 * l.x / (l.z * d.uv_factor);
+        const double v = 0.5 - 0.5 * d.aspect * l.y / (l.z * d.uv_factor);
+        if (!(u >= 0.0 && u <= 1.0 && v >= 0.0 && v <= 1.0)) return ls;
+        const double cos_axis = -dot(d.direction, ls.wi);
+        if (!(cos_axis > 0.0)) return ls;
+        const Vec3 e = d.texture ? d.intensity * d.texture->eval(u, v) : d.intensity;
+        ls.radiance = e * (kPi / (l.z * l.z * cos_axis));
         ls.valid = !is_black(ls.radiance) && is_finite(ls.radiance);
         return ls;
     }
