@@ -52,6 +52,10 @@ struct Sphere {
         const VPd ha = h / a;
         const VPd fx = Lx - ha * r.dx, fy = Ly - ha * r.dy, fz = Lz - ha * r.dz;
         const VPd disc = radius * radius - (fx * fx + fy * fy + fz * fz);
+        const VPl valid = ~(disc < 0.0);
+        // A pack that misses in every lane (most packs against a small light) skips the
+        // square root and the two divisions of the roots.
+        if (lane_mask(valid) == 0) return VPl{};
         const VPd c = (Lx * Lx + Ly * Ly + Lz * Lz) - radius * radius;
         // Lanes with disc < 0 take the square root of a negative number; they are
         // masked out below, as intersect() returns before it.
@@ -61,7 +65,6 @@ struct Sphere {
         VPd t1 = q_zero ? VPd{} : q / a;
         const VPl swap = t0 > t1;
         const VPd lo = swap ? t1 : t0, hi = swap ? t0 : t1;
-        const VPl valid = ~(disc < 0.0);
         const VPl hit0 = valid & (lo > 0.0) & (lo < t_max);
         const VPl hit1 = valid & ~hit0 & (hi > 0.0) & (hi < t_max);
         t_max = hit0 ? lo : (hit1 ? hi : t_max);
