@@ -281,6 +281,37 @@ void Scene::fill_interaction(const Ray& ray, double t, uint32_t prim, Interactio
     }
 }
 
+void Scene::fill_sphere_pack(const RayPack& r, VPd t, VPl prim, unsigned lanes, Interaction* const* it) const {
+    VPd center[3], radius, sign;
+    if (spheres_.size() == 1) {
+        const Sphere& s = spheres_[0];
+        for (int a = 0; a < 3; ++a) center[a] = splat(s.center[a]);
+        radius = splat(s.radius);
+        sign = splat(s.normal_sign);
+    } else {
+        for (int l = 0; l < kPackWidth; ++l) {  // every lane: the others' values are not used
+            const Sphere& s = spheres_[((lanes >> l) & 1u) ? size_t(prim[l]) : 0];
+            for (int a = 0; a < 3; ++a) center[a][l] = s.center[a];
+            radius[l] = s.radius;
+            sign[l] = s.normal_sign;
+        }
+    }
+    // ray.at(t), o + t d, lane-wise.
+    const VPd at[3] = {r.ox + r.dx * t, r.oy + r.dy * t, r.oz + r.dz * t};
+    VPd p[3], n[3];
+    Sphere::surface_pack(at, center, radius, sign, p, n);
+    for (unsigned left = lanes; left != 0; left &= left - 1) {
+        const int l = __builtin_ctz(left);
+        Interaction& hit = *it[l];
+        hit.t = t[l];
+        hit.prim = static_cast<uint32_t>(prim[l]);
+        hit.p = Vec3(p[0][l], p[1][l], p[2][l]);
+        hit.n = hit.ns = Vec3(n[0][l], n[1][l], n[2][l]);
+        hit.smooth = false;
+        hit.material = spheres_[hit.prim].material;
+    }
+}
+
 void Scene::fill_triangle(const Ray& ray, double t, const Triangle& tri, Interaction& it) {
     it.n = it.ns = tri.normal();
     it.smooth = false;
@@ -421,6 +452,16 @@ void Scene::intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interac
                 best = quads_[q].intersect_pack(p, t_max) ? VPl{} + int64_t(quad_base_ + q) : best;
         }
         const unsigned mesh = mesh_bvh_.empty() ? 0u : slabs.may_hit(mesh_bounds_, t_max);
+        // Packs whose every hit is a sphere's (every vertex of `furnace`) take their hit
+        // points a pack at a time: a lane's square root and division otherwise wait on the
+        // divider one lane after another.
+        const unsigned present = (1u << m) - 1u;
+        const unsigned found = lane_mask(best >= 0) & present;
+        if (mesh == 0 && found != 0 && (lane_mask(best < int64_t(quad_base_)) & found) == found) {
+            fill_sphere_pack(p, t_max, best, found, it + base);
+            for (size_t l = 0; l < m; ++l) hit[base + l] = (found >> l) & 1u;
+            continue;
+        }
         for (size_t l = 0; l < m; ++l) {
             double t = t_max[l];
             uint32_t prim = static_cast<uint32_t>(best[l]);

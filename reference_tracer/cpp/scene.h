@@ -432,6 +432,10 @@ private:
         return true;
     }
     void fill_interaction(const Ray& ray, double t, uint32_t prim, Interaction& it) const;
+    // fill_interaction for the lanes of `lanes` (bits) of a pack of rays whose hits are all
+    // spheres' (prim: the sphere's id, t: the distance), lane-wise and bit for bit; lane l's
+    // interaction is *it[l].
+    void fill_sphere_pack(const RayPack& r, VPd t, VPl prim, unsigned lanes, Interaction* const* it) const;
     // The interaction of a closest hit at distance t.
     void fill_hit(const Ray& ray, double t, const ClosestHit& best, Interaction& it) const {
         if (best.block >= 0) {

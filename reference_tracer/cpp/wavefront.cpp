@@ -7,6 +7,7 @@
 #include <tuple>
 
 #include "integrator_impl.h"
+#include "materials/rough_conductor_pack.h"
 
 namespace rt {
 
@@ -18,7 +19,8 @@ WavefrontIntegrator::WavefrontIntegrator(const Integrator<Mutant::None>& integra
         material_flags_.push_back(static_cast<uint8_t>((m.emits() ? kEmits : 0) |
                                                        (scatters_diffusely(m) ? kScattersDiffusely : 0) |
                                                        (light_samples && !m.is_delta() ? kTakesLightSample : 0) |
-                                                       (is_diffuse(m) ? kDiffuse : 0)));
+                                                       (is_diffuse(m) ? kDiffuse : 0) |
+                                                       (samples_ggx(m) ? kSamplesGGX : 0)));
     }
 }
 
@@ -324,6 +326,69 @@ void WavefrontIntegrator::scatter(Lane& lane) const {
     continue_path(lane, integrator_.sample_scatter(*lane.vertex, lane.ref, lane.rng));
 }
 
+void WavefrontIntegrator::scatter_ggx(Lane* const* lanes, int n) const {
+    for (int base = 0; base < n; base += kPackWidth) {
+        const int m = std::min(kPackWidth, n - base);
+        Lane* const* pack = lanes + base;
+        // The frame (s, t, n) and wo: twelve consecutive doubles of the vertex.
+        static_assert(offsetof(Frame, t) == 3 * sizeof(double) && offsetof(Frame, n) == 6 * sizeof(double) &&
+                          offsetof(Vertex, wo) == offsetof(Vertex, frame) + sizeof(Frame),
+                      "scatter_ggx gathers a vertex's frame and wo as twelve consecutive doubles");
+        VPd fv[12], p[3];
+        gather_members<12>(pack, m, [](const Lane& lane) { return &lane.vertex->frame.s.x; }, fv);
+        gather_members<3>(pack, m, [](const Lane& lane) { return &lane.it.p.x; }, p);
+        alignas(64) double u1[kPackWidth], u2[kPackWidth], alpha[kPackWidth], albedo[3][kPackWidth],
+            g[3][kPackWidth];
+        for (int l = 0; l < kPackWidth; ++l) {
+            Lane& lane = *pack[l < m ? l : 0];
+            if (l < m) {
+                // sample_material's draws, last first; u0 drawn and not used.
+                u2[l] = lane.rng.next_double();
+                u1[l] = lane.rng.next_double();
+                lane.rng.next_double();
+            } else {
+                u1[l] = u2[l] = 0.5;
+            }
+            const Vertex& v = *lane.vertex;
+            alpha[l] = v.m.param;
+            // The normal the continuation leaves along (Integrator::continuation_origin).
+            const Vec3& offset_n = v.it.smooth ? v.it.n : v.frame.n;
+            for (int a = 0; a < 3; ++a) {
+                albedo[a][l] = v.m.albedo[a];
+                g[a][l] = offset_n[a];
+            }
+        }
+        const VPd wo[3] = {fv[9], fv[10], fv[11]};
+        VPd alb[3], gn[3];
+        for (int a = 0; a < 3; ++a) {
+            alb[a] = load_pack(albedo[a]);
+            gn[a] = load_pack(g[a]);
+        }
+        VPd local[3], weight[3], pdf;
+        const unsigned valid = rough_conductor::sample_pack(alb, load_pack(alpha), wo, load_pack(u1),
+                                                            load_pack(u2), local, weight, pdf) &
+                               ((1u << m) - 1u);
+        // scatter_of: Frame::to_world(wi); then continuation_origin's offset_origin.
+        VPd wi[3], origin[3];
+        for (int a = 0; a < 3; ++a) wi[a] = mul_add(fv[6 + a], local[2], mul_add(fv[3 + a], local[1], fv[a] * local[0]));
+        offset_toward(p, gn, wi, offset_epsilon(p), origin);
+        // continue_path, lane by lane. The sample's eta is 1 (eta *= 1 changes nothing).
+        for (int l = 0; l < m; ++l) {
+            Lane& lane = *pack[l];
+            if (!((valid >> l) & 1u)) {
+                lane.path_done = true;
+                continue;
+            }
+            lane.beta *= Vec3(weight[0][l], weight[1][l], weight[2][l]);
+            lane.prev = PrevVertex{false, pdf[l], lane.ref};
+            lane.ray = Ray{Vec3(origin[0][l], origin[1][l], origin[2][l]), Vec3(wi[0][l], wi[1][l], wi[2][l])};
+            const bool goes_on = integrator_.survives(lane.depth + 1, lane.eta, lane.beta, lane.rng);
+            lane.path_done = !goes_on;
+            lane.depth += goes_on;
+        }
+    }
+}
+
 void WavefrontIntegrator::scatter_diffuse(const VertexQueue& q, int n) const {
     for (int base = 0; base < n; base += kPackWidth) {
         const unsigned present = (1u << std::min(kPackWidth, n - base)) - 1u;
@@ -436,6 +501,7 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
     VertexQueue queue{};
     Lane* grouped[kLanes];
     Lane* others[kLanes];
+    Lane* ggx[kLanes];  // those that scatter by plain GGX (scatter_ggx)
     int n_start = 0;
     for (Lane& lane : lanes)
         if (start_pixel(lane, pixels)) {
@@ -468,19 +534,25 @@ void WavefrontIntegrator::run(TileCursor& pixels, RenderOutput& out, const std::
         if (!scene_.camera().plain())
             for (int k = 0; k < n; ++k)
                 if (active[k]->depth == 0 && !(active[k]->it.t < active[k]->reach)) hit[k] = false;
-        int n_queued = 0, n_others = 0;
+        int n_queued = 0, n_others = 0, n_ggx = 0;
         for (int k = 0; k < n; ++k) {
             Lane& lane = *active[k];
             if (!shade(lane, hit[k], rays)) continue;
             // One loop: as passes of their own, the draws cost 2% of cornell_box's
             // instructions (PERFORMANCE.md, Ideas tried).
             const bool queued = queue_vertex(lane, queue, n_queued);
-            if (!(queued && queue.scatter[n_queued] != 0.0)) others[n_others++] = &lane;
+            if (!(queued && queue.scatter[n_queued] != 0.0)) {
+                if (material_flags_[lane.it.material] & kSamplesGGX)
+                    ggx[n_ggx++] = &lane;
+                else
+                    others[n_others++] = &lane;
+            }
             n_queued += queued;
         }
         if constexpr (kPackedDraws) draw_queued(queue, n_queued);
         const int n_shadow = next_events(queue, n_queued, shadowed, batch, t_max, rays);
         for (int k = 0; k < n_others; ++k) scatter(*others[k]);
+        scatter_ggx(ggx, n_ggx);
         scatter_diffuse(queue, n_queued);
         if (n_shadow > 0) {
             scene_.occluded_batch(size_t(n_shadow), batch, t_max, hit);

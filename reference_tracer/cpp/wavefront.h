@@ -124,6 +124,7 @@ private:
         kScattersDiffusely = 2,  // scatters_diffusely()
         kTakesLightSample = 4,   // `mis`'s light sample at a non-delta vertex, lights present
         kDiffuse = 8,            // is_diffuse()
+        kSamplesGGX = 16,        // scatter() samples plain GGX (samples_ggx): scatter_ggx()
     };
 
     static bool is_diffuse(const Material& m) {
@@ -133,6 +134,14 @@ private:
     // scatter_diffuse(): sample_material at a diffuse vertex of `cosine` or `mis`.
     bool scatters_diffusely(const Material& m) const {
         return is_diffuse(m) && (integrator_.strategy_ == Strategy::Cosine || integrator_.strategy_ == Strategy::MIS);
+    }
+
+    // Whether scatter() at a vertex of material m samples a rough conductor of plain GGX
+    // and Fresnel 1 (sample_scatter's material sample: `cosine` and `mis`), which
+    // scatter_ggx() does a pack of lanes at a time.
+    bool samples_ggx(const Material& m) const {
+        return m.type == MaterialType::RoughConductor && m.rough().plain_ggx() &&
+               (integrator_.strategy_ == Strategy::Cosine || integrator_.strategy_ == Strategy::MIS);
     }
 
     // Takes the next pixel for `lane`; false (the lane idle) when none is left.
@@ -188,6 +197,12 @@ private:
     static void offset_toward(const VPd (&p)[3], const VPd (&n)[3], const VPd (&d)[3], VPd eps, VPd (&out)[3]);
     static void reference_points(const VPd (&p)[3], const VPd (&n)[3], VPd (&ref)[3]);
     void scatter(Lane& lane) const;
+    // scatter() for lanes[0 .. n), whose vertices sample plain GGX (kSamplesGGX): each
+    // lane's draws as sample_material's, then rough_conductor::sample, the frame's to_world
+    // and the ray's offset origin a pack of lanes at a time, lane-wise and bit for bit
+    // (rough_conductor_pack.h); then each lane's throughput, previous vertex, ray and
+    // Russian roulette, as continue_path.
+    void scatter_ggx(Lane* const* lanes, int n) const;
     // sample_scatter at the queue's diffuse vertices: the cosine-weighted direction
     // (square_to_cosine_hemisphere; PERFORMANCE.md, Ideas tried), lambertian::sample_with, the
     // frame's to_world and the ray's offset origin lane-wise, bit for bit; then each lane's

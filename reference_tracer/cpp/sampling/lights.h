@@ -504,7 +504,10 @@ private:
         VPd wi[3];
         for (int a = 0; a < 3; ++a) wi[a] = d[a] * inv;
         const VPd cos_l = -mul_add(n[2], wi[2], mul_add(n[1], wi[1], n[0] * wi[0]));
-        const VPd pdf = sel * (pdf_dir == 0.0 ? dist2 / (cos_l * area) : pdf_dir);
+        // The area density's division only where a lane of the pack needs it (cone sampling,
+        // sample_spheres' common case, has its density already).
+        const VPl by_area = pdf_dir == 0.0;
+        const VPd pdf = sel * (lane_mask(by_area) != 0 ? (by_area ? dist2 / (cos_l * area) : pdf_dir) : pdf_dir);
         const unsigned valid = lane_mask((dist2 > 0.0) & (cos_l > 0.0) & (pdf > 0.0) & (pdf < kInf)) & lanes;
         const VPl set = lanes_of_bits(lanes), good = lanes_of_bits(valid);
         for (int a = 0; a < 3; ++a) {

@@ -52,6 +52,10 @@ struct Sphere {
         const VPd ha = h / a;
         const VPd fx = Lx - ha * r.dx, fy = Ly - ha * r.dy, fz = Lz - ha * r.dz;
         const VPd disc = radius * radius - (fx * fx + fy * fy + fz * fz);
+        const VPl valid = ~(disc < 0.0);
+        // A pack that misses in every lane (most packs against a small light) skips the
+        // square root and the two divisions of the roots.
+        if (lane_mask(valid) == 0) return VPl{};
         const VPd c = (Lx * Lx + Ly * Ly + Lz * Lz) - radius * radius;
         // Lanes with disc < 0 take the square root of a negative number; they are
         // masked out below, as intersect() returns before it.
@@ -61,7 +65,6 @@ struct Sphere {
         VPd t1 = q_zero ? VPd{} : q / a;
         const VPl swap = t0 > t1;
         const VPd lo = swap ? t1 : t0, hi = swap ? t0 : t1;
-        const VPl valid = ~(disc < 0.0);
         const VPl hit0 = valid & (lo > 0.0) & (lo < t_max);
         const VPl hit1 = valid & ~hit0 & (hi > 0.0) & (hi < t_max);
         t_max = hit0 ? lo : (hit1 ? hi : t_max);
@@ -70,12 +73,32 @@ struct Sphere {
 
     // Exact point on the sphere and its front-facing normal, for a hit at ray parameter t:
     // the point is re-projected onto the surface to remove the error of o + t d.
+    // surface_pack below does these operations lane-wise: keep the two alike (the
+    // integrators' images must agree bit for bit).
     void surface(const Vec3& p_approx, Vec3& p, Vec3& n) const {
         Vec3 d = p_approx - center;
         const double len = length(d);
         d = len > 0 ? d / len : Vec3(0, 0, 1);
         p = center + radius * d;
         n = d * normal_sign;
+    }
+
+    // surface() for a pack of points, each on its own sphere (centre, radius, normal_sign
+    // lane by lane): one square root and one division of a pack instead of one a lane.
+    static void surface_pack(const VPd (&p_approx)[3], const VPd (&center)[3], VPd radius, VPd normal_sign,
+                             VPd (&p)[3], VPd (&n)[3]) {
+        VPd d[3];
+        for (int a = 0; a < 3; ++a) d[a] = p_approx[a] - center[a];
+        const VPd len = sqrt_of(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        const VPl pos = len > 0.0;
+        const VPd inv = 1.0 / len;  // Vec3 / double multiplies by the reciprocal
+        d[0] = pos ? d[0] * inv : VPd{};
+        d[1] = pos ? d[1] * inv : VPd{};
+        d[2] = pos ? d[2] * inv : splat(1.0);
+        for (int a = 0; a < 3; ++a) {
+            p[a] = center[a] + d[a] * radius;
+            n[a] = d[a] * normal_sign;
+        }
     }
 };
 
