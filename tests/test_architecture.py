@@ -70,11 +70,11 @@ COMPILED = ("reference_tracer._core", "reference_tracer._mutants")
 #: Modules outside reference_tracer that may import one of its underscore modules, and why.
 PRIVATE_ALLOWED = {
     # checks that the tracer's own extension module holds no seeded bug: it must name it
-    ("tests/test_selftest.py", "reference_tracer._core"),
+    ("tests/benchmarks/selftest/test_selftest.py", "reference_tracer._core"),
     # white-box tests of the scene compiler's arrays and of the core's checks of arrays that
     # the public API never produces (malformed vertex normals)
-    ("tests/test_shading_normals.py", "reference_tracer._compile"),
-    ("tests/test_shading_normals.py", "reference_tracer._core"),
+    ("tests/reference_tracer/test_shading_normals.py", "reference_tracer._compile"),
+    ("tests/reference_tracer/test_shading_normals.py", "reference_tracer._core"),
 }
 
 UNIT_LAYER = {unit: layer for layer, units in LAYERS.items() for unit in units}

@@ -26,8 +26,9 @@ from benchmarks.gate.agreement import agreement
 from reference_tracer._compile import compile_scene
 from reference_tracer.render import core_scene
 from reference_tracer.shapes import vertex_normals
+from repo_paths import FIXTURES
 
-NORMALS = Path(__file__).parent / "fixtures" / "normals"
+NORMALS = FIXTURES / "normals"
 SPP = 4096
 WHITE = rt.Lambertian(0.6)
 
