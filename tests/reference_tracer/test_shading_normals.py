@@ -8,7 +8,7 @@ src/emitters/area.cpp). Here: the mesh model and its validation, the compiled ar
 core's hits, the loaders (``Mesh.load``, the importer) against Mitsuba's own loaders,
 translation round trips, and renders judged by Mitsuba itself with the published scenes'
 statistic (``benchmarks.gate.agreement``: 4096 spp each, Mitsuba in 16 batches).
-Flat meshes stay on the flat path: tests/test_wavefront.py and the suite's digests.
+Flat meshes stay on the flat path: tests/reference_tracer/test_wavefront.py and the suite's digests.
 """
 from __future__ import annotations
 
