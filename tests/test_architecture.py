@@ -70,11 +70,11 @@ COMPILED = ("reference_tracer._core", "reference_tracer._mutants")
 #: Modules outside reference_tracer that may import one of its underscore modules, and why.
 PRIVATE_ALLOWED = {
     # checks that the tracer's own extension module holds no seeded bug: it must name it
-    ("tests/test_selftest.py", "reference_tracer._core"),
+    ("tests/benchmarks/selftest/test_selftest.py", "reference_tracer._core"),
     # white-box tests of the scene compiler's arrays and of the core's checks of arrays that
     # the public API never produces (malformed vertex normals)
-    ("tests/test_shading_normals.py", "reference_tracer._compile"),
-    ("tests/test_shading_normals.py", "reference_tracer._core"),
+    ("tests/reference_tracer/test_shading_normals.py", "reference_tracer._compile"),
+    ("tests/reference_tracer/test_shading_normals.py", "reference_tracer._core"),
 }
 
 UNIT_LAYER = {unit: layer for layer, units in LAYERS.items() for unit in units}
@@ -247,3 +247,30 @@ def test_nothing_outside_the_tracer_imports_its_private_modules(folder):
                 bad.append(f"{rel}:{line} imports {module}")
     assert bad == [], ("use reference_tracer's public modules (probe, testing, validation, build):\n"
                        + "\n".join(bad))
+
+
+#: Folders of ``tests/`` that hold no tests: shared helpers and the files tests read.
+TEST_SUPPORT_FOLDERS = ("support", "fixtures")
+
+
+def test_tests_mirror_the_package_tree():
+    """A test's path tells what it tests (ARCHITECTURE.md, Where to add a test): every
+    ``test_*.py`` is either at the top of ``tests/`` (whole-project tests) or in
+    ``tests/<package>[/<sub-package>...]/`` named after a package that exists; helpers live in
+    ``tests/support``. Basenames are unique (pytest's default import mode needs it)."""
+    tests = ROOT / "tests"
+    files = sorted(p for p in tests.rglob("test_*.py")
+                   if p.relative_to(tests).parts[0] not in TEST_SUPPORT_FOLDERS)
+    bad = [str(p.relative_to(ROOT)) for p in files
+           if len(p.relative_to(tests).parts) > 1
+           and not (ROOT.joinpath(*p.relative_to(tests).parts[:-1]) / "__init__.py").is_file()]
+    assert bad == [], ("move each test into tests/<package>[/<sub-package>]/ after what it tests "
+                       "(a folder named after an existing package):\n" + "\n".join(bad))
+    names = defaultdict(list)
+    for p in files:
+        names[p.name].append(str(p.relative_to(ROOT)))
+    assert [v for v in names.values() if len(v) > 1] == [], "test file names must be unique across tests/"
+    stray = sorted(str(p.relative_to(ROOT)) for p in tests.rglob("*.py")
+                   if p.name != "conftest.py" and not p.name.startswith("test_")
+                   and p.relative_to(tests).parts[0] not in TEST_SUPPORT_FOLDERS)
+    assert stray == [], "shared test helpers belong in tests/support:\n" + "\n".join(stray)

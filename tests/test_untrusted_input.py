@@ -22,9 +22,8 @@ import reference_tracer as rt
 from benchmarks.cli import main
 from benchmarks.store import RESULTS, SUMMARY, append_record, read_records, record_key, write_image
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from harness_util import ROOT  # noqa: E402
-from report_store import make_store  # noqa: E402
+from harness_util import ROOT
+from report_store import make_store
 
 
 def _rewrite(store: Path, fn) -> None:

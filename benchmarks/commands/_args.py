@@ -5,7 +5,7 @@ subcommand may choose its own *default* only for the options in
 :data:`PER_COMMAND_DEFAULTS` (a budget or a size suits each command differently), and
 :class:`HelpFormatter` then shows that default in ``--help``. Options whose default is
 ``None`` say in their help text what happens without them (``--threads``: all cores).
-``tests/test_cli_args.py`` walks every subcommand's parser and holds the vocabulary to
+``tests/benchmarks/commands/test_cli_args.py`` walks every subcommand's parser and holds the vocabulary to
 this.
 
 Meanings fixed here

@@ -1,7 +1,7 @@
 """Mitsuba 3's own render-test rule, re-implemented to compare it with the gate's.
 
 :func:`mitsuba_rule` is the acceptance rule of Mitsuba's ``test_renders.py``: a per-pixel
-z-test against the reference's variance only. ``tests/test_gate_stats.py`` and the power
+z-test against the reference's variance only. ``tests/benchmarks/gate/test_gate_stats.py`` and the power
 table (:mod:`benchmarks.gate.power`) run it beside :func:`benchmarks.gate.compare` on the
 same data.
 """

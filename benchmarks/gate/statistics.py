@@ -63,7 +63,7 @@ so by default (``variance_floor='reference'``) the test side uses
 tile or the image: ``max(sum v_x, sum v_r) / n_x``). This can only enlarge the standard error, so it never adds false
 alarms; it costs power only where the test renderer is genuinely less noisy than the
 reference (a better sampling strategy). ``variance_floor='none'`` gives the plain Welch
-test, for comparison; ``tests/test_gate_stats.py`` measures both.
+test, for comparison; ``tests/benchmarks/gate/test_gate_stats.py`` measures both.
 
 Zero variance
 -------------

@@ -28,7 +28,7 @@ of the quick suite with probability at most ``alpha``, not ``k * alpha``.
 The furnace
 -----------
 Mitsuba 3.9.1 is biased in ``furnace`` (its sphere-emitter sampling from a point on the
-sphere itself: ``tests/test_mitsuba_agreement.py``), so the furnace is compared with its
+sphere itself: ``tests/mitsuba_scenes/test_mitsuba_agreement.py``), so the furnace is compared with its
 closed form, ``mitsuba_scenes.scenes.furnace.expected_radiance``
 (:func:`benchmarks.references.closed_form_reference_of`): a zero-variance reference,
 exact. A stronger check than a Mitsuba render would be: where our render has
@@ -72,7 +72,7 @@ __all__ = ["gate_tails", "DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEF
            "GateReport", "gate_scene", "resolve_scenes", "resolve_strategies", "gate_reference", "compare_render",
            "run_gate", "write_p_images"]
 
-#: samples per pixel of our render (see the power table in ``tests/test_gate_power.py``).
+#: samples per pixel of our render (see the power table in ``tests/benchmarks/gate/test_gate_power.py``).
 DEFAULT_SPP = 4096
 #: image width (and height) of the quick suite.
 DEFAULT_WIDTH = 32

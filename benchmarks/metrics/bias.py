@@ -31,7 +31,7 @@ pixels). ``p_value = 1 - Phi(z)`` (one-sided: bias can only add), and
 ``bias_significant = p_value < alpha`` has false-positive rate ``alpha`` for large
 ``P``; because :math:`T_p` is right-skewed the studentised mean is left-skewed, so for
 moderate ``P`` the rate is at most about ``alpha`` (measured in
-``tests/test_metrics.py``). The reference must be independent of the seeds.
+``tests/benchmarks/metrics/test_metrics.py``). The reference must be independent of the seeds.
 """
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ These functions build a configuration with CMake into a folder of its own, run c
 that build in a fresh interpreter (:func:`reference_tracer.build.use_core`, so that the
 calling process keeps its module), and collect the arrays that must agree. Used by
 ``scripts/compare_builds.py`` and by the tests that rebuild the core
-(``tests/test_builds.py``, ``tests/test_wavefront.py``).
+(``tests/reference_tracer/test_builds.py``, ``tests/reference_tracer/test_wavefront.py``).
 
 Examples
 --------

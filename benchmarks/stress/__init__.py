@@ -1,7 +1,7 @@
 """Numerical stability on hard cases: the measurements behind ``rtbench stress`` (issue 8).
 
 Every case is a function that measures a figure on the tracer and returns a
-:class:`StressRecord` (case, figure, verdict, details). ``tests/test_stress_*.py``
+:class:`StressRecord` (case, figure, verdict, details). ``tests/benchmarks/stress/test_stress_*.py``
 assert on the same functions; ``rtbench stress`` (:mod:`benchmarks.commands.stress`)
 prints them as a table. This package measures and decides; it prints nothing.
 

@@ -1,7 +1,7 @@
 """Probe scenes and rays shared by the hard cases: small scenes, closed meshes, aimed rays.
 
 Nothing here decides a verdict: these build the scenes and rays that the case modules
-measure (and that ``tests/test_stress_*.py`` reuse).
+measure (and that ``tests/benchmarks/stress/test_stress_*.py`` reuse).
 """
 from __future__ import annotations
 

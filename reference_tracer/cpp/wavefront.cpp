@@ -1,7 +1,7 @@
 // The wavefront integrator (wavefront.h). Every step mirrors Integrator::Li and
 // render_pixel statement for statement, calling the same helpers: the order of the random
 // draws and of the floating-point operations is theirs, which is what keeps the images
-// identical (tests/test_wavefront.py compares them on every suite scene and strategy).
+// identical (tests/reference_tracer/test_wavefront.py compares them on every suite scene and strategy).
 #include "wavefront.h"
 
 #include <tuple>

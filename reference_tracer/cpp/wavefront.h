@@ -15,7 +15,7 @@
 // the light samples and, at diffuse vertices of `cosine` and `mis`, next-event estimation
 // and the continuation (VertexQueue): lane-wise, with the scalar code's operations in its
 // order, so that each lane's result is still the scalar integrator's bit for bit
-// (tests/test_wavefront.py checks both integrators' images on every suite scene and
+// (tests/reference_tracer/test_wavefront.py checks both integrators' images on every suite scene and
 // strategy). The other materials' vertices run the scalar integrator's own code lane by
 // lane.
 #pragma once

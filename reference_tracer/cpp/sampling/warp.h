@@ -27,7 +27,7 @@ inline void frame_tangents(const VPd (&n)[3], VPd (&s)[3], VPd (&t)[3]) {
 // sin and cos of x for |x| <= pi/4 from their Taylor series in Horner form, each step one
 // mul_add (fused where the CPU has FMA: half the instructions and half the latency of
 // the chain). The first omitted terms, x^17/17! and x^18/18!, are below 5e-17 there, and
-// the result is within 1 ulp of std::sin / std::cos (tests/test_chi2.py checks the warps
+// the result is within 1 ulp of std::sin / std::cos (tests/benchmarks/chi2/test_chi2.py checks the warps
 // built on it against extended precision). Inline and without range reduction it costs a
 // fraction of a general sincos call, and the concentric map below only ever needs angles
 // in this interval. T is double, or VPd for a pack of lanes (each lane computes exactly

@@ -6,12 +6,13 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "compare_builds.py"
-AB_SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "ab_cores.py"
+from repo_paths import ROOT
+
+SCRIPT = ROOT / "scripts" / "compare_builds.py"
+AB_SCRIPT = ROOT / "scripts" / "ab_cores.py"
 
 
 def _run(*args, script=SCRIPT, timeout=900):

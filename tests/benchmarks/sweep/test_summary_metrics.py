@@ -81,7 +81,6 @@ def test_exact_estimator_gets_no_efficiency_under_any_metric(tmp_path_factory):
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).parent))
     from harness_util import cache_root
 
     from benchmarks.sweep import Group, run_sweep

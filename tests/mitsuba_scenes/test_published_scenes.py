@@ -17,7 +17,6 @@ wall, a slightly warped quad without ``vn``) shaded with the vertex normals Mits
 """
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,8 +24,9 @@ import pytest
 import reference_tracer as rt
 from benchmarks.gate.agreement import agreement
 from mitsuba_scenes import from_mitsuba, render_mitsuba
+from repo_paths import FIXTURES
 
-PUBLISHED = Path(__file__).resolve().parent / "fixtures" / "published"
+PUBLISHED = FIXTURES / "published"
 SPP = 4096
 
 # folder: (scene file, its $name parameters, the film size they give (height, width))

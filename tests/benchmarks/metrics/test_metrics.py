@@ -7,7 +7,6 @@ rate over random seeds), computed from the stated model.
 from __future__ import annotations
 
 import math
-import os
 import sys
 import warnings
 
@@ -18,7 +17,9 @@ from scipy import stats
 try:
     import benchmarks  # noqa: F401
 except ModuleNotFoundError:  # not installed (no `pip install -e .` yet): use the checkout
-    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    from repo_paths import ROOT
+
+    sys.path.insert(0, str(ROOT))
 
 from benchmarks import metrics as M  # noqa: E402
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,8 +17,9 @@ from benchmarks.cli import main
 from benchmarks.corpus.judge import compact_feature, out_of_scope, small_film
 from benchmarks.corpus.results import feature_ranking, needs_text
 from benchmarks.corpus.scan import scan
+from repo_paths import FIXTURES
 
-CORPUS = Path(__file__).resolve().parent / "fixtures" / "corpus"
+CORPUS = FIXTURES / "corpus"
 AGREES = "bitterli/cornell-box/scene_v3.xml"
 REFUSED = "mitsuba-data/tests/scenes/projector/test_projector_constant_direct.xml"
 OUT_OF_SCOPE = "mitsuba-data/docs/scenes/integrator_stokes_cbox.xml"
@@ -170,7 +170,7 @@ def test_film_size_is_the_scene_at_another_size_on_both_sides():
     from mitsuba_scenes.variants import import_mitsuba
 
     mi = import_mitsuba("scalar_rgb")
-    path = Path(__file__).resolve().parent / "fixtures" / "published" / "bitterli" / "veach-mis" / "scene_v3.xml"
+    path = FIXTURES / "published" / "bitterli" / "veach-mis" / "scene_v3.xml"
     own = {"resx": "48", "resy": "27"}
     assert film_sizes(path) == [(1280, 720)] and film_sizes(path, params=own) == [(48, 27)]
     assert from_mitsuba(path, film_size=(48, 27)).camera == from_mitsuba(path, own).camera

@@ -1,7 +1,7 @@
 """Mitsuba's ``mask`` BSDF (opacity): ``rt.Mask`` around a material, judged by Mitsuba.
 
 - **Renders** of one small XML scene, imported with ``from_mitsuba`` and rendered by both
-  (``benchmarks.gate.agreement``, as ``tests/test_thin_dielectric.py``: every ``|global z|
+  (``benchmarks.gate.agreement``, as ``tests/reference_tracer/test_thin_dielectric.py``: every ``|global z|
   <= 4`` and at most 1% of pixel values with ``|z| > 4``; about 2e-4 false alarms a render
   under the normal approximation, seeds fixed). Four masked planes over a diffuse floor lit
   by an area light and a constant emitter: a constant opacity, a checkerboard opacity

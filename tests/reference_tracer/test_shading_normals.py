@@ -8,7 +8,7 @@ src/emitters/area.cpp). Here: the mesh model and its validation, the compiled ar
 core's hits, the loaders (``Mesh.load``, the importer) against Mitsuba's own loaders,
 translation round trips, and renders judged by Mitsuba itself with the published scenes'
 statistic (``benchmarks.gate.agreement``: 4096 spp each, Mitsuba in 16 batches).
-Flat meshes stay on the flat path: tests/test_wavefront.py and the suite's digests.
+Flat meshes stay on the flat path: tests/reference_tracer/test_wavefront.py and the suite's digests.
 """
 from __future__ import annotations
 
@@ -26,8 +26,9 @@ from benchmarks.gate.agreement import agreement
 from reference_tracer._compile import compile_scene
 from reference_tracer.render import core_scene
 from reference_tracer.shapes import vertex_normals
+from repo_paths import FIXTURES
 
-NORMALS = Path(__file__).parent / "fixtures" / "normals"
+NORMALS = FIXTURES / "normals"
 SPP = 4096
 WHITE = rt.Lambertian(0.6)
 

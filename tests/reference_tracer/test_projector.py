@@ -2,7 +2,7 @@
 emitter's projected ``texture`` (``SpotLight(texture=...)``).
 
 * Agreement with Mitsuba (``benchmarks.gate.agreement``, 4096 spp, Mitsuba in 16 batches,
-  as tests/test_lights.py): a projector of a constant and of a bitmap (a PNG written here)
+  as tests/reference_tracer/test_lights.py): a projector of a constant and of a bitmap (a PNG written here)
   onto a diffuse wall and floor, and a textured spot, under ``mis`` with the path integrator
   and under ``mis`` and ``light`` with the ``direct`` integrator.
 * Delta-light samples (direction, what arrives, pmf) against the Python formulas, through

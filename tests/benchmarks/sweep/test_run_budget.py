@@ -21,8 +21,7 @@ from benchmarks.sweep import summary as S
 from benchmarks.sweep.presets import escalates_tails, preset_groups
 from benchmarks.tails import DEFAULT_MAX_TAIL_SAMPLES, DEFAULT_TAIL_SPP
 
-sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parent))
-from harness_util import ROOT  # noqa: E402
+from harness_util import ROOT
 
 
 def test_quick_preset_renders_what_its_verdicts_need_and_no_more():

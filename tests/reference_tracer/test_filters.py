@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,8 +11,7 @@ import pytest
 import reference_tracer as rt
 from mitsuba_scenes import get_scene, render_mitsuba
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from mitsuba_stats import compare  # noqa: E402
+from mitsuba_stats import compare
 
 
 def _filtered(name, f, size=24):

@@ -6,6 +6,7 @@ import pytest
 from benchmarks.store import read_records, record_key
 from benchmarks.sweep import Group, run_sweep
 from harness_util import cache_root, comparable
+from repo_paths import FIXTURES
 
 distributed = pytest.importorskip("distributed")
 
@@ -56,7 +57,7 @@ def test_dask_workers_learn_scene_files_and_external_renderers_with_each_job(tmp
     from mitsuba_scenes.scene_files import register_scene_file
 
     cli = shutil.which("mitsuba", path=str(Path(sys.executable).parent)) or shutil.which("mitsuba")
-    entry = register_scene_file(Path(__file__).parent / "fixtures" / "xml" / "sphere_constant.xml")
+    entry = register_scene_file(FIXTURES / "xml" / "sphere_constant.xml")
     externals = ()
     if cli is not None:
         externals = (register_external(f"{cli} -m scalar_rgb -D spp={{spp}} -D seed={{seed}} -o {{out}} "

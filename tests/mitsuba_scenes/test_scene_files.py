@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
@@ -10,8 +9,9 @@ import reference_tracer as rt
 from benchmarks.cli import main
 from mitsuba_scenes import get_scene, known_scenes, list_scenes
 from mitsuba_scenes.scene_files import parse_params, register_scene_file, scene_file
+from repo_paths import FIXTURES
 
-XML = Path(__file__).parent / "fixtures" / "xml"
+XML = FIXTURES / "xml"
 
 PY_SCENE = '''
 import reference_tracer as rt

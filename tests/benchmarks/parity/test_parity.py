@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import pytest
 
@@ -10,8 +9,9 @@ import reference_tracer as rt
 from benchmarks.cli import main
 from benchmarks.parity import run_parity
 from mitsuba_scenes import from_mitsuba, get_scene, list_scenes, to_mitsuba
+from repo_paths import FIXTURES
 
-XML = Path(__file__).parent / "fixtures" / "xml"
+XML = FIXTURES / "xml"
 
 
 pytestmark = pytest.mark.usefixtures("fresh_registries")

@@ -9,16 +9,13 @@ import os
 import re
 import shutil
 import subprocess
-import sys
 from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from report_store import make_store  # noqa: E402
+from report_store import make_store
 
 import reports  # noqa: E402
 from benchmarks.metrics import view  # noqa: E402

@@ -24,7 +24,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -36,8 +35,9 @@ from benchmarks.parity import run_parity
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
 from reference_tracer import probe
 from reference_tracer.render import BLIND_TO_DELTA_LIGHTS
+from repo_paths import FIXTURES
 
-PUBLISHED = Path(__file__).resolve().parent / "fixtures" / "published"
+PUBLISHED = FIXTURES / "published"
 SPP = 4096
 
 

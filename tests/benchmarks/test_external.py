@@ -10,8 +10,9 @@ import pytest
 
 from benchmarks.cli import main
 from benchmarks.external import register_external
+from repo_paths import FIXTURES
 
-XML = Path(__file__).parent / "fixtures" / "xml"
+XML = FIXTURES / "xml"
 MITSUBA_CLI = shutil.which("mitsuba", path=str(Path(sys.executable).parent)) or shutil.which("mitsuba")
 
 

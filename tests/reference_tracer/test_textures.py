@@ -8,7 +8,7 @@ Three kinds of check:
   coordinates (sphere, rectangle, triangle, mesh with and without UVs, cube, flipped normals,
   rotations) and each lookup (filters, wrap modes, ``to_uv``) exactly, without noise.
 - **Renders** of small XML scenes, imported with ``from_mitsuba`` and rendered by both
-  (``benchmarks.gate.agreement``, as ``tests/test_published_scenes.py``): per channel the
+  (``benchmarks.gate.agreement``, as ``tests/mitsuba_scenes/test_published_scenes.py``): per channel the
   whole image's z and the share of pixel values with ``|z| > 4``. Agreement: every
   ``|global z| <= 4`` and at most 1% of pixel values beyond 4. False-positive rate of one
   scene, for agreeing renders: about 3 x 6.3e-5 ~ 2e-4 from the global z (normal

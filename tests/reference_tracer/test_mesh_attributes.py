@@ -1,7 +1,7 @@
 """Mitsuba's ``mesh_attribute`` texture: ``rt.MeshAttribute`` on a mesh's attributes, judged by Mitsuba.
 
 - **Renders** of small XML scenes over a generated PLY, imported with ``from_mitsuba`` and
-  rendered by both (``benchmarks.gate.agreement``, as ``tests/test_mask.py``): float vertex
+  rendered by both (``benchmarks.gate.agreement``, as ``tests/reference_tracer/test_mask.py``): float vertex
   colours (``r g b``, interpolated by the barycentrics), uchar vertex colours (``red green
   blue``, which Mitsuba 3.9.1 reads as 0 to 255: a ``scale`` of 1/255) and float face
   colours (one per face), under an area light (``path``) and a directional light

@@ -1,4 +1,4 @@
-"""Shared helpers of the harness tests (``tests/test_harness_*.py``)."""
+"""Shared helpers of the harness tests (``tests/benchmarks/**/test_harness_*.py`` and others that run ``rtbench``)."""
 from __future__ import annotations
 
 import os
@@ -7,7 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from repo_paths import ROOT
 
 
 def cache_root(tmp_path_factory) -> Path:

@@ -17,7 +17,6 @@ correct implementation would have over random seeds.
 from __future__ import annotations
 
 import math
-import os
 import sys
 import warnings
 
@@ -28,7 +27,9 @@ from scipy import stats
 try:
     import benchmarks  # noqa: F401
 except ModuleNotFoundError:  # not installed (no `pip install -e .` yet): use the checkout
-    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    from repo_paths import ROOT
+
+    sys.path.insert(0, str(ROOT))
 
 from benchmarks.gate import compare, mitsuba_rule  # noqa: E402
 from benchmarks.stats import sidak, sidak_p_value  # noqa: E402

@@ -8,7 +8,6 @@ convention that the translator and the importer get wrong together still shows h
 """
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,8 +16,9 @@ import reference_tracer as rt
 from benchmarks.gate import compare
 from mitsuba_scenes import from_mitsuba, render_mitsuba
 from mitsuba_scenes.variants import import_mitsuba
+from repo_paths import FIXTURES
 
-XML = Path(__file__).parent / "fixtures" / "xml"
+XML = FIXTURES / "xml"
 #: ours and Mitsuba's samples per pixel (Mitsuba in 16 batches for its per-pixel variance).
 OURS_SPP, MITSUBA_SPP = 1024, 1024
 ALPHA = 1e-3

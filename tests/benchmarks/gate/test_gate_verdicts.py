@@ -11,7 +11,6 @@ import json
 import math
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,7 +21,7 @@ from benchmarks.gate import calibrate, clopper_pearson, compare, edgeworth_error
 from benchmarks.tails import tail_reference
 from mitsuba_scenes import get_scene
 
-ROOT = Path(__file__).resolve().parents[1]
+from repo_paths import ROOT
 
 
 def test_moments_leave_the_image_unchanged_and_agree_with_the_variance():

@@ -6,7 +6,7 @@ Images are a procedural Cornell-box-like picture plus Gaussian noise whose stand
 deviation falls as 1/sqrt(spp); the ``light`` strategy is darkened off the emitter to
 stand in for the indirect light it misses (a bias).
 
-Run as a script to write one: ``python tests/report_store.py OUT [--size 64]``.
+Run as a script to write one: ``python tests/support/report_store.py OUT [--size 64]``.
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
