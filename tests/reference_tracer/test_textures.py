@@ -298,6 +298,21 @@ def test_scalar_and_wavefront_agree_bit_for_bit_with_textures():
     assert np.array_equal(a.mean, b.mean)
 
 
+@pytest.mark.parametrize("strategy", ["cosine", "mis"])
+def test_wavefront_packs_of_textured_and_masked_ggx_equal_scalar(strategy):
+    # The wavefront integrator scatters plain-GGX conductors a pack at a time: a textured
+    # one must take its texture's value at the hit, a masked one its null lobe, as the
+    # scalar integrator does.
+    ggx = rt.RoughConductor(CHECKER, alpha=0.3, two_sided=True)
+    masked = rt.Mask(rt.RoughConductor((0.9, 0.8, 0.7), alpha=0.2), opacity=CHECKER)
+    light = rt.Quad((-3, 3, -3), (6, 0, 0), (0, 0, 6), rt.DiffuseLight((4.0, 4.0, 4.0)))
+    scene = _scene(rt.Sphere((0, 0, 0), 1, ggx), rt.Quad((-2, -1, -2), (4, 0, 0), (0, 0.2, 4), masked),
+                   rt.Quad((-3, -1.5, -3), (0, 0, 6), (6, 0, 0), rt.Lambertian(0.5)), light, width=16, height=12)
+    a = rt.render(scene, spp=16, strategy=strategy, seed=5, threads=1, integrator="scalar")
+    b = rt.render(scene, spp=16, strategy=strategy, seed=5, threads=1, integrator="wavefront")
+    assert np.array_equal(a.mean, b.mean) and np.array_equal(a.variance, b.variance)
+
+
 # ------------------------------------------------------------------------------------------
 # The importer
 
