@@ -18,7 +18,6 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,7 +25,7 @@ import numpy as np
 
 from .imageio import read_exr, read_hdr
 from .textures import LUMINANCE, Bitmap, Texture
-from .validation import FLOAT32_MAX, colour, finite_scalar, vector3
+from .validation import FLOAT32_MAX, colour, finite_scalar, open_regular_file, vector3
 
 __all__ = ["Light", "EnvMap", "PointLight", "SpotLight", "DirectionalLight", "ProjectorLight", "FOV_AXES",
            "ENVMAP_FORMATS", "MAX_ENVMAP_PIXELS"]
@@ -83,11 +82,11 @@ def _rotation(name: str, to_world) -> np.ndarray:
 def _regular_file(path: Path) -> None:
     """Refuse anything but a regular file (a FIFO or a device would hang or never end)."""
     try:
-        st = os.stat(path)
+        open_regular_file(path, "an image file").close()
     except OSError as exc:
         raise ValueError(f"EnvMap: cannot open {path}: {exc.strerror or exc}") from None
-    if not stat.S_ISREG(st.st_mode):
-        raise ValueError(f"EnvMap: {path} is not a regular file")
+    except ValueError as exc:
+        raise ValueError(f"EnvMap: {exc}") from None
 
 
 def _read_image(path: Path) -> np.ndarray:

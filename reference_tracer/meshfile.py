@@ -25,7 +25,6 @@ import io
 import math
 import os
 import re
-import stat
 import struct
 import zlib
 from array import array
@@ -35,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from .textures import srgb_to_linear
+from .validation import open_regular_file
 
 __all__ = ["read_mesh", "ply_attributes", "decode_obj", "check_obj_faces", "check_mesh_file", "ply_header_counts", "parse_obj",
            "obj_undefined_normal", "MeshData", "check_serialized_file", "serialized_header"]
@@ -134,15 +134,9 @@ def check_mesh_file(path) -> int:
         The file cannot be opened.
     """
     path = Path(path)
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    try:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            raise ValueError(f"{path} is not a mesh file: not a regular file")
-        head = os.pread(fd, _PLY_HEADER_MAX, 0)
-    finally:
-        os.close(fd)
-    size = st.st_size
+    with open_regular_file(path, "a mesh file") as f:
+        size = os.fstat(f.fileno()).st_size
+        head = f.read(_PLY_HEADER_MAX)
     if head.startswith(b"ply"):
         _, header, elements = ply_header_counts(head, name=str(path))
         need = sum(count * each for _, count, each in elements)
@@ -240,12 +234,7 @@ def check_serialized_file(path, shape_index: int = 0) -> dict:
         The mesh would need more memory than is available.
     """
     path = Path(path)
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    try:
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            raise ValueError(f"{path} is not a mesh file: not a regular file")
-    finally:
-        os.close(fd)
+    open_regular_file(path, "a mesh file").close()
     header = serialized_header(path, shape_index)
     memory, available = _SERIALIZED_MEMORY_PER_BYTE * header["data_bytes"], _available_memory()
     if memory > available:

@@ -26,7 +26,6 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-import stat
 import struct
 import warnings
 from dataclasses import dataclass, field
@@ -35,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from .imageio import read_exr
-from .validation import colour
+from .validation import colour, open_regular_file
 
 __all__ = ["Texture", "Checkerboard", "Bitmap", "MeshAttribute", "read_image", "srgb_to_linear", "FILTER_TYPES", "WRAP_MODES",
            "MAX_TEXTURE_PIXELS", "texture_uv", "is_texture"]
@@ -341,20 +340,6 @@ _SRGB_TABLE = srgb_to_linear(np.arange(256, dtype=np.float32) * np.float32(1.0 /
 _RAW_TABLE = (np.arange(256, dtype=np.float32) * np.float32(1.0 / 255.0)).astype(np.float32)
 
 
-def _open_regular(path: Path):
-    """A binary file object of ``path``, after checking it is a regular file (a FIFO or a
-    device would hang the reader or never end)."""
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    try:
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            raise ValueError(f"{path} is not an image file: not a regular file")
-        os.set_blocking(fd, True)
-        return os.fdopen(fd, "rb")
-    except BaseException:
-        os.close(fd)
-        raise
-
-
 def _check_size(path, width: int, height: int, max_pixels: int) -> None:
     if width <= 0 or height <= 0:
         raise ValueError(f"{path}: its header declares a {width}x{height} image")
@@ -485,7 +470,7 @@ def read_image(path, *, raw: bool = False, max_pixels: int = MAX_TEXTURE_PIXELS)
     ((2, 3, 1), 0.21586, 0.501960813999176)
     """
     path = Path(path)
-    with _open_regular(path) as f:
+    with open_regular_file(path, "an image file") as f:
         head = f.read(64)
         fmt = _format_of(head)
         try:

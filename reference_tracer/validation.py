@@ -16,10 +16,14 @@ Examples
 from __future__ import annotations
 
 import math
+import os
+import stat
+from pathlib import Path
 
 import numpy as np
 
-__all__ = ["finite_scalar", "vector3", "colour", "positive_int", "FLOAT32_MAX", "INT_MAX", "SEED_MAX"]
+__all__ = ["finite_scalar", "vector3", "colour", "positive_int", "open_regular_file", "FLOAT32_MAX", "INT_MAX",
+           "SEED_MAX"]
 
 
 def finite_scalar(name: str, value, *, lo: float | None = None, hi: float | None = None,
@@ -206,3 +210,41 @@ def positive_int(name: str, value, *, minimum: int = 1, maximum: int = INT_MAX) 
     if value > maximum:
         raise ValueError(f"{name} must be <= {maximum}, got {value}")
     return int(value)
+
+
+def open_regular_file(path, what: str):
+    """Open ``path`` for binary reading, after checking it is a regular file.
+
+    The file is opened without blocking and checked on its descriptor (no race between the
+    check and the open): a FIFO would block the reader and a device such as ``/dev/zero``
+    never end, so each is refused as bad input before a byte is read.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    what : str
+        What the file should be, for the message ("a mesh file", "an image file").
+
+    Raises
+    ------
+    ValueError
+        Not a regular file (a FIFO, a device, a folder).
+    OSError
+        The file cannot be opened.
+
+    Examples
+    --------
+    >>> open_regular_file("/dev/null", "a mesh file")
+    Traceback (most recent call last):
+    ...
+    ValueError: /dev/null is not a mesh file: not a regular file
+    """
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise ValueError(f"{Path(path)} is not {what}: not a regular file")
+        os.set_blocking(fd, True)
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise
