@@ -21,7 +21,7 @@ from repo_paths import FIXTURES
 
 CORPUS = FIXTURES / "corpus"
 AGREES = "bitterli/cornell-box/scene_v3.xml"
-REFUSED = "mitsuba-data/tests/scenes/projector/test_projector_constant_direct.xml"
+REFUSED = "mitsuba-data/tests/scenes/mesh_attributes/test_mesh_attributes_1_face_direct.xml"
 OUT_OF_SCOPE = "mitsuba-data/docs/scenes/integrator_stokes_cbox.xml"
 MITSUBA_FAILS = "mitsuba-data/docs/scenes/sensor_orthographic.xml"
 FRAGMENT = "mitsuba-data/docs/scenes/include/sensor_scene.xml"
@@ -35,7 +35,7 @@ def corpus_run(tmp_path_factory):
     base = tmp_path_factory.mktemp("corpus")
     folder, out = base / "corpus", base / "out"
     shutil.copytree(CORPUS, folder)
-    shutil.copy(folder / REFUSED, folder / "mitsuba-data/tests/scenes/projector" / HOSTILE)
+    shutil.copy(folder / REFUSED, folder / "mitsuba-data/tests/scenes/mesh_attributes" / HOSTILE)
     args = ["corpus", str(folder), "--out", str(out), "--spp", "256", "--variant", "scalar_rgb", "--threads", "2",
             "--source", "fixture <corpus> | test"]
     return folder, out, args
@@ -51,13 +51,13 @@ def test_corpus_statuses_files_escaping_and_resume(corpus_run, capsys):
     assert main(args) == 0
     printed = capsys.readouterr()
     data, recs = _records(out)
-    hostile = "mitsuba-data/tests/scenes/projector/" + HOSTILE
+    hostile = "mitsuba-data/tests/scenes/mesh_attributes/" + HOSTILE
 
     assert recs[AGREES]["status"] == "agrees"
     assert max(abs(g) for g in recs[AGREES]["global_z"]) <= 4 and recs[AGREES]["share_z4"] <= 0.01
     assert recs[AGREES]["film_original"] == [1024, 1024] and recs[AGREES]["film"] == [48, 48]
     assert recs[REFUSED]["status"] == "refused" and recs[hostile]["status"] == "refused"
-    assert "emitter 'projector'" in [compact_feature(f) for f in recs[REFUSED]["reasons"]]
+    assert "bsdf 'blendbsdf'" in [compact_feature(f) for f in recs[REFUSED]["reasons"]]
     assert all("line" not in f for f in recs[REFUSED]["reasons"])          # file locations dropped
     assert recs[OUT_OF_SCOPE]["status"] == "out-of-scope"
     assert recs[OUT_OF_SCOPE]["reasons"] == ["polarisation: integrator 'stokes'"]
