@@ -46,7 +46,7 @@ import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.conductors import CONDUCTORS
-from reference_tracer.materials import reflectance_of, textures_of
+from reference_tracer.materials import textures_of
 from reference_tracer.meshfile import check_mesh_file, check_serialized_file, decode_obj, obj_undefined_normal
 
 from .variants import import_mitsuba
@@ -390,13 +390,8 @@ def _plastic(ctx, node, name, two_sided):
     nonlinear = _bool(ctx, node, "nonlinear", False)
     kw = {}
     if rough:
-        dist = _scalar(ctx, node, "distribution", "beckmann")
-        if dist not in rt.DISTRIBUTIONS:
-            ctx.bad(node, f"roughplastic distribution '{dist}' (ggx or beckmann)")
-            ok = False
-        if _bool(ctx, node, "sample_visible", True) is not True:
-            ctx.bad(node, "roughplastic sample_visible=false (the estimator differs; its image does not)")
-            ok = False
+        dist = _distribution(ctx, node, "roughplastic")
+        ok = ok and dist is not None
         alpha = _roughness(ctx, node)
         if alpha is None:
             ok = False
@@ -471,14 +466,8 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
     if name == "roughconductor":
         _extra(ctx, node, {"material", "specular_reflectance", "distribution", "alpha", "alpha_u", "alpha_v",
                            "sample_visible", "eta", "k"}, "bsdf")
-        ok = True
-        dist = _scalar(ctx, node, "distribution", "beckmann")
-        if dist not in rt.DISTRIBUTIONS:
-            ctx.bad(node, f"roughconductor distribution '{dist}' (ggx or beckmann)")
-            ok = False
-        if "sample_visible" in node.props.keys() and not bool(node.props["sample_visible"]):
-            ctx.bad(node, "roughconductor sample_visible=false (the estimator differs; its image does not)")
-            ok = False
+        dist = _distribution(ctx, node, "roughconductor")
+        ok = dist is not None
         alpha = _roughness(ctx, node)
         ior = _conductor_ior(ctx, node)
         albedo = _reflectance(ctx, node, "specular_reflectance", 1.0)
@@ -500,13 +489,8 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
                 ok = False
         i, e = _ior(ctx, node, "int_ior", "bk7"), _ior(ctx, node, "ext_ior", "air")
         if rough:
-            dist = _scalar(ctx, node, "distribution", "beckmann")
-            if dist not in rt.DISTRIBUTIONS:
-                ctx.bad(node, f"roughdielectric distribution '{dist}' (ggx or beckmann)")
-                ok = False
-            if "sample_visible" in node.props.keys() and not bool(node.props["sample_visible"]):
-                ctx.bad(node, "roughdielectric sample_visible=false (the estimator differs; its image does not)")
-                ok = False
+            dist = _distribution(ctx, node, "roughdielectric")
+            ok = ok and dist is not None
             if two_sided:
                 ctx.bad(node, "twosided around a roughdielectric (Mitsuba's twosided refuses BSDFs that transmit)")
                 ok = False
@@ -562,6 +546,21 @@ def _mask(ctx, node, two_sided):
         ctx.bad(node, "a mask around a mask (one mask only)")
         return None
     return _material(ctx, node, rt.Mask, inner, opacity, clip=True)
+
+
+def _distribution(ctx, node, name: str):
+    """A microfacet BSDF's distribution (Mitsuba's default beckmann), or None after recording a
+    problem: another name, or ``sample_visible=false`` (another estimator of the same image,
+    which ours does not implement)."""
+    ok = True
+    dist = _scalar(ctx, node, "distribution", "beckmann")
+    if dist not in rt.DISTRIBUTIONS:
+        ctx.bad(node, f"{name} distribution '{dist}' (ggx or beckmann)")
+        ok = False
+    if _bool(ctx, node, "sample_visible", True) is not True:
+        ctx.bad(node, f"{name} sample_visible=false (the estimator differs; its image does not)")
+        ok = False
+    return dist if ok else None
 
 
 def _roughness(ctx, node):
@@ -1134,7 +1133,7 @@ def _orthographic(ctx, sensor, width, height, rfilter):
                             "a mirrored image)")
         return None
     R, (sx, sy, sz) = rs
-    left, up, fwd = R[:, 0], R[:, 1], R[:, 2]
+    up, fwd = R[:, 1], R[:, 2]
     origin = m[:3, 3]
     near, far = clip
     aspect = width / height

@@ -78,9 +78,6 @@ def test_unknown_metric_is_a_clear_error():
 
 def test_exact_estimator_gets_no_efficiency_under_any_metric(tmp_path_factory):
     # regression: mis in the furnace has no error but float rounding; its relMSE efficiency read ~1e27
-    import sys
-    from pathlib import Path
-
     from harness_util import cache_root
 
     from benchmarks.sweep import Group, run_sweep
