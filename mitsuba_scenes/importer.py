@@ -154,7 +154,7 @@ class _Ctx:
 
 def _keys(node) -> list:
     """Names of the node's plain parameters (child objects excluded)."""
-    import mitsuba as mi
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     p = node.props
     return [k for k in p.keys() if p.type(k) != mi.Properties.Type.ResolvedReference]

@@ -128,7 +128,7 @@ def file_resolver_scope(folder=None):
     """Mitsuba's (thread's) file resolver replaced by a copy for the block, ``folder`` first
     on it when given, and restored afterwards: the ``<path>`` folders that parsing a file adds
     to it do not stay for the next file (nor hide from ``from_mitsuba`` that a file adds them)."""
-    import mitsuba as mi
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     backup = mi.file_resolver()
     resolver = mi.FileResolver(backup)
@@ -146,7 +146,7 @@ def film_sizes(path, *, params=None) -> list:
     them (``$name`` values from ``params`` or the file's defaults; Mitsuba's 768x576 where
     a film leaves them out). Parses only: nothing is loaded, the file resolver is left as it
     was. The active variant is used."""
-    import mitsuba as mi
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     cfg = mi.parser.ParserConfig(mi.variant())
     with file_resolver_scope():
@@ -166,7 +166,7 @@ def load_file(path, *, params=None, film_size=None):
     next load). ``ValueError`` when the scene has no ``<film>`` to resize; Mitsuba's own
     errors (``RuntimeError``) pass through. The active variant is used.
     """
-    import mitsuba as mi
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     params = {str(k): str(v) for k, v in (params or {}).items()}
     if film_size is None:
@@ -251,8 +251,8 @@ def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None
         raise ValueError(f"threads must be an integer >= 1 or None, got {threads!r}")
 
     chosen = select_variant(variant)
-    import drjit as dr
-    import mitsuba as mi
+    import drjit as dr  # deferred: after the variant and libLLVM are chosen (select_variant)
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     if threads is not None:
         dr.set_thread_count(int(threads))

@@ -273,7 +273,7 @@ def select_variant(variant: str | None = None) -> str:
 
 
 def _activate(name: str) -> None:
-    import mitsuba as mi
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     if mi.variant() != name:
         mi.set_variant(name)
@@ -292,12 +292,12 @@ def import_mitsuba(variant: str | None = None):
     'scalar_rgb'
     """
     if variant is None:
-        import mitsuba as mi
+        import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
         if mi.variant() is not None:
             return mi
     select_variant(variant)
-    import mitsuba as mi
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     return mi
 
@@ -311,8 +311,8 @@ def versions() -> dict:
     >>> sorted(versions())
     ['drjit', 'libllvm', 'llvm_target', 'mitsuba', 'variant']
     """
-    import drjit as dr
-    import mitsuba as mi
+    import drjit as dr  # deferred: after the variant and libLLVM are chosen (select_variant)
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     variant = mi.variant()
     return {"mitsuba": mi.__version__, "drjit": dr.__version__, "variant": variant,
@@ -350,7 +350,7 @@ def llvm_target() -> dict | None:
     >>> target is None or target["vector_width"] in (4, 8, 16)
     True
     """
-    import drjit as dr
+    import drjit as dr  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     try:
         core = ctypes.CDLL(os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so"))

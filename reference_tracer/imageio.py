@@ -121,7 +121,7 @@ def write_exr(path, array) -> Path:
     --------
     >>> write_exr("/tmp/out.exr", np.zeros((4, 4, 3)))  # doctest: +SKIP
     """
-    import OpenEXR
+    import OpenEXR  # deferred: OpenEXR only when an EXR file is read or written
 
     a = _check_image("write_exr", array).astype(np.float32)
     names = {1: "Y", 3: "RGB", 4: "RGBA"}[a.shape[2]]
@@ -160,7 +160,7 @@ def read_exr(path, *, max_pixels: int = MAX_READ_PIXELS) -> np.ndarray:
     default) is refused with ``ValueError`` before its pixels are decoded, so a small
     compressed file cannot make the reader allocate gigabytes.
     """
-    import OpenEXR
+    import OpenEXR  # deferred: OpenEXR only when an EXR file is read or written
 
     with OpenEXR.File(str(path), header_only=True) as f:
         lo, hi = (np.asarray(v, dtype=np.int64) for v in f.header()["dataWindow"])
@@ -332,7 +332,7 @@ def to_display(array, exposure: float = 0.0, *, scale: float | None = None,
     >>> to_display(np.array([0.5, np.nan, np.inf]), scale=0.5, keep_nan=True).round(4).tolist()
     [0.5371, nan, 1.0]
     """
-    import colour
+    import colour  # deferred: colour-science takes seconds to import
 
     if scale is None:
         k = 2.0 ** check_exposure(exposure)
@@ -352,7 +352,7 @@ def write_png(path, array, exposure: float = 0.0) -> Path:
     --------
     >>> write_png("/tmp/out.png", np.full((4, 4, 3), 0.5), exposure=0.0)  # doctest: +SKIP
     """
-    from PIL import Image
+    from PIL import Image  # deferred: Pillow only when an 8-bit image is read or written
 
     a = _check_image("write_png", array)
     d = to_display(a[..., :3] if a.shape[2] >= 3 else np.repeat(a, 3, axis=2), exposure)

@@ -500,7 +500,7 @@ def read_mesh(path, *, normals: bool = True) -> MeshData:
         return parse_obj(text, name=str(path), normals=normals)
     else:
         raise ValueError(f"{path} is not an OBJ or PLY mesh (its name should end in .obj or .ply)")
-    import trimesh
+    import trimesh  # deferred: trimesh takes about 1.5 s to import
 
     try:
         tm = trimesh.load(file_obj, file_type="ply", process=False, force="mesh")

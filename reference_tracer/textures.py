@@ -407,7 +407,7 @@ def _read_pillow(f, path, fmt: str, head: bytes, raw: bool, max_pixels: int) -> 
     """A PNG or JPEG through Pillow, as Mitsuba's libpng and libjpeg readers give it: 8 bits
     a channel, sRGB; grey (with or without alpha) one channel, colour three (palettes
     expanded, alpha dropped: Mitsuba's texture keeps Y or RGB)."""
-    from PIL import Image
+    from PIL import Image  # deferred: Pillow only when an 8-bit image is read or written
 
     if fmt == "PNG":
         if len(head) < 26 or head[12:16] != b"IHDR":

@@ -130,8 +130,8 @@ def report_pdf(page: str, path: Path, *, figures=()) -> Path:
                 pass
             if out.exists() and out.read_bytes().startswith(b"%PDF"):
                 return atomic_write(path, out.read_bytes())
-    from matplotlib.backends.backend_pdf import PdfPages
-    from matplotlib.figure import Figure
+    from matplotlib.backends.backend_pdf import PdfPages  # deferred: matplotlib only when plotting (0.5-1.5 s)
+    from matplotlib.figure import Figure  # deferred: matplotlib only when plotting (0.5-1.5 s)
 
     def write(tmp):
         with PdfPages(tmp) as pdf:
