@@ -1,10 +1,5 @@
-"""``run_sweep``: references, then every job not yet stored, then the summary.
-
-The steps of one (re)run of a sweep into a results store: check the arguments, record
-the run's settings in ``meta.json``, make sure every (scene, size) has its reference and
-copy it into the store, plan the jobs and skip those already stored, run the rest
-(locally or on Dask), record the run's time and write ``summary.json``.
-"""
+"""``run_sweep``: the run's settings into ``meta.json``, the references, every job not yet
+stored (locally or on Dask), then ``summary.json``."""
 from __future__ import annotations
 
 import dataclasses
@@ -15,8 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mitsuba_scenes.scene_files import scene_file
-from rich.console import Console
 from reference_tracer.cpus import default_threads
+from reference_tracer.validation import positive_int
 
 from .. import references as R
 from .. import tails as T
@@ -29,22 +24,16 @@ from ..store import (META, file_sha256, finished_keys, job_records, read_json, r
                      store_path, update_meta, write_image, writer_lock)
 from ..tails import DEFAULT_TAIL_SPP
 from .execute import machine_info, run_versions
-from .jobs import Group, check_int, renderer_builds
+from .jobs import Group, renderer_builds
 from .progress import Phases, Progress, render_cost
 from .runners import run_dask, run_local
 from .summary import TARGET_RELATIVE_RMSE, summarize
 
-__all__ = ["SweepResult", "run_sweep", "prepare_references"]
-
 
 @dataclass
 class SweepResult:
-    """What :func:`run_sweep` did.
-
-    ``jobs`` in the plan, ``done`` rendered now, ``skipped`` already in the store,
-    ``failed`` (job label, error text) pairs, ``seconds`` wall time, ``rows`` the
-    summary rows, ``store`` the folder, ``phases`` the wall time of each phase.
-    """
+    """What :func:`run_sweep` did: ``jobs`` planned, ``done`` rendered now, ``skipped`` already
+    stored, ``failed`` (label, error) pairs, the summary ``rows`` and each phase's time."""
 
     store: Path
     jobs: int = 0
@@ -62,17 +51,9 @@ def _now() -> str:
 
 
 def prepare_references(groups, store: Path, *, variant, threads, cache, say, bar=None) -> dict:
-    """Ensure each (scene, width, height) has its reference; copy it into the store.
-
-    The closed form where the scene has one, else Mitsuba's (cached, see
-    :func:`benchmarks.references.reference`). Records them in ``meta.json``
-    (``references``: the first group naming a scene, its main sweep; ``references_by_size``).
-
-    Returns
-    -------
-    dict
-        ``{(scene, width, height): benchmarks.references.Reference}``.
-    """
+    """``{(scene, width, height): Reference}``: the closed form where a scene has one, else
+    Mitsuba's (cached); each copied into the store and recorded in ``meta.json``
+    (``references``: the first group naming a scene, its main sweep; ``references_by_size``)."""
     refs, by_scene, by_size = {}, {}, {}
     old_meta = read_json(store / META, default={}) or {}
     old_refs = old_meta.get("references_by_size") if isinstance(old_meta.get("references_by_size"), dict) else {}
@@ -151,13 +132,9 @@ def _source_of(name: str):
 
 
 def _store_copy(store: Path, stem: str, ref, old_refs: dict) -> dict:
-    """The store's copy of a reference (``stem``.exr and ``stem``_var.exr) with their checksums.
-
-    A copy is kept when ``meta.json`` already records it with the same cache key and its
-    bytes still match the recorded checksums; anything else (missing, corrupt, another
-    reference) is written afresh from ``ref``. Returns the ``meta.json`` fields: ``path``,
-    ``variance_path``, ``sha256``, ``variance_sha256``.
-    """
+    """The ``meta.json`` fields of the store's copy of a reference (``stem``.exr, ``stem``_var.exr):
+    paths and checksums. A copy recorded with the same cache key whose bytes match is kept;
+    anything else is written afresh from ``ref``."""
     out = {"path": f"{stem}.exr", "variance_path": f"{stem}_var.exr"}
     old = next((e for e in old_refs.values() if isinstance(e, dict) and e.get("path") == out["path"]), {})
     for rel_key, sum_key, img in (("path", "sha256", ref.mean), ("variance_path", "variance_sha256", ref.variance)):
@@ -170,28 +147,12 @@ def _store_copy(store: Path, stem: str, ref, old_refs: dict) -> dict:
     return out
 
 
-def _messages(progress: bool, console) -> tuple:
-    """``(console, say)``: where messages go (stderr by default) and a ``say(text)`` that is
-    silent unless ``progress``."""
-    if progress and console is None:
-        console = Console(stderr=True)
-
-    def say(text):
-        if progress:
-            console.print(text, highlight=False, markup=False)
-
-    return console, say
-
-
 def _check_arguments(groups, threads, alpha, target_relative) -> tuple:
     """``(groups as a list, threads as an int)``, or ``ValueError`` for a bad argument."""
     groups = list(groups)
-    if not groups:
-        raise ValueError("the sweep has no groups")
-    for g in groups:
-        if not isinstance(g, Group):
-            raise ValueError(f"groups must hold benchmarks.sweep.Group objects, got {type(g).__name__}")
-    threads = default_threads() if threads is None else check_int("threads", threads)
+    if not groups or not all(isinstance(g, Group) for g in groups):
+        raise ValueError(f"groups must be benchmarks.sweep.Group objects, got {groups!r:.200}")
+    threads = default_threads() if threads is None else positive_int("threads", threads)
     if not 0 < alpha < 1:
         raise ValueError(f"alpha must be in (0, 1), got {alpha}")
     if not target_relative > 0:
@@ -222,8 +183,8 @@ def _scene_files(groups) -> dict:
 
 
 def _plan(groups, builds=None) -> tuple:
-    """``(jobs without repeats in group order, {curve: its highest spp})``; ``builds``:
-    ``{renderer: build}`` given to each job (:func:`benchmarks.sweep.jobs.renderer_builds`)."""
+    """``(jobs without repeats in group order, {curve: its highest spp})``, each job given its
+    renderer's build from ``builds``."""
     plan, top, seen = [], {}, set()
     for g in groups:
         for job in g.jobs():
@@ -271,11 +232,7 @@ def _start_run(store) -> int:
 
 
 def _end_run(store, index: int, *, seconds: float, done: int, interrupted: bool) -> None:
-    """Complete this run's entry in ``meta.json`` (end time, seconds, jobs stored) and the total.
-
-    ``done`` counts the jobs this run stored, also when it was interrupted; the store's
-    writer lock keeps ``index`` this run's entry.
-    """
+    """Complete this run's entry in ``meta.json`` (end, seconds, jobs stored) and the total."""
     meta = read_json(store / META, default={}) or {}
     runs = list(meta.get("runs") or [])
     entry = runs[index] if index < len(runs) and isinstance(runs[index], dict) else {}
@@ -291,18 +248,12 @@ def _end_run(store, index: int, *, seconds: float, done: int, interrupted: bool)
 def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, variant: str | None = None,
               progress: bool = True, cache=None, alpha: float = BIAS_TEST_ALPHA,
               target_relative: float = TARGET_RELATIVE_RMSE, preset: str | None = None,
-              console=None, escalate_tails: bool = True) -> SweepResult:
+              escalate_tails: bool = True) -> SweepResult:
     """Run (or resume) a sweep into a results store and write its summary.
 
-    Steps: references for every (scene, size) (cached; copied into the store), then
-    every job not yet in ``results.jsonl`` (appended one by one), then
-    ``summary.json`` from all records. Interrupt it at any point (Ctrl-C, kill) and run
-    it again with the same arguments: finished jobs are skipped, nothing is lost. The
-    store's writer lock (:func:`benchmarks.store.writer_lock`) is held throughout: a
-    second run on the same store waits for this one, then resumes, so no job is
-    rendered or recorded twice. ``meta.json``'s ``runs`` gets this run's entry
-    (``started``, ``ended``, ``seconds``, ``jobs_done``, ``interrupted``) even when it is
-    interrupted.
+    Interrupt it at any point and run it again: finished jobs are skipped. The store's writer
+    lock is held throughout (a second run waits, then resumes); ``meta.json``'s ``runs`` gets
+    this run's entry even when interrupted (``benchmarks/STORE.md``).
 
     Parameters
     ----------
@@ -310,32 +261,25 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
     out : str or Path, keyword-only
         The results store folder.
     threads : int or None, keyword-only
-        Threads per local job for both renderers (default: all cores). Ignored with
-        ``scheduler`` (each worker's thread count is used).
+        Threads per local job for both renderers (default all cores; with ``scheduler``
+        each worker's own count).
     scheduler : str, distributed.Client or None, keyword-only
-        Address of a Dask distributed scheduler (``tcp://host:8786``) or a Client.
+        A Dask scheduler address (``tcp://host:8786``) or Client.
     variant : str or None, keyword-only
         Mitsuba variant (default: the fastest that works).
-    progress : bool, keyword-only
-        Show a progress bar (rich) and one line per reference.
-    cache : str or Path or None, keyword-only
-        Reference cache root (default ``$RTBENCH_CACHE`` or ``~/.cache/rtbench``).
-    alpha : float, keyword-only
-        Level of the bias test in the summary.
-    target_relative : float, keyword-only
-        Target RMSE for time-to-target, relative to the reference's RMS radiance.
+    progress : bool or Progress, keyword-only
+        Show a progress bar (the caller's, which may plan more steps) and messages.
+    cache, alpha, target_relative, escalate_tails : keyword-only
+        As :func:`benchmarks.sweep.summarize` (``cache`` also for the references).
     preset : str or None, keyword-only
-        Recorded in meta.json.
-    console : rich.console.Console or None, keyword-only
+        Recorded in ``meta.json``.
 
     Returns
     -------
     SweepResult
     """
-    t_start = time.perf_counter()
     groups, threads = _check_arguments(groups, threads, alpha, target_relative)
     store = store_path(out)
-    console, say = _messages(progress, console)
     variant, mitsuba_version = mitsuba_identity(variant)
     with writer_lock(store, say=lambda text: print(text, file=sys.stderr, flush=True)):
         t_start = time.perf_counter()  # this run's time, not its wait for another run
@@ -346,7 +290,7 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
             _sweep(groups, store, result, threads=threads, scheduler=scheduler, variant=variant,
                    mitsuba_version=mitsuba_version, cache=cache,
                    alpha=alpha, target_relative=target_relative, preset=preset, progress=progress,
-                   console=console, say=say, escalate_tails=escalate_tails)
+                   escalate_tails=escalate_tails)
         except BaseException:
             result.interrupted = True
             raise
@@ -360,19 +304,15 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
 
 
 def _sweep(groups, store, result, *, threads, scheduler, variant, mitsuba_version, cache, alpha,
-           target_relative, preset, progress, console, say, escalate_tails) -> None:
-    """The steps of :func:`run_sweep`, with the store's writer lock held; fills ``result``.
-
-    ``progress`` is a :class:`benchmarks.sweep.progress.Progress` (the caller's, which may
-    plan more steps after these, such as the report) or a bool.
-    """
+           target_relative, preset, progress, escalate_tails) -> None:
+    """The steps of :func:`run_sweep`, with the store's writer lock held; fills ``result``."""
     _record_settings(store, groups, threads=threads, scheduler=scheduler, variant=variant, preset=preset,
                      alpha=alpha, target_relative=target_relative)
     plan, top = _plan(groups, renderer_builds(variant, mitsuba_version))
     done_keys = finished_keys(store)
     todo = [j for j in plan if j.key not in done_keys]
-    bar = progress if isinstance(progress, Progress) else Progress(enabled=bool(progress), console=console)
-    log = bar.log if bar.enabled else say
+    bar = progress if isinstance(progress, Progress) else Progress(enabled=bool(progress))
+    log = bar.log  # silent unless the bar is shown
     tail_plan = _plan_progress(bar, groups, todo, variant=variant, cache=cache)
     try:
         with result.phases("references"):

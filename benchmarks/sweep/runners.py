@@ -1,9 +1,5 @@
-"""Where the jobs run: one at a time in this process, or one per worker on a Dask cluster.
-
-Both runners take the jobs still to do, the references by (scene, width, height), and
-store each finished job at once (images first, then its record), so an interrupted
-sweep loses nothing it finished. A failed job is reported and counted, never fatal.
-"""
+"""Where the jobs run: one at a time here, or one per worker on a Dask cluster. Each finished
+job is stored at once (images, then its record); a failed job is reported, never fatal."""
 from __future__ import annotations
 
 import collections
@@ -17,18 +13,15 @@ from ..external import external
 from ..store import append_record, write_image
 from .execute import execute_job
 
-__all__ = ["DASK_CONNECT_TIMEOUT", "store_result", "run_local", "run_dask"]
-
 #: how long to try to reach a Dask scheduler before giving up.
 DASK_CONNECT_TIMEOUT = "20s"
 
 
-def store_result(store: Path, result: dict) -> dict:
+def store_result(store: Path, result: dict) -> None:
     """Write a job's images, then append its record (last: a record always has its images)."""
     for rel, img in result["images"].items():
         write_image(store, rel, img)
     append_record(store, result["record"])
-    return result["record"]
 
 
 def _failed(job, exc, *, failures, say) -> None:
@@ -41,12 +34,10 @@ class _Tally:
 
 
 def run_local(todo, refs, store, *, threads, variant, keep, bar, say, failures, tally=None) -> int:
-    """Run ``todo`` here, one job at a time with ``threads`` threads; returns the jobs stored.
+    """Run ``todo`` here, one job at a time; returns the jobs stored (also counted in ``tally.done``).
 
-    ``refs`` maps (scene, width, height) to its :class:`benchmarks.references.Reference`;
-    ``keep(job)`` gives ``(keep_image, keep_stats)``; failures are appended to ``failures``
-    as (label, error text). ``tally.done`` (when given) counts the jobs stored as they are
-    stored, so an interrupted caller still knows how many.
+    ``refs``: (scene, width, height) -> reference; ``keep(job)``: ``(keep_image, keep_stats)``;
+    ``failures`` gets (label, error text) pairs.
     """
     tally = _Tally() if tally is None else tally
     for job in todo:
@@ -68,15 +59,9 @@ def run_local(todo, refs, store, *, threads, variant, keep, bar, say, failures, 
 
 
 def run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, poll=2.0, tally=None) -> int:
-    """One job per worker: each task is pinned to an idle worker (any thread count).
-
-    ``address`` is a scheduler address or a ``distributed.Client``; the other arguments
-    are :func:`run_local`'s. Returns the jobs stored.
-    """
-    try:
-        from distributed import Client
-    except ImportError as exc:  # pragma: no cover - dask is a dependency
-        raise ValueError("--scheduler needs dask.distributed (pip install distributed)") from exc
+    """One job per worker, pinned to an idle one; ``address``: a scheduler address or a
+    ``distributed.Client``; the rest as :func:`run_local`."""
+    from distributed import Client
 
     client = address if not isinstance(address, str) else None
     own = client is None

@@ -1,8 +1,8 @@
 """The per-curve summary of a results store (``summary.json``): slope, bias, variance, cost.
 
-A curve is one (scene, renderer, strategy, width, height). Its figures come from the
-store's records and images alone, so :func:`summarize` can be rerun at any time and
-gives the same rows.
+A curve is one (scene, renderer, strategy, width, height); its figures come from the store's
+records and images and the cached tail references, so :func:`summarize` can be rerun at any
+time. The fields are listed in ``benchmarks/STORE.md``, their statistics in ``STATISTICS.md``.
 """
 from __future__ import annotations
 
@@ -23,13 +23,10 @@ from ..tails import DEFAULT_MAX_TAIL_SAMPLES, DEFAULT_TAIL_SPP
 from .bias import bias_stats
 from .by_metric import add_metric_ratios, curve_metrics, tail_variance_image
 from .coerce import as_float, finite_mean
-from .headline import add_noise_ratios, headline_rows
+from .headline import DEFAULT_BATCHES, add_noise_ratios, exact, headline_rows, mitsuba_cost, tail_noise
 from .jobs import mitsuba_pairs
-from .noise import DEFAULT_BATCHES, exact, mitsuba_cost, tail_noise, tail_variance
 from .progress import render_cost
 from .slopes import mse_reliable_from, reliable_points_only, slope_stats, slope_status
-
-__all__ = ["TARGET_RELATIVE_RMSE", "target_rmse", "summarize"]
 
 #: time-to-target uses target RMSE = this x the reference's RMS radiance.
 TARGET_RELATIVE_RMSE = 0.1
@@ -63,14 +60,11 @@ _NOTES = {
 def target_rmse(ref_mean, *, relative: float = TARGET_RELATIVE_RMSE) -> float:
     """Target RMSE of a scene: ``relative`` x the RMS of the reference's radiance.
 
-    Examples
-    --------
     >>> target_rmse(np.full((4, 4, 3), 2.0), relative=0.1)
     0.2
     """
     r = np.asarray(ref_mean, dtype=np.float64)
     return float(relative * math.sqrt(float(np.mean(r * r))))
-
 
 
 def _scene_filter(scene: str, w: int, h: int, cache: dict):
@@ -85,12 +79,10 @@ def _scene_filter(scene: str, w: int, h: int, cache: dict):
 
 def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails=None,
                  seconds_per_sample: float | None = None, pixel_filter=None) -> dict:
-    """Summary figures of one (scene, renderer, strategy, width, height) curve.
+    """Summary figures of one curve.
 
-    With ``seconds_per_sample`` (from a seconds-long render of the same estimator: our tail
-    reference, Mitsuba's reference) a budget of ``n`` spp costs ``n`` x pixels x that time:
-    the renders of a small image take milliseconds, mostly per-render overhead, and would
-    make equal-time figures measure the overhead (``timing_source`` says which was used).
+    With ``seconds_per_sample`` (of a seconds-long render of the same estimator) ``n`` spp cost
+    ``n`` x pixels x that time: a small image's renders are mostly per-render overhead.
     """
     by_spp = collections.defaultdict(list)
     for r in recs:
@@ -116,7 +108,6 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
         row["variance"] = finite_mean(r.get("variance") for r in recs)
     row["variance_source"], row["variance_lower_bound"] = "renders at the top spp", None
     if tails is not None:
-        row.update(tail_variance(tails))
         row.update(tail_noise(tails, ref))
 
     # cost: efficiency at the top spp, throughput, time to the target RMSE. An unbiased
@@ -168,29 +159,19 @@ def _store_reference(store, info) -> ImageEstimate | None:
         return None
 
 
-def _ratio(a, b):
-    a, b = as_float(a), as_float(b)
-    if not (math.isfinite(a) and math.isfinite(b)) or b == 0:
-        return None
-    return a / b
-
-
-
 def _add_mitsuba_ratios(rows) -> None:
     """``*_vs_mitsuba``: each curve against Mitsuba's curve of the same scene and size."""
     for r, m in mitsuba_pairs(rows):
-        r["efficiency_vs_mitsuba"] = _ratio(r.get("efficiency"), m.get("efficiency") if m else None)
-        r["samples_per_second_vs_mitsuba"] = _ratio(r.get("samples_per_second"),
-                                                    m.get("samples_per_second") if m else None)
+        for field in ("efficiency", "samples_per_second"):
+            a, b = as_float(r.get(field)), as_float((m or {}).get(field))
+            r[f"{field}_vs_mitsuba"] = a / b if math.isfinite(a) and math.isfinite(b) and b != 0 else None
 
 
 def _curve_tails(scene, strategy, w, h, *, tail_spp, cache, threads, log, escalate=True):
-    """The tail reference of one of our curves (cached; rendered when missing; with ``escalate``
-    a larger budget where its variance rests on single samples: ``variance_tail_reference``),
-    or None."""
+    """The tail reference of one of our curves (cached; with ``escalate`` a larger one where its
+    variance rests on single samples: ``variance_tail_reference``), or None."""
     if not tail_spp:
         return None
-
     cap = DEFAULT_MAX_TAIL_SAMPLES if escalate else tail_spp * w * h
     try:
         return T.variance_tail_reference(scene_at(scene, w, h), strategy=strategy, spp=tail_spp, cache=cache,
@@ -202,9 +183,8 @@ def _curve_tails(scene, strategy, w, h, *, tail_spp, cache, threads, log, escala
 
 
 def _not_escalated(row: dict, tails, w: int, h: int) -> None:
-    """A verdict whose tail reference's variance rests on single samples, when the larger tail
-    reference that would settle it was not rendered (``escalate=False``, the quick preset):
-    undetermined, never pass or fail, with the budget that would decide."""
+    """Without the larger tail reference (the quick preset), a verdict on a variance resting on
+    single samples is undetermined, with the budget that would decide."""
     if tails is None or not T.variance_is_lower_bound(tails):
         return
     need = DEFAULT_MAX_TAIL_SAMPLES // (w * h)
@@ -218,41 +198,13 @@ def _not_escalated(row: dict, tails, w: int, h: int) -> None:
 def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float = TARGET_RELATIVE_RMSE,
               tail_spp: int | None = None, cache=None, threads=None, log=None, escalate: bool = True,
               bar=None, tail_plan=None) -> list:
-    """Per (scene, renderer, strategy, width, height): the figures of ``summary.json``.
+    """Write ``summary.json`` of a results store and return its rows, one per curve.
 
-    From the store's records and images:
-
-    * ``slope``, ``slope_ci`` (95%), ``slope_stderr``: least-squares fit of log RMSE over
-      log spp, one point per spp, RMSE = sqrt of the seed-averaged reference-noise-
-      corrected MSE (``slope_uncorrected`` uses the plain MSE); ``slope_status``: why the
-      slope is not yet meaningful (heavy-tailed at every budget of the curve, or at all
-      but one), else None; ``slope_excluded_spps``: with a tail reference, the budgets
-      below ``slope_fit_from`` (:func:`mse_reliable_from`), where renders mostly miss the
-      rare paths and the MSE reads low: left out of the fit;
-    * ``bias2``, ``bias2_stderr``, ``bias_z``, ``bias_p``, ``bias_significant`` (level
-      ``alpha``, one-sided), ``relative_bias``: ``metrics.bias_variance`` over the seeds at
-      the highest spp (``bias_spp``); with one seed, the renderer's own per-sample
-      variance is used instead (``bias_method``);
-    * ``bias_verdict`` ('pass', 'fail', 'undetermined'), ``bias_reason``,
-      ``bias_spp_needed``: with the tail reference of our estimator (``tail_spp`` spp,
-      cached under ``cache``; our curves with 2+ seeds only), the gate's three-valued test
-      of the seeds' mean (``benchmarks/STATISTICS.md``);
-    * ``variance``: per-sample variance, mean over pixels: from the tail reference where
-      there is one (``variance_lower_bound`` when single samples dominate it), else the
-      between-seed variance of the image x spp;
-    * ``efficiency``: 1 / (expected MSE x seconds) at the highest spp, the expected MSE of
-      an estimator found unbiased being its tail-reference variance / spp; else
-      1 / (corrected MSE x seconds) (``efficiency_source``);
-    * ``time_to_target``: seconds to reach ``target_rmse`` (= ``target_relative`` x the
-      reference's RMS radiance), log-log interpolated, null if not reached;
-    * ``noise``, ``noise_se``, ``seconds_per_sample`` and the ``noise_vs_light`` ratios at
-      equal spp and equal time (:mod:`benchmarks.sweep.headline`); ``headline``: one entry
-      per scene and size, the first table of the report;
-    * ``build``, ``build_git``: the build whose records make the curve (its latest one);
-    * ``samples_per_second`` (pixel samples per second at the highest spp) and the
-      ``*_vs_mitsuba`` ratios against Mitsuba's ``path`` curve of the same scene and size.
-
-    Writes ``summary.json`` and returns its rows.
+    ``alpha``: level of each bias test; ``target_relative``: the target RMSE of time to
+    target over the reference's RMS radiance; ``tail_spp`` (default 16384), ``cache``,
+    ``threads``, ``log``, ``escalate``: the tail references of our curves with 2+ seeds
+    (:func:`benchmarks.tails.variance_tail_reference`); ``bar``, ``tail_plan``: the run's
+    progress (:mod:`benchmarks.sweep.progress`).
     """
     tail_spp = DEFAULT_TAIL_SPP if tail_spp is None else int(tail_spp)
     store = Path(store)
