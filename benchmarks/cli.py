@@ -1,21 +1,15 @@
-"""``rtbench``: the command-line entry point.
+"""``rtbench``: the command-line entry point, one module per subcommand in ``benchmarks.commands``.
 
-Each subcommand lives in its own module under ``benchmarks.commands`` and defines
-``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int`` (exit code).
-
-Errors are handled here, once for every command (:func:`main`): an exception a command
-raises becomes its exit status (:func:`benchmarks.errors.exit_code`: 2 usage or bad
-input, 3 internal or I/O error) and one line on stderr; ``--debug`` (before or after
-the command name) adds the traceback. Integer options are checked here too
-(:func:`bounded_int`), before any value reaches the C++ core.
+Errors are handled here once for every command: an exception becomes its exit status
+(:func:`benchmarks.errors.exit_code`) and one line on stderr (``--debug``: the traceback).
+Integer options are bounded here (:func:`bounded_int`), before a value reaches the C++ core.
 """
 from __future__ import annotations
 
 import os
 
-# Idle OpenBLAS worker threads (numpy/scipy) spin for a while after each call and steal
-# cycles from the renderers' own threads; the harness never needs parallel BLAS. Must be
-# set before numpy is imported.
+# Idle OpenBLAS threads spin after each call and steal the renderers' cycles; the harness never
+# needs parallel BLAS. Set before numpy is imported.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
@@ -53,8 +47,6 @@ SEED_MAX = 2**64 - 1
 def bounded_int(text: str, *, maximum: int = INT_MAX) -> int:
     """An integer option's value, refused (a usage error) beyond ``+-maximum``.
 
-    Examples
-    --------
     >>> bounded_int("64")
     64
     >>> bounded_int(str(2**31))
@@ -134,9 +126,8 @@ OUTPUT_FILE_OPTIONS = ("json", "markdown")
 
 
 def _probe_output_files(args) -> None:
-    """Fail now, not after the run, when an output file (``--json``, ``--markdown``) cannot
-    be written: open it for appending (its folder created, as the command would) and
-    remove it again if it did not exist. Raises ``OSError`` (exit 3)."""
+    """``OSError`` now, not after the run, when an output file (``--json``, ``--markdown``) cannot
+    be written: opened for appending (its folder created) and removed again if it was new."""
     from pathlib import Path
 
     for name in OUTPUT_FILE_OPTIONS:
