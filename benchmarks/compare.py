@@ -10,6 +10,7 @@ from __future__ import annotations
 import collections
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -116,31 +117,25 @@ def _ci(values) -> tuple | None:
 
 def _bootstrap(cmp: CurveComparison, pa: dict, pb: dict, rng) -> None:
     """Slopes, efficiency ratio and their bootstrap intervals into ``cmp``."""
-    ident = lambda pts: pts  # noqa: E731
-
     def resample(pts):
         return [pts[i] for i in rng.integers(0, len(pts), len(pts))]
 
-    cmp.slope_a, cmp.slope_b = _slope(pa, ident), _slope(pb, ident)
+    def interval(stat_a, stat_b, combine):
+        pairs = [(stat_a(resample), stat_b(resample)) for _ in range(BOOTSTRAP_RESAMPLES)]
+        return _ci([None if a is None or b is None else combine(a, b) for a, b in pairs])
+
+    cmp.slope_a, cmp.slope_b = _slope(pa, list), _slope(pb, list)
     if cmp.slope_a is not None and cmp.slope_b is not None:
         cmp.slope_diff = cmp.slope_b - cmp.slope_a
-        diffs = []
-        for _ in range(BOOTSTRAP_RESAMPLES):
-            a, b = _slope(pa, resample), _slope(pb, resample)
-            diffs.append(None if a is None or b is None else b - a)
-        cmp.slope_diff_ci = _ci(diffs)
-    common = sorted(set(pa) & set(pb))
-    if not common:
+        cmp.slope_diff_ci = interval(partial(_slope, pa), partial(_slope, pb), lambda a, b: b - a)
+    top = cmp.top_spp = max(set(pa) & set(pb), default=None)
+    if top is None:
         return
-    top = cmp.top_spp = common[-1]
-    ea, eb = _efficiency(pa[top], ident), _efficiency(pb[top], ident)
+    ea, eb = _efficiency(pa[top], list), _efficiency(pb[top], list)
     if ea and eb:
         cmp.efficiency_ratio = eb / ea
-        ratios = []
-        for _ in range(BOOTSTRAP_RESAMPLES):
-            a, b = _efficiency(pa[top], resample), _efficiency(pb[top], resample)
-            ratios.append(b / a if a and b else None)
-        cmp.efficiency_ratio_ci = _ci(ratios)
+        cmp.efficiency_ratio_ci = interval(partial(_efficiency, pa[top]), partial(_efficiency, pb[top]),
+                                           lambda a, b: b / a)
 
 
 def estimator_knowledge(*, tail_spp: int, threads=None, cache=None, externals=(), log=None):
@@ -235,7 +230,7 @@ def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0
         cmp = CurveComparison(*key, build_a=ra[-1].get("build"), build_b=rb[-1].get("build"),
                               spps_a=list(pa), rmse_a=rmse[0], spps_b=list(pb), rmse_b=rmse[1])
         _bootstrap(cmp, pa, pb, rng)
-        top = max(set(pa) & set(pb), default=None)
+        top = cmp.top_spp
         ref, test = (pooled_image(a, ra, top), pooled_image(b, rb, top)) if top else (None, None)
         if ref is None or test is None:
             cmp.reason = "no images with a variance at the top spp in both stores: no gate verdict"

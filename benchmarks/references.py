@@ -127,12 +127,9 @@ def cache_lock(path: Path):
                         str(path)) from exc
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(fd, fcntl.LOCK_UN)
+        yield
     finally:
-        os.close(fd)
+        os.close(fd)  # releases the lock
 
 
 def _paths(folder: Path, key: str):
@@ -192,18 +189,12 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
     Parameters
     ----------
     scene : reference_tracer.Scene
-    spp : int, keyword-only
-        Samples per pixel (>= 2: the variance needs two batches).
-    seed : int, keyword-only
-        Base seed (away from the sweep's seeds).
-    variant : str or None, keyword-only
-        Mitsuba variant (None: ``mitsuba_scenes.variants.select_variant``'s choice).
-    threads : int or None, keyword-only
-        Dr.Jit's threads (None: all cores).
-    batches : int, keyword-only
-        Independent batches for the per-sample variance (at most ``spp``).
-    cache : str or Path, keyword-only
-        Cache root (:func:`cache_dir`).
+    spp, seed, batches : int, keyword-only
+        Samples per pixel (>= 2), base seed (away from the sweep's) and independent batches for
+        the per-sample variance (at most ``spp``).
+    variant, threads, cache : keyword-only
+        Mitsuba variant (None: the fastest that works), Dr.Jit's threads (None: all cores),
+        cache root (:func:`cache_dir`).
     force : bool, keyword-only
         Render and replace even a valid entry.
     log : callable or None, keyword-only

@@ -78,15 +78,6 @@ def _repair_tail(fd: int) -> bytes:
     return b"\n"
 
 
-@contextlib.contextmanager
-def _flocked(fd: int):
-    fcntl.flock(fd, fcntl.LOCK_EX)
-    try:
-        yield
-    finally:
-        fcntl.flock(fd, fcntl.LOCK_UN)
-
-
 def append_record(store, record: dict) -> None:
     """Append one job record (holding :data:`KEY_FIELDS`) to ``results.jsonl`` durably: one
     locked write, then fsync; NaN and inf are written as null. The store is created if missing."""
@@ -95,14 +86,14 @@ def append_record(store, record: dict) -> None:
     data = (json.dumps(json_safe(record), sort_keys=False, allow_nan=False) + "\n").encode()
     fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o666)  # 0o666 less the umask
     try:
-        with _flocked(fd):
-            data = _repair_tail(fd) + data
-            written = 0
-            while written < len(data):
-                written += os.write(fd, data[written:])
-            os.fsync(fd)
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        data = _repair_tail(fd) + data
+        written = 0
+        while written < len(data):
+            written += os.write(fd, data[written:])
+        os.fsync(fd)
     finally:
-        os.close(fd)
+        os.close(fd)  # releases the lock
 
 
 @contextlib.contextmanager
@@ -121,12 +112,9 @@ def writer_lock(store, *, say=None):
             fcntl.flock(fd, fcntl.LOCK_EX)
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
-        try:
-            yield path
-        finally:
-            fcntl.flock(fd, fcntl.LOCK_UN)
+        yield path
     finally:
-        os.close(fd)
+        os.close(fd)  # releases the lock
 
 
 class ResultLine(NamedTuple):

@@ -31,21 +31,10 @@ DEFAULT_BATCHES = 16
 
 
 def relative_noise_of(variance, ref_mean, *, n: int | None = None, m4=None, batches: int | None = None) -> dict:
-    """``{"noise", "noise_se"}``: a curve's per-sample relative variance and its standard error.
+    """``{"noise", "noise_se"}``: mean of the per-pixel per-sample ``variance`` weighted by
+    ``1 / (ref^2 + eps)``, and its standard error from a tail reference's ``n`` samples and
+    fourth moment ``m4``, or from the ``batches`` of a Mitsuba reference.
 
-    Parameters
-    ----------
-    variance : array_like
-        Per-pixel per-sample variance (H, W, 3) of the estimator.
-    ref_mean : array_like
-        The reference image: the weights ``1 / (ref^2 + eps)``.
-    n, m4 : keyword-only
-        Samples per pixel and per-pixel fourth central moment of a tail reference.
-    batches : int, keyword-only
-        Or: the number of batches the variance came from (a Mitsuba reference).
-
-    Examples
-    --------
     >>> v = np.full((2, 2, 3), 0.5); r = np.ones((2, 2, 3))
     >>> round(relative_noise_of(v, r, batches=16)["noise"], 4)
     0.495

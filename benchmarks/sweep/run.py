@@ -20,9 +20,10 @@ from ..external import external
 from ..files import slug
 from ..references import closed_form_reference_of, mitsuba_identity, reference
 from ..scenes import scene_at
-from ..store import (META, file_sha256, finished_keys, job_records, read_json, read_records, record_key,
-                     store_path, update_meta, write_image, writer_lock)
+from ..store import (file_sha256, finished_keys, job_records, read_meta, read_records, record_key, store_path,
+                     update_meta, write_image, writer_lock)
 from ..tails import DEFAULT_TAIL_SPP
+from .coerce import finite
 from .execute import machine_info, run_versions
 from .jobs import Group, renderer_builds
 from .progress import Phases, Progress, render_cost
@@ -50,13 +51,12 @@ def _now() -> str:
     return _dt.datetime.now().astimezone().isoformat(timespec="seconds")
 
 
-def prepare_references(groups, store: Path, *, variant, threads, cache, say, bar=None) -> dict:
+def prepare_references(groups, store: Path, *, variant, threads, cache, say, bar) -> dict:
     """``{(scene, width, height): Reference}``: the closed form where a scene has one, else
     Mitsuba's (cached); each copied into the store and recorded in ``meta.json``
     (``references``: the first group naming a scene, its main sweep; ``references_by_size``)."""
     refs, by_scene, by_size = {}, {}, {}
-    old_meta = read_json(store / META, default={}) or {}
-    old_refs = old_meta.get("references_by_size") if isinstance(old_meta.get("references_by_size"), dict) else {}
+    old_refs = read_meta(store).get("references_by_size", {})
     for g in groups:
         for scene in g.scenes:
             k = (scene, g.width, g.height)
@@ -66,28 +66,24 @@ def prepare_references(groups, store: Path, *, variant, threads, cache, say, bar
                                      f"reference spp ({refs[k].spp} and {g.reference_spp})")
                 continue
             t0 = time.perf_counter()
-            if bar is not None:
-                bar.current(f"reference {scene} {g.width}x{g.height} ({g.reference_spp} spp)")
+            bar.current(f"reference {scene} {g.width}x{g.height} ({g.reference_spp} spp)")
             ref = closed_form_reference_of(scene, g.width, g.height)
             if ref is None:
                 ref = reference(scene_at(scene, g.width, g.height), spp=g.reference_spp, variant=variant,
                                 threads=threads, cache=cache, log=say)
-            if bar is not None:
-                bar.advance(_reference_cost(g, ref.cached or ref.variant == CLOSED_FORM))
+            bar.advance(_reference_cost(g, ref.cached or ref.variant == CLOSED_FORM))
             how = ("closed form" if ref.variant == CLOSED_FORM else
                    "cached" if ref.cached else f"rendered in {time.perf_counter() - t0:.1f} s")
             say(f"reference {scene} {g.width}x{g.height}: {ref.spp} spp, {ref.variant} ({how})")
             entry = {"spp": ref.spp, "seed": ref.seed, "width": g.width, "height": g.height, "variant": ref.variant,
                      "key": ref.key, "render_seconds": ref.seconds, "scene_hash": ref.scene_hash[:16] or None,
-                     "scene_source": _source_of(scene),
-                     **_store_copy(store, f"references/{slug(scene, f'{g.width}x{g.height}', f'spp{ref.spp}')}", ref, old_refs)}
+                     "scene_source": getattr(scene_file(scene), "path", None),
+                     **_store_copy(store, f"references/{slug(scene, f'{g.width}x{g.height}', f'spp{ref.spp}')}",
+                                   ref, old_refs)}
             by_size[f"{scene}@{g.width}x{g.height}"] = entry
             by_scene.setdefault(scene, entry)  # the first group naming a scene is its main sweep
             refs[k] = ref
-    meta = read_json(store / META, default={}) or {}
-    old = meta.get("references") if isinstance(meta.get("references"), dict) else {}
-    update_meta(store, references={**by_scene, **{k: v for k, v in old.items() if k not in by_scene}},
-                references_by_size=by_size)
+    update_meta(store, references=by_scene, references_by_size=by_size)  # merged into the stored ones
     return refs
 
 
@@ -97,38 +93,22 @@ def _reference_cost(g, cached: bool) -> float:
 
 
 def _plan_progress(bar, groups, todo, *, variant, cache) -> dict:
-    """Plan every step of the run on ``bar``: references, jobs, tail references (cached ones
-    cost a read); returns ``{(scene, strategy, width, height): cost}`` of the tail references."""
-    seen = set()
+    """Plan every step of the run on ``bar`` (cached ones cost a read): references, jobs, tail
+    references; returns ``{(scene, strategy, width, height): cost}`` of the tail references."""
+    firsts = {}
     for g in groups:
         for scene in g.scenes:
-            if (scene, g.width, g.height) in seen:
-                continue
-            seen.add((scene, g.width, g.height))
-            closed = closed_form_reference_of(scene, g.width, g.height) is not None
-            cached = closed or R.is_cached(scene_at(scene, g.width, g.height), spp=g.reference_spp,
-                                           variant=variant, cache=cache)
-            bar.plan(_reference_cost(g, cached))
+            firsts.setdefault((scene, g.width, g.height), g)
+    for (scene, w, h), g in firsts.items():
+        bar.plan(_reference_cost(g, closed_form_reference_of(scene, w, h) is not None or R.is_cached(
+            scene_at(scene, w, h), spp=g.reference_spp, variant=variant, cache=cache)))
     bar.plan(sum(j.cost for j in todo), len(todo))
-    tails = {}
-    for g in groups:
-        if g.seeds < 2:
-            continue
-        for scene in g.scenes:
-            scene_obj = scene_at(scene, g.width, g.height)
-            for strategy in g.strategies:
-                key = (scene, strategy, g.width, g.height)
-                if key not in tails:
-                    cached = T.is_cached(scene_obj, strategy=strategy, cache=cache)
-                    tails[key] = 0.05 if cached else render_cost(g.width * g.height, DEFAULT_TAIL_SPP)
+    keys = dict.fromkeys((scene, s, g.width, g.height) for g in groups if g.seeds >= 2 for scene in g.scenes
+                         for s in g.strategies)
+    tails = {(scene, s, w, h): 0.05 if T.is_cached(scene_at(scene, w, h), strategy=s, cache=cache)
+             else render_cost(w * h, DEFAULT_TAIL_SPP) for scene, s, w, h in keys}
     bar.plan(sum(tails.values()), len(tails))
     return tails
-
-
-def _source_of(name: str):
-    """The path of scene file ``name`` (``--scene``), or None for a suite scene."""
-    entry = scene_file(name)
-    return None if entry is None else entry.path
 
 
 def _store_copy(store: Path, stem: str, ref, old_refs: dict) -> dict:
@@ -136,7 +116,7 @@ def _store_copy(store: Path, stem: str, ref, old_refs: dict) -> dict:
     paths and checksums. A copy recorded with the same cache key whose bytes match is kept;
     anything else is written afresh from ``ref``."""
     out = {"path": f"{stem}.exr", "variance_path": f"{stem}_var.exr"}
-    old = next((e for e in old_refs.values() if isinstance(e, dict) and e.get("path") == out["path"]), {})
+    old = next((e for e in old_refs.values() if e.get("path") == out["path"]), {})
     for rel_key, sum_key, img in (("path", "sha256", ref.mean), ("variance_path", "variance_sha256", ref.variance)):
         rel = out[rel_key]
         fresh = (old.get("key") == ref.key and old.get(sum_key) and (store / rel).is_file()
@@ -162,7 +142,7 @@ def _check_arguments(groups, threads, alpha, target_relative) -> tuple:
 
 def _record_settings(store, groups, *, threads, scheduler, variant, preset, alpha, target_relative) -> None:
     """The run's settings, machine and versions into ``meta.json`` (its first date is kept)."""
-    meta = read_json(store / META, default={}) or {}
+    meta = read_meta(store)
     update_meta(store, date=meta.get("date") or _now(),
                 preset=preset if preset is not None else meta.get("preset", "custom"),
                 threads=None if scheduler is not None else int(threads),
@@ -224,25 +204,17 @@ def _recorded(store) -> int:
 
 def _start_run(store) -> int:
     """Append this run to ``meta.json``'s ``runs`` (started now, nothing done yet); its index."""
-    meta = read_json(store / META, default={}) or {}
-    runs = list(meta.get("runs") or [])
+    runs = read_meta(store).get("runs", [])
     runs.append({"started": _now(), "ended": None, "seconds": None, "jobs_done": 0, "interrupted": None})
     update_meta(store, runs=runs)
     return len(runs) - 1
 
 
-def _end_run(store, index: int, *, seconds: float, done: int, interrupted: bool) -> None:
+def _end_run(store, index: int, **fields) -> None:
     """Complete this run's entry in ``meta.json`` (end, seconds, jobs stored) and the total."""
-    meta = read_json(store / META, default={}) or {}
-    runs = list(meta.get("runs") or [])
-    entry = runs[index] if index < len(runs) and isinstance(runs[index], dict) else {}
-    entry.update(ended=_now(), seconds=seconds, jobs_done=done, interrupted=interrupted)
-    if index < len(runs):
-        runs[index] = entry
-    else:
-        runs.append(entry)
-    update_meta(store, runs=runs, total_seconds=float(sum((r.get("seconds") or 0) for r in runs
-                                                          if isinstance(r, dict))))
+    runs = read_meta(store).get("runs", [])
+    runs[index:index + 1] = [{**(runs[index] if index < len(runs) else {}), "ended": _now(), **fields}]
+    update_meta(store, runs=runs, total_seconds=sum(finite(r.get("seconds")) or 0.0 for r in runs))
 
 
 def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, variant: str | None = None,
@@ -260,19 +232,15 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
     groups : sequence of Group
     out : str or Path, keyword-only
         The results store folder.
-    threads : int or None, keyword-only
-        Threads per local job for both renderers (default all cores; with ``scheduler``
-        each worker's own count).
-    scheduler : str, distributed.Client or None, keyword-only
-        A Dask scheduler address (``tcp://host:8786``) or Client.
-    variant : str or None, keyword-only
-        Mitsuba variant (default: the fastest that works).
+    threads, scheduler : keyword-only
+        Threads per local job (default all cores), or a Dask scheduler address or Client
+        (each worker's own threads).
+    variant, preset : str or None, keyword-only
+        Mitsuba variant (default: the fastest that works); the preset recorded in ``meta.json``.
     progress : bool or Progress, keyword-only
         Show a progress bar (the caller's, which may plan more steps) and messages.
     cache, alpha, target_relative, escalate_tails : keyword-only
         As :func:`benchmarks.sweep.summarize` (``cache`` also for the references).
-    preset : str or None, keyword-only
-        Recorded in ``meta.json``.
 
     Returns
     -------
@@ -299,7 +267,7 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
             # counted in the store (only this run appends, under the writer lock): exact even when
             # Ctrl-C lands between a record's write and the runner's count
             stored = _recorded(store) - recorded_before
-            _end_run(store, run_index, seconds=result.seconds, done=stored, interrupted=result.interrupted)
+            _end_run(store, run_index, seconds=result.seconds, jobs_done=stored, interrupted=result.interrupted)
     return result
 
 
@@ -323,8 +291,8 @@ def _sweep(groups, store, result, *, threads, scheduler, variant, mitsuba_versio
             log(f"resuming: {result.skipped} of {len(plan)} jobs already in {store}")
         _say_new_builds(store, plan, done_keys, log)
 
-        def keep(job):  # (keep_image, keep_stats): seed 0's image; the top spp's for the bias test
-            return job.seed == 0, job.spp == top[job.curve]
+        def keep(job):  # seed 0's image; the top spp's mean and variance for the bias test
+            return {"keep_image": job.seed == 0, "keep_stats": job.spp == top[job.curve]}
 
         with result.phases("jobs"):
             if scheduler is None:

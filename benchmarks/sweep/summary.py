@@ -18,12 +18,12 @@ from .. import metrics as M
 from .. import tails as T
 from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM, MITSUBA_STRATEGY, STRATEGIES
 from ..scenes import scene_at
-from ..store import META, SUMMARY, read_image, read_json, read_records, update_meta, write_json
+from ..store import SUMMARY, read_image, read_meta, read_records, update_meta, write_json
 from ..tails import DEFAULT_MAX_TAIL_SAMPLES, DEFAULT_TAIL_SPP
 from .bias import bias_stats
 from .by_metric import add_metric_ratios, curve_metrics, tail_variance_image
 from .coerce import as_float, finite_mean
-from .headline import DEFAULT_BATCHES, add_noise_ratios, exact, headline_rows, mitsuba_cost, tail_noise
+from .headline import add_noise_ratios, exact, headline_rows, mitsuba_cost, tail_noise
 from .jobs import mitsuba_pairs
 from .progress import render_cost
 from .slopes import mse_reliable_from, reliable_points_only, slope_stats, slope_status
@@ -77,13 +77,8 @@ def _scene_filter(scene: str, w: int, h: int, cache: dict):
     return cache[scene]
 
 
-def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails=None,
-                 seconds_per_sample: float | None = None, pixel_filter=None) -> dict:
-    """Summary figures of one curve.
-
-    With ``seconds_per_sample`` (of a seconds-long render of the same estimator) ``n`` spp cost
-    ``n`` x pixels x that time: a small image's renders are mostly per-render overhead.
-    """
+def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails=None, pixel_filter=None) -> dict:
+    """Summary figures of one curve."""
     by_spp = collections.defaultdict(list)
     for r in recs:
         by_spp[int(r["spp"])].append(r)
@@ -92,10 +87,6 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     mse_p = np.array([finite_mean(r.get("mse") for r in by_spp[s]) for s in spps])
     secs = np.array([finite_mean(r.get("seconds") for r in by_spp[s]) for s in spps])
     row = {"spps": spps, "seeds": max(len(by_spp[s]) for s in spps), "timing_source": "each render's wall time"}
-    pixels = int(recs[0]["width"]) * int(recs[0]["height"]) if recs else 0
-    if seconds_per_sample and pixels:
-        secs = np.asarray(spps, dtype=np.float64) * pixels * seconds_per_sample
-        row["timing_source"] = "spp x pixels x seconds per sample of a high-budget render of the estimator"
     row.update(slope_stats(spps, mse_c, mse_p))
     top = spps[-1]
     row.update(bias_stats(by_spp[top], top, ref, store, alpha=alpha, tails=tails, pixel_filter=pixel_filter))
@@ -124,8 +115,7 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     elif math.isfinite(mse_c[-1]) and mse_c[-1] > 0 and secs[-1] > 0:
         row["efficiency"] = M.efficiency(mse_c[-1], secs[-1])
         row["efficiency_source"] = "measured MSE"
-    row["samples_per_second"] = (1.0 / seconds_per_sample if seconds_per_sample else
-                                 finite_mean(r.get("paths_per_second") for r in by_spp[top]))
+    row["samples_per_second"] = finite_mean(r.get("paths_per_second") for r in by_spp[top])
     row["seconds_at_top"] = secs[-1]
     row["target_rmse"] = target
     row["time_to_target"] = None
@@ -148,13 +138,11 @@ def _store_reference(store, info) -> ImageEstimate | None:
     if not info:
         return None
     try:
-        ref = ImageEstimate(mean=read_image(store, info["path"], sha256=info.get("sha256")).astype(np.float64),
-                            variance=read_image(store, info["variance_path"],
-                                                sha256=info.get("variance_sha256")).astype(np.float64),
-                            spp=int(info["spp"]), seconds=as_float(info.get("render_seconds")),
-                            source=str(info.get("variant", "")))
-        ref.batches = int(info.get("batches") or DEFAULT_BATCHES)
-        return ref
+        return ImageEstimate(mean=read_image(store, info["path"], sha256=info.get("sha256")).astype(np.float64),
+                             variance=read_image(store, info["variance_path"],
+                                                 sha256=info.get("variance_sha256")).astype(np.float64),
+                             spp=int(info["spp"]), seconds=as_float(info.get("render_seconds")),
+                             source=str(info.get("variant", "")))
     except Exception:  # noqa: BLE001 - missing or corrupt (checksum) reference: figures that need it stay null
         return None
 
@@ -209,8 +197,7 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
     tail_spp = DEFAULT_TAIL_SPP if tail_spp is None else int(tail_spp)
     store = Path(store)
     records = read_records(store)
-    meta = read_json(store / META, default={}) or {}
-    refs_meta = meta.get("references_by_size") if isinstance(meta.get("references_by_size"), dict) else {}
+    refs_meta = read_meta(store).get("references_by_size", {})
     curves = collections.defaultdict(list)
     for r in records:
         curves[(r["scene"], r["renderer"], r["strategy"], r["width"], r["height"])].append(r)
