@@ -65,7 +65,7 @@ def wide_console(width: int):
 def run(args) -> int:
     from pathlib import Path
 
-    from benchmarks.commands._summary import print_summary
+    from reports import summary_table
     from benchmarks.commands.parity import check_user_scenes
     from benchmarks.external import register_external
     from benchmarks.sweep import Group, run_sweep
@@ -87,7 +87,7 @@ def run(args) -> int:
                   externals=tuple(register_external(cmd).name for cmd in args.renderer))
     result = run_sweep([group], out=out, **sweep_kwargs(args, [group]))
     if not args.quiet:
-        print_summary(result.store, console=wide_console(120), metric=args.metric)
+        wide_console(120).print(summary_table(result.store, metric=args.metric), highlight=False, markup=False)
     print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
           f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", flush=True)
     for label, why in result.failed[:10]:

@@ -43,13 +43,11 @@ def record_key(record: dict, *, partial: bool = False) -> tuple:
 
 def _last_line_start(f, size: int) -> int:
     """Offset just after the last newline of an open file of ``size`` bytes (0 if none)."""
-    block = 1 << 16
     pos = size
     while pos > 0:
-        start = max(0, pos - block)
+        start = max(0, pos - (1 << 16))
         f.seek(start)
-        chunk = f.read(pos - start)
-        i = chunk.rfind(b"\n")
+        i = f.read(pos - start).rfind(b"\n")
         if i >= 0:
             return start + i + 1
         pos = start
@@ -182,16 +180,9 @@ def skipped_line(line: ResultLine, *, partial: bool = False) -> str | None:
 
 def job_records(store, *, partial: bool = False) -> tuple:
     """``(records, skipped)``: the job records of ``results.jsonl`` in file order (not
-    deduplicated) and one sentence per line skipped (:func:`skipped_line`).
-    """
-    records, skipped = [], []
-    for line in result_lines(store):
-        why = skipped_line(line, partial=partial)
-        if why is None:
-            records.append(line.value)
-        else:
-            skipped.append((line, why))
-    return records, skipped
+    deduplicated) and ``(line, why)`` per line skipped (:func:`skipped_line`)."""
+    lines = [(line, skipped_line(line, partial=partial)) for line in result_lines(store)]
+    return [line.value for line, why in lines if why is None], [(line, why) for line, why in lines if why]
 
 
 def read_records(store, *, dedupe: bool = True) -> list:
