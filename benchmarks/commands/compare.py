@@ -31,15 +31,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from rich.table import Table
-    from rich.text import Text
-
-    from benchmarks.commands.curves import wide_console
     from benchmarks.compare import compare_stores, estimator_knowledge
     from benchmarks.external import register_external
     from benchmarks.tails import DEFAULT_TAIL_SPP
-    from benchmarks.text import terminal
-    from reports.compare import write_compare_page
+    from benchmarks.text import terminal, text_table
+    from reports.compare import figures, write_compare_page
 
     A.check(args)
     for p in (args.store_a, args.store_b):
@@ -55,25 +51,9 @@ def run(args) -> int:
     knowledge = estimator_knowledge(tail_spp=args.tail_spp, threads=A.resolve_threads(args.threads),
                                     cache=args.cache, externals=externals, log=say)
     rows = compare_stores(args.store_a, args.store_b, alpha=args.alpha, estimator=knowledge)
-    if not args.quiet:
-        table = Table(title=f"rtbench compare: A = {args.store_a}, B = {args.store_b}")
-        for col in ("curve", "builds A / B", "slope A / B", "slope B-A [95%]", "efficiency B/A [95%]", "speed",
-                    "gate (B vs A)", "relative bias"):
-            table.add_column(col)
+    if not args.quiet:  # the page's table of each curve
         for c in rows:
-            ci, ei = c.slope_diff_ci, c.efficiency_ratio_ci
-            table.add_row(Text(terminal(c.label)),
-                          Text(terminal(f"{(c.build_a or '-')[:10]} / {(c.build_b or '-')[:10]}")),
-                          f"{_f(c.slope_a)} / {_f(c.slope_b)}",
-                          f"{_f(c.slope_diff, '{:+.3f}')}" + (f" [{ci[0]:+.3f}, {ci[1]:+.3f}]" if ci else ""),
-                          f"{_f(c.efficiency_ratio)}" + (f" [{ei[0]:.3g}, {ei[1]:.3g}]" if ei else ""), c.speed,
-                          f"{c.verdict or '-'} (p {_f(c.p_value)})", _f(c.relative_bias, "{:+.2%}"))
-        console = wide_console(160)
-        console.print(table)
-        for c in rows:
-            if c.tails:
-                console.print(terminal(f"  {c.label}: B's estimator at a high budget: {c.tails}"), markup=False,
-                              highlight=False)
+            print(terminal(f"{c.label}\n") + text_table(["figure", "value"], figures(c)) + "\n")
     page = write_compare_page(rows, args.out, name_a=str(args.store_a), name_b=str(args.store_b))
     print(f"page: {page.resolve()}")
     if args.json:
@@ -84,6 +64,3 @@ def run(args) -> int:
                        f"{c.relative_bias:+.2%}"), file=sys.stderr)
     return 1 if failed else 0
 
-
-def _f(v, fmt="{:.3g}"):
-    return "-" if v is None else fmt.format(v)
