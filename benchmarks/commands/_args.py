@@ -1,11 +1,8 @@
-"""The one vocabulary of ``rtbench``'s options: every option two subcommands share is defined here once.
+"""The one vocabulary of ``rtbench``'s options (docs/rtbench.md, Options: one name, one meaning).
 
-Each ``add_*`` adds one option with one name, meaning and help text (docs/rtbench.md, Options:
-one name, one meaning); a subcommand chooses its own default only for the options of
-:data:`PER_COMMAND_DEFAULTS`, and :class:`HelpFormatter` shows every default.
-``tests/benchmarks/commands/test_cli_args.py`` holds every subcommand's parser to this.
+Each ``add_*`` adds one option with one name, meaning and help text; a subcommand chooses its
+own default only for :data:`PER_COMMAND_DEFAULTS`, and :class:`HelpFormatter` shows every one.
 
->>> import argparse
 >>> p = argparse.ArgumentParser(formatter_class=HelpFormatter)
 >>> add_size_args(p, width=32)
 >>> a = check(p.parse_args(["--width", "48"]))
@@ -108,9 +105,6 @@ def check(args):
     """Range-check and normalise the shared options of ``args`` in place (integer lists and
     ``--variant`` become tuples); ``ValueError`` (exit 2) on bad input. Returns ``args``.
 
-    >>> import argparse
-    >>> check(argparse.Namespace(spps="1,4", alpha=0.01, width=8)).spps
-    (1, 4)
     >>> check(argparse.Namespace(width=0))
     Traceback (most recent call last):
     ...
@@ -123,6 +117,8 @@ def check(args):
     for dest, option in _INT_LISTS.items():
         if getattr(args, dest, None) is not None:
             setattr(args, dest, int_list(getattr(args, dest), option=option))
+    if getattr(args, "height", None) is not None and getattr(args, "width", 0) is None:
+        raise ValueError("--height needs --width")
     alpha = getattr(args, "alpha", None)
     if alpha is not None and not 0 < alpha < 1:
         raise ValueError(f"--alpha must be in (0, 1), got {alpha:g}")
@@ -245,8 +241,6 @@ def tail_spp_warning(tail_spp: int, *, default: int) -> str | None:
     """The warning for a ``--tail-spp`` below the budget the false-alarm rates were measured at
     (``benchmarks/STATISTICS.md``, "Known limits"), else None.
 
-    >>> tail_spp_warning(16384, default=16384) is None
-    True
     >>> tail_spp_warning(1024, default=16384).split(":")[0]
     '--tail-spp 1024 is below 16384'
     """

@@ -63,8 +63,6 @@ def run(args) -> int:
                          f"choose from {', '.join(rt.STRATEGIES)}")
     rt.imageio.check_exposure(args.exposure)  # before the render, not after it
     variant = single_variant(args)
-    if args.height is not None and args.width is None:
-        raise ValueError("--height needs --width")
     params = {} if args.width is None else {"width": args.width, "height": resolve_height(args)}
     names = resolve_scenes(args, suite_names=[args.scenes] if args.scenes else [])
     out = Path(args.out)

@@ -64,38 +64,34 @@ class Progress:
                                     rp.TextColumn("{task.description}", table_column=Column(
                                         ratio=1, no_wrap=True, overflow="ellipsis")),
                                     console=self._console, transient=False, speed_estimate_period=120)
-        self.task = self.progress.add_task("", total=max(self.cost_total, 1e-9), steps=self._steps())
+        self.task = self.progress.add_task("", total=max(self.cost_total, 1e-9), steps="")
         self.progress.start()
         self._started = True
 
-    def _steps(self) -> str:
-        return f"{self.steps_done}/{self.steps_total}"
+    def _update(self, **fields) -> None:
+        if self.enabled:
+            if not self._started:
+                self._start()
+            self.progress.update(self.task, steps=f"{self.steps_done}/{self.steps_total}", **fields)
 
     def plan(self, cost: float, steps: int = 1) -> None:
         """Add ``steps`` steps of total estimated ``cost`` seconds to the run."""
         self.steps_total += int(steps)
         self.cost_total += float(cost)
-        if self.enabled and self._started:
-            self.progress.update(self.task, total=self.cost_total, steps=self._steps())
+        if self._started:
+            self._update(total=self.cost_total)
 
     def current(self, label: str) -> None:
-        if self.enabled:
-            if not self._started:
-                self._start()
-            self.progress.update(self.task, description=label)
+        self._update(description=label)
 
     def advance(self, cost: float) -> None:
         self.steps_done += 1
-        if self.enabled:
-            if not self._started:
-                self._start()
-            self.progress.update(self.task, advance=cost, steps=self._steps())
+        self._update(advance=cost)
 
     def log(self, text: str) -> None:
-        if self.enabled and self._started:
-            self.progress.console.print(text, highlight=False, markup=False, soft_wrap=True)
-        elif self.enabled:
-            (self._console or Console(stderr=True)).print(text, highlight=False, markup=False, soft_wrap=True)
+        if self.enabled:
+            console = self.progress.console if self._started else (self._console or Console(stderr=True))
+            console.print(text, highlight=False, markup=False, soft_wrap=True)
 
     def stop(self) -> None:
         if self.enabled and self._started:

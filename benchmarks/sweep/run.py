@@ -127,7 +127,7 @@ def _store_copy(store: Path, stem: str, ref, old_refs: dict) -> dict:
     return out
 
 
-def _check_arguments(groups, threads, alpha, target_relative) -> tuple:
+def _check_arguments(groups, threads, alpha) -> tuple:
     """``(groups as a list, threads as an int)``, or ``ValueError`` for a bad argument."""
     groups = list(groups)
     if not groups or not all(isinstance(g, Group) for g in groups):
@@ -135,12 +135,10 @@ def _check_arguments(groups, threads, alpha, target_relative) -> tuple:
     threads = default_threads() if threads is None else positive_int("threads", threads)
     if not 0 < alpha < 1:
         raise ValueError(f"alpha must be in (0, 1), got {alpha}")
-    if not target_relative > 0:
-        raise ValueError(f"target_relative must be positive, got {target_relative}")
     return groups, threads
 
 
-def _record_settings(store, groups, *, threads, scheduler, variant, preset, alpha, target_relative) -> None:
+def _record_settings(store, groups, *, threads, scheduler, variant, preset, alpha) -> None:
     """The run's settings, machine and versions into ``meta.json`` (its first date is kept)."""
     meta = read_meta(store)
     update_meta(store, date=meta.get("date") or _now(),
@@ -148,7 +146,7 @@ def _record_settings(store, groups, *, threads, scheduler, variant, preset, alph
                 threads=None if scheduler is not None else int(threads),
                 scheduler=str(scheduler) if isinstance(scheduler, str) else (None if scheduler is None else "client"),
                 machine=machine_info(), versions=run_versions(variant), alpha=alpha,
-                target_relative_rmse=target_relative,
+                target_relative_rmse=TARGET_RELATIVE_RMSE,
                 scene_files=_scene_files(groups),
                 groups=[{"name": g.name, "scenes": list(g.scenes), "strategies": list(g.strategies),
                          "spps": list(g.spps), "seeds": g.seeds, "width": g.width, "height": g.height,
@@ -218,8 +216,7 @@ def _end_run(store, index: int, **fields) -> None:
 
 
 def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, variant: str | None = None,
-              progress: bool = True, cache=None, alpha: float = BIAS_TEST_ALPHA,
-              target_relative: float = TARGET_RELATIVE_RMSE, preset: str | None = None,
+              progress: bool = True, cache=None, alpha: float = BIAS_TEST_ALPHA, preset: str | None = None,
               escalate_tails: bool = True) -> SweepResult:
     """Run (or resume) a sweep into a results store and write its summary.
 
@@ -239,14 +236,14 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
         Mitsuba variant (default: the fastest that works); the preset recorded in ``meta.json``.
     progress : bool or Progress, keyword-only
         Show a progress bar (the caller's, which may plan more steps) and messages.
-    cache, alpha, target_relative, escalate_tails : keyword-only
+    cache, alpha, escalate_tails : keyword-only
         As :func:`benchmarks.sweep.summarize` (``cache`` also for the references).
 
     Returns
     -------
     SweepResult
     """
-    groups, threads = _check_arguments(groups, threads, alpha, target_relative)
+    groups, threads = _check_arguments(groups, threads, alpha)
     store = store_path(out)
     variant, mitsuba_version = mitsuba_identity(variant)
     with writer_lock(store, say=lambda text: print(text, file=sys.stderr, flush=True)):
@@ -256,8 +253,7 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
         recorded_before = _recorded(store)
         try:
             _sweep(groups, store, result, threads=threads, scheduler=scheduler, variant=variant,
-                   mitsuba_version=mitsuba_version, cache=cache,
-                   alpha=alpha, target_relative=target_relative, preset=preset, progress=progress,
+                   mitsuba_version=mitsuba_version, cache=cache, alpha=alpha, preset=preset, progress=progress,
                    escalate_tails=escalate_tails)
         except BaseException:
             result.interrupted = True
@@ -272,10 +268,9 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
 
 
 def _sweep(groups, store, result, *, threads, scheduler, variant, mitsuba_version, cache, alpha,
-           target_relative, preset, progress, escalate_tails) -> None:
+           preset, progress, escalate_tails) -> None:
     """The steps of :func:`run_sweep`, with the store's writer lock held; fills ``result``."""
-    _record_settings(store, groups, threads=threads, scheduler=scheduler, variant=variant, preset=preset,
-                     alpha=alpha, target_relative=target_relative)
+    _record_settings(store, groups, threads=threads, scheduler=scheduler, variant=variant, preset=preset, alpha=alpha)
     plan, top = _plan(groups, renderer_builds(variant, mitsuba_version))
     done_keys = finished_keys(store)
     todo = [j for j in plan if j.key not in done_keys]
@@ -302,7 +297,7 @@ def _sweep(groups, store, result, *, threads, scheduler, variant, mitsuba_versio
                 run_dask(todo, refs, store, address=scheduler, variant=variant, keep=keep, bar=bar, say=log,
                          failures=result.failed, tally=result)
         with result.phases("tail references and summary"):
-            result.rows = summarize(store, alpha=alpha, target_relative=target_relative, cache=cache,
+            result.rows = summarize(store, alpha=alpha, cache=cache,
                                     threads=threads, log=log, escalate=escalate_tails, bar=bar,
                                     tail_plan=tail_plan)
     finally:

@@ -57,14 +57,14 @@ _NOTES = {
 }
 
 
-def target_rmse(ref_mean, *, relative: float = TARGET_RELATIVE_RMSE) -> float:
-    """Target RMSE of a scene: ``relative`` x the RMS of the reference's radiance.
+def target_rmse(ref_mean) -> float:
+    """Target RMSE of a scene: :data:`TARGET_RELATIVE_RMSE` x the RMS of the reference's radiance.
 
-    >>> target_rmse(np.full((4, 4, 3), 2.0), relative=0.1)
+    >>> target_rmse(np.full((4, 4, 3), 2.0))
     0.2
     """
     r = np.asarray(ref_mean, dtype=np.float64)
-    return float(relative * math.sqrt(float(np.mean(r * r))))
+    return float(TARGET_RELATIVE_RMSE * math.sqrt(float(np.mean(r * r))))
 
 
 def _scene_filter(scene: str, w: int, h: int, cache: dict):
@@ -183,13 +183,11 @@ def _not_escalated(row: dict, tails, w: int, h: int) -> None:
                                 f"reference of about {need} spp would decide (--preset full renders it)"))
 
 
-def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float = TARGET_RELATIVE_RMSE,
-              tail_spp: int | None = None, cache=None, threads=None, log=None, escalate: bool = True,
-              bar=None, tail_plan=None) -> list:
+def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, tail_spp: int | None = None, cache=None, threads=None,
+              log=None, escalate: bool = True, bar=None, tail_plan=None) -> list:
     """Write ``summary.json`` of a results store and return its rows, one per curve.
 
-    ``alpha``: level of each bias test; ``target_relative``: the target RMSE of time to
-    target over the reference's RMS radiance; ``tail_spp`` (default 16384), ``cache``,
+    ``alpha``: level of each bias test; ``tail_spp`` (default 16384), ``cache``,
     ``threads``, ``log``, ``escalate``: the tail references of our curves with 2+ seeds
     (:func:`benchmarks.tails.variance_tail_reference`); ``bar``, ``tail_plan``: the run's
     progress (:mod:`benchmarks.sweep.progress`).
@@ -206,7 +204,7 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
         if (scene, w, h) not in ref_cache:
             ref_cache[(scene, w, h)] = _store_reference(store, refs_meta.get(f"{scene}@{w}x{h}"))
         ref = ref_cache[(scene, w, h)]
-        target = target_rmse(ref.mean, relative=target_relative) if ref is not None else None
+        target = target_rmse(ref.mean) if ref is not None else None
         if target is not None:
             targets.setdefault(scene, target)
         row = {"scene": scene, "renderer": renderer, "strategy": strategy, "width": w, "height": h,
@@ -243,9 +241,9 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
     order = {s: i for i, s in enumerate(STRATEGIES)}
     rows.sort(key=lambda r: (r["scene"], r["width"], r["height"], r["renderer"] != "ours",
                              order.get(r["strategy"], 9)))
-    notes = {k: v.format(alpha=alpha, target=target_relative) for k, v in _NOTES.items()}
+    notes = {k: v.format(alpha=alpha, target=TARGET_RELATIVE_RMSE) for k, v in _NOTES.items()}
     write_json(store / SUMMARY, {"rows": rows, "headline": headline_rows(rows), "alpha": alpha,
-                                 "target_relative_rmse": target_relative, "notes": notes})
+                                 "target_relative_rmse": TARGET_RELATIVE_RMSE, "notes": notes})
     if targets:
         update_meta(store, target_rmse=targets)
     return rows
