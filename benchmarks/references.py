@@ -1,17 +1,10 @@
-"""High-spp Mitsuba references with their per-sample variance, cached outside the repo.
+"""High-spp Mitsuba references (``path`` in independent batches, so with a per-sample variance
+that error figures subtract), and the closed forms that replace them where Mitsuba is wrong.
 
-A reference is Mitsuba 3's ``path`` integrator rendered in independent batches
-(:func:`mitsuba_scenes.render_mitsuba`), so that it comes with the per-pixel, per-sample
-variance that error figures subtract (``benchmarks.metrics.mse_corrected``). The cache
-(``$RTBENCH_CACHE/references``, docs/rtbench.md, The reference cache) keys each entry by
-the scene's content hash, Mitsuba's version and variant, spp, seed, batches and format:
-``<key>.mean.exr``, ``<key>.var.exr`` and, written last, ``<key>.json`` with their
-checksums. An entry is used only when all three agree with the key and the scene's shape;
-anything else is rendered again, under a file lock.
-
->>> from mitsuba_scenes import get_scene
->>> reference(get_scene("cornell_box", width=16, height=16), spp=256).cached  # doctest: +SKIP
-True
+The cache (docs/rtbench.md, The reference cache) keys an entry by the scene's content hash,
+Mitsuba's version and variant, spp, seed, batches and format: ``<key>.mean.exr``,
+``<key>.var.exr`` and, written last, ``<key>.json`` with their checksums. An entry that does
+not agree with its key and the scene's shape is rendered again, under a file lock.
 """
 from __future__ import annotations
 

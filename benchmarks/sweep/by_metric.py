@@ -1,12 +1,7 @@
-"""``by_metric`` of a summary row: slope, efficiency and time to target under every metric
-of :data:`benchmarks.metrics.SPECS` but RMSE (the row's own figures), so a report can switch
-``--metric`` without re-rendering (:func:`benchmarks.metrics.view`).
-
-A metric's error at one spp is a mean over the seeds: sqrt of the corrected MSE (RMSE),
-relMSE less the reference's own relative noise, 1 - SSIM, or FLIP. Efficiency is
-1 / (error x seconds) at the top spp, the error of an unbiased estimator's relMSE being its
-expectation from the tail reference's per-pixel variance; time to target is log-log
-interpolated to the metric's target (docs/conventions.md, Metrics).
+"""``by_metric`` of a summary row: slope, efficiency and time to target under every metric but
+RMSE (the row's own figures), so a report switches ``--metric`` without re-rendering
+(:func:`benchmarks.metrics.view`; docs/conventions.md, Metrics). An error at one spp is a mean
+over the seeds: sqrt of the corrected MSE, relMSE less the reference's own noise, 1 - SSIM, FLIP.
 """
 from __future__ import annotations
 
