@@ -48,6 +48,8 @@ def _clean_meta(meta: dict, problems: list | None) -> dict:
 
     >>> _clean_meta({"references": {"a": [1], "b": {"spp": 4, "path": 7}}, "threads": "x"}, None)
     {'references': {'b': {'spp': 4}}}
+    >>> _clean_meta({"versions": {"mitsuba": "3.9.1", "llvm_target": {"cpu": "x"}}, "groups": [{"seeds": 4}]}, [])
+    {'versions': {'mitsuba': '3.9.1', 'llvm_target': {'cpu': 'x'}}, 'groups': [{'seeds': 4}]}
     """
     out, dropped = {}, []
     for key, value in meta.items():
@@ -55,8 +57,11 @@ def _clean_meta(meta: dict, problems: list | None) -> dict:
             ok = isinstance(value, str)
         elif key in ("total_seconds", "threads"):
             ok = _is_number(value)
-        elif key in ("machine", "versions"):
-            ok = _fits(value, "scalars")
+        elif key in ("machine", "versions"):  # plain values, or one level of them (llvm_target)
+            ok = isinstance(value, dict)
+            if ok:
+                dropped += [f"{key}.{k}" for k, v in value.items() if not (_is_scalar(v) or _fits(v, "scalars"))]
+                value = {k: v for k, v in value.items() if _is_scalar(v) or _fits(v, "scalars")}
         elif key in ("references", "references_by_size", "scene_files"):
             ok = isinstance(value, dict)
             if ok:
@@ -73,6 +78,10 @@ def _clean_meta(meta: dict, problems: list | None) -> dict:
             ok = isinstance(value, list)
             if ok:
                 value = [r for r in value if isinstance(r, dict) and all(_is_scalar(v) for v in r.values())]
+        elif key == "groups":  # the run's sweep groups, as written (nobody indexes them)
+            ok = isinstance(value, list)
+            if ok:
+                value = [g for g in value if isinstance(g, dict)]
         else:
             ok = _is_scalar(value)
         if ok:
