@@ -1,60 +1,37 @@
-"""``rtbench``: the command-line entry point.
+"""``rtbench``: the command-line entry point, one module per subcommand in ``benchmarks.commands``.
 
-Each subcommand lives in its own module under ``benchmarks.commands`` and defines
-``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int`` (exit code).
-
-Errors are handled here, once for every command (:func:`main`): an exception a command
-raises becomes its exit status (:func:`benchmarks.errors.exit_code`: 2 usage or bad
-input, 3 internal or I/O error) and one line on stderr; ``--debug`` (before or after
-the command name) adds the traceback. Integer options are checked here too
-(:func:`bounded_int`), before any value reaches the C++ core.
+Errors are handled here once for every command: an exception becomes its exit status
+(:func:`benchmarks.errors.exit_code`) and one line on stderr (``--debug``: the traceback).
+Integer options are bounded here (:func:`bounded_int`), before a value reaches the C++ core.
 """
 from __future__ import annotations
 
 import os
 
-# Idle OpenBLAS worker threads (numpy/scipy) spin for a while after each call and steal
-# cycles from the renderers' own threads; the harness never needs parallel BLAS. Must be
-# set before numpy is imported.
+# Idle OpenBLAS threads spin after each call and steal the renderers' cycles; the harness never
+# needs parallel BLAS. Set before numpy is imported.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
 import traceback  # noqa: E402
+from pathlib import Path  # noqa: E402
 
-from benchmarks.errors import EXIT_CODES_HELP, EXIT_USAGE, exit_code, one_line  # noqa: E402
+from reference_tracer.validation import INT_MAX, SEED_MAX  # noqa: E402
 
 from benchmarks.commands._args import HelpFormatter  # noqa: E402  (every default shown in --help)
+from benchmarks.errors import EXIT_CODES_HELP, EXIT_USAGE, exit_code, one_line  # noqa: E402
+from benchmarks.text import terminal  # noqa: E402
 
-#: subcommand -> module; listed in the order ``rtbench --help`` shows them.
-COMMANDS = {
-    "run": "benchmarks.commands.run",
-    "render": "benchmarks.commands.render",
-    "reference": "benchmarks.commands.reference",
-    "curves": "benchmarks.commands.curves",
-    "report": "benchmarks.commands.report",
-    "compare": "benchmarks.commands.compare",
-    "parity": "benchmarks.commands.parity",
-    "corpus": "benchmarks.commands.corpus",
-    "gate": "benchmarks.commands.gate",
-    "stress": "benchmarks.commands.stress",
-    "speed": "benchmarks.commands.speed",
-    "chi2": "benchmarks.commands.chi2",
-    "selftest": "benchmarks.commands.selftest",
-}
-
-
-#: largest value of an integer option (the core's ``int``); seeds may use 64 bits.
-INT_MAX = 2**31 - 1
-SEED_MAX = 2**64 - 1
+#: the subcommands (modules of ``benchmarks.commands``) in the order ``rtbench --help`` shows them.
+COMMANDS = ("run", "render", "reference", "curves", "report", "compare", "parity", "corpus", "gate", "stress", "speed",
+            "chi2", "selftest")
 
 
 def bounded_int(text: str, *, maximum: int = INT_MAX) -> int:
     """An integer option's value, refused (a usage error) beyond ``+-maximum``.
 
-    Examples
-    --------
     >>> bounded_int("64")
     64
     >>> bounded_int(str(2**31))
@@ -95,13 +72,8 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EXIT_CODES_HELP)
     parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for name, module_name in COMMANDS.items():
-        try:
-            module = importlib.import_module(module_name)
-        except ModuleNotFoundError as exc:
-            if exc.name != module_name:
-                raise
-            continue  # subcommand not part of this build
+    for name in COMMANDS:
+        module = importlib.import_module(f"benchmarks.commands.{name}")
         # help is %-formatted by argparse, the description is not
         p = sub.add_parser(name, help=module.HELP.replace("%", "%%"), description=module.HELP,
                            epilog=EXIT_CODES_HELP, formatter_class=HelpFormatter)
@@ -126,41 +98,24 @@ def main(argv=None) -> int:
         print("\ninterrupted", file=sys.stderr)
         return exit_code(exc)
     except Exception as exc:  # noqa: BLE001 - every error becomes one line and its exit status
-        return report_error(exc, command=args.command, debug=args.debug)
-
-
-#: options naming a file a command writes at its end (after a possibly long run).
-OUTPUT_FILE_OPTIONS = ("json", "markdown")
+        if args.debug:
+            traceback.print_exception(exc)
+        # the message may quote input (a store field, a file name): no terminal escapes from it
+        print(terminal(f"rtbench {args.command}: error: {one_line(exc)}"), file=sys.stderr, flush=True)
+        return exit_code(exc)
 
 
 def _probe_output_files(args) -> None:
-    """Fail now, not after the run, when an output file (``--json``, ``--markdown``) cannot
-    be written: open it for appending (its folder created, as the command would) and
-    remove it again if it did not exist. Raises ``OSError`` (exit 3)."""
-    from pathlib import Path
-
-    for name in OUTPUT_FILE_OPTIONS:
-        value = getattr(args, name, None)
-        if not isinstance(value, str) or not value or value == "-":
-            continue
-        path = Path(value)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        existed = path.exists()
-        with open(path, "a"):
-            pass
-        if not existed:
-            path.unlink()
-
-
-def report_error(exc: BaseException, *, command: str, debug: bool = False) -> int:
-    """Print one line for ``exc`` on stderr (and its traceback with ``debug``); return its exit status."""
-    if debug:
-        traceback.print_exception(exc)
-    from benchmarks.text import terminal
-
-    # the message may quote input (a store field, a file name): no terminal escapes from it
-    print(terminal(f"rtbench {command}: error: {one_line(exc)}"), file=sys.stderr, flush=True)
-    return exit_code(exc)
+    """``OSError`` now, not after the run, when an output file (``--json``, ``--markdown``) cannot
+    be written: opened for appending (its folder created) and removed again if it was new."""
+    for value in (getattr(args, "json", None), getattr(args, "markdown", None)):
+        if isinstance(value, str) and value and value != "-":
+            path = Path(value)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            existed = path.exists()
+            path.open("a").close()
+            if not existed:
+                path.unlink()
 
 
 if __name__ == "__main__":

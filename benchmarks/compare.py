@@ -1,39 +1,16 @@
-"""A/B comparison of two results stores: did a change make the tracer faster, slower, or wrong?
-
-For every curve (scene, renderer, strategy, width, height) present in both stores:
-
-* the two RMSE-vs-spp curves (RMSE from the reference-noise-corrected MSE, seeds averaged);
-* the convergence slope of each and the slope difference B - A, and the efficiency ratio
-  B / A (efficiency = 1 / (MSE x seconds) at the highest spp both curves reach), each
-  with a 95% percentile-bootstrap interval: seeds are resampled with replacement within
-  each spp, independently in A and B (fixed generator seed, :data:`BOOTSTRAP_RESAMPLES`);
-* the gate's verdict (:func:`benchmarks.gate.judge`, the test :func:`benchmarks.gate.compare`) of B's images at the top spp
-  against A's as the reference (seed means pooled; per-sample variances from the stored
-  variance images, or from the spread of the seeds' means when none are stored), at a
-  run-wide false-alarm rate split over the curves (Bonferroni).
-
-Heavy tails. A handful of stored renders says little about a heavy-tailed estimator's
-variance (its rare paths are missing from both its mean and its variance), so the verdict
-borrows what is known of B's estimator from a high budget (``estimator=``,
-:func:`estimator_knowledge`), as ``rtbench gate`` does:
-
-* ours, when B's records come from *this* build and the scene is the one B rendered (same
-  content hash): the tail reference (:func:`benchmarks.tails.tail_reference`) of that
-  strategy, whose variance floors both sides (under "nothing changed" A's estimator is
-  B's) and whose skewness and kurtosis decide where the normal approximation holds, so a
-  budget too small to decide reads "undetermined", not "fail";
-* an external renderer given as ``--renderer`` with the same command (the same build
-  ``ext-<hash>``): the per-pixel variance of 16 batches of the command at the tail budget;
-* anything else (another build of ours, Mitsuba's ``path``): no such knowledge; the
-  curve's ``tails`` field says why, and its verdict rests on the stored images alone.
-
-Bootstrap intervals from a handful of seeds are rough; they are reported as computed.
+"""A/B comparison of two results stores, curve by curve (``rtbench compare``; docs/rtbench.md,
+Comparing builds): both RMSE curves, the slope difference B - A and the efficiency ratio
+B / A with 95% percentile-bootstrap intervals (seeds resampled within each spp, a fixed
+generator seed), and the gate's verdict of B's top-spp images against A's, at a run-wide
+false-alarm rate split over the curves. The verdict borrows B's estimator at a high budget
+where it is known (:func:`estimator_knowledge`).
 """
 from __future__ import annotations
 
 import collections
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -50,8 +27,6 @@ from .metrics import convergence_slope
 from .scenes import scene_at
 from .store import curve_of, read_records
 from .tails import tail_reference
-
-__all__ = ["BOOTSTRAP_RESAMPLES", "CurveComparison", "compare_stores", "curve_points", "estimator_knowledge"]
 
 BOOTSTRAP_RESAMPLES = 2000
 
@@ -104,24 +79,18 @@ class CurveComparison:
         return d
 
 
-def _mse(r) -> float:
-    """The record's reference-noise-corrected MSE (its plain MSE when the correction is missing)."""
-    v = r.get("mse_corrected")
-    return float(r["mse"] if v is None else v)
-
-
 def curve_points(records) -> dict:
-    """``{spp: [(mse, seconds), ...]}`` over the seeds of one curve's records."""
+    """``{spp: [(corrected MSE (else plain), seconds), ...]}`` over the seeds of one curve's records."""
     out = collections.defaultdict(list)
     for r in records:
         if r.get("mse") is not None and r.get("seconds") is not None:
-            out[int(r["spp"])].append((_mse(r), float(r["seconds"])))
+            mse = r["mse"] if r.get("mse_corrected") is None else r["mse_corrected"]
+            out[int(r["spp"])].append((float(mse), float(r["seconds"])))
     return dict(sorted(out.items()))
 
 
 def _slope(points: dict, pick) -> float | None:
-    """:func:`~benchmarks.metrics.convergence_slope` of RMSE over spp, with ``pick(list) -> list``
-    choosing seeds; None with fewer than two budgets of positive MSE."""
+    """The convergence slope of RMSE over spp, ``pick`` choosing seeds; None from fewer than two budgets."""
     spps, rmses = [], []
     for spp, pts in points.items():
         m = float(np.mean([p[0] for p in pick(pts)]))
@@ -148,50 +117,33 @@ def _ci(values) -> tuple | None:
 
 def _bootstrap(cmp: CurveComparison, pa: dict, pb: dict, rng) -> None:
     """Slopes, efficiency ratio and their bootstrap intervals into ``cmp``."""
-    ident = lambda pts: pts  # noqa: E731
-
     def resample(pts):
         return [pts[i] for i in rng.integers(0, len(pts), len(pts))]
 
-    cmp.slope_a, cmp.slope_b = _slope(pa, ident), _slope(pb, ident)
+    def interval(stat_a, stat_b, combine):
+        pairs = [(stat_a(resample), stat_b(resample)) for _ in range(BOOTSTRAP_RESAMPLES)]
+        return _ci([None if a is None or b is None else combine(a, b) for a, b in pairs])
+
+    cmp.slope_a, cmp.slope_b = _slope(pa, list), _slope(pb, list)
     if cmp.slope_a is not None and cmp.slope_b is not None:
         cmp.slope_diff = cmp.slope_b - cmp.slope_a
-        diffs = []
-        for _ in range(BOOTSTRAP_RESAMPLES):
-            a, b = _slope(pa, resample), _slope(pb, resample)
-            diffs.append(None if a is None or b is None else b - a)
-        cmp.slope_diff_ci = _ci(diffs)
-    common = sorted(set(pa) & set(pb))
-    if not common:
+        cmp.slope_diff_ci = interval(partial(_slope, pa), partial(_slope, pb), lambda a, b: b - a)
+    top = cmp.top_spp = max(set(pa) & set(pb), default=None)
+    if top is None:
         return
-    top = cmp.top_spp = common[-1]
-    ea, eb = _efficiency(pa[top], ident), _efficiency(pb[top], ident)
+    ea, eb = _efficiency(pa[top], list), _efficiency(pb[top], list)
     if ea and eb:
         cmp.efficiency_ratio = eb / ea
-        ratios = []
-        for _ in range(BOOTSTRAP_RESAMPLES):
-            a, b = _efficiency(pa[top], resample), _efficiency(pb[top], resample)
-            ratios.append(b / a if a and b else None)
-        cmp.efficiency_ratio_ci = _ci(ratios)
+        cmp.efficiency_ratio_ci = interval(partial(_efficiency, pa[top]), partial(_efficiency, pb[top]),
+                                           lambda a, b: b / a)
 
 
 def estimator_knowledge(*, tail_spp: int, threads=None, cache=None, externals=(), log=None):
-    """The ``estimator=`` callable of :func:`compare_stores` for this process's build.
+    """The ``estimator=`` of :func:`compare_stores`: ``knowledge(curve, records_b) -> EstimatorKnowledge``.
 
-    Parameters
-    ----------
-    tail_spp : int, keyword-only
-        Budget of the tail references (0: none, every curve rests on its stored images).
-    threads, cache, log : keyword-only
-        As for :func:`benchmarks.tails.tail_reference`.
-    externals : sequence of benchmarks.external.ExternalRenderer, keyword-only
-        External renderers whose commands may be run for B's curves of the same build.
-
-    Returns
-    -------
-    callable
-        ``knowledge(key, records_b) -> EstimatorKnowledge`` with ``key`` the curve
-        (:func:`benchmarks.store.curve_of`).
+    Ours when B is this build: the tail reference at ``tail_spp`` (0: none); an external
+    renderer among ``externals`` of B's build: 16 batches of its command; anything else:
+    none, and why. ``threads``, ``cache``, ``log`` as :func:`benchmarks.tails.tail_reference`.
     """
     by_build = {e.build: e for e in externals}
     here = rt.build_id()
@@ -226,13 +178,8 @@ def estimator_knowledge(*, tail_spp: int, threads=None, cache=None, externals=()
 
 
 def _scene_of(name, width, height, record) -> tuple:
-    """``(scene, "")`` as B rendered it (content hash checked), or ``(None, why)``.
-
-    Only scenes this process knows are built: the suite's, and scene files the user named
-    on the command line (``--scene PATH``). A store is untrusted input: the scene file its
-    records name (``scene_source``) is never loaded from there, since a Python scene file
-    is code and the store may come from anybody.
-    """
+    """``(scene, "")`` as B rendered it (content hash checked), or ``(None, why)``. Only the
+    suite's scenes and files named with ``--scene``: a store's ``scene_source`` (maybe code) never runs."""
     if name not in SUITE and scene_file(name) is None:
         source = record.get("scene_source")
         named = f" (B rendered it from {str(source)[:200]!r})" if source else ""
@@ -249,20 +196,17 @@ def _scene_of(name, width, height, record) -> tuple:
 
 
 def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0, estimator=None) -> list:
-    """Compare every curve present in both stores (see the module docstring).
+    """A :class:`CurveComparison` of every curve in both stores (A the baseline).
 
     Parameters
     ----------
     store_a, store_b : str or Path
-        Results stores (``benchmarks/STORE.md``); A is the baseline.
     alpha : float
         False-alarm rate of the gate over all curves (each at ``alpha / curves``).
     seed : int
         Seed of the bootstrap's generator.
     estimator : callable, optional
-        ``estimator(curve, records_b) -> EstimatorKnowledge`` (:func:`estimator_knowledge`):
-        B's estimator at a high budget for the verdict; without it the verdict rests on the
-        stored images alone (module docstring, "Heavy tails").
+        :func:`estimator_knowledge`'s; without it the verdicts rest on the stored images alone.
 
     Returns
     -------
@@ -270,10 +214,9 @@ def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0
     """
     a, b = Path(store_a), Path(store_b)
     by_a, by_b = collections.defaultdict(list), collections.defaultdict(list)
-    for r in read_records(a):
-        by_a[curve_of(r)].append(r)
-    for r in read_records(b):
-        by_b[curve_of(r)].append(r)
+    for store, by in ((a, by_a), (b, by_b)):
+        for r in read_records(store):
+            by[curve_of(r)].append(r)
     curves = [k for k in by_a if k in by_b]
     if not curves:
         raise ValueError(f"{a} and {b} have no curve (scene, renderer, strategy, size) in common")
@@ -283,11 +226,11 @@ def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0
     for key in curves:
         ra, rb = by_a[key], by_b[key]
         pa, pb = curve_points(ra), curve_points(rb)
+        rmse = [[math.sqrt(max(np.mean([p[0] for p in v]), 0)) for v in pts.values()] for pts in (pa, pb)]
         cmp = CurveComparison(*key, build_a=ra[-1].get("build"), build_b=rb[-1].get("build"),
-                              spps_a=list(pa), rmse_a=[math.sqrt(max(np.mean([p[0] for p in v]), 0)) for v in pa.values()],
-                              spps_b=list(pb), rmse_b=[math.sqrt(max(np.mean([p[0] for p in v]), 0)) for v in pb.values()])
+                              spps_a=list(pa), rmse_a=rmse[0], spps_b=list(pb), rmse_b=rmse[1])
         _bootstrap(cmp, pa, pb, rng)
-        top = max(set(pa) & set(pb), default=None)
+        top = cmp.top_spp
         ref, test = (pooled_image(a, ra, top), pooled_image(b, rb, top)) if top else (None, None)
         if ref is None or test is None:
             cmp.reason = "no images with a variance at the top spp in both stores: no gate verdict"

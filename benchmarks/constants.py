@@ -1,23 +1,10 @@
-"""One home for the facts the harness shares: strategies, epsilons, weights, seeds, alphas.
-
-Every other module imports these names from here (or, for the store's record keys, from
-:mod:`benchmarks.store`, the sole owner of the results format); none defines its own copy.
-This module imports nothing from the project but the tracer's strategy tuple, so any
-layer (metrics, store, display, the report) may use it.
-"""
+"""One home for the facts the harness shares: strategies, epsilons, weights, seeds, alphas (the
+store's record keys are :mod:`benchmarks.store`'s). It imports only the tracer's strategy
+tuple, so any layer may use it."""
 from __future__ import annotations
 
-from reference_tracer.strategies import STRATEGIES
-
-__all__ = [
-    "STRATEGIES", "UNBIASED_STRATEGIES", "MITSUBA_STRATEGY", "MITSUBA_DIRECT", "RELMSE_EPS", "LUMINANCE_WEIGHTS",
-    "SEED_SCENE", "SEED_SIZE", "SEED_SPP", "SEED_LIGHT_SPP", "MIN_SLOPE_BUDGETS", "GATE_ALPHA", "BIAS_TEST_ALPHA", "CLOSED_FORM",
-    "CLOSED_FORM_SPP", "BASELINE", "VERDICT_STRATEGY",
-]
-
-#: Our sampling strategies, in the order tables and plots list them (the tracer owns them).
-#: ``light`` is biased on purpose (it misses all light not arriving straight from an emitter).
-STRATEGIES = STRATEGIES
+#: Our sampling strategies in table order (the tracer owns them); ``light`` is biased on purpose.
+from reference_tracer.strategies import STRATEGIES  # noqa: F401
 
 #: The strategies that must be unbiased: every one but ``light``.
 UNBIASED_STRATEGIES = tuple(s for s in STRATEGIES if s != "light")
@@ -38,8 +25,7 @@ MITSUBA_DIRECT = {"direct_bsdf": "cosine", "direct_light": "light", "direct_mis"
 #: relMSE's epsilon: ``mean(d^2 / (ref^2 + RELMSE_EPS))`` (docs/conventions.md).
 RELMSE_EPS = 0.01
 
-#: Rec. 709 / sRGB luminance weights of linear R, G, B (a tuple: immutable; wrap in
-#: ``np.asarray`` to compute).
+#: Rec. 709 / sRGB luminance weights of linear R, G, B.
 LUMINANCE_WEIGHTS = (0.2126, 0.7152, 0.0722)
 
 #: The seed project's scene, its image size and budget (the "seed comparison" of the report).
@@ -57,7 +43,6 @@ GATE_ALPHA = 0.01
 #: The false-alarm rate of one bias test in a sweep's summary (one per curve).
 BIAS_TEST_ALPHA = 0.001
 
-#: The renderer/reference name of an analytic (closed-form) reference, and the nominal
-#: spp recorded for it (it has no Monte Carlo noise).
+#: The name of an analytic (closed-form) reference, and the nominal spp recorded for it.
 CLOSED_FORM = "closed form"
 CLOSED_FORM_SPP = 2**31 - 1

@@ -1,20 +1,10 @@
 """Tone mapping: how a linear-radiance image becomes a display image, for SSIM and the report.
 
-One module decides the exposure and the tone curve, so that the SSIM metric
-(:func:`benchmarks.metrics.ssim`) and the report's pictures show the same thing:
-
-* :func:`exposure_from_reference`: the linear scale that maps the reference's bright end
-  (99th-percentile luminance) to white; SSIM's exposure (docs/conventions.md).
-* :func:`reference_exposure`: the report's exposure in stops, the brighter of that scale
-  and the reference's median luminance at 18% grey.
-* :func:`to_display`: scale (``exposure`` in stops, or a linear ``scale=``), clip to
-  [0, 1], sRGB transfer. It *is* the tracer's :func:`reference_tracer.imageio.to_display`,
-  the one implementation of the curve, imported here so the metrics and the report name
-  their tone map in one place; ``keep_nan=True`` keeps NaN visible (SSIM), the default
-  shows it as 0 (pictures).
-
-The same exposure is applied to a test image and its reference, so a too-bright render is
-not normalised away.
+:func:`exposure_from_reference` (SSIM's linear scale: the reference's 99th-percentile
+luminance to white, docs/conventions.md), :func:`reference_exposure` (the report's, in
+stops) and :func:`to_display`, the tracer's one tone curve (scale, clip, sRGB). The same
+exposure is applied to a test image and its reference, so a too-bright render is not
+normalised away.
 """
 from __future__ import annotations
 
@@ -46,52 +36,29 @@ def _luminance(img: np.ndarray) -> np.ndarray:
     """Rec. 709 luminance of RGB, the channel mean of other channel counts; (H, W) as is."""
     if img.ndim == 3 and img.shape[-1] == 3:
         return img @ np.asarray(LUMINANCE_WEIGHTS)
-    if img.ndim == 3:
-        return img.mean(axis=-1)
-    return img
+    return img.mean(axis=-1) if img.ndim == 3 else img
 
 
-def exposure_from_reference(ref, *, percentile: float = 99.0) -> float:
-    r"""Exposure scale that maps the reference's bright end to display white.
+def exposure_from_reference(ref) -> float:
+    """Linear exposure ``1 / Y_99`` (the reference's 99th-percentile luminance, NaNs ignored);
+    1 for an all-black or all-NaN reference.
 
-    Returns :math:`k = 1 / Y_q`, where :math:`Y_q` is the ``percentile``-th percentile of
-    the reference's luminance (Rec. 709 weights for RGB, the channel mean otherwise),
-    ignoring NaNs. The same ``k`` is applied to the test image and the reference, so a
-    too-bright render is not normalised away. An all-black (or all-NaN) reference gives
-    ``k = 1``.
-
-    Examples
-    --------
     >>> exposure_from_reference(np.full((4, 4, 3), 2.0))
     0.5
     """
-    r = as_image(ref, "ref")
-    if not 0 < percentile <= 100:
-        raise ValueError(f"percentile must be in (0, 100]; got {percentile}")
-    y = _luminance(r)
+    y = _luminance(as_image(ref, "ref"))
     y = y[np.isfinite(y)]
-    if y.size == 0:
-        return 1.0
-    q = float(np.percentile(y, percentile))
+    q = float(np.percentile(y, 99.0)) if y.size else 0.0
     return 1.0 / q if q > 0 else 1.0
 
 
 def reference_exposure(ref) -> float:
-    """Display exposure in stops (``to_display``'s ``exposure``) from the reference image.
+    """Display exposure in stops from the reference: the larger of the median luminance to 18%
+    grey and :func:`exposure_from_reference` (alone it darkens a picture whose light covers
+    more than 1% of the pixels); 0 for an all-black image, clipped to [-60, 60].
 
-    The larger of two scales: the reference's median positive luminance to 18% grey
-    (:data:`MIDDLE_GREY`), and the SSIM exposure (:func:`exposure_from_reference`: the
-    99th-percentile luminance to white). The second alone darkens any picture in which a
-    light source covers more than 1% of the pixels (the Cornell box); the first alone
-    would leave low-contrast images dim. Returns 0 for an all-black image; clipped to
-    [-60, 60] stops.
-
-    Examples
-    --------
-    >>> reference_exposure(np.full((4, 4, 3), 0.5))  # 99th percentile to white: 1 stop up
-    1.0
-    >>> reference_exposure(np.zeros((4, 4, 3)))
-    0.0
+    >>> reference_exposure(np.full((4, 4, 3), 0.5)), reference_exposure(np.zeros((4, 4, 3)))
+    (1.0, 0.0)
     """
     r = np.asarray(ref, dtype=np.float64)
     y = _luminance(r[..., :3] if r.ndim == 3 else r)  # an alpha channel is not light
@@ -99,7 +66,4 @@ def reference_exposure(ref) -> float:
     if y.size == 0:
         return 0.0
     k = max(float(exposure_from_reference(r)), MIDDLE_GREY / float(np.median(y)))
-    if not (math.isfinite(k) and k > 0):
-        return 0.0
-    return float(np.clip(math.log2(k), -60.0, 60.0))
-
+    return float(np.clip(math.log2(k), -60.0, 60.0)) if math.isfinite(k) and k > 0 else 0.0

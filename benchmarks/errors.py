@@ -1,22 +1,9 @@
-"""The harness's error classes and the exit status of each kind of failure.
+"""The harness's error class and the exit status of each kind of failure (docs/rtbench.md,
+Exit status and errors): 0 pass; 1 a verdict failed; 2 usage or bad input (``ValueError``,
+:class:`InputError`, ``OverflowError``); 3 internal or I/O error (any other exception);
+130 interrupted. Codes 2 and 3 come with one line on stderr (:func:`one_line`).
 
-``rtbench`` exits with one of four codes (docs/rtbench.md, Exit status and errors), decided in one place,
-:func:`exit_code`, from the exception a command raised:
-
-* 0: pass (or nothing to judge);
-* 1: a verdict failed (gate drift, a stress case, a chi-square test, the self-test,
-  a NaN/Inf sample in ``render``);
-* 2: usage or bad input: a bad option value, a file that is not what it should be
-  (:class:`UsageError`, :class:`InputError`, any ``ValueError``, ``OverflowError``);
-* 3: internal or I/O error: a file that cannot be read or written, a full disk, a
-  read-only folder, memory exhausted, or a bug (any other exception).
-
-Codes 2 and 3 come with one line on stderr (:func:`one_line`); the traceback only with
-``rtbench --debug``.
-
-Examples
---------
->>> exit_code(UsageError("--spp must be >= 1")), exit_code(OSError(28, "No space left on device"))
+>>> exit_code(ValueError("--spp must be >= 1")), exit_code(OSError(28, "No space left on device"))
 (2, 3)
 >>> one_line(FileNotFoundError(2, "No such file or directory", "/nope/x.exr"))
 '/nope/x.exr: No such file or directory'
@@ -25,10 +12,6 @@ from __future__ import annotations
 
 import errno
 
-__all__ = ["EXIT_PASS", "EXIT_FAIL", "EXIT_USAGE", "EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_CODES_HELP",
-           "UsageError", "InputError", "exit_code", "one_line"]
-
-EXIT_PASS = 0
 EXIT_FAIL = 1
 EXIT_USAGE = 2
 EXIT_ERROR = 3
@@ -42,21 +25,15 @@ EXIT_CODES_HELP = ("exit status: 0 pass; 1 a verdict failed (gate drift, stress 
                    "adds the traceback.")
 
 
-class UsageError(ValueError):
-    """A command line or an argument that cannot work (exit 2)."""
-
-
 class InputError(ValueError):
     """Input data that is not what it should be: a corrupt store, a file that is not a mesh (exit 2)."""
 
 
 def exit_code(exc: BaseException) -> int:
-    """The exit status for an exception that ended a command (see the module docstring)."""
+    """The exit status for an exception that ended a command."""
     if isinstance(exc, KeyboardInterrupt):
         return EXIT_INTERRUPTED
-    if isinstance(exc, (ValueError, OverflowError)):
-        return EXIT_USAGE
-    return EXIT_ERROR
+    return EXIT_USAGE if isinstance(exc, (ValueError, OverflowError)) else EXIT_ERROR
 
 
 def one_line(exc: BaseException) -> str:

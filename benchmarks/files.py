@@ -1,17 +1,12 @@
 """Files named by data: the one slug for file names, and paths confined to their folder.
 
-Everything read from disk is untrusted (a results store somebody sent, a cache, a scene
-file): a name read from it becomes a file name only through :func:`slug`, and a path read
-from it is opened only through :func:`confined_file`, which keeps it inside its folder and
-refuses anything but a regular file (a FIFO would block a reader forever, a device would
-feed it without end). The threat model is in ``benchmarks/STORE.md``.
+Everything read from disk is untrusted (``SECURITY.md``): a name read from it becomes a file
+name only through :func:`slug`, a path read from it is opened only through
+:func:`confined_file` and :func:`open_regular` (a regular file, nothing else: a FIFO would
+block a reader, a device feed it without end).
 
-Examples
---------
->>> slug("cornell_box", "32x32", "rmse")
-'cornell_box_32x32_rmse'
->>> slug("../../etc/passwd")
-'etc_passwd'
+>>> slug("cornell_box", "32x32", "rmse"), slug("../../etc/passwd")
+('cornell_box_32x32_rmse', 'etc_passwd')
 """
 from __future__ import annotations
 
@@ -21,31 +16,27 @@ import re
 import stat
 from pathlib import Path
 
+from reference_tracer.validation import open_regular_file
+
 from .errors import InputError
 
 __all__ = ["MAX_SLUG", "slug", "confined_file", "open_regular"]
 
-#: longest slug: with a suffix and a temporary file's prefix it stays under the usual
-#: 255-byte limit of a file name.
+#: longest slug: with a suffix and a temporary file's prefix it stays under a file name's 255 bytes.
 MAX_SLUG = 120
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.+=-]+")
 
 
 def slug(*parts) -> str:
-    """A file name (without extension) made of ``parts`` joined by ``_``, safe on any file system.
+    """A file name (without extension) of ``parts`` (None skipped) joined by ``_``, safe anywhere.
 
-    Characters other than letters, digits and ``_ . + = -`` become ``_``; leading dots and
-    separators are dropped (no hidden files, no ``..``); a name longer than
-    :data:`MAX_SLUG` is cut and ends with 8 hex digits of a hash of the whole name, so
-    distinct long names stay distinct. ``None`` parts are skipped; an empty result is ``"x"``.
+    Characters but letters, digits and ``_ . + = -`` become ``_``; leading dots and separators
+    go (no hidden files, no ``..``); a name over :data:`MAX_SLUG` is cut and ends with 8 hex
+    digits of a hash of the whole; an empty result is ``"x"``.
 
-    Examples
-    --------
-    >>> slug("a/b", None, 3)
-    'a_b_3'
-    >>> len(slug("s" * 300)) == MAX_SLUG
-    True
+    >>> slug("a/b", None, 3), len(slug("s" * 300)) == MAX_SLUG
+    ('a_b_3', True)
     """
     text = "_".join(str(p) for p in parts if p is not None)
     name = _UNSAFE.sub("_", text).strip("._-") or "x"
@@ -56,26 +47,13 @@ def slug(*parts) -> str:
 
 
 def confined_file(folder, relpath, *, what: str = "file") -> Path:
-    """The path ``relpath`` read from data, checked to stay inside ``folder``.
+    """The path ``relpath`` read from data, checked to stay inside ``folder`` (links resolved).
 
-    ``relpath`` must be a non-empty relative path string without ``..``; after symbolic
-    links are resolved it must still lie inside ``folder`` (also resolved). The file need
-    not exist (callers report a missing file as such); if it exists it must be a regular
-    file.
+    :class:`~benchmarks.errors.InputError` for a path that is no relative file name, climbs
+    out with ``..`` or a link, or names anything but a regular file; it need not exist.
 
-    Raises
-    ------
-    benchmarks.errors.InputError
-        The path is absolute, climbs out with ``..``, leaves the folder through a link,
-        is not a string, or names something other than a regular file.
-
-    Examples
-    --------
     >>> import tempfile
-    >>> d = tempfile.mkdtemp()
-    >>> confined_file(d, "images/a.exr").name
-    'a.exr'
-    >>> confined_file(d, "/etc/passwd")
+    >>> confined_file(tempfile.mkdtemp(), "/etc/passwd")
     Traceback (most recent call last):
     ...
     benchmarks.errors.InputError: file path '/etc/passwd' must be relative to its folder
@@ -103,28 +81,11 @@ def confined_file(folder, relpath, *, what: str = "file") -> Path:
 
 
 def open_regular(path, *, max_bytes: int | None = None):
-    """Open ``path`` for reading in binary mode, refusing anything but a regular file.
-
-    The file is opened without blocking (a FIFO opens at once instead of waiting for a
-    writer) and checked with ``fstat`` on the open descriptor, so the check and the read
-    concern the same file. With ``max_bytes``, a larger file is refused.
-
-    Raises
-    ------
-    benchmarks.errors.InputError
-        Not a regular file, or larger than ``max_bytes``.
-    OSError
-        The file cannot be opened.
-    """
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
-    try:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            raise InputError(f"{path}: not a regular file")
-        if max_bytes is not None and st.st_size > max_bytes:
-            raise InputError(f"{path}: {st.st_size} bytes, more than the {max_bytes} allowed")
-        os.set_blocking(fd, True)
-        return os.fdopen(fd, "rb")
-    except BaseException:
-        os.close(fd)
-        raise
+    """:func:`reference_tracer.validation.open_regular_file` (binary, a regular file or
+    ``ValueError``), refusing a file over ``max_bytes`` too."""
+    f = open_regular_file(path, "a file to read")
+    size = os.fstat(f.fileno()).st_size
+    if max_bytes is not None and size > max_bytes:
+        f.close()
+        raise InputError(f"{path}: {size} bytes, more than the {max_bytes} allowed")
+    return f

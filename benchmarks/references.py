@@ -1,37 +1,10 @@
-"""High-spp Mitsuba references with their per-sample variance, cached outside the repo.
+"""High-spp Mitsuba references (``path`` in independent batches, so with a per-sample variance
+that error figures subtract), and the closed forms that replace them where Mitsuba is wrong.
 
-A reference is Mitsuba 3's ``path`` integrator at many samples per pixel, rendered in
-independent batches (:func:`mitsuba_scenes.render_mitsuba`) so that it comes with a
-per-pixel, per-sample RGB variance image: the harness needs it to remove the
-reference's own noise from error figures (``benchmarks.metrics.mse_corrected``).
-
-Cache
------
-Folder: ``$RTBENCH_CACHE/references`` or ``~/.cache/rtbench/references``. Key: SHA-256
-of (scene content hash, Mitsuba version, variant, spp, seed, batches, format version),
-so any change to the scene (including its image size), to Mitsuba or to the settings
-gives a new entry. Each entry is three files::
-
-    <key>.mean.exr   <key>.var.exr   <key>.json
-
-The EXRs are written to temporary files and renamed into place, then the JSON sidecar
-(written the same way, last) records their SHA-256 checksums, shape and settings. An
-entry is used only if the sidecar parses, names the same key and settings, and both
-images exist, match their checksums and have the scene's shape; anything else (a
-render killed half-way, a truncated or edited file) is re-rendered. A file lock
-serialises processes that write the same entry; a valid entry is read without it, so
-a read-only cache (a shared mount) serves every entry it holds. Files are created with
-the usual permissions (0644 under umask 022), so a cache can be shared between users.
-
-Examples
---------
->>> from mitsuba_scenes import get_scene
->>> from benchmarks.references import reference
->>> ref = reference(get_scene("cornell_box", width=16, height=16), spp=256)  # doctest: +SKIP
->>> ref.mean.shape, ref.cached  # doctest: +SKIP
-((16, 16, 3), False)
->>> reference(get_scene("cornell_box", width=16, height=16), spp=256).cached  # doctest: +SKIP
-True
+The cache (docs/rtbench.md, The reference cache) keys an entry by the scene's content hash,
+Mitsuba's version and variant, spp, seed, batches and format: ``<key>.mean.exr``,
+``<key>.var.exr`` and, written last, ``<key>.json`` with their checksums. An entry that does
+not agree with its key and the scene's shape is rendered again, under a file lock.
 """
 from __future__ import annotations
 
@@ -57,10 +30,6 @@ from reference_tracer.validation import SEED_MAX, positive_int
 from .constants import CLOSED_FORM, CLOSED_FORM_SPP
 from .store import file_sha256
 
-__all__ = ["is_cached", "cache_lock", "CACHE_ENV", "DEFAULT_REFERENCE_SEED", "DEFAULT_REFERENCE_BATCHES", "FORMAT_VERSION",
-           "Reference", "cache_dir", "reference_key", "reference", "load_reference", "mitsuba_identity",
-           "CLOSED_FORM", "CLOSED_FORM_SPP", "CLOSED_FORM_REASONS", "closed_form_reference_of"]
-
 #: environment variable naming the cache folder.
 CACHE_ENV = "RTBENCH_CACHE"
 #: reference seed: far from the sweep's seeds (Mitsuba batch seeds are hashed from it anyway).
@@ -69,8 +38,7 @@ DEFAULT_REFERENCE_SEED = 1_000_003
 DEFAULT_REFERENCE_BATCHES = 16
 #: bump when the on-disk format or the meaning of a cached entry changes.
 FORMAT_VERSION = 1
-#: suite scene -> what its closed-form reference is and why it replaces Mitsuba there
-#: (:attr:`Reference.description` of :func:`closed_form_reference_of`).
+#: suite scene -> what its closed-form reference is and why it replaces Mitsuba there.
 CLOSED_FORM_REASONS = {
     "furnace": "closed form Le (1 - rho^n) / (1 - rho): Mitsuba 3.9.1's sphere-emitter sampling from a "
                "point on the sphere is biased here",
@@ -79,29 +47,10 @@ CLOSED_FORM_REASONS = {
 
 @dataclass(kw_only=True)
 class Reference(ImageEstimate):
-    """A reference image: an :class:`reference_tracer.ImageEstimate` (``mean``, per-sample
-    ``variance``, ``spp``, ``seconds``, ``source`` ``"mitsuba"`` or :data:`CLOSED_FORM`)
-    with its cache entry.
+    """A reference image: an :class:`reference_tracer.ImageEstimate` (``source`` ``"mitsuba"`` or
+    :data:`CLOSED_FORM`) with its cache entry (``key``, the EXR ``path`` and ``variance_path``),
+    whether this call found it ``cached``, and a one-line ``description``.
 
-    Attributes
-    ----------
-    seed, batches : int
-    variant, mitsuba_version : str
-    key : str
-        Cache key (hex SHA-256).
-    path, variance_path : Path
-        The cached EXR files.
-    seconds : float
-        Render time when the entry was made (Mitsuba's timed renders).
-    cached : bool
-        True when this call found the entry in the cache (and rendered nothing).
-    scene_hash : str
-    description : str
-        One line: what the reference is (default for a Mitsuba render: its version,
-        variant, spp and cache key; for a closed form: :data:`CLOSED_FORM_REASONS`).
-
-    Examples
-    --------
     >>> ref = closed_form_reference_of("furnace", 4, 4)
     >>> ref.source, ref.description[:11], ref.spp == CLOSED_FORM_SPP
     ('closed form', 'closed form', True)
@@ -126,11 +75,8 @@ class Reference(ImageEstimate):
 
 
 def cache_dir(cache=None) -> Path:
-    """The reference cache folder: ``cache`` if given, else ``$RTBENCH_CACHE``, else
-    ``~/.cache/rtbench``; with ``references/`` appended. Created if missing.
+    """``references/`` under ``cache``, ``$RTBENCH_CACHE`` or ``~/.cache/rtbench``; created if missing.
 
-    Examples
-    --------
     >>> cache_dir("/tmp/rtbench-cache").as_posix()
     '/tmp/rtbench-cache/references'
     """
@@ -146,8 +92,6 @@ def reference_key(scene_hash: str, *, mitsuba_version: str, variant: str, spp: i
                   batches: int = DEFAULT_REFERENCE_BATCHES) -> str:
     """Cache key of a reference: SHA-256 over its identity.
 
-    Examples
-    --------
     >>> k = reference_key("ab" * 32, mitsuba_version="3.9.1", variant="scalar_rgb", spp=64, seed=1)
     >>> len(k), k == reference_key("ab" * 32, mitsuba_version="3.9.1", variant="scalar_rgb",
     ...                            spp=65, seed=1)
@@ -166,13 +110,8 @@ def mitsuba_identity(variant: str | None = None) -> tuple:
 
 @contextlib.contextmanager
 def cache_lock(path: Path):
-    """Hold an ``flock`` on ``path`` (created, 0666 less the umask).
-
-    Only a process that is about to write an entry takes it: reading a valid entry needs
-    no lock (entries are complete before their sidecar appears), so a read-only cache
-    serves its valid entries. When the lock cannot be created (a read-only cache, say)
-    ``OSError`` says which cache and why.
-    """
+    """Hold an ``flock`` on ``path``: only a process about to write an entry takes it. ``OSError``
+    naming the cache when it cannot be created (a read-only cache without this entry)."""
     try:
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
     except OSError as exc:
@@ -181,12 +120,9 @@ def cache_lock(path: Path):
                         str(path)) from exc
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(fd, fcntl.LOCK_UN)
+        yield
     finally:
-        os.close(fd)
+        os.close(fd)  # releases the lock
 
 
 def _paths(folder: Path, key: str):
@@ -204,17 +140,8 @@ def is_cached(scene, *, spp: int, seed: int = DEFAULT_REFERENCE_SEED, variant: s
 
 
 def load_reference(key: str, *, shape=None, cache=None):
-    """Load a cached reference by key after validating it; ``(Reference, None)`` or
-    ``(None, reason)`` when the entry is missing or corrupt.
-
-    Parameters
-    ----------
-    key : str
-    shape : tuple, optional
-        Expected ``(H, W)``.
-    cache : str or Path, optional
-        Cache root (see :func:`cache_dir`).
-    """
+    """``(Reference, None)`` from a valid cache entry (of ``shape`` (H, W) when given), or
+    ``(None, reason)`` when it is missing or corrupt."""
     folder = cache_dir(cache)
     mean_path, var_path, meta_path = _paths(folder, key)
     if not meta_path.exists():
@@ -250,40 +177,25 @@ def load_reference(key: str, *, shape=None, cache=None):
 def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, variant: str | None = None,
               threads: int | None = None, batches: int = DEFAULT_REFERENCE_BATCHES, cache=None,
               force: bool = False, log=None) -> Reference:
-    """The Mitsuba reference of ``scene`` at ``spp`` samples, from the cache or rendered.
+    """The Mitsuba reference of ``scene`` (its camera size included) at ``spp`` samples, from the cache or rendered.
 
     Parameters
     ----------
     scene : reference_tracer.Scene
-        The scene, camera size included (``scene.with_camera_size``).
-    spp : int, keyword-only
-        Samples per pixel (>= 2; the variance needs two batches).
-    seed : int, keyword-only
-        Base seed of the reference (keep it away from the sweep's seeds).
-    variant : str or None, keyword-only
-        Mitsuba variant (None: ``mitsuba_scenes.variants.select_variant``'s choice).
-    threads : int or None, keyword-only
-        Rendering threads (Dr.Jit); None leaves Dr.Jit's default (all cores).
-    batches : int, keyword-only
-        Independent batches for the per-sample variance (capped at ``spp``).
-    cache : str or Path, keyword-only
-        Cache root; default ``$RTBENCH_CACHE`` or ``~/.cache/rtbench``.
+    spp, seed, batches : int, keyword-only
+        Samples per pixel (>= 2), base seed (away from the sweep's) and independent batches for
+        the per-sample variance (at most ``spp``).
+    variant, threads, cache : keyword-only
+        Mitsuba variant (None: the fastest that works), Dr.Jit's threads (None: all cores),
+        cache root (:func:`cache_dir`).
     force : bool, keyword-only
-        Render even when a valid entry exists (and replace it).
+        Render and replace even a valid entry.
     log : callable or None, keyword-only
-        Called with one line of text when a corrupt entry is replaced.
+        Told when a corrupt entry is replaced.
 
     Returns
     -------
     Reference
-        ``cached`` tells whether it came from the cache.
-
-    Examples
-    --------
-    >>> from mitsuba_scenes import get_scene
-    >>> ref = reference(get_scene("cornell_box", width=8, height=8), spp=64)  # doctest: +SKIP
-    >>> ref.variance.shape  # doctest: +SKIP
-    (8, 8, 3)
     """
     if not isinstance(scene, rt.Scene):
         raise ValueError(f"scene must be a reference_tracer.Scene, got {type(scene).__name__}")
@@ -336,13 +248,9 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
 
 
 def closed_form_reference_of(name: str, width: int, height: int):
-    """The exact reference of suite scene ``name`` when it has one (``furnace``), else None.
+    """The exact reference of suite scene ``name`` when it has one (``furnace``), else None: a
+    :class:`Reference` of zero variance whose ``source`` and ``variant`` are :data:`CLOSED_FORM`.
 
-    Returned as a :class:`Reference` with zero variance, ``source`` and ``variant``
-    :data:`CLOSED_FORM`, so that sweeps and the gate use it like a Mitsuba reference.
-
-    Examples
-    --------
     >>> ref = closed_form_reference_of("furnace", 4, 2)
     >>> ref.mean.shape, float(ref.variance.max()), round(float(ref.mean[0, 0, 0]), 5)
     ((2, 4, 3), 0.0, 2.08057)

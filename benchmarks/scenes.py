@@ -1,29 +1,14 @@
-"""The harness's scenes by name: a scene at a size, and what a record says of it.
-
-A name is a suite scene or a scene file registered with ``--scene PATH``
-(:mod:`mitsuba_scenes.scene_files`). Every runner that turns a record's name back into a
-scene, or writes a record, goes through these two functions.
-
-Examples
---------
->>> scene_at("furnace", 8, 6).camera.width
-8
->>> sorted(scene_info("furnace", scene_at("furnace", 4, 4)))
-['scene_hash', 'scene_params', 'scene_source']
-"""
+"""The harness's scenes by name (suite scenes and ``--scene PATH`` files): a scene at a size,
+and what a record says of it."""
 from __future__ import annotations
 
 from mitsuba_scenes import get_scene
 from mitsuba_scenes.scene_files import scene_file
 
-__all__ = ["scene_at", "scene_info"]
-
 
 def scene_at(name: str, width: int, height: int):
     """Scene ``name`` (suite or registered file) with its camera resized to ``width`` x ``height``.
 
-    Examples
-    --------
     >>> scene_at("cornell_box", 16, 12).camera.height
     12
     """
@@ -33,8 +18,6 @@ def scene_at(name: str, width: int, height: int):
 def scene_info(name: str, scene) -> dict:
     """What a record says of its scene: content hash and, for a scene file, its path and parameters.
 
-    Examples
-    --------
     >>> info = scene_info("furnace", get_scene("furnace", width=4, height=4))
     >>> len(info["scene_hash"]), info["scene_source"]
     (16, None)

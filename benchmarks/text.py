@@ -1,18 +1,9 @@
 """Text for each medium: Markdown, a terminal, a CSV cell, each escaped for where it lands.
 
-Store fields are untrusted (a store may come from anybody): a scene name can hold HTML,
-Markdown, terminal escape sequences or a spreadsheet formula. Whatever text leaves the
-harness goes through the function of its medium, once, where it is written:
+Store fields are untrusted: a scene name can hold HTML, Markdown, terminal escapes or a
+spreadsheet formula. Text leaving the harness goes through its medium's function once, where
+it is written; the tables (:func:`markdown_table`, :func:`text_table`) escape every cell.
 
-* :func:`markdown` - inline Markdown with no raw HTML, links or emphasis from data;
-* :func:`terminal` - printable text: control characters (ESC and the C1 controls that
-  start terminal sequences) shown as ``\\x1b``-style escapes;
-* :func:`csv_cell` - a cell a spreadsheet reads as text, never as a formula.
-
-The tables of each medium (:func:`markdown_table`, :func:`text_table`) escape every cell.
-
-Examples
---------
 >>> markdown("<img src=x onerror=alert(1)> | *a* [b](c) _d_ cornell_box")
 '&lt;img src=x onerror=alert(1)&gt; \\\\| \\\\*a\\\\* \\\\[b\\\\](c) \\\\_d\\\\_ cornell_box'
 >>> terminal("red\\x1b[31m")
@@ -37,28 +28,21 @@ _FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 
 
 def markdown(text) -> str:
-    """``text`` as inline Markdown that renders as the same characters and nothing more.
-
-    ``&``, ``<`` and ``>`` become entities (no raw HTML), Markdown's punctuation is
-    backslash-escaped (no emphasis, links, code or table cells from data), and line
-    breaks and control characters become spaces (one paragraph, one table row).
-    """
+    """``text`` as inline Markdown that renders as the same characters: entities for ``& < >``,
+    Markdown's punctuation escaped, line breaks and control characters as spaces."""
     s = str(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
     s = _MD_SPECIAL.sub(lambda m: "\\" + m.group(), s)
     return _CONTROL.sub(" ", s.replace("\r", " ").replace("\n", " "))
 
 
 def terminal(text) -> str:
-    """``text`` safe to print: control characters (ESC, the C1 controls, bell, ...) become
-    visible ``\\xNN`` escapes, so data cannot move the cursor, retitle the window or hide
-    lines. Newlines and tabs are kept."""
+    """``text`` safe to print: control characters but newline and tab become visible ``\\xNN``."""
     return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", str(text))
 
 
 def csv_cell(value):
-    """A CSV cell that a spreadsheet shows as text: a string starting with ``= + - @``, a
-    tab or a carriage return gets a leading ``'`` (no formula runs when the file is opened).
-    Numbers pass unchanged (a negative number is a number, not a formula)."""
+    """A CSV cell a spreadsheet shows as text: a string starting a formula gets a leading ``'``;
+    numbers pass unchanged."""
     if isinstance(value, str) and value.startswith(_FORMULA_START):
         return "'" + value
     return value
@@ -67,8 +51,6 @@ def csv_cell(value):
 def markdown_table(header, rows) -> str:
     """A GitHub-flavoured Markdown table, every cell through :func:`markdown`.
 
-    Examples
-    --------
     >>> print(markdown_table(["a", "b"], [["x|y", 1]]))
     | a | b |
     | --- | --- |
@@ -83,8 +65,6 @@ def markdown_table(header, rows) -> str:
 def text_table(header, rows) -> str:
     """A fixed-width plain-text table for a terminal, every cell through :func:`terminal`.
 
-    Examples
-    --------
     >>> print(text_table(["a", "bb"], [["xyz", 1]]))
     a    bb
     ---  --

@@ -8,7 +8,7 @@ import errno
 import pytest
 
 from benchmarks import cli
-from benchmarks.errors import EXIT_CODES_HELP, InputError, UsageError, exit_code, one_line
+from benchmarks.errors import EXIT_CODES_HELP, InputError, exit_code, one_line
 
 
 def _err_lines(capsys) -> list:
@@ -117,7 +117,7 @@ def test_every_help_documents_the_exit_codes(capsys):
 
 
 def test_error_helpers():
-    assert exit_code(UsageError("x")) == 2 and exit_code(KeyboardInterrupt()) == 130
+    assert exit_code(InputError("x")) == 2 and exit_code(KeyboardInterrupt()) == 130
     assert exit_code(PermissionError(errno.EACCES, "Permission denied")) == 3
     assert one_line(ValueError("a\n  b")) == "a b"
     assert "exit status" in EXIT_CODES_HELP

@@ -1,16 +1,8 @@
-"""``--scene PATH`` and ``--param name=value``: user scenes on every command that takes scenes.
-
-Each parser that takes scenes calls :func:`add_scene_path_args` once; its ``run`` calls
-:func:`resolve_scenes` once, which registers the files (:mod:`mitsuba_scenes.scene_files`)
-and returns the scene names to use: the suite names given as positional arguments (or the
-command's default when there are none and no file), then the files' names. Registered
-names are accepted everywhere a suite name is (references, sweeps, the gate, speed).
-"""
+"""``--scene PATH`` and ``--param name=value``: user scenes on every command that takes scenes,
+registered (:mod:`mitsuba_scenes.scene_files`) and then accepted wherever a suite name is."""
 from __future__ import annotations
 
 import argparse
-
-__all__ = ["add_scene_path_args", "resolve_scenes"]
 
 
 def add_scene_path_args(parser: argparse.ArgumentParser) -> None:
@@ -27,22 +19,8 @@ def add_scene_path_args(parser: argparse.ArgumentParser) -> None:
 
 
 def resolve_scenes(args, *, suite_names=None, default=None) -> list:
-    """Register ``args.scene_files`` and return the scene names to run.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        Parsed by a parser given :func:`add_scene_path_args`.
-    suite_names : sequence of str or None
-        Suite names from the command line (positional ``SCENE`` arguments).
-    default : sequence of str or None
-        Names used when neither suite names nor scene files are given (None: none).
-
-    Returns
-    -------
-    list of str
-        Suite names then scene-file names, without repeats.
-    """
+    """Register ``args.scene_files``; return ``suite_names`` then the files' names without repeats
+    (``default`` when there are neither)."""
     from mitsuba_scenes.scene_files import params_used, parse_params, register_scene_file
 
     params = parse_params(getattr(args, "scene_params", []))

@@ -6,26 +6,24 @@ import json
 import sys
 from pathlib import Path
 
+from benchmarks.commands import _args as A
+from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+
 HELP = ("compare two results stores curve by curve: both curves on one plot, slope and efficiency of B over A "
         "with bootstrap 95 percent intervals, the gate's verdict of B against A; exit 1 if a verdict fails")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from benchmarks.constants import GATE_ALPHA
+    from benchmarks.tails import DEFAULT_TAIL_SPP
 
     parser.add_argument("store_a", metavar="STORE_A", help="the baseline results store")
     parser.add_argument("store_b", metavar="STORE_B", help="the results store to judge")
-    from benchmarks.commands import _args as A
-
-    from benchmarks.tails import DEFAULT_TAIL_SPP
-
     A.add_alpha_args(parser, default=GATE_ALPHA)
-    A.add_tail_spp_arg(parser, default=DEFAULT_TAIL_SPP)  # of ours when B is this build; docs/rtbench.md: Comparing builds
+    A.add_tail_spp_arg(parser, default=DEFAULT_TAIL_SPP)  # of ours when B is this build
     A.add_threads_args(parser)
     A.add_cache_arg(parser)
     A.add_renderer_arg(parser)  # external renderers whose B curves may be re-run for their variance
-    from benchmarks.commands._scene_args import add_scene_path_args
-
     add_scene_path_args(parser)  # scene files B rendered: the store's own file is never loaded
     A.add_out_arg(parser, default="rtbench-compare")  # the page: index.html, compare.md, plots
     A.add_json_arg(parser)  # one row per curve
@@ -33,60 +31,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from rich.console import Console
-    from rich.table import Table
-    from rich.text import Text
+    from benchmarks.compare import compare_stores, estimator_knowledge
+    from benchmarks.external import register_external
+    from benchmarks.tails import DEFAULT_TAIL_SPP
+    from benchmarks.text import terminal, text_table
+    from reports.compare import figures, write_compare_page
 
-    from benchmarks.text import terminal
-
-    from benchmarks.compare import compare_stores
-    from reports.compare import write_compare_page
-
+    A.check(args)
     for p in (args.store_a, args.store_b):
         if not (Path(p) / "results.jsonl").is_file():
             raise ValueError(f"{p} is not a results store (no results.jsonl)")
-    if not 0 < args.alpha < 1:
-        raise ValueError(f"--alpha must be in (0, 1), got {args.alpha}")
-    if args.tail_spp < 0 or args.tail_spp == 1:
+    if args.tail_spp == 1:
         raise ValueError(f"--tail-spp must be 0 (none) or >= 2, got {args.tail_spp}")
-    from benchmarks.commands._args import tail_spp_warning
-    from benchmarks.tails import DEFAULT_TAIL_SPP
-
-    if line := tail_spp_warning(args.tail_spp, default=DEFAULT_TAIL_SPP):
+    if line := A.tail_spp_warning(args.tail_spp, default=DEFAULT_TAIL_SPP):
         print(f"rtbench compare: warning: {line}", file=sys.stderr)
-    from benchmarks.commands._args import resolve_threads
-    from benchmarks.compare import estimator_knowledge
-    from benchmarks.external import register_external
-
-    from benchmarks.commands._scene_args import resolve_scenes
-
     resolve_scenes(args)  # only files named here run; a store's scene_source never does
     externals = [register_external(cmd) for cmd in args.renderer]
     say = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
-    knowledge = estimator_knowledge(tail_spp=args.tail_spp, threads=resolve_threads(args.threads),
+    knowledge = estimator_knowledge(tail_spp=args.tail_spp, threads=A.resolve_threads(args.threads),
                                     cache=args.cache, externals=externals, log=say)
     rows = compare_stores(args.store_a, args.store_b, alpha=args.alpha, estimator=knowledge)
-    console = Console()
-    if not console.is_terminal:
-        console = Console(width=max(console.width, 160))
-    table = Table(title=f"rtbench compare: A = {args.store_a}, B = {args.store_b}")
-    for col in ("curve", "builds A / B", "slope A / B", "slope B-A [95%]", "efficiency B/A [95%]", "speed",
-                "gate (B vs A)", "relative bias"):
-        table.add_column(col)
-    for c in rows:
-        ci = c.slope_diff_ci
-        ei = c.efficiency_ratio_ci
-        table.add_row(Text(terminal(c.label)), Text(terminal(f"{(c.build_a or '-')[:10]} / {(c.build_b or '-')[:10]}")),
-                      f"{_f(c.slope_a)} / {_f(c.slope_b)}",
-                      f"{_f(c.slope_diff, '{:+.3f}')}" + (f" [{ci[0]:+.3f}, {ci[1]:+.3f}]" if ci else ""),
-                      f"{_f(c.efficiency_ratio)}" + (f" [{ei[0]:.3g}, {ei[1]:.3g}]" if ei else ""), c.speed,
-                      f"{c.verdict or '-'} (p {_f(c.p_value)})", _f(c.relative_bias, "{:+.2%}"))
-    if not args.quiet:
-        console.print(table)
+    if not args.quiet:  # the page's table of each curve
         for c in rows:
-            if c.tails:
-                console.print(terminal(f"  {c.label}: B's estimator at a high budget: {c.tails}"), markup=False,
-                              highlight=False)
+            print(terminal(f"{c.label}\n") + text_table(["figure", "value"], figures(c)) + "\n")
     page = write_compare_page(rows, args.out, name_a=str(args.store_a), name_b=str(args.store_b))
     print(f"page: {page.resolve()}")
     if args.json:
@@ -97,6 +64,3 @@ def run(args) -> int:
                        f"{c.relative_bias:+.2%}"), file=sys.stderr)
     return 1 if failed else 0
 
-
-def _f(v, fmt="{:.3g}"):
-    return "-" if v is None else fmt.format(v)

@@ -1,7 +1,8 @@
-"""``rtbench curves SCENE... --strategies ... --spp ... --seeds K``: error-vs-spp sweeps into a results store."""
+"""``rtbench curves SCENE... --strategies ... --spps ... --seeds K``: error-vs-spp sweeps into a results store."""
 from __future__ import annotations
 
 import argparse
+import sys
 
 from benchmarks.commands import _args as A
 from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
@@ -10,9 +11,6 @@ from benchmarks.errors import EXIT_ERROR
 HELP = "render error-vs-spp curves (our strategies + Mitsuba path) against cached references into a results store"
 
 DEFAULT_OUT = "reports/out/curves"
-
-
-#: the spp ladder of a curve by default.
 DEFAULT_SPPS = (1, 2, 4, 8, 16, 32, 64)
 DEFAULT_STRATEGIES = ("uniform", "light", "mixture", "mis")
 
@@ -28,13 +26,9 @@ def default_out(scenes, width, height) -> str:
 
 def add_sweep_options(parser: argparse.ArgumentParser) -> None:
     """Options shared by ``curves`` and ``run``."""
-    A.add_scheduler_arg(parser)
-    A.add_threads_args(parser)
-    A.add_variant_args(parser)
-    A.add_cache_arg(parser)
-    A.add_alpha_args(parser)
-    A.add_metric_arg(parser)
-    A.add_quiet_arg(parser)
+    for add in (A.add_scheduler_arg, A.add_threads_args, A.add_variant_args, A.add_cache_arg, A.add_alpha_args,
+                A.add_metric_arg, A.add_quiet_arg):
+        add(parser)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -52,70 +46,50 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_sweep_options(parser)
 
 
-def curve_alpha(alpha: float, n_curves: int) -> float:
-    """The level of each curve's bias test for a whole-run false-alarm rate ``alpha`` (Bonferroni).
-
-    >>> curve_alpha(0.01, 4)
-    0.0025
-    """
-    return alpha / max(int(n_curves), 1)
-
-
 def sweep_kwargs(args, groups) -> dict:
-    """``run_sweep``'s keyword arguments from the options of :func:`add_sweep_options`.
-
-    ``--alpha`` is the run's false-alarm rate: each of the run's curves (ours and Mitsuba's, every scene
-    and size of ``groups``) is tested at ``alpha / curves``.
-    """
+    """``run_sweep``'s keywords from :func:`add_sweep_options`'s options: ``--alpha`` is the run's
+    false-alarm rate, each curve of ``groups`` tested at ``alpha / curves`` (Bonferroni)."""
     n = sum(len(g.scenes) * (len(g.strategies) + (1 if g.mitsuba else 0)) for g in groups)
     return dict(threads=args.threads, scheduler=args.scheduler, variant=A.single_variant(args), cache=args.cache,
-                alpha=curve_alpha(args.alpha, n), progress=not args.quiet)
+                alpha=args.alpha / max(n, 1), progress=not args.quiet)
 
 
-def _parity_first(names, out) -> bool:
-    """AOV parity of the scene files among ``names``; False when one fails (maps in ``out``/parity)."""
-    import sys
-    from pathlib import Path
+def wide_console(width: int):
+    """A rich console on stdout; in logs and pipes at least ``width`` wide, lines never cut."""
+    from rich.console import Console
 
-    from benchmarks.commands.parity import check_user_scenes
-
-    if check_user_scenes(names, Path(out) / "parity", say=lambda line: print(line, file=sys.stderr)):
-        return True
-    print("rtbench curves: the scene file(s) above translate differently in the two renderers; fix that first "
-          "(nothing was rendered)", file=sys.stderr)
-    return False
+    console = Console()
+    return console if console.is_terminal else Console(width=max(console.width, width), soft_wrap=True)
 
 
 def run(args) -> int:
-    from rich.console import Console
+    from pathlib import Path
 
-    from benchmarks.commands._summary import print_summary
+    from reports import summary_table
+    from benchmarks.commands.parity import check_user_scenes
     from benchmarks.external import register_external
     from benchmarks.sweep import Group, run_sweep
 
     A.check(args)
-    spps = tuple(args.spps)
-    ref_spp = args.reference_spp if args.reference_spp is not None else max(4096, 32 * max(spps))
     height = A.resolve_height(args)
     scenes = resolve_scenes(args, suite_names=args.scenes or [])
     if not scenes:
         raise ValueError("no scene: give suite scene names or --scene PATH")
     out = args.out if args.out != f"{DEFAULT_OUT}/SCENES_WxH" else default_out(scenes, args.width, height)
-    if not _parity_first(scenes, out):
+    # AOV parity of the scene files first: one that translates differently is not rendered (maps in out/parity)
+    if not check_user_scenes(scenes, Path(out) / "parity", say=lambda line: print(line, file=sys.stderr)):
+        print("rtbench curves: the scene file(s) above translate differently in the two renderers; fix that first "
+              "(nothing was rendered)", file=sys.stderr)
         return 1
-    group = Group(scenes=tuple(scenes), strategies=tuple(args.strategies), spps=spps, seeds=args.seeds,
+    ref_spp = args.reference_spp if args.reference_spp is not None else max(4096, 32 * max(args.spps))
+    group = Group(scenes=tuple(scenes), strategies=tuple(args.strategies), spps=tuple(args.spps), seeds=args.seeds,
                   width=args.width, height=height, mitsuba=not args.no_mitsuba, reference_spp=ref_spp,
                   externals=tuple(register_external(cmd).name for cmd in args.renderer))
     result = run_sweep([group], out=out, **sweep_kwargs(args, [group]))
     if not args.quiet:
-        console = Console()
-        if not console.is_terminal:  # logs and pipes: wide enough for the summary table
-            console = Console(width=max(console.width, 120))
-        print_summary(result.store, console=console, metric=args.metric)
+        wide_console(120).print(summary_table(result.store, metric=args.metric), highlight=False, markup=False)
     print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
-                  f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", flush=True)
-    import sys
-
+          f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", flush=True)
     for label, why in result.failed[:10]:
         print(f"  failed: {label}: {why}", file=sys.stderr)
     return EXIT_ERROR if result.failed else 0  # a job that raised: an internal error

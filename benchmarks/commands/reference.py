@@ -43,8 +43,6 @@ def run(args) -> int:
     unknown = [s for s in args.scenes or [] if s not in list_scenes()]
     if unknown:
         raise ValueError(f"unknown scene(s) {unknown}; the suite has: {', '.join(list_scenes())}")
-    if args.height is not None and args.width is None:
-        raise ValueError("--height needs --width")
     variant = single_variant(args)
     names = resolve_scenes(args, suite_names=args.scenes or [])
     if not names:

@@ -1,5 +1,4 @@
-"""``rtbench render SCENE``: render one suite scene (or ``--scene PATH`` files) with our tracer (and, with
-``--mitsuba``, Mitsuba), write EXR and PNG."""
+"""``rtbench render SCENE``: render a scene with our tracer (and, with ``--mitsuba``, Mitsuba) to EXR and PNG."""
 from __future__ import annotations
 
 import argparse
@@ -45,22 +44,12 @@ def file_stem(scene: str, width: int, height: int, renderer: str, spp: int, seed
     return slug(scene, f"{width}x{height}", renderer, f"spp{spp}", f"seed{seed}")
 
 
-def _size(args) -> dict:
-    params = {}
-    if args.width is not None:
-        params["width"] = args.width
-        params["height"] = args.height if args.height is not None else args.width
-    elif args.height is not None:
-        raise ValueError("--height needs --width")
-    return params
-
-
 def run(args) -> int:
     import reference_tracer as rt
     from mitsuba_scenes import describe_scene, get_scene, list_scenes
     from rich.console import Console
 
-    from benchmarks.commands._args import check, single_variant
+    from benchmarks.commands._args import check, resolve_height, single_variant
 
     check(args)
     console = Console()
@@ -74,7 +63,7 @@ def run(args) -> int:
                          f"choose from {', '.join(rt.STRATEGIES)}")
     rt.imageio.check_exposure(args.exposure)  # before the render, not after it
     variant = single_variant(args)
-    params = _size(args)
+    params = {} if args.width is None else {"width": args.width, "height": resolve_height(args)}
     names = resolve_scenes(args, suite_names=[args.scenes] if args.scenes else [])
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -85,8 +74,8 @@ def run(args) -> int:
 
 
 def _render_scene(name, scene, args, variant, out: Path, console) -> int:
-    """Render one scene with every strategy (and Mitsuba with ``--mitsuba``), write EXR and
-    PNG, print one line each; 1 when samples were NaN/Inf or pixels overflowed."""
+    """Render one scene with every strategy (and Mitsuba), write EXR and PNG, print one line each;
+    1 when samples were NaN/Inf or pixels overflowed."""
     import reference_tracer as rt
     from mitsuba_scenes import describe_scene
     from rich.progress import BarColumn, Progress, TimeRemainingColumn

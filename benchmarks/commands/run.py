@@ -2,11 +2,16 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP
 from benchmarks.errors import EXIT_ERROR
 
 HELP = "the main job: references and error-vs-spp curves for the whole suite, then the report"
+
+#: planned seconds of the report (plots, image panels, the page and its PDF) in the run's progress.
+REPORT_COST = 12.0
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,57 +41,41 @@ def default_out(preset: str, scenes) -> str:
     return f"reports/out/{preset}" + (f"_{'+'.join(sorted(scenes))}" if scenes else "")
 
 
-#: planned seconds of the report (plots, image panels, the page and its PDF) in the run's progress.
-REPORT_COST = 12.0
-
-
 def run(args) -> int:
     from rich.console import Console
 
-    from benchmarks.commands._summary import print_headline
-    from benchmarks.commands.curves import sweep_kwargs
+    import reports
+    from benchmarks.commands._args import check, name_list
+    from benchmarks.commands.curves import sweep_kwargs, wide_console
     from benchmarks.sweep import run_sweep
     from benchmarks.sweep.presets import describe_preset, escalates_tails, preset_groups
     from benchmarks.sweep.progress import Progress, process_seconds
 
-    from benchmarks.commands._args import check, name_list
-
     check(args)
-    if args.scenes is not None:
-        args.scenes = name_list(args.scenes)
-    names = resolve_scenes(args, suite_names=args.scenes or [])
+    names = resolve_scenes(args, suite_names=name_list(args.scenes) if args.scenes is not None else [])
     out = args.out if args.out != "reports/out/PRESET[_SCENES]" else default_out(args.preset, names or None)
     groups = preset_groups(args.preset, scenes=names or None)
-    console = Console()
-    if not console.is_terminal:  # logs and pipes: wide enough for the tables, lines never cut
-        console = Console(width=max(console.width, 140), soft_wrap=True)
     err = Console(stderr=True, soft_wrap=True)
     if not args.quiet:
         err.print(f"rtbench run --preset {args.preset} -> {out}", highlight=False)
         err.print(describe_preset(args.preset, scenes=names or None), highlight=False)
     kwargs = sweep_kwargs(args, groups)
     bar = Progress(enabled=kwargs.pop("progress"), console=err)
-    report_wanted = not args.no_report
-    if report_wanted:
+    if not args.no_report:
         bar.plan(REPORT_COST)
+    page = None
     try:
         result = run_sweep(groups, out=out, preset=args.preset, progress=bar,
                            escalate_tails=escalates_tails(args.preset), **kwargs)
-        page = None
-        if report_wanted:
-            try:
-                import reports
-            except ImportError:
-                console.print("report skipped: the reports package is not installed", highlight=False)
-            else:
-                bar.current("report")
-                with result.phases("report"):
-                    page = reports.build_report(result.store, formats=args.format, metric=args.metric)
-                bar.advance(REPORT_COST)
+        if not args.no_report:
+            bar.current("report")
+            with result.phases("report"):
+                page = reports.build_report(result.store, formats=args.format, metric=args.metric)
+            bar.advance(REPORT_COST)
     finally:
         bar.stop()
     if not args.quiet:
-        print_headline(result.store, console=console)
+        _print_headline(result.store, console=wide_console(140))
     if page is not None:
         print(f"report: {page.resolve()}", flush=True)
     total = process_seconds()
@@ -97,3 +86,37 @@ def run(args) -> int:
     for label, why in result.failed[:10]:
         print(f"  failed: {label}: {why}")
     return EXIT_ERROR if result.failed else 0  # a job that raised: an internal error
+
+
+def _seed_comparison_line(records) -> str | None:
+    """The seed comparison as one sentence, when the store holds it."""
+    from reports.curves import seed_comparison
+    from reports.tables import fmt
+
+    cmp = seed_comparison(records)
+    if cmp is None or not math.isfinite(cmp.get("target_rmse", math.nan)):
+        return None
+    where = (f"light reaches it at ~{fmt(cmp['light_spp'], 3)} spp ({cmp['method']})"
+             if math.isfinite(cmp.get("light_spp", math.nan)) else f"light never does ({cmp['method']})")
+    return (f"seed comparison ({SEED_SCENE} {SEED_SIZE}x{SEED_SIZE}): uniform at {SEED_SPP} spp has {cmp['label']} "
+            f"{fmt(cmp['target_rmse'], 3)}; {where}")
+
+
+def _print_headline(store, *, console) -> None:
+    """Print the run's answer (the report's first table, :mod:`reports.headline`) and the seed comparison line."""
+    from benchmarks.store import read_records
+    from benchmarks.text import text_table
+    from reports.headline import headline_cells, headline_entries, headline_header
+    from reports.store import load_store
+
+    entries = headline_entries(load_store(store))
+    if not entries:
+        console.print(f"{store}: no summary yet", highlight=False)
+        return
+    header = [h.replace(": equal spp / equal time", "") for h in headline_header(entries)]
+    console.print("noise relative to light sampling, at equal spp / at equal time (x: times as noisy):",
+                  highlight=False)
+    console.print(text_table(header, headline_cells(entries, intervals=False)), highlight=False, markup=False)
+    line = _seed_comparison_line(read_records(store))
+    if line:
+        console.print(line, highlight=False, markup=False)

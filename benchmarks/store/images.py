@@ -31,22 +31,15 @@ def file_sha256(path) -> str:
 
 
 def image_path(store, relpath) -> Path:
-    """The file a record's image field names, confined to the store (:func:`benchmarks.files.confined_file`).
-
-    Raises :class:`benchmarks.errors.InputError` for an absolute path, a ``..``, a link
-    out of the store or anything but a regular file; the file need not exist.
-    """
+    """The file a record's image field names, confined to the store (:func:`benchmarks.files.confined_file`)."""
     return confined_file(store, relpath, what="image")
 
 
 def read_image(store, relpath, *, rgb: bool = False, sha256: str | None = None) -> np.ndarray:
-    """Read an EXR image stored under ``store`` as (H, W, C) float32.
+    """An EXR image of the store (:func:`image_path`) as (H, W, C) float32; (H, W, 3) with ``rgb``.
 
-    ``relpath`` is confined to the store (:func:`image_path`): a path read from a store
-    never reads a file outside it. With ``rgb``, the result is (H, W, 3): a grey image is
-    repeated to RGB, alpha dropped. With ``sha256`` (the checksum recorded when it was
-    written), a file whose bytes do not match raises :class:`benchmarks.errors.InputError`
-    instead of being decoded: flipped bytes in an EXR can decode to finite garbage.
+    With ``sha256``, a file whose bytes do not match raises :class:`benchmarks.errors.InputError`
+    instead of being decoded (flipped bytes can decode to finite garbage).
     """
     path = image_path(store, relpath)
     if sha256 is not None and file_sha256(path) != sha256:

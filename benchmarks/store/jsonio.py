@@ -1,7 +1,4 @@
-"""The store's folder and its JSON files: created on demand, written atomically, read defensively.
-
-JSON has no NaN: every value written goes through :func:`json_safe` first.
-"""
+"""The store's folder and its JSON files: created on demand, written atomically (NaN as null), read defensively."""
 from __future__ import annotations
 
 import json
@@ -19,16 +16,12 @@ MAX_JSON_BYTES = 64 << 20
 
 
 def store_path(path) -> Path:
-    """Validate a store folder path and create the folder (and parents) if needed.
-
-    Raises ``ValueError`` if ``path`` exists and is not a folder.
-    """
+    """The store folder, created if needed; ``ValueError`` if ``path`` is something else."""
     p = Path(path).expanduser()
     if p.exists() and not p.is_dir():
         raise ValueError(f"results store {p} exists and is not a folder")
     p.mkdir(parents=True, exist_ok=True)
     return p
-
 
 
 def json_safe(value):
@@ -37,7 +30,7 @@ def json_safe(value):
         return {str(k): json_safe(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [json_safe(v) for v in value]
-    if isinstance(value, (np.bool_,)):
+    if isinstance(value, np.bool_):
         return bool(value)
     if isinstance(value, np.integer):
         return int(value)
@@ -55,11 +48,7 @@ def write_json(path, obj) -> Path:
 
 
 def read_json(path, default=None, *, problems: list | None = None):
-    """Read a JSON file; ``default`` if it is missing or does not parse.
-
-    With a ``problems`` list, what went wrong is appended to it as a sentence (a reader
-    that reports instead of failing, like the report).
-    """
+    """A JSON file's value; ``default`` if it is missing or does not parse (said in ``problems``)."""
     path = Path(path)
     try:
         with open_regular(path, max_bytes=MAX_JSON_BYTES) as f:

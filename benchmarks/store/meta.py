@@ -1,6 +1,5 @@
-"""``meta.json`` (the run's metadata and references) and ``summary.json`` (the summary's rows),
-each checked once where it is read: after that a reader may index what it reads.
-"""
+"""``meta.json`` and ``summary.json``, each checked once where it is read: after that a reader
+may index what it reads."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -44,15 +43,13 @@ def _clean_entry(entry, fields: dict):
 
 
 def _clean_meta(meta: dict, problems: list | None) -> dict:
-    """``meta.json`` as its readers expect it (STORE.md): each known key with its type, entries of
-    the wrong shape dropped (and said in ``problems``), unknown keys kept only as plain values.
+    """``meta.json`` as STORE.md gives it: each known key with its type, entries of the wrong
+    shape dropped (and said in ``problems``), unknown keys kept only as plain values.
 
-    The one check of ``meta.json`` at the boundary: after it a reader may index what it reads.
-
-    Examples
-    --------
     >>> _clean_meta({"references": {"a": [1], "b": {"spp": 4, "path": 7}}, "threads": "x"}, None)
     {'references': {'b': {'spp': 4}}}
+    >>> _clean_meta({"versions": {"mitsuba": "3.9.1", "llvm_target": {"cpu": "x"}}, "groups": [{"seeds": 4}]}, [])
+    {'versions': {'mitsuba': '3.9.1', 'llvm_target': {'cpu': 'x'}}, 'groups': [{'seeds': 4}]}
     """
     out, dropped = {}, []
     for key, value in meta.items():
@@ -60,8 +57,11 @@ def _clean_meta(meta: dict, problems: list | None) -> dict:
             ok = isinstance(value, str)
         elif key in ("total_seconds", "threads"):
             ok = _is_number(value)
-        elif key in ("machine", "versions"):
-            ok = _fits(value, "scalars")
+        elif key in ("machine", "versions"):  # plain values, or one level of them (llvm_target)
+            ok = isinstance(value, dict)
+            if ok:
+                dropped += [f"{key}.{k}" for k, v in value.items() if not (_is_scalar(v) or _fits(v, "scalars"))]
+                value = {k: v for k, v in value.items() if _is_scalar(v) or _fits(v, "scalars")}
         elif key in ("references", "references_by_size", "scene_files"):
             ok = isinstance(value, dict)
             if ok:
@@ -78,6 +78,10 @@ def _clean_meta(meta: dict, problems: list | None) -> dict:
             ok = isinstance(value, list)
             if ok:
                 value = [r for r in value if isinstance(r, dict) and all(_is_scalar(v) for v in r.values())]
+        elif key == "groups":  # the run's sweep groups, as written (nobody indexes them)
+            ok = isinstance(value, list)
+            if ok:
+                value = [g for g in value if isinstance(g, dict)]
         else:
             ok = _is_scalar(value)
         if ok:
@@ -91,13 +95,7 @@ def _clean_meta(meta: dict, problems: list | None) -> dict:
 
 
 def read_meta(store, *, problems: list | None = None) -> dict:
-    """A store's ``meta.json`` as a dict (empty when missing or not a JSON object).
-
-    Any key may be missing after an interrupted run (``STORE.md``). The file is checked
-    here, once, against the fields STORE.md gives (:func:`_clean_meta`): a field of the
-    wrong type is dropped, so readers may rely on the types. Problems are appended to
-    ``problems`` when given.
-    """
+    """A store's ``meta.json`` checked by :func:`_clean_meta` (empty when missing or no object)."""
     meta = read_json(Path(store) / META, problems=problems)
     if meta is not None and not isinstance(meta, dict):
         if problems is not None:
@@ -107,11 +105,8 @@ def read_meta(store, *, problems: list | None = None) -> dict:
 
 
 def read_summary_rows(store, *, problems: list | None = None) -> list:
-    """The ``rows`` of a store's ``summary.json`` (empty when missing or without a list).
-
-    Problems are appended to ``problems`` when given; a row that is not a JSON object
-    raises ``ValueError`` (the file is not a summary this code wrote).
-    """
+    """The ``rows`` of a store's ``summary.json`` (empty when missing); ``ValueError`` for a row
+    that is not a JSON object."""
     path = Path(store) / SUMMARY
     summ = read_json(path, problems=problems)
     if summ is None:
@@ -144,12 +139,8 @@ def read_headline(store, *, problems: list | None = None) -> list:
 
 
 def update_meta(store, **fields) -> dict:
-    """Merge ``fields`` into ``meta.json`` (dict values are merged one level deep).
+    """Merge ``fields`` into ``meta.json`` (dicts one level deep); returns the new metadata.
 
-    Returns the new metadata.
-
-    Examples
-    --------
     >>> import tempfile
     >>> d = tempfile.mkdtemp()
     >>> _ = update_meta(d, preset="quick", references={"a": {"spp": 4}})

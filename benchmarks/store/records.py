@@ -1,9 +1,5 @@
-"""``results.jsonl``: one job record per line, appended durably, read with torn lines skipped.
-
-A record's key (:data:`KEY_FIELDS` and the build) identifies its job; the readers
-deduplicate by it and keep each curve's latest build. See the durability and concurrency
-rules in :mod:`benchmarks.store`.
-"""
+"""``results.jsonl``: one job record per line, appended durably, read with torn lines skipped;
+readers deduplicate by the job key and keep each curve's latest build (``STORE.md``)."""
 from __future__ import annotations
 
 import contextlib
@@ -18,27 +14,19 @@ from typing import NamedTuple
 from ..files import open_regular
 from .jsonio import json_safe, store_path
 
-#: fields that identify a job (``STORE.md``): a resumed run skips records with these.
+#: fields that identify a job; the build (:data:`BUILD_FIELD`) ends its key.
 KEY_FIELDS = ("scene", "renderer", "strategy", "spp", "seed", "width", "height")
-#: the build that rendered a record (ours: ``reference_tracer.build_id()``; Mitsuba: its
-#: version and variant): the last part of a job's key, so that a run with another build
-#: renders again instead of reusing the old build's records (``STORE.md``).
 BUILD_FIELD = "build"
 RESULTS = "results.jsonl"
-#: the lock file of :func:`writer_lock`.
 WRITER_LOCK = ".writer.lock"
 
 
 def record_key(record: dict, *, partial: bool = False) -> tuple:
     """The identity of a job record, ``(scene, renderer, strategy, spp, seed, width, height, build)``.
 
-    Raises ``ValueError`` if a field of :data:`KEY_FIELDS` is missing, unless ``partial``:
-    then a missing field reads as ``None`` (a reader that tolerates incomplete records,
-    like the report). The build (:data:`BUILD_FIELD`) may be missing (stores written
-    before builds were recorded): it reads as ``None``.
+    ``ValueError`` for a missing field of :data:`KEY_FIELDS`, unless ``partial`` (it reads as
+    None); a missing build reads as None.
 
-    Examples
-    --------
     >>> record_key({"scene": "s", "renderer": "ours", "strategy": "mis", "spp": 4,
     ...             "seed": 0, "width": 8, "height": 8, "build": "ab12", "mse": 1.0})
     ('s', 'ours', 'mis', 4, 0, 8, 8, 'ab12')
@@ -55,13 +43,11 @@ def record_key(record: dict, *, partial: bool = False) -> tuple:
 
 def _last_line_start(f, size: int) -> int:
     """Offset just after the last newline of an open file of ``size`` bytes (0 if none)."""
-    block = 1 << 16
     pos = size
     while pos > 0:
-        start = max(0, pos - block)
+        start = max(0, pos - (1 << 16))
         f.seek(start)
-        chunk = f.read(pos - start)
-        i = chunk.rfind(b"\n")
+        i = f.read(pos - start).rfind(b"\n")
         if i >= 0:
             return start + i + 1
         pos = start
@@ -69,14 +55,8 @@ def _last_line_start(f, size: int) -> int:
 
 
 def _repair_tail(fd: int) -> bytes:
-    """Make the end of ``results.jsonl`` ready for an append; return the bytes to write first.
-
-    A final line without its newline is either a complete record (written by hand or by a
-    tool that omits the last newline): it is kept and gets its newline (returned as
-    ``b"\\n"``); or a fragment that does not parse (a writer killed half-way): it is cut
-    off. Called with the file locked (:func:`append_record`), so no live writer is in the
-    middle of that line.
-    """
+    """Make the end of ``results.jsonl`` ready for an append (the file locked); return the bytes
+    to write first: a newline after a complete last record, nothing after cutting off a torn one."""
     size = os.fstat(fd).st_size
     if size == 0:
         return b""
@@ -96,57 +76,28 @@ def _repair_tail(fd: int) -> bytes:
     return b"\n"
 
 
-@contextlib.contextmanager
-def _flocked(fd: int):
-    fcntl.flock(fd, fcntl.LOCK_EX)
-    try:
-        yield
-    finally:
-        fcntl.flock(fd, fcntl.LOCK_UN)
-
-
 def append_record(store, record: dict) -> None:
-    """Append one job record to ``results.jsonl`` durably (write, flush, fsync).
-
-    NaN and infinite floats are written as ``null``. The file is locked (``flock``) while
-    its end is checked and the line written, so appends of several processes never
-    interleave. A final line left without its newline is kept if it is a complete JSON
-    value (it gets its newline) and cut off if it does not parse (a killed writer).
-
-    Parameters
-    ----------
-    store : str or Path
-        The store folder (created if missing).
-    record : dict
-        Must hold :data:`KEY_FIELDS`.
-    """
+    """Append one job record (holding :data:`KEY_FIELDS`) to ``results.jsonl`` durably: one
+    locked write, then fsync; NaN and inf are written as null. The store is created if missing."""
     record_key(record)
     path = store_path(store) / RESULTS
     data = (json.dumps(json_safe(record), sort_keys=False, allow_nan=False) + "\n").encode()
     fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o666)  # 0o666 less the umask
     try:
-        with _flocked(fd):
-            data = _repair_tail(fd) + data
-            written = 0
-            while written < len(data):
-                written += os.write(fd, data[written:])
-            os.fsync(fd)
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        data = _repair_tail(fd) + data
+        written = 0
+        while written < len(data):
+            written += os.write(fd, data[written:])
+        os.fsync(fd)
     finally:
-        os.close(fd)
+        os.close(fd)  # releases the lock
 
 
 @contextlib.contextmanager
 def writer_lock(store, *, say=None):
-    """Hold the store's writer lock: one run writes to a store at a time.
-
-    A second run on the same store waits here (``say`` is told once who holds it) until
-    the first one ends, then resumes: it finds the first run's jobs in
-    ``results.jsonl`` and renders only what is missing, so two runs never duplicate or
-    lose a record. The lock is an ``flock`` on ``STORE/.writer.lock``, released by the
-    kernel when its holder exits or is killed. Readers never take it.
-
-    Raises ``OSError`` when the store is not writable (a read-only folder or file system).
-    """
+    """Hold the store's writer lock (``flock`` on :data:`WRITER_LOCK`): a second run waits here
+    (``say`` is told who holds it), then resumes. ``OSError`` when the store is not writable."""
     path = store_path(store) / WRITER_LOCK
     fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
     try:
@@ -159,42 +110,24 @@ def writer_lock(store, *, say=None):
             fcntl.flock(fd, fcntl.LOCK_EX)
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
-        try:
-            yield path
-        finally:
-            fcntl.flock(fd, fcntl.LOCK_UN)
+        yield path
     finally:
-        os.close(fd)
+        os.close(fd)  # releases the lock
 
 
 class ResultLine(NamedTuple):
-    """One non-blank line of ``results.jsonl`` as read, before any check of its fields."""
+    """One non-blank line of ``results.jsonl`` as read: its 1-based ``number``, its ``value``
+    (None unless ``parsed``) and whether it is the ``last`` (where a killed writer leaves a torn one)."""
 
-    #: 1-based line number in the file.
     number: int
-    #: The parsed JSON value (``None`` when the line does not parse).
     value: object
-    #: False: the line is not JSON (or not UTF-8).
     parsed: bool
-    #: The file's last non-blank line: where a killed writer leaves a torn record, which
-    #: readers skip without complaint.
     last: bool
 
 
 def result_lines(store) -> list:
-    """Every non-blank line of a store's ``results.jsonl`` as a :class:`ResultLine`.
+    """Every non-blank line of a store's ``results.jsonl`` as a :class:`ResultLine` (none without the file).
 
-    The raw view the readers build on: :func:`read_records` (the harness) and the
-    report's loader (which lists bad lines instead of warning) decide what to do with a
-    line that does not parse or is not a job record.
-
-    Returns
-    -------
-    list of ResultLine
-        Empty when the store or its ``results.jsonl`` does not exist.
-
-    Examples
-    --------
     >>> import tempfile
     >>> d = Path(tempfile.mkdtemp())
     >>> _ = (d / RESULTS).write_text('{"a": 1}\\n\\n{"a": 2')
@@ -222,16 +155,9 @@ def result_lines(store) -> list:
 
 
 def skipped_line(line: ResultLine, *, partial: bool = False) -> str | None:
-    """Why a line of ``results.jsonl`` is not a job record (a sentence), or None if it is one.
+    """Why a line of ``results.jsonl`` is not a job record (a sentence), or None: the one rule of
+    every reader. With ``partial`` a record may lack ``seed``, ``width`` and ``height``.
 
-    The one rule of every reader (the harness's :func:`read_records`, the report): a line
-    that is not JSON, not a JSON object, lacks a key field (:data:`KEY_FIELDS`; with
-    ``partial`` only ``scene``, ``renderer``, ``strategy`` and ``spp`` are needed) or
-    fails :func:`check_identity` is skipped with this sentence. A torn last line (a killed
-    writer) is "truncated".
-
-    Examples
-    --------
     >>> skipped_line(ResultLine(3, [1, 2], True, False))
     'line 3 is not a JSON object'
     >>> skipped_line(ResultLine(4, None, False, True))
@@ -254,33 +180,15 @@ def skipped_line(line: ResultLine, *, partial: bool = False) -> str | None:
 
 def job_records(store, *, partial: bool = False) -> tuple:
     """``(records, skipped)``: the job records of ``results.jsonl`` in file order (not
-    deduplicated) and one sentence per line skipped (:func:`skipped_line`).
-    """
-    records, skipped = [], []
-    for line in result_lines(store):
-        why = skipped_line(line, partial=partial)
-        if why is None:
-            records.append(line.value)
-        else:
-            skipped.append((line, why))
-    return records, skipped
+    deduplicated) and ``(line, why)`` per line skipped (:func:`skipped_line`)."""
+    lines = [(line, skipped_line(line, partial=partial)) for line in result_lines(store)]
+    return [line.value for line, why in lines if why is None], [(line, why) for line, why in lines if why]
 
 
 def read_records(store, *, dedupe: bool = True) -> list:
-    """Job records of a store, in file order.
-
-    A last line that does not parse (a killed writer) is skipped silently; any other line
-    that is not a job record (:func:`skipped_line`) is skipped with one ``RuntimeWarning``
-    for the whole file, the report lists the same lines. With ``dedupe`` (default), a job
-    that occurs several times keeps its last record, at the position of its first
-    (:func:`dedupe_records`), and each curve keeps only the records of its latest build
-    (:func:`latest_builds`): a store never mixes two builds in one curve.
-
-    Returns
-    -------
-    list of dict
-        Empty when the store or its ``results.jsonl`` does not exist.
-    """
+    """Job records of a store in file order, with :func:`dedupe_records` and :func:`latest_builds`
+    unless not ``dedupe``. Lines that are not records are skipped with one ``RuntimeWarning``
+    (a torn last line silently)."""
     out, skipped = job_records(store)
     loud = [why for line, why in skipped if not (line.last and not line.parsed)]
     if loud:
@@ -297,12 +205,6 @@ def curve_of(record: dict) -> tuple:
 def latest_builds(records) -> list:
     """Per curve (:func:`curve_of`), only the records of the build of its last record.
 
-    Records of older builds stay in ``results.jsonl`` (nothing is deleted) but are not
-    read as part of the curve: a run with a new build renders every job again, and the
-    curve is then the new build's alone, even while that run is incomplete.
-
-    Examples
-    --------
     >>> rs = [{"scene": "a", "spp": 1, "build": "old"}, {"scene": "a", "spp": 2, "build": "old"},
     ...       {"scene": "a", "spp": 1, "build": "new"}]
     >>> [(r["spp"], r["build"]) for r in latest_builds(rs)]
@@ -314,13 +216,8 @@ def latest_builds(records) -> list:
 
 
 def dedupe_records(records) -> list:
-    """One record per job key (:func:`record_key`): the last one, at the position of the first.
+    """One record per job key without the build (missing fields None): the last, at the first's position.
 
-    A resumed or repeated run may append a job again; the last write wins. Missing key
-    fields read as ``None`` here, so incomplete records are deduplicated too.
-
-    Examples
-    --------
     >>> rs = [{"scene": "a", "spp": 1, "v": 1}, {"scene": "b", "spp": 1, "v": 2},
     ...       {"scene": "a", "spp": 1, "v": 3}]
     >>> [r["v"] for r in dedupe_records(rs)]
@@ -334,14 +231,9 @@ def dedupe_records(records) -> list:
 
 
 def check_identity(record: dict, where: str, *, need_spp: bool = True) -> None:
-    """Raise ``ValueError`` unless a record (or summary row) says which curve it belongs to.
+    """``ValueError`` (message starting with ``where``) unless ``scene``, ``renderer`` and
+    ``strategy`` are non-empty strings and, with ``need_spp``, ``spp`` a positive number.
 
-    ``scene``, ``renderer`` and ``strategy`` must be non-empty strings and, for a job
-    record (``need_spp``), ``spp`` a positive number. ``where`` starts the message
-    (e.g. ``"results.jsonl line 3"``). Other fields may be missing or ``null``.
-
-    Examples
-    --------
     >>> check_identity({"scene": "a", "renderer": "ours", "strategy": "mis", "spp": 0}, "line 1")
     Traceback (most recent call last):
     ...

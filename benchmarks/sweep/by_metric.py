@@ -1,26 +1,7 @@
-"""The summary under each error metric (``--metric``): slope, efficiency and time to target per metric.
-
-``summary.json``'s top-level ``slope``, ``efficiency`` and ``time_to_target`` are RMSE's
-(as before). Each row also holds ``by_metric``: the same three figures under every metric
-of :data:`benchmarks.metrics.SPECS`, so a report or a table can switch metric without
-re-rendering (:func:`benchmarks.metrics.view`). Efficiency and time to target are only
-meaningful for an estimator with no bias detected: :func:`benchmarks.metrics.cost_status`
-says "biased" or "undetermined" where a table must show that word instead of a number.
-
-Errors per metric, each a mean over the seeds at one spp:
-
-* ``rmse``: sqrt of the reference-noise-corrected MSE (unbiased slope -1/2);
-* ``relmse``: relMSE minus the reference's own relative noise, mean(Var_ref / N_ref /
-  (ref^2 + eps)) (a squared error: unbiased slope -1);
-* ``ssim``: 1 - SSIM (no slope in theory; it saturates);
-* ``flip``: mean FLIP (likewise).
-
-Efficiency = 1 / (E x seconds) at the highest spp, E the metric's error there; for
-relMSE of an estimator found unbiased, E is its expected value from the tail reference's
-per-pixel variance, mean(Var / (ref^2 + eps)) / spp (as RMSE's efficiency uses the tail
-variance). Time to target: seconds until the error falls to the metric's target, log-log
-interpolated (RMSE: the scene's target RMSE; relMSE 0.01, i.e. 10% relative RMS error;
-1 - SSIM 0.05; FLIP 0.05).
+"""``by_metric`` of a summary row: slope, efficiency and time to target under every metric but
+RMSE (the row's own figures), so a report switches ``--metric`` without re-rendering
+(:func:`benchmarks.metrics.view`; docs/conventions.md, Metrics). An error at one spp is a mean
+over the seeds: sqrt of the corrected MSE, relMSE less the reference's own noise, 1 - SSIM, FLIP.
 """
 from __future__ import annotations
 
@@ -33,9 +14,6 @@ from ..constants import MIN_SLOPE_BUDGETS, RELMSE_EPS
 from ..metrics.specs import METRICS, SPECS
 from .coerce import as_float, finite_mean
 from .jobs import mitsuba_pairs
-
-__all__ = ["relative_noise", "curve_errors", "tail_variance_image", "metric_figures", "curve_metrics",
-           "add_metric_ratios"]
 
 
 def relative_noise(ref) -> float:
@@ -53,10 +31,9 @@ def curve_errors(by_spp: dict, metric: str, *, rel_noise: float = 0.0) -> np.nda
     >>> curve_errors({1: [{"ssim": 0.5}, {"ssim": 0.7}], 4: [{"ssim": 0.9}]}, "ssim").round(3).tolist()
     [0.4, 0.1]
     """
-    spec = SPECS[metric]
     out = []
     for s in sorted(by_spp):
-        v = finite_mean(r.get(spec.field) for r in by_spp[s])
+        v = finite_mean(r.get(SPECS[metric].field) for r in by_spp[s])
         if metric == "rmse":
             v = math.sqrt(v) if v > 0 else math.nan
         elif metric == "relmse":
@@ -73,46 +50,37 @@ def tail_variance_image(tails):
     return np.asarray(m.m2, dtype=np.float64) * (m.n / max(m.n - 1.0, 1.0))
 
 
-def _expected_relmse(variance_image, ref, top: int) -> float | None:
-    """Expected relMSE at ``top`` spp of an unbiased estimator with per-sample variance ``variance_image``."""
-    if variance_image is None or ref is None or top < 1:
-        return None
-    mean = np.asarray(ref.mean, dtype=np.float64)
-    return float(np.mean(np.asarray(variance_image, dtype=np.float64) / (mean * mean + RELMSE_EPS))) / top
-
-
 def metric_figures(metric: str, spps, errors, secs, *, target_rmse=None, unbiased: bool = False,
                    variance_image=None, ref=None, fit_from: int | None = None) -> dict:
     """Slope, efficiency and time to target of one curve under ``metric`` (errors from :func:`curve_errors`).
 
-    ``variance_image``: the estimator's per-sample variance per pixel from a high-spp run of
-    the same estimator (our tail reference; Mitsuba's own reference), used for relMSE's
-    efficiency when ``unbiased``. ``fit_from``: the slope is fitted to the budgets from this
-    one on (the summary's per-point rule, ``slope_fit_from``) where two or more remain.
+    ``variance_image``: the estimator's per-pixel per-sample variance at a high budget, for
+    relMSE's efficiency when ``unbiased``; ``fit_from``: the slope is fitted to the budgets
+    from this one on (the summary's ``slope_fit_from``).
     """
     spec = SPECS[metric]
     spps = np.asarray(spps, dtype=np.float64)
     secs = np.asarray(secs, dtype=np.float64)
     ok = np.isfinite(errors) & (errors > 0)
+    target = as_float(target_rmse) if spec.target is None else spec.target
     fig = {"metric": metric, "label": spec.label, "unbiased_slope": spec.unbiased_slope, "slope": None,
            "slope_ci": None, "slope_steep": False, "error_at_top": None, "efficiency": None, "efficiency_source": None,
-           "time_to_target": None, "target": spec.target if spec.target is not None else as_float(target_rmse)}
-    if not math.isfinite(as_float(fig["target"])):
-        fig["target"] = None
+           "time_to_target": None, "target": target if math.isfinite(target) else None, "slope_range": None}
     fit = ok & (spps >= fit_from) if fit_from else ok
-    fig["slope_range"] = None
-    if len(set(spps[fit])) >= MIN_SLOPE_BUDGETS:  # two or three points fit any line: no slope from them
+    if len(set(spps[fit])) >= MIN_SLOPE_BUDGETS:
         s = M.convergence_slope(spps[fit], errors[fit])
         fig["slope"] = s.slope
         fig["slope_ci"] = [s.ci_low, s.ci_high] if math.isfinite(s.ci_low) else None
         fig["slope_range"] = [int(spps[fit][0]), int(spps[fit][-1])]
         # steeper than Monte Carlo allows, beyond its interval: the low budgets read low (rare paths unseen)
-        lo_hi = fig["slope_ci"] or [s.slope, s.slope]
-        fig["slope_steep"] = spec.unbiased_slope is not None and lo_hi[1] < spec.unbiased_slope
+        high = (fig["slope_ci"] or [s.slope] * 2)[1]
+        fig["slope_steep"] = spec.unbiased_slope is not None and high < spec.unbiased_slope
     top = int(spps[-1]) if spps.size else 0
-    e_top = float(errors[-1]) if errors.size and ok[-1] else None
-    fig["error_at_top"] = e_top
-    expected = _expected_relmse(variance_image, ref, top) if metric == "relmse" and unbiased else None
+    fig["error_at_top"] = e_top = float(errors[-1]) if errors.size and ok[-1] else None
+    expected = None
+    if metric == "relmse" and unbiased and variance_image is not None and ref is not None and top >= 1:
+        mean = np.asarray(ref.mean, dtype=np.float64)
+        expected = float(np.mean(np.asarray(variance_image, dtype=np.float64) / (mean * mean + RELMSE_EPS))) / top
     t_top = float(secs[-1]) if secs.size else math.nan
     if math.isfinite(t_top) and t_top > 0:
         if expected is not None and expected > 0:
@@ -128,11 +96,11 @@ def metric_figures(metric: str, spps, errors, secs, *, target_rmse=None, unbiase
 
 def curve_metrics(by_spp: dict, secs, *, ref=None, target_rmse=None, unbiased: bool = False,
                   variance_image=None, fit_from: int | None = None) -> dict:
-    """``by_metric`` of one curve: :func:`metric_figures` for every metric but RMSE (the row's own figures)."""
-    spps = sorted(by_spp)
+    """``by_metric`` of one curve: :func:`metric_figures` for every metric but RMSE."""
     noise = relative_noise(ref)
-    return {m: metric_figures(m, spps, curve_errors(by_spp, m, rel_noise=noise), secs, target_rmse=target_rmse,
-                              unbiased=unbiased, variance_image=variance_image, ref=ref, fit_from=fit_from)
+    return {m: metric_figures(m, sorted(by_spp), curve_errors(by_spp, m, rel_noise=noise), secs,
+                              target_rmse=target_rmse, unbiased=unbiased, variance_image=variance_image, ref=ref,
+                              fit_from=fit_from)
             for m in METRICS if m != "rmse"}
 
 

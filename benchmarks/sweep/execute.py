@@ -24,18 +24,15 @@ from mitsuba_scenes.variants import select_variant, versions
 from reference_tracer.build import git_describe
 from reference_tracer.cpus import default_threads
 
-from .. import metrics as M
 from .. import external as externals
+from .. import metrics as M
 from ..constants import MITSUBA_DIRECT, MITSUBA_STRATEGY
 from ..scenes import scene_at, scene_info
 from ..store import KEY_FIELDS
 from .coerce import finite
 from .jobs import Job, image_paths, render_seed
 
-__all__ = ["TIMING_FIELDS", "mitsuba_scene", "job_metrics", "execute_job", "reference_info", "run_versions", "machine_info"]
-
-#: record fields that depend on timing, the machine or the checkout (ignore them to compare two runs):
-#: ``build_git`` (git describe) changes with any commit, the build id only with the tracer.
+#: record fields that depend on timing, the machine or the checkout (ignore them to compare two runs).
 TIMING_FIELDS = ("seconds", "paths_per_second", "efficiency", "compile_seconds", "build_seconds",
                  "load_seconds", "wall_seconds", "finished", "host", "threads", "worker", "build_git")
 
@@ -43,15 +40,10 @@ TIMING_FIELDS = ("seconds", "paths_per_second", "efficiency", "compile_seconds",
 def job_metrics(mean, variance, ref_mean, ref_variance, ref_spp) -> dict:
     """Error figures of one render against the reference (:mod:`benchmarks.metrics`).
 
-    ``mse_corrected`` and ``relmse_corrected`` remove the reference's own noise,
-    ``ref_variance / ref_spp`` (relMSE's weights for the latter);
-    ``flip`` is :func:`benchmarks.metrics.flip` (None where the ``flip-evaluator`` package
-    is missing); ``variance`` is the mean per-pixel per-sample variance of the render,
-    present only when the renderer gave one (ours at 2+ spp; a record never holds a null
-    variance). Non-finite results become None.
+    ``*_corrected`` remove the reference's own noise; ``flip`` is None without the
+    ``flip-evaluator`` package; ``variance`` (mean per-sample variance) only when the renderer
+    gave one. Non-finite results become None.
 
-    Examples
-    --------
     >>> ref = np.ones((8, 8, 3)); img = ref + 0.1
     >>> m = job_metrics(img, None, ref, np.zeros_like(ref), 64)
     >>> round(m["mse"], 6), round(m["rmse"], 6), "variance" in m
@@ -65,63 +57,36 @@ def job_metrics(mean, variance, ref_mean, ref_variance, ref_spp) -> dict:
            "flip": M.flip(mean, ref) if M.flip_available() else None,
            "mse_corrected": M.mse_corrected(mean, ref, ref_variance, ref_spp),
            "relmse_corrected": M.relmse_corrected(mean, ref, ref_variance, ref_spp)}
-    if variance is not None:
-        v = np.asarray(variance, dtype=np.float64)
-        if np.all(np.isfinite(v)):
-            out["variance"] = float(v.mean())
+    if variance is not None and np.all(np.isfinite(variance)):
+        out["variance"] = float(np.mean(variance, dtype=np.float64))
     return {k: finite(v) for k, v in out.items()}
-
-
-def reference_info(reference) -> dict:
-    """What a record says of its reference (as ``reference_<field>``): spp, seed, cache key, variant.
-
-    ``reference`` is a :class:`benchmarks.references.Reference` (a closed-form one included).
-    """
-    return {"spp": reference.spp, "seed": reference.seed, "key": reference.key, "variant": reference.variant}
-
-
-def mitsuba_scene(scene, strategy: str):
-    """``scene`` as Mitsuba renders curve ``strategy``: as it is (``path``), or for a scene with
-    the ``direct`` integrator with the sample counts of :data:`MITSUBA_DIRECT`'s strategy."""
-    direct = getattr(scene, "direct", None)
-    if strategy == MITSUBA_STRATEGY and direct is None:
-        return scene
-    if strategy in MITSUBA_DIRECT and direct is not None:
-        return dataclasses.replace(scene, direct=rt.Direct(*direct.counts(MITSUBA_DIRECT[strategy])))
-    allowed = tuple(MITSUBA_DIRECT) if direct is not None else (MITSUBA_STRATEGY,)
-    raise ValueError(f"Mitsuba renders this scene as curve(s) {', '.join(allowed)}, not {strategy!r}")
 
 
 def _render(job: Job, scene, rseed: int, *, threads: int, variant) -> tuple:
     """``(mean, variance or None, seconds, extra record fields)`` of the job's render."""
     if job.renderer == "ours":
-        res = rt.render(scene, spp=job.spp, strategy=job.strategy,
-                        seed=rseed, threads=threads)
+        res = rt.render(scene, spp=job.spp, strategy=job.strategy, seed=rseed, threads=threads)
         extra = {"rays": int(res.rays), "nonfinite_samples": int(res.nonfinite_samples),
                  "build_seconds": float(res.build_seconds)}
         return res.mean, res.variance, float(res.seconds), extra
     if job.renderer == "mitsuba":
-        scene = mitsuba_scene(scene, job.strategy)
-        out = mitsuba_scenes.render_mitsuba(scene, spp=job.spp, seed=rseed,
-                                            variant=variant, threads=threads, batches=1)
-        extra = {"rays": None, "nonfinite_samples": None, "compile_seconds": float(out.compile_seconds),
-                 "load_seconds": float(out.load_seconds)}
+        direct = getattr(scene, "direct", None)
+        allowed = tuple(MITSUBA_DIRECT) if direct is not None else (MITSUBA_STRATEGY,)
+        if job.strategy not in allowed:
+            raise ValueError(f"Mitsuba renders this scene as curve(s) {', '.join(allowed)}, not {job.strategy!r}")
+        if direct is not None:  # Mitsuba's `direct` with the sample counts of the curve's strategy
+            scene = dataclasses.replace(scene, direct=rt.Direct(*direct.counts(MITSUBA_DIRECT[job.strategy])))
+        out = mitsuba_scenes.render_mitsuba(scene, spp=job.spp, seed=rseed, variant=variant, threads=threads,
+                                            batches=1)
         # one batch at the full spp: no per-pixel variance (summary.json has the between-seed one)
-        return out.mean, None, float(out.seconds), extra
-
+        return out.mean, None, float(out.seconds), {"rays": None, "nonfinite_samples": None,
+                                                    "compile_seconds": float(out.compile_seconds),
+                                                    "load_seconds": float(out.load_seconds)}
     ext = externals.external(job.renderer)
-    if ext is not None:
-        mean, seconds = externals.render_external(ext, scene, spp=job.spp, seed=rseed & 0x7FFFFFFF)
-        return mean, None, seconds, {"rays": None, "nonfinite_samples": int((~np.isfinite(mean)).sum())}
-    raise ValueError(f"renderer must be 'ours', 'mitsuba' or a registered external renderer, got {job.renderer!r}")
-
-
-def _register_here(scene_file, external) -> None:
-    """Register the job's scene file and external renderer in this process if missing."""
-    if scene_file is not None and registered_scene_file(scene_file.name) is None:
-        restore_registry([scene_file])
-    if external is not None and externals.external(external.name) is None:
-        externals.restore_externals([external])
+    if ext is None:
+        raise ValueError(f"renderer must be 'ours', 'mitsuba' or a registered external renderer, got {job.renderer!r}")
+    mean, seconds = externals.render_external(ext, scene, spp=job.spp, seed=rseed & 0x7FFFFFFF)
+    return mean, None, seconds, {"rays": None, "nonfinite_samples": int((~np.isfinite(mean)).sum())}
 
 
 def _check_build(job: Job) -> dict:
@@ -129,7 +94,6 @@ def _check_build(job: Job) -> dict:
     than the job was planned with (a Dask worker running other code than the client)."""
     if job.renderer != "ours":
         return {"build": job.build, "build_git": None}
-
     here = rt.build_id()
     if job.build is not None and job.build != here:
         raise RuntimeError(f"{job.label}: planned for tracer build {job.build}, but this process runs build {here}")
@@ -138,33 +102,18 @@ def _check_build(job: Job) -> dict:
 
 def execute_job(job: Job, reference, *, threads: int, variant=None, keep_image: bool = False,
                 keep_stats: bool = False, scene_file=None, external=None) -> dict:
-    """Render one job, measure it against the reference and build its record.
+    """Render one job, measure it against ``reference`` and build its record.
 
-    Runs anywhere (locally or on a Dask worker): it touches no file. Returns
-    ``{"record": dict, "images": {relpath: array}}``; the caller writes the images
-    and then appends the record.
-
-    Parameters
-    ----------
-    job : Job
-    reference : benchmarks.references.Reference
-        The reference at the job's size: mean, per-sample variance and spp; its spp,
-        seed, key and variant are copied into the record (``reference_*``).
-    threads : int, keyword-only
-        Threads for our tracer and for Mitsuba (``drjit.set_thread_count``).
-    variant : str or None, keyword-only
-        Mitsuba variant (use the client's choice so all records agree).
-    keep_image : bool, keyword-only
-        Return the mean image for the store (``record["image"]``).
-    keep_stats : bool, keyword-only
-        Return mean and variance images for the bias test (``record["stats_image"]``).
-    scene_file, external : keyword-only
-        The job's :class:`mitsuba_scenes.scene_files.SceneFile` and
-        :class:`benchmarks.external.ExternalRenderer` entries, registered here first when
-        this process does not know them (a Dask worker, including one that joined after
-        the run started).
+    Returns ``{"record": dict, "images": {relpath: array}}``; the caller writes the images,
+    then appends the record. ``keep_image``: keep the mean image (``record["image"]``);
+    ``keep_stats``: mean and variance for the bias test (``record["stats_image"]``);
+    ``scene_file``, ``external``: the job's scene file and external renderer, registered
+    first where this process lacks them (a Dask worker).
     """
-    _register_here(scene_file, external)
+    if scene_file is not None and registered_scene_file(scene_file.name) is None:
+        restore_registry([scene_file])
+    if external is not None and externals.external(external.name) is None:
+        externals.restore_externals([external])
     t_job = time.perf_counter()
     builds = _check_build(job)
     rseed = render_seed(job.seed, job.spp)
@@ -174,31 +123,26 @@ def execute_job(job: Job, reference, *, threads: int, variant=None, keep_image: 
         raise ValueError(f"{job.label}: image {mean.shape} vs reference {np.shape(reference.mean)}")
     # one sample carries no estimate of its spread (ours would report 0)
     met = job_metrics(mean, var if job.spp > 1 else None, reference.mean, reference.variance, reference.spp)
-    pps = job.width * job.height * job.spp / seconds if seconds > 0 else None
-    eff = None
-    if met["mse"] is not None and met["mse"] > 0 and seconds > 0:
-        eff = M.efficiency(met["mse"], seconds)
-    images = {}
     img_path, var_path = image_paths(job)
-    if keep_image or keep_stats:
-        images[img_path] = np.asarray(mean, dtype=np.float32)
+    images = {img_path: np.asarray(mean, dtype=np.float32)} if keep_image or keep_stats else {}
     if keep_stats and var is not None:
         images[var_path] = np.asarray(var, dtype=np.float32)
     record = {k: getattr(job, k) for k in KEY_FIELDS}
     record.update(met)
     record.update({
-        "seconds": seconds, "rays": extra.get("rays"), "paths_per_second": pps, "threads": int(threads),
-        "image": img_path if keep_image else None,
+        "seconds": seconds, "rays": extra.get("rays"),
+        "paths_per_second": job.width * job.height * job.spp / seconds if seconds > 0 else None,
+        "threads": int(threads), "image": img_path if keep_image else None,
         "stats_image": img_path if keep_stats else None,
         "stats_variance_image": var_path if (keep_stats and var is not None) else None,
-        "efficiency": eff, "render_seed": rseed,
-        "nonfinite_samples": extra.get("nonfinite_samples"),
+        "efficiency": M.efficiency(met["mse"], seconds) if (met["mse"] or 0) > 0 and seconds > 0 else None,
+        "render_seed": rseed, "nonfinite_samples": extra.get("nonfinite_samples"),
         "compile_seconds": extra.get("compile_seconds"), "build_seconds": extra.get("build_seconds"),
-        "load_seconds": extra.get("load_seconds"),
-        "versions": run_versions(variant),
+        "load_seconds": extra.get("load_seconds"), "versions": run_versions(variant),
         **scene_info(job.scene, scene), **builds,
     })
-    record.update({f"reference_{k}": v for k, v in reference_info(reference).items()})
+    record.update({"reference_spp": reference.spp, "reference_seed": reference.seed, "reference_key": reference.key,
+                   "reference_variant": reference.variant})
     record["wall_seconds"] = time.perf_counter() - t_job
     record["host"] = socket.gethostname()
     record["finished"] = _dt.datetime.now().astimezone().isoformat(timespec="seconds")
@@ -207,8 +151,12 @@ def execute_job(job: Job, reference, *, threads: int, variant=None, keep_image: 
 
 def run_versions(variant: str | None = None) -> dict:
     """Versions recorded with every job: rtbench, our tracer, Mitsuba, Dr.Jit, variant, Python, NumPy."""
-    out = {"rtbench": _rtbench_version(), "reference_tracer": rt.__version__,
-           "python": platform.python_version(), "numpy": np.__version__}
+    try:
+        rtbench = version("rtbench")
+    except Exception:  # noqa: BLE001 - not installed as a package
+        rtbench = "unknown"
+    out = {"rtbench": rtbench, "reference_tracer": rt.__version__, "python": platform.python_version(),
+           "numpy": np.__version__}
     try:
         if variant is not None:
             select_variant(variant)
@@ -218,22 +166,12 @@ def run_versions(variant: str | None = None) -> dict:
     return out
 
 
-def _rtbench_version() -> str:
-    try:
-        return version("rtbench")
-    except Exception:  # noqa: BLE001
-        return "unknown"
-
-
 def machine_info() -> dict:
     """Cores, CPU model and platform for meta.json."""
     cpu = platform.processor() or ""
     try:
         with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
+            cpu = next((ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")), cpu)
     except OSError:
         pass
     return {"cores": default_threads(), "cpu": cpu or "unknown", "platform": platform.platform(),

@@ -1,30 +1,7 @@
-"""The run's answer, per scene: how much noisier each strategy is than light sampling, at
-equal samples and at equal time, and whether our tracer agrees with Mitsuba.
-
-Noise is measured against each estimator's own expectation, so a biased estimator
-(``light``, which misses indirect light) shows its bias as a percentage and its noise as
-noise, never one for the other:
-
-* **noise** of a curve: its per-sample relative variance,
-  ``N = mean over pixels and channels of Var_p / (ref_p^2 + eps)`` (relMSE's weights and
-  epsilon), from a high-budget run of the same estimator: our tail reference (16384 spp,
-  its per-pixel central moments) or Mitsuba's reference (its per-sample variance from 16
-  batches). ``N / spp`` is the curve's expected relMSE at ``spp``, bias aside.
-* its **standard error**: pixels are independent, so ``se(N)^2 = sum_p w_p^2 Var(s2_p) / P^2``
-  with ``Var(s2_p) = (m4_p - s2_p^2) / n`` from the tail reference's fourth moment
-  (``2 s2_p^2 / (K - 1)`` for K batches of Mitsuba's). Where single samples carry the
-  variance (``noise_lower_bound``) the figure is a lower bound and the interval says
-  nothing about what the rare paths would add.
-* **seconds per sample**: the wall time of that same high-budget render (seconds long,
-  so not dominated by the per-render overhead of small images) over its samples.
-* **ratios** against light sampling of the same scene: at equal spp ``N_s / N_light``;
-  at equal time ``(N_s t_s) / (N_light t_light)`` (noise per second of work, the
-  inverse of efficiency). 95% intervals from the standard errors on the log scale
-  (delta method; the timings' own spread is not in them).
-* the **verdict** of our tracer against Mitsuba: the bias test of our ``mis`` curve (the
-  estimator of Mitsuba's ``path``) against the Mitsuba reference at the sweep's top
-  budget (pass, fail or undetermined: ``benchmarks/STATISTICS.md``), with the smallest
-  relative bias it would catch.
+"""The run's answer, per scene: each curve's noise (per-sample relative variance from a
+high-budget render of its estimator), its ratios to light sampling at equal spp and at
+equal time with 95% intervals, and the verdict of ours against Mitsuba. The definitions
+are in ``benchmarks/STATISTICS.md``; the report's first table shows them.
 
 Examples
 --------
@@ -37,30 +14,27 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import stats
 
+from reference_tracer.estimate import ImageEstimate
+
+from .. import metrics as M
+from .. import tails as T
 from ..constants import BASELINE, RELMSE_EPS, VERDICT_STRATEGY
+from .by_metric import tail_variance_image
+from .coerce import as_float
 
-__all__ = ["Z95", "relative_noise_of", "ratio_ci", "add_noise_ratios", "headline_rows"]
 #: two-sided 95% normal quantile.
-Z95 = 1.959963984540054
+Z95 = float(stats.norm.isf(0.025))
+#: batches of a Mitsuba reference whose store entry does not say (``benchmarks.references``).
+DEFAULT_BATCHES = 16
 
 
 def relative_noise_of(variance, ref_mean, *, n: int | None = None, m4=None, batches: int | None = None) -> dict:
-    """``{"noise", "noise_se"}``: a curve's per-sample relative variance and its standard error.
+    """``{"noise", "noise_se"}``: mean of the per-pixel per-sample ``variance`` weighted by
+    ``1 / (ref^2 + eps)``, and its standard error from a tail reference's ``n`` samples and
+    fourth moment ``m4``, or from the ``batches`` of a Mitsuba reference.
 
-    Parameters
-    ----------
-    variance : array_like
-        Per-pixel per-sample variance (H, W, 3) of the estimator.
-    ref_mean : array_like
-        The reference image: the weights ``1 / (ref^2 + eps)``.
-    n, m4 : keyword-only
-        Samples per pixel and per-pixel fourth central moment of a tail reference.
-    batches : int, keyword-only
-        Or: the number of batches the variance came from (a Mitsuba reference).
-
-    Examples
-    --------
     >>> v = np.full((2, 2, 3), 0.5); r = np.ones((2, 2, 3))
     >>> round(relative_noise_of(v, r, batches=16)["noise"], 4)
     0.495
@@ -68,21 +42,70 @@ def relative_noise_of(variance, ref_mean, *, n: int | None = None, m4=None, batc
     var = np.asarray(variance, dtype=np.float64)
     ref = np.asarray(ref_mean, dtype=np.float64)
     w = 1.0 / (ref * ref + RELMSE_EPS)
-    count = var.size
-    noise = float(np.sum(w * var) / count)
+    noise = float(np.sum(w * var) / var.size)
     if m4 is not None and n:
         var_of_var = np.maximum(np.asarray(m4, dtype=np.float64) - var * var, 0.0) / n
     elif batches and batches > 1:
         var_of_var = 2.0 * var * var / (batches - 1)
     else:
         return {"noise": noise, "noise_se": None}
-    return {"noise": noise, "noise_se": float(math.sqrt(np.sum(w * w * var_of_var)) / count)}
+    return {"noise": noise, "noise_se": float(math.sqrt(np.sum(w * w * var_of_var)) / var.size)}
+
+
+def exact(tails) -> bool:
+    """Whether an estimator has no noise beyond float rounding in any pixel."""
+    return not np.any(T.sample_variance(tails) > 0)
+
+
+def _seconds_per_sample(seconds, spp: int, image) -> float | None:
+    seconds = as_float(seconds)
+    pixels = int(np.prod(np.shape(image)[:2]))
+    return seconds / (spp * pixels) if math.isfinite(seconds) and seconds > 0 else None
+
+
+def tail_noise(tails, ref) -> dict:
+    """A curve of ours: variance, noise and seconds per sample from its tail reference.
+
+    ``variance_lower_bound``/``noise_lower_bound``: single samples carry the variance, so
+    the rarer paths that set it were not seen.
+    """
+    source = f"tail reference, {tails.spp} spp"
+    lower = T.variance_is_lower_bound(tails)
+    out = {"variance": float(T.sample_variance(tails).mean()), "variance_source": source,
+           "variance_lower_bound": lower, "noise": None, "noise_se": None, "noise_lower_bound": lower,
+           "noise_source": source, "exact": exact(tails),
+           "seconds_per_sample": _seconds_per_sample(tails.seconds, tails.spp, tails.mean)}
+    if ref is not None:
+        out.update(relative_noise_of(tail_variance_image(tails), ref.mean, n=tails.spp, m4=tails.moments.m4))
+    if out["exact"]:
+        out.update(noise=0.0, noise_se=0.0)
+    return out
+
+
+def mitsuba_cost(row: dict, ref: ImageEstimate) -> None:
+    """Mitsuba's variance, noise and efficiency from its own high-spp reference (the same
+    estimator, ``path``), as ours come from our tail references: expected MSE = variance / spp."""
+    var_image = np.asarray(ref.variance, dtype=np.float64) * ref.spp / max(ref.spp - 1.0, 1.0)
+    var = float(var_image.mean())
+    source = f"Mitsuba reference, {ref.spp} spp"
+    row.update(variance=var, variance_source=source, variance_lower_bound=None, noise_lower_bound=None,
+               noise_source=source, exact=False,
+               seconds_per_sample=_seconds_per_sample(getattr(ref, "seconds", None), ref.spp, ref.mean),
+               **relative_noise_of(var_image, ref.mean, batches=getattr(ref, "batches", None) or DEFAULT_BATCHES))
+    top, secs = row["spps"][-1], as_float(row.get("seconds_at_top"))
+    if not (var > 0 and math.isfinite(secs) and secs > 0):
+        return
+    row.update(efficiency=M.efficiency(var / top, secs), efficiency_source="reference variance / spp")
+    rel = row.get("by_metric", {}).get("relmse")
+    expected = float(np.mean(var_image / (ref.mean * ref.mean + RELMSE_EPS))) / top
+    if rel is not None and expected > 0:
+        rel.update(efficiency=M.efficiency(expected, secs), efficiency_source="reference variance / spp")
 
 
 def ratio_ci(a: float, se_a: float | None, b: float, se_b: float | None):
     """``(a / b, [lo, hi])``: a ratio of two independent positive estimates with a 95% interval
-    from their standard errors (delta method on the log scale); the interval is None when an
-    error is unknown, the ratio None when ``b`` is not positive."""
+    (delta method on the log scale); the interval is None when an error is unknown, the ratio
+    None when ``b`` is not positive."""
     if not (b > 0) or a is None or not math.isfinite(a):
         return None, None
     r = a / b
@@ -93,8 +116,8 @@ def ratio_ci(a: float, se_a: float | None, b: float, se_b: float | None):
 
 
 def add_noise_ratios(rows) -> None:
-    """Each row's ``noise_vs_light`` and ``time_noise_vs_light`` (with ``_ci``) against the
-    ``light`` row of the same scene and size (see the module docstring)."""
+    """Each row's ``noise_vs_light`` and ``time_noise_vs_light`` (with ``_ci``) against our
+    ``light`` row of the same scene and size."""
     base = {(r["scene"], r["width"], r["height"]): r for r in rows
             if r.get("renderer") == "ours" and r.get("strategy") == BASELINE}
     for r in rows:
@@ -103,23 +126,22 @@ def add_noise_ratios(rows) -> None:
         r["time_noise_vs_light"] = r["time_noise_vs_light_ci"] = None
         if b is None or r.get("noise") is None or b.get("noise") is None:
             continue
-        r["noise_vs_light"], r["noise_vs_light_ci"] = ratio_ci(r["noise"], r.get("noise_se"), b["noise"],
-                                                               b.get("noise_se"))
+        se, se_b = r.get("noise_se"), b.get("noise_se")
+        r["noise_vs_light"], r["noise_vs_light_ci"] = ratio_ci(r["noise"], se, b["noise"], se_b)
         t, tb = r.get("seconds_per_sample"), b.get("seconds_per_sample")
         if t and tb:
-            se = None if r.get("noise_se") is None else r["noise_se"] * t
-            se_b = None if b.get("noise_se") is None else b["noise_se"] * tb
-            r["time_noise_vs_light"], r["time_noise_vs_light_ci"] = ratio_ci(r["noise"] * t, se, b["noise"] * tb,
-                                                                             se_b)
+            r["time_noise_vs_light"], r["time_noise_vs_light_ci"] = ratio_ci(
+                r["noise"] * t, None if se is None else se * t, b["noise"] * tb, None if se_b is None else se_b * tb)
+
+
+_CURVE_FIELDS = ("renderer", "strategy", "noise", "noise_se", "noise_lower_bound", "noise_source",
+                 "seconds_per_sample", "noise_vs_light", "noise_vs_light_ci", "time_noise_vs_light",
+                 "time_noise_vs_light_ci", "bias_verdict", "relative_bias", "relative_bias_ci", "exact")
 
 
 def headline_rows(rows) -> list:
-    """One dict per (scene, width, height): the verdict of ours against the reference, the
-    bias of light sampling, and each curve's noise ratios (for the report's first table).
-
-    The rows are the summary's (after :func:`add_noise_ratios`); a section without our
-    ``mis`` curve has verdict None.
-    """
+    """One dict per (scene, width, height) of the summary's rows: the verdict of our ``mis``
+    (None without it), the bias of light sampling and each curve's noise ratios."""
     out = {}
     for r in rows:
         key = (r["scene"], r["width"], r["height"])
@@ -134,8 +156,5 @@ def headline_rows(rows) -> list:
         if r.get("renderer") == "ours" and r.get("strategy") == BASELINE:
             h.update(light_bias=r.get("relative_bias"), light_bias_ci=r.get("relative_bias_ci"),
                      light_verdict=r.get("bias_verdict"))
-        h["curves"].append({k: r.get(k) for k in (
-            "renderer", "strategy", "noise", "noise_se", "noise_lower_bound", "noise_source", "seconds_per_sample",
-            "noise_vs_light", "noise_vs_light_ci", "time_noise_vs_light", "time_noise_vs_light_ci", "bias_verdict",
-            "relative_bias", "relative_bias_ci", "exact")})
+        h["curves"].append({k: r.get(k) for k in _CURVE_FIELDS})
     return list(out.values())

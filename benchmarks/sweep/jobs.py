@@ -1,18 +1,13 @@
-"""The job list of a sweep: :class:`Job`, :class:`Group`, their validation and the render seeds.
-
-A *job* is one render: (scene, renderer, strategy, spp, seed, width, height), the store
-key of its record (``benchmarks/STORE.md``). A :class:`Group` is a block of jobs: every
-scene x curve x spp x seed at one image size.
-"""
+"""The job list of a sweep: :class:`Job`, :class:`Group` (validated where it is made), the
+render seeds and which Mitsuba curve each of ours is compared with."""
 from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass
 
-import numpy as np
-
 import reference_tracer as rt
 from reference_tracer.render import BLIND_TO_DELTA_LIGHTS
+from reference_tracer.validation import positive_int
 from mitsuba_scenes import get_scene, known_scenes
 
 from ..constants import MITSUBA_DIRECT, MITSUBA_STRATEGY, STRATEGIES
@@ -21,17 +16,11 @@ from ..external import external, registered_externals
 from ..files import slug
 from ..store import KEY_FIELDS
 
-__all__ = ["Job", "Group", "validate_group", "make_jobs", "mitsuba_strategies", "mitsuba_twin", "mitsuba_pairs", "renderer_builds", "render_seed",
-           "image_paths", "check_int", "check_int_list"]
-
 
 @dataclass(frozen=True)
 class Job:
-    """One render of the sweep (its identity is the store key, ``STORE.md``).
-
-    ``build`` is the renderer's build (:func:`renderer_builds`): part of the key, so a
-    new build renders the job again.
-    """
+    """One render of the sweep; ``build`` (:func:`renderer_builds`) ends its store key, so a
+    new build renders the job again."""
 
     scene: str
     renderer: str
@@ -58,34 +47,17 @@ class Job:
     @property
     def cost(self) -> float:
         """Rough relative cost for the progress bar's time estimate (seconds at ~1 us/sample)."""
-        samples = self.width * self.height * self.spp
-        return samples * 1e-6 + (0.3 if self.renderer == "mitsuba" else 0.03)
+        return self.width * self.height * self.spp * 1e-6 + (0.3 if self.renderer == "mitsuba" else 0.03)
 
 
 @dataclass(frozen=True)
 class Group:
-    """A block of a sweep: every scene x curve x spp x seed at one image size.
+    """A block of a sweep: every scene x curve x spp x seed (indices ``0 .. seeds-1``) at one size.
 
-    Parameters
-    ----------
-    scenes : tuple of str
-        Suite scene names.
-    strategies : tuple of str
-        Our strategies (``reference_tracer.STRATEGIES``).
-    spps : tuple of int
-        The spp ladder.
-    seeds : int
-        Number of independent seeds per (curve, spp); seed indices are ``0 .. seeds-1``.
-    width, height : int
-    mitsuba : bool
-        Add Mitsuba's ``path`` curve.
-    reference_spp : int
-        Samples of the Mitsuba reference (keep it well above ``max(spps)``).
-    name : str
-        A label for messages.
-    externals : tuple of str
-        Names of registered external renderers (:func:`benchmarks.external.register_external`),
-        one curve each.
+    ``strategies``: ours; ``mitsuba``: add Mitsuba's curve(s); ``reference_spp``: of the
+    reference (well above ``max(spps)``); ``externals``: registered external renderers
+    (:func:`benchmarks.external.register_external`), one curve each; ``name``: for messages.
+    ``ValueError`` for a malformed group.
     """
 
     scenes: tuple
@@ -100,115 +72,62 @@ class Group:
     externals: tuple = ()
 
     def __post_init__(self):
-        validate_group(self)
+        if isinstance(self.scenes, str) or not self.scenes:
+            raise ValueError(f"scenes must be a non-empty sequence of names, got {self.scenes!r}")
+        unknown = [s for s in self.scenes if s not in known_scenes()]
+        if unknown:
+            raise ValueError(f"unknown scene(s) {unknown}; the suite has: {', '.join(known_scenes())}")
+        if isinstance(self.strategies, str):
+            raise ValueError(f"strategies must be a sequence of names, got {self.strategies!r}")
+        bad = [s for s in self.strategies if s not in STRATEGIES]
+        if bad:
+            raise ValueError(f"unknown strategy/strategies {bad}; choose from {', '.join(STRATEGIES)}")
+        if len(set(self.strategies)) != len(tuple(self.strategies)):
+            raise ValueError(f"strategies has repeated names: {list(self.strategies)}")
+        blind = [s for s in self.strategies if s in BLIND_TO_DELTA_LIGHTS]
+        dark = [name for name in self.scenes if blind and get_scene(name).delta_lights]
+        if dark:  # refused before any job renders: each of these renders would raise
+            raise ValueError(f"strategies {blind} cannot see the point, spot or directional lights of scene(s) "
+                             f"{dark} (no sampled direction meets a delta light): render them with mis or light")
+        if isinstance(self.externals, str) or any(external(e) is None for e in self.externals):
+            raise ValueError(f"externals must name registered external renderers, got {self.externals!r}")
+        if not self.strategies and not self.mitsuba and not self.externals:
+            raise ValueError("nothing to render: no strategy, no external renderer and mitsuba=False")
+        if isinstance(self.spps, (str, bytes)) or not self.spps:
+            raise ValueError(f"spps must be a non-empty sequence of integers, got {self.spps!r}")
+        spps = [positive_int("spps", s) for s in self.spps]
+        if len(set(spps)) != len(spps):
+            raise ValueError(f"spps has repeated values: {spps}")
+        for name in ("seeds", "width", "height"):
+            positive_int(name, getattr(self, name))
+        positive_int("reference_spp", self.reference_spp, minimum=2)
 
     def jobs(self) -> list:
         return make_jobs(self.scenes, strategies=self.strategies, spps=self.spps, seeds=self.seeds,
                          width=self.width, height=self.height, mitsuba=self.mitsuba, externals=self.externals)
 
 
-def check_int(name: str, value, minimum: int = 1) -> int:
-    """``value`` as an int, or ``ValueError`` naming ``name`` unless it is an integer >= ``minimum``.
-
-    Examples
-    --------
-    >>> check_int("seeds", 3)
-    3
-    >>> check_int("seeds", True)
-    Traceback (most recent call last):
-    ...
-    ValueError: seeds must be an integer >= 1, got True
-    """
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
-def check_int_list(name: str, values, minimum: int = 1) -> tuple:
-    """``values`` as a tuple of distinct ints >= ``minimum``, or ``ValueError`` naming ``name``.
-
-    Examples
-    --------
-    >>> check_int_list("spps", [4, 1])
-    (4, 1)
-    >>> check_int_list("spps", [4, 4])
-    Traceback (most recent call last):
-    ...
-    ValueError: spps has repeated values: [4, 4]
-    """
-    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
-        raise ValueError(f"{name} must be a sequence of integers, got {values!r}")
-    out = []
-    for v in values:
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < minimum:
-            raise ValueError(f"{name} must hold integers >= {minimum}, got {v!r}")
-        out.append(int(v))
-    if not out:
-        raise ValueError(f"{name} is empty")
-    if len(set(out)) != len(out):
-        raise ValueError(f"{name} has repeated values: {out}")
-    return tuple(out)
-
-
-def validate_group(g: Group) -> None:
-    """Raise ``ValueError`` with a clear message for a malformed :class:`Group`."""
-    suite = known_scenes()
-    if isinstance(g.scenes, str) or not g.scenes:
-        raise ValueError(f"scenes must be a non-empty sequence of names, got {g.scenes!r}")
-    unknown = [s for s in g.scenes if s not in suite]
-    if unknown:
-        raise ValueError(f"unknown scene(s) {unknown}; the suite has: {', '.join(suite)}")
-    if isinstance(g.strategies, str):
-        raise ValueError(f"strategies must be a sequence of names, got {g.strategies!r}")
-    bad = [s for s in g.strategies if s not in STRATEGIES]
-    if bad:
-        raise ValueError(f"unknown strategy/strategies {bad}; choose from {', '.join(STRATEGIES)}")
-    if len(set(g.strategies)) != len(tuple(g.strategies)):
-        raise ValueError(f"strategies has repeated names: {list(g.strategies)}")
-    blind = [s for s in g.strategies if s in BLIND_TO_DELTA_LIGHTS]
-    if blind:
-        # refused before any job renders: each of these renders would raise the same error
-        dark = [name for name in g.scenes if get_scene(name).delta_lights]
-        if dark:
-            raise ValueError(f"strategies {blind} cannot see the point, spot or directional lights of scene(s) "
-                             f"{dark} (no sampled direction meets a delta light): render them with mis or light")
-    if isinstance(g.externals, str) or any(external(e) is None for e in g.externals):
-        raise ValueError(f"externals must name registered external renderers, got {g.externals!r}")
-    if not g.strategies and not g.mitsuba and not g.externals:
-        raise ValueError("nothing to render: no strategy, no external renderer and mitsuba=False")
-    check_int_list("spps", g.spps)
-    for name in ("seeds", "width", "height"):
-        check_int(name, getattr(g, name))
-    check_int("reference_spp", g.reference_spp, 2)
-
-
 def make_jobs(scenes, *, strategies, spps, seeds: int, width: int, height: int,
               mitsuba: bool = True, externals=()) -> list:
     """All jobs of a sweep, cheapest spp first (curves fill in together).
 
-    Examples
-    --------
     >>> jobs = make_jobs(["cornell_box"], strategies=["mis"], spps=[1, 4], seeds=2, width=8, height=8)
     >>> len(jobs), jobs[0].label
     (8, 'cornell_box 8x8 mis 1 spp seed 0')
     """
-    spps = check_int_list("spps", spps)
-
     ours = [("ours", s) for s in strategies]
     others = [(e, EXTERNAL) for e in externals]
     per_scene = {scene: ours + ([("mitsuba", s) for s in mitsuba_strategies(scene)] if mitsuba else []) + others
                  for scene in scenes}
-    return [Job(scene, renderer, strategy, spp, seed, int(width), int(height))
+    return [Job(scene, renderer, strategy, int(spp), seed, int(width), int(height))
             for scene in scenes for spp in sorted(spps) for seed in range(int(seeds))
             for renderer, strategy in per_scene[scene]]
 
 
 def mitsuba_strategies(scene: str) -> tuple:
-    """Mitsuba's curves of suite scene or scene file ``scene``: its ``path`` integrator, or for a
-    scene with Mitsuba's ``direct`` integrator the three of Veach's comparison (:data:`MITSUBA_DIRECT`).
+    """Mitsuba's curves of ``scene``: ``path``, or for a scene with Mitsuba's ``direct``
+    integrator the three of Veach's comparison (:data:`MITSUBA_DIRECT`).
 
-    Examples
-    --------
     >>> mitsuba_strategies("cornell_box")
     ('path',)
     """
@@ -216,16 +135,11 @@ def mitsuba_strategies(scene: str) -> tuple:
 
 
 def mitsuba_twin(strategy: str, available) -> str | None:
-    """The Mitsuba curve among ``available`` that our ``strategy`` is compared with: ``path``
-    where Mitsuba renders the path integrator; under ``direct`` the one with the same counts
-    (``cosine`` - ``direct_bsdf``, ``light`` - ``direct_light``), else ``direct_mis``.
+    """The Mitsuba curve among ``available`` our ``strategy`` is compared with: ``path``, or
+    under ``direct`` the one with the same counts, else ``direct_mis``.
 
-    Examples
-    --------
     >>> mitsuba_twin("light", ["direct_bsdf", "direct_light", "direct_mis"])
     'direct_light'
-    >>> mitsuba_twin("uniform", ["path"])
-    'path'
     """
     available = list(available)
     if MITSUBA_STRATEGY in available:
@@ -235,8 +149,7 @@ def mitsuba_twin(strategy: str, available) -> str | None:
 
 
 def mitsuba_pairs(rows):
-    """``(row, Mitsuba's row it is compared with or None)`` for every summary row: the
-    :func:`mitsuba_twin` curve of the same scene and size (a Mitsuba row: itself)."""
+    """``(row, Mitsuba's row it is compared with or None)`` for every summary row (a Mitsuba row: itself)."""
     mits = {}
     for r in rows:
         if r["renderer"] == "mitsuba":
@@ -251,11 +164,9 @@ def mitsuba_pairs(rows):
 
 
 def renderer_builds(variant: str | None, mitsuba_version: str | None) -> dict:
-    """``{renderer: build}`` of this process: ours is ``reference_tracer.build_id()``, Mitsuba's
-    its version and variant.
+    """``{renderer: build}`` of this process: ours ``reference_tracer.build_id()``, Mitsuba's
+    version and variant, each external renderer's.
 
-    Examples
-    --------
     >>> renderer_builds("scalar_rgb", "3.9.1")["mitsuba"]
     'mitsuba-3.9.1-scalar_rgb'
     """
@@ -264,10 +175,9 @@ def renderer_builds(variant: str | None, mitsuba_version: str | None) -> dict:
 
 
 def render_seed(seed: int, spp: int) -> int:
-    """The seed given to the renderer for seed index ``seed`` at ``spp``: a 62-bit hash.
+    """The renderer's seed for seed index ``seed`` at ``spp``: a 62-bit hash of both, so that
+    renders at different spp are independent (the slope's interval assumes it).
 
-    Examples
-    --------
     >>> render_seed(0, 4) != render_seed(0, 8) != render_seed(1, 4)
     True
     """
@@ -278,8 +188,6 @@ def render_seed(seed: int, spp: int) -> int:
 def image_paths(job: Job) -> tuple:
     """Store-relative paths of a job's mean and variance EXR images.
 
-    Examples
-    --------
     >>> image_paths(Job("furnace", "ours", "mis", 4, 1, 8, 6))[0]
     'images/furnace_8x6/ours_mis_spp4_seed1.exr'
     """

@@ -1,14 +1,9 @@
-"""One progress bar (rich) for a whole run: references, jobs, tail references, summary, report.
-
-Every step of the run is planned up front with a rough cost in seconds (:func:`render_cost`:
-samples times a per-sample time, plus a fixed overhead), so the bar shows one fraction and
-one time-left estimate from start to end; rich's rate estimate adapts the costs to the
-machine. Steps already done (a cached reference, a job of a resumed run) are not planned.
-
-:class:`Phases` records the wall time of each phase for the run's time breakdown.
-"""
+"""One progress bar (rich) for a whole run, every step planned up front with a rough cost in
+seconds (:func:`render_cost`; rich's rate estimate adapts it), and :class:`Phases`, the wall
+time of each phase for the run's time breakdown."""
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 
@@ -16,14 +11,12 @@ from rich import progress as rich_progress
 from rich.console import Console
 from rich.table import Column
 
-__all__ = ["Progress", "Phases", "render_cost", "process_seconds", "OURS_US_PER_SAMPLE", "MITSUBA_US_PER_SAMPLE"]
-
 _IMPORTED = time.time()
 
 
 def process_seconds() -> float:
-    """Wall seconds since this process started (Linux: ``/proc``; elsewhere since this module
-    was imported), so that a run's total is the one ``time`` gives, start-up included."""
+    """Wall seconds since this process started (``/proc``; elsewhere since this module was
+    imported): a run's total as ``time`` gives it, start-up included."""
     try:
         with open("/proc/self/stat") as f:
             start_ticks = int(f.read().rsplit(")", 1)[1].split()[19])
@@ -32,6 +25,7 @@ def process_seconds() -> float:
         return max(0.0, uptime - start_ticks / os.sysconf("SC_CLK_TCK"))
     except (OSError, ValueError, IndexError):
         return time.time() - _IMPORTED
+
 
 #: rough microseconds per sample of a suite scene on two cores (the bar's rate adapts).
 OURS_US_PER_SAMPLE = 0.2
@@ -49,11 +43,8 @@ def render_cost(pixels: int, spp: int, *, renderer: str = "ours", overhead: floa
 
 
 class Progress:
-    """A rich progress bar over the planned cost of a run's steps: steps done, current step, time left.
-
-    Disabled (every method a no-op) when ``enabled`` is false. :meth:`plan` adds steps
-    (their number and total cost); :meth:`advance` marks one done.
-    """
+    """A rich bar over the planned cost of a run's steps (:meth:`plan` adds steps, :meth:`advance`
+    marks one done); every method but the counts a no-op unless ``enabled``."""
 
     def __init__(self, *, enabled: bool, console=None):
         self.enabled = enabled
@@ -73,38 +64,34 @@ class Progress:
                                     rp.TextColumn("{task.description}", table_column=Column(
                                         ratio=1, no_wrap=True, overflow="ellipsis")),
                                     console=self._console, transient=False, speed_estimate_period=120)
-        self.task = self.progress.add_task("", total=max(self.cost_total, 1e-9), steps=self._steps())
+        self.task = self.progress.add_task("", total=max(self.cost_total, 1e-9), steps="")
         self.progress.start()
         self._started = True
 
-    def _steps(self) -> str:
-        return f"{self.steps_done}/{self.steps_total}"
+    def _update(self, **fields) -> None:
+        if self.enabled:
+            if not self._started:
+                self._start()
+            self.progress.update(self.task, steps=f"{self.steps_done}/{self.steps_total}", **fields)
 
     def plan(self, cost: float, steps: int = 1) -> None:
         """Add ``steps`` steps of total estimated ``cost`` seconds to the run."""
         self.steps_total += int(steps)
         self.cost_total += float(cost)
-        if self.enabled and self._started:
-            self.progress.update(self.task, total=self.cost_total, steps=self._steps())
+        if self._started:
+            self._update(total=self.cost_total)
 
     def current(self, label: str) -> None:
-        if self.enabled:
-            if not self._started:
-                self._start()
-            self.progress.update(self.task, description=label)
+        self._update(description=label)
 
     def advance(self, cost: float) -> None:
         self.steps_done += 1
-        if self.enabled:
-            if not self._started:
-                self._start()
-            self.progress.update(self.task, advance=cost, steps=self._steps())
+        self._update(advance=cost)
 
     def log(self, text: str) -> None:
-        if self.enabled and self._started:
-            self.progress.console.print(text, highlight=False, markup=False, soft_wrap=True)
-        elif self.enabled:
-            (self._console or Console(stderr=True)).print(text, highlight=False, markup=False, soft_wrap=True)
+        if self.enabled:
+            console = self.progress.console if self._started else (self._console or Console(stderr=True))
+            console.print(text, highlight=False, markup=False, soft_wrap=True)
 
     def stop(self) -> None:
         if self.enabled and self._started:
@@ -125,18 +112,13 @@ class Phases:
     def __init__(self):
         self.seconds: dict = {}
 
+    @contextlib.contextmanager
     def __call__(self, name: str):
-        phases = self
-
-        class _Timer:
-            def __enter__(self):
-                self.t0 = time.perf_counter()
-
-            def __exit__(self, *exc):
-                phases.seconds[name] = phases.seconds.get(name, 0.0) + time.perf_counter() - self.t0
-                return False
-
-        return _Timer()
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t0
 
     def line(self, total: float | None = None) -> str:
         """``references 16 s, jobs 25 s, ... (total 140 s)``."""

@@ -1,10 +1,5 @@
-"""``run_sweep``: references, then every job not yet stored, then the summary.
-
-The steps of one (re)run of a sweep into a results store: check the arguments, record
-the run's settings in ``meta.json``, make sure every (scene, size) has its reference and
-copy it into the store, plan the jobs and skip those already stored, run the rest
-(locally or on Dask), record the run's time and write ``summary.json``.
-"""
+"""``run_sweep``: the run's settings into ``meta.json``, the references, every job not yet
+stored (locally or on Dask), then ``summary.json``."""
 from __future__ import annotations
 
 import dataclasses
@@ -15,8 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mitsuba_scenes.scene_files import scene_file
-from rich.console import Console
 from reference_tracer.cpus import default_threads
+from reference_tracer.validation import positive_int
 
 from .. import references as R
 from .. import tails as T
@@ -25,26 +20,21 @@ from ..external import external
 from ..files import slug
 from ..references import closed_form_reference_of, mitsuba_identity, reference
 from ..scenes import scene_at
-from ..store import (META, file_sha256, finished_keys, job_records, read_json, read_records, record_key,
-                     store_path, update_meta, write_image, writer_lock)
+from ..store import (file_sha256, finished_keys, job_records, read_meta, read_records, record_key, store_path,
+                     update_meta, write_image, writer_lock)
 from ..tails import DEFAULT_TAIL_SPP
+from .coerce import finite
 from .execute import machine_info, run_versions
-from .jobs import Group, check_int, renderer_builds
+from .jobs import Group, renderer_builds
 from .progress import Phases, Progress, render_cost
 from .runners import run_dask, run_local
 from .summary import TARGET_RELATIVE_RMSE, summarize
 
-__all__ = ["SweepResult", "run_sweep", "prepare_references"]
-
 
 @dataclass
 class SweepResult:
-    """What :func:`run_sweep` did.
-
-    ``jobs`` in the plan, ``done`` rendered now, ``skipped`` already in the store,
-    ``failed`` (job label, error text) pairs, ``seconds`` wall time, ``rows`` the
-    summary rows, ``store`` the folder, ``phases`` the wall time of each phase.
-    """
+    """What :func:`run_sweep` did: ``jobs`` planned, ``done`` rendered now, ``skipped`` already
+    stored, ``failed`` (label, error) pairs, the summary ``rows`` and each phase's time."""
 
     store: Path
     jobs: int = 0
@@ -61,21 +51,12 @@ def _now() -> str:
     return _dt.datetime.now().astimezone().isoformat(timespec="seconds")
 
 
-def prepare_references(groups, store: Path, *, variant, threads, cache, say, bar=None) -> dict:
-    """Ensure each (scene, width, height) has its reference; copy it into the store.
-
-    The closed form where the scene has one, else Mitsuba's (cached, see
-    :func:`benchmarks.references.reference`). Records them in ``meta.json``
-    (``references``: the first group naming a scene, its main sweep; ``references_by_size``).
-
-    Returns
-    -------
-    dict
-        ``{(scene, width, height): benchmarks.references.Reference}``.
-    """
+def prepare_references(groups, store: Path, *, variant, threads, cache, say, bar) -> dict:
+    """``{(scene, width, height): Reference}``: the closed form where a scene has one, else
+    Mitsuba's (cached); each copied into the store and recorded in ``meta.json``
+    (``references``: the first group naming a scene, its main sweep; ``references_by_size``)."""
     refs, by_scene, by_size = {}, {}, {}
-    old_meta = read_json(store / META, default={}) or {}
-    old_refs = old_meta.get("references_by_size") if isinstance(old_meta.get("references_by_size"), dict) else {}
+    old_refs = read_meta(store).get("references_by_size", {})
     for g in groups:
         for scene in g.scenes:
             k = (scene, g.width, g.height)
@@ -85,28 +66,24 @@ def prepare_references(groups, store: Path, *, variant, threads, cache, say, bar
                                      f"reference spp ({refs[k].spp} and {g.reference_spp})")
                 continue
             t0 = time.perf_counter()
-            if bar is not None:
-                bar.current(f"reference {scene} {g.width}x{g.height} ({g.reference_spp} spp)")
+            bar.current(f"reference {scene} {g.width}x{g.height} ({g.reference_spp} spp)")
             ref = closed_form_reference_of(scene, g.width, g.height)
             if ref is None:
                 ref = reference(scene_at(scene, g.width, g.height), spp=g.reference_spp, variant=variant,
                                 threads=threads, cache=cache, log=say)
-            if bar is not None:
-                bar.advance(_reference_cost(g, ref.cached or ref.variant == CLOSED_FORM))
+            bar.advance(_reference_cost(g, ref.cached or ref.variant == CLOSED_FORM))
             how = ("closed form" if ref.variant == CLOSED_FORM else
                    "cached" if ref.cached else f"rendered in {time.perf_counter() - t0:.1f} s")
             say(f"reference {scene} {g.width}x{g.height}: {ref.spp} spp, {ref.variant} ({how})")
             entry = {"spp": ref.spp, "seed": ref.seed, "width": g.width, "height": g.height, "variant": ref.variant,
                      "key": ref.key, "render_seconds": ref.seconds, "scene_hash": ref.scene_hash[:16] or None,
-                     "scene_source": _source_of(scene),
-                     **_store_copy(store, f"references/{slug(scene, f'{g.width}x{g.height}', f'spp{ref.spp}')}", ref, old_refs)}
+                     "scene_source": getattr(scene_file(scene), "path", None),
+                     **_store_copy(store, f"references/{slug(scene, f'{g.width}x{g.height}', f'spp{ref.spp}')}",
+                                   ref, old_refs)}
             by_size[f"{scene}@{g.width}x{g.height}"] = entry
             by_scene.setdefault(scene, entry)  # the first group naming a scene is its main sweep
             refs[k] = ref
-    meta = read_json(store / META, default={}) or {}
-    old = meta.get("references") if isinstance(meta.get("references"), dict) else {}
-    update_meta(store, references={**by_scene, **{k: v for k, v in old.items() if k not in by_scene}},
-                references_by_size=by_size)
+    update_meta(store, references=by_scene, references_by_size=by_size)  # merged into the stored ones
     return refs
 
 
@@ -116,50 +93,30 @@ def _reference_cost(g, cached: bool) -> float:
 
 
 def _plan_progress(bar, groups, todo, *, variant, cache) -> dict:
-    """Plan every step of the run on ``bar``: references, jobs, tail references (cached ones
-    cost a read); returns ``{(scene, strategy, width, height): cost}`` of the tail references."""
-    seen = set()
+    """Plan every step of the run on ``bar`` (cached ones cost a read): references, jobs, tail
+    references; returns ``{(scene, strategy, width, height): cost}`` of the tail references."""
+    firsts = {}
     for g in groups:
         for scene in g.scenes:
-            if (scene, g.width, g.height) in seen:
-                continue
-            seen.add((scene, g.width, g.height))
-            closed = closed_form_reference_of(scene, g.width, g.height) is not None
-            cached = closed or R.is_cached(scene_at(scene, g.width, g.height), spp=g.reference_spp,
-                                           variant=variant, cache=cache)
-            bar.plan(_reference_cost(g, cached))
+            firsts.setdefault((scene, g.width, g.height), g)
+    for (scene, w, h), g in firsts.items():
+        bar.plan(_reference_cost(g, closed_form_reference_of(scene, w, h) is not None or R.is_cached(
+            scene_at(scene, w, h), spp=g.reference_spp, variant=variant, cache=cache)))
     bar.plan(sum(j.cost for j in todo), len(todo))
-    tails = {}
-    for g in groups:
-        if g.seeds < 2:
-            continue
-        for scene in g.scenes:
-            scene_obj = scene_at(scene, g.width, g.height)
-            for strategy in g.strategies:
-                key = (scene, strategy, g.width, g.height)
-                if key not in tails:
-                    cached = T.is_cached(scene_obj, strategy=strategy, cache=cache)
-                    tails[key] = 0.05 if cached else render_cost(g.width * g.height, DEFAULT_TAIL_SPP)
+    keys = dict.fromkeys((scene, s, g.width, g.height) for g in groups if g.seeds >= 2 for scene in g.scenes
+                         for s in g.strategies)
+    tails = {(scene, s, w, h): 0.05 if T.is_cached(scene_at(scene, w, h), strategy=s, cache=cache)
+             else render_cost(w * h, DEFAULT_TAIL_SPP) for scene, s, w, h in keys}
     bar.plan(sum(tails.values()), len(tails))
     return tails
 
 
-def _source_of(name: str):
-    """The path of scene file ``name`` (``--scene``), or None for a suite scene."""
-    entry = scene_file(name)
-    return None if entry is None else entry.path
-
-
 def _store_copy(store: Path, stem: str, ref, old_refs: dict) -> dict:
-    """The store's copy of a reference (``stem``.exr and ``stem``_var.exr) with their checksums.
-
-    A copy is kept when ``meta.json`` already records it with the same cache key and its
-    bytes still match the recorded checksums; anything else (missing, corrupt, another
-    reference) is written afresh from ``ref``. Returns the ``meta.json`` fields: ``path``,
-    ``variance_path``, ``sha256``, ``variance_sha256``.
-    """
+    """The ``meta.json`` fields of the store's copy of a reference (``stem``.exr, ``stem``_var.exr):
+    paths and checksums. A copy recorded with the same cache key whose bytes match is kept;
+    anything else is written afresh from ``ref``."""
     out = {"path": f"{stem}.exr", "variance_path": f"{stem}_var.exr"}
-    old = next((e for e in old_refs.values() if isinstance(e, dict) and e.get("path") == out["path"]), {})
+    old = next((e for e in old_refs.values() if e.get("path") == out["path"]), {})
     for rel_key, sum_key, img in (("path", "sha256", ref.mean), ("variance_path", "variance_sha256", ref.variance)):
         rel = out[rel_key]
         fresh = (old.get("key") == ref.key and old.get(sum_key) and (store / rel).is_file()
@@ -170,44 +127,26 @@ def _store_copy(store: Path, stem: str, ref, old_refs: dict) -> dict:
     return out
 
 
-def _messages(progress: bool, console) -> tuple:
-    """``(console, say)``: where messages go (stderr by default) and a ``say(text)`` that is
-    silent unless ``progress``."""
-    if progress and console is None:
-        console = Console(stderr=True)
-
-    def say(text):
-        if progress:
-            console.print(text, highlight=False, markup=False)
-
-    return console, say
-
-
-def _check_arguments(groups, threads, alpha, target_relative) -> tuple:
+def _check_arguments(groups, threads, alpha) -> tuple:
     """``(groups as a list, threads as an int)``, or ``ValueError`` for a bad argument."""
     groups = list(groups)
-    if not groups:
-        raise ValueError("the sweep has no groups")
-    for g in groups:
-        if not isinstance(g, Group):
-            raise ValueError(f"groups must hold benchmarks.sweep.Group objects, got {type(g).__name__}")
-    threads = default_threads() if threads is None else check_int("threads", threads)
+    if not groups or not all(isinstance(g, Group) for g in groups):
+        raise ValueError(f"groups must be benchmarks.sweep.Group objects, got {groups!r:.200}")
+    threads = default_threads() if threads is None else positive_int("threads", threads)
     if not 0 < alpha < 1:
         raise ValueError(f"alpha must be in (0, 1), got {alpha}")
-    if not target_relative > 0:
-        raise ValueError(f"target_relative must be positive, got {target_relative}")
     return groups, threads
 
 
-def _record_settings(store, groups, *, threads, scheduler, variant, preset, alpha, target_relative) -> None:
+def _record_settings(store, groups, *, threads, scheduler, variant, preset, alpha) -> None:
     """The run's settings, machine and versions into ``meta.json`` (its first date is kept)."""
-    meta = read_json(store / META, default={}) or {}
+    meta = read_meta(store)
     update_meta(store, date=meta.get("date") or _now(),
                 preset=preset if preset is not None else meta.get("preset", "custom"),
                 threads=None if scheduler is not None else int(threads),
                 scheduler=str(scheduler) if isinstance(scheduler, str) else (None if scheduler is None else "client"),
                 machine=machine_info(), versions=run_versions(variant), alpha=alpha,
-                target_relative_rmse=target_relative,
+                target_relative_rmse=TARGET_RELATIVE_RMSE,
                 scene_files=_scene_files(groups),
                 groups=[{"name": g.name, "scenes": list(g.scenes), "strategies": list(g.strategies),
                          "spps": list(g.spps), "seeds": g.seeds, "width": g.width, "height": g.height,
@@ -222,8 +161,8 @@ def _scene_files(groups) -> dict:
 
 
 def _plan(groups, builds=None) -> tuple:
-    """``(jobs without repeats in group order, {curve: its highest spp})``; ``builds``:
-    ``{renderer: build}`` given to each job (:func:`benchmarks.sweep.jobs.renderer_builds`)."""
+    """``(jobs without repeats in group order, {curve: its highest spp})``, each job given its
+    renderer's build from ``builds``."""
     plan, top, seen = [], {}, set()
     for g in groups:
         for job in g.jobs():
@@ -263,79 +202,49 @@ def _recorded(store) -> int:
 
 def _start_run(store) -> int:
     """Append this run to ``meta.json``'s ``runs`` (started now, nothing done yet); its index."""
-    meta = read_json(store / META, default={}) or {}
-    runs = list(meta.get("runs") or [])
+    runs = read_meta(store).get("runs", [])
     runs.append({"started": _now(), "ended": None, "seconds": None, "jobs_done": 0, "interrupted": None})
     update_meta(store, runs=runs)
     return len(runs) - 1
 
 
-def _end_run(store, index: int, *, seconds: float, done: int, interrupted: bool) -> None:
-    """Complete this run's entry in ``meta.json`` (end time, seconds, jobs stored) and the total.
-
-    ``done`` counts the jobs this run stored, also when it was interrupted; the store's
-    writer lock keeps ``index`` this run's entry.
-    """
-    meta = read_json(store / META, default={}) or {}
-    runs = list(meta.get("runs") or [])
-    entry = runs[index] if index < len(runs) and isinstance(runs[index], dict) else {}
-    entry.update(ended=_now(), seconds=seconds, jobs_done=done, interrupted=interrupted)
-    if index < len(runs):
-        runs[index] = entry
-    else:
-        runs.append(entry)
-    update_meta(store, runs=runs, total_seconds=float(sum((r.get("seconds") or 0) for r in runs
-                                                          if isinstance(r, dict))))
+def _end_run(store, index: int, **fields) -> None:
+    """Complete this run's entry in ``meta.json`` (end, seconds, jobs stored) and the total."""
+    runs = read_meta(store).get("runs", [])
+    runs[index:index + 1] = [{**(runs[index] if index < len(runs) else {}), "ended": _now(), **fields}]
+    update_meta(store, runs=runs, total_seconds=sum(finite(r.get("seconds")) or 0.0 for r in runs))
 
 
 def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, variant: str | None = None,
-              progress: bool = True, cache=None, alpha: float = BIAS_TEST_ALPHA,
-              target_relative: float = TARGET_RELATIVE_RMSE, preset: str | None = None,
-              console=None, escalate_tails: bool = True) -> SweepResult:
+              progress: bool = True, cache=None, alpha: float = BIAS_TEST_ALPHA, preset: str | None = None,
+              escalate_tails: bool = True) -> SweepResult:
     """Run (or resume) a sweep into a results store and write its summary.
 
-    Steps: references for every (scene, size) (cached; copied into the store), then
-    every job not yet in ``results.jsonl`` (appended one by one), then
-    ``summary.json`` from all records. Interrupt it at any point (Ctrl-C, kill) and run
-    it again with the same arguments: finished jobs are skipped, nothing is lost. The
-    store's writer lock (:func:`benchmarks.store.writer_lock`) is held throughout: a
-    second run on the same store waits for this one, then resumes, so no job is
-    rendered or recorded twice. ``meta.json``'s ``runs`` gets this run's entry
-    (``started``, ``ended``, ``seconds``, ``jobs_done``, ``interrupted``) even when it is
-    interrupted.
+    Interrupt it at any point and run it again: finished jobs are skipped. The store's writer
+    lock is held throughout (a second run waits, then resumes); ``meta.json``'s ``runs`` gets
+    this run's entry even when interrupted (``benchmarks/STORE.md``).
 
     Parameters
     ----------
     groups : sequence of Group
     out : str or Path, keyword-only
         The results store folder.
-    threads : int or None, keyword-only
-        Threads per local job for both renderers (default: all cores). Ignored with
-        ``scheduler`` (each worker's thread count is used).
-    scheduler : str, distributed.Client or None, keyword-only
-        Address of a Dask distributed scheduler (``tcp://host:8786``) or a Client.
-    variant : str or None, keyword-only
-        Mitsuba variant (default: the fastest that works).
-    progress : bool, keyword-only
-        Show a progress bar (rich) and one line per reference.
-    cache : str or Path or None, keyword-only
-        Reference cache root (default ``$RTBENCH_CACHE`` or ``~/.cache/rtbench``).
-    alpha : float, keyword-only
-        Level of the bias test in the summary.
-    target_relative : float, keyword-only
-        Target RMSE for time-to-target, relative to the reference's RMS radiance.
-    preset : str or None, keyword-only
-        Recorded in meta.json.
-    console : rich.console.Console or None, keyword-only
+    threads, scheduler : keyword-only
+        Threads per local job (default all cores), or a Dask scheduler address or Client
+        (each worker's own threads).
+    variant, preset : str or None, keyword-only
+        Mitsuba variant (default: the fastest that works); the preset recorded in ``meta.json``.
+    progress : bool or Progress, keyword-only
+        Show a progress bar (the caller's, which may plan more steps) and messages.
+    cache, alpha, escalate_tails : keyword-only
+        As :func:`benchmarks.sweep.summarize` (``cache`` also for the references).
 
     Returns
     -------
     SweepResult
     """
-    t_start = time.perf_counter()
-    groups, threads = _check_arguments(groups, threads, alpha, target_relative)
+    groups, threads = _check_arguments(groups, threads, alpha)
     store = store_path(out)
-    console, say = _messages(progress, console)
     variant, mitsuba_version = mitsuba_identity(variant)
     with writer_lock(store, say=lambda text: print(text, file=sys.stderr, flush=True)):
         t_start = time.perf_counter()  # this run's time, not its wait for another run
@@ -344,9 +253,8 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
         recorded_before = _recorded(store)
         try:
             _sweep(groups, store, result, threads=threads, scheduler=scheduler, variant=variant,
-                   mitsuba_version=mitsuba_version, cache=cache,
-                   alpha=alpha, target_relative=target_relative, preset=preset, progress=progress,
-                   console=console, say=say, escalate_tails=escalate_tails)
+                   mitsuba_version=mitsuba_version, cache=cache, alpha=alpha, preset=preset, progress=progress,
+                   escalate_tails=escalate_tails)
         except BaseException:
             result.interrupted = True
             raise
@@ -355,24 +263,19 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
             # counted in the store (only this run appends, under the writer lock): exact even when
             # Ctrl-C lands between a record's write and the runner's count
             stored = _recorded(store) - recorded_before
-            _end_run(store, run_index, seconds=result.seconds, done=stored, interrupted=result.interrupted)
+            _end_run(store, run_index, seconds=result.seconds, jobs_done=stored, interrupted=result.interrupted)
     return result
 
 
 def _sweep(groups, store, result, *, threads, scheduler, variant, mitsuba_version, cache, alpha,
-           target_relative, preset, progress, console, say, escalate_tails) -> None:
-    """The steps of :func:`run_sweep`, with the store's writer lock held; fills ``result``.
-
-    ``progress`` is a :class:`benchmarks.sweep.progress.Progress` (the caller's, which may
-    plan more steps after these, such as the report) or a bool.
-    """
-    _record_settings(store, groups, threads=threads, scheduler=scheduler, variant=variant, preset=preset,
-                     alpha=alpha, target_relative=target_relative)
+           preset, progress, escalate_tails) -> None:
+    """The steps of :func:`run_sweep`, with the store's writer lock held; fills ``result``."""
+    _record_settings(store, groups, threads=threads, scheduler=scheduler, variant=variant, preset=preset, alpha=alpha)
     plan, top = _plan(groups, renderer_builds(variant, mitsuba_version))
     done_keys = finished_keys(store)
     todo = [j for j in plan if j.key not in done_keys]
-    bar = progress if isinstance(progress, Progress) else Progress(enabled=bool(progress), console=console)
-    log = bar.log if bar.enabled else say
+    bar = progress if isinstance(progress, Progress) else Progress(enabled=bool(progress))
+    log = bar.log  # silent unless the bar is shown
     tail_plan = _plan_progress(bar, groups, todo, variant=variant, cache=cache)
     try:
         with result.phases("references"):
@@ -383,8 +286,8 @@ def _sweep(groups, store, result, *, threads, scheduler, variant, mitsuba_versio
             log(f"resuming: {result.skipped} of {len(plan)} jobs already in {store}")
         _say_new_builds(store, plan, done_keys, log)
 
-        def keep(job):  # (keep_image, keep_stats): seed 0's image; the top spp's for the bias test
-            return job.seed == 0, job.spp == top[job.curve]
+        def keep(job):  # seed 0's image; the top spp's mean and variance for the bias test
+            return {"keep_image": job.seed == 0, "keep_stats": job.spp == top[job.curve]}
 
         with result.phases("jobs"):
             if scheduler is None:
@@ -394,7 +297,7 @@ def _sweep(groups, store, result, *, threads, scheduler, variant, mitsuba_versio
                 run_dask(todo, refs, store, address=scheduler, variant=variant, keep=keep, bar=bar, say=log,
                          failures=result.failed, tally=result)
         with result.phases("tail references and summary"):
-            result.rows = summarize(store, alpha=alpha, target_relative=target_relative, cache=cache,
+            result.rows = summarize(store, alpha=alpha, cache=cache,
                                     threads=threads, log=log, escalate=escalate_tails, bar=bar,
                                     tail_plan=tail_plan)
     finally:

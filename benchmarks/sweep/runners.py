@@ -1,9 +1,5 @@
-"""Where the jobs run: one at a time in this process, or one per worker on a Dask cluster.
-
-Both runners take the jobs still to do, the references by (scene, width, height), and
-store each finished job at once (images first, then its record), so an interrupted
-sweep loses nothing it finished. A failed job is reported and counted, never fatal.
-"""
+"""Where the jobs run: one at a time here, or one per worker on a Dask cluster. Each finished
+job is stored at once (images, then its record); a failed job is reported, never fatal."""
 from __future__ import annotations
 
 import collections
@@ -17,18 +13,15 @@ from ..external import external
 from ..store import append_record, write_image
 from .execute import execute_job
 
-__all__ = ["DASK_CONNECT_TIMEOUT", "store_result", "run_local", "run_dask"]
-
 #: how long to try to reach a Dask scheduler before giving up.
 DASK_CONNECT_TIMEOUT = "20s"
 
 
-def store_result(store: Path, result: dict) -> dict:
+def store_result(store: Path, result: dict) -> None:
     """Write a job's images, then append its record (last: a record always has its images)."""
     for rel, img in result["images"].items():
         write_image(store, rel, img)
     append_record(store, result["record"])
-    return result["record"]
 
 
 def _failed(job, exc, *, failures, say) -> None:
@@ -36,47 +29,29 @@ def _failed(job, exc, *, failures, say) -> None:
     say(f"FAILED {job.label}: {type(exc).__name__}: {exc}")
 
 
-class _Tally:
-    done = 0
+def run_local(todo, refs, store, *, threads, variant, keep, bar, say, failures, tally) -> None:
+    """Run ``todo`` here, one job at a time, counting the jobs stored in ``tally.done``.
 
-
-def run_local(todo, refs, store, *, threads, variant, keep, bar, say, failures, tally=None) -> int:
-    """Run ``todo`` here, one job at a time with ``threads`` threads; returns the jobs stored.
-
-    ``refs`` maps (scene, width, height) to its :class:`benchmarks.references.Reference`;
-    ``keep(job)`` gives ``(keep_image, keep_stats)``; failures are appended to ``failures``
-    as (label, error text). ``tally.done`` (when given) counts the jobs stored as they are
-    stored, so an interrupted caller still knows how many.
+    ``refs``: (scene, width, height) -> reference; ``keep(job)``: ``execute_job``'s ``keep_*``
+    keywords; ``failures`` gets (label, error text) pairs.
     """
-    tally = _Tally() if tally is None else tally
     for job in todo:
         bar.current(job.label)
-        ki, ks = keep(job)
         try:
             res = execute_job(job, refs[(job.scene, job.width, job.height)], threads=threads, variant=variant,
-                              keep_image=ki, keep_stats=ks)
-        except KeyboardInterrupt:
-            raise
+                              **keep(job))
         except Exception as exc:  # noqa: BLE001 - one failed job must not sink the sweep
             _failed(job, exc, failures=failures, say=say)
-            bar.advance(job.cost)
-            continue
-        store_result(store, res)
-        tally.done += 1
+        else:
+            store_result(store, res)
+            tally.done += 1
         bar.advance(job.cost)
-    return tally.done
 
 
-def run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, poll=2.0, tally=None) -> int:
-    """One job per worker: each task is pinned to an idle worker (any thread count).
-
-    ``address`` is a scheduler address or a ``distributed.Client``; the other arguments
-    are :func:`run_local`'s. Returns the jobs stored.
-    """
-    try:
-        from distributed import Client
-    except ImportError as exc:  # pragma: no cover - dask is a dependency
-        raise ValueError("--scheduler needs dask.distributed (pip install distributed)") from exc
+def run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, tally, poll=2.0) -> None:
+    """One job per worker, pinned to an idle one; ``address``: a scheduler address or a
+    ``distributed.Client``; the rest as :func:`run_local`."""
+    from distributed import Client
 
     client = address if not isinstance(address, str) else None
     own = client is None
@@ -86,9 +61,8 @@ def run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, p
         except (OSError, TimeoutError) as exc:
             raise ValueError(f"cannot reach the Dask scheduler at {address!r}: {exc}") from exc
     try:
-        queue = _DaskQueue(client, store, address=address, variant=variant, keep=keep, bar=bar, say=say,
-                           failures=failures, poll=poll, tally=_Tally() if tally is None else tally)
-        return queue.run(todo, refs)
+        _DaskQueue(client, store, address=address, variant=variant, keep=keep, bar=bar, say=say,
+                   failures=failures, poll=poll, tally=tally).run(todo, refs)
     finally:
         if own:
             client.close()
@@ -100,17 +74,18 @@ class _DaskQueue:
     def __init__(self, client, store, *, address, variant, keep, bar, say, failures, poll, tally):
         self.client, self.store, self.address = client, store, address
         self.variant, self.keep, self.bar, self.say, self.failures, self.poll = variant, keep, bar, say, failures, poll
-        self.running = {}
-        self.busy = set()
-        self.tally = tally
+        self.running, self.tally = {}, tally
 
     def workers(self) -> dict:
         """{worker address: its thread count}."""
-        c = self.client
-        info = c.scheduler_info(n_workers=-1) if _accepts_n_workers(c) else c.scheduler_info()
+        try:  # newer distributed lists only a few workers unless told
+            accepts = "n_workers" in inspect.signature(self.client.scheduler_info).parameters
+        except (TypeError, ValueError):
+            accepts = False
+        info = self.client.scheduler_info(**({"n_workers": -1} if accepts else {}))
         return {addr: int(w.get("nthreads", 1) or 1) for addr, w in info.get("workers", {}).items()}
 
-    def run(self, todo, refs) -> int:
+    def run(self, todo, refs) -> None:
         from distributed import wait
 
         pending = collections.deque(todo)
@@ -135,7 +110,6 @@ class _DaskQueue:
         finally:
             for fut in self.running:
                 fut.cancel()
-        return self.tally.done
 
     def _wait_for_workers(self) -> dict:
         pool = self.workers()
@@ -149,24 +123,22 @@ class _DaskQueue:
 
     def _submit(self, pending, pool, scattered) -> None:
         """Give each idle worker the next pending job, pinned to it."""
+        busy = {addr for _, addr in self.running.values()}
         for addr in list(pool):
-            if addr in self.busy or not pending:
+            if addr in busy or not pending:
                 continue
             job = pending.popleft()
-            ki, ks = self.keep(job)
             fut = self.client.submit(execute_job, job, scattered[(job.scene, job.width, job.height)],
-                                     threads=pool[addr], variant=self.variant, keep_image=ki, keep_stats=ks,
+                                     threads=pool[addr], variant=self.variant, **self.keep(job),
                                      scene_file=scene_file(job.scene), external=external(job.renderer),
                                      workers=[addr], allow_other_workers=False, pure=False,
                                      key=f"rtbench-{job.scene}-{job.renderer}-{job.strategy}-{job.spp}-"
                                          f"{job.seed}-{job.width}x{job.height}-{time.monotonic_ns()}")
             self.running[fut] = (job, addr)
-            self.busy.add(addr)
             self.bar.current(job.label)
 
     def _collect(self, fut) -> None:
-        job, addr = self.running.pop(fut)
-        self.busy.discard(addr)
+        job, _ = self.running.pop(fut)
         if fut.status == "finished":
             store_result(self.store, fut.result())
             self.tally.done += 1
@@ -184,13 +156,6 @@ class _DaskQueue:
             if addr not in pool:
                 fut.cancel()
                 self.running.pop(fut)
-                self.busy.discard(addr)
                 pending.appendleft(job)
                 self.say(f"dask: worker {addr} left; requeued {job.label}")
 
-
-def _accepts_n_workers(client) -> bool:
-    try:
-        return "n_workers" in inspect.signature(client.scheduler_info).parameters
-    except (TypeError, ValueError):
-        return False

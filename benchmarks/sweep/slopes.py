@@ -1,6 +1,5 @@
-"""A curve's convergence slope: the fit of log RMSE on log spp, which budgets it may use, and
-why a slope says nothing yet (heavy-tailed budgets where renders miss the rare paths).
-"""
+"""A curve's convergence slope: the fit of log RMSE on log spp, the budgets it may use, and
+why a slope says nothing yet (``benchmarks/STATISTICS.md``, Convergence slopes)."""
 from __future__ import annotations
 
 import math
@@ -10,36 +9,33 @@ import numpy as np
 from .. import metrics as M
 from ..constants import MIN_SLOPE_BUDGETS, RELMSE_EPS
 
-__all__ = ["slope_stats", "slope_status", "mse_reliable_from", "reliable_points_only"]
+
+def _fit(spps, mse):
+    """The slope fit of sqrt(mse) over the spp where it is positive, or None from too few budgets."""
+    ok = np.isfinite(mse) & (mse > 0)
+    spps = np.asarray(spps)[ok]
+    return (M.convergence_slope(spps, np.sqrt(mse[ok])) if len(set(spps)) >= MIN_SLOPE_BUDGETS else None), spps
 
 
 def slope_stats(spps, mse_c, mse_p) -> dict:
-    """Convergence: one point per spp, RMSE from the seed-averaged reference-noise-corrected MSE;
-    no slope from fewer than :data:`MIN_SLOPE_BUDGETS` budgets (``slope_range``: the first and
-    last budget fitted)."""
-    ok = np.isfinite(mse_c) & (mse_c > 0)
-    row = dict(slope=None, slope_ci=None, slope_stderr=None, slope_points=int(ok.sum()), slope_range=None)
-    if len(set(np.asarray(spps)[ok])) >= MIN_SLOPE_BUDGETS:
-        fit = M.convergence_slope(np.asarray(spps)[ok], np.sqrt(mse_c[ok]))
+    """Slope of RMSE (from the seed-averaged corrected MSE, one point per spp) with its 95%
+    interval and ``slope_range``, and ``slope_uncorrected`` from the plain MSE."""
+    fit, used = _fit(spps, mse_c)
+    row = dict(slope=None, slope_ci=None, slope_stderr=None, slope_points=len(used), slope_range=None)
+    if fit is not None:
         row.update(slope=fit.slope, slope_stderr=fit.stderr,
                    slope_ci=[fit.ci_low, fit.ci_high] if math.isfinite(fit.ci_low) else None,
-                   slope_range=[int(np.asarray(spps)[ok][0]), int(np.asarray(spps)[ok][-1])])
-    okp = np.isfinite(mse_p) & (mse_p > 0)
-    row["slope_uncorrected"] = None
-    if len(set(np.asarray(spps)[okp])) >= MIN_SLOPE_BUDGETS:
-        row["slope_uncorrected"] = M.convergence_slope(np.asarray(spps)[okp], np.sqrt(mse_p[okp])).slope
+                   slope_range=[int(used[0]), int(used[-1])])
+    plain, _ = _fit(spps, mse_p)
+    row["slope_uncorrected"] = None if plain is None else plain.slope
     return row
 
 
 def slope_status(row: dict):
     """Why the fitted slope says nothing yet, or None.
 
-    Where the gate cannot decide even at the curve's top budget (its image mean is too far
-    from normal: ``bias_verdict`` 'undetermined'), the renders have mostly not met the rare
-    paths that carry the estimator's variance, so their measured MSE sits far below its
-    expectation, by a factor that shrinks as spp grows: the fitted slope is then shallower
-    than the estimator's (``uniform`` on ``glossy_plates``), and its regression interval
-    does not cover that. The slope is kept in the row (it is what was measured) and marked.
+    Where the gate is undetermined at the top budget, the renders mostly missed the rare
+    paths that carry the variance and the slope reads shallow; it is kept and marked.
     """
     if row.get("bias_verdict") != "undetermined":
         kept = len(row.get("spps") or []) - len(row.get("slope_excluded_spps") or [])
@@ -56,20 +52,10 @@ def slope_status(row: dict):
 
 
 def mse_reliable_from(tails, *, seeds: int) -> int:
-    """The smallest budget from which the seed-averaged MSE (and relMSE) of this estimator
-    is near its expectation, from its tail reference (``benchmarks/STATISTICS.md``).
+    """The smallest budget from which the seed-averaged MSE (and relMSE) is near its
+    expectation: ``ceil(K / seeds)``, ``K = sum k4 / (sum s2)^2`` from the tail reference,
+    the largest over channels and the weights of MSE and relMSE (``benchmarks/STATISTICS.md``).
 
-    One render's MSE at ``n`` spp over ``P`` pixels, ``(1/P) sum_p (xbar_p - mu_p)^2``, has
-    expectation ``sum_p s2_p / (P n)`` and, from the samples' fourth cumulants ``k4_p``, a
-    variance of at least ``sum_p k4_p / (P^2 n^3)``: relative to the squared expectation,
-    ``K = sum_p k4_p / (sum_p s2_p)^2`` over ``n``, and over ``n k`` for the mean of ``k``
-    seeds. Where that exceeds 1 the MSE rests on rare paths: most renders missed them and
-    read low, a few met them and read high. The budget is ``ceil(K / k)``, with ``K`` the
-    largest over the channels and over the weights of MSE (1) and relMSE
-    (``1 / (mu^2 + eps)``).
-
-    Examples
-    --------
     >>> from types import SimpleNamespace
     >>> m = SimpleNamespace(m2=np.ones((4, 4, 3)), kappa4=np.full((4, 4, 3), 160.0))
     >>> mse_reliable_from(SimpleNamespace(moments=m, mean=np.ones((4, 4, 3))), seeds=2)
@@ -88,19 +74,13 @@ def mse_reliable_from(tails, *, seeds: int) -> int:
 
 
 def reliable_points_only(spps, mse_c, mse_p, row: dict) -> dict:
-    """The slope refitted without the budgets below ``slope_fit_from`` (the per-point rule).
-
-    Below it, renders have mostly not met the rare paths that carry the variance, their MSE
-    sits below expectation and would flatten the fit. Where the gate is undetermined at the
-    top budget :func:`slope_status` marks the whole slope instead.
-    """
+    """The slope refitted without the budgets below ``slope_fit_from``, whose MSE sits below
+    expectation (unless the gate is undetermined at the top: :func:`slope_status` marks it)."""
     start = row.get("slope_fit_from")
-    if not start or row.get("bias_verdict") == "undetermined":
+    excluded = [int(s) for s in spps if start and s < start]
+    if not excluded or row.get("bias_verdict") == "undetermined":
         return {"slope_excluded_spps": []}
     keep = [i for i, s in enumerate(spps) if s >= start]
-    excluded = [int(s) for s in spps if s < start]
-    if not excluded:
-        return {"slope_excluded_spps": []}
     out = slope_stats([spps[i] for i in keep], mse_c[keep], mse_p[keep])
     if out["slope"] is None:  # too few budgets left: no slope (slope_status says why)
         return {"slope_excluded_spps": excluded, "slope": None, "slope_ci": None, "slope_stderr": None,

@@ -1,8 +1,8 @@
 """The per-curve summary of a results store (``summary.json``): slope, bias, variance, cost.
 
-A curve is one (scene, renderer, strategy, width, height). Its figures come from the
-store's records and images alone, so :func:`summarize` can be rerun at any time and
-gives the same rows.
+A curve is one (scene, renderer, strategy, width, height); its figures come from the store's
+records and images and the cached tail references, so :func:`summarize` can be rerun at any
+time. The fields are listed in ``benchmarks/STORE.md``, their statistics in ``STATISTICS.md``.
 """
 from __future__ import annotations
 
@@ -18,18 +18,15 @@ from .. import metrics as M
 from .. import tails as T
 from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM, MITSUBA_STRATEGY, STRATEGIES
 from ..scenes import scene_at
-from ..store import META, SUMMARY, read_image, read_json, read_records, update_meta, write_json
+from ..store import SUMMARY, read_image, read_meta, read_records, update_meta, write_json
 from ..tails import DEFAULT_MAX_TAIL_SAMPLES, DEFAULT_TAIL_SPP
 from .bias import bias_stats
 from .by_metric import add_metric_ratios, curve_metrics, tail_variance_image
 from .coerce import as_float, finite_mean
-from .headline import add_noise_ratios, headline_rows
+from .headline import add_noise_ratios, exact, headline_rows, mitsuba_cost, tail_noise
 from .jobs import mitsuba_pairs
-from .noise import DEFAULT_BATCHES, exact, mitsuba_cost, tail_noise, tail_variance
 from .progress import render_cost
 from .slopes import mse_reliable_from, reliable_points_only, slope_stats, slope_status
-
-__all__ = ["TARGET_RELATIVE_RMSE", "target_rmse", "summarize"]
 
 #: time-to-target uses target RMSE = this x the reference's RMS radiance.
 TARGET_RELATIVE_RMSE = 0.1
@@ -60,17 +57,14 @@ _NOTES = {
 }
 
 
-def target_rmse(ref_mean, *, relative: float = TARGET_RELATIVE_RMSE) -> float:
-    """Target RMSE of a scene: ``relative`` x the RMS of the reference's radiance.
+def target_rmse(ref_mean) -> float:
+    """Target RMSE of a scene: :data:`TARGET_RELATIVE_RMSE` x the RMS of the reference's radiance.
 
-    Examples
-    --------
-    >>> target_rmse(np.full((4, 4, 3), 2.0), relative=0.1)
+    >>> target_rmse(np.full((4, 4, 3), 2.0))
     0.2
     """
     r = np.asarray(ref_mean, dtype=np.float64)
-    return float(relative * math.sqrt(float(np.mean(r * r))))
-
+    return float(TARGET_RELATIVE_RMSE * math.sqrt(float(np.mean(r * r))))
 
 
 def _scene_filter(scene: str, w: int, h: int, cache: dict):
@@ -83,15 +77,8 @@ def _scene_filter(scene: str, w: int, h: int, cache: dict):
     return cache[scene]
 
 
-def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails=None,
-                 seconds_per_sample: float | None = None, pixel_filter=None) -> dict:
-    """Summary figures of one (scene, renderer, strategy, width, height) curve.
-
-    With ``seconds_per_sample`` (from a seconds-long render of the same estimator: our tail
-    reference, Mitsuba's reference) a budget of ``n`` spp costs ``n`` x pixels x that time:
-    the renders of a small image take milliseconds, mostly per-render overhead, and would
-    make equal-time figures measure the overhead (``timing_source`` says which was used).
-    """
+def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails=None, pixel_filter=None) -> dict:
+    """Summary figures of one curve."""
     by_spp = collections.defaultdict(list)
     for r in recs:
         by_spp[int(r["spp"])].append(r)
@@ -100,10 +87,6 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     mse_p = np.array([finite_mean(r.get("mse") for r in by_spp[s]) for s in spps])
     secs = np.array([finite_mean(r.get("seconds") for r in by_spp[s]) for s in spps])
     row = {"spps": spps, "seeds": max(len(by_spp[s]) for s in spps), "timing_source": "each render's wall time"}
-    pixels = int(recs[0]["width"]) * int(recs[0]["height"]) if recs else 0
-    if seconds_per_sample and pixels:
-        secs = np.asarray(spps, dtype=np.float64) * pixels * seconds_per_sample
-        row["timing_source"] = "spp x pixels x seconds per sample of a high-budget render of the estimator"
     row.update(slope_stats(spps, mse_c, mse_p))
     top = spps[-1]
     row.update(bias_stats(by_spp[top], top, ref, store, alpha=alpha, tails=tails, pixel_filter=pixel_filter))
@@ -116,7 +99,6 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
         row["variance"] = finite_mean(r.get("variance") for r in recs)
     row["variance_source"], row["variance_lower_bound"] = "renders at the top spp", None
     if tails is not None:
-        row.update(tail_variance(tails))
         row.update(tail_noise(tails, ref))
 
     # cost: efficiency at the top spp, throughput, time to the target RMSE. An unbiased
@@ -133,8 +115,7 @@ def _curve_stats(recs, ref: ImageEstimate | None, store, *, alpha, target, tails
     elif math.isfinite(mse_c[-1]) and mse_c[-1] > 0 and secs[-1] > 0:
         row["efficiency"] = M.efficiency(mse_c[-1], secs[-1])
         row["efficiency_source"] = "measured MSE"
-    row["samples_per_second"] = (1.0 / seconds_per_sample if seconds_per_sample else
-                                 finite_mean(r.get("paths_per_second") for r in by_spp[top]))
+    row["samples_per_second"] = finite_mean(r.get("paths_per_second") for r in by_spp[top])
     row["seconds_at_top"] = secs[-1]
     row["target_rmse"] = target
     row["time_to_target"] = None
@@ -157,40 +138,28 @@ def _store_reference(store, info) -> ImageEstimate | None:
     if not info:
         return None
     try:
-        ref = ImageEstimate(mean=read_image(store, info["path"], sha256=info.get("sha256")).astype(np.float64),
-                            variance=read_image(store, info["variance_path"],
-                                                sha256=info.get("variance_sha256")).astype(np.float64),
-                            spp=int(info["spp"]), seconds=as_float(info.get("render_seconds")),
-                            source=str(info.get("variant", "")))
-        ref.batches = int(info.get("batches") or DEFAULT_BATCHES)
-        return ref
+        return ImageEstimate(mean=read_image(store, info["path"], sha256=info.get("sha256")).astype(np.float64),
+                             variance=read_image(store, info["variance_path"],
+                                                 sha256=info.get("variance_sha256")).astype(np.float64),
+                             spp=int(info["spp"]), seconds=as_float(info.get("render_seconds")),
+                             source=str(info.get("variant", "")))
     except Exception:  # noqa: BLE001 - missing or corrupt (checksum) reference: figures that need it stay null
         return None
-
-
-def _ratio(a, b):
-    a, b = as_float(a), as_float(b)
-    if not (math.isfinite(a) and math.isfinite(b)) or b == 0:
-        return None
-    return a / b
-
 
 
 def _add_mitsuba_ratios(rows) -> None:
     """``*_vs_mitsuba``: each curve against Mitsuba's curve of the same scene and size."""
     for r, m in mitsuba_pairs(rows):
-        r["efficiency_vs_mitsuba"] = _ratio(r.get("efficiency"), m.get("efficiency") if m else None)
-        r["samples_per_second_vs_mitsuba"] = _ratio(r.get("samples_per_second"),
-                                                    m.get("samples_per_second") if m else None)
+        for field in ("efficiency", "samples_per_second"):
+            a, b = as_float(r.get(field)), as_float((m or {}).get(field))
+            r[f"{field}_vs_mitsuba"] = a / b if math.isfinite(a) and math.isfinite(b) and b != 0 else None
 
 
 def _curve_tails(scene, strategy, w, h, *, tail_spp, cache, threads, log, escalate=True):
-    """The tail reference of one of our curves (cached; rendered when missing; with ``escalate``
-    a larger budget where its variance rests on single samples: ``variance_tail_reference``),
-    or None."""
+    """The tail reference of one of our curves (cached; with ``escalate`` a larger one where its
+    variance rests on single samples: ``variance_tail_reference``), or None."""
     if not tail_spp:
         return None
-
     cap = DEFAULT_MAX_TAIL_SAMPLES if escalate else tail_spp * w * h
     try:
         return T.variance_tail_reference(scene_at(scene, w, h), strategy=strategy, spp=tail_spp, cache=cache,
@@ -202,9 +171,8 @@ def _curve_tails(scene, strategy, w, h, *, tail_spp, cache, threads, log, escala
 
 
 def _not_escalated(row: dict, tails, w: int, h: int) -> None:
-    """A verdict whose tail reference's variance rests on single samples, when the larger tail
-    reference that would settle it was not rendered (``escalate=False``, the quick preset):
-    undetermined, never pass or fail, with the budget that would decide."""
+    """Without the larger tail reference (the quick preset), a verdict on a variance resting on
+    single samples is undetermined, with the budget that would decide."""
     if tails is None or not T.variance_is_lower_bound(tails):
         return
     need = DEFAULT_MAX_TAIL_SAMPLES // (w * h)
@@ -215,50 +183,19 @@ def _not_escalated(row: dict, tails, w: int, h: int) -> None:
                                 f"reference of about {need} spp would decide (--preset full renders it)"))
 
 
-def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float = TARGET_RELATIVE_RMSE,
-              tail_spp: int | None = None, cache=None, threads=None, log=None, escalate: bool = True,
-              bar=None, tail_plan=None) -> list:
-    """Per (scene, renderer, strategy, width, height): the figures of ``summary.json``.
+def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, tail_spp: int | None = None, cache=None, threads=None,
+              log=None, escalate: bool = True, bar=None, tail_plan=None) -> list:
+    """Write ``summary.json`` of a results store and return its rows, one per curve.
 
-    From the store's records and images:
-
-    * ``slope``, ``slope_ci`` (95%), ``slope_stderr``: least-squares fit of log RMSE over
-      log spp, one point per spp, RMSE = sqrt of the seed-averaged reference-noise-
-      corrected MSE (``slope_uncorrected`` uses the plain MSE); ``slope_status``: why the
-      slope is not yet meaningful (heavy-tailed at every budget of the curve, or at all
-      but one), else None; ``slope_excluded_spps``: with a tail reference, the budgets
-      below ``slope_fit_from`` (:func:`mse_reliable_from`), where renders mostly miss the
-      rare paths and the MSE reads low: left out of the fit;
-    * ``bias2``, ``bias2_stderr``, ``bias_z``, ``bias_p``, ``bias_significant`` (level
-      ``alpha``, one-sided), ``relative_bias``: ``metrics.bias_variance`` over the seeds at
-      the highest spp (``bias_spp``); with one seed, the renderer's own per-sample
-      variance is used instead (``bias_method``);
-    * ``bias_verdict`` ('pass', 'fail', 'undetermined'), ``bias_reason``,
-      ``bias_spp_needed``: with the tail reference of our estimator (``tail_spp`` spp,
-      cached under ``cache``; our curves with 2+ seeds only), the gate's three-valued test
-      of the seeds' mean (``benchmarks/STATISTICS.md``);
-    * ``variance``: per-sample variance, mean over pixels: from the tail reference where
-      there is one (``variance_lower_bound`` when single samples dominate it), else the
-      between-seed variance of the image x spp;
-    * ``efficiency``: 1 / (expected MSE x seconds) at the highest spp, the expected MSE of
-      an estimator found unbiased being its tail-reference variance / spp; else
-      1 / (corrected MSE x seconds) (``efficiency_source``);
-    * ``time_to_target``: seconds to reach ``target_rmse`` (= ``target_relative`` x the
-      reference's RMS radiance), log-log interpolated, null if not reached;
-    * ``noise``, ``noise_se``, ``seconds_per_sample`` and the ``noise_vs_light`` ratios at
-      equal spp and equal time (:mod:`benchmarks.sweep.headline`); ``headline``: one entry
-      per scene and size, the first table of the report;
-    * ``build``, ``build_git``: the build whose records make the curve (its latest one);
-    * ``samples_per_second`` (pixel samples per second at the highest spp) and the
-      ``*_vs_mitsuba`` ratios against Mitsuba's ``path`` curve of the same scene and size.
-
-    Writes ``summary.json`` and returns its rows.
+    ``alpha``: level of each bias test; ``tail_spp`` (default 16384), ``cache``,
+    ``threads``, ``log``, ``escalate``: the tail references of our curves with 2+ seeds
+    (:func:`benchmarks.tails.variance_tail_reference`); ``bar``, ``tail_plan``: the run's
+    progress (:mod:`benchmarks.sweep.progress`).
     """
     tail_spp = DEFAULT_TAIL_SPP if tail_spp is None else int(tail_spp)
     store = Path(store)
     records = read_records(store)
-    meta = read_json(store / META, default={}) or {}
-    refs_meta = meta.get("references_by_size") if isinstance(meta.get("references_by_size"), dict) else {}
+    refs_meta = read_meta(store).get("references_by_size", {})
     curves = collections.defaultdict(list)
     for r in records:
         curves[(r["scene"], r["renderer"], r["strategy"], r["width"], r["height"])].append(r)
@@ -267,7 +204,7 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
         if (scene, w, h) not in ref_cache:
             ref_cache[(scene, w, h)] = _store_reference(store, refs_meta.get(f"{scene}@{w}x{h}"))
         ref = ref_cache[(scene, w, h)]
-        target = target_rmse(ref.mean, relative=target_relative) if ref is not None else None
+        target = target_rmse(ref.mean) if ref is not None else None
         if target is not None:
             targets.setdefault(scene, target)
         row = {"scene": scene, "renderer": renderer, "strategy": strategy, "width": w, "height": h,
@@ -304,9 +241,9 @@ def summarize(store, *, alpha: float = BIAS_TEST_ALPHA, target_relative: float =
     order = {s: i for i, s in enumerate(STRATEGIES)}
     rows.sort(key=lambda r: (r["scene"], r["width"], r["height"], r["renderer"] != "ours",
                              order.get(r["strategy"], 9)))
-    notes = {k: v.format(alpha=alpha, target=target_relative) for k, v in _NOTES.items()}
+    notes = {k: v.format(alpha=alpha, target=TARGET_RELATIVE_RMSE) for k, v in _NOTES.items()}
     write_json(store / SUMMARY, {"rows": rows, "headline": headline_rows(rows), "alpha": alpha,
-                                 "target_relative_rmse": target_relative, "notes": notes})
+                                 "target_relative_rmse": TARGET_RELATIVE_RMSE, "notes": notes})
     if targets:
         update_meta(store, target_rmse=targets)
     return rows
