@@ -1,42 +1,34 @@
-"""The paired render benchmark: ours vs Mitsuba's ``path`` integrator, paths/s and error.
+"""The paired render benchmark: ours vs Mitsuba's ``path`` integrator, paths/s and error at equal spp.
 
-Each scene is rendered by our tracer (each strategy) and by Mitsuba's ``path``
-integrator (each available variant) at the same resolution, spp, ``max_depth``, Russian
-roulette and thread count, once per Russian-roulette configuration (Mitsuba's default
-``rr_depth`` 5 first, then none: :data:`DEFAULT_RR_DEPTHS`). Mitsuba gets one untimed warm-up render per variant first
-(JIT kernels compile and are cached; the warm-up's extra time is reported as
-``compile_seconds``); ours gets one small warm-up too. Then ``repeats`` rounds, each
-running every configuration once, interleaved (ours, Mitsuba, ours, ...) so that a
-change in machine load hits both sides of a pair alike. Ratios are medians over the
-rounds of the per-round ratio (paired).
-
-External renderers (``externals=``, ``rtbench speed --renderer 'CMD'``,
-:mod:`benchmarks.external`) join the same rounds: each run writes the scene's Mitsuba XML
-(with the configuration's ``max_depth`` and ``rr_depth``) and times the command's wall
-clock, so their time includes process start and scene loading (they are not warmed up
-beyond one untimed run); their CPU time is that of the child processes. Their rows carry
-the same paired ratios against each Mitsuba variant as ours.
+:func:`render_benchmark` renders each scene with ours (each strategy and integrator, with the
+installed core and any other ``builds`` of it), Mitsuba (each variant) and external renderers
+(:mod:`benchmarks.external`) at the same settings, once per Russian-roulette configuration.
+Each renderer gets an untimed warm-up (Mitsuba's JIT compile is reported apart), then
+``repeats`` rounds run every configuration once, interleaved and alternating who goes first,
+so that a change of machine load hits both sides of a pair alike: a ratio is the median of
+the per-round ratios. PERFORMANCE.md, How to measure.
 
 Examples
 --------
 >>> DEFAULT_STRATEGIES
 ('mis', 'mixture', 'cosine', 'uniform', 'light')
->>> out = render_benchmark(["cornell_box"], width=16, height=16, spp=4, repeats=1,
-...                        strategies=("mis",), variants=("scalar_rgb",),
-...                        reference="ours", reference_spp=64)  # doctest: +SKIP
->>> sorted(out["summary"][0])[:3]  # doctest: +SKIP
-['cpu_over_wall', 'efficiency', 'label']
+>>> rr_label(5), rr_label(None)
+('rr_depth 5', 'no RR')
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import functools
+import itertools
 import math
 import resource
+import time
 
 import numpy as np
 
 import reference_tracer as rt
-from mitsuba_scenes import MitsubaRender, get_scene, known_scenes
+from mitsuba_scenes import get_scene, known_scenes
 from mitsuba_scenes.render import batch_seeds
 from reference_tracer import INTEGRATORS
 from reference_tracer.probe import core_scene
@@ -47,26 +39,23 @@ from ..external import STRATEGY as EXTERNAL_STRATEGY
 from ..external import render_external
 from ..metrics import efficiency, mse, mse_corrected
 from ..references import reference
-
+from .builds import CoreWorker
 from .common import (available_variants, environment, load_mitsuba, median, mitsuba_render_fn, mitsuba_versions,
                      name_list, spread, timed, use_variant)
 from .suite import suite_summary
 
 __all__ = ["DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT_RR_DEPTHS", "REFERENCE_KINDS", "render_benchmark",
-           "rr_label"]
+           "rr_label", "render_timed", "render_seconds"]
 
-#: our strategies in the order the benchmark runs and lists them: the unbiased ones from
-#: ``mis`` (the one matched to Mitsuba's ``path`` integrator) down to the plainest, then
-#: the biased ``light``.
+#: our strategies in run order: the unbiased ones from ``mis`` (matched to Mitsuba's ``path``)
+#: down to the plainest, then the biased ``light``.
 DEFAULT_STRATEGIES = (tuple(reversed(UNBIASED_STRATEGIES))
                       + tuple(s for s in STRATEGIES if s not in UNBIASED_STRATEGIES))
 #: Mitsuba variants compared against, the bar first.
 DEFAULT_VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
-#: Russian-roulette configurations measured, in order: Mitsuba's default ``path`` setting
-#: (roulette from depth 5, what its users run) first, then the seed's (none).
+#: Russian-roulette configurations, in order: Mitsuba's default (from depth 5), then none.
 DEFAULT_RR_DEPTHS = (5, None)
-#: where the error reference comes from: a (cached) high-spp Mitsuba render via
-#: ``benchmarks.references``, or a high-spp render of ours (``mis``).
+#: the error reference: a cached high-spp Mitsuba render (``benchmarks.references``) or ours (``mis``).
 REFERENCE_KINDS = ("mitsuba", "ours")
 
 #: the per-run figures summarised (median over rounds) in each summary row.
@@ -78,87 +67,73 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
                      threads: int = 2, repeats: int = 5, strategies=DEFAULT_STRATEGIES,
                      integrators=("wavefront",), variants=DEFAULT_VARIANTS, max_depth: int | None = None,
                      rr_depths=DEFAULT_RR_DEPTHS, reference: str = "mitsuba", reference_spp: int = 4096, seed: int = 0,
-                     cache=None, log=None, externals=()) -> dict:
+                     cache=None, log=None, externals=(), builds=None) -> dict:
     """Paired, interleaved render timings of ours vs Mitsuba, with error at equal spp.
 
     Parameters
     ----------
     scenes : sequence of str
-        Suite scene names (``mitsuba_scenes.list_scenes()``).
+        Scene names (``mitsuba_scenes.known_scenes()``).
     width, height, spp, threads, repeats : int, keyword-only
-        Image size, samples per pixel, worker threads (both renderers), timed rounds.
-    strategies : sequence of str or comma-separated str, keyword-only
-        Our strategies (``benchmarks.constants.STRATEGIES``).
-    integrators : sequence of str or comma-separated str, keyword-only
-        Our integrators (``reference_tracer.INTEGRATORS``), each strategy timed with each
-        in every round; the first is the headline's. Rows of ``wavefront`` (the default)
-        are labelled ``ours <strategy>``, the others ``ours <strategy> (<integrator>)``.
+        Image size, samples per pixel, worker threads (every renderer), timed rounds.
+    strategies, integrators : sequence of str or comma-separated str, keyword-only
+        Ours: every strategy with every integrator; the first of each is the headline's.
     variants : sequence of str or comma-separated str, keyword-only
         Mitsuba variants; one that does not work here is skipped (``skipped_variants``).
-        An empty list is not allowed.
     max_depth : int or None, keyword-only
-        Override the scene's ``max_depth`` (None keeps it; the suite's default is 50).
+        Override the scenes' ``max_depth`` (None keeps it; the suite's is 50).
     rr_depths : sequence of (int, None or 'scene'), keyword-only
-        The Russian-roulette configurations, each measured separately and in this order
-        (summary rows carry ``rr_depth`` and ``configuration``): an int is the depth
-        roulette starts at (Mitsuba's rule), ``None`` disables it, ``'scene'`` keeps the
-        scene's own. Default :data:`DEFAULT_RR_DEPTHS`: Mitsuba's default (5), then none.
-        Every configuration of a scene is scored against the same reference (roulette
-        changes the noise, not the expectation).
+        Russian-roulette configurations, each measured apart: the depth roulette starts at,
+        None for none, ``'scene'`` for the scene's own.
     reference : {'mitsuba', 'ours'}, keyword-only
-        Error reference: ``mitsuba`` is ``benchmarks.references.reference`` (cached in
-        ``$RTBENCH_CACHE``; rendered once if missing, with the first working variant),
-        ``ours`` a fresh ``mis`` render of ours. Both carry a per-sample variance, and
-        the efficiency uses the MSE with the reference's own noise removed
-        (``metrics.mse_corrected``).
-    reference_spp : int, keyword-only
-        Samples per pixel of the reference (> ``spp``).
-    seed : int, keyword-only
-        Round ``r`` renders ours with seed ``seed + r`` and Mitsuba with a seed hashed
-        from it (``mitsuba_scenes.batch_seeds``).
-    cache : path or None, keyword-only
-        Reference cache root.
-    log : callable or None, keyword-only
-        Called with progress lines.
+        Error reference: ``benchmarks.references.reference`` (cached; rendered once if
+        missing) or a fresh ``mis`` render of ours; the efficiency uses the MSE with the
+        reference's own noise removed (``metrics.mse_corrected``).
+    reference_spp, seed : int, keyword-only
+        The reference's spp (> ``spp``); round ``r`` renders ours with seed ``seed + r``.
+    cache, log : keyword-only
+        Reference cache root; a callable taking progress lines.
     externals : sequence of benchmarks.external.ExternalRenderer, keyword-only
-        External renderers timed in the same rounds (module docstring); rows labelled
-        with their names.
+        External renderers timed in the same rounds (their wall clock includes process
+        start and scene loading).
+    builds : mapping of str to path, keyword-only
+        Other builds of our core (name: module, :mod:`.builds`) rendering every strategy and
+        integrator in the same rounds, each in a worker process; rows labelled
+        ``ours <strategy> [<name>]``.
 
     Returns
     -------
     dict
-        ``config``, ``environment``, ``mitsuba`` (versions, per-variant load and compile
-        seconds, per scene and configuration label), ``skipped_variants``, ``references``
-        (per scene), ``runs`` (one record per timed render) and ``summary`` (one row per
-        scene, Russian-roulette configuration and renderer configuration: medians
-        and, for ours, ``ratio`` / ``efficiency_ratio`` / ``cpu_ratio`` per variant, each
-        the median over rounds of the paired per-round ratio, and ``round_ratios`` and
-        ``round_efficiency_ratios`` per variant, each round's paths/s and efficiency
-        ratio, NaN where an MSE was not positive), and ``suite``, the headline
-        (:func:`benchmarks.speed.suite_summary`: every scene and the geometric mean per
-        configuration).
+        ``config``, ``environment``, ``mitsuba`` (versions; load and compile seconds per
+        scene and configuration), ``skipped_variants``, ``available_variants``,
+        ``references``, ``runs`` (one record per timed render), ``summary`` (one row per
+        scene, configuration and renderer: medians over rounds, and for ours and external
+        renderers ``ratio``, ``cpu_ratio``, ``efficiency_ratio``, ``round_ratios`` and
+        ``round_efficiency_ratios``, each suffixed ``_<variant>``), ``suite``
+        (:func:`.suite_summary` of the installed core) and ``build_suites`` (of each build).
     """
     config = _render_config(scenes, width=width, height=height, spp=spp, threads=threads, repeats=repeats,
                             strategies=strategies, integrators=integrators, variants=variants,
                             reference=reference, reference_spp=reference_spp, seed=seed)
     max_depth, rr_depths = _depth_overrides(max_depth, rr_depths)
-    config["max_depth"], config["rr_depths"] = max_depth, list(rr_depths)
-    config["externals"] = {e.name: e.template for e in externals}
-
-    env_before = environment()
+    builds = {str(k): str(v) for k, v in (builds or {}).items()}
+    config.update(max_depth=max_depth, rr_depths=list(rr_depths), externals={e.name: e.template for e in externals},
+                  builds=builds)
     ok_variants, skipped = available_variants(config["variants"], log)
-    result = {"config": config, "environment": env_before, "skipped_variants": skipped, "mitsuba": {},
+    result = {"config": config, "environment": environment(), "skipped_variants": skipped, "mitsuba": {},
               "references": {}, "runs": [], "summary": []}
     if ok_variants:
         result["mitsuba"]["versions"] = mitsuba_versions()
     elif reference == "mitsuba":
-        raise ValueError(f"no Mitsuba variant of {config['variants']} works here ({skipped}); "
-                         f"use reference='ours'")
-    for name in config["scenes"]:
-        _bench_scene(result, name, config, ok_variants, max_depth=max_depth, rr_depths=rr_depths, cache=cache,
-                     log=log, externals=tuple(externals))
+        raise ValueError(f"no Mitsuba variant of {config['variants']} works here ({skipped}); use reference='ours'")
+    with contextlib.ExitStack() as stack:
+        workers = {name: stack.enter_context(CoreWorker(module)) for name, module in builds.items()}
+        for name in config["scenes"]:
+            _bench_scene(result, name, config, ok_variants, max_depth=max_depth, rr_depths=rr_depths, cache=cache,
+                         log=log, externals=tuple(externals), workers=workers)
     result["available_variants"] = ok_variants
     result["suite"] = suite_summary(result)
+    result["build_suites"] = {b: suite_summary(result, build=b) for b in builds}
     result["environment_after"] = environment()
     return result
 
@@ -166,30 +141,23 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
 def _render_config(scenes, *, width, height, spp, threads, repeats, strategies, integrators, variants, reference,
                    reference_spp, seed) -> dict:
     """The validated settings, as stored under ``config``; ``ValueError`` names a bad one."""
-    scenes = name_list("scenes", scenes, known_scenes())
-    strategies = name_list("strategies", strategies, STRATEGIES)
-    integrators = name_list("integrators", integrators, INTEGRATORS)
-    variants = name_list("variants", variants)
-    width, height = positive_int("width", width), positive_int("height", height)
-    spp, threads = positive_int("spp", spp), positive_int("threads", threads)
-    repeats = positive_int("repeats", repeats)
+    spp = positive_int("spp", spp)
     reference_spp = positive_int("reference_spp", reference_spp, minimum=2)
-    seed = positive_int("seed", seed, minimum=0)
     if reference not in REFERENCE_KINDS:
         raise ValueError(f"reference must be one of {REFERENCE_KINDS}, got {reference!r}")
     if reference_spp <= spp:
         raise ValueError(f"reference_spp ({reference_spp}) must exceed spp ({spp})")
-    return {"scenes": scenes, "width": width, "height": height, "spp": spp, "threads": threads,
-            "repeats": repeats, "strategies": strategies, "integrators": integrators, "variants": variants,
-            "reference": reference, "reference_spp": reference_spp, "seed": seed}
+    return {"scenes": name_list("scenes", scenes, known_scenes()),
+            "width": positive_int("width", width), "height": positive_int("height", height), "spp": spp,
+            "threads": positive_int("threads", threads), "repeats": positive_int("repeats", repeats),
+            "strategies": name_list("strategies", strategies, STRATEGIES),
+            "integrators": name_list("integrators", integrators, INTEGRATORS),
+            "variants": name_list("variants", variants), "reference": reference, "reference_spp": reference_spp,
+            "seed": positive_int("seed", seed, minimum=0)}
 
 
 def _depth_overrides(max_depth, rr_depths):
-    """Validated ``(max_depth, rr_depths)`` overrides (None / ``'scene'`` keep the scene's).
-
-    >>> _depth_overrides(None, (5, None))
-    (None, [5, None])
-    """
+    """Validated ``(max_depth, rr_depths)`` overrides (None / ``'scene'`` keep the scene's)."""
     if max_depth is not None:
         max_depth = int(max_depth)
         if not (max_depth == -1 or max_depth >= 1):
@@ -203,31 +171,45 @@ def _depth_overrides(max_depth, rr_depths):
 
 
 def rr_label(rr_depth) -> str:
-    """A Russian-roulette setting as a table label.
-
-    >>> rr_label(5), rr_label(None)
-    ('rr_depth 5', 'no RR')
-    """
+    """A Russian-roulette setting as a table label (module example)."""
     return "no RR" if rr_depth is None else f"rr_depth {rr_depth}"
 
 
 def _with_depths(scene, max_depth, rr_depth):
     """``scene`` with ``max_depth`` (None keeps) and ``rr_depth`` (``'scene'`` keeps) set."""
-    if max_depth is None and rr_depth == "scene":
-        return scene
     return dataclasses.replace(scene, max_depth=scene.max_depth if max_depth is None else max_depth,
                                rr_depth=scene.rr_depth if rr_depth == "scene" else rr_depth)
 
 
-def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cache, log, externals=()):
+_KEPT = {}   # a worker's scenes, kept between calls: each tree is built once
+
+
+def render_timed(scene, *, key=None, **render_args):
+    """``(result, wall seconds, process CPU seconds)`` of ``rt.render(scene, **render_args)``.
+
+    Called in a :class:`.builds.CoreWorker` too, which keeps ``scene`` under ``key``.
+    """
+    if key is not None:
+        scene = _KEPT.setdefault(key, scene)
+    return timed(lambda: rt.render(scene, **render_args))
+
+
+def render_seconds(scene: str, *, spp: int, size: int) -> float:
+    """Wall seconds of one render of suite ``scene`` (``scripts/ab_cores.py``): ``size`` x
+    ``size``, ``mis``, wavefront, roulette from depth 5 (Mitsuba's default), 1 thread."""
+    built = get_scene(scene, width=size, height=size, max_depth=50, rr_depth=5)
+    t0 = time.perf_counter()
+    render_timed(built, key=(scene, size), spp=spp, strategy="mis", seed=1, threads=1)
+    return time.perf_counter() - t0
+
+
+def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cache, log, externals, workers):
     """Set up, time and summarise one scene in every Russian-roulette configuration."""
     width, height, spp, threads = config["width"], config["height"], config["spp"], config["threads"]
     base = _with_depths(get_scene(name).with_camera_size(width, height), max_depth, "scene")
-    # set-up, untimed: our BVH build, the reference (one per scene: roulette keeps the expectation)
-    _, build_wall, _ = timed(lambda: core_scene(base))
+    _, build_wall, _ = timed(lambda: core_scene(base))   # our tree, untimed
     ref, record = _reference(base, kind=config["reference"], spp=config["reference_spp"],
-                             variant=ok_variants[0] if ok_variants else None, threads=threads, cache=cache,
-                             log=log)
+                             variant=ok_variants[0] if ok_variants else None, threads=threads, cache=cache, log=log)
     result["references"][name] = record
     result.setdefault("ours", {})[name] = {"build_seconds": float(core_scene(base).build_seconds),
                                            "compile_and_build_seconds": build_wall}
@@ -236,32 +218,32 @@ def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cac
         label = rr_label(scene.rr_depth)
         if log:
             log(f"{name} {width}x{height}, {spp} spp, max_depth {scene.max_depth}, {label}, {threads} threads")
-        rt.render(scene, spp=max(1, spp // 8), strategy=config["strategies"][0], seed=0xA11CE, threads=threads)
+        bare = dataclasses.replace(scene)   # no tree: what a worker is sent
+        cores = {None: functools.partial(render_timed, scene)}
+        cores.update({b: functools.partial(w, "benchmarks.speed.render.render_timed", bare, key=(name, label))
+                      for b, w in workers.items()})
+        for run in cores.values():   # warm-up
+            run(spp=max(1, spp // 8), strategy=config["strategies"][0], seed=0xA11CE, threads=threads)
         mscenes, infos = _warm_mitsuba(scene, ok_variants, spp=spp, threads=threads, log=log)
-        _warm_externals(scene, externals, spp=spp, log=log)
+        for ext in externals:   # a command that fails does so here, before any timing
+            _, secs = render_external(ext, scene, spp=max(1, spp // 8), seed=0x5EED)
+            if log:
+                log(f"  {ext.name}: warm-up run {secs:.2f} s")
         per = _timed_rounds(name, scene, config, ok_variants, mscenes=mscenes, ref=ref, runs=result["runs"],
-                            log=log, externals=externals)
+                            log=log, externals=externals, cores=cores)
         for v in ok_variants:   # JIT compile time: warm-up minus a typical timed render
             info = infos[v]
             typical = median([x["seconds"] for x in per[f"Mitsuba {v}"]])
             info["compile_seconds"] = (max(0.0, info["warmup_seconds"] - typical)
                                        if v.startswith(("llvm", "cuda")) else 0.0)
             result["mitsuba"].setdefault(name, {}).setdefault(label, {})[v] = info
-        rows = _summary_rows(name, per, ok_variants)
-        for row in rows:
-            row.update(rr_depth=scene.rr_depth, max_depth=scene.max_depth, configuration=label)
-        result["summary"] += rows
+        for row in _summary_rows(name, per, ok_variants):
+            result["summary"].append(dict(row, rr_depth=scene.rr_depth, max_depth=scene.max_depth,
+                                          configuration=label))
 
 
 def _reference(scene, *, kind, spp, variant, threads, cache, log):
-    """The error reference, an ``ImageEstimate``, and its JSON record.
-
-    Returns
-    -------
-    ref : benchmarks.references.Reference or reference_tracer.RenderResult
-    record : dict
-        ``spp``, ``kind``, ``variant``, ``cached``, ``seconds`` (of this call), ``label``.
-    """
+    """The error reference (an ``ImageEstimate``) and its JSON record."""
     if kind == "mitsuba":
         ref, took, _ = timed(lambda: reference(scene, spp=spp, variant=variant, threads=threads, cache=cache,
                                                log=log))
@@ -276,11 +258,8 @@ def _reference(scene, *, kind, spp, variant, threads, cache, log):
 
 
 def _warm_mitsuba(scene, variants, *, spp, threads, log):
-    """Load ``scene`` in each variant and render it once untimed (JIT compile).
-
-    Returns ``({variant: mitsuba scene}, {variant: info})``, info holding
-    ``load_seconds`` and ``warmup_seconds``.
-    """
+    """Load ``scene`` in each variant and render it once untimed (JIT compile):
+    ``({variant: Mitsuba scene}, {variant: {load_seconds, warmup_seconds}})``."""
     mscenes, infos = {}, {}
     for v in variants:
         mscenes[v], load = load_mitsuba(v, scene, threads)
@@ -292,57 +271,51 @@ def _warm_mitsuba(scene, variants, *, spp, threads, log):
     return mscenes, infos
 
 
-def _warm_externals(scene, externals, *, spp, log):
-    """One small untimed run of each external renderer: a command that fails does so here,
-    before any timing, with its own message."""
-    for ext in externals:
-        _, secs = render_external(ext, scene, spp=max(1, spp // 8), seed=0x5EED)
-        if log:
-            log(f"  {ext.name}: warm-up run {secs:.2f} s")
+def _ours_label(strategy, integrator, build) -> str:
+    return (f"ours {strategy}" + ("" if integrator == "wavefront" else f" ({integrator})")
+            + ("" if build is None else f" [{build}]"))
 
 
-def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, externals=()) -> dict:
-    """``repeats`` interleaved rounds of every configuration; ``{label: [run, ...]}``.
-
-    Each run record is appended to ``runs`` as well.
-    """
+def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, externals, cores) -> dict:
+    """``repeats`` interleaved rounds of every configuration: ``{label: [run, ...]}`` (each run
+    appended to ``runs`` too); ``cores`` maps each build of ours (None: the installed core) to
+    a function rendering the scene and returning ``(result, wall, cpu)``."""
     spp, threads, seed = config["spp"], config["threads"], config["seed"]
-    ours = [(s, i) for s in config["strategies"] for i in config.get("integrators", ["wavefront"])]
     width, height, repeats = config["width"], config["height"], config["repeats"]
-    settings = {"max_depth": scene.max_depth, "rr_depth": scene.rr_depth}
-    per = {}   # label -> list of run dicts, one per round
+    ours = [(b, s, i) for b in cores for s in config["strategies"] for i in config["integrators"]]
+    lanes = ([("ours", x) for x in ours], [("mitsuba", v) for v in variants], [("external", e) for e in externals])
+    order = [x for group in itertools.zip_longest(*lanes) for x in group if x is not None]   # not grouped
+    per = {}
     for r in range(repeats):
-        s_ours = seed + r
-        s_mi = batch_seeds(seed + r, 1)[0]
-        # interleave: ours strategy, Mitsuba variant, ours strategy, ...
-        order = []
-        for k in range(max(len(ours), len(variants), len(externals))):
-            if k < len(ours):
-                order.append(("ours", ours[k]))
-            if k < len(variants):
-                order.append(("mitsuba", variants[k]))
-            if k < len(externals):
-                order.append(("external", externals[k]))
-        if r % 2 == 1:
-            order.reverse()   # alternate who goes first
-        for renderer, what in order:
+        s_ours, s_mi = seed + r, batch_seeds(seed + r, 1)[0]
+        for renderer, what in (order if r % 2 == 0 else order[::-1]):   # alternate who goes first
             if renderer == "ours":
-                strategy, integrator = what
-                rec = _ours_run(scene, spp=spp, strategy=strategy, integrator=integrator, seed=s_ours,
-                                threads=threads, ref=ref)
-                rec.update(strategy=strategy, integrator=integrator, variant=None, seed=s_ours)
-                what = strategy if integrator == "wavefront" else f"{strategy} ({integrator})"
+                build, strategy, integrator = what
+                args = {"spp": spp, "strategy": strategy, "integrator": integrator, "seed": s_ours,
+                        "threads": threads}
+                res, wall, cpu = cores[build](**args)
+                rec = _run_record(res.mean, res.seconds, spp, wall=wall, cpu=cpu, ref=ref, rays=res.rays,
+                                  nonfinite=res.nonfinite_samples)
+                rec.update(strategy=strategy, integrator=integrator, variant=None, seed=s_ours, build=build)
+                label = _ours_label(strategy, integrator, build)
             elif renderer == "external":
-                rec = _external_run(what, scene, spp=spp, seed=s_mi & 0x7FFFFFFF, ref=ref)
+                cpu0 = _children_cpu()   # the command's CPU time: its child processes'
+                (img, secs), wall, _ = timed(lambda: render_external(what, scene, spp=spp, seed=s_mi & 0x7FFFFFFF))
+                rec = _run_record(img, secs, spp, wall=wall, cpu=_children_cpu() - cpu0, ref=ref, rays=None,
+                                  nonfinite=int(np.sum(~np.isfinite(img))))
                 rec.update(strategy=EXTERNAL_STRATEGY, variant=None, seed=s_mi & 0x7FFFFFFF)
-                renderer, what = what.name, what.name
+                renderer = label = what.name
             else:
-                rec = _mitsuba_run(what, mscenes[what], spp=spp, seed=s_mi, threads=threads, ref=ref,
-                                   shape=(height, width, 3))
+                mi, _ = use_variant(what, threads)
+                img, wall, cpu = timed(mitsuba_render_fn(mi, mscenes[what], spp, s_mi))
+                if img.shape != (height, width, 3):
+                    raise RuntimeError(f"Mitsuba returned an image of shape {img.shape}, expected {(height, width, 3)}")
+                rec = _run_record(img, wall, spp, wall=wall, cpu=cpu, ref=ref, rays=None,
+                                  nonfinite=int(np.sum(~np.isfinite(img))))
                 rec.update(strategy=MITSUBA_STRATEGY, variant=what, seed=s_mi)
+                label = f"Mitsuba {what}"
             rec.update(scene=name, renderer=renderer, round=r, spp=spp, width=width, height=height,
-                       threads=threads, **settings)
-            label = f"ours {what}" if renderer == "ours" else f"Mitsuba {what}" if renderer == "mitsuba" else what
+                       threads=threads, max_depth=scene.max_depth, rr_depth=scene.rr_depth)
             per.setdefault(label, []).append(rec)
             runs.append(rec)
             if log:
@@ -351,73 +324,35 @@ def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, ext
     return per
 
 
-def _ours_run(scene, *, spp, strategy, integrator="wavefront", seed, threads, ref):
-    """One timed render of ours; its run record (:func:`_run_record`)."""
-    r, wall, cpu = timed(lambda: rt.render(scene, spp=spp, strategy=strategy, seed=seed, threads=threads,
-                                           integrator=integrator))
-    return _run_record(r, wall=wall, cpu=cpu, ref=ref, rays=r.rays, nonfinite=r.nonfinite_samples)
+def _children_cpu() -> float:
+    u = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return u.ru_utime + u.ru_stime
 
 
-def _mitsuba_run(variant, mscene, *, spp, seed, threads, ref, shape):
-    """One timed render of Mitsuba (wall time of the call); its run record."""
-    mi, _ = use_variant(variant, threads)
-    img, wall, cpu = timed(mitsuba_render_fn(mi, mscene, spp, seed))
-    if img.shape != shape:
-        raise RuntimeError(f"Mitsuba returned an image of shape {img.shape}, expected {shape}")
-    # one batch: no per-sample variance (NaN, as MitsubaRender documents for one batch)
-    est = MitsubaRender(mean=img, variance=np.full_like(img, np.nan), spp=spp, seconds=wall, variant=variant,
-                        seed=seed, threads=threads, batch_spp=[spp], batch_seeds=[seed])
-    return _run_record(est, wall=wall, cpu=cpu, ref=ref, rays=None, nonfinite=int(np.sum(~np.isfinite(img))))
-
-
-def _external_run(ext, scene, *, spp, seed, ref):
-    """One timed run of an external renderer (wall time of the command); its run record.
-
-    The CPU time is the child processes' (``RUSAGE_CHILDREN``), not this process's."""
-    def children_cpu():
-        u = resource.getrusage(resource.RUSAGE_CHILDREN)
-        return u.ru_utime + u.ru_stime
-
-    cpu0 = children_cpu()
-    (img, secs), wall, _ = timed(lambda: render_external(ext, scene, spp=spp, seed=seed))
-    est = rt.ImageEstimate(mean=img, variance=np.full_like(img, np.nan), spp=spp, seconds=secs, source=ext.name)
-    return _run_record(est, wall=wall, cpu=children_cpu() - cpu0, ref=ref, rays=None,
-                       nonfinite=int(np.sum(~np.isfinite(img))))
-
-
-def _run_record(est, *, wall, cpu, ref, rays, nonfinite) -> dict:
-    """The figures of one timed render ``est`` (an ``ImageEstimate``) against ``ref``.
-
-    ``est.seconds`` is the render's own time (ours: the core's; Mitsuba's: the call's),
-    ``wall`` and ``cpu`` the call's wall and process CPU time, ``rays`` the rays cast
-    (None when not counted).
-    """
-    secs = est.seconds
-    paths = est.height * est.width * est.spp
-    raw = mse(est.mean, ref.mean)
-    corr = mse_corrected(est.mean, ref.mean, ref.variance, ref.spp)
+def _run_record(mean, secs, spp, *, wall, cpu, ref, rays, nonfinite) -> dict:
+    """The figures of one timed render of image ``mean`` against ``ref``: ``secs`` is the
+    render's own time (ours: the core's), ``wall`` and ``cpu`` the call's, ``rays`` the rays
+    cast (None where not counted)."""
+    paths = mean.shape[0] * mean.shape[1] * spp
+    raw = mse(mean, ref.mean)
+    corr = mse_corrected(mean, ref.mean, ref.variance, ref.spp)
+    good = math.isfinite(corr) and corr > 0 and secs > 0   # else no efficiency (NaN)
     return {"seconds": secs, "call_seconds": wall, "process_seconds": cpu, "paths": paths,
             "paths_per_second": paths / secs, "paths_per_cpu_second": paths / cpu if cpu > 0 else float("nan"),
-            "rays": rays, "rays_per_second": None if rays is None else rays / secs,
-            "ms_per_spp": 1e3 * secs / est.spp,
+            "rays": rays, "rays_per_second": None if rays is None else rays / secs, "ms_per_spp": 1e3 * secs / spp,
             "cpu_over_wall": cpu / wall if wall > 0 else float("nan"), "mse": raw, "mse_corrected": corr,
-            "rmse": math.sqrt(raw), "efficiency": _efficiency(corr, secs), "nonfinite_samples": nonfinite}
-
-
-def _efficiency(mse_value, seconds):
-    """1 / (MSE * seconds); NaN when the (noise-corrected) MSE is not positive."""
-    if not (math.isfinite(mse_value) and mse_value > 0 and seconds > 0):
-        return float("nan")
-    return efficiency(mse_value, seconds)
+            "rmse": math.sqrt(raw), "efficiency": efficiency(corr, secs) if good else float("nan"),
+            "nonfinite_samples": nonfinite}
 
 
 def _summary_rows(name, per, variants) -> list:
     """One row per configuration of scene ``name``: medians over rounds and paired ratios."""
     rows = []
     for label, runs in per.items():
-        row = {"scene": name, "label": label, "renderer": runs[0]["renderer"],
-               "strategy": runs[0]["strategy"], "integrator": runs[0].get("integrator"),
-               "variant": runs[0]["variant"], "runs": len(runs)}
+        first = runs[0]
+        row = {"scene": name, "label": label, "renderer": first["renderer"], "strategy": first["strategy"],
+               "integrator": first.get("integrator"), "variant": first["variant"], "build": first.get("build"),
+               "runs": len(runs)}
         for key in _SUMMARY_KEYS:
             vals = [x[key] for x in runs if x[key] is not None]
             row[key] = median(vals) if vals else None
@@ -428,13 +363,11 @@ def _summary_rows(name, per, variants) -> list:
             for v in variants:
                 pairs = list(zip(runs, per[f"Mitsuba {v}"]))
                 rounds = [a["paths_per_second"] / b["paths_per_second"] for a, b in pairs]
-                row[f"ratio_{v}"] = median(rounds)
-                row[f"round_ratios_{v}"] = rounds  # per round, in round order: their spread is the noise
-                row[f"cpu_ratio_{v}"] = median([a["paths_per_cpu_second"] / b["paths_per_cpu_second"]
-                                                for a, b in pairs])
-                # NaN in a round where an MSE was not positive; the median leaves it out
-                efficiency = [a["efficiency"] / b["efficiency"] for a, b in pairs]
-                row[f"efficiency_ratio_{v}"] = median(efficiency)
-                row[f"round_efficiency_ratios_{v}"] = efficiency
+                # NaN in a round where an MSE was not positive: the median leaves it out
+                eff = [a["efficiency"] / b["efficiency"] for a, b in pairs]
+                row.update({f"ratio_{v}": median(rounds), f"round_ratios_{v}": rounds,
+                            f"cpu_ratio_{v}": median([a["paths_per_cpu_second"] / b["paths_per_cpu_second"]
+                                                      for a, b in pairs]),
+                            f"efficiency_ratio_{v}": median(eff), f"round_efficiency_ratios_{v}": eff})
         rows.append(row)
     return rows
