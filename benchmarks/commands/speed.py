@@ -136,7 +136,7 @@ def suite_table(result, build=None):
 
     c, suite = result["config"], result["suite"] if build is None else result["build_suites"][build]
     ours = (suite["strategy"] + ("" if suite.get("integrator", "wavefront") == "wavefront"
-                                 else f" ({suite['integrator']})") + ("" if build is None else f" [{build}]"))
+                                 else f" ({suite['integrator']})") + ("" if build is None else f", {build} build"))
     columns = [("configuration", lambda r: r["configuration"]),
                ("scene", lambda r: r["scene"] if r["scene"] != GEOMEAN else f"{GEOMEAN} ({r['scenes']})"),
                (f"ours {ours} Mpaths/s", lambda r: _m(r["ours_paths_per_second"]))]
@@ -191,7 +191,7 @@ def render_notes(result):
     lines += [f"{name}: external renderer '{template}'; its seconds are the command's wall clock (process start and "
               f"scene loading included), its CPU time that of its child processes"
               for name, template in result["config"].get("externals", {}).items()]
-    lines += [f"ours ... [{name}]: our core built for {name} ({module}), in a worker process, in the same rounds"
+    lines += [f"ours ..., {name} build: our core built for {name} ({module}), in a worker process, in the same rounds"
               for name, module in result["config"].get("builds", {}).items()]
     return lines + [
         "ratio = paths/s ours / Mitsuba, paired per round (cpu: the same on process CPU time); rounds = the lowest "
@@ -207,7 +207,7 @@ def rays_tables(result):
     c = result["config"]
     mi = bool(result.get("mitsuba", {}).get("variant"))
     first = [("triangles", lambda r: f"{r['triangles']:,}"),
-             ("rays", lambda r: r["kind"] + ("" if r.get("build") is None else f" [{r['build']}]"))]
+             ("rays", lambda r: r["kind"] + ("" if r.get("build") is None else f", {r['build']} build"))]
     speed = first + [("ours Mrays/s", lambda r: f"{r['ours_mrays_per_second']:.2f}"),
                      ("ours Mrays/cpu-s", lambda r: _r(r["ours_mrays_per_cpu_second"]))]
     checks = first + [("hit frac.", lambda r: f"{r['hit_fraction']:.3f}"),
@@ -301,8 +301,10 @@ def scaling_svg(result) -> bytes:
                       if f"{who}_paths_per_second" in r]
             if points:
                 ax.plot(*zip(*points), label="ours" if who == "ours" else f"Mitsuba {result['config']['variant']}",
-                        **style)
+                        gid=f"{key}-{who}", **style)
         ax.set_xscale("log" if key != "threads" else "linear")
+        ax.minorticks_off()
+        ax.set_xticks([r[field] for r in result[key]], [f"{r[field]:,}" for r in result[key]])
         ax.set(xlabel=label, ylabel="Mpaths/s", title=f"paths/s vs {label}")
         ax.grid(True, alpha=0.35)
         ax.legend(fontsize=8)

@@ -320,7 +320,7 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
                     out["rows"].append({**base, "kind": kind, **(built if row["build"] is None else {}),
                                         "mitsuba_load_seconds": load, **row})
                     if log:
-                        log(f"  {kind}{'' if row['build'] is None else ' [' + row['build'] + ']'}: ours "
+                        log(f"  {kind}{'' if row['build'] is None else ', ' + row['build'] + ' build'}: ours "
                             f"{row['ours_mrays_per_second']:.2f} Mrays/s ({row['ours_full_mrays_per_second']:.2f} "
                             f"with hit point and normal)" + (f", Mitsuba {row['mitsuba_mrays_per_second']:.2f}, "
                                                              f"ratio {row['ratio']:.2f}" if use_mi else ""))

@@ -99,7 +99,7 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
     builds : mapping of str to path, keyword-only
         Other builds of our core (name: module, :mod:`.builds`) rendering every strategy and
         integrator in the same rounds, each in a worker process; rows labelled
-        ``ours <strategy> [<name>]``.
+        ``ours <strategy>, <name> build``.
 
     Returns
     -------
@@ -273,7 +273,7 @@ def _warm_mitsuba(scene, variants, *, spp, threads, log):
 
 def _ours_label(strategy, integrator, build) -> str:
     return (f"ours {strategy}" + ("" if integrator == "wavefront" else f" ({integrator})")
-            + ("" if build is None else f" [{build}]"))
+            + ("" if build is None else f", {build} build"))
 
 
 def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, externals, cores) -> dict:

@@ -309,13 +309,14 @@ def test_ray_benchmark_fields(jit_variant, capsys, tmp_path):
 
 
 def test_scaling_fields():
-    res = speed.scaling_benchmark(resolutions=(8, 16), spp=1, thread_counts=(1, 2), triangles=(200, 2000),
-                                  rays=2000, mesh_spp=1, variant=None, repeats=1)
+    res = speed.scaling_benchmark(resolutions=(8, 16), depths=(3, 2), spp=1, thread_counts=(1, 2),
+                                  triangles=(200, 2000), rays=2000, mesh_spp=1, variant=None, repeats=1)
     assert [r["resolution"] for r in res["resolution"]] == [8, 16]
+    assert [r["max_depth"] for r in res["depth"]] == [2, 3] and res["config"]["depths"] == [2, 3]
     assert [r["threads"] for r in res["threads"]] == [1, 2]
     assert res["threads"][0]["ours_speedup"] == 1.0 and res["threads"][1]["ours_speedup"] > 0
     assert [r["triangles"] < 1000 for r in res["mesh"]] == [True, False]
-    for r in res["resolution"] + res["threads"] + res["mesh"]:
+    for r in res["resolution"] + res["depth"] + res["threads"] + res["mesh"]:
         assert r["ours_paths_per_second"] > 0 and "mitsuba_paths_per_second" not in r
     fit = res["fits"]["ours_ns_per_ray"]
     assert set(fit) == {"a", "b", "per_doubling", "r2", "loglog_exponent"} and "mitsuba_ns_per_ray" not in res["fits"]
