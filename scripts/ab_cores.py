@@ -73,17 +73,23 @@ def main(argv=None) -> int:
     print(f"A: {modules[0]}\nB: {modules[1]}")
     if opts.rays:
         print(f"{opts.rounds} rounds, {opts.ray_count} rays a query, closest hit (distance and primitive), 1 thread")
-        cases = {f"{t} {kind}": ("benchmarks.speed.rays.query_seconds", {"triangles": t, "kind": kind,
-                                                                         "rays": opts.ray_count})
+        cases = {f"{t} {kind}": ("benchmarks.speed.rays.query_torus", {"triangles": t, "kind": kind,
+                                                                       "rays": opts.ray_count})
                  for t in opts.triangles for kind in opts.kinds}
+        seconds = lambda answer: answer["call_seconds"][0]  # noqa: E731 - the call, as rtbench speed --rays times it
         print(f"{'mesh, rays':16s} {'A s/query':>11s} {'B s/query':>11s} {'B speed-up':>11s} {'90% interval':>16s}")
     else:
+        from mitsuba_scenes import get_scene
+
         print(f"{opts.rounds} rounds, {opts.size}x{opts.size}, {opts.spp} spp, mis, rr_depth 5, 1 thread")
-        cases = {scene: ("benchmarks.speed.render.render_seconds", {"scene": scene, "spp": opts.spp,
-                                                                    "size": opts.size}) for scene in opts.scenes}
+        cases = {scene: ("benchmarks.speed.render.render_timed",
+                         {"scene": get_scene(scene, width=opts.size, height=opts.size, max_depth=50, rr_depth=5),
+                          "key": scene, "spp": opts.spp, "strategy": "mis", "seed": 1, "threads": 1})
+                 for scene in opts.scenes}
+        seconds = lambda answer: answer[1]  # noqa: E731 - the render's wall time
         print(f"{'scene':16s} {'A s/render':>11s} {'B s/render':>11s} {'B speed-up':>11s} {'90% interval':>16s}")
     for label, request in cases.items():
-        rows = paired_times(modules, {label: request}, rounds=opts.rounds)[label]
+        rows = paired_times(modules, {label: request}, rounds=opts.rounds, seconds=seconds)[label]
         iv = median_order_interval([a / b for a, b in rows])
         interval = f"[{iv['low']:.3f}, {iv['high']:.3f}]" if iv["low"] is not None else "(5 rounds or more)"
         ta, tb = (statistics.median(r[k] for r in rows) for k in (0, 1))

@@ -1,12 +1,8 @@
 """``rtbench speed [SCENES] [--rays] [--scaling] [--isa ISA] ...``: ours vs Mitsuba 3, paths/s, rays/s, efficiency.
 
-Default: the render benchmark (:func:`benchmarks.speed.render_benchmark`) on the whole suite,
-headed by the suite table; ``--rays`` runs the ray-casting benchmark instead, ``--scaling``
-the cost-against-work sweeps (``--svg`` draws them); ``--render`` adds the render benchmark
-to those. ``--isa avx2`` times a build of our core for that instruction set in the same
-paired rounds, beside the installed one. The output ends with one verdict line per speed
-target (:mod:`benchmarks.speed.targets`); the exit status is 0 whatever they say, unless
-``--require-targets`` (then 1 when a judged target is not met).
+The render benchmark by default, ``--rays`` and ``--scaling`` instead (``--render`` adds it); ``--isa`` times a build
+of our core for that instruction set beside the installed one. The output ends with one verdict line per speed target;
+the exit status is 0 whatever they say, unless ``--require-targets``. benchmarks/PERFORMANCE.md, How to measure.
 """
 from __future__ import annotations
 
@@ -20,11 +16,7 @@ HELP = "time ours vs Mitsuba (paired, interleaved): paths/s, rays/s, ms/spp, RMS
 
 
 def _rr_depths(text):
-    """``--rr-depth``: comma-separated depths, ``none`` for no Russian roulette.
-
-    >>> _rr_depths("5,none")
-    [5, None]
-    """
+    """``--rr-depth``: comma-separated depths, ``none`` for no Russian roulette (``[5, None]``)."""
     try:
         out = [None if x.strip().lower() == "none" else int(x) for x in text.split(",") if x.strip()]
     except ValueError:
@@ -47,17 +39,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=int, default=5, help="timed paired rounds")
     A.add_strategy_args(parser, default=DEFAULT_STRATEGIES)
     parser.add_argument("--integrators", action=A.ListAction, default=("wavefront",), metavar="I[,I...]",
-                        help="our integrators, each strategy timed with each: wavefront (the default), scalar "
-                             "(one path at a time, the reference implementation); rows of the others are "
-                             "labelled with the integrator")
+                        help="our integrators, each strategy timed with each: wavefront, scalar (one path at a "
+                             "time, the reference implementation); rows of the others are labelled with it")
     A.add_variant_args(parser, default=DEFAULT_VARIANTS)
     parser.add_argument("--variants", dest="variant", help=argparse.SUPPRESS)  # older name
     parser.add_argument("--max-depth", type=int, default=None,
                         help="override the scene's max_depth (default: the scene's, 50 in the suite)")
     parser.add_argument("--rr-depth", type=_rr_depths, default=list(DEFAULT_RR_DEPTHS), metavar="DEPTHS",
-                        help=f"Russian-roulette configurations, each measured as its own rows: depths roulette "
-                             f"starts at, 'none' for no roulette (default {rr_default}: Mitsuba's default, "
-                             f"then the seed's)")
+                        help=f"Russian-roulette configurations, each its own rows: depths roulette starts at, "
+                             f"'none' for none (default {rr_default}: Mitsuba's default, then the seed's)")
     parser.add_argument("--reference", dest="reference_kind", choices=REFERENCE_KINDS,
                         default=argparse.SUPPRESS, help=argparse.SUPPRESS)  # older name of --reference-kind
     parser.add_argument("--reference-kind", choices=REFERENCE_KINDS, default="mitsuba",
@@ -67,9 +57,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     A.add_cache_arg(parser)
     A.add_seed_args(parser)
     parser.add_argument("--isa", choices=sorted(ISAS), default=None,
-                        help="also time our core built for this instruction set (avx2: -march=x86-64-v3, packs "
-                             "of four; avx512: x86-64-v4) in the same paired rounds, beside the installed build, "
-                             "with its own rows and verdicts; built once under the cache root (default: none)")
+                        help="also time our core built for this instruction set (-march=x86-64-v3 or -v4) beside "
+                             "the installed one, in the same rounds, with its own rows and verdicts (default: none)")
     parser.add_argument("--render", action="store_true", help="run the render benchmark too with --rays/--scaling")
     parser.add_argument("--rays", action="store_true", help="ray-casting micro-benchmark (ours vs Mitsuba/Embree)")
     parser.add_argument("--triangles", default="100000,1000000", help="mesh sizes of --rays")
@@ -84,32 +73,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="write the --scaling curves, ours beside Mitsuba, as an SVG plot (default: none)")
     A.add_renderer_arg(parser)  # timed in the same paired rounds as ours and Mitsuba
     parser.add_argument("--require-targets", action="store_true",
-                        help="exit 1 when a judged speed target is not met (its median ratio below the "
-                             "threshold; benchmarks/PERFORMANCE.md, Targets and verdicts); without it a speed "
-                             "target is reported, never a failure")
+                        help="exit 1 when a judged speed target is not met (benchmarks/PERFORMANCE.md, Targets "
+                             "and verdicts); without it a speed target is reported, never a failure")
     A.add_json_arg(parser)
     A.add_quiet_arg(parser)
     add_scene_path_args(parser)
 
 
 def _m(v):
-    """A rate in millions."""
     return "-" if v is None or not math.isfinite(v) else f"{v / 1e6:.3f}"
 
 
 def _r(v):
-    """A ratio to two decimals (two significant digits below 0.01); ``-`` for None and non-finite values.
+    """A ratio to two decimals (two significant digits below 0.01).
 
     >>> _r(1.049), _r(0.00123), _r(None), _r(float("nan"))
     ('1.05', '0.0012', '-', '-')
     """
-    if v is None or not math.isfinite(v):
-        return "-"
-    return f"{v:.2g}" if 0 < abs(v) < 0.01 else f"{v:.2f}"
+    return "-" if v is None or not math.isfinite(v) else f"{v:.2g}" if 0 < abs(v) < 0.01 else f"{v:.2f}"
 
 
 def _range(ratios):
-    """The lowest and highest of the rounds' ratios, ``1.25-1.73``; ``-`` for none."""
     return f"{_r(min(ratios))}-{_r(max(ratios))}" if ratios else "-"
 
 
@@ -130,8 +114,8 @@ def _ratio_cells(v):
 
 
 def suite_table(result, build=None):
-    """The render benchmark's headline table: every scene and the geometric mean, per
-    Russian-roulette configuration, for the headline strategy (of ``build``) against each variant."""
+    """The render benchmark's headline table: every scene and the geometric mean, per Russian-roulette configuration,
+    for the headline strategy (of ``build``) against each variant."""
     from benchmarks.speed import GEOMEAN
 
     c, suite = result["config"], result["suite"] if build is None else result["build_suites"][build]
@@ -171,28 +155,27 @@ def render_table(result):
 
 def render_notes(result):
     """The lines under the render tables: references, Mitsuba's load and compile times, what the columns mean."""
+    c, mitsuba = result["config"], result["mitsuba"]
     lines = [f"{name}: RMSE (raw, at equal spp) against {ref['label']}; efficiency ratio = median over rounds of "
              f"[1/(MSE*s) ours] / [1/(MSE*s) Mitsuba], MSE with the reference noise removed"
              for name, ref in result["references"].items()]
-    for name, per in result["mitsuba"].items():
-        for label, per_variant in per.items() if name != "versions" else ():
-            lines += [f"{name}, {label}: Mitsuba {v} load {info['load_seconds']:.2f} s, warm-up "
-                      f"{info['warmup_seconds']:.2f} s, JIT compile (warm-up minus timed render, excluded) "
-                      f"{info['compile_seconds']:.2f} s" for v, info in per_variant.items()]
+    lines += [f"{name}, {label}: Mitsuba {v} load {info['load_seconds']:.2f} s, warm-up {info['warmup_seconds']:.2f} "
+              f"s, JIT compile (warm-up minus timed render, excluded) {info['compile_seconds']:.2f} s"
+              for name, per in mitsuba.items() if name != "versions"
+              for label, per_variant in per.items() for v, info in per_variant.items()]
     lines += [f"{name}: ours BVH build {1e3 * info['build_seconds']:.2f} ms (excluded)"
               for name, info in result.get("ours", {}).items()]
-    if "versions" in result["mitsuba"]:
-        vv = result["mitsuba"]["versions"]
-        target = vv.get("llvm_target")
-        kernels = (f"; llvm_ad_rgb kernels {target['vector_width']}-wide for {target['cpu']}"
-                   f"{' (AVX-512)' if target['avx512'] else ''}" if target else "")
-        lines.append(f"Mitsuba {vv['mitsuba']}, Dr.Jit {vv['drjit']}, libLLVM {vv['libllvm']}{kernels}")
+    if "versions" in mitsuba:
+        vv, target = mitsuba["versions"], mitsuba["versions"].get("llvm_target")
+        lines.append(f"Mitsuba {vv['mitsuba']}, Dr.Jit {vv['drjit']}, libLLVM {vv['libllvm']}" + (
+            f"; llvm_ad_rgb kernels {target['vector_width']}-wide for {target['cpu']}"
+            f"{' (AVX-512)' if target['avx512'] else ''}" if target else ""))
     lines += [f"Mitsuba {v} skipped: {why}" for v, why in result.get("skipped_variants", {}).items()]
     lines += [f"{name}: external renderer '{template}'; its seconds are the command's wall clock (process start and "
               f"scene loading included), its CPU time that of its child processes"
-              for name, template in result["config"].get("externals", {}).items()]
+              for name, template in c.get("externals", {}).items()]
     lines += [f"ours ..., {name} build: our core built for {name} ({module}), in a worker process, in the same rounds"
-              for name, module in result["config"].get("builds", {}).items()]
+              for name, module in c.get("builds", {}).items()]
     return lines + [
         "ratio = paths/s ours / Mitsuba, paired per round (cpu: the same on process CPU time); rounds = the lowest "
         "and highest round's ratio (the geometric mean's: of each round's geometric mean over the scenes), the "
@@ -232,18 +215,15 @@ def rays_tables(result):
 
 
 def rays_note(result) -> str:
-    """The line under the ray tables: what each side's query is."""
     from reference_tracer import probe
 
-    return ("ratio = ours Mrays/s / Mitsuba Mrays/s (median of the rounds' paired ratios; range: the lowest and "
-            "highest round); Mitsuba: ray_intersect_preliminary + dr.eval + dr.sync_thread (distance and primitive), "
-            "kernel compiled before timing; ours: core_scene(...).intersect(preliminary=True), the same outputs, "
-            f"timed from the Python call to its return as Mitsuba's (chunks of {probe.RAY_CHUNK} rays handed to the "
-            f"threads; in each, rows of camera rays gathered into tiles of 4 x {probe.PACKET_RAYS // 4}, coherent "
-            f"tiles or runs of {probe.PACKET_RAYS} rays traced as packets, the others 8 at a time interleaved; float64 "
-            "copies of the same float32 rays); ours full / full ratio: the same query with our hit point and normal "
-            f"filled in, timed in the same rounds; t agree: relative difference <= "
-            f"{result['rows'][0].get('agree_t_rtol', 1e-4):g}")
+    return ("ratio = ours / Mitsuba Mrays/s (median of the rounds' paired ratios; range: the lowest and highest "
+            "round); Mitsuba: ray_intersect_preliminary + dr.eval + dr.sync_thread, kernel compiled before timing; "
+            "ours: core_scene(...).intersect(preliminary=True), the same outputs (distance, primitive) on float64 "
+            f"copies of the same rays, timed from the Python call to its return as Mitsuba's (chunks of "
+            f"{probe.RAY_CHUNK} rays a thread; camera rays in tiles of 4 x {probe.PACKET_RAYS // 4}, coherent ones "
+            f"traced as packets of {probe.PACKET_RAYS}, the others 8 at a time interleaved); full: with our hit point "
+            f"and normal; t agree: relative difference <= {result['rows'][0].get('agree_t_rtol', 1e-4):g}")
 
 
 def scaling_tables(result):
@@ -390,20 +370,17 @@ def run(args) -> int:
 
 
 def _build_isa(isa, cache, log) -> dict:
-    """``{isa: module}``: our core built for ``isa`` under the cache root (``ValueError`` where
-    this CPU cannot run it, ``RuntimeError`` where the build fails)."""
+    """``{isa: module}``: our core built for ``isa`` under the cache root."""
     from benchmarks.references import cache_dir
     from benchmarks.speed.builds import build_isa, build_target, isa_folder
 
-    folder = isa_folder(isa, cache_dir(cache).parent)
-    if log:
-        log(f"building our core for {isa} in {folder} (a minute or more the first time)")
+    folder, log = isa_folder(isa, cache_dir(cache).parent), log or (lambda line: None)
+    log(f"building our core for {isa} in {folder} (a minute or more the first time)")
     try:
         module = build_isa(isa, folder)
     except (RuntimeError, FileNotFoundError) as e:
         raise RuntimeError(f"the {isa} build of our core failed: {e}") from None
-    if log:
-        log(f"{isa} build: {build_target(folder)}")
+    log(f"{isa} build: {build_target(folder)}")
     return {isa: module}
 
 

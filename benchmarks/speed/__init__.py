@@ -1,11 +1,10 @@
 """Speed measurements: ours against Mitsuba 3, on renders and on raw ray casting (``rtbench speed``).
 
-:func:`render_benchmark` (paired renders: paths/s, efficiency; its headline
-:func:`suite_summary`), :func:`ray_benchmark` (closest hits against Embree) and
-:func:`scaling_benchmark` (cost against work) return JSON-able dicts; :func:`speed_verdicts`
-judges the speed targets on them (:mod:`.targets`); :mod:`.builds` builds the core in other
-configurations and runs code against them. Speed is measured and reported, never asserted by
-the tests. How to measure and today's numbers: ``benchmarks/PERFORMANCE.md``.
+:func:`render_benchmark` (paired renders: paths/s, efficiency; its headline :func:`suite_summary`),
+:func:`ray_benchmark` (closest hits against Embree) and :func:`scaling_benchmark` (cost against work) return JSON-able
+dicts; :func:`speed_verdicts` judges the speed targets on them (:mod:`.targets`); :mod:`.builds` builds the core in
+other configurations and runs code against them. Speed is measured and reported, never asserted by the tests. How to
+measure and today's numbers: ``benchmarks/PERFORMANCE.md``.
 """
 from __future__ import annotations
 

@@ -1,17 +1,10 @@
 """Other builds of the C++ core beside the installed one: build a configuration, run code against it.
 
-A configuration (``-march``, ``RT_PACK_WIDTH``, the compiler) is built with CMake into a
-folder of its own (:func:`build_core`; :func:`build_isa` for the instruction sets of
-:data:`ISAS`). Code runs against a build in a fresh interpreter, so that the calling process
-keeps its own core: a script (:func:`run_with_core`) or calls on request
-(:class:`CoreWorker`). Every build must give the same images bit for bit
-(:data:`AGREEMENT_SCRIPT`); :func:`paired_times` times builds against each other round by
-round (``scripts/ab_cores.py``; PERFORMANCE.md, How to measure).
-
-Examples
---------
->>> sorted(ISAS)
-['avx2', 'avx512']
+:func:`build_core` builds a configuration (``-march``, ``RT_PACK_WIDTH``, the compiler) into a folder of its own,
+:func:`build_isa` one of the instruction sets of :data:`ISAS`. Code runs against a build in a fresh interpreter, so
+that the caller keeps its own core: a script (:func:`run_with_core`) or calls on request (:class:`CoreWorker`). Every
+build must give the same images bit for bit (:data:`AGREEMENT_SCRIPT`); :func:`paired_times` times builds against each
+other (``scripts/ab_cores.py``; PERFORMANCE.md, How to measure).
 """
 from __future__ import annotations
 
@@ -35,8 +28,8 @@ __all__ = ["ROOT", "ISAS", "AGREEMENT_SCRIPT", "cpu_flags", "build_core", "build
 ROOT = Path(__file__).resolve().parents[2]
 
 _V3 = frozenset({"avx", "avx2", "bmi1", "bmi2", "f16c", "fma", "movbe", "abm", "xsave"})
-#: Instruction sets a build can target: ``-march`` level and the CPU flags (as /proc/cpuinfo
-#: names them) that GCC's and Clang's level assumes, so that a build runs only where all are.
+#: Instruction sets a build can target: its ``-march`` level and the CPU flags (as /proc/cpuinfo names them) that
+#: GCC's and Clang's level assumes: a build runs only where the CPU has them all.
 ISAS = {"avx2": ("x86-64-v3", _V3),
         "avx512": ("x86-64-v4", _V3 | {"avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl"})}
 
@@ -50,10 +43,9 @@ from reference_tracer.build import use_core
 use_core({module!r})
 """
 
-#: What every build must give bit for bit (PATH: the .npz written, THREADS: the thread
-#: count compared with one thread): each suite scene x strategy x integrator at 16x12,
-#: 4 spp; a 64x48 ``cornell_box`` rendered with 1 and THREADS threads; the closest hits of
-#: 4096 random rays on a 20k-triangle mesh.
+#: What every build must give bit for bit (PATH: the .npz written, THREADS: compared with one thread): each suite
+#: scene x strategy x integrator at 16x12, 4 spp; a 64x48 ``cornell_box`` rendered with 1 and THREADS threads; the
+#: closest hits of 4096 random rays on a 20k-triangle mesh.
 AGREEMENT_SCRIPT = """
 import numpy as np
 import reference_tracer as rt
@@ -78,8 +70,8 @@ out["rays/t"], out["rays/prim"] = np.asarray(hits["t"]), np.asarray(hits["prim"]
 np.savez(PATH, **out)
 """
 
-# A worker's loop: call the function named in each request with its arguments (pickled) and
-# answer (True, result) or (False, traceback). Its stdout carries the answers alone.
+# A worker's loop: call the function each request names with its (pickled) arguments, answer (True, result) or (False,
+# traceback). Its stdout carries the answers alone.
 _SERVE = """
 import importlib, pickle, traceback
 answers, sys.stdout = sys.stdout.buffer, sys.stderr
@@ -109,13 +101,11 @@ def cpu_flags() -> frozenset:
 
 
 def build_core(build_dir: Path, *cmake_args: str, cxx: str | None = None, jobs: int = 2) -> Path:
-    """Configure and build the ``_core`` target into ``build_dir``; return the module's path.
+    """Configure and build the ``_core`` target into ``build_dir`` (brought up to date if built before); the module.
 
-    ``cmake_args`` are extra CMake arguments (``-DRT_NATIVE=OFF``, ``-DRT_PACK_WIDTH=8``,
-    ``-DCMAKE_CXX_FLAGS=...``); ``cxx`` names the C++ compiler (None: CMake's choice). About
-    a minute on two cores; a folder built before is brought up to date. Raises
-    ``FileNotFoundError`` where cmake is missing and ``RuntimeError`` (with the end of the
-    log) where a step fails.
+    ``cmake_args``: extra CMake arguments (``-DRT_NATIVE=OFF``, ``-DRT_PACK_WIDTH=8``, ...); ``cxx``: the C++ compiler
+    (None: CMake's). About a minute on two cores. ``FileNotFoundError`` without cmake, ``RuntimeError`` (with the
+    log's end) where a step fails.
     """
     if shutil.which("cmake") is None:
         raise FileNotFoundError("cmake is not installed")
@@ -132,19 +122,13 @@ def build_core(build_dir: Path, *cmake_args: str, cxx: str | None = None, jobs: 
 
 
 def isa_folder(isa: str, cache) -> Path:
-    """Where :func:`build_isa` builds ``isa`` for this checkout: under the cache root ``cache``
-    (``cores/<isa>-<hash of the checkout's path>``), kept between runs."""
-    tag = hashlib.sha256(str(ROOT).encode()).hexdigest()[:8]
-    return Path(cache).expanduser() / "cores" / f"{isa}-{tag}"
+    """The folder of this checkout's build for ``isa`` under the cache root, kept between runs."""
+    return Path(cache).expanduser() / "cores" / f"{isa}-{hashlib.sha256(str(ROOT).encode()).hexdigest()[:8]}"
 
 
 def build_isa(isa: str, build_dir: Path, *, jobs: int = 2) -> Path:
-    """Build the core for ``isa`` (a key of :data:`ISAS`: ``-march`` its level, not native)
-    into ``build_dir``; return the module's path.
-
-    Raises ``ValueError`` where this CPU cannot run such a build (a flag of the level missing
-    from /proc/cpuinfo), else as :func:`build_core`.
-    """
+    """Build the core for ``isa`` (``-march`` its level of :data:`ISAS`) into ``build_dir``; the module's path.
+    ``ValueError`` where this CPU cannot run it (a flag missing from /proc/cpuinfo), else as :func:`build_core`."""
     if isa not in ISAS:
         raise ValueError(f"unknown instruction set {isa!r}; choose from {', '.join(ISAS)}")
     march, needs = ISAS[isa]
@@ -156,11 +140,8 @@ def build_isa(isa: str, build_dir: Path, *, jobs: int = 2) -> Path:
 
 
 def run_with_core(module: Path, script: str, **values) -> str:
-    """Run ``script`` in a fresh interpreter whose core is ``module``; return its stdout.
-
-    Each ``values`` key in the script is replaced by the value's repr. Raises
-    ``RuntimeError`` with the script's stderr where it fails.
-    """
+    """Run ``script`` in a fresh interpreter whose core is ``module``, each ``values`` key in it replaced by the
+    value's repr; its stdout. ``RuntimeError`` with the script's stderr where it fails."""
     body = script
     for key, value in values.items():
         body = body.replace(key, repr(value))
@@ -172,16 +153,14 @@ def run_with_core(module: Path, script: str, **values) -> str:
 
 
 def agreement_arrays(module: Path, path: Path, *, threads: int = 2):
-    """The arrays of :data:`AGREEMENT_SCRIPT` rendered by ``module``, saved to ``path``
-    (``.npz``) and loaded (a mapping of name to array)."""
+    """The arrays of :data:`AGREEMENT_SCRIPT` rendered by ``module``, saved to ``path`` (``.npz``) and loaded."""
     run_with_core(module, AGREEMENT_SCRIPT, PATH=str(path), THREADS=int(threads))
     return np.load(path)
 
 
 def build_target(build_dir: Path) -> str:
-    """What a build targeted: the macros simd.h reads (AVX2, FMA, AVX-512), from the build's
-    own compiler and flags (CMake's cache and ``flags.make``), and the pack width they give
-    (``RT_PACK_WIDTH`` where set, else simd.h's rule: 8 with AVX-512, 4 otherwise)."""
+    """What a build targeted: the macros simd.h reads (AVX2, FMA, AVX-512) from the build's own compiler and flags,
+    and the pack width they give (``RT_PACK_WIDTH`` where set, else 8 with AVX-512, 4 otherwise)."""
     build_dir = Path(build_dir)
     flags_file = (build_dir / "CMakeFiles" / "_core.dir" / "flags.make").read_text()
     fields = dict(line.split(" = ", 1) for line in flags_file.splitlines() if " = " in line)
@@ -198,19 +177,9 @@ def build_target(build_dir: Path) -> str:
 
 
 class CoreWorker:
-    """A persistent interpreter whose core is ``module``, calling functions on request.
-
-    ``worker("package.module.function", *args, **kwargs)`` calls that function there and
-    returns its result (arguments and result pickled); ``RuntimeError`` with the worker's
-    traceback or stderr where the call fails or the worker stops. A context manager.
-
-    Examples
-    --------
-    >>> from reference_tracer.build import core_path
-    >>> with CoreWorker(core_path()) as worker:  # doctest: +SKIP
-    ...     worker("reference_tracer.build.core_path") == core_path()
-    True
-    """
+    """A persistent interpreter whose core is ``module`` (a context manager): ``worker("pkg.module.function", *args,
+    **kwargs)`` calls that function there and returns its result (both pickled); ``RuntimeError`` with the worker's
+    traceback or stderr where the call fails or the worker stops."""
 
     def __init__(self, module):
         self.module = Path(module)
@@ -246,15 +215,13 @@ class CoreWorker:
         self._stderr.close()
 
 
-def paired_times(modules, requests: dict, *, rounds: int = 40) -> dict:
+def paired_times(modules, requests: dict, *, rounds: int = 40, seconds=float) -> dict:
     """Times of several core builds, paired: ``{key: [[seconds of each module] per round]}``.
 
-    ``requests`` maps a key to ``(function, kwargs)``: a function (:func:`.render.render_seconds`,
-    :func:`.rays.query_seconds`) that a :class:`CoreWorker` of each module calls and that returns
-    seconds. One worker per module, one call at a time (never two at once), each round
-    starting with the next module, after one untimed call each. Calls a fraction of a second
-    apart see the same machine, so the per-round ratios cancel the slow drifts of a shared VM
-    that separate timed processes do not (PERFORMANCE.md, How to measure).
+    ``requests`` maps a key to ``(function, kwargs)``, a function a :class:`CoreWorker` of each module calls, whose
+    answer ``seconds`` turns into seconds. One call at a time, each round starting with the next module, after an
+    untimed call each: calls a fraction of a second apart see the same machine, so the per-round ratios cancel the
+    drifts of a shared VM that separate processes do not (PERFORMANCE.md, How to measure).
     """
     if rounds < 1:
         raise ValueError("rounds must be at least 1")
@@ -269,7 +236,7 @@ def paired_times(modules, requests: dict, *, rounds: int = 40) -> dict:
                 row = [0.0] * len(workers)
                 for j in range(len(workers)):
                     k = (r + j) % len(workers)
-                    row[k] = workers[k](function, **kwargs)
+                    row[k] = seconds(workers[k](function, **kwargs))
                 times[key].append(row)
         return times
 

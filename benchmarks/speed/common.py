@@ -1,9 +1,8 @@
 """What every speed measurement shares: timing, robust summaries, machine identity, Mitsuba variants.
 
-Every timed call records wall time and process CPU time (all threads of this process,
-Dr.Jit's included): on a shared machine wall-clock figures are noisy, and ``cpu/wall`` below
-the thread count shows contention or idle workers. Rounds are summarised by their median and
-its distribution-free interval from order statistics (:func:`median_order_interval`).
+Every timed call records wall and process CPU time (all threads, Dr.Jit's included): on a shared machine wall-clock
+figures are noisy, and ``cpu/wall`` below the thread count shows contention or idle workers. Rounds are summarised by
+their median and its distribution-free interval from order statistics (:func:`median_order_interval`).
 """
 from __future__ import annotations
 
@@ -32,8 +31,8 @@ WALL_CLOCK_NOTE = ("wall-clock figures are noisy when the machine is shared (oth
 
 
 def name_list(name, values, allowed=None) -> list:
-    """``values`` (a sequence or a comma-separated string) as a list of distinct names;
-    ``ValueError`` naming ``name`` when it is empty, has duplicates or a name outside ``allowed``.
+    """``values`` (a sequence or a comma-separated string) as a list of distinct names; ``ValueError`` naming ``name``
+    when it is empty, has duplicates or a name outside ``allowed``.
 
     >>> name_list("kinds", "primary,random", ("primary", "random"))
     ['primary', 'random']
@@ -51,7 +50,7 @@ def name_list(name, values, allowed=None) -> list:
     return values
 
 
-def _finite(xs) -> list:
+def _finite(xs) -> list:   # None, NaN and infinities left out
     return [x for x in xs if x is not None and math.isfinite(x)]
 
 
@@ -77,10 +76,9 @@ def spread(xs) -> float:
 
 
 def median_coverage(n: int, k: int) -> float:
-    """Coverage of ``[x_(k), x_(n+1-k)]``, the k-th lowest and k-th highest of ``n`` independent
-    draws, as a confidence interval for their median: ``1 - 2 P(Binomial(n, 1/2) <= k - 1)``
-    (exact for a continuous distribution, a lower bound otherwise). ``ValueError`` unless
-    ``1 <= k <= (n + 1) / 2``.
+    """Coverage of ``[x_(k), x_(n+1-k)]``, the k-th lowest and highest of ``n`` independent draws, as a confidence
+    interval for their median: ``1 - 2 P(Binomial(n, 1/2) <= k - 1)`` (exact for a continuous distribution, else a
+    lower bound). ``ValueError`` unless ``1 <= k <= (n + 1) / 2``.
 
     >>> median_coverage(5, 1), median_coverage(9, 2)
     (0.9375, 0.9609375)
@@ -106,18 +104,15 @@ def rounds_for_coverage(coverage: float = 0.90) -> int:
 
 
 def median_order_interval(values, *, coverage: float = 0.90) -> dict:
-    """Median of the finite ``values`` and a distribution-free confidence interval for it.
-
-    The interval is ``[x_(k), x_(n+1-k)]`` of the ``n`` sorted finite values with the largest
-    ``k`` whose :func:`median_coverage` is at least ``coverage``: valid for any distribution
-    of independent values (for paired rounds, of the per-round ratio), in few rounds.
+    """Median of the finite ``values`` and a distribution-free confidence interval for it: ``[x_(k), x_(n+1-k)]`` of
+    the ``n`` sorted values with the largest ``k`` whose :func:`median_coverage` is at least ``coverage``, valid for
+    any distribution of independent values (of paired rounds' ratios), in few rounds.
 
     Returns
     -------
     dict
-        ``median`` (NaN when no value is finite), ``rounds`` (finite values counted), ``low``,
-        ``high``, ``coverage`` (the interval's own) and ``rank`` (``k``), all four None with
-        fewer rounds than ``rounds_needed`` (:func:`rounds_for_coverage`).
+        ``median`` (NaN without a finite value), ``rounds`` (finite values), ``low``, ``high``, ``coverage`` (the
+        interval's own) and ``rank`` (``k``), all four None below ``rounds_needed`` (:func:`rounds_for_coverage`).
 
     Examples
     --------
@@ -157,8 +152,8 @@ def environment() -> dict:
 
 
 def use_variant(variant, threads=None):
-    """Select ``variant`` (and Dr.Jit's thread count when given); ``(mitsuba, drjit)``.
-    ``RuntimeError`` or ``ValueError`` when the variant does not work here."""
+    """Select ``variant`` (and Dr.Jit's thread count); ``(mitsuba, drjit)``. ``RuntimeError`` or ``ValueError`` where
+    it does not work here."""
     select_variant(variant)
     import drjit as dr
     import mitsuba as mi
@@ -169,9 +164,8 @@ def use_variant(variant, threads=None):
 
 
 def available_variants(variants, log):
-    """The working subset of ``variants`` and ``{variant: reason}`` for the rest (not
-    compiled in, no usable libLLVM); LLVM ones are selected first, since Dr.Jit reads the
-    libLLVM path when it is first imported."""
+    """The working subset of ``variants`` and ``{variant: reason}`` for the rest; LLVM ones are tried first, since
+    Dr.Jit reads the libLLVM path when it is first imported."""
     ok, skipped = [], {}
     for v in sorted(variants, key=lambda v: not v.startswith("llvm")):
         try:
@@ -207,8 +201,8 @@ def mitsuba_render_fn(mi, mscene, spp, seed):
 
 
 def load_mitsuba(variant, scene, threads, *, check_merge=True):
-    """Load ``scene`` in ``variant`` with ``threads`` Dr.Jit threads; ``(mscene, load_seconds)``.
-    ``check_merge`` turns Mitsuba's mesh merging off where it would flip normals."""
+    """``(Mitsuba scene, load seconds)`` of ``scene`` in ``variant`` with ``threads`` Dr.Jit threads; ``check_merge``
+    turns Mitsuba's mesh merging off where it would flip normals."""
     mi, _ = use_variant(variant, threads)
     kwargs = {"optimize": mesh_merge_safe(scene)} if check_merge else {}
     mscene, load, _ = timed(lambda: mi.load_dict(to_mitsuba(scene), **kwargs))

@@ -1,9 +1,8 @@
-"""The ray-casting benchmark: closest-hit queries, ours vs Mitsuba (Embree), on the same rays.
+"""The ray-casting benchmark: closest hits, ours vs Mitsuba (Embree), on the same rays.
 
-:func:`ray_benchmark` casts primary (camera) and random rays at a generated bumpy torus
-(:func:`torus_mesh`): ours (``core_scene(...).intersect``, and any other ``builds`` of our
-core) against Mitsuba's ``ray_intersect_preliminary`` (Embree) on the same rays, generated in
-float32; Mrays/s, paired per round, with hit agreement (:func:`hit_agreement`) and build times.
+:func:`ray_benchmark` casts primary (camera) and random rays, made in float32, at a bumpy torus (:func:`torus_mesh`):
+ours (``core_scene(...).intersect``, and other ``builds`` of our core) against Mitsuba's
+``ray_intersect_preliminary``, paired per round; hit agreement (:func:`hit_agreement`) and build times beside.
 
 Examples
 --------
@@ -28,17 +27,16 @@ from .common import (check_jit_variant, environment, load_mitsuba, median, mitsu
                      use_variant)
 
 __all__ = ["ray_benchmark", "torus_mesh", "mesh_scene", "primary_rays", "random_rays", "intersect_ours",
-           "intersect_mitsuba", "hit_agreement", "query_torus", "query_seconds", "RAY_KINDS"]
+           "intersect_mitsuba", "hit_agreement", "query_torus", "RAY_KINDS"]
 
 #: the ray sets: camera rays toward the torus, and incoherent rays around it.
 RAY_KINDS = ("primary", "random")
 
 
 def torus_mesh(triangles: int, *, seed: int = 0):
-    """A closed, bumpy torus of about ``triangles`` (>= 32) triangles: ``(vertices (V, 3)
-    float64, faces (F, 3) int64)``, major radius 1, minor 0.35, faces counter-clockwise seen
-    from outside. The tube's radius carries smooth bumps and a small random jitter, and the
-    vertices are rounded to float32, so that ours and Mitsuba see the very same geometry.
+    """A closed, bumpy torus of about ``triangles`` (>= 32) triangles: ``(vertices (V, 3) float64, faces (F, 3)
+    int64)``, radii 1 and 0.35 with smooth bumps and jitter, faces counter-clockwise seen from outside, vertices
+    rounded to float32 so that ours and Mitsuba see the very same geometry.
 
     >>> v, f = torus_mesh(1000)
     >>> len(f), v.dtype.name
@@ -63,21 +61,21 @@ def torus_mesh(triangles: int, *, seed: int = 0):
 _CAM = {"lookfrom": (0.0, -3.0, 2.0), "lookat": (0.0, 0.0, 0.0), "vup": (0.0, 0.0, 1.0), "vfov": 40.0}
 
 
-def mesh_scene(triangles: int, *, seed: int = 0, width: int = 64, height: int = 64, lit: bool = False):
-    """A ``reference_tracer.Scene`` holding one grey Lambertian :func:`torus_mesh`; ``lit=True``
-    adds a white background (a constant emitter) for renders of it.
+def mesh_scene(triangles: int, *, seed: int = 0, lit: bool = False):
+    """A 64x64 ``reference_tracer.Scene`` of one grey Lambertian :func:`torus_mesh`; ``lit=True`` adds a white
+    background (a constant emitter) for renders of it.
 
     >>> len(mesh_scene(1000).shapes)
     1
     """
     v, f = torus_mesh(triangles, seed=seed)
-    return rt.Scene(camera=rt.Camera(width=width, height=height, **_CAM), shapes=[rt.Mesh(v, f, rt.Lambertian(0.5))],
+    return rt.Scene(camera=rt.Camera(width=64, height=64, **_CAM), shapes=[rt.Mesh(v, f, rt.Lambertian(0.5))],
                     max_depth=8, background=(1.0, 1.0, 1.0) if lit else (0.0, 0.0, 0.0))
 
 
 def primary_rays(count: int, *, seed: int = 0):
-    """About ``count`` pinhole-camera rays (a jittered pixel grid, row after row) at the
-    torus: float32 ``(origins, directions)`` of shape (N, 3), directions of unit length.
+    """``count`` pinhole-camera rays (a jittered pixel grid, row after row) at the torus: float32 ``(origins,
+    directions)`` of shape (N, 3), directions of unit length.
 
     >>> o, d = primary_rays(100)
     >>> o.shape, o.dtype.name
@@ -101,8 +99,8 @@ def primary_rays(count: int, *, seed: int = 0):
 
 
 def random_rays(count: int, *, seed: int = 0):
-    """Incoherent rays: origins uniform in a box around the torus, directions uniform; float32
-    ``(origins, directions)`` of shape (N, 3).
+    """Incoherent rays: origins uniform in a box around the torus, directions uniform; float32 as
+    :func:`primary_rays`.
 
     >>> o, d = random_rays(10)
     >>> bool(np.allclose(np.linalg.norm(d, axis=1), 1, atol=1e-6))
@@ -120,17 +118,10 @@ _MAKE = {"primary": primary_rays, "random": random_rays}
 
 
 def intersect_ours(core, origins, directions, *, threads: int = 1, repeats: int = 3, preliminary: bool = False):
-    """Time ``core.intersect`` (closest hit) ``repeats`` times on the same rays; with
-    ``preliminary=True`` the distance and primitive only (as Mitsuba's
-    ``ray_intersect_preliminary``), else the hit point and normal too.
-
-    Returns
-    -------
-    dict
-        ``t`` (inf on a miss), ``prim``, ``seconds`` (the query's own wall time, GIL released),
-        ``call_seconds`` and ``process_seconds`` (lists, one per repeat), ``packet_fraction``
-        (the share of rays traced as coherent packets).
-    """
+    """Time ``core.intersect`` (closest hit) ``repeats`` times on the same rays: with ``preliminary=True`` distance
+    and primitive only (as Mitsuba's ``ray_intersect_preliminary``), else hit point and normal too. A dict: ``t`` (inf
+    on a miss), ``prim``, lists ``seconds`` (the query's own), ``call_seconds`` and ``process_seconds``, and
+    ``packet_fraction`` (the share of rays traced as coherent packets)."""
     o = np.ascontiguousarray(origins, dtype=np.float64)
     d = np.ascontiguousarray(directions, dtype=np.float64)
     secs, calls, cpus, out = [], [], [], None
@@ -147,9 +138,8 @@ _KEPT = {}   # a worker's meshes and rays, kept between calls: each is made once
 
 
 def query_torus(triangles: int, *, kind: str, rays: int, seed: int = 0, threads: int = 1, preliminary: bool = True):
-    """:func:`intersect_ours` once on ``rays`` rays of ``kind`` at the torus of ``triangles``
-    triangles (as :func:`ray_benchmark` makes them); mesh and rays are kept for the next call
-    (in a :class:`.builds.CoreWorker`, which calls it)."""
+    """:func:`intersect_ours` once on ``rays`` rays of ``kind`` at the torus of ``triangles`` triangles, as
+    :func:`ray_benchmark` makes them; kept for the next call (of a :class:`.builds.CoreWorker`)."""
     if (triangles, seed) not in _KEPT:
         _KEPT[triangles, seed] = core_scene(mesh_scene(triangles, seed=seed))
     if (kind, rays, seed) not in _KEPT:
@@ -158,40 +148,17 @@ def query_torus(triangles: int, *, kind: str, rays: int, seed: int = 0, threads:
                           preliminary=preliminary)
 
 
-def query_seconds(triangles: int, *, kind: str, rays: int) -> float:
-    """Wall seconds of one like-for-like query (1 thread) of :func:`query_torus` (``scripts/ab_cores.py``)."""
-    return query_torus(triangles, kind=kind, rays=rays)["call_seconds"][0]
-
-
 def intersect_mitsuba(mscene, origins, directions, *, repeats: int = 3):
-    """Time Mitsuba's ``ray_intersect_preliminary`` on the active variant.
-
-    With a JIT variant the rays are built and evaluated untimed, one untimed call compiles
-    the kernel, then each timed call is ``ray_intersect_preliminary`` + ``dr.eval`` +
-    ``dr.sync_thread()`` on Dr.Jit's threads. A scalar variant casts one Python call a ray,
-    for agreement checks only: nothing is timed (``seconds`` empty).
-
-    Returns
-    -------
-    dict
-        ``t`` (inf on a miss), ``prim``, ``seconds``, ``process_seconds`` (lists),
-        ``first_call_seconds`` (the compiling call).
-    """
+    """Time Mitsuba's ``ray_intersect_preliminary`` on the active JIT variant: rays built untimed, an untimed call
+    compiles the kernel, then each timed call is the query + ``dr.eval`` + ``dr.sync_thread()`` on Dr.Jit's threads. A
+    dict: ``t`` (inf on a miss), ``prim``, lists ``seconds`` and ``process_seconds``, ``first_call_seconds``."""
     import drjit as dr
     import mitsuba as mi
 
-    if mi.variant() is None:
-        raise ValueError("no Mitsuba variant is active")
+    if not str(mi.variant()).startswith(("llvm", "cuda")):
+        raise ValueError(f"a JIT Mitsuba variant must be active, not {mi.variant()}")
     o = np.ascontiguousarray(origins, dtype=np.float32)
     d = np.ascontiguousarray(directions, dtype=np.float32)
-    if mi.variant().startswith("scalar"):
-        t = np.full(len(o), np.inf)
-        prim = np.full(len(o), -1, dtype=np.int64)
-        for i in range(len(o)):
-            pi = mscene.ray_intersect_preliminary(mi.Ray3f(mi.Point3f(*o[i].tolist()), mi.Vector3f(*d[i].tolist())))
-            if math.isfinite(float(pi.t)) and float(pi.t) < 1e30:
-                t[i], prim[i] = float(pi.t), int(pi.prim_index)
-        return {"t": t, "prim": prim, "seconds": [], "process_seconds": [], "first_call_seconds": None}
 
     def query(ray):
         pi = mscene.ray_intersect_preliminary(ray, coherent=False)
@@ -219,18 +186,11 @@ def intersect_mitsuba(mscene, origins, directions, *, repeats: int = 3):
 
 
 def hit_agreement(t_a, t_b, *, rtol: float = 1e-4) -> dict:
-    """Agreement of two closest-hit results (hit distances, inf on a miss) on the same rays.
+    """Agreement of two closest-hit results (hit distances, inf on a miss) on the same rays: ``hit_agreement`` (the
+    fraction whose hit/miss agree), ``hit_fraction_a`` / ``_b``, ``t_agreement`` (the fraction hit by both whose
+    distances agree within ``rtol``), ``t_rel_median`` and ``t_rel_max`` over those, ``both_hit``, ``rays``,
+    ``t_rtol``.
 
-    Returns
-    -------
-    dict
-        ``hit_agreement`` (fraction of rays whose hit/miss agree), ``hit_fraction_a`` /
-        ``_b``, ``t_agreement`` (fraction of the rays hit by both whose distances agree within
-        ``rtol``), ``t_rel_median`` and ``t_rel_max`` (relative differences over them),
-        ``both_hit`` (count), ``rays``, ``t_rtol``.
-
-    Examples
-    --------
     >>> hit_agreement(np.array([1.0, np.inf, 2.0]), np.array([1.0, np.inf, np.inf]))["hit_agreement"]
     0.6666666666666666
     """
@@ -257,28 +217,23 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
     triangles : sequence of int, keyword-only
         Mesh sizes (:func:`torus_mesh`).
     rays, threads, repeats : int, keyword-only
-        Rays per kind; threads of both sides; timed queries per side, interleaved.
+        Rays per kind; threads of either side; timed queries per side, interleaved.
     kinds : sequence of {'primary', 'random'}, keyword-only
     variant : str or None, keyword-only
         Mitsuba JIT variant; None (or one that does not work here) measures ours only.
     builds : mapping of str to path, keyword-only
-        Other builds of our core (name: module, :mod:`.builds`), each querying the same rays
-        in a worker process in the same rounds; their rows carry ``build``.
+        Other builds of our core (name: module), each querying in a worker process in the same rounds.
 
     Returns
     -------
     dict
-        ``config``, ``environment``, ``mitsuba`` and ``rows``: per mesh, kind and build
-        (``build`` None: the installed core), ``requested_triangles`` (``triangles`` is the
-        mesh's own count), ``ours_mrays_per_second`` (distance and primitive, as Mitsuba's
-        preliminary intersection; timed from the Python call to its return as Mitsuba's side
-        is; ``ours_query_seconds`` the query's own time) and ``ours_full_mrays_per_second``
-        (with hit point and normal), ``mitsuba_mrays_per_second``, ``ratio`` and
-        ``ratio_full`` (ours / Mitsuba, median of the paired per-round ratios: ``round_ratios``,
-        ``round_ratios_full``, their range ``ratio_min`` ... ``ratio_full_max``), CPU-time
-        figures, agreement (``agree_*``: :func:`hit_agreement`), our build's
-        ``build_seconds``, ``build_seconds_per_mtri`` and ``bvh_depth``, Mitsuba's
-        ``mitsuba_load_seconds`` and ``mitsuba_first_call_seconds``.
+        ``config``, ``environment``, ``mitsuba`` and ``rows``, per mesh, kind and ``build`` (None: the installed
+        core): ``requested_triangles`` and ``triangles``, ``ours_mrays_per_second`` (distance and primitive, timed
+        from the Python call to its return as Mitsuba's side is; ``ours_query_seconds`` the query's own) and
+        ``ours_full_mrays_per_second`` (hit point and normal too), ``mitsuba_mrays_per_second``, ``ratio`` and
+        ``ratio_full`` (ours / Mitsuba, median of the paired rounds' ``round_ratios`` / ``round_ratios_full``, their
+        range ``ratio_min`` ... ``ratio_full_max``), CPU-time figures, agreement (``agree_*``), our tree's
+        ``build_seconds``, ``build_seconds_per_mtri``, ``bvh_depth``, Mitsuba's ``mitsuba_load_seconds``.
     """
     sizes = [positive_int("triangles", t, minimum=32)
              for t in (triangles if not isinstance(triangles, (int, np.integer)) else [triangles])]
@@ -331,17 +286,15 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
 
 
 def _ray_rows(sides, mscene, o, d, *, repeats, variant, threads) -> list:
-    """``repeats`` interleaved rounds, one timed query per side and kind of query; one row per side.
-
-    ``sides`` maps each build (None: the installed core) to a function of ``preliminary``
-    returning :func:`intersect_ours`'s output; ``mscene`` None measures ours only.
-    """
+    """``repeats`` interleaved rounds of a timed query per side (``sides``: build -> function of ``preliminary``
+    returning :func:`intersect_ours`'s output), full and like for like, and of Mitsuba's unless ``mscene`` is None; a
+    row per side."""
     got = {side: ([], []) for side in sides}   # like-for-like and full queries, a round each
     theirs = []
     for _ in range(repeats):
-        # Timed from the Python call to its return, as Mitsuba's side is: the query's own time
-        # leaves out allocating and handing over our output arrays (0.5-1.4% of the
-        # like-for-like query on 1M triangles, up to 28% of the full one).
+        # Timed from the Python call to its return, as Mitsuba's side is: the query's own time leaves out allocating
+        # and handing over our output arrays (0.5-1.4% of the like-for-like query on 1M triangles, up to 28% of the
+        # full one).
         for side, query in sides.items():
             got[side][0].append(query(preliminary=True))
             got[side][1].append(query(preliminary=False))

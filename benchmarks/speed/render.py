@@ -1,12 +1,11 @@
 """The paired render benchmark: ours vs Mitsuba's ``path`` integrator, paths/s and error at equal spp.
 
-:func:`render_benchmark` renders each scene with ours (each strategy and integrator, with the
-installed core and any other ``builds`` of it), Mitsuba (each variant) and external renderers
-(:mod:`benchmarks.external`) at the same settings, once per Russian-roulette configuration.
-Each renderer gets an untimed warm-up (Mitsuba's JIT compile is reported apart), then
-``repeats`` rounds run every configuration once, interleaved and alternating who goes first,
-so that a change of machine load hits both sides of a pair alike: a ratio is the median of
-the per-round ratios. PERFORMANCE.md, How to measure.
+:func:`render_benchmark` renders each scene with ours (each strategy and integrator, with the installed core and any
+other ``builds`` of it), Mitsuba (each variant) and external renderers (:mod:`benchmarks.external`) at the same
+settings, once per Russian-roulette configuration. Each renderer gets an untimed warm-up (Mitsuba's JIT compile is
+reported apart), then ``repeats`` rounds run every configuration once, interleaved and alternating who goes first, so
+that a change of machine load hits both sides of a pair alike: a ratio is the median of the per-round ratios.
+PERFORMANCE.md, How to measure.
 
 Examples
 --------
@@ -23,7 +22,6 @@ import functools
 import itertools
 import math
 import resource
-import time
 
 import numpy as np
 
@@ -45,10 +43,10 @@ from .common import (available_variants, environment, load_mitsuba, median, mits
 from .suite import suite_summary
 
 __all__ = ["DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT_RR_DEPTHS", "REFERENCE_KINDS", "render_benchmark",
-           "rr_label", "render_timed", "render_seconds"]
+           "rr_label", "render_timed"]
 
-#: our strategies in run order: the unbiased ones from ``mis`` (matched to Mitsuba's ``path``)
-#: down to the plainest, then the biased ``light``.
+#: our strategies in run order: the unbiased ones from ``mis`` (matched to Mitsuba's ``path``) down to the plainest,
+#: then the biased ``light``.
 DEFAULT_STRATEGIES = (tuple(reversed(UNBIASED_STRATEGIES))
                       + tuple(s for s in STRATEGIES if s not in UNBIASED_STRATEGIES))
 #: Mitsuba variants compared against, the bar first.
@@ -83,34 +81,31 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
     max_depth : int or None, keyword-only
         Override the scenes' ``max_depth`` (None keeps it; the suite's is 50).
     rr_depths : sequence of (int, None or 'scene'), keyword-only
-        Russian-roulette configurations, each measured apart: the depth roulette starts at,
-        None for none, ``'scene'`` for the scene's own.
+        Russian-roulette configurations, each measured apart: the depth roulette starts at, None for none, ``'scene'``
+        for the scene's own.
     reference : {'mitsuba', 'ours'}, keyword-only
-        Error reference: ``benchmarks.references.reference`` (cached; rendered once if
-        missing) or a fresh ``mis`` render of ours; the efficiency uses the MSE with the
-        reference's own noise removed (``metrics.mse_corrected``).
+        Error reference: ``benchmarks.references.reference`` (cached; rendered once if missing) or a fresh ``mis``
+        render of ours; the efficiency uses the MSE with the reference's own noise removed
+        (``metrics.mse_corrected``).
     reference_spp, seed : int, keyword-only
         The reference's spp (> ``spp``); round ``r`` renders ours with seed ``seed + r``.
     cache, log : keyword-only
         Reference cache root; a callable taking progress lines.
     externals : sequence of benchmarks.external.ExternalRenderer, keyword-only
-        External renderers timed in the same rounds (their wall clock includes process
-        start and scene loading).
+        External renderers timed in the same rounds (their wall clock includes process start and scene loading).
     builds : mapping of str to path, keyword-only
-        Other builds of our core (name: module, :mod:`.builds`) rendering every strategy and
-        integrator in the same rounds, each in a worker process; rows labelled
-        ``ours <strategy>, <name> build``.
+        Other builds of our core (name: module, :mod:`.builds`) rendering every strategy and integrator in the same
+        rounds, each in a worker process; rows labelled ``ours <strategy>, <name> build``.
 
     Returns
     -------
     dict
-        ``config``, ``environment``, ``mitsuba`` (versions; load and compile seconds per
-        scene and configuration), ``skipped_variants``, ``available_variants``,
-        ``references``, ``runs`` (one record per timed render), ``summary`` (one row per
-        scene, configuration and renderer: medians over rounds, and for ours and external
-        renderers ``ratio``, ``cpu_ratio``, ``efficiency_ratio``, ``round_ratios`` and
-        ``round_efficiency_ratios``, each suffixed ``_<variant>``), ``suite``
-        (:func:`.suite_summary` of the installed core) and ``build_suites`` (of each build).
+        ``config``, ``environment``, ``mitsuba`` (versions; load and compile seconds per scene and configuration),
+        ``skipped_variants``, ``available_variants``, ``references``, ``runs`` (one record per timed render),
+        ``summary`` (one row per scene, configuration and renderer: medians over rounds, and for ours and external
+        renderers ``ratio``, ``cpu_ratio``, ``efficiency_ratio``, ``round_ratios`` and ``round_efficiency_ratios``,
+        each suffixed ``_<variant>``), ``suite`` (:func:`.suite_summary` of the installed core) and ``build_suites``
+        (of each build).
     """
     config = _render_config(scenes, width=width, height=height, spp=spp, threads=threads, repeats=repeats,
                             strategies=strategies, integrators=integrators, variants=variants,
@@ -194,15 +189,6 @@ def render_timed(scene, *, key=None, **render_args):
     return timed(lambda: rt.render(scene, **render_args))
 
 
-def render_seconds(scene: str, *, spp: int, size: int) -> float:
-    """Wall seconds of one render of suite ``scene`` (``scripts/ab_cores.py``): ``size`` x
-    ``size``, ``mis``, wavefront, roulette from depth 5 (Mitsuba's default), 1 thread."""
-    built = get_scene(scene, width=size, height=size, max_depth=50, rr_depth=5)
-    t0 = time.perf_counter()
-    render_timed(built, key=(scene, size), spp=spp, strategy="mis", seed=1, threads=1)
-    return time.perf_counter() - t0
-
-
 def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cache, log, externals, workers):
     """Set up, time and summarise one scene in every Russian-roulette configuration."""
     width, height, spp, threads = config["width"], config["height"], config["spp"], config["threads"]
@@ -258,8 +244,8 @@ def _reference(scene, *, kind, spp, variant, threads, cache, log):
 
 
 def _warm_mitsuba(scene, variants, *, spp, threads, log):
-    """Load ``scene`` in each variant and render it once untimed (JIT compile):
-    ``({variant: Mitsuba scene}, {variant: {load_seconds, warmup_seconds}})``."""
+    """Load ``scene`` in each variant and render it once untimed (JIT compile): ``({variant: Mitsuba scene}, {variant:
+    {load_seconds, warmup_seconds}})``."""
     mscenes, infos = {}, {}
     for v in variants:
         mscenes[v], load = load_mitsuba(v, scene, threads)
@@ -277,9 +263,9 @@ def _ours_label(strategy, integrator, build) -> str:
 
 
 def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, externals, cores) -> dict:
-    """``repeats`` interleaved rounds of every configuration: ``{label: [run, ...]}`` (each run
-    appended to ``runs`` too); ``cores`` maps each build of ours (None: the installed core) to
-    a function rendering the scene and returning ``(result, wall, cpu)``."""
+    """``repeats`` interleaved rounds of every configuration: ``{label: [run, ...]}`` (each run appended to ``runs``
+    too); ``cores`` maps each build of ours (None: the installed core) to a function rendering the scene and returning
+    ``(result, wall, cpu)``."""
     spp, threads, seed = config["spp"], config["threads"], config["seed"]
     width, height, repeats = config["width"], config["height"], config["repeats"]
     ours = [(b, s, i) for b in cores for s in config["strategies"] for i in config["integrators"]]
@@ -330,9 +316,8 @@ def _children_cpu() -> float:
 
 
 def _run_record(mean, secs, spp, *, wall, cpu, ref, rays, nonfinite) -> dict:
-    """The figures of one timed render of image ``mean`` against ``ref``: ``secs`` is the
-    render's own time (ours: the core's), ``wall`` and ``cpu`` the call's, ``rays`` the rays
-    cast (None where not counted)."""
+    """The figures of one timed render of image ``mean`` against ``ref``: ``secs`` is the render's own time (ours: the
+    core's), ``wall`` and ``cpu`` the call's, ``rays`` the rays cast (None where not counted)."""
     paths = mean.shape[0] * mean.shape[1] * spp
     raw = mse(mean, ref.mean)
     corr = mse_corrected(mean, ref.mean, ref.variance, ref.spp)

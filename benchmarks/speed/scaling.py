@@ -1,10 +1,9 @@
 """The scaling benchmark: cost against work, ours beside Mitsuba, so a user sees where each one's cost grows.
 
-:func:`scaling_benchmark` measures paths/s of a suite scene against image size, maximum depth
-and thread count, and against triangle count on a lit torus (with both renderers' build or
-load times and the cost a random ray, fitted as ``a + b ln n`` by :func:`fit_log_growth`: a
-BVH gives logarithmic growth). ``rtbench speed --scaling`` prints the tables and can draw the
-curves as an SVG (``--svg``).
+:func:`scaling_benchmark` measures paths/s of a suite scene against image size, maximum depth and thread count, and
+against triangle count on a lit torus (with both renderers' build or load times and the cost a random ray, fitted as
+``a + b ln n`` by :func:`fit_log_growth`: a BVH gives logarithmic growth). ``rtbench speed --scaling`` prints the
+tables and can draw the curves as an SVG (``--svg``).
 
 Examples
 --------
@@ -49,13 +48,13 @@ def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128, 2
     scene : str, keyword-only
         Suite scene of the image-size, depth and thread sweeps.
     resolutions, depths, thread_counts : sequence of int, keyword-only
-        Square image sizes (at ``threads``); maximum depths and thread counts (at the middle
-        image size, ``threads`` threads for the depths).
+        Square image sizes (at ``threads``); maximum depths and thread counts (at the middle image size, ``threads``
+        threads for the depths).
     spp : int, keyword-only
         Samples per pixel of those sweeps.
     triangles : sequence of int, keyword-only
-        Torus sizes (at least two): random-ray cost (``rays`` rays), build times and paths/s
-        of a lit render of it (``mesh_spp``, 64x64, max_depth 8).
+        Torus sizes (at least two): random-ray cost (``rays`` rays), build times and paths/s of a lit render of it
+        (``mesh_spp``, 64x64, max_depth 8).
     strategy, variant : str, keyword-only
         Our strategy; Mitsuba's JIT variant (None: ours only).
     threads, repeats, seed : int, keyword-only
@@ -63,11 +62,10 @@ def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128, 2
     Returns
     -------
     dict
-        ``config``, ``environment``, rows of ``resolution``, ``depth``, ``threads`` (each with
-        ``resolution``, ``max_depth``, ``threads``, ``spp``, ours' and Mitsuba's paths/s and
-        paths per CPU-second, their ``ratio``; threads' speed-ups over one thread) and
-        ``mesh`` (``triangles``, ``ours_ns_per_ray``, ``build_seconds``, ``bvh_depth``,
-        ``mitsuba_ns_per_ray``, ``mitsuba_load_seconds``, paths/s), and ``fits``
+        ``config``, ``environment``, rows of ``resolution``, ``depth``, ``threads`` (each with ``resolution``,
+        ``max_depth``, ``threads``, ``spp``, ours' and Mitsuba's paths/s and paths per CPU-second, their ``ratio``;
+        threads' speed-ups over one thread) and ``mesh`` (``triangles``, ``ours_ns_per_ray``, ``build_seconds``,
+        ``bvh_depth``, ``mitsuba_ns_per_ray``, ``mitsuba_load_seconds``, paths/s), and ``fits``
         (:func:`fit_log_growth` of the ns a ray on triangle count).
     """
     if scene not in list_scenes():
@@ -115,8 +113,8 @@ def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128, 2
 
 
 def _measure(sc, *, spp, threads, strategy, seed, repeats, variant) -> dict:
-    """Median paths/s (wall and CPU) of ours and, unless ``variant`` is None, Mitsuba on ``sc``:
-    a warm-up render each, then ``repeats`` interleaved rounds."""
+    """Median paths/s (wall and CPU) of ours and, unless ``variant`` is None, Mitsuba on ``sc``: a warm-up render
+    each, then ``repeats`` interleaved rounds."""
     rt.render(sc, spp=1, strategy=strategy, seed=1, threads=threads)   # warm-up (and our tree)
     if variant is not None:
         mscene, _ = load_mitsuba(variant, sc, threads)
@@ -173,14 +171,13 @@ def _mesh_row(n_target, *, rays, mesh_spp, threads, strategy, repeats, seed, var
 
 
 def fit_log_growth(n, cost) -> dict:
-    """Fit ``cost = a + b ln n`` (least squares) and the log-log exponent of ``cost`` on ``n``
-    (a BVH: ``b`` > 0 with a good ``r2`` and an exponent far below 1, linear growth's).
+    """Fit ``cost = a + b ln n`` (least squares) and the log-log exponent of ``cost`` on ``n`` (a BVH: ``b`` > 0 with
+    a good ``r2`` and an exponent far below 1, linear growth's).
 
     Returns
     -------
     dict
-        ``a``, ``b`` (cost per e-fold of ``n``), ``per_doubling`` (``b ln 2``), ``r2``,
-        ``loglog_exponent``.
+        ``a``, ``b`` (cost per e-fold of ``n``), ``per_doubling`` (``b ln 2``), ``r2``, ``loglog_exponent``.
 
     Examples
     --------

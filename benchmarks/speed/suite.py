@@ -1,5 +1,5 @@
-"""The render benchmark's headline: one strategy against each Mitsuba variant, every scene of
-the run and the geometric mean (each scene weighs the same), per Russian-roulette configuration.
+"""The render benchmark's headline: one strategy against each Mitsuba variant, every scene of the run and the
+geometric mean (each scene weighs the same), per Russian-roulette configuration.
 
 Examples
 --------
@@ -38,9 +38,8 @@ def geometric_mean(values) -> float:
 
 
 def round_geometric_means(rounds):
-    """Each round's geometric mean over scenes (``rounds``: one list per scene, round ``k`` at
-    index ``k``): NaN for a round missing or not positive in some scene, None when a scene has
-    no list or the lists differ in length.
+    """Each round's geometric mean over scenes (``rounds``: one list per scene, round ``k`` at index ``k``): NaN for a
+    round missing or not positive in some scene, None when a scene has no list or the lists differ in length.
 
     >>> [round(x, 9) for x in round_geometric_means([[1.0, 2.0, 3.0], [4.0, 8.0, float("nan")]])[:2]]
     [2.0, 4.0]
@@ -58,13 +57,12 @@ def suite_summary(result, *, build=None) -> dict:
     Returns
     -------
     dict
-        ``strategy`` and ``integrator`` (the headline's: the first of each), ``variants`` and
-        ``rows``: per configuration in run order, one row per scene (``configuration``,
-        ``rr_depth``, ``scene``, ``ours_paths_per_second``, ``mitsuba_paths_per_second_<v>``,
-        and ``ratio``, ``cpu_ratio``, ``efficiency_ratio``, ``round_ratios``,
-        ``round_efficiency_ratios``, each suffixed ``_<v>``), then a row with ``scene``
-        :data:`GEOMEAN` and ``scenes`` (their count) holding the geometric means of the
-        ratios and each round's geometric mean over the scenes.
+        ``strategy`` and ``integrator`` (the headline's: the first of each), ``variants`` and ``rows``: per
+        configuration in run order, one row per scene (``configuration``, ``rr_depth``, ``scene``,
+        ``ours_paths_per_second``, ``mitsuba_paths_per_second_<v>``, and ``ratio``, ``cpu_ratio``,
+        ``efficiency_ratio``, ``round_ratios``, ``round_efficiency_ratios``, each suffixed ``_<v>``), then a row with
+        ``scene`` :data:`GEOMEAN` and ``scenes`` (their count) holding the geometric means of the ratios and each
+        round's geometric mean over the scenes.
     """
     strategy = result["config"]["strategies"][0]
     integrator = result["config"].get("integrators", ["wavefront"])[0]

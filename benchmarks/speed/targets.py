@@ -1,12 +1,10 @@
 """The speed targets (issue 44, :data:`TARGETS`) and their verdicts, judged from a run's own results.
 
-Each target is judged on the median of the paired rounds' ratios (for the suite's geometric
-mean, of each round's geometric mean) and its distribution-free 90% interval
-(:func:`.common.median_order_interval`): ``met`` or ``not met``, ``clearly`` where the whole
-interval lies on that side of the threshold, ``within noise`` where it straddles it; ``not
-judged``, with the reason, where the run did not measure what the target needs. Each build of
-the run (:mod:`.builds`) is judged apart. The wording and rules: PERFORMANCE.md, Targets and
-verdicts.
+Each target is judged on the median of the paired rounds' ratios (for the suite's geometric mean, of each round's
+geometric mean) and its distribution-free 90% interval (:func:`.common.median_order_interval`): ``met`` or ``not
+met``, ``clearly`` where the whole interval lies on that side of the threshold, ``within noise`` where it straddles
+it; ``not judged``, with the reason, where the run did not measure what the target needs. Each build of the run
+(:mod:`.builds`) is judged apart. The wording and rules: PERFORMANCE.md, Targets and verdicts.
 
 Examples
 --------
@@ -37,8 +35,8 @@ TARGET_TRIANGLES, TARGET_RAY_KINDS = (100_000, 1_000_000), ("primary", "random")
 
 @dataclasses.dataclass(frozen=True)
 class Target:
-    """One speed target: ours / ``against`` in ``metric`` at least ``threshold``, judged from
-    the ``benchmark`` (``render`` or ``rays``) on ``scope``.
+    """One speed target: ours / ``against`` in ``metric`` at least ``threshold``, judged from the ``benchmark``
+    (``render`` or ``rays``) on ``scope``.
 
     >>> SCENE_PATHS.label("cornell_box")
     'cornell_box paths/s vs Mitsuba llvm_ad_rgb >= 1.5x'
@@ -96,17 +94,15 @@ def not_judged(target: Target, subject: str, reason: str, *, build=None) -> dict
 
 def judge(target: Target, subject: str, round_ratios, *, coverage: float = COVERAGE,
           no_rounds: str = "no round gave a finite ratio", build=None) -> dict:
-    """The verdict of ``target`` on ``subject`` (a scene, the geometric mean, a mesh and ray
-    kind; of our ``build``, None for the installed core) from its per-round ratios (ours /
-    theirs; None and non-finite rounds left out).
+    """The verdict of ``target`` on ``subject`` (a scene, the geometric mean, a mesh and ray kind; of our ``build``,
+    None for the installed core) from its per-round ratios (ours / theirs; None and non-finite rounds left out).
 
     Returns
     -------
     dict
-        ``target``, ``benchmark``, ``metric``, ``threshold``, ``against``, ``subject``,
-        ``build``, ``status`` (``met``, ``not met``, ``not judged``), ``clearly`` (None
-        without an interval), ``median``, ``low``, ``high``, ``coverage``, ``rounds``,
-        ``reason`` (why not judged, or why there is no interval) and ``line``.
+        ``target``, ``benchmark``, ``metric``, ``threshold``, ``against``, ``subject``, ``build``, ``status``
+        (``met``, ``not met``, ``not judged``), ``clearly`` (None without an interval), ``median``, ``low``, ``high``,
+        ``coverage``, ``rounds``, ``reason`` (why not judged, or why there is no interval) and ``line``.
 
     Examples
     --------
@@ -135,11 +131,10 @@ def _tag(build) -> str:
 
 
 def render_verdicts(result, *, suite_scenes=None, build=None) -> list:
-    """Verdicts of the render targets on a render-benchmark ``result``, for our ``build``
-    (None: the installed core): per suite scene of the run paths/s then efficiency, then the
-    geometric mean's two when the run covered the whole suite (``suite_scenes``, default
-    ``mitsuba_scenes.list_scenes()``); one ``not judged`` per target where the run cannot
-    judge any, with the reason.
+    """Verdicts of the render targets on a render-benchmark ``result``, for our ``build`` (None: the installed core):
+    per suite scene of the run paths/s then efficiency, then the geometric mean's two when the run covered the whole
+    suite (``suite_scenes``, default ``mitsuba_scenes.list_scenes()``); one ``not judged`` per target where the run
+    cannot judge any, with the reason.
 
     Examples
     --------
@@ -223,10 +218,9 @@ def _size(n: int) -> str:
 
 
 def ray_verdicts(result, *, build=None) -> list:
-    """Verdicts of the ray-casting target on a ray-benchmark ``result``, for our ``build``
-    (None: the installed core): one per configuration of :data:`TARGET_TRIANGLES` x
-    :data:`TARGET_RAY_KINDS` (``not judged`` where the run left it out), or one ``not
-    judged`` where Embree was not timed.
+    """Verdicts of the ray-casting target on a ray-benchmark ``result``, for our ``build`` (None: the installed core):
+    one per configuration of :data:`TARGET_TRIANGLES` x :data:`TARGET_RAY_KINDS` (``not judged`` where the run left it
+    out), or one ``not judged`` where Embree was not timed.
 
     Examples
     --------
@@ -268,8 +262,8 @@ def ray_verdicts(result, *, build=None) -> list:
 
 
 def speed_verdicts(out) -> list:
-    """Every verdict of an ``rtbench speed`` run (``out`` maps ``render`` / ``rays`` / ``scaling``,
-    which has no target, to the results): the installed core's, then each build's.
+    """Every verdict of an ``rtbench speed`` run (``out`` maps ``render`` / ``rays`` / ``scaling``, which has no
+    target, to the results): the installed core's, then each build's.
 
     >>> speed_verdicts({"scaling": {}})
     []

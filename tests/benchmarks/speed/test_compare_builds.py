@@ -84,7 +84,7 @@ def test_paired_times_reports_a_worker_that_cannot_start_or_a_call_that_fails(tm
 
     bogus = tmp_path / "_core.so"
     bogus.write_bytes(b"not a shared object")
-    request = ("benchmarks.speed.render.render_seconds", {"scene": "cornell_box", "spp": 1, "size": 8})
+    request = ("benchmarks.speed.rays.query_torus", {"triangles": 1000, "kind": "random", "rays": 8})
     with pytest.raises(RuntimeError, match=r"the worker of .*_core\.so stopped:(.|\n)*ImportError"):
         paired_times([bogus], {"x": request}, rounds=1)
     with CoreWorker(core_path()) as worker:
