@@ -176,13 +176,9 @@ def render_notes(result):
               for name, template in c.get("externals", {}).items()]
     lines += [f"ours ..., {name} build: our core built for {name} ({module}), in a worker process, in the same rounds"
               for name, module in c.get("builds", {}).items()]
-    return lines + [
-        "ratio = paths/s ours / Mitsuba, paired per round (cpu: the same on process CPU time); rounds = the lowest "
-        "and highest round's ratio (the geometric mean's: of each round's geometric mean over the scenes), the "
-        "noise a median of few rounds carries; Mrays/s is ours only (Mitsuba does not count rays); spread = "
-        "(max-min)/median of paths/s",
-        "configuration: 'rr_depth N' = Russian roulette from depth N in both renderers (5 is Mitsuba's default), "
-        "'no RR' = none; geometric mean = of the per-scene ratios (each scene weighs the same)"]
+    return lines + ["ratio = paths/s ours / Mitsuba, the median of the paired rounds' ratios (cpu: on process CPU time); "
+                    "rounds = the lowest and highest round's; spread = (max-min)/median of paths/s; 'rr_depth N' = "
+                    "roulette from depth N in both; benchmarks/PERFORMANCE.md, Reading the ratios"]
 
 
 def rays_tables(result):
@@ -217,13 +213,10 @@ def rays_tables(result):
 def rays_note(result) -> str:
     from reference_tracer import probe
 
-    return ("ratio = ours / Mitsuba Mrays/s (median of the rounds' paired ratios; range: the lowest and highest "
-            "round); Mitsuba: ray_intersect_preliminary + dr.eval + dr.sync_thread, kernel compiled before timing; "
-            "ours: core_scene(...).intersect(preliminary=True), the same outputs (distance, primitive) on float64 "
-            f"copies of the same rays, timed from the Python call to its return as Mitsuba's (chunks of "
-            f"{probe.RAY_CHUNK} rays a thread; camera rays in tiles of 4 x {probe.PACKET_RAYS // 4}, coherent ones "
-            f"traced as packets of {probe.PACKET_RAYS}, the others 8 at a time interleaved); full: with our hit point "
-            f"and normal; t agree: relative difference <= {result['rows'][0].get('agree_t_rtol', 1e-4):g}")
+    return ("ratio = ours / Mitsuba Mrays/s, median of the paired rounds (range: lowest, highest); both sides' distance "
+            "and primitive (ray_intersect_preliminary; intersect(preliminary=True), packets of "
+            f"{probe.PACKET_RAYS}), timed from the Python call to its return; full: with our hit point and normal; "
+            f"t agree: relative difference <= {result['rows'][0].get('agree_t_rtol', 1e-4):g}")
 
 
 def scaling_tables(result):
@@ -242,10 +235,8 @@ def scaling_tables(result):
             if key == "threads":
                 columns += [(f"{w} speed-up", lambda r, w=w: _r(r.get(f"{w.lower()}_speedup")))]
         columns += [("ratio", lambda r: _r(r["ratio"]))] if mi else []
-        fixed = {"resolution": f"{c['threads']} threads", "depth": f"{result['depth'][0]['resolution']}^2, "
-                 f"{c['threads']} threads", "threads": f"{result['threads'][0]['resolution']}^2"}[key]
-        out.append(_table(f"paths/s vs {label} ({c['scene']}, {c['strategy']}, {c['spp']} spp, {fixed})", columns,
-                          result[key]))
+        out.append(_table(f"paths/s vs {label} ({c['scene']}, {c['strategy']}, {c['spp']} spp; else "
+                          f"{result['threads'][0]['resolution']}^2, {c['threads']} threads)", columns, result[key]))
     columns = [("triangles", lambda r: f"{r['triangles']:,}"), ("ours build s", lambda r: f"{r['build_seconds']:.3f}"),
                ("ours ns/ray", lambda r: f"{r['ours_ns_per_ray']:.0f}"), ("BVH depth", lambda r: str(r["bvh_depth"])),
                ("ours Mpaths/s", lambda r: _m(r["ours_paths_per_second"]))]
@@ -303,7 +294,6 @@ def run(args) -> int:
 
     check(args)
     height, threads = resolve_height(args), resolve_threads(args.threads)
-    variants = list(args.variant)
     console = Console(quiet=args.quiet)
     if not console.is_terminal:   # piped or captured: keep each table row on one line
         console = Console(width=220, quiet=args.quiet)
@@ -321,44 +311,40 @@ def run(args) -> int:
     scenes = resolve_scenes(args, suite_names=args.scenes or [], default=list(list_scenes()))
     depths = int_list(args.scaling_depths, option="--scaling-depths")
     builds = _build_isa(args.isa, args.cache, log) if args.isa else {}
-    jit = [v for v in variants if not v.startswith("scalar")]
-    note = lambda line: console.print(f"  {line}", markup=False, highlight=False)  # noqa: E731
+    jit = next((v for v in args.variant if not v.startswith("scalar")), None)
+
+    def show(tables, lines):
+        for table in tables:
+            console.print(table)
+        for line in lines:
+            console.print(f"  {line}", markup=False, highlight=False)
+
     out = {}
     if do_render:
         out["render"] = res = speed.render_benchmark(
             scenes, width=args.width, height=height, spp=args.spp, threads=threads, repeats=args.repeats,
-            strategies=list(args.strategies), integrators=list(args.integrators), variants=variants,
+            strategies=list(args.strategies), integrators=list(args.integrators), variants=list(args.variant),
             max_depth=args.max_depth, rr_depths=args.rr_depth, reference=args.reference_kind,
             reference_spp=args.reference_spp, seed=args.seed, cache=args.cache, log=log, externals=externals,
             builds=builds)
-        for build in (None, *builds):
-            console.print(suite_table(res, build))
-        console.print(render_table(res))
-        for line in render_notes(res):
-            note(line)
+        show([*(suite_table(res, build) for build in (None, *builds)), render_table(res)], render_notes(res))
     if args.rays:
         out["rays"] = res = speed.ray_benchmark(triangles=list(args.triangles), rays=args.ray_count, threads=threads,
-                                                repeats=args.repeats, variant=jit[0] if jit else None, seed=args.seed,
-                                                log=log, builds=builds)
-        for table in rays_tables(res):
-            console.print(table)
-        note(rays_note(res))
+                                                repeats=args.repeats, variant=jit, seed=args.seed, log=log,
+                                                builds=builds)
+        show(rays_tables(res), [rays_note(res)])
     if args.scaling:
         out["scaling"] = res = speed.scaling_benchmark(
             resolutions=list(args.resolutions), depths=depths, spp=args.scaling_spp, thread_counts=sorted({1, threads}),
-            triangles=list(args.scaling_triangles), variant=jit[0] if jit else None, threads=threads,
-            repeats=min(args.repeats, 3), seed=args.seed, log=log)
-        for table in scaling_tables(res):
-            console.print(table)
-        for line in scaling_notes(res):
-            note(line)
+            triangles=list(args.scaling_triangles), variant=jit, threads=threads, repeats=min(args.repeats, 3),
+            seed=args.seed, log=log)
         if args.svg:
             with open(args.svg, "wb") as f:
                 f.write(scaling_svg(res))
-            note(f"SVG: {args.svg}")
+        show(scaling_tables(res), scaling_notes(res) + ([f"SVG: {args.svg}"] if args.svg else []))
     env = next(iter(out.values()))["environment"]
     load = "/".join(f"{x:.1f}" for x in env["loadavg"]) if env["loadavg"] else "?"
-    note(f"note: {speed.WALL_CLOCK_NOTE}. Load average at start {load} on {env['cpu_count']} cores.")
+    show([], [f"note: {speed.WALL_CLOCK_NOTE}. Load average at start {load} on {env['cpu_count']} cores."])
     verdicts = speed.speed_verdicts(out)
     for line in verdict_lines(verdicts):   # final lines: printed with --quiet too
         print(line, flush=True)

@@ -216,24 +216,22 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
     ----------
     triangles : sequence of int, keyword-only
         Mesh sizes (:func:`torus_mesh`).
-    rays, threads, repeats : int, keyword-only
+    rays, threads, repeats, seed : int, keyword-only
         Rays per kind; threads of either side; timed queries per side, interleaved.
     kinds : sequence of {'primary', 'random'}, keyword-only
     variant : str or None, keyword-only
         Mitsuba JIT variant; None (or one that does not work here) measures ours only.
     builds : mapping of str to path, keyword-only
-        Other builds of our core (name: module), each querying in a worker process in the same rounds.
+        Other builds of our core (name: module), querying in worker processes in the same rounds.
 
     Returns
     -------
     dict
-        ``config``, ``environment``, ``mitsuba`` and ``rows``, per mesh, kind and ``build`` (None: the installed
-        core): ``requested_triangles`` and ``triangles``, ``ours_mrays_per_second`` (distance and primitive, timed
-        from the Python call to its return as Mitsuba's side is; ``ours_query_seconds`` the query's own) and
+        ``config``, ``environment``, ``mitsuba`` and ``rows`` per mesh, kind and ``build`` (None: the installed core):
+        ``ours_mrays_per_second`` (distance and primitive, timed from the call to its return as Mitsuba's side is) and
         ``ours_full_mrays_per_second`` (hit point and normal too), ``mitsuba_mrays_per_second``, ``ratio`` and
-        ``ratio_full`` (ours / Mitsuba, median of the paired rounds' ``round_ratios`` / ``round_ratios_full``, their
-        range ``ratio_min`` ... ``ratio_full_max``), CPU-time figures, agreement (``agree_*``), our tree's
-        ``build_seconds``, ``build_seconds_per_mtri``, ``bvh_depth``, Mitsuba's ``mitsuba_load_seconds``.
+        ``ratio_full`` (medians of the paired ``round_ratios``, ``round_ratios_full``), CPU-time figures, agreement
+        (``agree_*``), our tree's ``build_seconds`` and ``bvh_depth``, ``mitsuba_load_seconds``.
     """
     sizes = [positive_int("triangles", t, minimum=32)
              for t in (triangles if not isinstance(triangles, (int, np.integer)) else [triangles])]

@@ -72,39 +72,33 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
     ----------
     scenes : sequence of str
         Scene names (``mitsuba_scenes.known_scenes()``).
-    width, height, spp, threads, repeats : int, keyword-only
-        Image size, samples per pixel, worker threads (every renderer), timed rounds.
-    strategies, integrators : sequence of str or comma-separated str, keyword-only
-        Ours: every strategy with every integrator; the first of each is the headline's.
-    variants : sequence of str or comma-separated str, keyword-only
-        Mitsuba variants; one that does not work here is skipped (``skipped_variants``).
+    width, height, spp, threads, repeats, seed : int, keyword-only
+        Image size, samples per pixel, threads (every renderer), timed rounds; round ``r`` uses seed ``seed + r``.
+    strategies, integrators, variants : sequence of str or comma-separated str, keyword-only
+        Ours: every strategy with every integrator, the first of each the headline's; Mitsuba's variants (one that
+        does not work here is skipped).
     max_depth : int or None, keyword-only
-        Override the scenes' ``max_depth`` (None keeps it; the suite's is 50).
+        Override the scenes' ``max_depth`` (None keeps it).
     rr_depths : sequence of (int, None or 'scene'), keyword-only
-        Russian-roulette configurations, each measured apart: the depth roulette starts at, None for none, ``'scene'``
-        for the scene's own.
-    reference : {'mitsuba', 'ours'}, keyword-only
-        Error reference: ``benchmarks.references.reference`` (cached; rendered once if missing) or a fresh ``mis``
-        render of ours; the efficiency uses the MSE with the reference's own noise removed
-        (``metrics.mse_corrected``).
-    reference_spp, seed : int, keyword-only
-        The reference's spp (> ``spp``); round ``r`` renders ours with seed ``seed + r``.
+        Russian-roulette configurations, each measured apart: the depth it starts at, None for none, 'scene' as is.
+    reference, reference_spp : keyword-only
+        Error reference (:data:`REFERENCE_KINDS`: the cached Mitsuba one, or a fresh ``mis`` render of ours) and its
+        spp.
     cache, log : keyword-only
         Reference cache root; a callable taking progress lines.
     externals : sequence of benchmarks.external.ExternalRenderer, keyword-only
         External renderers timed in the same rounds (their wall clock includes process start and scene loading).
     builds : mapping of str to path, keyword-only
-        Other builds of our core (name: module, :mod:`.builds`) rendering every strategy and integrator in the same
-        rounds, each in a worker process; rows labelled ``ours <strategy>, <name> build``.
+        Other builds of our core (name: module) rendering in worker processes in the same rounds, rows labelled ``ours
+        <strategy>, <name> build``.
 
     Returns
     -------
     dict
-        ``config``, ``environment``, ``mitsuba`` (versions; load and compile seconds per scene and configuration),
-        ``skipped_variants``, ``available_variants``, ``references``, ``runs`` (one record per timed render),
-        ``summary`` (one row per scene, configuration and renderer: medians over rounds, and for ours and external
-        renderers ``ratio``, ``cpu_ratio``, ``efficiency_ratio``, ``round_ratios`` and ``round_efficiency_ratios``,
-        each suffixed ``_<variant>``), ``suite`` (:func:`.suite_summary` of the installed core) and ``build_suites``
+        ``config``, ``environment``, ``mitsuba``, ``skipped_variants``, ``available_variants``, ``references``,
+        ``runs`` (one record a timed render), ``summary`` (a row per scene, configuration and renderer: medians over
+        rounds and, against each variant ``v``, ``ratio_v``, ``cpu_ratio_v``, ``efficiency_ratio_v``,
+        ``round_ratios_v``, ``round_efficiency_ratios_v``), ``suite`` (:func:`.suite_summary`) and ``build_suites``
         (of each build).
     """
     config = _render_config(scenes, width=width, height=height, spp=spp, threads=threads, repeats=repeats,
@@ -194,9 +188,9 @@ def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cac
     width, height, spp, threads = config["width"], config["height"], config["spp"], config["threads"]
     base = _with_depths(get_scene(name).with_camera_size(width, height), max_depth, "scene")
     _, build_wall, _ = timed(lambda: core_scene(base))   # our tree, untimed
-    ref, record = _reference(base, kind=config["reference"], spp=config["reference_spp"],
-                             variant=ok_variants[0] if ok_variants else None, threads=threads, cache=cache, log=log)
-    result["references"][name] = record
+    ref, result["references"][name] = _reference(base, kind=config["reference"], spp=config["reference_spp"],
+                                                 variant=(ok_variants or [None])[0], threads=threads, cache=cache,
+                                                 log=log)
     result.setdefault("ours", {})[name] = {"build_seconds": float(core_scene(base).build_seconds),
                                            "compile_and_build_seconds": build_wall}
     for rr in rr_depths:
@@ -208,24 +202,33 @@ def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cac
         cores = {None: functools.partial(render_timed, scene)}
         cores.update({b: functools.partial(w, "benchmarks.speed.render.render_timed", bare, key=(name, label))
                       for b, w in workers.items()})
-        for run in cores.values():   # warm-up
-            run(spp=max(1, spp // 8), strategy=config["strategies"][0], seed=0xA11CE, threads=threads)
+        for core in cores.values():   # warm-up
+            core(spp=max(1, spp // 8), strategy=config["strategies"][0], seed=0xA11CE, threads=threads)
         mscenes, infos = _warm_mitsuba(scene, ok_variants, spp=spp, threads=threads, log=log)
         for ext in externals:   # a command that fails does so here, before any timing
             _, secs = render_external(ext, scene, spp=max(1, spp // 8), seed=0x5EED)
             if log:
                 log(f"  {ext.name}: warm-up run {secs:.2f} s")
-        per = _timed_rounds(name, scene, config, ok_variants, mscenes=mscenes, ref=ref, runs=result["runs"],
-                            log=log, externals=externals, cores=cores)
+        seed = config["seed"]
+        lanes = ([(_ours_label(s, i, b), {"renderer": "ours", "strategy": s, "integrator": i, "variant": None,
+                                          "build": b},
+                   functools.partial(_run_ours, core, spp=spp, strategy=s, integrator=i, seed=seed, threads=threads))
+                  for b, core in cores.items() for s in config["strategies"] for i in config["integrators"]],
+                 [(f"Mitsuba {v}", {"renderer": "mitsuba", "strategy": MITSUBA_STRATEGY, "variant": v},
+                   functools.partial(_run_mitsuba, v, mscenes[v], spp=spp, seed=seed, threads=threads))
+                  for v in ok_variants],
+                 [(e.name, {"renderer": e.name, "strategy": EXTERNAL_STRATEGY, "variant": None},
+                   functools.partial(_run_external, e, scene, spp=spp, seed=seed)) for e in externals])
+        order = [x for group in itertools.zip_longest(*lanes) for x in group if x is not None]   # not grouped
+        per = _timed_rounds(name, scene, config, order, ref=ref, runs=result["runs"], log=log)
         for v in ok_variants:   # JIT compile time: warm-up minus a typical timed render
             info = infos[v]
             typical = median([x["seconds"] for x in per[f"Mitsuba {v}"]])
             info["compile_seconds"] = (max(0.0, info["warmup_seconds"] - typical)
                                        if v.startswith(("llvm", "cuda")) else 0.0)
             result["mitsuba"].setdefault(name, {}).setdefault(label, {})[v] = info
-        for row in _summary_rows(name, per, ok_variants):
-            result["summary"].append(dict(row, rr_depth=scene.rr_depth, max_depth=scene.max_depth,
-                                          configuration=label))
+        result["summary"] += [dict(row, rr_depth=scene.rr_depth, max_depth=scene.max_depth, configuration=label)
+                              for row in _summary_rows(name, per, ok_variants)]
 
 
 def _reference(scene, *, kind, spp, variant, threads, cache, log):
@@ -262,50 +265,46 @@ def _ours_label(strategy, integrator, build) -> str:
             + ("" if build is None else f", {build} build"))
 
 
-def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, externals, cores) -> dict:
-    """``repeats`` interleaved rounds of every configuration: ``{label: [run, ...]}`` (each run appended to ``runs``
-    too); ``cores`` maps each build of ours (None: the installed core) to a function rendering the scene and returning
-    ``(result, wall, cpu)``."""
-    spp, threads, seed = config["spp"], config["threads"], config["seed"]
-    width, height, repeats = config["width"], config["height"], config["repeats"]
-    ours = [(b, s, i) for b in cores for s in config["strategies"] for i in config["integrators"]]
-    lanes = ([("ours", x) for x in ours], [("mitsuba", v) for v in variants], [("external", e) for e in externals])
-    order = [x for group in itertools.zip_longest(*lanes) for x in group if x is not None]   # not grouped
+# One timed render of round r by each kind of renderer: the image, the render's own seconds, the call's wall and CPU
+# seconds, the rays cast (None where not counted), the seed.
+def _run_ours(core, r, *, seed, **args):
+    res, wall, cpu = core(seed=seed + r, **args)
+    return {"mean": res.mean, "secs": res.seconds, "wall": wall, "cpu": cpu, "rays": res.rays, "seed": seed + r,
+            "nonfinite": res.nonfinite_samples}
+
+
+def _run_mitsuba(variant, mscene, r, *, spp, seed, threads):
+    mi, _ = use_variant(variant, threads)
+    s = batch_seeds(seed + r, 1)[0]
+    img, wall, cpu = timed(mitsuba_render_fn(mi, mscene, spp, s))
+    return {"mean": img, "secs": wall, "wall": wall, "cpu": cpu, "rays": None, "seed": s}
+
+
+def _run_external(ext, scene, r, *, spp, seed):
+    s = batch_seeds(seed + r, 1)[0] & 0x7FFFFFFF
+    cpu0 = _children_cpu()   # the command's CPU time: its child processes'
+    (img, secs), wall, _ = timed(lambda: render_external(ext, scene, spp=spp, seed=s))
+    return {"mean": img, "secs": secs, "wall": wall, "cpu": _children_cpu() - cpu0, "rays": None, "seed": s}
+
+
+def _timed_rounds(name, scene, config, order, *, ref, runs, log) -> dict:
+    """``repeats`` rounds of every ``(label, fields, run)`` of ``order``, alternating who goes first: ``{label: [run
+    record, ...]}``, each record appended to ``runs`` too."""
+    c = config
     per = {}
-    for r in range(repeats):
-        s_ours, s_mi = seed + r, batch_seeds(seed + r, 1)[0]
-        for renderer, what in (order if r % 2 == 0 else order[::-1]):   # alternate who goes first
-            if renderer == "ours":
-                build, strategy, integrator = what
-                args = {"spp": spp, "strategy": strategy, "integrator": integrator, "seed": s_ours,
-                        "threads": threads}
-                res, wall, cpu = cores[build](**args)
-                rec = _run_record(res.mean, res.seconds, spp, wall=wall, cpu=cpu, ref=ref, rays=res.rays,
-                                  nonfinite=res.nonfinite_samples)
-                rec.update(strategy=strategy, integrator=integrator, variant=None, seed=s_ours, build=build)
-                label = _ours_label(strategy, integrator, build)
-            elif renderer == "external":
-                cpu0 = _children_cpu()   # the command's CPU time: its child processes'
-                (img, secs), wall, _ = timed(lambda: render_external(what, scene, spp=spp, seed=s_mi & 0x7FFFFFFF))
-                rec = _run_record(img, secs, spp, wall=wall, cpu=_children_cpu() - cpu0, ref=ref, rays=None,
-                                  nonfinite=int(np.sum(~np.isfinite(img))))
-                rec.update(strategy=EXTERNAL_STRATEGY, variant=None, seed=s_mi & 0x7FFFFFFF)
-                renderer = label = what.name
-            else:
-                mi, _ = use_variant(what, threads)
-                img, wall, cpu = timed(mitsuba_render_fn(mi, mscenes[what], spp, s_mi))
-                if img.shape != (height, width, 3):
-                    raise RuntimeError(f"Mitsuba returned an image of shape {img.shape}, expected {(height, width, 3)}")
-                rec = _run_record(img, wall, spp, wall=wall, cpu=cpu, ref=ref, rays=None,
-                                  nonfinite=int(np.sum(~np.isfinite(img))))
-                rec.update(strategy=MITSUBA_STRATEGY, variant=what, seed=s_mi)
-                label = f"Mitsuba {what}"
-            rec.update(scene=name, renderer=renderer, round=r, spp=spp, width=width, height=height,
-                       threads=threads, max_depth=scene.max_depth, rr_depth=scene.rr_depth)
+    for r in range(c["repeats"]):
+        for label, fields, run in (order if r % 2 == 0 else order[::-1]):
+            out = run(r)
+            if out["mean"].shape != (c["height"], c["width"], 3):
+                raise RuntimeError(f"{label} returned an image of shape {out['mean'].shape}, expected "
+                                   f"{(c['height'], c['width'], 3)}")
+            rec = {**_run_record(**out, spp=c["spp"], ref=ref), **fields, "scene": name, "round": r,
+                   "spp": c["spp"], "width": c["width"], "height": c["height"], "threads": c["threads"],
+                   "max_depth": scene.max_depth, "rr_depth": scene.rr_depth}
             per.setdefault(label, []).append(rec)
             runs.append(rec)
             if log:
-                log(f"  round {r + 1}/{repeats} {label}: {rec['paths_per_second'] / 1e6:.3f} Mpaths/s, "
+                log(f"  round {r + 1}/{c['repeats']} {label}: {rec['paths_per_second'] / 1e6:.3f} Mpaths/s, "
                     f"RMSE {rec['rmse']:.4g}, cpu/wall {rec['cpu_over_wall']:.2f}")
     return per
 
@@ -315,9 +314,9 @@ def _children_cpu() -> float:
     return u.ru_utime + u.ru_stime
 
 
-def _run_record(mean, secs, spp, *, wall, cpu, ref, rays, nonfinite) -> dict:
+def _run_record(mean, secs, spp, *, wall, cpu, ref, rays, seed, nonfinite=None) -> dict:
     """The figures of one timed render of image ``mean`` against ``ref``: ``secs`` is the render's own time (ours: the
-    core's), ``wall`` and ``cpu`` the call's, ``rays`` the rays cast (None where not counted)."""
+    core's), ``wall`` and ``cpu`` the call's."""
     paths = mean.shape[0] * mean.shape[1] * spp
     raw = mse(mean, ref.mean)
     corr = mse_corrected(mean, ref.mean, ref.variance, ref.spp)
@@ -326,8 +325,8 @@ def _run_record(mean, secs, spp, *, wall, cpu, ref, rays, nonfinite) -> dict:
             "paths_per_second": paths / secs, "paths_per_cpu_second": paths / cpu if cpu > 0 else float("nan"),
             "rays": rays, "rays_per_second": None if rays is None else rays / secs, "ms_per_spp": 1e3 * secs / spp,
             "cpu_over_wall": cpu / wall if wall > 0 else float("nan"), "mse": raw, "mse_corrected": corr,
-            "rmse": math.sqrt(raw), "efficiency": efficiency(corr, secs) if good else float("nan"),
-            "nonfinite_samples": nonfinite}
+            "rmse": math.sqrt(raw), "efficiency": efficiency(corr, secs) if good else float("nan"), "seed": seed,
+            "nonfinite_samples": int(np.sum(~np.isfinite(mean))) if nonfinite is None else nonfinite}
 
 
 def _summary_rows(name, per, variants) -> list:

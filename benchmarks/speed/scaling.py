@@ -48,24 +48,22 @@ def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128, 2
     scene : str, keyword-only
         Suite scene of the image-size, depth and thread sweeps.
     resolutions, depths, thread_counts : sequence of int, keyword-only
-        Square image sizes (at ``threads``); maximum depths and thread counts (at the middle image size, ``threads``
-        threads for the depths).
-    spp : int, keyword-only
-        Samples per pixel of those sweeps.
+        Square image sizes; maximum depths and thread counts, at the middle image size.
+    spp, threads : int, keyword-only
+        Samples per pixel of those sweeps; threads of all but the thread sweep.
     triangles : sequence of int, keyword-only
-        Torus sizes (at least two): random-ray cost (``rays`` rays), build times and paths/s of a lit render of it
-        (``mesh_spp``, 64x64, max_depth 8).
+        At least two torus sizes: build times, random-ray cost (``rays`` rays) and paths/s of a lit 64x64 render of it
+        (``mesh_spp``).
     strategy, variant : str, keyword-only
         Our strategy; Mitsuba's JIT variant (None: ours only).
-    threads, repeats, seed : int, keyword-only
+    repeats, seed : int, keyword-only
 
     Returns
     -------
     dict
-        ``config``, ``environment``, rows of ``resolution``, ``depth``, ``threads`` (each with ``resolution``,
-        ``max_depth``, ``threads``, ``spp``, ours' and Mitsuba's paths/s and paths per CPU-second, their ``ratio``;
-        threads' speed-ups over one thread) and ``mesh`` (``triangles``, ``ours_ns_per_ray``, ``build_seconds``,
-        ``bvh_depth``, ``mitsuba_ns_per_ray``, ``mitsuba_load_seconds``, paths/s), and ``fits``
+        ``config``, ``environment``, rows of ``resolution``, ``depth``, ``threads`` (``resolution``, ``max_depth``,
+        ``threads``, ours' and Mitsuba's paths/s wall and CPU, ``ratio``; ``*_speedup`` over one thread) and ``mesh``
+        (``triangles``, ``build_seconds``, ``mitsuba_load_seconds``, ``*_ns_per_ray``, paths/s), and ``fits``
         (:func:`fit_log_growth` of the ns a ray on triangle count).
     """
     if scene not in list_scenes():
@@ -171,16 +169,10 @@ def _mesh_row(n_target, *, rays, mesh_spp, threads, strategy, repeats, seed, var
 
 
 def fit_log_growth(n, cost) -> dict:
-    """Fit ``cost = a + b ln n`` (least squares) and the log-log exponent of ``cost`` on ``n`` (a BVH: ``b`` > 0 with
-    a good ``r2`` and an exponent far below 1, linear growth's).
+    """Fit ``cost = a + b ln n`` (least squares) and the log-log exponent of ``cost`` on ``n`` (a BVH: ``b`` > 0, a
+    good ``r2``, an exponent far below linear growth's 1): ``a``, ``b``, ``per_doubling`` (``b ln 2``), ``r2``,
+    ``loglog_exponent``.
 
-    Returns
-    -------
-    dict
-        ``a``, ``b`` (cost per e-fold of ``n``), ``per_doubling`` (``b ln 2``), ``r2``, ``loglog_exponent``.
-
-    Examples
-    --------
     >>> f = fit_log_growth([1e3, 1e4, 1e5], [10 + 2 * np.log(x) for x in (1e3, 1e4, 1e5)])
     >>> round(f["b"], 6), round(f["r2"], 6)
     (2.0, 1.0)

@@ -94,18 +94,11 @@ def not_judged(target: Target, subject: str, reason: str, *, build=None) -> dict
 
 def judge(target: Target, subject: str, round_ratios, *, coverage: float = COVERAGE,
           no_rounds: str = "no round gave a finite ratio", build=None) -> dict:
-    """The verdict of ``target`` on ``subject`` (a scene, the geometric mean, a mesh and ray kind; of our ``build``,
-    None for the installed core) from its per-round ratios (ours / theirs; None and non-finite rounds left out).
+    """The verdict of ``target`` on ``subject`` (of our ``build``, None: the installed core) from its per-round ratios
+    (None and non-finite rounds left out): a dict of the target's fields, ``subject``, ``build``, ``status`` (``met``,
+    ``not met``, ``not judged``), ``clearly`` (None without an interval), ``median``, ``low``, ``high``, ``coverage``,
+    ``rounds``, ``reason`` (why not judged, or why no interval) and ``line``.
 
-    Returns
-    -------
-    dict
-        ``target``, ``benchmark``, ``metric``, ``threshold``, ``against``, ``subject``, ``build``, ``status``
-        (``met``, ``not met``, ``not judged``), ``clearly`` (None without an interval), ``median``, ``low``, ``high``,
-        ``coverage``, ``rounds``, ``reason`` (why not judged, or why there is no interval) and ``line``.
-
-    Examples
-    --------
     >>> judge(RAYS, "1M triangles, random", [1.1, 1.3, 1.25, 1.15, 1.22])["line"].split(": ", 1)[1]
     'met, within noise (1.22x, 90% interval 1.10-1.30, 5 rounds)'
     """
@@ -131,13 +124,11 @@ def _tag(build) -> str:
 
 
 def render_verdicts(result, *, suite_scenes=None, build=None) -> list:
-    """Verdicts of the render targets on a render-benchmark ``result``, for our ``build`` (None: the installed core):
-    per suite scene of the run paths/s then efficiency, then the geometric mean's two when the run covered the whole
-    suite (``suite_scenes``, default ``mitsuba_scenes.list_scenes()``); one ``not judged`` per target where the run
-    cannot judge any, with the reason.
+    """Verdicts of the render targets on a render-benchmark ``result`` for our ``build`` (None: the installed core):
+    per suite scene paths/s then efficiency, then the geometric mean's two where the run covered the whole suite
+    (``suite_scenes``, default ``mitsuba_scenes.list_scenes()``); one ``not judged`` per target where it can judge
+    none.
 
-    Examples
-    --------
     >>> row = {"scene": "a", "rr_depth": 5, "round_ratios_llvm_ad_rgb": [1.6] * 5,
     ...        "round_efficiency_ratios_llvm_ad_rgb": [2.0] * 5}
     >>> res = {"config": {"variants": ["llvm_ad_rgb"], "max_depth": None},
@@ -206,11 +197,7 @@ def _render_blocker(result, suite) -> str | None:
 
 
 def _size(n: int) -> str:
-    """``100000`` -> ``100k``, ``1000000`` -> ``1M``.
-
-    >>> _size(100_000), _size(1_000_000), _size(4000), _size(500)
-    ('100k', '1M', '4k', '500')
-    """
+    """``100000`` -> ``100k``, ``1000000`` -> ``1M``, ``4000`` -> ``4k``, ``500`` -> ``500``."""
     for unit, scale in (("M", 1_000_000), ("k", 1000)):
         if n >= scale and n % scale == 0:
             return f"{n // scale}{unit}"
@@ -218,12 +205,9 @@ def _size(n: int) -> str:
 
 
 def ray_verdicts(result, *, build=None) -> list:
-    """Verdicts of the ray-casting target on a ray-benchmark ``result``, for our ``build`` (None: the installed core):
-    one per configuration of :data:`TARGET_TRIANGLES` x :data:`TARGET_RAY_KINDS` (``not judged`` where the run left it
-    out), or one ``not judged`` where Embree was not timed.
+    """Verdicts of the ray-casting target on a ray-benchmark ``result`` for our ``build``: one per mesh size and ray
+    kind judged (``not judged`` where the run left it out), or one ``not judged`` where Embree was not timed.
 
-    Examples
-    --------
     >>> rows = [{"requested_triangles": 100_000, "kind": "random", "round_ratios": [0.8, 0.9, 0.85]}]
     >>> res = {"config": {"triangles": [100_000], "kinds": ["random"], "variant": "llvm_ad_rgb"},
     ...        "mitsuba": {"variant": "llvm_ad_rgb"}, "rows": rows}
@@ -262,12 +246,8 @@ def ray_verdicts(result, *, build=None) -> list:
 
 
 def speed_verdicts(out) -> list:
-    """Every verdict of an ``rtbench speed`` run (``out`` maps ``render`` / ``rays`` / ``scaling``, which has no
-    target, to the results): the installed core's, then each build's.
-
-    >>> speed_verdicts({"scaling": {}})
-    []
-    """
+    """Every verdict of an ``rtbench speed`` run (``out``: benchmark name -> result; the scaling sweeps have no
+    target): the installed core's, then each build's."""
     verdicts = []
     for key, judge_it in (("render", render_verdicts), ("rays", ray_verdicts)):
         if key in out:
