@@ -76,7 +76,7 @@ def main(argv=None) -> int:
         cases = {f"{t} {kind}": ("benchmarks.speed.rays.query_torus", {"triangles": t, "kind": kind,
                                                                        "rays": opts.ray_count})
                  for t in opts.triangles for kind in opts.kinds}
-        seconds = lambda answer: answer["call_seconds"][0]  # noqa: E731 - the call, as rtbench speed --rays times it
+        seconds = lambda answer: answer["call_seconds"]  # noqa: E731 - the call, as rtbench speed --rays times it
         print(f"{'mesh, rays':16s} {'A s/query':>11s} {'B s/query':>11s} {'B speed-up':>11s} {'90% interval':>16s}")
     else:
         from mitsuba_scenes import get_scene

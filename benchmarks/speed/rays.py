@@ -117,21 +117,15 @@ def random_rays(count: int, *, seed: int = 0):
 _MAKE = {"primary": primary_rays, "random": random_rays}
 
 
-def intersect_ours(core, origins, directions, *, threads: int = 1, repeats: int = 3, preliminary: bool = False):
-    """Time ``core.intersect`` (closest hit) ``repeats`` times on the same rays: with ``preliminary=True`` distance
-    and primitive only (as Mitsuba's ``ray_intersect_preliminary``), else hit point and normal too. A dict: ``t`` (inf
-    on a miss), ``prim``, lists ``seconds`` (the query's own), ``call_seconds`` and ``process_seconds``, and
-    ``packet_fraction`` (the share of rays traced as coherent packets)."""
-    o = np.ascontiguousarray(origins, dtype=np.float64)
-    d = np.ascontiguousarray(directions, dtype=np.float64)
-    secs, calls, cpus, out = [], [], [], None
-    for _ in range(positive_int("repeats", repeats)):
-        out, wall, cpu = timed(lambda: core.intersect(o, d, threads=int(threads), preliminary=bool(preliminary)))
-        secs.append(float(out["seconds"]))
-        calls.append(wall)
-        cpus.append(cpu)
-    return {"t": np.asarray(out["t"]), "prim": np.asarray(out["prim"]), "seconds": secs, "call_seconds": calls,
-            "process_seconds": cpus, "packet_fraction": float(out["packet_rays"]) / max(1, len(o))}
+def intersect_ours(core, origins, directions, *, threads: int = 1, preliminary: bool = False):
+    """One timed closest-hit query ``core.intersect``: with ``preliminary=True`` distance and primitive only (as
+    Mitsuba's ``ray_intersect_preliminary``), else hit point and normal too. A dict: ``t`` (inf on a miss), ``prim``,
+    ``seconds`` (the query's own), ``call_seconds`` and ``process_seconds`` (the call's), ``packet_fraction`` (the
+    share of rays traced as coherent packets)."""
+    o, d = (np.ascontiguousarray(x, dtype=np.float64) for x in (origins, directions))
+    out, wall, cpu = timed(lambda: core.intersect(o, d, threads=int(threads), preliminary=bool(preliminary)))
+    return {"t": np.asarray(out["t"]), "prim": np.asarray(out["prim"]), "seconds": float(out["seconds"]),
+            "call_seconds": wall, "process_seconds": cpu, "packet_fraction": float(out["packet_rays"]) / max(1, len(o))}
 
 
 _KEPT = {}   # a worker's meshes and rays, kept between calls: each is made once
@@ -144,27 +138,19 @@ def query_torus(triangles: int, *, kind: str, rays: int, seed: int = 0, threads:
         _KEPT[triangles, seed] = core_scene(mesh_scene(triangles, seed=seed))
     if (kind, rays, seed) not in _KEPT:
         _KEPT[kind, rays, seed] = _MAKE[kind](rays, seed=seed)
-    return intersect_ours(_KEPT[triangles, seed], *_KEPT[kind, rays, seed], threads=threads, repeats=1,
-                          preliminary=preliminary)
+    return intersect_ours(_KEPT[triangles, seed], *_KEPT[kind, rays, seed], threads=threads, preliminary=preliminary)
 
 
-def intersect_mitsuba(mscene, origins, directions, *, repeats: int = 3):
-    """Time Mitsuba's ``ray_intersect_preliminary`` on the active JIT variant: rays built untimed, an untimed call
-    compiles the kernel, then each timed call is the query + ``dr.eval`` + ``dr.sync_thread()`` on Dr.Jit's threads. A
-    dict: ``t`` (inf on a miss), ``prim``, lists ``seconds`` and ``process_seconds``, ``first_call_seconds``."""
+def intersect_mitsuba(mscene, origins, directions):
+    """One timed ``ray_intersect_preliminary`` of Mitsuba's active JIT variant, after an untimed one that compiles the
+    kernel (rays built untimed; the query + ``dr.eval`` + ``dr.sync_thread()`` on Dr.Jit's threads). A dict: ``t``
+    (inf on a miss), ``prim``, ``seconds``, ``process_seconds``, ``first_call_seconds``."""
     import drjit as dr
     import mitsuba as mi
 
     if not str(mi.variant()).startswith(("llvm", "cuda")):
         raise ValueError(f"a JIT Mitsuba variant must be active, not {mi.variant()}")
-    o = np.ascontiguousarray(origins, dtype=np.float32)
-    d = np.ascontiguousarray(directions, dtype=np.float32)
-
-    def query(ray):
-        pi = mscene.ray_intersect_preliminary(ray, coherent=False)
-        dr.eval(pi.t, pi.prim_index)
-        dr.sync_thread()
-        return pi
+    o, d = (np.ascontiguousarray(x, dtype=np.float32) for x in (origins, directions))
 
     def rays():
         ray = mi.Ray3f(mi.Point3f(o[:, 0], o[:, 1], o[:, 2]), mi.Vector3f(d[:, 0], d[:, 1], d[:, 2]))
@@ -172,17 +158,19 @@ def intersect_mitsuba(mscene, origins, directions, *, repeats: int = 3):
         dr.sync_thread()
         return ray
 
+    def query(ray):
+        pi = mscene.ray_intersect_preliminary(ray, coherent=False)
+        dr.eval(pi.t, pi.prim_index)
+        dr.sync_thread()
+        return pi
+
     _, first, _ = timed(functools.partial(query, rays()))
-    secs, cpus, pi = [], [], None
-    for _ in range(positive_int("repeats", repeats)):
-        pi, wall, cpu = timed(functools.partial(query, rays()))
-        secs.append(wall)
-        cpus.append(cpu)
+    pi, wall, cpu = timed(functools.partial(query, rays()))
     t = np.array(pi.t, dtype=np.float64)
     t[~np.isfinite(t) | (t >= 1e30)] = np.inf
     prim = np.array(pi.prim_index, dtype=np.int64)
     prim[~np.isfinite(t)] = -1
-    return {"t": t, "prim": prim, "seconds": secs, "process_seconds": cpus, "first_call_seconds": first}
+    return {"t": t, "prim": prim, "seconds": wall, "process_seconds": cpu, "first_call_seconds": first}
 
 
 def hit_agreement(t_a, t_b, *, rtol: float = 1e-4) -> dict:
@@ -266,7 +254,7 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
                      "bvh_depth": int(core.bvh_depth)}
             for kind in kinds:
                 o, d = _MAKE[kind](rays, seed=seed)
-                sides = {None: functools.partial(intersect_ours, core, o, d, threads=threads, repeats=1)}
+                sides = {None: functools.partial(intersect_ours, core, o, d, threads=threads)}
                 sides.update({b: functools.partial(w, "benchmarks.speed.rays.query_torus", n_target, kind=kind,
                                                    rays=rays, seed=seed, threads=threads) for b, w in workers.items()})
                 for row in _ray_rows(sides, mscene, o, d, repeats=repeats, variant=variant, threads=threads):
@@ -298,20 +286,20 @@ def _ray_rows(sides, mscene, o, d, *, repeats, variant, threads) -> list:
             got[side][1].append(query(preliminary=False))
         if mscene is not None:
             use_variant(variant, threads)
-            theirs.append(intersect_mitsuba(mscene, o, d, repeats=1))
+            theirs.append(intersect_mitsuba(mscene, o, d))
     rows = []
     for side, (ours, full) in got.items():
         if not all(np.array_equal(ours[-1][k], full[-1][k]) for k in ("t", "prim")):
             raise RuntimeError("the preliminary and the full closest-hit queries disagree")
-        secs, full_secs = [q["call_seconds"][0] for q in ours], [q["call_seconds"][0] for q in full]
-        row = {"build": side, **_rates("ours", len(o), secs, [q["process_seconds"][0] for q in ours]),
-               **_rates("ours_full", len(o), full_secs, [q["process_seconds"][0] for q in full]),
-               "ours_query_seconds": [q["seconds"][0] for q in ours],
+        secs, full_secs = [q["call_seconds"] for q in ours], [q["call_seconds"] for q in full]
+        row = {"build": side, **_rates("ours", len(o), secs, [q["process_seconds"] for q in ours]),
+               **_rates("ours_full", len(o), full_secs, [q["process_seconds"] for q in full]),
+               "ours_query_seconds": [q["seconds"] for q in ours],
                "hit_fraction": float(np.isfinite(ours[-1]["t"]).mean()),
                "ours_packet_fraction": ours[-1]["packet_fraction"]}
         if theirs:   # paired per round: a round's sides ran back to back
-            mi_secs = [m["seconds"][0] for m in theirs]
-            row.update(_rates("mitsuba", len(o), mi_secs, [m["process_seconds"][0] for m in theirs]))
+            mi_secs = [m["seconds"] for m in theirs]
+            row.update(_rates("mitsuba", len(o), mi_secs, [m["process_seconds"] for m in theirs]))
             for suffix, own in (("", secs), ("_full", full_secs)):
                 ratios = [m / x for x, m in zip(own, mi_secs)]
                 row.update({f"ratio{suffix}": median(ratios), f"ratio{suffix}_min": min(ratios),

@@ -15,6 +15,7 @@ Examples
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -68,10 +69,10 @@ def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128, 2
     """
     if scene not in list_scenes():
         raise ValueError(f"unknown scene {scene!r}; the suite has: {', '.join(list_scenes())}")
-    resolutions = sorted({positive_int("resolution", r) for r in resolutions})
-    depths = sorted({positive_int("max depth", d) for d in depths})
-    thread_counts = sorted({positive_int("thread count", t) for t in thread_counts})
-    sizes = sorted({positive_int("triangles", t, minimum=32) for t in triangles})
+    resolutions, depths, thread_counts, sizes = (
+        sorted({positive_int(what, x, minimum=low) for x in xs}) for what, xs, low in (
+            ("resolution", resolutions, 1), ("max depth", depths, 1), ("thread count", thread_counts, 1),
+            ("triangles", triangles, 32)))
     if len(sizes) < 2:
         raise ValueError("the mesh sweep needs at least two triangle counts")
     spp, mesh_spp, rays = positive_int("spp", spp), positive_int("mesh_spp", mesh_spp), positive_int("rays", rays)
@@ -79,7 +80,7 @@ def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128, 2
     if strategy not in STRATEGIES:
         raise ValueError(f"strategy must be one of {STRATEGIES}, got {strategy!r}")
     use_mi, skipped = check_jit_variant(variant, "scaling", log)
-    variant = variant if use_mi else None
+    variant, sides = (variant, ("ours", "mitsuba")) if use_mi else (None, ("ours",))
     out = {"config": {"scene": scene, "resolutions": resolutions, "depths": depths, "spp": spp,
                       "thread_counts": thread_counts, "triangles": sizes, "rays": rays, "mesh_spp": mesh_spp,
                       "strategy": strategy, "variant": variant, "threads": threads, "repeats": repeats},
@@ -98,12 +99,11 @@ def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128, 2
             if log:
                 log(f"{field} {row[field]}: {_progress(row)}")
     one = [r for r in out["threads"] if r["threads"] == 1]
-    for r in out["threads"] if one else []:
-        for who in ("ours", "mitsuba") if variant else ("ours",):
-            r[f"{who}_speedup"] = r[f"{who}_paths_per_second"] / one[0][f"{who}_paths_per_second"]
+    for r, who in itertools.product(out["threads"] if one else [], sides):
+        r[f"{who}_speedup"] = r[f"{who}_paths_per_second"] / one[0][f"{who}_paths_per_second"]
     out["mesh"] = [_mesh_row(n, rays=rays, mesh_spp=mesh_spp, threads=threads, strategy=strategy, repeats=repeats,
                              seed=seed, variant=variant, log=log) for n in sizes]
-    for who in ("ours", "mitsuba") if variant else ("ours",):
+    for who in sides:
         out["fits"][f"{who}_ns_per_ray"] = fit_log_growth([r["triangles"] for r in out["mesh"]],
                                                           [r[f"{who}_ns_per_ray"] for r in out["mesh"]])
     out["environment_after"] = environment()
@@ -112,29 +112,24 @@ def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128, 2
 
 def _measure(sc, *, spp, threads, strategy, seed, repeats, variant) -> dict:
     """Median paths/s (wall and CPU) of ours and, unless ``variant`` is None, Mitsuba on ``sc``: a warm-up render
-    each, then ``repeats`` interleaved rounds."""
-    rt.render(sc, spp=1, strategy=strategy, seed=1, threads=threads)   # warm-up (and our tree)
+    each (our tree, Mitsuba's JIT), then ``repeats`` interleaved rounds."""
+    renders = {"ours": lambda r: timed(lambda: rt.render(sc, spp=spp, strategy=strategy, seed=seed + r,
+                                                         threads=threads))}
     if variant is not None:
         mscene, _ = load_mitsuba(variant, sc, threads)
-        mi, _ = use_variant(variant)
-        mitsuba_render_fn(mi, mscene, spp, 7)()   # warm-up (JIT)
-    paths = sc.camera.width * sc.camera.height * spp
-    got = {"ours": ([], []), "mitsuba": ([], [])}
-    for r in range(repeats):
-        res, _, cpu = timed(lambda: rt.render(sc, spp=spp, strategy=strategy, seed=seed + r, threads=threads))
-        got["ours"][0].append(paths / res.seconds)
-        got["ours"][1].append(paths / cpu if cpu > 0 else float("nan"))
-        if variant is not None:
-            mi, _ = use_variant(variant, threads)
-            _, wall, cpu = timed(mitsuba_render_fn(mi, mscene, spp, 1000 + r))
-            got["mitsuba"][0].append(paths / wall)
-            got["mitsuba"][1].append(paths / cpu if cpu > 0 else float("nan"))
-    row = {"ours_spread": spread(got["ours"][0])}
-    for who, (walls, cpus) in got.items():
-        if walls:
-            row.update({f"{who}_paths_per_second": median(walls), f"{who}_paths_per_cpu_second": median(cpus)})
+        renders["mitsuba"] = lambda r: timed(mitsuba_render_fn(use_variant(variant, threads)[0], mscene, spp, 1000 + r))
+    paths, got = sc.camera.width * sc.camera.height * spp, {who: [] for who in renders}
+    for r in [repeats, *range(repeats)]:   # the first: the warm-up
+        for who, render in renders.items():
+            res, wall, cpu = render(r)
+            got[who] += [] if r == repeats else [(paths / (res.seconds if who == "ours" else wall),
+                                                  paths / cpu if cpu > 0 else float("nan"))]
+    row = {"ours_spread": spread([w for w, _ in got["ours"]])}
+    for who, pairs in got.items():
+        row.update({f"{who}_paths_per_second": median(w for w, _ in pairs),
+                    f"{who}_paths_per_cpu_second": median(c for _, c in pairs)})
     if variant is not None:
-        row["ratio"] = median([a / b for a, b in zip(*(got[w][0] for w in ("ours", "mitsuba")))])
+        row["ratio"] = median(a[0] / b[0] for a, b in zip(got["ours"], got["mitsuba"]))
     return row
 
 
@@ -151,14 +146,14 @@ def _mesh_row(n_target, *, rays, mesh_spp, threads, strategy, repeats, seed, var
     lit = mesh_scene(n_target, seed=seed, lit=True)
     core = core_scene(lit)
     o, d = random_rays(rays, seed=seed)
-    ours = intersect_ours(core, o, d, threads=threads, repeats=repeats)
     row = {"triangles": int(len(lit.shapes[0].faces)), "rays": len(o), "threads": threads,
            "build_seconds": float(core.build_seconds), "bvh_depth": int(core.bvh_depth),
-           "ours_ns_per_ray": median(ours["seconds"]) / len(o) * 1e9}
+           "ours_ns_per_ray": median(intersect_ours(core, o, d, threads=threads)["seconds"]
+                                     for _ in range(repeats)) / len(o) * 1e9}
     if variant is not None:
         mscene, load = load_mitsuba(variant, lit, threads, check_merge=False)
-        mres = intersect_mitsuba(mscene, o, d, repeats=repeats)
-        row.update({"mitsuba_ns_per_ray": median(mres["seconds"]) / len(o) * 1e9, "mitsuba_load_seconds": load})
+        row.update({"mitsuba_ns_per_ray": median(intersect_mitsuba(mscene, o, d)["seconds"] for _ in range(repeats))
+                    / len(o) * 1e9, "mitsuba_load_seconds": load})
     row.update(_measure(lit, spp=mesh_spp, threads=threads, strategy=strategy, seed=seed, repeats=repeats,
                         variant=variant))
     lit._core_cache.clear()

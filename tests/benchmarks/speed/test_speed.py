@@ -266,8 +266,8 @@ def test_hits_agree_with_mitsuba_on_same_rays(jit_variant):
     count = 20000
     for kind, gen in (("primary", speed.primary_rays), ("random", speed.random_rays)):
         o, d = gen(count, seed=11)
-        ours = speed.intersect_ours(core, o, d, threads=2, repeats=1)
-        theirs = speed.intersect_mitsuba(mscene, o, d, repeats=1)
+        ours = speed.intersect_ours(core, o, d, threads=2)
+        theirs = speed.intersect_mitsuba(mscene, o, d)
         agree = speed.hit_agreement(ours["t"], theirs["t"])
         assert 0.1 < agree["hit_fraction_a"] < 0.9, (kind, agree)     # the test is not trivial
         assert agree["hit_agreement"] > 0.999, (kind, agree)
