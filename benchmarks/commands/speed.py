@@ -97,6 +97,11 @@ def _range(ratios):
     return f"{_r(min(ratios))}-{_r(max(ratios))}" if ratios else "-"
 
 
+def _col(heading, key, fmt="{:.2f}"):
+    """A column of :func:`_table`: each row's ``key`` through ``fmt`` (a format string or a function)."""
+    return heading, lambda r: "-" if r.get(key) is None else fmt(r[key]) if callable(fmt) else fmt.format(r[key])
+
+
 def _table(title, columns, rows, *, left=1, end_section=lambda r: False):
     """A ``rich`` table: ``columns`` are ``(heading, cell of a row)``, the first ``left`` left-aligned."""
     from rich.table import Table
@@ -121,14 +126,13 @@ def suite_table(result, build=None):
     c, suite = result["config"], result["suite"] if build is None else result["build_suites"][build]
     ours = (suite["strategy"] + ("" if suite.get("integrator", "wavefront") == "wavefront"
                                  else f" ({suite['integrator']})") + ("" if build is None else f", {build} build"))
-    columns = [("configuration", lambda r: r["configuration"]),
+    columns = [_col("configuration", "configuration", str),
                ("scene", lambda r: r["scene"] if r["scene"] != GEOMEAN else f"{GEOMEAN} ({r['scenes']})"),
-               (f"ours {ours} Mpaths/s", lambda r: _m(r["ours_paths_per_second"]))]
+               _col(f"ours {ours} Mpaths/s", "ours_paths_per_second", _m)]
     for v in suite["variants"]:
         short = v.split("_")[0]
-        columns += [(f"{short} Mpaths/s", lambda r, v=v: _m(r[f"mitsuba_paths_per_second_{v}"])),
-                    (f"ratio {short} (cpu)", _ratio_cells(v)),
-                    (f"rounds {short}", lambda r, v=v: _range(r.get(f"round_ratios_{v}"))),
+        columns += [_col(f"{short} Mpaths/s", f"mitsuba_paths_per_second_{v}", _m), (f"ratio {short} (cpu)",
+                    _ratio_cells(v)), _col(f"rounds {short}", f"round_ratios_{v}", _range),
                     (f"eff. ratio {short}", lambda r, v=v: _r(r[f"efficiency_ratio_{v}"]))]
     return _table(f"rtbench speed, suite: ours {ours} vs Mitsuba, {c['width']}x{c['height']}, {c['spp']} spp, "
                   f"{c['threads']} threads, median of {c['repeats']} paired rounds", columns, suite["rows"], left=2,
@@ -137,18 +141,15 @@ def suite_table(result, build=None):
 
 def render_table(result):
     """The render benchmark's detailed table (every configuration, every renderer)."""
-    c = result["config"]
-    columns = [("configuration", lambda r: r["configuration"]), ("scene", lambda r: r["scene"]),
-               ("renderer", lambda r: r["label"]), ("Mpaths/s", lambda r: _m(r["paths_per_second"])),
-               ("Mpaths/cpu-s", lambda r: _m(r["paths_per_cpu_second"])),
-               ("Mrays/s", lambda r: _m(r["rays_per_second"])), ("ms/spp", lambda r: f"{r['ms_per_spp']:.3f}"),
-               ("spread", lambda r: f"{100 * r['paths_per_second_spread']:.0f}%"
-                if math.isfinite(r["paths_per_second_spread"]) else "-"),
-               ("cpu/wall", lambda r: f"{r['cpu_over_wall']:.2f}")]
-    variants = result.get("available_variants", [])
+    c, variants = result["config"], result.get("available_variants", [])
+    columns = [_col("configuration", "configuration", str), _col("scene", "scene", str), _col("renderer", "label", str),
+               _col("Mpaths/s", "paths_per_second", _m), _col("Mpaths/cpu-s", "paths_per_cpu_second", _m),
+               _col("Mrays/s", "rays_per_second", _m), _col("ms/spp", "ms_per_spp", "{:.3f}"),
+               _col("spread", "paths_per_second_spread", lambda x: f"{100 * x:.0f}%" if math.isfinite(x) else "-"),
+               _col("cpu/wall", "cpu_over_wall")]
     columns += [(f"ratio {v.split('_')[0]} (cpu)", _ratio_cells(v)) for v in variants]
-    columns += [("RMSE", lambda r: f"{r['rmse']:.4f}")]
-    columns += [(f"eff. ratio {v.split('_')[0]}", lambda r, v=v: _r(r.get(f"efficiency_ratio_{v}"))) for v in variants]
+    columns += [_col("RMSE", "rmse", "{:.4f}")]
+    columns += [_col(f"eff. ratio {v.split('_')[0]}", f"efficiency_ratio_{v}", _r) for v in variants]
     return _table(f"rtbench speed: {c['width']}x{c['height']}, {c['spp']} spp, {c['threads']} threads, median of "
                   f"{c['repeats']} paired rounds", columns, result["summary"], left=3)
 
@@ -176,35 +177,29 @@ def render_notes(result):
               for name, template in c.get("externals", {}).items()]
     lines += [f"ours ..., {name} build: our core built for {name} ({module}), in a worker process, in the same rounds"
               for name, module in c.get("builds", {}).items()]
-    return lines + ["ratio = paths/s ours / Mitsuba, the median of the paired rounds' ratios (cpu: on process CPU time); "
+    return lines + ["ratio = paths/s ours / Mitsuba, the median of the paired rounds' ratios (cpu: on CPU time); "
                     "rounds = the lowest and highest round's; spread = (max-min)/median of paths/s; 'rr_depth N' = "
                     "roulette from depth N in both; benchmarks/PERFORMANCE.md, Reading the ratios"]
 
 
 def rays_tables(result):
     """The ray benchmark's two tables: speed (ours vs Mitsuba), then agreement and build."""
-    c = result["config"]
-    mi = bool(result.get("mitsuba", {}).get("variant"))
-    first = [("triangles", lambda r: f"{r['triangles']:,}"),
+    c, mi = result["config"], bool(result.get("mitsuba", {}).get("variant"))
+    first = [_col("triangles", "triangles", "{:,}"),
              ("rays", lambda r: r["kind"] + ("" if r.get("build") is None else f", {r['build']} build"))]
-    speed = first + [("ours Mrays/s", lambda r: f"{r['ours_mrays_per_second']:.2f}"),
-                     ("ours Mrays/cpu-s", lambda r: _r(r["ours_mrays_per_cpu_second"]))]
-    checks = first + [("hit frac.", lambda r: f"{r['hit_fraction']:.3f}"),
-                      ("ours in packets", lambda r: f"{100 * r.get('ours_packet_fraction', 0.0):.0f}%"),
-                      ("our build s/Mtri", lambda r: _r(r.get("build_seconds_per_mtri"))),
-                      ("BVH depth", lambda r: str(r.get("bvh_depth", "-")))]
-    if mi:
-        speed += [("Mitsuba Mrays/s", lambda r: f"{r['mitsuba_mrays_per_second']:.2f}"),
-                  ("Mitsuba Mrays/cpu-s", lambda r: _r(r["mitsuba_mrays_per_cpu_second"])),
-                  ("ratio", lambda r: f"{r['ratio']:.2f}"), ("ratio range", lambda r: _range(r["round_ratios"]))]
-        checks[2:2] = [("hit agree", lambda r: f"{100 * r['agree_hit_agreement']:.4f}%"),
-                       ("t agree", lambda r: f"{100 * r['agree_t_agreement']:.3f}%"),
-                       ("t rel. median", lambda r: f"{r['agree_t_rel_median']:.1e}")]
-        checks += [("Mitsuba load s", lambda r: f"{r['mitsuba_load_seconds']:.2f}")]
-    speed += [("ours full Mrays/s", lambda r: f"{r['ours_full_mrays_per_second']:.2f}")]
-    if mi:
-        speed += [("full ratio", lambda r: f"{r['ratio_full']:.2f}"),
-                  ("full range", lambda r: _range(r["round_ratios_full"]))]
+    speed = first + [_col("ours Mrays/s", "ours_mrays_per_second"),
+                     _col("ours Mrays/cpu-s", "ours_mrays_per_cpu_second")]
+    speed += [_col("Mitsuba Mrays/s", "mitsuba_mrays_per_second"), _col("Mitsuba Mrays/cpu-s",
+              "mitsuba_mrays_per_cpu_second"), _col("ratio", "ratio"), _col("ratio range", "round_ratios", _range)
+              ] if mi else []
+    speed += [_col("ours full Mrays/s", "ours_full_mrays_per_second")]
+    speed += [_col("full ratio", "ratio_full"), _col("full range", "round_ratios_full", _range)] if mi else []
+    checks = first + ([_col("hit agree", "agree_hit_agreement", lambda x: f"{100 * x:.4f}%"),
+                       _col("t agree", "agree_t_agreement", lambda x: f"{100 * x:.3f}%"),
+                       _col("t rel. median", "agree_t_rel_median", "{:.1e}")] if mi else [])
+    checks += [_col("hit frac.", "hit_fraction", "{:.3f}"), _col("ours in packets", "ours_packet_fraction",
+               lambda x: f"{100 * x:.0f}%"), _col("our build s/Mtri", "build_seconds_per_mtri", _r),
+               _col("BVH depth", "bvh_depth", str)] + ([_col("Mitsuba load s", "mitsuba_load_seconds")] if mi else [])
     return (_table(f"ray casting: closest hit, {c['rays']} rays per kind, {c['threads']} threads, median of "
                    f"{c['repeats']}", speed, result["rows"], left=2),
             _table("ray casting: agreement and build", checks, result["rows"], left=2))
@@ -213,8 +208,8 @@ def rays_tables(result):
 def rays_note(result) -> str:
     from reference_tracer import probe
 
-    return ("ratio = ours / Mitsuba Mrays/s, median of the paired rounds (range: lowest, highest); both sides' distance "
-            "and primitive (ray_intersect_preliminary; intersect(preliminary=True), packets of "
+    return ("ratio = ours / Mitsuba Mrays/s, median of the paired rounds (range: lowest, highest); both sides' "
+            "distance and primitive (ray_intersect_preliminary; intersect(preliminary=True), packets of "
             f"{probe.PACKET_RAYS}), timed from the Python call to its return; full: with our hit point and normal; "
             f"t agree: relative difference <= {result['rows'][0].get('agree_t_rtol', 1e-4):g}")
 
@@ -223,28 +218,23 @@ def scaling_tables(result):
     """The scaling tables: paths/s against each axis, then cost against triangle count."""
     from benchmarks.speed.scaling import AXES
 
-    c = result["config"]
-    mi = c["variant"] is not None
-    who = ("ours", "Mitsuba") if mi else ("ours",)
-    out = []
+    c, out = result["config"], []
+    who = ("ours", "Mitsuba") if c["variant"] is not None else ("ours",)
     for key, field, label in AXES:
-        columns = [(label, lambda r, f=field: str(r[f]))]
+        columns = [_col(label, field, str)]
         for w in who:
-            columns += [(f"{w} Mpaths/s", lambda r, w=w: _m(r[f"{w.lower()}_paths_per_second"])),
-                        (f"{w} Mpaths/cpu-s", lambda r, w=w: _m(r[f"{w.lower()}_paths_per_cpu_second"]))]
-            if key == "threads":
-                columns += [(f"{w} speed-up", lambda r, w=w: _r(r.get(f"{w.lower()}_speedup")))]
-        columns += [("ratio", lambda r: _r(r["ratio"]))] if mi else []
+            columns += [_col(f"{w} Mpaths/s", f"{w.lower()}_paths_per_second", _m),
+                        _col(f"{w} Mpaths/cpu-s", f"{w.lower()}_paths_per_cpu_second", _m)]
+            columns += [_col(f"{w} speed-up", f"{w.lower()}_speedup", _r)] if key == "threads" else []
+        columns += [_col("ratio", "ratio", _r)] if len(who) > 1 else []
         out.append(_table(f"paths/s vs {label} ({c['scene']}, {c['strategy']}, {c['spp']} spp; else "
                           f"{result['threads'][0]['resolution']}^2, {c['threads']} threads)", columns, result[key]))
-    columns = [("triangles", lambda r: f"{r['triangles']:,}"), ("ours build s", lambda r: f"{r['build_seconds']:.3f}"),
-               ("ours ns/ray", lambda r: f"{r['ours_ns_per_ray']:.0f}"), ("BVH depth", lambda r: str(r["bvh_depth"])),
-               ("ours Mpaths/s", lambda r: _m(r["ours_paths_per_second"]))]
-    if mi:
-        columns += [("Mitsuba load s", lambda r: f"{r['mitsuba_load_seconds']:.3f}"),
-                    ("Mitsuba ns/ray", lambda r: f"{r['mitsuba_ns_per_ray']:.0f}"),
-                    ("Mitsuba Mpaths/s", lambda r: _m(r["mitsuba_paths_per_second"])),
-                    ("paths/s ratio", lambda r: _r(r["ratio"]))]
+    columns = [_col("triangles", "triangles", "{:,}"), _col("ours build s", "build_seconds", "{:.3f}"),
+               _col("ours ns/ray", "ours_ns_per_ray", "{:.0f}"), _col("BVH depth", "bvh_depth", str),
+               _col("ours Mpaths/s", "ours_paths_per_second", _m)]
+    columns += [_col("Mitsuba load s", "mitsuba_load_seconds", "{:.3f}"), _col("Mitsuba ns/ray", "mitsuba_ns_per_ray",
+                "{:.0f}"), _col("Mitsuba Mpaths/s", "mitsuba_paths_per_second", _m),
+                _col("paths/s ratio", "ratio", _r)] if len(who) > 1 else []
     return out + [_table(f"cost vs triangle count (random rays; lit torus render 64x64, {c['mesh_spp']} spp; build "
                          f"and load: our BVH, Mitsuba's whole scene)", columns, result["mesh"])]
 
