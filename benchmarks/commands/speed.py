@@ -85,11 +85,7 @@ def _m(v):
 
 
 def _r(v):
-    """A ratio to two decimals (two significant digits below 0.01).
-
-    >>> _r(1.049), _r(0.00123), _r(None), _r(float("nan"))
-    ('1.05', '0.0012', '-', '-')
-    """
+    """A ratio to two decimals (two significant digits below 0.01); ``-`` for None and non-finite values."""
     return "-" if v is None or not math.isfinite(v) else f"{v:.2g}" if 0 < abs(v) < 0.01 else f"{v:.2f}"
 
 

@@ -32,11 +32,7 @@ WALL_CLOCK_NOTE = ("wall-clock figures are noisy when the machine is shared (oth
 
 def name_list(name, values, allowed=None) -> list:
     """``values`` (a sequence or a comma-separated string) as a list of distinct names; ``ValueError`` naming ``name``
-    when it is empty, has duplicates or a name outside ``allowed``.
-
-    >>> name_list("kinds", "primary,random", ("primary", "random"))
-    ['primary', 'random']
-    """
+    when it is empty, has duplicates or a name outside ``allowed``."""
     if isinstance(values, str):
         values = [v for v in values.split(",") if v]
     values = list(values)
@@ -55,21 +51,13 @@ def _finite(xs) -> list:   # None, NaN and infinities left out
 
 
 def median(xs) -> float:
-    """Median of the finite values of ``xs`` (None skipped); NaN when none is left.
-
-    >>> median([3.0, None, float("nan"), 1.0, 2.0])
-    2.0
-    """
+    """Median of the finite values of ``xs`` (None skipped); NaN when none is left."""
     xs = _finite(xs)
     return statistics.median(xs) if xs else float("nan")
 
 
 def spread(xs) -> float:
-    """(max - min) / median of the finite values; NaN for fewer than two.
-
-    >>> spread([1.0, 2.0, 3.0])
-    1.0
-    """
+    """(max - min) / median of the finite values; NaN for fewer than two."""
     xs = _finite(xs)
     m = statistics.median(xs) if len(xs) > 1 else 0.0
     return (max(xs) - min(xs)) / m if m > 0 else float("nan")
@@ -78,11 +66,7 @@ def spread(xs) -> float:
 def median_coverage(n: int, k: int) -> float:
     """Coverage of ``[x_(k), x_(n+1-k)]``, the k-th lowest and highest of ``n`` independent draws, as a confidence
     interval for their median: ``1 - 2 P(Binomial(n, 1/2) <= k - 1)`` (exact for a continuous distribution, else a
-    lower bound). ``ValueError`` unless ``1 <= k <= (n + 1) / 2``.
-
-    >>> median_coverage(5, 1), median_coverage(9, 2)
-    (0.9375, 0.9609375)
-    """
+    lower bound). ``ValueError`` unless ``1 <= k <= (n + 1) / 2``."""
     n, k = int(n), int(k)
     if n < 1 or not 1 <= k <= (n + 1) // 2:
         raise ValueError(f"need 1 <= k <= (n + 1) / 2 order statistics of n >= 1 values, got n={n}, k={k}")
@@ -90,11 +74,7 @@ def median_coverage(n: int, k: int) -> float:
 
 
 def rounds_for_coverage(coverage: float = 0.90) -> int:
-    """The fewest values whose lowest and highest bracket the median with ``coverage``.
-
-    >>> rounds_for_coverage(0.90), rounds_for_coverage(0.95), rounds_for_coverage(0.99)
-    (5, 6, 8)
-    """
+    """The fewest values whose lowest and highest bracket the median with ``coverage`` (5 for 90%)."""
     if isinstance(coverage, bool) or not isinstance(coverage, (int, float)) or not 0.0 < coverage < 1.0:
         raise ValueError(f"coverage must be in (0, 1), got {coverage!r}")
     n = 2
@@ -141,11 +121,7 @@ def timed(fn):
 
 
 def environment() -> dict:
-    """Machine and software identity for a JSON record (load average included).
-
-    >>> sorted(environment())[:3]
-    ['cpu_count', 'loadavg', 'machine']
-    """
+    """Machine and software identity for a JSON record (load average included)."""
     return {"cpu_count": default_threads(), "loadavg": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
             "machine": platform.machine(), "python": platform.python_version(),
             "reference_tracer": getattr(rt, "__version__", None), "note": WALL_CLOCK_NOTE}

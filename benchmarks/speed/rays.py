@@ -36,12 +36,7 @@ RAY_KINDS = ("primary", "random")
 def torus_mesh(triangles: int, *, seed: int = 0):
     """A closed, bumpy torus of about ``triangles`` (>= 32) triangles: ``(vertices (V, 3) float64, faces (F, 3)
     int64)``, radii 1 and 0.35 with smooth bumps and jitter, faces counter-clockwise seen from outside, vertices
-    rounded to float32 so that ours and Mitsuba see the very same geometry.
-
-    >>> v, f = torus_mesh(1000)
-    >>> len(f), v.dtype.name
-    (992, 'float64')
-    """
+    rounded to float32 so that ours and Mitsuba see the very same geometry."""
     triangles = positive_int("triangles", triangles, minimum=32)
     n = max(4, int(round(math.sqrt(triangles / 4.0))))
     m = max(4, int(round(triangles / (2.0 * n))))
@@ -63,11 +58,7 @@ _CAM = {"lookfrom": (0.0, -3.0, 2.0), "lookat": (0.0, 0.0, 0.0), "vup": (0.0, 0.
 
 def mesh_scene(triangles: int, *, seed: int = 0, lit: bool = False):
     """A 64x64 ``reference_tracer.Scene`` of one grey Lambertian :func:`torus_mesh`; ``lit=True`` adds a white
-    background (a constant emitter) for renders of it.
-
-    >>> len(mesh_scene(1000).shapes)
-    1
-    """
+    background (a constant emitter) for renders of it."""
     v, f = torus_mesh(triangles, seed=seed)
     return rt.Scene(camera=rt.Camera(width=64, height=64, **_CAM), shapes=[rt.Mesh(v, f, rt.Lambertian(0.5))],
                     max_depth=8, background=(1.0, 1.0, 1.0) if lit else (0.0, 0.0, 0.0))
@@ -75,12 +66,7 @@ def mesh_scene(triangles: int, *, seed: int = 0, lit: bool = False):
 
 def primary_rays(count: int, *, seed: int = 0):
     """``count`` pinhole-camera rays (a jittered pixel grid, row after row) at the torus: float32 ``(origins,
-    directions)`` of shape (N, 3), directions of unit length.
-
-    >>> o, d = primary_rays(100)
-    >>> o.shape, o.dtype.name
-    ((100, 3), 'float32')
-    """
+    directions)`` of shape (N, 3), directions of unit length."""
     count = positive_int("count", count)
     side = max(1, int(math.ceil(math.sqrt(count))))
     rng = np.random.default_rng(seed)
@@ -100,12 +86,7 @@ def primary_rays(count: int, *, seed: int = 0):
 
 def random_rays(count: int, *, seed: int = 0):
     """Incoherent rays: origins uniform in a box around the torus, directions uniform; float32 as
-    :func:`primary_rays`.
-
-    >>> o, d = random_rays(10)
-    >>> bool(np.allclose(np.linalg.norm(d, axis=1), 1, atol=1e-6))
-    True
-    """
+    :func:`primary_rays`."""
     count = positive_int("count", count)
     rng = np.random.default_rng(seed + 0x9E3779B9)
     o = rng.uniform((-1.6, -1.6, -0.6), (1.6, 1.6, 0.6), size=(count, 3))
@@ -315,11 +296,7 @@ def _ray_rows(sides, mscene, o, d, *, repeats, variant, threads) -> list:
 
 
 def _rates(who, n, secs, cpus) -> dict:
-    """``{who}_seconds`` ... ``{who}_ns_per_ray`` of ``n`` rays timed ``secs`` (wall) and ``cpus``.
-
-    >>> _rates("ours", 1000, [0.001, 0.002], [0.002, 0.002])["ours_mrays_per_second"]
-    0.6666666666666666
-    """
+    """``{who}_seconds`` ... ``{who}_ns_per_ray`` of ``n`` rays timed ``secs`` (wall) and ``cpus``."""
     wall, cpu = median(secs), median(cpus)
     return {f"{who}_seconds": secs, f"{who}_process_seconds": cpus, f"{who}_mrays_per_second": n / wall / 1e6,
             f"{who}_mrays_per_cpu_second": n / cpu / 1e6 if cpu > 0 else None, f"{who}_ns_per_ray": wall / n * 1e9}

@@ -102,12 +102,10 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
         (of each build).
     """
     config = _render_config(scenes, width=width, height=height, spp=spp, threads=threads, repeats=repeats,
-                            strategies=strategies, integrators=integrators, variants=variants,
-                            reference=reference, reference_spp=reference_spp, seed=seed)
-    max_depth, rr_depths = _depth_overrides(max_depth, rr_depths)
-    builds = {str(k): str(v) for k, v in (builds or {}).items()}
-    config.update(max_depth=max_depth, rr_depths=list(rr_depths), externals={e.name: e.template for e in externals},
-                  builds=builds)
+                            strategies=strategies, integrators=integrators, variants=variants, max_depth=max_depth,
+                            rr_depths=rr_depths, reference=reference, reference_spp=reference_spp, seed=seed)
+    builds = config["builds"] = {str(k): str(v) for k, v in (builds or {}).items()}
+    config["externals"] = {e.name: e.template for e in externals}
     ok_variants, skipped = available_variants(config["variants"], log)
     result = {"config": config, "environment": environment(), "skipped_variants": skipped, "mitsuba": {},
               "references": {}, "runs": [], "summary": []}
@@ -118,8 +116,8 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
     with contextlib.ExitStack() as stack:
         workers = {name: stack.enter_context(CoreWorker(module)) for name, module in builds.items()}
         for name in config["scenes"]:
-            _bench_scene(result, name, config, ok_variants, max_depth=max_depth, rr_depths=rr_depths, cache=cache,
-                         log=log, externals=tuple(externals), workers=workers)
+            _bench_scene(result, name, config, ok_variants, cache=cache, log=log, externals=tuple(externals),
+                         workers=workers)
     result["available_variants"] = ok_variants
     result["suite"] = suite_summary(result)
     result["build_suites"] = {b: suite_summary(result, build=b) for b in builds}
@@ -127,36 +125,25 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
     return result
 
 
-def _render_config(scenes, *, width, height, spp, threads, repeats, strategies, integrators, variants, reference,
-                   reference_spp, seed) -> dict:
+def _render_config(scenes, *, spp, strategies, integrators, variants, max_depth, rr_depths, reference, reference_spp,
+                   seed, **sizes) -> dict:
     """The validated settings, as stored under ``config``; ``ValueError`` names a bad one."""
-    spp = positive_int("spp", spp)
-    reference_spp = positive_int("reference_spp", reference_spp, minimum=2)
+    spp, reference_spp = positive_int("spp", spp), positive_int("reference_spp", reference_spp, minimum=2)
     if reference not in REFERENCE_KINDS:
         raise ValueError(f"reference must be one of {REFERENCE_KINDS}, got {reference!r}")
     if reference_spp <= spp:
         raise ValueError(f"reference_spp ({reference_spp}) must exceed spp ({spp})")
-    return {"scenes": name_list("scenes", scenes, known_scenes()),
-            "width": positive_int("width", width), "height": positive_int("height", height), "spp": spp,
-            "threads": positive_int("threads", threads), "repeats": positive_int("repeats", repeats),
-            "strategies": name_list("strategies", strategies, STRATEGIES),
-            "integrators": name_list("integrators", integrators, INTEGRATORS),
-            "variants": name_list("variants", variants), "reference": reference, "reference_spp": reference_spp,
-            "seed": positive_int("seed", seed, minimum=0)}
-
-
-def _depth_overrides(max_depth, rr_depths):
-    """Validated ``(max_depth, rr_depths)`` overrides (None / ``'scene'`` keep the scene's)."""
-    if max_depth is not None:
-        max_depth = int(max_depth)
-        if not (max_depth == -1 or max_depth >= 1):
-            raise ValueError(f"max_depth must be >= 1 or -1, got {max_depth}")
+    if max_depth is not None and not (int(max_depth) == -1 or int(max_depth) >= 1):
+        raise ValueError(f"max_depth must be >= 1 or -1, got {max_depth}")
     rr_depths = [v if v in ("scene", None) else positive_int("rr_depth", v) for v in rr_depths]
-    if not rr_depths:
-        raise ValueError("rr_depths must name at least one configuration")
-    if len(set(map(str, rr_depths))) != len(rr_depths):
-        raise ValueError(f"rr_depths has duplicates: {rr_depths}")
-    return max_depth, rr_depths
+    if not rr_depths or len(set(map(str, rr_depths))) != len(rr_depths):
+        raise ValueError(f"rr_depths must name configurations without duplicates, got {rr_depths}")
+    return {"scenes": name_list("scenes", scenes, known_scenes()), **{k: positive_int(k, v) for k, v in sizes.items()},
+            "spp": spp, "strategies": name_list("strategies", strategies, STRATEGIES),
+            "integrators": name_list("integrators", integrators, INTEGRATORS),
+            "variants": name_list("variants", variants), "max_depth": None if max_depth is None else int(max_depth),
+            "rr_depths": rr_depths, "reference": reference, "reference_spp": reference_spp,
+            "seed": positive_int("seed", seed, minimum=0)}
 
 
 def rr_label(rr_depth) -> str:
@@ -183,17 +170,17 @@ def render_timed(scene, *, key=None, **render_args):
     return timed(lambda: rt.render(scene, **render_args))
 
 
-def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cache, log, externals, workers):
+def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, workers):
     """Set up, time and summarise one scene in every Russian-roulette configuration."""
     width, height, spp, threads = config["width"], config["height"], config["spp"], config["threads"]
-    base = _with_depths(get_scene(name).with_camera_size(width, height), max_depth, "scene")
+    base = _with_depths(get_scene(name).with_camera_size(width, height), config["max_depth"], "scene")
     _, build_wall, _ = timed(lambda: core_scene(base))   # our tree, untimed
     ref, result["references"][name] = _reference(base, kind=config["reference"], spp=config["reference_spp"],
                                                  variant=(ok_variants or [None])[0], threads=threads, cache=cache,
                                                  log=log)
     result.setdefault("ours", {})[name] = {"build_seconds": float(core_scene(base).build_seconds),
                                            "compile_and_build_seconds": build_wall}
-    for rr in rr_depths:
+    for rr in config["rr_depths"]:
         scene = _with_depths(base, None, rr)
         label = rr_label(scene.rr_depth)
         if log:

@@ -111,8 +111,8 @@ def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128, 2
 
 
 def _measure(sc, *, spp, threads, strategy, seed, repeats, variant) -> dict:
-    """Median paths/s (wall and CPU) of ours and, unless ``variant`` is None, Mitsuba on ``sc``: a warm-up render
-    each (our tree, Mitsuba's JIT), then ``repeats`` interleaved rounds."""
+    """Median paths/s (wall and CPU) of ours and, unless ``variant`` is None, Mitsuba on ``sc``: a warm-up render each
+    (our tree, Mitsuba's JIT), then ``repeats`` interleaved rounds."""
     renders = {"ours": lambda r: timed(lambda: rt.render(sc, spp=spp, strategy=strategy, seed=seed + r,
                                                          threads=threads))}
     if variant is not None:

@@ -28,22 +28,14 @@ def _ok(v) -> bool:
 
 
 def geometric_mean(values) -> float:
-    """Geometric mean of the finite positive ``values`` (None skipped); NaN when none is left.
-
-    >>> round(geometric_mean([1.0, 4.0, None, float("nan")]), 12), geometric_mean([])
-    (2.0, nan)
-    """
+    """Geometric mean of the finite positive ``values`` (None skipped); NaN when none is left."""
     xs = [math.log(v) for v in values if _ok(v)]
     return math.exp(sum(xs) / len(xs)) if xs else float("nan")
 
 
 def round_geometric_means(rounds):
     """Each round's geometric mean over scenes (``rounds``: one list per scene, round ``k`` at index ``k``): NaN for a
-    round missing or not positive in some scene, None when a scene has no list or the lists differ in length.
-
-    >>> [round(x, 9) for x in round_geometric_means([[1.0, 2.0, 3.0], [4.0, 8.0, float("nan")]])[:2]]
-    [2.0, 4.0]
-    """
+    round missing or not positive in some scene, None when a scene has no list or the lists differ in length."""
     rounds = list(rounds)
     if not rounds or not all(rounds) or len({len(x) for x in rounds}) != 1:
         return None

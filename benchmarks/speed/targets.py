@@ -36,11 +36,7 @@ TARGET_TRIANGLES, TARGET_RAY_KINDS = (100_000, 1_000_000), ("primary", "random")
 @dataclasses.dataclass(frozen=True)
 class Target:
     """One speed target: ours / ``against`` in ``metric`` at least ``threshold``, judged from the ``benchmark``
-    (``render`` or ``rays``) on ``scope``.
-
-    >>> SCENE_PATHS.label("cornell_box")
-    'cornell_box paths/s vs Mitsuba llvm_ad_rgb >= 1.5x'
-    """
+    (``render`` or ``rays``) on ``scope``."""
 
     name: str
     benchmark: str
