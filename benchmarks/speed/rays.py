@@ -242,10 +242,8 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
                     out["rows"].append({**base, "kind": kind, **(built if row["build"] is None else {}),
                                         "mitsuba_load_seconds": load, **row})
                     if log:
-                        log(f"  {kind}{'' if row['build'] is None else ', ' + row['build'] + ' build'}: ours "
-                            f"{row['ours_mrays_per_second']:.2f} Mrays/s ({row['ours_full_mrays_per_second']:.2f} "
-                            f"with hit point and normal)" + (f", Mitsuba {row['mitsuba_mrays_per_second']:.2f}, "
-                                                             f"ratio {row['ratio']:.2f}" if use_mi else ""))
+                        log(f"  {kind}, {row['build'] or 'installed'} build: ours {row['ours_mrays_per_second']:.2f} "
+                            f"Mrays/s" + (f", Mitsuba {row['mitsuba_mrays_per_second']:.2f}" if use_mi else ""))
             del core, mscene
             scene._core_cache.clear()
     out["environment_after"] = environment()
@@ -272,17 +270,14 @@ def _ray_rows(sides, mscene, o, d, *, repeats, variant, threads) -> list:
     for side, (ours, full) in got.items():
         if not all(np.array_equal(ours[-1][k], full[-1][k]) for k in ("t", "prim")):
             raise RuntimeError("the preliminary and the full closest-hit queries disagree")
-        secs, full_secs = [q["call_seconds"] for q in ours], [q["call_seconds"] for q in full]
-        row = {"build": side, **_rates("ours", len(o), secs, [q["process_seconds"] for q in ours]),
-               **_rates("ours_full", len(o), full_secs, [q["process_seconds"] for q in full]),
+        row = {"build": side, **_rates("ours", len(o), ours), **_rates("ours_full", len(o), full),
                "ours_query_seconds": [q["seconds"] for q in ours],
                "hit_fraction": float(np.isfinite(ours[-1]["t"]).mean()),
                "ours_packet_fraction": ours[-1]["packet_fraction"]}
         if theirs:   # paired per round: a round's sides ran back to back
-            mi_secs = [m["seconds"] for m in theirs]
-            row.update(_rates("mitsuba", len(o), mi_secs, [m["process_seconds"] for m in theirs]))
-            for suffix, own in (("", secs), ("_full", full_secs)):
-                ratios = [m / x for x, m in zip(own, mi_secs)]
+            row.update(_rates("mitsuba", len(o), theirs, wall="seconds"))
+            for suffix in ("", "_full"):
+                ratios = [m / x for x, m in zip(row[f"ours{suffix}_seconds"], row["mitsuba_seconds"])]
                 row.update({f"ratio{suffix}": median(ratios), f"ratio{suffix}_min": min(ratios),
                             f"ratio{suffix}_max": max(ratios), f"round_ratios{suffix}": ratios})
             t, prim = theirs[-1]["t"], theirs[-1]["prim"]
@@ -295,8 +290,9 @@ def _ray_rows(sides, mscene, o, d, *, repeats, variant, threads) -> list:
     return rows
 
 
-def _rates(who, n, secs, cpus) -> dict:
-    """``{who}_seconds`` ... ``{who}_ns_per_ray`` of ``n`` rays timed ``secs`` (wall) and ``cpus``."""
+def _rates(who, n, queries, *, wall="call_seconds") -> dict:
+    """``{who}_seconds`` ... ``{who}_ns_per_ray`` of ``queries`` of ``n`` rays each (their ``wall`` and CPU times)."""
+    secs, cpus = [q[wall] for q in queries], [q["process_seconds"] for q in queries]
     wall, cpu = median(secs), median(cpus)
     return {f"{who}_seconds": secs, f"{who}_process_seconds": cpus, f"{who}_mrays_per_second": n / wall / 1e6,
             f"{who}_mrays_per_cpu_second": n / cpu / 1e6 if cpu > 0 else None, f"{who}_ns_per_ray": wall / n * 1e9}

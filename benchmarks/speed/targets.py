@@ -65,8 +65,8 @@ RAYS = Target("ray casting", "rays", "rays/s", 1.2, "Embree", "100k and 1M trian
 #: every target, in the order verdicts are listed.
 TARGETS = (SCENE_PATHS, SCENE_EFFICIENCY, SUITE_PATHS, SUITE_EFFICIENCY, RAYS)
 
-#: the per-round ratio list each render target reads (suffixed ``_<variant>``).
-_ROUND_KEY = {"paths/s": "round_ratios", "efficiency": "round_efficiency_ratios"}
+#: the per-round ratio list each render target reads.
+_ROUND_KEY = {"paths/s": f"round_ratios_{TARGET_VARIANT}", "efficiency": f"round_efficiency_ratios_{TARGET_VARIANT}"}
 
 
 def _verdict(target, subject, build, *, line, **fields) -> dict:
@@ -146,20 +146,15 @@ def render_verdicts(result, *, suite_scenes=None, build=None) -> list:
             out.append(not_judged(SCENE_PATHS, subject, "not a suite scene (the targets are set on the suite)",
                                   build=build))
             continue
-        for target in (SCENE_PATHS, SCENE_EFFICIENCY):
-            out.append(judge(target, subject, row.get(f"{_ROUND_KEY[target.metric]}_{TARGET_VARIANT}"),
-                             no_rounds=_no_rounds(target), build=build))
+        out += [judge(t, subject, row.get(_ROUND_KEY[t.metric]), no_rounds=_no_rounds(t), build=build)
+                for t in (SCENE_PATHS, SCENE_EFFICIENCY)]
     ran = {r["scene"]: r for r in rows if r["scene"] in suite_scenes}
     subject = "suite geometric mean" + _tag(build)
-    for target in (SUITE_PATHS, SUITE_EFFICIENCY):
-        if len(ran) < len(suite_scenes):
-            out.append(not_judged(target, subject, f"{len(ran)} of {len(suite_scenes)} suite scenes in this run",
-                                  build=build))
-            continue
-        rounds = round_geometric_means(ran[s].get(f"{_ROUND_KEY[target.metric]}_{TARGET_VARIANT}")
-                                       for s in suite_scenes)
-        out.append(judge(target, subject, rounds, no_rounds=_no_rounds(target, suite=True), build=build))
-    return out
+    if len(ran) < len(suite_scenes):
+        return out + [not_judged(t, subject, f"{len(ran)} of {len(suite_scenes)} suite scenes in this run", build=build)
+                      for t in (SUITE_PATHS, SUITE_EFFICIENCY)]
+    return out + [judge(t, subject, round_geometric_means(ran[s].get(_ROUND_KEY[t.metric]) for s in suite_scenes),
+                        no_rounds=_no_rounds(t, suite=True), build=build) for t in (SUITE_PATHS, SUITE_EFFICIENCY)]
 
 
 def _no_rounds(target, *, suite=False) -> str:
@@ -194,10 +189,7 @@ def _render_blocker(result, suite) -> str | None:
 
 def _size(n: int) -> str:
     """``100000`` -> ``100k``, ``1000000`` -> ``1M``, ``4000`` -> ``4k``, ``500`` -> ``500``."""
-    for unit, scale in (("M", 1_000_000), ("k", 1000)):
-        if n >= scale and n % scale == 0:
-            return f"{n // scale}{unit}"
-    return str(n)
+    return next((f"{n // k}{unit}" for unit, k in (("M", 10 ** 6), ("k", 1000)) if n >= k and n % k == 0), str(n))
 
 
 def ray_verdicts(result, *, build=None) -> list:
@@ -231,13 +223,11 @@ def ray_verdicts(result, *, build=None) -> list:
             if row is not None:
                 out.append(judge(RAYS, subject, row.get("round_ratios"), no_rounds="no per-round ratios in this row",
                                  build=build))
-            elif n not in config["triangles"]:
-                out.append(not_judged(RAYS, subject, f"not in this run (--triangles "
-                                                     f"{','.join(map(str, config['triangles']))})", build=build))
-            else:
-                why = (f"not in this run (ray kinds {','.join(config['kinds'])})" if kind not in config["kinds"]
-                       else "no row for it in this result")
-                out.append(not_judged(RAYS, subject, why, build=build))
+                continue
+            why = (f"not in this run (--triangles {','.join(map(str, config['triangles']))})"
+                   if n not in config["triangles"] else f"not in this run (ray kinds {','.join(config['kinds'])})"
+                   if kind not in config["kinds"] else "no row for it in this result")
+            out.append(not_judged(RAYS, subject, why, build=build))
     return out
 
 
