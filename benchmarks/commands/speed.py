@@ -39,8 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=int, default=5, help="timed paired rounds")
     A.add_strategy_args(parser, default=DEFAULT_STRATEGIES)
     parser.add_argument("--integrators", action=A.ListAction, default=("wavefront",), metavar="I[,I...]",
-                        help="our integrators, each strategy timed with each: wavefront, scalar (one path at a "
-                             "time, the reference implementation); rows of the others are labelled with it")
+                        help="our integrators (wavefront, scalar), each strategy timed with each")
     A.add_variant_args(parser, default=DEFAULT_VARIANTS)
     parser.add_argument("--variants", dest="variant", help=argparse.SUPPRESS)  # older name
     parser.add_argument("--max-depth", type=int, default=None,
@@ -51,30 +50,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--reference", dest="reference_kind", choices=REFERENCE_KINDS,
                         default=argparse.SUPPRESS, help=argparse.SUPPRESS)  # older name of --reference-kind
     parser.add_argument("--reference-kind", choices=REFERENCE_KINDS, default="mitsuba",
-                        help="error reference: cached high-spp Mitsuba (benchmarks.references; rendered once "
-                             "if missing) or a high-spp render of ours")
+                        help="error reference: a cached high-spp Mitsuba render, or a high-spp render of ours")
     A.add_reference_spp_arg(parser, default=4096)
     A.add_cache_arg(parser)
     A.add_seed_args(parser)
     parser.add_argument("--isa", choices=sorted(ISAS), default=None,
-                        help="also time our core built for this instruction set (-march=x86-64-v3 or -v4) beside "
-                             "the installed one, in the same rounds, with its own rows and verdicts (default: none)")
+                        help="also time our core built for this instruction set, with its own rows (default: none)")
     parser.add_argument("--render", action="store_true", help="run the render benchmark too with --rays/--scaling")
     parser.add_argument("--rays", action="store_true", help="ray-casting micro-benchmark (ours vs Mitsuba/Embree)")
     parser.add_argument("--triangles", default="100000,1000000", help="mesh sizes of --rays")
     parser.add_argument("--ray-count", type=int, default=1 << 20, help="rays per kind for --rays")
-    parser.add_argument("--scaling", action="store_true",
-                        help="paths/s against image size, max depth, threads and triangle count, ours beside Mitsuba")
+    parser.add_argument("--scaling", action="store_true", help="paths/s against image size, depth, threads, triangles")
     parser.add_argument("--resolutions", default="32,64,128,256,512", help="--scaling image sizes")
     parser.add_argument("--scaling-depths", default="2,5,10,20,50", help="--scaling maximum depths")
     parser.add_argument("--scaling-triangles", default="1000,10000,100000,1000000", help="--scaling mesh sizes")
     parser.add_argument("--scaling-spp", type=int, default=16, help="--scaling spp")
-    parser.add_argument("--svg", metavar="PATH", default=None,
-                        help="write the --scaling curves, ours beside Mitsuba, as an SVG plot (default: none)")
+    parser.add_argument("--svg", metavar="PATH", default=None, help="draw the --scaling curves (default: none)")
     A.add_renderer_arg(parser)  # timed in the same paired rounds as ours and Mitsuba
     parser.add_argument("--require-targets", action="store_true",
-                        help="exit 1 when a judged speed target is not met (benchmarks/PERFORMANCE.md, Targets "
-                             "and verdicts); without it a speed target is reported, never a failure")
+                        help="exit 1 when a judged speed target is not met (else a target is reported only)")
     A.add_json_arg(parser)
     A.add_quiet_arg(parser)
     add_scene_path_args(parser)
@@ -250,8 +244,7 @@ def scaling_svg(result) -> bytes:
 
     fig = Figure(figsize=(9, 7))
     fig.subplots_adjust(hspace=0.4, wspace=0.3)
-    panels = [(key, field, label) for key, field, label in AXES] + [("mesh", "triangles", "triangles (lit torus)")]
-    for k, (key, field, label) in enumerate(panels):
+    for k, (key, field, label) in enumerate([*AXES, ("mesh", "triangles", "triangles (lit torus)")]):
         ax = fig.add_subplot(2, 2, k + 1)
         for who, style in (("ours", {"marker": "o"}), ("mitsuba", {"marker": "s", "linestyle": "--"})):
             points = [(r[field], r[f"{who}_paths_per_second"] / 1e6) for r in result[key]
@@ -357,11 +350,7 @@ def _build_isa(isa, cache, log) -> dict:
 
 
 def verdict_lines(verdicts) -> list:
-    """The closing lines of ``rtbench speed``: a heading, then one line per verdict.
-
-    >>> verdict_lines([])
-    ['speed targets: none applies to --scaling']
-    """
+    """The closing lines of ``rtbench speed``: a heading, then one line per verdict."""
     if not verdicts:
         return ["speed targets: none applies to --scaling"]
     counts = {s: sum(v["status"] == s for v in verdicts) for s in ("met", "not met", "not judged")}

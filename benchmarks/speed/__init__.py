@@ -1,11 +1,7 @@
-"""Speed measurements: ours against Mitsuba 3, on renders and on raw ray casting (``rtbench speed``).
-
-:func:`render_benchmark` (paired renders: paths/s, efficiency; its headline :func:`suite_summary`),
-:func:`ray_benchmark` (closest hits against Embree) and :func:`scaling_benchmark` (cost against work) return JSON-able
-dicts; :func:`speed_verdicts` judges the speed targets on them (:mod:`.targets`); :mod:`.builds` builds the core in
-other configurations and runs code against them. Speed is measured and reported, never asserted by the tests. How to
-measure and today's numbers: ``benchmarks/PERFORMANCE.md``.
-"""
+"""Speed measurements against Mitsuba 3 (``rtbench speed``): :func:`render_benchmark` (paired renders, headline
+:func:`suite_summary`), :func:`ray_benchmark` (closest hits against Embree), :func:`scaling_benchmark` (cost against
+work); :func:`speed_verdicts` judges the speed targets (:mod:`.targets`); :mod:`.builds` runs other builds of the core.
+Speed is reported, never asserted by the tests. How to measure, today's numbers: ``benchmarks/PERFORMANCE.md``."""
 from __future__ import annotations
 
 from .common import WALL_CLOCK_NOTE

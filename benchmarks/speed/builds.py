@@ -1,11 +1,7 @@
-"""Other builds of the C++ core beside the installed one: build a configuration, run code against it.
-
-:func:`build_core` builds a configuration (``-march``, ``RT_PACK_WIDTH``, the compiler) into a folder of its own,
-:func:`build_isa` one of the instruction sets of :data:`ISAS`. Code runs against a build in a fresh interpreter, so
-that the caller keeps its own core: a script (:func:`run_with_core`) or calls on request (:class:`CoreWorker`). Every
-build must give the same images bit for bit (:data:`AGREEMENT_SCRIPT`); :func:`paired_times` times builds against each
-other (``scripts/ab_cores.py``; PERFORMANCE.md, How to measure).
-"""
+"""Other builds of the C++ core beside the installed one: :func:`build_core`, :func:`build_isa` (:data:`ISAS`), and
+code run against a build in a fresh interpreter (:func:`run_with_core`, :class:`CoreWorker`). Every build must give the
+same images bit for bit (:data:`AGREEMENT_SCRIPT`); :func:`paired_times` times builds against each other
+(``scripts/ab_cores.py``; PERFORMANCE.md, How to measure)."""
 from __future__ import annotations
 
 import contextlib

@@ -1,9 +1,5 @@
-"""What every speed measurement shares: timing, robust summaries, machine identity, Mitsuba variants.
-
-Every timed call records wall and process CPU time (all threads, Dr.Jit's included): on a shared machine wall-clock
-figures are noisy, and ``cpu/wall`` below the thread count shows contention or idle workers. Rounds are summarised by
-their median and its distribution-free interval from order statistics (:func:`median_order_interval`).
-"""
+"""What every speed measurement shares: timing (wall and process CPU time: :data:`WALL_CLOCK_NOTE`), robust summaries
+(the median and its interval from order statistics), machine identity, Mitsuba variants."""
 from __future__ import annotations
 
 import math

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.probe import core_scene
+from reference_tracer.probe import camera_rays, core_scene
 from reference_tracer.validation import positive_int
 
 from .builds import CoreWorker
@@ -69,19 +69,10 @@ def primary_rays(count: int, *, seed: int = 0):
     directions)`` of shape (N, 3), directions of unit length."""
     count = positive_int("count", count)
     side = max(1, int(math.ceil(math.sqrt(count))))
-    rng = np.random.default_rng(seed)
-    eye, at, up = (np.array(_CAM[k]) for k in ("lookfrom", "lookat", "vup"))
-    w = (eye - at) / np.linalg.norm(eye - at)
-    u = np.cross(up, w)
-    u /= np.linalg.norm(u)
-    v = np.cross(w, u)
-    half = math.tan(math.radians(_CAM["vfov"]) / 2)
-    k = np.arange(count)
-    px = (k % side + rng.random(count)) / side
-    py = (k // side + rng.random(count)) / side
-    d = (2 * px - 1)[:, None] * half * u + (1 - 2 * py)[:, None] * half * v - w
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    return np.ascontiguousarray(np.broadcast_to(eye, d.shape), dtype=np.float32), d.astype(np.float32)
+    rng, k = np.random.default_rng(seed), np.arange(count)
+    o, d = camera_rays(rt.Camera(width=side, height=side, **_CAM), k % side + rng.random(count),
+                       k // side + rng.random(count))
+    return o.astype(np.float32), d.astype(np.float32)
 
 
 def random_rays(count: int, *, seed: int = 0):

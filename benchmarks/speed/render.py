@@ -1,19 +1,9 @@
 """The paired render benchmark: ours vs Mitsuba's ``path`` integrator, paths/s and error at equal spp.
 
-:func:`render_benchmark` renders each scene with ours (each strategy and integrator, with the installed core and any
-other ``builds`` of it), Mitsuba (each variant) and external renderers (:mod:`benchmarks.external`) at the same
-settings, once per Russian-roulette configuration. Each renderer gets an untimed warm-up (Mitsuba's JIT compile is
-reported apart), then ``repeats`` rounds run every configuration once, interleaved and alternating who goes first, so
-that a change of machine load hits both sides of a pair alike: a ratio is the median of the per-round ratios.
-PERFORMANCE.md, How to measure.
-
-Examples
---------
->>> DEFAULT_STRATEGIES
-('mis', 'mixture', 'cosine', 'uniform', 'light')
->>> rr_label(5), rr_label(None)
-('rr_depth 5', 'no RR')
-"""
+:func:`render_benchmark` renders each scene with ours (every strategy and integrator, of the installed core and other
+``builds``), Mitsuba (each variant) and external renderers at the same settings, per Russian-roulette configuration:
+after a warm-up each, ``repeats`` rounds run every configuration once, interleaved and alternating who goes first, so
+that load hits both sides of a pair alike; a ratio is the median of the rounds'. PERFORMANCE.md, How to measure."""
 from __future__ import annotations
 
 import contextlib
@@ -147,7 +137,7 @@ def _render_config(scenes, *, spp, strategies, integrators, variants, max_depth,
 
 
 def rr_label(rr_depth) -> str:
-    """A Russian-roulette setting as a table label (module example)."""
+    """A Russian-roulette setting as a table label: ``rr_depth 5``, ``no RR``."""
     return "no RR" if rr_depth is None else f"rr_depth {rr_depth}"
 
 

@@ -1,17 +1,8 @@
 """The scaling benchmark: cost against work, ours beside Mitsuba, so a user sees where each one's cost grows.
 
-:func:`scaling_benchmark` measures paths/s of a suite scene against image size, maximum depth and thread count, and
-against triangle count on a lit torus (with both renderers' build or load times and the cost a random ray, fitted as
-``a + b ln n`` by :func:`fit_log_growth`: a BVH gives logarithmic growth). ``rtbench speed --scaling`` prints the
-tables and can draw the curves as an SVG (``--svg``).
-
-Examples
---------
->>> out = scaling_benchmark(resolutions=(8, 16), depths=(2, 4), spp=1, thread_counts=(1,), triangles=(200, 2000),
-...                         rays=1000, mesh_spp=1, variant=None, repeats=1)  # doctest: +SKIP
->>> [r["max_depth"] for r in out["depth"]]  # doctest: +SKIP
-[2, 4]
-"""
+:func:`scaling_benchmark`: paths/s of a suite scene against image size, maximum depth and threads, and against
+triangle count on a lit torus, with build or load times and the cost a random ray, fitted as ``a + b ln n``
+(:func:`fit_log_growth`). ``rtbench speed --scaling`` prints the tables, ``--svg`` draws the curves."""
 from __future__ import annotations
 
 import dataclasses

@@ -1,14 +1,5 @@
 """The render benchmark's headline: one strategy against each Mitsuba variant, every scene of the run and the
 geometric mean (each scene weighs the same), per Russian-roulette configuration.
-
-Examples
---------
->>> row = {"scene": "a", "configuration": "no RR", "rr_depth": None, "renderer": "ours", "strategy": "mis",
-...        "paths_per_second": 2.0e6, "ratio_v": 2.0, "cpu_ratio_v": 2.0, "efficiency_ratio_v": 4.0}
->>> out = suite_summary({"config": {"strategies": ["mis"], "rr_depths": [None]}, "available_variants": ["v"],
-...                      "summary": [row, dict(row, scene="b", ratio_v=0.5, efficiency_ratio_v=1.0)]})
->>> [(r["scene"], round(r["ratio_v"], 9), round(r["efficiency_ratio_v"], 9)) for r in out["rows"]]
-[('a', 2.0, 4.0), ('b', 0.5, 1.0), ('geometric mean', 1.0, 2.0)]
 """
 from __future__ import annotations
 
@@ -50,11 +41,10 @@ def suite_summary(result, *, build=None) -> dict:
     -------
     dict
         ``strategy`` and ``integrator`` (the headline's: the first of each), ``variants`` and ``rows``: per
-        configuration in run order, one row per scene (``configuration``, ``rr_depth``, ``scene``,
-        ``ours_paths_per_second``, ``mitsuba_paths_per_second_<v>``, and ``ratio``, ``cpu_ratio``,
-        ``efficiency_ratio``, ``round_ratios``, ``round_efficiency_ratios``, each suffixed ``_<v>``), then a row with
-        ``scene`` :data:`GEOMEAN` and ``scenes`` (their count) holding the geometric means of the ratios and each
-        round's geometric mean over the scenes.
+        configuration in run order, a row per scene (``configuration``, ``rr_depth``, ``scene``,
+        ``ours_paths_per_second``, and against each variant ``v`` ``mitsuba_paths_per_second_v``, ``ratio_v``,
+        ``cpu_ratio_v``, ``efficiency_ratio_v``, ``round_ratios_v``, ``round_efficiency_ratios_v``), then a row of
+        ``scene`` :data:`GEOMEAN` holding the geometric means (of each round's too) over its ``scenes``.
     """
     strategy = result["config"]["strategies"][0]
     integrator = result["config"].get("integrators", ["wavefront"])[0]

@@ -1,18 +1,9 @@
 """The speed targets (issue 44, :data:`TARGETS`) and their verdicts, judged from a run's own results.
 
-Each target is judged on the median of the paired rounds' ratios (for the suite's geometric mean, of each round's
-geometric mean) and its distribution-free 90% interval (:func:`.common.median_order_interval`): ``met`` or ``not
-met``, ``clearly`` where the whole interval lies on that side of the threshold, ``within noise`` where it straddles
-it; ``not judged``, with the reason, where the run did not measure what the target needs. Each build of the run
-(:mod:`.builds`) is judged apart. The wording and rules: PERFORMANCE.md, Targets and verdicts.
-
-Examples
---------
->>> judge(SCENE_PATHS, "cornell_box", [1.61, 1.52, 1.70, 1.66, 1.58])["line"]
-'cornell_box paths/s vs Mitsuba llvm_ad_rgb >= 1.5x: met, clearly (1.61x, 90% interval 1.52-1.70, 5 rounds)'
->>> judge(SCENE_PATHS, "cornell_box", [1.61, 1.45])["line"].split(": ", 1)[1]
-'met (1.53x, 2 rounds; too few rounds for a 90% interval: use --repeats 5)'
-"""
+A target is judged on the median of the paired rounds' ratios (the suite's geometric mean: of each round's) and its
+distribution-free 90% interval: ``met`` or ``not met``, ``clearly`` where the interval lies on that side of the
+threshold, ``within noise`` where it straddles it; ``not judged``, with the reason, where the run did not measure what
+it needs. Each build of the run is judged apart. PERFORMANCE.md, Targets and verdicts."""
 from __future__ import annotations
 
 import dataclasses
