@@ -67,10 +67,11 @@ np.savez(PATH, **out)
 """
 
 # A worker's loop: call the function each request names with its (pickled) arguments, answer (True, result) or (False,
-# traceback). Its stdout carries the answers alone.
+# traceback). Its stdout carries the answers alone: whatever else Python or C code writes there goes to stderr.
 _SERVE = """
-import importlib, pickle, traceback
-answers, sys.stdout = sys.stdout.buffer, sys.stderr
+import importlib, os, pickle, traceback
+answers = os.fdopen(os.dup(1), "wb")
+os.dup2(2, 1)
 while True:
     try:
         name, args, kwargs = pickle.load(sys.stdin.buffer)
