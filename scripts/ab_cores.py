@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Time two builds of the C++ core against each other, paired run by run (renders or ray queries).
+"""Time two builds of the C++ core against each other, paired call by call (renders or ray queries).
 
 For changes of a few per cent on a shared VM, where separate timed processes disagree by
 more than that (PERFORMANCE.md, How to measure): one worker process per build renders on request,
@@ -20,11 +20,9 @@ rays (``--kinds``):
         --rays --triangles 1000000 --kinds random --rounds 40
 
 The table gives each build's median seconds a render (or query) and the speed-up of B over A
-(time of A / time of B, above 1 where B is faster): the median of the rounds' ratios with a
-bootstrap 90% interval. Builds of the same code measure 0.99-1.01 this way on renders (40
-rounds), and 1.00-1.06 on 1M-triangle ray queries (20-30 rounds: the memory-bound queries
-are noisier; PERFORMANCE.md, How to measure). Images are not compared here:
-``scripts/compare_builds.py`` and ``benchmarks.speed.builds.agreement_arrays`` do that.
+(time of A / time of B, above 1 where B is faster): the median of the rounds' ratios with its
+distribution-free 90% interval (``benchmarks.speed.common.median_order_interval``). Images
+are not compared here: ``scripts/compare_builds.py`` does that.
 """
 from __future__ import annotations
 
@@ -34,12 +32,6 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-
-def _installed_core() -> Path:
-    from reference_tracer.build import core_path
-
-    return core_path()
 
 
 def main(argv=None) -> int:
@@ -66,33 +58,42 @@ def main(argv=None) -> int:
     unknown = [s for s in opts.scenes if s not in SUITE]
     if unknown:
         parser.error(f"unknown scene(s) {', '.join(unknown)}; the suite has {', '.join(SUITE)}")
+    from reference_tracer.build import core_path
+
     modules = []
     for name in (opts.a, opts.b):
-        path = _installed_core() if name == "installed" else Path(name)
+        path = core_path() if name == "installed" else Path(name)
         if not path.is_file():
             parser.error(f"no core module at {path}")
         modules.append(path.resolve())
 
-    from benchmarks.speed.builds import median_interval, paired_ray_times, paired_render_times
+    from benchmarks.speed.builds import paired_times
+    from benchmarks.speed.common import median_order_interval
 
     print(f"A: {modules[0]}\nB: {modules[1]}")
     if opts.rays:
         print(f"{opts.rounds} rounds, {opts.ray_count} rays a query, closest hit (distance and primitive), 1 thread")
-        cases = [((t, kind), f"{t} {kind}") for t in opts.triangles for kind in opts.kinds]
+        cases = {f"{t} {kind}": ("benchmarks.speed.rays.query_torus", {"triangles": t, "kind": kind,
+                                                                       "rays": opts.ray_count})
+                 for t in opts.triangles for kind in opts.kinds}
+        seconds = lambda answer: answer["call_seconds"]  # noqa: E731 - the call, as rtbench speed --rays times it
         print(f"{'mesh, rays':16s} {'A s/query':>11s} {'B s/query':>11s} {'B speed-up':>11s} {'90% interval':>16s}")
     else:
+        from mitsuba_scenes import get_scene
+
         print(f"{opts.rounds} rounds, {opts.size}x{opts.size}, {opts.spp} spp, mis, rr_depth 5, 1 thread")
-        cases = [(scene, scene) for scene in opts.scenes]
+        cases = {scene: ("benchmarks.speed.render.render_timed",
+                         {"scene": get_scene(scene, width=opts.size, height=opts.size, max_depth=50, rr_depth=5),
+                          "key": scene, "spp": opts.spp, "strategy": "mis", "seed": 1, "threads": 1})
+                 for scene in opts.scenes}
+        seconds = lambda answer: answer[1]  # noqa: E731 - the render's wall time
         print(f"{'scene':16s} {'A s/render':>11s} {'B s/render':>11s} {'B speed-up':>11s} {'90% interval':>16s}")
-    for key, label in cases:
-        if opts.rays:
-            rows = paired_ray_times(modules, [key[0]], [key[1]], rounds=opts.rounds, rays=opts.ray_count)[key]
-        else:
-            rows = paired_render_times(modules, [key], rounds=opts.rounds, spp=opts.spp, size=opts.size)[key]
-        med, low, high = median_interval([a / b for a, b in rows])
-        ta = statistics.median(r[0] for r in rows)
-        tb = statistics.median(r[1] for r in rows)
-        print(f"{label:16s} {ta:11.4f} {tb:11.4f} {med:11.3f} {f'[{low:.3f}, {high:.3f}]':>16s}", flush=True)
+    for label, request in cases.items():
+        rows = paired_times(modules, {label: request}, rounds=opts.rounds, seconds=seconds)[label]
+        iv = median_order_interval([a / b for a, b in rows])
+        interval = f"[{iv['low']:.3f}, {iv['high']:.3f}]" if iv["low"] is not None else "(5 rounds or more)"
+        ta, tb = (statistics.median(r[k] for r in rows) for k in (0, 1))
+        print(f"{label:16s} {ta:11.4f} {tb:11.4f} {iv['median']:11.3f} {interval:>16s}", flush=True)
     return 0
 
 

@@ -2,8 +2,8 @@
 """Build the C++ core in several configurations on this machine, check that they agree bit
 for bit, and time them against each other in alternating processes.
 
-For the instruction-set question of issue 17 (AVX2 against AVX-512, chosen at build time by
-``-march``): run it on the machine in question, e.g.
+For instruction-set questions (AVX2 against AVX-512, chosen at build time by ``-march``): run it
+on the machine in question, e.g. (``rtbench speed --isa avx2`` times such a build against Mitsuba)
 
     python scripts/compare_builds.py --build avx2="-DRT_NATIVE=OFF -DCMAKE_CXX_FLAGS=-march=x86-64-v3" \\
         --build native="" --threads 16

@@ -1,23 +1,12 @@
-"""``rtbench speed [SCENES] [--rays] [--scaling] ...``: ours vs Mitsuba 3, paths/s, rays/s, efficiency.
+"""``rtbench speed [SCENES] [--rays] [--scaling] [--isa ISA] ...``: ours vs Mitsuba 3, paths/s, rays/s, efficiency.
 
-Default: the render benchmark (``benchmarks.speed.render_benchmark``) on the whole suite,
-in Mitsuba's default Russian-roulette configuration (``rr_depth`` 5) and then the seed's
-(none; ``--rr-depth`` picks), headed by the suite table (every scene and the geometric
-mean of the ratios, per configuration). ``--rays`` runs
-the ray-casting micro-benchmark instead, ``--scaling`` the scaling sweeps; give both
-to run both, and ``--render`` as well to add the render benchmark to them.
-
-The output ends with one verdict line per speed target the run bears on
-(``benchmarks.speed.targets``: met, not met or not judged, with the median ratio and
-its 90% interval over the rounds); ``--json`` carries them as ``verdicts``. A target
-not met is a measurement, not a failed correctness verdict: the exit status is 0 unless
-``--require-targets`` is given, then 1 when a judged target is not met (targets not
-judged never fail it).
+The render benchmark by default, ``--rays`` and ``--scaling`` instead (``--render`` adds it); ``--isa`` times a build
+of our core for that instruction set beside the installed one. The output ends with one verdict line per speed target;
+the exit status is 0 whatever they say, unless ``--require-targets``. benchmarks/PERFORMANCE.md, How to measure.
 """
 from __future__ import annotations
 
 import argparse
-import json
 import math
 
 from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
@@ -26,25 +15,12 @@ from benchmarks.errors import EXIT_FAIL
 HELP = "time ours vs Mitsuba (paired, interleaved): paths/s, rays/s, ms/spp, RMSE, efficiency; --rays, --scaling"
 
 
-def _list(text):
-    return [x.strip() for x in text.split(",") if x.strip()]
-
-
 def _rr_depths(text):
-    """``--rr-depth``: comma-separated depths, ``none`` for no Russian roulette.
-
-    >>> _rr_depths("5,none")
-    [5, None]
-    """
-    out = []
-    for x in _list(text):
-        if x.lower() == "none":
-            out.append(None)
-            continue
-        try:
-            out.append(int(x))
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected depths or 'none', comma-separated, got {text!r}") from None
+    """``--rr-depth``: comma-separated depths, ``none`` for no Russian roulette (``[5, None]``)."""
+    try:
+        out = [None if x.strip().lower() == "none" else int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected depths or 'none', comma-separated, got {text!r}") from None
     if not out:
         raise argparse.ArgumentTypeError("expected at least one configuration")
     return out
@@ -53,6 +29,7 @@ def _rr_depths(text):
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from benchmarks.commands import _args as A
     from benchmarks.speed import DEFAULT_RR_DEPTHS, DEFAULT_STRATEGIES, DEFAULT_VARIANTS, REFERENCE_KINDS
+    from benchmarks.speed.builds import ISAS
 
     rr_default = ",".join("none" if v is None else str(v) for v in DEFAULT_RR_DEPTHS)
     A.add_scene_args(parser, nargs="*", what="suite scene(s) of the render benchmark (default: the whole suite)")
@@ -62,382 +39,318 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=int, default=5, help="timed paired rounds")
     A.add_strategy_args(parser, default=DEFAULT_STRATEGIES)
     parser.add_argument("--integrators", action=A.ListAction, default=("wavefront",), metavar="I[,I...]",
-                        help="our integrators, each strategy timed with each: wavefront (the default), scalar "
-                             "(one path at a time, the reference implementation); rows of the others are "
-                             "labelled with the integrator")
+                        help="our integrators (wavefront, scalar), each strategy timed with each")
     A.add_variant_args(parser, default=DEFAULT_VARIANTS)
     parser.add_argument("--variants", dest="variant", help=argparse.SUPPRESS)  # older name
     parser.add_argument("--max-depth", type=int, default=None,
                         help="override the scene's max_depth (default: the scene's, 50 in the suite)")
     parser.add_argument("--rr-depth", type=_rr_depths, default=list(DEFAULT_RR_DEPTHS), metavar="DEPTHS",
-                        help=f"Russian-roulette configurations, each measured as its own rows: depths roulette "
-                             f"starts at, 'none' for no roulette (default {rr_default}: Mitsuba's default, "
-                             f"then the seed's)")
+                        help=f"Russian-roulette configurations, each its own rows: depths roulette starts at, "
+                             f"'none' for none (default {rr_default}: Mitsuba's default, then the seed's)")
     parser.add_argument("--reference", dest="reference_kind", choices=REFERENCE_KINDS,
                         default=argparse.SUPPRESS, help=argparse.SUPPRESS)  # older name of --reference-kind
     parser.add_argument("--reference-kind", choices=REFERENCE_KINDS, default="mitsuba",
-                        help="error reference: cached high-spp Mitsuba (benchmarks.references; rendered once "
-                             "if missing) or a high-spp render of ours")
+                        help="error reference: a cached high-spp Mitsuba render, or a high-spp render of ours")
     A.add_reference_spp_arg(parser, default=4096)
     A.add_cache_arg(parser)
     A.add_seed_args(parser)
+    parser.add_argument("--isa", choices=sorted(ISAS), default=None,
+                        help="also time our core built for this instruction set, with its own rows (default: none)")
     parser.add_argument("--render", action="store_true", help="run the render benchmark too with --rays/--scaling")
     parser.add_argument("--rays", action="store_true", help="ray-casting micro-benchmark (ours vs Mitsuba/Embree)")
-    parser.add_argument("--triangles", default="100000,1000000",
-                        help="mesh sizes of --rays")
+    parser.add_argument("--triangles", default="100000,1000000", help="mesh sizes of --rays")
     parser.add_argument("--ray-count", type=int, default=1 << 20, help="rays per kind for --rays")
-    parser.add_argument("--scaling", action="store_true",
-                        help="paths/s vs resolution and threads; cost per ray vs triangle count")
-    parser.add_argument("--resolutions", default="32,64,128", help="--scaling sizes")
-    parser.add_argument("--scaling-triangles", default="1000,10000,100000,1000000",
-                        help="--scaling mesh sizes")
+    parser.add_argument("--scaling", action="store_true", help="paths/s against image size, depth, threads, triangles")
+    parser.add_argument("--resolutions", default="32,64,128,256,512", help="--scaling image sizes")
+    parser.add_argument("--scaling-depths", default="2,5,10,20,50", help="--scaling maximum depths")
+    parser.add_argument("--scaling-triangles", default="1000,10000,100000,1000000", help="--scaling mesh sizes")
     parser.add_argument("--scaling-spp", type=int, default=16, help="--scaling spp")
+    parser.add_argument("--svg", metavar="PATH", default=None, help="draw the --scaling curves (default: none)")
     A.add_renderer_arg(parser)  # timed in the same paired rounds as ours and Mitsuba
     parser.add_argument("--require-targets", action="store_true",
-                        help="exit 1 when a judged speed target is not met (its median ratio below the "
-                             "threshold; benchmarks/PERFORMANCE.md, Targets and verdicts); without it a speed "
-                             "target is reported, never a failure")
+                        help="exit 1 when a judged speed target is not met (else a target is reported only)")
     A.add_json_arg(parser)
     A.add_quiet_arg(parser)
     add_scene_path_args(parser)
 
 
-def _f(v, digits=3):
-    """``v`` to about ``digits`` significant digits; ``-`` for None, NaN and inf.
-
-    >>> _f(1234.5), _f(0.01234), _f(None), _f(float("nan"))
-    ('1,234', '0.0123', '-', '-')
-    """
-    if v is None or isinstance(v, bool) or not math.isfinite(v):
-        return "-"
-    v = float(v)
-    if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-3):
-        return f"{v:.{digits}g}"
-    return f"{v:.{digits}g}" if abs(v) < 1 else f"{v:,.{max(0, digits - len(str(int(abs(v)))))}f}"
-
-
 def _m(v):
-    """A rate in millions."""
     return "-" if v is None or not math.isfinite(v) else f"{v / 1e6:.3f}"
 
 
 def _r(v):
-    """A ratio to two decimals (two significant digits below 0.01); ``-`` for None and non-finite values.
-
-    >>> _r(1.049), _r(0.00123), _r(None), _r(float("nan"))
-    ('1.05', '0.0012', '-', '-')
-    """
-    if v is None or not math.isfinite(v):
-        return "-"
-    return f"{v:.2g}" if 0 < abs(v) < 0.01 else f"{v:.2f}"
+    """A ratio to two decimals (two significant digits below 0.01); ``-`` for None and non-finite values."""
+    return "-" if v is None or not math.isfinite(v) else f"{v:.2g}" if 0 < abs(v) < 0.01 else f"{v:.2f}"
 
 
-def _round_range(ratios):
-    """The lowest and highest of the rounds' ratios, ``1.25-1.73``; ``-`` for none."""
-    if not ratios:
-        return "-"
-    return f"{_r(min(ratios))}-{_r(max(ratios))}"
+def _range(ratios):
+    return f"{_r(min(ratios))}-{_r(max(ratios))}" if ratios else "-"
 
 
-def _short(variant):
-    """``llvm_ad_rgb`` -> ``llvm``."""
-    return variant.split("_")[0]
+def _col(heading, key, fmt="{:.2f}"):
+    """A column of :func:`_table`: each row's ``key`` through ``fmt`` (a format string or a function)."""
+    return heading, lambda r: "-" if r.get(key) is None else fmt(r[key]) if callable(fmt) else fmt.format(r[key])
 
 
-def suite_table(result):
-    """The render benchmark's headline ``rich`` table: every scene and the geometric mean,
-    per Russian-roulette configuration, for the headline strategy against each variant."""
+def _table(title, columns, rows, *, left=1, end_section=lambda r: False):
+    """A ``rich`` table: ``columns`` are ``(heading, cell of a row)``, the first ``left`` left-aligned."""
     from rich.table import Table
 
+    table = Table(title=title)
+    for k, (heading, _) in enumerate(columns):
+        table.add_column(heading, justify="left" if k < left else "right", no_wrap=k < left)
+    for r in rows:
+        table.add_row(*(cell(r) for _, cell in columns), end_section=end_section(r))
+    return table
+
+
+def _ratio_cells(v):
+    return lambda r: "-" if r.get(f"ratio_{v}") is None else f"{_r(r[f'ratio_{v}'])} ({_r(r[f'cpu_ratio_{v}'])})"
+
+
+def suite_table(result, build=None):
+    """The render benchmark's headline table: every scene and the geometric mean, per Russian-roulette configuration,
+    for the headline strategy (of ``build``) against each variant."""
     from benchmarks.speed import GEOMEAN
 
-    c, suite = result["config"], result["suite"]
-    variants = suite["variants"]
-    ours = suite["strategy"] + ("" if suite.get("integrator", "wavefront") == "wavefront"
-                                else f" ({suite['integrator']})")
-    table = Table(title=f"rtbench speed, suite: ours {ours} vs Mitsuba, {c['width']}x{c['height']}, "
-                        f"{c['spp']} spp, {c['threads']} threads, median of {c['repeats']} paired rounds")
-    table.add_column("configuration", no_wrap=True)
-    table.add_column("scene", no_wrap=True)
-    table.add_column(f"ours {ours} Mpaths/s", justify="right")
-    for v in variants:
-        table.add_column(f"{_short(v)} Mpaths/s", justify="right")
-        table.add_column(f"ratio {_short(v)} (cpu)", justify="right")
-        table.add_column(f"rounds {_short(v)}", justify="right")
-        table.add_column(f"eff. ratio {_short(v)}", justify="right")
-    for r in suite["rows"]:
-        cells = [r["configuration"], r["scene"] if r["scene"] != GEOMEAN else f"{GEOMEAN} ({r['scenes']})",
-                 _m(r["ours_paths_per_second"])]
-        for v in variants:
-            x, cpu, eff = r[f"ratio_{v}"], r[f"cpu_ratio_{v}"], r[f"efficiency_ratio_{v}"]
-            cells += [_m(r[f"mitsuba_paths_per_second_{v}"]), f"{_r(x)} ({_r(cpu)})",
-                      _round_range(r.get(f"round_ratios_{v}")), _r(eff)]
-        table.add_row(*cells, end_section=r["scene"] == GEOMEAN)
-    return table
+    c, suite = result["config"], result["suite"] if build is None else result["build_suites"][build]
+    ours = (suite["strategy"] + ("" if suite.get("integrator", "wavefront") == "wavefront"
+                                 else f" ({suite['integrator']})") + ("" if build is None else f", {build} build"))
+    columns = [_col("configuration", "configuration", str),
+               ("scene", lambda r: r["scene"] if r["scene"] != GEOMEAN else f"{GEOMEAN} ({r['scenes']})"),
+               _col(f"ours {ours} Mpaths/s", "ours_paths_per_second", _m)]
+    for v in suite["variants"]:
+        short = v.split("_")[0]
+        columns += [_col(f"{short} Mpaths/s", f"mitsuba_paths_per_second_{v}", _m), (f"ratio {short} (cpu)",
+                    _ratio_cells(v)), _col(f"rounds {short}", f"round_ratios_{v}", _range),
+                    (f"eff. ratio {short}", lambda r, v=v: _r(r[f"efficiency_ratio_{v}"]))]
+    return _table(f"rtbench speed, suite: ours {ours} vs Mitsuba, {c['width']}x{c['height']}, {c['spp']} spp, "
+                  f"{c['threads']} threads, median of {c['repeats']} paired rounds", columns, suite["rows"], left=2,
+                  end_section=lambda r: r["scene"] == GEOMEAN)
 
 
 def render_table(result):
-    """The render benchmark's detailed ``rich`` table (every configuration, every renderer)."""
-    from rich.table import Table
-
-    c = result["config"]
-    variants = result.get("available_variants", [])
-    table = Table(title=f"rtbench speed: {c['width']}x{c['height']}, {c['spp']} spp, {c['threads']} threads, "
-                        f"median of {c['repeats']} paired rounds")
-    for col, kw in (("configuration", {"no_wrap": True}), ("scene", {"no_wrap": True}),
-                    ("renderer", {"no_wrap": True}), ("Mpaths/s", {}),
-                    ("Mpaths/cpu-s", {}), ("Mrays/s", {}), ("ms/spp", {}), ("spread", {}), ("cpu/wall", {})):
-        table.add_column(col, justify="left" if col in ("configuration", "scene", "renderer") else "right", **kw)
-    for v in variants:
-        table.add_column(f"ratio {_short(v)} (cpu)", justify="right")
-    table.add_column("RMSE", justify="right")
-    for v in variants:
-        table.add_column(f"eff. ratio {_short(v)}", justify="right")
-    for r in result["summary"]:
-        cells = [r["configuration"], r["scene"], r["label"], _m(r["paths_per_second"]), _m(r["paths_per_cpu_second"]),
-                 _m(r["rays_per_second"]), f"{r['ms_per_spp']:.3f}", f"{100 * r['paths_per_second_spread']:.0f}%"
-                 if math.isfinite(r["paths_per_second_spread"]) else "-", f"{r['cpu_over_wall']:.2f}"]
-        for v in variants:
-            x = r.get(f"ratio_{v}")
-            cells.append("-" if x is None else f"{_r(x)} ({_r(r[f'cpu_ratio_{v}'])})")
-        cells.append(f"{r['rmse']:.4f}")
-        for v in variants:
-            x = r.get(f"efficiency_ratio_{v}")
-            cells.append(_r(x))
-        table.add_row(*cells)
-    return table
+    """The render benchmark's detailed table (every configuration, every renderer)."""
+    c, variants = result["config"], result.get("available_variants", [])
+    columns = [_col("configuration", "configuration", str), _col("scene", "scene", str), _col("renderer", "label", str),
+               _col("Mpaths/s", "paths_per_second", _m), _col("Mpaths/cpu-s", "paths_per_cpu_second", _m),
+               _col("Mrays/s", "rays_per_second", _m), _col("ms/spp", "ms_per_spp", "{:.3f}"),
+               _col("spread", "paths_per_second_spread", lambda x: f"{100 * x:.0f}%" if math.isfinite(x) else "-"),
+               _col("cpu/wall", "cpu_over_wall")]
+    columns += [(f"ratio {v.split('_')[0]} (cpu)", _ratio_cells(v)) for v in variants]
+    columns += [_col("RMSE", "rmse", "{:.4f}")]
+    columns += [_col(f"eff. ratio {v.split('_')[0]}", f"efficiency_ratio_{v}", _r) for v in variants]
+    return _table(f"rtbench speed: {c['width']}x{c['height']}, {c['spp']} spp, {c['threads']} threads, median of "
+                  f"{c['repeats']} paired rounds", columns, result["summary"], left=3)
 
 
 def render_notes(result):
-    lines = []
-    for name, ref in result["references"].items():
-        lines.append(f"{name}: RMSE (raw, at equal spp) against {ref['label']}; efficiency ratio = median over "
-                     f"rounds of [1/(MSE*s) ours] / [1/(MSE*s) Mitsuba], MSE with the reference noise removed")
-    for name, per in result["mitsuba"].items():
-        if name == "versions":
-            continue
-        for label, per_variant in per.items():
-            for v, info in per_variant.items():
-                lines.append(f"{name}, {label}: Mitsuba {v} load {info['load_seconds']:.2f} s, warm-up "
-                             f"{info['warmup_seconds']:.2f} s, JIT compile (warm-up minus timed render, excluded) "
-                             f"{info['compile_seconds']:.2f} s")
-    for name, info in result.get("ours", {}).items():
-        lines.append(f"{name}: ours BVH build {1e3 * info['build_seconds']:.2f} ms (excluded)")
-    if "versions" in result["mitsuba"]:
-        vv = result["mitsuba"]["versions"]
-        target = vv.get("llvm_target")
-        kernels = (f"; llvm_ad_rgb kernels {target['vector_width']}-wide for {target['cpu']}"
-                   f"{' (AVX-512)' if target['avx512'] else ''}" if target else "")
-        lines.append(f"Mitsuba {vv['mitsuba']}, Dr.Jit {vv['drjit']}, libLLVM {vv['libllvm']}{kernels}")
-    for v, why in result.get("skipped_variants", {}).items():
-        lines.append(f"Mitsuba {v} skipped: {why}")
-    for name, template in result["config"].get("externals", {}).items():
-        lines.append(f"{name}: external renderer '{template}'; its seconds are the command's wall clock (process "
-                     f"start and scene loading included), its CPU time that of its child processes")
-    lines.append("ratio = paths/s ours / Mitsuba, paired per round (cpu: the same on process CPU time); rounds = "
-                 "the lowest and highest round's ratio (the geometric mean's: of each round's geometric mean over "
-                 "the scenes), the noise a median of few rounds carries; Mrays/s is ours only (Mitsuba does not "
-                 "count rays); spread = (max-min)/median of paths/s")
-    lines.append("configuration: 'rr_depth N' = Russian roulette from depth N in both renderers (5 is Mitsuba's "
-                 "default), 'no RR' = none; geometric mean = of the per-scene ratios (each scene weighs the same)")
-    return lines
+    """The lines under the render tables: references, Mitsuba's load and compile times, what the columns mean."""
+    c, mitsuba = result["config"], result["mitsuba"]
+    lines = [f"{name}: RMSE (raw, at equal spp) against {ref['label']}; efficiency ratio = median over rounds of "
+             f"[1/(MSE*s) ours] / [1/(MSE*s) Mitsuba], MSE with the reference noise removed"
+             for name, ref in result["references"].items()]
+    lines += [f"{name}, {label}: Mitsuba {v} load {info['load_seconds']:.2f} s, warm-up {info['warmup_seconds']:.2f} "
+              f"s, JIT compile (warm-up minus timed render, excluded) {info['compile_seconds']:.2f} s"
+              for name, per in mitsuba.items() if name != "versions"
+              for label, per_variant in per.items() for v, info in per_variant.items()]
+    lines += [f"{name}: ours BVH build {1e3 * info['build_seconds']:.2f} ms (excluded)"
+              for name, info in result.get("ours", {}).items()]
+    if "versions" in mitsuba:
+        vv, target = mitsuba["versions"], mitsuba["versions"].get("llvm_target")
+        lines.append(f"Mitsuba {vv['mitsuba']}, Dr.Jit {vv['drjit']}, libLLVM {vv['libllvm']}" + (
+            f"; llvm_ad_rgb kernels {target['vector_width']}-wide for {target['cpu']}"
+            f"{' (AVX-512)' if target['avx512'] else ''}" if target else ""))
+    lines += [f"Mitsuba {v} skipped: {why}" for v, why in result.get("skipped_variants", {}).items()]
+    lines += [f"{name}: external renderer '{template}'; its seconds are the command's wall clock (process start and "
+              f"scene loading included), its CPU time that of its child processes"
+              for name, template in c.get("externals", {}).items()]
+    lines += [f"ours ..., {name} build: our core built for {name} ({module}), in a worker process, in the same rounds"
+              for name, module in c.get("builds", {}).items()]
+    return lines + ["ratio = paths/s ours / Mitsuba, the median of the paired rounds' ratios (cpu: on CPU time); "
+                    "rounds = the lowest and highest round's; spread = (max-min)/median of paths/s; 'rr_depth N' = "
+                    "roulette from depth N in both; benchmarks/PERFORMANCE.md, Reading the ratios"]
 
 
 def rays_tables(result):
     """The ray benchmark's two tables: speed (ours vs Mitsuba), then agreement and build."""
-    from rich.table import Table
+    c, mi = result["config"], bool(result.get("mitsuba", {}).get("variant"))
+    first = [_col("triangles", "triangles", "{:,}"),
+             ("rays", lambda r: r["kind"] + ("" if r.get("build") is None else f", {r['build']} build"))]
+    speed = first + [_col("ours Mrays/s", "ours_mrays_per_second"),
+                     _col("ours Mrays/cpu-s", "ours_mrays_per_cpu_second")]
+    speed += [_col("Mitsuba Mrays/s", "mitsuba_mrays_per_second"), _col("Mitsuba Mrays/cpu-s",
+              "mitsuba_mrays_per_cpu_second"), _col("ratio", "ratio"), _col("ratio range", "round_ratios", _range)
+              ] if mi else []
+    speed += [_col("ours full Mrays/s", "ours_full_mrays_per_second")]
+    speed += [_col("full ratio", "ratio_full"), _col("full range", "round_ratios_full", _range)] if mi else []
+    checks = first + ([_col("hit agree", "agree_hit_agreement", lambda x: f"{100 * x:.4f}%"),
+                       _col("t agree", "agree_t_agreement", lambda x: f"{100 * x:.3f}%"),
+                       _col("t rel. median", "agree_t_rel_median", "{:.1e}")] if mi else [])
+    checks += [_col("hit frac.", "hit_fraction", "{:.3f}"), _col("ours in packets", "ours_packet_fraction",
+               lambda x: f"{100 * x:.0f}%"), _col("our build s/Mtri", "build_seconds_per_mtri", _r),
+               _col("BVH depth", "bvh_depth", str)] + ([_col("Mitsuba load s", "mitsuba_load_seconds")] if mi else [])
+    return (_table(f"ray casting: closest hit, {c['rays']} rays per kind, {c['threads']} threads, median of "
+                   f"{c['repeats']}", speed, result["rows"], left=2),
+            _table("ray casting: agreement and build", checks, result["rows"], left=2))
 
-    c = result["config"]
-    mi = bool(result.get("mitsuba", {}).get("variant"))
-    speed_table = Table(title=f"ray casting: closest hit, {c['rays']} rays per kind, {c['threads']} threads, "
-                              f"median of {c['repeats']}")
-    cols = ["triangles", "rays", "ours Mrays/s", "ours Mrays/cpu-s"]
-    if mi:
-        cols += ["Mitsuba Mrays/s", "Mitsuba Mrays/cpu-s", "ratio", "ratio range"]
-    cols += ["ours full Mrays/s"]
-    if mi:
-        cols += ["full ratio", "full range"]
-    for col in cols:
-        speed_table.add_column(col, justify="right" if col not in ("rays",) else "left", no_wrap=True)
-    checks = Table(title="ray casting: agreement and build")
-    cols = ["triangles", "rays"]
-    if mi:
-        cols += ["hit agree", "t agree", "t rel. median"]
-    cols += ["hit frac.", "ours in packets", "our build s/Mtri", "BVH depth"]
-    if mi:
-        cols += ["Mitsuba load s"]
-    for col in cols:
-        checks.add_column(col, justify="right" if col not in ("rays",) else "left", no_wrap=True)
-    for r in result["rows"]:
-        first = [f"{r['triangles']:,}", r["kind"]]
-        cells = first + [f"{r['ours_mrays_per_second']:.2f}", _f(r["ours_mrays_per_cpu_second"])]
-        if mi:
-            cells += [f"{r['mitsuba_mrays_per_second']:.2f}", _f(r["mitsuba_mrays_per_cpu_second"]),
-                      f"{r['ratio']:.2f}", f"{r['ratio_min']:.2f}-{r['ratio_max']:.2f}"]
-        cells += [f"{r['ours_full_mrays_per_second']:.2f}"]
-        if mi:
-            cells += [f"{r['ratio_full']:.2f}", f"{r['ratio_full_min']:.2f}-{r['ratio_full_max']:.2f}"]
-        speed_table.add_row(*cells)
-        cells = list(first)
-        if mi:
-            cells += [f"{100 * r['agree_hit_agreement']:.4f}%", f"{100 * r['agree_t_agreement']:.3f}%",
-                      f"{r['agree_t_rel_median']:.1e}"]
-        cells += [f"{r['hit_fraction']:.3f}", f"{100 * r.get('ours_packet_fraction', 0.0):.0f}%",
-                  f"{r['build_seconds_per_mtri']:.3f}", str(r["bvh_depth"])]
-        if mi:
-            cells += [f"{r['mitsuba_load_seconds']:.2f}"]
-        checks.add_row(*cells)
-    return speed_table, checks
+
+def rays_note(result) -> str:
+    from reference_tracer import probe
+
+    return ("ratio = ours / Mitsuba Mrays/s, median of the paired rounds (range: lowest, highest); both sides' "
+            "distance and primitive (ray_intersect_preliminary; intersect(preliminary=True), packets of "
+            f"{probe.PACKET_RAYS}), timed from the Python call to its return; full: with our hit point and normal; "
+            f"t agree: relative difference <= {result['rows'][0].get('agree_t_rtol', 1e-4):g}")
 
 
 def scaling_tables(result):
-    from rich.table import Table
+    """The scaling tables: paths/s against each axis, then cost against triangle count."""
+    from benchmarks.speed.scaling import AXES
 
-    mi = result["config"]["variant"] is not None
-    out = []
-    for key, title, first in (("resolution", "paths/s vs resolution", "resolution"),
-                              ("threads", "paths/s vs threads", "threads")):
-        t = Table(title=f"{title} ({result['config']['scene']}, {result['config']['strategy']}, "
-                        f"{result['config']['spp']} spp)")
-        cols = [first, "ours Mpaths/s", "ours Mpaths/cpu-s"]
-        if key == "threads":
-            cols.append("ours speed-up")
-        if mi:
-            cols += ["Mitsuba Mpaths/s", "Mitsuba Mpaths/cpu-s"] + (["Mitsuba speed-up"] if key == "threads" else [])
-            cols.append("ratio")
-        for col in cols:
-            t.add_column(col, justify="right")
-        for r in result[key]:
-            cells = [str(r[first]), _m(r["ours_paths_per_second"]), _m(r["ours_paths_per_cpu_second"])]
-            if key == "threads":
-                cells.append(_f(r.get("ours_speedup")))
-            if mi:
-                cells += [_m(r["mitsuba_paths_per_second"]), _m(r["mitsuba_paths_per_cpu_second"])]
-                if key == "threads":
-                    cells.append(_f(r.get("mitsuba_speedup")))
-                cells.append(f"{r['ratio']:.2f}")
-            t.add_row(*cells)
-        out.append(t)
-    t = Table(title="cost vs triangle count (random rays; lit torus render 64x64)")
-    cols = ["triangles", "ours ns/ray", "BVH depth", "ours Mpaths/s"]
-    if mi:
-        cols += ["Mitsuba ns/ray", "Mitsuba Mpaths/s", "paths/s ratio"]
-    for col in cols:
-        t.add_column(col, justify="right")
-    for r in result["mesh"]:
-        cells = [f"{r['triangles']:,}", f"{r['ours_ns_per_ray']:.0f}", str(r["bvh_depth"]),
-                 _m(r["ours_paths_per_second"])]
-        if mi:
-            cells += [f"{r['mitsuba_ns_per_ray']:.0f}", _m(r["mitsuba_paths_per_second"]), f"{r['ratio']:.2f}"]
-        t.add_row(*cells)
-    out.append(t)
-    return out
+    c, out = result["config"], []
+    who = ("ours", "Mitsuba") if c["variant"] is not None else ("ours",)
+    for key, field, label in AXES:
+        columns = [_col(label, field, str)]
+        for w in who:
+            columns += [_col(f"{w} Mpaths/s", f"{w.lower()}_paths_per_second", _m),
+                        _col(f"{w} Mpaths/cpu-s", f"{w.lower()}_paths_per_cpu_second", _m)]
+            columns += [_col(f"{w} speed-up", f"{w.lower()}_speedup", _r)] if key == "threads" else []
+        columns += [_col("ratio", "ratio", _r)] if len(who) > 1 else []
+        out.append(_table(f"paths/s vs {label} ({c['scene']}, {c['strategy']}, {c['spp']} spp; else "
+                          f"{result['threads'][0]['resolution']}^2, {c['threads']} threads)", columns, result[key]))
+    columns = [_col("triangles", "triangles", "{:,}"), _col("ours build s", "build_seconds", "{:.3f}"),
+               _col("ours ns/ray", "ours_ns_per_ray", "{:.0f}"), _col("BVH depth", "bvh_depth", str),
+               _col("ours Mpaths/s", "ours_paths_per_second", _m)]
+    columns += [_col("Mitsuba load s", "mitsuba_load_seconds", "{:.3f}"), _col("Mitsuba ns/ray", "mitsuba_ns_per_ray",
+                "{:.0f}"), _col("Mitsuba Mpaths/s", "mitsuba_paths_per_second", _m),
+                _col("paths/s ratio", "ratio", _r)] if len(who) > 1 else []
+    return out + [_table(f"cost vs triangle count (random rays; lit torus render 64x64, {c['mesh_spp']} spp; build "
+                         f"and load: our BVH, Mitsuba's whole scene)", columns, result["mesh"])]
 
 
 def scaling_notes(result):
-    lines = []
-    for who, fit in result["fits"].items():
-        lines.append(f"{who}: fit a + b ln n: b = {fit['b']:.1f} ns per e-fold ({fit['per_doubling']:.1f} ns per "
-                     f"doubling of n), r^2 {fit['r2']:.3f}; log-log exponent {fit['loglog_exponent']:.3f} "
-                     f"(1 = linear, ~0 = logarithmic)")
-    return lines
+    return [f"{who}: fit a + b ln n: b = {fit['b']:.1f} ns per e-fold ({fit['per_doubling']:.1f} ns per doubling of "
+            f"n), r^2 {fit['r2']:.3f}; log-log exponent {fit['loglog_exponent']:.3f} (1 = linear, ~0 = logarithmic)"
+            for who, fit in result["fits"].items()]
+
+
+def scaling_svg(result) -> bytes:
+    """The scaling curves as an SVG: paths/s against each axis and against triangle count, ours beside Mitsuba."""
+    from matplotlib.figure import Figure
+
+    from benchmarks.speed.scaling import AXES
+    from reports.plots import figure_bytes
+
+    fig = Figure(figsize=(9, 7))
+    fig.subplots_adjust(hspace=0.4, wspace=0.3)
+    for k, (key, field, label) in enumerate([*AXES, ("mesh", "triangles", "triangles (lit torus)")]):
+        ax = fig.add_subplot(2, 2, k + 1)
+        for who, style in (("ours", {"marker": "o"}), ("mitsuba", {"marker": "s", "linestyle": "--"})):
+            points = [(r[field], r[f"{who}_paths_per_second"] / 1e6) for r in result[key]
+                      if f"{who}_paths_per_second" in r]
+            if points:
+                ax.plot(*zip(*points), label="ours" if who == "ours" else f"Mitsuba {result['config']['variant']}",
+                        gid=f"{key}-{who}", **style)
+        ax.set_xscale("log" if key != "threads" else "linear")
+        ax.minorticks_off()
+        ax.set_xticks([r[field] for r in result[key]], [f"{r[field]:,}" for r in result[key]])
+        ax.set(xlabel=label, ylabel="Mpaths/s", title=f"paths/s vs {label}")
+        ax.grid(True, alpha=0.35)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"rtbench speed --scaling ({result['config']['scene']}, {result['config']['strategy']})")
+    return figure_bytes(fig, "svg")
 
 
 def run(args) -> int:
     from rich.console import Console
 
     from benchmarks import speed
-    from benchmarks.commands._args import check, resolve_height, resolve_threads
+    from benchmarks.commands._args import check, int_list, resolve_height, resolve_threads
+    from benchmarks.external import register_external
+    from benchmarks.store.jsonio import write_json
+    from mitsuba_scenes import list_scenes
 
     check(args)
     height, threads = resolve_height(args), resolve_threads(args.threads)
-    variants = list(args.variant)
     console = Console(quiet=args.quiet)
     if not console.is_terminal:   # piped or captured: keep each table row on one line
         console = Console(width=220, quiet=args.quiet)
     log = None if args.quiet else (lambda line: console.print(line, style="dim", markup=False, highlight=False))
     do_render = args.render or not (args.rays or args.scaling)
-    if (args.scenes or args.scene_files) and not do_render:
-        raise ValueError("scenes are only used by the render benchmark: add --render")
-    if args.renderer and not do_render:
-        raise ValueError("--renderer is only timed by the render benchmark: add --render")
-    from benchmarks.external import register_external
-
+    for given, what in ((args.scenes or args.scene_files, "scenes are only used by the render benchmark"),
+                        (args.renderer, "--renderer is only timed by the render benchmark")):
+        if given and not do_render:
+            raise ValueError(f"{what}: add --render")
+    if args.isa and not (do_render or args.rays):
+        raise ValueError("--isa times the render and ray benchmarks: add --render or --rays")
+    if args.svg and not args.scaling:
+        raise ValueError("--svg draws the --scaling curves: add --scaling")
     externals = [register_external(cmd) for cmd in args.renderer]
-    from mitsuba_scenes import list_scenes
-
     scenes = resolve_scenes(args, suite_names=args.scenes or [], default=list(list_scenes()))
-    jit = [v for v in variants if not v.startswith("scalar")]
+    depths = int_list(args.scaling_depths, option="--scaling-depths")
+    builds = _build_isa(args.isa, args.cache, log) if args.isa else {}
+    jit = next((v for v in args.variant if not v.startswith("scalar")), None)
+
+    def show(tables, lines):
+        for table in tables:
+            console.print(table)
+        for line in lines:
+            console.print(f"  {line}", markup=False, highlight=False)
+
     out = {}
     if do_render:
-        res = speed.render_benchmark(scenes, width=args.width, height=height,
-                                     spp=args.spp, threads=threads, repeats=args.repeats,
-                                     strategies=list(args.strategies), integrators=list(args.integrators),
-                                     variants=variants, max_depth=args.max_depth,
-                                     rr_depths=args.rr_depth,
-                                     reference=args.reference_kind, reference_spp=args.reference_spp, seed=args.seed,
-                                     cache=args.cache, log=log, externals=externals)
-        out["render"] = res
-        console.print(suite_table(res))
-        console.print(render_table(res))
-        for line in render_notes(res):
-            console.print(f"  {line}", markup=False, highlight=False)
+        out["render"] = res = speed.render_benchmark(
+            scenes, width=args.width, height=height, spp=args.spp, threads=threads, repeats=args.repeats,
+            strategies=list(args.strategies), integrators=list(args.integrators), variants=list(args.variant),
+            max_depth=args.max_depth, rr_depths=args.rr_depth, reference=args.reference_kind,
+            reference_spp=args.reference_spp, seed=args.seed, cache=args.cache, log=log, externals=externals,
+            builds=builds)
+        show([*(suite_table(res, build) for build in (None, *builds)), render_table(res)], render_notes(res))
     if args.rays:
-        res = speed.ray_benchmark(triangles=list(args.triangles), rays=args.ray_count, threads=threads,
-                                  repeats=args.repeats, variant=jit[0] if jit else None, seed=args.seed, log=log)
-        out["rays"] = res
-        for table in rays_tables(res):
-            console.print(table)
-        from reference_tracer import probe
-
-        console.print("  ratio = ours Mrays/s / Mitsuba Mrays/s (median of the rounds' paired ratios; range: the "
-                      "lowest and highest round); Mitsuba: "
-                      "ray_intersect_preliminary + dr.eval + dr.sync_thread (distance and primitive), kernel compiled "
-                      "before timing; ours: core_scene(...).intersect(preliminary=True), the same outputs, timed from "
-                      "the Python call to its return as Mitsuba's (chunks of "
-                      f"{probe.RAY_CHUNK} rays handed to the threads; in each, rows of camera rays gathered into tiles of 4 x "
-                      f"{probe.PACKET_RAYS // 4}, coherent tiles or runs of {probe.PACKET_RAYS} rays traced as packets, the others 8 at a "
-                      "time interleaved; float64 copies of the same float32 rays); ours full / full ratio: the same query with our hit point and normal filled "
-                      "in, timed in the same rounds; "
-                      f"t agree: relative difference <= {res['rows'][0].get('agree_t_rtol', 1e-4):g}",
-                      markup=False, highlight=False)
+        out["rays"] = res = speed.ray_benchmark(triangles=list(args.triangles), rays=args.ray_count, threads=threads,
+                                                repeats=args.repeats, variant=jit, seed=args.seed, log=log,
+                                                builds=builds)
+        show(rays_tables(res), [rays_note(res)])
     if args.scaling:
-        res = speed.scaling_benchmark(resolutions=list(args.resolutions), spp=args.scaling_spp,
-                                      thread_counts=sorted({1, threads}), triangles=list(args.scaling_triangles),
-                                      variant=jit[0] if jit else None, threads=threads,
-                                      repeats=min(args.repeats, 3), seed=args.seed, log=log)
-        out["scaling"] = res
-        for t in scaling_tables(res):
-            console.print(t)
-        for line in scaling_notes(res):
-            console.print(f"  {line}", markup=False, highlight=False)
-    first = next(iter(out.values()))
-    load = first["environment"]["loadavg"]
-    console.print(f"  note: {speed.WALL_CLOCK_NOTE}. Load average at start "
-                  f"{'/'.join(f'{x:.1f}' for x in load) if load else '?'} on {first['environment']['cpu_count']} "
-                  f"cores.", markup=False, highlight=False)
+        out["scaling"] = res = speed.scaling_benchmark(
+            resolutions=list(args.resolutions), depths=depths, spp=args.scaling_spp, thread_counts=sorted({1, threads}),
+            triangles=list(args.scaling_triangles), variant=jit, threads=threads, repeats=min(args.repeats, 3),
+            seed=args.seed, log=log)
+        if args.svg:
+            with open(args.svg, "wb") as f:
+                f.write(scaling_svg(res))
+        show(scaling_tables(res), scaling_notes(res) + ([f"SVG: {args.svg}"] if args.svg else []))
+    env = next(iter(out.values()))["environment"]
+    load = "/".join(f"{x:.1f}" for x in env["loadavg"]) if env["loadavg"] else "?"
+    show([], [f"note: {speed.WALL_CLOCK_NOTE}. Load average at start {load} on {env['cpu_count']} cores."])
     verdicts = speed.speed_verdicts(out)
     for line in verdict_lines(verdicts):   # final lines: printed with --quiet too
         print(line, flush=True)
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(_finite({**out, "verdicts": verdicts}), fh, indent=1, default=_json_default, allow_nan=False)
+        write_json(args.json, {**out, "verdicts": verdicts})
         print(f"  JSON: {args.json}", flush=True)
     missed = any(v["status"] == "not met" for v in verdicts)
     return EXIT_FAIL if args.require_targets and missed else 0
 
 
-def verdict_lines(verdicts) -> list:
-    """The closing lines of ``rtbench speed``: a heading, then one line per verdict.
+def _build_isa(isa, cache, log) -> dict:
+    """``{isa: module}``: our core built for ``isa`` under the cache root."""
+    from benchmarks.references import cache_dir
+    from benchmarks.speed.builds import build_isa, build_target, isa_folder
 
-    Examples
-    --------
-    >>> from benchmarks.speed.targets import SCENE_PATHS, judge
-    >>> verdict_lines([judge(SCENE_PATHS, "a", [1.6] * 5)])[1]
-    '  a paths/s vs Mitsuba llvm_ad_rgb >= 1.5x: met, clearly (1.60x, 90% interval 1.60-1.60, 5 rounds)'
-    >>> verdict_lines([])
-    ['speed targets: none applies to --scaling']
-    """
+    folder, log = isa_folder(isa, cache_dir(cache).parent), log or (lambda line: None)
+    log(f"building our core for {isa} in {folder} (a minute or more the first time)")
+    try:
+        module = build_isa(isa, folder)
+    except (RuntimeError, FileNotFoundError) as e:
+        raise RuntimeError(f"the {isa} build of our core failed: {e}") from None
+    log(f"{isa} build: {build_target(folder)}")
+    return {isa: module}
+
+
+def verdict_lines(verdicts) -> list:
+    """The closing lines of ``rtbench speed``: a heading, then one line per verdict."""
     if not verdicts:
         return ["speed targets: none applies to --scaling"]
     counts = {s: sum(v["status"] == s for v in verdicts) for s in ("met", "not met", "not judged")}
@@ -445,24 +358,3 @@ def verdict_lines(verdicts) -> list:
     head = (f"speed targets (median of the paired rounds' ratios, its 90% interval from order statistics{renders}; "
             f"benchmarks/PERFORMANCE.md, Targets and verdicts): " + ", ".join(f"{n} {s}" for s, n in counts.items()))
     return [head] + [f"  {v['line']}" for v in verdicts]
-
-
-def _finite(x):
-    """``x`` with NaN/Inf floats replaced by None (strict JSON)."""
-    if isinstance(x, dict):
-        return {k: _finite(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_finite(v) for v in x]
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
-
-
-def _json_default(x):
-    import numpy as np
-
-    if isinstance(x, (np.floating, np.integer)):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    return str(x)

@@ -1,23 +1,13 @@
-"""Other builds of the C++ core, side by side with the installed one.
-
-The core's configurations (``-march``, the pack width ``RT_PACK_WIDTH``, the compiler) must
-give the same images bit for bit on one machine: fused multiply-adds are off
-(``-ffp-contract=off``), the explicit ones are correctly rounded, IEEE semantics are kept.
-These functions build a configuration with CMake into a folder of its own, run code against
-that build in a fresh interpreter (:func:`reference_tracer.build.use_core`, so that the
-calling process keeps its module), and collect the arrays that must agree. Used by
-``scripts/compare_builds.py`` and by the tests that rebuild the core
-(``tests/reference_tracer/test_builds.py``, ``tests/reference_tracer/test_wavefront.py``).
-
-Examples
---------
->>> from benchmarks.speed.builds import AGREEMENT_SCRIPT
->>> "integrator" in AGREEMENT_SCRIPT
-True
-"""
+"""Other builds of the C++ core beside the installed one: :func:`build_core`, :func:`build_isa` (:data:`ISAS`), and
+code run against a build in a fresh interpreter (:func:`run_with_core`, :class:`CoreWorker`). Every build must give the
+same images bit for bit (:data:`AGREEMENT_SCRIPT`); :func:`paired_times` times builds against each other
+(``scripts/ab_cores.py``; PERFORMANCE.md, How to measure)."""
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import os
+import pickle
 import shlex
 import shutil
 import subprocess
@@ -27,11 +17,19 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ROOT", "AGREEMENT_SCRIPT", "build_core", "run_with_core", "agreement_arrays", "build_target",
-           "paired_render_times", "paired_ray_times", "median_interval"]
+__all__ = ["ROOT", "ISAS", "AGREEMENT_SCRIPT", "cpu_flags", "build_core", "build_isa", "isa_folder",
+           "run_with_core", "agreement_arrays", "build_target", "CoreWorker", "paired_times"]
 
 #: The repository's root (the CMake project).
 ROOT = Path(__file__).resolve().parents[2]
+
+_V3 = frozenset({"avx", "avx2", "bmi1", "bmi2", "f16c", "fma", "movbe", "abm", "xsave"})
+#: Instruction sets a build can target: its ``-march`` level and the CPU flags (as /proc/cpuinfo names them) that
+#: GCC's and Clang's level assumes: a build runs only where the CPU has them all.
+ISAS = {"avx2": ("x86-64-v3", _V3),
+        "avx512": ("x86-64-v4", _V3 | {"avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl"})}
+
+_ENV = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1")
 
 # Makes `module` the fresh interpreter's core before anything loads it.
 _PREAMBLE = """
@@ -41,10 +39,9 @@ from reference_tracer.build import use_core
 use_core({module!r})
 """
 
-#: What every build must give bit for bit (PATH: the .npz written, THREADS: the thread
-#: count compared with one thread): each suite scene x strategy x integrator at 16x12,
-#: 4 spp; a 64x48 ``cornell_box`` rendered with 1 and THREADS threads; the closest hits of
-#: 4096 random rays on a 20k-triangle mesh.
+#: What every build must give bit for bit (PATH: the .npz written, THREADS: compared with one thread): each suite
+#: scene x strategy x integrator at 16x12, 4 spp; a 64x48 ``cornell_box`` rendered with 1 and THREADS threads; the
+#: closest hits of 4096 random rays on a 20k-triangle mesh.
 AGREEMENT_SCRIPT = """
 import numpy as np
 import reference_tracer as rt
@@ -69,14 +66,43 @@ out["rays/t"], out["rays/prim"] = np.asarray(hits["t"]), np.asarray(hits["prim"]
 np.savez(PATH, **out)
 """
 
+# A worker's loop: call the function each request names with its (pickled) arguments, answer (True, result) or (False,
+# traceback). Its stdout carries the answers alone: whatever else Python or C code writes there goes to stderr.
+_SERVE = """
+import importlib, os, pickle, traceback
+answers = os.fdopen(os.dup(1), "wb")
+os.dup2(2, 1)
+while True:
+    try:
+        name, args, kwargs = pickle.load(sys.stdin.buffer)
+    except EOFError:
+        break
+    module, _, function = name.rpartition(".")
+    try:
+        answer = (True, getattr(importlib.import_module(module), function)(*args, **kwargs))
+    except Exception:
+        answer = (False, traceback.format_exc())
+    pickle.dump(answer, answers)
+    answers.flush()
+"""
+
+
+def cpu_flags() -> frozenset:
+    """The CPU's feature flags as Linux lists them (empty where /proc/cpuinfo is absent)."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            return next((frozenset(line.split(":", 1)[1].split()) for line in f if line.startswith("flags")),
+                        frozenset())
+    except OSError:
+        return frozenset()
+
 
 def build_core(build_dir: Path, *cmake_args: str, cxx: str | None = None, jobs: int = 2) -> Path:
-    """Configure and build the ``_core`` target into ``build_dir``; return the module's path.
+    """Configure and build the ``_core`` target into ``build_dir`` (brought up to date if built before); the module.
 
-    ``cmake_args`` are extra CMake arguments (``-DRT_NATIVE=OFF``, ``-DRT_PACK_WIDTH=8``,
-    ``-DCMAKE_CXX_FLAGS=...``); ``cxx`` names the C++ compiler (None: CMake's choice). About
-    a minute on two cores. Raises ``FileNotFoundError`` where cmake is missing and
-    ``RuntimeError`` (with the end of the log) where a step fails.
+    ``cmake_args``: extra CMake arguments (``-DRT_NATIVE=OFF``, ``-DRT_PACK_WIDTH=8``, ...); ``cxx``: the C++ compiler
+    (None: CMake's). About a minute on two cores. ``FileNotFoundError`` without cmake, ``RuntimeError`` (with the
+    log's end) where a step fails.
     """
     if shutil.which("cmake") is None:
         raise FileNotFoundError("cmake is not installed")
@@ -92,32 +118,44 @@ def build_core(build_dir: Path, *cmake_args: str, cxx: str | None = None, jobs: 
     return next(build_dir.glob("_core*.so"))
 
 
+def isa_folder(isa: str, cache) -> Path:
+    """The folder of this checkout's build for ``isa`` under the cache root, kept between runs."""
+    return Path(cache).expanduser() / "cores" / f"{isa}-{hashlib.sha256(str(ROOT).encode()).hexdigest()[:8]}"
+
+
+def build_isa(isa: str, build_dir: Path, *, jobs: int = 2) -> Path:
+    """Build the core for ``isa`` (``-march`` its level of :data:`ISAS`) into ``build_dir``; the module's path.
+    ``ValueError`` where this CPU cannot run it (a flag missing from /proc/cpuinfo), else as :func:`build_core`."""
+    march, needs = ISAS[isa]
+    missing = sorted(needs - cpu_flags())
+    if missing:
+        raise ValueError(f"this CPU cannot run an {isa} build (-march={march}): /proc/cpuinfo lists no "
+                         f"{', '.join(missing)}")
+    return build_core(build_dir, "-DRT_NATIVE=OFF", f"-DCMAKE_CXX_FLAGS=-march={march}", jobs=jobs)
+
+
 def run_with_core(module: Path, script: str, **values) -> str:
-    """Run ``script`` in a fresh interpreter whose core is ``module`` (:func:`~reference_tracer.build.use_core`);
-    return its stdout. Each ``values`` key in the script is replaced by the value's repr.
-    Raises ``RuntimeError`` with the script's stderr where it fails."""
+    """Run ``script`` in a fresh interpreter whose core is ``module``, each ``values`` key in it replaced by the
+    value's repr; its stdout. ``RuntimeError`` with the script's stderr where it fails."""
     body = script
     for key, value in values.items():
         body = body.replace(key, repr(value))
     code = _PREAMBLE.format(root=str(ROOT), module=str(module)) + body
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT,
-                         env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1"))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=_ENV)
     if out.returncode != 0:
         raise RuntimeError(f"a run with {module} failed:\n{out.stderr[-3000:]}")
     return out.stdout
 
 
 def agreement_arrays(module: Path, path: Path, *, threads: int = 2):
-    """The arrays of :data:`AGREEMENT_SCRIPT` rendered by ``module``, saved to ``path``
-    (``.npz``) and loaded (``numpy.lib.npyio.NpzFile``: a mapping of name to array)."""
+    """The arrays of :data:`AGREEMENT_SCRIPT` rendered by ``module``, saved to ``path`` (``.npz``) and loaded."""
     run_with_core(module, AGREEMENT_SCRIPT, PATH=str(path), THREADS=int(threads))
     return np.load(path)
 
 
 def build_target(build_dir: Path) -> str:
-    """What a build targeted: the macros simd.h reads (AVX2, FMA, AVX-512), from the build's
-    own compiler and flags (CMake's cache and ``flags.make``), and the pack width they give
-    (``RT_PACK_WIDTH`` where set, else simd.h's rule: 8 with AVX-512, 4 otherwise)."""
+    """What a build targeted: the macros simd.h reads (AVX2, FMA, AVX-512) from the build's own compiler and flags,
+    and the pack width they give (``RT_PACK_WIDTH`` where set, else 8 with AVX-512, 4 otherwise)."""
     build_dir = Path(build_dir)
     flags_file = (build_dir / "CMakeFiles" / "_core.dir" / "flags.make").read_text()
     fields = dict(line.split(" = ", 1) for line in flags_file.splitlines() if " = " in line)
@@ -133,143 +171,65 @@ def build_target(build_dir: Path) -> str:
     return f"{Path(compiler).name} {' '.join(march)}: {' '.join(isa) or 'no AVX2/AVX-512'}, packs of {pack}"
 
 
-# A worker that renders on request with its own core: reads "scene spp" lines, answers each
-# with the wall seconds of one render (SIZE x SIZE, `mis`, wavefront, Russian roulette from
-# depth 5 as Mitsuba's default, 1 thread). The caller's first render of a scene warms it up.
-_RENDER_WORKER = """
-import time
-import reference_tracer as rt
-from mitsuba_scenes import get_scene
-scenes = {}
-for line in sys.stdin:
-    name, spp = line.split()
-    if name not in scenes:
-        scenes[name] = get_scene(name, width=SIZE, height=SIZE, max_depth=50, rr_depth=5)
-    t0 = time.perf_counter()
-    rt.render(scenes[name], spp=int(spp), strategy="mis", seed=1, threads=1)
-    print(time.perf_counter() - t0, flush=True)
-"""
+class CoreWorker:
+    """A persistent interpreter whose core is ``module`` (a context manager): ``worker("pkg.module.function", *args,
+    **kwargs)`` calls that function there and returns its result (both pickled); ``RuntimeError`` with the worker's
+    traceback or stderr where the call fails or the worker stops."""
 
-# A worker that casts rays on request: reads "triangles kind count" lines, answers each with
-# the wall seconds of one closest-hit query of `count` rays of `kind` (random / primary, as
-# `rtbench speed --rays` makes them) on the benchmark's torus, like for like
-# (`preliminary=True`), 1 thread. Meshes and rays are made once, on first request.
-_RAY_WORKER = """
-import time
-import numpy as np
-from benchmarks.speed.rays import mesh_scene, primary_rays, random_rays
-from reference_tracer.probe import core_scene
-meshes, rays = {}, {}
-for line in sys.stdin:
-    triangles, kind, count = line.split()
-    if triangles not in meshes:
-        meshes[triangles] = core_scene(mesh_scene(int(triangles)))
-    if (kind, count) not in rays:
-        o, d = (random_rays if kind == "random" else primary_rays)(int(count))
-        rays[kind, count] = (np.ascontiguousarray(o, dtype=np.float64), np.ascontiguousarray(d, dtype=np.float64))
-    o, d = rays[kind, count]
-    t0 = time.perf_counter()
-    meshes[triangles].intersect(o, d, threads=1, preliminary=True)
-    print(time.perf_counter() - t0, flush=True)
-"""
+    def __init__(self, module):
+        self.module = Path(module)
+        # stderr to a file: a pipe nobody reads while the worker runs could fill and stall it.
+        self._stderr = tempfile.TemporaryFile(mode="w+")
+        code = _PREAMBLE.format(root=str(ROOT), module=str(self.module)) + _SERVE
+        self._process = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                         stderr=self._stderr, cwd=ROOT, env=_ENV)
+
+    def __call__(self, function: str, *args, **kwargs):
+        try:
+            pickle.dump((function, args, kwargs), self._process.stdin)
+            self._process.stdin.flush()
+            ok, answer = pickle.load(self._process.stdout)
+        except (EOFError, BrokenPipeError):
+            self._process.wait(timeout=60)
+            self._stderr.seek(0)
+            raise RuntimeError(f"the worker of {self.module} stopped:\n{self._stderr.read()[-3000:]}") from None
+        if not ok:
+            raise RuntimeError(f"{function} failed with the core {self.module}:\n{answer[-3000:]}")
+        return answer
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self._process.stdin.close()
+        try:
+            self._process.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            self._process.kill()
+            self._process.wait()
+        self._stderr.close()
 
 
-def _paired_times(modules, worker_script: str, requests, *, rounds: int) -> dict:
-    """``{request: [[seconds of each module] per round]}`` for each request line, from one
-    persistent worker per module running ``worker_script`` (it answers each request line
-    with seconds), one request at a time, each round in turn starting with the next
-    module; one untimed warm-up request per module first."""
-    if rounds < 1:
-        raise ValueError("rounds must be at least 1")
+def paired_times(modules, requests: dict, *, rounds: int = 40, seconds=float) -> dict:
+    """Times of several core builds, paired: ``{key: [[seconds of each module] per round]}``.
 
-    workers, errors = [], []
-    try:
-        for module in modules:
-            code = _PREAMBLE.format(root=str(ROOT), module=str(module)) + worker_script
-            # stderr to a file: a pipe nobody reads while the worker runs could fill and stall it.
-            errors.append(tempfile.TemporaryFile(mode="w+"))
-            workers.append(subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                            stderr=errors[-1], text=True, cwd=ROOT,
-                                            env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1")))
-
-        def ask(k, request):
-            w = workers[k]
-            w.stdin.write(f"{request}\n")
-            w.stdin.flush()
-            line = w.stdout.readline()
-            if not line:
-                w.wait(timeout=60)
-                errors[k].seek(0)
-                raise RuntimeError(f"the worker of {modules[k]} stopped:\n{errors[k].read()[-3000:]}")
-            return float(line)
-
+    ``requests`` maps a key to ``(function, kwargs)``, a function a :class:`CoreWorker` of each module calls, whose
+    answer ``seconds`` turns into seconds. One call at a time, each round starting with the next module, after an
+    untimed call each: calls a fraction of a second apart see the same machine, so the per-round ratios cancel the
+    drifts of a shared VM that separate processes do not (PERFORMANCE.md, How to measure).
+    """
+    with contextlib.ExitStack() as stack:
+        workers = [stack.enter_context(CoreWorker(m)) for m in modules]
         times = {}
-        for request in requests:
-            for k in range(len(workers)):
-                ask(k, request)  # warm-up
-            rows = []
+        for key, (function, kwargs) in requests.items():
+            for worker in workers:
+                worker(function, **kwargs)   # warm-up
+            times[key] = []
             for r in range(rounds):
                 row = [0.0] * len(workers)
                 for j in range(len(workers)):
                     k = (r + j) % len(workers)
-                    row[k] = ask(k, request)
-                rows.append(row)
-            times[request] = rows
+                    row[k] = seconds(workers[k](function, **kwargs))
+                times[key].append(row)
         return times
-    finally:
-        for w in workers:
-            if w.stdin:
-                w.stdin.close()
-            try:
-                w.wait(timeout=60)
-            except subprocess.TimeoutExpired:
-                w.kill()
-                w.wait()
-        for f in errors:
-            f.close()
 
-
-def paired_render_times(modules, scenes, *, rounds: int = 40, spp: int = 16, size: int = 128) -> dict:
-    """Render times of several core builds, paired: ``{scene: [[seconds of each module] per round]}``.
-
-    One persistent worker process per module renders on request, one render at a time
-    (never two at once), each round in turn starting with the next module. Renders a
-    fraction of a second apart see the same machine, so the per-round ratios cancel the
-    slow drifts of a shared VM that separate timed processes do not (PERFORMANCE.md, How to
-    measure: identical builds give a 90% interval of +-1% in 40 pairs, where best-of-six
-    processes leave quartiles of +-5-20%).
-    """
-    times = _paired_times(modules, _RENDER_WORKER.replace("SIZE", str(int(size))),
-                          [f"{scene} {int(spp)}" for scene in scenes], rounds=rounds)
-    return {scene: times[f"{scene} {int(spp)}"] for scene in scenes}
-
-
-def paired_ray_times(modules, triangles, kinds, *, rounds: int = 40, rays: int = 1 << 18) -> dict:
-    """Ray-query times of several core builds, paired as :func:`paired_render_times` pairs
-    renders: ``{(triangles, kind): [[seconds of each module] per round]}``, each a closest-hit
-    query (``preliminary=True``, 1 thread) of ``rays`` rays of ``kind`` (``"random"`` or
-    ``"primary"``, :mod:`benchmarks.speed.rays`) on the torus of ``triangles`` triangles."""
-    for kind in kinds:
-        if kind not in ("random", "primary"):
-            raise ValueError(f"kind must be 'random' or 'primary', not {kind!r}")
-    keys = [(int(t), kind) for t in triangles for kind in kinds]
-    times = _paired_times(modules, _RAY_WORKER, [f"{t} {kind} {int(rays)}" for t, kind in keys], rounds=rounds)
-    return {(t, kind): times[f"{t} {kind} {int(rays)}"] for t, kind in keys}
-
-
-def median_interval(ratios, *, level: float = 0.90, resamples: int = 2000, seed: int = 0):
-    """Median of ``ratios`` and a bootstrap interval of it (percentiles of the medians of
-    ``resamples`` resamples with replacement, fixed ``seed``): ``(median, low, high)``.
-
-    Examples
-    --------
-    >>> median_interval([1.0, 1.0, 1.0])
-    (1.0, 1.0, 1.0)
-    """
-    x = np.asarray(ratios, dtype=float)
-    if x.size == 0 or not np.all(np.isfinite(x)):
-        raise ValueError("ratios must be finite and not empty")
-    rng = np.random.default_rng(seed)
-    medians = np.median(x[rng.integers(0, x.size, size=(resamples, x.size))], axis=1)
-    tail = (1.0 - level) / 2.0
-    return float(np.median(x)), float(np.quantile(medians, tail)), float(np.quantile(medians, 1.0 - tail))

@@ -1,42 +1,22 @@
-"""The paired render benchmark: ours vs Mitsuba's ``path`` integrator, paths/s and error.
+"""The paired render benchmark: ours vs Mitsuba's ``path`` integrator, paths/s and error at equal spp.
 
-Each scene is rendered by our tracer (each strategy) and by Mitsuba's ``path``
-integrator (each available variant) at the same resolution, spp, ``max_depth``, Russian
-roulette and thread count, once per Russian-roulette configuration (Mitsuba's default
-``rr_depth`` 5 first, then none: :data:`DEFAULT_RR_DEPTHS`). Mitsuba gets one untimed warm-up render per variant first
-(JIT kernels compile and are cached; the warm-up's extra time is reported as
-``compile_seconds``); ours gets one small warm-up too. Then ``repeats`` rounds, each
-running every configuration once, interleaved (ours, Mitsuba, ours, ...) so that a
-change in machine load hits both sides of a pair alike. Ratios are medians over the
-rounds of the per-round ratio (paired).
-
-External renderers (``externals=``, ``rtbench speed --renderer 'CMD'``,
-:mod:`benchmarks.external`) join the same rounds: each run writes the scene's Mitsuba XML
-(with the configuration's ``max_depth`` and ``rr_depth``) and times the command's wall
-clock, so their time includes process start and scene loading (they are not warmed up
-beyond one untimed run); their CPU time is that of the child processes. Their rows carry
-the same paired ratios against each Mitsuba variant as ours.
-
-Examples
---------
->>> DEFAULT_STRATEGIES
-('mis', 'mixture', 'cosine', 'uniform', 'light')
->>> out = render_benchmark(["cornell_box"], width=16, height=16, spp=4, repeats=1,
-...                        strategies=("mis",), variants=("scalar_rgb",),
-...                        reference="ours", reference_spp=64)  # doctest: +SKIP
->>> sorted(out["summary"][0])[:3]  # doctest: +SKIP
-['cpu_over_wall', 'efficiency', 'label']
-"""
+:func:`render_benchmark` renders each scene with ours (every strategy and integrator, of the installed core and other
+``builds``), Mitsuba (each variant) and external renderers at the same settings, per Russian-roulette configuration:
+after a warm-up each, ``repeats`` rounds run every configuration once, interleaved and alternating who goes first, so
+that load hits both sides of a pair alike; a ratio is the median of the rounds'. PERFORMANCE.md, How to measure."""
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import functools
+import itertools
 import math
 import resource
 
 import numpy as np
 
 import reference_tracer as rt
-from mitsuba_scenes import MitsubaRender, get_scene, known_scenes
+from mitsuba_scenes import get_scene, known_scenes
 from mitsuba_scenes.render import batch_seeds
 from reference_tracer import INTEGRATORS
 from reference_tracer.probe import core_scene
@@ -47,26 +27,23 @@ from ..external import STRATEGY as EXTERNAL_STRATEGY
 from ..external import render_external
 from ..metrics import efficiency, mse, mse_corrected
 from ..references import reference
-
+from .builds import CoreWorker
 from .common import (available_variants, environment, load_mitsuba, median, mitsuba_render_fn, mitsuba_versions,
                      name_list, spread, timed, use_variant)
 from .suite import suite_summary
 
 __all__ = ["DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT_RR_DEPTHS", "REFERENCE_KINDS", "render_benchmark",
-           "rr_label"]
+           "rr_label", "render_timed"]
 
-#: our strategies in the order the benchmark runs and lists them: the unbiased ones from
-#: ``mis`` (the one matched to Mitsuba's ``path`` integrator) down to the plainest, then
-#: the biased ``light``.
+#: our strategies in run order: the unbiased ones from ``mis`` (matched to Mitsuba's ``path``) down to the plainest,
+#: then the biased ``light``.
 DEFAULT_STRATEGIES = (tuple(reversed(UNBIASED_STRATEGIES))
                       + tuple(s for s in STRATEGIES if s not in UNBIASED_STRATEGIES))
 #: Mitsuba variants compared against, the bar first.
 DEFAULT_VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
-#: Russian-roulette configurations measured, in order: Mitsuba's default ``path`` setting
-#: (roulette from depth 5, what its users run) first, then the seed's (none).
+#: Russian-roulette configurations, in order: Mitsuba's default (from depth 5), then none.
 DEFAULT_RR_DEPTHS = (5, None)
-#: where the error reference comes from: a (cached) high-spp Mitsuba render via
-#: ``benchmarks.references``, or a high-spp render of ours (``mis``).
+#: the error reference: a cached high-spp Mitsuba render (``benchmarks.references``) or ours (``mis``).
 REFERENCE_KINDS = ("mitsuba", "ours")
 
 #: the per-run figures summarised (median over rounds) in each summary row.
@@ -78,190 +55,161 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
                      threads: int = 2, repeats: int = 5, strategies=DEFAULT_STRATEGIES,
                      integrators=("wavefront",), variants=DEFAULT_VARIANTS, max_depth: int | None = None,
                      rr_depths=DEFAULT_RR_DEPTHS, reference: str = "mitsuba", reference_spp: int = 4096, seed: int = 0,
-                     cache=None, log=None, externals=()) -> dict:
+                     cache=None, log=None, externals=(), builds=None) -> dict:
     """Paired, interleaved render timings of ours vs Mitsuba, with error at equal spp.
 
     Parameters
     ----------
     scenes : sequence of str
-        Suite scene names (``mitsuba_scenes.list_scenes()``).
-    width, height, spp, threads, repeats : int, keyword-only
-        Image size, samples per pixel, worker threads (both renderers), timed rounds.
-    strategies : sequence of str or comma-separated str, keyword-only
-        Our strategies (``benchmarks.constants.STRATEGIES``).
-    integrators : sequence of str or comma-separated str, keyword-only
-        Our integrators (``reference_tracer.INTEGRATORS``), each strategy timed with each
-        in every round; the first is the headline's. Rows of ``wavefront`` (the default)
-        are labelled ``ours <strategy>``, the others ``ours <strategy> (<integrator>)``.
-    variants : sequence of str or comma-separated str, keyword-only
-        Mitsuba variants; one that does not work here is skipped (``skipped_variants``).
-        An empty list is not allowed.
+        Scene names (``mitsuba_scenes.known_scenes()``).
+    width, height, spp, threads, repeats, seed : int, keyword-only
+        Image size, samples per pixel, threads (every renderer), timed rounds; round ``r`` uses seed ``seed + r``.
+    strategies, integrators, variants : sequence of str or comma-separated str, keyword-only
+        Ours: every strategy with every integrator, the first of each the headline's; Mitsuba's variants (one that
+        does not work here is skipped).
     max_depth : int or None, keyword-only
-        Override the scene's ``max_depth`` (None keeps it; the suite's default is 50).
+        Override the scenes' ``max_depth`` (None keeps it).
     rr_depths : sequence of (int, None or 'scene'), keyword-only
-        The Russian-roulette configurations, each measured separately and in this order
-        (summary rows carry ``rr_depth`` and ``configuration``): an int is the depth
-        roulette starts at (Mitsuba's rule), ``None`` disables it, ``'scene'`` keeps the
-        scene's own. Default :data:`DEFAULT_RR_DEPTHS`: Mitsuba's default (5), then none.
-        Every configuration of a scene is scored against the same reference (roulette
-        changes the noise, not the expectation).
-    reference : {'mitsuba', 'ours'}, keyword-only
-        Error reference: ``mitsuba`` is ``benchmarks.references.reference`` (cached in
-        ``$RTBENCH_CACHE``; rendered once if missing, with the first working variant),
-        ``ours`` a fresh ``mis`` render of ours. Both carry a per-sample variance, and
-        the efficiency uses the MSE with the reference's own noise removed
-        (``metrics.mse_corrected``).
-    reference_spp : int, keyword-only
-        Samples per pixel of the reference (> ``spp``).
-    seed : int, keyword-only
-        Round ``r`` renders ours with seed ``seed + r`` and Mitsuba with a seed hashed
-        from it (``mitsuba_scenes.batch_seeds``).
-    cache : path or None, keyword-only
-        Reference cache root.
-    log : callable or None, keyword-only
-        Called with progress lines.
+        Russian-roulette configurations, each measured apart: the depth it starts at, None for none, 'scene' as is.
+    reference, reference_spp : keyword-only
+        Error reference (:data:`REFERENCE_KINDS`: the cached Mitsuba one, or a fresh ``mis`` render of ours) and its
+        spp.
+    cache, log : keyword-only
+        Reference cache root; a callable taking progress lines.
     externals : sequence of benchmarks.external.ExternalRenderer, keyword-only
-        External renderers timed in the same rounds (module docstring); rows labelled
-        with their names.
+        External renderers timed in the same rounds (their wall clock includes process start and scene loading).
+    builds : mapping of str to path, keyword-only
+        Other builds of our core (name: module) rendering in worker processes in the same rounds, rows labelled ``ours
+        <strategy>, <name> build``.
 
     Returns
     -------
     dict
-        ``config``, ``environment``, ``mitsuba`` (versions, per-variant load and compile
-        seconds, per scene and configuration label), ``skipped_variants``, ``references``
-        (per scene), ``runs`` (one record per timed render) and ``summary`` (one row per
-        scene, Russian-roulette configuration and renderer configuration: medians
-        and, for ours, ``ratio`` / ``efficiency_ratio`` / ``cpu_ratio`` per variant, each
-        the median over rounds of the paired per-round ratio, and ``round_ratios`` and
-        ``round_efficiency_ratios`` per variant, each round's paths/s and efficiency
-        ratio, NaN where an MSE was not positive), and ``suite``, the headline
-        (:func:`benchmarks.speed.suite_summary`: every scene and the geometric mean per
-        configuration).
+        ``config``, ``environment``, ``mitsuba``, ``skipped_variants``, ``available_variants``, ``references``,
+        ``runs`` (one record a timed render), ``summary`` (a row per scene, configuration and renderer: medians over
+        rounds and, against each variant ``v``, ``ratio_v``, ``cpu_ratio_v``, ``efficiency_ratio_v``,
+        ``round_ratios_v``, ``round_efficiency_ratios_v``), ``suite`` (:func:`.suite_summary`) and ``build_suites``
+        (of each build).
     """
     config = _render_config(scenes, width=width, height=height, spp=spp, threads=threads, repeats=repeats,
-                            strategies=strategies, integrators=integrators, variants=variants,
-                            reference=reference, reference_spp=reference_spp, seed=seed)
-    max_depth, rr_depths = _depth_overrides(max_depth, rr_depths)
-    config["max_depth"], config["rr_depths"] = max_depth, list(rr_depths)
+                            strategies=strategies, integrators=integrators, variants=variants, max_depth=max_depth,
+                            rr_depths=rr_depths, reference=reference, reference_spp=reference_spp, seed=seed)
+    builds = config["builds"] = {str(k): str(v) for k, v in (builds or {}).items()}
     config["externals"] = {e.name: e.template for e in externals}
-
-    env_before = environment()
     ok_variants, skipped = available_variants(config["variants"], log)
-    result = {"config": config, "environment": env_before, "skipped_variants": skipped, "mitsuba": {},
+    result = {"config": config, "environment": environment(), "skipped_variants": skipped, "mitsuba": {},
               "references": {}, "runs": [], "summary": []}
     if ok_variants:
         result["mitsuba"]["versions"] = mitsuba_versions()
     elif reference == "mitsuba":
-        raise ValueError(f"no Mitsuba variant of {config['variants']} works here ({skipped}); "
-                         f"use reference='ours'")
-    for name in config["scenes"]:
-        _bench_scene(result, name, config, ok_variants, max_depth=max_depth, rr_depths=rr_depths, cache=cache,
-                     log=log, externals=tuple(externals))
+        raise ValueError(f"no Mitsuba variant of {config['variants']} works here ({skipped}); use reference='ours'")
+    with contextlib.ExitStack() as stack:
+        workers = {name: stack.enter_context(CoreWorker(module)) for name, module in builds.items()}
+        for name in config["scenes"]:
+            _bench_scene(result, name, config, ok_variants, cache=cache, log=log, externals=tuple(externals),
+                         workers=workers)
     result["available_variants"] = ok_variants
     result["suite"] = suite_summary(result)
+    result["build_suites"] = {b: suite_summary(result, build=b) for b in builds}
     result["environment_after"] = environment()
     return result
 
 
-def _render_config(scenes, *, width, height, spp, threads, repeats, strategies, integrators, variants, reference,
-                   reference_spp, seed) -> dict:
+def _render_config(scenes, *, spp, strategies, integrators, variants, max_depth, rr_depths, reference, reference_spp,
+                   seed, **sizes) -> dict:
     """The validated settings, as stored under ``config``; ``ValueError`` names a bad one."""
-    scenes = name_list("scenes", scenes, known_scenes())
-    strategies = name_list("strategies", strategies, STRATEGIES)
-    integrators = name_list("integrators", integrators, INTEGRATORS)
-    variants = name_list("variants", variants)
-    width, height = positive_int("width", width), positive_int("height", height)
-    spp, threads = positive_int("spp", spp), positive_int("threads", threads)
-    repeats = positive_int("repeats", repeats)
-    reference_spp = positive_int("reference_spp", reference_spp, minimum=2)
-    seed = positive_int("seed", seed, minimum=0)
+    spp, reference_spp = positive_int("spp", spp), positive_int("reference_spp", reference_spp, minimum=2)
     if reference not in REFERENCE_KINDS:
         raise ValueError(f"reference must be one of {REFERENCE_KINDS}, got {reference!r}")
     if reference_spp <= spp:
         raise ValueError(f"reference_spp ({reference_spp}) must exceed spp ({spp})")
-    return {"scenes": scenes, "width": width, "height": height, "spp": spp, "threads": threads,
-            "repeats": repeats, "strategies": strategies, "integrators": integrators, "variants": variants,
-            "reference": reference, "reference_spp": reference_spp, "seed": seed}
-
-
-def _depth_overrides(max_depth, rr_depths):
-    """Validated ``(max_depth, rr_depths)`` overrides (None / ``'scene'`` keep the scene's).
-
-    >>> _depth_overrides(None, (5, None))
-    (None, [5, None])
-    """
-    if max_depth is not None:
-        max_depth = int(max_depth)
-        if not (max_depth == -1 or max_depth >= 1):
-            raise ValueError(f"max_depth must be >= 1 or -1, got {max_depth}")
+    if max_depth is not None and not (int(max_depth) == -1 or int(max_depth) >= 1):
+        raise ValueError(f"max_depth must be >= 1 or -1, got {max_depth}")
     rr_depths = [v if v in ("scene", None) else positive_int("rr_depth", v) for v in rr_depths]
-    if not rr_depths:
-        raise ValueError("rr_depths must name at least one configuration")
-    if len(set(map(str, rr_depths))) != len(rr_depths):
-        raise ValueError(f"rr_depths has duplicates: {rr_depths}")
-    return max_depth, rr_depths
+    if not rr_depths or len(set(map(str, rr_depths))) != len(rr_depths):
+        raise ValueError(f"rr_depths must name configurations without duplicates, got {rr_depths}")
+    return {"scenes": name_list("scenes", scenes, known_scenes()), **{k: positive_int(k, v) for k, v in sizes.items()},
+            "spp": spp, "strategies": name_list("strategies", strategies, STRATEGIES),
+            "integrators": name_list("integrators", integrators, INTEGRATORS),
+            "variants": name_list("variants", variants), "max_depth": None if max_depth is None else int(max_depth),
+            "rr_depths": rr_depths, "reference": reference, "reference_spp": reference_spp,
+            "seed": positive_int("seed", seed, minimum=0)}
 
 
 def rr_label(rr_depth) -> str:
-    """A Russian-roulette setting as a table label.
-
-    >>> rr_label(5), rr_label(None)
-    ('rr_depth 5', 'no RR')
-    """
+    """A Russian-roulette setting as a table label: ``rr_depth 5``, ``no RR``."""
     return "no RR" if rr_depth is None else f"rr_depth {rr_depth}"
 
 
 def _with_depths(scene, max_depth, rr_depth):
     """``scene`` with ``max_depth`` (None keeps) and ``rr_depth`` (``'scene'`` keeps) set."""
-    if max_depth is None and rr_depth == "scene":
-        return scene
     return dataclasses.replace(scene, max_depth=scene.max_depth if max_depth is None else max_depth,
                                rr_depth=scene.rr_depth if rr_depth == "scene" else rr_depth)
 
 
-def _bench_scene(result, name, config, ok_variants, *, max_depth, rr_depths, cache, log, externals=()):
+_KEPT = {}   # a worker's scenes, kept between calls: each tree is built once
+
+
+def render_timed(scene, *, key=None, **render_args):
+    """``(result, wall seconds, process CPU seconds)`` of ``rt.render(scene, **render_args)``.
+
+    Called in a :class:`.builds.CoreWorker` too, which keeps ``scene`` under ``key``.
+    """
+    if key is not None:
+        scene = _KEPT.setdefault(key, scene)
+    return timed(lambda: rt.render(scene, **render_args))
+
+
+def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, workers):
     """Set up, time and summarise one scene in every Russian-roulette configuration."""
     width, height, spp, threads = config["width"], config["height"], config["spp"], config["threads"]
-    base = _with_depths(get_scene(name).with_camera_size(width, height), max_depth, "scene")
-    # set-up, untimed: our BVH build, the reference (one per scene: roulette keeps the expectation)
-    _, build_wall, _ = timed(lambda: core_scene(base))
-    ref, record = _reference(base, kind=config["reference"], spp=config["reference_spp"],
-                             variant=ok_variants[0] if ok_variants else None, threads=threads, cache=cache,
-                             log=log)
-    result["references"][name] = record
+    base = _with_depths(get_scene(name).with_camera_size(width, height), config["max_depth"], "scene")
+    _, build_wall, _ = timed(lambda: core_scene(base))   # our tree, untimed
+    ref, result["references"][name] = _reference(base, kind=config["reference"], spp=config["reference_spp"],
+                                                 variant=(ok_variants or [None])[0], threads=threads, cache=cache,
+                                                 log=log)
     result.setdefault("ours", {})[name] = {"build_seconds": float(core_scene(base).build_seconds),
                                            "compile_and_build_seconds": build_wall}
-    for rr in rr_depths:
+    for rr in config["rr_depths"]:
         scene = _with_depths(base, None, rr)
         label = rr_label(scene.rr_depth)
         if log:
             log(f"{name} {width}x{height}, {spp} spp, max_depth {scene.max_depth}, {label}, {threads} threads")
-        rt.render(scene, spp=max(1, spp // 8), strategy=config["strategies"][0], seed=0xA11CE, threads=threads)
+        bare = dataclasses.replace(scene)   # no tree: what a worker is sent
+        cores = {None: functools.partial(render_timed, scene)}
+        cores.update({b: functools.partial(w, "benchmarks.speed.render.render_timed", bare, key=(name, label))
+                      for b, w in workers.items()})
+        for core in cores.values():   # warm-up
+            core(spp=max(1, spp // 8), strategy=config["strategies"][0], seed=0xA11CE, threads=threads)
         mscenes, infos = _warm_mitsuba(scene, ok_variants, spp=spp, threads=threads, log=log)
-        _warm_externals(scene, externals, spp=spp, log=log)
-        per = _timed_rounds(name, scene, config, ok_variants, mscenes=mscenes, ref=ref, runs=result["runs"],
-                            log=log, externals=externals)
+        for ext in externals:   # a command that fails does so here, before any timing
+            _, secs = render_external(ext, scene, spp=max(1, spp // 8), seed=0x5EED)
+            if log:
+                log(f"  {ext.name}: warm-up run {secs:.2f} s")
+        seed = config["seed"]
+        lanes = ([(_ours_label(s, i, b), {"renderer": "ours", "strategy": s, "integrator": i, "variant": None,
+                                          "build": b},
+                   functools.partial(_run_ours, core, spp=spp, strategy=s, integrator=i, seed=seed, threads=threads))
+                  for b, core in cores.items() for s in config["strategies"] for i in config["integrators"]],
+                 [(f"Mitsuba {v}", {"renderer": "mitsuba", "strategy": MITSUBA_STRATEGY, "variant": v},
+                   functools.partial(_run_mitsuba, v, mscenes[v], spp=spp, seed=seed, threads=threads))
+                  for v in ok_variants],
+                 [(e.name, {"renderer": e.name, "strategy": EXTERNAL_STRATEGY, "variant": None},
+                   functools.partial(_run_external, e, scene, spp=spp, seed=seed)) for e in externals])
+        order = [x for group in itertools.zip_longest(*lanes) for x in group if x is not None]   # not grouped
+        per = _timed_rounds(name, scene, config, order, ref=ref, runs=result["runs"], log=log)
         for v in ok_variants:   # JIT compile time: warm-up minus a typical timed render
             info = infos[v]
             typical = median([x["seconds"] for x in per[f"Mitsuba {v}"]])
             info["compile_seconds"] = (max(0.0, info["warmup_seconds"] - typical)
                                        if v.startswith(("llvm", "cuda")) else 0.0)
             result["mitsuba"].setdefault(name, {}).setdefault(label, {})[v] = info
-        rows = _summary_rows(name, per, ok_variants)
-        for row in rows:
-            row.update(rr_depth=scene.rr_depth, max_depth=scene.max_depth, configuration=label)
-        result["summary"] += rows
+        result["summary"] += [dict(row, rr_depth=scene.rr_depth, max_depth=scene.max_depth, configuration=label)
+                              for row in _summary_rows(name, per, ok_variants)]
 
 
 def _reference(scene, *, kind, spp, variant, threads, cache, log):
-    """The error reference, an ``ImageEstimate``, and its JSON record.
-
-    Returns
-    -------
-    ref : benchmarks.references.Reference or reference_tracer.RenderResult
-    record : dict
-        ``spp``, ``kind``, ``variant``, ``cached``, ``seconds`` (of this call), ``label``.
-    """
+    """The error reference (an ``ImageEstimate``) and its JSON record."""
     if kind == "mitsuba":
         ref, took, _ = timed(lambda: reference(scene, spp=spp, variant=variant, threads=threads, cache=cache,
                                                log=log))
@@ -276,11 +224,8 @@ def _reference(scene, *, kind, spp, variant, threads, cache, log):
 
 
 def _warm_mitsuba(scene, variants, *, spp, threads, log):
-    """Load ``scene`` in each variant and render it once untimed (JIT compile).
-
-    Returns ``({variant: mitsuba scene}, {variant: info})``, info holding
-    ``load_seconds`` and ``warmup_seconds``.
-    """
+    """Load ``scene`` in each variant and render it once untimed (JIT compile): ``({variant: Mitsuba scene}, {variant:
+    {load_seconds, warmup_seconds}})``."""
     mscenes, infos = {}, {}
     for v in variants:
         mscenes[v], load = load_mitsuba(v, scene, threads)
@@ -292,132 +237,83 @@ def _warm_mitsuba(scene, variants, *, spp, threads, log):
     return mscenes, infos
 
 
-def _warm_externals(scene, externals, *, spp, log):
-    """One small untimed run of each external renderer: a command that fails does so here,
-    before any timing, with its own message."""
-    for ext in externals:
-        _, secs = render_external(ext, scene, spp=max(1, spp // 8), seed=0x5EED)
-        if log:
-            log(f"  {ext.name}: warm-up run {secs:.2f} s")
+def _ours_label(strategy, integrator, build) -> str:
+    return (f"ours {strategy}" + ("" if integrator == "wavefront" else f" ({integrator})")
+            + ("" if build is None else f", {build} build"))
 
 
-def _timed_rounds(name, scene, config, variants, *, mscenes, ref, runs, log, externals=()) -> dict:
-    """``repeats`` interleaved rounds of every configuration; ``{label: [run, ...]}``.
+# One timed render of round r by each kind of renderer: the image, the render's own seconds, the call's wall and CPU
+# seconds, the rays cast (None where not counted), the seed.
+def _run_ours(core, r, *, seed, **args):
+    res, wall, cpu = core(seed=seed + r, **args)
+    return {"mean": res.mean, "secs": res.seconds, "wall": wall, "cpu": cpu, "rays": res.rays, "seed": seed + r,
+            "nonfinite": res.nonfinite_samples}
 
-    Each run record is appended to ``runs`` as well.
-    """
-    spp, threads, seed = config["spp"], config["threads"], config["seed"]
-    ours = [(s, i) for s in config["strategies"] for i in config.get("integrators", ["wavefront"])]
-    width, height, repeats = config["width"], config["height"], config["repeats"]
-    settings = {"max_depth": scene.max_depth, "rr_depth": scene.rr_depth}
-    per = {}   # label -> list of run dicts, one per round
-    for r in range(repeats):
-        s_ours = seed + r
-        s_mi = batch_seeds(seed + r, 1)[0]
-        # interleave: ours strategy, Mitsuba variant, ours strategy, ...
-        order = []
-        for k in range(max(len(ours), len(variants), len(externals))):
-            if k < len(ours):
-                order.append(("ours", ours[k]))
-            if k < len(variants):
-                order.append(("mitsuba", variants[k]))
-            if k < len(externals):
-                order.append(("external", externals[k]))
-        if r % 2 == 1:
-            order.reverse()   # alternate who goes first
-        for renderer, what in order:
-            if renderer == "ours":
-                strategy, integrator = what
-                rec = _ours_run(scene, spp=spp, strategy=strategy, integrator=integrator, seed=s_ours,
-                                threads=threads, ref=ref)
-                rec.update(strategy=strategy, integrator=integrator, variant=None, seed=s_ours)
-                what = strategy if integrator == "wavefront" else f"{strategy} ({integrator})"
-            elif renderer == "external":
-                rec = _external_run(what, scene, spp=spp, seed=s_mi & 0x7FFFFFFF, ref=ref)
-                rec.update(strategy=EXTERNAL_STRATEGY, variant=None, seed=s_mi & 0x7FFFFFFF)
-                renderer, what = what.name, what.name
-            else:
-                rec = _mitsuba_run(what, mscenes[what], spp=spp, seed=s_mi, threads=threads, ref=ref,
-                                   shape=(height, width, 3))
-                rec.update(strategy=MITSUBA_STRATEGY, variant=what, seed=s_mi)
-            rec.update(scene=name, renderer=renderer, round=r, spp=spp, width=width, height=height,
-                       threads=threads, **settings)
-            label = f"ours {what}" if renderer == "ours" else f"Mitsuba {what}" if renderer == "mitsuba" else what
+
+def _run_mitsuba(variant, mscene, r, *, spp, seed, threads):
+    mi, _ = use_variant(variant, threads)
+    s = batch_seeds(seed + r, 1)[0]
+    img, wall, cpu = timed(mitsuba_render_fn(mi, mscene, spp, s))
+    return {"mean": img, "secs": wall, "wall": wall, "cpu": cpu, "rays": None, "seed": s}
+
+
+def _run_external(ext, scene, r, *, spp, seed):
+    s = batch_seeds(seed + r, 1)[0] & 0x7FFFFFFF
+    cpu0 = _children_cpu()   # the command's CPU time: its child processes'
+    (img, secs), wall, _ = timed(lambda: render_external(ext, scene, spp=spp, seed=s))
+    return {"mean": img, "secs": secs, "wall": wall, "cpu": _children_cpu() - cpu0, "rays": None, "seed": s}
+
+
+def _timed_rounds(name, scene, config, order, *, ref, runs, log) -> dict:
+    """``repeats`` rounds of every ``(label, fields, run)`` of ``order``, alternating who goes first: ``{label: [run
+    record, ...]}``, each record appended to ``runs`` too."""
+    c = config
+    per = {}
+    for r in range(c["repeats"]):
+        for label, fields, run in (order if r % 2 == 0 else order[::-1]):
+            out = run(r)
+            if out["mean"].shape != (c["height"], c["width"], 3):
+                raise RuntimeError(f"{label} returned an image of shape {out['mean'].shape}, expected "
+                                   f"{(c['height'], c['width'], 3)}")
+            rec = {**_run_record(**out, spp=c["spp"], ref=ref), **fields, "scene": name, "round": r,
+                   "spp": c["spp"], "width": c["width"], "height": c["height"], "threads": c["threads"],
+                   "max_depth": scene.max_depth, "rr_depth": scene.rr_depth}
             per.setdefault(label, []).append(rec)
             runs.append(rec)
             if log:
-                log(f"  round {r + 1}/{repeats} {label}: {rec['paths_per_second'] / 1e6:.3f} Mpaths/s, "
+                log(f"  round {r + 1}/{c['repeats']} {label}: {rec['paths_per_second'] / 1e6:.3f} Mpaths/s, "
                     f"RMSE {rec['rmse']:.4g}, cpu/wall {rec['cpu_over_wall']:.2f}")
     return per
 
 
-def _ours_run(scene, *, spp, strategy, integrator="wavefront", seed, threads, ref):
-    """One timed render of ours; its run record (:func:`_run_record`)."""
-    r, wall, cpu = timed(lambda: rt.render(scene, spp=spp, strategy=strategy, seed=seed, threads=threads,
-                                           integrator=integrator))
-    return _run_record(r, wall=wall, cpu=cpu, ref=ref, rays=r.rays, nonfinite=r.nonfinite_samples)
+def _children_cpu() -> float:
+    u = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return u.ru_utime + u.ru_stime
 
 
-def _mitsuba_run(variant, mscene, *, spp, seed, threads, ref, shape):
-    """One timed render of Mitsuba (wall time of the call); its run record."""
-    mi, _ = use_variant(variant, threads)
-    img, wall, cpu = timed(mitsuba_render_fn(mi, mscene, spp, seed))
-    if img.shape != shape:
-        raise RuntimeError(f"Mitsuba returned an image of shape {img.shape}, expected {shape}")
-    # one batch: no per-sample variance (NaN, as MitsubaRender documents for one batch)
-    est = MitsubaRender(mean=img, variance=np.full_like(img, np.nan), spp=spp, seconds=wall, variant=variant,
-                        seed=seed, threads=threads, batch_spp=[spp], batch_seeds=[seed])
-    return _run_record(est, wall=wall, cpu=cpu, ref=ref, rays=None, nonfinite=int(np.sum(~np.isfinite(img))))
-
-
-def _external_run(ext, scene, *, spp, seed, ref):
-    """One timed run of an external renderer (wall time of the command); its run record.
-
-    The CPU time is the child processes' (``RUSAGE_CHILDREN``), not this process's."""
-    def children_cpu():
-        u = resource.getrusage(resource.RUSAGE_CHILDREN)
-        return u.ru_utime + u.ru_stime
-
-    cpu0 = children_cpu()
-    (img, secs), wall, _ = timed(lambda: render_external(ext, scene, spp=spp, seed=seed))
-    est = rt.ImageEstimate(mean=img, variance=np.full_like(img, np.nan), spp=spp, seconds=secs, source=ext.name)
-    return _run_record(est, wall=wall, cpu=children_cpu() - cpu0, ref=ref, rays=None,
-                       nonfinite=int(np.sum(~np.isfinite(img))))
-
-
-def _run_record(est, *, wall, cpu, ref, rays, nonfinite) -> dict:
-    """The figures of one timed render ``est`` (an ``ImageEstimate``) against ``ref``.
-
-    ``est.seconds`` is the render's own time (ours: the core's; Mitsuba's: the call's),
-    ``wall`` and ``cpu`` the call's wall and process CPU time, ``rays`` the rays cast
-    (None when not counted).
-    """
-    secs = est.seconds
-    paths = est.height * est.width * est.spp
-    raw = mse(est.mean, ref.mean)
-    corr = mse_corrected(est.mean, ref.mean, ref.variance, ref.spp)
+def _run_record(mean, secs, spp, *, wall, cpu, ref, rays, seed, nonfinite=None) -> dict:
+    """The figures of one timed render of image ``mean`` against ``ref``: ``secs`` is the render's own time (ours: the
+    core's), ``wall`` and ``cpu`` the call's."""
+    paths = mean.shape[0] * mean.shape[1] * spp
+    raw = mse(mean, ref.mean)
+    corr = mse_corrected(mean, ref.mean, ref.variance, ref.spp)
+    good = math.isfinite(corr) and corr > 0 and secs > 0   # else no efficiency (NaN)
     return {"seconds": secs, "call_seconds": wall, "process_seconds": cpu, "paths": paths,
             "paths_per_second": paths / secs, "paths_per_cpu_second": paths / cpu if cpu > 0 else float("nan"),
-            "rays": rays, "rays_per_second": None if rays is None else rays / secs,
-            "ms_per_spp": 1e3 * secs / est.spp,
+            "rays": rays, "rays_per_second": None if rays is None else rays / secs, "ms_per_spp": 1e3 * secs / spp,
             "cpu_over_wall": cpu / wall if wall > 0 else float("nan"), "mse": raw, "mse_corrected": corr,
-            "rmse": math.sqrt(raw), "efficiency": _efficiency(corr, secs), "nonfinite_samples": nonfinite}
-
-
-def _efficiency(mse_value, seconds):
-    """1 / (MSE * seconds); NaN when the (noise-corrected) MSE is not positive."""
-    if not (math.isfinite(mse_value) and mse_value > 0 and seconds > 0):
-        return float("nan")
-    return efficiency(mse_value, seconds)
+            "rmse": math.sqrt(raw), "efficiency": efficiency(corr, secs) if good else float("nan"), "seed": seed,
+            "nonfinite_samples": int(np.sum(~np.isfinite(mean))) if nonfinite is None else nonfinite}
 
 
 def _summary_rows(name, per, variants) -> list:
     """One row per configuration of scene ``name``: medians over rounds and paired ratios."""
     rows = []
     for label, runs in per.items():
-        row = {"scene": name, "label": label, "renderer": runs[0]["renderer"],
-               "strategy": runs[0]["strategy"], "integrator": runs[0].get("integrator"),
-               "variant": runs[0]["variant"], "runs": len(runs)}
+        first = runs[0]
+        row = {"scene": name, "label": label, "renderer": first["renderer"], "strategy": first["strategy"],
+               "integrator": first.get("integrator"), "variant": first["variant"], "build": first.get("build"),
+               "runs": len(runs)}
         for key in _SUMMARY_KEYS:
             vals = [x[key] for x in runs if x[key] is not None]
             row[key] = median(vals) if vals else None
@@ -428,13 +324,11 @@ def _summary_rows(name, per, variants) -> list:
             for v in variants:
                 pairs = list(zip(runs, per[f"Mitsuba {v}"]))
                 rounds = [a["paths_per_second"] / b["paths_per_second"] for a, b in pairs]
-                row[f"ratio_{v}"] = median(rounds)
-                row[f"round_ratios_{v}"] = rounds  # per round, in round order: their spread is the noise
-                row[f"cpu_ratio_{v}"] = median([a["paths_per_cpu_second"] / b["paths_per_cpu_second"]
-                                                for a, b in pairs])
-                # NaN in a round where an MSE was not positive; the median leaves it out
-                efficiency = [a["efficiency"] / b["efficiency"] for a, b in pairs]
-                row[f"efficiency_ratio_{v}"] = median(efficiency)
-                row[f"round_efficiency_ratios_{v}"] = efficiency
+                # NaN in a round where an MSE was not positive: the median leaves it out
+                eff = [a["efficiency"] / b["efficiency"] for a, b in pairs]
+                row.update({f"ratio_{v}": median(rounds), f"round_ratios_{v}": rounds,
+                            f"cpu_ratio_{v}": median([a["paths_per_cpu_second"] / b["paths_per_cpu_second"]
+                                                      for a, b in pairs]),
+                            f"efficiency_ratio_{v}": median(eff), f"round_efficiency_ratios_{v}": eff})
         rows.append(row)
     return rows

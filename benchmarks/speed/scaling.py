@@ -1,19 +1,12 @@
-"""The scaling benchmark: paths/s vs resolution and threads, cost per ray vs triangle count.
+"""The scaling benchmark: cost against work, ours beside Mitsuba, so a user sees where each one's cost grows.
 
-Paths/s of a suite scene vs resolution and vs thread count (1 and 2), and cost per ray
-(and paths/s of a lit mesh scene) vs triangle count, with the cost fitted as
-``a + b ln n`` (:func:`fit_log_growth`): a BVH gives logarithmic growth.
-
-Examples
---------
->>> out = scaling_benchmark(resolutions=(8, 16), spp=1, thread_counts=(1,), triangles=(200, 2000),
-...                         rays=1000, mesh_spp=1, variant=None, repeats=1)  # doctest: +SKIP
->>> sorted(out["fits"])  # doctest: +SKIP
-['ours_ns_per_ray']
-"""
+:func:`scaling_benchmark`: paths/s of a suite scene against image size, maximum depth and threads, and against
+triangle count on a lit torus, with build or load times and the cost a random ray, fitted as ``a + b ln n``
+(:func:`fit_log_growth`). ``rtbench speed --scaling`` prints the tables, ``--svg`` draws the curves."""
 from __future__ import annotations
 
-import functools
+import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -25,51 +18,52 @@ from reference_tracer.validation import positive_int
 
 from ..constants import STRATEGIES
 from ..metrics import convergence_slope
-
-from .common import (check_jit_variant, environment, load_mitsuba, median, mitsuba_render_fn, spread, timed,
-                     use_variant)
+from .common import check_jit_variant, environment, load_mitsuba, median, mitsuba_render_fn, spread, timed, use_variant
 from .rays import intersect_mitsuba, intersect_ours, mesh_scene, random_rays
 
-__all__ = ["scaling_benchmark", "fit_log_growth"]
+__all__ = ["AXES", "scaling_benchmark", "fit_log_growth"]
+
+#: the sweeps of a suite scene: result key, the row field it varies, its label.
+AXES = (("resolution", "resolution", "image size (square)"), ("depth", "max_depth", "max depth"),
+        ("threads", "threads", "threads"))
 
 
-def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128), spp: int = 16,
-                      thread_counts=(1, 2), triangles=(1_000, 10_000, 100_000, 1_000_000), rays: int = 1 << 18,
-                      mesh_spp: int = 4, strategy: str = "mis", variant: str | None = "llvm_ad_rgb",
-                      threads: int = 2, repeats: int = 3, seed: int = 0, log=None) -> dict:
-    """Paths/s vs resolution and threads, and cost per ray vs triangle count.
+def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128, 256, 512), depths=(2, 5, 10, 20, 50),
+                      spp: int = 16, thread_counts=(1, 2), triangles=(1_000, 10_000, 100_000, 1_000_000),
+                      rays: int = 1 << 18, mesh_spp: int = 4, strategy: str = "mis",
+                      variant: str | None = "llvm_ad_rgb", threads: int = 2, repeats: int = 3, seed: int = 0,
+                      log=None) -> dict:
+    """Paths/s against image size, max depth, threads and triangle count; ours and Mitsuba.
 
     Parameters
     ----------
     scene : str, keyword-only
-        Suite scene for the resolution and thread sweeps.
-    resolutions : sequence of int, keyword-only
-        Square image sizes (at ``threads``).
-    spp : int, keyword-only
-        Samples per pixel of the resolution and thread sweeps.
-    thread_counts : sequence of int, keyword-only
-        Thread counts (at the largest resolution).
+        Suite scene of the image-size, depth and thread sweeps.
+    resolutions, depths, thread_counts : sequence of int, keyword-only
+        Square image sizes; maximum depths and thread counts, at the middle image size.
+    spp, threads : int, keyword-only
+        Samples per pixel of those sweeps; threads of all but the thread sweep.
     triangles : sequence of int, keyword-only
-        Torus sizes for the mesh sweep: random-ray cost (``rays`` rays) and paths/s of a
-        lit render of it (``mesh_spp``, 64x64, max_depth 8).
-    strategy : str, keyword-only
-        Our strategy.
-    variant : str or None, keyword-only
-        Mitsuba JIT variant for the same sweeps (None: ours only).
-    threads, repeats, seed : int, keyword-only
+        At least two torus sizes: build times, random-ray cost (``rays`` rays) and paths/s of a lit 64x64 render of it
+        (``mesh_spp``).
+    strategy, variant : str, keyword-only
+        Our strategy; Mitsuba's JIT variant (None: ours only).
+    repeats, seed : int, keyword-only
 
     Returns
     -------
     dict
-        ``resolution`` / ``threads`` / ``mesh`` rows (medians over ``repeats``) and
-        ``fits``: :func:`fit_log_growth` of ours' (and Mitsuba's) ns per ray on
-        triangle count.
+        ``config``, ``environment``, rows of ``resolution``, ``depth``, ``threads`` (``resolution``, ``max_depth``,
+        ``threads``, ours' and Mitsuba's paths/s wall and CPU, ``ratio``; ``*_speedup`` over one thread) and ``mesh``
+        (``triangles``, ``build_seconds``, ``mitsuba_load_seconds``, ``*_ns_per_ray``, paths/s), and ``fits``
+        (:func:`fit_log_growth` of the ns a ray on triangle count).
     """
     if scene not in list_scenes():
         raise ValueError(f"unknown scene {scene!r}; the suite has: {', '.join(list_scenes())}")
-    resolutions = sorted({positive_int("resolution", r) for r in resolutions})
-    thread_counts = sorted({positive_int("thread count", t) for t in thread_counts})
-    sizes = sorted({positive_int("triangles", t, minimum=32) for t in triangles})
+    resolutions, depths, thread_counts, sizes = (
+        sorted({positive_int(what, x, minimum=low) for x in xs}) for what, xs, low in (
+            ("resolution", resolutions, 1), ("max depth", depths, 1), ("thread count", thread_counts, 1),
+            ("triangles", triangles, 32)))
     if len(sizes) < 2:
         raise ValueError("the mesh sweep needs at least two triangle counts")
     spp, mesh_spp, rays = positive_int("spp", spp), positive_int("mesh_spp", mesh_spp), positive_int("rays", rays)
@@ -77,56 +71,56 @@ def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128), 
     if strategy not in STRATEGIES:
         raise ValueError(f"strategy must be one of {STRATEGIES}, got {strategy!r}")
     use_mi, skipped = check_jit_variant(variant, "scaling", log)
-    mi_variant = variant if use_mi else None
-    out = {"config": {"scene": scene, "resolutions": resolutions, "spp": spp, "thread_counts": thread_counts,
-                      "triangles": sizes, "rays": rays, "mesh_spp": mesh_spp, "strategy": strategy,
-                      "variant": mi_variant, "threads": threads, "repeats": repeats},
-           "environment": environment(), "skipped_variants": skipped,
-           "resolution": [], "threads": [], "mesh": [], "fits": {}}
-    measure = functools.partial(_paths_per_second, strategy=strategy, seed=seed, repeats=repeats,
-                                variant=mi_variant)
+    variant, sides = (variant, ("ours", "mitsuba")) if use_mi else (None, ("ours",))
+    out = {"config": {"scene": scene, "resolutions": resolutions, "depths": depths, "spp": spp,
+                      "thread_counts": thread_counts, "triangles": sizes, "rays": rays, "mesh_spp": mesh_spp,
+                      "strategy": strategy, "variant": variant, "threads": threads, "repeats": repeats},
+           "environment": environment(), "skipped_variants": skipped, "fits": {}}
     base = get_scene(scene)
-    out["resolution"] = _resolution_rows(base, resolutions, spp=spp, threads=threads, measure=measure, log=log)
-    out["threads"] = _thread_rows(base, thread_counts, resolution=resolutions[-1], spp=spp, measure=measure,
-                                  log=log)
-    out["mesh"] = _mesh_rows(sizes, rays=rays, mesh_spp=mesh_spp, threads=threads, repeats=repeats, seed=seed,
-                             variant=mi_variant, measure=measure, log=log)
-    tri = [r["triangles"] for r in out["mesh"]]
-    out["fits"]["ours_ns_per_ray"] = fit_log_growth(tri, [r["ours_ns_per_ray"] for r in out["mesh"]])
-    if use_mi:
-        out["fits"]["mitsuba_ns_per_ray"] = fit_log_growth(tri, [r["mitsuba_ns_per_ray"] for r in out["mesh"]])
+    middle = base.with_camera_size(resolutions[len(resolutions) // 2], resolutions[len(resolutions) // 2])
+    sweeps = {"resolution": [(base.with_camera_size(r, r), threads) for r in resolutions],
+              "depth": [(dataclasses.replace(middle, max_depth=d), threads) for d in depths],
+              "threads": [(middle, t) for t in thread_counts]}
+    for key, field, _ in AXES:
+        out[key] = []
+        for sc, t in sweeps[key]:
+            row = {"resolution": sc.camera.width, "max_depth": sc.max_depth, "threads": t, "spp": spp,
+                   **_measure(sc, spp=spp, threads=t, strategy=strategy, seed=seed, repeats=repeats, variant=variant)}
+            out[key].append(row)
+            if log:
+                log(f"{field} {row[field]}: {_progress(row)}")
+    one = [r for r in out["threads"] if r["threads"] == 1]
+    for r, who in itertools.product(out["threads"] if one else [], sides):
+        r[f"{who}_speedup"] = r[f"{who}_paths_per_second"] / one[0][f"{who}_paths_per_second"]
+    out["mesh"] = [_mesh_row(n, rays=rays, mesh_spp=mesh_spp, threads=threads, strategy=strategy, repeats=repeats,
+                             seed=seed, variant=variant, log=log) for n in sizes]
+    for who in sides:
+        out["fits"][f"{who}_ns_per_ray"] = fit_log_growth([r["triangles"] for r in out["mesh"]],
+                                                          [r[f"{who}_ns_per_ray"] for r in out["mesh"]])
     out["environment_after"] = environment()
     return out
 
 
-def _paths_per_second(sc, *, spp, threads, strategy, seed, repeats, variant) -> dict:
-    """Median paths/s (wall and CPU) of ours and, unless ``variant`` is None, Mitsuba on ``sc``.
-
-    Both get a warm-up render first; then ``repeats`` interleaved rounds.
-    """
-    core_scene(sc)
-    rt.render(sc, spp=1, strategy=strategy, seed=1, threads=threads)   # warm-up
-    mscene = None
+def _measure(sc, *, spp, threads, strategy, seed, repeats, variant) -> dict:
+    """Median paths/s (wall and CPU) of ours and, unless ``variant`` is None, Mitsuba on ``sc``: a warm-up render each
+    (our tree, Mitsuba's JIT), then ``repeats`` interleaved rounds."""
+    renders = {"ours": lambda r: timed(lambda: rt.render(sc, spp=spp, strategy=strategy, seed=seed + r,
+                                                         threads=threads))}
     if variant is not None:
         mscene, _ = load_mitsuba(variant, sc, threads)
-        mi, _ = use_variant(variant)
-        mitsuba_render_fn(mi, mscene, spp, 7)()   # warm-up (JIT)
-    ours, ours_cpu, mits, mits_cpu = [], [], [], []
-    paths = sc.camera.width * sc.camera.height * spp
-    for r in range(repeats):
-        res, _, cpu = timed(lambda: rt.render(sc, spp=spp, strategy=strategy, seed=seed + r, threads=threads))
-        ours.append(paths / res.seconds)
-        ours_cpu.append(paths / cpu if cpu > 0 else float("nan"))
-        if variant is not None:
-            mi, _ = use_variant(variant, threads)
-            _, wall, cpu = timed(mitsuba_render_fn(mi, mscene, spp, 1000 + r))
-            mits.append(paths / wall)
-            mits_cpu.append(paths / cpu if cpu > 0 else float("nan"))
-    row = {"ours_paths_per_second": median(ours), "ours_paths_per_cpu_second": median(ours_cpu),
-           "ours_spread": spread(ours)}
+        renders["mitsuba"] = lambda r: timed(mitsuba_render_fn(use_variant(variant, threads)[0], mscene, spp, 1000 + r))
+    paths, got = sc.camera.width * sc.camera.height * spp, {who: [] for who in renders}
+    for r in [repeats, *range(repeats)]:   # the first: the warm-up
+        for who, render in renders.items():
+            res, wall, cpu = render(r)
+            got[who] += [] if r == repeats else [(paths / (res.seconds if who == "ours" else wall),
+                                                  paths / cpu if cpu > 0 else float("nan"))]
+    row = {"ours_spread": spread([w for w, _ in got["ours"]])}
+    for who, pairs in got.items():
+        row.update({f"{who}_paths_per_second": median(w for w, _ in pairs),
+                    f"{who}_paths_per_cpu_second": median(c for _, c in pairs)})
     if variant is not None:
-        row.update({"mitsuba_paths_per_second": median(mits), "mitsuba_paths_per_cpu_second": median(mits_cpu),
-                    "ratio": median([a / b for a, b in zip(ours, mits)])})
+        row["ratio"] = median(a[0] / b[0] for a, b in zip(got["ours"], got["mitsuba"]))
     return row
 
 
@@ -138,90 +132,43 @@ def _progress(row) -> str:
     return text
 
 
-def _resolution_rows(base, resolutions, *, spp, threads, measure, log) -> list:
-    """Paths/s of ``base`` at each square resolution."""
-    rows = []
-    for res in resolutions:
-        row = {"resolution": res, "threads": threads, "spp": spp,
-               **measure(base.with_camera_size(res, res), spp=spp, threads=threads)}
-        rows.append(row)
-        if log:
-            log(f"resolution {res}: {_progress(row)}")
-    return rows
-
-
-def _thread_rows(base, thread_counts, *, resolution, spp, measure, log) -> list:
-    """Paths/s of ``base`` at ``resolution`` for each thread count, with the speed-up over 1 thread."""
-    top = base.with_camera_size(resolution, resolution)
-    rows = []
-    for t in thread_counts:
-        row = {"threads": t, "resolution": resolution, "spp": spp, **measure(top, spp=spp, threads=t)}
-        rows.append(row)
-        if log:
-            log(f"{t} thread(s): {_progress(row)}")
-    one = {r["threads"]: r for r in rows}
-    if 1 in one:
-        for r in rows:
-            r["ours_speedup"] = r["ours_paths_per_second"] / one[1]["ours_paths_per_second"]
-            if "mitsuba_paths_per_second" in r:
-                r["mitsuba_speedup"] = r["mitsuba_paths_per_second"] / one[1]["mitsuba_paths_per_second"]
-    return rows
-
-
-def _mesh_rows(sizes, *, rays, mesh_spp, threads, repeats, seed, variant, measure, log) -> list:
-    """Random-ray cost and lit-render paths/s of a torus of each size (Mitsuba's too unless None)."""
-    rows = []
-    for n_target in sizes:
-        lit = mesh_scene(n_target, seed=seed, lit=True)
-        ntri = int(len(lit.shapes[0].faces))
-        core = core_scene(lit)
-        o, d = random_rays(rays, seed=seed)
-        ours = intersect_ours(core, o, d, threads=threads, repeats=repeats)
-        row = {"triangles": ntri, "rays": len(o), "threads": threads,
-               "build_seconds": float(core.build_seconds), "bvh_depth": int(core.bvh_depth),
-               "ours_ns_per_ray": median(ours["seconds"]) / len(o) * 1e9}
-        if variant is not None:
-            mscene, load = load_mitsuba(variant, lit, threads, check_merge=False)
-            mres = intersect_mitsuba(mscene, o, d, repeats=repeats)
-            row.update({"mitsuba_ns_per_ray": median(mres["seconds"]) / len(o) * 1e9,
-                        "mitsuba_load_seconds": load})
-        row.update(measure(lit, spp=mesh_spp, threads=threads))
-        rows.append(row)
-        lit._core_cache.clear()
-        if log:
-            log(f"{ntri} triangles: ours {row['ours_ns_per_ray']:.0f} ns/ray, "
-                f"{row['ours_paths_per_second'] / 1e6:.3f} Mpaths/s"
-                + (f"; Mitsuba {row['mitsuba_ns_per_ray']:.0f} ns/ray" if variant is not None else ""))
-    return rows
+def _mesh_row(n_target, *, rays, mesh_spp, threads, strategy, repeats, seed, variant, log) -> dict:
+    """Build times, random-ray cost and lit-render paths/s of the torus of ``n_target`` triangles."""
+    lit = mesh_scene(n_target, seed=seed, lit=True)
+    core = core_scene(lit)
+    o, d = random_rays(rays, seed=seed)
+    row = {"triangles": int(len(lit.shapes[0].faces)), "rays": len(o), "threads": threads,
+           "build_seconds": float(core.build_seconds), "bvh_depth": int(core.bvh_depth),
+           "ours_ns_per_ray": median(intersect_ours(core, o, d, threads=threads)["seconds"]
+                                     for _ in range(repeats)) / len(o) * 1e9}
+    if variant is not None:
+        mscene, load = load_mitsuba(variant, lit, threads, check_merge=False)
+        row.update({"mitsuba_ns_per_ray": median(intersect_mitsuba(mscene, o, d)["seconds"] for _ in range(repeats))
+                    / len(o) * 1e9, "mitsuba_load_seconds": load})
+    row.update(_measure(lit, spp=mesh_spp, threads=threads, strategy=strategy, seed=seed, repeats=repeats,
+                        variant=variant))
+    lit._core_cache.clear()
+    if log:
+        log(f"{row['triangles']} triangles: ours build {row['build_seconds']:.3f} s, {row['ours_ns_per_ray']:.0f} "
+            f"ns/ray; {_progress(row)}" + (f"; Mitsuba {row['mitsuba_ns_per_ray']:.0f} ns/ray" if variant else ""))
+    return row
 
 
 def fit_log_growth(n, cost) -> dict:
-    """Fit ``cost = a + b ln n`` (least squares) and the log-log exponent of ``cost`` on ``n``.
+    """Fit ``cost = a + b ln n`` (least squares) and the log-log exponent of ``cost`` on ``n`` (a BVH: ``b`` > 0, a
+    good ``r2``, an exponent far below linear growth's 1): ``a``, ``b``, ``per_doubling`` (``b ln 2``), ``r2``,
+    ``loglog_exponent``.
 
-    A BVH gives logarithmic growth: ``b`` > 0 with a good ``r2`` and a log-log exponent
-    far below 1 (linear growth would give 1).
-
-    Returns
-    -------
-    dict
-        ``a``, ``b`` (cost per e-fold of ``n``), ``per_doubling`` (``b ln 2``), ``r2``,
-        ``loglog_exponent``.
-
-    Examples
-    --------
     >>> f = fit_log_growth([1e3, 1e4, 1e5], [10 + 2 * np.log(x) for x in (1e3, 1e4, 1e5)])
     >>> round(f["b"], 6), round(f["r2"], 6)
     (2.0, 1.0)
     """
     n = np.asarray(n, dtype=np.float64)
-    x = np.log(n)
-    y = np.asarray(cost, dtype=np.float64)
+    x, y = np.log(n), np.asarray(cost, dtype=np.float64)
     if x.shape != y.shape or x.size < 2 or not np.all(np.isfinite(x)) or not np.all(np.isfinite(y)):
         raise ValueError("fit_log_growth needs at least two finite (n, cost) pairs of equal length")
     b, a = np.polyfit(x, y, 1)
-    pred = a + b * x
     ss = float(np.sum((y - y.mean()) ** 2))
-    r2 = 1.0 - float(np.sum((y - pred) ** 2)) / ss if ss > 0 else 1.0
+    r2 = 1.0 - float(np.sum((y - a - b * x) ** 2)) / ss if ss > 0 else 1.0
     expo = convergence_slope(n, y).slope if np.all(y > 0) and np.ptp(x) > 0 else float("nan")
-    return {"a": float(a), "b": float(b), "per_doubling": float(b * math.log(2)), "r2": r2,
-            "loglog_exponent": expo}
+    return {"a": float(a), "b": float(b), "per_doubling": float(b * math.log(2)), "r2": r2, "loglog_exponent": expo}

@@ -1,51 +1,9 @@
-"""The speed targets (issue 44) and their verdicts, judged from a run's own results.
+"""The speed targets (issue 44, :data:`TARGETS`) and their verdicts, judged from a run's own results.
 
-The targets, in one place
--------------------------
-:data:`TARGETS`, each a :class:`Target` (what is compared, against what, the ratio to reach):
-
-* render benchmark, each suite scene, in Mitsuba's default configuration (Russian roulette
-  from depth 5, :data:`TARGET_RR_DEPTH`): ours (``mis``, the wavefront integrator) at least
-  1.5x Mitsuba ``llvm_ad_rgb`` in paths/s (:data:`SCENE_PATHS`) and in efficiency,
-  1/(MSE x seconds) against the same reference (:data:`SCENE_EFFICIENCY`);
-* the same, as the geometric mean over the whole suite: at least 1.75x
-  (:data:`SUITE_PATHS`, :data:`SUITE_EFFICIENCY`);
-* ray casting: ours at least 1.2x Embree (Mitsuba's ``ray_intersect_preliminary`` on an
-  LLVM variant) on 100k and 1M triangles, primary (camera) and random rays
-  (:data:`RAYS`).
-
-How a target is judged
-----------------------
-From the per-round ratios the benchmarks keep (``round_ratios_<variant>``,
-``round_efficiency_ratios_<variant>``, the rays' ``round_ratios``; for the geometric mean,
-each round's geometric mean over the suite scenes): the median ratio and a
-distribution-free confidence interval for it from order statistics, covering at least
-90% (:data:`COVERAGE`; :func:`benchmarks.speed.common.median_order_interval`; with 5
-rounds the lowest to the highest round, 93.75%).
-
-* ``met``: the median ratio is at least the threshold; ``not met``: below it.
-* ``clearly`` (``met, clearly`` / ``not met, clearly``): the whole interval lies on the
-  median's side of the threshold; ``within noise``: the interval straddles it, so more
-  rounds (or a quieter machine) could turn the verdict.
-* Too few rounds for a 90% interval (fewer than 5): the verdict is the median's alone and
-  the line says so.
-* ``not judged``: the run did not measure what the target needs (no ``llvm_ad_rgb``, no
-  ``rr_depth`` 5, another headline strategy or integrator, ``--max-depth``, part of the
-  suite for the geometric mean, a mesh size or ray kind left out, no finite round) and the
-  line says why. A target is never passed silently.
-
-A speed target is a measurement, not a correctness verdict: ``rtbench speed`` exits 0
-whatever the verdicts, unless ``--require-targets`` is given (then 1 when a judged target
-is not met).
-
-Examples
---------
->>> v = judge(SCENE_PATHS, "cornell_box", [1.61, 1.52, 1.70, 1.66, 1.58])
->>> v["line"]
-'cornell_box paths/s vs Mitsuba llvm_ad_rgb >= 1.5x: met, clearly (1.61x, 90% interval 1.52-1.70, 5 rounds)'
->>> judge(SCENE_PATHS, "cornell_box", [1.61, 1.45])["line"].split(": ", 1)[1]
-'met (1.53x, 2 rounds; too few rounds for a 90% interval: use --repeats 5)'
-"""
+A target is judged on the median of the paired rounds' ratios (the suite's geometric mean: of each round's) and its
+distribution-free 90% interval: ``met`` or ``not met``, ``clearly`` where the interval lies on that side of the
+threshold, ``within noise`` where it straddles it; ``not judged``, with the reason, where the run did not measure what
+it needs. Each build of the run is judged apart. PERFORMANCE.md, Targets and verdicts."""
 from __future__ import annotations
 
 import dataclasses
@@ -57,51 +15,19 @@ from .common import median_order_interval
 from .suite import GEOMEAN, round_geometric_means
 
 __all__ = ["Target", "TARGETS", "SCENE_PATHS", "SCENE_EFFICIENCY", "SUITE_PATHS", "SUITE_EFFICIENCY", "RAYS",
-           "COVERAGE", "TARGET_VARIANT", "TARGET_RR_DEPTH", "TARGET_STRATEGY", "TARGET_INTEGRATOR",
-           "TARGET_TRIANGLES", "TARGET_RAY_KINDS", "STATUSES", "judge", "not_judged", "render_verdicts",
-           "ray_verdicts", "speed_verdicts"]
+           "judge", "not_judged", "render_verdicts", "ray_verdicts", "speed_verdicts"]
 
-#: the least coverage of the interval around each median ratio.
 COVERAGE = 0.90
-#: the Mitsuba variant the render targets are set against.
-TARGET_VARIANT = "llvm_ad_rgb"
-#: Mitsuba's default Russian roulette (``path`` integrator): the configuration judged.
-TARGET_RR_DEPTH = 5
-#: our headline strategy and integrator the render targets are set on (matched to
-#: Mitsuba's ``path`` integrator; the tracer's default integrator).
-TARGET_STRATEGY = "mis"
-TARGET_INTEGRATOR = "wavefront"
-#: the ray-casting configurations judged: mesh sizes (``--triangles``) and ray kinds.
-TARGET_TRIANGLES = (100_000, 1_000_000)
-TARGET_RAY_KINDS = ("primary", "random")
-#: a verdict's ``status``.
-STATUSES = ("met", "not met", "not judged")
+#: what the render targets are set on: Mitsuba's variant and default roulette, our headline.
+TARGET_VARIANT, TARGET_RR_DEPTH, TARGET_STRATEGY, TARGET_INTEGRATOR = "llvm_ad_rgb", 5, "mis", "wavefront"
+#: the ray-casting configurations judged: mesh sizes and ray kinds.
+TARGET_TRIANGLES, TARGET_RAY_KINDS = (100_000, 1_000_000), ("primary", "random")
 
 
 @dataclasses.dataclass(frozen=True)
 class Target:
-    """One speed target: ours / ``against`` in ``metric`` at least ``threshold``.
-
-    Attributes
-    ----------
-    name : str
-        Short identifier, stored with each verdict.
-    benchmark : {'render', 'rays'}
-        The benchmark whose result it is judged from.
-    metric : str
-        What the ratio compares (``paths/s``, ``efficiency``, ``rays/s``).
-    threshold : float
-        The least median ratio that meets it.
-    against : str
-        What ours is compared with, as printed.
-    scope : str
-        What it applies to, as printed when it cannot be judged at all.
-
-    Examples
-    --------
-    >>> SCENE_PATHS.label("cornell_box")
-    'cornell_box paths/s vs Mitsuba llvm_ad_rgb >= 1.5x'
-    """
+    """One speed target: ours / ``against`` in ``metric`` at least ``threshold``, judged from the ``benchmark``
+    (``render`` or ``rays``) on ``scope``."""
 
     name: str
     benchmark: str
@@ -117,129 +43,79 @@ class Target:
             raise ValueError(f"threshold must be a positive number, got {self.threshold!r}")
 
     def label(self, subject: str) -> str:
-        """The start of a verdict line: ``'<subject> <metric> vs <against> >= <threshold>x'``."""
+        """The start of a verdict line."""
         return f"{subject} {self.metric} vs {self.against} >= {self.threshold:g}x"
 
 
-SCENE_PATHS = Target("scene paths/s", "render", "paths/s", 1.5, f"Mitsuba {TARGET_VARIANT}", "each suite scene")
-SCENE_EFFICIENCY = Target("scene efficiency", "render", "efficiency", 1.5, f"Mitsuba {TARGET_VARIANT}",
-                          "each suite scene")
-SUITE_PATHS = Target("suite paths/s", "render", "paths/s", 1.75, f"Mitsuba {TARGET_VARIANT}",
-                     "suite geometric mean")
-SUITE_EFFICIENCY = Target("suite efficiency", "render", "efficiency", 1.75, f"Mitsuba {TARGET_VARIANT}",
-                          "suite geometric mean")
-RAYS = Target("ray casting", "rays", "rays/s", 1.2, "Embree",
-              "100k and 1M triangles, primary and random")
+_MITSUBA = f"Mitsuba {TARGET_VARIANT}"
+SCENE_PATHS = Target("scene paths/s", "render", "paths/s", 1.5, _MITSUBA, "each suite scene")
+SCENE_EFFICIENCY = Target("scene efficiency", "render", "efficiency", 1.5, _MITSUBA, "each suite scene")
+SUITE_PATHS = Target("suite paths/s", "render", "paths/s", 1.75, _MITSUBA, "suite geometric mean")
+SUITE_EFFICIENCY = Target("suite efficiency", "render", "efficiency", 1.75, _MITSUBA, "suite geometric mean")
+RAYS = Target("ray casting", "rays", "rays/s", 1.2, "Embree", "100k and 1M triangles, primary and random")
 #: every target, in the order verdicts are listed.
 TARGETS = (SCENE_PATHS, SCENE_EFFICIENCY, SUITE_PATHS, SUITE_EFFICIENCY, RAYS)
 
-#: the per-round ratio list each render target reads (suffixed ``_<variant>``).
-_ROUND_KEY = {"paths/s": "round_ratios", "efficiency": "round_efficiency_ratios"}
+#: the per-round ratio list each render target reads.
+_ROUND_KEY = {"paths/s": f"round_ratios_{TARGET_VARIANT}", "efficiency": f"round_efficiency_ratios_{TARGET_VARIANT}"}
 
 
-def _verdict(target, subject, **fields) -> dict:
-    """A verdict dict with every field (JSON-able); ``line`` is added by the callers."""
-    out = {"target": target.name, "benchmark": target.benchmark, "metric": target.metric,
-           "threshold": target.threshold, "against": target.against, "subject": subject, "status": "not judged",
-           "clearly": None, "median": None, "low": None, "high": None, "coverage": None, "rounds": 0,
-           "reason": None}
-    out.update(fields)
-    return out
+def _verdict(target, subject, build, *, line, **fields) -> dict:
+    """A verdict with every field (JSON-able)."""
+    return {"target": target.name, "benchmark": target.benchmark, "metric": target.metric,
+            "threshold": target.threshold, "against": target.against, "subject": subject, "build": build,
+            "status": "not judged", "clearly": None, "median": None, "low": None, "high": None, "coverage": None,
+            "rounds": 0, "reason": None, **fields, "line": f"{target.label(subject)}: {line}"}
 
 
-def not_judged(target: Target, subject: str, reason: str) -> dict:
+def not_judged(target: Target, subject: str, reason: str, *, build=None) -> dict:
     """The verdict of a target the run could not judge, with the reason.
 
-    Examples
-    --------
     >>> not_judged(SUITE_PATHS, "suite geometric mean", "1 of 8 suite scenes in this run")["line"]
     'suite geometric mean paths/s vs Mitsuba llvm_ad_rgb >= 1.75x: not judged: 1 of 8 suite scenes in this run'
     """
     if not reason:
         raise ValueError("a target that is not judged needs its reason")
-    out = _verdict(target, subject, reason=reason)
-    out["line"] = f"{target.label(subject)}: not judged: {reason}"
-    return out
+    return _verdict(target, subject, build, reason=reason, line=f"not judged: {reason}")
 
 
 def judge(target: Target, subject: str, round_ratios, *, coverage: float = COVERAGE,
-          no_rounds: str = "no round gave a finite ratio") -> dict:
-    """The verdict of ``target`` on ``subject`` from its per-round ratios.
+          no_rounds: str = "no round gave a finite ratio", build=None) -> dict:
+    """The verdict of ``target`` on ``subject`` (of our ``build``, None: the installed core) from its per-round ratios
+    (None and non-finite rounds left out): a dict of the target's fields, ``subject``, ``build``, ``status`` (``met``,
+    ``not met``, ``not judged``), ``clearly`` (None without an interval), ``median``, ``low``, ``high``, ``coverage``,
+    ``rounds``, ``reason`` (why not judged, or why no interval) and ``line``.
 
-    Parameters
-    ----------
-    target : Target
-    subject : str
-        What was measured (a scene, ``suite geometric mean``, a mesh size and ray kind).
-    round_ratios : sequence of float or None
-        Ours / theirs, one per paired round; None and non-finite rounds are left out.
-    coverage : float, keyword-only
-        Least coverage of the interval (module docstring).
-    no_rounds : str, keyword-only
-        The reason given when no round is left.
-
-    Returns
-    -------
-    dict
-        ``target``, ``benchmark``, ``metric``, ``threshold``, ``against``, ``subject``,
-        ``status`` (:data:`STATUSES`), ``clearly`` (True when the whole interval lies on
-        the median's side of the threshold, False when it straddles it, None without an
-        interval), ``median``, ``low``, ``high``, ``coverage``, ``rounds`` (finite rounds
-        counted), ``reason`` (why not judged, or why there is no interval) and ``line``.
-
-    Examples
-    --------
-    >>> v = judge(RAYS, "1M triangles, random", [1.1, 1.3, 1.25, 1.15, 1.22])
-    >>> v["status"], v["clearly"], v["line"].split(": ", 1)[1]
-    ('met', False, 'met, within noise (1.22x, 90% interval 1.10-1.30, 5 rounds)')
-    >>> judge(RAYS, "1M triangles, random", [None, float("nan")])["status"]
-    'not judged'
+    >>> judge(RAYS, "1M triangles, random", [1.1, 1.3, 1.25, 1.15, 1.22])["line"].split(": ", 1)[1]
+    'met, within noise (1.22x, 90% interval 1.10-1.30, 5 rounds)'
     """
-    if round_ratios is None:
-        return not_judged(target, subject, no_rounds)
-    iv = median_order_interval(round_ratios, coverage=coverage)
+    iv = median_order_interval(round_ratios or [], coverage=coverage)
     if iv["rounds"] == 0:
-        return not_judged(target, subject, no_rounds)
-    m, thr = iv["median"], target.threshold
-    status = "met" if m >= thr else "not met"
-    head = f"{iv['median']:.2f}x"
+        return not_judged(target, subject, no_rounds, build=build)
+    m = iv["median"]
+    status = "met" if m >= target.threshold else "not met"
     rounds = f"{iv['rounds']} round{'s' if iv['rounds'] != 1 else ''}"
     if iv["low"] is None:
-        reason = (f"too few rounds for a {100 * coverage:g}% interval: use --repeats {iv['rounds_needed']}")
-        out = _verdict(target, subject, status=status, median=m, rounds=iv["rounds"], reason=reason)
-        out["line"] = f"{target.label(subject)}: {status} ({head}, {rounds}; {reason})"
-        return out
-    clearly = iv["low"] >= thr if status == "met" else iv["high"] < thr
-    out = _verdict(target, subject, status=status, clearly=clearly, median=m, low=iv["low"], high=iv["high"],
-                   coverage=iv["coverage"], rounds=iv["rounds"])
-    out["line"] = (f"{target.label(subject)}: {status}, {'clearly' if clearly else 'within noise'} "
-                   f"({head}, {100 * coverage:g}% interval {iv['low']:.2f}-{iv['high']:.2f}, {rounds})")
-    return out
+        reason = f"too few rounds for a {100 * coverage:g}% interval: use --repeats {iv['rounds_needed']}"
+        return _verdict(target, subject, build, status=status, median=m, rounds=iv["rounds"], reason=reason,
+                        line=f"{status} ({m:.2f}x, {rounds}; {reason})")
+    clearly = iv["low"] >= target.threshold if status == "met" else iv["high"] < target.threshold
+    return _verdict(target, subject, build, status=status, clearly=clearly, median=m, low=iv["low"],
+                    high=iv["high"], coverage=iv["coverage"], rounds=iv["rounds"],
+                    line=(f"{status}, {'clearly' if clearly else 'within noise'} ({m:.2f}x, {100 * coverage:g}% "
+                          f"interval {iv['low']:.2f}-{iv['high']:.2f}, {rounds})"))
 
 
-def render_verdicts(result, *, suite_scenes=None) -> list:
-    """Verdicts of the render targets on a render-benchmark ``result``.
+def _tag(build) -> str:
+    return "" if build is None else f" ({build} build)"
 
-    Parameters
-    ----------
-    result : dict
-        :func:`benchmarks.speed.render_benchmark`'s output (its ``suite`` headline,
-        ``config``, ``available_variants`` and ``skipped_variants`` are read).
-    suite_scenes : sequence of str or None, keyword-only
-        The suite (default ``mitsuba_scenes.list_scenes()``): per-scene targets apply to
-        its scenes, the geometric-mean targets only when the run covered all of them.
 
-    Returns
-    -------
-    list of dict
-        :func:`judge`'s verdicts: per suite scene of the run (in run order) paths/s then
-        efficiency, then the geometric mean's two; a scene outside the suite gets one
-        ``not judged`` line. When the run cannot judge any (no ``llvm_ad_rgb``, no
-        ``rr_depth`` 5, another headline strategy or integrator, ``--max-depth``), one
-        ``not judged`` verdict per target, with the reason.
+def render_verdicts(result, *, suite_scenes=None, build=None) -> list:
+    """Verdicts of the render targets on a render-benchmark ``result`` for our ``build`` (None: the installed core):
+    per suite scene paths/s then efficiency, then the geometric mean's two where the run covered the whole suite
+    (``suite_scenes``, default ``mitsuba_scenes.list_scenes()``); one ``not judged`` per target where it can judge
+    none.
 
-    Examples
-    --------
     >>> row = {"scene": "a", "rr_depth": 5, "round_ratios_llvm_ad_rgb": [1.6] * 5,
     ...        "round_efficiency_ratios_llvm_ad_rgb": [2.0] * 5}
     >>> res = {"config": {"variants": ["llvm_ad_rgb"], "max_depth": None},
@@ -248,48 +124,41 @@ def render_verdicts(result, *, suite_scenes=None) -> list:
     >>> [v["status"] for v in render_verdicts(res, suite_scenes=["a", "b"])]
     ['met', 'met', 'not judged', 'not judged']
     """
-    if suite_scenes is None:
-        suite_scenes = list_scenes()
-    suite_scenes = list(suite_scenes)
-    if not suite_scenes:
-        raise ValueError("suite_scenes must name at least one scene")
-    render_targets = [t for t in TARGETS if t.benchmark == "render"]
-    blocker = _render_blocker(result)
+    suite_scenes = list(list_scenes() if suite_scenes is None else suite_scenes)
+    suite = result["suite"] if build is None else result["build_suites"][build]
+    blocker = _render_blocker(result, suite)
     if blocker:
-        return [not_judged(t, t.scope, blocker) for t in render_targets]
-    v = TARGET_VARIANT
-    rows = [r for r in result["suite"]["rows"] if r["rr_depth"] == TARGET_RR_DEPTH and r["scene"] != GEOMEAN]
+        return [not_judged(t, t.scope + _tag(build), blocker, build=build) for t in TARGETS if t.benchmark == "render"]
+    rows = [r for r in suite["rows"] if r["rr_depth"] == TARGET_RR_DEPTH and r["scene"] != GEOMEAN]
     out = []
     for row in rows:
+        subject = row["scene"] + _tag(build)
         if row["scene"] not in suite_scenes:
-            out.append(not_judged(SCENE_PATHS, row["scene"], "not a suite scene (the targets are set on the suite)"))
+            out.append(not_judged(SCENE_PATHS, subject, "not a suite scene (the targets are set on the suite)",
+                                  build=build))
             continue
-        for target in (SCENE_PATHS, SCENE_EFFICIENCY):
-            out.append(judge(target, row["scene"], row.get(f"{_ROUND_KEY[target.metric]}_{v}"),
-                             no_rounds=_no_rounds(target)))
+        out += [judge(t, subject, row.get(_ROUND_KEY[t.metric]), no_rounds=_no_rounds(t), build=build)
+                for t in (SCENE_PATHS, SCENE_EFFICIENCY)]
     ran = {r["scene"]: r for r in rows if r["scene"] in suite_scenes}
-    subject = "suite geometric mean"
-    for target in (SUITE_PATHS, SUITE_EFFICIENCY):
-        if len(ran) < len(suite_scenes):
-            out.append(not_judged(target, subject, f"{len(ran)} of {len(suite_scenes)} suite scenes in this run"))
-            continue
-        rounds = round_geometric_means(ran[s].get(f"{_ROUND_KEY[target.metric]}_{v}") for s in suite_scenes)
-        out.append(judge(target, subject, rounds, no_rounds=_no_rounds(target, suite=True)))
-    return out
+    subject = "suite geometric mean" + _tag(build)
+    if len(ran) < len(suite_scenes):
+        return out + [not_judged(t, subject, f"{len(ran)} of {len(suite_scenes)} suite scenes in this run", build=build)
+                      for t in (SUITE_PATHS, SUITE_EFFICIENCY)]
+    return out + [judge(t, subject, round_geometric_means(ran[s].get(_ROUND_KEY[t.metric]) for s in suite_scenes),
+                        no_rounds=_no_rounds(t, suite=True), build=build) for t in (SUITE_PATHS, SUITE_EFFICIENCY)]
 
 
 def _no_rounds(target, *, suite=False) -> str:
-    """Why a render target has no round to judge (the reason of its ``not judged`` verdict)."""
+    """Why a render target has no round to judge."""
     if target.metric == "efficiency":
-        return (("no round with a finite efficiency ratio in every suite scene" if suite
-                 else "no round with a finite efficiency ratio")
-                + " (an MSE at or below the reference's own noise: raise --spp or --reference-spp)")
+        return (f"no round with a finite efficiency ratio{' in every suite scene' if suite else ''} (an MSE at or "
+                f"below the reference's own noise: raise --spp or --reference-spp)")
     return "no per-round ratios in this result"
 
 
-def _render_blocker(result) -> str | None:
-    """Why no render target can be judged on ``result``; None when they can."""
-    config, suite = result["config"], result["suite"]
+def _render_blocker(result, suite) -> str | None:
+    """Why no render target can be judged on ``result``'s headline ``suite``; None when they can."""
+    config = result["config"]
     if TARGET_VARIANT not in result.get("available_variants", []):
         skipped = result.get("skipped_variants", {})
         if TARGET_VARIANT in skipped:
@@ -299,96 +168,66 @@ def _render_blocker(result) -> str | None:
         depths = ",".join("none" if r is None else str(r) for r in config.get("rr_depths", []))
         return (f"no rr_depth {TARGET_RR_DEPTH} configuration (Mitsuba's default) in this run"
                 + (f" (--rr-depth {depths})" if depths else ""))
-    if suite["strategy"] != TARGET_STRATEGY:
-        return (f"the headline strategy is {suite['strategy']}, the targets are set on {TARGET_STRATEGY} "
-                f"(list it first in --strategies)")
-    if suite.get("integrator", TARGET_INTEGRATOR) != TARGET_INTEGRATOR:
-        return (f"the headline integrator is {suite['integrator']}, the targets are set on {TARGET_INTEGRATOR} "
-                f"(list it first in --integrators)")
+    for what, option, want in (("strategy", "strategies", TARGET_STRATEGY),
+                               ("integrator", "integrators", TARGET_INTEGRATOR)):
+        if suite.get(what, want) != want:
+            return (f"the headline {what} is {suite[what]}, the targets are set on {want} "
+                    f"(list it first in --{option})")
     if config.get("max_depth") is not None:
         return f"--max-depth {config['max_depth']} overrides the scenes' own depth"
     return None
 
 
 def _size(n: int) -> str:
-    """``100000`` -> ``100k``, ``1000000`` -> ``1M``.
-
-    >>> _size(100_000), _size(1_000_000), _size(4000), _size(500)
-    ('100k', '1M', '4k', '500')
-    """
-    if n >= 1_000_000 and n % 1_000_000 == 0:
-        return f"{n // 1_000_000}M"
-    if n >= 1000 and n % 1000 == 0:
-        return f"{n // 1000}k"
-    return str(n)
+    """``100000`` -> ``100k``, ``1000000`` -> ``1M``, ``4000`` -> ``4k``, ``500`` -> ``500``."""
+    return next((f"{n // k}{unit}" for unit, k in (("M", 10 ** 6), ("k", 1000)) if n >= k and n % k == 0), str(n))
 
 
-def ray_verdicts(result) -> list:
-    """Verdicts of the ray-casting target on a ray-benchmark ``result``.
+def ray_verdicts(result, *, build=None) -> list:
+    """Verdicts of the ray-casting target on a ray-benchmark ``result`` for our ``build``: one per mesh size and ray
+    kind judged (``not judged`` where the run left it out), or one ``not judged`` where Embree was not timed.
 
-    Parameters
-    ----------
-    result : dict
-        :func:`benchmarks.speed.ray_benchmark`'s output (``config``, ``mitsuba``, ``rows``
-        with ``requested_triangles``, ``kind`` and ``round_ratios``).
-
-    Returns
-    -------
-    list of dict
-        One verdict per configuration of :data:`TARGET_TRIANGLES` x
-        :data:`TARGET_RAY_KINDS` (``not judged`` when the run left it out), or a single
-        ``not judged`` verdict when Embree was not timed.
-
-    Examples
-    --------
     >>> rows = [{"requested_triangles": 100_000, "kind": "random", "round_ratios": [0.8, 0.9, 0.85]}]
     >>> res = {"config": {"triangles": [100_000], "kinds": ["random"], "variant": "llvm_ad_rgb"},
     ...        "mitsuba": {"variant": "llvm_ad_rgb"}, "rows": rows}
-    >>> [(v["subject"], v["status"]) for v in ray_verdicts(res)]  # doctest: +NORMALIZE_WHITESPACE
-    [('100k triangles, primary', 'not judged'), ('100k triangles, random', 'not met'),
-     ('1M triangles, primary', 'not judged'), ('1M triangles, random', 'not judged')]
+    >>> [v["status"] for v in ray_verdicts(res)]
+    ['not judged', 'not met', 'not judged', 'not judged']
     """
     config, mitsuba = result["config"], result.get("mitsuba", {})
     variant = mitsuba.get("variant")
+    why = None
     if not variant:
-        if config.get("variant") is None:
-            why = f"no Mitsuba JIT variant in this run (Embree is timed through {TARGET_VARIANT})"
-        else:
-            skipped = mitsuba.get("skipped", {}).get(config["variant"])
-            why = f"Mitsuba {config['variant']} did not run here" + (f" ({skipped})" if skipped else "")
-        return [not_judged(RAYS, RAYS.scope, why)]
-    if not variant.startswith("llvm"):
-        return [not_judged(RAYS, RAYS.scope, f"Mitsuba {variant} does not trace with Embree (an llvm variant does)")]
+        skipped = mitsuba.get("skipped", {}).get(config.get("variant"))
+        why = (f"no Mitsuba JIT variant in this run (Embree is timed through {TARGET_VARIANT})"
+               if config.get("variant") is None else
+               f"Mitsuba {config['variant']} did not run here" + (f" ({skipped})" if skipped else ""))
+    elif not variant.startswith("llvm"):
+        why = f"Mitsuba {variant} does not trace with Embree (an llvm variant does)"
+    if why:
+        return [not_judged(RAYS, RAYS.scope + _tag(build), why, build=build)]
     out = []
     for n in TARGET_TRIANGLES:
         for kind in TARGET_RAY_KINDS:
-            subject = f"{_size(n)} triangles, {kind}"
-            row = next((r for r in result["rows"] if r.get("requested_triangles") == n and r["kind"] == kind), None)
-            if row is None:
-                if n not in config["triangles"]:
-                    why = f"not in this run (--triangles {','.join(map(str, config['triangles']))})"
-                elif kind not in config["kinds"]:
-                    why = f"not in this run (ray kinds {','.join(config['kinds'])})"
-                else:
-                    why = "no row for it in this result"
-                out.append(not_judged(RAYS, subject, why))
-            else:
-                out.append(judge(RAYS, subject, row.get("round_ratios"), no_rounds="no per-round ratios in this row"))
+            subject = f"{_size(n)} triangles, {kind}{_tag(build)}"
+            row = next((r for r in result["rows"] if r.get("requested_triangles") == n and r["kind"] == kind
+                        and r.get("build") == build), None)
+            if row is not None:
+                out.append(judge(RAYS, subject, row.get("round_ratios"), no_rounds="no per-round ratios in this row",
+                                 build=build))
+                continue
+            why = (f"not in this run (--triangles {','.join(map(str, config['triangles']))})"
+                   if n not in config["triangles"] else f"not in this run (ray kinds {','.join(config['kinds'])})"
+                   if kind not in config["kinds"] else "no row for it in this result")
+            out.append(not_judged(RAYS, subject, why, build=build))
     return out
 
 
 def speed_verdicts(out) -> list:
-    """Every verdict of an ``rtbench speed`` run: ``out`` maps ``render`` / ``rays`` (and
-    ``scaling``, which has no target) to the benchmarks' results.
-
-    Examples
-    --------
-    >>> speed_verdicts({"scaling": {}})
-    []
-    """
+    """Every verdict of an ``rtbench speed`` run (``out``: benchmark name -> result; the scaling sweeps have no
+    target): the installed core's, then each build's."""
     verdicts = []
-    if "render" in out:
-        verdicts += render_verdicts(out["render"])
-    if "rays" in out:
-        verdicts += ray_verdicts(out["rays"])
+    for key, judge_it in (("render", render_verdicts), ("rays", ray_verdicts)):
+        if key in out:
+            for build in (None, *out[key]["config"].get("builds", {})):
+                verdicts += judge_it(out[key], build=build)
     return verdicts

@@ -11,22 +11,9 @@ import pytest
 from benchmarks.speed import builds
 
 
-# The CPU features (as /proc/cpuinfo names them) that GCC's and Clang's x86-64 levels assume:
-# a build for a level runs only where the CPU has all of them.
-X86_64_V3 = frozenset({"avx", "avx2", "bmi1", "bmi2", "f16c", "fma", "movbe", "abm", "xsave"})
-X86_64_V4 = X86_64_V3 | {"avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl"}
-
-
-def cpu_flags() -> frozenset:
-    """The CPU's feature flags as Linux lists them (empty where /proc/cpuinfo is absent)."""
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("flags"):
-                    return frozenset(line.split(":", 1)[1].split())
-    except OSError:
-        pass
-    return frozenset()
+# The CPU features (as /proc/cpuinfo names them) that GCC's and Clang's x86-64 levels assume.
+X86_64_V3, X86_64_V4 = builds.ISAS["avx2"][1], builds.ISAS["avx512"][1]
+cpu_flags = builds.cpu_flags
 
 
 def build_core(build_dir: Path, *cmake_args: str, cxx: str | None = None) -> Path:

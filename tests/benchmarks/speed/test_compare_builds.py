@@ -30,6 +30,7 @@ def _run(*args, script=SCRIPT, timeout=900):
     (AB_SCRIPT, ["installed", "installed", "--spp", "0"], "--spp must be at least 1"),
     (AB_SCRIPT, ["installed", "installed", "--rays", "--triangles", "10"], "--triangles must be at least 32"),
     (AB_SCRIPT, ["installed", "installed", "--rays", "--ray-count", "0"], "--ray-count must be at least 1"),
+    (AB_SCRIPT, ["installed", "installed", "--rays", "--kinds", "diffuse"], "invalid choice: 'diffuse'"),
 ])
 def test_bad_arguments_are_usage_errors(script, args, message):
     out = _run(*args, script=script, timeout=60)
@@ -53,7 +54,7 @@ def test_ab_cores_times_a_build_against_itself():
     # The installed core against itself: both workers render, and the speed-up row is a
     # positive ratio with its interval around the median (its value is the machine's noise
     # and is not asserted: speed belongs in the benchmark).
-    out = _run("installed", "installed", "--scenes", "cornell_box", "--rounds", "3", "--spp", "1", "--size", "16",
+    out = _run("installed", "installed", "--scenes", "cornell_box", "--rounds", "5", "--spp", "1", "--size", "16",
                script=AB_SCRIPT, timeout=300)
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
     row = re.search(r"^cornell_box +([\d.]+) +([\d.]+) +([\d.]+) +\[([\d.]+), ([\d.]+)\]$", out.stdout, re.M)
@@ -65,7 +66,7 @@ def test_ab_cores_times_a_build_against_itself():
 def test_ab_cores_times_ray_queries_of_a_build_against_itself():
     # --rays: both workers cast the same rays on a small torus; one row per mesh and kind.
     out = _run("installed", "installed", "--rays", "--triangles", "2000", "--kinds", "random", "primary",
-               "--ray-count", "4096", "--rounds", "3", script=AB_SCRIPT, timeout=300)
+               "--ray-count", "4096", "--rounds", "5", script=AB_SCRIPT, timeout=300)
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
     for kind in ("random", "primary"):
         row = re.search(rf"^2000 {kind} +([\d.]+) +([\d.]+) +([\d.]+) +\[([\d.]+), ([\d.]+)\]$", out.stdout, re.M)
@@ -74,34 +75,20 @@ def test_ab_cores_times_ray_queries_of_a_build_against_itself():
         assert a > 0 and b > 0 and low <= med <= high
 
 
-def test_paired_ray_times_rejects_an_unknown_kind():
-    from benchmarks.speed.builds import paired_ray_times
-
-    with pytest.raises(ValueError, match="kind must be"):
-        paired_ray_times(["a.so"], [1000], ["diffuse"], rounds=1)
-
-
-def test_median_interval_brackets_the_median_and_narrows_with_more_rounds():
-    import numpy as np
-
-    from benchmarks.speed.builds import median_interval
-
-    rng = np.random.default_rng(3)
-    few = median_interval(1.05 + 0.1 * rng.standard_normal(10))
-    many = median_interval(1.05 + 0.1 * rng.standard_normal(400))
-    assert few[1] <= few[0] <= few[2] and many[1] <= many[0] <= many[2]
-    assert many[2] - many[1] < few[2] - few[1]
-    assert many[1] < 1.05 < many[2]  # the true median, at 90%: fixed seed, passes for this draw
-    with pytest.raises(ValueError):
-        median_interval([1.0, float("nan")])
-
-
-def test_paired_render_times_reports_a_worker_that_cannot_start(tmp_path):
+def test_paired_times_reports_a_worker_that_cannot_start_or_a_call_that_fails(tmp_path):
     # A file that is no core module: its worker fails on import, and the error names the
-    # module and carries the worker's own message instead of hanging or a bare EOF.
-    from benchmarks.speed.builds import paired_render_times
+    # module and carries the worker's own message instead of hanging or a bare EOF. A call
+    # that raises in a working worker comes back with its traceback, the worker still usable.
+    from benchmarks.speed.builds import CoreWorker, paired_times
+    from reference_tracer.build import core_path
 
     bogus = tmp_path / "_core.so"
     bogus.write_bytes(b"not a shared object")
+    request = ("benchmarks.speed.rays.query_torus", {"triangles": 1000, "kind": "random", "rays": 8})
     with pytest.raises(RuntimeError, match=r"the worker of .*_core\.so stopped:(.|\n)*ImportError"):
-        paired_render_times([bogus], ["cornell_box"], rounds=1, spp=1, size=8)
+        paired_times([bogus], {"x": request}, rounds=1)
+    with CoreWorker(core_path()) as worker:
+        with pytest.raises(RuntimeError, match=r"query_torus failed with the core(.|\n)*KeyError: 'diffuse'"):
+            worker("benchmarks.speed.rays.query_torus", 1000, kind="diffuse", rays=8)
+        assert worker("os.system", "echo noise on the worker's stdout") == 0   # kept out of the answers
+        assert worker("reference_tracer.build.core_path") == core_path()

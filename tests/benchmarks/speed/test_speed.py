@@ -255,18 +255,19 @@ def test_hits_agree_with_mitsuba_on_same_rays(jit_variant):
     from mitsuba_scenes.variants import select_variant
     from reference_tracer.probe import core_scene
 
+    if jit_variant is None:
+        pytest.skip("llvm_ad_rgb does not work here: Mitsuba's ray queries need a JIT variant")
     scene = speed.mesh_scene(3000, seed=5)
     core = core_scene(scene)
-    variant = jit_variant or "scalar_rgb"
-    select_variant(variant)
+    select_variant(jit_variant)
     import mitsuba as mi
 
     mscene = mi.load_dict(to_mitsuba(scene))
-    count = 20000 if jit_variant else 3000          # scalar casts one Python call per ray
+    count = 20000
     for kind, gen in (("primary", speed.primary_rays), ("random", speed.random_rays)):
         o, d = gen(count, seed=11)
-        ours = speed.intersect_ours(core, o, d, threads=2, repeats=1)
-        theirs = speed.intersect_mitsuba(mscene, o, d, repeats=1)
+        ours = speed.intersect_ours(core, o, d, threads=2)
+        theirs = speed.intersect_mitsuba(mscene, o, d)
         agree = speed.hit_agreement(ours["t"], theirs["t"])
         assert 0.1 < agree["hit_fraction_a"] < 0.9, (kind, agree)     # the test is not trivial
         assert agree["hit_agreement"] > 0.999, (kind, agree)
@@ -309,13 +310,14 @@ def test_ray_benchmark_fields(jit_variant, capsys, tmp_path):
 
 
 def test_scaling_fields():
-    res = speed.scaling_benchmark(resolutions=(8, 16), spp=1, thread_counts=(1, 2), triangles=(200, 2000),
-                                  rays=2000, mesh_spp=1, variant=None, repeats=1)
+    res = speed.scaling_benchmark(resolutions=(8, 16), depths=(3, 2), spp=1, thread_counts=(1, 2),
+                                  triangles=(200, 2000), rays=2000, mesh_spp=1, variant=None, repeats=1)
     assert [r["resolution"] for r in res["resolution"]] == [8, 16]
+    assert [r["max_depth"] for r in res["depth"]] == [2, 3] and res["config"]["depths"] == [2, 3]
     assert [r["threads"] for r in res["threads"]] == [1, 2]
     assert res["threads"][0]["ours_speedup"] == 1.0 and res["threads"][1]["ours_speedup"] > 0
     assert [r["triangles"] < 1000 for r in res["mesh"]] == [True, False]
-    for r in res["resolution"] + res["threads"] + res["mesh"]:
+    for r in res["resolution"] + res["depth"] + res["threads"] + res["mesh"]:
         assert r["ours_paths_per_second"] > 0 and "mitsuba_paths_per_second" not in r
     fit = res["fits"]["ours_ns_per_ray"]
     assert set(fit) == {"a", "b", "per_doubling", "r2", "loglog_exponent"} and "mitsuba_ns_per_ray" not in res["fits"]

@@ -1,0 +1,123 @@
+"""``rtbench speed --isa``: another build of our core timed in the same paired rounds as the
+installed one, with its own rows, headline and verdicts; clear errors where the CPU cannot run
+the build or the build fails. And ``--scaling``: every axis of cost against work, ours beside
+Mitsuba, with build times and the SVG of the curves.
+
+The fast tests stand the installed core in for the build (no compile); the slow one builds
+the core for AVX2 (a minute or more). Nothing here asserts a speed.
+"""
+from __future__ import annotations
+
+import json
+import xml.etree.ElementTree as ET
+
+import pytest
+
+from benchmarks.cli import main
+from benchmarks.speed import builds
+from build_util import cpu_flags
+
+TINY = ["--width", "8", "--height", "6", "--spp", "2", "--repeats", "2", "--threads", "2", "--strategies", "mis",
+        "--rr-depth", "5", "--reference-kind", "ours", "--reference-spp", "16"]
+
+
+def _installed_as_build(monkeypatch):
+    from reference_tracer.build import core_path
+
+    monkeypatch.setattr(builds, "build_isa", lambda isa, folder, **kw: core_path())
+    monkeypatch.setattr(builds, "build_target", lambda folder: "the installed core, standing in")
+
+
+def test_isa_build_has_its_own_rows_headline_and_verdicts(tmp_path, capsys, monkeypatch, jit_variant):
+    _installed_as_build(monkeypatch)
+    variant = jit_variant or "scalar_rgb"
+    path = tmp_path / "speed.json"
+    rc = main(["speed", "cornell_box", *TINY, "--variant", variant, "--isa", "avx2", "--cache", str(tmp_path),
+               "--render", "--rays", "--triangles", "500", "--ray-count", "2000", "--json", str(path)])
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    assert "rtbench speed, suite: ours mis, avx2 build vs Mitsuba" in out and "ours mis, avx2 build" in out
+    got = json.loads(path.read_text())
+    res = got["render"]
+    assert res["config"]["builds"] == {"avx2": str(builds.build_isa("avx2", None))}
+    runs = [(r["round"], r.get("build") or "") for r in res["runs"] if r["renderer"] == "ours"]
+    assert sorted(runs) == [(0, ""), (0, "avx2"), (1, ""), (1, "avx2")]   # both builds in every round
+    for run in (r for r in res["runs"] if r["renderer"] == "ours"):
+        twin = [x for x in res["runs"] if x["renderer"] == "ours" and x["round"] == run["round"]]
+        assert twin[0]["mse"] == twin[1]["mse"]                             # same core, same seed: same image
+    row = next(r for r in res["summary"] if r["label"] == "ours mis, avx2 build")
+    assert row["build"] == "avx2" and len(row[f"round_ratios_{variant}"]) == 2
+    head = res["build_suites"]["avx2"]["rows"][0]
+    assert head["scene"] == "cornell_box" and head[f"round_ratios_{variant}"] == row[f"round_ratios_{variant}"]
+    rays = [(r["kind"], r["build"]) for r in got["rays"]["rows"]]
+    assert rays == [("primary", None), ("primary", "avx2"), ("random", None), ("random", "avx2")]
+    if jit_variant:
+        assert all(len(r["round_ratios"]) == 2 and r["agree_hit_agreement"] > 0.999 for r in got["rays"]["rows"])
+    verdicts = got["verdicts"]
+    subjects = [v["subject"] for v in verdicts]
+    assert "cornell_box (avx2 build)" in subjects or not jit_variant
+    assert "suite geometric mean (avx2 build)" in subjects and "1M triangles, random (avx2 build)" in subjects
+    assert list(dict.fromkeys((v["benchmark"], v["build"]) for v in verdicts)) == [
+        ("render", None), ("render", "avx2"), ("rays", None), ("rays", "avx2")]   # each build's after the installed
+
+
+def test_isa_the_cpu_cannot_run_or_a_build_that_fails(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(builds, "cpu_flags", frozenset)
+    assert main(["speed", "--isa", "avx2", "--cache", str(tmp_path), "--quiet"]) == 2
+    assert "this CPU cannot run an avx2 build (-march=x86-64-v3): /proc/cpuinfo lists no abm, avx" in (
+        capsys.readouterr().err)
+    monkeypatch.setattr(builds, "cpu_flags", lambda: builds.ISAS["avx512"][1])
+
+    def fails(*args, **kwargs):
+        raise RuntimeError("cmake --build failed: no compiler")
+
+    monkeypatch.setattr(builds, "build_core", fails)
+    assert main(["speed", "--isa", "avx512", "--cache", str(tmp_path), "--quiet"]) == 3
+    assert "the avx512 build of our core failed: cmake --build failed: no compiler" in capsys.readouterr().err
+    assert main(["speed", "--scaling", "--isa", "avx2", "--quiet"]) == 2
+    assert "--isa times the render and ray benchmarks" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_isa_avx2_builds_and_runs(tmp_path, capsys):
+    # The real thing: the core built for x86-64-v3 into the cache, timed beside the installed
+    # one. A minute or more: the build.
+    if not builds.ISAS["avx2"][1] <= cpu_flags():
+        pytest.skip("this CPU cannot run an AVX2 build")
+    path = tmp_path / "speed.json"
+    rc = main(["speed", "cornell_box", *TINY, "--variant", "scalar_rgb", "--isa", "avx2", "--cache", str(tmp_path),
+               "--json", str(path)])
+    out = capsys.readouterr().out
+    assert rc == 0 and "ours mis, avx2 build" in out and "packs of 4" in out
+    res = json.loads(path.read_text())["render"]
+    assert (tmp_path / "cores").is_dir() and res["config"]["builds"]["avx2"].startswith(str(tmp_path / "cores"))
+    assert {r["build"] for r in res["summary"] if r["renderer"] == "ours"} == {None, "avx2"}
+
+
+def test_scaling_every_axis_beside_mitsuba_with_build_times_and_svg(tmp_path, capsys, jit_variant):
+    svg, path = tmp_path / "scaling.svg", tmp_path / "scaling.json"
+    variant = jit_variant or "scalar_rgb"
+    rc = main(["speed", "--scaling", "--resolutions", "8,16", "--scaling-depths", "2,4", "--scaling-triangles",
+               "200,2000", "--scaling-spp", "1", "--repeats", "1", "--threads", "2", "--variant", variant,
+               "--svg", str(svg), "--json", str(path)])
+    out = capsys.readouterr().out
+    assert rc == 0 and "speed targets: none applies to --scaling" in out
+    for title in ("paths/s vs image size", "paths/s vs max depth", "paths/s vs threads", "cost vs triangle count",
+                  "ours build s"):
+        assert title in out, title
+    res = json.loads(path.read_text())["scaling"]
+    assert [r["resolution"] for r in res["resolution"]] == [8, 16]
+    assert [(r["max_depth"], r["resolution"]) for r in res["depth"]] == [(2, 16), (4, 16)]
+    assert [r["threads"] for r in res["threads"]] == [1, 2]
+    assert all(r["build_seconds"] > 0 for r in res["mesh"])
+    sides = ("ours", "mitsuba") if jit_variant else ("ours",)
+    for r in res["resolution"] + res["depth"] + res["threads"] + res["mesh"]:
+        assert all(r[f"{w}_paths_per_second"] > 0 for w in sides) and ("ratio" in r) == bool(jit_variant)
+    if jit_variant:
+        assert all(r["mitsuba_load_seconds"] > 0 for r in res["mesh"]) and "mitsuba_ns_per_ray" in res["fits"]
+    curves = {g.get("id") for g in ET.parse(svg).iter("{http://www.w3.org/2000/svg}g")}
+    assert {f"{axis}-{w}" for axis in ("resolution", "depth", "threads", "mesh") for w in sides} <= curves
+    assert ("mesh-mitsuba" in curves) == bool(jit_variant)
+    text = svg.read_text()
+    assert all(f"paths/s vs {label}" in text for label in ("image size", "max depth", "threads", "triangles"))
+    assert main(["speed", "--svg", str(svg), "--quiet"]) == 2
