@@ -1,9 +1,5 @@
-"""The statistical decisions of the hard cases: z-tests of images and of sample means.
-
-:func:`image_ztest` compares two renders (or a render and an exact image) at a nominal
-false-positive rate of 1e-4 per comparison; :func:`z_check` gives the z-score of a
-sample mean against a closed form (the cases accept |z| <= 5: 5.7e-7 per check).
-"""
+"""The statistical decisions of the hard cases: z-tests of images (:func:`image_ztest`) and of
+a sample mean against a closed form (:func:`z_check`; the cases accept |z| <= 5)."""
 from __future__ import annotations
 
 import math
@@ -18,26 +14,14 @@ __all__ = ["image_ztest", "constant_ztest", "z_check"]
 
 def image_ztest(mean_a, var_a, n_a, mean_b, var_b=None, n_b=None, *, alpha: float = 1e-4,
                 pixel_alpha: float = 1e-3, local: bool = True, rel_floor: float = 1e-6) -> dict:
-    """Do two images (or an image and an exact one) have the same expectation?
+    """Do two images (or an image and an exact one, ``var_b`` None) have the same expectation?
 
-    Per pixel and channel z = (a - b) / sqrt(var_a / n_a + var_b / n_b), with the
-    per-sample variances of both renders (independent seeds). Two tests, each at half
-    of ``alpha``:
-
-    * global, per channel: Z_c = sum(a - b) / sqrt(sum(var_a / n_a + var_b / n_b)) over
-      all pixels (pixels are independent; a sum over thousands is normal to a good
-      approximation); reject when max |Z_c| exceeds the two-sided (alpha / 2) / channels
-      quantile. Catches a small bias spread over the image (acne, leaks).
-    * local: the count of |z| > z(pixel_alpha) must not exceed the binomial
-      (N, pixel_alpha) quantile at alpha / 2. Catches a few badly wrong pixels.
-
-    The nominal false-positive rate is ``alpha`` (normal approximation to per-pixel
-    means; channels of a pixel are correlated, which widens the count's spread a little).
-    With ``local=False`` only the global test runs (for heavy-tailed estimators whose
-    per-pixel means at low spp are far from normal). The variance of each difference has
-    a floor of (rel_floor * max(|a|, |b|))^2: float32 images round at ~6e-8 relative, so
-    two estimators that are exact per sample compare equal. A pixel where that is still
-    0 counts as |z| = inf unless the means are equal.
+    Per pixel and channel z = (a - b) / sqrt(var_a / n_a + var_b / n_b). Two tests at
+    ``alpha / 2`` each: global, per channel, Z_c = sum(a - b) / sqrt(sum of the variances)
+    against the two-sided (alpha / 2) / channels quantile (a small bias spread over the
+    image); local (unless ``local=False``, for heavy-tailed estimators), the count of
+    |z| > z(pixel_alpha) against its binomial quantile (a few badly wrong pixels). Each
+    variance has a floor of (rel_floor * max(|a|, |b|))^2, float32 rounding.
 
     Returns
     -------
@@ -84,13 +68,9 @@ def constant_ztest(result: ImageEstimate, value: float, *, alpha: float = 1e-4, 
 
 
 def z_check(samples, exact) -> dict:
-    """z of the mean of ``samples`` against ``exact``.
+    """z of the mean of ``samples`` against ``exact``; the standard error has a floor of
+    1e-12 |exact| (float64 rounding), so a constant estimator compares exactly.
 
-    The standard error has a floor of 1e-12 |exact| (float64 rounding of the samples and
-    of the closed form), so an estimator that is constant up to rounding compares exactly.
-
-    Examples
-    --------
     >>> z_check([2.0, 2.0, 2.0], 2.0)["z"]
     0.0
     """
