@@ -98,8 +98,7 @@ def _polygon_boundary(vertices, k=400):
     return np.concatenate([(1 - t) * v[i] + t * v[(i + 1) % len(v)] for i in range(len(v))])
 
 
-def _light(label, shapes_fn, ref, *, background=0.0, cap=None, params=(), densities=None, lights_fn=None,
-           deltas=None):
+def _light(label, shapes_fn, ref, *, background=0.0, cap=None, params=(), densities=None, lights_fn=None, deltas=None):
     """``cap``: None (the whole sphere), or a function (ref) -> (rotation, cos_range).
     ``densities``: None (the directions' density is ``light_pdf``), or a function (ref) ->
     (true, reported): the density of the directions drawn and the one ``light_pdf`` must
@@ -113,8 +112,7 @@ def _light(label, shapes_fn, ref, *, background=0.0, cap=None, params=(), densit
         shapes = shapes_fn()
         lights = tuple(lights_fn()) if lights_fn else ()
         probe = LightProbe(shapes, r, background=background, rotation=rot, lights=lights)
-        emitters = (sum(1 for s in shapes if s.material.emits) + (1 if background > 0 else 0)
-                    + len(lights))
+        emitters = (sum(1 for s in shapes if s.material.emits) + (1 if background > 0 else 0) + len(lights))
         spec = {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": "sphere", "dims": 3,
                 "cos_range": cos_range, "single": emitters == 1}
         if deltas is not None:
@@ -179,8 +177,7 @@ def _catalogue() -> tuple:
         routines.append(_warp("uniform_cone", "sphere", omc, None if omc >= 2 else (1.0 - omc, 1.0),
                               params=(("1-cos_max", omc),)))
     routines += [_bsdf("lambertian", theta) for theta in (30, 85)]
-    routines += [_bsdf("rough_conductor", theta, alpha)
-                 for alpha in (0.1, 0.3, 0.6, 1.0) for theta in (0, 30, 60, 85)]
+    routines += [_bsdf("rough_conductor", theta, alpha) for alpha in (0.1, 0.3, 0.6, 1.0) for theta in (0, 30, 60, 85)]
     routines += [_bsdf("rough_conductor_beckmann", theta, alpha)
                  for alpha in (0.1, 0.3, 0.6, 1.0) for theta in (0, 30, 60, 85)]
     routines += [_bsdf(m, theta, alpha) for m in ("rough_plastic", "rough_plastic_beckmann")

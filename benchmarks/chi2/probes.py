@@ -68,8 +68,7 @@ class BsdfProbe:
 
     def sample_full(self, u) -> dict:
         """Every field of the samples of (n, 3) uniforms: wi, weight, pdf, eta, delta, valid."""
-        return probe.bsdf_sample(self.material, self.wo, _c(u), _c(self.albedo), float(self.param),
-                                 **self._options)
+        return probe.bsdf_sample(self.material, self.wo, _c(u), _c(self.albedo), float(self.param), **self._options)
 
     def sample(self, u) -> np.ndarray:
         """Directions of (n, 3) uniforms, NaN rows where the sampler failed."""
@@ -78,8 +77,7 @@ class BsdfProbe:
 
     def eval_pdf(self, wi) -> dict:
         """``value`` (f * cos, (n, 3)) and ``pdf`` ((n,)) at directions wi."""
-        return probe.bsdf_eval_pdf(self.material, self.wo, _c(wi), _c(self.albedo), float(self.param),
-                                   **self._options)
+        return probe.bsdf_eval_pdf(self.material, self.wo, _c(wi), _c(self.albedo), float(self.param), **self._options)
 
     def pdf(self, wi) -> np.ndarray:
         return self.eval_pdf(wi)["pdf"]

@@ -253,8 +253,7 @@ def _lobe_run(spec: dict, n: int, seed: int, alpha: float):
             t_err = max(t_err, float(np.abs(wi[trans] - t_dir).max()) if t_dir is not None else math.inf)
             trans_ok &= bool(np.allclose(weight[trans], 1.0 / t_eta ** 2, rtol=_RTOL, atol=0)
                              and np.allclose(eta[trans], t_eta, rtol=_RTOL, atol=0))
-    checks = {"all_valid_and_delta": {"ok": flags_ok},
-              "reflection": {"ok": refl_ok, "count": n_refl}}
+    checks = {"all_valid_and_delta": {"ok": flags_ok}, "reflection": {"ok": refl_ok, "count": n_refl}}
     if n_trans:
         checks["transmission_snell"] = {"ok": trans_ok and t_err <= _RTOL, "max_direction_error": t_err,
                                         "count": n_trans}
@@ -284,15 +283,13 @@ def run_routine(routine: Routine, *, n: int = DEFAULT_N, seed: int = 0, alpha: f
             checks = _bsdf_checks(spec["probe"], grid, n, s + 1, a)
         elif routine.kind == "mixed":
             lobes, checks = _mixed_checks(spec, Grid.make("hemisphere", res.resolution), n, s + 1, a)
-            checks["specular_share"] = {"ok": lobes.verdict == "pass", "p_value": lobes.p_value,
-                                        **lobes.details}
+            checks["specular_share"] = {"ok": lobes.verdict == "pass", "p_value": lobes.p_value, **lobes.details}
         elif routine.kind == "light":
             checks = _light_checks(spec["probe"], spec["single"], n, s + 1, spec.get("reported"))
             if spec.get("deltas"):
                 shares, delta_checks = _delta_checks(spec["probe"], spec["deltas"], n, s + 2, a)
                 checks.update(delta_checks)
-                checks["delta_shares"] = {"ok": shares.verdict == "pass", "p_value": shares.p_value,
-                                          **shares.details}
+                checks["delta_shares"] = {"ok": shares.verdict == "pass", "p_value": shares.p_value, **shares.details}
     failed = [k for k, v in checks.items() if not v["ok"]]
     verdict, message = res.verdict, res.message
     if failed:

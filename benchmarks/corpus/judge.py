@@ -61,8 +61,7 @@ def small_film(width: int, height: int, max_width: int) -> tuple:
     return int(max_width), max(1, int(round(height * max_width / width)))
 
 
-_FILE_TOKEN = re.compile(r"'?[^\s':]*\.(?:obj|ply|serialized|xml|exr|png|jpe?g|hdr|pfm|bmp|tga|spd|vol|m3hair)'?",
-                         re.I)
+_FILE_TOKEN = re.compile(r"'?[^\s':]*\.(?:obj|ply|serialized|xml|exr|png|jpe?g|hdr|pfm|bmp|tga|spd|vol|m3hair)'?", re.I)
 
 
 def compact_feature(feature: str) -> str:

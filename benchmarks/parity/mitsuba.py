@@ -92,8 +92,7 @@ def mitsuba_aovs(mscene, scene: rt.Scene, *, offset=(0.5, 0.5)) -> dict:
             miss = _arr(env.eval(si, ~valid), n, 3)
             emitted = np.where(np.isfinite(t)[:, None], emitted, miss)
         ids = np.array(dr.reinterpret_array(mi.UInt32, si.shape), dtype=np.int64).reshape(n).tolist()
-        shape_ids = [int(np.array(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))).ravel()[0])
-                     for s in mscene.shapes()]
+        shape_ids = [int(np.array(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))).ravel()[0]) for s in mscene.shapes()]
     valid = np.isfinite(t)
     ours_of = dict(zip(shape_ids, match_shapes(mscene, scene)))
     shape = np.array([ours_of.get(i, -2) if v else -1 for i, v in zip(ids, valid)], dtype=np.int64)

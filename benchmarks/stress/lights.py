@@ -107,8 +107,7 @@ def _check_point(shape: rt.Shape, ref, exact: float, samples: int, rng) -> dict:
         or (exact == 0 and not valid.any()) else None
     # pdf of the procedure equals pdf_all for one emitter (valid samples)
     mismatch = int((valid & ~np.isclose(pdf, s["pdf_all"], rtol=1e-6, atol=0)).sum())
-    chk.update(valid_fraction=float(valid.mean()), nonfinite=nonfinite, pdf_mass=mass,
-               pdf_all_mismatch=mismatch)
+    chk.update(valid_fraction=float(valid.mean()), nonfinite=nonfinite, pdf_mass=mass, pdf_all_mismatch=mismatch)
     return chk
 
 
@@ -156,6 +155,5 @@ def light_sampling(*, samples: int = 100_000, seed: int = 0, width: int = 24, sp
     figure = (f"{len(jobs)} reference points: max |z| {worst_z:.2f} (limit 5), Inf/NaN/mismatched pdfs {bad_pdf}; "
               f"floor-through-light renders agree with cosine: "
               f"{sum(a['passed'] for a in agree.values())}/{len(agree)}, NaN samples {render_nonfinite}")
-    details = {"points": cases, "render_agreement": agree, "render_nonfinite": render_nonfinite,
-               "samples": samples}
+    details = {"points": cases, "render_agreement": agree, "render_nonfinite": render_nonfinite, "samples": samples}
     return make_record("light_sampling", figure, passed, details, t0)
