@@ -293,19 +293,16 @@ def chi2_test(sample: Callable[[np.ndarray], np.ndarray], pdf: Callable[[np.ndar
     Parameters
     ----------
     sample : callable
-        ``sample(u) -> points``: ``u`` is ``(m, dims)`` uniform numbers in [0, 1); points are
-        ``(m, 3)`` unit vectors (``(m, 2)`` for the disk). A row with a non-finite entry is
-        a failed sample (the routine returned nothing, e.g. a direction below the horizon).
+        ``sample(u) -> points``: ``(m, dims)`` uniforms to ``(m, 3)`` unit vectors (``(m, 2)``
+        on the disk); a row with a non-finite entry is a failed sample.
     pdf : callable
-        ``pdf(points) -> (m,)`` density with respect to solid angle (area for the disk).
+        ``pdf(points) -> (m,)`` density in solid angle (area on the disk).
     domain : {'sphere', 'hemisphere', 'disk'}
-    n, seed : samples drawn (numpy's default generator seeded with ``seed``).
+    n, seed : samples drawn, and the seed of numpy's default generator.
     resolution : (cells along cos theta or r^2, cells along phi).
-    alpha : false-positive rate of this call; its two statistical sub-tests (the
-        distribution and the mass) are each run at ``sidak(alpha, 2)``.
-    dims : uniform numbers per sample (3 when the routine also picks a component).
-    cos_range : (lo, hi) to bin only directions with cos theta in [lo, hi] (a cap or band
-        holding the whole support, for concentrated densities); samples outside fail.
+    alpha : false-positive rate of the call (its distribution and mass tests at ``sidak(alpha, 2)``).
+    dims : uniform numbers per sample.
+    cos_range : (lo, hi): bin only cos theta in [lo, hi] (a cap holding the whole support).
 
     Returns
     -------

@@ -115,23 +115,10 @@ def _describe(scene, i: int) -> str:
 
 
 def compare_aovs(scene: rt.Scene, ours: dict, theirs: dict, *, name: str = "scene", theirs_at=None) -> ParityReport:
-    """Mismatch masks of every AOV and the findings that explain them.
-
-    Parameters
-    ----------
-    scene : reference_tracer.Scene
-    ours, theirs : dict
-        AOVs of :func:`reference_tracer.probe.first_hit_aovs` and
-        :func:`benchmarks.parity.mitsuba.mitsuba_aovs` (same image size).
-    name : str
-    theirs_at : callable or None
-        ``theirs_at((dx, dy))``: Mitsuba's AOVs through ``pixel + (dx, dy)``, to tell an
-        edge from a real difference from Mitsuba's side too.
-
-    Returns
-    -------
-    ParityReport
-    """
+    """Mismatch masks of every AOV of ``ours`` and ``theirs`` (the AOVs of
+    :func:`reference_tracer.probe.first_hit_aovs` and :func:`.mitsuba.mitsuba_aovs`) and the
+    findings that explain them; ``theirs_at((dx, dy))``, Mitsuba's AOVs through
+    ``pixel + (dx, dy)``, tells an edge from a real difference from Mitsuba's side too."""
     h, w = ours["t"].shape
     if theirs["t"].shape != (h, w):
         mask = np.ones((h, w), dtype=bool)

@@ -157,10 +157,9 @@ def degenerate_input(*, coincident: int = 100_000, seed: int = 0, repeats: int =
 
     Parameters
     ----------
-    coincident : int, keyword-only
+    coincident : int
         Triangles with one bounding box (>= 1000).
-    seed : int, keyword-only
-    repeats : int, keyword-only
+    repeats : int
         Builds timed per size (the minimum counts).
     """
     t0 = time.perf_counter()

@@ -14,44 +14,34 @@ __all__ = ["exact_intersection", "triangle_error_bound", "quad_error_bound", "cl
 UNIT_ROUNDOFF = 2.0 ** -53
 
 
-def _frac3(v):
-    return [Fraction(float(x)) for x in v]
+def _frac3(v) -> np.ndarray:
+    return np.array([Fraction(x) for x in v], dtype=object)
 
 
 def exact_intersection(o, d, p, e1, e2) -> dict:
     """Exact intersection of the float64 ray ``o + t d`` with ``p + s1 e1 + s2 e2``.
 
-    ``p``, ``e1``, ``e2``: float64 or already exact (lists of ``Fraction``: a triangle's
-    ``b - a``, ``c - a``). Returns ``parallel`` (exact determinant 0), else ``t``, ``s1``,
-    ``s2`` (``Fraction``), and always ``plane_distance`` (float) from ``o``.
+    ``p``, ``e1``, ``e2``: float64 or already exact (``Fraction``: a triangle's ``b - a``,
+    ``c - a``). Returns ``parallel`` (exact determinant 0), else ``t``, ``s1``, ``s2``
+    (``Fraction``), and always ``plane_distance`` (float) from ``o``.
 
     >>> ex = exact_intersection([0.25, 0.25, 1.0], [0.0, 0.0, -2.0], [0, 0, 0], [1, 0, 0], [0, 1, 0])
     >>> ex["parallel"], ex["t"], ex["s1"], ex["s2"], ex["plane_distance"]
     (False, Fraction(1, 2), Fraction(1, 4), Fraction(1, 4), 1.0)
     """
-    o, d = _frac3(o), _frac3(d)
-    p = p if isinstance(p[0], Fraction) else _frac3(p)
-    e1 = e1 if isinstance(e1[0], Fraction) else _frac3(e1)
-    e2 = e2 if isinstance(e2[0], Fraction) else _frac3(e2)
-    s = [o[i] - p[i] for i in range(3)]
-
-    def cross(x, y):
-        return [x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]]
-
-    def dot(x, y):
-        return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
-
-    n = cross(e1, e2)
-    nn = dot(n, n)
-    out = {"plane_distance": math.sqrt(float(dot(n, s) ** 2 / nn)) if nn else math.inf}
+    o, d, p, e1, e2 = (_frac3(v) for v in (o, d, p, e1, e2))
+    s = o - p
+    n = np.cross(e1, e2)
+    nn = n @ n
+    out = {"plane_distance": math.sqrt(float((n @ s) ** 2 / nn)) if nn else math.inf}
     # Cramer's rule for [-d, e1, e2] (t, s1, s2)^T = s, with triple products.
-    q = cross(d, e2)
-    det = dot(e1, q)
+    q = np.cross(d, e2)
+    det = e1 @ q
     if det == 0:
         out["parallel"] = True
         return out
-    r = cross(s, e1)
-    out.update(parallel=False, t=dot(e2, r) / det, s1=dot(s, q) / det, s2=dot(d, r) / det)
+    r = np.cross(s, e1)
+    out.update(parallel=False, t=(e2 @ r) / det, s1=(s @ q) / det, s2=(d @ r) / det)
     return out
 
 
@@ -92,8 +82,7 @@ def classify_rays(shape: str, verts, origins, directions, hit_t, hit_prim) -> di
     verts = np.asarray(verts, dtype=np.float64)
     if shape == "triangle":
         a, b, c = verts
-        fa, fb, fc = _frac3(a), _frac3(b), _frac3(c)
-        p, e1, e2 = fa, [fb[i] - fa[i] for i in range(3)], [fc[i] - fa[i] for i in range(3)]
+        p, e1, e2 = _frac3(a), _frac3(b) - _frac3(a), _frac3(c) - _frac3(a)
         size = max(np.linalg.norm(b - a), np.linalg.norm(c - a), np.linalg.norm(c - b))
     else:
         Q, u, v = verts

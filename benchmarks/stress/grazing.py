@@ -79,11 +79,10 @@ def grazing_rays(*, shapes: int = 25, rays_per_shape: int = 80, seed: int = 0) -
 
     Parameters
     ----------
-    shapes : int, keyword-only
+    shapes : int
         Random triangles, and as many quads.
-    rays_per_shape : int, keyword-only
+    rays_per_shape : int
         Rays per shape; a fifth of them exactly parallel.
-    seed : int, keyword-only
     """
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)

@@ -54,21 +54,10 @@ CASES = {
 
 
 def run_cases(names=None, *, quick: bool = False, on_record=None) -> list:
-    """Run the named cases (all by default) with quick or full settings.
+    """The :class:`~.record.StressRecord` of each named case (all by default), run with its quick
+    or full settings; ``on_record`` is called with each as it completes. Unknown names are
+    refused before any case runs:
 
-    Parameters
-    ----------
-    names : sequence of str or None
-    quick : bool, keyword-only
-    on_record : callable or None, keyword-only
-        Called with each :class:`~benchmarks.stress.record.StressRecord` as it completes.
-
-    Returns
-    -------
-    list of StressRecord
-
-    Examples
-    --------
     >>> run_cases(["no_such_case"])  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...

@@ -24,13 +24,10 @@ def watertight_mesh(*, rays: int = 100_000, subdivisions=(1, 2, 3, 4), seed: int
 
     Parameters
     ----------
-    rays : int, keyword-only
-        Rays per triangle test, split evenly over the subdivision levels.
-    subdivisions : sequence of int, keyword-only
-        Icosphere subdivision levels (level s has 20 * 4^s faces).
-    seed : int, keyword-only
-    render_width : int, keyword-only
-        Image size of the leak render (4 spp per subdivision level).
+    rays : int
+        Rays per triangle test, split evenly over the ``subdivisions`` levels (20 * 4^s faces).
+    render_width : int
+        Image size of the leak render (4 spp per level).
     """
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)

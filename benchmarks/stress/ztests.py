@@ -16,21 +16,12 @@ def image_ztest(mean_a, var_a, n_a, mean_b, var_b=None, n_b=None, *, alpha: floa
                 pixel_alpha: float = 1e-3, local: bool = True, rel_floor: float = 1e-6) -> dict:
     """Do two images (or an image and an exact one, ``var_b`` None) have the same expectation?
 
-    Per pixel and channel z = (a - b) / sqrt(var_a / n_a + var_b / n_b). Two tests at
-    ``alpha / 2`` each: global, per channel, Z_c = sum(a - b) / sqrt(sum of the variances)
-    against the two-sided (alpha / 2) / channels quantile (a small bias spread over the
-    image); local (unless ``local=False``, for heavy-tailed estimators), the count of
-    |z| > z(pixel_alpha) against its binomial quantile (a few badly wrong pixels). Each
-    variance has a floor of (rel_floor * max(|a|, |b|))^2, float32 rounding.
+    Two tests at ``alpha / 2`` each: per channel, the global Z = sum(a - b) / sqrt(sum of the
+    variances) (a bias spread over the image), and unless ``local=False`` (heavy tails) the
+    count of pixel values with |z| > z(pixel_alpha) against its binomial quantile. Each
+    variance has a floor of (rel_floor * max(|a|, |b|))^2 (float32 rounding). Returns
+    ``passed``, ``z_global``, ``z_global_limit``, ``outliers``, ``outlier_limit`` and more:
 
-    Returns
-    -------
-    dict
-        ``passed``, ``z_global`` (per channel), ``z_global_limit``, ``outliers``,
-        ``outlier_limit``, ``tests``, ``alpha``.
-
-    Examples
-    --------
     >>> a = np.ones((4, 4, 3))
     >>> image_ztest(a, np.ones_like(a), 16, a)["passed"], image_ztest(a + 1, np.ones_like(a), 16, a)["passed"]
     (True, False)
