@@ -208,22 +208,14 @@ def _judge(job, rec, seconds, mi, root, path) -> None:
     rec["features"] = features
 
     oos = out_of_scope(features, mitsuba_error, plugins if (features or mitsuba_error or import_error) else ())
-    if oos:
-        rec["status"], rec["reasons"] = "out-of-scope", oos
-        return
-    if mitsuba_error:
-        rec["status"], rec["reasons"] = "mitsuba-fails", [mitsuba_error]
-        return
-    if features or import_error:
-        rec["status"], rec["reasons"] = "refused", features or [import_error]
-        return
-    if crash:
-        rec["status"], rec["reasons"] = "render-error", [crash]
-        return
-    if size is None:
-        rec["status"], rec["reasons"] = "render-error", [
-            "no <film> whose size could be set (Mitsuba's default film is 768x576): not rendered"]
-        return
+    no_film = "no <film> whose size could be set (Mitsuba's default film is 768x576): not rendered"
+    for status, reasons in (("out-of-scope", oos), ("mitsuba-fails", [mitsuba_error] if mitsuba_error else []),
+                            ("refused", features or ([import_error] if import_error else [])),
+                            ("render-error", [crash] if crash else []),
+                            ("render-error", [no_film] if size is None else [])):
+        if reasons:
+            rec["status"], rec["reasons"] = status, reasons
+            return
 
     # 4. both render it
     spp, seed, threads = int(job["spp"]), int(job["seed"]), job.get("threads")
@@ -252,14 +244,11 @@ def _judge(job, rec, seconds, mi, root, path) -> None:
     except Exception as exc:  # noqa: BLE001 - e.g. a filtered render without its pixel samples
         rec["status"], rec["reasons"] = "render-error", [clean_message(f"agreement: {exc}", root)]
         return
-    glob, share = list(a.global_z), a.share
-    fixed = a.spreadless
-    rec["global_z"] = [g if math.isfinite(g) else str(g) for g in glob]
-    rec["share_z4"] = share
-    rec["spreadless_differences"] = fixed
-    rec["mean_ours"] = [float(x) for x in ours.mean.reshape(-1, 3).mean(axis=0)]
-    rec["mean_mitsuba"] = [float(x) for x in mit.mean.reshape(-1, 3).mean(axis=0)]
-    rec["status"] = "agrees" if a.agrees else "disagrees"
+    glob, share, fixed = list(a.global_z), a.share, a.spreadless
+    rec.update(global_z=[g if math.isfinite(g) else str(g) for g in glob], share_z4=share, spreadless_differences=fixed,
+               mean_ours=[float(x) for x in ours.mean.reshape(-1, 3).mean(axis=0)],
+               mean_mitsuba=[float(x) for x in mit.mean.reshape(-1, 3).mean(axis=0)],
+               status="agrees" if a.agrees else "disagrees")
     if rec["status"] == "disagrees":
         worst = max(range(3), key=lambda c: abs(glob[c]))
         rec["reasons"] = [f"global z {glob[worst]:+.1f} in {'RGB'[worst]}, {100 * share:.1f}% of pixel values "
