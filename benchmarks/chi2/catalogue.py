@@ -177,8 +177,7 @@ def _catalogue() -> tuple:
         routines.append(_warp("uniform_cone", "sphere", omc, None if omc >= 2 else (1.0 - omc, 1.0),
                               params=(("1-cos_max", omc),)))
     routines += [_bsdf("lambertian", theta) for theta in (30, 85)]
-    routines += [_bsdf("rough_conductor", theta, alpha) for alpha in (0.1, 0.3, 0.6, 1.0) for theta in (0, 30, 60, 85)]
-    routines += [_bsdf("rough_conductor_beckmann", theta, alpha)
+    routines += [_bsdf(m, theta, alpha) for m in ("rough_conductor", "rough_conductor_beckmann")
                  for alpha in (0.1, 0.3, 0.6, 1.0) for theta in (0, 30, 60, 85)]
     routines += [_bsdf(m, theta, alpha) for m in ("rough_plastic", "rough_plastic_beckmann")
                  for alpha in (0.1, 0.3, 0.7) for theta in (0, 30, 60, 85)]
