@@ -15,18 +15,18 @@ from .record import StressRecord, make_record
 __all__ = ["fireflies", "firefly_counts", "small_light_scene"]
 
 
-def small_light_scene(*, width: int = 64, height: int | None = None, max_depth: int = 50) -> rt.Scene:
+def small_light_scene(*, width: int = 64) -> rt.Scene:
     """The suite's ``small_light`` scene."""
-    return get_scene("small_light", width=width, height=height or width, max_depth=max_depth)
+    return get_scene("small_light", width=width, height=width)
 
 
 def firefly_counts(scene: rt.Scene, *, strategies=rt.STRATEGIES, renders: int = 128, factor: float = 100.0,
-                   seed: int = 0, threads: int = 2) -> dict:
+                   seed: int = 0) -> dict:
     """Per strategy, the samples of ``renders`` 1-spp renders above ``factor`` times the mean
     of ``mis``'s (``threshold``, ``samples``, ``counts``, ``means``, ``max``), pixels that
     see an emitter directly and their neighbours left out (the light itself)."""
     direct_scene = rt.Scene(camera=scene.camera, shapes=scene.shapes, max_depth=1, background=scene.background)
-    direct = rt.render(direct_scene, spp=64, strategy="cosine", seed=seed, threads=threads).mean.max(axis=-1) > 0
+    direct = rt.render(direct_scene, spp=64, strategy="cosine", seed=seed, threads=2).mean.max(axis=-1) > 0
     grown = direct.copy()
     for dy in (-1, 0, 1):
         for dx in (-1, 0, 1):
@@ -37,7 +37,7 @@ def firefly_counts(scene: rt.Scene, *, strategies=rt.STRATEGIES, renders: int = 
     for si, strategy in enumerate(strategies):
         v = []
         for k in range(renders):
-            r = rt.render(scene, spp=1, strategy=strategy, seed=seed * 100_000 + 1000 * si + k, threads=threads)
+            r = rt.render(scene, spp=1, strategy=strategy, seed=seed * 100_000 + 1000 * si + k, threads=2)
             nonfinite += r.nonfinite_samples
             v.append((r.mean.astype(np.float64) @ weights)[keep])
         values[strategy] = np.concatenate(v)

@@ -17,10 +17,10 @@ def contiguous(a) -> np.ndarray:
 
 
 def probe_scene(shapes, *, background=0.0, width=4, height=4, lookfrom=(0.0, 0.0, -10.0),
-                lookat=(0.0, 0.0, 0.0), max_depth=50) -> rt.Scene:
+                lookat=(0.0, 0.0, 0.0)) -> rt.Scene:
     """A scene holding ``shapes`` with a small camera, for ray queries and small renders."""
     cam = rt.Camera(lookfrom=lookfrom, lookat=lookat, vup=(0, 1, 0), vfov=60.0, width=width, height=height)
-    return rt.Scene(camera=cam, shapes=list(shapes), background=background, max_depth=max_depth)
+    return rt.Scene(camera=cam, shapes=list(shapes), background=background)
 
 
 def icosphere(subdivisions: int, *, radius: float = 1.0):
@@ -69,15 +69,13 @@ def transform_scene(scene: rt.Scene, *, scale: float = 1.0, offset=(0.0, 0.0, 0.
                     background=scene.background, direct=scene.direct)
 
 
-def white_furnace_scene(*, width: int = 24, height: int | None = None, max_depth: int = 50) -> rt.Scene:
+def white_furnace_scene(*, width: int = 24) -> rt.Scene:
     """An albedo-1 Lambertian unit sphere in a constant background of radiance 1."""
-    cam = rt.Camera(lookfrom=(0, 0, -4.0), lookat=(0, 0, 0), vup=(0, 1, 0), vfov=35.0,
-                    width=width, height=height or width)
-    return rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1.0, rt.Lambertian(1.0))],
-                    background=1.0, max_depth=max_depth)
+    cam = rt.Camera(lookfrom=(0, 0, -4.0), lookat=(0, 0, 0), vup=(0, 1, 0), vfov=35.0, width=width, height=width)
+    return rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1.0, rt.Lambertian(1.0))], background=1.0)
 
 
-def creased_furnace_scene(*, width: int = 24, height: int | None = None) -> rt.Scene:
+def creased_furnace_scene(*, width: int = 24) -> rt.Scene:
     """A white furnace with creases: a sphere resting on a box, an icosphere mesh beside it
     touching the box too, all albedo 1, background 1, unlimited depth. With ``cosine``
     sampling every sample is exactly 1 (at every scale): a path that re-hits its own
@@ -87,7 +85,7 @@ def creased_furnace_scene(*, width: int = 24, height: int | None = None) -> rt.S
     shapes = [rt.Box((-2.5, -1.0, -2.0), (2.5, 0.0, 2.0), white),
               rt.Sphere((0.0, 1.0, 0.0), 1.0, white),
               rt.Mesh(V + [1.45, 0.6, -0.7], F, white)]
-    cam = rt.Camera(lookfrom=(0.4, 2.2, -5.0), lookat=(0.3, 0.4, 0.0), vup=(0, 1, 0), vfov=40.0,
-                    width=width, height=height or width)
+    cam = rt.Camera(lookfrom=(0.4, 2.2, -5.0), lookat=(0.3, 0.4, 0.0), vup=(0, 1, 0), vfov=40.0, width=width,
+                    height=width)
     return rt.Scene(camera=cam, shapes=shapes, background=1.0, max_depth=-1)
 

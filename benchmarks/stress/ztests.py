@@ -11,15 +11,20 @@ from reference_tracer.estimate import ImageEstimate
 
 __all__ = ["image_ztest", "constant_ztest", "z_check"]
 
+#: the local test counts pixel values beyond this two-sided level
+PIXEL_ALPHA = 1e-3
+#: relative floor of a difference's standard deviation: float32 rounding
+REL_FLOOR = 1e-6
+
 
 def image_ztest(mean_a, var_a, n_a, mean_b, var_b=None, n_b=None, *, alpha: float = 1e-4,
-                pixel_alpha: float = 1e-3, local: bool = True, rel_floor: float = 1e-6) -> dict:
+                local: bool = True) -> dict:
     """Do two images (or an image and an exact one, ``var_b`` None) have the same expectation?
 
     Two tests at ``alpha / 2`` each: per channel, the global Z = sum(a - b) / sqrt(sum of the
     variances) (a bias spread over the image), and unless ``local=False`` (heavy tails) the
-    count of pixel values with |z| > z(pixel_alpha) against its binomial quantile. Each
-    variance has a floor of (rel_floor * max(|a|, |b|))^2 (float32 rounding). Returns
+    count of pixel values with |z| > z(PIXEL_ALPHA) against its binomial quantile. Each
+    variance has a floor of (REL_FLOOR * max(|a|, |b|))^2. Returns
     ``passed``, ``z_global``, ``z_global_limit``, ``outliers``, ``outlier_limit`` and more:
 
     >>> a = np.ones((4, 4, 3))
@@ -31,7 +36,7 @@ def image_ztest(mean_a, var_a, n_a, mean_b, var_b=None, n_b=None, *, alpha: floa
     s2 = np.asarray(var_a, dtype=np.float64) / n_a
     if var_b is not None:
         s2 = s2 + np.asarray(var_b, dtype=np.float64) / n_b
-    s2 = s2 + (rel_floor * np.maximum(np.abs(a), np.abs(b))) ** 2
+    s2 = s2 + (REL_FLOOR * np.maximum(np.abs(a), np.abs(b))) ** 2
     d = a - b
     a3 = d.reshape(-1, d.shape[-1]) if d.ndim == 3 else d.reshape(-1, 1)
     v3 = s2.reshape(a3.shape)
@@ -41,10 +46,10 @@ def image_ztest(mean_a, var_a, n_a, mean_b, var_b=None, n_b=None, *, alpha: floa
         zg = np.where(sd > 0, a3.sum(axis=0) / sd, np.where(a3.sum(axis=0) == 0, 0.0, np.inf))
         z = np.where(v3 > 0, a3 / np.sqrt(v3), np.where(a3 == 0, 0.0, np.inf))
     zg_limit = float(stats.norm.isf(alpha / 2 / channels / 2))
-    z_pix = float(stats.norm.isf(pixel_alpha / 2))
+    z_pix = float(stats.norm.isf(PIXEL_ALPHA / 2))
     n = a3.size
     outliers = int((np.abs(z) > z_pix).sum())
-    limit = int(stats.binom.isf(alpha / 2, n, pixel_alpha))
+    limit = int(stats.binom.isf(alpha / 2, n, PIXEL_ALPHA))
     passed = bool(np.all(np.abs(zg) <= zg_limit) and (outliers <= limit or not local))
     return {"passed": passed, "local": local, "z_global": [float(x) for x in zg], "z_global_limit": zg_limit,
             "outliers": outliers, "outlier_limit": limit, "pixel_z": z_pix, "tests": int(n), "alpha": alpha,
