@@ -53,10 +53,10 @@ def register_external(template: str, name: str | None = None) -> ExternalRendere
 
     >>> register_external("mitsuba -D spp={spp} -o {out} {scene_xml}").name
     'ext-mitsuba'
-    >>> register_external("x {bogus} {out} {scene_xml}")
+    >>> register_external("x {bogus} {out} {scene_xml}")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    ValueError: --renderer 'x {bogus} {out} {scene_xml}': unknown placeholder(s) bogus; use scene_xml, spp, seed, width, height, out
+    ValueError: --renderer 'x {bogus} {out} {scene_xml}': unknown placeholder(s) bogus; use scene_xml, spp, ...
     """
     try:
         fields = {f for _, f, _, _ in string.Formatter().parse(template) if f is not None}

@@ -318,7 +318,8 @@ def _envmap_routines(rt) -> list:
             return pdf, pdf
         return densities
 
-    maps = [(env((12, 24), sun=(3, 17), to_world=tilt), (0.0, 0.0, 0.0), (("map", "12x24, a sun"), ("to_world", "rotation"))),
+    maps = [(env((12, 24), sun=(3, 17), to_world=tilt), (0.0, 0.0, 0.0),
+             (("map", "12x24, a sun"), ("to_world", "rotation"))),
             (env((9, 16), seed=5, to_world=mirror), (0.3, -2.0, 5.0), (("map", "9x16"), ("to_world", "reflection"))),
             (lambda: [rt.EnvMap([[[1.0, 0.2, 0.1], [0.1, 0.3, 2.0]]])], (0.0, 0.0, 0.0),
              (("map", "1x2, padded to 3x2: cells of quarter spheres, one across u = 0"),))]

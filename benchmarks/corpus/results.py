@@ -181,7 +181,8 @@ def markdown_report(*, provenance: dict, records: dict, fragments: dict) -> str:
     if src:
         data.append(markdown(src))
     if git.get("commit"):
-        data.append("git commit " + markdown(git["commit"]) + (f" ({markdown(git['date'])})" if git.get("date") else ""))
+        date = f" ({markdown(git['date'])})" if git.get("date") else ""
+        data.append("git commit " + markdown(git["commit"]) + date)
     build = provenance["build"]
     lines = [
         f"Folder {markdown(provenance['dir_name'])}" + (f": {'; '.join(data)}" if data else "") + ".",

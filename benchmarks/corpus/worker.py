@@ -94,8 +94,8 @@ class SceneWorker:
         if alive:
             return {"status": "timeout", "reasons": [f"no verdict within the time limit of {timeout:g} s"],
                     "seconds": elapsed, "timeout_s": timeout}
-        return {"status": "render-error", "seconds": elapsed,
-                "reasons": [f"the worker process died (exit code {self._exitcode}); see {os.path.basename(self.log_path)}"]}
+        return {"status": "render-error", "seconds": elapsed, "reasons": [
+            f"the worker process died (exit code {self._exitcode}); see {os.path.basename(self.log_path)}"]}
 
     def close(self) -> None:
         """Stop the worker (politely, then by force)."""

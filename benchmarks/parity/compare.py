@@ -5,6 +5,7 @@ sees what the other saw at the centre.
 """
 from __future__ import annotations
 
+import collections
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -110,6 +111,8 @@ def _forgiven(scene, ours, theirs, suspect, theirs_at, same) -> np.ndarray:
 
 
 def _describe(scene, i: int) -> str:
+    if i < 0:
+        return "nothing" if i == -1 else "an unmatched Mitsuba shape"
     s = scene.shapes[i]
     return f"shape {i} ({type(s).__name__}, {type(s.material).__name__})"
 
@@ -183,13 +186,10 @@ def _findings(scene, ours, theirs, masks, cos) -> list:
         out.append(f"background: ours {np.round(ours['emitted'][y, x], 4).tolist()} vs Mitsuba "
                    f"{np.round(theirs['emitted'][y, x], 4).tolist()} at {int(miss.sum())} pixel(s)")
     if masks["shape"].any() and not (out and out[0].startswith("camera")):
-        pairs = {}
-        for y, x in np.argwhere(masks["shape"]):
-            key = (int(ours["shape"][y, x]), int(theirs["shape"][y, x]))
-            pairs[key] = pairs.get(key, 0) + 1
-        for (a, b), c in sorted(pairs.items(), key=lambda kv: -kv[1])[:5]:
-            who = lambda k: "nothing" if k == -1 else ("an unmatched Mitsuba shape" if k == -2 else _describe(scene, k))  # noqa: E731
-            out.append(f"{c} pixel(s) hit {who(a)} in ours but {who(b)} in Mitsuba")
+        pairs = collections.Counter((int(ours["shape"][y, x]), int(theirs["shape"][y, x]))
+                                    for y, x in np.argwhere(masks["shape"]))
+        for (a, b), c in pairs.most_common(5):
+            out.append(f"{c} pixel(s) hit {_describe(scene, a)} in ours but {_describe(scene, b)} in Mitsuba")
     if any(s == -2 for s in np.unique(theirs["shape"])):
         out.append("Mitsuba has shape(s) with no counterpart among ours (by bounding box)")
     return out
