@@ -98,13 +98,14 @@ def _mismatches(s: dict, rows, probe: BsdfProbe) -> tuple:
             int((~np.isclose(s["pdf"][rows], ev["pdf"], rtol=_RTOL, atol=0)).sum()))
 
 
-def _albedo_check(probe: BsdfProbe, grid: Grid, n: int, mean: float, se: float, level: float,
-                  offset: float = 0.0) -> dict:
-    """The integral of f cos (plus ``offset``, a Dirac lobe's share) against the mean weight."""
+def _albedo_check(probe: BsdfProbe, grid: Grid, n: int, mean: float, se: float, level: float, *,
+                  offset: float = 0.0, key: str = "expected") -> dict:
+    """The integral of f cos (plus ``offset``, a Dirac lobe's share; reported as ``key``) against
+    the mean weight."""
     integ, err, _, bad = integrate(lambda d: probe.eval_pdf(d)["value"] @ _LUM, grid, n=n)
     albedo = offset + float(integ.sum())
     p = excess_p_value(albedo - mean, err + _RTOL * abs(albedo), se)
-    return {"ok": p >= level and bad == 0, "expected": albedo, "mean_weight": mean, "se": se,
+    return {"ok": p >= level and bad == 0, key: albedo, "mean_weight": mean, "se": se,
             "integration_error": err, "p_value": p}
 
 
@@ -119,12 +120,10 @@ def _bsdf_checks(probe: BsdfProbe, grid: Grid, n: int, seed: int, level: float) 
         bad_weight, bad_pdf, valid_count = bad_weight + bw, bad_pdf + bp, valid_count + int(valid.sum())
         wl = s["weight"][valid] @ _LUM                       # failed samples weigh 0
         w_sum, w_sq = w_sum + float(wl.sum()), w_sq + float((wl * wl).sum())
-    albedo = _albedo_check(probe, grid, n, *_weight_stats(w_sum, w_sq, n), level)
-    albedo["integral_f_cos"] = albedo.pop("expected")
     return {
         "weight_is_eval_over_pdf": {"ok": bad_weight == 0, "mismatches": bad_weight, "samples": valid_count},
         "sample_pdf_is_pdf": {"ok": bad_pdf == 0, "mismatches": bad_pdf},
-        "albedo": albedo,
+        "albedo": _albedo_check(probe, grid, n, *_weight_stats(w_sum, w_sq, n), level, key="integral_f_cos"),
     }
 
 
@@ -158,7 +157,7 @@ def _mixed_checks(spec: dict, grid: Grid, n: int, seed: int, level: float):
         "diffuse_weight_is_eval_over_pdf": {"ok": bad_weight == 0, "mismatches": bad_weight, "samples": n_diff},
         "sample_pdf_is_pdf": {"ok": bad_pdf == 0, "mismatches": bad_pdf},
         "every_sample_valid": {"ok": n_spec + n_diff == n, "invalid": n - n_spec - n_diff},
-        "albedo": _albedo_check(probe, grid, n, *_weight_stats(w_sum, w_sq, n), level, float(ks @ _LUM) * F),
+        "albedo": _albedo_check(probe, grid, n, *_weight_stats(w_sum, w_sq, n), level, offset=float(ks @ _LUM) * F),
     }
     return res, checks
 
