@@ -61,7 +61,9 @@ def test_corpus_statuses_files_escaping_and_resume(corpus_run, capsys):
     assert all("line" not in f for f in recs[REFUSED]["reasons"])          # file locations dropped
     assert recs[OUT_OF_SCOPE]["status"] == "out-of-scope"
     assert recs[OUT_OF_SCOPE]["reasons"] == ["polarisation: integrator 'stokes'"]
-    assert recs[MITSUBA_FAILS]["status"] == "mitsuba-fails" and "museum.exr" in recs[MITSUBA_FAILS]["reasons"][0]
+    # both files the scene names are missing; Mitsuba loads its plugins in parallel, so either may be reported
+    assert recs[MITSUBA_FAILS]["status"] == "mitsuba-fails"
+    assert any(f in recs[MITSUBA_FAILS]["reasons"][0] for f in ("museum.exr", "matpreview.serialized"))
     assert FRAGMENT not in recs
     assert data["fragments"] == [{"path": FRAGMENT, "included_by": [MITSUBA_FAILS]}]
     assert data["counts"] == {"agrees": 1, "refused": 2, "out-of-scope": 1, "mitsuba-fails": 1}
