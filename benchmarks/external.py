@@ -1,17 +1,7 @@
-"""External renderers: any program that renders a Mitsuba XML scene to an EXR.
-
-The protocol (docs/rtbench.md, "External renderers"): ``--renderer 'CMD'`` is a command template
-with the placeholders ``{scene_xml}`` (the scene written by :func:`mitsuba_scenes.to_xml`,
-whose sampler takes ``$spp`` and ``$seed`` parameters), ``{spp}``, ``{seed}`` (31-bit),
-``{width}``, ``{height}`` and ``{out}`` (the EXR to write: linear RGB, the per-pixel mean
-of ``spp`` samples, ``height`` x ``width``, pixel (0, 0) top left). The command runs in a
-shell in a fresh temporary folder; exit status 0 and a readable ``{out}`` are required.
-Its wall time (process start and scene loading included) is the job's ``seconds``. The
-harness treats it like ours and Mitsuba: one curve per renderer, records (renderer
-``ext-<name>``, strategy ``external``, build ``ext-<hash of the template>``), references,
-the bias test and the report. Example, Mitsuba's own command-line program::
-
-    mitsuba -m scalar_rgb -D spp={spp} -D seed={seed} -o {out} {scene_xml}
+"""External renderers: any program that renders a Mitsuba XML scene to an EXR, given as a
+command template with the placeholders of :data:`PLACEHOLDERS` (the protocol:
+docs/rtbench.md, "External renderers"). Its records carry renderer ``ext-<name>``, strategy
+``external`` and build ``ext-<hash of the template>``.
 """
 from __future__ import annotations
 
@@ -57,28 +47,21 @@ class ExternalRenderer:
         return "ext-" + hashlib.sha256(self.template.encode()).hexdigest()[:12]
 
 
-def _fields(template: str) -> set:
-    try:
-        return {f for _, f, _, _ in string.Formatter().parse(template) if f is not None}
-    except ValueError as exc:
-        raise ValueError(f"--renderer {template!r}: {exc}") from None
-
-
 def register_external(template: str, name: str | None = None) -> ExternalRenderer:
-    """Check a command template and register it; returns the :class:`ExternalRenderer`.
+    """Check a command template and register it under ``name`` (default: ``ext-`` and the
+    program's file name); returns the :class:`ExternalRenderer`.
 
-    The default name is ``ext-`` and the program's file name (``ext-mitsuba``).
-
-    Examples
-    --------
     >>> register_external("mitsuba -D spp={spp} -o {out} {scene_xml}").name
     'ext-mitsuba'
-    >>> register_external("x {bogus} {out} {scene_xml}")
+    >>> register_external("x {bogus} {out} {scene_xml}")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    ValueError: --renderer 'x {bogus} {out} {scene_xml}': unknown placeholder(s) bogus; use scene_xml, spp, seed, width, height, out
+    ValueError: --renderer 'x {bogus} {out} {scene_xml}': unknown placeholder(s) bogus; use scene_xml, spp, ...
     """
-    fields = _fields(template)
+    try:
+        fields = {f for _, f, _, _ in string.Formatter().parse(template) if f is not None}
+    except ValueError as exc:
+        raise ValueError(f"--renderer {template!r}: {exc}") from None
     unknown = sorted(fields - set(PLACEHOLDERS))
     if unknown:
         raise ValueError(f"--renderer {template!r}: unknown placeholder(s) {', '.join(unknown)}; use "
@@ -119,14 +102,8 @@ def clear_externals() -> None:
 
 
 def render_external(renderer: ExternalRenderer, scene, *, spp: int, seed: int) -> tuple:
-    """Render ``scene`` with the external command: ``(mean (H, W, 3) float32, seconds)``.
-
-    Raises
-    ------
-    RuntimeError
-        The command failed (exit status, its last output lines), timed out, or wrote no
-        or a wrongly sized image.
-    """
+    """Render ``scene`` with the external command: ``(mean (H, W, 3) float32, seconds)``;
+    ``RuntimeError`` when it failed, timed out, or wrote no or a wrongly sized image."""
     w, h = scene.camera.width, scene.camera.height
     with tempfile.TemporaryDirectory(prefix="rtbench-ext-") as tmp:
         xml, out = Path(tmp) / "scene.xml", Path(tmp) / "out.exr"
@@ -151,13 +128,9 @@ def render_external(renderer: ExternalRenderer, scene, *, spp: int, seed: int) -
 
 
 def render_external_batches(renderer: ExternalRenderer, scene, *, spp: int, seed: int, batches: int = 16) -> tuple:
-    """``(mean, per-sample variance, seconds)`` from ``batches`` independent runs of the command.
-
-    The spp are split into batches of nearly equal size, each run with its own seed
-    (:func:`mitsuba_scenes.render.batch_seeds`); the variance is the size-weighted
-    between-batch variance times the batch size, as for Mitsuba
-    (:func:`mitsuba_scenes.render_mitsuba`; docs/conventions.md).
-    """
+    """``(mean, per-sample variance, seconds)`` from ``batches`` runs of the command with their
+    own seeds: the size-weighted between-batch variance times the batch size, as for Mitsuba
+    (docs/conventions.md)."""
     sizes = split_spp(int(spp), int(batches))
     if len(sizes) < 2:
         raise ValueError(f"{renderer.name}: a variance needs at least 2 batches (spp {spp}, batches {batches})")

@@ -1,20 +1,10 @@
-"""Chi-square goodness-of-fit tests of the tracer's sampling routines against their pdfs.
+"""Chi-square tests that every sampling routine of the tracer draws from exactly the density the
+integrator divides by (the method and the catalogue: ``benchmarks/chi2/README.md``).
 
-That is this package's one job: show that every routine that draws a direction (warps,
-BSDFs, the glass's lobe choice, light sampling) draws from exactly the density the
-integrator divides by, as Mitsuba 3's ``mitsuba.chi2`` and pbrt-v4's sampling tests do.
-
-* :mod:`.pearson` - the statistics: :func:`chi2_test` (any ``sample(u)`` against any
-  ``pdf(points)`` on the sphere, hemisphere or disk), :func:`discrete_test`,
-  :func:`sidak`, :func:`pearson` (pooling), :func:`integrate` (adaptive quadrature).
-* :mod:`.probes` - adapters from the C++ core's routines to ``sample`` / ``pdf``.
-* :mod:`.catalogue` - every routine with its parameters (``ROUTINES``, :func:`~.catalogue.select`).
-* :mod:`.routine` - one routine (:class:`~.routine.Routine`) and its outcome (:class:`~.routine.Row`).
-* :mod:`.runner` - :func:`~.runner.run_routine`, behind ``rtbench chi2``.
-* :mod:`.plot` - observed-versus-expected images.
-
-The method (Pearson's statistic, pooling, Sidak's correction, the quadrature, what is
-checked besides the distribution) is written up in ``benchmarks/chi2/README.md``.
+:mod:`.pearson` holds the statistics (:func:`chi2_test` of any ``sample(u)`` against any
+``pdf(points)``), :mod:`.probes` the adapters to the core's routines, :mod:`.catalogue` the
+routines, :mod:`.runner` the tests of one routine behind ``rtbench chi2``, :mod:`.plot` the
+observed-versus-expected images.
 """
 from .pearson import (DEFAULT_ALPHA, DEFAULT_N, DEFAULT_RESOLUTION, DOMAINS, MIN_EXPECTED, Chi2Result, Grid,
                       chi2_test, discrete_test, integrate, pearson, sidak)

@@ -1,56 +1,7 @@
-"""The catalogue of sampling routines under test (the runner that tests each one: :mod:`.runner`).
-
-Every routine of the tracer that draws a direction has entries here, with the parameters
-that change its distribution:
-
-* ``warp.*`` - sampling/warp.h: uniform and cosine hemisphere, uniform sphere, uniform
-  cone at several apertures, and the concentric disk (tested in its own 2-D domain).
-* ``bsdf.*`` - the materials with a density: Lambertian, and the GGX rough conductor at
-  four alphas and four incidence angles. Besides the distribution: every sample's weight
-  equals ``eval / pdf`` at its direction and its pdf equals ``pdf()``; and the directional
-  albedo, the integral of ``f cos`` over the hemisphere, equals the mean sample weight (the
-  pdf itself integrates to the probability that a sample is valid: 1 for Lambertian, the
-  share of reflected microfacet directions above the horizon for GGX).
-* ``bsdf.rough_plastic*`` - the rough plastic (GGX and Beckmann coatings at several alphas,
-  incidences and indices, linear and ``nonlinear``): as the other ``bsdf.*``, its sampling
-  density being the mixture of its glossy and diffuse lobes.
-* ``bsdf.rough_dielectric*`` - rough glass (GGX and Beckmann at several alphas, indices
-  above and below 1, wo outside and inside): as the other ``bsdf.*`` over the whole
-  sphere of directions, reflection and transmission together; its albedo is reflectance
-  plus transmittance, the latter with the 1/eta^2 radiance scale.
-* ``bsdf.plastic`` - the smooth plastic, a Dirac lobe beside a diffuse one: the diffuse
-  samples against ``pdf()`` (whose mass is the diffuse lobe's probability, 1 - Ps), the
-  share of specular samples against Ps from an independent Fresnel formula and Mitsuba's
-  sampling weight; every specular sample is the mirror direction with weight ks F / Ps,
-  every diffuse one has weight ``eval / pdf``; the mean weight is ks F plus the diffuse
-  lobe's albedo.
-* ``lobes.*`` - the smooth dielectric's discrete choice: reflection with probability F
-  against an independent Fresnel formula (exact, or Schlick's for the Schlick variant),
-  from outside, inside, and under total internal reflection; every reflected direction
-  is the mirror direction, every transmitted one obeys Snell's law, weights are 1 and
-  (n_i / n_t)^2.
-* ``light.*`` - a scene's light sampling: quad and triangle emitters, a sphere seen from
-  outside (cone sampling, near and far), from inside and from a point on its surface
-  (area sampling), and a scene with three emitters and a background (selection by power;
-  the triangle faces away, so its samples fail and its density is 0).
-  Each sample's pdf equals ``light_pdf`` in its direction.
-  ``light.envmap``: an environment map alone (rotated, mirrored, a tiny padded map),
-  tested against its density stated independently here (its cells of four texels chosen
-  by mean luminance times solid angle, uniform in solid angle within), which ``light_pdf``
-  must report too; ``light.scene_envmap``: the map beside a quad, a point, a spot and a
-  directional light, the delta lights' samples checked on their own (direction toward the
-  light, radiance, pdf and share equal to the selection by power, computed here
-  independently), the others by the chi-square test.
-  ``light.smooth_triangle``: a triangle light with vertex normals, sampled as Mitsuba
-  samples a mesh emitter: points uniform by area, the side test and the cosine of the
-  density taken with the interpolated shading normal. Its reported density (``light_pdf``,
-  dist^2 / (|cos_shading| area)) is then Mitsuba's estimator, not the density of the
-  directions drawn (dist^2 / (|cos_geometric| area) where the shading normal faces the
-  point): the chi-square test takes the latter, computed independently here, and a check
-  asserts that ``light_pdf`` is the former.
-
-Not here: the mirror (a Dirac delta: no distribution) and the fuzzy metal (defined by its
-sampling procedure; the tracer has no density for it to be tested against).
+"""The catalogue of sampling routines under test (:data:`ROUTINES`, :func:`select`): every
+routine of the tracer that draws a direction, with the parameters that change its
+distribution. What each entry checks: README.md here, "What is tested"; the runner:
+:mod:`.runner`.
 """
 from __future__ import annotations
 
@@ -64,12 +15,10 @@ from ..constants import LUMINANCE_WEIGHTS
 
 from .pearson import DEFAULT_RESOLUTION
 from .probes import BsdfProbe, LightProbe, direction, frame, fresnel_exact, fresnel_schlick, warp
-from .routine import Routine
+from .runner import Routine
 
 __all__ = ["ROUTINES", "select"]
 
-
-# --- the catalogue ---------------------------------------------------------------------
 
 def _warp(name, domain, param=0.0, cos_range=None, params=()):
     def make():
@@ -149,8 +98,7 @@ def _polygon_boundary(vertices, k=400):
     return np.concatenate([(1 - t) * v[i] + t * v[(i + 1) % len(v)] for i in range(len(v))])
 
 
-def _light(label, shapes_fn, ref, *, background=0.0, cap=None, params=(), densities=None, lights_fn=None,
-           deltas=None, resolution=DEFAULT_RESOLUTION):
+def _light(label, shapes_fn, ref, *, background=0.0, cap=None, params=(), densities=None, lights_fn=None, deltas=None):
     """``cap``: None (the whole sphere), or a function (ref) -> (rotation, cos_range).
     ``densities``: None (the directions' density is ``light_pdf``), or a function (ref) ->
     (true, reported): the density of the directions drawn and the one ``light_pdf`` must
@@ -164,10 +112,9 @@ def _light(label, shapes_fn, ref, *, background=0.0, cap=None, params=(), densit
         shapes = shapes_fn()
         lights = tuple(lights_fn()) if lights_fn else ()
         probe = LightProbe(shapes, r, background=background, rotation=rot, lights=lights)
-        emitters = (sum(1 for s in shapes if s.material.emits) + (1 if background > 0 else 0)
-                    + len(lights))
+        emitters = (sum(1 for s in shapes if s.material.emits) + (1 if background > 0 else 0) + len(lights))
         spec = {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": "sphere", "dims": 3,
-                "cos_range": cos_range, "single": emitters == 1, "resolution": resolution}
+                "cos_range": cos_range, "single": emitters == 1}
         if deltas is not None:
             spec["deltas"] = deltas(r)
         if densities is not None:
@@ -230,9 +177,7 @@ def _catalogue() -> tuple:
         routines.append(_warp("uniform_cone", "sphere", omc, None if omc >= 2 else (1.0 - omc, 1.0),
                               params=(("1-cos_max", omc),)))
     routines += [_bsdf("lambertian", theta) for theta in (30, 85)]
-    routines += [_bsdf("rough_conductor", theta, alpha)
-                 for alpha in (0.1, 0.3, 0.6, 1.0) for theta in (0, 30, 60, 85)]
-    routines += [_bsdf("rough_conductor_beckmann", theta, alpha)
+    routines += [_bsdf(m, theta, alpha) for m in ("rough_conductor", "rough_conductor_beckmann")
                  for alpha in (0.1, 0.3, 0.6, 1.0) for theta in (0, 30, 60, 85)]
     routines += [_bsdf(m, theta, alpha) for m in ("rough_plastic", "rough_plastic_beckmann")
                  for alpha in (0.1, 0.3, 0.7) for theta in (0, 30, 60, 85)]
@@ -373,7 +318,8 @@ def _envmap_routines(rt) -> list:
             return pdf, pdf
         return densities
 
-    maps = [(env((12, 24), sun=(3, 17), to_world=tilt), (0.0, 0.0, 0.0), (("map", "12x24, a sun"), ("to_world", "rotation"))),
+    maps = [(env((12, 24), sun=(3, 17), to_world=tilt), (0.0, 0.0, 0.0),
+             (("map", "12x24, a sun"), ("to_world", "rotation"))),
             (env((9, 16), seed=5, to_world=mirror), (0.3, -2.0, 5.0), (("map", "9x16"), ("to_world", "reflection"))),
             (lambda: [rt.EnvMap([[[1.0, 0.2, 0.1], [0.1, 0.3, 2.0]]])], (0.0, 0.0, 0.0),
              (("map", "1x2, padded to 3x2: cells of quarter spheres, one across u = 0"),))]
@@ -386,11 +332,13 @@ def _envmap_routines(rt) -> list:
     sun = rt.DirectionalLight((0.3, -1.0, 0.2), (1.5, 1.4, 1.2))
     lum = np.asarray(LUMINANCE_WEIGHTS)
 
+    def spot_power(light):   # lights.h: 2 pi (1 - (sin c - sin b) / (c - b)) luminance(I), over pi
+        c, b = math.radians(light.cutoff_angle), math.radians(light.beam_width)
+        return 2.0 * float(np.asarray(light.intensity) @ lum) * (1.0 - (math.sin(c) - math.sin(b)) / (c - b))
+
     def mixed_deltas(ref):
-        c, b = math.radians(spot.cutoff_angle), math.radians(spot.beam_width)
         weights = {"quad": 4.0 * float(np.asarray(quad.material.radiance) @ lum),
-                   "point": 4.0 * float(np.asarray(point.intensity) @ lum),
-                   "spot": 2.0 * float(np.asarray(spot.intensity) @ lum) * (1.0 - (math.sin(c) - math.sin(b)) / (c - b)),
+                   "point": 4.0 * float(np.asarray(point.intensity) @ lum), "spot": spot_power(spot),
                    "directional": 27.0 * float(np.asarray(sun.irradiance) @ lum)}
         total = sum(weights.values())
         pmf = {k: 0.5 * w / total for k, w in weights.items()}   # the environment takes half
@@ -417,8 +365,6 @@ def _envmap_routines(rt) -> list:
                          texture=rt.Checkerboard(1.0, 0.2, to_uv=np.diag([5.0, 5.0, 1.0])))
 
     def projector_deltas(ref):
-        c, b = math.radians(tspot.cutoff_angle), math.radians(tspot.beam_width)
-
         def projector_weight(p):   # lights.h: luminance(scale E) mean(texture) 4 tan^2(x_fov / 2) / aspect
             e = (np.ones(3) if p.textured else np.asarray(p.irradiance)) * p.scale
             mean = p.irradiance.mean() if p.textured else 1.0
@@ -426,8 +372,7 @@ def _envmap_routines(rt) -> list:
         weights = {"quad": 4.0 * float(np.asarray(quad.material.radiance) @ lum),
                    "projector_bitmap": projector_weight(projectors[0]),
                    "projector_constant": projector_weight(projectors[1]),
-                   "spot_texture": 2.0 * float(np.asarray(tspot.intensity) @ lum)
-                   * (1.0 - (math.sin(c) - math.sin(b)) / (c - b)) * tspot.texture.mean()}
+                   "spot_texture": spot_power(tspot) * tspot.texture.mean()}
         total = sum(weights.values())
         out = []
         for name, light in (("projector_bitmap", projectors[0]), ("projector_constant", projectors[1]),

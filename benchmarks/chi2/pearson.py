@@ -1,11 +1,8 @@
-"""Pearson's chi-square test of a sampling routine against its density (see README.md here).
+"""Pearson's chi-square test of a sampling routine against its density (the method: README.md here).
 
-:func:`chi2_test` draws ``n`` samples through ``sample(u)``, bins them on an equal-area
-grid, integrates ``pdf`` over every cell for the expected counts and runs Pearson's test
-with low-expectation cells pooled; it also checks that the density's mass over the domain
-equals the fraction of samples the routine returned. :func:`discrete_test` is the same test
-for a finite set of outcomes (the lobes of glass). :func:`sidak` (:mod:`benchmarks.stats`)
-gives the per-test level of a family of tests.
+:func:`chi2_test` tests ``sample(u)`` against ``pdf(points)`` on an equal-area grid (and the
+density's mass against the share of valid samples); :func:`discrete_test` tests counts of a
+finite set of outcomes.
 """
 from __future__ import annotations
 
@@ -21,57 +18,40 @@ from ..stats import sidak
 __all__ = ["DOMAINS", "DEFAULT_N", "DEFAULT_RESOLUTION", "DEFAULT_ALPHA", "MIN_EXPECTED", "Grid", "Chi2Result",
            "sidak", "pearson", "integrate", "chi2_test", "discrete_test", "excess_p_value"]
 
-#: Domains of the grid: directions on the unit sphere or the upper (+z) hemisphere, both
-#: binned in (cos theta, phi); points of the unit disk, binned in (r^2, phi). Both are
-#: equal-area grids: d(omega) = d(cos theta) d(phi) and dA = d(r^2) d(phi) / 2.
+#: directions on the unit sphere or upper hemisphere, binned in (cos theta, phi); points of
+#: the unit disk, binned in (r^2, phi): equal-area grids
 DOMAINS = ("sphere", "hemisphere", "disk")
 
-#: Samples per test when the caller gives none.
+#: samples per test when the caller gives none
 DEFAULT_N = 200_000
 
-#: (cells along cos theta or r^2, cells along phi): 2048 cells, about 100 samples each at
-#: DEFAULT_N for a density spread over the whole domain.
+#: (cells along cos theta or r^2, cells along phi): about 100 samples a cell at DEFAULT_N
 DEFAULT_RESOLUTION = (32, 64)
 
-#: Default false-positive rate of one chi2_test call (all its sub-tests together), as
-#: Mitsuba's ChiSquareTest(significance_level=0.01).
+#: false-positive rate of one chi2_test call (all its sub-tests), as Mitsuba's ChiSquareTest
 DEFAULT_ALPHA = 0.01
 
-#: Cells expected to receive fewer samples than this are pooled (Mitsuba's threshold).
+#: cells expecting fewer samples than this are pooled (Mitsuba's threshold)
 MIN_EXPECTED = 5.0
 
-# Quadrature of the density over a cell: adaptive, on a quadtree of sub-rectangles of the
-# cell in (u, phi), each integrated with a 4 x 4 Gauss-Lobatto rule (exact for degree 5;
-# its nodes include the rectangle's corners and edges). A cell's tolerance is
-# `_PRECISION` times the Poisson noise of its count, sqrt(n p) / n (an error far below the
-# sampling noise cannot change the verdict); a rectangle at depth d gets 2^-d of it, so
-# that the rectangles along an edge, which double in number per level, add up to about
-# the cell's tolerance. A rectangle is split into quarters while
-#  * its estimate and the sum of its quarters' differ by more than its tolerance (smooth
-#    but varying densities, such as a narrow GGX lobe), or
-#  * a quarter holds an edge of the support (the density is 0 at some nodes of it or of
-#    its parent and positive at others: a cone, a light's silhouette) and half its mass
-#    (a bound of the rule's error on a step) exceeds `_EDGE_PRECISION` / `_PRECISION`
-#    times its tolerance. This is what bounds the error at edges: the difference test
-#    alone is fooled whenever an edge sits at the same place relative to the nodes of a
-#    rectangle and of its quarters (a cone's edge crossing a whole row of cells does).
-#    Lobatto nodes lie on the rectangle's boundary, so an edge that crosses the rectangle
-#    separates two of them.
-# Depth is capped at `_MAX_DEPTH`. The error estimate sums the last differences and the
-# mass of the edge quarters left unsplit. Against a 100x finer reference, the light tests
-# (quad, triangle, sphere silhouettes) showed at most 0.05 sigma of error in any cell and
-# 0.03 in the whole chi-square statistic.
+# Quadrature of the density over a cell (README.md, step 3): adaptive 4 x 4 Gauss-Lobatto on a
+# quadtree; a cell's tolerance is _PRECISION times its count's Poisson noise, a rectangle at
+# depth d gets 2^-d of it; a quarter holding an edge of the support is split while half its
+# mass exceeds _EDGE_PRECISION / _PRECISION times its tolerance.
 _LOBATTO_T = np.array([0.0, (1.0 - 1.0 / math.sqrt(5.0)) / 2.0, (1.0 + 1.0 / math.sqrt(5.0)) / 2.0, 1.0])
 _LOBATTO_W = np.array([1.0, 5.0, 5.0, 1.0]) / 12.0
 _PRECISION, _EDGE_PRECISION, _MAX_DEPTH = 0.05, 0.2, 12
 # Cells holding samples where the first level found no density are split this many levels
-# regardless (the nodes may have missed a sliver of support); then as any other cell.
+# regardless (the nodes may have missed a sliver of support).
 _FORCE_DEPTH = 4
 # Points handed to `sample` / `pdf` per call.
 _CHUNK = 1 << 20
-# Samples this close outside the grid's range (rounding: z = -1e-17 in a hemisphere, or on
-# a cap's edge) are binned into the edge cells; |d| may differ from 1 by _UNIT_TOL.
+# Samples this close outside the grid's range (rounding) go to the edge cells; |d| may differ
+# from 1 by _UNIT_TOL.
 _EDGE_EPS, _UNIT_TOL = 1e-9, 1e-6
+# Relative tolerance of the mass check beyond the quadrature's error estimate: the errors
+# along a support's edges add up to about 1e-4 over the domain.
+_MASS_RTOL = 1e-3
 
 
 @dataclass(frozen=True)
@@ -131,9 +111,9 @@ class Grid:
 
 
 def _rect_integrals(fn, grid: Grid, u0, du, p0, dp):
-    """Gauss-Lobatto integral of fn over each rectangle [u0, u0 + du] x [p0, p0 + dp] of
-    grid coordinates (with the grid's Jacobian); whether fn is 0 at some of its nodes and
-    positive at others; and the count of non-finite or negative values (taken as 0)."""
+    """Gauss-Lobatto integral of fn over each rectangle [u0, u0 + du] x [p0, p0 + dp] of grid
+    coordinates; whether fn is 0 at some nodes and positive at others; the count of
+    non-finite or negative values (taken as 0)."""
     t, w = _LOBATTO_T, _LOBATTO_W
     k = len(t)
     out = np.empty(len(u0))
@@ -160,14 +140,12 @@ def _rect_integrals(fn, grid: Grid, u0, du, p0, dp):
 
 
 def integrate(fn: Callable[[np.ndarray], np.ndarray], grid: Grid, *, n: int = DEFAULT_N, observed=None):
-    """Integral of ``fn`` (points -> values >= 0) over every cell of ``grid``.
+    """Integral of ``fn`` (points -> values >= 0) over every cell of ``grid``, precise to a
+    small fraction of the Poisson noise of ``n`` samples; cells with ``observed`` samples
+    but no density at the first level are refined regardless.
 
-    Adaptive Gauss-Lobatto quadrature on a quadtree per cell, precise to a small fraction
-    of the Poisson noise of ``n`` samples (see ``_PRECISION`` above). Cells with
-    ``observed`` samples but a zero integral at the first level (a sliver of support the
-    nodes missed) are split regardless for the first ``_FORCE_DEPTH`` levels.
-    Returns ``(integrals (n_u, n_phi), error_estimate, rectangles, bad_values)``;
-    ``bad_values`` counts non-finite or negative values of ``fn``.
+    Returns ``(integrals (n_u, n_phi), error_estimate, rectangles, bad_values)``
+    (``bad_values``: non-finite or negative values of ``fn``).
     """
     ncell = grid.n_u * grid.n_phi
     cell = np.arange(ncell)
@@ -211,17 +189,10 @@ def integrate(fn: Callable[[np.ndarray], np.ndarray], grid: Grid, *, n: int = DE
 
 
 def pearson(observed, expected, min_expected: float = MIN_EXPECTED):
-    """Pearson's statistic with low-expectation cells pooled, as Mitsuba's ``chi2``.
+    """Pearson's statistic with cells expecting less than ``min_expected`` pooled (README.md,
+    step 4). Cells expecting 0 are left out, their samples returned apart.
 
-    Cells are taken in increasing order of expected count and gathered into a pool until
-    the pool expects at least ``min_expected``; a cell expecting that much alone is its own
-    bin. Where Mitsuba pools only the cells below the threshold and drops what is left of
-    the pool at the end, here a pool still short of the threshold takes in the next cell
-    (of any size), and a pool left over at the end joins the last bin, so that every
-    sample is counted. Cells expecting 0 are left out; samples in them are returned
-    separately (any is a failure).
-    Returns ``(statistic, bins, pooled_in, pooled_out, samples_where_zero_expected)``;
-    the degrees of freedom are ``bins - 1`` when the expected counts sum to the observed.
+    Returns ``(statistic, bins, pooled_in, pooled_out, samples_where_zero_expected)``.
     """
     obs = np.asarray(observed, dtype=np.float64).ravel()
     exp = np.asarray(expected, dtype=np.float64).ravel()
@@ -259,8 +230,7 @@ def pearson(observed, expected, min_expected: float = MIN_EXPECTED):
 
 
 def excess_p_value(diff: float, tol: float, sigma: float) -> float:
-    """Two-sided normal p-value of a difference beyond a numerical tolerance:
-    ``max(0, |diff| - tol) / sigma``; with ``sigma == 0``, 1 within ``tol`` and 0 beyond."""
+    """Two-sided normal p-value of ``max(0, |diff| - tol) / sigma`` (sigma 0: 1 within tol, else 0)."""
     excess = max(0.0, abs(diff) - tol)
     if excess == 0.0:
         return 1.0
@@ -271,15 +241,10 @@ def excess_p_value(diff: float, tol: float, sigma: float) -> float:
 
 @dataclass
 class Chi2Result:
-    """Outcome of :func:`chi2_test` or :func:`discrete_test`.
-
-    ``verdict`` is ``pass``, ``fail`` or ``undetermined`` (nothing to test: no sample was
-    valid and the density has no mass, or all samples fell into one pooled bin);
-    ``passed`` is True only for ``pass``. ``observed`` and ``expected`` are the per-cell
-    counts ((n_u, n_phi) for a grid); ``expected`` is conditioned on the number of valid
-    samples (it sums to ``n_valid``), ``mass`` is the density's integral over the domain
-    and is checked against ``n_valid / n`` separately (``mass_p_value``).
-    """
+    """Outcome of :func:`chi2_test` or :func:`discrete_test`: ``verdict`` ``pass``, ``fail`` or
+    ``undetermined`` (nothing to test); per-cell ``observed`` and ``expected`` counts (the
+    latter summing to ``n_valid``); ``mass``, the density's integral, tested against
+    ``n_valid / n`` (``mass_p_value``)."""
 
     verdict: str
     p_value: float
@@ -322,38 +287,35 @@ def _verdict(problems: list[str], undetermined: str | None) -> tuple[str, str]:
 
 def chi2_test(sample: Callable[[np.ndarray], np.ndarray], pdf: Callable[[np.ndarray], np.ndarray], *,
               domain: str, n: int = DEFAULT_N, seed: int = 0, resolution=DEFAULT_RESOLUTION,
-              alpha: float = DEFAULT_ALPHA, dims: int = 2, cos_range=None, mass_rtol: float = 1e-3,
-              min_expected: float = MIN_EXPECTED) -> Chi2Result:
+              alpha: float = DEFAULT_ALPHA, dims: int = 2, cos_range=None) -> Chi2Result:
     """Test that ``sample`` draws from the density ``pdf``.
 
     Parameters
     ----------
     sample : callable
-        ``sample(u) -> points``: ``u`` is ``(m, dims)`` uniform numbers in [0, 1); points are
-        ``(m, 3)`` unit vectors (``(m, 2)`` for the disk). A row with a non-finite entry is
-        a failed sample (the routine returned nothing, e.g. a direction below the horizon).
+        ``sample(u) -> points``: ``(m, dims)`` uniforms to ``(m, 3)`` unit vectors (``(m, 2)``
+        on the disk); a row with a non-finite entry is a failed sample.
     pdf : callable
-        ``pdf(points) -> (m,)`` density with respect to solid angle (area for the disk).
+        ``pdf(points) -> (m,)`` density in solid angle (area on the disk).
     domain : {'sphere', 'hemisphere', 'disk'}
-    n, seed : samples drawn (numpy's default generator seeded with ``seed``).
+    n, seed : samples drawn, and the seed of numpy's default generator.
     resolution : (cells along cos theta or r^2, cells along phi).
-    alpha : false-positive rate of this call; its two statistical sub-tests (the
-        distribution and the mass) are each run at ``sidak(alpha, 2)``.
-    dims : uniform numbers per sample (3 when the routine also picks a component).
-    cos_range : (lo, hi) to bin only directions with cos theta in [lo, hi] (a cap or band
-        holding the whole support, for concentrated densities); samples outside fail.
-    mass_rtol : relative tolerance of the mass check on top of the quadrature's own error
-        estimate. The quadrature is precise to a fraction of each cell's Poisson noise, but
-        its errors along the edges of a support (a light's silhouette) add up over the
-        domain to about 1e-4; the check resolves a 0.1% error of scale.
+    alpha : false-positive rate of the call (its distribution and mass tests at ``sidak(alpha, 2)``).
+    dims : uniform numbers per sample.
+    cos_range : (lo, hi): bin only cos theta in [lo, hi] (a cap holding the whole support).
 
-    The distribution test is Pearson's on the valid samples: expected counts are
-    ``n_valid * integral(cell) / mass``, cells expecting fewer than ``min_expected`` pooled
-    (:func:`pearson`), ``bins - 1`` degrees of freedom. The mass test compares the
-    integral of ``pdf`` over the domain with the fraction of valid samples (a binomial
-    z-test beyond the integration error), so a density that is right in shape but wrong
-    in scale fails there. Any sample outside the domain, off the unit sphere, or in a cell
-    where the density is 0, and any non-finite or negative density value, fails the test.
+    Returns
+    -------
+    Chi2Result
+        Failed by Pearson's test on the valid samples, by the mass test, and by any sample
+        outside the domain, off the unit sphere or where the density is 0, or any
+        non-finite or negative density value (README.md, "The test").
+
+    Examples
+    --------
+    >>> from benchmarks.chi2.probes import warp
+    >>> chi2_test(*warp("cosine_hemisphere"), domain="hemisphere", n=20_000, resolution=(8, 16)).verdict
+    'pass'
     """
     grid = Grid.make(domain, resolution, cos_range)
     if n < 1:
@@ -378,12 +340,12 @@ def chi2_test(sample: Callable[[np.ndarray], np.ndarray], pdf: Callable[[np.ndar
     mass = float(integrals.sum())
     level = sidak(alpha, 2)
     expected = integrals * (in_grid / mass) if mass > 0 else np.zeros_like(integrals)
-    stat, bins, pooled_in, pooled_out, stray = pearson(counts, expected, min_expected)
+    stat, bins, pooled_in, pooled_out, stray = pearson(counts, expected)
     dof = bins - 1
     p = float(stats.chi2.sf(stat, dof)) if dof >= 1 else 1.0
     frac = n_valid / n
     sigma = math.sqrt(max(mass * (1.0 - mass), 0.0) / n) if 0 < mass < 1 else math.sqrt(frac * (1 - frac) / n)
-    mass_p = excess_p_value(mass - frac, err + mass_rtol * max(mass, frac), sigma)
+    mass_p = excess_p_value(mass - frac, err + _MASS_RTOL * max(mass, frac), sigma)
 
     problems = []
     if nonunit:
@@ -413,8 +375,7 @@ def chi2_test(sample: Callable[[np.ndarray], np.ndarray], pdf: Callable[[np.ndar
         details={"quadrature_rectangles": refined, "outside": outside, "nonunit": nonunit, "level": level})
 
 
-def discrete_test(counts, probabilities, *, alpha: float = DEFAULT_ALPHA,
-                  min_expected: float = MIN_EXPECTED) -> Chi2Result:
+def discrete_test(counts, probabilities, *, alpha: float = DEFAULT_ALPHA) -> Chi2Result:
     """Pearson's test of observed ``counts`` of k outcomes against their ``probabilities``
     (which must sum to 1). Outcomes of probability 0 must not occur; when only one outcome
     is possible the test is exact (p = 1 if every count is in it, else it fails)."""
@@ -426,7 +387,7 @@ def discrete_test(counts, probabilities, *, alpha: float = DEFAULT_ALPHA,
         raise ValueError(f"probabilities must be >= 0 and sum to 1, got {prob}")
     n = int(obs.sum())
     expected = n * prob
-    stat, bins, pooled_in, pooled_out, stray = pearson(obs, expected, min_expected)
+    stat, bins, pooled_in, pooled_out, stray = pearson(obs, expected)
     dof = bins - 1
     p = float(stats.chi2.sf(stat, dof)) if dof >= 1 else 1.0
     problems = []

@@ -1,18 +1,7 @@
-"""Adapters from the tracer's sampling routines to ``sample(u)`` / ``pdf(points)`` callables.
-
-Warps and BSDFs run through the C++ core's batch probes (:mod:`reference_tracer.probe`:
-``warp_sample``, ``warp_pdf``, ``bsdf_sample``, ``bsdf_eval_pdf``, from
-reference_tracer/cpp/sampling_probe.cpp),
-which call the routines of ``sampling/warp.h`` and the material dispatch the integrator
-uses. Light sampling runs through a compiled scene's ``sample_lights`` / ``light_pdf``,
-i.e. the scene's own LightSampler (emitter selection by power, background share,
-per-shape point sampling, and ``pdf_all``, the density the ``mixture`` strategy uses).
-
-Failed samples (the routine returned nothing) come back as rows of NaN, which
-:func:`benchmarks.chi2.pearson.chi2_test` counts as invalid.
-
-The Fresnel reflectances here are an independent statement of the formulas (the
-expectation the dielectric's lobe choice is tested against), not the tracer's code.
+"""Adapters from the tracer's sampling routines to ``sample(u)`` / ``pdf(points)`` callables:
+warps and BSDFs through the core's batch probes (:mod:`reference_tracer.probe`), light
+sampling through a compiled scene's ``sample_lights`` / ``light_pdf``. A failed sample is a
+row of NaN. The Fresnel formulas here are an independent statement, not the tracer's code.
 """
 from __future__ import annotations
 
@@ -39,8 +28,8 @@ def direction(theta_deg: float, phi_deg: float = 0.0) -> np.ndarray:
 
 
 def frame(axis) -> np.ndarray:
-    """A rotation (3, 3) whose rows are an orthonormal basis with ``axis`` (normalised) last:
-    ``world @ R.T`` gives coordinates in which ``axis`` is +z; ``local @ R`` maps back."""
+    """A rotation whose rows are an orthonormal basis with ``axis`` (normalised) last: ``world @
+    R.T`` gives coordinates in which ``axis`` is +z; ``local @ R`` maps back."""
     n = np.asarray(axis, dtype=np.float64)
     n = n / np.linalg.norm(n)
     helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
@@ -62,15 +51,9 @@ def warp(name: str, param: float = 0.0):
 
 @dataclass
 class BsdfProbe:
-    """One material at one outgoing direction ``wo`` (local frame, unit), through
-    ``rt::bsdf_sample``, ``rt::bsdf_eval`` and ``rt::bsdf_pdf``.
-
-    ``param`` is alpha for ``rough_conductor`` and the rough plastics, and the index of
-    refraction for ``dielectric`` / ``dielectric_schlick``. ``albedo`` is a plastic's
-    diffuse reflectance; ``coating`` its other options, as the probe takes them: ``eta``
-    (int_ior / ext_ior), ``specular`` (specular_reflectance, (3,)) and ``nonlinear``
-    (Mitsuba's defaults where not given).
-    """
+    """One material at one outgoing direction ``wo`` (local frame): ``param`` is a rough
+    material's alpha or a dielectric's index; ``albedo`` a diffuse reflectance; ``coating``
+    a plastic's ``eta``, ``specular`` and ``nonlinear`` or a rough dielectric's ``eta``."""
 
     material: str
     wo: np.ndarray
@@ -85,8 +68,7 @@ class BsdfProbe:
 
     def sample_full(self, u) -> dict:
         """Every field of the samples of (n, 3) uniforms: wi, weight, pdf, eta, delta, valid."""
-        return probe.bsdf_sample(self.material, self.wo, _c(u), _c(self.albedo), float(self.param),
-                                 **self._options)
+        return probe.bsdf_sample(self.material, self.wo, _c(u), _c(self.albedo), float(self.param), **self._options)
 
     def sample(self, u) -> np.ndarray:
         """Directions of (n, 3) uniforms, NaN rows where the sampler failed."""
@@ -95,8 +77,7 @@ class BsdfProbe:
 
     def eval_pdf(self, wi) -> dict:
         """``value`` (f * cos, (n, 3)) and ``pdf`` ((n,)) at directions wi."""
-        return probe.bsdf_eval_pdf(self.material, self.wo, _c(wi), _c(self.albedo), float(self.param),
-                                   **self._options)
+        return probe.bsdf_eval_pdf(self.material, self.wo, _c(wi), _c(self.albedo), float(self.param), **self._options)
 
     def pdf(self, wi) -> np.ndarray:
         return self.eval_pdf(wi)["pdf"]
@@ -104,15 +85,10 @@ class BsdfProbe:
 
 @dataclass
 class LightProbe:
-    """Light sampling from the point ``ref`` of a scene holding ``shapes`` (emitters and
-    any other shapes), a constant ``background`` and ``lights`` (an EnvMap, delta lights).
-
-    ``rotation`` (rows: a basis, see :func:`frame`) expresses directions in a frame of the
-    caller's choice (e.g. +z toward a small light, to bin a concentrated density on a
-    cap): ``sample`` returns local directions and ``pdf`` takes them. A delta light's
-    sample has no density: ``sample`` returns it as a failed one (NaN), and the density
-    then integrates to the share of the other samples.
-    """
+    """Light sampling from the point ``ref`` of a scene of ``shapes``, a constant ``background``
+    and ``lights``. ``sample`` returns and ``pdf`` takes directions in the frame of
+    ``rotation`` (:func:`frame`: e.g. +z toward a small light); a delta light's sample is
+    returned as a failed one."""
 
     shapes: list
     ref: np.ndarray
@@ -150,9 +126,8 @@ class LightProbe:
 
 
 def fresnel_exact(cos_i: float, ior: float) -> float:
-    """Unpolarised Fresnel reflectance of a smooth interface (outside index 1, inside
-    ``ior``) for light arriving at cosine ``cos_i`` to the outward normal (negative:
-    from inside); 1 under total internal reflection."""
+    """Unpolarised Fresnel reflectance of a smooth interface (index 1 outside, ``ior`` inside)
+    at cosine ``cos_i`` to the outward normal (negative: from inside)."""
     n1, n2 = (1.0, ior) if cos_i >= 0 else (ior, 1.0)
     ci = abs(cos_i)
     sin_t2 = (n1 / n2) ** 2 * (1.0 - ci * ci)
@@ -165,9 +140,7 @@ def fresnel_exact(cos_i: float, ior: float) -> float:
 
 
 def fresnel_schlick(cos_i: float, ior: float) -> float:
-    """The book's Schlick approximation R0 + (1 - R0)(1 - |cos_i|)^5, R0 = ((1 - ior) /
-    (1 + ior))^2, with total internal reflection exact (what Dielectric(fresnel='schlick')
-    promises)."""
+    """Schlick's approximation R0 + (1 - R0)(1 - |cos_i|)^5, total internal reflection exact."""
     if fresnel_exact(cos_i, ior) == 1.0:
         return 1.0
     r0 = ((1.0 - ior) / (1.0 + ior)) ** 2
@@ -175,9 +148,8 @@ def fresnel_schlick(cos_i: float, ior: float) -> float:
 
 
 def refract_expected(wo: np.ndarray, ior: float):
-    """Snell's law for the outgoing direction ``wo`` (local, +z the outside normal):
-    the transmitted direction (None under total internal reflection) and the relative
-    index crossed n_t / n_i."""
+    """Snell's law for ``wo`` (+z the outside normal): the transmitted direction (None under
+    total internal reflection) and the relative index n_t / n_i."""
     n1, n2 = (1.0, ior) if wo[2] >= 0 else (ior, 1.0)
     eta = n2 / n1
     tangent = -np.array([wo[0], wo[1], 0.0]) / eta

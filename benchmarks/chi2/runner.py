@@ -1,21 +1,23 @@
-"""The runner behind ``rtbench chi2``: one routine's chi-square test and the checks beside
-it (weights equal ``eval / pdf``, sampled pdfs equal ``pdf()``, albedos, Dirac lobes, delta
-lights), as :mod:`.catalogue` lists them."""
+"""One routine of the catalogue (:class:`Routine`), and the runner behind ``rtbench chi2``
+(:func:`run_routine`): its chi-square test and the checks beside it (README.md here, "Checks
+beside the distribution"), with their outcome (:class:`Row`)."""
 from __future__ import annotations
 
 import math
 import time
+import zlib
+from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
 from ..constants import LUMINANCE_WEIGHTS
 
-from .pearson import (DEFAULT_ALPHA, DEFAULT_N, DEFAULT_RESOLUTION, Grid, chi2_test, discrete_test, excess_p_value,
-                      integrate, sidak)
+from .pearson import (DEFAULT_ALPHA, DEFAULT_N, DEFAULT_RESOLUTION, Chi2Result, Grid, chi2_test, discrete_test,
+                      excess_p_value, integrate, sidak)
 from .probes import BsdfProbe, LightProbe, refract_expected
-from .routine import Routine, Row
 
-__all__ = ["run_routine"]
+__all__ = ["Routine", "Row", "run_routine"]
 
 # Relative tolerance of the deterministic identities (weight = eval / pdf, the sampler's pdf
 # = pdf(), mirror and Snell directions): the same double-precision routines on both sides.
@@ -25,6 +27,54 @@ _CHUNK = 1 << 20
 # Relative tolerance of a light sample's pdf against light_pdf in its direction: the
 # sampled point and the ray's hit point differ by the rounding of a ray intersection.
 _LIGHT_RTOL = 1e-6
+_LUM = np.asarray(LUMINANCE_WEIGHTS)
+
+
+@dataclass(frozen=True)
+class Routine:
+    """One routine with one set of parameters. ``make()`` builds its probe lazily."""
+
+    name: str
+    params: tuple              # ((key, value), ...), shown in tables
+    kind: str                  # 'warp', 'bsdf', 'mixed' (a Dirac lobe beside a density), 'lobes' or 'light'
+    make: Callable[[], dict] = field(compare=False, repr=False)   # -> the probe and its test settings
+
+    @property
+    def param_text(self) -> str:
+        return ", ".join(f"{k}={v}" for k, v in self.params)
+
+    @property
+    def label(self) -> str:
+        return f"{self.name}[{self.param_text}]" if self.params else self.name
+
+    def seed(self, base: int) -> int:
+        """A seed of its own per routine (stable whatever else is run), from ``base``."""
+        return (zlib.crc32(self.label.encode()) + 7919 * int(base)) % 2**32
+
+
+@dataclass
+class Row:
+    """The outcome of one routine's tests: ``verdict`` over all its checks."""
+
+    routine: str
+    params: str
+    n: int
+    p_value: float
+    verdict: str
+    seconds: float
+    message: str = ""
+    checks: dict = field(default_factory=dict)
+    result: Chi2Result | None = field(default=None, repr=False)
+
+    @property
+    def passed(self) -> bool:
+        return self.verdict == "pass"
+
+    def to_json(self) -> dict:
+        stats = ("alpha", "statistic", "dof", "n_valid", "mass", "mass_p_value", "pooled_in", "pooled_out")
+        return {"routine": self.routine, "params": self.params, "n": self.n, "p_value": self.p_value,
+                "verdict": self.verdict, "seconds": round(self.seconds, 3), "message": self.message,
+                **{k: getattr(self.result, k, None) for k in stats}, "checks": self.checks}
 
 
 def _chunks(n: int, seed: int, dims: int = 3):
@@ -34,33 +84,46 @@ def _chunks(n: int, seed: int, dims: int = 3):
         yield rng.random((min(_CHUNK, n - start), dims))
 
 
+def _weight_stats(w_sum: float, w_sq: float, n: int) -> tuple:
+    """Mean and standard error of ``n`` sample weights from their sum and sum of squares."""
+    mean = w_sum / n
+    return mean, math.sqrt(max(w_sq / n - mean * mean, 0.0) / max(n - 1, 1))
+
+
+def _mismatches(s: dict, rows, probe: BsdfProbe) -> tuple:
+    """Samples ``rows`` whose weight is not eval / pdf, and whose pdf is not pdf()."""
+    ev = probe.eval_pdf(s["wi"][rows])
+    ratio = ev["value"] / ev["pdf"][:, None]
+    return (int((~np.isclose(s["weight"][rows], ratio, rtol=_RTOL, atol=0)).any(axis=1).sum()),
+            int((~np.isclose(s["pdf"][rows], ev["pdf"], rtol=_RTOL, atol=0)).sum()))
+
+
+def _albedo_check(probe: BsdfProbe, grid: Grid, n: int, mean: float, se: float, level: float, *,
+                  offset: float = 0.0, key: str = "expected") -> dict:
+    """The integral of f cos (plus ``offset``, a Dirac lobe's share; reported as ``key``) against
+    the mean weight."""
+    integ, err, _, bad = integrate(lambda d: probe.eval_pdf(d)["value"] @ _LUM, grid, n=n)
+    albedo = offset + float(integ.sum())
+    p = excess_p_value(albedo - mean, err + _RTOL * abs(albedo), se)
+    return {"ok": p >= level and bad == 0, key: albedo, "mean_weight": mean, "se": se,
+            "integration_error": err, "p_value": p}
+
+
 def _bsdf_checks(probe: BsdfProbe, grid: Grid, n: int, seed: int, level: float) -> dict:
     """weight = eval / pdf and pdf = pdf() at every sample; albedo = mean weight."""
-    lum = np.asarray(LUMINANCE_WEIGHTS)
     bad_weight = bad_pdf = valid_count = 0
     w_sum = w_sq = 0.0
     for u in _chunks(n, seed):
         s = probe.sample_full(u)
         valid = s["valid"].astype(bool)
-        ev = probe.eval_pdf(s["wi"][valid])
-        w, p = s["weight"][valid], s["pdf"][valid]
-        ratio = ev["value"] / ev["pdf"][:, None]
-        bad_weight += int((~np.isclose(w, ratio, rtol=_RTOL, atol=0)).any(axis=1).sum())
-        bad_pdf += int((~np.isclose(p, ev["pdf"], rtol=_RTOL, atol=0)).sum())
-        valid_count += int(valid.sum())
-        wl = w @ lum                       # failed samples weigh 0
-        w_sum += float(wl.sum())
-        w_sq += float((wl * wl).sum())
-    mean = w_sum / n
-    se = math.sqrt(max(w_sq / n - mean * mean, 0.0) / max(n - 1, 1))
-    integ, err, _, bad = integrate(lambda d: probe.eval_pdf(d)["value"] @ lum, grid, n=n)
-    albedo = float(integ.sum())
-    p_albedo = excess_p_value(albedo - mean, err + _RTOL * abs(albedo), se)
+        bw, bp = _mismatches(s, valid, probe)
+        bad_weight, bad_pdf, valid_count = bad_weight + bw, bad_pdf + bp, valid_count + int(valid.sum())
+        wl = s["weight"][valid] @ _LUM                       # failed samples weigh 0
+        w_sum, w_sq = w_sum + float(wl.sum()), w_sq + float((wl * wl).sum())
     return {
         "weight_is_eval_over_pdf": {"ok": bad_weight == 0, "mismatches": bad_weight, "samples": valid_count},
         "sample_pdf_is_pdf": {"ok": bad_pdf == 0, "mismatches": bad_pdf},
-        "albedo": {"ok": p_albedo >= level and bad == 0, "integral_f_cos": albedo, "mean_weight": mean,
-                   "se": se, "integration_error": err, "p_value": p_albedo},
+        "albedo": _albedo_check(probe, grid, n, *_weight_stats(w_sum, w_sq, n), level, key="integral_f_cos"),
     }
 
 
@@ -68,46 +131,33 @@ def _mixed_checks(spec: dict, grid: Grid, n: int, seed: int, level: float):
     """The smooth plastic's samples: the specular ones in the mirror direction with weight
     ks F / Ps, the diffuse ones with weight eval / pdf and pdf = pdf(); their counts against
     Ps (a discrete test at ``level``); the mean weight against ks F plus the diffuse lobe's
-    albedo (at ``level``). Returns the discrete test's result and the checks."""
+    albedo. Returns the discrete test's result and the checks."""
     probe: BsdfProbe = spec["probe"]
-    wo, F, ks = probe.wo, spec["F"], spec["specular"]
-    p_specular = spec["p_specular"]
+    wo, F, ks, p_specular = probe.wo, spec["F"], spec["specular"], spec["p_specular"]
     mirror = np.array([-wo[0], -wo[1], wo[2]])
-    lum = np.asarray(LUMINANCE_WEIGHTS)
     bad_dir = bad_spec = bad_weight = bad_pdf = n_spec = n_diff = 0
     w_sum = w_sq = 0.0
     for u in _chunks(n, seed):
         s = probe.sample_full(u)
         valid, delta = s["valid"].astype(bool), s["delta"].astype(bool)
-        spec_rows = valid & delta
+        spec_rows, diff_rows = valid & delta, valid & ~delta
         bad_dir += int((~np.all(np.abs(s["wi"][spec_rows] - mirror) <= _RTOL, axis=1)).sum())
         bad_spec += int((~np.isclose(s["weight"][spec_rows], ks * (F / p_specular), rtol=_RTOL, atol=0))
                         .any(axis=1).sum())
-        diff_rows = valid & ~delta
-        ev = probe.eval_pdf(s["wi"][diff_rows])
-        ratio = ev["value"] / ev["pdf"][:, None]
-        bad_weight += int((~np.isclose(s["weight"][diff_rows], ratio, rtol=_RTOL, atol=0)).any(axis=1).sum())
-        bad_pdf += int((~np.isclose(s["pdf"][diff_rows], ev["pdf"], rtol=_RTOL, atol=0)).sum())
-        n_spec += int(spec_rows.sum())
-        n_diff += int(diff_rows.sum())
-        wl = np.where(valid, s["weight"] @ lum, 0.0)
-        w_sum += float(wl.sum())
-        w_sq += float((wl * wl).sum())
+        bw, bp = _mismatches(s, diff_rows, probe)
+        bad_weight, bad_pdf = bad_weight + bw, bad_pdf + bp
+        n_spec, n_diff = n_spec + int(spec_rows.sum()), n_diff + int(diff_rows.sum())
+        wl = np.where(valid, s["weight"] @ _LUM, 0.0)
+        w_sum, w_sq = w_sum + float(wl.sum()), w_sq + float((wl * wl).sum())
     res = discrete_test([n_spec, n - n_spec], [p_specular, 1.0 - p_specular], alpha=level)
     res.details.update(p_specular=p_specular, specular=n_spec, other=n - n_spec)
-    mean = w_sum / n
-    se = math.sqrt(max(w_sq / n - mean * mean, 0.0) / max(n - 1, 1))
-    integ, err, _, bad = integrate(lambda d: probe.eval_pdf(d)["value"] @ lum, grid, n=n)
-    albedo = float(ks @ lum) * F + float(integ.sum())
-    p_albedo = excess_p_value(albedo - mean, err + _RTOL * abs(albedo), se)
     checks = {
         "specular_is_mirror": {"ok": bad_dir == 0, "mismatches": bad_dir, "samples": n_spec},
         "specular_weight_is_ks_F_over_Ps": {"ok": bad_spec == 0, "mismatches": bad_spec},
         "diffuse_weight_is_eval_over_pdf": {"ok": bad_weight == 0, "mismatches": bad_weight, "samples": n_diff},
         "sample_pdf_is_pdf": {"ok": bad_pdf == 0, "mismatches": bad_pdf},
         "every_sample_valid": {"ok": n_spec + n_diff == n, "invalid": n - n_spec - n_diff},
-        "albedo": {"ok": p_albedo >= level and bad == 0, "expected": albedo, "mean_weight": mean, "se": se,
-                   "integration_error": err, "p_value": p_albedo},
+        "albedo": _albedo_check(probe, grid, n, *_weight_stats(w_sum, w_sq, n), level, offset=float(ks @ _LUM) * F),
     }
     return res, checks
 
@@ -202,8 +252,7 @@ def _lobe_run(spec: dict, n: int, seed: int, alpha: float):
             t_err = max(t_err, float(np.abs(wi[trans] - t_dir).max()) if t_dir is not None else math.inf)
             trans_ok &= bool(np.allclose(weight[trans], 1.0 / t_eta ** 2, rtol=_RTOL, atol=0)
                              and np.allclose(eta[trans], t_eta, rtol=_RTOL, atol=0))
-    checks = {"all_valid_and_delta": {"ok": flags_ok},
-              "reflection": {"ok": refl_ok, "count": n_refl}}
+    checks = {"all_valid_and_delta": {"ok": flags_ok}, "reflection": {"ok": refl_ok, "count": n_refl}}
     if n_trans:
         checks["transmission_snell"] = {"ok": trans_ok and t_err <= _RTOL, "max_direction_error": t_err,
                                         "count": n_trans}
@@ -233,15 +282,13 @@ def run_routine(routine: Routine, *, n: int = DEFAULT_N, seed: int = 0, alpha: f
             checks = _bsdf_checks(spec["probe"], grid, n, s + 1, a)
         elif routine.kind == "mixed":
             lobes, checks = _mixed_checks(spec, Grid.make("hemisphere", res.resolution), n, s + 1, a)
-            checks["specular_share"] = {"ok": lobes.verdict == "pass", "p_value": lobes.p_value,
-                                        **lobes.details}
+            checks["specular_share"] = {"ok": lobes.verdict == "pass", "p_value": lobes.p_value, **lobes.details}
         elif routine.kind == "light":
             checks = _light_checks(spec["probe"], spec["single"], n, s + 1, spec.get("reported"))
             if spec.get("deltas"):
                 shares, delta_checks = _delta_checks(spec["probe"], spec["deltas"], n, s + 2, a)
                 checks.update(delta_checks)
-                checks["delta_shares"] = {"ok": shares.verdict == "pass", "p_value": shares.p_value,
-                                          **shares.details}
+                checks["delta_shares"] = {"ok": shares.verdict == "pass", "p_value": shares.p_value, **shares.details}
     failed = [k for k, v in checks.items() if not v["ok"]]
     verdict, message = res.verdict, res.message
     if failed:

@@ -13,7 +13,6 @@ DEFAULT_OUT = "rtbench-out/chi2"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from benchmarks.chi2.pearson import DEFAULT_ALPHA
-
     from benchmarks.commands import _args as A
 
     parser.add_argument("--routine", action="append", metavar="PREFIX", default=[],
@@ -32,31 +31,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     from rich.console import Console
-    from rich.markup import escape
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-    from rich.table import Table
 
     from benchmarks.chi2.catalogue import select
-    from benchmarks.chi2.runner import run_routine
     from benchmarks.chi2.pearson import sidak
-
+    from benchmarks.chi2.plot import file_name, save_histograms
+    from benchmarks.chi2.runner import run_routine
     from benchmarks.commands._args import check
+    from benchmarks.text import terminal, text_table
 
     check(args)
     routines = select(args.routine)        # ValueError (exit 2) for a prefix that matches nothing
-    console = Console()
-    if not console.is_terminal:   # piped or captured: keep the rows on one line each
-        console = Console(width=160)
-    quiet = Console(quiet=True) if args.quiet else console
     if args.list:
-        for r in routines:
-            console.print(r.label, highlight=False, markup=False)
+        print("\n".join(r.label for r in routines))
         return 0
-    per_test = sidak(args.alpha, len(routines))   # ValueError for alpha outside (0, 1)
-
+    per_test = sidak(args.alpha, len(routines))
     rows = []
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                  TimeElapsedColumn(), console=quiet, transient=True) as progress:
+                  TimeElapsedColumn(), console=Console(quiet=args.quiet), transient=True) as progress:
         task = progress.add_task("chi2", total=len(routines))
         for r in routines:
             progress.update(task, description=f"chi2 {r.label}")
@@ -66,45 +58,24 @@ def run(args) -> int:
                 progress.console.print(f"  {r.label}: {row.verdict} - {row.message}", style="dim",
                                        highlight=False, markup=False)
             progress.advance(task)
-    images = _write_images(rows, args)   # an OSError here: exit 3 (benchmarks.cli)
+    images = 0   # an OSError while writing: exit 3 (benchmarks.cli)
+    for r, row in rows:
+        if row.result is not None and (args.images == "all" or args.images == "failures" and not row.passed):
+            save_histograms(row.result, f"{args.out}/{file_name(r.label)}", title=r.label)
+            images += 1
     if args.json:
         with open(args.json, "w") as fh:
             json.dump([row.to_json() for _, row in rows], fh, indent=1, default=float)
-
-    table = Table(title=f"rtbench chi2: {len(rows)} routines, {args.samples} samples each, "
-                        f"alpha {args.alpha} for the run ({per_test:.2e} per routine)")
-    table.add_column("routine", style="bold", no_wrap=True)
-    table.add_column("params")
-    table.add_column("n", justify="right")
-    table.add_column("p-value", justify="right")
-    table.add_column("verdict", no_wrap=True)
-    table.add_column("s", justify="right")
-    for _, row in rows:
-        style = {"pass": "green", "fail": "bold red"}.get(row.verdict, "yellow")
-        table.add_row(row.routine, row.params, str(row.n), f"{row.p_value:.3g}", f"[{style}]{row.verdict}[/{style}]",
-                      f"{row.seconds:.1f}")
-    quiet.print(table)
+    if not args.quiet:
+        print(f"rtbench chi2: {len(rows)} routines, {args.samples} samples each, alpha {args.alpha} for the run "
+              f"({per_test:.2e} per routine)")
+        print(text_table(["routine", "params", "n", "p-value", "verdict", "s"],
+                         [[row.routine, row.params, row.n, f"{row.p_value:.3g}", row.verdict, f"{row.seconds:.1f}"]
+                          for _, row in rows]))
     if images:
-        console.print(f"{images} images in {args.out}/")
-    failed = [f"{r.label}: {row.message}" for r, row in rows if row.verdict == "fail"]
-    undetermined = [f"{r.label}: {row.message}" for r, row in rows if row.verdict == "undetermined"]
-    for line in undetermined:
-        console.print(f"[yellow]undetermined[/yellow] {escape(line)}", highlight=False)
-    for line in failed:
-        console.print(f"[bold red]failed[/bold red] {escape(line)}", highlight=False)
-    return 1 if failed else 0
-
-
-def _write_images(rows, args) -> int:
-    from benchmarks.chi2.plot import file_name, save_histograms
-
-    if args.images == "none":
-        return 0
-    count = 0
-    for r, row in rows:
-        if args.images == "failures" and row.passed:
-            continue
-        if row.result is not None:
-            save_histograms(row.result, f"{args.out}/{file_name(r.label)}", title=r.label)
-            count += 1
-    return count
+        print(f"{images} images in {args.out}/")
+    for verdict in ("undetermined", "fail"):
+        for r, row in rows:
+            if row.verdict == verdict:
+                print(terminal(f"{'failed' if verdict == 'fail' else verdict} {r.label}: {row.message}"))
+    return 1 if any(row.verdict == "fail" for _, row in rows) else 0

@@ -1,19 +1,7 @@
-"""``rtbench corpus DIR``: every Mitsuba scene of a folder, loaded, imported and judged.
-
-For each ``*.xml`` under ``DIR`` (recursive; fragments that other files ``<include>`` and
-files whose root is not ``<scene>`` are skipped and listed) the status is one of
-``agrees``, ``disagrees``, ``render-error``, ``refused`` (with the features it still
-needs), ``out-of-scope`` (with the plugin), ``mitsuba-fails`` (with Mitsuba's reason) or
-``timeout`` (:mod:`benchmarks.corpus`). Agreement is judged on the unmodified file: Mitsuba's
-``mi.load_file`` against ours through ``from_mitsuba``, both with the film made at most
-``--width`` pixels wide (aspect ratio kept), ``--spp`` samples each (ours ``mis``; Mitsuba in
-``--batches`` batches for its variance), every channel's global ``|z| <= 4`` and at most 1%
-of pixel values with ``|z| > 4``.
-
-Writes ``corpus.json`` (after every scene) and ``corpus.md`` (a Markdown section with the
-data's provenance) into ``--out``, prints one line per scene, the table and a summary. A
-rerun into the same ``--out`` reuses every verdict whose scene files, settings and build
-are unchanged. Exit 1 when a scene disagrees.
+"""``rtbench corpus DIR``: every Mitsuba scene of a folder, loaded, imported and judged
+(:mod:`benchmarks.corpus`; ``docs/mitsuba.md``). Writes ``corpus.json`` after every scene and
+``corpus.md`` into ``--out``; a rerun there reuses every verdict whose scene files, settings
+and build are unchanged. Exit 1 when a scene disagrees.
 """
 from __future__ import annotations
 
@@ -69,11 +57,8 @@ def default_out(folder) -> str:
 
 
 def git_provenance(folder) -> dict | None:
-    """``{"commit", "date"}`` of the git checkout holding ``folder``, or None.
-
-    Only ``git rev-parse`` and ``git show -s`` run (nothing that refreshes the index or
-    runs a repository's hooks), with ``core.fsmonitor`` off.
-    """
+    """``{"commit", "date"}`` of the git checkout holding ``folder``, or None (only ``rev-parse``
+    and ``show -s`` run, ``core.fsmonitor`` off: nothing runs a repository's hooks)."""
     def git(*cmd):
         try:
             out = subprocess.run(["git", "-c", "core.fsmonitor=false", "-C", str(folder), *cmd],

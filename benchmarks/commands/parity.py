@@ -1,11 +1,7 @@
-"""``rtbench parity [SCENE...] [--scene PATH]``: first-hit AOVs at pixel centres, ours vs Mitsuba.
-
-Deterministic: one ray per pixel centre in each renderer; hit distance, shading normal,
-albedo, emitted radiance and the shape hit are compared with float tolerances
-(:mod:`benchmarks.parity`). A scene file in Mitsuba XML is loaded by Mitsuba itself
-(``mi.load_file``, at the file's own size) and by us through ``from_mitsuba``: the check
-judges the import. Suite scenes and Python files go to Mitsuba through ``to_mitsuba``.
-Mismatch maps (PNG, EXR) of failing scenes go to ``--out``; exit 1 on a mismatch.
+"""``rtbench parity [SCENE...] [--scene PATH]``: first-hit AOVs at pixel centres, ours vs Mitsuba
+(:mod:`benchmarks.parity`). A Mitsuba XML file is loaded by Mitsuba itself (at its own size)
+and by us through ``from_mitsuba``; suite scenes and Python files reach Mitsuba through
+``to_mitsuba``. Mismatch maps of failing scenes go to ``--out``; exit 1 on a mismatch.
 """
 from __future__ import annotations
 
@@ -49,10 +45,8 @@ def parity_of(name: str, *, width: int | None = None, height: int | None = None)
 
 
 def check_user_scenes(names, out, *, say=print) -> bool:
-    """Parity of the scene files among ``names`` (``gate`` and ``curves`` run it first).
-
-    Returns True when all pass; prints each failure's findings and mismatch maps.
-    """
+    """Parity of the scene files among ``names`` (``gate`` and ``curves`` run it first): True
+    when all pass; each failure's findings and mismatch maps are printed."""
     from mitsuba_scenes.scene_files import scene_file
 
     ok = True
@@ -83,8 +77,9 @@ def _explain(report, out) -> None:
 def run(args) -> int:
     from mitsuba_scenes import list_scenes
 
-    if args.width < 1 or (args.height is not None and args.height < 1):
-        raise ValueError("--width and --height must be >= 1")
+    from benchmarks.commands._args import check
+
+    check(args)
     names = resolve_scenes(args, suite_names=args.scenes, default=list_scenes())
     unknown = [s for s in args.scenes if s not in list_scenes()]
     if unknown:

@@ -1,25 +1,9 @@
-"""One scene of a corpus, judged: does Mitsuba load it, do we import it, do the renders agree?
-
-:func:`judge_scene` runs in the corpus worker process (:mod:`benchmarks.corpus.worker`),
-one scene at a time, and returns a plain dict (the scene's record in ``corpus.json``).
-The steps, each on the unmodified file:
-
-1. The file's ``$name`` parameters without a default get a value (``$spp``-like ones the
-   budget, others ``1``), found by parsing until Mitsuba stops asking.
-2. Mitsuba loads it (:func:`mitsuba_scenes.render.load_file`) with its film made small
-   (:func:`small_film`: ``width`` pixels wide at most, the height keeping the aspect ratio).
-3. We import it (:func:`mitsuba_scenes.from_mitsuba`) with the same film size.
-4. Both render it, ours with ``mis`` (Mitsuba's path estimator; in a scene with Mitsuba's
-   ``direct`` integrator, the same integrator's techniques) and Mitsuba in batches for its
-   variance, and :func:`benchmarks.gate.agreement.agreement` judges the pair (every channel's
-   global ``|z| <= 4``, at most 1% of pixel values with ``|z| > 4``; a filtered image's
-   variances through the filter's weights), with no pixel value differing where neither
-   render has spread.
-
-The status (:data:`STATUSES`) is the first that applies: ``out-of-scope`` (our refusal
-names a plugin of :data:`OUT_OF_SCOPE`, or Mitsuba needs a spectral variant),
-``mitsuba-fails``, ``refused`` (the features it still needs), ``render-error`` (our
-import or a render raised), ``agrees`` or ``disagrees``.
+"""One scene of a corpus, judged on the unmodified file (:func:`judge_scene`, in the worker
+process): its ``$name`` parameters given values, Mitsuba loads it and we import it with the
+film made small (:func:`small_film`), both render it and
+:func:`benchmarks.gate.agreement.agreement` judges the pair. The status is the first of
+``out-of-scope`` (a plugin of :data:`OUT_OF_SCOPE`, or spectral-only data),
+``mitsuba-fails``, ``refused``, ``render-error``, ``agrees`` / ``disagrees`` that applies.
 """
 from __future__ import annotations
 
@@ -39,7 +23,7 @@ from ..gate.agreement import SHARE_LIMIT, Z_LIMIT, agreement
 
 __all__ = ["STATUSES", "OUT_OF_SCOPE", "OUT_OF_SCOPE_KINDS", "Z_LIMIT", "SHARE_LIMIT", "small_film",
            "out_of_scope", "compact_feature", "clean_message", "scene_plugins",
-           "judge_scene", "setup"]
+           "judge_scene", "setup", "cut"]
 
 #: every status, in the order tables list them.
 STATUSES = ("agrees", "disagrees", "render-error", "refused", "out-of-scope", "mitsuba-fails", "timeout")
@@ -66,8 +50,8 @@ MAX_MESSAGE = 600
 
 
 def small_film(width: int, height: int, max_width: int) -> tuple:
-    """The film size to render at: ``(width, height)`` itself when at most ``max_width`` wide,
-    else ``max_width`` wide with the height keeping the aspect ratio (rounded, at least 1).
+    """``(width, height)`` when at most ``max_width`` wide, else ``max_width`` wide with the aspect
+    ratio kept (the height rounded, at least 1).
 
     >>> small_film(768, 512, 48), small_film(960, 720, 48), small_film(32, 32, 48)
     ((48, 32), (48, 36), (32, 32))
@@ -77,13 +61,12 @@ def small_film(width: int, height: int, max_width: int) -> tuple:
     return int(max_width), max(1, int(round(height * max_width / width)))
 
 
-_FILE_TOKEN = re.compile(r"'?[^\s':]*\.(?:obj|ply|serialized|xml|exr|png|jpe?g|hdr|pfm|bmp|tga|spd|vol|m3hair)'?",
-                         re.I)
+_FILE_TOKEN = re.compile(r"'?[^\s':]*\.(?:obj|ply|serialized|xml|exr|png|jpe?g|hdr|pfm|bmp|tga|spd|vol|m3hair)'?", re.I)
 
 
 def compact_feature(feature: str) -> str:
-    """A feature's name without its explanation, so that scenes needing the same thing count
-    together: file names become ``FILE``, then the text before the first ``" ("`` or ``": "``.
+    """A feature without its explanation (file names become ``FILE``; the text before ``" ("`` or
+    ``": "``), so that scenes needing the same thing count together.
 
     >>> compact_feature("emitter 'envmap' (only 'area' on shapes and 'constant')")
     "emitter 'envmap'"
@@ -95,10 +78,9 @@ def compact_feature(feature: str) -> str:
 
 
 def out_of_scope(features, mitsuba_error: str | None = None, plugins=()) -> list:
-    """The out-of-scope items (``"hair: bsdf 'hair'"``) among our refusal's ``features`` and
-    the scene's ``plugins`` (``(kind, name)`` pairs, nested ones included: a ``volpath`` inside
-    Mitsuba's ``moment``), and ``"spectral-only data: ..."`` when Mitsuba's error says it
-    needs a spectral variant.
+    """The out-of-scope items among our refusal's ``features`` and the scene's ``plugins``
+    (``(kind, name)`` pairs, nested ones included), and ``"spectral-only data: ..."`` when
+    Mitsuba's error says it needs a spectral variant.
 
     >>> out_of_scope(["bsdf 'hair'", "emitter 'envmap' (only ...)"], plugins=[("integrator", "volpath")])
     ["hair: bsdf 'hair'", "participating media: integrator 'volpath'"]
@@ -115,13 +97,18 @@ def out_of_scope(features, mitsuba_error: str | None = None, plugins=()) -> list
 
 
 def clean_message(text, root=None) -> str:
-    """One line of an error message: Mitsuba's ``[parser.cpp:451]`` tags dropped, the folder
-    ``root`` dropped from paths, at most :data:`MAX_MESSAGE` characters."""
+    """One line of an error message without Mitsuba's ``[parser.cpp:451]`` tags and the folder
+    ``root``, at most :data:`MAX_MESSAGE` characters."""
     s = " ".join(str(text).split())
     s = _CPP_PREFIX.sub("", s)
     if root:
         s = s.replace(str(root).rstrip("/") + "/", "")
-    return s if len(s) <= MAX_MESSAGE else s[:MAX_MESSAGE - 3] + "..."
+    return cut(s, MAX_MESSAGE)
+
+
+def cut(text: str, n: int) -> str:
+    """``text`` cut to ``n`` characters, ``...`` marking a cut."""
+    return text if len(text) <= n else text[:n - 3] + "..."
 
 
 def _param_value(name: str, spp: int) -> str:
@@ -139,8 +126,8 @@ def setup(variant: str | None, threads: int | None) -> str:
 
 
 def scene_plugins(mi, path, params) -> list:
-    """Sorted distinct ``(kind, plugin)`` pairs of every object of the XML file, includes and
-    nested objects too, as Mitsuba's parser reads them."""
+    """Sorted distinct ``(kind, plugin)`` pairs of every object of the XML file (includes and
+    nested objects too), as Mitsuba's parser reads them."""
     with file_resolver_scope():
         state = mi.parser.parse_file(mi.parser.ParserConfig(mi.variant()), str(path), **params)
     pairs = {(str(n.type).split(".")[-1].lower(), n.props.plugin_name()) for n in list(state.nodes)[1:]}
@@ -148,8 +135,8 @@ def scene_plugins(mi, path, params) -> list:
 
 
 def judge_scene(job: dict) -> dict:
-    """Judge the scene of ``job`` (``path``, ``root``, ``spp``, ``batches``, ``seed``, ``width``,
-    ``threads``) and return its record (see the module docstring)."""
+    """The record of the scene of ``job`` (``path``, ``root``, ``spp``, ``batches``, ``seed``,
+    ``width``, ``threads``)."""
     import mitsuba as mi
 
     t_start = time.perf_counter()
@@ -221,22 +208,14 @@ def _judge(job, rec, seconds, mi, root, path) -> None:
     rec["features"] = features
 
     oos = out_of_scope(features, mitsuba_error, plugins if (features or mitsuba_error or import_error) else ())
-    if oos:
-        rec["status"], rec["reasons"] = "out-of-scope", oos
-        return
-    if mitsuba_error:
-        rec["status"], rec["reasons"] = "mitsuba-fails", [mitsuba_error]
-        return
-    if features or import_error:
-        rec["status"], rec["reasons"] = "refused", features or [import_error]
-        return
-    if crash:
-        rec["status"], rec["reasons"] = "render-error", [crash]
-        return
-    if size is None:
-        rec["status"], rec["reasons"] = "render-error", [
-            "no <film> whose size could be set (Mitsuba's default film is 768x576): not rendered"]
-        return
+    no_film = "no <film> whose size could be set (Mitsuba's default film is 768x576): not rendered"
+    for status, reasons in (("out-of-scope", oos), ("mitsuba-fails", [mitsuba_error] if mitsuba_error else []),
+                            ("refused", features or ([import_error] if import_error else [])),
+                            ("render-error", [crash] if crash else []),
+                            ("render-error", [no_film] if size is None else [])):
+        if reasons:
+            rec["status"], rec["reasons"] = status, reasons
+            return
 
     # 4. both render it
     spp, seed, threads = int(job["spp"]), int(job["seed"]), job.get("threads")
@@ -265,14 +244,11 @@ def _judge(job, rec, seconds, mi, root, path) -> None:
     except Exception as exc:  # noqa: BLE001 - e.g. a filtered render without its pixel samples
         rec["status"], rec["reasons"] = "render-error", [clean_message(f"agreement: {exc}", root)]
         return
-    glob, share = list(a.global_z), a.share
-    fixed = a.spreadless
-    rec["global_z"] = [g if math.isfinite(g) else str(g) for g in glob]
-    rec["share_z4"] = share
-    rec["spreadless_differences"] = fixed
-    rec["mean_ours"] = [float(x) for x in ours.mean.reshape(-1, 3).mean(axis=0)]
-    rec["mean_mitsuba"] = [float(x) for x in mit.mean.reshape(-1, 3).mean(axis=0)]
-    rec["status"] = "agrees" if a.agrees else "disagrees"
+    glob, share, fixed = list(a.global_z), a.share, a.spreadless
+    rec.update(global_z=[g if math.isfinite(g) else str(g) for g in glob], share_z4=share, spreadless_differences=fixed,
+               mean_ours=[float(x) for x in ours.mean.reshape(-1, 3).mean(axis=0)],
+               mean_mitsuba=[float(x) for x in mit.mean.reshape(-1, 3).mean(axis=0)],
+               status="agrees" if a.agrees else "disagrees")
     if rec["status"] == "disagrees":
         worst = max(range(3), key=lambda c: abs(glob[c]))
         rec["reasons"] = [f"global z {glob[worst]:+.1f} in {'RGB'[worst]}, {100 * share:.1f}% of pixel values "

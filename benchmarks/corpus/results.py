@@ -1,14 +1,6 @@
-"""A corpus run's results: ``corpus.json`` (written after every scene), its tables and ``corpus.md``.
-
-``corpus.json`` holds the run's provenance (the folder, its git commit or ``--source``,
-the build, Mitsuba's version and variant, the settings) and one record per file, keyed by
-its path relative to the folder. A record is reused by a later run into the same output
-folder while its ``key`` (:func:`scene_key`: the content hash of the scene and the files
-it names, the budget and film width, the build of the tracer, the importer and this
-command) is the same; a ``timeout`` is reused only under a time limit no longer than its own.
-
-Text from the corpus (file names, Mitsuba's messages) is untrusted: the tables escape it
-(:func:`benchmarks.text.text_table`, :func:`benchmarks.text.markdown_table`).
+"""A corpus run's results: ``corpus.json`` (provenance and one record per scene, written after
+every scene; a record is reused while its :func:`scene_key` holds), its tables and
+``corpus.md``. Text from the corpus is untrusted: the tables escape it.
 """
 from __future__ import annotations
 
@@ -27,7 +19,7 @@ from reference_tracer.build import build_info
 from ..store import read_json, write_json
 from ..text import markdown, markdown_table, text_table
 
-from .judge import STATUSES, Z_LIMIT, compact_feature
+from .judge import STATUSES, Z_LIMIT, compact_feature, cut
 
 __all__ = ["FORMAT", "corpus_build", "scene_key", "load_results", "save_results", "counts", "feature_ranking",
            "needs_text", "table_rows", "terminal_table", "markdown_report", "summary_line"]
@@ -44,9 +36,8 @@ MARKDOWN_REASON = 160
 
 @functools.lru_cache(maxsize=1)
 def corpus_build() -> dict:
-    """What a verdict depends on besides the scene: our build (``reference_tracer.build_id``),
-    the sources of ``mitsuba_scenes`` (the importer), of this package and of the agreement
-    statistic (``benchmarks.gate.agreement``), Mitsuba's version."""
+    """What a verdict depends on besides the scene: our build, the sources of the importer, of
+    this package and of the agreement statistic, Mitsuba's version."""
     h = hashlib.sha256()
     info = build_info()
     h.update(info["build"].encode())
@@ -64,19 +55,15 @@ def corpus_build() -> dict:
 
 
 def scene_key(content_hash: str, settings: dict) -> str:
-    """The key under which a scene's verdict is reused (see the module docstring)."""
+    """The key under which a scene's verdict is reused: its content hash, the settings, :func:`corpus_build`."""
     fields = {k: settings.get(k) for k in ("spp", "batches", "seed", "width", "variant")}
     text = json.dumps([content_hash, fields, corpus_build()["corpus_build"]], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
 def load_results(path, *, folder: str) -> dict:
-    """The records of an earlier run at ``path`` (relative path -> record), or ``{}``.
-
-    ``ValueError`` when the file is the run of another folder (its results are not
-    overwritten: give another ``--out``). Records that are not what a run writes are
-    dropped (they are judged again).
-    """
+    """The well-formed records of an earlier run at ``path`` (relative path -> record), or ``{}``;
+    ``ValueError`` when it is the run of another folder."""
     data = read_json(path)
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         return {}
@@ -92,8 +79,7 @@ def load_results(path, *, folder: str) -> dict:
 
 
 def save_results(path, *, provenance: dict, records: dict, fragments: dict) -> None:
-    """Write ``corpus.json`` atomically: provenance (``updated`` set to now), counts, scene
-    records, fragments."""
+    """Write ``corpus.json`` atomically (provenance, ``updated`` now, counts, records, fragments)."""
     provenance["updated"] = _now()
     scenes = [records[k] for k in sorted(records)]
     write_json(path, {"format": FORMAT, **provenance, "counts": counts(scenes),
@@ -112,9 +98,8 @@ def counts(records) -> dict:
 
 
 def feature_ranking(records) -> list:
-    """``[(feature, scenes, sole)]`` over the ``refused`` records: each compact feature
-    (:func:`~benchmarks.corpus.judge.compact_feature`), how many scenes need it and of how
-    many it is the only need; most scenes first."""
+    """``[(feature, scenes, sole)]`` over the ``refused`` records: each compact feature, the
+    scenes that need it and those that need nothing else; most scenes first."""
     blocked, sole = collections.Counter(), collections.Counter()
     for r in records:
         if r["status"] != "refused":
@@ -127,8 +112,7 @@ def feature_ranking(records) -> list:
 
 
 def needs_text(rec, order: dict, *, shown: int = NEEDS_SHOWN) -> str:
-    """A refused scene's features, most common in the corpus first (``order``: feature ->
-    rank), at most ``shown`` of them then ``(+N more)``."""
+    """A refused scene's features by ``order`` (feature -> rank), at most ``shown``, then ``(+N more)``."""
     feats = list(dict.fromkeys(compact_feature(f) for f in rec.get("reasons") or []))
     feats.sort(key=lambda f: (order.get(f, len(order)), f))
     text = "; ".join(feats[:shown])
@@ -150,10 +134,6 @@ def short_reason(text: str) -> str:
     return head + sep + _INSTANTIATE.sub(r'\1 "\2": ', _WHERE.sub("", rest))
 
 
-def _cut(text: str, n: int) -> str:
-    return text if len(text) <= n else text[:n - 3] + "..."
-
-
 def _z(g) -> str:
     if isinstance(g, str):
         return g
@@ -173,7 +153,7 @@ def table_rows(records: dict, *, reason_chars: int) -> list:
         z = " ".join(_z(g) for g in r["global_z"]) if r.get("global_z") else ""
         share = f"{100 * r['share_z4']:.2f}%" if isinstance(r.get("share_z4"), (int, float)) else ""
         secs = f"{r['seconds']:.1f}" if isinstance(r.get("seconds"), (int, float)) else ""
-        rows.append([path, r["status"], _cut(why, reason_chars), z, share, secs])
+        rows.append([path, r["status"], cut(why, reason_chars), z, share, secs])
     return rows
 
 
@@ -201,7 +181,8 @@ def markdown_report(*, provenance: dict, records: dict, fragments: dict) -> str:
     if src:
         data.append(markdown(src))
     if git.get("commit"):
-        data.append("git commit " + markdown(git["commit"]) + (f" ({markdown(git['date'])})" if git.get("date") else ""))
+        date = f" ({markdown(git['date'])})" if git.get("date") else ""
+        data.append("git commit " + markdown(git["commit"]) + date)
     build = provenance["build"]
     lines = [
         f"Folder {markdown(provenance['dir_name'])}" + (f": {'; '.join(data)}" if data else "") + ".",

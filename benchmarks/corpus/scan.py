@@ -1,18 +1,8 @@
-"""The XML files of a folder: scenes, fragments, and what each one reads.
+"""The XML files of a folder: scenes, fragments (files another one ``<include>``s, or whose root
+is not ``<scene>``) and each scene's content hash over every file it names (resolved as
+Mitsuba does). Files are only read, with ``xml.etree`` (no external entities), special files
+and files over :data:`MAX_XML_BYTES` skipped.
 
-A file is a *fragment*, not judged on its own, when another XML file of the folder
-``<include>``s it or when its root element is not ``<scene>``. Each scene's *content
-hash* covers the file and every file it names that can be found (includes, meshes,
-textures, spectra: ``filename`` values resolved, as Mitsuba does, against the including
-file's folder, the scene's folder and its ``<path>`` folders, with ``$name`` defaults
-substituted); a rerun reuses a verdict only while that hash is the same.
-
-Everything here reads files only: Python's ``xml.etree`` (no external entities; expat
-bounds entity expansion), files larger than :data:`MAX_XML_BYTES` and special files are
-skipped. Nothing Mitsuba-specific is imported.
-
-Examples
---------
 >>> import tempfile, pathlib
 >>> d = pathlib.Path(tempfile.mkdtemp())
 >>> _ = (d / "a.xml").write_text('<scene version="3.0.0"><include filename="inc/b.xml"/></scene>')
@@ -46,9 +36,8 @@ _PARAM = re.compile(r"\$(\w+)")
 
 @dataclass
 class Scan:
-    """What :func:`scan` found: ``scenes`` to judge (sorted), ``fragments`` (path -> the
-    files that include it, or ``[]`` when its root is not a scene) and ``roots`` (path ->
-    the root element's tag, for fragments whose root is not ``<scene>``)."""
+    """``scenes`` to judge (sorted), ``fragments`` (path -> the files that include it, ``[]`` when
+    its root is not a scene) and ``roots`` (path -> a root tag other than ``scene``)."""
 
     scenes: list = field(default_factory=list)
     fragments: dict = field(default_factory=dict)
@@ -194,11 +183,8 @@ def _file_digest(path: Path, cache: dict) -> str:
 
 
 def content_hash(path, root, *, cache: dict | None = None) -> str:
-    """SHA-256 over scene ``path`` and every file it names (:func:`referenced_files`), each
-    with its path relative to ``root``: it changes when any of them changes, moves or appears.
-
-    ``cache`` (path -> digest) spares re-reading files shared by several scenes.
-    """
+    """SHA-256 over scene ``path`` and every file it names, each with its path relative to
+    ``root``; ``cache`` (path -> digest) spares re-reading shared files."""
     cache = {} if cache is None else cache
     path = Path(path).resolve()
     h = hashlib.sha256()

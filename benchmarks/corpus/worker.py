@@ -1,12 +1,7 @@
-"""The corpus worker: a process that judges scenes one at a time, killed when one runs too long.
-
-Mitsuba and our tracer run in C++ that Python cannot interrupt, and a scene from a corpus
-may crash either. So scenes are judged in a worker process (``multiprocessing``, spawned):
-:meth:`SceneWorker.judge` sends it one job and waits at most the scene's time limit; past
-it the worker is killed and the scene recorded as ``timeout``; a worker that dies (a
-crash) gives ``render-error`` with its exit code. The next scene starts a fresh worker.
-The worker's stdout and stderr (Mitsuba's log) go to a log file, not the terminal; it
-ignores Ctrl-C, which the parent handles by stopping it.
+"""The corpus worker: a spawned process that judges scenes one at a time (C++ that Python cannot
+interrupt, and that a scene may crash). Past a scene's time limit it is killed (``timeout``);
+one that dies gives ``render-error``; the next scene starts a fresh one. Its output goes to
+a log file; it ignores Ctrl-C, which the parent handles by stopping it.
 """
 from __future__ import annotations
 
@@ -50,12 +45,12 @@ def _serve(conn, log_path: str, variant, threads) -> None:
 
 
 class SceneWorker:
-    """One worker process at a time, started when needed (see the module docstring)."""
+    """One worker process at a time, started when needed."""
 
     def __init__(self, *, log_path, variant=None, threads=None):
         self.log_path, self.variant, self.threads = str(log_path), variant, threads
         self.proc = self.conn = None
-        self.active_variant = None
+        self.active_variant = self._exitcode = None
 
     def _start(self) -> None:
         ctx = multiprocessing.get_context("spawn")
@@ -80,8 +75,8 @@ class SceneWorker:
         self.active_variant = value
 
     def judge(self, job: dict, *, timeout: float) -> dict:
-        """The record of ``job``, or a ``timeout`` / ``render-error`` record when the worker
-        ran out of time or died. Raises ``RuntimeError`` when no worker can start."""
+        """The record of ``job`` (``timeout`` / ``render-error`` when the worker ran out of time or
+        died); ``RuntimeError`` when no worker can start."""
         if self.proc is None or not self.proc.is_alive():
             self.close()
             self._start()
@@ -99,10 +94,8 @@ class SceneWorker:
         if alive:
             return {"status": "timeout", "reasons": [f"no verdict within the time limit of {timeout:g} s"],
                     "seconds": elapsed, "timeout_s": timeout}
-        return {"status": "render-error", "seconds": elapsed,
-                "reasons": [f"the worker process died (exit code {self._exitcode}); see {os.path.basename(self.log_path)}"]}
-
-    _exitcode = None
+        return {"status": "render-error", "seconds": elapsed, "reasons": [
+            f"the worker process died (exit code {self._exitcode}); see {os.path.basename(self.log_path)}"]}
 
     def close(self) -> None:
         """Stop the worker (politely, then by force)."""
@@ -123,10 +116,3 @@ class SceneWorker:
         if self.conn is not None:
             self.conn.close()
             self.conn = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-        return False

@@ -1,17 +1,11 @@
-"""Compare two sets of first-hit AOVs with float tolerances and name what differs.
-
-Tolerances (Mitsuba works in float32, we in float64): hit distance relative 1e-3;
-shading normals must agree to a cosine of 0.999; albedo and emitted radiance to 1e-3
-relative plus 1e-4 absolute. A pixel whose ray grazes an edge may hit different shapes in
-the two renderers by rounding alone (Mitsuba's float32 rectangles leave hairline cracks
-where two meet): such a pixel is forgiven when one of four rays a hundredth of a pixel
-away in our tracer sees what Mitsuba saw at the centre, or one in Mitsuba what we saw.
-The same holds for the albedo of a textured shape at an edge of its texture (a
-checkerboard's, a nearest-texel bitmap's), where float32 texture coordinates may fall on
-the other side.
+"""Compare two sets of first-hit AOVs with float tolerances (Mitsuba works in float32) and
+name what differs. A pixel at an edge of a shape or of a texture, where rounding alone may
+change what a ray sees, is forgiven when a ray a hundredth of a pixel away in one renderer
+sees what the other saw at the centre.
 """
 from __future__ import annotations
 
+import collections
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,10 +13,7 @@ import numpy as np
 import reference_tracer as rt
 from reference_tracer.probe import diffuse_albedo, first_hit_aovs
 
-from .ours import shape_bounds
-
-__all__ = ["AOVS", "ParityReport", "compare_aovs", "T_RTOL", "NORMAL_COS", "VALUE_RTOL", "VALUE_ATOL",
-           "CAMERA_FRACTION"]
+__all__ = ["AOVS", "ParityReport", "compare_aovs", "shape_bounds"]
 
 #: the AOVs compared, in report order.
 AOVS = ("shape", "t", "normal", "albedo", "emitted")
@@ -37,13 +28,9 @@ _EDGE_OFFSETS = ((0.49, 0.5), (0.51, 0.5), (0.5, 0.49), (0.5, 0.51))
 
 @dataclass
 class ParityReport:
-    """What :func:`compare_aovs` found for one scene.
-
-    ``masks`` maps each AOV to an (H, W) boolean mismatch mask; ``counts`` to its number
-    of pixels; ``findings`` are one-line diagnoses (the shape, the camera, the background);
-    ``ours`` and ``theirs`` the AOVs; ``edge_pixels`` the shape mismatches forgiven as edges
-    (and the albedo mismatches forgiven as texture edges).
-    """
+    """What :func:`compare_aovs` found for one scene: per AOV an (H, W) mismatch mask
+    (``masks``) and its pixel count (``counts``), one-line diagnoses (``findings``), both
+    renderers' AOVs, and the pixels forgiven as edges (``edge_pixels``)."""
 
     scene: str
     width: int
@@ -76,6 +63,26 @@ class ParityReport:
                 "counts": self.counts, "findings": list(self.findings), "edge_pixels": self.edge_pixels}
 
 
+def _points(shape) -> np.ndarray:
+    if isinstance(shape, rt.Sphere):
+        c, r = shape.world_center(), shape.world_radius()
+        return np.array([c - r, c + r])
+    if isinstance(shape, rt.Quad):
+        Q, u, v = shape.world_corners()
+        return np.array([Q, Q + u, Q + v, Q + u + v])
+    if isinstance(shape, rt.Box):
+        return np.array([p for Q, u, v in shape.world_quads() for p in (Q, Q + u, Q + v, Q + u + v)])
+    if isinstance(shape, rt.Triangle):
+        return shape.world_vertices()
+    return shape.world_triangles().reshape(-1, 3)
+
+
+def shape_bounds(scene: rt.Scene) -> np.ndarray:
+    """(N, 6) world bounding boxes ``(min, max)`` of the scene's shapes."""
+    out = [np.concatenate([p.min(axis=0), p.max(axis=0)]) for p in (_points(s) for s in scene.shapes)]
+    return np.array(out, dtype=np.float64).reshape(-1, 6)
+
+
 def _close(a, b, rtol=VALUE_RTOL, atol=VALUE_ATOL) -> np.ndarray:
     return np.all(np.abs(a - b) <= atol + rtol * np.maximum(np.abs(a), np.abs(b)), axis=-1)
 
@@ -92,46 +99,29 @@ def _classes(scene: rt.Scene) -> np.ndarray:
     return cls
 
 
-def _edge_forgiven(scene, ours, theirs, suspect, cls, theirs_at=None) -> np.ndarray:
+def _forgiven(scene, ours, theirs, suspect, theirs_at, same) -> np.ndarray:
     """Suspect pixels where a ray a hundredth of a pixel away in one renderer sees what the
-    other saw at the centre."""
+    other saw at the centre (``same(aovs_a, aovs_b)``: per-pixel agreement)."""
     ok = np.zeros_like(suspect)
-    if not suspect.any():
-        return ok
-
-    def klass(s):
-        return np.where(s >= 0, cls[np.maximum(s, 0)], s)
-
-    for off in _EDGE_OFFSETS:
-        ok |= suspect & (klass(first_hit_aovs(scene, offset=off)["shape"]) == klass(theirs["shape"]))
+    for off in _EDGE_OFFSETS if suspect.any() else ():
+        ok |= suspect & same(first_hit_aovs(scene, offset=off), theirs)
         if theirs_at is not None and not ok[suspect].all():
-            ok |= suspect & (klass(theirs_at(off)["shape"]) == klass(ours["shape"]))
+            ok |= suspect & same(theirs_at(off), ours)
     return ok
 
 
 def _describe(scene, i: int) -> str:
+    if i < 0:
+        return "nothing" if i == -1 else "an unmatched Mitsuba shape"
     s = scene.shapes[i]
     return f"shape {i} ({type(s).__name__}, {type(s.material).__name__})"
 
 
 def compare_aovs(scene: rt.Scene, ours: dict, theirs: dict, *, name: str = "scene", theirs_at=None) -> ParityReport:
-    """Mismatch masks of every AOV and the findings that explain them.
-
-    Parameters
-    ----------
-    scene : reference_tracer.Scene
-    ours, theirs : dict
-        AOVs of :func:`reference_tracer.probe.first_hit_aovs` and
-        :func:`benchmarks.parity.mitsuba.mitsuba_aovs` (same image size).
-    name : str
-    theirs_at : callable or None
-        ``theirs_at((dx, dy))``: Mitsuba's AOVs through ``pixel + (dx, dy)``, to tell an
-        edge from a real difference from Mitsuba's side too.
-
-    Returns
-    -------
-    ParityReport
-    """
+    """Mismatch masks of every AOV of ``ours`` and ``theirs`` (the AOVs of
+    :func:`reference_tracer.probe.first_hit_aovs` and :func:`.mitsuba.mitsuba_aovs`) and the
+    findings that explain them; ``theirs_at((dx, dy))``, Mitsuba's AOVs through
+    ``pixel + (dx, dy)``, tells an edge from a real difference from Mitsuba's side too."""
     h, w = ours["t"].shape
     if theirs["t"].shape != (h, w):
         mask = np.ones((h, w), dtype=bool)
@@ -144,8 +134,11 @@ def compare_aovs(scene: rt.Scene, ours: dict, theirs: dict, *, name: str = "scen
     def klass(s):
         return np.where(s >= 0, cls[np.maximum(s, 0)] if len(cls) else s, s)
 
-    shape_bad = klass(ours["shape"]) != klass(theirs["shape"])
-    forgiven = _edge_forgiven(scene, ours, theirs, shape_bad, cls, theirs_at)
+    def same_shape(a, b):
+        return klass(a["shape"]) == klass(b["shape"])
+
+    shape_bad = ~same_shape(ours, theirs)
+    forgiven = _forgiven(scene, ours, theirs, shape_bad, theirs_at, same_shape)
     shape_bad &= ~forgiven
     same = ~shape_bad & ~forgiven & (ours["shape"] >= 0)
     with np.errstate(invalid="ignore"):  # inf - inf where both miss (not in `same`)
@@ -153,28 +146,15 @@ def compare_aovs(scene: rt.Scene, ours: dict, theirs: dict, *, name: str = "scen
     cos = np.einsum("hwc,hwc->hw", ours["normal"], theirs["normal"])
     n_bad = same & (cos < NORMAL_COS)
     a_bad = same & ~_close(ours["albedo"], theirs["albedo"])
-    texture_edges = _texture_edge_forgiven(scene, ours, theirs, a_bad, theirs_at)
+    textured = np.array([isinstance(diffuse_albedo(s.material), rt.Texture) for s in scene.shapes] + [False])
+    texture_edges = _forgiven(scene, ours, theirs, a_bad & textured[np.where(ours["shape"] >= 0, ours["shape"], -1)],
+                              theirs_at, lambda a, b: _close(a["albedo"], b["albedo"]))
     a_bad &= ~texture_edges
     forgiven_pixels = int(forgiven.sum() + texture_edges.sum())
     e_bad = (~shape_bad & ~forgiven) & ~_close(ours["emitted"], theirs["emitted"])
     masks = {"shape": shape_bad, "t": t_bad, "normal": n_bad, "albedo": a_bad, "emitted": e_bad}
     findings = _findings(scene, ours, theirs, masks, cos)
     return ParityReport(name, w, h, masks, findings, ours, theirs, edge_pixels=forgiven_pixels)
-
-
-def _texture_edge_forgiven(scene, ours, theirs, suspect, theirs_at=None) -> np.ndarray:
-    """Suspect albedo pixels of textured shapes where a ray a hundredth of a pixel away in
-    one renderer sees the albedo the other saw at the centre: an edge of the texture."""
-    textured = np.array([isinstance(diffuse_albedo(s.material), rt.Texture) for s in scene.shapes] + [False])
-    suspect = suspect & textured[np.where(ours["shape"] >= 0, ours["shape"], len(scene.shapes))]
-    ok = np.zeros_like(suspect)
-    if not suspect.any():
-        return ok
-    for off in _EDGE_OFFSETS:
-        ok |= suspect & _close(first_hit_aovs(scene, offset=off)["albedo"], theirs["albedo"])
-        if theirs_at is not None and not ok[suspect].all():
-            ok |= suspect & _close(theirs_at(off)["albedo"], ours["albedo"])
-    return ok
 
 
 def _findings(scene, ours, theirs, masks, cos) -> list:
@@ -206,13 +186,10 @@ def _findings(scene, ours, theirs, masks, cos) -> list:
         out.append(f"background: ours {np.round(ours['emitted'][y, x], 4).tolist()} vs Mitsuba "
                    f"{np.round(theirs['emitted'][y, x], 4).tolist()} at {int(miss.sum())} pixel(s)")
     if masks["shape"].any() and not (out and out[0].startswith("camera")):
-        pairs = {}
-        for y, x in np.argwhere(masks["shape"]):
-            key = (int(ours["shape"][y, x]), int(theirs["shape"][y, x]))
-            pairs[key] = pairs.get(key, 0) + 1
-        for (a, b), c in sorted(pairs.items(), key=lambda kv: -kv[1])[:5]:
-            who = lambda k: "nothing" if k == -1 else ("an unmatched Mitsuba shape" if k == -2 else _describe(scene, k))  # noqa: E731
-            out.append(f"{c} pixel(s) hit {who(a)} in ours but {who(b)} in Mitsuba")
+        pairs = collections.Counter((int(ours["shape"][y, x]), int(theirs["shape"][y, x]))
+                                    for y, x in np.argwhere(masks["shape"]))
+        for (a, b), c in pairs.most_common(5):
+            out.append(f"{c} pixel(s) hit {_describe(scene, a)} in ours but {_describe(scene, b)} in Mitsuba")
     if any(s == -2 for s in np.unique(theirs["shape"])):
         out.append("Mitsuba has shape(s) with no counterpart among ours (by bounding box)")
     return out

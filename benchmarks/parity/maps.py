@@ -40,8 +40,7 @@ def write_mismatch_maps(report: ParityReport, out) -> list:
     rt.write_exr(exr, np.stack([m["shape"] | m["t"], m["normal"], m["albedo"] | m["emitted"]], axis=-1)
                  .astype(np.float32))
     grey = _grey(report)
-    fig, axes = plt.subplots(1, len(AOVS), figsize=(2.6 * len(AOVS), 2.6 * report.height / report.width + 0.7),
-                             dpi=100)
+    fig, axes = plt.subplots(1, len(AOVS), figsize=(2.6 * len(AOVS), 2.6 * report.height / report.width + 0.7), dpi=100)
     for ax, aov in zip(np.atleast_1d(axes), AOVS):
         img = np.repeat(grey[..., None], 3, axis=-1)
         img[m[aov]] = (1.0, 0.1, 0.1)

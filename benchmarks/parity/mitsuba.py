@@ -1,12 +1,7 @@
-"""Mitsuba's first-hit AOVs at pixel centres, through its Python API.
-
-``sensor.sample_ray`` at each pixel centre (film position ``((x + 0.5) / W, (y + 0.5) / H)``,
-aperture sample 0.5), ``scene.ray_intersect``; the distance from the camera's centre to
-the hit point (Mitsuba's rays start on the near plane, so ``si.t`` is shorter); the shading normal ``si.sh_frame.n``; the
-diffuse albedo ``bsdf.eval_diffuse_reflectance`` where the BSDF has a diffuse lobe; the
-emitted radiance ``emitter.eval(si)`` (front faces only, as Mitsuba's area lights) and on a
-miss the environment's. Mitsuba's shapes are matched with ours by their bounding boxes,
-so the shape AOV holds our shape index (-2: a Mitsuba shape with no counterpart).
+"""Mitsuba's first-hit AOVs at pixel centres (``sensor.sample_ray``, ``scene.ray_intersect``):
+the distance from the camera's centre, ``si.sh_frame.n``, ``eval_diffuse_reflectance``, the
+emitter's or the environment's radiance, and our index of the shape hit (matched by
+bounding box; -2: a Mitsuba shape with no counterpart).
 """
 from __future__ import annotations
 
@@ -18,11 +13,11 @@ import reference_tracer as rt
 from mitsuba_scenes import to_mitsuba
 from mitsuba_scenes.variants import select_variant
 
-from .ours import shape_bounds
+from .compare import shape_bounds
 
 __all__ = ["mitsuba_scene_for", "mitsuba_aovs", "match_shapes"]
 
-#: bounding boxes match when they agree to this fraction of the scene's extent (float32).
+#: bounding boxes match when they agree to this fraction of the scene's extent (float32)
 BOX_RTOL = 1e-4
 
 
@@ -36,15 +31,8 @@ def mitsuba_scene_for(scene: rt.Scene, source=None, *, params=None):
     return mi.load_dict(to_mitsuba(scene) if source is None else source, optimize=False)
 
 
-def _box(mi, shape) -> np.ndarray:
-    b = shape.bbox()
-    return np.concatenate([np.array(b.min, dtype=np.float64).ravel(), np.array(b.max, dtype=np.float64).ravel()])
-
-
 def match_shapes(mscene, scene: rt.Scene) -> list:
     """Our shape index for each of Mitsuba's shapes (by bounding box), -2 where none matches."""
-    import mitsuba as mi
-
     ours = shape_bounds(scene)
     extent = max(float(np.abs(ours).max()) if ours.size else 1.0, 1e-6)
     out = []
@@ -52,7 +40,9 @@ def match_shapes(mscene, scene: rt.Scene) -> list:
         if not len(ours):
             out.append(-2)
             continue
-        err = np.abs(ours - _box(mi, sh)[None, :]).max(axis=1) / extent
+        b = sh.bbox()
+        box = np.concatenate([np.array(b.min, dtype=np.float64).ravel(), np.array(b.max, dtype=np.float64).ravel()])
+        err = np.abs(ours - box).max(axis=1) / extent
         k = int(np.argmin(err))
         out.append(k if err[k] <= BOX_RTOL else -2)
     return out
@@ -102,8 +92,7 @@ def mitsuba_aovs(mscene, scene: rt.Scene, *, offset=(0.5, 0.5)) -> dict:
             miss = _arr(env.eval(si, ~valid), n, 3)
             emitted = np.where(np.isfinite(t)[:, None], emitted, miss)
         ids = np.array(dr.reinterpret_array(mi.UInt32, si.shape), dtype=np.int64).reshape(n).tolist()
-        shape_ids = [int(np.array(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))).ravel()[0])
-                     for s in mscene.shapes()]
+        shape_ids = [int(np.array(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))).ravel()[0]) for s in mscene.shapes()]
     valid = np.isfinite(t)
     ours_of = dict(zip(shape_ids, match_shapes(mscene, scene)))
     shape = np.array([ours_of.get(i, -2) if v else -1 for i, v in zip(ids, valid)], dtype=np.int64)
@@ -126,4 +115,5 @@ def _scalar_hit(mi, mscene, sensor, fx: float, fy: float, eye) -> tuple:
            if mi.has_flag(bsdf.flags(), mi.BSDFFlags.DiffuseReflection) else [0.0, 0.0, 0.0])
     em = si.emitter(mscene)
     emitted = [0.0, 0.0, 0.0] if em is None else list(np.array(em.eval(si), dtype=np.float64).ravel()[:3])
-    return (float(np.linalg.norm(np.array(si.p, dtype=np.float64).ravel() - eye)), list(np.array(si.sh_frame.n, dtype=np.float64).ravel()), alb, emitted, si.shape.id())
+    return (float(np.linalg.norm(np.array(si.p, dtype=np.float64).ravel() - eye)),
+            list(np.array(si.sh_frame.n, dtype=np.float64).ravel()), alb, emitted, si.shape.id())

@@ -1,9 +1,6 @@
-"""Exact ray-plane intersection in rational arithmetic, and the float64 error bounds.
-
-The oracle of the grazing-ray case: the same float64 ray and shape decided again with
-``fractions.Fraction`` (no rounding at all), and the forward-error bounds within which a
-float64 decision may differ from the exact one.
-"""
+"""The oracle of the grazing-ray case: a float64 ray and shape intersected again exactly
+(``fractions.Fraction``), and the forward-error bounds within which a float64 decision may
+differ from the exact one."""
 from __future__ import annotations
 
 import math
@@ -11,71 +8,47 @@ from fractions import Fraction
 
 import numpy as np
 
-__all__ = ["UNIT_ROUNDOFF", "exact_intersection", "triangle_error_bound", "quad_error_bound", "classify_rays"]
+__all__ = ["exact_intersection", "triangle_error_bound", "quad_error_bound", "classify_rays"]
 
-#: Unit roundoff of float64, 2^-53.
+#: unit roundoff of float64
 UNIT_ROUNDOFF = 2.0 ** -53
 
 
-def _frac3(v):
-    return [Fraction(float(x)) for x in v]
+def _frac3(v) -> np.ndarray:
+    return np.array([Fraction(x) for x in v], dtype=object)
 
 
 def exact_intersection(o, d, p, e1, e2) -> dict:
-    """Exact (rational) intersection of the float64 ray ``o + t d`` with ``p + s1 e1 + s2 e2``.
+    """Exact intersection of the float64 ray ``o + t d`` with ``p + s1 e1 + s2 e2``.
 
-    ``p``, ``e1``, ``e2`` may be float64 or already exact (lists of ``Fraction``): for a
-    triangle pass ``e1 = b - a`` and ``e2 = c - a`` computed in ``Fraction`` so no rounding
-    enters; for a quad pass its ``u`` and ``v`` as the core receives them.
+    ``p``, ``e1``, ``e2``: float64 or already exact (``Fraction``: a triangle's ``b - a``,
+    ``c - a``). Returns ``parallel`` (exact determinant 0), else ``t``, ``s1``, ``s2``
+    (``Fraction``), and always ``plane_distance`` (float) from ``o``.
 
-    Returns
-    -------
-    dict
-        ``parallel`` (the exact determinant is 0); otherwise ``t``, ``s1``, ``s2`` as
-        ``Fraction``. Always ``plane_distance``: the exact distance from ``o`` to the plane,
-        as a float.
-
-    Examples
-    --------
     >>> ex = exact_intersection([0.25, 0.25, 1.0], [0.0, 0.0, -2.0], [0, 0, 0], [1, 0, 0], [0, 1, 0])
     >>> ex["parallel"], ex["t"], ex["s1"], ex["s2"], ex["plane_distance"]
     (False, Fraction(1, 2), Fraction(1, 4), Fraction(1, 4), 1.0)
     """
-    o, d = _frac3(o), _frac3(d)
-    p = p if isinstance(p[0], Fraction) else _frac3(p)
-    e1 = e1 if isinstance(e1[0], Fraction) else _frac3(e1)
-    e2 = e2 if isinstance(e2[0], Fraction) else _frac3(e2)
-    s = [o[i] - p[i] for i in range(3)]
-
-    def cross(x, y):
-        return [x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]]
-
-    def dot(x, y):
-        return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
-
-    n = cross(e1, e2)
-    nn = dot(n, n)
-    out = {"plane_distance": math.sqrt(float(dot(n, s) ** 2 / nn)) if nn else math.inf}
+    o, d, p, e1, e2 = (_frac3(v) for v in (o, d, p, e1, e2))
+    s = o - p
+    n = np.cross(e1, e2)
+    nn = n @ n
+    out = {"plane_distance": math.sqrt(float((n @ s) ** 2 / nn)) if nn else math.inf}
     # Cramer's rule for [-d, e1, e2] (t, s1, s2)^T = s, with triple products.
-    q = cross(d, e2)
-    det = dot(e1, q)
+    q = np.cross(d, e2)
+    det = e1 @ q
     if det == 0:
         out["parallel"] = True
         return out
-    r = cross(s, e1)
-    out.update(parallel=False, t=dot(e2, r) / det, s1=dot(s, q) / det, s2=dot(d, r) / det)
+    r = np.cross(s, e1)
+    out.update(parallel=False, t=(e2 @ r) / det, s1=(s @ q) / det, s2=(d @ r) / det)
     return out
 
 
 def triangle_error_bound(o, d, a, b, c) -> float:
-    """Barycentric forward-error bound of the watertight test (float64) for one ray.
-
-    In the sheared frame the vertex coordinates carry an absolute error of at most
-    ~6 u S (u = 2^-53, S = max |v - o| over the vertices, |shear| <= 1), so each edge
-    function U = Cx By - Cy Bx is off by at most ~64 u S^2; the barycentric is U / det
-    with det >= 2 A |cos| (A the area, cos between the normal and the ray). Hence
-    delta = 32 u S^2 / (A |cos|), to first order.
-    """
+    """Barycentric forward-error bound of the watertight test (float64) for one ray:
+    32 u S^2 / (A |cos|) to first order (S = max |v - o|, A the area, each sheared edge
+    function off by ~64 u S^2, det >= 2 A |cos|)."""
     o, d, a, b, c = (np.asarray(x, dtype=np.float64) for x in (o, d, a, b, c))
     S = max(np.abs(a - o).max(), np.abs(b - o).max(), np.abs(c - o).max())
     n = np.cross(b - a, c - a)
@@ -85,15 +58,9 @@ def triangle_error_bound(o, d, a, b, c) -> float:
 
 
 def quad_error_bound(o, d, Q, u, v, t) -> float:
-    """Parallelogram-coordinate forward-error bound of the quad test for one ray.
-
-    t = (n.Q - n.o) / (n.d) with a rounded unit normal: the computed hit point lies off
-    the exact one by about u (|Q| + |o| + t |d|) / |cos| times a small count of roundings
-    (normal, two dot products, the division, o + t d, hp - Q); the coordinate
-    alpha = w.(hp x v) turns a point error into a coordinate error over the height
-    |u x v| / |v|. Hence delta = 32 u (|Q| + |o| + t |d|) / (|cos| h_min), with h_min
-    the smaller height of the parallelogram, to first order.
-    """
+    """Parallelogram-coordinate forward-error bound of the quad test for one ray:
+    32 u (|Q| + |o| + t |d|) / (|cos| h_min) to first order (the hit point's rounding over
+    the parallelogram's smaller height)."""
     o, d, Q, u, v = (np.asarray(x, dtype=np.float64) for x in (o, d, Q, u, v))
     n = np.cross(u, v)
     area = np.linalg.norm(n)
@@ -104,29 +71,18 @@ def quad_error_bound(o, d, Q, u, v, t) -> float:
 
 
 def classify_rays(shape: str, verts, origins, directions, hit_t, hit_prim) -> dict:
-    """Compare float64 hits with exact arithmetic on the same rays (see :func:`benchmarks.stress.grazing_rays`).
+    """Per-ray comparison of the core's hits (``hit_t``, ``hit_prim``) with exact arithmetic.
 
-    Parameters
-    ----------
-    shape : {'triangle', 'quad'}
-    verts : (3, 3) float64
-        ``(a, b, c)`` of the triangle or ``(Q, u, v)`` of the quad.
-    origins, directions : (N, 3) float64
-    hit_t, hit_prim : (N,) results of the core's ``intersect``.
-
-    Returns
-    -------
-    dict of per-ray arrays: ``exact_hit`` (bool, or False for parallel rays), ``parallel``,
-    ``plane_distance``, ``margin`` (exact signed distance of the crossing point to the
-    boundary, in barycentric / parallelogram coordinates; nan when parallel), ``delta``
-    (the forward-error bound), ``t_exact`` (float; nan when parallel), ``delta_plane``
-    (the rounding-level distance to the plane for parallel rays).
+    ``verts``: a triangle's ``(a, b, c)`` or a quad's ``(Q, u, v)``. Returns per-ray arrays:
+    ``exact_hit``, ``parallel``, ``plane_distance``, ``margin`` (exact signed distance of
+    the crossing to the boundary, in shape coordinates), ``delta`` (its error bound),
+    ``t_exact``, ``delta_plane``, ``violation``, ``boundary_disagreement``, ``hit``, ``nan``,
+    ``t_rel_error``.
     """
     verts = np.asarray(verts, dtype=np.float64)
     if shape == "triangle":
         a, b, c = verts
-        fa, fb, fc = _frac3(a), _frac3(b), _frac3(c)
-        p, e1, e2 = fa, [fb[i] - fa[i] for i in range(3)], [fc[i] - fa[i] for i in range(3)]
+        p, e1, e2 = _frac3(a), _frac3(b) - _frac3(a), _frac3(c) - _frac3(a)
         size = max(np.linalg.norm(b - a), np.linalg.norm(c - a), np.linalg.norm(c - b))
     else:
         Q, u, v = verts

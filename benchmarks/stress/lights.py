@@ -1,6 +1,4 @@
-"""Case ``light_sampling``: points on a quad light, on its plane, behind it, grazing it,
-inside / on / just outside a sphere light - finite pdfs, estimates equal to closed-form
-solid angles - and renders of a floor cutting a sphere light agree across strategies."""
+"""Case ``light_sampling``: light sampling where its pdfs degenerate."""
 from __future__ import annotations
 
 import math
@@ -19,13 +17,8 @@ __all__ = ["light_sampling", "triangle_solid_angle", "quad_solid_angle"]
 
 
 def triangle_solid_angle(ref, a, b, c) -> np.ndarray:
-    """Solid angle of triangle(s) ``a, b, c`` seen from ``ref`` (Van Oosterom and Strackee 1983).
-
-    Accepts (3,) or (N, 3) references; the triangle vertices are (3,).
-
-    Examples
-    --------
-    An octant of the unit sphere, seen from its centre, is 4 pi / 8:
+    """Solid angle of triangle ``a, b, c`` seen from (3,) or (N, 3) ``ref`` (Van Oosterom and
+    Strackee 1983). An octant of the unit sphere from its centre:
 
     >>> bool(np.isclose(triangle_solid_angle((0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1))[0], np.pi / 2))
     True
@@ -114,25 +107,14 @@ def _check_point(shape: rt.Shape, ref, exact: float, samples: int, rng) -> dict:
         or (exact == 0 and not valid.any()) else None
     # pdf of the procedure equals pdf_all for one emitter (valid samples)
     mismatch = int((valid & ~np.isclose(pdf, s["pdf_all"], rtol=1e-6, atol=0)).sum())
-    chk.update(valid_fraction=float(valid.mean()), nonfinite=nonfinite, pdf_mass=mass,
-               pdf_all_mismatch=mismatch)
+    chk.update(valid_fraction=float(valid.mean()), nonfinite=nonfinite, pdf_mass=mass, pdf_all_mismatch=mismatch)
     return chk
 
 
 def _light_renders(width: int, spp: int, seed: int) -> tuple:
-    """Every strategy on a scene of degenerate light pdfs, each against ``cosine``.
-
-    The camera and a floor inside an inward-facing sphere light (a dome), a small outward
-    sphere light cut by the floor, a quad light lying in the floor's plane (every floor
-    point sees it exactly edge-on) and a quad light above.
-
-    Returns
-    -------
-    agree : dict
-        Strategy -> :func:`image_ztest` against ``cosine``.
-    nonfinite : int
-        NaN/Inf samples over all the renders.
-    """
+    """Every strategy against ``cosine`` (:func:`image_ztest` per strategy) and the NaN/Inf
+    samples: a floor inside an inward-facing sphere light, cut by a small sphere light,
+    a quad light lying in its plane and one above."""
     floor = rt.Quad((-2, 0, -2), (0, 0, 4), (4, 0, 0), rt.Lambertian(0.6))
     shapes = [floor, rt.Sphere((0, 0, 0), 3.0, rt.DiffuseLight(0.5), flip_normals=True),
               rt.Sphere((0.4, 0.0, 0.6), 0.6, rt.DiffuseLight(3.0)),
@@ -152,20 +134,11 @@ def _light_renders(width: int, spp: int, seed: int) -> tuple:
 def light_sampling(*, samples: int = 100_000, seed: int = 0, width: int = 24, spp: int = 64) -> StressRecord:
     """Light sampling where pdfs degenerate: finite everywhere, estimates unbiased.
 
-    For each reference point, ``samples`` light samples give E[valid / pdf], which is the
-    solid angle of the emitter's front side seen from the point: compared (|z| <= 5)
-    with the closed form (Van Oosterom-Strackee for the quad; 2 pi (1 - cos theta_max)
-    outside a sphere; 4 pi inside an inward-facing sphere; 0 behind a one-sided light,
-    on its plane or inside an outward-facing sphere). Each pdf of a valid sample must be
-    finite and positive; ``light_pdf`` (the mixture's density) in uniformly random
-    directions must be finite and integrate to the probability of a valid sample.
-
-    Then a camera and a floor inside an inward-facing sphere light (every shading point
-    inside a sphere light), a small sphere light cut by the floor, a quad light lying in
-    the floor's plane (seen exactly edge-on) and one above are rendered with every
-    strategy: zero NaN/Inf samples, and each strategy agrees with ``cosine`` (which uses
-    no light pdf) by :func:`image_ztest`; all light here is direct, so ``light`` is
-    unbiased too.
+    From points on, beside, behind and grazing a quad light and inside, on and outside a
+    sphere light: E[valid / pdf] equals the closed-form solid angle (|z| <= 5), every pdf
+    is finite and ``light_pdf`` integrates to the probability of a valid sample
+    (:func:`_check_point`); then every strategy agrees with ``cosine`` on a scene of such
+    points (:func:`_light_renders`).
     """
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
@@ -182,6 +155,5 @@ def light_sampling(*, samples: int = 100_000, seed: int = 0, width: int = 24, sp
     figure = (f"{len(jobs)} reference points: max |z| {worst_z:.2f} (limit 5), Inf/NaN/mismatched pdfs {bad_pdf}; "
               f"floor-through-light renders agree with cosine: "
               f"{sum(a['passed'] for a in agree.values())}/{len(agree)}, NaN samples {render_nonfinite}")
-    details = {"points": cases, "render_agreement": agree, "render_nonfinite": render_nonfinite,
-               "samples": samples}
+    details = {"points": cases, "render_agreement": agree, "render_nonfinite": render_nonfinite, "samples": samples}
     return make_record("light_sampling", figure, passed, details, t0)

@@ -1,39 +1,26 @@
-"""Probe scenes and rays shared by the hard cases: small scenes, closed meshes, aimed rays.
-
-Nothing here decides a verdict: these build the scenes and rays that the case modules
-measure (and that ``tests/benchmarks/stress/test_stress_*.py`` reuse).
-"""
+"""Probe scenes and rays shared by the hard cases (and their tests): small scenes, closed
+meshes, aimed rays."""
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.probe import core_scene
 
-__all__ = [
-    "contiguous", "probe_scene", "icosphere", "edge_and_vertex_rays", "count_escapes", "transform_scene",
-    "white_furnace_scene", "creased_furnace_scene", "camera_rays",
-]
+__all__ = ["contiguous", "probe_scene", "icosphere", "edge_and_vertex_rays", "count_escapes", "transform_scene",
+           "white_furnace_scene", "creased_furnace_scene"]
 
 
 def contiguous(a) -> np.ndarray:
-    """``a`` as a C-contiguous float64 array (what the core's ray queries take).
-
-    Examples
-    --------
-    >>> contiguous([[1, 2, 3]]).dtype
-    dtype('float64')
-    """
+    """``a`` as a C-contiguous float64 array (what the core's ray queries take)."""
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
 def probe_scene(shapes, *, background=0.0, width=4, height=4, lookfrom=(0.0, 0.0, -10.0),
-                lookat=(0.0, 0.0, 0.0), max_depth=50) -> rt.Scene:
+                lookat=(0.0, 0.0, 0.0)) -> rt.Scene:
     """A scene holding ``shapes`` with a small camera, for ray queries and small renders."""
     cam = rt.Camera(lookfrom=lookfrom, lookat=lookat, vup=(0, 1, 0), vfov=60.0, width=width, height=height)
-    return rt.Scene(camera=cam, shapes=list(shapes), background=background, max_depth=max_depth)
+    return rt.Scene(camera=cam, shapes=list(shapes), background=background)
 
 
 def icosphere(subdivisions: int, *, radius: float = 1.0):
@@ -48,18 +35,9 @@ def icosphere(subdivisions: int, *, radius: float = 1.0):
 
 
 def edge_and_vertex_rays(vertices, edges, origins, rng):
-    """Rays from ``origins`` aimed exactly at mesh edges and vertices.
-
-    A third of the rays aim at a uniformly random point of a random edge (``a + s (b - a)``
-    in float64), a third at an edge's midpoint, a third at a vertex.
-
-    Returns
-    -------
-    directions : (N, 3) float64
-        ``target - origin``.
-    kind : (N,) int
-        0 random edge point, 1 edge midpoint, 2 vertex.
-    """
+    """Directions ``target - origin`` from ``origins`` aimed exactly at mesh edges and vertices,
+    and each ray's kind: 0 a random point of an edge (``a + s (b - a)`` in float64), 1 an
+    edge's midpoint, 2 a vertex (a third each)."""
     n = len(origins)
     kind = rng.integers(0, 3, n)
     e = edges[rng.integers(0, len(edges), n)]
@@ -91,39 +69,23 @@ def transform_scene(scene: rt.Scene, *, scale: float = 1.0, offset=(0.0, 0.0, 0.
                     background=scene.background, direct=scene.direct)
 
 
-def white_furnace_scene(*, width: int = 24, height: int | None = None, max_depth: int = 50) -> rt.Scene:
+def white_furnace_scene(*, width: int = 24) -> rt.Scene:
     """An albedo-1 Lambertian unit sphere in a constant background of radiance 1."""
-    cam = rt.Camera(lookfrom=(0, 0, -4.0), lookat=(0, 0, 0), vup=(0, 1, 0), vfov=35.0,
-                    width=width, height=height or width)
-    return rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1.0, rt.Lambertian(1.0))],
-                    background=1.0, max_depth=max_depth)
+    cam = rt.Camera(lookfrom=(0, 0, -4.0), lookat=(0, 0, 0), vup=(0, 1, 0), vfov=35.0, width=width, height=width)
+    return rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1.0, rt.Lambertian(1.0))], background=1.0)
 
 
-def creased_furnace_scene(*, width: int = 24, height: int | None = None) -> rt.Scene:
+def creased_furnace_scene(*, width: int = 24) -> rt.Scene:
     """A white furnace with creases: a sphere resting on a box, an icosphere mesh beside it
-    touching the box too, all albedo 1, background 1, unlimited depth.
-
-    With ``cosine`` sampling every path carries weight exactly 1 and ends in the
-    background, so every sample is exactly 1: a path that re-hits its own surface from
-    behind (acne) or slips through a mesh edge sees a black back face and lowers its
-    pixel. Radiance does not change with scale, so this holds at every scale.
-    """
+    touching the box too, all albedo 1, background 1, unlimited depth. With ``cosine``
+    sampling every sample is exactly 1 (at every scale): a path that re-hits its own
+    surface from behind (acne) or slips through a mesh edge lowers its pixel."""
     white = rt.Lambertian(1.0)
     V, F, _ = icosphere(3, radius=0.6)
     shapes = [rt.Box((-2.5, -1.0, -2.0), (2.5, 0.0, 2.0), white),
               rt.Sphere((0.0, 1.0, 0.0), 1.0, white),
               rt.Mesh(V + [1.45, 0.6, -0.7], F, white)]
-    cam = rt.Camera(lookfrom=(0.4, 2.2, -5.0), lookat=(0.3, 0.4, 0.0), vup=(0, 1, 0), vfov=40.0,
-                    width=width, height=height or width)
+    cam = rt.Camera(lookfrom=(0.4, 2.2, -5.0), lookat=(0.3, 0.4, 0.0), vup=(0, 1, 0), vfov=40.0, width=width,
+                    height=width)
     return rt.Scene(camera=cam, shapes=shapes, background=1.0, max_depth=-1)
 
-
-def camera_rays(camera: rt.Camera, px, py) -> np.ndarray:
-    """Unit directions of the camera's rays through film points (px, py) in pixels (as the core)."""
-    fwd, right, up = camera.basis()
-    hh = math.tan(0.5 * math.radians(camera.vfov))
-    hw = hh * camera.width / camera.height
-    sx = (2.0 * np.asarray(px) / camera.width - 1.0) * hw
-    sy = (1.0 - 2.0 * np.asarray(py) / camera.height) * hh
-    d = fwd + sx[..., None] * right + sy[..., None] * up
-    return d / np.linalg.norm(d, axis=-1, keepdims=True)

@@ -9,22 +9,9 @@ __all__ = ["StressRecord", "make_record"]
 
 @dataclass
 class StressRecord:
-    """One hard case: its measured figure and the verdict.
+    """One hard case: its measured ``figure`` (one table line), the verdict, every number
+    behind it (``details``, JSON-able) and the measurement's wall time.
 
-    Attributes
-    ----------
-    case : str
-        Case name (the function's name).
-    figure : str
-        The measured figure(s), one line for the table.
-    passed : bool
-    details : dict
-        Every number behind the figure (JSON-able).
-    seconds : float
-        Wall time of the measurement.
-
-    Examples
-    --------
     >>> StressRecord(case="demo", figure="0 leaks", passed=True).verdict
     'pass'
     """

@@ -1,5 +1,11 @@
-"""The registry of hard cases (:data:`CASES`: quick and full settings) and :func:`run_cases`."""
+"""The registry of hard cases (:data:`CASES`: quick and full settings), :func:`run_cases`, and
+the case ``suite_nonfinite``: every suite scene under every strategy renders no NaN/Inf sample."""
 from __future__ import annotations
+
+import time
+
+import reference_tracer as rt
+from mitsuba_scenes import get_scene, list_scenes
 
 from .degenerate import degenerate_input
 from .fireflies import fireflies
@@ -7,11 +13,29 @@ from .furnace import white_furnace
 from .glass import glass
 from .grazing import grazing_rays
 from .lights import light_sampling
+from .record import StressRecord, make_record
 from .scale import scale_invariance
-from .suite import suite_nonfinite
 from .watertight import watertight_mesh
 
-__all__ = ["CASES", "run_cases"]
+__all__ = ["CASES", "run_cases", "suite_nonfinite"]
+
+
+def suite_nonfinite(*, width: int = 16, spp: int = 4, seed: int = 0) -> StressRecord:
+    """Every suite scene under every strategy (and every triangle test for meshes): NaN/Inf samples."""
+    t0 = time.perf_counter()
+    counts, renders = {}, 0
+    for name in list_scenes():
+        scene = get_scene(name, width=width, height=width)
+        has_tris = any(isinstance(s, (rt.Mesh, rt.Triangle)) for s in scene.shapes)
+        for strategy in rt.STRATEGIES:
+            for test in (rt.TRIANGLE_TESTS if has_tris else ("watertight",)):
+                r = rt.render(scene, spp=spp, strategy=strategy, seed=seed, threads=2, triangle_test=test)
+                counts[f"{name}/{strategy}/{test}"] = r.nonfinite_samples
+                renders += 1
+    total = sum(counts.values())
+    figure = f"{total} NaN/Inf samples in {renders} renders of {len(list_scenes())} suite scenes"
+    return make_record("suite_nonfinite", figure, total == 0, {"nonfinite": counts, "renders": renders}, t0)
+
 
 #: case -> (function, quick keyword arguments, full keyword arguments)
 CASES = {
@@ -30,26 +54,10 @@ CASES = {
 
 
 def run_cases(names=None, *, quick: bool = False, on_record=None) -> list:
-    """Run the named cases (all by default) with quick or full settings.
+    """The :class:`~.record.StressRecord` of each named case (all by default), run with its quick
+    or full settings; ``on_record`` is called with each as it completes. Unknown names are
+    refused before any case runs:
 
-    Parameters
-    ----------
-    names : sequence of str or None
-    quick : bool, keyword-only
-    on_record : callable or None, keyword-only
-        Called with each :class:`~benchmarks.stress.record.StressRecord` as it completes.
-
-    Returns
-    -------
-    list of StressRecord
-
-    Raises
-    ------
-    ValueError
-        For a name not in :data:`CASES` (before any case runs).
-
-    Examples
-    --------
     >>> run_cases(["no_such_case"])  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
@@ -62,8 +70,7 @@ def run_cases(names=None, *, quick: bool = False, on_record=None) -> list:
     records = []
     for name in names:
         fn, quick_kw, full_kw = CASES[name]
-        rec = fn(**(quick_kw if quick else full_kw))
-        records.append(rec)
+        records.append(fn(**(quick_kw if quick else full_kw)))
         if on_record is not None:
-            on_record(rec)
+            on_record(records[-1])
     return records

@@ -1,5 +1,4 @@
-"""Case ``watertight_mesh``: rays from inside closed icospheres aimed exactly at shared
-edges and vertices, escapes counted per triangle test (the shipped default must leak none)."""
+"""Case ``watertight_mesh``: rays from inside closed meshes through their edges and vertices."""
 from __future__ import annotations
 
 import inspect
@@ -19,21 +18,16 @@ def watertight_mesh(*, rays: int = 100_000, subdivisions=(1, 2, 3, 4), seed: int
                     render_width: int = 32) -> StressRecord:
     """Rays from inside closed icospheres aimed exactly at shared edges and vertices.
 
-    Counts the rays that escape (hit nothing) with each triangle test of
-    ``rt.TRIANGLE_TESTS``: Cramer's rule in float32 and float64 leak, the watertight
-    test (Woop, Benthin and Wald 2013) must not, and it must be the default of
-    ``rt.render``. Also renders a black icosphere around the camera in a white
-    background: any pixel above 0 is light leaking through the mesh.
+    Counts the escapes of each triangle test of ``rt.TRIANGLE_TESTS``: the watertight test
+    (Woop, Benthin and Wald 2013) must leak none and be ``rt.render``'s default; a black
+    icosphere around the camera in a white background must render black.
 
     Parameters
     ----------
-    rays : int, keyword-only
-        Rays per triangle test, split evenly over the subdivision levels.
-    subdivisions : sequence of int, keyword-only
-        Icosphere subdivision levels (level s has 20 * 4^s faces).
-    seed : int, keyword-only
-    render_width : int, keyword-only
-        Image size of the leak render (4 spp per subdivision level).
+    rays : int
+        Rays per triangle test, split evenly over the ``subdivisions`` levels (20 * 4^s faces).
+    render_width : int
+        Image size of the leak render (4 spp per level).
     """
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)

@@ -1,9 +1,5 @@
-"""The statistical decisions of the hard cases: z-tests of images and of sample means.
-
-:func:`image_ztest` compares two renders (or a render and an exact image) at a nominal
-false-positive rate of 1e-4 per comparison; :func:`z_check` gives the z-score of a
-sample mean against a closed form (the cases accept |z| <= 5: 5.7e-7 per check).
-"""
+"""The statistical decisions of the hard cases: z-tests of images (:func:`image_ztest`) and of
+a sample mean against a closed form (:func:`z_check`; the cases accept |z| <= 5)."""
 from __future__ import annotations
 
 import math
@@ -15,38 +11,22 @@ from reference_tracer.estimate import ImageEstimate
 
 __all__ = ["image_ztest", "constant_ztest", "z_check"]
 
+#: the local test counts pixel values beyond this two-sided level
+PIXEL_ALPHA = 1e-3
+#: relative floor of a difference's standard deviation: float32 rounding
+REL_FLOOR = 1e-6
+
 
 def image_ztest(mean_a, var_a, n_a, mean_b, var_b=None, n_b=None, *, alpha: float = 1e-4,
-                pixel_alpha: float = 1e-3, local: bool = True, rel_floor: float = 1e-6) -> dict:
-    """Do two images (or an image and an exact one) have the same expectation?
+                local: bool = True) -> dict:
+    """Do two images (or an image and an exact one, ``var_b`` None) have the same expectation?
 
-    Per pixel and channel z = (a - b) / sqrt(var_a / n_a + var_b / n_b), with the
-    per-sample variances of both renders (independent seeds). Two tests, each at half
-    of ``alpha``:
+    Two tests at ``alpha / 2`` each: per channel, the global Z = sum(a - b) / sqrt(sum of the
+    variances) (a bias spread over the image), and unless ``local=False`` (heavy tails) the
+    count of pixel values with |z| > z(PIXEL_ALPHA) against its binomial quantile. Each
+    variance has a floor of (REL_FLOOR * max(|a|, |b|))^2. Returns
+    ``passed``, ``z_global``, ``z_global_limit``, ``outliers``, ``outlier_limit`` and more:
 
-    * global, per channel: Z_c = sum(a - b) / sqrt(sum(var_a / n_a + var_b / n_b)) over
-      all pixels (pixels are independent; a sum over thousands is normal to a good
-      approximation); reject when max |Z_c| exceeds the two-sided (alpha / 2) / channels
-      quantile. Catches a small bias spread over the image (acne, leaks).
-    * local: the count of |z| > z(pixel_alpha) must not exceed the binomial
-      (N, pixel_alpha) quantile at alpha / 2. Catches a few badly wrong pixels.
-
-    The nominal false-positive rate is ``alpha`` (normal approximation to per-pixel
-    means; channels of a pixel are correlated, which widens the count's spread a little).
-    With ``local=False`` only the global test runs (for heavy-tailed estimators whose
-    per-pixel means at low spp are far from normal). The variance of each difference has
-    a floor of (rel_floor * max(|a|, |b|))^2: float32 images round at ~6e-8 relative, so
-    two estimators that are exact per sample compare equal. A pixel where that is still
-    0 counts as |z| = inf unless the means are equal.
-
-    Returns
-    -------
-    dict
-        ``passed``, ``z_global`` (per channel), ``z_global_limit``, ``outliers``,
-        ``outlier_limit``, ``tests``, ``alpha``.
-
-    Examples
-    --------
     >>> a = np.ones((4, 4, 3))
     >>> image_ztest(a, np.ones_like(a), 16, a)["passed"], image_ztest(a + 1, np.ones_like(a), 16, a)["passed"]
     (True, False)
@@ -56,7 +36,7 @@ def image_ztest(mean_a, var_a, n_a, mean_b, var_b=None, n_b=None, *, alpha: floa
     s2 = np.asarray(var_a, dtype=np.float64) / n_a
     if var_b is not None:
         s2 = s2 + np.asarray(var_b, dtype=np.float64) / n_b
-    s2 = s2 + (rel_floor * np.maximum(np.abs(a), np.abs(b))) ** 2
+    s2 = s2 + (REL_FLOOR * np.maximum(np.abs(a), np.abs(b))) ** 2
     d = a - b
     a3 = d.reshape(-1, d.shape[-1]) if d.ndim == 3 else d.reshape(-1, 1)
     v3 = s2.reshape(a3.shape)
@@ -66,10 +46,10 @@ def image_ztest(mean_a, var_a, n_a, mean_b, var_b=None, n_b=None, *, alpha: floa
         zg = np.where(sd > 0, a3.sum(axis=0) / sd, np.where(a3.sum(axis=0) == 0, 0.0, np.inf))
         z = np.where(v3 > 0, a3 / np.sqrt(v3), np.where(a3 == 0, 0.0, np.inf))
     zg_limit = float(stats.norm.isf(alpha / 2 / channels / 2))
-    z_pix = float(stats.norm.isf(pixel_alpha / 2))
+    z_pix = float(stats.norm.isf(PIXEL_ALPHA / 2))
     n = a3.size
     outliers = int((np.abs(z) > z_pix).sum())
-    limit = int(stats.binom.isf(alpha / 2, n, pixel_alpha))
+    limit = int(stats.binom.isf(alpha / 2, n, PIXEL_ALPHA))
     passed = bool(np.all(np.abs(zg) <= zg_limit) and (outliers <= limit or not local))
     return {"passed": passed, "local": local, "z_global": [float(x) for x in zg], "z_global_limit": zg_limit,
             "outliers": outliers, "outlier_limit": limit, "pixel_z": z_pix, "tests": int(n), "alpha": alpha,
@@ -84,13 +64,9 @@ def constant_ztest(result: ImageEstimate, value: float, *, alpha: float = 1e-4, 
 
 
 def z_check(samples, exact) -> dict:
-    """z of the mean of ``samples`` against ``exact``.
+    """z of the mean of ``samples`` against ``exact``; the standard error has a floor of
+    1e-12 |exact| (float64 rounding), so a constant estimator compares exactly.
 
-    The standard error has a floor of 1e-12 |exact| (float64 rounding of the samples and
-    of the closed form), so an estimator that is constant up to rounding compares exactly.
-
-    Examples
-    --------
     >>> z_check([2.0, 2.0, 2.0], 2.0)["z"]
     0.0
     """

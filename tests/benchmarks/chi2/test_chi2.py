@@ -21,7 +21,7 @@ from scipy import stats
 
 from benchmarks.chi2 import Grid, chi2_test, discrete_test, integrate, pearson, sidak
 from benchmarks.chi2.catalogue import ROUTINES, select
-from benchmarks.chi2.routine import Routine
+from benchmarks.chi2.runner import Routine
 from benchmarks.chi2.runner import run_routine
 from benchmarks.chi2.probes import BsdfProbe, LightProbe, direction, fresnel_exact, fresnel_schlick, warp
 
