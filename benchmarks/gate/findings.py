@@ -1,9 +1,5 @@
-"""Where a comparison found its strongest evidence, how large the bias is, and its power.
-
-Helpers of :func:`benchmarks.gate.compare`: they read its validated inputs (``d``: means,
-variances of the means, non-finite mask) and its levels (``z``, ``p``, ``valid``,
-``var``, ``ref_sum``, ``z_crit`` per statistic).
-"""
+"""Where a comparison found its strongest evidence, how large the bias is, and its power
+(helpers of :func:`benchmarks.gate.compare`)."""
 from __future__ import annotations
 
 import math
@@ -74,12 +70,9 @@ def relative_bias(d, worst_tile: tuple) -> tuple:
 
 
 def power(img, tile8) -> tuple:
-    """Minimum detectable relative bias with probability :data:`POWER`: of the whole image
-    (the most sensitive tested channel) and of one :data:`POWER_TILE` tile (the median tested
-    tile); NaN where nothing is tested. A level detects a bias ``delta * sum(r)`` when it
-    exceeds ``(z_crit + z_power)`` standard deviations of the statistic; a noiseless
-    statistic (an exact estimator against an exact reference: variance 0) detects, with
-    certainty, any bias beyond its equality tolerance ``tol / |sum(r)|``."""
+    """Minimum detectable relative bias with probability :data:`POWER`, ``(z_crit + z_power)
+    sqrt(var) / |sum r|``, of the image (most sensitive channel) and of a :data:`POWER_TILE` tile
+    (median); a noiseless statistic detects any bias beyond its tolerance; NaN if untested."""
     z_pow = float(stats.norm.isf(1.0 - POWER))
 
     def mdb(lv):

@@ -1,13 +1,9 @@
 """When may a statistic of a heavy-tailed estimator be tested? The gate's tail rules.
 
-Monte Carlo pixel samples are often heavy-tailed; a sum of them (a pixel mean, a tile, the
-image) is then far from normal at a modest budget, and a normal or Student-t p-value at
-the small levels a corrected family of tests needs is wrong by orders of magnitude. From
-the estimator's own moments (its tail reference, :mod:`benchmarks.tails`) this module
-bounds that error with the one-term Edgeworth expansion (:func:`edgeworth_error`), says
-how many spp would make it small (:func:`spp_needed`) and gives the pixel level's shape
-(:func:`pixel_shape`). ``benchmarks/STATISTICS.md`` has the method and its measured
-false-alarm rates.
+From the estimator's own moments (its tail reference, :mod:`benchmarks.tails`):
+:func:`edgeworth_error` bounds the error of the normal tail (one-term Edgeworth expansion),
+:func:`spp_needed` says how many spp would make it small, :func:`pixel_shape` gives the pixel
+level's shape. The method and its measured false-alarm rates: ``benchmarks/STATISTICS.md``.
 """
 from __future__ import annotations
 
@@ -20,10 +16,7 @@ from scipy.ndimage import uniform_filter
 __all__ = ["DEFAULT_VALIDITY", "edgeworth_error", "spp_needed", "tail_moments", "pixel_shape",
            "neighbourhood_floor"]
 
-#: Largest relative error of the normal tail probability at a level's critical value
-#: (:func:`edgeworth_error`) for a statistic to be tested; tested p-values are inflated by
-#: their bound, so up to 1 (a true tail up to twice the normal one) the level still holds
-#: (``benchmarks/STATISTICS.md``).
+#: Largest :func:`edgeworth_error` at a level's critical value for a statistic to be tested.
 DEFAULT_VALIDITY = 1.0
 
 
@@ -34,11 +27,9 @@ def neighbourhood_floor(v: np.ndarray, size: int) -> np.ndarray:
 
 
 def edgeworth_error(z, g1, g2):
-    """Relative error bound of the normal upper tail ``Q(z)`` for a statistic with skewness
-    ``g1`` and excess kurtosis ``g2``, from the one-term Edgeworth expansion
-    ``P(Z > z) = Q(z) + phi(z) (g1 He2 / 6 + g2 He3 / 24 + g1^2 He5 / 72) + ...``:
-    ``phi(z) / Q(z) * (|g1| |He2(z)| / 6 + |g2| |He3(z)| / 24 + g1^2 |He5(z)| / 72)``
-    (Hermite polynomials ``He2 = z^2 - 1``, ``He3 = z^3 - 3z``, ``He5 = z^5 - 10z^3 + 15z``).
+    """Relative error bound of the normal upper tail ``Q(z)`` for skewness ``g1`` and excess
+    kurtosis ``g2`` (one-term Edgeworth expansion):
+    ``phi(z) / Q(z) * (|g1| |He2(z)| / 6 + |g2| |He3(z)| / 24 + g1^2 |He5(z)| / 72)``.
 
     Examples
     --------
@@ -56,8 +47,7 @@ def edgeworth_error(z, g1, g2):
 
 def spp_needed(z: float, g1: float, g2: float, spp: float, validity: float = DEFAULT_VALIDITY) -> int:
     """About how many spp make :func:`edgeworth_error` at ``z`` drop to ``validity``, given the
-    statistic's skewness ``g1`` and excess kurtosis ``g2`` at ``spp`` (they fall as
-    ``1/sqrt(n)`` and ``1/n``).
+    shape ``g1``, ``g2`` at ``spp`` (falling as ``1/sqrt(n)`` and ``1/n``).
 
     Examples
     --------
@@ -92,13 +82,8 @@ def tail_moments(tails, shape) -> tuple:
 
 
 def pixel_shape(m2, m3, k4, *, exact, n_t) -> tuple:
-    """Skewness and excess kurtosis of each pixel *mean* for the pixel level.
-
-    The worse of the pixel's own per-sample shape and its 3x3 neighbourhood's, divided by
-    ``sqrt(n)`` and ``n``: the pixel-level variance borrows the neighbours' (larger)
-    noise, and without this a pixel whose own samples are dominated by rare paths would
-    look normal.
-    """
+    """Skewness and excess kurtosis of each pixel mean: the worse of the pixel's own per-sample
+    shape and its 3x3 neighbourhood's (whose noise the pixel level borrows), over ``sqrt(n)``, ``n``."""
     m2 = np.where(exact, 0.0, m2)
 
     def shape(s3, s4, s2):
@@ -111,5 +96,3 @@ def pixel_shape(m2, m3, k4, *, exact, n_t) -> tuple:
     own = shape(m3, k4, m2)
     nb = shape(pool(np.abs(m3)), pool(np.abs(k4)), pool(m2))
     return np.maximum(own[0], nb[0]) / math.sqrt(n_t), np.maximum(own[1], nb[1]) / n_t
-
-

@@ -1,11 +1,5 @@
-"""The validated inputs of :func:`benchmarks.gate.compare`: float64 ``(H, W, C)`` images of
-the means and the variances of the means, with the tail diagnostics' cumulants.
-
-:func:`prepare` checks the images once, at the boundary (shapes, finite reference,
-non-negative variances, sample counts); every level of the test reads the :class:`Inputs`
-it returns. A filtered test render (tent, Gaussian) takes its pixels' moments from the
-samples drawn inside each pixel (:func:`_prepare_filtered`).
-"""
+"""The inputs of :func:`benchmarks.gate.compare`, checked once by :func:`prepare`: float64
+``(H, W, C)`` images of the means, the variances of the means and the tails' cumulants."""
 from __future__ import annotations
 
 import dataclasses
@@ -53,18 +47,13 @@ def _variance(v: np.ndarray, name: str, n: float, ddof: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Inputs:
-    """Validated inputs of :func:`compare`, as float64 ``(H, W, C)`` images.
+    """Checked inputs of :func:`compare`, float64 ``(H, W, C)`` images.
 
-    ``x``, ``r``: test and reference means (``x`` set to ``r`` where the test is
-    non-finite, ``bad``); ``a``, ``b``: variances of the test's and the reference's pixel
-    means; ``fa``: floor of ``a`` (the reference's per-sample variance at the test's spp)
-    or None; ``k3``, ``k4``: third and fourth cumulants of the test's pixel means (zero
-    without tail diagnostics); ``g1``, ``g2``: per-sample skewness and excess kurtosis of
-    each pixel for the pixel level (the worse of the pixel's own and its neighbourhood's);
-    ``diff = x - r``; ``abs_scale = max(|x|, |r|)``. ``summed``: the same variances and
-    cumulants for sums over tiles and the image (for a filtered render those of the samples
-    drawn in each pixel: a sum of filtered pixels weighs each interior sample ~1), or None
-    where they are the pixels' own.
+    ``x``, ``r``: means (``x`` set to ``r`` where the test is non-finite, ``bad``); ``a``,
+    ``b``: variances of the pixel means; ``fa``: floor of ``a`` or None; ``k3``, ``k4``:
+    cumulants of the test's pixel means; ``g1``, ``g2``: the pixel level's shapes;
+    ``summed``: the variances and cumulants the tile and image levels sum (a filtered
+    render's samples'), or None where they are the pixels' own.
     """
 
     x: np.ndarray
@@ -89,7 +78,7 @@ class Inputs:
         return getattr(self, name) if self.summed is None else self.summed[name]
 
     def sums(self, reduce, *, summed: bool = False) -> dict:
-        """The variance sums :func:`benchmarks.gate.levels._welch_from_sums` takes, each reduced by ``reduce``."""
+        """The variance sums of :func:`benchmarks.gate.levels._welch_from_sums`, reduced by ``reduce``."""
         a, b, fa = ((self.for_sums(k) for k in ("a", "b", "fa")) if summed else (self.a, self.b, self.fa))
         out = dict(a=reduce(a), b=reduce(b), a2=reduce(a * a), b2=reduce(b * b))
         if fa is not None:
@@ -127,10 +116,8 @@ def prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *, var_dd
             vx = np.maximum(vx, m2 * (tails.n / (tails.n - 1.0)))
             fa = None
         k3, k4 = m3 / n_t ** 2, k4s / n_t ** 3
-    # A per-sample variance at float-rounding level is zero: identical samples give a
-    # second moment minus squared mean of ~1e-15 (a directly seen light), which would
-    # otherwise make a 1e-6 relative difference in the constants "significant". Below
-    # (zero_var_rtol / 10 * |mean|)^2 the pixel mean is pinned far inside the tolerance.
+    # a per-sample variance at float-rounding level (~1e-15 on a directly seen light) is zero:
+    # else a 1e-6 relative difference in the emitters' constants would be "significant"
     vx = np.where(vx <= (0.1 * zero_var_rtol * x) ** 2, 0.0, vx)
     vr = np.where(vr <= (0.1 * zero_var_rtol * r) ** 2, 0.0, vr)
     if tails is not None:
@@ -142,9 +129,8 @@ def prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *, var_dd
 
 def _prepare_filtered(test_mean, test_spp, ref_mean, ref_var, ref_spp, *, var_ddof, zero_var_rtol,
                       variance_floor, tails, pixel_samples, weights) -> Inputs:
-    """:func:`prepare` for a filtered test render: the filtered pixels' moments from the
-    samples drawn inside each pixel (:func:`benchmarks.gate.filtered.filtered_moments`), the
-    samples' own for the sums."""
+    """:func:`prepare` for a filtered render: the pixels' moments from the samples'
+    (:func:`benchmarks.gate.filtered.filtered_moments`), the samples' own for the sums."""
     try:
         box_mean, box_var = pixel_samples
     except (TypeError, ValueError):

@@ -1,10 +1,4 @@
-"""Mitsuba 3's own render-test rule, re-implemented to compare it with the gate's.
-
-:func:`mitsuba_rule` is the acceptance rule of Mitsuba's ``test_renders.py``: a per-pixel
-z-test against the reference's variance only. ``tests/benchmarks/gate/test_gate_stats.py`` and the power
-table (:mod:`benchmarks.gate.power`) run it beside :func:`benchmarks.gate.compare` on the
-same data.
-"""
+"""Mitsuba 3's own render-test rule (:func:`mitsuba_rule`), re-implemented to compare it with the gate's."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -23,12 +17,8 @@ MITSUBA_ALPHA = 0.01
 
 @dataclass
 class MitsubaRuleResult:
-    """Result of :func:`mitsuba_rule`.
-
-    ``passed``; ``fraction_passed`` = passing pixel-channels / (C * pixels);
-    ``alpha_sidak`` the per-pixel level; ``n_failed`` failing pixel-channels;
-    ``p_value`` (H, W, C) per-pixel-channel p-values; ``min_p``.
-    """
+    """``fraction_passed``: passing pixel-channels / (C * pixels); ``alpha_sidak``: the per-pixel
+    level; ``p_value``: (H, W, C) per-pixel-channel p-values."""
 
     passed: bool
     fraction_passed: float
@@ -42,29 +32,12 @@ def mitsuba_rule(test_mean, ref_mean, ref_var, test_spp, *, alpha: float = MITSU
                  var_floor: float = 1e-4, pass_fraction: float = 0.9975) -> MitsubaRuleResult:
     """Mitsuba 3's render-test acceptance rule, re-implemented for comparison.
 
-    Source: ``src/render/tests/test_renders.py`` in mitsuba-renderer/mitsuba3 (functions
-    ``z_test`` and ``test_render``), read for this re-implementation. Its rule:
-
-    * the reference's per-sample variance is floored, ``v = max(ref_var, 1e-4)``;
-    * ``z = |mean - ref| * sqrt(spp / v)`` where ``spp`` is the sample count of the
-      render *under test* (the reference's own spp and noise do not enter; neither does
-      the test render's variance);
-    * ``p = 2 * (1 - Phi(z))``;
-    * Sidak-corrected level over *pixels* (not pixel-channels):
-      ``alpha_s = 1 - (1 - alpha)^(1 / (H * W))`` with ``alpha = 0.01``;
-    * a pixel-channel passes if ``p > alpha_s``; the image passes if
-      ``passing pixel-channels / C >= 0.9975 * H * W``.
-
-    Mitsuba applies it in XYZ (it converts RGB references to XYZ first); here it runs
-    in whatever colour space the arrays are in.
-
-    Parameters
-    ----------
-    test_mean : array_like, (H, W) or (H, W, C)
-    ref_mean, ref_var : array_like, same shape
-        Reference mean and per-sample variance.
-    test_spp : int
-        Samples per pixel of the render under test (Mitsuba's ``sample_count``).
+    ``src/render/tests/test_renders.py`` of mitsuba3 (``z_test``, ``test_render``):
+    ``z = |mean - ref| * sqrt(spp / max(ref_var, 1e-4))`` with the test render's ``spp`` (neither
+    the reference's noise nor the test's variance enters), ``p = 2 (1 - Phi(z))``; a
+    pixel-channel passes if ``p > 1 - (1 - alpha)^(1 / (H W))`` (Sidak over pixels), the image if
+    ``passing pixel-channels / C >= 0.9975 H W``. Mitsuba runs it in XYZ; here it runs in the
+    arrays' colour space.
 
     Examples
     --------

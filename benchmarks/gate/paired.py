@@ -1,11 +1,8 @@
 """One render judged against another render of the same estimator: ``rtbench compare``'s verdict.
 
-:func:`judge` is the gate's test (:func:`~benchmarks.gate.statistics.compare`) of image B
-against image A as the reference, both with few samples, with what is known of B's
-estimator from a high budget (:class:`EstimatorKnowledge`: its tail reference, or an
-external renderer's per-pixel variance) floored into both sides. ``rtbench compare``
-(:mod:`benchmarks.compare`) applies it to two stores; ``rtbench gate --calibrate
---compare-pairs`` (:mod:`~benchmarks.gate.calibration`) measures its false-alarm rate.
+:func:`judge` is :func:`~benchmarks.gate.statistics.compare` of image B against image A as the
+reference, with what is known of B's estimator at a high budget (:class:`EstimatorKnowledge`)
+floored into both sides.
 
 Examples
 --------
@@ -28,12 +25,9 @@ __all__ = ["EstimatorKnowledge", "judge"]
 
 @dataclass
 class EstimatorKnowledge:
-    """What is known of B's estimator from a high budget (:mod:`benchmarks.compare`, "Heavy tails").
-
-    ``moments``: per-pixel :class:`reference_tracer.SampleMoments` of the same estimator
-    (ours); ``variance``: per-sample variance image (an external renderer's batches);
-    ``note``: one line saying which, or why neither.
-    """
+    """What is known of B's estimator at a high budget: ``moments`` (our tail reference's
+    :class:`reference_tracer.SampleMoments`) or ``variance`` (an external renderer's per-sample
+    variance), and a ``note`` saying which, or why neither."""
 
     note: str
     moments: object = None
@@ -41,13 +35,8 @@ class EstimatorKnowledge:
 
 
 def _with_knowledge(known: EstimatorKnowledge, ref, test) -> tuple:
-    """``(ref, test, moments)`` with B's high-budget variance floored into both sides.
-
-    Under the null hypothesis (nothing changed) A's estimator is B's, so the known
-    per-sample variance floors A's as well as B's: heavy-tailed renders that missed their
-    rare paths no longer look precise. A floor only ever widens the test (fewer alarms,
-    never more).
-    """
+    """``(ref, test, moments)`` with B's known variance floored into both sides (under the null
+    hypothesis A's estimator is B's; a floor only widens the test)."""
     if known.moments is not None:
         m2, _, _ = tail_moments(known.moments, np.shape(test[0]))
         floor = m2 * (known.moments.n / (known.moments.n - 1.0))
@@ -69,15 +58,13 @@ def judge(ref, test, *, known: EstimatorKnowledge, alpha: float):
     ref, test : tuple
         ``(mean, per-sample variance, spp)`` of A (the baseline) and of B.
     known : EstimatorKnowledge, keyword-only
-        B's estimator at a high budget (floored into both sides, see ``_with_knowledge``).
+        B's estimator at a high budget.
     alpha : float, keyword-only
         Level of this one comparison.
 
     Returns
     -------
     benchmarks.gate.GateResult
-        With ``verdict`` "pass", "fail" or "undetermined". ``rtbench gate --calibrate
-        --compare-pairs`` measures its false-alarm rate on pairs of renders of one build.
     """
     ref, test, moments = _with_knowledge(known, ref, test)
     return compare(test[0], test[1], test[2], ref[0], ref[1], ref[2], alpha=alpha, tails=moments)

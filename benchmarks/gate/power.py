@@ -1,38 +1,14 @@
-"""Measured power of the regression gate: injected biases, ours vs Mitsuba's per-pixel rule.
+"""Measured power of the regression gate on injected biases, ours against Mitsuba's per-pixel rule.
 
-This module computes the table's rows (:func:`power_table`); the Markdown printing is
+Each injection (:data:`INJECTIONS`) is a plausible bug applied to our render of an unmodified
+suite scene, compared with the gate's own reference of that scene at the gate's defaults, so a
+row says what ``rtbench gate`` would report. Ours "catches" it when its p-value is below the
+level of one comparison of a default quick-suite run (``GATE_ALPHA / 8``); Mitsuba's rule runs
+at its own ``alpha = 0.01`` per image. The Markdown table:
 :func:`benchmarks.commands._gate_tables.format_table`.
-
-Each injection is a plausible rendering bug applied to *our* tracer's render of an
-unmodified suite scene; the reference is the gate's own, the cached Mitsuba render of
-the unmodified scene at the gate's defaults (:mod:`benchmarks.gate.suite`). So the table says
-what ``rtbench gate`` would report in CI, not what an idealised test could do.
-
-Injections (:data:`INJECTIONS`):
-
-``scale 0.99``
-    ``cornell_box``: the whole image (mean, and variance by 0.99^2) scaled by 0.99.
-``red wall albedo +3%``
-    ``cornell_box`` with the red wall's (x = 0) albedo times 1.03.
-``light moved 1%``
-    ``cornell_box`` with the ceiling light moved 1.3 units (1% of its 130-unit width)
-    along +x, towards the green wall.
-``Schlick Fresnel``
-    ``cornell_glass`` with ``Dielectric(1.5, fresnel='schlick')`` instead of the exact
-    Fresnel equations.
-``light strategy``
-    ``cornell_box`` rendered with ``strategy='light'`` (misses all indirect light)
-    instead of ``mis``.
-
-Ours "catches" an injection when its p-value is below the per-comparison level of a
-default gate run over the quick suite (``GATE_ALPHA / 8`` = 0.00125: eight scenes,
-``mis`` only). Mitsuba's rule (:func:`benchmarks.gate.mitsuba_rule`) is applied as
-Mitsuba applies it, at its own ``alpha = 0.01`` per image, on the same render and
-reference.
 
 Examples
 --------
->>> from benchmarks.gate.power import INJECTIONS
 >>> list(INJECTIONS)[:2]
 ['scale 0.99', 'red wall albedo +3%']
 """
@@ -49,16 +25,18 @@ from ..constants import GATE_ALPHA
 from .mitsuba_rule import MITSUBA_ALPHA, mitsuba_rule
 from .suite import DEFAULT_REF_SPP, DEFAULT_SPP, DEFAULT_WIDTH, compare_render, gate_reference, gate_scene
 
-__all__ = ["INJECTIONS", "QUICK_SUITE_COMPARISONS", "PowerRow", "injected_scene", "power_row", "power_table"]
+__all__ = ["INJECTIONS", "QUICK_SUITE_COMPARISONS", "PowerRow", "injected_scene", "power_row"]
 
 #: comparisons in a default gate run of the quick suite (eight scenes, ``mis``).
 QUICK_SUITE_COMPARISONS = 8
-#: fraction of the light's width it is moved by.
+#: fraction of the light's width it is moved by along its edge ``u``.
 LIGHT_SHIFT = 0.01
 #: relative change of the wall albedo.
 ALBEDO_CHANGE = 0.03
 
-#: name -> (suite scene, strategy, image scale, scene edit or None); see the module doc.
+#: name -> (suite scene, strategy, image scale, scene edit or None): the image scaled by 0.99 (its
+#: variance by 0.99^2); the red wall's (x = 0) albedo times 1.03; the ceiling light moved 1% of its
+#: width along +x; ``Dielectric(1.5, fresnel='schlick')`` on the glass; ``light`` instead of ``mis``.
 INJECTIONS = {
     "scale 0.99": ("cornell_box", "mis", 0.99, None),
     "red wall albedo +3%": ("cornell_box", "mis", 1.0, "red_wall"),
@@ -71,8 +49,7 @@ INJECTIONS = {
 def _replace_shape(scene, index, shape):
     shapes = list(scene.shapes)
     shapes[index] = shape
-    return rt.Scene(camera=scene.camera, shapes=shapes, max_depth=scene.max_depth, rr_depth=scene.rr_depth,
-                    background=scene.background, direct=scene.direct)
+    return dataclasses.replace(scene, shapes=shapes)
 
 
 def injected_scene(scene, edit):
@@ -97,8 +74,7 @@ def injected_scene(scene, edit):
     if edit == "move_light":
         (i,) = [k for k, s in enumerate(scene.shapes) if isinstance(s.material, rt.DiffuseLight)]
         light = scene.shapes[i]
-        width = float(np.linalg.norm(light.u))
-        q = tuple(float(c) + d for c, d in zip(light.Q, np.asarray(light.u) / width * LIGHT_SHIFT * width))
+        q = tuple(float(c) + float(d) * LIGHT_SHIFT for c, d in zip(light.Q, light.u))
         return _replace_shape(scene, i, dataclasses.replace(light, Q=q))
     if edit == "schlick":
         (i,) = [k for k, s in enumerate(scene.shapes) if isinstance(s.material, rt.Dielectric)]
@@ -128,7 +104,7 @@ class PowerRow:
 def power_row(name: str, *, seed: int = 1, spp: int = DEFAULT_SPP, width: int = DEFAULT_WIDTH,
               ref_spp: int = DEFAULT_REF_SPP, case_alpha: float = GATE_ALPHA / QUICK_SUITE_COMPARISONS,
               mitsuba_alpha: float = MITSUBA_ALPHA, threads=None, cache=None) -> PowerRow:
-    """Render injection ``name`` and test it with both rules (see the module doc)."""
+    """Render injection ``name`` and test it with both rules."""
     if name not in INJECTIONS:
         raise ValueError(f"unknown injection {name!r}; choose from {', '.join(INJECTIONS)}")
     scene_name, strategy, scale, edit = INJECTIONS[name]
@@ -143,9 +119,3 @@ def power_row(name: str, *, seed: int = 1, spp: int = DEFAULT_SPP, width: int = 
                     failed_levels=list(g.failed_levels), relative_bias=g.relative_bias,
                     relative_bias_se=g.relative_bias_se, mitsuba_caught=not m.passed,
                     mitsuba_failed_fraction=1.0 - m.fraction_passed)
-
-
-def power_table(names=None, **kw) -> list:
-    """:func:`power_row` for each injection (default: all of :data:`INJECTIONS`)."""
-    return [power_row(n, **kw) for n in (names or list(INJECTIONS))]
-

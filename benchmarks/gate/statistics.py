@@ -1,80 +1,11 @@
-"""The gate's statistics: does a render converge to the same image as a reference?
+"""The gate's test: does a render converge to the same image as a reference?
 
-:func:`compare` is the test ``rtbench gate`` applies (issue 7); :func:`mitsuba_rule`
-(:mod:`benchmarks.gate.mitsuba_rule`) re-implements Mitsuba 3's own render-test rule so
-the two can be compared on the same data. Pure numpy/scipy.
-
-Inputs are per-pixel *means* and *per-sample variances* (``rt.render``'s ``mean`` and
-``variance``; for Mitsuba, the between-batch variance times the batch spp) with their
-sample counts. Pixels are assumed independent (independent sampler, box filter), which
-holds for both renderers as configured (docs/conventions.md); a ``tent`` or
-``gaussian`` filter correlates neighbours.
-
-How :func:`compare` tests
--------------------------
-Null hypothesis H0: in every pixel-channel the test renderer and the reference have
-the same expectation. Three levels, each a family of two-sided tests:
-
-1. **pixel** - a Welch t-test per pixel-channel,
-   ``t = (x - r) / sqrt(v_x / n_x + v_r / n_r)`` with Welch-Satterthwaite degrees of
-   freedom. Catches large local errors (a missing highlight, a wrong light edge).
-2. **tile** - pixels pooled into ``tile x tile`` blocks (by default at three sizes,
-   8, 16 and 32): the summed difference over the block divided by the square root of the
-   summed variances (Satterthwaite dof again).
-   Catches a small bias spread over a region (one wall 3% too bright) that no single
-   pixel can show.
-3. **image** - the same over the whole image, per channel. Catches a small global bias
-   (everything scaled by 0.99).
-4. **correlation** - the sum of the products of neighbouring pixels' standardised
-   differences per channel, one-sided (:mod:`benchmarks.gate.correlation`; with tail
-   diagnostics only). Catches wrong noise that keeps every mean right (pixels that share
-   random numbers), which would make the standard errors of the other levels too small.
-
-Within a level the smallest p-value is Sidak-adjusted over the number of tests that
-can reject, ``p_level = 1 - (1 - p_min)^m`` (exact for independent tests; tiles and
-pixels are disjoint and so independent, and for the correlated channels of one pixel or
-tile Sidak's inequality for two-sided tests keeps it conservative). The four levels are
-combined by Bonferroni: ``p_value = min(1, 4 * min(level p-values))`` and the
-gate passes iff ``p_value >= alpha``. Hence P(false alarm | H0) <= alpha, up to how well
-each per-test p-value is calibrated - which is the hard part, below.
-
-Heavy tails: tail diagnostics of the same estimator (``tails=``)
------------------------------------------------------------------
-With ``tails`` (a :class:`reference_tracer.SampleMoments` of the *same estimator* at a high
-budget: :func:`benchmarks.tails.tail_reference`) the test's per-sample variance is
-``max(v_x, tails' variance)`` and every statistic (pixel, tile, image) is tested only where
-its normal approximation holds at its level's critical value, judged from its skewness and
-kurtosis (sums of the pixels' third and fourth cumulants) by a one-term Edgeworth bound
-(:func:`edgeworth_error`). The verdict has three values: ``fail`` when a tested statistic
-rejects, ``undetermined`` when the whole-image statistic of a channel could not be
-tested (with the spp that would decide), ``pass`` otherwise. The method, its assumptions
-and its measured false-alarm rates: ``benchmarks/STATISTICS.md``.
-
-Without tail diagnostics (the older rule, kept for renders that carry none)
-----------------------------------------------------------------------------
-Per-pixel Monte Carlo samples are often heavy-tailed (a rare path hits a bright light).
-At small ``n_x`` the test's sample variance is then usually far *below* its expectation
-(the rare samples did not occur) while the mean is low too; a plain Welch t then reports
-huge |t| in exactly those pixels and, with thousands of pixels, the gate would fail
-unbiased renders. Under H0 with the same estimator the reference's per-sample variance
-``v_r`` (from ``n_r >> n_x`` samples) estimates the test's per-sample variance far better,
-so by default (``variance_floor='reference'``) the test side uses
-``max(v_x, v_r)``, applied to the variance of each statistic (a pixel; the sum over a
-tile or the image: ``max(sum v_x, sum v_r) / n_x``). This can only enlarge the standard error, so it never adds false
-alarms; it costs power only where the test renderer is genuinely less noisy than the
-reference (a better sampling strategy). ``variance_floor='none'`` gives the plain Welch
-test, for comparison; ``tests/benchmarks/gate/test_gate_stats.py`` measures both.
-
-Zero variance
--------------
-Where both variances are zero (black background, a directly seen light) the pixel
-carries no noise: equal means (within ``zero_var_rtol`` relative, for float rounding)
-are no evidence at all (p = 1, and the pixel is not counted as a test), unequal means
-are a certain difference (p = 0). No division by zero happens. A per-sample variance
-below ``(zero_var_rtol / 10 * |mean|)^2`` counts as zero: it is float rounding of
-identical samples (``rt.render`` gives ~1e-15 on a directly seen light), and with it a
-1e-6 relative difference between two renderers' emitter constants would fail the gate. Non-finite test pixels
-(NaN/inf) are failures (p = 0); a non-finite reference raises ``ValueError``.
+:func:`compare` takes per-pixel means and per-sample variances (``rt.render``'s; for Mitsuba
+the between-batch variance times the batch spp) with their sample counts, tests four levels
+(pixel, tile, image, neighbour correlation: :mod:`~benchmarks.gate.levels`), Sidak within a
+level and Bonferroni over the levels, and returns a three-valued :class:`GateResult`. With
+the tail diagnostics of the same estimator (``tails=``) each statistic is tested only where
+its normal approximation holds. The method: ``benchmarks/STATISTICS.md``.
 """
 from __future__ import annotations
 
@@ -94,7 +25,7 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
             alpha: float = GATE_ALPHA, tile=(8, 16, 32), variance_floor: str = "reference",
             var_ddof: int = 0, zero_var_rtol: float = 1e-4, pixel_pool: int = 3, tails=None,
             validity: float = DEFAULT_VALIDITY, pixel_samples=None, filter_weights=None) -> GateResult:
-    """Test whether a render and a reference have the same expectation (see module doc).
+    """Test whether a render and a reference have the same expectation.
 
     Parameters
     ----------
@@ -109,47 +40,30 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
     alpha : float
         False-alarm rate of the comparison on unbiased renders (upper bound).
     tile : int or sequence of int
-        Tile side(s) in pixels for the tile level. All tiles of all the sizes form one
-        Sidak family (nested tiles are positively correlated, so this is conservative).
-        Partial tiles at the borders are used as they are. The default ``(8, 16, 32)``
-        matters: on the synthetic suite a 3% bias on one wall at 64 spp is caught in
-        4/10 seeds with ``tile=8`` alone and 10/10 with ``(8, 16, 32)``.
+        Tile side(s) of the tile level; all tiles of all sizes form one Sidak family
+        (partial border tiles are used as they are).
     variance_floor : {'reference', 'none'}
-        ``'reference'`` (default): the test's per-sample variance is floored at an
-        independent estimate of it - the tail diagnostics' variance when ``tails`` is
-        given (the same estimator), else the reference's, ``max(v_x, v_r)``; ``'none'``:
-        plain Welch on the render's own variance.
+        ``'reference'``: the test's per-sample variance is floored at an independent
+        estimate of it (the tails' variance, else the reference's: ``max(v_x, v_r)``, which
+        keeps heavy-tailed renders that missed their rare paths from crying wolf);
+        ``'none'``: plain Welch.
     var_ddof : int
-        ddof of the given variances; ``0`` (second moment minus squared mean, as
-        ``rt.render`` returns) is de-biased by ``n / (n - 1)``; pass 1 for variances that
-        are already unbiased.
+        ddof of the given variances (0: de-biased by ``n / (n - 1)``; 1: already unbiased).
     zero_var_rtol : float
         Relative tolerance for "equal means" where both variances are zero.
     pixel_pool : int
-        Side of the neighbourhood whose mean variance floors each pixel's variance at
-        the pixel level (both sides; 1 disables). A pixel whose rare paths (a caustic
-        through glass, a tiny light in a glossy plate) did not occur among its samples
-        reports a variance far below the truth, and its t explodes: measured on real
-        renders, the 100-seed false-alarm test failed 3 runs of 100 with ``pixel_pool=1``,
-        two of them at single such pixels.
+        Side of the neighbourhood whose mean variance floors each pixel's (1 disables): a
+        pixel whose rare paths did not occur reports a variance far below the truth.
     tails : reference_tracer.SampleMoments, optional
         Per-pixel central moments of the *same estimator* at a high budget
-        (:func:`benchmarks.tails.tail_reference`). Without them every statistic is
-        taken as normal, which heavy-tailed estimators break (``benchmarks/STATISTICS.md``).
+        (:func:`benchmarks.tails.tail_reference`).
     validity : float
         Largest :func:`edgeworth_error` at which a statistic is still tested.
-    pixel_samples : (mean, variance) pair of array_like, optional
-        A test render with a tent or Gaussian filter: the mean and per-sample variance of
-        the samples drawn inside each pixel (``rt.render``'s ``pixel_samples``), from which
-        the filtered pixels' statistics are computed (:mod:`benchmarks.gate.filtered`); with
-        ``filter_weights``. ``test_var`` is then not used, and ``tails`` (if given) are the
-        per-sample moments of the same estimator with the box filter. The reference's
-        per-sample variance is that of its filtered pixels (Mitsuba's, from its batches).
-        The tile and image levels take the sums' variance from the samples' (a sum of
-        filtered pixels counts each interior sample with weight ~1); the correlation level
-        is not tested (the filter correlates neighbours by design).
-    filter_weights : benchmarks.gate.filtered.FilterWeights, optional
-        The filter's weights (:func:`benchmarks.gate.filtered.filter_weights`).
+    pixel_samples, filter_weights : optional
+        A test render with a tent or Gaussian filter: the ``(mean, variance)`` of the samples
+        drawn inside each pixel and the filter's weights
+        (:func:`benchmarks.gate.filtered.filter_weights`); ``test_var`` is then unused and
+        the correlation level untested (:mod:`benchmarks.gate.filtered`).
 
     Returns
     -------
@@ -182,8 +96,8 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
 
     # ---- combine: Sidak within a level (over the tested statistics), Bonferroni over the levels
     levels = {"pixel": [pix], "tile": tile_levels, "image": [img], "correlation": [corr]}
-    level_p = {k: family_p(lvs)[0] for k, lvs in levels.items()}
-    n_tests = {k: family_p(lvs)[1] for k, lvs in levels.items()}
+    family = {k: family_p(lvs) for k, lvs in levels.items()}
+    level_p, n_tests = ({k: v[i] for k, v in family.items()} for i in (0, 1))
     n_cand = {k: int(sum(lv.testable.sum() for lv in lvs)) for k, lvs in levels.items()}
     p_value = min(1.0, len(LEVELS) * min(level_p.values()))
     failed = [k for k, v in level_p.items() if len(LEVELS) * v < alpha]
@@ -205,11 +119,8 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
         neighbour_correlation=rho, tails=tails is not None)
 
 
-# ---------------------------------------------------------------------------------------
-# the steps of compare, in order
-
 def _check_options(alpha, tile, pixel_pool, variance_floor, validity) -> tuple:
-    """Validate :func:`compare`'s options; returns the tile sizes as a tuple of int."""
+    """The tile sizes as a tuple of int, after checking :func:`compare`'s options."""
     if not 0 < alpha < 1:
         raise ValueError(f"alpha must be in (0, 1); got {alpha}")
     tiles = tuple(int(t) for t in np.atleast_1d(tile))
@@ -222,7 +133,6 @@ def _check_options(alpha, tile, pixel_pool, variance_floor, validity) -> tuple:
     if not (isinstance(validity, (int, float)) and validity > 0):
         raise ValueError(f"validity must be a number > 0; got {validity!r}")
     return tiles
-
 
 
 def _decide(failed: list, img: Level, n_t: float, validity: float, rho) -> tuple:
