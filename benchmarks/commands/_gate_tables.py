@@ -1,22 +1,14 @@
-"""The regression gate's printed tables: a gate run's verdicts and the injected-bias power table.
-
-The numbers come from :mod:`benchmarks.gate` (``run_gate``'s report, ``power_table``'s rows);
-this module only lays them out, for the terminal (rich) or as Markdown.
-"""
+"""The regression gate's printed tables: a gate run's verdicts, the calibration and the power table."""
 from __future__ import annotations
 
 from benchmarks.constants import CLOSED_FORM
+from benchmarks.text import markdown_table
 
 __all__ = ["gate_table", "format_table", "calibration_table"]
 
 
 def gate_table(report):
-    """The verdict of every comparison of a :class:`benchmarks.gate.GateReport`, as a rich table.
-
-    One row per (scene, strategy): reference, verdict, p-value, failed levels, relative
-    bias, the power (the smallest global and 8x8-tile relative bias it would catch with
-    probability 0.8) and, for failures, where the strongest evidence is.
-    """
+    """The verdict of every comparison of a :class:`benchmarks.gate.GateReport`, as a rich table."""
     from rich.markup import escape
     from rich.table import Table
 
@@ -58,14 +50,13 @@ def format_table(rows) -> str:
     >>> print(format_table([row]).splitlines()[-1])
     | scale 0.99 | cornell_box | yes (1e-09) | image | -1.00% +- 0.10% | no (0.00%) |
     """
-    lines = ["| injected bias | scene | caught by ours (p-value) | failed levels | image bias | "
-             "caught by Mitsuba's rule (failed pixel-channels) |",
-             "| --- | --- | --- | --- | --- | --- |"]
-    for r in rows:
-        lines.append(f"| {r.injection} | {r.scene} | {'yes' if r.caught else 'no'} ({r.p_value:.2g}) | "
-                     f"{', '.join(r.failed_levels) or '-'} | {r.relative_bias:+.2%} +- {r.relative_bias_se:.2%} | "
-                     f"{'yes' if r.mitsuba_caught else 'no'} ({r.mitsuba_failed_fraction:.2%}) |")
-    return "\n".join(lines)
+    header = ["injected bias", "scene", "caught by ours (p-value)", "failed levels", "image bias",
+              "caught by Mitsuba's rule (failed pixel-channels)"]
+    return markdown_table(header, [[r.injection, r.scene, f"{'yes' if r.caught else 'no'} ({r.p_value:.2g})",
+                                     ", ".join(r.failed_levels) or "-",
+                                     f"{r.relative_bias:+.2%} +- {r.relative_bias_se:.2%}",
+                                     f"{'yes' if r.mitsuba_caught else 'no'} ({r.mitsuba_failed_fraction:.2%})"]
+                                    for r in rows])
 
 
 def calibration_table(rows, *, alpha: float, pairs: bool = False):

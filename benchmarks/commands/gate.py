@@ -1,13 +1,9 @@
 """``rtbench gate [SCENE...]``: fail when our tracer's renders drift from their references.
 
-Renders each scene with our tracer (``mis``, plus any ``--strategies``), compares it with
-its cached Mitsuba reference (rendered first when missing) by
-:func:`benchmarks.gate.compare` with the tail diagnostics of the same estimator (a cached
-high-spp run of ours: :mod:`benchmarks.tails`), prints a table with each comparison's
-verdict (pass, fail or undetermined) and power, writes p-value images of failures into
-``--out`` and exits 1 when any comparison fails (undetermined ones do not fail the run). Defaults: the quick suite at 32x32,
-4096 spp against 16384-spp references, false-alarm rate 0.01 for the whole run
-(:mod:`benchmarks.gate.suite`; the table is :func:`benchmarks.commands._gate_tables.gate_table`).
+Runs :func:`benchmarks.gate.run_gate`, prints each comparison's verdict and power, writes
+p-value images of failures into ``--out`` and exits 1 when a comparison fails (undetermined
+ones do not). ``--calibrate`` measures the false-alarm rate instead
+(:func:`benchmarks.gate.calibrate`); ``--write-reference`` writes a store of our own references.
 """
 from __future__ import annotations
 
@@ -71,8 +67,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _warn_tail_spp(args) -> None:
-    """One line on stderr where ``--tail-spp`` makes the verdicts uncalibrated (the tail
-    references are ours: not used by ``--renderer`` or ``--write-reference``)."""
+    """One line on stderr where ``--tail-spp`` makes the verdicts uncalibrated (not with
+    ``--renderer`` or ``--write-reference``, which use no tail references)."""
     from benchmarks.commands._args import tail_spp_warning
     from benchmarks.tails import DEFAULT_TAIL_SPP
 
@@ -184,7 +180,7 @@ def run(args) -> int:
 
 
 def _write_reference(args, scenes) -> int:
-    """``--write-reference STORE``: our renders at ``--ref-spp`` into a results store."""
+    """``--write-reference STORE``: our renders at ``--reference-spp`` into a results store."""
     from benchmarks.gate import resolve_scenes as resolve_gate_scenes
     from benchmarks.gate.store_reference import write_reference_store
 
@@ -267,12 +263,8 @@ def _calibrate(args) -> int:
 
 
 def _resumed_rows(path, config: dict, *, alpha: float) -> list:
-    """The rows an earlier, interrupted calibration wrote to ``path`` with the same settings.
-
-    A file from other settings (seeds, size, references, variant, alpha) or of another
-    build of the tracer is refused rather than mixed in; a missing file is a fresh start. Every row of the file is kept (rows of
-    other scenes, strategies or budgets as well: the file grows into the whole table).
-    """
+    """The rows an interrupted calibration wrote to ``path`` (all of them: the file grows into the
+    whole table); a file of other settings or another build is refused, a missing one is a fresh start."""
     from benchmarks.gate import CalibrationRow
 
     p = Path(path)

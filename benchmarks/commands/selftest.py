@@ -1,15 +1,9 @@
 """``rtbench selftest``: does the gate catch real bugs? Seeded bugs, gate vs Mitsuba's rule.
 
-Renders the tracer built with each seeded bug of the catalogue
-(:data:`benchmarks.selftest.CATALOGUE`) on the scene and strategy that expose it, with the
-gate's seed, at each budget of the ladder up to ``--spp`` (the gate's default budget), and
-judges every render with the gate (the mutant's own tail reference) and with Mitsuba's
-per-pixel rule (:func:`benchmarks.selftest.run_selftest`). Prints one row per mutant (gate
-verdict at ``--spp``, caught, smallest spp caught, the same for Mitsuba's rule, and the
-unmutated tracer's verdicts on the same scene as a control), progress on stderr.
-
-Exit 0 when the gate catches at least 90% of the mutants and never fewer than Mitsuba's
-rule, 1 otherwise, 2 on bad usage.
+Runs :func:`benchmarks.selftest.run_selftest` and prints one row per mutant (the gate's verdict
+at ``--spp``, the smallest spp caught, the same for Mitsuba's rule, and the unmutated tracer's
+verdicts as a control). Exit 0 when the gate catches at least 90% of the mutants and never
+fewer than Mitsuba's rule, 1 otherwise, 2 on bad usage.
 """
 from __future__ import annotations
 
@@ -17,6 +11,8 @@ import argparse
 import json
 import sys
 from pathlib import Path
+
+from benchmarks.text import markdown_table
 
 HELP = ("self-test: render seeded bugs of the tracer (mutants) and report which the gate and Mitsuba's rule "
         "catch, and from how many spp; exit 1 if the gate catches fewer than 90% or fewer than Mitsuba's rule")
@@ -102,8 +98,7 @@ def markdown_table(report, command: str | None = None) -> str:
     lines = []
     if command:
         lines += [f"`{command}`", ""]
-    lines += ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
-    lines += ["| " + " | ".join(_cells(r)) + " |" for r in report.rows]
+    lines += [markdown_table(COLUMNS, [_cells(r) for r in report.rows])]
     lines += ["", summary_line(report) + "; gate level per comparison "
               f"{report.alpha:.3g} (a default quick-suite run), Mitsuba's rule at its own alpha 0.01 per image. "
               "Last column: the unmutated tracer's verdicts on the same scene and strategy (gate / Mitsuba's rule)."]

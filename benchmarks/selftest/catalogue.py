@@ -1,14 +1,9 @@
 """The catalogue of seeded bugs ("mutants"): what each breaks and where it is tested.
 
-Each mutant is written into the tracer's C++ sources (``reference_tracer/cpp/mutants.h``:
-one ``if constexpr`` at the place where the bug would be made), compiled into the
-self-test's own extension module (never into the tracer's) and selectable only through
-:func:`reference_tracer.testing.render_mutant`. Each is tested on one scene with one
-strategy, chosen so that the bug changes the image there: several real bugs are invisible
-in most scenes (a wrong pdf used consistently in both MIS weights cancels; the 1/eta^2 of
-refraction cancels on closed glass lit from outside; a two-sided light changes nothing
-where no one sees its back), and a self-test that only confirmed the obvious ones would
-overstate the gate's power. The order is the module's (:func:`reference_tracer.testing.mutant_names`).
+Each mutant is one ``if constexpr`` in ``reference_tracer/cpp/mutants.h``, compiled into the
+self-test's own extension module only. Each is tested on one scene and strategy where the bug
+changes the image: several real bugs cancel in most scenes (a wrong pdf in both MIS weights,
+the 1/eta^2 of refraction on closed glass, a two-sided light whose back no one sees).
 
 Examples
 --------
@@ -27,9 +22,8 @@ __all__ = ["Mutant", "CATALOGUE", "mutant", "resolve_mutants"]
 
 @dataclass(frozen=True)
 class Mutant:
-    """One seeded bug: ``name`` (the core's), ``description`` (the bug, one line),
-    ``breaks`` (which part of the estimator it breaks and how the image changes),
-    ``scene`` and ``strategy`` it is tested with, and ``why`` that scene and strategy."""
+    """One seeded bug: the core's ``name``, the bug, what it ``breaks``, the ``scene`` and
+    ``strategy`` it is tested with and ``why``."""
 
     name: str
     description: str
@@ -136,8 +130,7 @@ def mutant(name: str) -> Mutant:
 
 
 def resolve_mutants(mutants=None) -> list:
-    """Catalogue entries by name (None: all; a string may be comma-separated), de-duplicated,
-    in the order given."""
+    """Catalogue entries by name (None: all; a string may be comma-separated), de-duplicated."""
     if mutants is None:
         return list(CATALOGUE)
     if isinstance(mutants, str):

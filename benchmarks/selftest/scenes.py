@@ -1,25 +1,10 @@
-"""The scenes of the self-test that are not in the suite, each built to expose one bug.
+"""The self-test's own scenes, each built to expose a bug that no suite scene shows.
 
-Three seeded bugs leave every suite scene (nearly) unchanged, because no suite scene has
-what they need: a light whose back can be seen, an occluder near a light, a path that
-ends inside glass. Rather than leave them untested, the self-test adds three variants of
-``cornell_box`` (same room, camera and boxes; a Mitsuba reference is rendered and cached
-for each like any scene's) and one suite scene with a parameter changed:
-
-``cornell_box_rr3``
-    ``cornell_box`` with Russian roulette from depth 3 (``rr_depth=3``; the suite renders
-    without roulette), for ``roulette_no_reweight``.
-``hanging_lamp``
-    The ceiling light lowered to ``y = 450`` (its back faces the ceiling, 105 units above)
-    with a small diffuser plate (a white quad half the light's width and depth) 2 units
-    under its centre: the back of the light lights the ceiling only if the light is wrongly
-    two-sided (``two_sided_light``), and the plate's shadow leaks wherever shadow rays stop
-    short of the light by more than 2 units (``shadow_epsilon_leak``).
-``glass_lamp``
-    The ceiling light (``y = 545``) embedded in a glass slab (``Dielectric(1.5)`` box,
-    x 203-353, y 535-552, z 217-342): every path that reaches the light ends inside glass,
-    so the 1/eta^2 scaling of refracted radiance does not cancel as it does in closed
-    glass objects seen and lit from outside (``glass_no_eta_scale``).
+``cornell_box_rr3``: ``cornell_box`` with Russian roulette from depth 3
+(``roulette_no_reweight``). ``hanging_lamp``: the ceiling light lowered to ``y = 450`` with a
+diffuser plate 2 units under it (``two_sided_light``, ``shadow_epsilon_leak``).
+``glass_lamp``: the ceiling light embedded in a glass slab, so every path that reaches it ends
+inside glass (``glass_no_eta_scale``). A Mitsuba reference is cached for each like any scene's.
 
 Examples
 --------
