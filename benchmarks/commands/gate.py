@@ -91,13 +91,11 @@ def run(args) -> int:
     from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from benchmarks.commands._args import single_variant
-    from benchmarks.commands._gate_tables import gate_table
+    from benchmarks.commands._gate_tables import gate_table, wide_console
     from benchmarks.gate import resolve_strategies, run_gate, write_p_images
     from benchmarks.gate import resolve_scenes as resolve_gate_scenes
 
-    console = Console()
-    if not console.is_terminal:  # CI logs: keep one row per comparison
-        console = Console(width=max(console.width, 160))
+    console = wide_console(160)
     err = Console(stderr=True, quiet=args.quiet)
     scenes = resolve_scenes(args, suite_names=args.scenes or []) or None
     if args.write_reference:
@@ -156,13 +154,9 @@ def run(args) -> int:
     for c in report.undetermined:
         console.print(f"undetermined: {c.scene} ({c.strategy}): {c.result.reason}", highlight=False, markup=False)
     if args.json:
-        path = Path(args.json)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps({"alpha": report.alpha, "case_alpha": report.case_alpha,
-                                    "passed": report.passed, "verdicts": {v: sum(c.verdict == v for c in report.cases)
-                                                                          for v in ("pass", "fail", "undetermined")},
-                                    "cases": [c.to_dict() for c in report.cases]},
-                                   indent=1, default=float) + "\n")
+        verdicts = {v: sum(c.verdict == v for c in report.cases) for v in ("pass", "fail", "undetermined")}
+        _write_json(args.json, {"alpha": report.alpha, "case_alpha": report.case_alpha, "passed": report.passed,
+                                "verdicts": verdicts, "cases": [c.to_dict() for c in report.cases]})
     if report.passed:
         n_und = len(report.undetermined)
         if n_und:
@@ -209,7 +203,7 @@ def _calibrate(args) -> int:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from benchmarks.commands._args import single_variant
-    from benchmarks.commands._gate_tables import calibration_table
+    from benchmarks.commands._gate_tables import calibration_table, wide_console
     from benchmarks.constants import UNBIASED_STRATEGIES
     from benchmarks.gate import calibrate
     from benchmarks.gate import resolve_scenes as resolve_gate_scenes
@@ -220,9 +214,7 @@ def _calibrate(args) -> int:
         raise ValueError(f"--spps must list budgets >= 2, got {','.join(map(str, spps))}")
     strategies = list(args.strategies) or list(UNBIASED_STRATEGIES)
     names = resolve_gate_scenes(resolve_scenes(args, suite_names=args.scenes or []) or None)
-    console = Console()
-    if not console.is_terminal:  # logs and files: keep one row per line
-        console = Console(width=max(console.width, 160))
+    console = wide_console(160)
     progress = Progress(TextColumn("calibration"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                         console=Console(stderr=True, quiet=args.quiet), transient=True)
     config = {"scenes": list(names), "strategies": strategies, "spps": spps, "seeds": args.seeds,
@@ -291,6 +283,5 @@ def _resumed_rows(path, config: dict, *, alpha: float) -> list:
 def _write_json(path, obj) -> None:
     from reference_tracer.imageio import atomic_write
 
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write(p, json.dumps(obj, indent=1, default=float) + "\n")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(path, json.dumps(obj, indent=1, default=float) + "\n")

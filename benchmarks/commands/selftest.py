@@ -93,7 +93,7 @@ def selftest_table(report):
     return t
 
 
-def markdown_table(report, command: str | None = None) -> str:
+def markdown(report, command: str | None = None) -> str:
     """The table as Markdown (with the command that produced it, when given)."""
     lines = []
     if command:
@@ -115,9 +115,8 @@ def _command_line() -> str | None:
 
 
 def run(args) -> int:
-    from rich.console import Console
-
     from benchmarks.commands._args import check
+    from benchmarks.commands._gate_tables import wide_console
     from benchmarks.selftest import CATALOGUE, resolve_mutants, run_selftest
 
     if args.list:
@@ -154,9 +153,7 @@ def run(args) -> int:
     report = run_selftest(names, spp=args.spp, width=args.width, ref_spp=args.reference_spp, tail_spp=args.tail_spp,
                           spp_ladder=spp_ladder, seed=args.seed, controls=not args.no_controls,
                           threads=args.threads, cache=args.cache, on_row=on_row, log=log)
-    console = Console()
-    if not console.is_terminal:
-        console = Console(width=max(console.width, 200))
+    console = wide_console(200)
     if not args.quiet:
         console.print(selftest_table(report))
     console.print(summary_line(report) + f"; {report.seconds:.0f} s", highlight=False)
@@ -169,14 +166,11 @@ def run(args) -> int:
     for r in report.rows:
         if r["caught_by_mitsuba_rule"] and not r["caught"]:
             console.print(f"caught by Mitsuba's rule only: {r['mutant']}", highlight=False, markup=False)
-    if args.json:
-        path = Path(args.json)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(report.to_dict(), indent=1, default=float) + "\n")
-    if args.markdown:
-        path = Path(args.markdown)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(markdown_table(report, _command_line()))
+    for path, text in ((args.json, lambda: json.dumps(report.to_dict(), indent=1, default=float) + "\n"),
+                       (args.markdown, lambda: markdown(report, _command_line()))):
+        if path:
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            Path(path).write_text(text())
     if report.passed:
         console.print(f"[green]self-test passed[/]: {summary_line(report)}")
         return 0

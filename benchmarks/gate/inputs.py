@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..display import as_image
 from .filtered import filtered_moments
 from .heavy_tails import pixel_shape, tail_moments
 
@@ -15,12 +16,8 @@ __all__ = ["Inputs", "prepare", "image3", "check_spp"]
 
 
 def image3(a, name: str) -> np.ndarray:
-    arr = np.asarray(a, dtype=np.float64)
-    if arr.ndim == 2:
-        arr = arr[..., None]
-    if arr.ndim != 3 or arr.size == 0:
-        raise ValueError(f"{name} must have shape (H, W) or (H, W, C); got {np.shape(a)}")
-    return arr
+    arr = as_image(a, name)
+    return arr[..., None] if arr.ndim == 2 else arr
 
 
 def check_spp(n, name: str, minimum: int) -> float:

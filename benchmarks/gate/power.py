@@ -4,8 +4,7 @@ Each injection (:data:`INJECTIONS`) is a plausible bug applied to our render of 
 suite scene, compared with the gate's own reference of that scene at the gate's defaults, so a
 row says what ``rtbench gate`` would report. Ours "catches" it when its p-value is below the
 level of one comparison of a default quick-suite run (``GATE_ALPHA / 8``); Mitsuba's rule runs
-at its own ``alpha = 0.01`` per image. The Markdown table:
-:func:`benchmarks.commands._gate_tables.format_table`.
+at its own ``alpha = 0.01`` per image.
 
 Examples
 --------

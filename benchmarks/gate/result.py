@@ -31,8 +31,6 @@ class GateResult:
     pixel_p, pixel_t : ndarray, shape (H, W, C)
         Raw two-sided p-value and Welch statistic per pixel-channel (``p_map``: the minimum
         p over channels, (H, W)).
-    tile_p, tile_z, image_p, image_z : ndarray
-        The same for the finest tile size and for the whole image, per channel.
     worst_pixel, worst_tile, worst_region, worst_level
         Pixel-channel with the smallest p; pixel box (end-exclusive) of the worst tested
         tile of any size; box of the strongest evidence and its level.
@@ -62,10 +60,6 @@ class GateResult:
     pixel_p: np.ndarray = field(repr=False)
     p_map: np.ndarray = field(repr=False)
     pixel_t: np.ndarray = field(repr=False)
-    tile_p: np.ndarray = field(repr=False)
-    tile_z: np.ndarray = field(repr=False)
-    image_p: np.ndarray = field(repr=False)
-    image_z: np.ndarray = field(repr=False)
     max_abs_t: float
     worst_pixel: tuple
     worst_tile: tuple
@@ -89,23 +83,6 @@ class GateResult:
     @property
     def failed(self) -> bool:
         return self.verdict == "fail"
-
-    def summary(self) -> str:
-        """One line for a CLI table or failure message."""
-        verdict = self.verdict.upper()
-        r0, c0, r1, c1 = self.worst_region
-        lv = ", ".join(f"{k} p={v:.3g}" for k, v in self.level_p.items())
-        msg = (f"{verdict} (p={self.p_value:.3g}, alpha={self.alpha:g}; {lv}); "
-               f"relative bias {self.relative_bias:+.2%} +- {self.relative_bias_se:.2%} over the image")
-        if self.verdict == "undetermined":
-            msg += f"; {self.reason}"
-        if self.failed:
-            msg += (f"; strongest evidence at the {self.worst_level} level in rows {r0}-{r1 - 1}, "
-                    f"cols {c0}-{c1 - 1} (worst tile relative bias "
-                    f"{self.worst_tile_relative_bias:+.2%})")
-        if self.n_nonfinite:
-            msg += f"; {self.n_nonfinite} non-finite test pixel-channels"
-        return msg
 
     def to_dict(self) -> dict:
         """JSON-friendly scalars (no images)."""

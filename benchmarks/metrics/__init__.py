@@ -1,7 +1,7 @@
 """Image-error metrics and Monte Carlo convergence statistics, each defined once, here.
 
 One function per metric (scikit-image's metrics style), re-exported here: :mod:`~.errors`
-(MSE, RMSE, relMSE, reference noise), :mod:`~.ssim`, :mod:`~.flip`, :mod:`~.bias` (bias and
+(MSE, RMSE, relMSE, their reference-noise corrections), :mod:`~.ssim`, :mod:`~.flip`, :mod:`~.bias` (bias and
 variance over seeds), :mod:`~.convergence` (slope, efficiency, time to error) and :mod:`~.specs`
 (the metrics a summary reports). Images are linear radiance, ``(H, W)`` or ``(H, W, C)``; all
 images passed together must have the same shape (no broadcasting). ``var`` images hold the
@@ -21,13 +21,13 @@ from ..constants import LUMINANCE_WEIGHTS, RELMSE_EPS
 from ..display import exposure_from_reference, to_display
 from .bias import BiasVariance, bias_variance
 from .convergence import SlopeFit, convergence_slope, efficiency, time_to_error
-from .errors import mse, mse_corrected, reference_noise, relmse, relmse_corrected, rmse
+from .errors import mse, mse_corrected, relmse, relmse_corrected, rmse
 from .flip import FLIP_PACKAGE, flip, flip_available
 from .specs import COST_FIELDS, DEFAULT_METRIC, METRICS, SPECS, MetricSpec, cost_status, require_metric, view
 from .ssim import ssim
 
 __all__ = [
-    "mse", "rmse", "relmse", "mse_corrected", "relmse_corrected", "reference_noise",
+    "mse", "rmse", "relmse", "mse_corrected", "relmse_corrected",
     "exposure_from_reference", "to_display", "ssim", "flip", "flip_available", "FLIP_PACKAGE",
     "BiasVariance", "bias_variance",
     "SlopeFit", "convergence_slope",

@@ -8,7 +8,7 @@ import numpy as np
 from ..constants import RELMSE_EPS
 from ._checks import as_image, masked_mean, nan_mask, positive_spp, same_shape
 
-__all__ = ["mse", "rmse", "relmse", "reference_noise", "mse_corrected", "relmse_corrected"]
+__all__ = ["mse", "rmse", "relmse", "mse_corrected", "relmse_corrected"]
 
 
 def mse(img, ref, *, nan_policy: str = "propagate") -> float:
@@ -57,19 +57,6 @@ def relmse(img, ref, *, eps: float = RELMSE_EPS, nan_policy: str = "propagate") 
     same_shape(img=x, ref=r)
     mask = nan_mask(nan_policy, img=x, ref=r)
     return masked_mean((x - r) ** 2 / (r * r + eps), mask)
-
-
-def reference_noise(ref_var, ref_spp, *, nan_policy: str = "propagate") -> float:
-    r"""Mean variance of the reference's pixel means, :math:`\overline{\sigma^2_{ref}} / N_{ref}`:
-    what its own noise adds to the expected MSE of any image measured against it.
-
-    Examples
-    --------
-    >>> reference_noise([[2.0, 4.0]], 100)
-    0.03
-    """
-    v = as_image(ref_var, "ref_var")
-    return masked_mean(_noise_of_means(v, ref_spp), nan_mask(nan_policy, ref_var=v))
 
 
 def _noise_of_means(v: np.ndarray, ref_spp) -> np.ndarray:
