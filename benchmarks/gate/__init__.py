@@ -19,12 +19,11 @@ True
 from __future__ import annotations
 
 from .calibration import CalibrationRow, calibrate
-from .heavy_tails import DEFAULT_VALIDITY, edgeworth_error, spp_needed
-from .mitsuba_rule import MITSUBA_ALPHA, MitsubaRuleResult, mitsuba_rule
-from .paired import EstimatorKnowledge, judge
-from .power import INJECTIONS, QUICK_SUITE_COMPARISONS, PowerRow, injected_scene, power_row
+from .levels import DEFAULT_VALIDITY, edgeworth_error, spp_needed
+from .power import (INJECTIONS, MITSUBA_ALPHA, QUICK_SUITE_COMPARISONS, MitsubaRuleResult, PowerRow, injected_scene,
+                    mitsuba_rule, power_row)
 from .result import LEVELS, GateResult
-from .statistics import compare
+from .statistics import EstimatorKnowledge, compare, judge
 from .suite import (DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_STRATEGY, DEFAULT_WIDTH, GateCase,
                     GateReport, compare_render, gate_reference, gate_scene, resolve_scenes, resolve_strategies,
                     run_gate, write_p_images)

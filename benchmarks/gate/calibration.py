@@ -19,7 +19,7 @@ from reference_tracer.validation import positive_int
 
 from ..constants import GATE_ALPHA, UNBIASED_STRATEGIES
 from ..tails import DEFAULT_TAIL_SPP
-from .paired import EstimatorKnowledge, judge
+from .statistics import EstimatorKnowledge, judge
 from .suite import (DEFAULT_REF_SPP, DEFAULT_WIDTH, compare_render, gate_reference, gate_scene, gate_tails,
                     resolve_scenes)
 

@@ -1,5 +1,6 @@
 """The inputs of :func:`benchmarks.gate.compare`, checked once by :func:`prepare`: float64
-``(H, W, C)`` images of the means, the variances of the means and the tails' cumulants."""
+``(H, W, C)`` images of the means, the variances of the means and the tails' cumulants
+(:func:`tail_moments`, :func:`pixel_shape`)."""
 from __future__ import annotations
 
 import dataclasses
@@ -7,12 +8,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import uniform_filter
 
 from ..display import as_image
 from .filtered import filtered_moments
-from .heavy_tails import pixel_shape, tail_moments
 
-__all__ = ["Inputs", "prepare", "image3", "check_spp"]
+__all__ = ["Inputs", "prepare", "image3", "check_spp", "tail_moments", "pixel_shape", "neighbourhood_floor"]
 
 
 def image3(a, name: str) -> np.ndarray:
@@ -25,6 +26,43 @@ def check_spp(n, name: str, minimum: int) -> float:
     if not (math.isfinite(v) and v >= minimum):
         raise ValueError(f"{name} must be a number >= {minimum}; got {n!r}")
     return v
+
+
+def neighbourhood_floor(v: np.ndarray, size: int) -> np.ndarray:
+    """``max(v, mean of v over the size x size neighbourhood)`` per channel."""
+    pooled = np.stack([uniform_filter(v[..., c], size=size, mode="nearest") for c in range(v.shape[2])], axis=-1)
+    return np.maximum(v, pooled)
+
+
+def tail_moments(tails, shape) -> tuple:
+    """``(m2, m3, kappa4)`` per sample from a ``SampleMoments``, checked against the image."""
+    m2, m3, k4 = (np.asarray(v, dtype=np.float64) for v in (tails.m2, tails.m3, tails.kappa4))
+    if m2.ndim == 2:
+        m2, m3, k4 = m2[..., None], m3[..., None], k4[..., None]
+    if m2.shape != shape:
+        raise ValueError(f"tails have shape {m2.shape}, the images {shape}")
+    if not (np.all(np.isfinite(m2)) and np.all(np.isfinite(m3)) and np.all(np.isfinite(k4))):
+        raise ValueError("tails have non-finite moments")
+    if int(tails.n) < 2:
+        raise ValueError(f"tails need >= 2 samples per pixel; got {tails.n}")
+    return m2, m3, k4
+
+
+def pixel_shape(m2, m3, k4, *, exact, n_t) -> tuple:
+    """Skewness and excess kurtosis of each pixel mean: the worse of the pixel's own per-sample
+    shape and its 3x3 neighbourhood's (whose noise the pixel level borrows), over ``sqrt(n)``, ``n``."""
+    m2 = np.where(exact, 0.0, m2)
+
+    def shape(s3, s4, s2):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ok = s2 > 0
+            safe = np.where(ok, s2, 1.0)
+            return np.where(ok, np.abs(s3) / safe ** 1.5, 0.0), np.where(ok, np.abs(s4) / safe ** 2, 0.0)
+
+    pool = lambda v: neighbourhood_floor(v, 3)  # noqa: E731
+    own = shape(m3, k4, m2)
+    nb = shape(pool(np.abs(m3)), pool(np.abs(k4)), pool(m2))
+    return np.maximum(own[0], nb[0]) / math.sqrt(n_t), np.maximum(own[1], nb[1]) / n_t
 
 
 def _variance(v: np.ndarray, name: str, n: float, ddof: int) -> np.ndarray:

@@ -1,5 +1,6 @@
 """The levels of :func:`benchmarks.gate.compare` (pixel, tile, image, neighbour correlation):
-their statistics, which of them may be tested, and a level's Sidak family p-value.
+their statistics, which of them may be tested (:func:`edgeworth_error`, the one-term Edgeworth
+bound on a statistic's normal tail; :func:`spp_needed`), and a level's Sidak family p-value.
 
 The correlation level tests the independence of pixels that every other level's standard
 error assumes (a tracer whose pixels share random numbers keeps each mean right):
@@ -8,17 +9,61 @@ null hypothesis, one-sided (``benchmarks/STATISTICS.md``).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
 
 from ..stats import sidak, sidak_p_value
-from .heavy_tails import edgeworth_error, neighbourhood_floor
-from .inputs import Inputs
+from .inputs import Inputs, neighbourhood_floor
 
 __all__ = ["Level", "pixel_level", "tile_level", "image_level", "correlation_level", "family_p",
-           "neighbour_products", "MIN_PAIRS"]
+           "neighbour_products", "MIN_PAIRS", "DEFAULT_VALIDITY", "edgeworth_error", "spp_needed"]
+
+#: Largest :func:`edgeworth_error` at a level's critical value for a statistic to be tested.
+DEFAULT_VALIDITY = 1.0
+
+
+def edgeworth_error(z, g1, g2):
+    """Relative error bound of the normal upper tail ``Q(z)`` for skewness ``g1`` and excess
+    kurtosis ``g2`` (one-term Edgeworth expansion):
+    ``phi(z) / Q(z) * (|g1| |He2(z)| / 6 + |g2| |He3(z)| / 24 + g1^2 |He5(z)| / 72)``.
+
+    Examples
+    --------
+    >>> float(edgeworth_error(3.0, 0.0, 0.0))
+    0.0
+    >>> round(float(edgeworth_error(3.0, 0.1, 0.0)), 3)
+    0.446
+    """
+    z = np.asarray(z, dtype=np.float64)
+    he2, he3, he5 = z * z - 1.0, z ** 3 - 3.0 * z, z ** 5 - 10.0 * z ** 3 + 15.0 * z
+    mills = stats.norm.pdf(z) / stats.norm.sf(z)
+    g1 = np.abs(g1)
+    return mills * (g1 * np.abs(he2) / 6.0 + np.abs(g2) * np.abs(he3) / 24.0 + g1 * g1 * np.abs(he5) / 72.0)
+
+
+def spp_needed(z: float, g1: float, g2: float, spp: float, validity: float = DEFAULT_VALIDITY) -> int:
+    """About how many spp make :func:`edgeworth_error` at ``z`` drop to ``validity``, given the
+    shape ``g1``, ``g2`` at ``spp`` (falling as ``1/sqrt(n)`` and ``1/n``).
+
+    Examples
+    --------
+    >>> spp_needed(3.0, 0.4, 0.0, 100) > 100
+    True
+    """
+    if edgeworth_error(z, g1, g2) <= validity:
+        return int(spp)
+    lo, hi = 0.0, 64.0  # log2 of the factor
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        f = 2.0 ** mid
+        if edgeworth_error(z, g1 / math.sqrt(f), g2 / f) <= validity:
+            hi = mid
+        else:
+            lo = mid
+    return int(math.ceil(spp * 2.0 ** hi))
 
 
 def _welch_from_sums(diff, a, b, a2, b2, n_t, n_r, tol, fa=None, fa2=None):

@@ -17,8 +17,7 @@ from reference_tracer.testing import mutants_build_id, render_mutant
 from reference_tracer.validation import SEED_MAX, positive_int
 
 from ..constants import GATE_ALPHA
-from ..gate.mitsuba_rule import MITSUBA_ALPHA, mitsuba_rule
-from ..gate.power import QUICK_SUITE_COMPARISONS
+from ..gate.power import MITSUBA_ALPHA, QUICK_SUITE_COMPARISONS, mitsuba_rule
 from ..gate.suite import DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_WIDTH, compare_render, gate_reference
 from ..references import reference
 from ..tails import DEFAULT_TAIL_SPP, tail_reference
