@@ -2,7 +2,7 @@
 
 :data:`CATALOGUE` lists the mutants (realistic bugs compiled into a second build of the core,
 reachable only through :mod:`reference_tracer.testing`) and the scene and strategy that expose
-each (:mod:`~.scenes` adds three scenes no suite scene replaces); :func:`run_selftest` records
+each (with three scenes of its own); :func:`run_selftest` records
 whether the gate and Mitsuba's rule catch each one, and from how many spp. The printed table:
 :mod:`benchmarks.commands.selftest`.
 """
@@ -10,9 +10,8 @@ from __future__ import annotations
 
 from reference_tracer.testing import mutant_id, mutant_names, render_mutant
 
-from .catalogue import CATALOGUE, Mutant, mutant, resolve_mutants
+from .catalogue import CATALOGUE, SELFTEST_SCENES, Mutant, mutant, resolve_mutants, selftest_scene
 from .driver import DEFAULT_CASE_ALPHA, DEFAULT_SPP_LADDER, SelftestReport, ladder, run_selftest, scene_reference
-from .scenes import SELFTEST_SCENES, selftest_scene
 
 __all__ = ["CATALOGUE", "Mutant", "mutant", "resolve_mutants", "DEFAULT_CASE_ALPHA", "DEFAULT_SPP_LADDER",
            "SelftestReport", "ladder", "run_selftest", "scene_reference", "mutant_id", "mutant_names",

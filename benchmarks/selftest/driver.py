@@ -21,8 +21,7 @@ from ..gate.power import MITSUBA_ALPHA, QUICK_SUITE_COMPARISONS, mitsuba_rule
 from ..gate.suite import DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_WIDTH, compare_render, gate_reference
 from ..references import reference
 from ..tails import DEFAULT_TAIL_SPP, tail_reference
-from .catalogue import resolve_mutants
-from .scenes import is_suite_scene, selftest_scene
+from .catalogue import is_suite_scene, resolve_mutants, selftest_scene
 
 __all__ = ["DEFAULT_SPP_LADDER", "DEFAULT_CASE_ALPHA", "SelftestReport", "ladder", "run_selftest",
            "scene_reference"]
