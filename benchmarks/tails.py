@@ -104,10 +104,8 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
 
     Parameters
     ----------
-    scene : reference_tracer.Scene
-        The scene at the size under test.
-    strategy : str
-        One of ``reference_tracer.STRATEGIES``.
+    scene, strategy : reference_tracer.Scene and str
+        The scene at the size under test, and one of ``reference_tracer.STRATEGIES``.
     spp, seed, threads, cache : keyword-only
         Budget, seed, rendering threads and cache root (``benchmarks.references.cache_dir``).
     render, variant : keyword-only

@@ -73,12 +73,9 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
     ----------
     scenes : sequence of str or None
         Suite scenes (None: the whole suite).
-    strategies : sequence of str, keyword-only
-        Strategies whose renders must be unbiased (default: all but ``light``).
-    spps : sequence of int, keyword-only
-        Budgets of the renders under test.
-    seeds : int, keyword-only
-        Renders per (scene, strategy, spp), seeds ``FIRST_SEED ...``.
+    strategies, spps, seeds : keyword-only
+        Strategies whose renders must be unbiased (default: all but ``light``), the budgets
+        under test and the renders per (scene, strategy, spp) (seeds ``FIRST_SEED ...``).
     width, height, ref_spp, tail_spp, alpha, threads, cache, log, variant : keyword-only
         As for :func:`benchmarks.gate.run_gate`; ``alpha`` is the level of one comparison.
     on_render, on_row : callable, keyword-only

@@ -38,41 +38,28 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
 
     Parameters
     ----------
-    test_mean, test_var : array_like, shape (H, W) or (H, W, C)
-        Pixel means and per-sample variances of the render under test.
-    test_spp : int
-        Its samples per pixel (>= 2).
-    ref_mean, ref_var : array_like, same shape
-        Reference means and per-sample variances.
-    ref_spp : int
-        Reference samples per pixel (>= 2).
+    test_mean, test_var, test_spp : array_like (H, W) or (H, W, C), and int >= 2
+        Pixel means, per-sample variances and samples per pixel of the render under test.
+    ref_mean, ref_var, ref_spp : the same shape, and int >= 2
+        The reference's.
     alpha : float
         False-alarm rate of the comparison on unbiased renders (upper bound).
     tile : int or sequence of int
-        Tile side(s) of the tile level; all tiles of all sizes form one Sidak family
-        (partial border tiles are used as they are).
+        Tile side(s) of the tile level, all in one Sidak family.
     variance_floor : {'reference', 'none'}
-        ``'reference'``: the test's per-sample variance is floored at an independent
-        estimate of it (the tails' variance, else the reference's: ``max(v_x, v_r)``, which
-        keeps heavy-tailed renders that missed their rare paths from crying wolf);
-        ``'none'``: plain Welch.
+        ``'reference'``: the test's per-sample variance is floored at the tails' variance, else
+        at the reference's (``max(v_x, v_r)``); ``'none'``: plain Welch.
     var_ddof : int
-        ddof of the given variances (0: de-biased by ``n / (n - 1)``; 1: already unbiased).
-    zero_var_rtol : float
-        Relative tolerance for "equal means" where both variances are zero.
-    pixel_pool : int
-        Side of the neighbourhood whose mean variance floors each pixel's (1 disables): a
-        pixel whose rare paths did not occur reports a variance far below the truth.
+        ddof of the given variances (0: de-biased by ``n / (n - 1)``).
+    zero_var_rtol, pixel_pool, validity : keyword-only
+        Relative tolerance of "equal means" where both variances are zero; side of the
+        neighbourhood whose mean variance floors each pixel's (1 disables); largest
+        :func:`edgeworth_error` at which a statistic is still tested.
     tails : reference_tracer.SampleMoments, optional
-        Per-pixel central moments of the *same estimator* at a high budget
-        (:func:`benchmarks.tails.tail_reference`).
-    validity : float
-        Largest :func:`edgeworth_error` at which a statistic is still tested.
+        Per-pixel central moments of the *same estimator* at a high budget.
     pixel_samples, filter_weights : optional
-        A test render with a tent or Gaussian filter: the ``(mean, variance)`` of the samples
-        drawn inside each pixel and the filter's weights
-        (:func:`benchmarks.gate.filtered.filter_weights`); ``test_var`` is then unused and
-        the correlation level untested (:mod:`benchmarks.gate.filtered`).
+        A tent- or Gaussian-filtered test render: the ``(mean, variance)`` of the samples drawn
+        inside each pixel and the filter's weights (:mod:`benchmarks.gate.filtered`).
 
     Returns
     -------
@@ -167,7 +154,7 @@ def argworst(p: np.ndarray, s: np.ndarray) -> tuple:
     return tuple(int(i) for i in np.unravel_index(flat, p.shape))
 
 
-def tested(lv) -> np.ndarray:
+def _tested(lv) -> np.ndarray:
     """``lv.p`` with untested statistics at 2 (never the worst)."""
     return np.where(lv.valid, lv.p, 2.0)
 
@@ -176,7 +163,7 @@ def worst_tile_box(tiles, tile_levels, H: int, W: int) -> tuple:
     """Pixel box ``(row0, col0, row1, col1)`` of the tested tile of any size with the smallest p."""
     best = None
     for ts, lv in zip(tiles, tile_levels):
-        pt = tested(lv)
+        pt = _tested(lv)
         iy, ix, ic = argworst(pt, lv.z)
         key = (pt[iy, ix, ic], -abs(lv.z[iy, ix, ic]))
         if best is None or key < best[0]:
@@ -187,7 +174,7 @@ def worst_tile_box(tiles, tile_levels, H: int, W: int) -> tuple:
 def locate(d, pix, tiles, tile_levels, level_p: dict) -> tuple:
     """``(worst pixel, worst tile, worst level, worst region)`` (see :class:`GateResult`)."""
     H, W, _ = d.x.shape
-    wy, wx, wc = argworst(tested(pix), pix.z)
+    wy, wx, wc = argworst(_tested(pix), pix.z)
     worst_tile = worst_tile_box(tiles, tile_levels, H, W)
     worst_level = min(level_p, key=lambda k: (level_p[k], LEVELS.index(k)))
     worst_region = {"pixel": (wy, wx, wy + 1, wx + 1), "tile": worst_tile,

@@ -38,7 +38,7 @@ from ..references import reference as mitsuba_reference
 from ..scenes import scene_at
 from ..stats import sidak
 from ..tails import DEFAULT_TAIL_SPP, tail_reference
-from .result import GateResult
+from .result import LEVELS, GateResult
 from .filtered import filter_weights
 from .statistics import compare
 from .store_reference import store_reference
@@ -77,10 +77,6 @@ class GateCase:
     mean: np.ndarray = field(repr=False)
     variance: np.ndarray = field(repr=False)
     tail_spp: int = 0
-
-    @property
-    def passed(self) -> bool:
-        return bool(self.result.passed)
 
     @property
     def failed(self) -> bool:
@@ -360,9 +356,9 @@ def write_p_images(case: GateCase, out) -> list:
     rt.write_exr(paths[0], logp.astype(np.float32))
 
     # the raw per-pixel p at which the pixel level alone reaches the comparison's alpha:
-    # Bonferroni over 3 levels and Sidak over the pixel tests
+    # Bonferroni over the levels and Sidak over the pixel tests
     m = max(int(r.n_tests.get("pixel", 1)), 1)
-    p_pix = sidak(case.alpha / 3.0, m)
+    p_pix = sidak(case.alpha / len(LEVELS), m)
     thresh = -math.log10(p_pix)
     vmax = max(2.0 * thresh, float(np.nanmax(logp[logp < 300])) if np.any(logp < 300) else 0.0)
     h, w = logp.shape

@@ -64,20 +64,17 @@ def bias_variance(images_k, ref, ref_var=None, ref_spp=None, var_k=None, spp=Non
 
     Parameters
     ----------
-    images_k : array_like, shape (K, H, W[, C])
-        ``K`` independent renders (distinct seeds) at ``spp`` each.
-    ref : array_like, shape (H, W[, C])
-        Reference image.
+    images_k, ref : array_like, shapes (K, H, W[, C]) and (H, W[, C])
+        ``K`` independent renders (distinct seeds) at ``spp`` each, and the reference.
     ref_var, ref_spp : optional
         Per-sample variance of the reference and its samples per pixel (together).
     var_k, spp : optional
         Per-sample variance of each render, shape (K, H, W[, C]), and their samples per pixel.
     alpha : float
         Level of ``bias_significant``.
-    variance_source : {'auto', 'seeds', 'samples'}
-        Where :math:`\hat s_p^2` comes from; ``'auto'``: ``'seeds'`` when ``K >= 2``.
-    var_ddof : {0, 1}
-        The ddof of ``var_k`` (``rt.render``'s: 0).
+    variance_source, var_ddof : keyword-only
+        Where :math:`\hat s_p^2` comes from (``'auto'``: ``'seeds'`` when ``K >= 2``, else
+        ``'samples'``) and the ddof of ``var_k`` (``rt.render``'s: 0).
     nan_policy : {'propagate', 'omit', 'raise'}
         ``'omit'`` drops a whole pixel if any of its entries is NaN.
 

@@ -8,7 +8,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy import stats
 
-from ._checks import check_policy
+from ._checks import nan_mask
 
 __all__ = ["SlopeFit", "convergence_slope", "efficiency", "time_to_error"]
 
@@ -66,15 +66,11 @@ def convergence_slope(spp, rmse, *, confidence: float = 0.95,
         raise ValueError(f"spp and rmse have different lengths: {x.shape} vs {y.shape}")
     if not 0 < confidence < 1:
         raise ValueError(f"confidence must be in (0, 1); got {confidence}")
-    check_policy(nan_policy)
-    nan = np.isnan(x) | np.isnan(y)
-    if nan.any():
-        if nan_policy == "raise":
-            raise ValueError("NaN in spp or rmse with nan_policy='raise'")
-        if nan_policy == "propagate":
-            return SlopeFit(math.nan, math.nan, math.nan, math.nan, math.nan,
-                            float(confidence), math.nan, int(x.size))
-        x, y = x[~nan], y[~nan]
+    keep = nan_mask(nan_policy, spp=x, rmse=y)
+    if isinstance(keep, str):
+        return SlopeFit(math.nan, math.nan, math.nan, math.nan, math.nan, float(confidence), math.nan, int(x.size))
+    if keep is not None:
+        x, y = x[keep], y[keep]
     if np.any(x <= 0) or np.any(y <= 0):
         raise ValueError("spp and rmse must be positive to fit on a log-log scale")
     n = x.size

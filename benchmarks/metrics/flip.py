@@ -62,12 +62,9 @@ def flip(img, ref, *, exposure: float | None = None, error_map: bool = False, na
     ----------
     img, ref : array_like
         Linear radiance, (H, W, 3) (or (H, W): grey, repeated to RGB).
-    exposure : float, optional
-        The display scale (default: from the reference).
-    error_map : bool, keyword-only
-        Also return the per-pixel FLIP map, (H, W) in [0, 1].
-    nan_policy : {'propagate', 'raise'}
-        'omit' is not supported.
+    exposure, error_map, nan_policy : keyword-only
+        The display scale (default: from the reference); also return the per-pixel map, (H, W)
+        in [0, 1]; ``'propagate'`` or ``'raise'`` (``'omit'`` is not supported).
 
     Returns
     -------
