@@ -17,17 +17,15 @@ class GateResult:
 
     Attributes
     ----------
-    verdict : {'pass', 'fail', 'undetermined'}
-        ``fail``: ``p_value < alpha``; ``undetermined``: no failure, but the whole-image
-        statistic of some channel could not be tested (heavy tails; ``spp_needed`` says
-        about how many spp would decide); ``pass`` otherwise. ``reason``: one line why.
-    p_value : float
-        ``min(1, 4 * min(level_p.values()))`` (Bonferroni over the levels).
-    level_p, n_tests, n_candidates : dict
-        Per level: the Sidak-adjusted p-value (1 when untested), the statistics tested, and
-        those with evidence (tested or left out as too heavy-tailed).
-    failed_levels : list of str
-        Levels with ``4 * level_p < alpha``.
+    verdict, reason : str
+        ``'fail'`` (``p_value < alpha``), ``'undetermined'`` (no failure, but the whole-image
+        statistic of some channel could not be tested; ``spp_needed`` would decide) or
+        ``'pass'``; ``reason``, one line why.
+    p_value, level_p, failed_levels : float, dict, list
+        ``min(1, 4 * min(level_p.values()))``; per level the Sidak-adjusted p-value (1 when
+        untested); the levels with ``4 * level_p < alpha``.
+    n_tests, n_candidates : dict
+        Per level, the statistics tested and those with evidence (tested or too heavy-tailed).
     pixel_p, pixel_t : ndarray, shape (H, W, C)
         Raw two-sided p-value and Welch statistic per pixel-channel (``p_map``: the minimum
         p over channels, (H, W)).

@@ -79,6 +79,10 @@ class GateCase:
     tail_spp: int = 0
 
     @property
+    def passed(self) -> bool:
+        return bool(self.result.passed)
+
+    @property
     def failed(self) -> bool:
         return bool(self.result.failed)
 

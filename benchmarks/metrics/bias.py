@@ -177,16 +177,14 @@ def _variance_source(variance_source: str, K: int, vk, n, var_ddof: int) -> str:
     """Resolve ``'auto'`` and check that the chosen source has what it needs."""
     if variance_source == "auto":
         variance_source = "seeds" if K >= 2 else "samples"
-    if variance_source == "seeds":
-        if K < 2:
-            raise ValueError("variance_source='seeds' needs K >= 2 seeds")
-    elif variance_source == "samples":
-        if vk is None or n is None:
-            raise ValueError("variance_source='samples' (or K == 1) needs var_k and spp")
-        if n < 2 or var_ddof not in (0, 1):
-            raise ValueError(f"variance_source='samples' needs spp >= 2 and var_ddof 0 or 1; "
-                             f"got spp={n}, var_ddof={var_ddof}")
-    else:
+    if variance_source == "seeds" and K < 2:
+        raise ValueError("variance_source='seeds' needs K >= 2 seeds")
+    if variance_source == "samples" and (vk is None or n is None):
+        raise ValueError("variance_source='samples' (or K == 1) needs var_k and spp")
+    if variance_source == "samples" and (n < 2 or var_ddof not in (0, 1)):
+        raise ValueError(f"variance_source='samples' needs spp >= 2 and var_ddof 0 or 1; "
+                         f"got spp={n}, var_ddof={var_ddof}")
+    if variance_source not in ("seeds", "samples"):
         raise ValueError(f"variance_source must be 'auto', 'seeds' or 'samples'; got {variance_source!r}")
     return variance_source
 
