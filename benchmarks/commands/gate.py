@@ -55,7 +55,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scene_path_args(parser)
     parser.add_argument("--reference", default=None, metavar="STORE",
                         help="gate against our own images in results store STORE (written by --write-reference "
-                             "with a trusted build) instead of Mitsuba: for features Mitsuba cannot render (default: Mitsuba)")
+                             "with a trusted build) instead of Mitsuba: for features Mitsuba cannot render "
+                             "(default: Mitsuba)")
     parser.add_argument("--reference-build", default=None, metavar="BUILD",
                         help="with --reference: the build whose records to use (default: the latest)")
     parser.add_argument("--write-reference", default=None, metavar="STORE",

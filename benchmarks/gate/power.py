@@ -1,12 +1,9 @@
 """Measured power of the regression gate on injected biases, ours against Mitsuba's per-pixel rule.
 
-:func:`mitsuba_rule` re-implements Mitsuba 3's own render-test rule to compare it with the gate's.
-
-Each injection (:data:`INJECTIONS`) is a plausible bug applied to our render of an unmodified
-suite scene, compared with the gate's own reference of that scene at the gate's defaults, so a
-row says what ``rtbench gate`` would report. Ours "catches" it when its p-value is below the
-level of one comparison of a default quick-suite run (``GATE_ALPHA / 8``); Mitsuba's rule runs
-at its own ``alpha = 0.01`` per image.
+Each injection (:data:`INJECTIONS`) is a plausible bug in our render of a suite scene, compared
+with the gate's own reference at the gate's defaults; ours "catches" it below the level of one
+comparison of a default quick-suite run (``GATE_ALPHA / 8``). :func:`mitsuba_rule` re-implements
+Mitsuba 3's render-test rule, run at its own ``alpha = 0.01`` per image.
 
 Examples
 --------

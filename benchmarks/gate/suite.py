@@ -43,9 +43,9 @@ from .filtered import filter_weights
 from .statistics import compare
 from .store_reference import store_reference
 
-__all__ = ["gate_tails", "DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_SEED", "DEFAULT_STRATEGY", "GateCase",
-           "GateReport", "gate_scene", "resolve_scenes", "resolve_strategies", "gate_reference", "compare_render",
-           "run_gate", "write_p_images"]
+__all__ = ["gate_tails", "DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_SEED", "DEFAULT_STRATEGY",
+           "GateCase", "GateReport", "gate_scene", "resolve_scenes", "resolve_strategies", "gate_reference",
+           "compare_render", "run_gate", "write_p_images"]
 
 #: samples per pixel of our render (see the power table in ``tests/benchmarks/gate/test_gate_power.py``).
 DEFAULT_SPP = 4096

@@ -1,12 +1,9 @@
-"""The self-test driver: each mutant rendered and judged by the gate and by Mitsuba's rule.
+"""The self-test driver (:func:`run_selftest`): each mutant rendered and judged by the gate and by Mitsuba's rule.
 
-For each mutant :func:`run_selftest` fetches its scene's reference as the gate does and the
-*mutant's own* tail reference, renders it with the gate's seed at each budget of the ladder up
-to ``spp`` and judges each render by :func:`benchmarks.gate.compare` (at ``GATE_ALPHA / 8``, a
-default quick-suite run's level) and by :func:`benchmarks.gate.mitsuba_rule` (its own
-``alpha = 0.01``). A mutant is caught when the verdict is ``'fail'`` (``'undetermined'`` is
-not a catch). ``controls=True`` judges the unmutated tracer the same way on each
-(scene, strategy): a rule that fails the tracer there has not shown that it caught the bug.
+Each mutant is judged with its *own* tail reference at each budget of the ladder up to ``spp``, by
+:func:`benchmarks.gate.compare` at ``GATE_ALPHA / 8`` (caught: ``'fail'``; ``'undetermined'`` is
+not a catch) and by :func:`benchmarks.gate.mitsuba_rule`; the controls judge the unmutated tracer
+the same way (a rule that fails the tracer there has not shown that it caught the bug).
 """
 from __future__ import annotations
 
