@@ -45,10 +45,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     A.add_quiet_arg(parser)
 
 
-def _names(values) -> list | None:
-    return [s.strip() for v in values for s in v.split(",") if s.strip()] or None
-
-
 def _spp(n) -> str:
     return "-" if n is None else str(n)
 
@@ -114,6 +110,7 @@ def _command_line() -> str | None:
 def run(args) -> int:
     from benchmarks.commands._args import check
     from benchmarks.commands._gate_tables import wide_console
+    from benchmarks.gate.suite import names_of
     from benchmarks.selftest import CATALOGUE, run_selftest
 
     if args.list:
@@ -122,7 +119,7 @@ def run(args) -> int:
                   f"  why this scene: {m.why}")
         return 0
     check(args)
-    names = _names(args.mutants)
+    names = names_of(",".join(args.mutants)) or None
     from benchmarks.commands._args import tail_spp_warning
     from benchmarks.tails import DEFAULT_TAIL_SPP
 

@@ -22,8 +22,7 @@ from .calibration import CalibrationRow, calibrate
 from .levels import DEFAULT_VALIDITY, edgeworth_error, spp_needed
 from .power import (INJECTIONS, MITSUBA_ALPHA, QUICK_SUITE_COMPARISONS, MitsubaRuleResult, PowerRow, injected_scene,
                     mitsuba_rule, power_row)
-from .result import LEVELS, GateResult
-from .statistics import EstimatorKnowledge, compare, judge
+from .statistics import LEVELS, EstimatorKnowledge, GateResult, compare, judge
 from .suite import (DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_STRATEGY, DEFAULT_WIDTH, GateCase,
                     GateReport, compare_render, gate_reference, gate_scene, resolve_scenes, resolve_strategies,
                     run_gate, write_p_images)

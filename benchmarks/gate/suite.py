@@ -38,13 +38,12 @@ from ..references import reference as mitsuba_reference
 from ..scenes import scene_at
 from ..stats import sidak
 from ..tails import DEFAULT_TAIL_SPP, tail_reference
-from .result import LEVELS, GateResult
 from .filtered import filter_weights
-from .statistics import compare
+from .statistics import LEVELS, GateResult, compare
 from .store_reference import store_reference
 
 __all__ = ["gate_tails", "DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_SEED", "DEFAULT_STRATEGY",
-           "GateCase", "GateReport", "gate_scene", "resolve_scenes", "resolve_strategies", "gate_reference",
+           "GateCase", "GateReport", "gate_scene", "names_of", "resolve_scenes", "resolve_strategies", "gate_reference",
            "compare_render", "run_gate", "write_p_images"]
 
 #: samples per pixel of our render (see the power table in ``tests/benchmarks/gate/test_gate_power.py``).
@@ -208,14 +207,18 @@ def compare_render(mean, variance, spp: int, reference: Reference, *, alpha: flo
                    filter_weights=filter_weights(pixel_filter) if filtered else None)
 
 
+def names_of(value) -> list:
+    """The names in ``value``, de-duplicated in order (a string may be comma-separated)."""
+    parts = value.split(",") if isinstance(value, str) else value
+    return list(dict.fromkeys(n.strip() for n in parts if n.strip()))
+
+
 def resolve_scenes(scenes) -> list:
     """Validated scene names (None: the whole suite; a string may be comma-separated)."""
     suite = known_scenes()
     if scenes is None:
         return list_scenes()
-    if isinstance(scenes, str):
-        scenes = [s.strip() for s in scenes.split(",") if s.strip()]
-    scenes = list(dict.fromkeys(scenes))
+    scenes = names_of(scenes)
     if not scenes:
         raise ValueError("no scene selected")
     unknown = [s for s in scenes if s not in suite]
@@ -226,9 +229,7 @@ def resolve_scenes(scenes) -> list:
 
 def resolve_strategies(strategies) -> list:
     """``mis`` followed by the other validated, de-duplicated strategies."""
-    if isinstance(strategies, str):
-        strategies = [s.strip() for s in strategies.split(",") if s.strip()]
-    strategies = list(dict.fromkeys([DEFAULT_STRATEGY, *strategies]))
+    strategies = names_of([DEFAULT_STRATEGY, *names_of(strategies)])
     unknown = [s for s in strategies if s not in STRATEGIES]
     if unknown:
         raise ValueError(f"unknown strateg{'y' if len(unknown) == 1 else 'ies'} {', '.join(unknown)}; "

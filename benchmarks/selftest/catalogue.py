@@ -29,7 +29,7 @@ import reference_tracer as rt
 from mitsuba_scenes import get_scene, list_scenes
 from mitsuba_scenes.scenes.cornell_box import WHITE, camera, ceiling_light, room, short_box, tall_box
 
-from ..gate.suite import gate_scene
+from ..gate.suite import gate_scene, names_of
 
 __all__ = ["Mutant", "CATALOGUE", "mutant", "resolve_mutants", "SELFTEST_SCENES", "selftest_scene", "is_suite_scene"]
 
@@ -147,9 +147,7 @@ def resolve_mutants(mutants=None) -> list:
     """Catalogue entries by name (None: all; a string may be comma-separated), de-duplicated."""
     if mutants is None:
         return list(CATALOGUE)
-    if isinstance(mutants, str):
-        mutants = [m.strip() for m in mutants.split(",") if m.strip()]
-    names = list(dict.fromkeys(mutants))
+    names = names_of(mutants)
     if not names:
         raise ValueError("no mutant selected")
     return [mutant(n) for n in names]
