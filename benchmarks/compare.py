@@ -21,7 +21,7 @@ from mitsuba_scenes.suite import SUITE
 
 from .constants import GATE_ALPHA
 from .external import render_external_batches
-from .gate.paired import EstimatorKnowledge, judge
+from .gate.statistics import EstimatorKnowledge, judge
 from .gate.store_reference import pooled_image
 from .metrics import convergence_slope
 from .scenes import scene_at

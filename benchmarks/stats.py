@@ -1,13 +1,8 @@
 """Sidak's correction for a family of independent tests, written once for every check.
 
-A family of ``m`` independent tests, each at level ``a``, raises a false alarm with
-probability ``1 - (1 - a)^m``. :func:`sidak` gives the level ``a`` of each test that keeps
-the family at ``alpha`` (the chi-square tests, the gate's critical values, Mitsuba's
-render-test rule); :func:`sidak_p_value` reads the same relation the other way: the
-family's p-value from its smallest p-value (the gate's level p-values). Both go through
-``log1p`` and ``expm1``, so tiny levels keep their precision.
-Pure Python; the gate (:mod:`benchmarks.gate`) and the chi-square tests
-(:mod:`benchmarks.chi2`) both use it.
+``m`` independent tests at level ``a`` raise a false alarm with probability ``1 - (1 - a)^m``:
+:func:`sidak` gives the ``a`` that keeps the family at ``alpha``, :func:`sidak_p_value` the
+family's p-value from its smallest p-value; both through ``log1p``/``expm1`` for tiny levels.
 
 Examples
 --------
@@ -24,10 +19,8 @@ __all__ = ["sidak", "sidak_p_value"]
 
 
 def sidak(alpha: float, m: int) -> float:
-    """Level of each of ``m`` independent tests so that the family's false-alarm rate is
-    ``alpha``: ``1 - (1 - alpha) ** (1 / m)``.
-
-    ``ValueError`` unless ``0 < alpha < 1`` and ``m >= 1``.
+    """Level of each of ``m`` independent tests that keeps the family at ``alpha``:
+    ``1 - (1 - alpha) ** (1 / m)``.
 
     Examples
     --------
@@ -42,8 +35,8 @@ def sidak(alpha: float, m: int) -> float:
 
 
 def sidak_p_value(p_min: float, m: int) -> float:
-    """Family-wise p-value of the smallest of ``m`` independent p-values,
-    ``1 - (1 - p_min) ** m``: the inverse of :func:`sidak`. 1 for an empty family.
+    """Family-wise p-value of the smallest of ``m`` independent p-values, ``1 - (1 - p_min) ** m``
+    (1 for an empty family).
 
     Examples
     --------

@@ -1,13 +1,10 @@
 """Tail references: our own estimator at a high budget, for the statistics of its noise.
 
-A verdict on a heavy-tailed estimator needs the estimator's own variance and tail shape
-(skewness, kurtosis) per pixel, not the render's (low where its rare paths were missed)
-nor the Mitsuba reference's (another estimator, often 1e4 times less noisy). A *tail
-reference* is a render of the same scene with the same tracer build and strategy at a
-high spp and a seed far from the ones under test, with the core's per-pixel moments
-(``rt.render(..., moments=True)``), cached like the Mitsuba references under
-``$RTBENCH_CACHE`` and keyed by the scene's content hash, the build id, the strategy, spp
-and seed. See ``benchmarks/STATISTICS.md``.
+A verdict on a heavy-tailed estimator needs that estimator's own per-pixel variance and tail
+shape, not the render's (low where its rare paths were missed) nor Mitsuba's (another
+estimator). :func:`tail_reference` renders the scene with the same build and strategy at a
+high spp with the core's per-pixel moments, cached under ``$RTBENCH_CACHE`` by scene hash,
+build, strategy, spp and seed. See ``benchmarks/STATISTICS.md``.
 """
 from __future__ import annotations
 
@@ -32,15 +29,12 @@ __all__ = ["TailReference", "is_cached", "tail_reference", "tail_key", "sample_v
            "variance_tail_reference",
            "DEFAULT_TAIL_SPP", "DEFAULT_TAIL_SEED", "DEFAULT_MAX_TAIL_SAMPLES"]
 
-#: Samples per pixel of a tail reference: 4x the gate's default budget. Rare paths with
-#: probability well below 1 / DEFAULT_TAIL_SPP stay unseen; the pixel neighbourhood and the
-#: tile and image levels pool many pixels' samples for them (STATISTICS.md, "Assumptions").
+#: Samples per pixel of a tail reference: 4x the gate's default budget (STATISTICS.md, "Assumptions").
 DEFAULT_TAIL_SPP = 16384
 #: Seed of tail references: far from the seeds renders under test use (small integers).
 DEFAULT_TAIL_SEED = 0x7A11_5EED
-#: Largest tail reference :func:`variance_tail_reference` renders, in samples over the whole
-#: image (2^30: 1M spp at 32x32, a few minutes on two cores for the cheap strategies that
-#: need it): past it a dominated variance stays flagged as a lower bound.
+#: Largest tail reference :func:`variance_tail_reference` renders, in samples over the image
+#: (2^30: 1M spp at 32x32, minutes on two cores).
 DEFAULT_MAX_TAIL_SAMPLES = 2 ** 30
 FORMAT_VERSION = 1
 _ARRAYS = ("mean", "variance", "m2", "m3", "m4", "max")
@@ -48,8 +42,7 @@ _ARRAYS = ("mean", "variance", "m2", "m3", "m4", "max")
 
 @dataclass(kw_only=True)
 class TailReference(ImageEstimate):
-    """A tail reference: an :class:`~reference_tracer.ImageEstimate` of our estimator with
-    its per-pixel :class:`~reference_tracer.SampleMoments` (``moments``)."""
+    """An :class:`~reference_tracer.ImageEstimate` of our estimator with its per-pixel ``moments``."""
 
     moments: SampleMoments = field(repr=False)
     strategy: str
@@ -61,8 +54,7 @@ class TailReference(ImageEstimate):
 
 
 def tail_key(scene_hash: str, *, build: str, strategy: str, spp: int, seed: int, variant: str = "") -> str:
-    """Cache key: SHA-256 over the identity of a tail reference (``variant`` names a
-    non-default estimator, such as a self-test mutant)."""
+    """Cache key: SHA-256 over the identity (``variant``: a non-default estimator, e.g. a mutant)."""
     ident = {"format": FORMAT_VERSION, "kind": "tails", "scene": scene_hash, "build": build,
              "strategy": strategy, "spp": int(spp), "seed": int(seed), "variant": variant}
     return hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()
@@ -98,8 +90,7 @@ def _save(path, meta_path, meta, arrays):
 
 def is_cached(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: int = DEFAULT_TAIL_SEED,
               cache=None) -> bool:
-    """Whether :func:`tail_reference` would find this tail reference in the cache (its sidecar
-    exists; the file is checked when it is read). For planning a run's progress."""
+    """Whether :func:`tail_reference` would find it in the cache (its sidecar exists), for planning."""
     key = tail_key(scene.content_hash(), build=rt.build_id(), strategy=strategy, spp=spp, seed=seed)
     return (cache_dir(cache) / f"{key}.tails.json").exists()
 
@@ -109,31 +100,28 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
                    progress=None, what: str = "") -> TailReference:
     """The tail reference of ``scene`` for ``strategy``, from the cache or rendered.
 
+    A filtered scene's moments are those of its box-filtered twin (the samples').
+
     Parameters
     ----------
-    scene : reference_tracer.Scene
-        The scene at the size under test.
-    strategy : str
-        One of ``reference_tracer.STRATEGIES``.
-    spp, seed : int, keyword-only
-        Budget and seed of the tail reference.
-    threads, cache : keyword-only
-        Rendering threads; cache root (see ``benchmarks.references.cache_dir``).
-    render : callable, keyword-only
-        ``render(scene, spp=, strategy=, seed=, threads=, moments=True)`` to use instead of
-        ``reference_tracer.render`` (the self-test's mutants); give it a ``variant`` name.
-    log : callable, keyword-only
-        Called with one line when a tail reference is rendered or an entry is replaced.
-    progress : callable, keyword-only
-        ``progress(done_rows, total_rows)`` while our tracer renders it (not with ``render``).
-    what : str, keyword-only
-        What the tail reference is of (``"cornell_box 32x32"``), for the log lines.
+    scene, strategy : reference_tracer.Scene and str
+        The scene at the size under test, and one of ``reference_tracer.STRATEGIES``.
+    spp, seed, threads, cache : keyword-only
+        Budget, seed, rendering threads and cache root (``benchmarks.references.cache_dir``).
+    render, variant : keyword-only
+        ``render(scene, spp=, strategy=, seed=, threads=, moments=True)`` instead of
+        ``reference_tracer.render`` (the self-test's mutants), and its name for the key.
+    log, progress, what : keyword-only
+        A callable taking a line (rendered or replaced entries), ``progress(done, total)``
+        while our tracer renders, and what it is of (``"cornell_box 32x32"``) for the log.
+
+    Returns
+    -------
+    TailReference
     """
     if strategy not in rt.STRATEGIES:
         raise ValueError(f"strategy must be one of {rt.STRATEGIES}, got {strategy!r}")
     if not scene.camera.filter.is_box:
-        # The moments are the samples', whatever pools them: a filtered scene's are those of
-        # its box-filtered twin (benchmarks.gate.filtered computes the filtered pixels' from them).
         scene = dataclasses.replace(scene, camera=dataclasses.replace(scene.camera, filter=rt.Filter("box")))
     spp = positive_int("spp", spp, minimum=2)
     build = rt.build_id()
@@ -171,9 +159,8 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
 
 
 def sample_variance(tails) -> np.ndarray:
-    """Per-pixel per-sample variance of a tail reference (ddof 1), with float rounding of
-    identical samples (relative spread below 1e-6: an exact estimator such as mis in the
-    furnace) set to exactly zero."""
+    """Per-pixel per-sample variance of a tail reference (ddof 1), float rounding of identical
+    samples (relative spread below 1e-6) set to zero."""
     m = tails.moments
     var = np.asarray(m.m2, dtype=np.float64) * (m.n / (m.n - 1.0))
     mean = np.asarray(tails.mean, dtype=np.float64)
@@ -181,12 +168,9 @@ def sample_variance(tails) -> np.ndarray:
 
 
 def variance_is_lower_bound(tails, *, share: float = 0.5, weight: float = 0.1) -> bool:
-    """Whether a tail reference's variance is only a lower bound of its estimator's.
-
-    Where a single sample carries more than ``share`` of a pixel's sum of squared
-    deviations, the pixel's variance rests on one rare path, and rarer paths that would
-    raise it further were very likely not seen. The variance is called a lower bound when
-    such pixels hold more than ``weight`` of the image's summed variance.
+    """Whether a tail reference's variance is only a lower bound: pixels where a single sample
+    carries more than ``share`` of the squared deviations hold more than ``weight`` of the
+    image's summed variance.
 
     Examples
     --------
@@ -213,18 +197,9 @@ def variance_is_lower_bound(tails, *, share: float = 0.5, weight: float = 0.1) -
 def variance_tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP,
                             max_samples: int = DEFAULT_MAX_TAIL_SAMPLES, log=None, what: str = "",
                             **kw) -> TailReference:
-    """A tail reference whose variance can be trusted: :func:`tail_reference` at ``spp``,
-    and where :func:`variance_is_lower_bound` holds, once more at the largest budget
-    ``max_samples`` allows for the image (cached like any tail reference).
-
-    The variance of an estimator whose rare paths set it (``uniform`` on ``glossy_plates``:
-    the small light seen in a glossy plate) converges only once those paths occur many
-    times. Measured there at 32x32 (mean per-sample variance over the pixels): 7.1e4 at
-    16384 spp, 1.6e5 at 65536, 3.9e5 at 262144 and 2.5e6 at 1048576 spp, where renders
-    of several million spp per pixel give 2.5-2.9e6. The jump goes straight to the cap:
-    intermediate budgets were all still dominated by single samples. Other estimators stop
-    at ``spp``; the check costs nothing.
-    """
+    """:func:`tail_reference` at ``spp`` and, where :func:`variance_is_lower_bound` holds, once more
+    at the largest budget ``max_samples`` allows (intermediate budgets stay dominated by single
+    samples: ``benchmarks/STATISTICS.md``, "Variance of extremely heavy-tailed estimators")."""
     tails = tail_reference(scene, strategy=strategy, spp=spp, log=log, what=what, **kw)
     pixels = int(scene.camera.width) * int(scene.camera.height)
     top = max_samples // pixels
@@ -240,8 +215,8 @@ def variance_tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP
 
 
 def progress_lines(log, what: str, *, step: int = 10):
-    """A ``progress(done, total)`` callback that logs one line per ``step`` percent with the
-    elapsed time and an estimate of what is left: a render of minutes says how far it is.
+    """A ``progress(done, total)`` callback logging one line per ``step`` percent with the time taken
+    and left.
 
     Examples
     --------

@@ -1,22 +1,21 @@
-"""The regression gate's printed tables: a gate run's verdicts and the injected-bias power table.
-
-The numbers come from :mod:`benchmarks.gate` (``run_gate``'s report, ``power_table``'s rows);
-this module only lays them out, for the terminal (rich) or as Markdown.
-"""
+"""The regression gate's printed tables: a gate run's verdicts and the calibration."""
 from __future__ import annotations
 
 from benchmarks.constants import CLOSED_FORM
 
-__all__ = ["gate_table", "format_table", "calibration_table"]
+__all__ = ["gate_table", "calibration_table", "wide_console"]
+
+
+def wide_console(width: int):
+    """A rich console, at least ``width`` wide where it is no terminal (logs: one row per line)."""
+    from rich.console import Console
+
+    console = Console()
+    return console if console.is_terminal else Console(width=max(console.width, width))
 
 
 def gate_table(report):
-    """The verdict of every comparison of a :class:`benchmarks.gate.GateReport`, as a rich table.
-
-    One row per (scene, strategy): reference, verdict, p-value, failed levels, relative
-    bias, the power (the smallest global and 8x8-tile relative bias it would catch with
-    probability 0.8) and, for failures, where the strongest evidence is.
-    """
+    """The verdict of every comparison of a :class:`benchmarks.gate.GateReport`, as a rich table."""
     from rich.markup import escape
     from rich.table import Table
 
@@ -43,29 +42,6 @@ def gate_table(report):
 def _pct(v: float) -> str:
     """A relative bias as a percentage; '-' where the level tests nothing."""
     return f"{v:.2%}" if v == v else "-"
-
-
-def format_table(rows) -> str:
-    """Markdown power table of :func:`benchmarks.gate.power_table`'s rows: injected bias | caught by
-    ours (p) | caught by Mitsuba's rule.
-
-    Examples
-    --------
-    >>> from benchmarks.gate import PowerRow
-    >>> row = PowerRow(injection="scale 0.99", scene="cornell_box", seed=1, spp=4096, p_value=1e-9, caught=True,
-    ...                failed_levels=["image"], relative_bias=-0.01, relative_bias_se=0.001,
-    ...                mitsuba_caught=False, mitsuba_failed_fraction=0.0)
-    >>> print(format_table([row]).splitlines()[-1])
-    | scale 0.99 | cornell_box | yes (1e-09) | image | -1.00% +- 0.10% | no (0.00%) |
-    """
-    lines = ["| injected bias | scene | caught by ours (p-value) | failed levels | image bias | "
-             "caught by Mitsuba's rule (failed pixel-channels) |",
-             "| --- | --- | --- | --- | --- | --- |"]
-    for r in rows:
-        lines.append(f"| {r.injection} | {r.scene} | {'yes' if r.caught else 'no'} ({r.p_value:.2g}) | "
-                     f"{', '.join(r.failed_levels) or '-'} | {r.relative_bias:+.2%} +- {r.relative_bias_se:.2%} | "
-                     f"{'yes' if r.mitsuba_caught else 'no'} ({r.mitsuba_failed_fraction:.2%}) |")
-    return "\n".join(lines)
 
 
 def calibration_table(rows, *, alpha: float, pairs: bool = False):

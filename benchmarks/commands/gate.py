@@ -1,13 +1,9 @@
 """``rtbench gate [SCENE...]``: fail when our tracer's renders drift from their references.
 
-Renders each scene with our tracer (``mis``, plus any ``--strategies``), compares it with
-its cached Mitsuba reference (rendered first when missing) by
-:func:`benchmarks.gate.compare` with the tail diagnostics of the same estimator (a cached
-high-spp run of ours: :mod:`benchmarks.tails`), prints a table with each comparison's
-verdict (pass, fail or undetermined) and power, writes p-value images of failures into
-``--out`` and exits 1 when any comparison fails (undetermined ones do not fail the run). Defaults: the quick suite at 32x32,
-4096 spp against 16384-spp references, false-alarm rate 0.01 for the whole run
-(:mod:`benchmarks.gate.suite`; the table is :func:`benchmarks.commands._gate_tables.gate_table`).
+Runs :func:`benchmarks.gate.run_gate`, prints each comparison's verdict and power, writes
+p-value images of failures into ``--out`` and exits 1 when a comparison fails (undetermined
+ones do not). ``--calibrate`` measures the false-alarm rate instead
+(:func:`benchmarks.gate.calibrate`); ``--write-reference`` writes a store of our own references.
 """
 from __future__ import annotations
 
@@ -59,7 +55,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scene_path_args(parser)
     parser.add_argument("--reference", default=None, metavar="STORE",
                         help="gate against our own images in results store STORE (written by --write-reference "
-                             "with a trusted build) instead of Mitsuba: for features Mitsuba cannot render (default: Mitsuba)")
+                             "with a trusted build) instead of Mitsuba: for features Mitsuba cannot render "
+                             "(default: Mitsuba)")
     parser.add_argument("--reference-build", default=None, metavar="BUILD",
                         help="with --reference: the build whose records to use (default: the latest)")
     parser.add_argument("--write-reference", default=None, metavar="STORE",
@@ -71,8 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _warn_tail_spp(args) -> None:
-    """One line on stderr where ``--tail-spp`` makes the verdicts uncalibrated (the tail
-    references are ours: not used by ``--renderer`` or ``--write-reference``)."""
+    """One line on stderr where ``--tail-spp`` makes the verdicts uncalibrated (not with
+    ``--renderer`` or ``--write-reference``, which use no tail references)."""
     from benchmarks.commands._args import tail_spp_warning
     from benchmarks.tails import DEFAULT_TAIL_SPP
 
@@ -95,13 +92,11 @@ def run(args) -> int:
     from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from benchmarks.commands._args import single_variant
-    from benchmarks.commands._gate_tables import gate_table
+    from benchmarks.commands._gate_tables import gate_table, wide_console
     from benchmarks.gate import resolve_strategies, run_gate, write_p_images
     from benchmarks.gate import resolve_scenes as resolve_gate_scenes
 
-    console = Console()
-    if not console.is_terminal:  # CI logs: keep one row per comparison
-        console = Console(width=max(console.width, 160))
+    console = wide_console(160)
     err = Console(stderr=True, quiet=args.quiet)
     scenes = resolve_scenes(args, suite_names=args.scenes or []) or None
     if args.write_reference:
@@ -160,13 +155,9 @@ def run(args) -> int:
     for c in report.undetermined:
         console.print(f"undetermined: {c.scene} ({c.strategy}): {c.result.reason}", highlight=False, markup=False)
     if args.json:
-        path = Path(args.json)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps({"alpha": report.alpha, "case_alpha": report.case_alpha,
-                                    "passed": report.passed, "verdicts": {v: sum(c.verdict == v for c in report.cases)
-                                                                          for v in ("pass", "fail", "undetermined")},
-                                    "cases": [c.to_dict() for c in report.cases]},
-                                   indent=1, default=float) + "\n")
+        verdicts = {v: sum(c.verdict == v for c in report.cases) for v in ("pass", "fail", "undetermined")}
+        _write_json(args.json, {"alpha": report.alpha, "case_alpha": report.case_alpha, "passed": report.passed,
+                                "verdicts": verdicts, "cases": [c.to_dict() for c in report.cases]})
     if report.passed:
         n_und = len(report.undetermined)
         if n_und:
@@ -184,7 +175,7 @@ def run(args) -> int:
 
 
 def _write_reference(args, scenes) -> int:
-    """``--write-reference STORE``: our renders at ``--ref-spp`` into a results store."""
+    """``--write-reference STORE``: our renders at ``--reference-spp`` into a results store."""
     from benchmarks.gate import resolve_scenes as resolve_gate_scenes
     from benchmarks.gate.store_reference import write_reference_store
 
@@ -213,7 +204,7 @@ def _calibrate(args) -> int:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from benchmarks.commands._args import single_variant
-    from benchmarks.commands._gate_tables import calibration_table
+    from benchmarks.commands._gate_tables import calibration_table, wide_console
     from benchmarks.constants import UNBIASED_STRATEGIES
     from benchmarks.gate import calibrate
     from benchmarks.gate import resolve_scenes as resolve_gate_scenes
@@ -224,9 +215,7 @@ def _calibrate(args) -> int:
         raise ValueError(f"--spps must list budgets >= 2, got {','.join(map(str, spps))}")
     strategies = list(args.strategies) or list(UNBIASED_STRATEGIES)
     names = resolve_gate_scenes(resolve_scenes(args, suite_names=args.scenes or []) or None)
-    console = Console()
-    if not console.is_terminal:  # logs and files: keep one row per line
-        console = Console(width=max(console.width, 160))
+    console = wide_console(160)
     progress = Progress(TextColumn("calibration"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                         console=Console(stderr=True, quiet=args.quiet), transient=True)
     config = {"scenes": list(names), "strategies": strategies, "spps": spps, "seeds": args.seeds,
@@ -267,12 +256,8 @@ def _calibrate(args) -> int:
 
 
 def _resumed_rows(path, config: dict, *, alpha: float) -> list:
-    """The rows an earlier, interrupted calibration wrote to ``path`` with the same settings.
-
-    A file from other settings (seeds, size, references, variant, alpha) or of another
-    build of the tracer is refused rather than mixed in; a missing file is a fresh start. Every row of the file is kept (rows of
-    other scenes, strategies or budgets as well: the file grows into the whole table).
-    """
+    """The rows an interrupted calibration wrote to ``path`` (all of them: the file grows into the
+    whole table); a file of other settings or another build is refused, a missing one is a fresh start."""
     from benchmarks.gate import CalibrationRow
 
     p = Path(path)
@@ -299,6 +284,5 @@ def _resumed_rows(path, config: dict, *, alpha: float) -> list:
 def _write_json(path, obj) -> None:
     from reference_tracer.imageio import atomic_write
 
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write(p, json.dumps(obj, indent=1, default=float) + "\n")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(path, json.dumps(obj, indent=1, default=float) + "\n")

@@ -1,15 +1,9 @@
 """``rtbench selftest``: does the gate catch real bugs? Seeded bugs, gate vs Mitsuba's rule.
 
-Renders the tracer built with each seeded bug of the catalogue
-(:data:`benchmarks.selftest.CATALOGUE`) on the scene and strategy that expose it, with the
-gate's seed, at each budget of the ladder up to ``--spp`` (the gate's default budget), and
-judges every render with the gate (the mutant's own tail reference) and with Mitsuba's
-per-pixel rule (:func:`benchmarks.selftest.run_selftest`). Prints one row per mutant (gate
-verdict at ``--spp``, caught, smallest spp caught, the same for Mitsuba's rule, and the
-unmutated tracer's verdicts on the same scene as a control), progress on stderr.
-
-Exit 0 when the gate catches at least 90% of the mutants and never fewer than Mitsuba's
-rule, 1 otherwise, 2 on bad usage.
+Runs :func:`benchmarks.selftest.run_selftest` and prints one row per mutant (the gate's verdict
+at ``--spp``, the smallest spp caught, the same for Mitsuba's rule, and the unmutated tracer's
+verdicts as a control). Exit 0 when the gate catches at least 90% of the mutants and never
+fewer than Mitsuba's rule, 1 otherwise, 2 on bad usage.
 """
 from __future__ import annotations
 
@@ -17,6 +11,8 @@ import argparse
 import json
 import sys
 from pathlib import Path
+
+from benchmarks.text import markdown_table
 
 HELP = ("self-test: render seeded bugs of the tracer (mutants) and report which the gate and Mitsuba's rule "
         "catch, and from how many spp; exit 1 if the gate catches fewer than 90% or fewer than Mitsuba's rule")
@@ -47,13 +43,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--markdown", default=None, metavar="PATH",
                         help="also write the table as Markdown (default: none)")
     A.add_quiet_arg(parser)
-
-
-def _names(values) -> list | None:
-    out = []
-    for v in values:
-        out.extend(s.strip() for s in v.split(",") if s.strip())
-    return out or None
 
 
 def _spp(n) -> str:
@@ -97,13 +86,12 @@ def selftest_table(report):
     return t
 
 
-def markdown_table(report, command: str | None = None) -> str:
+def markdown(report, command: str | None = None) -> str:
     """The table as Markdown (with the command that produced it, when given)."""
     lines = []
     if command:
         lines += [f"`{command}`", ""]
-    lines += ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
-    lines += ["| " + " | ".join(_cells(r)) + " |" for r in report.rows]
+    lines += [markdown_table(COLUMNS, [_cells(r) for r in report.rows])]
     lines += ["", summary_line(report) + "; gate level per comparison "
               f"{report.alpha:.3g} (a default quick-suite run), Mitsuba's rule at its own alpha 0.01 per image. "
               "Last column: the unmutated tracer's verdicts on the same scene and strategy (gate / Mitsuba's rule)."]
@@ -120,10 +108,10 @@ def _command_line() -> str | None:
 
 
 def run(args) -> int:
-    from rich.console import Console
-
     from benchmarks.commands._args import check
-    from benchmarks.selftest import CATALOGUE, resolve_mutants, run_selftest
+    from benchmarks.commands._gate_tables import wide_console
+    from benchmarks.gate.suite import names_of
+    from benchmarks.selftest import CATALOGUE, run_selftest
 
     if args.list:
         for m in CATALOGUE:
@@ -131,11 +119,7 @@ def run(args) -> int:
                   f"  why this scene: {m.why}")
         return 0
     check(args)
-    names = _names(args.mutants)
-    resolve_mutants(names)  # validate before the first render
-    for name, v in (("--spp", args.spp), ("--reference-spp", args.reference_spp), ("--tail-spp", args.tail_spp)):
-        if v < 2:
-            raise ValueError(f"{name} must be >= 2, got {v}")
+    names = names_of(",".join(args.mutants)) or None
     from benchmarks.commands._args import tail_spp_warning
     from benchmarks.tails import DEFAULT_TAIL_SPP
 
@@ -159,9 +143,7 @@ def run(args) -> int:
     report = run_selftest(names, spp=args.spp, width=args.width, ref_spp=args.reference_spp, tail_spp=args.tail_spp,
                           spp_ladder=spp_ladder, seed=args.seed, controls=not args.no_controls,
                           threads=args.threads, cache=args.cache, on_row=on_row, log=log)
-    console = Console()
-    if not console.is_terminal:
-        console = Console(width=max(console.width, 200))
+    console = wide_console(200)
     if not args.quiet:
         console.print(selftest_table(report))
     console.print(summary_line(report) + f"; {report.seconds:.0f} s", highlight=False)
@@ -174,14 +156,11 @@ def run(args) -> int:
     for r in report.rows:
         if r["caught_by_mitsuba_rule"] and not r["caught"]:
             console.print(f"caught by Mitsuba's rule only: {r['mutant']}", highlight=False, markup=False)
-    if args.json:
-        path = Path(args.json)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(report.to_dict(), indent=1, default=float) + "\n")
-    if args.markdown:
-        path = Path(args.markdown)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(markdown_table(report, _command_line()))
+    for path, text in ((args.json, lambda: json.dumps(report.to_dict(), indent=1, default=float) + "\n"),
+                       (args.markdown, lambda: markdown(report, _command_line()))):
+        if path:
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            Path(path).write_text(text())
     if report.passed:
         console.print(f"[green]self-test passed[/]: {summary_line(report)}")
         return 0

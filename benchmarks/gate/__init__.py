@@ -1,30 +1,12 @@
 """The statistical regression gate: does our tracer still converge to the reference images?
 
-One job, in three modules:
-
-- :mod:`~benchmarks.gate.statistics`: :func:`compare`, the test of one render against
-  one reference (its inputs checked once in :mod:`~benchmarks.gate.inputs`, its pixel, tile,
-  image and correlation levels in :mod:`~benchmarks.gate.levels`; its value
-  :class:`GateResult` is in :mod:`~benchmarks.gate.result`); Sidak's correction is :mod:`benchmarks.stats`'s. :mod:`~benchmarks.gate.mitsuba_rule`
-  re-implements Mitsuba 3's own per-pixel rule (:func:`mitsuba_rule`) to compare the two;
-  :mod:`~benchmarks.gate.paired`: :func:`judge`, the same test of one render against another
-  of the same estimator (``rtbench compare``'s verdict).
-- :mod:`~benchmarks.gate.suite`: the suite driver behind ``rtbench gate``
-  (:func:`run_gate`: scenes, references, renders, p-value images of failures).
-- :mod:`~benchmarks.gate.power`: the measured power of the gate on injected biases
-  (the table's rows; its printing is in :mod:`benchmarks.commands._gate_tables`).
-- :mod:`~benchmarks.gate.heavy_tails`: when a statistic of a heavy-tailed estimator may
-  be tested (Edgeworth bound) and how many spp would decide.
-- :mod:`~benchmarks.gate.calibration`: the measured false-alarm rate on unbiased renders
-  of every strategy (``rtbench gate --calibrate``).
-
-Verdicts are three-valued (pass, fail, undetermined) and valid for heavy-tailed
-estimators when the tail diagnostics of the same estimator are given
-(:mod:`benchmarks.tails`); the method is in ``benchmarks/STATISTICS.md``.
-
-The run's false-alarm rate is :data:`benchmarks.constants.GATE_ALPHA`; the strategies are
-:data:`benchmarks.constants.STRATEGIES`; references are
-:class:`benchmarks.references.Reference` objects (a Mitsuba render or a closed form).
+:func:`compare` tests one render against one reference (pixel, tile, image and
+neighbour-correlation levels; verdict pass, fail or undetermined, a :class:`GateResult`);
+:func:`judge` applies it to two renders of one estimator (``rtbench compare``);
+:func:`run_gate` drives ``rtbench gate`` over the suite; :func:`calibrate` measures the
+false-alarm rate, :func:`power_row` the power on injected biases; :func:`mitsuba_rule`
+re-implements Mitsuba 3's per-pixel rule for comparison. The method, its assumptions and
+its measured rates: ``benchmarks/STATISTICS.md``.
 
 Examples
 --------
@@ -36,27 +18,20 @@ True
 """
 from __future__ import annotations
 
-from .calibration import CalibrationRow, calibrate, clopper_pearson
-from .mitsuba_rule import MITSUBA_ALPHA, MitsubaRuleResult, mitsuba_rule
-from .power import INJECTIONS, QUICK_SUITE_COMPARISONS, PowerRow, injected_scene, power_row, power_table
-from .result import LEVELS, GateResult
-from .heavy_tails import DEFAULT_VALIDITY, edgeworth_error, spp_needed
-from .paired import EstimatorKnowledge, judge
-from .statistics import compare
+from .calibration import CalibrationRow, calibrate
+from .levels import DEFAULT_VALIDITY, edgeworth_error, spp_needed
+from .power import (INJECTIONS, MITSUBA_ALPHA, QUICK_SUITE_COMPARISONS, MitsubaRuleResult, PowerRow, injected_scene,
+                    mitsuba_rule, power_row)
+from .statistics import LEVELS, EstimatorKnowledge, GateResult, compare, judge
 from .suite import (DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_STRATEGY, DEFAULT_WIDTH, GateCase,
                     GateReport, compare_render, gate_reference, gate_scene, resolve_scenes, resolve_strategies,
                     run_gate, write_p_images)
 
 __all__ = [
-    # statistics
-    "compare", "edgeworth_error", "spp_needed", "DEFAULT_VALIDITY", "LEVELS", "GateResult", "mitsuba_rule", "MitsubaRuleResult", "MITSUBA_ALPHA",
-    "EstimatorKnowledge", "judge",
-    # suite driver
+    "compare", "edgeworth_error", "spp_needed", "DEFAULT_VALIDITY", "LEVELS", "GateResult", "mitsuba_rule",
+    "MitsubaRuleResult", "MITSUBA_ALPHA", "EstimatorKnowledge", "judge",
     "DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_SEED", "DEFAULT_STRATEGY", "GateCase",
     "GateReport", "gate_scene", "gate_reference", "compare_render", "resolve_scenes", "resolve_strategies",
-    "run_gate", "write_p_images",
-    # calibration
-    "CalibrationRow", "calibrate", "clopper_pearson",
-    # power
-    "INJECTIONS", "QUICK_SUITE_COMPARISONS", "PowerRow", "injected_scene", "power_row", "power_table",
+    "run_gate", "write_p_images", "CalibrationRow", "calibrate",
+    "INJECTIONS", "QUICK_SUITE_COMPARISONS", "PowerRow", "injected_scene", "power_row",
 ]

@@ -1,20 +1,11 @@
 """Do two renders of one scene agree? The two figures of the published-scene checks.
 
-Per pixel and channel ``z = (x - y) / sqrt(var_x / n_x + var_y / n_y + (1e-5 y)^2)`` (the last
-term, float32 rounding, only where there is noise), and per channel the
-whole image's ``Z = sum(x - y) / sqrt(Var(sum x) + Var(sum y))``. The scenes agree when
-every ``|Z| <= 4`` and at most 1% of the pixel values have ``|z| > 4`` (for agreeing
-renders, 3 whole-image tests at about 6e-5 each under the normal approximation, and about
-0.006% of pixel values beyond 4) and no pixel value differs where neither render has noise. It is a coarse screen, not the gate: no heavy-tail
-diagnostics, no multiple-testing correction of the pixels.
-
-With a tent or Gaussian filter the pixels share samples: a filtered pixel's variance comes
-from the samples drawn inside each pixel (``RenderResult.pixel_samples``, through the
-filter's weights: :mod:`benchmarks.gate.filtered`) and the variance of the image's sum is
-the samples' own (each interior sample counts with weight ~1), not the sum of the pixels'
-variances, which is about a third of it for Mitsuba's Gaussian. For a render that keeps no
-samples (Mitsuba's), the sum's variance is its pixels' over the filter's variance
-reduction.
+Per pixel-channel ``z = (x - y) / sqrt(var_x / n_x + var_y / n_y + (1e-5 y)^2)`` (the last
+term only where there is noise), per channel ``Z = sum(x - y) / sqrt(Var(sum x) + Var(sum y))``.
+The renders agree when every ``|Z| <= 4``, at most 1% of the pixel values have ``|z| > 4`` and
+no value differs where neither render has noise: a coarse screen, not the gate. A filtered
+render's variances come from its samples (:mod:`benchmarks.gate.filtered`); one that keeps no
+samples (Mitsuba's) takes its sum's variance as its pixels' over the filter's variance reduction.
 """
 from __future__ import annotations
 
@@ -29,18 +20,14 @@ __all__ = ["Agreement", "agreement", "Z_LIMIT", "SHARE_LIMIT"]
 #: The largest |whole-image z| and share of |pixel z| > Z_LIMIT of agreeing renders.
 Z_LIMIT = 4.0
 SHARE_LIMIT = 0.01
-#: Relative float32 rounding that joins a noisy pixel's standard error: a pixel that is
-#: constant in one renderer (the background seen directly) differs from the other's by
-#: rounding alone.
+#: Relative float32 rounding added to a noisy pixel's standard error.
 RELATIVE_ROUNDING = 1e-5
 
 
 @dataclass(frozen=True)
 class Agreement:
-    """``global_z``: one per channel; ``share``: of pixel values with ``|z| > 4``; ``z``: the map;
-    ``spreadless``: pixel values that differ (beyond float32 rounding) where neither render
-    has any spread (a constant background seen directly): a certain difference, which no z
-    can show."""
+    """``global_z`` per channel; ``share`` of pixel values with ``|z| > 4``; the ``z`` map;
+    ``spreadless``: values that differ beyond rounding where neither render has spread."""
 
     global_z: tuple
     share: float
@@ -61,10 +48,7 @@ class Agreement:
 
 def agreement(ours, theirs, *, pixel_filter=None) -> Agreement:
     """The figures of :class:`Agreement` for two estimates (``mean``, per-sample ``variance``,
-    ``spp``) of the same image; ``pixel_filter``: the scene's ``reference_tracer.Filter``.
-
-    ``ours`` must carry ``pixel_samples`` (``reference_tracer.render`` of a filtered scene)
-    when the filter is a tent or Gaussian; ``theirs`` is taken as keeping none.
+    ``spp``) of one image; with a tent or Gaussian ``pixel_filter`` ``ours`` carries ``pixel_samples``.
 
     Examples
     --------

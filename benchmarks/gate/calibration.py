@@ -1,22 +1,15 @@
 """The gate's measured false-alarm rate: many seeds of unbiased strategies, counted by verdict.
 
-A verdict is a claim, so its false-alarm rate is measured, not assumed: for each scene,
-unbiased strategy and budget, :func:`calibrate` renders our tracer with many seeds,
-compares each render with the Mitsuba reference exactly as ``rtbench gate`` does (one
-comparison at level ``alpha``, with the tail reference of the same estimator), and counts
-pass, fail and undetermined. Undetermined is never a failure in this table and never a
-pass in a power table; both show it. ``rtbench gate --calibrate`` prints the table;
-``benchmarks/STATISTICS.md`` holds the measured one.
-
-With ``pairs=True`` (``--compare-pairs``) it measures ``rtbench compare``'s verdict
-instead: two renders of this build per seed, B (seed ``FIRST_SEED + 2k + 1``) judged
-against A (seed ``FIRST_SEED + 2k``) by :func:`benchmarks.gate.judge`, the function
-``compare_stores`` uses, with the tail reference as ``compare`` takes it for two stores of
-this build. No Mitsuba reference is involved: under "nothing changed" A is the reference.
+:func:`calibrate` renders each (scene, unbiased strategy, spp) with many seeds, compares each
+render with its reference as ``rtbench gate`` does (one comparison at ``alpha``, with the tail
+reference) and counts pass, fail and undetermined (``rtbench gate --calibrate``); with
+``pairs=True`` it measures ``rtbench compare``'s verdict (:func:`benchmarks.gate.judge`) on
+pairs of renders of this build instead. The measured tables: ``benchmarks/STATISTICS.md``.
 """
 from __future__ import annotations
 
 import math
+import statistics
 from dataclasses import asdict, dataclass
 
 from scipy import stats
@@ -26,13 +19,13 @@ from reference_tracer.validation import positive_int
 
 from ..constants import GATE_ALPHA, UNBIASED_STRATEGIES
 from ..tails import DEFAULT_TAIL_SPP
-from .paired import EstimatorKnowledge, judge
+from .statistics import EstimatorKnowledge, judge
 from .suite import (DEFAULT_REF_SPP, DEFAULT_WIDTH, compare_render, gate_reference, gate_scene, gate_tails,
                     resolve_scenes)
 
-__all__ = ["CalibrationRow", "calibrate", "clopper_pearson", "DEFAULT_CALIBRATION_SPPS", "DEFAULT_CALIBRATION_SEEDS"]
+__all__ = ["CalibrationRow", "calibrate", "DEFAULT_CALIBRATION_SPPS", "DEFAULT_CALIBRATION_SEEDS"]
 
-#: The budgets of the false-alarm table (issue 18).
+#: The budgets of the false-alarm table.
 DEFAULT_CALIBRATION_SPPS = (64, 256, 1024, 4096)
 #: Seeds per (scene, strategy, spp): 100 resolves a rate of 0.01 to a 95% interval of [0.0003, 0.054].
 DEFAULT_CALIBRATION_SEEDS = 100
@@ -40,32 +33,13 @@ DEFAULT_CALIBRATION_SEEDS = 100
 FIRST_SEED = 1_000
 
 
-def clopper_pearson(k: int, n: int, confidence: float = 0.95) -> tuple:
-    """Exact (Clopper-Pearson) confidence interval of a binomial rate ``k / n``.
-
-    Examples
-    --------
-    >>> lo, hi = clopper_pearson(0, 100)
-    >>> lo, round(hi, 4)
-    (0.0, 0.0362)
-    """
-    if n <= 0:
-        return math.nan, math.nan
-    a = 1.0 - confidence
-    lo = 0.0 if k == 0 else float(stats.beta.ppf(a / 2, k, n - k + 1))
-    hi = 1.0 if k == n else float(stats.beta.ppf(1 - a / 2, k + 1, n - k))
-    return lo, hi
-
-
 @dataclass
 class CalibrationRow:
     """Verdict counts of one (scene, strategy, spp) over ``seeds`` renders.
 
-    ``false_alarm_rate`` is ``fail / seeds`` (undetermined counted apart, never as a
-    failure); ``ci_low``, ``ci_high`` its 95% Clopper-Pearson interval; ``consistent`` is
-    ``ci_low <= alpha``: the measured rate is compatible with the promised one.
-    ``spp_needed`` is the median budget the undetermined verdicts asked for (None if none).
-    ``min_detectable_bias``: median power of the determined comparisons (global relative bias).
+    ``false_alarm_rate`` is ``fail / seeds``; ``ci_low``, ``ci_high`` its exact (Clopper-Pearson)
+    95% interval; ``consistent``: ``ci_low <= alpha``. ``spp_needed``: the median budget the
+    undetermined verdicts asked for; ``min_detectable_bias``: the determined ones' median power.
     """
 
     scene: str
@@ -87,11 +61,6 @@ class CalibrationRow:
         return asdict(self)
 
 
-def _median(values):
-    v = sorted(x for x in values if x is not None and x == x)
-    return v[len(v) // 2] if v else None
-
-
 def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIBRATION_SPPS,
               seeds: int = DEFAULT_CALIBRATION_SEEDS, width: int = DEFAULT_WIDTH, ref_spp: int = DEFAULT_REF_SPP,
               tail_spp: int = DEFAULT_TAIL_SPP, alpha: float = GATE_ALPHA, threads=None, cache=None,
@@ -104,24 +73,21 @@ def calibrate(scenes=None, *, strategies=UNBIASED_STRATEGIES, spps=DEFAULT_CALIB
     ----------
     scenes : sequence of str or None
         Suite scenes (None: the whole suite).
-    strategies : sequence of str, keyword-only
-        Strategies whose renders must be unbiased (default: all but ``light``).
-    spps : sequence of int, keyword-only
-        Budgets of the renders under test.
-    seeds : int, keyword-only
-        Renders per (scene, strategy, spp), seeds ``FIRST_SEED ...``.
-    width, ref_spp, tail_spp, alpha, threads, cache, log : keyword-only
+    strategies, spps, seeds : keyword-only
+        Strategies whose renders must be unbiased (default: all but ``light``), the budgets
+        under test and the renders per (scene, strategy, spp) (seeds ``FIRST_SEED ...``).
+    width, height, ref_spp, tail_spp, alpha, threads, cache, log, variant : keyword-only
         As for :func:`benchmarks.gate.run_gate`; ``alpha`` is the level of one comparison.
-    height, variant : keyword-only
-        Image height (default: the width) and the Mitsuba variant of the references
-        (default: the fastest that works).
     on_render, on_row : callable, keyword-only
         Called after each render (no argument) and with each finished row.
     skip : set of (scene, strategy, spp), keyword-only
         Rows measured already (a resumed calibration): neither rendered nor returned.
     pairs : bool, keyword-only
-        Measure ``rtbench compare``'s verdict on pairs of renders instead of the gate's
-        against Mitsuba (module docstring); ``seeds`` pairs per row.
+        Measure ``rtbench compare``'s verdict on ``seeds`` pairs of renders instead.
+
+    Returns
+    -------
+    list of CalibrationRow
 
     Examples
     --------
@@ -176,10 +142,15 @@ def _compare_pair(scene, strategy: str, spp: int, seed: int, tails, *, alpha: fl
     return judge((a.mean, a.variance, spp), (b.mean, b.variance, spp), known=known, alpha=alpha)
 
 
+def _median(values):
+    v = [x for x in values if x is not None and x == x]
+    return statistics.median_high(v) if v else None
+
+
 def _row(scene, strategy, spp, alpha, results) -> CalibrationRow:
     counts = {v: sum(r.verdict == v for r in results) for v in ("pass", "fail", "undetermined")}
     n = len(results)
-    lo, hi = clopper_pearson(counts["fail"], n)
+    lo, hi = (float(v) for v in stats.binomtest(counts["fail"], n).proportion_ci(0.95, method="exact"))
     needed = _median(r.spp_needed for r in results if r.verdict == "undetermined")
     mdb = _median(r.min_detectable_bias for r in results if r.verdict != "undetermined")
     return CalibrationRow(scene=scene, strategy=strategy, spp=spp, seeds=n, alpha=alpha, passed=counts["pass"],

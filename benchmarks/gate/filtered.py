@@ -1,32 +1,14 @@
-"""The statistics of a filtered pixel, computed from the samples drawn inside each pixel.
+"""The statistics of a tent- or Gaussian-filtered pixel, from the samples drawn inside each pixel.
 
-With a tent or Gaussian filter (Mitsuba's ``hdrfilm`` default) a pixel ``i`` is a ratio of
-sums over the samples ``s`` of every pixel within the filter's radius,
-``p_i = sum_s w_is L_s / sum_s w_is``. Its samples have no moments of their own, and
-neighbouring pixels share samples, so the box filter's statistics do not apply to it.
-Linearised about its expectation (the delta method) the ratio is a mean of independent
-terms, one per sample:
-
-    p_i - E p_i ~ (1 / N) sum_q sum_{s in q} w_is (L_s - p_i) / (N W_i)      (N spp)
-
-where ``W_i = sum_q F_1(q - i)`` is pixel ``i``'s expected weight per sample of each pixel
-(less than 1 at the image border, where samples are not drawn). With ``F_k(d)`` the mean
-of the ``k``-th power of the normalised weight over a pixel at offset ``d``
-(:func:`filter_weights`), and the per-sample moments of the samples drawn inside each
-pixel ``q`` (its mean ``mu_q``, variance ``v_q``, third moment and fourth cumulant), the
-filtered pixel's moments *per sample* (so that dividing by ``N``, ``N^2``, ``N^3`` gives the
-pixel mean's variance, third and fourth cumulants, as for a box pixel) are
+A filtered pixel is a ratio of weighted sums over the samples of its neighbourhood; linearised
+(the delta method) it is a mean of independent terms, and its moments per sample are
 
     m2_i = sum_q [F_2(q - i) v_q + (F_2 - F_1^2)(q - i) (mu_q - p_i)^2] / W_i^2
     m3_i = sum_q F_3(q - i) m3_q / W_i^3,    k4_i = sum_q F_4(q - i) k4_q / W_i^4
 
-(the weights inside a pixel taken as independent of its radiance; the second term is the
-spread that the weights' variation mixes in from neighbours of another mean). A *sum* of filtered
-pixels over a tile counts every interior sample with total weight ~1, so its variance is
-close to the sum of the box variances of the tile's pixels, which
-:func:`benchmarks.gate.statistics.compare` uses for its tile and image levels (slightly
-more than the truth: samples near the tile's edges count partly). The calibration of the
-gate on a filtered scene is in ``benchmarks/STATISTICS.md``.
+with ``F_k(d)`` the mean ``k``-th power of a sample's normalised weight over the pixel at offset
+``d`` (:func:`filter_weights`), ``W_i = sum_q F_1(q - i)`` and the moments of the samples drawn
+inside pixel ``q`` (mean ``mu_q``, variance ``v_q``, ...). See ``benchmarks/STATISTICS.md``.
 """
 from __future__ import annotations
 
@@ -38,31 +20,24 @@ from scipy import ndimage
 
 __all__ = ["FilterWeights", "filter_weights", "filtered_moments"]
 
-# Gauss-Legendre nodes per pixel and axis for the weights' moments: the filters are smooth
-# within a pixel but for a kink (the tent's apex, the truncation); 64 nodes give the moments
-# to ~1e-6 relative, far below the statistics' own noise.
+# Gauss-Legendre nodes per pixel and axis: ~1e-6 relative on the weights' moments despite the kinks
 _NODES = 64
 
 
 @dataclass(frozen=True)
 class FilterWeights:
-    """``F[k]`` (``k`` = 1..4): the mean of the ``k``-th power of the weight a sample drawn
-    uniformly in the pixel at offset ``(dy, dx)`` gives a pixel, normalised by the weight
-    integral (``F[1]`` sums to 1 over the offsets); arrays of shape ``(2R+1, 2R+1)``."""
+    """``F[k - 1]`` (``k`` = 1..4): ``F_k`` over the offsets, arrays of shape ``(2R+1, 2R+1)``."""
 
     F: tuple
     radius: int
 
     @property
     def variance_ratio(self) -> float:
-        """``sum F_2``: a filtered pixel's variance over its samples' where the noise is the
-        same in every pixel (the filter's variance reduction; 1 for a box)."""
+        """``sum F_2``: the filter's variance reduction where the noise is even (1 for a box)."""
         return float(self.F[1].sum())
 
     def correlate(self, image: np.ndarray, k: int) -> np.ndarray:
-        """``sum_q F_k(q - i) image_q`` for every pixel ``i`` of an ``(H, W, C)`` image
-        (``k`` = 0: the weights' variance over the pixel, ``F_2 - F_1^2``); pixels beyond the
-        image contribute nothing (no samples are drawn there)."""
+        """``sum_q F_k(q - i) image_q`` for every pixel ``i`` (``k`` = 0: ``F_2 - F_1^2``)."""
         w = self.F[1] - self.F[0] ** 2 if k == 0 else self.F[k - 1]
         return np.stack([ndimage.correlate(image[..., c], w, mode="constant", cval=0.0)
                          for c in range(image.shape[2])], axis=-1)
@@ -103,16 +78,14 @@ def filter_weights(filt) -> FilterWeights:
 
 
 def filtered_moments(weights: FilterWeights, *, mean, variance, filtered_mean, m3=None, k4=None) -> tuple:
-    """``(m2, m3, k4)`` per sample of the filtered pixels (module docstring) from the per-sample
-    moments of the samples drawn inside each pixel (``mean``, ``variance``; optional third
-    moment ``m3`` and fourth cumulant ``k4``), all ``(H, W, C)``; ``m3``/``k4`` None give None."""
+    """``(m2, m3, k4)`` per sample of the filtered pixels from the moments of the samples drawn
+    inside each pixel, all ``(H, W, C)`` (``m3``/``k4`` None give None)."""
     mean, variance, filtered_mean = (np.asarray(v, dtype=np.float64) for v in (mean, variance, filtered_mean))
     W = weights.correlate(np.ones_like(mean), 1)
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = np.where(W > 0, 1.0 / np.where(W > 0, W, 1.0), 0.0)
     p = filtered_mean
-    # sum_q (F_2 - F_1^2)(q - i) (mu_q - p_i)^2: each pixel's samples vary in weight about
-    # their mean weight, and so mix in its mean's distance from p_i
+    # sum_q (F_2 - F_1^2)(q - i) (mu_q - p_i)^2, expanded
     spread = (weights.correlate(mean * mean, 0) - 2.0 * p * weights.correlate(mean, 0)
               + p * p * weights.correlate(np.ones_like(mean), 0))
     m2 = (weights.correlate(variance, 2) + np.maximum(spread, 0.0)) * inv ** 2

@@ -1,11 +1,6 @@
-"""The validated inputs of :func:`benchmarks.gate.compare`: float64 ``(H, W, C)`` images of
-the means and the variances of the means, with the tail diagnostics' cumulants.
-
-:func:`prepare` checks the images once, at the boundary (shapes, finite reference,
-non-negative variances, sample counts); every level of the test reads the :class:`Inputs`
-it returns. A filtered test render (tent, Gaussian) takes its pixels' moments from the
-samples drawn inside each pixel (:func:`_prepare_filtered`).
-"""
+"""The inputs of :func:`benchmarks.gate.compare`, checked once by :func:`prepare`: float64
+``(H, W, C)`` images of the means, the variances of the means and the tails' cumulants
+(:func:`tail_moments`, :func:`pixel_shape`)."""
 from __future__ import annotations
 
 import dataclasses
@@ -13,20 +8,17 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import uniform_filter
 
+from ..display import as_image
 from .filtered import filtered_moments
-from .heavy_tails import pixel_shape, tail_moments
 
-__all__ = ["Inputs", "prepare", "image3", "check_spp"]
+__all__ = ["Inputs", "prepare", "image3", "check_spp", "tail_moments", "pixel_shape", "neighbourhood_floor"]
 
 
 def image3(a, name: str) -> np.ndarray:
-    arr = np.asarray(a, dtype=np.float64)
-    if arr.ndim == 2:
-        arr = arr[..., None]
-    if arr.ndim != 3 or arr.size == 0:
-        raise ValueError(f"{name} must have shape (H, W) or (H, W, C); got {np.shape(a)}")
-    return arr
+    arr = as_image(a, name)
+    return arr[..., None] if arr.ndim == 2 else arr
 
 
 def check_spp(n, name: str, minimum: int) -> float:
@@ -34,6 +26,43 @@ def check_spp(n, name: str, minimum: int) -> float:
     if not (math.isfinite(v) and v >= minimum):
         raise ValueError(f"{name} must be a number >= {minimum}; got {n!r}")
     return v
+
+
+def neighbourhood_floor(v: np.ndarray, size: int) -> np.ndarray:
+    """``max(v, mean of v over the size x size neighbourhood)`` per channel."""
+    pooled = np.stack([uniform_filter(v[..., c], size=size, mode="nearest") for c in range(v.shape[2])], axis=-1)
+    return np.maximum(v, pooled)
+
+
+def tail_moments(tails, shape) -> tuple:
+    """``(m2, m3, kappa4)`` per sample from a ``SampleMoments``, checked against the image."""
+    m2, m3, k4 = (np.asarray(v, dtype=np.float64) for v in (tails.m2, tails.m3, tails.kappa4))
+    if m2.ndim == 2:
+        m2, m3, k4 = m2[..., None], m3[..., None], k4[..., None]
+    if m2.shape != shape:
+        raise ValueError(f"tails have shape {m2.shape}, the images {shape}")
+    if not (np.all(np.isfinite(m2)) and np.all(np.isfinite(m3)) and np.all(np.isfinite(k4))):
+        raise ValueError("tails have non-finite moments")
+    if int(tails.n) < 2:
+        raise ValueError(f"tails need >= 2 samples per pixel; got {tails.n}")
+    return m2, m3, k4
+
+
+def pixel_shape(m2, m3, k4, *, exact, n_t) -> tuple:
+    """Skewness and excess kurtosis of each pixel mean: the worse of the pixel's own per-sample
+    shape and its 3x3 neighbourhood's (whose noise the pixel level borrows), over ``sqrt(n)``, ``n``."""
+    m2 = np.where(exact, 0.0, m2)
+
+    def shape(s3, s4, s2):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ok = s2 > 0
+            safe = np.where(ok, s2, 1.0)
+            return np.where(ok, np.abs(s3) / safe ** 1.5, 0.0), np.where(ok, np.abs(s4) / safe ** 2, 0.0)
+
+    pool = lambda v: neighbourhood_floor(v, 3)  # noqa: E731
+    own = shape(m3, k4, m2)
+    nb = shape(pool(np.abs(m3)), pool(np.abs(k4)), pool(m2))
+    return np.maximum(own[0], nb[0]) / math.sqrt(n_t), np.maximum(own[1], nb[1]) / n_t
 
 
 def _variance(v: np.ndarray, name: str, n: float, ddof: int) -> np.ndarray:
@@ -53,18 +82,13 @@ def _variance(v: np.ndarray, name: str, n: float, ddof: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Inputs:
-    """Validated inputs of :func:`compare`, as float64 ``(H, W, C)`` images.
+    """Checked inputs of :func:`compare`, float64 ``(H, W, C)`` images.
 
-    ``x``, ``r``: test and reference means (``x`` set to ``r`` where the test is
-    non-finite, ``bad``); ``a``, ``b``: variances of the test's and the reference's pixel
-    means; ``fa``: floor of ``a`` (the reference's per-sample variance at the test's spp)
-    or None; ``k3``, ``k4``: third and fourth cumulants of the test's pixel means (zero
-    without tail diagnostics); ``g1``, ``g2``: per-sample skewness and excess kurtosis of
-    each pixel for the pixel level (the worse of the pixel's own and its neighbourhood's);
-    ``diff = x - r``; ``abs_scale = max(|x|, |r|)``. ``summed``: the same variances and
-    cumulants for sums over tiles and the image (for a filtered render those of the samples
-    drawn in each pixel: a sum of filtered pixels weighs each interior sample ~1), or None
-    where they are the pixels' own.
+    ``x``, ``r``: means (``x`` set to ``r`` where the test is non-finite, ``bad``); ``a``,
+    ``b``: variances of the pixel means; ``fa``: floor of ``a`` or None; ``k3``, ``k4``:
+    cumulants of the test's pixel means; ``g1``, ``g2``: the pixel level's shapes;
+    ``summed``: the variances and cumulants the tile and image levels sum (a filtered
+    render's samples'), or None where they are the pixels' own.
     """
 
     x: np.ndarray
@@ -89,7 +113,7 @@ class Inputs:
         return getattr(self, name) if self.summed is None else self.summed[name]
 
     def sums(self, reduce, *, summed: bool = False) -> dict:
-        """The variance sums :func:`benchmarks.gate.levels._welch_from_sums` takes, each reduced by ``reduce``."""
+        """The variance sums of :func:`benchmarks.gate.levels._welch_from_sums`, reduced by ``reduce``."""
         a, b, fa = ((self.for_sums(k) for k in ("a", "b", "fa")) if summed else (self.a, self.b, self.fa))
         out = dict(a=reduce(a), b=reduce(b), a2=reduce(a * a), b2=reduce(b * b))
         if fa is not None:
@@ -127,10 +151,8 @@ def prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *, var_dd
             vx = np.maximum(vx, m2 * (tails.n / (tails.n - 1.0)))
             fa = None
         k3, k4 = m3 / n_t ** 2, k4s / n_t ** 3
-    # A per-sample variance at float-rounding level is zero: identical samples give a
-    # second moment minus squared mean of ~1e-15 (a directly seen light), which would
-    # otherwise make a 1e-6 relative difference in the constants "significant". Below
-    # (zero_var_rtol / 10 * |mean|)^2 the pixel mean is pinned far inside the tolerance.
+    # a per-sample variance at float-rounding level (~1e-15 on a directly seen light) is zero:
+    # else a 1e-6 relative difference in the emitters' constants would be "significant"
     vx = np.where(vx <= (0.1 * zero_var_rtol * x) ** 2, 0.0, vx)
     vr = np.where(vr <= (0.1 * zero_var_rtol * r) ** 2, 0.0, vr)
     if tails is not None:
@@ -142,9 +164,8 @@ def prepare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *, var_dd
 
 def _prepare_filtered(test_mean, test_spp, ref_mean, ref_var, ref_spp, *, var_ddof, zero_var_rtol,
                       variance_floor, tails, pixel_samples, weights) -> Inputs:
-    """:func:`prepare` for a filtered test render: the filtered pixels' moments from the
-    samples drawn inside each pixel (:func:`benchmarks.gate.filtered.filtered_moments`), the
-    samples' own for the sums."""
+    """:func:`prepare` for a filtered render: the pixels' moments from the samples'
+    (:func:`benchmarks.gate.filtered.filtered_moments`), the samples' own for the sums."""
     try:
         box_mean, box_var = pixel_samples
     except (TypeError, ValueError):

@@ -1,43 +1,76 @@
-"""The levels of :func:`benchmarks.gate.compare`: the Welch statistics of a pixel, a tile, the
-whole image, and the correlation of neighbouring pixels, each with which of its statistics
-may be tested (an Edgeworth bound on their normal approximation), and a level's family
-p-value (Sidak over its tested statistics).
+"""The levels of :func:`benchmarks.gate.compare` (pixel, tile, image, neighbour correlation):
+their statistics, which of them may be tested (:func:`edgeworth_error`, the one-term Edgeworth
+bound on a statistic's normal tail; :func:`spp_needed`), and a level's Sidak family p-value.
+
+The correlation level tests the independence of pixels that every other level's standard
+error assumes (a tracer whose pixels share random numbers keeps each mean right):
+``S = sum z_p z_q`` over neighbouring pairs, ``E[S] = 0``, ``Var[S] = N_pairs`` under the
+null hypothesis, one-sided (``benchmarks/STATISTICS.md``).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
 
 from ..stats import sidak, sidak_p_value
-from .correlation import MIN_PAIRS, neighbour_products
-from .heavy_tails import edgeworth_error, neighbourhood_floor
-from .inputs import Inputs
+from .inputs import Inputs, neighbourhood_floor
 
-__all__ = ["Level", "pixel_level", "tile_level", "image_level", "correlation_level", "family_p"]
+__all__ = ["Level", "pixel_level", "tile_level", "image_level", "correlation_level", "family_p",
+           "neighbour_products", "MIN_PAIRS", "DEFAULT_VALIDITY", "edgeworth_error", "spp_needed"]
+
+#: Largest :func:`edgeworth_error` at a level's critical value for a statistic to be tested.
+DEFAULT_VALIDITY = 1.0
 
 
-def _two_sided_p(stat: np.ndarray, dof: np.ndarray) -> np.ndarray:
-    """2 * P(T > |stat|) with Student t(dof); dof = inf -> normal."""
-    a = np.abs(stat)
-    p = np.empty_like(a)
-    inf_dof = ~np.isfinite(dof)
-    p[inf_dof] = 2.0 * stats.norm.sf(a[inf_dof])
-    fin = ~inf_dof
-    p[fin] = 2.0 * stats.t.sf(a[fin], dof[fin])
-    return np.minimum(p, 1.0)
+def edgeworth_error(z, g1, g2):
+    """Relative error bound of the normal upper tail ``Q(z)`` for skewness ``g1`` and excess
+    kurtosis ``g2`` (one-term Edgeworth expansion):
+    ``phi(z) / Q(z) * (|g1| |He2(z)| / 6 + |g2| |He3(z)| / 24 + g1^2 |He5(z)| / 72)``.
+
+    Examples
+    --------
+    >>> float(edgeworth_error(3.0, 0.0, 0.0))
+    0.0
+    >>> round(float(edgeworth_error(3.0, 0.1, 0.0)), 3)
+    0.446
+    """
+    z = np.asarray(z, dtype=np.float64)
+    he2, he3, he5 = z * z - 1.0, z ** 3 - 3.0 * z, z ** 5 - 10.0 * z ** 3 + 15.0 * z
+    mills = stats.norm.pdf(z) / stats.norm.sf(z)
+    g1 = np.abs(g1)
+    return mills * (g1 * np.abs(he2) / 6.0 + np.abs(g2) * np.abs(he3) / 24.0 + g1 * g1 * np.abs(he5) / 72.0)
+
+
+def spp_needed(z: float, g1: float, g2: float, spp: float, validity: float = DEFAULT_VALIDITY) -> int:
+    """About how many spp make :func:`edgeworth_error` at ``z`` drop to ``validity``, given the
+    shape ``g1``, ``g2`` at ``spp`` (falling as ``1/sqrt(n)`` and ``1/n``).
+
+    Examples
+    --------
+    >>> spp_needed(3.0, 0.4, 0.0, 100) > 100
+    True
+    """
+    if edgeworth_error(z, g1, g2) <= validity:
+        return int(spp)
+    lo, hi = 0.0, 64.0  # log2 of the factor
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        f = 2.0 ** mid
+        if edgeworth_error(z, g1 / math.sqrt(f), g2 / f) <= validity:
+            hi = mid
+        else:
+            lo = mid
+    return int(math.ceil(spp * 2.0 ** hi))
 
 
 def _welch_from_sums(diff, a, b, a2, b2, n_t, n_r, tol, fa=None, fa2=None):
-    """Welch statistic of a summed difference.
-
-    ``diff``: sum of differences; ``a``, ``b``: sums of the test's / reference's variances
-    of the mean; ``a2``, ``b2``: sums of their squares (for Welch-Satterthwaite dof);
-    ``fa``, ``fa2``: optional floor for ``a`` (and its squares), applied to the *sum*;
-    ``tol``: differences with ``|diff| <= tol`` count as equal when both variances are 0.
-    Returns (stat, p, testable).
-    """
+    """``(stat, p, testable)``: Welch statistic of a summed difference ``diff`` from the sums of the
+    test's and reference's variances of the mean (``a``, ``b``), of their squares (``a2``, ``b2``, for
+    the Satterthwaite dof) and an optional floor of ``a`` (``fa``, ``fa2``); where both variances are 0
+    a difference beyond ``tol`` is certain."""
     if fa is not None:
         use_floor = fa > a
         a = np.where(use_floor, fa, a)
@@ -50,7 +83,7 @@ def _welch_from_sums(diff, a, b, a2, b2, n_t, n_r, tol, fa=None, fa2=None):
         stat[pos] = diff[pos] / np.sqrt(se2[pos])
         denom = a2 / (n_t - 1.0) + b2 / (n_r - 1.0)
         dof = np.where(denom > 0, se2 * se2 / np.where(denom > 0, denom, 1.0), np.inf)
-    p[pos] = _two_sided_p(stat[pos], dof[pos])
+    p[pos] = np.minimum(2.0 * stats.t.sf(np.abs(stat[pos]), dof[pos]), 1.0)  # dof inf: normal
     zero = ~pos
     differs = zero & (np.abs(diff) > tol)
     stat[differs] = np.copysign(np.inf, diff[differs])
@@ -61,12 +94,8 @@ def _welch_from_sums(diff, a, b, a2, b2, n_t, n_r, tol, fa=None, fa2=None):
 
 @dataclass
 class Level:
-    """One level's statistics (a pixel, a tile size or the image), arrays of one shape.
-
-    ``testable``: carries evidence (noise, or a difference between noiseless values);
-    ``valid``: testable and normal enough at ``z_crit`` to be tested; ``var``: variance of
-    the statistic; ``ref_sum``: the reference summed over the statistic's pixels.
-    """
+    """One level's statistics, arrays of one shape: ``testable`` (carries evidence), ``valid``
+    (testable and normal enough at ``z_crit``), ``var`` (the statistic's variance), ``ref_sum``."""
 
     z: np.ndarray
     p: np.ndarray
@@ -81,16 +110,9 @@ class Level:
 
 
 def _level(d: Inputs, reduce, diff, K3, K4, *, alpha_level, validity, summed: bool = False) -> Level:
-    """The Welch statistics of ``diff`` (already reduced: a pixel's, a tile's or the
-    image's summed difference) with the variances reduced by ``reduce``, and which of them
-    may be tested.
-
-    ``K3``, ``K4``: the statistics' third and fourth cumulants. A statistic is tested where
-    :func:`edgeworth_error` at the level's critical value (Sidak over its candidates) is at
-    most ``validity``, and its p-value is then inflated by that bound,
-    ``p (1 + e(min(|z|, z_crit)))``: the error of the normal tail is paid for in the
-    p-value rather than ignored, so the level holds for skewed statistics too.
-    """
+    """The Welch statistics of the reduced ``diff`` with cumulants ``K3``, ``K4``: tested where
+    :func:`edgeworth_error` at the level's critical value is at most ``validity``, the p-value
+    inflated by ``1 + e(min(|z|, z_crit))`` (``benchmarks/STATISTICS.md``, step 3)."""
     sums = d.sums(reduce, summed=summed)
     tol = d.zero_var_rtol * reduce(d.abs_scale)
     z, p, testable = _welch_from_sums(diff, n_t=d.n_t, n_r=d.n_r, tol=tol, **sums)
@@ -111,12 +133,8 @@ def _level(d: Inputs, reduce, diff, K3, K4, *, alpha_level, validity, summed: bo
 def pixel_level(d: Inputs, pixel_pool: int, **crit) -> Level:
     """Welch test per pixel-channel; non-finite test pixels fail.
 
-    Variances are floored by their neighbourhood mean (see ``pixel_pool``); the difference
-    is the pixel's own (pooling it too, as an earlier version did, turned a pixel 10
-    standard errors too dark into one 1 too dark: the floor's max only lifts). Pixels with
-    no noise on either side (a directly seen light) stay exact: their neighbours' noise
-    says nothing about them, and flooring them would turn the float rounding of the
-    emitters' constants (~3e-6 relative) into "significant" differences.
+    The variances (not the difference) are floored by their neighbourhood mean, except where
+    neither side has noise: a neighbour's noise says nothing about a directly seen light.
     """
     exact = (d.a == 0) & (d.b == 0)
     pool = ((lambda v: v) if pixel_pool <= 1 else
@@ -131,10 +149,7 @@ def pixel_level(d: Inputs, pixel_pool: int, **crit) -> Level:
 
 
 def tile_level(d: Inputs, diff: np.ndarray, ts: int, **crit) -> Level:
-    """Welch test per ``ts x ts`` tile and channel.
-
-    Images are padded to whole tiles with zeros (padding contributes nothing to the sums).
-    """
+    """Welch test per ``ts x ts`` tile and channel (zero padding to whole tiles)."""
     H, W, C = d.x.shape
     ty, tx = -(-H // ts), -(-W // ts)
 
@@ -154,17 +169,9 @@ def image_level(d: Inputs, diff: np.ndarray, **crit) -> Level:
 
 
 def correlation_level(pix: Level, with_tails: bool, *, alpha_level, validity) -> tuple:
-    """``(level, rho)``: the one-sided test of positive correlation between neighbouring
-    pixels' differences per channel (:mod:`benchmarks.gate.correlation`) and the estimated
-    neighbour correlation ``S / N_pairs``.
-
-    It takes the pixel level's statistics: their variances are floored by the pixel's
-    neighbourhood and their shape is the worse of the pixel's and its neighbourhood's, so a
-    pixel whose rare paths neither the render nor the tail reference saw (its difference
-    hundreds of its standard errors) does not pass for correlated noise. Tested only with
-    tail diagnostics: without them a heavy-tailed estimator's own variance is too small and
-    its skewness unknown.
-    """
+    """``(level, rho)``: the one-sided test of positive correlation of neighbouring pixels'
+    standardised differences per channel (:func:`neighbour_products`), from the pixel
+    level's floored statistics and shapes, and ``rho = S / N_pairs``; tested only with tails."""
     use = pix.testable & np.isfinite(pix.z) & (pix.var > 0)
     S, n, K3, K4 = neighbour_products(pix.z, pix.g1, pix.g2, use)
     testable = (n >= MIN_PAIRS) & with_tails
@@ -186,3 +193,45 @@ def family_p(levels: list) -> tuple:
     p = np.concatenate([lv.p[lv.valid].ravel() for lv in levels])
     m = int(p.size)
     return (sidak_p_value(float(p.min()), m) if m else 1.0), m
+
+
+#: Fewest neighbour pairs for a correlation statistic.
+MIN_PAIRS = 16
+
+
+def _pairs(a: np.ndarray):
+    return ((a[:, :-1], a[:, 1:]), (a[:-1, :], a[1:, :]))
+
+
+def neighbour_products(z, g1, g2, use) -> tuple:
+    """``(S, n_pairs, K3, K4)`` per channel: the sum of the products of neighbouring standardised
+    differences ``z`` (skewness ``g1``, excess kurtosis ``g2``; pixels where ``use`` is False take
+    no part), its number of pairs (its variance under the null hypothesis) and cumulants
+    ``K3 = sum g1_p g1_q``, ``K4 = sum ((3 + g2_p)(3 + g2_q) - 3)``.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> z = rng.standard_normal((32, 32, 1))
+    >>> zero, ok = np.zeros_like(z), np.ones_like(z, bool)
+    >>> S, n, _, _ = neighbour_products(z, zero, zero, ok)
+    >>> int(n[0]), bool(abs(S[0] / np.sqrt(n[0])) < 3)
+    (1984, True)
+    >>> shared = z + np.roll(z, 1, axis=0) + np.roll(z, 1, axis=1)  # neighbours share noise
+    >>> S, n, _, _ = neighbour_products(shared / np.sqrt(3), zero, zero, ok)
+    >>> bool(S[0] / np.sqrt(n[0]) > 8)
+    True
+    """
+    use = np.asarray(use, bool)
+    z = np.where(use, np.asarray(z, float), 0.0)
+    g1 = np.where(use, np.asarray(g1, float), 0.0)
+    m4 = np.where(use, 3.0 + np.asarray(g2, float), 0.0)
+    u = use.astype(float)
+    S = n = K3 = K4 = 0.0
+    for (za, zb), (ga, gb), (ma, mb), (ua, ub) in zip(_pairs(z), _pairs(g1), _pairs(m4), _pairs(u)):
+        both = ua * ub
+        S = S + (za * zb).sum(axis=(0, 1))
+        n = n + both.sum(axis=(0, 1))
+        K3 = K3 + (ga * gb).sum(axis=(0, 1))
+        K4 = K4 + (ma * mb - 3.0 * both).sum(axis=(0, 1))
+    return S, n, K3, K4

@@ -1,155 +1,149 @@
-"""The gate's statistics: does a render converge to the same image as a reference?
+"""The gate's test: does a render converge to the same image as a reference?
 
-:func:`compare` is the test ``rtbench gate`` applies (issue 7); :func:`mitsuba_rule`
-(:mod:`benchmarks.gate.mitsuba_rule`) re-implements Mitsuba 3's own render-test rule so
-the two can be compared on the same data. Pure numpy/scipy.
-
-Inputs are per-pixel *means* and *per-sample variances* (``rt.render``'s ``mean`` and
-``variance``; for Mitsuba, the between-batch variance times the batch spp) with their
-sample counts. Pixels are assumed independent (independent sampler, box filter), which
-holds for both renderers as configured (docs/conventions.md); a ``tent`` or
-``gaussian`` filter correlates neighbours.
-
-How :func:`compare` tests
--------------------------
-Null hypothesis H0: in every pixel-channel the test renderer and the reference have
-the same expectation. Three levels, each a family of two-sided tests:
-
-1. **pixel** - a Welch t-test per pixel-channel,
-   ``t = (x - r) / sqrt(v_x / n_x + v_r / n_r)`` with Welch-Satterthwaite degrees of
-   freedom. Catches large local errors (a missing highlight, a wrong light edge).
-2. **tile** - pixels pooled into ``tile x tile`` blocks (by default at three sizes,
-   8, 16 and 32): the summed difference over the block divided by the square root of the
-   summed variances (Satterthwaite dof again).
-   Catches a small bias spread over a region (one wall 3% too bright) that no single
-   pixel can show.
-3. **image** - the same over the whole image, per channel. Catches a small global bias
-   (everything scaled by 0.99).
-4. **correlation** - the sum of the products of neighbouring pixels' standardised
-   differences per channel, one-sided (:mod:`benchmarks.gate.correlation`; with tail
-   diagnostics only). Catches wrong noise that keeps every mean right (pixels that share
-   random numbers), which would make the standard errors of the other levels too small.
-
-Within a level the smallest p-value is Sidak-adjusted over the number of tests that
-can reject, ``p_level = 1 - (1 - p_min)^m`` (exact for independent tests; tiles and
-pixels are disjoint and so independent, and for the correlated channels of one pixel or
-tile Sidak's inequality for two-sided tests keeps it conservative). The four levels are
-combined by Bonferroni: ``p_value = min(1, 4 * min(level p-values))`` and the
-gate passes iff ``p_value >= alpha``. Hence P(false alarm | H0) <= alpha, up to how well
-each per-test p-value is calibrated - which is the hard part, below.
-
-Heavy tails: tail diagnostics of the same estimator (``tails=``)
------------------------------------------------------------------
-With ``tails`` (a :class:`reference_tracer.SampleMoments` of the *same estimator* at a high
-budget: :func:`benchmarks.tails.tail_reference`) the test's per-sample variance is
-``max(v_x, tails' variance)`` and every statistic (pixel, tile, image) is tested only where
-its normal approximation holds at its level's critical value, judged from its skewness and
-kurtosis (sums of the pixels' third and fourth cumulants) by a one-term Edgeworth bound
-(:func:`edgeworth_error`). The verdict has three values: ``fail`` when a tested statistic
-rejects, ``undetermined`` when the whole-image statistic of a channel could not be
-tested (with the spp that would decide), ``pass`` otherwise. The method, its assumptions
-and its measured false-alarm rates: ``benchmarks/STATISTICS.md``.
-
-Without tail diagnostics (the older rule, kept for renders that carry none)
-----------------------------------------------------------------------------
-Per-pixel Monte Carlo samples are often heavy-tailed (a rare path hits a bright light).
-At small ``n_x`` the test's sample variance is then usually far *below* its expectation
-(the rare samples did not occur) while the mean is low too; a plain Welch t then reports
-huge |t| in exactly those pixels and, with thousands of pixels, the gate would fail
-unbiased renders. Under H0 with the same estimator the reference's per-sample variance
-``v_r`` (from ``n_r >> n_x`` samples) estimates the test's per-sample variance far better,
-so by default (``variance_floor='reference'``) the test side uses
-``max(v_x, v_r)``, applied to the variance of each statistic (a pixel; the sum over a
-tile or the image: ``max(sum v_x, sum v_r) / n_x``). This can only enlarge the standard error, so it never adds false
-alarms; it costs power only where the test renderer is genuinely less noisy than the
-reference (a better sampling strategy). ``variance_floor='none'`` gives the plain Welch
-test, for comparison; ``tests/benchmarks/gate/test_gate_stats.py`` measures both.
-
-Zero variance
--------------
-Where both variances are zero (black background, a directly seen light) the pixel
-carries no noise: equal means (within ``zero_var_rtol`` relative, for float rounding)
-are no evidence at all (p = 1, and the pixel is not counted as a test), unequal means
-are a certain difference (p = 0). No division by zero happens. A per-sample variance
-below ``(zero_var_rtol / 10 * |mean|)^2`` counts as zero: it is float rounding of
-identical samples (``rt.render`` gives ~1e-15 on a directly seen light), and with it a
-1e-6 relative difference between two renderers' emitter constants would fail the gate. Non-finite test pixels
-(NaN/inf) are failures (p = 0); a non-finite reference raises ``ValueError``.
+:func:`compare` takes per-pixel means and per-sample variances (``rt.render``'s; for Mitsuba
+the between-batch variance times the batch spp) with their sample counts, tests four levels
+(pixel, tile, image, neighbour correlation: :mod:`~benchmarks.gate.levels`), Sidak within a
+level and Bonferroni over the levels, and returns a three-valued :class:`GateResult` (its verdict,
+statistics and JSON form). With
+the tail diagnostics of the same estimator (``tails=``) each statistic is tested only where
+its normal approximation holds. :func:`judge` applies it to two renders of one estimator
+(``rtbench compare``'s verdict). The method: ``benchmarks/STATISTICS.md``.
 """
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass, field, fields
+
 import numpy as np
+from scipy import stats
 
 from ..constants import GATE_ALPHA
-from .findings import POWER_TILE, locate, power, relative_bias
-from .heavy_tails import DEFAULT_VALIDITY, spp_needed
-from .inputs import prepare
-from .levels import Level, correlation_level, family_p, image_level, pixel_level, tile_level
-from .result import LEVELS, GateResult
+from .inputs import prepare, tail_moments
+from .levels import (DEFAULT_VALIDITY, Level, correlation_level, family_p, image_level, pixel_level, spp_needed,
+                     tile_level)
 
-__all__ = ["compare"]
+__all__ = ["compare", "GateResult", "LEVELS", "EstimatorKnowledge", "judge", "POWER", "POWER_TILE"]
+
+#: The probability of detection quoted by the minimum detectable bias.
+POWER = 0.8
+#: Tile side of the quoted tile power.
+POWER_TILE = 8
+
+
+#: The four test levels of :func:`benchmarks.gate.compare`, finest first (a tie for the worst goes to the finer).
+LEVELS = ("pixel", "tile", "image", "correlation")
+
+
+@dataclass
+class GateResult:
+    """Verdict and statistics of :func:`benchmarks.gate.compare`.
+
+    Attributes
+    ----------
+    verdict, reason : str
+        ``'fail'`` (``p_value < alpha``), ``'undetermined'`` (no failure, but the whole-image
+        statistic of some channel could not be tested; ``spp_needed`` would decide) or
+        ``'pass'``; ``reason``, one line why.
+    p_value, level_p, failed_levels : float, dict, list
+        ``min(1, 4 * min(level_p.values()))``; per level the Sidak-adjusted p-value (1 when
+        untested); the levels with ``4 * level_p < alpha``.
+    n_tests, n_candidates : dict
+        Per level, the statistics tested and those with evidence (tested or too heavy-tailed).
+    pixel_p, pixel_t : ndarray, shape (H, W, C)
+        Raw two-sided p-value and Welch statistic per pixel-channel (``p_map``: the minimum
+        p over channels, (H, W)).
+    worst_pixel, worst_tile, worst_region, worst_level
+        Pixel-channel with the smallest p; pixel box (end-exclusive) of the worst tested
+        tile of any size; box of the strongest evidence and its level.
+    relative_bias, relative_bias_se, relative_bias_channels, worst_tile_relative_bias : float
+        ``sum(x - r) / sum(r)`` over the image (with its standard error), per channel and
+        inside ``worst_tile`` (NaN where ``sum(r) == 0``).
+    n_nonfinite : int
+        Non-finite test pixel-channels (each a failure).
+    min_detectable_bias, min_detectable_tile_bias : float
+        Power: the relative bias the image level (most sensitive channel) or an 8x8 tile
+        (median) would catch with probability 0.8; NaN when untestable.
+    neighbour_correlation : ndarray, shape (C,)
+        Mean product of neighbouring pixels' standardised differences (about 0 for
+        independent pixels; NaN where the correlation level was not tested).
+    tails : bool
+        Whether tail diagnostics of the same estimator were used.
+    """
+
+    verdict: str
+    reason: str
+    alpha: float
+    p_value: float
+    level_p: dict
+    failed_levels: list
+    n_tests: dict
+    n_candidates: dict
+    pixel_p: np.ndarray = field(repr=False)
+    p_map: np.ndarray = field(repr=False)
+    pixel_t: np.ndarray = field(repr=False)
+    max_abs_t: float
+    worst_pixel: tuple
+    worst_tile: tuple
+    worst_region: tuple
+    worst_level: str
+    relative_bias: float
+    relative_bias_se: float
+    relative_bias_channels: np.ndarray = field(repr=False)
+    worst_tile_relative_bias: float
+    n_nonfinite: int
+    min_detectable_bias: float = float("nan")
+    min_detectable_tile_bias: float = float("nan")
+    spp_needed: int | None = None
+    neighbour_correlation: np.ndarray = field(default_factory=lambda: np.full(3, np.nan), repr=False)
+    tails: bool = False
+
+    @property
+    def passed(self) -> bool:
+        return self.verdict == "pass"
+
+    @property
+    def failed(self) -> bool:
+        return self.verdict == "fail"
+
+    def to_dict(self) -> dict:
+        """JSON-friendly scalars (no images)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.repr}
+        out = {k: list(v) if isinstance(v, tuple) else dict(v) if isinstance(v, dict) else v for k, v in out.items()}
+        return {**out, "passed": self.passed,
+                "relative_bias_channels": [float(v) for v in self.relative_bias_channels],
+                "neighbour_correlation": [float(v) if np.isfinite(v) else None for v in self.neighbour_correlation]}
 
 
 def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
             alpha: float = GATE_ALPHA, tile=(8, 16, 32), variance_floor: str = "reference",
             var_ddof: int = 0, zero_var_rtol: float = 1e-4, pixel_pool: int = 3, tails=None,
             validity: float = DEFAULT_VALIDITY, pixel_samples=None, filter_weights=None) -> GateResult:
-    """Test whether a render and a reference have the same expectation (see module doc).
+    """Test whether a render and a reference have the same expectation.
 
     Parameters
     ----------
-    test_mean, test_var : array_like, shape (H, W) or (H, W, C)
-        Pixel means and per-sample variances of the render under test.
-    test_spp : int
-        Its samples per pixel (>= 2).
-    ref_mean, ref_var : array_like, same shape
-        Reference means and per-sample variances.
-    ref_spp : int
-        Reference samples per pixel (>= 2).
+    test_mean, test_var, test_spp : array_like (H, W) or (H, W, C), and int >= 2
+        Pixel means, per-sample variances and samples per pixel of the render under test.
+    ref_mean, ref_var, ref_spp : the same shape, and int >= 2
+        The reference's.
     alpha : float
         False-alarm rate of the comparison on unbiased renders (upper bound).
     tile : int or sequence of int
-        Tile side(s) in pixels for the tile level. All tiles of all the sizes form one
-        Sidak family (nested tiles are positively correlated, so this is conservative).
-        Partial tiles at the borders are used as they are. The default ``(8, 16, 32)``
-        matters: on the synthetic suite a 3% bias on one wall at 64 spp is caught in
-        4/10 seeds with ``tile=8`` alone and 10/10 with ``(8, 16, 32)``.
+        Tile side(s) of the tile level, all in one Sidak family.
     variance_floor : {'reference', 'none'}
-        ``'reference'`` (default): the test's per-sample variance is floored at an
-        independent estimate of it - the tail diagnostics' variance when ``tails`` is
-        given (the same estimator), else the reference's, ``max(v_x, v_r)``; ``'none'``:
-        plain Welch on the render's own variance.
+        ``'reference'``: the test's per-sample variance is floored at the tails' variance, else
+        at the reference's (``max(v_x, v_r)``); ``'none'``: plain Welch.
     var_ddof : int
-        ddof of the given variances; ``0`` (second moment minus squared mean, as
-        ``rt.render`` returns) is de-biased by ``n / (n - 1)``; pass 1 for variances that
-        are already unbiased.
-    zero_var_rtol : float
-        Relative tolerance for "equal means" where both variances are zero.
-    pixel_pool : int
-        Side of the neighbourhood whose mean variance floors each pixel's variance at
-        the pixel level (both sides; 1 disables). A pixel whose rare paths (a caustic
-        through glass, a tiny light in a glossy plate) did not occur among its samples
-        reports a variance far below the truth, and its t explodes: measured on real
-        renders, the 100-seed false-alarm test failed 3 runs of 100 with ``pixel_pool=1``,
-        two of them at single such pixels.
+        ddof of the given variances (0: de-biased by ``n / (n - 1)``).
+    zero_var_rtol, pixel_pool, validity : keyword-only
+        Relative tolerance of "equal means" where both variances are zero; side of the
+        neighbourhood whose mean variance floors each pixel's (1 disables); largest
+        :func:`edgeworth_error` at which a statistic is still tested.
     tails : reference_tracer.SampleMoments, optional
-        Per-pixel central moments of the *same estimator* at a high budget
-        (:func:`benchmarks.tails.tail_reference`). Without them every statistic is
-        taken as normal, which heavy-tailed estimators break (``benchmarks/STATISTICS.md``).
-    validity : float
-        Largest :func:`edgeworth_error` at which a statistic is still tested.
-    pixel_samples : (mean, variance) pair of array_like, optional
-        A test render with a tent or Gaussian filter: the mean and per-sample variance of
-        the samples drawn inside each pixel (``rt.render``'s ``pixel_samples``), from which
-        the filtered pixels' statistics are computed (:mod:`benchmarks.gate.filtered`); with
-        ``filter_weights``. ``test_var`` is then not used, and ``tails`` (if given) are the
-        per-sample moments of the same estimator with the box filter. The reference's
-        per-sample variance is that of its filtered pixels (Mitsuba's, from its batches).
-        The tile and image levels take the sums' variance from the samples' (a sum of
-        filtered pixels counts each interior sample with weight ~1); the correlation level
-        is not tested (the filter correlates neighbours by design).
-    filter_weights : benchmarks.gate.filtered.FilterWeights, optional
-        The filter's weights (:func:`benchmarks.gate.filtered.filter_weights`).
+        Per-pixel central moments of the *same estimator* at a high budget.
+    pixel_samples, filter_weights : optional
+        A tent- or Gaussian-filtered test render: the ``(mean, variance)`` of the samples drawn
+        inside each pixel and the filter's weights (:mod:`benchmarks.gate.filtered`).
 
     Returns
     -------
@@ -182,8 +176,8 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
 
     # ---- combine: Sidak within a level (over the tested statistics), Bonferroni over the levels
     levels = {"pixel": [pix], "tile": tile_levels, "image": [img], "correlation": [corr]}
-    level_p = {k: family_p(lvs)[0] for k, lvs in levels.items()}
-    n_tests = {k: family_p(lvs)[1] for k, lvs in levels.items()}
+    family = {k: family_p(lvs) for k, lvs in levels.items()}
+    level_p, n_tests = ({k: v[i] for k, v in family.items()} for i in (0, 1))
     n_cand = {k: int(sum(lv.testable.sum() for lv in lvs)) for k, lvs in levels.items()}
     p_value = min(1.0, len(LEVELS) * min(level_p.values()))
     failed = [k for k, v in level_p.items() if len(LEVELS) * v < alpha]
@@ -196,7 +190,6 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
         verdict=verdict, reason=reason, alpha=float(alpha), p_value=float(p_value),
         level_p=level_p, failed_levels=failed, n_tests=n_tests, n_candidates=n_cand,
         pixel_p=pix.p, p_map=pix.p.min(axis=2), pixel_t=pix.z,
-        tile_p=tile_levels[0].p, tile_z=tile_levels[0].z, image_p=img.p, image_z=img.z,
         max_abs_t=float(np.abs(pix.z).max()), worst_pixel=(wy, wx, wc),
         worst_tile=worst_tile, worst_region=tuple(int(v) for v in worst_region),
         worst_level=worst_level, relative_bias=rel, relative_bias_se=rel_se,
@@ -205,11 +198,8 @@ def compare(test_mean, test_var, test_spp, ref_mean, ref_var, ref_spp, *,
         neighbour_correlation=rho, tails=tails is not None)
 
 
-# ---------------------------------------------------------------------------------------
-# the steps of compare, in order
-
 def _check_options(alpha, tile, pixel_pool, variance_floor, validity) -> tuple:
-    """Validate :func:`compare`'s options; returns the tile sizes as a tuple of int."""
+    """The tile sizes as a tuple of int, after checking :func:`compare`'s options."""
     if not 0 < alpha < 1:
         raise ValueError(f"alpha must be in (0, 1); got {alpha}")
     tiles = tuple(int(t) for t in np.atleast_1d(tile))
@@ -222,7 +212,6 @@ def _check_options(alpha, tile, pixel_pool, variance_floor, validity) -> tuple:
     if not (isinstance(validity, (int, float)) and validity > 0):
         raise ValueError(f"validity must be a number > 0; got {validity!r}")
     return tiles
-
 
 
 def _decide(failed: list, img: Level, n_t: float, validity: float, rho) -> tuple:
@@ -241,3 +230,127 @@ def _decide(failed: list, img: Level, n_t: float, validity: float, rho) -> tuple
     needed = max(spp_needed(img.z_crit, a, b, n_t, validity) for a, b in zip(g1, g2))
     return ("undetermined", f"heavy-tailed: the image mean is too far from normal at {int(n_t)} spp "
             f"(skewness {g1.max():.2g}, excess kurtosis {g2.max():.2g}); needs about {needed} spp", needed)
+
+
+def argworst(p: np.ndarray, s: np.ndarray) -> tuple:
+    """Index of the smallest ``p``, ties broken by the largest ``|s|``."""
+    flat = np.lexsort((-np.abs(s).ravel(), p.ravel()))[0]
+    return tuple(int(i) for i in np.unravel_index(flat, p.shape))
+
+
+def _tested(lv) -> np.ndarray:
+    """``lv.p`` with untested statistics at 2 (never the worst)."""
+    return np.where(lv.valid, lv.p, 2.0)
+
+
+def worst_tile_box(tiles, tile_levels, H: int, W: int) -> tuple:
+    """Pixel box ``(row0, col0, row1, col1)`` of the tested tile of any size with the smallest p."""
+    best = None
+    for ts, lv in zip(tiles, tile_levels):
+        pt = _tested(lv)
+        iy, ix, ic = argworst(pt, lv.z)
+        key = (pt[iy, ix, ic], -abs(lv.z[iy, ix, ic]))
+        if best is None or key < best[0]:
+            best = (key, (iy * ts, ix * ts, min(H, (iy + 1) * ts), min(W, (ix + 1) * ts)))
+    return best[1]
+
+
+def locate(d, pix, tiles, tile_levels, level_p: dict) -> tuple:
+    """``(worst pixel, worst tile, worst level, worst region)`` (see :class:`GateResult`)."""
+    H, W, _ = d.x.shape
+    wy, wx, wc = argworst(_tested(pix), pix.z)
+    worst_tile = worst_tile_box(tiles, tile_levels, H, W)
+    worst_level = min(level_p, key=lambda k: (level_p[k], LEVELS.index(k)))
+    worst_region = {"pixel": (wy, wx, wy + 1, wx + 1), "tile": worst_tile,
+                    "image": (0, 0, H, W), "correlation": (0, 0, H, W)}[worst_level]
+    return (wy, wx, wc), worst_tile, worst_level, worst_region
+
+
+def relative_bias(d, worst_tile: tuple) -> tuple:
+    """``(relative bias, its standard error, per channel, inside worst_tile)``; finite pixels only."""
+    good = ~d.bad
+    d_all = np.where(good, d.x - d.r, 0.0)
+    r_all = np.where(good, d.r, 0.0)
+    sum_r_c = r_all.sum(axis=(0, 1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel_c = np.where(sum_r_c != 0, d_all.sum(axis=(0, 1)) / sum_r_c, np.nan)
+    sr = float(r_all.sum())
+    rel = float(d_all.sum() / sr) if sr != 0 else math.nan
+    se_sum = d.a + d.b if d.fa is None else np.maximum(d.a, d.fa) + d.b
+    rel_se = float(math.sqrt(se_sum[good].sum()) / abs(sr)) if sr != 0 else math.nan
+    y0, x0, y1, x1 = worst_tile
+    srt = float(r_all[y0:y1, x0:x1].sum())
+    rel_tile = float(d_all[y0:y1, x0:x1].sum() / srt) if srt != 0 else math.nan
+    return rel, rel_se, rel_c, rel_tile
+
+
+def power(img, tile8) -> tuple:
+    """Minimum detectable relative bias with probability :data:`POWER`, ``(z_crit + z_power)
+    sqrt(var) / |sum r|``, of the image (most sensitive channel) and of a :data:`POWER_TILE` tile
+    (median); a noiseless statistic detects any bias beyond its tolerance; NaN if untested."""
+    z_pow = float(stats.norm.isf(1.0 - POWER))
+
+    def mdb(lv):
+        if lv is None:
+            return np.array([])
+        ref = np.abs(lv.ref_sum)
+        ok = lv.valid & (lv.var > 0) & (ref != 0)
+        exact = (lv.var == 0) & (ref != 0) & np.broadcast_to(np.asarray(lv.tol) > 0, ref.shape)
+        noisy = (lv.z_crit + z_pow) * np.sqrt(lv.var[ok]) / ref[ok]
+        return np.concatenate([noisy.ravel(), (np.broadcast_to(lv.tol, ref.shape)[exact] / ref[exact]).ravel()])
+
+    g, t = mdb(img), mdb(tile8)
+    return (float(g.min()) if g.size else math.nan), (float(np.median(t)) if t.size else math.nan)
+
+
+@dataclass
+class EstimatorKnowledge:
+    """What is known of B's estimator at a high budget: ``moments`` (our tail reference's
+    :class:`reference_tracer.SampleMoments`) or ``variance`` (an external renderer's per-sample
+    variance), and a ``note`` saying which, or why neither."""
+
+    note: str
+    moments: object = None
+    variance: np.ndarray | None = None
+
+
+def _with_knowledge(known: EstimatorKnowledge, ref, test) -> tuple:
+    """``(ref, test, moments)`` with B's known variance floored into both sides (under the null
+    hypothesis A's estimator is B's; a floor only widens the test)."""
+    if known.moments is not None:
+        m2, _, _ = tail_moments(known.moments, np.shape(test[0]))
+        floor = m2 * (known.moments.n / (known.moments.n - 1.0))
+        moments = known.moments
+    elif known.variance is not None:
+        floor, moments = np.asarray(known.variance, dtype=np.float64), None
+    else:
+        return ref, test, None
+    test = (test[0], np.maximum(test[1], floor), test[2])
+    ref = (ref[0], np.maximum(ref[1], floor), ref[2])
+    return ref, test, moments
+
+
+def judge(ref, test, *, known: EstimatorKnowledge, alpha: float):
+    """The gate's verdict of B's image against A's, as :func:`benchmarks.compare.compare_stores` gives it.
+
+    Parameters
+    ----------
+    ref, test : tuple
+        ``(mean, per-sample variance, spp)`` of A (the baseline) and of B.
+    known : EstimatorKnowledge, keyword-only
+        B's estimator at a high budget.
+    alpha : float, keyword-only
+        Level of this one comparison.
+
+    Returns
+    -------
+    benchmarks.gate.GateResult
+
+    Examples
+    --------
+    >>> a = (np.full((8, 8, 3), 0.5), np.full((8, 8, 3), 0.25), 64)
+    >>> judge(a, a, known=EstimatorKnowledge("none"), alpha=0.01).verdict
+    'pass'
+    """
+    ref, test, moments = _with_knowledge(known, ref, test)
+    return compare(test[0], test[1], test[2], ref[0], ref[1], ref[2], alpha=alpha, tails=moments)

@@ -1,11 +1,9 @@
 """The gate against ourselves: references from a results store of a named build of our tracer.
 
-Mitsuba cannot render every feature of ours (``Metal(fuzz > 0)``, anything it has no
-plugin for), so such scenes cannot be gated against Mitsuba. Instead, a trusted build
-renders them once at a high budget into a results store (:func:`write_reference_store`,
-``rtbench gate --write-reference STORE``), and later builds are gated against those images
-(:func:`store_reference`, ``rtbench gate --reference STORE``): a regression gate, which
-says "this build renders what build X rendered", not "this is right".
+For what Mitsuba cannot render, a trusted build renders the scenes once into a results store
+(:func:`write_reference_store`, ``rtbench gate --write-reference STORE``) and later builds are
+gated against those images (:func:`store_reference`, ``--reference STORE``): "this build renders
+what build X rendered", not "this is right".
 """
 from __future__ import annotations
 
@@ -28,14 +26,9 @@ __all__ = ["write_reference_store", "store_reference", "pooled_image"]
 
 def write_reference_store(names, store, *, spp: int, width: int, height: int | None = None,
                           strategy: str = "mis", threads: int | None = None, log=None) -> list:
-    """Render each scene once with our tracer at ``spp`` into results store ``store``.
-
-    Each record carries the build (``build``, ``build_git``), the scene hash and source, and
-    the mean and per-sample variance images (``stats_image``, ``stats_variance_image``).
-    The store's writer lock (:func:`benchmarks.store.writer_lock`) is held throughout: a
-    second writer waits, then finds this build's records there and renders only what is
-    missing, so no job is ever recorded twice. Returns the records written.
-    """
+    """Render each scene once with our tracer at ``spp`` into results store ``store``; returns the
+    records written (with the build, the scene hash, the mean and per-sample variance images).
+    The store's writer lock is held throughout: a second writer renders only what is missing."""
     width = positive_int("width", width)
     height = width if height is None else positive_int("height", height)
     out = []
@@ -78,17 +71,9 @@ def _records(store, build):
 
 
 def store_reference(store, name: str, scene, *, build: str | None = None) -> Reference:
-    """The reference of scene ``name`` (at ``scene``'s size) from a results store of our tracer.
-
-    The curve of ours with the most samples at its top spp (seeds pooled) among the
-    store's records of ``build`` (None: each curve's latest build). The store's scene hash
-    must be the scene's: a changed scene has no reference there.
-
-    Raises
-    ------
-    ValueError
-        No image of the scene at this size (with a variance image), or the scene changed.
-    """
+    """The reference of scene ``name`` (at ``scene``'s size) from a results store of our tracer:
+    the curve with the most samples at its top spp (seeds pooled) among the records of ``build``
+    (None: each curve's latest). ``ValueError`` where there is none or the scene changed."""
     store = Path(store)
     if not (store / "results.jsonl").is_file():
         raise ValueError(f"--reference {store} is not a results store (no results.jsonl)")
@@ -123,11 +108,8 @@ def store_reference(store, name: str, scene, *, build: str | None = None) -> Ref
 
 
 def pooled_image(store, records, spp: int):
-    """``(mean, per-sample variance, total spp)`` of a curve's stored images at ``spp``, or None.
-
-    Seeds' means are averaged; the per-sample variance is the mean of the stored variance
-    images, else ``spp`` x the between-seed variance of the means (2+ seeds).
-    """
+    """``(mean, per-sample variance, total spp)`` of a curve's stored images at ``spp``, or None: the
+    seeds' mean, and the stored variance images' mean, else ``spp`` x the between-seed variance."""
     recs = [r for r in records if int(r["spp"]) == spp and (r.get("stats_image") or r.get("image"))]
     if not recs:
         return None

@@ -1,39 +1,14 @@
-"""The gate's suite driver (``rtbench gate``, issue 7): our tracer against the references.
+"""The gate's suite driver (``rtbench gate``): our tracer against the references.
 
-For each suite scene and strategy, :func:`run_gate` renders the scene with our tracer,
-fetches its reference (:func:`gate_reference`: the scene's closed form, or the cached
-high-spp Mitsuba render, made first if missing) and applies
-:func:`benchmarks.gate.compare`. The statistics live in :mod:`benchmarks.gate.statistics`;
-this module decides *what* is compared and at which level, and draws the p-value images
-of failures (:func:`write_p_images`).
+:func:`run_gate` renders each suite scene and strategy with our tracer, fetches its reference
+(:func:`gate_reference`: the closed form of ``furnace``, where Mitsuba 3.9.1 is biased, else the
+cached high-spp Mitsuba render) and applies :func:`benchmarks.gate.compare` at ``alpha / k`` for
+``k`` comparisons, so the whole run holds ``alpha``; :func:`write_p_images` draws the p-value
+images of failures.
 
-Defaults (sized for CI, measured on the 2-core development machine)
--------------------------------------------------------------------
-The quick suite (all of :func:`mitsuba_scenes.list_scenes`) at ``32 x 32``, our ``mis``
-at 4096 samples per pixel against Mitsuba references at 16384 spp (16 batches, the
-harness's default seed). Power decides the spp (``benchmarks.gate.power``, six seeds
-each, 8192-spp references): at 1024 spp a 1% light move along x is caught 0/6 and a
-1% global scale 6/6; at 4096 spp the light move 6/6 (light moved along z 5/6). The
-reference is kept 4x above the test's spp so that its own noise adds 25% to the
-variance of a difference. Cost on an empty cache: about 2.5 min for the seven Mitsuba
-references, then about 1.2 min for our eight renders (furnace, 8 bounces without
-Russian roulette, is the slowest at ~14 s).
-
-Multiple comparisons
---------------------
-``alpha`` is the false-alarm rate of the whole run: each of the ``k`` (scene, strategy)
-comparisons is tested at ``alpha / k`` (Bonferroni), so an unbiased tracer fails a run
-of the quick suite with probability at most ``alpha``, not ``k * alpha``.
-
-The furnace
------------
-Mitsuba 3.9.1 is biased in ``furnace`` (its sphere-emitter sampling from a point on the
-sphere itself: ``tests/mitsuba_scenes/test_mitsuba_agreement.py``), so the furnace is compared with its
-closed form, ``mitsuba_scenes.scenes.furnace.expected_radiance``
-(:func:`benchmarks.references.closed_form_reference_of`): a zero-variance reference,
-exact. A stronger check than a Mitsuba render would be: where our render has
-no noise (``mis`` there is exact per sample) any relative difference above
-``compare``'s ``zero_var_rtol`` (1e-4) fails.
+The defaults (CI-sized): the quick suite at 32 x 32, ``mis`` at 4096 spp against 16384-spp
+references. Power chose the spp (six seeds, 8192-spp references): a 1% light move along x is
+caught 0/6 at 1024 spp and 6/6 at 4096 (along z 5/6); a 1% global scale 6/6 at 1024.
 
 Examples
 --------
@@ -63,14 +38,13 @@ from ..references import reference as mitsuba_reference
 from ..scenes import scene_at
 from ..stats import sidak
 from ..tails import DEFAULT_TAIL_SPP, tail_reference
-from .result import GateResult
 from .filtered import filter_weights
-from .statistics import compare
+from .statistics import LEVELS, GateResult, compare
 from .store_reference import store_reference
 
-__all__ = ["gate_tails", "DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_SEED", "DEFAULT_STRATEGY", "GateCase",
-           "GateReport", "gate_scene", "resolve_scenes", "resolve_strategies", "gate_reference", "compare_render",
-           "run_gate", "write_p_images"]
+__all__ = ["gate_tails", "DEFAULT_SPP", "DEFAULT_WIDTH", "DEFAULT_REF_SPP", "DEFAULT_SEED", "DEFAULT_STRATEGY",
+           "GateCase", "GateReport", "gate_scene", "names_of", "resolve_scenes", "resolve_strategies", "gate_reference",
+           "compare_render", "run_gate", "write_p_images"]
 
 #: samples per pixel of our render (see the power table in ``tests/benchmarks/gate/test_gate_power.py``).
 DEFAULT_SPP = 4096
@@ -86,13 +60,8 @@ DEFAULT_STRATEGY = "mis"
 
 @dataclass
 class GateCase:
-    """One (scene, strategy) comparison of a gate run.
-
-    ``alpha`` is the per-comparison level (the run's alpha over the number of
-    comparisons); ``reference`` the :class:`benchmarks.references.Reference` it was
-    compared with; ``result`` the :class:`benchmarks.gate.GateResult`; ``mean`` and
-    ``variance`` our render's images, ``render_seconds`` its wall time.
-    """
+    """One (scene, strategy) comparison of a gate run at level ``alpha`` (the run's over the
+    number of comparisons): its ``reference``, ``result`` and our render (``mean``, ``variance``)."""
 
     scene: str
     strategy: str
@@ -158,13 +127,8 @@ class GateCase:
 
 @dataclass
 class GateReport:
-    """All comparisons of one :func:`run_gate` call.
-
-    ``alpha`` is the run's false-alarm rate, ``case_alpha`` the level of each comparison;
-    ``reference_seconds``, ``tail_seconds`` and ``render_seconds`` the wall time this run
-    spent getting the references and the tail references (rendering those missing from
-    the cache) and rendering ours. ``passed``: no comparison failed.
-    """
+    """All comparisons of one :func:`run_gate` call: the run's ``alpha``, each comparison's
+    ``case_alpha``, and the wall time spent on references, tail references and our renders."""
 
     cases: list
     alpha: float
@@ -189,8 +153,6 @@ class GateReport:
         return [c for c in self.cases if c.verdict == "undetermined"]
 
 
-# ---------------------------------------------------------------------------------------
-
 def gate_scene(name: str, *, width: int = DEFAULT_WIDTH, height: int | None = None):
     """Suite scene ``name`` at ``width`` x ``height`` (default square), as the quick preset builds it.
 
@@ -206,27 +168,9 @@ def gate_scene(name: str, *, width: int = DEFAULT_WIDTH, height: int | None = No
 
 def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=None, cache=None,
                    log=None, variant: str | None = None) -> Reference:
-    """The reference of suite scene ``name``: its closed form, or the cached Mitsuba render.
-
-    The closed form (:func:`benchmarks.references.closed_form_reference_of`: ``furnace``)
-    is the one the sweeps use too, at the scene's image size.
-
-    Parameters
-    ----------
-    name : str
-        Suite scene name (decides closed form vs Mitsuba).
-    scene : reference_tracer.Scene
-        The scene at the gate's size.
-    ref_spp : int, keyword-only
-        Mitsuba samples per pixel (rendered and cached when missing).
-    threads, cache, log, variant : keyword-only
-        Passed to :func:`benchmarks.references.reference` (``variant``: the Mitsuba
-        variant, default the fastest that works).
-
-    Returns
-    -------
-    benchmarks.references.Reference
-        ``source`` is ``'mitsuba'`` or ``'closed form'``.
+    """The reference of suite scene ``name``: its closed form
+    (:func:`benchmarks.references.closed_form_reference_of`), or the cached Mitsuba render at
+    ``ref_spp`` (:func:`benchmarks.references.reference`, rendered when missing).
 
     Examples
     --------
@@ -242,9 +186,8 @@ def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=
 
 
 def gate_tails(scene, strategy: str, *, tail_spp: int, threads, cache, log):
-    """The tail reference a comparison of ``strategy`` on ``scene`` rests on, or None (``tail_spp``
-    0). The moments are the samples': a filtered scene's are those of its box-filtered twin
-    (:func:`benchmarks.tails.tail_reference`), from which the filtered pixels' are computed."""
+    """The tail reference of ``strategy`` on ``scene`` (:func:`benchmarks.tails.tail_reference`), or
+    None for ``tail_spp`` 0."""
     if not tail_spp:
         return None
     return tail_reference(scene, strategy=strategy, spp=tail_spp, threads=threads, cache=cache, log=log)
@@ -252,11 +195,9 @@ def gate_tails(scene, strategy: str, *, tail_spp: int, threads, cache, log):
 
 def compare_render(mean, variance, spp: int, reference: Reference, *, alpha: float = GATE_ALPHA,
                    tails=None, pixel_samples=None, pixel_filter=None) -> GateResult:
-    """:func:`benchmarks.gate.compare` of a render with a :class:`benchmarks.references.Reference`;
-    ``tails``: the tail reference of the same estimator (:func:`benchmarks.tails.tail_reference`);
-    a render with a tent or Gaussian ``pixel_filter`` (a ``reference_tracer.Filter``) passes
-    its ``pixel_samples`` (``RenderResult.pixel_samples``), from which its pixels' statistics
-    are computed (:mod:`benchmarks.gate.filtered`)."""
+    """:func:`benchmarks.gate.compare` of a render with a :class:`benchmarks.references.Reference`
+    and the ``tails`` of the same estimator; a render with a tent or Gaussian ``pixel_filter``
+    passes its ``pixel_samples``."""
     filtered = pixel_filter is not None and not pixel_filter.is_box
     if filtered and pixel_samples is None:
         raise ValueError("a filtered render needs its pixel_samples for the gate's statistics")
@@ -266,14 +207,18 @@ def compare_render(mean, variance, spp: int, reference: Reference, *, alpha: flo
                    filter_weights=filter_weights(pixel_filter) if filtered else None)
 
 
+def names_of(value) -> list:
+    """The names in ``value``, de-duplicated in order (a string may be comma-separated)."""
+    parts = value.split(",") if isinstance(value, str) else value
+    return list(dict.fromkeys(n.strip() for n in parts if n.strip()))
+
+
 def resolve_scenes(scenes) -> list:
     """Validated scene names (None: the whole suite; a string may be comma-separated)."""
     suite = known_scenes()
     if scenes is None:
         return list_scenes()
-    if isinstance(scenes, str):
-        scenes = [s.strip() for s in scenes.split(",") if s.strip()]
-    scenes = list(dict.fromkeys(scenes))
+    scenes = names_of(scenes)
     if not scenes:
         raise ValueError("no scene selected")
     unknown = [s for s in scenes if s not in suite]
@@ -284,9 +229,7 @@ def resolve_scenes(scenes) -> list:
 
 def resolve_strategies(strategies) -> list:
     """``mis`` followed by the other validated, de-duplicated strategies."""
-    if isinstance(strategies, str):
-        strategies = [s.strip() for s in strategies.split(",") if s.strip()]
-    strategies = list(dict.fromkeys([DEFAULT_STRATEGY, *strategies]))
+    strategies = names_of([DEFAULT_STRATEGY, *names_of(strategies)])
     unknown = [s for s in strategies if s not in STRATEGIES]
     if unknown:
         raise ValueError(f"unknown strateg{'y' if len(unknown) == 1 else 'ies'} {', '.join(unknown)}; "
@@ -304,46 +247,28 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
     Parameters
     ----------
     scenes : sequence of str or None
-        Suite scenes (default: the whole suite, the "quick suite" at the default size).
+        Suite scenes (default: the whole quick suite).
     strategies : sequence of str, keyword-only
         Strategies gated besides ``mis``, which is always included.
-    spp : int, keyword-only
-        Samples per pixel of our renders (>= 2).
-    width, height : int, keyword-only
-        Image size (height defaults to width).
-    ref_spp : int, keyword-only
-        Samples per pixel of the Mitsuba references.
+    spp, width, height, ref_spp, seed : int, keyword-only
+        Our renders' samples per pixel (>= 2), image size (height defaults to width), the
+        Mitsuba references' samples per pixel and our renders' seed.
     alpha : float, keyword-only
-        False-alarm rate of the whole run; each comparison is tested at
-        ``alpha / (scenes * strategies)``.
-    seed : int, keyword-only
-        Seed of our renders.
-    threads : int or None, keyword-only
-        Threads for both renderers (None: all cores).
-    cache : str or Path, keyword-only
-        Reference cache root (default ``$RTBENCH_CACHE`` or ``~/.cache/rtbench``).
-    log : callable, keyword-only
-        Called with a line of text (a corrupt cache entry being replaced).
-    on_reference : callable, keyword-only
-        ``on_reference(name, phase, info)`` with phase ``'start'`` (before a reference is
-        fetched or rendered) and ``'done'`` (``info`` the
-        :class:`benchmarks.references.Reference`).
-    on_case : callable, keyword-only
-        Called with each :class:`GateCase` as it completes.
+        False-alarm rate of the whole run.
+    threads, cache, log : keyword-only
+        Threads of both renderers (None: all cores), the reference cache root, and a callable
+        taking a line of text.
+    on_reference, on_case : callable, keyword-only
+        ``on_reference(name, phase, reference)`` with phase ``'start'`` (reference None) and
+        ``'done'``; ``on_case(case)`` with each :class:`GateCase` as it completes.
     tail_spp : int, keyword-only
-        Samples per pixel of the tail references (our estimator at a high budget, cached:
-        :func:`benchmarks.tails.tail_reference`) that give each comparison the variance and
-        tail shape of the estimator under test; 0 compares without them (the older rule,
-        which cries wolf on heavy-tailed strategies: ``benchmarks/STATISTICS.md``).
-    reference_store : str or Path or None, keyword-only
-        A results store of our own tracer (:mod:`benchmarks.gate.store_reference`): its
-        images are the references instead of Mitsuba's (``rtbench gate --reference``).
-    reference_build : str or None, keyword-only
-        With ``reference_store``: use the records of this build (default: the latest).
+        Samples per pixel of the tail references (:func:`benchmarks.tails.tail_reference`); 0
+        compares without them (which cries wolf on heavy-tailed strategies).
+    reference_store, reference_build : keyword-only
+        A results store of our own tracer whose images (of ``reference_build``, default the
+        latest) are the references instead of Mitsuba's (:mod:`benchmarks.gate.store_reference`).
     renderer : benchmarks.external.ExternalRenderer or None, keyword-only
-        Gate this external renderer instead of ours (``--renderer``): each scene rendered
-        by the command in 16 batches for its per-pixel variance, no tail references;
-        ``strategies`` are ignored and the case's strategy is the renderer's name.
+        Gate this external renderer instead of ours (16 batches for the variance, no tails).
     variant : str or None, keyword-only
         Mitsuba variant of the references (None: the fastest that works).
 
@@ -413,14 +338,11 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
 
 
 def write_p_images(case: GateCase, out) -> list:
-    """Write the p-value images of a comparison into folder ``out``.
+    """Write the p-value images of a comparison into folder ``out``; returns the paths.
 
-    ``<scene>_<strategy>_p.exr``: per-pixel ``-log10 p`` (minimum p over channels, raw,
-    not adjusted for multiple comparisons; 300 stands for p = 0) as one channel;
-    ``<scene>_<strategy>_p.png``: the same in false colour, scaled so that the per-pixel
-    level at which the pixel level would fail is in the middle of the colour bar, with
-    the worst tile boxed; ``<scene>_<strategy>_ours.png`` and ``..._reference.png``
-    beside it. Returns the paths written.
+    ``<scene>_<strategy>_p.exr``: per-pixel raw ``-log10 p`` (minimum over channels; 300 for
+    p = 0); ``..._p.png``: the same in false colour, the pixel level's failing threshold mid-bar
+    and the worst tile boxed; ``..._ours.png`` and ``..._reference.png`` beside it.
     """
     import matplotlib
 
@@ -439,9 +361,9 @@ def write_p_images(case: GateCase, out) -> list:
     rt.write_exr(paths[0], logp.astype(np.float32))
 
     # the raw per-pixel p at which the pixel level alone reaches the comparison's alpha:
-    # Bonferroni over 3 levels and Sidak over the pixel tests
+    # Bonferroni over the levels and Sidak over the pixel tests
     m = max(int(r.n_tests.get("pixel", 1)), 1)
-    p_pix = sidak(case.alpha / 3.0, m)
+    p_pix = sidak(case.alpha / len(LEVELS), m)
     thresh = -math.log10(p_pix)
     vmax = max(2.0 * thresh, float(np.nanmax(logp[logp < 300])) if np.any(logp < 300) else 0.0)
     h, w = logp.shape

@@ -43,9 +43,7 @@ def masked_mean(values: np.ndarray, mask) -> float:
     """Mean of ``values`` over a :func:`nan_mask` result."""
     if mask is None:
         return float(np.mean(values))
-    if isinstance(mask, str):
-        return math.nan
-    if not mask.any():
+    if isinstance(mask, str) or not mask.any():
         return math.nan
     return float(np.mean(values[mask]))
 

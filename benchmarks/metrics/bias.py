@@ -1,38 +1,4 @@
-r"""Bias and variance of a renderer from independent seeds, with a one-sided test for bias.
-
-Model. Seed ``k`` gives pixel means :math:`x_{kp} = \mu_p + b_p + e_{kp}`, independent
-over ``k`` and ``p``, :math:`\mathrm{Var}(e_{kp}) = \sigma^2_p / N` (``N`` = ``spp``).
-The reference is :math:`r_p = \mu_p + f_p`, :math:`\mathrm{Var}(f_p) = \tau^2_p /
-N_{ref}`, independent of the seeds. With :math:`\bar x_p = \frac1K\sum_k x_{kp}` and
-:math:`D_p = \bar x_p - r_p`:
-
-.. math:: E[D_p^2] = b_p^2 + s_p^2, \qquad
-          s_p^2 = \frac{\sigma^2_p}{K N} + \frac{\tau^2_p}{N_{ref}}.
-
-With an unbiased :math:`\hat s_p^2` the per-pixel term
-:math:`T_p = D_p^2 - \hat s_p^2` has :math:`E[T_p] = b_p^2` **exactly**, so
-
-.. math:: \widehat{\mathrm{bias}^2} = \frac{1}{P}\sum_p T_p
-
-is unbiased for the mean squared bias and has expectation 0 when there is no bias.
-:math:`\hat s_p^2` uses the between-seed variance :math:`S_p^2 / K`
-(:math:`S_p^2` with ``ddof=1``, ``K >= 2``; ``variance_source='seeds'``) or the
-renderer's per-sample variance, :math:`\overline{v_{kp}} \cdot
-\frac{N-\mathrm{ddof}}{N-1} / (K N)` (``variance_source='samples'``; ``var_k`` from
-``rt.render`` is second moment minus mean squared, ``var_ddof=0``). ``'auto'`` picks ``'seeds'`` when ``K >= 2`` else
-``'samples'``. Without ``ref_var`` the reference is taken as noise-free.
-
-Test. The :math:`T_p` are independent across pixels (channels of one pixel are not,
-so they are averaged within the pixel first: :math:`\bar T_p`). The standard error is
-the empirical one, :math:`\mathrm{se} = \mathrm{sd}(\bar T_p)/\sqrt{P}`, valid whatever
-the noise distribution, and :math:`z = \widehat{\mathrm{bias}^2}/\mathrm{se}` is
-asymptotically standard normal under :math:`H_0: b_p = 0\ \forall p` (CLT over
-pixels). ``p_value = 1 - Phi(z)`` (one-sided: bias can only add), and
-``bias_significant = p_value < alpha`` has false-positive rate ``alpha`` for large
-``P``; because :math:`T_p` is right-skewed the studentised mean is left-skewed, so for
-moderate ``P`` the rate is at most about ``alpha`` (measured in
-``tests/benchmarks/metrics/test_metrics.py``). The reference must be independent of the seeds.
-"""
+"""Bias and variance of a renderer from independent seeds, with a one-sided test for bias."""
 from __future__ import annotations
 
 import math
@@ -48,41 +14,14 @@ __all__ = ["BiasVariance", "bias_variance"]
 
 @dataclass(frozen=True)
 class BiasVariance:
-    """Result of :func:`bias_variance`. All figures are means over pixel-channels.
+    """Result of :func:`bias_variance`; figures are means over pixel-channels.
 
-    Attributes
-    ----------
-    bias2 : float
-        Unbiased estimate of mean squared bias, ``mean_p b_p^2`` (can be slightly < 0).
-    bias2_se : float
-        Standard error of ``bias2`` (from the spread of per-pixel terms).
-    z : float
-        ``bias2 / bias2_se``.
-    p_value : float
-        One-sided p-value of ``H0: all b_p = 0`` against ``bias2 > 0``.
-    bias_significant : bool
-        ``p_value < alpha``; false-positive rate ``alpha`` (asymptotically in the pixel
-        count; conservative for right-skewed per-pixel terms).
-    alpha : float
-    variance : float
-        Mean variance of *one* image (one seed, ``spp`` samples): ``E[MSE] ~ bias2 +
-        variance + reference_noise``.
-    sample_variance : float
-        Mean per-sample variance, ``variance * spp`` (NaN if ``spp`` unknown).
-    mse : float
-        Mean over seeds of each image's MSE against ``ref``.
-    mse_corrected : float
-        ``mse`` minus the reference noise (NaN without ``ref_var``/``ref_spp``).
-    bias : float
-        Mean signed difference ``mean_p (mean_k x_k - r)`` (direction of the bias).
-    relative_bias : float
-        ``sum(mean_k x_k - r) / sum(r)`` (NaN if the reference sums to 0).
-    k : int
-        Number of seeds.
-    n_pixels : int
-        Number of pixels that entered the estimate.
-    variance_source : str
-        ``'seeds'`` (between-seed variance) or ``'samples'`` (``var_k``).
+    ``bias2`` (unbiased for the mean squared bias, can be slightly < 0), its standard error
+    ``bias2_se``, ``z = bias2 / bias2_se``, the one-sided ``p_value`` of ``H0: all b_p = 0`` and
+    ``bias_significant = p_value < alpha``. ``variance``: of one image's pixel means
+    (``sample_variance = variance * spp``); ``mse``: the seeds' mean MSE (``mse_corrected``:
+    less the reference noise); ``bias``: mean signed difference; ``relative_bias``:
+    ``sum(mean_k x_k - r) / sum(r)``; ``k`` seeds, ``n_pixels`` used, ``variance_source``.
     """
 
     bias2: float
@@ -110,34 +49,34 @@ def bias_variance(images_k, ref, ref_var=None, ref_spp=None, var_k=None, spp=Non
                   nan_policy: str = "propagate") -> BiasVariance:
     r"""Squared bias and variance of a renderer from ``K`` independent seeds, with a test.
 
-    The estimator :math:`\widehat{\mathrm{bias}^2} = \frac1P \sum_p (D_p^2 - \hat s_p^2)`
-    (unbiased for the mean squared bias) and its one-sided z-test are derived in the
-    module docstring (:mod:`benchmarks.metrics.bias`). The reference must be independent
-    of the seeds.
+    With :math:`D_p = \bar x_p - r_p` (seed mean minus reference) and :math:`\hat s_p^2` an
+    unbiased estimate of its variance (:math:`\sigma^2_p / (K N) + \tau^2_p / N_{ref}`),
+
+    .. math:: \widehat{\mathrm{bias}^2} = \frac{1}{P}\sum_p (D_p^2 - \hat s_p^2)
+
+    is unbiased for the mean squared bias. :math:`\hat s_p^2` uses the between-seed variance
+    (``'seeds'``, ``ddof=1``) or the renderer's per-sample variance (``'samples'``); without
+    ``ref_var`` the reference is taken as noise-free and must be independent of the seeds.
+    The per-pixel terms (channels averaged) are independent, so
+    :math:`z = \widehat{\mathrm{bias}^2} / (\mathrm{sd} / \sqrt{P})` is asymptotically normal
+    under :math:`H_0: b_p = 0`; ``p_value = 1 - Phi(z)`` (one-sided; conservative for
+    moderate ``P``, the terms being right-skewed).
 
     Parameters
     ----------
-    images_k : array_like, shape (K, H, W[, C])
-        ``K`` independent renders (distinct seeds) at ``spp`` each.
-    ref : array_like, shape (H, W[, C])
-        Reference image.
-    ref_var : array_like, optional
-        Per-sample variance of the reference (needs ``ref_spp``).
-    ref_spp : int, optional
-    var_k : array_like, shape (K, H, W[, C]), optional
-        Per-sample variance of each render (needs ``spp``).
-    spp : int, optional
-        Samples per pixel of each render.
+    images_k, ref : array_like, shapes (K, H, W[, C]) and (H, W[, C])
+        ``K`` independent renders (distinct seeds) at ``spp`` each, and the reference.
+    ref_var, ref_spp : optional
+        Per-sample variance of the reference and its samples per pixel (together).
+    var_k, spp : optional
+        Per-sample variance of each render, shape (K, H, W[, C]), and their samples per pixel.
     alpha : float
         Level of ``bias_significant``.
-    variance_source : {'auto', 'seeds', 'samples'}
-        Where :math:`\hat s_p^2` comes from; ``'auto'``: ``'seeds'`` when ``K >= 2``.
-    var_ddof : {0, 1}
-        The ddof of ``var_k`` (``rt.render``'s variance is second moment minus mean
-        squared: 0).
+    variance_source, var_ddof : keyword-only
+        Where :math:`\hat s_p^2` comes from (``'auto'``: ``'seeds'`` when ``K >= 2``, else
+        ``'samples'``) and the ddof of ``var_k`` (``rt.render``'s: 0).
     nan_policy : {'propagate', 'omit', 'raise'}
-        ``'omit'`` drops a whole pixel if any of its entries (any seed, channel or input)
-        is NaN.
+        ``'omit'`` drops a whole pixel if any of its entries is NaN.
 
     Returns
     -------
@@ -187,7 +126,7 @@ def bias_variance(images_k, ref, ref_var=None, ref_spp=None, var_k=None, spp=Non
 
 
 def _checked_inputs(images_k, ref, ref_var, ref_spp, var_k, spp):
-    """Arrays of :func:`bias_variance` checked for shape and sign: (imgs, r, rv, n_ref, vk, n)."""
+    """``(imgs, r, rv, n_ref, vk, n)`` of :func:`bias_variance`, checked for shape and sign."""
     imgs = np.asarray(images_k, dtype=np.float64)
     r = as_image(ref, "ref")
     if imgs.ndim != r.ndim + 1 or imgs.shape[1:] != r.shape:
@@ -216,8 +155,7 @@ def _checked_inputs(images_k, ref, ref_var, ref_spp, var_k, spp):
 
 
 def _pixel_terms(imgs, r, rv, n_ref, vk, n, var_ddof, keep, variance_source):
-    """Flatten to (K, P, C) over the kept pixels: images X, reference R, D = mean_k X - R,
-    the variance of one image's pixel means and the reference's noise (zeros without it)."""
+    """``(X, R, D, var_img, ref_noise)`` over the kept pixels, flattened to (K, P, C)."""
     K = imgs.shape[0]
     C = 1 if r.ndim == 2 else r.shape[2]
     X = imgs.reshape(K, -1, C)[:, keep.ravel()]
@@ -239,16 +177,14 @@ def _variance_source(variance_source: str, K: int, vk, n, var_ddof: int) -> str:
     """Resolve ``'auto'`` and check that the chosen source has what it needs."""
     if variance_source == "auto":
         variance_source = "seeds" if K >= 2 else "samples"
-    if variance_source == "seeds":
-        if K < 2:
-            raise ValueError("variance_source='seeds' needs K >= 2 seeds")
-    elif variance_source == "samples":
-        if vk is None or n is None:
-            raise ValueError("variance_source='samples' (or K == 1) needs var_k and spp")
-        if n < 2 or var_ddof not in (0, 1):
-            raise ValueError(f"variance_source='samples' needs spp >= 2 and var_ddof 0 or 1; "
-                             f"got spp={n}, var_ddof={var_ddof}")
-    else:
+    if variance_source == "seeds" and K < 2:
+        raise ValueError("variance_source='seeds' needs K >= 2 seeds")
+    if variance_source == "samples" and (vk is None or n is None):
+        raise ValueError("variance_source='samples' (or K == 1) needs var_k and spp")
+    if variance_source == "samples" and (n < 2 or var_ddof not in (0, 1)):
+        raise ValueError(f"variance_source='samples' needs spp >= 2 and var_ddof 0 or 1; "
+                         f"got spp={n}, var_ddof={var_ddof}")
+    if variance_source not in ("seeds", "samples"):
         raise ValueError(f"variance_source must be 'auto', 'seeds' or 'samples'; got {variance_source!r}")
     return variance_source
 

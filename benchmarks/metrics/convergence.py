@@ -8,19 +8,15 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy import stats
 
-from ._checks import check_policy
+from ._checks import nan_mask
 
 __all__ = ["SlopeFit", "convergence_slope", "efficiency", "time_to_error"]
 
 
 @dataclass(frozen=True)
 class SlopeFit:
-    """Least-squares fit ``log(rmse) = intercept + slope * log(spp)``.
-
-    ``ci_low``/``ci_high`` is the two-sided ``confidence`` interval of the slope
-    (Student t with ``n - 2`` dof; NaN when ``n < 3``); ``stderr`` its standard error;
-    ``r2`` the coefficient of determination; ``n`` the number of points used.
-    """
+    """Least-squares fit ``log(rmse) = intercept + slope * log(spp)``, with the slope's standard
+    error and two-sided Student-t ``confidence`` interval (NaN when ``n < 3``) and ``r2``."""
 
     slope: float
     intercept: float
@@ -45,20 +41,14 @@ def convergence_slope(spp, rmse, *, confidence: float = 0.95,
                       nan_policy: str = "propagate") -> SlopeFit:
     r"""Slope of log RMSE over log spp, with a confidence interval.
 
-    Unbiased Monte Carlo has :math:`\mathrm{RMSE} = \sigma / \sqrt{N}`: slope -0.5. With
-    a bias ``b``, :math:`\mathrm{RMSE} = \sqrt{b^2 + \sigma^2/N}` flattens towards slope 0
-    at high ``N``. Note that RMSE against a noisy reference flattens the same way at the
-    reference's noise floor: fit RMSE from :func:`mse_corrected` (or use a reference with
-    many more spp than the sweep) when that matters.
-
-    Repeated ``spp`` values (several seeds) are fine: every (spp, rmse) pair is one point.
-    The interval treats the points as independent with equal log-scale noise.
+    Unbiased Monte Carlo has :math:`\mathrm{RMSE} = \sigma / \sqrt{N}`: slope -0.5; a bias
+    ``b`` (or a noisy reference) flattens :math:`\sqrt{b^2 + \sigma^2/N}` towards 0 at high
+    ``N``. Every (spp, rmse) pair is one point, taken as independent with equal log-scale noise.
 
     Parameters
     ----------
     spp, rmse : array_like, 1-D, same length
-        Positive sample counts and positive RMSEs (zero or negative values cannot be put
-        on a log scale and raise ``ValueError``).
+        Positive sample counts and RMSEs.
     confidence : float
     nan_policy : {'propagate', 'omit', 'raise'}
         ``'omit'`` drops the points where either value is NaN.
@@ -76,15 +66,11 @@ def convergence_slope(spp, rmse, *, confidence: float = 0.95,
         raise ValueError(f"spp and rmse have different lengths: {x.shape} vs {y.shape}")
     if not 0 < confidence < 1:
         raise ValueError(f"confidence must be in (0, 1); got {confidence}")
-    check_policy(nan_policy)
-    nan = np.isnan(x) | np.isnan(y)
-    if nan.any():
-        if nan_policy == "raise":
-            raise ValueError("NaN in spp or rmse with nan_policy='raise'")
-        if nan_policy == "propagate":
-            return SlopeFit(math.nan, math.nan, math.nan, math.nan, math.nan,
-                            float(confidence), math.nan, int(x.size))
-        x, y = x[~nan], y[~nan]
+    keep = nan_mask(nan_policy, spp=x, rmse=y)
+    if isinstance(keep, str):
+        return SlopeFit(math.nan, math.nan, math.nan, math.nan, math.nan, float(confidence), math.nan, int(x.size))
+    if keep is not None:
+        x, y = x[keep], y[keep]
     if np.any(x <= 0) or np.any(y <= 0):
         raise ValueError("spp and rmse must be positive to fit on a log-log scale")
     n = x.size
@@ -113,10 +99,8 @@ def convergence_slope(spp, rmse, *, confidence: float = 0.95,
 def efficiency(mse, seconds):
     r"""Monte Carlo efficiency, :math:`1 / (\mathrm{MSE} \cdot t)`: higher is better.
 
-    Vectorised over arrays (returns an array then, a float for scalars). ``mse == 0``
-    gives ``inf``; NaN propagates; negative ``mse`` (e.g. a noise-corrected MSE that came
-    out below zero) or ``seconds <= 0`` raise ``ValueError``, since the efficiency is
-    then undefined rather than merely large.
+    Vectorised; ``mse == 0`` gives ``inf``, NaN propagates; ``mse < 0`` or ``seconds <= 0``
+    raise ``ValueError`` (undefined, not merely large).
 
     Examples
     --------
@@ -137,17 +121,9 @@ def efficiency(mse, seconds):
 def time_to_error(seconds, rmse, target: float) -> float:
     r"""Seconds needed to reach ``rmse <= target``, interpolated on a log-log scale.
 
-    The points are sorted by time; the first segment ``(t_i, e_i) -> (t_{i+1}, e_{i+1})``
-    with :math:`e_i > \mathrm{target} \ge e_{i+1}` is interpolated linearly in
-    :math:`(\log t, \log e)` (a power law between the two points; exact for
-    :math:`e \propto t^{-1/2}`).
-
-    Conventions (documented, not errors):
-
-    * never reached (all ``rmse > target``): returns ``math.nan`` - there is no
-      extrapolation beyond the measured curve;
-    * already reached at the cheapest point: returns ``seconds[0]``, an upper bound;
-    * points with NaN are ignored; an ``rmse`` of 0 counts as reached.
+    The first segment (by time) with :math:`e_i > \mathrm{target} \ge e_{i+1}` is interpolated
+    linearly in :math:`(\log t, \log e)`. Never reached: NaN (no extrapolation); reached at the
+    cheapest point: ``seconds[0]`` (an upper bound); NaN points are ignored.
 
     Examples
     --------

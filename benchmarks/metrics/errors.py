@@ -8,24 +8,13 @@ import numpy as np
 from ..constants import RELMSE_EPS
 from ._checks import as_image, masked_mean, nan_mask, positive_spp, same_shape
 
-__all__ = ["mse", "rmse", "relmse", "reference_noise", "mse_corrected", "relmse_corrected"]
+__all__ = ["mse", "rmse", "relmse", "mse_corrected", "relmse_corrected"]
 
 
 def mse(img, ref, *, nan_policy: str = "propagate") -> float:
     r"""Mean squared error over all pixels and channels.
 
     .. math:: \mathrm{MSE} = \frac{1}{HWC} \sum_{p,c} (x_{pc} - r_{pc})^2
-
-    Parameters
-    ----------
-    img, ref : array_like, shape (H, W) or (H, W, C)
-        Test image and reference, linear radiance, same shape.
-    nan_policy : {'propagate', 'omit', 'raise'}
-        See :mod:`benchmarks.metrics`.
-
-    Returns
-    -------
-    float
 
     Examples
     --------
@@ -70,23 +59,8 @@ def relmse(img, ref, *, eps: float = RELMSE_EPS, nan_policy: str = "propagate") 
     return masked_mean((x - r) ** 2 / (r * r + eps), mask)
 
 
-def reference_noise(ref_var, ref_spp, *, nan_policy: str = "propagate") -> float:
-    r"""Mean variance of the reference's pixel means, :math:`\overline{\sigma^2_{ref}} / N_{ref}`.
-
-    This is how much the reference's own Monte Carlo noise adds to the expected MSE of
-    any image measured against it.
-
-    Examples
-    --------
-    >>> reference_noise([[2.0, 4.0]], 100)
-    0.03
-    """
-    v = as_image(ref_var, "ref_var")
-    return masked_mean(_noise_of_means(v, ref_spp), nan_mask(nan_policy, ref_var=v))
-
-
 def _noise_of_means(v: np.ndarray, ref_spp) -> np.ndarray:
-    """The variance of the reference's pixel means, ``ref_var / ref_spp`` (both checked)."""
+    """``ref_var / ref_spp``, both checked."""
     n = positive_spp(ref_spp, "ref_spp")
     if np.any(v < 0):
         raise ValueError("ref_var has negative entries")
@@ -101,32 +75,13 @@ def _corrected_terms(img, ref, ref_var, ref_spp, nan_policy) -> tuple:
 
 
 def mse_corrected(img, ref, ref_var, ref_spp, *, nan_policy: str = "propagate") -> float:
-    r"""MSE against the *true* image, estimated by removing the reference's own noise.
-
-    A reference ``R`` rendered at :math:`N_{ref}` spp is itself noisy. For a test image
-    ``X`` independent of it,
-
-    .. math:: E[(X - R)^2] = E[(X - \mu)^2] + \mathrm{Var}(R),
-              \qquad \mathrm{Var}(R) = \sigma^2_{ref} / N_{ref},
-
-    so the plain MSE is biased *up* by the reference noise. This returns
+    r"""MSE against the *true* image: the plain MSE less the reference's own noise,
 
     .. math:: \mathrm{MSE}_{corr} = \mathrm{MSE}(X, R)
               - \frac{1}{HWC}\sum_{p,c} \frac{\sigma^2_{ref,pc}}{N_{ref}},
 
-    an unbiased estimate of the MSE against the noise-free image (given an unbiased
-    per-sample ``ref_var``). **It is a reference-noise correction**: it can come out
-    slightly negative when the test image is nearly perfect or the reference is very
-    noisy; it is deliberately not clipped (clipping would bias averages over seeds).
-
-    Parameters
-    ----------
-    img, ref : array_like
-        Test image and reference mean, same shape.
-    ref_var : array_like
-        Per-sample variance of the reference, same shape.
-    ref_spp : int
-        Samples per pixel of the reference.
+    unbiased for an independent test image (:math:`E[(X - R)^2] = E[(X - \mu)^2] +
+    \mathrm{Var}(R)`); not clipped at zero (clipping would bias averages over seeds).
 
     Examples
     --------
@@ -143,8 +98,7 @@ def relmse_corrected(img, ref, ref_var, ref_spp, *, eps: float = RELMSE_EPS, nan
     .. math:: \mathrm{relMSE}_{corr} = \frac{1}{HWC}\sum_{p,c}
               \frac{(x_{pc} - r_{pc})^2 - \sigma^2_{ref,pc} / N_{ref}}{r_{pc}^2 + \epsilon}
 
-    As :func:`mse_corrected` for MSE (the weights are taken at the noisy reference, as
-    :func:`relmse` takes them); not clipped at zero.
+    The weights are taken at the noisy reference, as :func:`relmse` takes them; not clipped.
 
     Examples
     --------

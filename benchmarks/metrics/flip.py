@@ -18,12 +18,8 @@ _MODULE = None
 
 
 def _module():
-    """``flip_evaluator``, imported once with one OpenMP thread.
-
-    Its bundled OpenMP runtime reads ``OMP_NUM_THREADS`` when it loads; one thread is
-    15-20x faster on small images on a busy machine, where idle OpenMP workers spin.
-    ``ImportError`` with the install command when the package is missing.
-    """
+    """``flip_evaluator``, imported once with ``OMP_NUM_THREADS=1`` (its OpenMP runtime reads it on
+    load; one thread is 15-20x faster on small images on a busy machine)."""
     global _MODULE
     if _MODULE is None:
         before = os.environ.get("OMP_NUM_THREADS")
@@ -53,42 +49,26 @@ def flip_available() -> bool:
 def flip(img, ref, *, exposure: float | None = None, error_map: bool = False, nan_policy: str = "propagate"):
     r"""Mean LDR-FLIP error of the *display* images (0 = identical, 1 = the largest difference).
 
-    FLIP (Andersson, Nilsson, Akenine-Möller, Oskarsson, Åström and Fairchild, "FLIP: A
-    Difference Evaluator for Alternating Images", Proc. ACM Comput. Graph. Interact. Tech.
-    3(2), 2020; NVIDIA's ``flip-evaluator`` package) models what a viewer sees when
-    flipping between two images at ``ppd`` = 67 pixels per degree. Per pixel,
+    FLIP (Andersson et al., Proc. ACM Comput. Graph. Interact. Tech. 3(2), 2020; NVIDIA's
+    ``flip-evaluator``) at 67 pixels per degree, per pixel
 
     .. math:: \mathrm{FLIP} = \Delta E_c^{\,1 - \Delta E_f},
 
-    where :math:`\Delta E_c` is the colour difference (HyAB distance in a Hunt-adjusted
-    L*a*b* space after filtering both images with the contrast sensitivity functions,
-    normalised to [0, 1]) and :math:`\Delta E_f` the feature difference (edges and points,
-    from Gaussian-derivative filters of the luminance, in [0, 1]). The metric is the mean
-    over pixels.
-
-    The images are tone-mapped as for :func:`benchmarks.metrics.ssim`: exposure ``k`` from
-    the reference (:func:`benchmarks.display.exposure_from_reference` unless given), scaled
-    by ``k``, clipped to [0, 1], sRGB-encoded; FLIP then runs in its LDR mode on them.
+    :math:`\Delta E_c` the colour difference (HyAB, CSF-filtered), :math:`\Delta E_f` the
+    feature difference, both in [0, 1]; the mean over pixels, in LDR mode, of the images
+    tone-mapped as for :func:`benchmarks.metrics.ssim`.
 
     Parameters
     ----------
     img, ref : array_like
         Linear radiance, (H, W, 3) (or (H, W): grey, repeated to RGB).
-    exposure : float, optional
-        The scale ``k`` (default: from the reference).
-    error_map : bool, keyword-only
-        Also return the per-pixel FLIP map, (H, W) in [0, 1].
-    nan_policy : {'propagate', 'raise'}
-        A NaN pixel gives NaN (and a NaN map) or raises; 'omit' is not supported.
+    exposure, error_map, nan_policy : keyword-only
+        The display scale (default: from the reference); also return the per-pixel map, (H, W)
+        in [0, 1]; ``'propagate'`` or ``'raise'`` (``'omit'`` is not supported).
 
     Returns
     -------
     float, or (float, ndarray) with ``error_map``
-
-    Raises
-    ------
-    ImportError
-        When the ``flip-evaluator`` package is not installed.
 
     Examples
     --------

@@ -1,11 +1,7 @@
-"""The error metrics a summary reports, and a summary row read under one of them.
+"""The error metrics a summary reports (:data:`SPECS`, ``--metric``), and a summary row read under one.
 
-:data:`SPECS` names each metric of ``--metric`` (its label, the record field it comes from,
-its unbiased convergence slope and its target); :func:`view` reads a row of
-``summary.json`` under one metric (the sweep writes the figures of every metric in the
-row's ``by_metric``: :mod:`benchmarks.sweep.by_metric`), and :func:`cost_status` says
-where a row's efficiency must not be shown. The sweep, the commands and the report all
-read the summary through these.
+:func:`view` reads a ``summary.json`` row under one metric (the sweep writes every metric's figures
+in the row's ``by_metric``); :func:`cost_status` says where a row's efficiency must not be shown.
 
 Examples
 --------

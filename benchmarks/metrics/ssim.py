@@ -16,26 +16,18 @@ _SSIM_WINDOW = 2 * int(3.5 * 1.5 + 0.5) + 1  # = 11
 def ssim(img, ref, *, exposure: float | None = None, nan_policy: str = "propagate") -> float:
     r"""Structural similarity of the *display* images.
 
-    Steps: exposure ``k`` from the reference
-    (:func:`benchmarks.display.exposure_from_reference` unless given), both images scaled
-    by ``k``, clipped to [0, 1], sRGB-encoded with colour-science
-    (:func:`benchmarks.display.to_display`, NaN kept), then::
+    Both images scaled by ``exposure`` (default
+    :func:`benchmarks.display.exposure_from_reference`), clipped to [0, 1] and sRGB-encoded
+    (:func:`benchmarks.display.to_display`), then::
 
         skimage.metrics.structural_similarity(x, r, data_range=1.0, channel_axis=-1,
             gaussian_weights=True, sigma=1.5, use_sample_covariance=False)
 
     (``channel_axis=None`` for single-channel ``(H, W)`` images). 1 means identical.
 
-    Small images: with ``sigma=1.5`` scikit-image uses an 11 x 11 Gaussian window and
-    rejects images whose smaller side is below 11. Here images with smaller side ``s``,
-    ``3 <= s < 11``, are compared with ``win_size`` set to the largest odd number
-    ``<= s`` (the Gaussian weights are unchanged; only the border crop shrinks), so tiny
-    test renders still get a number. Below 3 pixels SSIM is meaningless: the result is
-    NaN with a ``RuntimeWarning``.
-
-    NaN policy: ``'propagate'`` (default) returns NaN if any input pixel is NaN;
-    ``'raise'`` raises; ``'omit'`` is not supported (a window statistic cannot skip
-    pixels) and raises ``ValueError``.
+    An image whose smaller side ``s`` is below the 11-pixel window gets ``win_size`` the
+    largest odd number ``<= s``; below 3 the result is NaN with a ``RuntimeWarning``.
+    ``nan_policy='omit'`` is not supported (a window cannot skip pixels).
 
     Examples
     --------

@@ -1,14 +1,15 @@
 """The catalogue of seeded bugs ("mutants"): what each breaks and where it is tested.
 
-Each mutant is written into the tracer's C++ sources (``reference_tracer/cpp/mutants.h``:
-one ``if constexpr`` at the place where the bug would be made), compiled into the
-self-test's own extension module (never into the tracer's) and selectable only through
-:func:`reference_tracer.testing.render_mutant`. Each is tested on one scene with one
-strategy, chosen so that the bug changes the image there: several real bugs are invisible
-in most scenes (a wrong pdf used consistently in both MIS weights cancels; the 1/eta^2 of
-refraction cancels on closed glass lit from outside; a two-sided light changes nothing
-where no one sees its back), and a self-test that only confirmed the obvious ones would
-overstate the gate's power. The order is the module's (:func:`reference_tracer.testing.mutant_names`).
+Each mutant is one ``if constexpr`` in ``reference_tracer/cpp/mutants.h``, compiled into the
+self-test's own extension module only. Each is tested on one scene and strategy where the bug
+changes the image: several real bugs cancel in most scenes (a wrong pdf in both MIS weights,
+the 1/eta^2 of refraction on closed glass, a two-sided light whose back no one sees).
+
+Three scenes are the self-test's own (:data:`SELFTEST_SCENES`, each with a cached Mitsuba
+reference): ``cornell_box_rr3`` (roulette from depth 3, for ``roulette_no_reweight``),
+``hanging_lamp`` (the ceiling light lowered to ``y = 450`` over a diffuser plate 2 units under
+it, for ``two_sided_light`` and ``shadow_epsilon_leak``) and ``glass_lamp`` (the light embedded
+in a glass slab, for ``glass_no_eta_scale``).
 
 Examples
 --------
@@ -17,19 +18,26 @@ Examples
 True
 >>> mutant("max_depth_off_by_one").scene
 'furnace'
+>>> selftest_scene("cornell_box_rr3", width=8).rr_depth
+3
 """
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-__all__ = ["Mutant", "CATALOGUE", "mutant", "resolve_mutants"]
+import reference_tracer as rt
+from mitsuba_scenes import get_scene, list_scenes
+from mitsuba_scenes.scenes.cornell_box import WHITE, camera, ceiling_light, room, short_box, tall_box
+
+from ..gate.suite import gate_scene, names_of
+
+__all__ = ["Mutant", "CATALOGUE", "mutant", "resolve_mutants", "SELFTEST_SCENES", "selftest_scene", "is_suite_scene"]
 
 
 @dataclass(frozen=True)
 class Mutant:
-    """One seeded bug: ``name`` (the core's), ``description`` (the bug, one line),
-    ``breaks`` (which part of the estimator it breaks and how the image changes),
-    ``scene`` and ``strategy`` it is tested with, and ``why`` that scene and strategy."""
+    """One seeded bug: the core's ``name``, the bug, what it ``breaks``, the ``scene`` and
+    ``strategy`` it is tested with and ``why``."""
 
     name: str
     description: str
@@ -136,13 +144,63 @@ def mutant(name: str) -> Mutant:
 
 
 def resolve_mutants(mutants=None) -> list:
-    """Catalogue entries by name (None: all; a string may be comma-separated), de-duplicated,
-    in the order given."""
+    """Catalogue entries by name (None: all; a string may be comma-separated), de-duplicated."""
     if mutants is None:
         return list(CATALOGUE)
-    if isinstance(mutants, str):
-        mutants = [m.strip() for m in mutants.split(",") if m.strip()]
-    names = list(dict.fromkeys(mutants))
+    names = names_of(mutants)
     if not names:
         raise ValueError("no mutant selected")
     return [mutant(n) for n in names]
+
+
+#: height of the lowered light of ``hanging_lamp``; the diffuser plate hangs 2 units under it.
+HANGING_LIGHT_Y = 450.0
+PLATE_GAP = 2.0
+#: the glass slab of ``glass_lamp`` and the height of the light inside it.
+GLASS_SLAB = ((203.0, 535.0, 217.0), (353.0, 552.0, 342.0))
+GLASS_LIGHT_Y = 545.0
+GLASS_IOR = 1.5
+
+
+def _cornell_box_rr3(width: int, height: int) -> rt.Scene:
+    return get_scene("cornell_box", width=width, height=height, rr_depth=3)
+
+
+def _hanging_lamp(width: int, height: int) -> rt.Scene:
+    x, z = (213.0, 343.0), (227.0, 332.0)  # the cornell_box light's extent
+    w, d = x[1] - x[0], z[1] - z[0]
+    plate = rt.Quad((x[0] + w / 4, HANGING_LIGHT_Y - PLATE_GAP, z[0] + d / 4), (w / 2, 0, 0), (0, 0, d / 2),
+                    rt.Lambertian(WHITE))  # normal u x v = -y: faces the room, like the light
+    return rt.Scene(camera=camera(width, height),
+                    shapes=[*room(), ceiling_light(x=x, z=z, y=HANGING_LIGHT_Y), plate, tall_box(), short_box()],
+                    max_depth=50)
+
+
+def _glass_lamp(width: int, height: int) -> rt.Scene:
+    slab = rt.Box(GLASS_SLAB[0], GLASS_SLAB[1], rt.Dielectric(GLASS_IOR))
+    return rt.Scene(camera=camera(width, height),
+                    shapes=[*room(), ceiling_light(y=GLASS_LIGHT_Y), slab, tall_box(), short_box()],
+                    max_depth=50)
+
+
+#: self-test scene name -> builder(width, height).
+SELFTEST_SCENES = {
+    "cornell_box_rr3": _cornell_box_rr3,
+    "hanging_lamp": _hanging_lamp,
+    "glass_lamp": _glass_lamp,
+}
+
+
+def is_suite_scene(name: str) -> bool:
+    return name in list_scenes()
+
+
+def selftest_scene(name: str, *, width: int, height: int | None = None) -> rt.Scene:
+    """Scene ``name`` at ``width`` x ``height`` (default square): a suite scene as the gate
+    builds it (:func:`benchmarks.gate.gate_scene`) or one of :data:`SELFTEST_SCENES`."""
+    height = width if height is None else height
+    if name in SELFTEST_SCENES:
+        return SELFTEST_SCENES[name](width, height)
+    if is_suite_scene(name):
+        return gate_scene(name, width=width, height=height)
+    raise ValueError(f"unknown self-test scene {name!r}")

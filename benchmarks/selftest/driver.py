@@ -1,24 +1,9 @@
-"""The self-test driver: each mutant rendered and judged by the gate and by Mitsuba's rule.
+"""The self-test driver (:func:`run_selftest`): each mutant rendered and judged by the gate and by Mitsuba's rule.
 
-For each mutant of the catalogue (:mod:`benchmarks.selftest.catalogue`) :func:`run_selftest`
-
-1. builds its scene at the gate's size and fetches the scene's reference as the gate does
-   (the closed form of ``furnace``, else the cached Mitsuba render at ``ref_spp``,
-   rendered first when missing);
-2. fetches the *mutant's own* tail reference (:func:`benchmarks.tails.tail_reference` with
-   ``render=`` the mutant and ``variant=`` its name): the variance and tail shape of the
-   estimator under test, as the gate always uses its own estimator's;
-3. renders the mutant with the gate's seed at each budget of ``spp_ladder`` up to ``spp``
-   (the gate's default budget) and compares each render with the reference by
-   :func:`benchmarks.gate.compare` at the per-comparison level of a default gate run of
-   the quick suite (``GATE_ALPHA / 8``), and by Mitsuba's own rule
-   (:func:`benchmarks.gate.mitsuba_rule`, at its own ``alpha = 0.01`` per image);
-4. records the verdict at ``spp`` and the smallest budget at which each rule caught the bug.
-
-A mutant is *caught* by the gate when the verdict is ``'fail'`` (``'undetermined'`` is not
-a catch: it says the test could not decide at that budget). With ``controls=True`` the unmutated tracer is judged the
-same way on each (scene, strategy) used, at ``spp``: a rule that also fails the tracer
-there has not shown that it caught the bug (the table shows the control beside each row).
+Each mutant is judged with its *own* tail reference at each budget of the ladder up to ``spp``, by
+:func:`benchmarks.gate.compare` at ``GATE_ALPHA / 8`` (caught: ``'fail'``; ``'undetermined'`` is
+not a catch) and by :func:`benchmarks.gate.mitsuba_rule`; the controls judge the unmutated tracer
+the same way (a rule that fails the tracer there has not shown that it caught the bug).
 """
 from __future__ import annotations
 
@@ -29,13 +14,11 @@ from reference_tracer.testing import mutants_build_id, render_mutant
 from reference_tracer.validation import SEED_MAX, positive_int
 
 from ..constants import GATE_ALPHA
-from ..gate.mitsuba_rule import MITSUBA_ALPHA, mitsuba_rule
-from ..gate.power import QUICK_SUITE_COMPARISONS
+from ..gate.power import MITSUBA_ALPHA, QUICK_SUITE_COMPARISONS, mitsuba_rule
 from ..gate.suite import DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_WIDTH, compare_render, gate_reference
 from ..references import reference
 from ..tails import DEFAULT_TAIL_SPP, tail_reference
-from .catalogue import resolve_mutants
-from .scenes import is_suite_scene, selftest_scene
+from .catalogue import is_suite_scene, resolve_mutants, selftest_scene
 
 __all__ = ["DEFAULT_SPP_LADDER", "DEFAULT_CASE_ALPHA", "SelftestReport", "ladder", "run_selftest",
            "scene_reference"]
@@ -48,8 +31,7 @@ DEFAULT_CASE_ALPHA = GATE_ALPHA / QUICK_SUITE_COMPARISONS
 
 @dataclass
 class SelftestReport:
-    """The rows of :func:`run_selftest` (one dict per mutant, see there), the controls
-    (``(scene, strategy) -> dict`` for the unmutated tracer) and the run's figures."""
+    """The rows of :func:`run_selftest`, the controls (``(scene, strategy) -> dict``) and the run's figures."""
 
     rows: list
     controls: dict = field(default_factory=dict)
@@ -96,11 +78,9 @@ def ladder(spp: int, spp_ladder=DEFAULT_SPP_LADDER) -> list:
 
 
 def scene_reference(name: str, scene, *, ref_spp: int, threads=None, cache=None, log=None):
-    """The reference of a self-test scene: as the gate's for suite scenes (closed form or
-    cached Mitsuba render), the cached Mitsuba render for the self-test's own scenes."""
+    """The reference of a self-test scene: the gate's for suite scenes, else the cached Mitsuba render."""
     if is_suite_scene(name):
         return gate_reference(name, scene, ref_spp=ref_spp, threads=threads, cache=cache, log=log)
-
     return reference(scene, spp=ref_spp, threads=threads, cache=cache, log=log)
 
 
@@ -120,40 +100,24 @@ def run_selftest(mutants=None, *, spp: int = DEFAULT_SPP, width: int = DEFAULT_W
     ----------
     mutants : sequence of str, str or None
         Mutant names (None: the whole catalogue; a string may be comma-separated).
-    spp : int, keyword-only
-        The budget of the verdict (default: the gate's, 4096).
-    width : int, keyword-only
-        Image width and height (default: the gate's, 32).
-    ref_spp, tail_spp : int, keyword-only
-        Samples per pixel of the Mitsuba references and of the mutants' tail references.
+    spp, width, ref_spp, tail_spp, seed : int, keyword-only
+        The verdict's budget, the image side, the references' and tail references' spp and the
+        renders' seed (defaults: the gate's).
     spp_ladder : sequence of int, keyword-only
-        Budgets below ``spp`` at which each mutant is judged too (see :func:`ladder`).
+        Budgets below ``spp`` at which each mutant is judged too (:func:`ladder`).
     alpha : float, keyword-only
-        Level of each gate comparison (default: that of a default quick-suite gate run).
-    seed : int, keyword-only
-        Seed of the renders under test (the gate's).
+        Level of each gate comparison.
     controls : bool, keyword-only
         Also judge the unmutated tracer on each (scene, strategy) at ``spp``.
-    threads, cache : keyword-only
-        Rendering threads (None: all cores) and cache root of references and tail references.
-    on_row : callable, keyword-only
-        Called with each row as it completes.
-    log : callable, keyword-only
-        Called with a line of progress text.
+    threads, cache, on_row, log : keyword-only
+        Rendering threads, cache root, a callable taking each row and one taking a progress line.
 
     Returns
     -------
     SelftestReport
-        ``rows``: one dict per mutant with keys ``mutant``, ``description``, ``breaks``,
-        ``scene``, ``strategy``, ``why``, ``width``, ``spp``, ``seed``, ``alpha``, ``verdict``
-        (the gate's at ``spp``), ``reason``, ``caught`` (verdict == 'fail'), ``p_value``,
-        ``relative_bias``, ``relative_bias_se``, ``worst_tile_relative_bias``,
-        ``min_detectable_bias``, ``min_detectable_tile_bias``, ``caught_by_mitsuba_rule``,
-        ``mitsuba_fraction_passed``, ``smallest_spp_caught``,
-        ``smallest_spp_caught_by_mitsuba_rule`` (None: not caught at any budget), ``ladder``
-        (per budget: ``spp``, ``verdict``, ``p_value``, ``caught_by_mitsuba_rule``),
-        ``reference``, ``reference_spp``, ``tail_spp``, ``control_verdict`` and
-        ``control_caught_by_mitsuba_rule`` (None without controls), ``seconds``.
+        One row (dict) per mutant: its catalogue entry, the gate's ``verdict`` at ``spp`` and
+        figures, ``caught`` (verdict 'fail'), ``caught_by_mitsuba_rule``, the smallest budget
+        each caught it at (None: none), the ``ladder`` of verdicts and the control's verdicts.
     """
     selected = resolve_mutants(mutants)
     spp = positive_int("spp", spp, minimum=2)

@@ -26,7 +26,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.commands._gate_tables import format_table
 from benchmarks.constants import GATE_ALPHA
 from benchmarks.gate import DEFAULT_SPP, INJECTIONS, QUICK_SUITE_COMPARISONS, power_row, run_gate
 
@@ -74,7 +73,10 @@ def test_false_alarms_100_seeds(tmp_path_factory):
 def power_rows():
     """Each injection once at the gate's default spp, seed 1; Mitsuba references from the shared cache."""
     rows = [power_row(name, seed=1, spp=DEFAULT_SPP, threads=THREADS) for name in INJECTIONS]
-    print("\n" + format_table(rows))
+    for r in rows:
+        print(f"\n{r.injection} ({r.scene}): ours p = {r.p_value:.2g} ({', '.join(r.failed_levels) or '-'}), "
+              f"bias {r.relative_bias:+.2%} +- {r.relative_bias_se:.2%}; Mitsuba's rule "
+              f"{'caught' if r.mitsuba_caught else 'passed'} ({r.mitsuba_failed_fraction:.2%} failed)")
     return {r.injection: r for r in rows}
 
 

@@ -17,7 +17,7 @@ import pytest
 from scipy import stats
 
 import reference_tracer as rt
-from benchmarks.gate import calibrate, clopper_pearson, compare, edgeworth_error, spp_needed
+from benchmarks.gate import calibrate, compare, edgeworth_error, spp_needed
 from benchmarks.tails import tail_reference
 from mitsuba_scenes import get_scene
 
@@ -153,10 +153,21 @@ def test_tail_reference_is_cached_and_checked(tmp_path):
     assert np.array_equal(c.moments.m2, a.moments.m2)  # same seed, same build: the same render
 
 
-def test_clopper_pearson_covers_the_rate():
-    lo, hi = clopper_pearson(1, 100)
-    assert lo < 0.01 < hi
-    assert clopper_pearson(0, 20)[0] == 0.0
+def test_calibration_row_interval_is_exact_and_covers_the_rate():
+    from types import SimpleNamespace
+
+    from benchmarks.gate.calibration import _row
+
+    def results(fails, n):
+        return [SimpleNamespace(verdict="fail" if k < fails else "pass", spp_needed=None, min_detectable_bias=0.01)
+                for k in range(n)]
+
+    row = _row("s", "mis", 64, 0.01, results(1, 100))
+    assert row.ci_low < 0.01 < row.ci_high and row.consistent
+    assert _row("s", "mis", 64, 0.01, results(0, 20)).ci_low == 0.0
+    row = _row("s", "mis", 64, 0.01, results(0, 100))
+    assert round(row.ci_high, 4) == 0.0362  # Clopper-Pearson's upper bound for 0 of 100
+    assert not _row("s", "mis", 64, 0.01, results(5, 10)).consistent
 
 
 @pytest.fixture(scope="module")
