@@ -17,9 +17,11 @@ Ray queries
       has vertex normals; ``uv``, Mitsuba's texture coordinates, and ``reflectance``, the
       material's reflectance there, where a material has a texture), ``seconds``, ``packet_rays``, ``chunk``, ``chunk_offset``;
     - ``occluded(origins, directions, t_max, wavefront=False)``: (N,) uint8;
-    - ``sample_lights(refs, u, wavefront=False)``: light sampling from points ``refs`` with
+    - ``sample_lights(refs, u, width=1)``: light sampling from points ``refs`` with
       uniforms ``u`` (N, 3): dict ``wi``, ``pdf``, ``pdf_all``, ``dist``, ``valid`` and the
-      radiance fields;
+      radiance fields; ``width`` points at a time, one of ``LANE_WIDTHS`` (1: the scalar
+      integrator's sampler, more: the packs of the wavefront one; every width must give
+      width 1's samples bit for bit);
     - ``light_pdf(refs, dirs)``: density of light sampling (every emitter and the background);
     - ``packet_order(origins, directions)``: how ``intersect`` gathers rays into packets;
     - properties ``primitive_count``, ``emitter_count``, ``bvh_nodes``, ``bvh_depth``,
@@ -38,8 +40,10 @@ Layout of the core
     :func:`child_visit_order` and the constants ``PACK_WIDTH`` (rays per pack of the
     batched queries: 8 in AVX-512 builds, else 4), ``PACKET_RAYS`` (rays per packet of
     coherent rays), ``RAY_CHUNK`` (rays a thread of ``intersect`` orders into packets at a
-    time) and ``CACHED_TREE_BYTES`` (trees above it are traversed without prefetching),
-    read from the compiled core on first access.
+    time), ``CACHED_TREE_BYTES`` (trees above it are traversed without prefetching) and
+    ``LANE_WIDTHS`` (the widths, in lanes of doubles, that the core's routines over a lane
+    type are compiled for, 1 being the scalar one: ``(1, 4, 8)``), read from the compiled
+    core on first access.
 
 Examples
 --------
@@ -81,6 +85,8 @@ def __getattr__(name: str):
     # The layout constants live in the compiled core; reading one loads it.
     if name in _CORE_CONSTANTS:
         return int(getattr(_core(), name))
+    if name == "LANE_WIDTHS":
+        return tuple(int(w) for w in _core().LANE_WIDTHS)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

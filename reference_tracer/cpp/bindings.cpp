@@ -742,30 +742,51 @@ public:
         return to_numpy(std::move(out), {n});
     }
 
-    // Light sampling from N reference points with uniform numbers u (N, 3). wavefront: as
-    // the wavefront integrator samples them (a pack of points at a time where the lights
-    // are one quad, one sphere or several spheres: LightSampler::sample_packed), to compare
-    // with sample().
-    nb::dict sample_lights(const Matrix& refs, const Matrix& u, bool wavefront) const {
+    // LightSampler::sample_pack on packs of lanes F over the rows of refs and u.
+    template <typename F>
+    void sample_lights_in_packs(const Matrix& refs, const Matrix& u, std::vector<rt::LightSample>& out) const {
+        constexpr int kWidth = rt::kLanesOf<F>;
+        const int n = static_cast<int>(out.size());
+        for (int base = 0; base < n; base += kWidth) {
+            const int m = std::min(kWidth, n - base);
+            F ref[3], ui[3];
+            for (int l = 0; l < kWidth; ++l) {
+                const size_t i = size_t(base + (l < m ? l : 0));
+                for (int a = 0; a < 3; ++a) {
+                    ref[a][l] = refs(i, a);
+                    ui[a][l] = u(i, a);
+                }
+            }
+            const rt::LightSampleLanes<F> pack = scene_->lights().sample_pack(ref, ui, (1u << m) - 1u);
+            for (int l = 0; l < m; ++l) out[size_t(base + l)] = pack.lane(l);
+        }
+    }
+
+    // Light sampling from N reference points with uniform numbers u (N, 3), `width` points
+    // at a time: 1 runs LightSampler::sample() point by point (the scalar integrator's);
+    // a width of rt::kLaneWidths above 1 runs LightSampler::sample_pack on packs of that
+    // many lanes (the wavefront integrator's at kPackWidth), absent lanes of the last pack
+    // repeating its first point. A testing seam: every width must give width 1's samples.
+    nb::dict sample_lights(const Matrix& refs, const Matrix& u, int width) const {
         require_columns(refs, 3, "refs");
         require_columns(u, 3, "u");
         if (refs.shape(0) != u.shape(0)) throw std::invalid_argument("refs and u differ in length");
         const size_t n = refs.shape(0);
         std::vector<double> wi(3 * n, 0.0), pdf(n, 0.0), dist(n, 0.0), pdf_all(n, 0.0), radiance(3 * n, 0.0);
         std::vector<uint8_t> valid(n, 0), delta(n, 0);
-        std::vector<rt::LightSample> packed;
-        if (wavefront && scene_->lights().packed_sampling()) {
-            packed.resize(n);
-            scene_->lights().sample_packed(static_cast<int>(n), [&](int i) {
-                const std::array<double, 3> ui = {u(i, 0), u(i, 1), u(i, 2)};
-                return std::tuple<rt::Vec3, std::array<double, 3>, rt::LightSample*>(row3(refs, size_t(i), 0), ui,
-                                                                                    &packed[size_t(i)]);
-            });
+        std::vector<rt::LightSample> samples(n);
+        if (width == 1) {
+            for (size_t i = 0; i < n; ++i) samples[i] = scene_->lights().sample(row3(refs, i, 0), u(i, 0), u(i, 1), u(i, 2));
+        } else if (width == 4) {
+            sample_lights_in_packs<rt::Vd<4>>(refs, u, samples);
+        } else if (width == 8) {
+            sample_lights_in_packs<rt::Vd<8>>(refs, u, samples);
+        } else {
+            throw std::invalid_argument("width must be one of LANE_WIDTHS (1, 4, 8)");
         }
         for (size_t i = 0; i < n; ++i) {
             const rt::Vec3 ref = row3(refs, i, 0);
-            const rt::LightSample ls =
-                packed.empty() ? scene_->lights().sample(ref, u(i, 0), u(i, 1), u(i, 2)) : packed[i];
+            const rt::LightSample& ls = samples[i];
             valid[i] = ls.valid;
             delta[i] = ls.delta;
             if (!ls.valid) continue;
@@ -850,6 +871,7 @@ NB_MODULE(_core, m) {
 #endif
     // Rays per pack of the batched scene queries (simd.h): 8 in AVX-512 builds, else 4.
     m.attr("PACK_WIDTH") = rt::kPackWidth;
+    m.attr("LANE_WIDTHS") = nb::make_tuple(rt::kLaneWidths[0], rt::kLaneWidths[1], rt::kLaneWidths[2]);
     m.attr("PACKET_RAYS") = rt::kPacketRays;  // rays per packet of coherent rays in intersect()
     m.attr("RAY_CHUNK") = kRayChunk;           // rays a thread of intersect() orders into packets at a time
     // Trees above this many bytes are traversed without prefetching pushed children.
@@ -906,7 +928,7 @@ NB_MODULE(_core, m) {
              "preliminary"_a = false)
         .def("packet_order", &PyScene::packet_order, "origins"_a, "directions"_a)
         .def("occluded", &PyScene::occluded, "origins"_a, "directions"_a, "t_max"_a, "wavefront"_a = false)
-        .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a, "wavefront"_a = false)
+        .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a, "width"_a = 1)
         .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)
         .def("background", &PyScene::background, "dirs"_a)
         .def_prop_ro("primitive_count", &PyScene::primitive_count)

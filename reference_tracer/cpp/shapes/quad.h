@@ -114,10 +114,16 @@ struct Quad {
         return lane_mask(((num < 0.0) & (far > -margin)) | ((num > 0.0) & (far < -margin)));
     }
 
-    // The point (a, b) of the unit square mapped onto the quad: uniform in area.
+    // The point p of the quad at (a, b) of the unit square: uniform in area. F: double, or
+    // lanes of points (simd.h), each lane computing what the double does.
+    template <typename F>
+    void point(F a, F b, F (&p)[3]) const {
+        for (int k = 0; k < 3; ++k) p[k] = mul_add(b, as_lanes(v[k], a), mul_add(a, as_lanes(u[k], a), as_lanes(Q[k], a)));
+    }
     Vec3 point(double a, double b) const {
-        return {mul_add(b, v.x, mul_add(a, u.x, Q.x)), mul_add(b, v.y, mul_add(a, u.y, Q.y)),
-                mul_add(b, v.z, mul_add(a, u.z, Q.z))};
+        double p[3];
+        point(a, b, p);
+        return {p[0], p[1], p[2]};
     }
 };
 

@@ -1,0 +1,76 @@
+"""The core's routines written once over a lane type, at every compiled width.
+
+The C++ core writes each routine that runs on one sample and on a pack of samples once,
+over its lane type (simd.h: double, or a pack of 4 or 8 doubles), and instantiates it per
+width: the scalar integrator runs width 1, the wavefront one the build's ``PACK_WIDTH``.
+Every lane does width 1's operations in its order, so each width must give width 1's
+results bit for bit. The probes run each width on the same inputs (``probe.LANE_WIDTHS``,
+``reference_tracer/cpp/bindings.cpp``: a testing seam) and compare every lane with width 1.
+"""
+import numpy as np
+import pytest
+
+import reference_tracer as rt
+from mitsuba_scenes import SUITE, get_scene
+from reference_tracer import probe
+from reference_tracer.probe import core_scene
+
+PACK_WIDTHS = (4, 8)  # LANE_WIDTHS above 1 (test_the_compiled_widths_are_one_and_the_packs)
+
+
+def test_the_compiled_widths_are_one_and_the_packs():
+    assert probe.LANE_WIDTHS == (1, 4, 8)
+    assert probe.PACK_WIDTH in probe.LANE_WIDTHS
+
+
+def _light_sampling_inputs(scene):
+    """Reference points and uniforms for light sampling: points all over and beyond the
+    scene, on a quad light's plane, at its corners (where the sampled point can be the
+    reference point itself: distance 0) and behind it; on, inside and just outside a
+    sphere light (area sampling there, cone sampling outside)."""
+    rng = np.random.default_rng(7)
+    n = 4001  # not a multiple of any pack width: the last pack is partial
+    refs = rng.uniform(-700.0, 1300.0, (n, 3))
+    u = rng.random((n, 3))
+    lights = [s for s in scene.shapes if isinstance(s, rt.Quad) and isinstance(s.material, rt.DiffuseLight)]
+    special = []
+    for q in lights:
+        Q, a, b = (np.asarray(x, dtype=float) for x in (q.Q, q.u, q.v))
+        normal = np.cross(a, b) / np.linalg.norm(np.cross(a, b))
+        for p in (Q, Q + a, Q + b, Q + a + b, Q + 0.5 * a + 0.5 * b):
+            special += [p, p + normal, p - normal, p + 1e-9 * normal]
+    spheres = [s for s in scene.shapes if isinstance(s, rt.Sphere) and isinstance(s.material, rt.DiffuseLight)]
+    for sph in spheres:
+        c, r = np.asarray(sph.center, dtype=float), float(sph.radius)
+        dirs = rng.normal(size=(600, 3))
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        scale = rng.choice([0.0, 0.3, 0.999, 1.0, 1.0, 1.0, 1.0 + 1e-12, 1.5], size=(600, 1))
+        special += list(c + r * scale * dirs)
+    if special:
+        refs[: len(special)] = special
+        u[: len(special), 1:] = 0.0  # the sampled point is Q: at the corner Q, distance 0
+        if spheres:  # random uniforms for the sphere points (u = 0 is the pole)
+            u[len(special) - 600 * len(spheres): len(special)] = rng.random((600 * len(spheres), 3))
+    return np.ascontiguousarray(refs), np.ascontiguousarray(u), bool(lights)
+
+
+@pytest.mark.parametrize("width", PACK_WIDTHS)
+@pytest.mark.parametrize("name", SUITE)
+def test_light_samples_at_every_width_equal_width_one(name, width):
+    # LightSampler::sample_pack: the quad light of every Cornell box, the sphere lights of
+    # `furnace` (inside: by area) and `glossy_plates` (outside: the cone), sample()'s
+    # bodies on the pack (Quad::point, sphere_point, area_sample); the other scenes' lights
+    # sample() lane by lane. Each sample must be sample()'s, the failed ones included.
+    scene = get_scene(name)
+    core = core_scene(scene)
+    refs, u, has_quad_light = _light_sampling_inputs(scene)
+    one, wide = core.sample_lights(refs, u, width=1), core.sample_lights(refs, u, width=width)
+    assert one["valid"].any() or not has_quad_light
+    for key in ("valid", "delta", "wi", "pdf", "dist", "pdf_all", "radiance"):
+        assert np.array_equal(one[key], wide[key]), key
+
+
+def test_an_uncompiled_width_is_refused():
+    core = core_scene(get_scene("cornell_box"))
+    with pytest.raises(ValueError, match="LANE_WIDTHS"):
+        core.sample_lights(np.zeros((1, 3)), np.zeros((1, 3)), width=2)
