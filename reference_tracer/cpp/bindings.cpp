@@ -742,6 +742,67 @@ public:
         return to_numpy(std::move(out), {n});
     }
 
+    // The closest hits of N rays (origins, directions, t_max) on each sphere and each quad
+    // of the scene alone (t_min 0), through the shape's test on lanes of `width` rays (one
+    // of rt::kLaneWidths: 1 is Sphere::hit / Quad::hit on one ray, more their packs, absent
+    // lanes of the last pack repeating its first ray): dict `hit` (N, S + Q) uint8 and `t`
+    // (N, S + Q; t_max where there is no hit), the spheres' columns first. A testing seam:
+    // every width must give width 1's results.
+    nb::dict shape_hits(const Matrix& origins, const Matrix& directions, const Vector& t_max, int width) const {
+        require_columns(origins, 3, "origins");
+        require_columns(directions, 3, "directions");
+        const size_t n = origins.shape(0);
+        if (directions.shape(0) != n || t_max.shape(0) != n)
+            throw std::invalid_argument("origins, directions and t_max differ in length");
+        const size_t spheres = scene_->sphere_count(), cols = spheres + scene_->quad_count();
+        std::vector<double> t(n * cols);
+        std::vector<uint8_t> hit(n * cols);
+        auto run = [&](auto lanes) {
+            using F = decltype(lanes);
+            for (size_t c = 0; c < cols; ++c) {
+                if (c < spheres)
+                    shape_hits_in_packs<F>(scene_->sphere(c), origins, directions, t_max, c, cols, t, hit);
+                else
+                    shape_hits_in_packs<F>(scene_->quad(c - spheres), origins, directions, t_max, c, cols, t, hit);
+            }
+        };
+        if (width == 1) run(double{});
+        else if (width == 4) run(rt::Vd<4>{});
+        else if (width == 8) run(rt::Vd<8>{});
+        else throw std::invalid_argument("width must be one of LANE_WIDTHS (1, 4, 8)");
+        nb::dict r;
+        r["t"] = to_numpy(std::move(t), {n, cols});
+        r["hit"] = to_numpy(std::move(hit), {n, cols});
+        return r;
+    }
+
+    // Shape::hit on lanes of type F over the rows of origins and directions: column c of
+    // t and hit.
+    template <typename F, typename Shape>
+    static void shape_hits_in_packs(const Shape& shape, const Matrix& origins, const Matrix& directions,
+                                    const Vector& t_max, size_t c, size_t cols, std::vector<double>& t,
+                                    std::vector<uint8_t>& hit) {
+        constexpr int kWidth = rt::kLanesOf<F>;
+        const size_t n = origins.shape(0);
+        for (size_t base = 0; base < n; base += kWidth) {
+            const int m = static_cast<int>(std::min<size_t>(kWidth, n - base));
+            F o[3], d[3], tm;
+            for (int l = 0; l < kWidth; ++l) {
+                const size_t i = base + size_t(l < m ? l : 0);
+                for (int a = 0; a < 3; ++a) {
+                    rt::set_lane(o[a], l, origins(i, a));
+                    rt::set_lane(d[a], l, directions(i, a));
+                }
+                rt::set_lane(tm, l, t_max(i));
+            }
+            const unsigned met = rt::lane_mask(shape.hit(o, d, F{}, tm));
+            for (int l = 0; l < m; ++l) {
+                hit[(base + size_t(l)) * cols + c] = (met >> l) & 1u;
+                t[(base + size_t(l)) * cols + c] = rt::lane_of(tm, l);
+            }
+        }
+    }
+
     // LightSampler::sample_pack on packs of lanes F over the rows of refs and u.
     template <typename F>
     void sample_lights_in_packs(const Matrix& refs, const Matrix& u, std::vector<rt::LightSample>& out) const {
@@ -929,6 +990,7 @@ NB_MODULE(_core, m) {
         .def("packet_order", &PyScene::packet_order, "origins"_a, "directions"_a)
         .def("occluded", &PyScene::occluded, "origins"_a, "directions"_a, "t_max"_a, "wavefront"_a = false)
         .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a, "width"_a = 1)
+        .def("shape_hits", &PyScene::shape_hits, "origins"_a, "directions"_a, "t_max"_a, "width"_a = 1)
         .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)
         .def("background", &PyScene::background, "dirs"_a)
         .def_prop_ro("primitive_count", &PyScene::primitive_count)

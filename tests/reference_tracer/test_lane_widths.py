@@ -74,3 +74,49 @@ def test_an_uncompiled_width_is_refused():
     core = core_scene(get_scene("cornell_box"))
     with pytest.raises(ValueError, match="LANE_WIDTHS"):
         core.sample_lights(np.zeros((1, 3)), np.zeros((1, 3)), width=2)
+
+
+def _shapes_scene():
+    """Spheres (one with inward normals, one tiny and far) and quads (a wall, a tilted one,
+    a thin sliver), each tested alone by ``shape_hits``."""
+    cam = rt.Camera(lookfrom=(0, 0, -5), lookat=(0, 0, 0), width=4, height=4)
+    white = rt.Lambertian(0.5)
+    shapes = [rt.Sphere((0, 0, 0), 1.0, white), rt.Sphere((0.5, -0.2, 1.0), 0.7, white, flip_normals=True),
+              rt.Sphere((40.0, 3.0, -7.0), 1e-3, white),
+              rt.Quad((-1, -1, 2), (2, 0, 0), (0, 2, 0), white), rt.Quad((0, -2, -1), (1, 1, 0.5), (-0.3, 0.2, 1.5), white),
+              rt.Quad((-3, 0, 0), (6, 0, 0), (0, 1e-9, 0), white)]
+    return rt.Scene(camera=cam, shapes=shapes)
+
+
+def _shape_rays():
+    """Rays from all around and from inside the spheres, toward the shapes and anywhere,
+    parallel to a quad's plane, along its edges and through a sphere's centre, with finite
+    and infinite reach."""
+    rng = np.random.default_rng(11)
+    n = 3001  # not a multiple of any pack width
+    o = rng.uniform(-4.0, 4.0, (n, 3))
+    targets = rng.uniform(-1.5, 1.5, (n, 3))
+    d = targets - o
+    d[::3] = rng.normal(size=(len(d[::3]), 3))
+    o[:200] *= 0.2  # inside the unit sphere
+    d[200:300, 2] = 0.0  # parallel to the first quad's plane
+    o[300:400] = [-1.0, -1.0, 2.0] + rng.uniform(0, 1, (100, 1)) * [2.0, 0.0, 0.0] - d[300:400]  # its edge
+    o[400:450] = [0.0, 0.0, 0.0] - d[400:450]  # through the sphere's centre at t = 1
+    d[450:500] = [40.0, 3.0, -7.0] + rng.uniform(-2e-3, 2e-3, (50, 3)) - o[450:500]  # at the tiny far sphere
+    t_max = np.where(rng.random(n) < 0.5, np.inf, rng.uniform(0.0, 3.0, n))
+    return (np.ascontiguousarray(o), np.ascontiguousarray(d), np.ascontiguousarray(t_max))
+
+
+@pytest.mark.parametrize("width", PACK_WIDTHS)
+def test_sphere_and_quad_hits_at_every_width_equal_width_one(width):
+    # Sphere::hit and Quad::hit, the closest-hit batches' tests of the wavefront integrator
+    # (intersect_pack) and the scalar ones (intersect): every lane's hit and t must be
+    # width 1's.
+    core = core_scene(_shapes_scene())
+    o, d, t_max = _shape_rays()
+    one, wide = core.shape_hits(o, d, t_max, width=1), core.shape_hits(o, d, t_max, width=width)
+    assert one["hit"].shape == (len(o), 6)
+    assert one["hit"].any(axis=0).all() and not one["hit"].all(axis=0).any()  # each shape hit, and missed
+    assert np.array_equal(one["hit"], wide["hit"])
+    assert np.isfinite(one["t"][one["hit"] == 1]).all()
+    assert np.array_equal(one["t"], wide["t"])
