@@ -776,6 +776,56 @@ public:
         return r;
     }
 
+    // The nearest watertight hit of N rays among the scene's triangles, tested one after
+    // another with a shrinking t_max (`width` 1: intersect_watertight) or four at a time
+    // (`width` 4: intersect_watertight4 on blocks of four consecutive triangles, the last
+    // block padded with its first): dict `t` (inf on a miss) and `index` (the triangle's,
+    // -1 on a miss). A testing seam: both widths must give the same hits, ties included.
+    nb::dict triangle_hits(const Matrix& origins, const Matrix& directions, int width) const {
+        require_columns(origins, 3, "origins");
+        require_columns(directions, 3, "directions");
+        const size_t n = origins.shape(0), count = scene_->triangle_count();
+        if (directions.shape(0) != n) throw std::invalid_argument("origins and directions differ in length");
+        if (width != 1 && width != 4) throw std::invalid_argument("width must be 1 or 4 (triangles of a block)");
+        std::vector<rt::Triangle4> blocks;
+        for (size_t first = 0; width == 4 && first < count; first += 4) {
+            rt::Triangle4 block;
+            for (int lane = 0; lane < 4; ++lane) {
+                const size_t i = first + size_t(lane) < count ? first + size_t(lane) : first;
+                block.set(lane, scene_->triangle(i), static_cast<uint32_t>(i));
+            }
+            blocks.push_back(block);
+        }
+        std::vector<double> t(n, rt::kInf);
+        std::vector<int64_t> index(n, -1);
+        for (size_t i = 0; i < n; ++i) {
+            const rt::Ray ray{row3(origins, i, 0), row3(directions, i, 0)};
+            const rt::WatertightRay w(ray.d);
+            double best = rt::kInf, hit_t;
+            if (width == 1) {
+                for (size_t k = 0; k < count; ++k) {
+                    if (rt::intersect_watertight(scene_->triangle(k), ray, w, 0.0, best, hit_t)) {
+                        best = hit_t;
+                        index[i] = int64_t(k);
+                    }
+                }
+            } else {
+                for (const rt::Triangle4& block : blocks) {
+                    const int lane = rt::intersect_watertight4(block, ray, w, 0.0, best, hit_t);
+                    if (lane >= 0) {
+                        best = hit_t;
+                        index[i] = int64_t(block.prim[lane]);
+                    }
+                }
+            }
+            t[i] = best;
+        }
+        nb::dict r;
+        r["t"] = to_numpy(std::move(t), {n});
+        r["index"] = to_numpy(std::move(index), {n});
+        return r;
+    }
+
     // Shape::hit on lanes of type F over the rows of origins and directions: column c of
     // t and hit.
     template <typename F, typename Shape>
@@ -991,6 +1041,7 @@ NB_MODULE(_core, m) {
         .def("occluded", &PyScene::occluded, "origins"_a, "directions"_a, "t_max"_a, "wavefront"_a = false)
         .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a, "width"_a = 1)
         .def("shape_hits", &PyScene::shape_hits, "origins"_a, "directions"_a, "t_max"_a, "width"_a = 1)
+        .def("triangle_hits", &PyScene::triangle_hits, "origins"_a, "directions"_a, "width"_a = 1)
         .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)
         .def("background", &PyScene::background, "dirs"_a)
         .def_prop_ro("primitive_count", &PyScene::primitive_count)

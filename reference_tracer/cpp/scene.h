@@ -261,6 +261,7 @@ public:
     size_t triangle_count() const { return triangles_.size(); }
     const Sphere& sphere(size_t i) const { return spheres_[i]; }
     const Quad& quad(size_t i) const { return quads_[i]; }
+    const Triangle& triangle(size_t i) const { return triangles_[i]; }
     // Whether any triangle has vertex normals (smooth shading).
     bool has_shading_normals() const { return !normals_.empty(); }
 

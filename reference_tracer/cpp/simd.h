@@ -314,6 +314,8 @@ inline float min_lane(V16f v) {
 }
 inline float max_lane(V16f v) { return -min_lane(-v); }
 
+// The smallest of one double: itself.
+inline double min_lane(double v) { return v; }
 // The smallest of four doubles (no NaN among them).
 inline double min_lane(V4d v) {
 #ifdef __AVX__

@@ -120,3 +120,38 @@ def test_sphere_and_quad_hits_at_every_width_equal_width_one(width):
     assert np.array_equal(one["hit"], wide["hit"])
     assert np.isfinite(one["t"][one["hit"] == 1]).all()
     assert np.array_equal(one["t"], wide["t"])
+
+
+def _grid_mesh_scene():
+    """A bumpy 8x8 grid of 128 triangles (shared edges and vertices) and a degenerate one."""
+    rng = np.random.default_rng(5)
+    xs, ys = np.meshgrid(np.linspace(-1, 1, 9), np.linspace(-1, 1, 9))
+    v = np.stack([xs.ravel(), ys.ravel(), 0.1 * rng.standard_normal(81)], axis=1)
+    f = []
+    for j in range(8):
+        for i in range(8):
+            a, b, c, d = j * 9 + i, j * 9 + i + 1, (j + 1) * 9 + i, (j + 1) * 9 + i + 1
+            f += [(a, b, d), (a, d, c)]
+    f.append((0, 1, 2))  # collinear: degenerate, never hit
+    cam = rt.Camera(lookfrom=(0, 0, -5), lookat=(0, 0, 0), width=4, height=4)
+    return rt.Scene(camera=cam, shapes=[rt.Mesh(v, np.array(f), rt.Lambertian(0.5))]), v
+
+
+def test_triangle_hits_of_a_block_equal_one_triangle_at_a_time():
+    # intersect_watertight_lanes: one triangle (intersect_watertight: single rays, the brute
+    # force) and a block of four (intersect_watertight4: every traversal's leaves) must
+    # find the same nearest hit, ties at shared edges and vertices included.
+    scene, v = _grid_mesh_scene()
+    core = core_scene(scene)
+    rng = np.random.default_rng(2)
+    n = 3000
+    o = rng.uniform(-1.5, 1.5, (n, 3)) + [0.0, 0.0, -3.0]
+    targets = np.concatenate([v[rng.integers(0, len(v), n // 3)],  # through vertices
+                              0.5 * (v[rng.integers(0, len(v), n // 3)] + v[rng.integers(0, len(v), n // 3)]),
+                              rng.uniform(-1.2, 1.2, (n - 2 * (n // 3), 3))])
+    d = np.ascontiguousarray(targets - o)
+    o = np.ascontiguousarray(o)
+    one, four = core.triangle_hits(o, d, width=1), core.triangle_hits(o, d, width=4)
+    assert (one["index"] >= 0).mean() > 0.5
+    assert np.array_equal(one["index"], four["index"])
+    assert np.array_equal(one["t"], four["t"])
