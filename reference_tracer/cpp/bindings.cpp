@@ -12,6 +12,7 @@
 #include <string>
 #include <thread>
 #include <tuple>
+#include <type_traits>
 #include <utility>
 
 #include <nanobind/nanobind.h>
@@ -745,9 +746,10 @@ public:
     // The closest hits of N rays (origins, directions, t_max) on each sphere and each quad
     // of the scene alone (t_min 0), through the shape's test on lanes of `width` rays (one
     // of rt::kLaneWidths: 1 is Sphere::hit / Quad::hit on one ray, more their packs, absent
-    // lanes of the last pack repeating its first ray): dict `hit` (N, S + Q) uint8 and `t`
-    // (N, S + Q; t_max where there is no hit), the spheres' columns first. A testing seam:
-    // every width must give width 1's results.
+    // lanes of the last pack repeating its first ray): dict `hit` (N, S + Q) uint8, `t`
+    // (N, S + Q; t_max where there is no hit), the spheres' columns first, and for the
+    // spheres' columns `point` and `normal` (N, S, 3), Sphere::surface_lanes at o + t d. A
+    // testing seam: every width must give width 1's results.
     nb::dict shape_hits(const Matrix& origins, const Matrix& directions, const Vector& t_max, int width) const {
         require_columns(origins, 3, "origins");
         require_columns(directions, 3, "directions");
@@ -755,13 +757,14 @@ public:
         if (directions.shape(0) != n || t_max.shape(0) != n)
             throw std::invalid_argument("origins, directions and t_max differ in length");
         const size_t spheres = scene_->sphere_count(), cols = spheres + scene_->quad_count();
-        std::vector<double> t(n * cols);
+        std::vector<double> t(n * cols), point(n * spheres * 3), normal(n * spheres * 3);
         std::vector<uint8_t> hit(n * cols);
         auto run = [&](auto lanes) {
             using F = decltype(lanes);
             for (size_t c = 0; c < cols; ++c) {
                 if (c < spheres)
-                    shape_hits_in_packs<F>(scene_->sphere(c), origins, directions, t_max, c, cols, t, hit);
+                    shape_hits_in_packs<F>(scene_->sphere(c), origins, directions, t_max, c, cols, t, hit, &point,
+                                           &normal);
                 else
                     shape_hits_in_packs<F>(scene_->quad(c - spheres), origins, directions, t_max, c, cols, t, hit);
             }
@@ -773,6 +776,8 @@ public:
         nb::dict r;
         r["t"] = to_numpy(std::move(t), {n, cols});
         r["hit"] = to_numpy(std::move(hit), {n, cols});
+        r["point"] = to_numpy(std::move(point), {n, spheres, 3});
+        r["normal"] = to_numpy(std::move(normal), {n, spheres, 3});
         return r;
     }
 
@@ -827,11 +832,12 @@ public:
     }
 
     // Shape::hit on lanes of type F over the rows of origins and directions: column c of
-    // t and hit.
+    // t and hit; for a sphere, column c of point and normal (Sphere::surface_lanes).
     template <typename F, typename Shape>
     static void shape_hits_in_packs(const Shape& shape, const Matrix& origins, const Matrix& directions,
                                     const Vector& t_max, size_t c, size_t cols, std::vector<double>& t,
-                                    std::vector<uint8_t>& hit) {
+                                    std::vector<uint8_t>& hit, std::vector<double>* point = nullptr,
+                                    std::vector<double>* normal = nullptr) {
         constexpr int kWidth = rt::kLanesOf<F>;
         const size_t n = origins.shape(0);
         for (size_t base = 0; base < n; base += kWidth) {
@@ -849,6 +855,21 @@ public:
             for (int l = 0; l < m; ++l) {
                 hit[(base + size_t(l)) * cols + c] = (met >> l) & 1u;
                 t[(base + size_t(l)) * cols + c] = rt::lane_of(tm, l);
+            }
+            if constexpr (std::is_same_v<Shape, rt::Sphere>) {
+                F at[3], center[3], p[3], nv[3];
+                for (int a = 0; a < 3; ++a) {
+                    at[a] = o[a] + tm * d[a];
+                    center[a] = rt::broadcast<F>(shape.center[a]);
+                }
+                rt::Sphere::surface_lanes(at, center, rt::broadcast<F>(shape.radius), rt::broadcast<F>(shape.normal_sign),
+                                          p, nv);
+                const size_t spheres = point->size() / (3 * origins.shape(0));
+                for (int l = 0; l < m; ++l)
+                    for (int a = 0; a < 3; ++a) {
+                        (*point)[((base + size_t(l)) * spheres + c) * 3 + size_t(a)] = rt::lane_of(p[a], l);
+                        (*normal)[((base + size_t(l)) * spheres + c) * 3 + size_t(a)] = rt::lane_of(nv[a], l);
+                    }
             }
         }
     }

@@ -110,8 +110,8 @@ def _shape_rays():
 @pytest.mark.parametrize("width", PACK_WIDTHS)
 def test_sphere_and_quad_hits_at_every_width_equal_width_one(width):
     # Sphere::hit and Quad::hit, the closest-hit batches' tests of the wavefront integrator
-    # (intersect_pack) and the scalar ones (intersect): every lane's hit and t must be
-    # width 1's.
+    # (intersect_pack) and the scalar ones (intersect), and a sphere's hit point
+    # (Sphere::surface_lanes): every lane's hit, t, point and normal must be width 1's.
     core = core_scene(_shapes_scene())
     o, d, t_max = _shape_rays()
     one, wide = core.shape_hits(o, d, t_max, width=1), core.shape_hits(o, d, t_max, width=width)
@@ -120,6 +120,9 @@ def test_sphere_and_quad_hits_at_every_width_equal_width_one(width):
     assert np.array_equal(one["hit"], wide["hit"])
     assert np.isfinite(one["t"][one["hit"] == 1]).all()
     assert np.array_equal(one["t"], wide["t"])
+    # Sphere::surface_lanes: the hit point re-projected onto the sphere and its normal.
+    assert np.array_equal(one["point"], wide["point"], equal_nan=True)
+    assert np.array_equal(one["normal"], wide["normal"], equal_nan=True)
 
 
 def _grid_mesh_scene():

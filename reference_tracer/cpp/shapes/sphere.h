@@ -68,34 +68,33 @@ struct Sphere {
         return hit(o, d, VPd{}, t_max);
     }
 
-    // Exact point on the sphere and its front-facing normal, for a hit at ray parameter t:
-    // the point is re-projected onto the surface to remove the error of o + t d.
-    // surface_pack below does these operations lane-wise: keep the two alike (the
-    // integrators' images must agree bit for bit).
-    void surface(const Vec3& p_approx, Vec3& p, Vec3& n) const {
-        Vec3 d = p_approx - center;
-        const double len = length(d);
-        d = len > 0 ? d / len : Vec3(0, 0, 1);
-        p = center + radius * d;
-        n = d * normal_sign;
-    }
-
-    // surface() for a pack of points, each on its own sphere (centre, radius, normal_sign
-    // lane by lane): one square root and one division of a pack instead of one a lane.
-    static void surface_pack(const VPd (&p_approx)[3], const VPd (&center)[3], VPd radius, VPd normal_sign,
-                             VPd (&p)[3], VPd (&n)[3]) {
-        VPd d[3];
+    // The exact point p on a sphere and its front-facing normal n, for a hit at p_approx:
+    // the point is re-projected onto the surface to remove the error of o + t d. On lanes
+    // of type F (simd.h: double for one point, a pack for several), each lane on its own
+    // sphere (centre, radius, normal_sign lane by lane): one body for every width.
+    template <typename F>
+    static void surface_lanes(const F (&p_approx)[3], const F (&center)[3], F radius, F normal_sign, F (&p)[3],
+                              F (&n)[3]) {
+        F d[3];
         for (int a = 0; a < 3; ++a) d[a] = p_approx[a] - center[a];
-        const VPd len = sqrt_of(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        const VPl pos = len > 0.0;
-        const VPd inv = 1.0 / len;  // Vec3 / double multiplies by the reciprocal
-        d[0] = pos ? d[0] * inv : VPd{};
-        d[1] = pos ? d[1] * inv : VPd{};
-        d[2] = pos ? d[2] * inv : splat(1.0);
+        const F len = sqrt_of(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);  // length(d)
+        const auto pos = len > 0.0;
+        const F inv = 1.0 / len;  // Vec3 / double multiplies by the reciprocal
+        d[0] = pos ? d[0] * inv : F{};
+        d[1] = pos ? d[1] * inv : F{};
+        d[2] = pos ? d[2] * inv : as_lanes(1.0, len);
         for (int a = 0; a < 3; ++a) {
             p[a] = center[a] + d[a] * radius;
             n[a] = d[a] * normal_sign;
         }
+    }
+
+    void surface(const Vec3& p_approx, Vec3& p, Vec3& n) const {
+        const double at[3] = {p_approx.x, p_approx.y, p_approx.z}, c[3] = {center.x, center.y, center.z};
+        double pp[3], nn[3];
+        surface_lanes(at, c, radius, normal_sign, pp, nn);
+        p = Vec3(pp[0], pp[1], pp[2]);
+        n = Vec3(nn[0], nn[1], nn[2]);
     }
 };
 
