@@ -385,7 +385,7 @@ def warp_pdf(name: str, points, param: float = 0.0) -> np.ndarray:
     return _core().warp_pdf(name, points, float(param))
 
 
-def bsdf_sample(material: str, wo, u, albedo, param: float, **coating) -> dict:
+def bsdf_sample(material: str, wo, u, albedo, param: float, *, width: int = 1, **coating) -> dict:
     """``rt::bsdf_sample`` of a material for each row of ``u``, as the integrator calls it.
 
     Parameters
@@ -403,6 +403,11 @@ def bsdf_sample(material: str, wo, u, albedo, param: float, **coating) -> dict:
         The albedo (a plastic's diffuse reflectance).
     param : float
         The material's parameter (above).
+    width : int, optional
+        1: the scalar routine, one row at a time. 4 or 8 (``LANE_WIDTHS``), for
+        ``rough_conductor`` only: the wavefront integrator's plain-GGX sampler on packs of
+        that many rows, which must give width 1's valid samples bit for bit (only the valid
+        rows' ``wi``, ``weight`` and ``pdf`` are filled).
     **coating
         A plastic's ``eta`` (int_ior / ext_ior), ``specular`` ((3,) specular reflectance)
         and ``nonlinear``: Mitsuba's defaults where not given.
@@ -420,7 +425,7 @@ def bsdf_sample(material: str, wo, u, albedo, param: float, **coating) -> dict:
     >>> s["weight"].round(6).tolist(), int(s["valid"][0])
     ([[0.5, 0.5, 0.5]], 1)
     """
-    return _core().bsdf_sample(material, wo, u, albedo, float(param), **coating)
+    return _core().bsdf_sample(material, wo, u, albedo, float(param), width=int(width), **coating)
 
 
 def bsdf_eval_pdf(material: str, wo, wi, albedo, param: float, **coating) -> dict:

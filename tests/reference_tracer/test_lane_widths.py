@@ -158,3 +158,26 @@ def test_triangle_hits_of_a_block_equal_one_triangle_at_a_time():
     assert (one["index"] >= 0).mean() > 0.5
     assert np.array_equal(one["index"], four["index"])
     assert np.array_equal(one["t"], four["t"])
+
+
+@pytest.mark.parametrize("width", PACK_WIDTHS)
+@pytest.mark.parametrize("alpha", [0.001, 0.05, 0.3, 1.0])
+def test_rough_conductor_samples_at_every_width_equal_width_one(alpha, width):
+    # rough_conductor.h's plain GGX (sample_visible_normal, ggx_d, smith_g1) on packs, as
+    # the wavefront integrator samples rough metal (rough_conductor_pack.h): each valid
+    # sample must be width 1's, from views at normal, oblique and grazing incidence and
+    # from below the surface (never valid), and on the uniforms' edges.
+    rng = np.random.default_rng(4)
+    edges = np.array([0.0, 0.25, 0.5, np.nextafter(1.0, 0.0)])
+    u = np.concatenate([np.stack(np.meshgrid(edges, edges, edges), axis=-1).reshape(-1, 3), rng.random((3001, 3))])
+    u = np.ascontiguousarray(u)
+    albedo = np.array([0.9, 0.6, 0.3])
+    for wo in ([0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.3, -0.95, 0.05], [0.0, 0.6, -0.8]):
+        wo = np.array(wo) / np.linalg.norm(wo)
+        one = probe.bsdf_sample("rough_conductor", wo, u, albedo, alpha)
+        wide = probe.bsdf_sample("rough_conductor", wo, u, albedo, alpha, width=width)
+        assert np.array_equal(one["valid"], wide["valid"])
+        ok = one["valid"] == 1
+        assert ok.any() == (wo[2] > 0)
+        for key in ("wi", "weight", "pdf"):
+            assert np.array_equal(one[key][ok], wide[key][ok]), key
