@@ -23,6 +23,12 @@ Ray queries
       integrator's sampler, more: the packs of the wavefront one; every width must give
       width 1's samples bit for bit);
     - ``light_pdf(refs, dirs)``: density of light sampling (every emitter and the background);
+    - ``shape_hits(origins, directions, t_max, width=1)``: each sphere's and quad's own test
+      on every ray (dict ``hit``, ``t``, the spheres' re-projected ``point`` and ``normal``)
+      and ``triangle_hits(origins, directions, width=1)``: the nearest watertight hit among
+      the triangles, one at a time or (``width=4``) in blocks of four (dict ``t``,
+      ``index``): testing seams, run at each width of ``LANE_WIDTHS`` (every width must
+      give width 1's results bit for bit, ``docs/core.md``);
     - ``packet_order(origins, directions)``: how ``intersect`` gathers rays into packets;
     - properties ``primitive_count``, ``emitter_count``, ``bvh_nodes``, ``bvh_depth``,
       ``bvh_blocks``, ``bvh_float_blocks``, ``bvh_bytes``, ``build_seconds``.
