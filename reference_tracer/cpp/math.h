@@ -123,6 +123,23 @@ struct Ray {
     Vec3 at(double t) const { return o + t * d; }
 };
 
+// A shape's test written once over the lane type (Shape::hit<F>, simd.h), run on one ray:
+// whether it meets the shape at t in (t_min, t_max), t then in t_hit.
+template <typename Shape>
+inline bool hit_one(const Shape& shape, const Ray& r, double t_min, double t_max, double& t_hit) {
+    const double o[3] = {r.o.x, r.o.y, r.o.z}, d[3] = {r.d.x, r.d.y, r.d.z};
+    if (!shape.hit(o, d, t_min, t_max)) return false;
+    t_hit = t_max;
+    return true;
+}
+
+// The same on a pack of rays (t_min 0): the lanes where it hits, t_max lowered there.
+template <typename Shape>
+inline VPl hit_pack(const Shape& shape, const RayPack& r, VPd& t_max) {
+    const VPd o[3] = {r.ox, r.oy, r.oz}, d[3] = {r.dx, r.dy, r.dz};
+    return shape.hit(o, d, VPd{}, t_max);
+}
+
 // Orthonormal basis around a unit normal (Duff et al. 2017, branchless and continuous).
 // The tangents s and t of an orthonormal basis around the unit normal n (Duff et al.,
 // "Building an Orthonormal Basis, Revisited", 2017: branchless). F: double (Frame), or a

@@ -55,18 +55,11 @@ struct Sphere {
         return hit0 | hit1;
     }
 
+    // hit() on one ray, and on a pack of rays (t_min 0).
     bool intersect(const Ray& r, double t_min, double t_max, double& t_hit) const {
-        const double o[3] = {r.o.x, r.o.y, r.o.z}, d[3] = {r.d.x, r.d.y, r.d.z};
-        if (!hit(o, d, t_min, t_max)) return false;
-        t_hit = t_max;
-        return true;
+        return hit_one(*this, r, t_min, t_max, t_hit);
     }
-
-    // hit() on a pack of rays (t_min 0).
-    VPl intersect_pack(const RayPack& r, VPd& t_max) const {
-        const VPd o[3] = {r.ox, r.oy, r.oz}, d[3] = {r.dx, r.dy, r.dz};
-        return hit(o, d, VPd{}, t_max);
-    }
+    VPl intersect_pack(const RayPack& r, VPd& t_max) const { return hit_pack(*this, r, t_max); }
 
     // The exact point p on a sphere and its front-facing normal n, for a hit at p_approx:
     // the point is re-projected onto the surface to remove the error of o + t d. On lanes
