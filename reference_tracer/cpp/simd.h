@@ -50,7 +50,7 @@ template <> struct DoubleLanes<1> { using type = double; };
 template <> struct DoubleLanes<4> { using type = V4d; };
 template <> struct DoubleLanes<8> { using type = V8d; };
 template <int N> using Vd = typename DoubleLanes<N>::type;
-// The widths compiled for the width test (sampling_probe.cpp, LANE_WIDTHS): every width a
+// The widths the lane-width probes compile (bindings.cpp: LANE_WIDTHS): every width a
 // build may use (one lane for the scalar integrator, kPackWidth for the wavefront one).
 constexpr int kLaneWidths[] = {1, 4, 8};
 
