@@ -17,10 +17,18 @@ Ray queries
       has vertex normals; ``uv``, Mitsuba's texture coordinates, and ``reflectance``, the
       material's reflectance there, where a material has a texture), ``seconds``, ``packet_rays``, ``chunk``, ``chunk_offset``;
     - ``occluded(origins, directions, t_max, wavefront=False)``: (N,) uint8;
-    - ``sample_lights(refs, u, wavefront=False)``: light sampling from points ``refs`` with
+    - ``sample_lights(refs, u, width=1)``: light sampling from points ``refs`` with
       uniforms ``u`` (N, 3): dict ``wi``, ``pdf``, ``pdf_all``, ``dist``, ``valid`` and the
-      radiance fields;
+      radiance fields; ``width`` points at a time, one of ``LANE_WIDTHS`` (1: the scalar
+      integrator's sampler, more: the packs of the wavefront one; every width must give
+      width 1's samples bit for bit);
     - ``light_pdf(refs, dirs)``: density of light sampling (every emitter and the background);
+    - ``shape_hits(origins, directions, t_max, width=1)``: each sphere's and quad's own test
+      on every ray (dict ``hit``, ``t``, the spheres' re-projected ``point`` and ``normal``)
+      and ``triangle_hits(origins, directions, width=1)``: the nearest watertight hit among
+      the triangles, one at a time or (``width=4``) in blocks of four (dict ``t``,
+      ``index``): testing seams, run at each width of ``LANE_WIDTHS`` (every width must
+      give width 1's results bit for bit, ``docs/core.md``);
     - ``packet_order(origins, directions)``: how ``intersect`` gathers rays into packets;
     - properties ``primitive_count``, ``emitter_count``, ``bvh_nodes``, ``bvh_depth``,
       ``bvh_blocks``, ``bvh_float_blocks``, ``bvh_bytes``, ``build_seconds``.
@@ -38,8 +46,10 @@ Layout of the core
     :func:`child_visit_order` and the constants ``PACK_WIDTH`` (rays per pack of the
     batched queries: 8 in AVX-512 builds, else 4), ``PACKET_RAYS`` (rays per packet of
     coherent rays), ``RAY_CHUNK`` (rays a thread of ``intersect`` orders into packets at a
-    time) and ``CACHED_TREE_BYTES`` (trees above it are traversed without prefetching),
-    read from the compiled core on first access.
+    time), ``CACHED_TREE_BYTES`` (trees above it are traversed without prefetching) and
+    ``LANE_WIDTHS`` (the widths, in lanes of doubles, that the core's routines over a lane
+    type are compiled for, 1 being the scalar one: ``(1, 4, 8)``), read from the compiled
+    core on first access.
 
 Examples
 --------
@@ -81,6 +91,8 @@ def __getattr__(name: str):
     # The layout constants live in the compiled core; reading one loads it.
     if name in _CORE_CONSTANTS:
         return int(getattr(_core(), name))
+    if name == "LANE_WIDTHS":
+        return tuple(int(w) for w in _core().LANE_WIDTHS)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -379,7 +391,7 @@ def warp_pdf(name: str, points, param: float = 0.0) -> np.ndarray:
     return _core().warp_pdf(name, points, float(param))
 
 
-def bsdf_sample(material: str, wo, u, albedo, param: float, **coating) -> dict:
+def bsdf_sample(material: str, wo, u, albedo, param: float, *, width: int = 1, **coating) -> dict:
     """``rt::bsdf_sample`` of a material for each row of ``u``, as the integrator calls it.
 
     Parameters
@@ -397,6 +409,11 @@ def bsdf_sample(material: str, wo, u, albedo, param: float, **coating) -> dict:
         The albedo (a plastic's diffuse reflectance).
     param : float
         The material's parameter (above).
+    width : int, optional
+        1: the scalar routine, one row at a time. 4 or 8 (``LANE_WIDTHS``), for
+        ``rough_conductor`` only: the wavefront integrator's plain-GGX sampler on packs of
+        that many rows, which must give width 1's valid samples bit for bit (only the valid
+        rows' ``wi``, ``weight`` and ``pdf`` are filled).
     **coating
         A plastic's ``eta`` (int_ior / ext_ior), ``specular`` ((3,) specular reflectance)
         and ``nonlinear``: Mitsuba's defaults where not given.
@@ -414,7 +431,7 @@ def bsdf_sample(material: str, wo, u, albedo, param: float, **coating) -> dict:
     >>> s["weight"].round(6).tolist(), int(s["valid"][0])
     ([[0.5, 0.5, 0.5]], 1)
     """
-    return _core().bsdf_sample(material, wo, u, albedo, float(param), **coating)
+    return _core().bsdf_sample(material, wo, u, albedo, float(param), width=int(width), **coating)
 
 
 def bsdf_eval_pdf(material: str, wo, wi, albedo, param: float, **coating) -> dict:

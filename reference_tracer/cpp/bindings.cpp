@@ -11,7 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
-#include <tuple>
+#include <type_traits>
 #include <utility>
 
 #include <nanobind/nanobind.h>
@@ -742,30 +742,182 @@ public:
         return to_numpy(std::move(out), {n});
     }
 
-    // Light sampling from N reference points with uniform numbers u (N, 3). wavefront: as
-    // the wavefront integrator samples them (a pack of points at a time where the lights
-    // are one quad, one sphere or several spheres: LightSampler::sample_packed), to compare
-    // with sample().
-    nb::dict sample_lights(const Matrix& refs, const Matrix& u, bool wavefront) const {
+    // The closest hits of N rays (origins, directions, t_max) on each sphere and each quad
+    // of the scene alone (t_min 0), through the shape's test on lanes of `width` rays (one
+    // of rt::kLaneWidths: 1 is Sphere::hit / Quad::hit on one ray, more their packs, absent
+    // lanes of the last pack repeating its first ray): dict `hit` (N, S + Q) uint8, `t`
+    // (N, S + Q; t_max where there is no hit), the spheres' columns first, and for the
+    // spheres' columns `point` and `normal` (N, S, 3), Sphere::surface_lanes at o + t d. A
+    // testing seam: every width must give width 1's results.
+    nb::dict shape_hits(const Matrix& origins, const Matrix& directions, const Vector& t_max, int width) const {
+        require_columns(origins, 3, "origins");
+        require_columns(directions, 3, "directions");
+        const size_t n = origins.shape(0);
+        if (directions.shape(0) != n || t_max.shape(0) != n)
+            throw std::invalid_argument("origins, directions and t_max differ in length");
+        const size_t spheres = scene_->sphere_count(), cols = spheres + scene_->quad_count();
+        std::vector<double> t(n * cols), point(n * spheres * 3), normal(n * spheres * 3);
+        std::vector<uint8_t> hit(n * cols);
+        auto run = [&](auto lanes) {
+            using F = decltype(lanes);
+            for (size_t c = 0; c < cols; ++c) {
+                if (c < spheres)
+                    shape_hits_in_packs<F>(scene_->sphere(c), origins, directions, t_max, c, cols, t, hit, &point,
+                                           &normal);
+                else
+                    shape_hits_in_packs<F>(scene_->quad(c - spheres), origins, directions, t_max, c, cols, t, hit);
+            }
+        };
+        if (width == 1) run(double{});
+        else if (width == 4) run(rt::Vd<4>{});
+        else if (width == 8) run(rt::Vd<8>{});
+        else throw std::invalid_argument("width must be one of LANE_WIDTHS (1, 4, 8)");
+        nb::dict r;
+        r["t"] = to_numpy(std::move(t), {n, cols});
+        r["hit"] = to_numpy(std::move(hit), {n, cols});
+        r["point"] = to_numpy(std::move(point), {n, spheres, 3});
+        r["normal"] = to_numpy(std::move(normal), {n, spheres, 3});
+        return r;
+    }
+
+    // The nearest watertight hit of N rays among the scene's triangles, tested one after
+    // another with a shrinking t_max (`width` 1: intersect_watertight) or four at a time
+    // (`width` 4: intersect_watertight4 on blocks of four consecutive triangles, the last
+    // block padded with its first): dict `t` (inf on a miss) and `index` (the triangle's,
+    // -1 on a miss). A testing seam: both widths must give the same hits, ties included.
+    nb::dict triangle_hits(const Matrix& origins, const Matrix& directions, int width) const {
+        require_columns(origins, 3, "origins");
+        require_columns(directions, 3, "directions");
+        const size_t n = origins.shape(0), count = scene_->triangle_count();
+        if (directions.shape(0) != n) throw std::invalid_argument("origins and directions differ in length");
+        if (width != 1 && width != 4) throw std::invalid_argument("width must be 1 or 4 (triangles of a block)");
+        std::vector<rt::Triangle4> blocks;
+        for (size_t first = 0; width == 4 && first < count; first += 4) {
+            rt::Triangle4 block;
+            for (int lane = 0; lane < 4; ++lane) {
+                const size_t i = first + size_t(lane) < count ? first + size_t(lane) : first;
+                block.set(lane, scene_->triangle(i), static_cast<uint32_t>(i));
+            }
+            blocks.push_back(block);
+        }
+        std::vector<double> t(n, rt::kInf);
+        std::vector<int64_t> index(n, -1);
+        for (size_t i = 0; i < n; ++i) {
+            const rt::Ray ray{row3(origins, i, 0), row3(directions, i, 0)};
+            const rt::WatertightRay w(ray.d);
+            double best = rt::kInf, hit_t;
+            if (width == 1) {
+                for (size_t k = 0; k < count; ++k) {
+                    if (rt::intersect_watertight(scene_->triangle(k), ray, w, 0.0, best, hit_t)) {
+                        best = hit_t;
+                        index[i] = int64_t(k);
+                    }
+                }
+            } else {
+                for (const rt::Triangle4& block : blocks) {
+                    const int lane = rt::intersect_watertight4(block, ray, w, 0.0, best, hit_t);
+                    if (lane >= 0) {
+                        best = hit_t;
+                        index[i] = int64_t(block.prim[lane]);
+                    }
+                }
+            }
+            t[i] = best;
+        }
+        nb::dict r;
+        r["t"] = to_numpy(std::move(t), {n});
+        r["index"] = to_numpy(std::move(index), {n});
+        return r;
+    }
+
+    // Shape::hit on lanes of type F over the rows of origins and directions: column c of
+    // t and hit; for a sphere, column c of point and normal (Sphere::surface_lanes).
+    template <typename F, typename Shape>
+    static void shape_hits_in_packs(const Shape& shape, const Matrix& origins, const Matrix& directions,
+                                    const Vector& t_max, size_t c, size_t cols, std::vector<double>& t,
+                                    std::vector<uint8_t>& hit, std::vector<double>* point = nullptr,
+                                    std::vector<double>* normal = nullptr) {
+        constexpr int kWidth = rt::kLanesOf<F>;
+        const size_t n = origins.shape(0);
+        for (size_t base = 0; base < n; base += kWidth) {
+            const int m = static_cast<int>(std::min<size_t>(kWidth, n - base));
+            F o[3], d[3], tm;
+            for (int l = 0; l < kWidth; ++l) {
+                const size_t i = base + size_t(l < m ? l : 0);
+                for (int a = 0; a < 3; ++a) {
+                    rt::set_lane(o[a], l, origins(i, a));
+                    rt::set_lane(d[a], l, directions(i, a));
+                }
+                rt::set_lane(tm, l, t_max(i));
+            }
+            const unsigned met = rt::lane_mask(shape.hit(o, d, F{}, tm));
+            for (int l = 0; l < m; ++l) {
+                hit[(base + size_t(l)) * cols + c] = (met >> l) & 1u;
+                t[(base + size_t(l)) * cols + c] = rt::lane_of(tm, l);
+            }
+            if constexpr (std::is_same_v<Shape, rt::Sphere>) {
+                F at[3], center[3], p[3], nv[3];
+                for (int a = 0; a < 3; ++a) {
+                    at[a] = o[a] + tm * d[a];
+                    center[a] = rt::broadcast<F>(shape.center[a]);
+                }
+                rt::Sphere::surface_lanes(at, center, rt::broadcast<F>(shape.radius), rt::broadcast<F>(shape.normal_sign),
+                                          p, nv);
+                const size_t spheres = point->size() / (3 * origins.shape(0));
+                for (int l = 0; l < m; ++l)
+                    for (int a = 0; a < 3; ++a) {
+                        (*point)[((base + size_t(l)) * spheres + c) * 3 + size_t(a)] = rt::lane_of(p[a], l);
+                        (*normal)[((base + size_t(l)) * spheres + c) * 3 + size_t(a)] = rt::lane_of(nv[a], l);
+                    }
+            }
+        }
+    }
+
+    // LightSampler::sample_pack on packs of lanes F over the rows of refs and u.
+    template <typename F>
+    void sample_lights_in_packs(const Matrix& refs, const Matrix& u, std::vector<rt::LightSample>& out) const {
+        constexpr int kWidth = rt::kLanesOf<F>;
+        const int n = static_cast<int>(out.size());
+        for (int base = 0; base < n; base += kWidth) {
+            const int m = std::min(kWidth, n - base);
+            F ref[3], ui[3];
+            for (int l = 0; l < kWidth; ++l) {
+                const size_t i = size_t(base + (l < m ? l : 0));
+                for (int a = 0; a < 3; ++a) {
+                    ref[a][l] = refs(i, a);
+                    ui[a][l] = u(i, a);
+                }
+            }
+            const rt::LightSampleLanes<F> pack = scene_->lights().sample_pack(ref, ui, (1u << m) - 1u);
+            for (int l = 0; l < m; ++l) out[size_t(base + l)] = pack.lane(l);
+        }
+    }
+
+    // Light sampling from N reference points with uniform numbers u (N, 3), `width` points
+    // at a time: 1 runs LightSampler::sample() point by point (the scalar integrator's);
+    // a width of rt::kLaneWidths above 1 runs LightSampler::sample_pack on packs of that
+    // many lanes (the wavefront integrator's at kPackWidth), absent lanes of the last pack
+    // repeating its first point. A testing seam: every width must give width 1's samples.
+    nb::dict sample_lights(const Matrix& refs, const Matrix& u, int width) const {
         require_columns(refs, 3, "refs");
         require_columns(u, 3, "u");
         if (refs.shape(0) != u.shape(0)) throw std::invalid_argument("refs and u differ in length");
         const size_t n = refs.shape(0);
         std::vector<double> wi(3 * n, 0.0), pdf(n, 0.0), dist(n, 0.0), pdf_all(n, 0.0), radiance(3 * n, 0.0);
         std::vector<uint8_t> valid(n, 0), delta(n, 0);
-        std::vector<rt::LightSample> packed;
-        if (wavefront && scene_->lights().packed_sampling()) {
-            packed.resize(n);
-            scene_->lights().sample_packed(static_cast<int>(n), [&](int i) {
-                const std::array<double, 3> ui = {u(i, 0), u(i, 1), u(i, 2)};
-                return std::tuple<rt::Vec3, std::array<double, 3>, rt::LightSample*>(row3(refs, size_t(i), 0), ui,
-                                                                                    &packed[size_t(i)]);
-            });
+        std::vector<rt::LightSample> samples(n);
+        if (width == 1) {
+            for (size_t i = 0; i < n; ++i) samples[i] = scene_->lights().sample(row3(refs, i, 0), u(i, 0), u(i, 1), u(i, 2));
+        } else if (width == 4) {
+            sample_lights_in_packs<rt::Vd<4>>(refs, u, samples);
+        } else if (width == 8) {
+            sample_lights_in_packs<rt::Vd<8>>(refs, u, samples);
+        } else {
+            throw std::invalid_argument("width must be one of LANE_WIDTHS (1, 4, 8)");
         }
         for (size_t i = 0; i < n; ++i) {
             const rt::Vec3 ref = row3(refs, i, 0);
-            const rt::LightSample ls =
-                packed.empty() ? scene_->lights().sample(ref, u(i, 0), u(i, 1), u(i, 2)) : packed[i];
+            const rt::LightSample& ls = samples[i];
             valid[i] = ls.valid;
             delta[i] = ls.delta;
             if (!ls.valid) continue;
@@ -850,6 +1002,7 @@ NB_MODULE(_core, m) {
 #endif
     // Rays per pack of the batched scene queries (simd.h): 8 in AVX-512 builds, else 4.
     m.attr("PACK_WIDTH") = rt::kPackWidth;
+    m.attr("LANE_WIDTHS") = nb::make_tuple(rt::kLaneWidths[0], rt::kLaneWidths[1], rt::kLaneWidths[2]);
     m.attr("PACKET_RAYS") = rt::kPacketRays;  // rays per packet of coherent rays in intersect()
     m.attr("RAY_CHUNK") = kRayChunk;           // rays a thread of intersect() orders into packets at a time
     // Trees above this many bytes are traversed without prefetching pushed children.
@@ -906,7 +1059,9 @@ NB_MODULE(_core, m) {
              "preliminary"_a = false)
         .def("packet_order", &PyScene::packet_order, "origins"_a, "directions"_a)
         .def("occluded", &PyScene::occluded, "origins"_a, "directions"_a, "t_max"_a, "wavefront"_a = false)
-        .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a, "wavefront"_a = false)
+        .def("sample_lights", &PyScene::sample_lights, "refs"_a, "u"_a, "width"_a = 1)
+        .def("shape_hits", &PyScene::shape_hits, "origins"_a, "directions"_a, "t_max"_a, "width"_a = 1)
+        .def("triangle_hits", &PyScene::triangle_hits, "origins"_a, "directions"_a, "width"_a = 1)
         .def("light_pdf", &PyScene::light_pdf, "refs"_a, "dirs"_a)
         .def("background", &PyScene::background, "dirs"_a)
         .def_prop_ro("primitive_count", &PyScene::primitive_count)

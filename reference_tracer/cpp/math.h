@@ -10,6 +10,8 @@
 #include <cstring>
 #include <limits>
 
+#include "simd.h"
+
 namespace rt {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -121,18 +123,49 @@ struct Ray {
     Vec3 at(double t) const { return o + t * d; }
 };
 
+// A shape's test written once over the lane type (Shape::hit<F>, simd.h), run on one ray:
+// whether it meets the shape at t in (t_min, t_max), t then in t_hit.
+template <typename Shape>
+inline bool hit_one(const Shape& shape, const Ray& r, double t_min, double t_max, double& t_hit) {
+    const double o[3] = {r.o.x, r.o.y, r.o.z}, d[3] = {r.d.x, r.d.y, r.d.z};
+    if (!shape.hit(o, d, t_min, t_max)) return false;
+    t_hit = t_max;
+    return true;
+}
+
+// The same on a pack of rays (t_min 0): the lanes where it hits, t_max lowered there.
+template <typename Shape>
+inline VPl hit_pack(const Shape& shape, const RayPack& r, VPd& t_max) {
+    const VPd o[3] = {r.ox, r.oy, r.oz}, d[3] = {r.dx, r.dy, r.dz};
+    return shape.hit(o, d, VPd{}, t_max);
+}
+
 // Orthonormal basis around a unit normal (Duff et al. 2017, branchless and continuous).
+// The tangents s and t of an orthonormal basis around the unit normal n (Duff et al.,
+// "Building an Orthonormal Basis, Revisited", 2017: branchless). F: double (Frame), or a
+// pack of normals (simd.h), each lane computing what the double does.
+template <typename F>
+inline void frame_tangents(const F (&n)[3], F (&s)[3], F (&t)[3]) {
+    const F sign = copysign_lanes(as_lanes(1.0, n[2]), n[2]);
+    const F a = -1.0 / (sign + n[2]);
+    const F b = n[0] * n[1] * a;
+    s[0] = 1.0 + sign * n[0] * n[0] * a;
+    s[1] = sign * b;
+    s[2] = -sign * n[0];
+    t[0] = b;
+    t[1] = sign + n[1] * n[1] * a;
+    t[2] = -n[1];
+}
+
 struct Frame {
     Vec3 s, t, n;
 
-    // warp.h's frame_tangents does these operations lane-wise, for the packs: keep the two
-    // alike (the wavefront integrator's images must equal the scalar one's bit for bit).
     explicit Frame(const Vec3& normal) : n(normal) {
-        const double sign = std::copysign(1.0, n.z);
-        const double a = -1.0 / (sign + n.z);
-        const double b = n.x * n.y * a;
-        s = Vec3(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-        t = Vec3(b, sign + n.y * n.y * a, -n.y);
+        const double nn[3] = {n.x, n.y, n.z};
+        double ss[3], tt[3];
+        frame_tangents(nn, ss, tt);
+        s = Vec3(ss[0], ss[1], ss[2]);
+        t = Vec3(tt[0], tt[1], tt[2]);
     }
     // With fused multiply-adds (mul_add): two thirds of the instructions, one rounding less.
     Vec3 to_local(const Vec3& v) const { return {dot_fused(v, s), dot_fused(v, t), dot_fused(v, n)}; }

@@ -44,6 +44,7 @@
 #include <nanobind/stl/string.h>
 
 #include "materials/material.h"
+#include "materials/rough_conductor_pack.h"
 #include "sampling/warp.h"
 
 namespace nb = nanobind;
@@ -211,15 +212,58 @@ Vec3 unit_wo(const Vector& wo) {
 
 // rt::bsdf_sample for each row of u = (u0, u1, u2): u0 picks a lobe (glass), u1 and u2
 // the direction.
+// rough_conductor::sample_pack (plain GGX) on lanes of type F over the rows of u: the
+// valid lanes' wi, weight and pdf.
+template <typename F>
+void rough_conductor_packs(const Vec3& wo, const Matrix& u, const Vector& albedo, double alpha, std::vector<double>& wi,
+                           std::vector<double>& weight, std::vector<double>& pdf, std::vector<uint8_t>& valid) {
+    constexpr int kWidth = kLanesOf<F>;
+    const size_t n = u.shape(0);
+    F w[3], alb[3];
+    for (int a = 0; a < 3; ++a) {
+        w[a] = broadcast<F>(wo[a]);
+        alb[a] = broadcast<F>(albedo(a));
+    }
+    for (size_t base = 0; base < n; base += kWidth) {
+        F u1, u2, out_wi[3], out_weight[3], out_pdf;
+        for (int l = 0; l < kWidth; ++l) {  // absent lanes repeat the first
+            const size_t i = base + size_t(base + size_t(l) < n ? l : 0);
+            u1[l] = u(i, 1);
+            u2[l] = u(i, 2);
+        }
+        const unsigned ok = rough_conductor::sample_pack(alb, broadcast<F>(alpha), w, u1, u2, out_wi, out_weight, out_pdf);
+        for (size_t l = 0; l < size_t(kWidth) && base + l < n; ++l) {
+            if (!((ok >> l) & 1u)) continue;
+            for (int a = 0; a < 3; ++a) {
+                wi[3 * (base + l) + size_t(a)] = out_wi[a][l];
+                weight[3 * (base + l) + size_t(a)] = out_weight[a][l];
+            }
+            pdf[base + l] = out_pdf[l];
+            valid[base + l] = 1;
+        }
+    }
+}
+
 nb::dict probe_bsdf_sample(const std::string& material, const Vector& wo_, const Matrix& u, const Vector& albedo,
-                     double param, double coating_eta, const std::optional<Vector>& specular, bool nonlinear) {
+                     double param, double coating_eta, const std::optional<Vector>& specular, bool nonlinear,
+                     int width) {
     const Material m = material_of(material, albedo, param, coating_eta, specular_of(specular), nonlinear);
     const Vec3 wo = unit_wo(wo_);
     require_columns(u, 3, "u");
     const size_t n = u.shape(0);
     std::vector<double> wi(3 * n, 0.0), weight(3 * n, 0.0), pdf(n, 0.0), eta(n, 1.0);
     std::vector<uint8_t> delta(n, 0), valid(n, 0);
-    {
+    if (width != 1) {
+        if (material != "rough_conductor")
+            throw std::invalid_argument(material + ": only rough_conductor (plain GGX) has a pack version");
+        nb::gil_scoped_release release;
+        if (width == 4)
+            rough_conductor_packs<Vd<4>>(wo, u, albedo, param, wi, weight, pdf, valid);
+        else if (width == 8)
+            rough_conductor_packs<Vd<8>>(wo, u, albedo, param, wi, weight, pdf, valid);
+        else
+            throw std::invalid_argument("width must be one of LANE_WIDTHS (1, 4, 8)");
+    } else {
         nb::gil_scoped_release release;
         for (size_t i = 0; i < n; ++i) {
             const BSDFSample s = rt::bsdf_sample(m, wo, u(i, 0), u(i, 1), u(i, 2));
@@ -297,11 +341,12 @@ void register_sampling_probe(nb::module_& m) {
     m.def("warp_pdf", &probe_warp_pdf, "name"_a, "points"_a, "param"_a = 0.0,
           "Density of warp_sample's output at (n, 3) directions (solid angle) or (n, 2) disk points (area).");
     m.def("bsdf_sample", &probe_bsdf_sample, "material"_a, "wo"_a, "u"_a, "albedo"_a, "param"_a,
-          "eta"_a = kPlasticEta, "specular"_a = nb::none(), "nonlinear"_a = false,
+          "eta"_a = kPlasticEta, "specular"_a = nb::none(), "nonlinear"_a = false, "width"_a = 1,
           "rt::bsdf_sample for each row (u0, u1, u2) of u; wo is the unit local outgoing direction. "
           "Returns dict wi (n, 3), weight (n, 3) = f cos / pdf, pdf (n,), eta (n,), delta (n,), valid (n,). "
           "eta, specular (3,) and nonlinear: the plastics' coating (Mitsuba's defaults when not given); eta: "
-          "the rough dielectric's int_ior / ext_ior.");
+          "the rough dielectric's int_ior / ext_ior. width: 1, or 4 or 8 for rough_conductor's packs (the "
+          "wavefront's plain-GGX sampler; only valid samples are filled), a testing seam.");
     m.def("bsdf_eval_pdf", &probe_bsdf_eval_pdf, "material"_a, "wo"_a, "wi"_a, "albedo"_a, "param"_a,
           "eta"_a = kPlasticEta, "specular"_a = nb::none(), "nonlinear"_a = false,
           "rt::bsdf_eval (f * cos, (n, 3)) and rt::bsdf_pdf ((n,)) for each row of wi: dict value, pdf.");

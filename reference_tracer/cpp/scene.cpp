@@ -299,7 +299,7 @@ void Scene::fill_sphere_pack(const RayPack& r, VPd t, VPl prim, unsigned lanes, 
     // ray.at(t), o + t d, lane-wise.
     const VPd at[3] = {r.ox + r.dx * t, r.oy + r.dy * t, r.oz + r.dz * t};
     VPd p[3], n[3];
-    Sphere::surface_pack(at, center, radius, sign, p, n);
+    Sphere::surface_lanes(at, center, radius, sign, p, n);
     for (unsigned left = lanes; left != 0; left &= left - 1) {
         const int l = __builtin_ctz(left);
         Interaction& hit = *it[l];

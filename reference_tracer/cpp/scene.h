@@ -259,6 +259,9 @@ public:
     size_t sphere_count() const { return spheres_.size(); }
     size_t quad_count() const { return quads_.size(); }
     size_t triangle_count() const { return triangles_.size(); }
+    const Sphere& sphere(size_t i) const { return spheres_[i]; }
+    const Quad& quad(size_t i) const { return quads_[i]; }
+    const Triangle& triangle(size_t i) const { return triangles_[i]; }
     // Whether any triangle has vertex normals (smooth shading).
     bool has_shading_normals() const { return !normals_.empty(); }
 

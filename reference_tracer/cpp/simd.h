@@ -36,8 +36,30 @@ using V4l = decltype(V4d{} < V4d{});
 
 constexpr int kPackWidth = RT_PACK;
 static_assert(kPackWidth == 4 || kPackWidth == 8, "RT_PACK_WIDTH must be 4 or 8");
-using VPd = double __attribute__((vector_size(8 * kPackWidth)));
-using VPl = decltype(VPd{} < VPd{});  // lane masks of VPd comparisons (0 / -1), as V4l
+
+// Lanes of doubles by width, the lane type F of the core's routines written once for a
+// scalar and a pack (pbrt-v4's and Dr.Jit's Float): double for one lane, V4d (one AVX2
+// register) and V8d (one AVX-512 register; two AVX ones, or four SSE ones, elsewhere) for
+// packs. A routine over F runs on any width; the helpers below (sqrt_of, mul_add,
+// lane_mask, ...) have one overload per width, each lane doing what the double one does.
+// A new width is a new DoubleLanes line and the helpers' overloads, never a new routine.
+using V8d = double __attribute__((vector_size(64)));
+using V8l = decltype(V8d{} < V8d{});
+template <int N> struct DoubleLanes;
+template <> struct DoubleLanes<1> { using type = double; };
+template <> struct DoubleLanes<4> { using type = V4d; };
+template <> struct DoubleLanes<8> { using type = V8d; };
+template <int N> using Vd = typename DoubleLanes<N>::type;
+// The widths the lane-width probes compile (bindings.cpp: LANE_WIDTHS): every width a
+// build may use (one lane for the scalar integrator, kPackWidth for the wavefront one).
+constexpr int kLaneWidths[] = {1, 4, 8};
+
+// A comparison's result on lanes of type F: bool for double, a vector of 0 / -1 for packs.
+template <typename F> using MaskOf = decltype(F{} < F{});
+template <typename F> constexpr int kLanesOf = sizeof(F) / sizeof(double);
+
+using VPd = Vd<kPackWidth>;
+using VPl = MaskOf<VPd>;  // lane masks of VPd comparisons (0 / -1), as V4l
 
 // kPackWidth rays in structure-of-arrays form: one lane per ray, so that a primitive's
 // test runs on all of them with the same instructions.
@@ -45,29 +67,40 @@ struct RayPack {
     VPd ox, oy, oz, dx, dy, dz;
 };
 
-// Square root: std::sqrt for double, lane-wise (IEEE, as std::sqrt on each lane) for VPd.
+// Square root: std::sqrt for double, lane-wise (IEEE, as std::sqrt on each lane) for packs.
 inline double sqrt_of(double x) { return __builtin_sqrt(x); }
-inline VPd sqrt_of(VPd x) {
-#if RT_PACK == 8 && defined(__AVX512F__)
-    return reinterpret_cast<VPd>(_mm512_sqrt_pd(reinterpret_cast<__m512d>(x)));
-#elif RT_PACK == 4 && defined(__AVX__)
-    return reinterpret_cast<VPd>(_mm256_sqrt_pd(reinterpret_cast<__m256d>(x)));
+inline V4d sqrt_of(V4d x) {
+#if defined(__AVX__)
+    return reinterpret_cast<V4d>(_mm256_sqrt_pd(reinterpret_cast<__m256d>(x)));
 #else
-    for (int i = 0; i < kPackWidth; ++i) x[i] = __builtin_sqrt(x[i]);
+    for (int i = 0; i < 4; ++i) x[i] = __builtin_sqrt(x[i]);
+    return x;
+#endif
+}
+inline V8d sqrt_of(V8d x) {
+#if defined(__AVX512F__)
+    return reinterpret_cast<V8d>(_mm512_sqrt_pd(reinterpret_cast<__m512d>(x)));
+#else
+    for (int i = 0; i < 8; ++i) x[i] = __builtin_sqrt(x[i]);
     return x;
 #endif
 }
 
 // Lane-wise std::floor and safe_sqrt (math.h: the square root of max(0, x), NaN -> 0).
-inline VPd floor_of(VPd x) {
-#if RT_PACK == 4 && defined(__AVX__)
-    return reinterpret_cast<VPd>(_mm256_floor_pd(reinterpret_cast<__m256d>(x)));
+inline double floor_of(double x) { return __builtin_floor(x); }
+inline V4d floor_of(V4d x) {
+#if defined(__AVX__)
+    return reinterpret_cast<V4d>(_mm256_floor_pd(reinterpret_cast<__m256d>(x)));
 #else
-    for (int i = 0; i < kPackWidth; ++i) x[i] = __builtin_floor(x[i]);
+    for (int i = 0; i < 4; ++i) x[i] = __builtin_floor(x[i]);
     return x;
 #endif
 }
-inline VPd safe_sqrt_of(VPd x) { return sqrt_of(0.0 < x ? x : VPd{}); }
+inline V8d floor_of(V8d x) {
+    for (int i = 0; i < 8; ++i) x[i] = __builtin_floor(x[i]);
+    return x;
+}
+template <typename F> inline F safe_sqrt_of(F x) { return sqrt_of(0.0 < x ? x : F{}); }
 
 // 1 / x lane-wise within a relative error of 2^-14 (kReciprocalEstimateError), with its
 // sign, and +-inf for +-0: AVX-512's estimate instruction for packs of eight, a division
@@ -82,9 +115,12 @@ inline VPd reciprocal_estimate(VPd x) {
 #endif
 }
 
-// x in every lane. VPd{} + x would add a zero first (IEEE has -0 + 0 = +0, so the compiler
-// must); x - 0 is x for every x, so the subtraction folds away into a broadcast.
-inline VPd splat(double x) { return x - VPd{}; }
+// x in every lane of F (itself for double). F{} + x would add a zero first (IEEE has
+// -0 + 0 = +0, so the compiler must); x - 0 is x for every x, so the subtraction folds away
+// into a broadcast.
+template <typename F> inline F broadcast(double x) { return x - F{}; }
+template <> inline double broadcast<double>(double x) { return x; }
+inline VPd splat(double x) { return broadcast<VPd>(x); }
 inline V8f splat8(float x) { return x - V8f{}; }
 
 // The pack of doubles at p[0..kPackWidth) (any alignment).
@@ -129,21 +165,25 @@ inline void gather_members(const T* const* objs, int m, Get&& get, VPd (&out)[N]
 #endif
 }
 
-// v as the type of `like`: itself for double, in every lane for VPd (code written once
+// v as the type of `like`: itself for double, in every lane for a pack (code written once
 // for a scalar and a pack).
-inline double as_lanes(double v, double) { return v; }
-inline VPd as_lanes(double v, VPd) { return splat(v); }
+template <typename F> inline F as_lanes(double v, F) { return broadcast<F>(v); }
 
 // Lane-wise mul_add (math.h): fused where the target has FMA, as the scalar one is.
-inline VPd mul_add(VPd a, VPd b, VPd c) {
-#if defined(__FMA__) && RT_PACK == 4
-    return reinterpret_cast<VPd>(_mm256_fmadd_pd(reinterpret_cast<__m256d>(a), reinterpret_cast<__m256d>(b),
+inline V4d mul_add(V4d a, V4d b, V4d c) {
+#if defined(__FMA__)
+    return reinterpret_cast<V4d>(_mm256_fmadd_pd(reinterpret_cast<__m256d>(a), reinterpret_cast<__m256d>(b),
                                                   reinterpret_cast<__m256d>(c)));
-#elif defined(__AVX512F__) && RT_PACK == 8
-    return reinterpret_cast<VPd>(_mm512_fmadd_pd(reinterpret_cast<__m512d>(a), reinterpret_cast<__m512d>(b),
+#else
+    return a * b + c;
+#endif
+}
+inline V8d mul_add(V8d a, V8d b, V8d c) {
+#if defined(__AVX512F__)
+    return reinterpret_cast<V8d>(_mm512_fmadd_pd(reinterpret_cast<__m512d>(a), reinterpret_cast<__m512d>(b),
                                                   reinterpret_cast<__m512d>(c)));
 #elif defined(__FMA__)
-    for (int i = 0; i < kPackWidth; ++i) a[i] = __builtin_fma(a[i], b[i], c[i]);
+    for (int i = 0; i < 8; ++i) a[i] = __builtin_fma(a[i], b[i], c[i]);
     return a;
 #else
     return a * b + c;
@@ -151,10 +191,13 @@ inline VPd mul_add(VPd a, VPd b, VPd c) {
 }
 
 // Lane-wise std::copysign(magnitude, sign).
-inline VPd copysign_lanes(VPd magnitude, VPd sign) {
-    const VPl sign_bit = VPl{} + INT64_MIN;
-    return reinterpret_cast<VPd>((reinterpret_cast<VPl>(magnitude) & ~sign_bit) |
-                                 (reinterpret_cast<VPl>(sign) & sign_bit));
+inline double copysign_lanes(double magnitude, double sign) { return __builtin_copysign(magnitude, sign); }
+template <typename F>
+inline F copysign_lanes(F magnitude, F sign) {
+    using Bits = MaskOf<F>;
+    const Bits sign_bit = Bits{} + INT64_MIN;
+    return reinterpret_cast<F>((reinterpret_cast<Bits>(magnitude) & ~sign_bit) |
+                               (reinterpret_cast<Bits>(sign) & sign_bit));
 }
 
 // Bit i set where lane i of a comparison result (0 / all ones) is true, lane by lane: the
@@ -167,7 +210,9 @@ inline unsigned lane_bits(const Lanes& lanes) {
     return mask;
 }
 
-// Bit i set where lane i of a V4d comparison (a VPd one where packs are four wide) is true.
+// Bit 0 set where a double comparison is true: lane_mask of one lane.
+inline unsigned lane_mask(bool lane) { return lane ? 1u : 0u; }
+// Bit i set where lane i of a V4d comparison is true.
 inline unsigned lane_mask(V4l lanes) {
 #ifdef __AVX__
     return static_cast<unsigned>(_mm256_movemask_pd(reinterpret_cast<__m256d>(lanes)));
@@ -175,12 +220,11 @@ inline unsigned lane_mask(V4l lanes) {
     return lane_bits(lanes);
 #endif
 }
-#if RT_PACK == 8
 // The same for a pack of eight (one AVX-512 register, or two AVX ones). One instruction
 // with AVX-512 (a comparison's mask register, read back): lane_bits' portable loop
 // compiled to ~50 lane extractions there, as many as the quad test it follows
 // (PERFORMANCE.md, Ideas tried).
-inline unsigned lane_mask(VPl lanes) {
+inline unsigned lane_mask(V8l lanes) {
 #if defined(__AVX512F__)
     const __m512i v = reinterpret_cast<__m512i>(lanes);
     return static_cast<unsigned>(_mm512_test_epi64_mask(v, v));
@@ -193,21 +237,30 @@ inline unsigned lane_mask(VPl lanes) {
     return lane_bits(lanes);
 #endif
 }
-#endif
 
-// Lane i all ones where bit i of `bits` is set: lane_mask's inverse, for selections by a
-// mask of bits (one instruction with AVX-512).
-inline VPl lanes_of_bits(unsigned bits) {
-#if RT_PACK == 8 && defined(__AVX512F__)
-    return reinterpret_cast<VPl>(_mm512_maskz_mov_epi64(static_cast<__mmask8>(bits), _mm512_set1_epi64(-1)));
-#elif RT_PACK == 8
-    const VPl bit = {1, 2, 4, 8, 16, 32, 64, 128};
+// Lane i true where bit i of `bits` is set: lane_mask's inverse, for selections by a mask
+// of bits (one instruction with AVX-512), as a mask of lanes of type F.
+template <typename F> inline MaskOf<F> lanes_of_bits(unsigned bits);
+template <> inline bool lanes_of_bits<double>(unsigned bits) { return (bits & 1u) != 0; }
+template <> inline V4l lanes_of_bits<V4d>(unsigned bits) {
+    const V4l bit = {1, 2, 4, 8};
     return (bit & static_cast<int64_t>(bits)) != 0;
+}
+template <> inline V8l lanes_of_bits<V8d>(unsigned bits) {
+#if defined(__AVX512F__)
+    return reinterpret_cast<V8l>(_mm512_maskz_mov_epi64(static_cast<__mmask8>(bits), _mm512_set1_epi64(-1)));
 #else
-    const VPl bit = {1, 2, 4, 8};
+    const V8l bit = {1, 2, 4, 8, 16, 32, 64, 128};
     return (bit & static_cast<int64_t>(bits)) != 0;
 #endif
 }
+inline VPl lanes_of_bits(unsigned bits) { return lanes_of_bits<VPd>(bits); }
+
+// Lane l of a pack, or the double itself (l = 0): how a routine over F hands one lane back.
+inline double lane_of(double v, int) { return v; }
+template <typename F> inline double lane_of(const F& v, int l) { return v[l]; }
+inline void set_lane(double& v, int, double x) { v = x; }
+template <typename F> inline void set_lane(F& v, int l, double x) { v[l] = x; }
 
 // Bit i set where lane i of a V8f comparison is true.
 inline unsigned lane_mask(V8i lanes) {
@@ -261,6 +314,8 @@ inline float min_lane(V16f v) {
 }
 inline float max_lane(V16f v) { return -min_lane(-v); }
 
+// The smallest of one double: itself.
+inline double min_lane(double v) { return v; }
 // The smallest of four doubles (no NaN among them).
 inline double min_lane(V4d v) {
 #ifdef __AVX__

@@ -340,49 +340,6 @@ def test_seeded_bugs_run_in_the_scalar_integrator_only():
     core.render(1, 4, 0, 1, None, False, integrator=0, mutant=0)  # the tracer itself: either
 
 
-@pytest.mark.parametrize("name", SUITE)
-def test_packed_light_samples_equal_scalar_ones(name):
-    # The wavefront samples the lights of a pack of vertices at once where the scene's only
-    # light is a quad (LightSampler::sample_single_quad; every Cornell box of the suite) or
-    # a sphere (sample_single_sphere; `furnace`), or its lights are several spheres
-    # (sample_spheres; `glossy_plates`); each sample must be LightSampler::sample's bit for
-    # bit, the failed ones included: points all over and beyond the scene, on the light's
-    # plane, at its corners (where the sampled point can be the reference point itself:
-    # distance 0) and behind it; on, inside and just outside a sphere light (one sphere:
-    # area sampling packed, cone sampling lane by lane; several: the cone packed, the rest
-    # lane by lane).
-    scene = get_scene(name)
-    core = core_scene(scene)
-    rng = np.random.default_rng(7)
-    n = 4001  # not a multiple of the pack width: the last pack is partial
-    refs = rng.uniform(-700.0, 1300.0, (n, 3))
-    u = rng.random((n, 3))
-    lights = [s for s in scene.shapes if isinstance(s, rt.Quad) and isinstance(s.material, rt.DiffuseLight)]
-    special = []
-    for q in lights:
-        Q, a, b = (np.asarray(x, dtype=float) for x in (q.Q, q.u, q.v))
-        normal = np.cross(a, b) / np.linalg.norm(np.cross(a, b))
-        for p in (Q, Q + a, Q + b, Q + a + b, Q + 0.5 * a + 0.5 * b):
-            special += [p, p + normal, p - normal, p + 1e-9 * normal]
-    spheres = [s for s in scene.shapes if isinstance(s, rt.Sphere) and isinstance(s.material, rt.DiffuseLight)]
-    for sph in spheres:
-        c, r = np.asarray(sph.center, dtype=float), float(sph.radius)
-        dirs = rng.normal(size=(600, 3))
-        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-        scale = rng.choice([0.0, 0.3, 0.999, 1.0, 1.0, 1.0, 1.0 + 1e-12, 1.5], size=(600, 1))
-        special += list(c + r * scale * dirs)
-    if special:
-        refs[: len(special)] = special
-        u[: len(special), 1:] = 0.0  # the sampled point is Q: at the corner Q, distance 0
-        if spheres:  # random uniforms for the sphere points (u = 0 is the pole)
-            u[len(special) - 600 * len(spheres): len(special)] = rng.random((600 * len(spheres), 3))
-    refs, u = np.ascontiguousarray(refs), np.ascontiguousarray(u)
-    scalar, packed = core.sample_lights(refs, u), core.sample_lights(refs, u, wavefront=True)
-    assert scalar["valid"].any() or not lights
-    for key in ("valid", "wi", "pdf", "dist", "pdf_all"):
-        assert np.array_equal(scalar[key], packed[key]), key
-
-
 @pytest.mark.parametrize("warp", ["cosine_hemisphere", "concentric_disk"])
 def test_packed_cosine_warp_equals_scalar_one(warp):
     # The wavefront draws the directions of a pack of diffuse vertices at once with the same

@@ -23,23 +23,83 @@ struct Params {
     bool plain_ggx() const { return distribution == Distribution::GGX && !fresnel.enabled; }
 };
 
-inline double ggx_d(const Vec3& m, double alpha) {
-    if (m.z <= 0.0) return 0.0;
-    const double a2 = alpha * alpha;
-    const double c2 = m.z * m.z;
-    const double denom = c2 * (a2 - 1.0) + 1.0;
-    return a2 / (kPi * denom * denom);
+// The plain-GGX pieces are written once over their lane type F (simd.h: double for one
+// vertex, a pack for rough_conductor_pack.h's), each lane doing one vertex's operations in
+// their order; their early returns are selections. The Vec3 forms below call them.
+
+// v times the reciprocal of its length (normalize), lane by lane.
+template <typename F>
+inline void normalize_lanes(F (&v)[3]) {
+    const F inv = 1.0 / sqrt_of(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int a = 0; a < 3; ++a) v[a] = v[a] * inv;
+}
+
+// GGX's distribution of normals m (unit), zero below the surface.
+template <typename F>
+inline F ggx_d(const F (&m)[3], F alpha) {
+    const F a2 = alpha * alpha;
+    const F c2 = m[2] * m[2];
+    const F denom = c2 * (a2 - 1.0) + 1.0;
+    const F d = a2 / (kPi * denom * denom);
+    return m[2] <= 0.0 ? F{} : d;
 }
 
 // Smith's masking for GGX; zero when v sees the back of the microfacet.
+template <Mutant M = Mutant::None, typename F>
+inline F smith_g1(const F (&v)[3], const F (&m)[3], F alpha) {
+    const F vm = v[0] * m[0] + v[1] * m[1] + v[2] * m[2];  // dot(v, m)
+    const F c2 = v[2] * v[2];
+    const F one_minus = 1.0 - c2;
+    const F tan2 = (0.0 < one_minus ? one_minus : F{}) / c2;  // std::max(0.0, 1 - c2) / c2
+    F g;
+    if constexpr (M == Mutant::GgxMaskingAlpha)
+        g = 2.0 / (1.0 + sqrt_of(1.0 + alpha * tan2));  // seeded bug: alpha, not alpha^2
+    else
+        g = 2.0 / (1.0 + sqrt_of(1.0 + alpha * alpha * tan2));
+    return vm * v[2] <= 0.0 ? F{} : g;
+}
+
+// A visible normal m for the view direction wo (Heitz, "Sampling the GGX Distribution of
+// Visible Normals", JCGT 2018).
+template <typename F>
+inline void sample_visible_normal(const F (&wo)[3], F alpha, F u1, F u2, F (&m)[3]) {
+    F vh[3] = {alpha * wo[0], alpha * wo[1], wo[2]};
+    normalize_lanes(vh);
+    const F len2 = vh[0] * vh[0] + vh[1] * vh[1];
+    const auto tilted = len2 > 0.0;
+    const F inv = 1.0 / sqrt_of(len2);
+    // Vec3(-vh.y, vh.x, 0) / sqrt(len2), or (1, 0, 0); the z of both is +0.
+    const F t1[3] = {tilted ? -vh[1] * inv : as_lanes(1.0, inv), tilted ? vh[0] * inv : F{}, F{}};
+    const F t2[3] = {vh[1] * t1[2] - vh[2] * t1[1], vh[2] * t1[0] - vh[0] * t1[2], vh[0] * t1[1] - vh[1] * t1[0]};
+    const F r = sqrt_of(u1);
+    F sin_phi, cos_phi;
+    sincos_turn(u2, sin_phi, cos_phi);  // phi = 2 pi u2
+    const F p1 = r * cos_phi;
+    const F s = 0.5 * (1.0 + vh[2]);
+    const F p2 = (1.0 - s) * safe_sqrt_of(1.0 - p1 * p1) + s * r * sin_phi;
+    const F lift = safe_sqrt_of(1.0 - p1 * p1 - p2 * p2);
+    F nh[3];
+    for (int a = 0; a < 3; ++a) nh[a] = t1[a] * p1 + t2[a] * p2 + vh[a] * lift;
+    m[0] = alpha * nh[0];
+    m[1] = alpha * nh[1];
+    m[2] = 0.0 < nh[2] ? nh[2] : F{};  // std::max(0.0, nh.z)
+    normalize_lanes(m);
+}
+
+inline double ggx_d(const Vec3& m, double alpha) {
+    const double mm[3] = {m.x, m.y, m.z};
+    return ggx_d(mm, alpha);
+}
 template <Mutant M = Mutant::None>
 inline double smith_g1(const Vec3& v, const Vec3& m, double alpha) {
-    if (dot(v, m) * v.z <= 0.0) return 0.0;
-    const double c2 = v.z * v.z;
-    const double tan2 = std::max(0.0, 1.0 - c2) / c2;
-    if constexpr (M == Mutant::GgxMaskingAlpha)
-        return 2.0 / (1.0 + std::sqrt(1.0 + alpha * tan2));  // seeded bug: alpha, not alpha^2
-    return 2.0 / (1.0 + std::sqrt(1.0 + alpha * alpha * tan2));
+    const double vv[3] = {v.x, v.y, v.z}, mm[3] = {m.x, m.y, m.z};
+    return smith_g1<M>(vv, mm, alpha);
+}
+inline Vec3 sample_visible_normal(const Vec3& wo, double alpha, double u1, double u2) {
+    const double w[3] = {wo.x, wo.y, wo.z};
+    double m[3];
+    sample_visible_normal(w, alpha, u1, u2, m);
+    return {m[0], m[1], m[2]};
 }
 
 template <Mutant M = Mutant::None>
@@ -55,23 +115,6 @@ inline double pdf(double alpha, const Vec3& wo, const Vec3& wi) {
     if (wo.z <= 0.0 || wi.z <= 0.0) return 0.0;
     const Vec3 h = normalize(wo + wi);
     return smith_g1<M>(wo, h, alpha) * ggx_d(h, alpha) / (4.0 * wo.z);
-}
-
-// A visible normal for the view direction wo (Heitz, "Sampling the GGX Distribution of
-// Visible Normals", JCGT 2018).
-inline Vec3 sample_visible_normal(const Vec3& wo, double alpha, double u1, double u2) {
-    const Vec3 vh = normalize(Vec3(alpha * wo.x, alpha * wo.y, wo.z));
-    const double len2 = vh.x * vh.x + vh.y * vh.y;
-    const Vec3 t1 = len2 > 0.0 ? Vec3(-vh.y, vh.x, 0.0) / std::sqrt(len2) : Vec3(1.0, 0.0, 0.0);
-    const Vec3 t2 = cross(vh, t1);
-    const double r = std::sqrt(u1);
-    double sin_phi, cos_phi;
-    sincos_turn(u2, sin_phi, cos_phi);  // phi = 2 pi u2
-    const double p1 = r * cos_phi;
-    const double s = 0.5 * (1.0 + vh.z);
-    const double p2 = (1.0 - s) * safe_sqrt(1.0 - p1 * p1) + s * r * sin_phi;
-    const Vec3 nh = p1 * t1 + p2 * t2 + safe_sqrt(1.0 - p1 * p1 - p2 * p2) * vh;
-    return normalize(Vec3(alpha * nh.x, alpha * nh.y, std::max(0.0, nh.z)));
 }
 
 template <Mutant M = Mutant::None>

@@ -52,20 +52,22 @@ struct LightSample {
     bool valid = false;
 };
 
-// LightSamples of a pack of reference points (simd.h), lane by lane, in structure-of-arrays
-// form: the packed samplers write them as vectors, and the wavefront integrator finishes
-// the next-event estimates of a pack of diffuse vertices from them without unpacking
-// (PERFORMANCE.md, Ideas tried). A lane holds LightSample()'s values until a sample is set.
-struct LightSamplePack {
-    VPd wi[3], dist, pdf, radiance[3];
+// LightSamples of lanes of reference points (simd.h: F a pack of doubles) in
+// structure-of-arrays form: the pack samplers write them as vectors, and the wavefront
+// integrator finishes the next-event estimates of a pack of diffuse vertices from them
+// without unpacking (PERFORMANCE.md, Ideas tried). A lane holds LightSample()'s values
+// until a sample is set.
+template <typename F>
+struct LightSampleLanes {
+    F wi[3], dist, pdf, radiance[3];
     unsigned valid = 0, background = 0, delta = 0;  // bit l: lane l's flag
 
     // Zeros (dist infinite), set from a register: with default member initialisers GCC
     // zeroed the arrays with `rep stos` on AVX2 targets, a microcoded start-up a pack.
-    LightSamplePack() {
-        const VPd zero = {};
+    LightSampleLanes() {
+        const F zero = {};
         for (int a = 0; a < 3; ++a) wi[a] = radiance[a] = zero;
-        dist = splat(kInf);
+        dist = broadcast<F>(kInf);
         pdf = zero;
     }
 
@@ -92,6 +94,21 @@ struct LightSamplePack {
         background = ls.background ? background | bit : background & ~bit;
         delta = ls.delta ? delta | bit : delta & ~bit;
     }
+};
+using LightSamplePack = LightSampleLanes<VPd>;
+
+// An area light's sample on lanes of type F (double: one sample), before it is stored:
+// what LightSampler::area_sample computes.
+template <typename F>
+struct AreaSample {
+    F wi[3], dist, pdf;
+    unsigned valid;  // bit l: lane l's sample is valid
+};
+
+// The parameters of a sphere light on lanes of type F (one sphere per lane).
+template <typename F>
+struct SphereLanes {
+    F center[3], radius, normal_sign;
 };
 
 // Area lights first; the delta lights after them (is_delta).
@@ -200,7 +217,7 @@ public:
         prim_to_emitter_.assign(prim_count, -1);
         for (size_t i = 0; i < emitters_.size(); ++i)
             if (!is_delta(emitters_[i].kind)) prim_to_emitter_[emitters_[i].prim] = int32_t(i);
-        several_spheres_ = emitters_.size() >= 2 && p_background_ == 0.0 &&
+        only_spheres_ = !emitters_.empty() && p_background_ == 0.0 &&
                            std::all_of(emitters_.begin(), emitters_.end(),
                                        [](const Emitter& e) { return e.kind == EmitterKind::Sphere; });
     }
@@ -235,200 +252,76 @@ public:
         const Emitter& e = emitters_[i];
         const double sel = select_.pmf(i) * (1.0 - p_background_);
         if (is_delta(e.kind)) return sample_delta((*deltas_)[e.index], ref, sel);
-        Vec3 p, n;
-        double pdf_dir = 0.0;
-        if (!sample_point(e, ref, u1, u2, p, n, pdf_dir)) return ls;
-        const Vec3 d = p - ref;
-        const double dist2 = dot_fused(d, d);
-        if (!(dist2 > 0.0)) return ls;
-        ls.dist = std::sqrt(dist2);
-        ls.wi = d / ls.dist;
-        const double cos_l = -dot_fused(n, ls.wi);
-        if (!(cos_l > 0.0)) return ls;  // back of a one-sided emitter, or exactly grazing
-        if constexpr (M == Mutant::LightPdfNoJacobian) {
-            if (pdf_dir == 0.0) pdf_dir = 1.0 / area(e);  // seeded bug: the area density, no dist^2 / cos
-        } else {
-            if (pdf_dir == 0.0) pdf_dir = dist2 / (cos_l * area(e));  // area sampling -> solid angle
+        const double r[3] = {ref.x, ref.y, ref.z};
+        double d[3], n[3], pdf_dir = 0.0;
+        switch (e.kind) {
+            case EmitterKind::Quad: {
+                const Quad& q = (*quads_)[e.index];
+                double p[3];
+                q.point(u1, u2, p);
+                for (int a = 0; a < 3; ++a) {
+                    d[a] = p[a] - r[a];
+                    n[a] = q.normal[a];
+                }
+                break;
+            }
+            case EmitterKind::Triangle: triangle_point(e, ref, u1, u2, d, n); break;
+            default: sample_sphere(e, r, u1, u2, d, n, pdf_dir); break;
         }
-        ls.pdf = sel * pdf_dir;
-        if (!(ls.pdf > 0.0) || !std::isfinite(ls.pdf)) return ls;
+        const AreaSample<double> t = area_sample<M>(d, n, sel, pdf_dir, area(e));
+        if (t.valid == 0) return ls;
+        ls.wi = Vec3(t.wi[0], t.wi[1], t.wi[2]);
+        ls.dist = t.dist;
+        ls.pdf = t.pdf;
         ls.radiance = e.radiance;
         ls.valid = true;
         return ls;
     }
 
-    // Whether the scene's only light is one quad (no background): the case
-    // sample_single_quad() serves (every Cornell box of the suite).
+    // Whether the scene's only light is one quad (no background): the case sample_pack
+    // serves with the quad's point in every lane (every Cornell box of the suite).
     bool single_quad() const {
         return emitters_.size() == 1 && emitters_[0].kind == EmitterKind::Quad && p_background_ == 0.0;
     }
+    // Whether the scene's lights are spheres (no background): the case sample_pack serves
+    // with each lane's sphere (`furnace`, `glossy_plates`).
+    bool only_spheres() const { return only_spheres_; }
+    // Whether the scene's light sampling runs a pack at a time (sample_pack's pack bodies).
+    bool packed_sampling() const { return single_quad() || only_spheres(); }
 
-    // sample() for a pack of reference points at once (simd.h: 4 or 8 lanes) where
-    // single_quad() holds; u0 is not needed (one emitter). Lane l of ref, u1, u2 gives lane
-    // l of out. Each lane does sample()'s operations in sample()'s order (lane-wise square
-    // root and division are IEEE like the scalar ones), so every valid sample is sample()'s
-    // bit for bit; a failed one is returned as LightSample() (sample() leaves some fields
-    // set on the way, which no caller reads once valid is false).
-    void sample_single_quad(const VPd (&ref)[3], VPd u1, VPd u2, LightSamplePack& out) const {
-        const Emitter& e = emitters_[0];
-        const Quad& q = (*quads_)[e.index];
-        // p = q.point(u1, u2), d = p - ref.
-        VPd d[3];
-        for (int a = 0; a < 3; ++a) d[a] = mul_add(u2, splat(q.v[a]), mul_add(u1, splat(q.u[a]), splat(q.Q[a]))) - ref[a];
-        const VPd n[3] = {splat(q.normal.x), splat(q.normal.y), splat(q.normal.z)};
-        finish_pack(e, q.area(), d, n, kAllLanes, out);
-    }
-
-    // Whether the scene's only light is one sphere (no background): the case
-    // sample_single_sphere() serves (`furnace`).
-    bool single_sphere() const {
-        return emitters_.size() == 1 && emitters_[0].kind == EmitterKind::Sphere && p_background_ == 0.0;
-    }
-
-    // sample() for a pack of reference points where single_sphere() holds, as
-    // sample_single_quad() is for a quad: the lanes whose point lies inside or on the
-    // sphere (sampled by area, sample_sphere's first case: every vertex of `furnace`) run
-    // sample()'s operations lane-wise, bit for bit; any other lane (cone sampling) calls
-    // sample() itself.
-    // Only the lanes of `lanes` (bits) are set.
-    void sample_single_sphere(const VPd (&ref)[3], const VPd (&u)[3], unsigned lanes, LightSamplePack& out) const {
-        const Emitter& e = emitters_[0];
-        const Sphere& s = (*spheres_)[e.index];
-        VPd to_c[3];
-        for (int a = 0; a < 3; ++a) to_c[a] = s.center[a] - ref[a];
-        const VPd dc2 = to_c[0] * to_c[0] + to_c[1] * to_c[1] + to_c[2] * to_c[2];  // length_squared
-        const unsigned inside = lane_mask(dc2 <= s.radius * s.radius) & lanes;
-        sample_lanes(ref, u, lanes & ~inside, out);
-        if (inside == 0) return;
-        // p = centre + radius * dir, n = dir * normal_sign, dir uniform on the unit sphere.
-        VPd dir[3];
-        sphere_point_at_height(1.0 - 2.0 * u[1], u[2], dir);
-        VPd d[3], n[3];
-        for (int a = 0; a < 3; ++a) {
-            d[a] = (s.center[a] + s.radius * dir[a]) - ref[a];
-            n[a] = dir[a] * s.normal_sign;
-        }
-        finish_pack(e, s.area(), d, n, inside, out);
-    }
-
-    // Whether the scene's lights are several spheres (no background): the case
-    // sample_spheres() serves (`glossy_plates`).
-    bool several_spheres() const { return several_spheres_; }
-
-    // sample() for a pack of reference points where several_spheres() holds. Per lane, the
-    // emitter is selected as sample() does (a table walk, lane by lane); the lanes whose
-    // point lies outside its sphere (the common case) sample the subtended cone with
-    // sample_sphere()'s operations lane-wise, bit for bit; a point inside or on its sphere
-    // calls sample() itself.
-    // Only the lanes of `lanes` (bits) are set.
-    void sample_spheres(const VPd (&ref)[3], const VPd (&u)[3], unsigned lanes, LightSamplePack& out) const {
-        VPd center[3], radius, normal_sign, sel, area, radiance[3];
-        for (int l = 0; l < kPackWidth; ++l) {  // every lane: the others' values are not used
-            const size_t i = select_.sample(std::min(u[0][l], std::nextafter(1.0, 0.0)));
-            const Sphere& s = (*spheres_)[emitters_[i].index];
+    // sample() for lanes of reference points (simd.h: F a pack of doubles, V4d or V8d), the
+    // lanes of `lanes` (bits; the others' values are not used and their results are any).
+    // Where packed_sampling() holds, the lanes run the bodies sample() runs (Quad::point,
+    // sphere_point, area_sample) on the pack, so that every lane is sample()'s result bit for
+    // bit (lane-wise square root and division are IEEE like the scalar ones; a failed sample
+    // is returned as LightSample(), as sample() returns it); else sample() lane by lane.
+    // Always inline: out of line, the pack went back through memory (+0.5% instructions
+    // on cornell_box).
+    template <typename F>
+    [[gnu::always_inline]] inline LightSampleLanes<F> sample_pack(const F (&ref)[3], const F (&u)[3],
+                                                                  unsigned lanes) const {
+        LightSampleLanes<F> out;
+        if (single_quad()) {
+            const Emitter& e = emitters_[0];
+            const Quad& q = (*quads_)[e.index];
+            F p[3], d[3], n[3], radiance[3];
+            q.point(u[1], u[2], p);
             for (int a = 0; a < 3; ++a) {
-                center[a][l] = s.center[a];
-                radiance[a][l] = emitters_[i].radiance[a];
+                d[a] = p[a] - ref[a];
+                n[a] = broadcast<F>(q.normal[a]);
             }
-            radius[l] = s.radius;
-            normal_sign[l] = s.normal_sign;
-            sel[l] = select_.pmf(i) * (1.0 - p_background_);
-            area[l] = s.area();
-        }
-        VPd to_c[3];
-        for (int a = 0; a < 3; ++a) to_c[a] = center[a] - ref[a];
-        const VPd dc2 = to_c[0] * to_c[0] + to_c[1] * to_c[1] + to_c[2] * to_c[2];  // length_squared
-        const VPd r2 = radius * radius;
-        const unsigned outside = lane_mask(dc2 > r2) & lanes;
-        sample_lanes(ref, u, lanes & ~outside, out);
-        if (outside == 0) return;
-
-        // The cone's axis and frame (Frame(to_c / dc), Duff et al.), lane-wise.
-        const VPd dc = sqrt_of(dc2);
-        const VPd inv_dc = 1.0 / dc;
-        VPd axis[3];
-        for (int a = 0; a < 3; ++a) axis[a] = to_c[a] * inv_dc;
-        VPd fs[3], ft[3];
-        frame_tangents(axis, fs, ft);
-
-        // cone_one_minus_cos, square_to_uniform_cone and the point where the direction meets
-        // the sphere (law of cosines), as sample_sphere() computes them.
-        const VPd ratio = r2 / dc2;
-        const VPd sin2_max = ratio < 1.0 ? ratio : splat(1.0);  // std::min(1.0, ratio)
-        const VPd omc = sin2_max / (1.0 + safe_sqrt_of(1.0 - sin2_max));
-        const VPd one_minus_cos = u[1] * omc;
-        const VPd cos_theta = 1.0 - one_minus_cos;
-        const VPd sin_theta = safe_sqrt_of(one_minus_cos * (2.0 - one_minus_cos));
-        VPd sin_phi, cos_phi;
-        sincos_turn(u[2], sin_phi, cos_phi);
-        const VPd lx = sin_theta * cos_phi, ly = sin_theta * sin_phi;
-        const VPd sin2 = lx * lx + ly * ly;
-        const VPd ds = dc * cos_theta - safe_sqrt_of(r2 - dc2 * sin2);
-        const VPd cos_raw = (dc2 + r2 - ds * ds) / (2.0 * dc * radius);
-        const VPd cos_a = cos_raw < -1.0 ? splat(-1.0) : (1.0 < cos_raw ? splat(1.0) : cos_raw);  // std::clamp
-        const VPd sin_a = safe_sqrt_of(1.0 - cos_a * cos_a);
-        const VPd len = sqrt_of(sin2);
-        const VPd cx = len > 0.0 ? lx / len : splat(1.0), cy = len > 0.0 ? ly / len : VPd{};
-        const VPd v[3] = {sin_a * cx, sin_a * cy, -cos_a};
-        VPd d[3], n[3];
-        for (int a = 0; a < 3; ++a) {
-            const VPd outward = mul_add(axis[a], v[2], mul_add(ft[a], v[1], fs[a] * v[0]));  // Frame::to_world
-            d[a] = (center[a] + radius * outward) - ref[a];
-            n[a] = outward * normal_sign;
-        }
-        const VPd pdf_dir = 1.0 / (2.0 * kPi * omc);  // uniform_cone_pdf
-        finish_lanes(d, n, sel, pdf_dir, area, radiance, outside, out);
-    }
-
-    // Whether the scene's light sampling runs a pack at a time (sample_packed).
-    bool packed_sampling() const { return single_quad() || single_sphere() || several_spheres(); }
-
-    // sample() for a pack of reference points, the lanes of `lanes` (bits; the others'
-    // values are not used and their results are any): the packed samplers above where
-    // packed_sampling() holds, else sample() lane by lane. Always inline: out of line, the
-    // pack went back through memory (+0.5% instructions on cornell_box).
-    [[gnu::always_inline]] inline LightSamplePack sample_pack(const VPd (&ref)[3], const VPd (&u)[3],
-                                                              unsigned lanes) const {
-        LightSamplePack out;
-        if (single_quad())
-            sample_single_quad(ref, u[1], u[2], out);
-        else if (single_sphere())
-            sample_single_sphere(ref, u, lanes, out);
-        else if (several_spheres())
+            const F sel = broadcast<F>(select_.pmf(0) * (1.0 - p_background_));
+            broadcast_radiance(e, radiance);
+            store(area_sample(d, n, sel, F{}, broadcast<F>(q.area())), radiance, all_lanes<F>(), out);
+        } else if (only_spheres()) {
             sample_spheres(ref, u, lanes, out);
-        else
-            sample_lanes(ref, u, lanes, out);
-        return out;
-    }
-
-    // sample() itself for the lanes of `lanes` (bits).
-    void sample_lanes(const VPd (&ref)[3], const VPd (&u)[3], unsigned lanes, LightSamplePack& out) const {
-        for (; lanes != 0; lanes &= lanes - 1) {
-            const int l = __builtin_ctz(lanes);
-            out.set_lane(l, sample(Vec3(ref[0][l], ref[1][l], ref[2][l]), u[0][l], u[1][l], u[2][l]));
-        }
-    }
-
-    // sample() for n reference points, a pack at a time (sample_pack): point(i) gives the
-    // i-th point's reference point, uniforms (u0, u1, u2) and where its sample goes, as a
-    // tuple. Absent lanes of the last pack repeat its first point.
-    template <typename Point>
-    void sample_packed(int n, Point&& point) const {
-        for (int base = 0; base < n; base += kPackWidth) {
-            const int m = std::min(kPackWidth, n - base);
-            VPd ref[3], u[3];
-            LightSample* out[kPackWidth];
-            for (int l = 0; l < kPackWidth; ++l) {
-                const auto [r, ui, sample] = point(base + (l < m ? l : 0));
-                for (int a = 0; a < 3; ++a) {
-                    ref[a][l] = r[a];
-                    u[a][l] = ui[a];
-                }
-                out[l] = sample;
+        } else {
+            for (; lanes != 0; lanes &= lanes - 1) {
+                const int l = __builtin_ctz(lanes);
+                out.set_lane(l, sample(Vec3(ref[0][l], ref[1][l], ref[2][l]), u[0][l], u[1][l], u[2][l]));
             }
-            const LightSamplePack pack = sample_pack(ref, u, (1u << m) - 1u);
-            for (int l = 0; l < m; ++l) *out[l] = pack.lane(l);
         }
+        return out;
     }
 
     // Density of sample() for the emitter `prim` in direction wi from ref, where the ray
@@ -486,46 +379,163 @@ public:
     }
 
 private:
-    static constexpr unsigned kAllLanes = (1u << kPackWidth) - 1u;
+    template <typename F> static constexpr unsigned all_lanes() { return (1u << kLanesOf<F>) - 1u; }
+    template <typename F> static void broadcast_radiance(const Emitter& e, F (&radiance)[3]) {
+        for (int a = 0; a < 3; ++a) radiance[a] = broadcast<F>(e.radiance[a]);
+    }
 
-    // The rest of sample() for a pack of lanes whose sampled point p lies at d = p - ref,
-    // with the emitter's normal n there: lane l (bit l of `lanes` set) has an emitter of the
-    // given radiance, selected with probability sel, of the given area, and the solid-angle
-    // density pdf_dir of cone sampling (0 where the point was sampled by area, as in
-    // sample()). Each lane gets sample()'s result bit for bit (lane-wise square root and
-    // division are IEEE like the scalar ones); a failed sample is returned as LightSample()
-    // (sample() leaves some fields set on the way, which no caller reads once valid is false).
-    // The other lanes of `out` are left as they are.
-    void finish_lanes(const VPd (&d)[3], const VPd (&n)[3], VPd sel, VPd pdf_dir, VPd area, const VPd (&radiance)[3],
-                      unsigned lanes, LightSamplePack& out) const {
-        const VPd dist2 = mul_add(d[2], d[2], mul_add(d[1], d[1], d[0] * d[0]));
-        const VPd dist = sqrt_of(dist2);
-        const VPd inv = 1.0 / dist;  // Vec3 / double multiplies by the reciprocal
-        VPd wi[3];
-        for (int a = 0; a < 3; ++a) wi[a] = d[a] * inv;
-        const VPd cos_l = -mul_add(n[2], wi[2], mul_add(n[1], wi[1], n[0] * wi[0]));
-        // The area density's division only where a lane of the pack needs it (cone sampling,
-        // sample_spheres' common case, has its density already).
-        const VPl by_area = pdf_dir == 0.0;
-        const VPd pdf = sel * (lane_mask(by_area) != 0 ? (by_area ? dist2 / (cos_l * area) : pdf_dir) : pdf_dir);
-        const unsigned valid = lane_mask((dist2 > 0.0) & (cos_l > 0.0) & (pdf > 0.0) & (pdf < kInf)) & lanes;
-        const VPl set = lanes_of_bits(lanes), good = lanes_of_bits(valid);
-        for (int a = 0; a < 3; ++a) {
-            out.wi[a] = good ? wi[a] : (set ? VPd{} : out.wi[a]);
-            out.radiance[a] = good ? radiance[a] : (set ? VPd{} : out.radiance[a]);
+    // The rest of sample() on lanes of type F once a point p on an area light is drawn at
+    // d = p - ref with the light's normal n there: lane l has an emitter selected with
+    // probability sel, of the given area, and the solid-angle density pdf_dir of cone
+    // sampling (0 where the point was sampled by area). One body for sample() (F double)
+    // and the packs.
+    template <Mutant M = Mutant::None, typename F>
+    [[gnu::always_inline]] static AreaSample<F> area_sample(const F (&d)[3], const F (&n)[3], F sel, F pdf_dir,
+                                                             F area) {
+        AreaSample<F> t;
+        const F dist2 = mul_add(d[2], d[2], mul_add(d[1], d[1], d[0] * d[0]));  // dot_fused(d, d)
+        t.dist = sqrt_of(dist2);
+        const F inv = 1.0 / t.dist;  // Vec3 / double multiplies by the reciprocal
+        for (int a = 0; a < 3; ++a) t.wi[a] = d[a] * inv;
+        const F cos_l = -mul_add(n[2], t.wi[2], mul_add(n[1], t.wi[1], n[0] * t.wi[0]));  // -dot_fused(n, wi)
+        // Area sampling -> solid angle. A pack divides only where one of its lanes sampled
+        // by area (cone sampling, the spheres' common case, has its density already).
+        const auto by_area = pdf_dir == 0.0;
+        if constexpr (M == Mutant::LightPdfNoJacobian) {
+            t.pdf = sel * (by_area ? 1.0 / area : pdf_dir);  // seeded bug: the area density, no dist^2 / cos
+        } else {
+            t.pdf = sel * (lane_mask(by_area) != 0 ? (by_area ? dist2 / (cos_l * area) : pdf_dir) : pdf_dir);
         }
-        out.dist = good ? dist : (set ? splat(kInf) : out.dist);
-        out.pdf = good ? pdf : (set ? VPd{} : out.pdf);
+        // Not valid: the point is ref itself, seen from its back (one-sided emission) or
+        // exactly grazing, or the density is not a positive finite number.
+        t.valid = lane_mask((dist2 > 0.0) & (cos_l > 0.0) & (t.pdf > 0.0) & (t.pdf < kInf));
+        return t;
+    }
+
+    // Stores an area sample t of the given radiance into the lanes of `lanes` of out (the
+    // others are left as they are); a failed sample is stored as LightSample().
+    template <typename F>
+    static void store(const AreaSample<F>& t, const F (&radiance)[3], unsigned lanes, LightSampleLanes<F>& out) {
+        const unsigned valid = t.valid & lanes;
+        const auto set = lanes_of_bits<F>(lanes), good = lanes_of_bits<F>(valid);
+        for (int a = 0; a < 3; ++a) {
+            out.wi[a] = good ? t.wi[a] : (set ? F{} : out.wi[a]);
+            out.radiance[a] = good ? radiance[a] : (set ? F{} : out.radiance[a]);
+        }
+        out.dist = good ? t.dist : (set ? broadcast<F>(kInf) : out.dist);
+        out.pdf = good ? t.pdf : (set ? F{} : out.pdf);
         out.valid = (out.valid & ~lanes) | valid;
         out.background &= ~lanes;
         out.delta &= ~lanes;
     }
 
-    // finish_lanes for the scene's one emitter, sampled by area in every lane.
-    void finish_pack(const Emitter& e, double area, const VPd (&d)[3], const VPd (&n)[3], unsigned lanes,
-                     LightSamplePack& out) const {
-        const VPd radiance[3] = {splat(e.radiance.x), splat(e.radiance.y), splat(e.radiance.z)};
-        finish_lanes(d, n, splat(select_.pmf(0) * (1.0 - p_background_)), VPd{}, splat(area), radiance, lanes, out);
+    // sample_pack where only_spheres() holds: per lane, the emitter is selected as sample()
+    // does (a table walk, lane by lane; the one sphere in every lane where there is one),
+    // then sphere_point and area_sample on the pack. Out of line: inlined, its two
+    // bodies grew the wavefront integrator's loop past GCC's inlining budget, which then
+    // left scatter_diffuse out of line in every scene (cornell_box -1.7%).
+    template <typename F>
+    [[gnu::noinline]] void sample_spheres(const F (&ref)[3], const F (&u)[3], unsigned lanes, LightSampleLanes<F>& out) const {
+        SphereLanes<F> s;
+        F sel, area, radiance[3];
+        if (emitters_.size() == 1) {
+            const Sphere& sphere = (*spheres_)[emitters_[0].index];
+            for (int a = 0; a < 3; ++a) s.center[a] = broadcast<F>(sphere.center[a]);
+            s.radius = broadcast<F>(sphere.radius);
+            s.normal_sign = broadcast<F>(sphere.normal_sign);
+            sel = broadcast<F>(select_.pmf(0) * (1.0 - p_background_));
+            area = broadcast<F>(sphere.area());
+            broadcast_radiance(emitters_[0], radiance);
+        } else {
+            for (int l = 0; l < kLanesOf<F>; ++l) {  // every lane: the others' values are not used
+                const size_t i = select_.sample(std::min(u[0][l], std::nextafter(1.0, 0.0)));
+                const Sphere& sphere = (*spheres_)[emitters_[i].index];
+                for (int a = 0; a < 3; ++a) {
+                    s.center[a][l] = sphere.center[a];
+                    radiance[a][l] = emitters_[i].radiance[a];
+                }
+                s.radius[l] = sphere.radius;
+                s.normal_sign[l] = sphere.normal_sign;
+                sel[l] = select_.pmf(i) * (1.0 - p_background_);
+                area[l] = sphere.area();
+            }
+        }
+        F d[3], n[3], pdf_dir;
+        // Where every lane sampled by area (each vertex of `furnace`), the density's zero is
+        // a constant: area_sample then divides in every lane without testing which (-2% on
+        // `furnace` with the test).
+        if (sphere_point(s, ref, u[1], u[2], lanes, d, n, pdf_dir) == lanes)
+            store(area_sample(d, n, sel, F{}, area), radiance, lanes, out);
+        else
+            store(area_sample(d, n, sel, pdf_dir, area), radiance, lanes, out);
+    }
+
+    // A point on sphere s (lane by lane) for the reference point ref, as d = p - ref with
+    // the sphere's normal n there, from the uniforms u1, u2. From inside or on the sphere,
+    // uniform by area (pdf_dir 0); from outside, uniform in the subtended cone (pdf_dir its
+    // solid-angle density), the point where the sampled direction meets the sphere
+    // following from the law of cosines. A pack runs each of the two only where one of
+    // `lanes` needs it. Returns the lanes sampled by area (bits). One body for sample()
+    // (F double) and the packs.
+    template <typename F>
+    [[gnu::always_inline]] static unsigned sphere_point(const SphereLanes<F>& s, const F (&ref)[3], F u1, F u2,
+                                                        unsigned lanes, F (&d)[3], F (&n)[3], F& pdf_dir) {
+        F to_c[3];
+        for (int a = 0; a < 3; ++a) to_c[a] = s.center[a] - ref[a];
+        const F dc2 = to_c[0] * to_c[0] + to_c[1] * to_c[1] + to_c[2] * to_c[2];  // length_squared
+        const F r2 = s.radius * s.radius;
+        const auto inside = dc2 <= r2;
+        const unsigned by_area = lane_mask(inside) & lanes;
+        for (int a = 0; a < 3; ++a) d[a] = n[a] = F{};
+        pdf_dir = F{};
+        if (by_area != 0) {
+            // p = centre + radius * dir, n = dir * normal_sign, dir uniform on the unit sphere.
+            F dir[3];
+            sphere_point_at_height(1.0 - 2.0 * u1, u2, dir);  // square_to_uniform_sphere
+            for (int a = 0; a < 3; ++a) {
+                d[a] = (s.center[a] + s.radius * dir[a]) - ref[a];
+                n[a] = dir[a] * s.normal_sign;
+            }
+        }
+        if (by_area == lanes) return by_area;
+        // The cone's axis and frame (Frame(to_c / dc)).
+        const F dc = sqrt_of(dc2);
+        const F inv_dc = 1.0 / dc;  // Vec3 / double multiplies by the reciprocal
+        F axis[3];
+        for (int a = 0; a < 3; ++a) axis[a] = to_c[a] * inv_dc;
+        F fs[3], ft[3];
+        frame_tangents(axis, fs, ft);
+        const F omc = cone_one_minus_cos(r2, dc2);
+        F local[3];
+        square_to_uniform_cone(u1, u2, omc, local);
+        const F sin2 = local[0] * local[0] + local[1] * local[1];
+        const F ds = dc * local[2] - safe_sqrt_of(r2 - dc2 * sin2);
+        const F cos_raw = (dc2 + r2 - ds * ds) / (2.0 * dc * s.radius);
+        const F one = as_lanes(1.0, dc), minus_one = as_lanes(-1.0, dc);
+        const F cos_a = cos_raw < -1.0 ? minus_one : (1.0 < cos_raw ? one : cos_raw);  // std::clamp
+        const F sin_a = safe_sqrt_of(1.0 - cos_a * cos_a);
+        const F len = sqrt_of(sin2);
+        const F cx = len > 0.0 ? local[0] / len : one, cy = len > 0.0 ? local[1] / len : F{};
+        // Normal at the point, outward from the centre, on the side facing ref.
+        const F v[3] = {sin_a * cx, sin_a * cy, -cos_a};
+        for (int a = 0; a < 3; ++a) {
+            const F outward = mul_add(axis[a], v[2], mul_add(ft[a], v[1], fs[a] * v[0]));  // Frame::to_world
+            const F dp = (s.center[a] + s.radius * outward) - ref[a];
+            d[a] = inside ? d[a] : dp;
+            n[a] = inside ? n[a] : outward * s.normal_sign;
+        }
+        pdf_dir = inside ? pdf_dir : uniform_cone_pdf(omc);
+        return by_area;
+    }
+
+    // 1 - cos of the half-angle of the cone that a sphere of squared radius r2 subtends at
+    // squared distance dc2 from its centre, without cancellation.
+    template <typename F>
+    static F cone_one_minus_cos(F r2, F dc2) {
+        const F ratio = r2 / dc2;
+        const F sin2 = ratio < 1.0 ? ratio : as_lanes(1.0, ratio);  // std::min(1.0, ratio)
+        const F cos_max = safe_sqrt_of(1.0 - sin2);
+        return sin2 / (1.0 + cos_max);  // 1 - cos_max
     }
 
     double area(const Emitter& e) const {
@@ -612,78 +622,42 @@ private:
         if (e.kind == EmitterKind::Sphere) {
             const Sphere& s = (*spheres_)[e.index];
             const double dc2 = length_squared(s.center - ref);
-            if (dc2 > s.radius * s.radius) return uniform_cone_pdf(cone_one_minus_cos(s, dc2));
+            if (dc2 > s.radius * s.radius) return uniform_cone_pdf(cone_one_minus_cos(s.radius * s.radius, dc2));
         }
         const double dist2 = length_squared(p - ref);
         const double pdf = dist2 / (cos_l * area(e));
         return std::isfinite(pdf) ? pdf : 0.0;
     }
 
-    static double cone_one_minus_cos(const Sphere& s, double dc2) {
-        const double sin2 = std::min(1.0, s.radius * s.radius / dc2);
-        const double cos_max = safe_sqrt(1.0 - sin2);
-        return sin2 / (1.0 + cos_max);  // 1 - cos_max without cancellation
-    }
-
-    // A point on the emitter; pdf_dir is set (solid angle) for cone sampling, else left 0.
-    bool sample_point(const Emitter& e, const Vec3& ref, double u1, double u2, Vec3& p, Vec3& n,
-                      double& pdf_dir) const {
-        switch (e.kind) {
-            case EmitterKind::Quad: {
-                const Quad& q = (*quads_)[e.index];
-                p = q.point(u1, u2);
-                n = q.normal;
-                return true;
-            }
-            case EmitterKind::Triangle: {
-                const Triangle& t = (*triangles_)[e.index];
-                if (t.normals == Triangle::kFlat) {
-                    p = t.point(u1, u2);
-                    n = t.normal();
-                } else {  // the shading normal at the sampled point
-                    double w[3];
-                    p = t.point(u1, u2, w);
-                    n = (*normals_)[t.normals].at(w, t.normal());
-                }
-                return true;
-            }
-            case EmitterKind::Sphere: return sample_sphere(e, ref, u1, u2, p, n, pdf_dir);
-            default: break;  // delta lights: sample_delta
+    // A point on a triangle light, as d = p - ref with the normal n there (the shading
+    // normal at the sampled point on a smooth triangle).
+    void triangle_point(const Emitter& e, const Vec3& ref, double u1, double u2, double (&d)[3],
+                        double (&n)[3]) const {
+        const Triangle& t = (*triangles_)[e.index];
+        Vec3 p, nn;
+        if (t.normals == Triangle::kFlat) {
+            p = t.point(u1, u2);
+            nn = t.normal();
+        } else {
+            double w[3];
+            p = t.point(u1, u2, w);
+            nn = (*normals_)[t.normals].at(w, t.normal());
         }
-        return false;
+        const Vec3 dp = p - ref;
+        for (int a = 0; a < 3; ++a) {
+            d[a] = dp[a];
+            n[a] = nn[a];
+        }
     }
 
-    // sample_point for spheres, out of line: quads and triangles (the common emitters)
+    // sphere_point for sample(), out of line: quads and triangles (the common emitters)
     // then inline into sample() and the integrator.
-    [[gnu::noinline]] bool sample_sphere(const Emitter& e, const Vec3& ref, double u1, double u2, Vec3& p,
-                                         Vec3& n, double& pdf_dir) const {
-        const Sphere& s = (*spheres_)[e.index];
-        const Vec3 to_c = s.center - ref;
-        const double dc2 = length_squared(to_c);
-        if (dc2 <= s.radius * s.radius) {  // inside or on the sphere: sample by area
-            const Vec3 d = square_to_uniform_sphere(u1, u2);
-            p = s.center + s.radius * d;
-            n = d * s.normal_sign;
-            return true;
-        }
-        // Outside: uniform in the subtended cone; the point where the sampled
-        // direction meets the sphere follows from the law of cosines.
-        const double dc = std::sqrt(dc2);
-        const Frame frame(to_c / dc);
-        const double omc = cone_one_minus_cos(s, dc2);
-        const Vec3 local = square_to_uniform_cone(u1, u2, omc);
-        const double sin2 = local.x * local.x + local.y * local.y;
-        const double ds = dc * local.z - safe_sqrt(s.radius * s.radius - dc2 * sin2);
-        const double cos_a = std::clamp((dc2 + s.radius * s.radius - ds * ds) / (2.0 * dc * s.radius), -1.0, 1.0);
-        const double sin_a = safe_sqrt(1.0 - cos_a * cos_a);
-        const double len = std::sqrt(sin2);
-        const double cx = len > 0.0 ? local.x / len : 1.0, cy = len > 0.0 ? local.y / len : 0.0;
-        // Normal at the point, outward from the centre, on the side facing ref.
-        const Vec3 outward = frame.to_world(Vec3(sin_a * cx, sin_a * cy, -cos_a));
-        p = s.center + s.radius * outward;
-        n = outward * s.normal_sign;
-        pdf_dir = uniform_cone_pdf(omc);
-        return true;
+    [[gnu::noinline]] void sample_sphere(const Emitter& e, const double (&ref)[3], double u1, double u2,
+                                         double (&d)[3], double (&n)[3], double& pdf_dir) const {
+        const Sphere& sphere = (*spheres_)[e.index];
+        const SphereLanes<double> s{{sphere.center.x, sphere.center.y, sphere.center.z}, sphere.radius,
+                                    sphere.normal_sign};
+        sphere_point(s, ref, u1, u2, 1u, d, n, pdf_dir);
     }
 
     std::vector<Emitter> emitters_;
@@ -697,7 +671,7 @@ private:
     DiscreteDistribution select_;
     std::vector<int32_t> prim_to_emitter_;
     double p_background_ = 0.0;
-    bool several_spheres_ = false;  // several_spheres(), decided once
+    bool only_spheres_ = false;  // only_spheres(), decided once
 };
 
 }  // namespace rt

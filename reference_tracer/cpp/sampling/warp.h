@@ -9,21 +9,6 @@
 
 namespace rt {
 
-// The tangents s and t of Frame(n) (math.h: Duff et al.'s branchless basis) for a pack of
-// unit normals, with the constructor's operations in its order, so that each lane is
-// Frame's bit for bit.
-inline void frame_tangents(const VPd (&n)[3], VPd (&s)[3], VPd (&t)[3]) {
-    const VPd sign = copysign_lanes(splat(1.0), n[2]);
-    const VPd a = -1.0 / (sign + n[2]);
-    const VPd b = n[0] * n[1] * a;
-    s[0] = 1.0 + sign * n[0] * n[0] * a;
-    s[1] = sign * b;
-    s[2] = -sign * n[0];
-    t[0] = b;
-    t[1] = sign + n[1] * n[1] * a;
-    t[2] = -n[1];
-}
-
 // sin and cos of x for |x| <= pi/4 from their Taylor series in Horner form, each step one
 // mul_add (fused where the CPU has FMA: half the instructions and half the latency of
 // the chain). The first omitted terms, x^17/17! and x^18/18!, are below 5e-17 there, and
@@ -60,43 +45,35 @@ template <typename T>
 // without branches (the quadrant of a random angle is unpredictable). Within about 1 ulp
 // of std::sin / std::cos of the angle, at a fraction of a libm call (which cost 7% of the
 // instructions of the furnace and glossy_plates scenes, through sphere lights and GGX).
-inline void sincos_turn(double u, double& s, double& c) {
-    const double q = std::floor(4.0 * u + 0.5);
-    double sx, cx;
+// F: double, or a pack of lanes (simd.h), each lane computing what the double does.
+inline int64_t integer_lanes(double q) { return static_cast<int64_t>(q); }
+template <typename F> inline MaskOf<F> integer_lanes(F q) { return __builtin_convertvector(q, MaskOf<F>); }
+template <typename F>
+inline void sincos_turn(F u, F& s, F& c) {
+    const F q = floor_of(4.0 * u + 0.5);
+    F sx, cx;
     sincos_quarter((2.0 * kPi) * (u - 0.25 * q), sx, cx);
-    const int k = static_cast<int>(q) & 3;
-    const double a = (k & 1) ? cx : sx, b = (k & 1) ? sx : cx;
-    s = (k & 2) ? -a : a;
-    c = ((k + 1) & 2) ? -b : b;
-}
-
-// The point of the unit sphere at height z and azimuth 2 pi u.
-inline Vec3 sphere_point_at_height(double z, double u) {
-    const double r = safe_sqrt(1.0 - z * z);
-    double sin_phi, cos_phi;
-    sincos_turn(u, sin_phi, cos_phi);
-    return {r * cos_phi, r * sin_phi, z};
-}
-
-// sincos_turn and sphere_point_at_height for a pack of lanes: each lane computes exactly
-// what the double versions do (the quarter-turn choices as selections).
-inline void sincos_turn(VPd u, VPd& s, VPd& c) {
-    const VPd q = floor_of(4.0 * u + 0.5);
-    VPd sx, cx;
-    sincos_quarter((2.0 * kPi) * (u - 0.25 * q), sx, cx);
-    const VPl k = __builtin_convertvector(q, VPl) & 3;
-    const VPl odd = (k & 1) != 0;
-    const VPd a = odd ? cx : sx, b = odd ? sx : cx;
+    const auto k = integer_lanes(q) & 3;
+    const auto odd = (k & 1) != 0;
+    const F a = odd ? cx : sx, b = odd ? sx : cx;
     s = (k & 2) != 0 ? -a : a;
     c = ((k + 1) & 2) != 0 ? -b : b;
 }
-inline void sphere_point_at_height(VPd z, VPd u, VPd (&p)[3]) {
-    const VPd r = safe_sqrt_of(1.0 - z * z);
-    VPd sin_phi, cos_phi;
+
+// The point p of the unit sphere at height z and azimuth 2 pi u.
+template <typename F>
+inline void sphere_point_at_height(F z, F u, F (&p)[3]) {
+    const F r = safe_sqrt_of(1.0 - z * z);
+    F sin_phi, cos_phi;
     sincos_turn(u, sin_phi, cos_phi);
     p[0] = r * cos_phi;
     p[1] = r * sin_phi;
     p[2] = z;
+}
+inline Vec3 sphere_point_at_height(double z, double u) {
+    double p[3];
+    sphere_point_at_height(z, u, p);
+    return {p[0], p[1], p[2]};
 }
 
 // Heights uniform in [0, 1] (hemisphere) or [-1, 1] (sphere): uniform in solid angle
@@ -133,18 +110,26 @@ template <typename T>
 }
 inline double cosine_hemisphere_pdf(double cos_theta) { return cos_theta > 0.0 ? cos_theta * kInvPi : 0.0; }
 
-// Uniform direction in the cone of half-angle theta_max about +z, given
+// Uniform direction w in the cone of half-angle theta_max about +z, given
 // one_minus_cos_max = 1 - cos(theta_max) (passed directly: it is tiny for small, far lights
 // and 1 - cos would cancel).
-inline Vec3 square_to_uniform_cone(double u1, double u2, double one_minus_cos_max) {
-    const double one_minus_cos = u1 * one_minus_cos_max;
-    const double cos_theta = 1.0 - one_minus_cos;
-    const double sin_theta = safe_sqrt(one_minus_cos * (2.0 - one_minus_cos));
-    double sin_phi, cos_phi;
+template <typename F>
+inline void square_to_uniform_cone(F u1, F u2, F one_minus_cos_max, F (&w)[3]) {
+    const F one_minus_cos = u1 * one_minus_cos_max;
+    const F cos_theta = 1.0 - one_minus_cos;
+    const F sin_theta = safe_sqrt_of(one_minus_cos * (2.0 - one_minus_cos));
+    F sin_phi, cos_phi;
     sincos_turn(u2, sin_phi, cos_phi);
-    return {sin_theta * cos_phi, sin_theta * sin_phi, cos_theta};
+    w[0] = sin_theta * cos_phi;
+    w[1] = sin_theta * sin_phi;
+    w[2] = cos_theta;
 }
-inline double uniform_cone_pdf(double one_minus_cos_max) { return 1.0 / (2.0 * kPi * one_minus_cos_max); }
+inline Vec3 square_to_uniform_cone(double u1, double u2, double one_minus_cos_max) {
+    double w[3];
+    square_to_uniform_cone(u1, u2, one_minus_cos_max, w);
+    return {w[0], w[1], w[2]};
+}
+template <typename F> inline F uniform_cone_pdf(F one_minus_cos_max) { return 1.0 / (2.0 * kPi * one_minus_cos_max); }
 
 // Discrete distribution over n items proportional to non-negative weights.
 class DiscreteDistribution {

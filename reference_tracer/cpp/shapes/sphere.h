@@ -22,83 +22,72 @@ struct Sphere {
     }
     double area() const { return 4.0 * kPi * radius * radius; }
 
-    // Nearest t in (t_min, t_max) where the ray meets the sphere.
-    bool intersect(const Ray& r, double t_min, double t_max, double& t_hit) const {
-        const Vec3 L = center - r.o;
-        const double a = length_squared(r.d);
-        const double h = dot(r.d, L);
+    // The nearest t in (t_min, t_max) where rays (o, d) meet the sphere, on lanes of type F
+    // (simd.h: double for one ray, a pack for several): lanes where one does, with t_max
+    // lowered there to the hit's distance. One body for every width, each lane doing one
+    // ray's operations in its order (the build forbids FMA contraction).
+    template <typename F>
+    [[gnu::always_inline]] MaskOf<F> hit(const F (&o)[3], const F (&d)[3], F t_min, F& t_max) const {
+        const F L[3] = {center.x - o[0], center.y - o[1], center.z - o[2]};
+        const F a = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        const F h = d[0] * L[0] + d[1] * L[1] + d[2] * L[2];
         // r^2 - |L - (h/a) d|^2 equals the discriminant / a, without catastrophic
         // cancellation when the sphere is small and far away.
-        const Vec3 f = L - (h / a) * r.d;
-        const double disc = radius * radius - length_squared(f);
-        if (disc < 0.0) return false;
-        const double c = length_squared(L) - radius * radius;
-        const double q = h + std::copysign(std::sqrt(a * disc), h);
-        double t0 = c / q, t1 = q / a;
-        if (q == 0.0) t0 = t1 = 0.0;
-        if (t0 > t1) std::swap(t0, t1);
-        if (t0 > t_min && t0 < t_max) { t_hit = t0; return true; }
-        if (t1 > t_min && t1 < t_max) { t_hit = t1; return true; }
-        return false;
-    }
-
-    // The test above on a pack of rays at once (simd.h) (t_min 0): lanes where it hits, with t_max
-    // lowered there to the hit's distance. Each lane is bit-identical to intersect() (the
-    // same operations in the same order; the build forbids FMA contraction).
-    VPl intersect_pack(const RayPack& r, VPd& t_max) const {
-        const VPd Lx = center.x - r.ox, Ly = center.y - r.oy, Lz = center.z - r.oz;
-        const VPd a = r.dx * r.dx + r.dy * r.dy + r.dz * r.dz;
-        const VPd h = r.dx * Lx + r.dy * Ly + r.dz * Lz;
-        const VPd ha = h / a;
-        const VPd fx = Lx - ha * r.dx, fy = Ly - ha * r.dy, fz = Lz - ha * r.dz;
-        const VPd disc = radius * radius - (fx * fx + fy * fy + fz * fz);
-        const VPl valid = ~(disc < 0.0);
-        // A pack that misses in every lane (most packs against a small light) skips the
-        // square root and the two divisions of the roots.
-        if (lane_mask(valid) == 0) return VPl{};
-        const VPd c = (Lx * Lx + Ly * Ly + Lz * Lz) - radius * radius;
-        // Lanes with disc < 0 take the square root of a negative number; they are
-        // masked out below, as intersect() returns before it.
-        const VPd q = h + copysign_lanes(sqrt_of(a * disc), h);
-        const VPl q_zero = q == 0.0;
-        VPd t0 = q_zero ? VPd{} : c / q;
-        VPd t1 = q_zero ? VPd{} : q / a;
-        const VPl swap = t0 > t1;
-        const VPd lo = swap ? t1 : t0, hi = swap ? t0 : t1;
-        const VPl hit0 = valid & (lo > 0.0) & (lo < t_max);
-        const VPl hit1 = valid & ~hit0 & (hi > 0.0) & (hi < t_max);
+        const F ha = h / a;
+        const F f[3] = {L[0] - ha * d[0], L[1] - ha * d[1], L[2] - ha * d[2]};
+        const F disc = radius * radius - (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+        const auto met = (disc < 0.0) == 0;
+        // Lanes that all miss (most packs against a small light) skip the square root and
+        // the two divisions of the roots.
+        if (lane_mask(met) == 0) return MaskOf<F>{};
+        const F c = (L[0] * L[0] + L[1] * L[1] + L[2] * L[2]) - radius * radius;
+        // Lanes with disc < 0 take the square root of a negative number; they are masked
+        // out below.
+        const F q = h + copysign_lanes(sqrt_of(a * disc), h);
+        const auto q_zero = q == 0.0;
+        const F t0 = q_zero ? F{} : c / q;
+        const F t1 = q_zero ? F{} : q / a;
+        const auto swap = t0 > t1;
+        const F lo = swap ? t1 : t0, hi = swap ? t0 : t1;
+        const MaskOf<F> hit0 = met & (lo > t_min) & (lo < t_max);
+        const MaskOf<F> hit1 = met & (hit0 == 0) & (hi > t_min) & (hi < t_max);
         t_max = hit0 ? lo : (hit1 ? hi : t_max);
         return hit0 | hit1;
     }
 
-    // Exact point on the sphere and its front-facing normal, for a hit at ray parameter t:
-    // the point is re-projected onto the surface to remove the error of o + t d.
-    // surface_pack below does these operations lane-wise: keep the two alike (the
-    // integrators' images must agree bit for bit).
-    void surface(const Vec3& p_approx, Vec3& p, Vec3& n) const {
-        Vec3 d = p_approx - center;
-        const double len = length(d);
-        d = len > 0 ? d / len : Vec3(0, 0, 1);
-        p = center + radius * d;
-        n = d * normal_sign;
+    // hit() on one ray, and on a pack of rays (t_min 0).
+    bool intersect(const Ray& r, double t_min, double t_max, double& t_hit) const {
+        return hit_one(*this, r, t_min, t_max, t_hit);
     }
+    VPl intersect_pack(const RayPack& r, VPd& t_max) const { return hit_pack(*this, r, t_max); }
 
-    // surface() for a pack of points, each on its own sphere (centre, radius, normal_sign
-    // lane by lane): one square root and one division of a pack instead of one a lane.
-    static void surface_pack(const VPd (&p_approx)[3], const VPd (&center)[3], VPd radius, VPd normal_sign,
-                             VPd (&p)[3], VPd (&n)[3]) {
-        VPd d[3];
+    // The exact point p on a sphere and its front-facing normal n, for a hit at p_approx:
+    // the point is re-projected onto the surface to remove the error of o + t d. On lanes
+    // of type F (simd.h: double for one point, a pack for several), each lane on its own
+    // sphere (centre, radius, normal_sign lane by lane): one body for every width.
+    template <typename F>
+    static void surface_lanes(const F (&p_approx)[3], const F (&center)[3], F radius, F normal_sign, F (&p)[3],
+                              F (&n)[3]) {
+        F d[3];
         for (int a = 0; a < 3; ++a) d[a] = p_approx[a] - center[a];
-        const VPd len = sqrt_of(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        const VPl pos = len > 0.0;
-        const VPd inv = 1.0 / len;  // Vec3 / double multiplies by the reciprocal
-        d[0] = pos ? d[0] * inv : VPd{};
-        d[1] = pos ? d[1] * inv : VPd{};
-        d[2] = pos ? d[2] * inv : splat(1.0);
+        const F len = sqrt_of(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);  // length(d)
+        const auto pos = len > 0.0;
+        const F inv = 1.0 / len;  // Vec3 / double multiplies by the reciprocal
+        d[0] = pos ? d[0] * inv : F{};
+        d[1] = pos ? d[1] * inv : F{};
+        d[2] = pos ? d[2] * inv : as_lanes(1.0, len);
         for (int a = 0; a < 3; ++a) {
             p[a] = center[a] + d[a] * radius;
             n[a] = d[a] * normal_sign;
         }
+    }
+
+    void surface(const Vec3& p_approx, Vec3& p, Vec3& n) const {
+        const double at[3] = {p_approx.x, p_approx.y, p_approx.z}, c[3] = {center.x, center.y, center.z};
+        double pp[3], nn[3];
+        surface_lanes(at, c, radius, normal_sign, pp, nn);
+        p = Vec3(pp[0], pp[1], pp[2]);
+        n = Vec3(nn[0], nn[1], nn[2]);
     }
 };
 

@@ -155,23 +155,88 @@ struct WatertightRays4 {
     }
 };
 
+// The lanes, as bits, that hold the nearest hit in (t_min, t_max) of the watertight test's
+// results (edge functions U, V, W, determinant det, distance t) on lanes of triangles of
+// type F: the lowest such lane, or none. Inclusive edge test: a ray through an edge or
+// vertex hits every triangle sharing it. NaN lanes fail every comparison: a NaN t is never
+// a hit. The nearest passing lane is found without a branch per lane (a lane loop cost 0.5
+// mispredictions a block): passing lanes have a finite t (t < t_max), the others count as
+// +inf.
+template <typename F>
+inline unsigned watertight_nearest(F U, F V, F W, F det, F t, double t_min, double t_max) {
+    const auto any_neg = (U < 0.0) | (V < 0.0) | (W < 0.0);
+    const auto any_pos = (U > 0.0) | (V > 0.0) | (W > 0.0);
+    const MaskOf<F> ok = ((any_neg & any_pos) == 0) & (det != 0.0) & (t > t_min) & (t < t_max);
+    const F candidate = ok ? t : broadcast<F>(kInf);
+    return lane_mask(ok & (candidate == min_lane(candidate)));
+}
+// One triangle: its only lane, where it passes.
+inline unsigned watertight_nearest(double U, double V, double W, double det, double t, double t_min, double t_max) {
+    return lane_mask(!((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0)) && det != 0.0 &&
+                     t > t_min && t < t_max);
+}
+#if defined(__AVX512VL__)
+// The same masks in mask registers, each "and" a masked compare: GCC combined the
+// portable form's nine comparisons in general registers on AVX-512 (a dozen moves between
+// the two kinds per block). ~(any_neg & any_pos) is "no edge function below zero, or none
+// above", and the negated comparisons (not less, not greater) are true for NaN, as the
+// portable form's negations are.
+inline unsigned watertight_nearest(V4d U, V4d V, V4d W, V4d det, V4d t, double t_min, double t_max) {
+    const __m256d U4 = reinterpret_cast<__m256d>(U), V4 = reinterpret_cast<__m256d>(V),
+                  W4 = reinterpret_cast<__m256d>(W), zero = _mm256_setzero_pd();
+    __mmask8 none_neg = _mm256_cmp_pd_mask(U4, zero, _CMP_NLT_UQ);
+    none_neg = _mm256_mask_cmp_pd_mask(none_neg, V4, zero, _CMP_NLT_UQ);
+    none_neg = _mm256_mask_cmp_pd_mask(none_neg, W4, zero, _CMP_NLT_UQ);
+    __mmask8 none_pos = _mm256_cmp_pd_mask(U4, zero, _CMP_NGT_UQ);
+    none_pos = _mm256_mask_cmp_pd_mask(none_pos, V4, zero, _CMP_NGT_UQ);
+    none_pos = _mm256_mask_cmp_pd_mask(none_pos, W4, zero, _CMP_NGT_UQ);
+    const __m256d T4 = reinterpret_cast<__m256d>(t);
+    __mmask8 ok = _mm256_mask_cmp_pd_mask(none_neg | none_pos, reinterpret_cast<__m256d>(det), zero, _CMP_NEQ_UQ);
+    ok = _mm256_mask_cmp_pd_mask(ok, T4, _mm256_set1_pd(t_min), _CMP_GT_OQ);
+    ok = _mm256_mask_cmp_pd_mask(ok, T4, _mm256_set1_pd(t_max), _CMP_LT_OQ);
+    const V4d candidate = reinterpret_cast<V4d>(_mm256_mask_blend_pd(ok, _mm256_set1_pd(kInf), T4));
+    return _mm256_mask_cmp_pd_mask(ok, reinterpret_cast<__m256d>(candidate), _mm256_set1_pd(min_lane(candidate)),
+                                   _CMP_EQ_OQ);
+}
+#endif
+
+// Woop, Benthin and Wald's watertight test of one ray against lanes of triangles of type F
+// (double: one triangle; V4d: a block's four), vertex(k, axis) giving vertex k's coordinate
+// lanes: the bits of the lane of the nearest hit in (t_min, t_max) (watertight_nearest),
+// each lane's distance in t. One body for every width, each lane doing the one triangle's
+// operations in their order (and the build forbids FMA contraction), so that the edge
+// functions of a shared edge are bit-identical whatever the width: the watertight
+// guarantee holds across them. One triangle returns before its division where the edge
+// test fails; a block's lanes cannot (a branch on all four would be unpredictable).
+template <typename F, typename Vertex>
+[[gnu::always_inline]] inline unsigned intersect_watertight_lanes(const Vertex& vertex, const Ray& r,
+                                                                  const WatertightRay& w, double t_min,
+                                                                  double t_max, F& t) {
+    const double o[3] = {r.o.x, r.o.y, r.o.z};
+    // Vertex coordinates relative to the origin, permuted so the ray runs along +z.
+    auto rel = [&](int k, int axis) -> F { return vertex(k, axis) - o[axis]; };
+    const F Akz = rel(0, w.kz), Bkz = rel(1, w.kz), Ckz = rel(2, w.kz);
+    const F Ax = rel(0, w.kx) - w.Sx * Akz, Ay = rel(0, w.ky) - w.Sy * Akz;
+    const F Bx = rel(1, w.kx) - w.Sx * Bkz, By = rel(1, w.ky) - w.Sy * Bkz;
+    const F Cx = rel(2, w.kx) - w.Sx * Ckz, Cy = rel(2, w.ky) - w.Sy * Ckz;
+    const F U = Cx * By - Cy * Bx;
+    const F V = Ax * Cy - Ay * Cx;
+    const F W = Bx * Ay - By * Ax;
+    if constexpr (kLanesOf<F> == 1) {
+        if ((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0)) return 0;
+    }
+    const F det = U + V + W;
+    const F T = U * (w.Sz * Akz) + V * (w.Sz * Bkz) + W * (w.Sz * Ckz);
+    t = T / det;
+    return watertight_nearest(U, V, W, det, t, t_min, t_max);
+}
+
 inline bool intersect_watertight(const Triangle& tri, const Ray& r, const WatertightRay& w,
                                  double t_min, double t_max, double& t_hit) {
-    const Vec3 A = tri.a - r.o, B = tri.b - r.o, C = tri.c - r.o;
-    const double Ax = A[w.kx] - w.Sx * A[w.kz], Ay = A[w.ky] - w.Sy * A[w.kz];
-    const double Bx = B[w.kx] - w.Sx * B[w.kz], By = B[w.ky] - w.Sy * B[w.kz];
-    const double Cx = C[w.kx] - w.Sx * C[w.kz], Cy = C[w.ky] - w.Sy * C[w.kz];
-    const double U = Cx * By - Cy * Bx;
-    const double V = Ax * Cy - Ay * Cx;
-    const double W = Bx * Ay - By * Ax;
-    // Inclusive edge test: a ray through an edge or vertex hits every triangle sharing it.
-    if ((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0)) return false;
-    const double det = U + V + W;
-    if (det == 0.0) return false;  // degenerate, or the ray lies in the triangle's plane
-    const double Az = w.Sz * A[w.kz], Bz = w.Sz * B[w.kz], Cz = w.Sz * C[w.kz];
-    const double T = U * Az + V * Bz + W * Cz;
-    const double t = T / det;
-    if (!(t > t_min && t < t_max)) return false;
+    const Vec3* v[3] = {&tri.a, &tri.b, &tri.c};
+    double t;
+    if (intersect_watertight_lanes([&](int k, int axis) { return (*v[k])[axis]; }, r, w, t_min, t_max, t) == 0)
+        return false;
     t_hit = t;
     return true;
 }
@@ -243,60 +308,15 @@ using Triangle4f = TriangleBlock4<float>;
 static_assert(sizeof(Triangle4) == 320, "Triangle4: ten 32-byte rows, five cache lines");
 static_assert(sizeof(Triangle4f) == 192, "Triangle4f: nine 16-byte rows and the ids, three cache lines");
 
-// The watertight test of intersect_watertight on four triangles at once, in double. Every
-// lane performs the scalar test's operations in the same order (and the build forbids FMA
-// contraction), so each lane's edge functions, determinant and t are bit-identical to
-// intersect_watertight's: the watertight guarantee carries over unchanged. Returns the
-// lane of the nearest hit in (t_min, t_max) (lowest lane on ties, as testing the
-// triangles one after another with a shrinking t_max would), or -1.
+// The watertight test on the four triangles of a block (intersect_watertight_lanes on
+// V4d, in double): the lane of the nearest hit in (t_min, t_max) (lowest lane on ties, as
+// testing the triangles one after another with a shrinking t_max would), or -1.
 template <typename Block>
 inline int intersect_watertight4(const Block& q, const Ray& r, const WatertightRay& w,
                                  double t_min, double t_max, double& t_hit) {
-    const double o[3] = {r.o.x, r.o.y, r.o.z};
-    // Vertex coordinates relative to the origin, permuted so the ray runs along +z.
-    auto rel = [&](int vertex, int axis) { return q.row(vertex, axis) - o[axis]; };
-    const V4d Akz = rel(0, w.kz), Bkz = rel(1, w.kz), Ckz = rel(2, w.kz);
-    const V4d Ax = rel(0, w.kx) - w.Sx * Akz, Ay = rel(0, w.ky) - w.Sy * Akz;
-    const V4d Bx = rel(1, w.kx) - w.Sx * Bkz, By = rel(1, w.ky) - w.Sy * Bkz;
-    const V4d Cx = rel(2, w.kx) - w.Sx * Ckz, Cy = rel(2, w.ky) - w.Sy * Ckz;
-    const V4d U = Cx * By - Cy * Bx;
-    const V4d V = Ax * Cy - Ay * Cx;
-    const V4d W = Bx * Ay - By * Ax;
-    const V4d det = U + V + W;
-    const V4d T = U * (w.Sz * Akz) + V * (w.Sz * Bkz) + W * (w.Sz * Ckz);
-    const V4d t = T / det;
-    // Lane masks (all ones where true). NaN lanes fail every comparison, as in the scalar
-    // test: a NaN t is never a hit. The nearest passing lane, the lowest on ties, is found
-    // without a branch per lane (a lane loop cost 0.5 mispredictions a block): passing
-    // lanes have a finite t (t < t_max), the others count as +inf.
-#if defined(__AVX512VL__)
-    // The same masks in mask registers, each "and" a masked compare: GCC combined the
-    // portable form's nine comparisons in general registers on AVX-512 (a dozen moves
-    // between the two kinds per block). ~(any_neg & any_pos) is "no edge function below
-    // zero, or none above", and the negated comparisons (not less, not greater) are true
-    // for NaN, as the portable form's negations are.
-    const __m256d U4 = reinterpret_cast<__m256d>(U), V4 = reinterpret_cast<__m256d>(V),
-                  W4 = reinterpret_cast<__m256d>(W), zero = _mm256_setzero_pd();
-    __mmask8 none_neg = _mm256_cmp_pd_mask(U4, zero, _CMP_NLT_UQ);
-    none_neg = _mm256_mask_cmp_pd_mask(none_neg, V4, zero, _CMP_NLT_UQ);
-    none_neg = _mm256_mask_cmp_pd_mask(none_neg, W4, zero, _CMP_NLT_UQ);
-    __mmask8 none_pos = _mm256_cmp_pd_mask(U4, zero, _CMP_NGT_UQ);
-    none_pos = _mm256_mask_cmp_pd_mask(none_pos, V4, zero, _CMP_NGT_UQ);
-    none_pos = _mm256_mask_cmp_pd_mask(none_pos, W4, zero, _CMP_NGT_UQ);
-    const __m256d T4 = reinterpret_cast<__m256d>(t);
-    __mmask8 ok = _mm256_mask_cmp_pd_mask(none_neg | none_pos, reinterpret_cast<__m256d>(det), zero, _CMP_NEQ_UQ);
-    ok = _mm256_mask_cmp_pd_mask(ok, T4, _mm256_set1_pd(t_min), _CMP_GT_OQ);
-    ok = _mm256_mask_cmp_pd_mask(ok, T4, _mm256_set1_pd(t_max), _CMP_LT_OQ);
-    const V4d candidate = reinterpret_cast<V4d>(_mm256_mask_blend_pd(ok, _mm256_set1_pd(kInf), T4));
+    V4d t;
     const unsigned nearest =
-        _mm256_mask_cmp_pd_mask(ok, reinterpret_cast<__m256d>(candidate), _mm256_set1_pd(min_lane(candidate)), _CMP_EQ_OQ);
-#else
-    const auto any_neg = (U < 0.0) | (V < 0.0) | (W < 0.0);
-    const auto any_pos = (U > 0.0) | (V > 0.0) | (W > 0.0);
-    const V4l ok = ~(any_neg & any_pos) & (det != 0.0) & (t > t_min) & (t < t_max);
-    const V4d candidate = ok ? t : V4d{} + kInf;
-    const unsigned nearest = lane_mask(ok & (candidate == min_lane(candidate)));
-#endif
+        intersect_watertight_lanes([&](int k, int axis) { return q.row(k, axis); }, r, w, t_min, t_max, t);
     if (nearest == 0) return -1;
     const int best = __builtin_ctz(nearest);
     t_hit = t[best];
