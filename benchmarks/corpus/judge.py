@@ -119,7 +119,7 @@ def setup(variant: str | None, threads: int | None) -> str:
     """Choose the Mitsuba variant (once per process) and the thread count; return the variant."""
     chosen = select_variant(variant)
     if threads:
-        import drjit as dr
+        import drjit as dr  # deferred: after the variant and libLLVM are chosen (select_variant)
 
         dr.set_thread_count(int(threads))
     return chosen
@@ -137,7 +137,7 @@ def scene_plugins(mi, path, params) -> list:
 def judge_scene(job: dict) -> dict:
     """The record of the scene of ``job`` (``path``, ``root``, ``spp``, ``batches``, ``seed``,
     ``width``, ``threads``)."""
-    import mitsuba as mi
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     t_start = time.perf_counter()
     root, path = job["root"], job["path"]

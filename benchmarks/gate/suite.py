@@ -344,11 +344,11 @@ def write_p_images(case: GateCase, out) -> list:
     p = 0); ``..._p.png``: the same in false colour, the pixel level's failing threshold mid-bar
     and the worst tile boxed; ``..._ours.png`` and ``..._reference.png`` beside it.
     """
-    import matplotlib
+    import matplotlib  # deferred: matplotlib only when plotting (0.5-1.5 s)
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.patches import Rectangle
+    import matplotlib.pyplot as plt  # deferred: matplotlib only when plotting (0.5-1.5 s)
+    from matplotlib.patches import Rectangle  # deferred: matplotlib only when plotting (0.5-1.5 s)
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -25,7 +25,7 @@ def _module():
         before = os.environ.get("OMP_NUM_THREADS")
         os.environ["OMP_NUM_THREADS"] = "1"
         try:
-            import flip_evaluator
+            import flip_evaluator  # deferred: FLIP's package only when the metric is asked for
         except ImportError as exc:
             raise ImportError(f"FLIP needs the {FLIP_PACKAGE} package: pip install {FLIP_PACKAGE}") from exc
         finally:

@@ -36,7 +36,7 @@ def ssim(img, ref, *, exposure: float | None = None, nan_policy: str = "propagat
     >>> ssim(ref, ref)
     1.0
     """
-    from skimage.metrics import structural_similarity
+    from skimage.metrics import structural_similarity  # deferred: scikit-image only when SSIM is asked for
 
     if nan_policy == "omit":
         raise ValueError("ssim does not support nan_policy='omit'")

@@ -24,7 +24,7 @@ BOX_RTOL = 1e-4
 def mitsuba_scene_for(scene: rt.Scene, source=None, *, params=None):
     """The loaded Mitsuba scene: ``source`` (dict or XML path) or ``to_mitsuba(scene)``; no mesh merging."""
     select_variant(None)
-    import mitsuba as mi
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     if isinstance(source, (str, os.PathLike)):
         return mi.load_file(str(source), optimize=False, **{str(k): str(v) for k, v in (params or {}).items()})
@@ -61,8 +61,8 @@ def _arr(x, n: int, width: int) -> np.ndarray:
 def mitsuba_aovs(mscene, scene: rt.Scene, *, offset=(0.5, 0.5)) -> dict:
     """Mitsuba's AOVs through ``pixel + offset`` (default: the centres), in the form of
     :func:`reference_tracer.probe.first_hit_aovs` (shape: our indices)."""
-    import drjit as dr
-    import mitsuba as mi
+    import drjit as dr  # deferred: after the variant and libLLVM are chosen (select_variant)
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     sensor = mscene.sensors()[0]
     w, h = (int(v) for v in sensor.film().size())

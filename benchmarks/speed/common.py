@@ -127,8 +127,8 @@ def use_variant(variant, threads=None):
     """Select ``variant`` (and Dr.Jit's thread count); ``(mitsuba, drjit)``. ``RuntimeError`` or ``ValueError`` where
     it does not work here."""
     select_variant(variant)
-    import drjit as dr
-    import mitsuba as mi
+    import drjit as dr  # deferred: after the variant and libLLVM are chosen (select_variant)
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     if threads is not None:
         dr.set_thread_count(int(threads))

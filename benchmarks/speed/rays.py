@@ -117,8 +117,8 @@ def intersect_mitsuba(mscene, origins, directions):
     """One timed ``ray_intersect_preliminary`` of Mitsuba's active JIT variant, after an untimed one that compiles the
     kernel (rays built untimed; the query + ``dr.eval`` + ``dr.sync_thread()`` on Dr.Jit's threads). A dict: ``t``
     (inf on a miss), ``prim``, ``seconds``, ``process_seconds``, ``first_call_seconds``."""
-    import drjit as dr
-    import mitsuba as mi
+    import drjit as dr  # deferred: after the variant and libLLVM are chosen (select_variant)
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     if not str(mi.variant()).startswith(("llvm", "cuda")):
         raise ValueError(f"a JIT Mitsuba variant must be active, not {mi.variant()}")

@@ -25,7 +25,7 @@ def probe_scene(shapes, *, background=0.0, width=4, height=4, lookfrom=(0.0, 0.0
 
 def icosphere(subdivisions: int, *, radius: float = 1.0):
     """A closed icosphere (trimesh): vertices (N, 3), faces (M, 3), unique edges (E, 2)."""
-    import trimesh
+    import trimesh  # deferred: trimesh takes about 1.5 s to import
 
     ico = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
     if not ico.is_watertight:  # pragma: no cover - trimesh guarantees it

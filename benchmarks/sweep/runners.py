@@ -51,7 +51,7 @@ def run_local(todo, refs, store, *, threads, variant, keep, bar, say, failures, 
 def run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, tally, poll=2.0) -> None:
     """One job per worker, pinned to an idle one; ``address``: a scheduler address or a
     ``distributed.Client``; the rest as :func:`run_local`."""
-    from distributed import Client
+    from distributed import Client  # deferred: Dask's distributed takes about 1.5 s to import
 
     client = address if not isinstance(address, str) else None
     own = client is None
@@ -86,7 +86,7 @@ class _DaskQueue:
         return {addr: int(w.get("nthreads", 1) or 1) for addr, w in info.get("workers", {}).items()}
 
     def run(self, todo, refs) -> None:
-        from distributed import wait
+        from distributed import wait  # deferred: Dask's distributed takes about 1.5 s to import
 
         pending = collections.deque(todo)
         try:
