@@ -189,7 +189,11 @@ def rays_tables(result):
                        _col("t rel. median", "agree_t_rel_median", "{:.1e}")] if mi else [])
     checks += [_col("hit frac.", "hit_fraction", "{:.3f}"), _col("ours in packets", "ours_packet_fraction",
                lambda x: f"{100 * x:.0f}%"), _col("our build s/Mtri", "build_seconds_per_mtri", _r),
-               _col("BVH depth", "bvh_depth", str)] + ([_col("Mitsuba load s", "mitsuba_load_seconds")] if mi else [])
+               _col("BVH depth", "bvh_depth", str), _col("our tree B/tri", "bvh_bytes_per_triangle", "{:.0f}"),
+               _col("our RSS +MiB", "ours_rss_growth_mib", "{:.0f}")]
+    checks += [_col("Mitsuba load s", "mitsuba_load_seconds"),
+               _col("Mitsuba RSS +MiB", "mitsuba_rss_growth_mib", "{:.0f}")] if mi else []
+    checks += [_col("peak RSS MiB", "peak_rss_mib", "{:.0f}")]
     return (_table(f"ray casting: closest hit, {c['rays']} rays per kind, {c['threads']} threads, median of "
                    f"{c['repeats']}", speed, result["rows"], left=2),
             _table("ray casting: agreement and build", checks, result["rows"], left=2))

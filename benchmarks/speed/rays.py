@@ -26,7 +26,7 @@ from .builds import CoreWorker
 from .common import (check_jit_variant, environment, load_mitsuba, median, mitsuba_versions, name_list, timed,
                      use_variant)
 
-__all__ = ["ray_benchmark", "torus_mesh", "mesh_scene", "primary_rays", "random_rays", "intersect_ours",
+__all__ = ["ray_benchmark", "resident_mib", "torus_mesh", "mesh_scene", "primary_rays", "random_rays", "intersect_ours",
            "intersect_mitsuba", "hit_agreement", "query_torus", "RAY_KINDS"]
 
 #: the ray sets: camera rays toward the torus, and incoherent rays around it.
@@ -168,6 +168,22 @@ def hit_agreement(t_a, t_b, *, rtol: float = 1e-4) -> dict:
             "t_rel_max": float(rel.max()) if rel.size else nan, "t_rtol": rtol}
 
 
+def resident_mib() -> tuple:
+    """``(now, peak)``: this process's resident memory and its high-water mark in MiB (``VmRSS``, ``VmHWM`` of
+    ``/proc/self/status``); ``(None, None)`` where that file is not there."""
+    try:
+        with open("/proc/self/status") as f:
+            fields = dict(line.split(":", 1) for line in f if ":" in line)
+        return tuple(float(fields[k].split()[0]) / 1024.0 for k in ("VmRSS", "VmHWM"))
+    except (OSError, KeyError, ValueError, IndexError):
+        return None, None
+
+
+def _grown(before, after):
+    """The growth from ``before`` to ``after`` (MiB), or None where either is unknown."""
+    return None if before is None or after is None else after - before
+
+
 def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, threads: int = 2, repeats: int = 3,
                   kinds=RAY_KINDS, variant: str | None = "llvm_ad_rgb", seed: int = 0, log=None, builds=None) -> dict:
     """Closest-hit throughput, ours vs Mitsuba (Embree), on generated tori.
@@ -191,7 +207,11 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
         ``ours_mrays_per_second`` (distance and primitive, timed from the call to its return as Mitsuba's side is) and
         ``ours_full_mrays_per_second`` (hit point and normal too), ``mitsuba_mrays_per_second``, ``ratio`` and
         ``ratio_full`` (medians of the paired ``round_ratios``, ``round_ratios_full``), CPU-time figures, agreement
-        (``agree_*``), our tree's ``build_seconds`` and ``bvh_depth``, ``mitsuba_load_seconds``.
+        (``agree_*``), our tree's ``build_seconds`` and ``bvh_depth``, ``mitsuba_load_seconds``. Memory:
+        ``bvh_bytes_per_triangle`` (our tree and its triangle blocks, exact), and the growth of this process's
+        resident memory across our scene's build (``ours_rss_growth_mib``: its arrays and tree) and Mitsuba's load
+        (``mitsuba_rss_growth_mib``: the mesh and Embree's tree), with the process's peak (``peak_rss_mib``).
+        Memory freed by the previous mesh may be reused, so the growths are lower bounds.
     """
     sizes = [positive_int("triangles", t, minimum=32)
              for t in (triangles if not isinstance(triangles, (int, np.integer)) else [triangles])]
@@ -214,16 +234,20 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
         for n_target in sizes:
             scene = mesh_scene(n_target, seed=seed)
             ntri = int(len(scene.shapes[0].faces))
+            rss_before, _ = resident_mib()
             core, wall_build, _ = timed(lambda: core_scene(scene))
             build = float(core.build_seconds)
+            rss_ours, _ = resident_mib()
             mscene, load = load_mitsuba(variant, scene, threads, check_merge=False) if use_mi else (None, None)
+            rss_mitsuba, peak = resident_mib()
             if log:
                 log(f"{ntri} triangles: our BVH build {build:.3f} s, {core.bvh_nodes} nodes, depth {core.bvh_depth}"
                     + (f"; Mitsuba load {load:.3f} s" if use_mi else ""))
             base = {"requested_triangles": n_target, "triangles": ntri, "rays": rays, "threads": threads}
             built = {"build_seconds": build, "build_seconds_per_mtri": build / ntri * 1e6,
                      "compile_and_build_seconds": wall_build, "bvh_nodes": int(core.bvh_nodes),
-                     "bvh_depth": int(core.bvh_depth)}
+                     "bvh_depth": int(core.bvh_depth), "bvh_bytes_per_triangle": int(core.bvh_bytes) / ntri,
+                     "ours_rss_growth_mib": _grown(rss_before, rss_ours), "peak_rss_mib": peak}
             for kind in kinds:
                 o, d = _MAKE[kind](rays, seed=seed)
                 sides = {None: functools.partial(intersect_ours, core, o, d, threads=threads)}
@@ -231,7 +255,9 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
                                                    rays=rays, seed=seed, threads=threads) for b, w in workers.items()})
                 for row in _ray_rows(sides, mscene, o, d, repeats=repeats, variant=variant, threads=threads):
                     out["rows"].append({**base, "kind": kind, **(built if row["build"] is None else {}),
-                                        "mitsuba_load_seconds": load, **row})
+                                        "mitsuba_load_seconds": load,
+                                        "mitsuba_rss_growth_mib": _grown(rss_ours, rss_mitsuba) if use_mi else None,
+                                        **row})
                     if log:
                         log(f"  {kind}, {row['build'] or 'installed'} build: ours {row['ours_mrays_per_second']:.2f} "
                             f"Mrays/s" + (f", Mitsuba {row['mitsuba_mrays_per_second']:.2f}" if use_mi else ""))

@@ -307,6 +307,21 @@ def test_ray_benchmark_fields(jit_variant, capsys, tmp_path):
         assert r["ratio_full_min"] <= r["ratio_full"] <= r["ratio_full_max"]
         assert r["agree_hit_agreement"] > 0.999
         assert r["build_seconds_per_mtri"] > 0 and r["mitsuba_load_seconds"] > 0 and r["bvh_depth"] >= 1
+        # a tree of 8-wide nodes over blocks of four triangles: tens to hundreds of bytes a triangle
+        assert 10 < r["bvh_bytes_per_triangle"] < 2000
+        assert isinstance(r["ours_rss_growth_mib"], float) and isinstance(r["mitsuba_rss_growth_mib"], float)
+        assert r["peak_rss_mib"] >= max(r["ours_rss_growth_mib"], r["mitsuba_rss_growth_mib"])
+
+
+def test_resident_memory_sees_an_allocation():
+    import numpy as np
+    from benchmarks.speed.rays import resident_mib
+
+    now, peak = resident_mib()
+    block = np.ones(64 << 17)          # 64 MiB of doubles, every page touched
+    grown, peak_after = resident_mib()
+    assert block.sum() == 64 << 17
+    assert 0 < now <= peak and grown - now > 60 and peak_after >= grown
 
 
 def test_scaling_fields():
