@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from benchmarks.constants import CLOSED_FORM, MITSUBA_DIRECT, RELMSE_EPS, SEED_SCENE, SEED_SIZE, SEED_SPP
+from benchmarks.constants import MITSUBA_DIRECT, RELMSE_EPS, SEED_SCENE, SEED_SIZE, SEED_SPP
 from benchmarks.display import reference_exposure
 from benchmarks.metrics import DEFAULT_METRIC, SPECS, view
 
@@ -20,7 +20,7 @@ from .curves import curve_label, curves
 from .images import (ERROR_CMAP, FLIP_CMAP, display_png, error_map, error_png, error_range, flip_map, flip_png,
                      pick_spps)
 from .store import Store, curve_order, num
-from .tables import fmt, stats_table
+from .tables import fmt, reference_caption, stats_table
 
 __all__ = ["PLOT_KINDS", "Cell", "Section", "build_section", "equal_time_text", "seed_lines", "slug",
            "metric_records"]
@@ -259,13 +259,6 @@ def reference_info(store: Store, scene: str, width, height) -> dict | None:
     if info is None:
         info = (store.meta.get("references") or {}).get(scene)
     return info if isinstance(info, dict) else None
-
-
-def reference_caption(info: dict) -> str:
-    """What a reference is, for its image's caption: a closed form says so."""
-    if info.get("variant") == CLOSED_FORM:
-        return "closed form (exact)"
-    return f"Mitsuba, {info.get('spp', '?')} spp, seed {info.get('seed', '?')}"
 
 
 def _reference(store: Store, sec: Section, *, problems: list):

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from benchmarks.constants import BASELINE, MIN_SLOPE_BUDGETS, RELMSE_EPS
+from benchmarks.constants import BASELINE, CLOSED_FORM, MIN_SLOPE_BUDGETS, RELMSE_EPS
 from benchmarks.metrics import DEFAULT_METRIC, SPECS
 
 from .curves import curve_label
@@ -200,9 +200,15 @@ def facts_table(meta: dict, *, n_records: int = 0, n_raw: int = 0, records=None)
     refs = meta.get("references") if isinstance(meta.get("references"), dict) else {}
     if refs:
         facts.append(("references", "; ".join(
-            f"{scene}: {s((r or {}).get('spp'))} spp, seed {s((r or {}).get('seed'))}"
-            for scene, r in sorted(refs.items()))))
+            f"{scene}: {s(reference_caption(r if isinstance(r, dict) else {}))}" for scene, r in sorted(refs.items()))))
     return facts
+
+
+def reference_caption(info: dict) -> str:
+    """What a reference is: a closed form says so (its spp is a placeholder), a render gives its budget."""
+    if info.get("variant") == CLOSED_FORM:
+        return "closed form (exact)"
+    return f"Mitsuba, {info.get('spp', '?')} spp, seed {info.get('seed', '?')}"
 
 
 #: (name, definition) of every metric in the tables and plots, epsilons included.

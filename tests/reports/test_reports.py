@@ -752,3 +752,14 @@ def test_each_plot_legend_uses_its_own_metrics_slopes(store):
     for key, (slope, note) in rmse.items():
         assert slope == raw[key]["slope"] and note == ""
         assert rel[key][0] == raw[key]["by_metric"]["relmse"]["slope"]
+
+
+def test_run_facts_name_a_closed_form_reference_as_such():
+    from benchmarks.constants import CLOSED_FORM, CLOSED_FORM_SPP
+    from reports.tables import facts_table
+
+    meta = {"references": {"furnace": {"variant": CLOSED_FORM, "spp": CLOSED_FORM_SPP, "seed": 0},
+                           "cornell_box": {"variant": "llvm_ad_rgb", "spp": 8192, "seed": 1000003}}}
+    refs = dict(facts_table(meta))["references"]
+    assert refs == "cornell_box: Mitsuba, 8192 spp, seed 1000003; furnace: closed form (exact)"
+    assert str(CLOSED_FORM_SPP) not in refs
