@@ -204,7 +204,9 @@ def rays_note(result) -> str:
 
     return ("ratio = ours / Mitsuba Mrays/s, median of the paired rounds (range: lowest, highest); both sides' "
             "distance and primitive (ray_intersect_preliminary; intersect(preliminary=True), packets of "
-            f"{probe.PACKET_RAYS}), timed from the Python call to its return; full: with our hit point and normal; "
+            f"{probe.PACKET_RAYS} in the installed core"
+            + (", of their own width in the other builds" if result["config"].get("builds") else "")
+            + "), timed from the Python call to its return; full: with our hit point and normal; "
             f"t agree: relative difference <= {result['rows'][0].get('agree_t_rtol', 1e-4):g}")
 
 
