@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 
 from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
 from benchmarks.errors import EXIT_FAIL
@@ -295,7 +296,7 @@ def run(args) -> int:
     externals = [register_external(cmd) for cmd in args.renderer]
     scenes = resolve_scenes(args, suite_names=args.scenes or [], default=list(list_scenes()))
     depths = int_list(args.scaling_depths, option="--scaling-depths")
-    builds = _build_isa(args.isa, args.cache, log) if args.isa else {}
+    builds = _build_isa(args.isa, log) if args.isa else {}
     jit = next((v for v in args.variant if not v.startswith("scalar")), None)
 
     def show(tables, lines):
@@ -340,19 +341,27 @@ def run(args) -> int:
     return EXIT_FAIL if args.require_targets and missed else 0
 
 
-def _build_isa(isa, cache, log) -> dict:
-    """``{isa: module}``: our core built for ``isa`` under the cache root."""
-    from benchmarks.references import cache_dir
-    from benchmarks.speed.builds import build_isa, build_target, isa_folder
+def _build_isa(isa, log) -> dict:
+    """``{isa: module}``: our core built for ``isa`` in a private temporary folder, removed when the process ends.
+    Never a build kept on disk: a build folder (its CMake cache, its module) runs code, so it is made afresh."""
+    import tempfile
 
-    folder, log = isa_folder(isa, cache_dir(cache).parent), log or (lambda line: None)
-    log(f"building our core for {isa} in {folder} (a minute or more the first time)")
+    from benchmarks.speed.builds import build_isa, build_target
+
+    tmp = tempfile.TemporaryDirectory(prefix=f"rtbench-core-{isa}-")
+    _BUILD_FOLDERS.append(tmp)          # kept until exit: the workers load the module from it
+    folder, log = Path(tmp.name), log or (lambda line: None)
+    log(f"building our core for {isa} in {folder} (a minute or more)")
     try:
         module = build_isa(isa, folder)
     except (RuntimeError, FileNotFoundError) as e:
         raise RuntimeError(f"the {isa} build of our core failed: {e}") from None
     log(f"{isa} build: {build_target(folder)}")
     return {isa: module}
+
+
+#: the temporary folders of this process's --isa builds (removed at exit by their finalizers)
+_BUILD_FOLDERS = []
 
 
 def verdict_lines(verdicts) -> list:

@@ -5,7 +5,6 @@ same images bit for bit (:data:`AGREEMENT_SCRIPT`); :func:`paired_times` times b
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import os
 import pickle
 import shlex
@@ -17,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ROOT", "ISAS", "AGREEMENT_SCRIPT", "cpu_flags", "build_core", "build_isa", "isa_folder",
+__all__ = ["ROOT", "ISAS", "AGREEMENT_SCRIPT", "cpu_flags", "build_core", "build_isa",
            "run_with_core", "agreement_arrays", "build_target", "CoreWorker", "paired_times"]
 
 #: The repository's root (the CMake project).
@@ -116,11 +115,6 @@ def build_core(build_dir: Path, *cmake_args: str, cxx: str | None = None, jobs: 
         if done.returncode != 0:
             raise RuntimeError(f"{shlex.join(command)} failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}")
     return next(build_dir.glob("_core*.so"))
-
-
-def isa_folder(isa: str, cache) -> Path:
-    """The folder of this checkout's build for ``isa`` under the cache root, kept between runs."""
-    return Path(cache).expanduser() / "cores" / f"{isa}-{hashlib.sha256(str(ROOT).encode()).hexdigest()[:8]}"
 
 
 def build_isa(isa: str, build_dir: Path, *, jobs: int = 2) -> Path:

@@ -22,14 +22,17 @@ TINY = ["--width", "8", "--height", "6", "--spp", "2", "--repeats", "2", "--thre
 
 
 def _installed_as_build(monkeypatch):
+    """The installed core stands in for the build; returns the folders the builds were asked to use."""
     from reference_tracer.build import core_path
 
-    monkeypatch.setattr(builds, "build_isa", lambda isa, folder, **kw: core_path())
+    folders = []
+    monkeypatch.setattr(builds, "build_isa", lambda isa, folder, **kw: folders.append(folder) or core_path())
     monkeypatch.setattr(builds, "build_target", lambda folder: "the installed core, standing in")
+    return folders
 
 
 def test_isa_build_has_its_own_rows_headline_and_verdicts(tmp_path, capsys, monkeypatch, jit_variant):
-    _installed_as_build(monkeypatch)
+    folders = _installed_as_build(monkeypatch)
     variant = jit_variant or "scalar_rgb"
     path = tmp_path / "speed.json"
     rc = main(["speed", "cornell_box", *TINY, "--variant", variant, "--isa", "avx2", "--cache", str(tmp_path),
@@ -40,6 +43,8 @@ def test_isa_build_has_its_own_rows_headline_and_verdicts(tmp_path, capsys, monk
     got = json.loads(path.read_text())
     res = got["render"]
     assert res["config"]["builds"] == {"avx2": str(builds.build_isa("avx2", None))}
+    # built in a fresh private folder, never in (nor reused from) the cache: a build folder runs code
+    assert folders[0].name.startswith("rtbench-core-avx2-") and tmp_path not in folders[0].parents
     runs = [(r["round"], r.get("build") or "") for r in res["runs"] if r["renderer"] == "ours"]
     assert sorted(runs) == [(0, ""), (0, "avx2"), (1, ""), (1, "avx2")]   # both builds in every round
     for run in (r for r in res["runs"] if r["renderer"] == "ours"):
@@ -80,8 +85,8 @@ def test_isa_the_cpu_cannot_run_or_a_build_that_fails(tmp_path, capsys, monkeypa
 
 @pytest.mark.slow
 def test_isa_avx2_builds_and_runs(tmp_path, capsys):
-    # The real thing: the core built for x86-64-v3 into the cache, timed beside the installed
-    # one. A minute or more: the build.
+    # The real thing: the core built for x86-64-v3 in a temporary folder, timed beside the
+    # installed one. A minute or more: the build.
     if not builds.ISAS["avx2"][1] <= cpu_flags():
         pytest.skip("this CPU cannot run an AVX2 build")
     path = tmp_path / "speed.json"
@@ -90,7 +95,8 @@ def test_isa_avx2_builds_and_runs(tmp_path, capsys):
     out = capsys.readouterr().out
     assert rc == 0 and "ours mis, avx2 build" in out and "packs of 4" in out
     res = json.loads(path.read_text())["render"]
-    assert (tmp_path / "cores").is_dir() and res["config"]["builds"]["avx2"].startswith(str(tmp_path / "cores"))
+    module = res["config"]["builds"]["avx2"]
+    assert not (tmp_path / "cores").exists() and "rtbench-core-avx2-" in module and str(tmp_path) not in module
     assert {r["build"] for r in res["summary"] if r["renderer"] == "ours"} == {None, "avx2"}
 
 
