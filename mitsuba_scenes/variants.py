@@ -30,7 +30,7 @@ import subprocess
 import sys
 
 __all__ = ["VARIANT_ENV", "PREFERRED_VARIANTS", "select_variant", "import_mitsuba",
-           "find_libllvm", "probe_variant", "versions", "llvm_target"]
+           "find_libllvm", "probe_variant", "versions", "llvm_target", "set_llvm_target"]
 
 log = logging.getLogger(__name__)
 
@@ -325,7 +325,16 @@ def versions() -> dict:
 # do not expose them. Itanium-ABI names of functions without arguments, stable while the
 # signatures are.
 _LLVM_TARGET_SYMBOLS = {"cpu": "_Z19jit_llvm_target_cpuv", "width": "_Z21jit_llvm_vector_widthv",
-                        "features": "_Z24jit_llvm_target_featuresv"}
+                        "features": "_Z24jit_llvm_target_featuresv",
+                        # jit_llvm_set_target(const char *cpu, const char *features, uint32_t width)
+                        "set": "_Z19jit_llvm_set_targetPKcS0_j"}
+
+
+def _drjit_core():
+    """Dr.Jit's core library (already loaded by ``import drjit``); OSError where it is not there."""
+    import drjit as dr  # deferred: after the variant and libLLVM are chosen (select_variant)
+
+    return ctypes.CDLL(os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so"))
 
 
 def llvm_target() -> dict | None:
@@ -350,10 +359,8 @@ def llvm_target() -> dict | None:
     >>> target is None or target["vector_width"] in (4, 8, 16)
     True
     """
-    import drjit as dr  # deferred: after the variant and libLLVM are chosen (select_variant)
-
     try:
-        core = ctypes.CDLL(os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so"))
+        core = _drjit_core()
         cpu, width, features = (core[_LLVM_TARGET_SYMBOLS[k]] for k in ("cpu", "width", "features"))
     except (OSError, AttributeError):
         return None
@@ -364,3 +371,70 @@ def llvm_target() -> dict | None:
         return None
     return {"cpu": name.decode(), "vector_width": lanes,
             "avx512": "+avx512f" in (flags or b"").decode().split(",")}
+
+
+def set_llvm_target(cpu: str, features: str, vector_width: int) -> dict:
+    """Make Dr.Jit's LLVM backend compile the kernels of this process for another CPU.
+
+    ``llvm_ad_rgb`` compiles its kernels for the running CPU (:func:`llvm_target`). A machine
+    with AVX-512 can run the kernels a machine with AVX2 only would get (``'haswell'``, its
+    features, 8 lanes), so that a build of ours for AVX2 is timed against Mitsuba as a laptop
+    runs it. The target holds for the rest of the process, which must not have run a kernel
+    yet: a scene loaded at one width and rendered at another comes out black or crashes the
+    process, so the call is refused after the first kernel launch (every scene load makes
+    some). Embree, inside Mitsuba, keeps choosing its own instruction set from the CPU.
+
+    Parameters
+    ----------
+    cpu : str
+        LLVM's name of the CPU (``'haswell'``, ``'skylake-avx512'``).
+    features : str
+        LLVM's comma-separated feature flags (``'+avx2,+fma'``); they must be a subset of the
+        running CPU's, which the caller checks.
+    vector_width : int
+        Float lanes a kernel instruction: 4, 8 or 16.
+
+    Returns
+    -------
+    dict
+        :func:`llvm_target` after the change.
+
+    Raises
+    ------
+    ValueError
+        For a width other than 4, 8 or 16, or an empty CPU name.
+    RuntimeError
+        Where the LLVM variant is not the active one, a kernel has run in this process, this
+        Dr.Jit does not export the function, or the backend did not take the target.
+
+    Examples
+    --------
+    >>> select_variant("llvm_ad_rgb")  # doctest: +SKIP
+    >>> set_llvm_target("haswell", "+avx,+avx2,+fma", 8)["vector_width"]  # doctest: +SKIP
+    8
+    """
+    if vector_width not in (4, 8, 16) or isinstance(vector_width, bool):
+        raise ValueError(f"vector_width must be 4, 8 or 16, got {vector_width!r}")
+    if not cpu:
+        raise ValueError("cpu must name an LLVM CPU, e.g. 'haswell'")
+    import drjit as dr  # deferred: after the variant and libLLVM are chosen (select_variant)
+    import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
+
+    if not (mi.variant() or "").startswith("llvm"):
+        raise RuntimeError(f"an LLVM target needs an llvm variant active, not {mi.variant()!r}")
+    launches = re.search(r"Kernel launches\s*:\s*(\d+)", dr.whos(True) or "")
+    if launches is None or int(launches.group(1)) != 0:
+        raise RuntimeError("an LLVM target must be set before this process runs any Dr.Jit kernel (load or render): "
+                           + ("Dr.Jit did not report its kernel launches" if launches is None else
+                              f"{launches.group(1)} have run, at {(llvm_target() or {}).get('vector_width')} lanes"))
+    try:
+        setter = _drjit_core()[_LLVM_TARGET_SYMBOLS["set"]]
+    except (OSError, AttributeError):
+        raise RuntimeError(f"Dr.Jit {dr.__version__} does not export jit_llvm_set_target") from None
+    setter.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_uint32]
+    setter.restype = None
+    setter(cpu.encode(), features.encode(), int(vector_width))
+    now = llvm_target()
+    if now is None or now["cpu"] != cpu or now["vector_width"] != vector_width:
+        raise RuntimeError(f"Dr.Jit's LLVM backend did not take the target {cpu}, {vector_width} lanes (now {now})")
+    return now

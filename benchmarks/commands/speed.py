@@ -56,7 +56,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     A.add_cache_arg(parser)
     A.add_seed_args(parser)
     parser.add_argument("--isa", choices=sorted(ISAS), default=None,
-                        help="also time our core built for this instruction set, with its own rows (default: none)")
+                        help="also time our core built for this instruction set, with its own rows, against Mitsuba's "
+                             "kernels for that set where they are narrower than this CPU's (default: none)")
     parser.add_argument("--render", action="store_true", help="run the render benchmark too with --rays/--scaling")
     parser.add_argument("--rays", action="store_true", help="ray-casting micro-benchmark (ours vs Mitsuba/Embree)")
     parser.add_argument("--triangles", default="100000,1000000", help="mesh sizes of --rays")
@@ -121,7 +122,8 @@ def suite_table(result, build=None):
                ("scene", lambda r: r["scene"] if r["scene"] != GEOMEAN else f"{GEOMEAN} ({r['scenes']})"),
                _col(f"ours {ours} Mpaths/s", "ours_paths_per_second", _m)]
     for v in suite["variants"]:
-        short = v.split("_")[0]
+        against = suite.get("against", {}).get(v, f"Mitsuba {v}")   # e.g. "Mitsuba llvm_ad_rgb, avx2 kernels"
+        short = v.split("_")[0] + against[len(f"Mitsuba {v}"):]
         columns += [_col(f"{short} Mpaths/s", f"mitsuba_paths_per_second_{v}", _m), (f"ratio {short} (cpu)",
                     _ratio_cells(v)), _col(f"rounds {short}", f"round_ratios_{v}", _range),
                     (f"eff. ratio {short}", lambda r, v=v: _r(r[f"efficiency_ratio_{v}"]))]
@@ -168,6 +170,11 @@ def render_notes(result):
               for name, template in c.get("externals", {}).items()]
     lines += [f"ours ..., {name} build: our core built for {name} ({module}), in a worker process, in the same rounds"
               for name, module in c.get("builds", {}).items()]
+    lines += [f"{row['label']}: Mitsuba in the {row['build']} build's worker, Dr.Jit's kernels compiled for "
+              f"{result.get('mitsuba_targets', {}).get(row['build'], row['build'])} (what a CPU of that instruction set runs; "
+              f"Embree inside keeps this CPU's); the {row['build']} build's ratios pair with it"
+              for row in {r["label"]: r for r in result["summary"]
+                          if r["renderer"] == "mitsuba" and r.get("build")}.values()]
     return lines + ["ratio = paths/s ours / Mitsuba, the median of the paired rounds' ratios (cpu: on CPU time); "
                     "rounds = the lowest and highest round's; spread = (max-min)/median of paths/s; 'rr_depth N' = "
                     "roulette from depth N in both; benchmarks/PERFORMANCE.md, Reading the ratios"]

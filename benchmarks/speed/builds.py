@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ROOT", "ISAS", "AGREEMENT_SCRIPT", "cpu_flags", "build_core", "build_isa",
+__all__ = ["ROOT", "ISAS", "MITSUBA_TARGETS", "AGREEMENT_SCRIPT", "cpu_flags", "build_core", "build_isa",
            "run_with_core", "agreement_arrays", "build_target", "CoreWorker", "paired_times"]
 
 #: The repository's root (the CMake project).
@@ -27,6 +27,13 @@ _V3 = frozenset({"avx", "avx2", "bmi1", "bmi2", "f16c", "fma", "movbe", "abm", "
 #: GCC's and Clang's level assumes: a build runs only where the CPU has them all.
 ISAS = {"avx2": ("x86-64-v3", _V3),
         "avx512": ("x86-64-v4", _V3 | {"avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl"})}
+
+_V3_LLVM = "+avx,+avx2,+bmi,+bmi2,+cx16,+f16c,+fma,+lzcnt,+movbe,+popcnt,+sse,+sse2,+sse3,+sse4.1,+sse4.2,+ssse3,+xsave"
+#: What Dr.Jit's LLVM backend compiles Mitsuba's kernels for on a CPU of each instruction set (its CPU name, feature
+#: flags and float lanes: ``mitsuba_scenes.variants.set_llvm_target``), so that a build of ours for an ISA is timed
+#: against Mitsuba as a machine of that ISA runs it.
+MITSUBA_TARGETS = {"avx2": ("haswell", _V3_LLVM, 8),
+                   "avx512": ("skylake-avx512", _V3_LLVM + ",+avx512f,+avx512bw,+avx512cd,+avx512dq,+avx512vl", 16)}
 
 _ENV = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1")
 

@@ -18,6 +18,7 @@ import numpy as np
 import reference_tracer as rt
 from mitsuba_scenes import get_scene, known_scenes
 from mitsuba_scenes.render import batch_seeds
+from mitsuba_scenes.variants import llvm_target, set_llvm_target
 from reference_tracer import INTEGRATORS
 from reference_tracer.probe import core_scene
 from reference_tracer.validation import positive_int
@@ -27,13 +28,13 @@ from ..external import STRATEGY as EXTERNAL_STRATEGY
 from ..external import render_external
 from ..metrics import efficiency, mse, mse_corrected
 from ..references import reference
-from .builds import CoreWorker
+from .builds import MITSUBA_TARGETS, CoreWorker
 from .common import (available_variants, environment, load_mitsuba, median, mitsuba_render_fn, mitsuba_versions,
                      name_list, spread, timed, use_variant)
 from .suite import suite_summary
 
 __all__ = ["DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT_RR_DEPTHS", "REFERENCE_KINDS", "render_benchmark",
-           "rr_label", "render_timed"]
+           "rr_label", "render_timed", "mitsuba_timed"]
 
 #: our strategies in run order: the unbiased ones from ``mis`` (matched to Mitsuba's ``path``) down to the plainest,
 #: then the biased ``light``.
@@ -86,6 +87,7 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
     -------
     dict
         ``config``, ``environment``, ``mitsuba``, ``skipped_variants``, ``available_variants``, ``references``,
+        ``mitsuba_targets`` (where Mitsuba also ran with kernels for a build's instruction set: ``{build: target}``),
         ``runs`` (one record a timed render), ``summary`` (a row per scene, configuration and renderer: medians over
         rounds and, against each variant ``v``, ``ratio_v``, ``cpu_ratio_v``, ``efficiency_ratio_v``,
         ``round_ratios_v``, ``round_efficiency_ratios_v``), ``suite`` (:func:`.suite_summary`) and ``build_suites``
@@ -160,6 +162,37 @@ def render_timed(scene, *, key=None, **render_args):
     return timed(lambda: rt.render(scene, **render_args))
 
 
+def mitsuba_timed(scene, *, variant, isa, key, spp, seed, threads):
+    """``(image, wall seconds, process CPU seconds)`` of Mitsuba's render of ``scene`` with its kernels compiled for
+    ``isa`` (:data:`.builds.MITSUBA_TARGETS`). Run in a :class:`.builds.CoreWorker`: the target holds for the whole
+    process, and the worker keeps the loaded scene under ``key``."""
+    mi, _ = use_variant(variant, threads)
+    cpu, features, width = MITSUBA_TARGETS[isa]
+    now = llvm_target()
+    if now is None or (now["cpu"], now["vector_width"]) != (cpu, width):
+        set_llvm_target(cpu, features, width)
+    if key not in _KEPT:
+        _KEPT[key] = load_mitsuba(variant, scene, threads)[0]
+    return timed(mitsuba_render_fn(mi, _KEPT[key], spp, seed))
+
+
+def _mitsuba_label(variant, build=None) -> str:
+    """The label of Mitsuba's rows: ``Mitsuba <variant>``, with ``, <isa> kernels`` for kernels compiled for the
+    instruction set of our ``build``."""
+    return f"Mitsuba {variant}" + ("" if build is None else f", {build} kernels")
+
+
+def _same_isa_builds(workers, variants) -> dict:
+    """``{build: worker}`` of the builds whose instruction set gives Mitsuba's LLVM kernels another width than this
+    CPU's: Mitsuba runs there too, in the build's worker, with kernels for that ISA (on a CPU of the ISA itself,
+    Mitsuba's own kernels already are)."""
+    if not any(v.startswith("llvm") for v in variants):
+        return {}
+    native = llvm_target()
+    return {b: w for b, w in workers.items()
+            if b in MITSUBA_TARGETS and native is not None and native["vector_width"] != MITSUBA_TARGETS[b][2]}
+
+
 def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, workers):
     """Set up, time and summarise one scene in every Russian-roulette configuration."""
     width, height, spp, threads = config["width"], config["height"], config["spp"], config["threads"]
@@ -182,6 +215,16 @@ def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, wo
         for core in cores.values():   # warm-up
             core(spp=max(1, spp // 8), strategy=config["strategies"][0], seed=0xA11CE, threads=threads)
         mscenes, infos = _warm_mitsuba(scene, ok_variants, spp=spp, threads=threads, log=log)
+        same_isa = {(v, b): functools.partial(w, "benchmarks.speed.render.mitsuba_timed", bare, variant=v, isa=b,
+                                              key=("mitsuba", v, name, label), threads=threads)
+                    for b, w in _same_isa_builds(workers, ok_variants).items() for v in ok_variants
+                    if v.startswith("llvm")}
+        for (v, b), run in same_isa.items():   # load and compile, untimed
+            cpu_name, _, lanes = MITSUBA_TARGETS[b]
+            result.setdefault("mitsuba_targets", {})[b] = f"{cpu_name}, {lanes} lanes"
+            _, warm, _ = run(spp=spp, seed=0x5EED)
+            if log:
+                log(f"  {_mitsuba_label(v, b)} (in the {b} build's worker): warm-up render {warm:.2f} s")
         for ext in externals:   # a command that fails does so here, before any timing
             _, secs = render_external(ext, scene, spp=max(1, spp // 8), seed=0x5EED)
             if log:
@@ -191,16 +234,20 @@ def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, wo
                                           "build": b},
                    functools.partial(_run_ours, core, spp=spp, strategy=s, integrator=i, seed=seed, threads=threads))
                   for b, core in cores.items() for s in config["strategies"] for i in config["integrators"]],
-                 [(f"Mitsuba {v}", {"renderer": "mitsuba", "strategy": MITSUBA_STRATEGY, "variant": v},
+                 [(_mitsuba_label(v), {"renderer": "mitsuba", "strategy": MITSUBA_STRATEGY, "variant": v},
                    functools.partial(_run_mitsuba, v, mscenes[v], spp=spp, seed=seed, threads=threads))
                   for v in ok_variants],
+                 [(_mitsuba_label(v, b), {"renderer": "mitsuba", "strategy": MITSUBA_STRATEGY, "variant": v,
+                                          "build": b},
+                   functools.partial(_run_mitsuba_elsewhere, run, spp=spp, seed=seed))
+                  for (v, b), run in same_isa.items()],
                  [(e.name, {"renderer": e.name, "strategy": EXTERNAL_STRATEGY, "variant": None},
                    functools.partial(_run_external, e, scene, spp=spp, seed=seed)) for e in externals])
         order = [x for group in itertools.zip_longest(*lanes) for x in group if x is not None]   # not grouped
         per = _timed_rounds(name, scene, config, order, ref=ref, runs=result["runs"], log=log)
         for v in ok_variants:   # JIT compile time: warm-up minus a typical timed render
             info = infos[v]
-            typical = median([x["seconds"] for x in per[f"Mitsuba {v}"]])
+            typical = median([x["seconds"] for x in per[_mitsuba_label(v)]])
             info["compile_seconds"] = (max(0.0, info["warmup_seconds"] - typical)
                                        if v.startswith(("llvm", "cuda")) else 0.0)
             result["mitsuba"].setdefault(name, {}).setdefault(label, {})[v] = info
@@ -254,6 +301,12 @@ def _run_mitsuba(variant, mscene, r, *, spp, seed, threads):
     mi, _ = use_variant(variant, threads)
     s = batch_seeds(seed + r, 1)[0]
     img, wall, cpu = timed(mitsuba_render_fn(mi, mscene, spp, s))
+    return {"mean": img, "secs": wall, "wall": wall, "cpu": cpu, "rays": None, "seed": s}
+
+
+def _run_mitsuba_elsewhere(run, r, *, spp, seed):   # run: mitsuba_timed in a worker
+    s = batch_seeds(seed + r, 1)[0]
+    img, wall, cpu = run(spp=spp, seed=s)
     return {"mean": img, "secs": wall, "wall": wall, "cpu": cpu, "rays": None, "seed": s}
 
 
@@ -322,7 +375,10 @@ def _summary_rows(name, per, variants) -> list:
         row["paths_per_second_spread"] = spread([x["paths_per_second"] for x in runs])
         if row["renderer"] != "mitsuba":   # ours and external renderers, against each variant
             for v in variants:
-                pairs = list(zip(runs, per[f"Mitsuba {v}"]))
+                # a build for another ISA against Mitsuba's kernels for that ISA, where they ran
+                against = next(x for x in (_mitsuba_label(v, row["build"]), _mitsuba_label(v)) if x in per)
+                row[f"against_{v}"] = against
+                pairs = list(zip(runs, per[against]))
                 rounds = [a["paths_per_second"] / b["paths_per_second"] for a, b in pairs]
                 # NaN in a round where an MSE was not positive: the median leaves it out
                 eff = [a["efficiency"] / b["efficiency"] for a, b in pairs]

@@ -40,9 +40,11 @@ def suite_summary(result, *, build=None) -> dict:
     Returns
     -------
     dict
-        ``strategy`` and ``integrator`` (the headline's: the first of each), ``variants`` and ``rows``: per
-        configuration in run order, a row per scene (``configuration``, ``rr_depth``, ``scene``,
-        ``ours_paths_per_second``, and against each variant ``v`` ``mitsuba_paths_per_second_v``, ``ratio_v``,
+        ``strategy`` and ``integrator`` (the headline's: the first of each), ``variants``, ``against`` (each
+        variant's Mitsuba row the ratios pair with: ``Mitsuba v``, or ``Mitsuba v, <isa> kernels`` for a build of
+        another instruction set) and ``rows``: per configuration in run order, a row per scene (``configuration``,
+        ``rr_depth``, ``scene``, ``ours_paths_per_second``, and against each variant ``v`` ``against_v``,
+        ``mitsuba_paths_per_second_v``, ``ratio_v``,
         ``cpu_ratio_v``, ``efficiency_ratio_v``, ``round_ratios_v``, ``round_efficiency_ratios_v``), then a row of
         ``scene`` :data:`GEOMEAN` holding the geometric means (of each round's too) over its ``scenes``.
     """
@@ -60,9 +62,12 @@ def suite_summary(result, *, build=None) -> dict:
             out = {"configuration": label, "rr_depth": row["rr_depth"], "scene": row["scene"],
                    "ours_paths_per_second": row["paths_per_second"]}
             for v in variants:
+                against = row.get(f"against_{v}") or f"Mitsuba {v}"   # the Mitsuba row the ratios pair with
                 theirs = [r["paths_per_second"] for r in summary if r["scene"] == row["scene"]
-                          and r["configuration"] == label and r["renderer"] == "mitsuba" and r["variant"] == v]
+                          and r["configuration"] == label and r["renderer"] == "mitsuba" and r["variant"] == v
+                          and r.get("label", f"Mitsuba {v}") == against]
                 out[f"mitsuba_paths_per_second_{v}"] = theirs[0] if theirs else None
+                out[f"against_{v}"] = against
                 out.update({f"{key}_{v}": row.get(f"{key}_{v}") for key in _RATIOS + _ROUNDS})
             block.append(out)
         mean = {"configuration": label, "rr_depth": block[0]["rr_depth"] if block else None, "scene": GEOMEAN,
@@ -72,4 +77,5 @@ def suite_summary(result, *, build=None) -> dict:
             mean.update({f"{key}_{v}": geometric_mean(r[f"{key}_{v}"] for r in block) for key in _RATIOS})
             mean.update({f"{key}_{v}": round_geometric_means(r[f"{key}_{v}"] for r in block) for key in _ROUNDS})
         rows += block + [mean]
-    return {"strategy": strategy, "integrator": integrator, "variants": variants, "rows": rows}
+    against = {v: next((r[f"against_{v}"] for r in rows if r.get(f"against_{v}")), f"Mitsuba {v}") for v in variants}
+    return {"strategy": strategy, "integrator": integrator, "variants": variants, "against": against, "rows": rows}

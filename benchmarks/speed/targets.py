@@ -130,22 +130,26 @@ def render_verdicts(result, *, suite_scenes=None, build=None) -> list:
     if blocker:
         return [not_judged(t, t.scope + _tag(build), blocker, build=build) for t in TARGETS if t.benchmark == "render"]
     rows = [r for r in suite["rows"] if r["rr_depth"] == TARGET_RR_DEPTH and r["scene"] != GEOMEAN]
+    # A build for another instruction set is judged against Mitsuba's kernels for that set, where they ran.
+    against = suite.get("against", {}).get(TARGET_VARIANT, _MITSUBA)
+    scene_paths, scene_eff, suite_paths, suite_eff = (dataclasses.replace(t, against=against) for t in
+                                                      (SCENE_PATHS, SCENE_EFFICIENCY, SUITE_PATHS, SUITE_EFFICIENCY))
     out = []
     for row in rows:
         subject = row["scene"] + _tag(build)
         if row["scene"] not in suite_scenes:
-            out.append(not_judged(SCENE_PATHS, subject, "not a suite scene (the targets are set on the suite)",
+            out.append(not_judged(scene_paths, subject, "not a suite scene (the targets are set on the suite)",
                                   build=build))
             continue
         out += [judge(t, subject, row.get(_ROUND_KEY[t.metric]), no_rounds=_no_rounds(t), build=build)
-                for t in (SCENE_PATHS, SCENE_EFFICIENCY)]
+                for t in (scene_paths, scene_eff)]
     ran = {r["scene"]: r for r in rows if r["scene"] in suite_scenes}
     subject = "suite geometric mean" + _tag(build)
     if len(ran) < len(suite_scenes):
         return out + [not_judged(t, subject, f"{len(ran)} of {len(suite_scenes)} suite scenes in this run", build=build)
-                      for t in (SUITE_PATHS, SUITE_EFFICIENCY)]
+                      for t in (suite_paths, suite_eff)]
     return out + [judge(t, subject, round_geometric_means(ran[s].get(_ROUND_KEY[t.metric]) for s in suite_scenes),
-                        no_rounds=_no_rounds(t, suite=True), build=build) for t in (SUITE_PATHS, SUITE_EFFICIENCY)]
+                        no_rounds=_no_rounds(t, suite=True), build=build) for t in (suite_paths, suite_eff)]
 
 
 def _no_rounds(target, *, suite=False) -> str:

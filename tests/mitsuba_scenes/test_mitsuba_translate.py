@@ -13,7 +13,8 @@ from mitsuba_scenes import get_scene, list_scenes, render_mitsuba, to_mitsuba, t
 from mitsuba_scenes.render import batch_seeds, mesh_merge_safe, split_spp
 from mitsuba_scenes.scenes.cornell_mesh import torus
 from mitsuba_scenes.translate import look_at_matrix, mitsuba_rr_depth
-from mitsuba_scenes.variants import find_libllvm, import_mitsuba, llvm_target, select_variant, versions
+from mitsuba_scenes.variants import (find_libllvm, import_mitsuba, llvm_target, select_variant, set_llvm_target,
+                                     versions)
 
 from build_util import cpu_flags
 
@@ -159,6 +160,67 @@ def test_llvm_target_reports_the_width_dr_jit_compiles_for():
     assert target["avx512"] == ("avx512f" in cpu_flags())
     assert target["vector_width"] == (16 if target["avx512"] else 8)
     assert versions()["llvm_target"] == target
+
+
+_AVX2_KERNELS = """
+import numpy as np
+from mitsuba_scenes import get_scene, to_mitsuba
+from mitsuba_scenes.variants import llvm_target, select_variant, set_llvm_target
+select_variant("llvm_ad_rgb")
+import mitsuba as mi
+before = llvm_target()
+if WIDTH:
+    for bad in (("haswell", 3), ("", 8)):
+        try:
+            set_llvm_target(bad[0], "+avx2", bad[1])
+        except ValueError as e:
+            print("refused:", e)
+    after = set_llvm_target("haswell", "+avx,+avx2,+fma,+f16c", WIDTH)
+    print(before["vector_width"], after["vector_width"], after["cpu"], after["avx512"], llvm_target() == after)
+scene = mi.load_dict(to_mitsuba(get_scene("cornell_box", width=32, height=32)))
+print(float(np.array(mi.render(scene, spp=64, seed=3)).mean()))
+try:
+    set_llvm_target("haswell", "+avx2", 8)
+except RuntimeError as e:
+    print("refused:", e)
+"""
+
+
+def _kernels(width):
+    out = subprocess.run([sys.executable, "-c", _AVX2_KERNELS.replace("WIDTH", str(width))], capture_output=True,
+                         text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    return out.stdout.strip().splitlines()
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/cpuinfo"), reason="reads the CPU's flags from /proc/cpuinfo")
+def test_set_llvm_target_compiles_mitsubas_kernels_for_an_avx2_cpu():
+    # What `rtbench speed --isa avx2` pairs our AVX2 build with: Mitsuba's kernels as a CPU with
+    # AVX2 only gets them (8 lanes, no AVX-512), on this CPU, in a fresh process (the target
+    # holds for the process). The image is Mitsuba's own at either width: the same random
+    # numbers, its mean the same to single-precision rounding. After a kernel has run the call
+    # is refused: a scene loaded at 16 lanes renders black at 8.
+    if "avx2" not in cpu_flags():
+        pytest.skip("the CPU has no AVX2")
+    try:
+        select_variant("llvm_ad_rgb")
+    except (RuntimeError, ValueError) as e:
+        pytest.skip(f"llvm_ad_rgb does not run here: {e}")
+    *_, native, late = _kernels(0)
+    bad_width, bad_cpu, target, narrow, late_too = _kernels(8)
+    assert bad_width == "refused: vector_width must be 4, 8 or 16, got 3"
+    assert bad_cpu == "refused: cpu must name an LLVM CPU, e.g. 'haswell'"
+    before, after, cpu, avx512, reported = target.split()
+    assert before in ("8", "16") and (after, cpu, avx512, reported) == ("8", "haswell", "False", "True")
+    assert float(native) > 0.1 and float(narrow) == pytest.approx(float(native), rel=1e-5)
+    for line in (late, late_too):
+        assert line.startswith("refused: an LLVM target must be set before this process runs any Dr.Jit kernel")
+
+
+def test_set_llvm_target_needs_the_llvm_variant():
+    select_variant("scalar_rgb")
+    with pytest.raises(RuntimeError, match="an LLVM target needs an llvm variant active, not 'scalar_rgb'"):
+        set_llvm_target("haswell", "+avx2", 8)
 
 
 def test_llvm_target_is_none_without_an_llvm_backend():

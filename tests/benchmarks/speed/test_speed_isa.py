@@ -54,6 +54,24 @@ def test_isa_build_has_its_own_rows_headline_and_verdicts(tmp_path, capsys, monk
     assert row["build"] == "avx2" and len(row[f"round_ratios_{variant}"]) == 2
     head = res["build_suites"]["avx2"]["rows"][0]
     assert head["scene"] == "cornell_box" and head[f"round_ratios_{variant}"] == row[f"round_ratios_{variant}"]
+    # Like for like: where this CPU's Mitsuba kernels are wider than an AVX2 CPU's, Mitsuba also
+    # renders in the build's worker with kernels for AVX2 (8 lanes), and the build pairs with it.
+    native = got["render"]["mitsuba"]["versions"]["llvm_target"] if jit_variant else None
+    same_isa = f"Mitsuba {variant}, avx2 kernels"
+    if native and native["vector_width"] != 8:
+        assert res["mitsuba_targets"] == {"avx2": "haswell, 8 lanes"}
+        theirs = sorted((r["round"], r["paths_per_second"]) for r in res["runs"]
+                        if r["renderer"] == "mitsuba" and r.get("build") == "avx2")
+        ours = sorted((r["round"], r["paths_per_second"]) for r in res["runs"]
+                      if r["renderer"] == "ours" and r.get("build") == "avx2")
+        assert len(theirs) == 2 and row[f"round_ratios_{variant}"] == [a / b for (_, a), (_, b) in zip(ours, theirs)]
+        assert row[f"against_{variant}"] == head[f"against_{variant}"] == same_isa
+        assert res["build_suites"]["avx2"]["against"] == {variant: same_isa}
+        assert f"{same_isa}: Mitsuba in the avx2 build's worker, Dr.Jit's kernels compiled for haswell" in out
+    else:
+        assert not any(r.get("build") for r in res["runs"] if r["renderer"] == "mitsuba")
+    installed = next(r for r in res["summary"] if r["label"] == "ours mis")
+    assert installed.get(f"against_{variant}") == f"Mitsuba {variant}"   # the installed core: this CPU's kernels
     rays = [(r["kind"], r["build"]) for r in got["rays"]["rows"]]
     assert rays == [("primary", None), ("primary", "avx2"), ("random", None), ("random", "avx2")]
     if jit_variant:
@@ -61,6 +79,8 @@ def test_isa_build_has_its_own_rows_headline_and_verdicts(tmp_path, capsys, monk
     verdicts = got["verdicts"]
     subjects = [v["subject"] for v in verdicts]
     assert "cornell_box (avx2 build)" in subjects or not jit_variant
+    if native and native["vector_width"] != 8:
+        assert {v["against"] for v in verdicts if v["benchmark"] == "render" and v["build"] == "avx2"} == {same_isa}
     assert "suite geometric mean (avx2 build)" in subjects and "1M triangles, random (avx2 build)" in subjects
     assert list(dict.fromkeys((v["benchmark"], v["build"]) for v in verdicts)) == [
         ("render", None), ("render", "avx2"), ("rays", None), ("rays", "avx2")]   # each build's after the installed
