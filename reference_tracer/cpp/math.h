@@ -185,13 +185,33 @@ constexpr double kRayEpsilon = 64.0 * std::numeric_limits<double>::epsilon();
 
 // Origin for a ray leaving point p (geometric normal n) in direction d: pushed off the
 // surface on the side d points to, so the ray cannot re-hit the surface it starts on.
+// In two steps on lanes of type F (one ray, or a pack of the wavefront integrator's):
+// offset_epsilon, the push for points p (relative to their largest coordinate, so that it
+// clears the rounding of p at any scale), then offset_toward, p moved by it along n to the
+// side of d. A pack computes the epsilon once for the two origins of a vertex.
 // Always inline: called at every vertex from both integrators, GCC sometimes left it out
 // of line (3-4% of the wavefront integrator's instructions as a call).
-// wavefront.cpp's offset_epsilon / offset_toward do these operations lane-wise for the
-// packs: keep the two alike (the integrators' images must agree bit for bit).
+template <typename F>
+[[gnu::always_inline]] inline F offset_epsilon(const F (&p)[3]) {
+    F abs_p[3];
+    for (int a = 0; a < 3; ++a) abs_p[a] = copysign_lanes(p[a], as_lanes(1.0, p[a]));
+    const F max_yz = abs_p[1] < abs_p[2] ? abs_p[2] : abs_p[1];  // std::max's selection
+    const F max_p = abs_p[0] < max_yz ? max_yz : abs_p[0];
+    return kRayEpsilon * max_p + std::numeric_limits<double>::min();
+}
+
+template <typename F>
+[[gnu::always_inline]] inline void offset_toward(const F (&p)[3], const F (&n)[3], const F (&d)[3], F eps,
+                                                 F (&out)[3]) {
+    const auto outward = n[0] * d[0] + n[1] * d[1] + n[2] * d[2] >= 0.0;  // dot(n, d) >= 0
+    for (int a = 0; a < 3; ++a) out[a] = outward ? p[a] + n[a] * eps : p[a] - n[a] * eps;
+}
+
 [[gnu::always_inline]] inline Vec3 offset_origin(const Vec3& p, const Vec3& n, const Vec3& d) {
-    const double eps = kRayEpsilon * max_abs_component(p) + std::numeric_limits<double>::min();
-    return dot(n, d) >= 0.0 ? p + n * eps : p - n * eps;
+    const double pa[3] = {p.x, p.y, p.z}, na[3] = {n.x, n.y, n.z}, da[3] = {d.x, d.y, d.z};
+    double out[3];
+    offset_toward(pa, na, da, offset_epsilon(pa), out);
+    return {out[0], out[1], out[2]};
 }
 
 }  // namespace rt

@@ -102,7 +102,7 @@ bool WavefrontIntegrator::shade(Lane& lane, bool hit, uint64_t& rays) const {
             lane.path_done = true;
             return false;
         }
-        return true;  // the reference point: reference_points(), a pack at a time
+        return true;  // the reference point: next_events() and scatter_diffuse(), a pack at a time
     }
     lane.vertex.emplace(it, m.textured() ? scene_.shade(m, it, *lane.textured) : m, lane.ray.d, front);
     const Vertex& v = *lane.vertex;
@@ -198,26 +198,6 @@ void WavefrontIntegrator::draw_queued(VertexQueue& q, int n) const {
     }
 }
 
-VPd WavefrontIntegrator::offset_epsilon(const VPd (&p)[3]) {
-    // offset_origin's kRayEpsilon * max_abs_component(p) + min, with std::max's selections.
-    VPd abs_p[3];
-    for (int a = 0; a < 3; ++a) abs_p[a] = copysign_lanes(p[a], splat(1.0));
-    const VPd max_yz = abs_p[1] < abs_p[2] ? abs_p[2] : abs_p[1];
-    const VPd max_p = abs_p[0] < max_yz ? max_yz : abs_p[0];
-    return kRayEpsilon * max_p + std::numeric_limits<double>::min();
-}
-
-void WavefrontIntegrator::offset_toward(const VPd (&p)[3], const VPd (&n)[3], const VPd (&d)[3], VPd eps,
-                                        VPd (&out)[3]) {
-    // offset_origin's side test, dot(n, d) >= 0, and its offset along n.
-    const VPl outward = n[0] * d[0] + n[1] * d[1] + n[2] * d[2] >= 0.0;
-    for (int a = 0; a < 3; ++a) out[a] = outward ? p[a] + n[a] * eps : p[a] - n[a] * eps;
-}
-
-void WavefrontIntegrator::reference_points(const VPd (&p)[3], const VPd (&n)[3], VPd (&ref)[3]) {
-    offset_toward(p, n, n, offset_epsilon(p), ref);
-}
-
 int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, const Ray** rays_out, double* t_max,
                                      uint64_t& rays) const {
     int n_shadow = 0;
@@ -236,7 +216,7 @@ int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, con
             for (int a = 0; a < 3; ++a) g[a] = load_pack(q.g[a] + base);
             offset_toward(p, g, nv, offset_epsilon(p), ref);  // Integrator::reference_point
         } else {
-            reference_points(p, nv, ref);
+            offset_toward(p, nv, nv, offset_epsilon(p), ref);
         }
         const LightSamplePack ls = scene_.lights().sample_pack(ref, u, light);
         const unsigned diffuse = lane_mask(load_pack(q.diffuse + base) != 0.0) & light;

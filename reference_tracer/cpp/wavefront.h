@@ -92,10 +92,9 @@ private:
     // sample (`mis` at a non-delta vertex) or scatter diffusely (`cosine` and `mis` at a
     // Lambertian vertex), in the order shade()'s loop finds them, with what those steps need
     // of each in structure-of-arrays form (position k: the k-th such lane). Their reference
-    // point, offset_origin(p, n, n), is computed from p and n a pack at a time
-    // (reference_points()); shade() computes it only for the vertices that need it lane by
-    // lane. The light
-    // samples, the whole estimate at diffuse vertices and their continuation then run a pack
+    // point, offset_origin(p, n, n), is computed from p and n a pack at a time (math.h's
+    // offset_toward on packs); shade() computes it only for the vertices that need it lane
+    // by lane. The light samples, the whole estimate at diffuse vertices and their continuation then run a pack
     // of positions at a time and load their inputs as vectors: packs that gathered them from
     // the lanes' structures, field by field, cost what they saved (PERFORMANCE.md, Ideas
     // tried).
@@ -169,7 +168,9 @@ private:
     // bounce cost 4% of the wavefront's instructions on cornell_box.)
     [[gnu::always_inline]] inline bool shade(Lane& lane, bool hit, uint64_t& rays) const;
     bool queue_vertex(Lane& lane, VertexQueue& q, int k) const;
-    int next_events(VertexQueue& q, int n, Lane** shadowed, const Ray** rays_out, double* t_max,
+    // (next_events: never inline; inlined into run(), it took the inlining budget that keeps
+    // scatter_ggx() there, cornell_box -1.7% and cornell_mesh -1.1% by paired A/B.)
+    [[gnu::noinline]] int next_events(VertexQueue& q, int n, Lane** shadowed, const Ray** rays_out, double* t_max,
                     uint64_t& rays) const;
     // queue_vertex()'s draws for the whole queue, a pack of lanes at a time, where the build
     // has 64-bit multiplies of eight lanes (AVX-512DQ): each lane's generator jumped 1-6
@@ -190,12 +191,6 @@ private:
     // Integrator::estimate_ld for a vertex that is not diffuse, from its light sample;
     // returns whether it queued a shadow ray (lane.shadow_*).
     bool next_event(Lane& lane, const LightSample& light, uint64_t& rays) const;
-    // offset_origin (math.h) lane-wise, bit for bit: its epsilon for points p; p offset
-    // along n to the side d points to (offset_origin(p, n, d), given that epsilon); and the
-    // reference points offset_origin(p, n, n).
-    static VPd offset_epsilon(const VPd (&p)[3]);
-    static void offset_toward(const VPd (&p)[3], const VPd (&n)[3], const VPd (&d)[3], VPd eps, VPd (&out)[3]);
-    static void reference_points(const VPd (&p)[3], const VPd (&n)[3], VPd (&ref)[3]);
     void scatter(Lane& lane) const;
     // scatter() for lanes[0 .. n), whose vertices sample plain GGX (kSamplesGGX): each
     // lane's draws as sample_material's, then rough_conductor::sample, the frame's to_world
