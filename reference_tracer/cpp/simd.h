@@ -3,6 +3,7 @@
 // elsewhere, so no code path depends on an instruction set.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #ifdef __AVX__
@@ -188,6 +189,13 @@ inline V8d mul_add(V8d a, V8d b, V8d c) {
 #else
     return a * b + c;
 #endif
+}
+
+// Lane-wise std::isfinite: x - x is 0 for a finite x and NaN for an infinity or NaN.
+inline bool finite_lanes(double x) { return std::isfinite(x); }
+template <typename F>
+inline MaskOf<F> finite_lanes(F x) {
+    return (x - x) == 0.0;
 }
 
 // Lane-wise std::copysign(magnitude, sign).

@@ -264,23 +264,14 @@ unsigned WavefrontIntegrator::estimate_diffuse(const VertexQueue& q, int base, c
     // The sample's local z, frame.to_local(wi).z (dot_fused): all that Lambertian
     // evaluation and density read of it.
     const VPd cos_i = mul_add(ls.wi[2], n[2], mul_add(ls.wi[1], n[1], ls.wi[0] * n[0]));
-    // lambertian::eval: black unless both cosines are positive, written as its rejects (a
-    // NaN cosine passes, as there); else albedo * (kInvPi * cos_i).
-    const VPl reject = (wo_z <= 0.0) | (cos_i <= 0.0);
-    const VPd k = kInvPi * cos_i;
     VPd f[3];
-    for (int c = 0; c < 3; ++c) f[c] = reject ? VPd{} : albedo[c] * k;
+    lambertian::eval_z(albedo, wo_z, cos_i, f);
     // No shadow ray for an invalid sample, or a direction the BSDF ignores (is_black(f)).
     const unsigned shadow = lanes & ls.valid & ~lane_mask((f[0] == 0.0) & (f[1] == 0.0) & (f[2] == 0.0));
     // The segment ends just short of the sampled point (kShadowEpsilon), at infinity for
     // the background.
     t_max = lanes_of_bits(ls.background) ? splat(kInf) : ls.dist * (1.0 - kShadowEpsilon);
-    // power_heuristic(ls.pdf, lambertian::pdf(wo, wi)); the density is
-    // cosine_hemisphere_pdf(cos_i) where both cosines are positive, else 0.
-    const VPd pdf_b = (wo_z > 0.0) & (cos_i > 0.0) ? cos_i * kInvPi : VPd{};
-    const VPd a2 = ls.pdf * ls.pdf, b2 = pdf_b * pdf_b;
-    const VPd w_raw = a2 / (a2 + b2);
-    VPd w = (w_raw - w_raw) == 0.0 ? w_raw : VPd{};  // std::isfinite(w) ? w : 0
+    VPd w = power_heuristic(ls.pdf, lambertian::pdf_z(wo_z, cos_i));
     if (ls.delta != 0) w = lanes_of_bits(ls.delta) ? splat(1.0) : w;  // a delta light's: 1
     // beta * f * radiance * (w / pdf), in estimate_ld's order.
     const VPd scale = w / ls.pdf;
@@ -378,7 +369,7 @@ void WavefrontIntegrator::scatter_diffuse(const VertexQueue& q, int n) const {
         square_to_cosine_hemisphere(load_pack(q.su[0] + base), load_pack(q.su[1] + base), w[0], w[1], w[2]);
         // lambertian::sample_with: no sample seen from below the surface, nor of density 0
         // (the density cosine_hemisphere_pdf(w.z)); its weight is the albedo.
-        const VPd pdf = w[2] > 0.0 ? w[2] * kInvPi : VPd{};
+        const VPd pdf = cosine_hemisphere_pdf(w[2]);
         const unsigned valid = lanes & ~lane_mask(load_pack(q.wo_z + base) <= 0.0) & lane_mask(pdf > 0.0);
         // scatter_of: the direction in world space, Frame(n).to_world(w), with the frame
         // built as Frame's constructor builds it (math.h).

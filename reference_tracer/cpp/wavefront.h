@@ -183,8 +183,8 @@ private:
 #endif
     void draw_queued(VertexQueue& q, int n) const;
     // Integrator::estimate_ld at the diffuse vertices (bits `lanes`) of the queue's pack at
-    // `base`, given their light samples: the operations of Lambertian evaluation, density
-    // and power heuristic lane-wise, bit for bit. Returns the lanes with a shadow ray; `value`
+    // `base`, given their light samples: lambertian::eval_z, pdf_z and power_heuristic, the
+    // scalar code's own bodies, on the pack. Returns the lanes with a shadow ray; `value`
     // holds what each adds to L when unoccluded, t_max where its shadow ray ends.
     static unsigned estimate_diffuse(const VertexQueue& q, int base, const LightSamplePack& ls, unsigned lanes,
                                      VPd (&value)[3], VPd& t_max);

@@ -8,18 +8,40 @@
 
 namespace rt::lambertian {
 
+// f * cos and the density of sample() from the local z of wo and wi, on lanes of type F
+// (one vertex, or a pack of the wavefront integrator's diffuse vertices): black, and density
+// 0, unless both are above the surface. A NaN cosine is not rejected by eval_z (no
+// comparison with NaN holds), as Vec3 code would not.
 // M: a self-test mutant (mutants.h); Mutant::None is the tracer.
+template <Mutant M = Mutant::None, typename F>
+inline void eval_z(const F (&albedo)[3], F wo_z, F wi_z, F (&f)[3]) {
+    const auto black = (wo_z <= 0.0) | (wi_z <= 0.0);
+    F k;
+    if constexpr (M == Mutant::MissingCosine)
+        k = as_lanes(kInvPi, wi_z);  // seeded bug: f, not f * cos
+    else
+        k = kInvPi * wi_z;
+    for (int c = 0; c < 3; ++c) f[c] = black ? F{} : albedo[c] * k;
+}
+
+template <Mutant M = Mutant::None, typename F>
+inline F pdf_z(F wo_z, F wi_z) {
+    const auto above = (wo_z > 0.0) & (wi_z > 0.0);
+    if constexpr (M == Mutant::PdfOffByPi) return above ? wi_z : F{};  // seeded bug: no 1/pi
+    return above ? cosine_hemisphere_pdf(wi_z) : F{};
+}
+
 template <Mutant M = Mutant::None>
 inline Vec3 eval(const Vec3& albedo, const Vec3& wo, const Vec3& wi) {
-    if (wo.z <= 0.0 || wi.z <= 0.0) return Vec3(0.0);
-    if constexpr (M == Mutant::MissingCosine) return albedo * kInvPi;  // seeded bug: f, not f * cos
-    return albedo * (kInvPi * wi.z);  // f * cos
+    const double a[3] = {albedo.x, albedo.y, albedo.z};
+    double f[3];
+    eval_z<M>(a, wo.z, wi.z, f);
+    return {f[0], f[1], f[2]};
 }
 
 template <Mutant M = Mutant::None>
 inline double pdf(const Vec3& wo, const Vec3& wi) {
-    if constexpr (M == Mutant::PdfOffByPi) return (wo.z > 0.0 && wi.z > 0.0) ? wi.z : 0.0;  // seeded bug: no 1/pi
-    return (wo.z > 0.0 && wi.z > 0.0) ? cosine_hemisphere_pdf(wi.z) : 0.0;
+    return pdf_z<M>(wo.z, wi.z);
 }
 
 // sample() given its cosine-weighted direction wi (the wavefront integrator warps a pack

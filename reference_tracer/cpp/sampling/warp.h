@@ -108,7 +108,11 @@ template <typename T>
     square_to_cosine_hemisphere(u1, u2, w.x, w.y, w.z);
     return w;
 }
-inline double cosine_hemisphere_pdf(double cos_theta) { return cos_theta > 0.0 ? cos_theta * kInvPi : 0.0; }
+// Its density (lane-wise for packs, as the warp above).
+template <typename F>
+inline F cosine_hemisphere_pdf(F cos_theta) {
+    return cos_theta > 0.0 ? cos_theta * kInvPi : as_lanes(0.0, cos_theta);
+}
 
 // Uniform direction w in the cone of half-angle theta_max about +z, given
 // one_minus_cos_max = 1 - cos(theta_max) (passed directly: it is tiny for small, far lights
@@ -167,11 +171,13 @@ private:
     double total_ = 0.0;
 };
 
-// Power heuristic with beta = 2 (Veach 1997), as Mitsuba's path integrator.
-inline double power_heuristic(double pdf_a, double pdf_b) {
-    const double a2 = pdf_a * pdf_a, b2 = pdf_b * pdf_b;
-    const double w = a2 / (a2 + b2);
-    return std::isfinite(w) ? w : 0.0;
+// Power heuristic with beta = 2 (Veach 1997), as Mitsuba's path integrator; lane-wise for
+// packs. A weight that is not finite (both densities 0 or infinite) is 0.
+template <typename F>
+inline F power_heuristic(F pdf_a, F pdf_b) {
+    const F a2 = pdf_a * pdf_a, b2 = pdf_b * pdf_b;
+    const F w = a2 / (a2 + b2);
+    return finite_lanes(w) ? w : as_lanes(0.0, w);
 }
 
 }  // namespace rt
