@@ -3,9 +3,9 @@
 The dict or XML file is parsed with Mitsuba's own parser (``mi.parser``: defaults,
 includes, references and transform chains resolved exactly as Mitsuba does), then
 walked node by node. Supported: ``perspective`` and ``thinlens`` sensors (``fov`` with any
-``fov_axis``, ``to_world`` a rigid matrix or ``look_at``; the lens's ``aperture_radius``,
-``focus_distance`` and clip planes), ``orthographic`` (``to_world`` a rotation and scale,
-clip planes), ``hdrfilm`` with a ``box``,
+``fov_axis``, ``to_world`` a rigid matrix or ``look_at``, clip planes (a pinhole's dropped where
+they clip nothing of the scene); the lens's ``aperture_radius`` and ``focus_distance``),
+``orthographic`` (``to_world`` a rotation and scale, clip planes), ``hdrfilm`` with a ``box``,
 ``tent`` or ``gaussian`` filter (film fields that change no pixel are ignored),
 ``independent`` sampler, ``path`` integrator (``max_depth``, ``rr_depth``) and ``direct``
 (``emitter_samples``, ``bsdf_samples``, ``shading_samples``), shapes ``sphere``,
@@ -36,6 +36,7 @@ where it is; no partial scene is ever returned.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import os
 import re
@@ -48,6 +49,7 @@ import reference_tracer as rt
 from reference_tracer.conductors import CONDUCTORS
 from reference_tracer.materials import textures_of
 from reference_tracer.meshfile import check_mesh_file, check_serialized_file, decode_obj, obj_undefined_normal
+from reference_tracer.shapes import farthest_distance, surface_within
 
 from .variants import import_mitsuba
 
@@ -1083,13 +1085,13 @@ def _camera(ctx, sensor):
     origin = m[:3, 3]
     if rfilter is None:
         return None
-    lens = {}
+    # Mitsuba's perspective and thinlens sensors start rays on their near plane and end them
+    # at the far one: ours the same (from_mitsuba then drops the planes that clip nothing).
+    clip = _clip_planes(ctx, sensor)
+    if clip is None:
+        return None
+    lens = dict(near_clip=clip[0], far_clip=clip[1])
     if kind == "thinlens":
-        # Mitsuba's thinlens starts rays on its near plane and ends them at the far one: ours
-        # the same. (The perspective sensor's planes are not read: docs/mitsuba.md, sensor row.)
-        clip = _clip_planes(ctx, sensor)
-        if clip is None:
-            return None
         if "aperture_radius" not in sensor.props.keys():
             ctx.bad(sensor, "thinlens without aperture_radius (Mitsuba requires it)")
             return None
@@ -1099,7 +1101,6 @@ def _camera(ctx, sensor):
             ctx.bad(sensor, f"thinlens aperture_radius {radius!r} / focus_distance {focus!r} (need >= 0 and > 0)")
             return None
         # Mitsuba widens a zero aperture to float epsilon: a pinhole to within 1e-7.
-        lens = dict(near_clip=clip[0], far_clip=clip[1])
         if radius > 0:
             lens.update(aperture_radius=float(radius), focus_distance=float(focus))
     return rt.Camera(lookfrom=origin, lookat=origin + fwd, vup=up, vfov=vfov, width=width, height=height,
@@ -1413,8 +1414,36 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
         rr = None
     else:
         rr = rr_depth
-    return rt.Scene(camera=camera, shapes=shapes, max_depth=max_depth, rr_depth=rr,
-                    background=tuple(background), direct=direct, lights=lights)
+    return rt.Scene(camera=_without_idle_clip_planes(camera, shapes), shapes=shapes, max_depth=max_depth,
+                    rr_depth=rr, background=tuple(background), direct=direct, lights=lights)
+
+
+#: relative room left for Mitsuba's float32 ray arithmetic when a clip plane is judged idle.
+_CLIP_ROOM = 1e-3
+
+
+def _without_idle_clip_planes(camera, shapes):
+    """A pinhole ``camera`` without those of its clip planes that clip nothing of ``shapes``.
+
+    Mitsuba's perspective sensor always has clip planes (0.01 and 10^4 unless the file says
+    otherwise), while a pinhole without them is the core's fast path (``Camera::plain``: rays
+    from the eye, unbounded). A camera ray starts on the near plane, at most
+    ``near_clip * sqrt(1 + tx^2 + ty^2)`` from the eye (the corners of the view on that plane;
+    tx, ty the tangents of the half fields of view): where no surface comes that near, the
+    plane hides nothing. A hit beyond the far plane lies more than ``far_clip`` from the eye:
+    where every surface is nearer, the plane cuts nothing. A plane that clips nothing is
+    dropped (the same image, and the content hash of a camera without it); one that may clip
+    is kept. A thin lens and an orthographic camera keep theirs: neither is the plain pinhole.
+    """
+    if camera.is_thin_lens or camera.is_orthographic:
+        return camera
+    eye = np.asarray(camera.lookfrom)
+    ty = math.tan(math.radians(camera.vfov) / 2.0)
+    tx = ty * camera.aspect
+    corner = camera.near_clip * math.sqrt(1.0 + tx * tx + ty * ty)
+    near = camera.near_clip if surface_within(shapes, eye, corner * (1.0 + _CLIP_ROOM)) else 0.0
+    far = camera.far_clip if farthest_distance(shapes, eye) * (1.0 + _CLIP_ROOM) >= camera.far_clip else math.inf
+    return dataclasses.replace(camera, near_clip=near, far_clip=far)
 
 
 def _checked_film_size(size) -> tuple:
