@@ -16,7 +16,8 @@ computed where it has none, shade the mesh smooth as in Mitsuba), BSDFs ``diffus
 names or RGB ``eta``/``k``), ``dielectric``, ``thindielectric``, ``roughdielectric`` (``ggx`` or
 ``beckmann``, isotropic), ``plastic`` and ``roughplastic`` (constant
 reflectances, named or numeric ``int_ior``/``ext_ior``, ``nonlinear``; rough: ``ggx`` or
-``beckmann``, isotropic), ``twosided`` around one of those, references by id, ``area``
+``beckmann``, isotropic), ``twosided`` around one of those that only reflects (Mitsuba's
+nests no BSDF that transmits), references by id, ``area``
 emitters (on their shape or declared at the top level and referenced), ``constant``,
 ``envmap`` (an OpenEXR or RGBE ``filename`` read by our own checked readers, or a
 ``bitmap``; ``scale``, a rotation ``to_world``), ``point`` (``position`` or ``to_world``,
@@ -411,6 +412,11 @@ def _plastic(ctx, node, name, two_sided):
 
 
 # --------------------------------------------------------------------------- BSDFs
+#: BSDFs with a transmission component (a mask's and null's pass-through is one): Mitsuba's
+#: twosided refuses to nest them.
+_TRANSMITTING = ("dielectric", "thindielectric", "roughdielectric", "mask", "null")
+
+
 def _bsdf(ctx, node, *, two_sided=False, emitter=None):
     """Material for BSDF ``node``.
 
@@ -425,6 +431,11 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
     name = node.props.plugin_name()
     if name == "twosided":
         subs = ctx.children(node)
+        transmits = [s.props.plugin_name() for s in subs if s.props.plugin_name() in _TRANSMITTING]
+        if transmits:
+            ctx.bad(node, f"twosided around a {transmits[0]}, a BSDF that transmits: Mitsuba refuses it too "
+                          "(\"Only materials without a transmission component can be nested!\")")
+            return None
         if len(subs) != 1 or _keys(node):
             if len(subs) == 2 and subs[0].props == subs[1].props:
                 pass
@@ -493,9 +504,6 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
         if rough:
             dist = _distribution(ctx, node, "roughdielectric")
             ok = ok and dist is not None
-            if two_sided:
-                ctx.bad(node, "twosided around a roughdielectric (Mitsuba's twosided refuses BSDFs that transmit)")
-                ok = False
             alpha = _roughness(ctx, node)
             if not ok or alpha is None or i is None or e is None:
                 return None
