@@ -284,8 +284,8 @@ def test_importer_reads_mitsuba_defaults(tmp_path):
     # of this scene (the camera sits inside the unit sphere): the plain pinhole
     pin = from_mitsuba(_sensor_xml(tmp_path, '<float name="aperture_radius" value="0"/>', "thinlens")).camera
     assert pin.is_pinhole
-    cam = from_mitsuba(_sensor_xml(tmp_path, "", "perspective")).camera
-    assert cam.is_pinhole and cam.describe() == dataclasses.replace(cam, near_clip=0.0).describe()
+    cam = from_mitsuba(_sensor_xml(tmp_path, "", "perspective")).camera  # and its hash has no planes either
+    assert cam.is_pinhole and set(cam.describe()) == {"lookfrom", "lookat", "vup", "vfov", "width", "height"}
 
 
 def _clip_xml(tmp_path, sensor_body, shape, kind="perspective"):
