@@ -3,9 +3,9 @@
 The dict or XML file is parsed with Mitsuba's own parser (``mi.parser``: defaults,
 includes, references and transform chains resolved exactly as Mitsuba does), then
 walked node by node. Supported: ``perspective`` and ``thinlens`` sensors (``fov`` with any
-``fov_axis``, ``to_world`` a rigid matrix or ``look_at``; the lens's ``aperture_radius``,
-``focus_distance`` and clip planes), ``orthographic`` (``to_world`` a rotation and scale,
-clip planes), ``hdrfilm`` with a ``box``,
+``fov_axis``, ``to_world`` a rigid matrix or ``look_at``, clip planes (a pinhole's dropped where
+they clip nothing of the scene); the lens's ``aperture_radius`` and ``focus_distance``),
+``orthographic`` (``to_world`` a rotation and scale, clip planes), ``hdrfilm`` with a ``box``,
 ``tent`` or ``gaussian`` filter (film fields that change no pixel are ignored),
 ``independent`` sampler, ``path`` integrator (``max_depth``, ``rr_depth``) and ``direct``
 (``emitter_samples``, ``bsdf_samples``, ``shading_samples``), shapes ``sphere``,
@@ -16,7 +16,8 @@ computed where it has none, shade the mesh smooth as in Mitsuba), BSDFs ``diffus
 names or RGB ``eta``/``k``), ``dielectric``, ``thindielectric``, ``roughdielectric`` (``ggx`` or
 ``beckmann``, isotropic), ``plastic`` and ``roughplastic`` (constant
 reflectances, named or numeric ``int_ior``/``ext_ior``, ``nonlinear``; rough: ``ggx`` or
-``beckmann``, isotropic), ``twosided`` around one of those, references by id, ``area``
+``beckmann``, isotropic), ``twosided`` around one of those that only reflects (Mitsuba's
+nests no BSDF that transmits), references by id, ``area``
 emitters (on their shape or declared at the top level and referenced), ``constant``,
 ``envmap`` (an OpenEXR or RGBE ``filename`` read by our own checked readers, or a
 ``bitmap``; ``scale``, a rotation ``to_world``), ``point`` (``position`` or ``to_world``,
@@ -36,6 +37,7 @@ where it is; no partial scene is ever returned.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import os
 import re
@@ -48,6 +50,7 @@ import reference_tracer as rt
 from reference_tracer.conductors import CONDUCTORS
 from reference_tracer.materials import textures_of
 from reference_tracer.meshfile import check_mesh_file, check_serialized_file, decode_obj, obj_undefined_normal
+from reference_tracer.shapes import farthest_distance, surface_within
 
 from .variants import import_mitsuba
 
@@ -409,6 +412,11 @@ def _plastic(ctx, node, name, two_sided):
 
 
 # --------------------------------------------------------------------------- BSDFs
+#: BSDFs with a transmission component (a mask's and null's pass-through is one): Mitsuba's
+#: twosided refuses to nest them.
+_TRANSMITTING = ("dielectric", "thindielectric", "roughdielectric", "mask", "null")
+
+
 def _bsdf(ctx, node, *, two_sided=False, emitter=None):
     """Material for BSDF ``node``.
 
@@ -423,6 +431,11 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
     name = node.props.plugin_name()
     if name == "twosided":
         subs = ctx.children(node)
+        transmits = [s.props.plugin_name() for s in subs if s.props.plugin_name() in _TRANSMITTING]
+        if transmits:
+            ctx.bad(node, f"twosided around a {transmits[0]}, a BSDF that transmits: Mitsuba refuses it too "
+                          "(\"Only materials without a transmission component can be nested!\")")
+            return None
         if len(subs) != 1 or _keys(node):
             if len(subs) == 2 and subs[0].props == subs[1].props:
                 pass
@@ -491,9 +504,6 @@ def _bsdf(ctx, node, *, two_sided=False, emitter=None):
         if rough:
             dist = _distribution(ctx, node, "roughdielectric")
             ok = ok and dist is not None
-            if two_sided:
-                ctx.bad(node, "twosided around a roughdielectric (Mitsuba's twosided refuses BSDFs that transmit)")
-                ok = False
             alpha = _roughness(ctx, node)
             if not ok or alpha is None or i is None or e is None:
                 return None
@@ -1083,13 +1093,13 @@ def _camera(ctx, sensor):
     origin = m[:3, 3]
     if rfilter is None:
         return None
-    lens = {}
+    # Mitsuba's perspective and thinlens sensors start rays on their near plane and end them
+    # at the far one: ours the same (from_mitsuba then drops the planes that clip nothing).
+    clip = _clip_planes(ctx, sensor)
+    if clip is None:
+        return None
+    lens = dict(near_clip=clip[0], far_clip=clip[1])
     if kind == "thinlens":
-        # Mitsuba's thinlens starts rays on its near plane and ends them at the far one: ours
-        # the same. (The perspective sensor's planes are not read: docs/mitsuba.md, sensor row.)
-        clip = _clip_planes(ctx, sensor)
-        if clip is None:
-            return None
         if "aperture_radius" not in sensor.props.keys():
             ctx.bad(sensor, "thinlens without aperture_radius (Mitsuba requires it)")
             return None
@@ -1099,7 +1109,6 @@ def _camera(ctx, sensor):
             ctx.bad(sensor, f"thinlens aperture_radius {radius!r} / focus_distance {focus!r} (need >= 0 and > 0)")
             return None
         # Mitsuba widens a zero aperture to float epsilon: a pinhole to within 1e-7.
-        lens = dict(near_clip=clip[0], far_clip=clip[1])
         if radius > 0:
             lens.update(aperture_radius=float(radius), focus_distance=float(focus))
     return rt.Camera(lookfrom=origin, lookat=origin + fwd, vup=up, vfov=vfov, width=width, height=height,
@@ -1413,8 +1422,36 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
         rr = None
     else:
         rr = rr_depth
-    return rt.Scene(camera=camera, shapes=shapes, max_depth=max_depth, rr_depth=rr,
-                    background=tuple(background), direct=direct, lights=lights)
+    return rt.Scene(camera=_without_idle_clip_planes(camera, shapes), shapes=shapes, max_depth=max_depth,
+                    rr_depth=rr, background=tuple(background), direct=direct, lights=lights)
+
+
+#: relative room left for Mitsuba's float32 ray arithmetic when a clip plane is judged idle.
+_CLIP_ROOM = 1e-3
+
+
+def _without_idle_clip_planes(camera, shapes):
+    """A pinhole ``camera`` without those of its clip planes that clip nothing of ``shapes``.
+
+    Mitsuba's perspective sensor always has clip planes (0.01 and 10^4 unless the file says
+    otherwise), while a pinhole without them is the core's fast path (``Camera::plain``: rays
+    from the eye, unbounded). A camera ray starts on the near plane, at most
+    ``near_clip * sqrt(1 + tx^2 + ty^2)`` from the eye (the corners of the view on that plane;
+    tx, ty the tangents of the half fields of view): where no surface comes that near, the
+    plane hides nothing. A hit beyond the far plane lies more than ``far_clip`` from the eye:
+    where every surface is nearer, the plane cuts nothing. A plane that clips nothing is
+    dropped (the same image, and the content hash of a camera without it); one that may clip
+    is kept. A thin lens and an orthographic camera keep theirs: neither is the plain pinhole.
+    """
+    if camera.is_thin_lens or camera.is_orthographic:
+        return camera
+    eye = np.asarray(camera.lookfrom)
+    ty = math.tan(math.radians(camera.vfov) / 2.0)
+    tx = ty * camera.aspect
+    corner = camera.near_clip * math.sqrt(1.0 + tx * tx + ty * ty)
+    near = camera.near_clip if surface_within(shapes, eye, corner * (1.0 + _CLIP_ROOM)) else 0.0
+    far = camera.far_clip if farthest_distance(shapes, eye) * (1.0 + _CLIP_ROOM) >= camera.far_clip else math.inf
+    return dataclasses.replace(camera, near_clip=near, far_clip=far)
 
 
 def _checked_film_size(size) -> tuple:

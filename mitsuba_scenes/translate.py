@@ -72,6 +72,7 @@ import numpy as np
 import reference_tracer as rt
 from reference_tracer.imageio import atomic_write, write_exr
 from reference_tracer.materials import textures_of
+from reference_tracer.shapes import farthest_distance
 
 from .variants import import_mitsuba
 
@@ -143,22 +144,7 @@ def _check_linear(label: str, m: np.ndarray, *, similarity: bool) -> None:
 
 def scene_extent(scene: rt.Scene) -> float:
     """Largest distance from the camera to any point of the scene's geometry (>= 1)."""
-    eye = np.asarray(scene.camera.lookfrom)
-    far = 1.0
-    for s in scene.shapes:
-        if isinstance(s, rt.Sphere):
-            far = max(far, np.linalg.norm(s.world_center() - eye) + s.world_radius())
-        elif isinstance(s, rt.Quad):
-            Q, u, v = s.world_corners()
-            pts = np.array([Q, Q + u, Q + v, Q + u + v])
-            far = max(far, np.linalg.norm(pts - eye, axis=1).max())
-        elif isinstance(s, rt.Box):
-            pts = np.array([p for Q, u, v in s.world_quads() for p in (Q, Q + u, Q + v, Q + u + v)])
-            far = max(far, np.linalg.norm(pts - eye, axis=1).max())
-        elif isinstance(s, (rt.Triangle, rt.Mesh)):
-            pts = s.world_vertices()
-            far = max(far, np.linalg.norm(pts - eye, axis=1).max())
-    return float(far)
+    return max(1.0, farthest_distance(scene.shapes, scene.camera.lookfrom))
 
 
 # --------------------------------------------------------------------------- the neutral form

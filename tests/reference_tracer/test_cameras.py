@@ -244,11 +244,7 @@ def test_translation_round_trip(tmp_path, name):
     np.testing.assert_allclose(back.lookfrom, c.lookfrom, rtol=1e-6)
     np.testing.assert_allclose(back.basis(), c.basis(), atol=1e-6)
     assert back.aperture_radius == pytest.approx(c.aperture_radius, rel=1e-6)
-    if name == "clipped_pinhole":
-        # Mitsuba's perspective sensor gets the clip planes, but the importer reads none of a
-        # perspective sensor's (docs/mitsuba.md, the sensor row): the pinhole comes back plain
-        assert back.is_pinhole and to_mitsuba(scene, variant="scalar_rgb")["sensor"]["near_clip"] == 850.0
-    elif c.near_clip == 0.0:  # Mitsuba needs near_clip > 0: one far below any feature
+    if c.near_clip == 0.0:  # Mitsuba needs near_clip > 0: one far below any feature
         assert 0 < back.near_clip < 1e-3 and back.far_clip > 4000
     else:
         assert back.near_clip == pytest.approx(c.near_clip, rel=1e-6)
@@ -284,9 +280,57 @@ def test_importer_reads_mitsuba_defaults(tmp_path):
     assert cam.far_clip == pytest.approx(1e4) and np.allclose(cam.basis()[0], [0, 0, 1])
     lens = from_mitsuba(_sensor_xml(tmp_path, '<float name="aperture_radius" value="0.5"/>', "thinlens")).camera
     assert lens.focus_distance == pytest.approx(1e4)  # Mitsuba's default: far_clip
-    # a zero aperture is Mitsuba's float epsilon: a pinhole with its clip planes
+    # a zero aperture is Mitsuba's float epsilon: a pinhole, whose default planes clip nothing
+    # of this scene (the camera sits inside the unit sphere): the plain pinhole
     pin = from_mitsuba(_sensor_xml(tmp_path, '<float name="aperture_radius" value="0"/>', "thinlens")).camera
-    assert not pin.is_thin_lens and pin.near_clip == pytest.approx(0.01)
+    assert pin.is_pinhole
+    cam = from_mitsuba(_sensor_xml(tmp_path, "", "perspective")).camera  # and its hash has no planes either
+    assert cam.is_pinhole and set(cam.describe()) == {"lookfrom", "lookat", "vup", "vfov", "width", "height"}
+
+
+def _clip_xml(tmp_path, sensor_body, shape, kind="perspective"):
+    """An 8 x 4 camera at the origin looking down +z (fov 90 along x) and one shape."""
+    xml = tmp_path / "clip.xml"
+    xml.write_text(f'<scene version="3.0.0">{shape}<sensor type="{kind}"><float name="fov" value="90"/>'
+                   f'{sensor_body}<transform name="to_world"><lookat origin="0, 0, 0" target="0, 0, 1" '
+                   'up="0, 1, 0"/></transform><film type="hdrfilm"><integer name="width" value="8"/>'
+                   '<integer name="height" value="4"/><rfilter type="box"/></film></sensor></scene>')
+    return xml
+
+
+def _rect(z, scale=1.0):
+    """A rectangle facing the camera at depth ``z``, ``2 scale`` wide."""
+    return (f'<shape type="rectangle"><transform name="to_world"><scale value="{scale}"/>'
+            f'<translate z="{z}"/></transform></shape>')
+
+
+@pytest.mark.parametrize("sensor_body, shape, near, far", [
+    # Mitsuba's defaults (0.01, 10^4) clip nothing here: the plain pinhole (the core's fast path)
+    ("", _rect(3.0), 0.0, math.inf),
+    # planes given in the file that clip nothing are dropped as well
+    ('<float name="near_clip" value="1"/><float name="far_clip" value="100"/>', _rect(3.0), 0.0, math.inf),
+    # the default near plane hides a surface nearer than 0.01: it is kept (and so is no far plane)
+    ("", _rect(0.005, 0.01), 0.01, math.inf),
+    # ... and one off the view's axis, before the near plane and in view, farther than 0.01 from
+    # the eye (0.0124) but within the frustum's corner distance (0.01 sqrt(1 + 1 + 1/4) = 0.015)
+    ("", '<shape type="sphere"><point name="center" x="0.0085" y="0" z="0.009"/><float name="radius" '
+         'value="1e-5"/></shape>', 0.01, math.inf),
+    # a surface beyond the default far plane keeps it
+    ("", _rect(2e4, 1e4), 0.0, 1e4),
+    # a near plane that cuts the rectangle, a far plane that cuts nothing
+    ('<float name="near_clip" value="5"/><float name="far_clip" value="50"/>', _rect(3.0), 5.0, math.inf),
+])
+def test_importer_keeps_a_pinholes_clip_planes_only_where_they_clip(tmp_path, sensor_body, shape, near, far):
+    cam = from_mitsuba(_clip_xml(tmp_path, sensor_body, shape)).camera
+    assert cam.near_clip == pytest.approx(near, rel=1e-6) and cam.far_clip == pytest.approx(far, rel=1e-6)
+    assert cam.is_pinhole == (near == 0.0 and far == math.inf)
+
+
+def test_importer_keeps_the_clip_planes_of_a_thin_lens(tmp_path):
+    # a thin lens is never the plain pinhole: its planes stay what the file says
+    lens = from_mitsuba(_clip_xml(tmp_path, '<float name="aperture_radius" value="0.1"/>', _rect(3.0),
+                                  "thinlens")).camera
+    assert lens.near_clip == pytest.approx(0.01) and lens.far_clip == pytest.approx(1e4)
 
 
 @pytest.mark.parametrize("body, kind, match", [

@@ -673,3 +673,35 @@ def test_float_stored_triangle_blocks_equal_brute_force(float_exact):
         assert np.array_equal(batch[key], single[key]), key
         assert np.array_equal(batch[key], brute[key]), key
     assert 0.2 < (brute["prim"] >= 0).mean() < 0.9
+
+
+def _within(shapes, point, distance):
+    """surface_within just beyond and just short of ``distance``: (True, False) where it is the nearest."""
+    from reference_tracer.shapes import surface_within
+
+    return surface_within(shapes, point, distance * (1 + 1e-9)), surface_within(shapes, point, distance * (1 - 1e-9))
+
+
+def test_surface_within_and_farthest_distance_by_hand():
+    from reference_tracer.shapes import farthest_distance
+
+    quad = rt.Quad((0, 0, 0), (2, 0, 0), (0, 1, 0), MAT)
+    assert _within([quad], (1.0, 0.5, 0.3), 0.3) == (True, False)            # over its inside: the plane
+    assert _within([quad], (2.3, 0.5, 0.4), 0.5) == (True, False)            # beyond an edge: the edge
+    assert _within([quad], (-3.0, -4.0, 0.0), 5.0) == (True, False)          # beyond a corner: the corner
+    box = rt.Box((-1, -1, -1), (1, 1, 1), MAT).scale(2.0).translate((5, 0, 0))
+    assert _within([box], (5.5, 0.0, 0.0), 1.5) == (True, False)             # inside: the nearest face
+    sphere = rt.Sphere((0, 0, 0), 1.0, MAT).scale(3.0)
+    assert _within([sphere], (0.5, 0.0, 0.0), 2.5) == (True, False)          # inside: the shell
+    assert _within([sphere], (0.0, 5.0, 0.0), 2.0) == (True, False)
+    # a mesh's zero-area face is never hit: it is not a surface here either
+    mesh = rt.Mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 5], [0, 0, 5.0], [1, 0, 5]],
+                   [[0, 1, 2], [3, 4, 5]], MAT).translate((0, 0, 1))
+    assert _within([mesh], (0.2, 0.2, 6.1), 5.1) == (True, False)
+    tri = rt.Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0), MAT)
+    assert _within([tri, quad, sphere, box], (0.0, 0.0, -7.0), 4.0) == (True, False)
+    assert farthest_distance([], (0, 0, 0)) == 0.0
+    assert farthest_distance([sphere], (1, 0, 0)) == pytest.approx(4.0)
+    assert farthest_distance([quad, tri], (0, 0, 0)) == pytest.approx(np.sqrt(5.0))
+    assert farthest_distance([box], (5, 0, 0)) == pytest.approx(2 * np.sqrt(3.0))
+    assert farthest_distance([mesh], (0, 0, 1)) == pytest.approx(np.hypot(1.0, 5.0))

@@ -227,10 +227,21 @@ def test_importer_default_and_rgb_opacity(tmp_path):
     xml = _one_shape(tmp_path, '<bsdf type="mask"><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></bsdf>')
     (m,) = [s.material for s in from_mitsuba(xml).shapes]
     assert m.opacity == 0.5 and m.material.two_sided
-    xml = _one_shape(tmp_path, '<bsdf type="twosided"><bsdf type="mask"><rgb name="opacity" value="0.2, 0.4, 0.9"/>'
-                               '<bsdf type="diffuse"/></bsdf></bsdf>')
+    xml = _one_shape(tmp_path, '<bsdf type="mask"><rgb name="opacity" value="0.2, 0.4, 0.9"/>'
+                               '<bsdf type="twosided"><bsdf type="diffuse"/></bsdf></bsdf>')
     (m,) = [s.material for s in from_mitsuba(xml).shapes]
     assert m.opacity == pytest.approx(0.5) and m.material.two_sided
+
+
+def test_a_twosided_around_a_mask_is_refused_as_mitsuba_refuses_it(tmp_path):
+    # the mask's pass-through is a transmission, which Mitsuba's twosided does not nest
+    xml = _one_shape(tmp_path, '<bsdf type="twosided"><bsdf type="mask"><bsdf type="diffuse"/></bsdf></bsdf>')
+    from mitsuba_scenes.variants import import_mitsuba
+
+    with pytest.raises(RuntimeError, match="Only materials without a transmission component"):
+        import_mitsuba().load_file(str(xml))
+    with pytest.raises(ValueError, match=r"twosided around a mask, a BSDF that transmits: Mitsuba refuses it too"):
+        from_mitsuba(xml)
 
 
 # ------------------------------------------------------------------------------ round trips
