@@ -215,7 +215,10 @@ def rays_note(result) -> str:
             f"{probe.PACKET_RAYS} in the installed core"
             + (", of their own width in the other builds" if result["config"].get("builds") else "")
             + "), timed from the Python call to its return; full: with our hit point and normal; "
-            f"t agree: relative difference <= {result['rows'][0].get('agree_t_rtol', 1e-4):g}")
+            f"t agree: relative difference <= {result['rows'][0].get('agree_t_rtol', 1e-4):g}"
+            + "".join(f"; the {b} build's rows pair with Mitsuba's kernels compiled for {target} in its worker "
+                      f"(Embree inside keeps this CPU's instruction set)"
+                      for b, target in result.get("mitsuba", {}).get("targets", {}).items()))
 
 
 def scaling_tables(result):

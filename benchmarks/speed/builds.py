@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ROOT", "ISAS", "MITSUBA_TARGETS", "AGREEMENT_SCRIPT", "cpu_flags", "build_core", "build_isa",
+__all__ = ["ROOT", "ISAS", "MITSUBA_TARGETS", "mitsuba_isas", "AGREEMENT_SCRIPT", "cpu_flags", "build_core", "build_isa",
            "run_with_core", "agreement_arrays", "build_target", "CoreWorker", "paired_times"]
 
 #: The repository's root (the CMake project).
@@ -34,6 +34,17 @@ _V3_LLVM = "+avx,+avx2,+bmi,+bmi2,+cx16,+f16c,+fma,+lzcnt,+movbe,+popcnt,+sse,+s
 #: against Mitsuba as a machine of that ISA runs it.
 MITSUBA_TARGETS = {"avx2": ("haswell", _V3_LLVM, 8),
                    "avx512": ("skylake-avx512", _V3_LLVM + ",+avx512f,+avx512bw,+avx512cd,+avx512dq,+avx512vl", 16)}
+
+
+
+def mitsuba_isas(builds, native) -> list:
+    """The ``builds`` (named by their ISA) whose Mitsuba kernels have another width than this CPU's (``native``:
+    ``mitsuba_scenes.variants.llvm_target()``; None, no LLVM backend: none): against these, Mitsuba runs with
+    kernels for the build's ISA (:data:`MITSUBA_TARGETS`). On a CPU of the ISA itself, Mitsuba's own kernels are
+    already the ISA's."""
+    return [b for b in builds
+            if b in MITSUBA_TARGETS and native is not None and native["vector_width"] != MITSUBA_TARGETS[b][2]]
+
 
 _ENV = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1")
 

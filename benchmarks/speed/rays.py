@@ -20,14 +20,15 @@ import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.probe import camera_rays, core_scene
+from mitsuba_scenes.variants import llvm_target, set_llvm_target
 from reference_tracer.validation import positive_int
 
-from .builds import CoreWorker
+from .builds import MITSUBA_TARGETS, CoreWorker, mitsuba_isas
 from .common import (check_jit_variant, environment, load_mitsuba, median, mitsuba_versions, name_list, timed,
                      use_variant)
 
 __all__ = ["ray_benchmark", "resident_mib", "torus_mesh", "mesh_scene", "primary_rays", "random_rays", "intersect_ours",
-           "intersect_mitsuba", "hit_agreement", "query_torus", "RAY_KINDS"]
+           "intersect_mitsuba", "hit_agreement", "query_torus", "query_torus_mitsuba", "RAY_KINDS"]
 
 #: the ray sets: camera rays toward the torus, and incoherent rays around it.
 RAY_KINDS = ("primary", "random")
@@ -111,6 +112,24 @@ def query_torus(triangles: int, *, kind: str, rays: int, seed: int = 0, threads:
     if (kind, rays, seed) not in _KEPT:
         _KEPT[kind, rays, seed] = _MAKE[kind](rays, seed=seed)
     return intersect_ours(_KEPT[triangles, seed], *_KEPT[kind, rays, seed], threads=threads, preliminary=preliminary)
+
+
+def query_torus_mitsuba(triangles: int, *, kind: str, rays: int, seed: int = 0, threads: int = 1,
+                        variant: str = "llvm_ad_rgb", isa: str):
+    """:func:`intersect_mitsuba` on the torus and rays of :func:`query_torus`, with Mitsuba's kernels compiled for
+    ``isa`` (:data:`.builds.MITSUBA_TARGETS`): run in a :class:`.builds.CoreWorker`, the target holding for its
+    process; the scene and rays kept for the next call."""
+    use_variant(variant, threads)
+    cpu, features, width = MITSUBA_TARGETS[isa]
+    now = llvm_target()
+    if now is None or (now["cpu"], now["vector_width"]) != (cpu, width):
+        set_llvm_target(cpu, features, width)
+    key = ("mitsuba", variant, triangles, seed)
+    if key not in _KEPT:
+        _KEPT[key] = load_mitsuba(variant, mesh_scene(triangles, seed=seed), threads, check_merge=False)[0]
+    if (kind, rays, seed) not in _KEPT:
+        _KEPT[kind, rays, seed] = _MAKE[kind](rays, seed=seed)
+    return intersect_mitsuba(_KEPT[key], *_KEPT[kind, rays, seed])
 
 
 def intersect_mitsuba(mscene, origins, directions):
@@ -206,7 +225,9 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
         ``config``, ``environment``, ``mitsuba`` and ``rows`` per mesh, kind and ``build`` (None: the installed core):
         ``ours_mrays_per_second`` (distance and primitive, timed from the call to its return as Mitsuba's side is) and
         ``ours_full_mrays_per_second`` (hit point and normal too), ``mitsuba_mrays_per_second``, ``ratio`` and
-        ``ratio_full`` (medians of the paired ``round_ratios``, ``round_ratios_full``), CPU-time figures, agreement
+        ``ratio_full`` (medians of the paired ``round_ratios``, ``round_ratios_full``; a build for another ISA paired
+        with Mitsuba's kernels for that ISA where this CPU's are wider, ``mitsuba_kernels`` naming it, and
+        ``mitsuba["targets"]`` what they were compiled for), CPU-time figures, agreement
         (``agree_*``), our tree's ``build_seconds`` and ``bvh_depth``, ``mitsuba_load_seconds``. Memory:
         ``bvh_bytes_per_triangle`` (our tree and its triangle blocks, exact), and the growth of this process's
         resident memory across our scene's build (``ours_rss_growth_mib``: its arrays and tree) and Mitsuba's load
@@ -253,7 +274,16 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
                 sides = {None: functools.partial(intersect_ours, core, o, d, threads=threads)}
                 sides.update({b: functools.partial(w, "benchmarks.speed.rays.query_torus", n_target, kind=kind,
                                                    rays=rays, seed=seed, threads=threads) for b, w in workers.items()})
-                for row in _ray_rows(sides, mscene, o, d, repeats=repeats, variant=variant, threads=threads):
+                theirs = {}
+                if use_mi:
+                    theirs[None] = functools.partial(_native_mitsuba, mscene, o, d, variant=variant, threads=threads)
+                    theirs.update({b: functools.partial(workers[b], "benchmarks.speed.rays.query_torus_mitsuba",
+                                                        n_target, kind=kind, rays=rays, seed=seed, threads=threads,
+                                                        variant=variant, isa=b)
+                                   for b in mitsuba_isas(workers, llvm_target())})
+                    out["mitsuba"]["targets"] = {b: "{}, {} lanes".format(*MITSUBA_TARGETS[b][::2])
+                                                 for b in theirs if b is not None}
+                for row in _ray_rows(sides, theirs, len(o), repeats=repeats):
                     out["rows"].append({**base, "kind": kind, **(built if row["build"] is None else {}),
                                         "mitsuba_load_seconds": load,
                                         "mitsuba_rss_growth_mib": _grown(rss_ours, rss_mitsuba) if use_mi else None,
@@ -267,12 +297,18 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
     return out
 
 
-def _ray_rows(sides, mscene, o, d, *, repeats, variant, threads) -> list:
+def _native_mitsuba(mscene, o, d, *, variant, threads):
+    use_variant(variant, threads)
+    return intersect_mitsuba(mscene, o, d)
+
+
+def _ray_rows(sides, theirs, n, *, repeats) -> list:
     """``repeats`` interleaved rounds of a timed query per side (``sides``: build -> function of ``preliminary``
-    returning :func:`intersect_ours`'s output), full and like for like, and of Mitsuba's unless ``mscene`` is None; a
-    row per side."""
+    returning :func:`intersect_ours`'s output), full and like for like, and of each of Mitsuba's (``theirs``: None,
+    this CPU's kernels, and builds whose ISA Mitsuba also ran with, -> a function returning :func:`intersect_mitsuba`'s
+    output; empty: ours only); a row per side, paired with Mitsuba's kernels for its ISA where they ran."""
     got = {side: ([], []) for side in sides}   # like-for-like and full queries, a round each
-    theirs = []
+    answers = {side: [] for side in theirs}
     for _ in range(repeats):
         # Timed from the Python call to its return, as Mitsuba's side is: the query's own time leaves out allocating
         # and handing over our output arrays (0.5-1.4% of the like-for-like query on 1M triangles, up to 28% of the
@@ -280,26 +316,27 @@ def _ray_rows(sides, mscene, o, d, *, repeats, variant, threads) -> list:
         for side, query in sides.items():
             got[side][0].append(query(preliminary=True))
             got[side][1].append(query(preliminary=False))
-        if mscene is not None:
-            use_variant(variant, threads)
-            theirs.append(intersect_mitsuba(mscene, o, d))
+        for side, query in theirs.items():
+            answers[side].append(query())
     rows = []
     for side, (ours, full) in got.items():
         if not all(np.array_equal(ours[-1][k], full[-1][k]) for k in ("t", "prim")):
             raise RuntimeError("the preliminary and the full closest-hit queries disagree")
-        row = {"build": side, **_rates("ours", len(o), ours), **_rates("ours_full", len(o), full),
+        row = {"build": side, **_rates("ours", n, ours), **_rates("ours_full", n, full),
                "ours_query_seconds": [q["seconds"] for q in ours],
                "hit_fraction": float(np.isfinite(ours[-1]["t"]).mean()),
                "ours_packet_fraction": ours[-1]["packet_fraction"]}
         if theirs:   # paired per round: a round's sides ran back to back
-            row.update(_rates("mitsuba", len(o), theirs, wall="seconds"))
+            kernels = side if side in theirs else None
+            their = answers[kernels]
+            row.update(_rates("mitsuba", n, their, wall="seconds"), mitsuba_kernels=kernels)
             for suffix in ("", "_full"):
                 ratios = [m / x for x, m in zip(row[f"ours{suffix}_seconds"], row["mitsuba_seconds"])]
                 row.update({f"ratio{suffix}": median(ratios), f"ratio{suffix}_min": min(ratios),
                             f"ratio{suffix}_max": max(ratios), f"round_ratios{suffix}": ratios})
-            t, prim = theirs[-1]["t"], theirs[-1]["prim"]
+            t, prim = their[-1]["t"], their[-1]["prim"]
             both = np.isfinite(ours[-1]["t"]) & np.isfinite(t)
-            row.update({"mitsuba_first_call_seconds": theirs[0]["first_call_seconds"],
+            row.update({"mitsuba_first_call_seconds": their[0]["first_call_seconds"],
                         "prim_agreement": float(np.mean(ours[-1]["prim"][both] == prim[both]))
                         if both.any() else float("nan"),
                         **{f"agree_{k}": v for k, v in hit_agreement(ours[-1]["t"], t).items()}})

@@ -28,7 +28,7 @@ from ..external import STRATEGY as EXTERNAL_STRATEGY
 from ..external import render_external
 from ..metrics import efficiency, mse, mse_corrected
 from ..references import reference
-from .builds import MITSUBA_TARGETS, CoreWorker
+from .builds import MITSUBA_TARGETS, CoreWorker, mitsuba_isas
 from .common import (available_variants, environment, load_mitsuba, median, mitsuba_render_fn, mitsuba_versions,
                      name_list, spread, timed, use_variant)
 from .suite import suite_summary
@@ -183,14 +183,11 @@ def _mitsuba_label(variant, build=None) -> str:
 
 
 def _same_isa_builds(workers, variants) -> dict:
-    """``{build: worker}`` of the builds whose instruction set gives Mitsuba's LLVM kernels another width than this
-    CPU's: Mitsuba runs there too, in the build's worker, with kernels for that ISA (on a CPU of the ISA itself,
-    Mitsuba's own kernels already are)."""
+    """``{build: worker}`` of the builds against which Mitsuba also runs, in the build's worker, with kernels for
+    the build's ISA (:func:`.builds.mitsuba_isas`)."""
     if not any(v.startswith("llvm") for v in variants):
         return {}
-    native = llvm_target()
-    return {b: w for b, w in workers.items()
-            if b in MITSUBA_TARGETS and native is not None and native["vector_width"] != MITSUBA_TARGETS[b][2]}
+    return {b: workers[b] for b in mitsuba_isas(workers, llvm_target())}
 
 
 def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, workers):

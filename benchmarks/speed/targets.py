@@ -216,7 +216,9 @@ def ray_verdicts(result, *, build=None) -> list:
             row = next((r for r in result["rows"] if r.get("requested_triangles") == n and r["kind"] == kind
                         and r.get("build") == build), None)
             if row is not None:
-                out.append(judge(RAYS, subject, row.get("round_ratios"), no_rounds="no per-round ratios in this row",
+                target = RAYS if not row.get("mitsuba_kernels") else dataclasses.replace(
+                    RAYS, against=f"{RAYS.against} (Mitsuba's {row['mitsuba_kernels']} kernels)")
+                out.append(judge(target, subject, row.get("round_ratios"), no_rounds="no per-round ratios in this row",
                                  build=build))
                 continue
             why = (f"not in this run (--triangles {','.join(map(str, config['triangles']))})"

@@ -76,11 +76,25 @@ def test_isa_build_has_its_own_rows_headline_and_verdicts(tmp_path, capsys, monk
     assert rays == [("primary", None), ("primary", "avx2"), ("random", None), ("random", "avx2")]
     if jit_variant:
         assert all(len(r["round_ratios"]) == 2 and r["agree_hit_agreement"] > 0.999 for r in got["rays"]["rows"])
+        kernels = [r["mitsuba_kernels"] for r in got["rays"]["rows"]]
+        if native["vector_width"] != 8:   # the build's queries pair with Mitsuba's AVX2 kernels, timed apart
+            assert kernels == [None, "avx2", None, "avx2"] and got["rays"]["mitsuba"]["targets"] == {
+                "avx2": "haswell, 8 lanes"}
+            for mine, build_row in zip(got["rays"]["rows"][::2], got["rays"]["rows"][1::2]):
+                assert mine["mitsuba_seconds"] != build_row["mitsuba_seconds"]
+                assert build_row["round_ratios"] == [m / x for x, m in zip(build_row["ours_seconds"],
+                                                                             build_row["mitsuba_seconds"])]
+            assert "the avx2 build's rows pair with Mitsuba's kernels compiled for haswell, 8 lanes" in " ".join(
+                out.split())   # the note, as the console wrapped it
+        else:
+            assert kernels == [None] * 4
     verdicts = got["verdicts"]
     subjects = [v["subject"] for v in verdicts]
     assert "cornell_box (avx2 build)" in subjects or not jit_variant
     if native and native["vector_width"] != 8:
         assert {v["against"] for v in verdicts if v["benchmark"] == "render" and v["build"] == "avx2"} == {same_isa}
+        assert {v["against"] for v in verdicts if v["benchmark"] == "rays" and v["build"] == "avx2"
+                and v["status"] != "not judged"} <= {"Embree (Mitsuba's avx2 kernels)"}
     assert "suite geometric mean (avx2 build)" in subjects and "1M triangles, random (avx2 build)" in subjects
     assert list(dict.fromkeys((v["benchmark"], v["build"]) for v in verdicts)) == [
         ("render", None), ("render", "avx2"), ("rays", None), ("rays", "avx2")]   # each build's after the installed
