@@ -28,7 +28,7 @@ from .common import (check_jit_variant, environment, load_mitsuba, median, mitsu
                      use_variant)
 
 __all__ = ["ray_benchmark", "resident_mib", "torus_mesh", "mesh_scene", "primary_rays", "random_rays", "intersect_ours",
-           "intersect_mitsuba", "hit_agreement", "query_torus", "query_torus_mitsuba", "RAY_KINDS"]
+           "intersect_mitsuba", "hit_agreement", "query_torus", "query_torus_mitsuba", "torus_tree", "RAY_KINDS"]
 
 #: the ray sets: camera rays toward the torus, and incoherent rays around it.
 RAY_KINDS = ("primary", "random")
@@ -104,11 +104,29 @@ def intersect_ours(core, origins, directions, *, threads: int = 1, preliminary: 
 _KEPT = {}   # a worker's meshes and rays, kept between calls: each is made once
 
 
+def _torus_core(triangles: int, seed: int):
+    if (triangles, seed) not in _KEPT:
+        _KEPT[triangles, seed] = core_scene(mesh_scene(triangles, seed=seed))
+    return _KEPT[triangles, seed]
+
+
+def torus_tree(triangles: int, *, seed: int = 0) -> dict:
+    """Our tree of the torus of :func:`query_torus`, built by this process's core (kept): the figures of
+    :func:`ray_benchmark`'s rows that describe it (build time, nodes, depth, bytes a triangle)."""
+    core = _torus_core(triangles, seed)
+    return _tree_figures(core, int(core.primitive_count))   # the torus is all the scene holds
+
+
+def _tree_figures(core, ntri: int) -> dict:
+    build = float(core.build_seconds)
+    return {"build_seconds": build, "build_seconds_per_mtri": build / ntri * 1e6, "bvh_nodes": int(core.bvh_nodes),
+            "bvh_depth": int(core.bvh_depth), "bvh_bytes_per_triangle": int(core.bvh_bytes) / ntri}
+
+
 def query_torus(triangles: int, *, kind: str, rays: int, seed: int = 0, threads: int = 1, preliminary: bool = True):
     """:func:`intersect_ours` once on ``rays`` rays of ``kind`` at the torus of ``triangles`` triangles, as
     :func:`ray_benchmark` makes them; kept for the next call (of a :class:`.builds.CoreWorker`)."""
-    if (triangles, seed) not in _KEPT:
-        _KEPT[triangles, seed] = core_scene(mesh_scene(triangles, seed=seed))
+    _torus_core(triangles, seed)
     if (kind, rays, seed) not in _KEPT:
         _KEPT[kind, rays, seed] = _MAKE[kind](rays, seed=seed)
     return intersect_ours(_KEPT[triangles, seed], *_KEPT[kind, rays, seed], threads=threads, preliminary=preliminary)
@@ -265,10 +283,10 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
                 log(f"{ntri} triangles: our BVH build {build:.3f} s, {core.bvh_nodes} nodes, depth {core.bvh_depth}"
                     + (f"; Mitsuba load {load:.3f} s" if use_mi else ""))
             base = {"requested_triangles": n_target, "triangles": ntri, "rays": rays, "threads": threads}
-            built = {"build_seconds": build, "build_seconds_per_mtri": build / ntri * 1e6,
-                     "compile_and_build_seconds": wall_build, "bvh_nodes": int(core.bvh_nodes),
-                     "bvh_depth": int(core.bvh_depth), "bvh_bytes_per_triangle": int(core.bvh_bytes) / ntri,
-                     "ours_rss_growth_mib": _grown(rss_before, rss_ours), "peak_rss_mib": peak}
+            built = {None: {**_tree_figures(core, ntri), "compile_and_build_seconds": wall_build,
+                            "ours_rss_growth_mib": _grown(rss_before, rss_ours), "peak_rss_mib": peak}}
+            # each build's own tree, built in its worker (its memory is that process's: not measured)
+            built.update({b: w("benchmarks.speed.rays.torus_tree", n_target, seed=seed) for b, w in workers.items()})
             for kind in kinds:
                 o, d = _MAKE[kind](rays, seed=seed)
                 sides = {None: functools.partial(intersect_ours, core, o, d, threads=threads)}
@@ -284,7 +302,7 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
                     out["mitsuba"]["targets"] = {b: "{}, {} lanes".format(*MITSUBA_TARGETS[b][::2])
                                                  for b in theirs if b is not None}
                 for row in _ray_rows(sides, theirs, len(o), repeats=repeats):
-                    out["rows"].append({**base, "kind": kind, **(built if row["build"] is None else {}),
+                    out["rows"].append({**base, "kind": kind, **built[row["build"]],
                                         "mitsuba_load_seconds": load,
                                         "mitsuba_rss_growth_mib": _grown(rss_ours, rss_mitsuba) if use_mi else None,
                                         **row})

@@ -73,6 +73,11 @@ def test_isa_build_has_its_own_rows_headline_and_verdicts(tmp_path, capsys, monk
     installed = next(r for r in res["summary"] if r["label"] == "ours mis")
     assert installed.get(f"against_{variant}") == f"Mitsuba {variant}"   # the installed core: this CPU's kernels
     rays = [(r["kind"], r["build"]) for r in got["rays"]["rows"]]
+    # every build's own tree figures (the installed core stands in: the same tree, built in the worker)
+    for mine, build_row in zip(got["rays"]["rows"][::2], got["rays"]["rows"][1::2]):
+        assert build_row["bvh_bytes_per_triangle"] == mine["bvh_bytes_per_triangle"] > 0
+        assert build_row["bvh_nodes"] == mine["bvh_nodes"] and build_row["build_seconds"] > 0
+        assert "ours_rss_growth_mib" not in build_row   # a worker's memory is its own process's
     assert rays == [("primary", None), ("primary", "avx2"), ("random", None), ("random", "avx2")]
     if jit_variant:
         assert all(len(r["round_ratios"]) == 2 and r["agree_hit_agreement"] > 0.999 for r in got["rays"]["rows"])
