@@ -93,8 +93,7 @@ def run(args) -> int:
 
     from benchmarks.commands._args import single_variant
     from benchmarks.commands._gate_tables import gate_table, wide_console
-    from benchmarks.gate import resolve_strategies, run_gate, write_p_images
-    from benchmarks.gate import resolve_scenes as resolve_gate_scenes
+    from benchmarks.gate import run_gate, write_p_images
 
     console = wide_console(160)
     err = Console(stderr=True, quiet=args.quiet)
@@ -112,19 +111,15 @@ def run(args) -> int:
         if len(args.renderer) > 1:
             raise ValueError("gate takes one --renderer at a time")
         external = register_external(args.renderer[0])
-    # validate everything before the first (possibly long) render
-    n_scenes = len(resolve_gate_scenes(scenes))
-    n_strategies = 1 if external is not None else len(resolve_strategies(strategies))
-    for name, v in (("--spp", args.spp), ("--reference-spp", args.reference_spp)):
-        if v < 2:
-            raise ValueError(f"{name} must be >= 2, got {v}")
-    if args.tail_spp == 1:
-        raise ValueError(f"--tail-spp must be 0 or >= 2, got {args.tail_spp}")
 
     progress = Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
                         TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(), console=err,
                         transient=True)
     state = {}
+
+    def on_start(names, strategies):  # run_gate has checked its inputs: nothing is rendered yet
+        state["refs"] = progress.add_task("references", total=len(names))
+        state["cases"] = progress.add_task(f"our renders ({args.spp} spp)", total=len(names) * len(strategies))
 
     def on_reference(name, phase, ref):
         if phase == "start":
@@ -139,12 +134,10 @@ def run(args) -> int:
         progress.update(state["cases"], description=f"rendered {case.scene} / {case.strategy}")
 
     with progress:
-        state["refs"] = progress.add_task("references", total=n_scenes)
-        state["cases"] = progress.add_task(f"our renders ({args.spp} spp)", total=n_scenes * n_strategies)
         report = run_gate(scenes, strategies=strategies, spp=args.spp, width=args.width, height=args.height,
                           ref_spp=args.reference_spp, alpha=args.alpha, seed=args.seed, threads=args.threads,
                           cache=args.cache, log=lambda line: progress.console.print(line, markup=False),
-                          on_reference=on_reference, on_case=on_case, tail_spp=args.tail_spp,
+                          on_start=on_start, on_reference=on_reference, on_case=on_case, tail_spp=args.tail_spp,
                           reference_store=args.reference, reference_build=args.reference_build,
                           renderer=external, variant=variant)
 
@@ -211,8 +204,6 @@ def _calibrate(args) -> int:
     from reference_tracer.build import build_id as rt_build_id
 
     spps = list(args.spps)
-    if min(spps) < 2:
-        raise ValueError(f"--spps must list budgets >= 2, got {','.join(map(str, spps))}")
     strategies = list(args.strategies) or list(UNBIASED_STRATEGIES)
     names = resolve_gate_scenes(resolve_scenes(args, suite_names=args.scenes or []) or None)
     console = wide_console(160)

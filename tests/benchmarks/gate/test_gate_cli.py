@@ -104,9 +104,10 @@ def test_cli_pass_exits_zero(cache, tmp_path, capsys, monkeypatch):
 @pytest.mark.parametrize("bad, words", [
     (["nope"], "unknown scene"),
     (["cornell_box", "--strategies", "mis,bogus"], "unknown strategy bogus"),
-    (["cornell_box", "--spp", "1"], "--spp must be >= 2"),
+    (["cornell_box", "--spp", "1"], "spp must be >= 2, got 1"),
     (["cornell_box", "--ref-spp", "0"], "--reference-spp must be >= 1"),
-    (["cornell_box", "--reference-spp", "1"], "--reference-spp must be >= 2"),
+    (["cornell_box", "--reference-spp", "1"], "ref_spp must be >= 2, got 1"),
+    (["cornell_box", "--tail-spp", "1"], "tail_spp must be 0 (no tail references) or >= 2"),
     (["cornell_box", "--alpha", "1.5"], "--alpha must be in (0, 1)"),
     (["cornell_box", "--width", "0"], "--width must be >= 1"),
     (["cornell_box", "--threads", "0"], "--threads must be >= 1"),
