@@ -167,7 +167,8 @@ add_quiet_arg = _option("--quiet", action="store_true",
                         help="no progress output and no tables: only the final lines (files written, verdict)")
 add_out_arg = _option("--out", metavar="DIR", help="output folder (created if needed)")
 add_json_arg = _option("--json", metavar="PATH", default=None,
-                       help="also write every result row as JSON to PATH (default: none)")
+                       help="also write every result row as JSON to PATH, strict JSON: an undefined or infinite "
+                            "number (NaN, inf) is null (default: none)")
 add_list_arg = _option("--list", action="store_true",
                        help="list what this command can run (scenes, routines or mutants) and exit")
 add_metric_arg = _option("--metric", choices=METRICS, default=DEFAULT_METRIC,

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -33,6 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     from benchmarks.compare import compare_stores, estimator_knowledge
     from benchmarks.external import register_external
+    from benchmarks.store import write_json
     from benchmarks.tails import DEFAULT_TAIL_SPP
     from benchmarks.text import terminal, text_table
     from reports.compare import figures, write_compare_page
@@ -57,7 +57,7 @@ def run(args) -> int:
     page = write_compare_page(rows, args.out, name_a=str(args.store_a), name_b=str(args.store_b))
     print(f"page: {page.resolve()}")
     if args.json:
-        Path(args.json).write_text(json.dumps([c.to_dict() for c in rows], indent=1, default=float) + "\n")
+        write_json(args.json, [c.to_dict() for c in rows])
     failed = [c for c in rows if c.verdict == "fail"]
     for c in failed:
         print(terminal(f"rtbench compare: B differs from A in {c.label}: p = {c.p_value:.3g}, relative bias "

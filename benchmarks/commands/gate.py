@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -148,8 +149,10 @@ def run(args) -> int:
     for c in report.undetermined:
         console.print(f"undetermined: {c.scene} ({c.strategy}): {c.result.reason}", highlight=False, markup=False)
     if args.json:
+        from benchmarks.store import write_json
+
         verdicts = {v: sum(c.verdict == v for c in report.cases) for v in ("pass", "fail", "undetermined")}
-        _write_json(args.json, {"alpha": report.alpha, "case_alpha": report.case_alpha, "passed": report.passed,
+        write_json(args.json, {"alpha": report.alpha, "case_alpha": report.case_alpha, "passed": report.passed,
                                 "verdicts": verdicts, "cases": [c.to_dict() for c in report.cases]})
     if report.passed:
         n_und = len(report.undetermined)
@@ -201,6 +204,7 @@ def _calibrate(args) -> int:
     from benchmarks.constants import UNBIASED_STRATEGIES
     from benchmarks.gate import calibrate
     from benchmarks.gate import resolve_scenes as resolve_gate_scenes
+    from benchmarks.store import write_json
     from reference_tracer.build import build_id as rt_build_id
 
     spps = list(args.spps)
@@ -225,7 +229,7 @@ def _calibrate(args) -> int:
         progress.console.print(f"{row.scene} {row.strategy} {row.spp} spp: pass {row.passed}, fail {row.failed}, "
                                f"undetermined {row.undetermined}", highlight=False, markup=False)
         if args.json:  # written after every row: an interrupted calibration keeps what it measured
-            _write_json(args.json, {"alpha": args.alpha, "config": config, "rows": [r.to_dict() for r in rows]})
+            write_json(args.json, {"alpha": args.alpha, "config": config, "rows": [r.to_dict() for r in rows]})
 
     with progress:
         task = progress.add_task("renders", total=todo * args.seeds)
@@ -257,7 +261,9 @@ def _resumed_rows(path, config: dict, *, alpha: float) -> list:
     try:
         data = json.loads(p.read_text())
         old = data["config"]
-        rows = [CalibrationRow(**r) for r in data["rows"]]
+        # an undetermined power is null in the file (strict JSON), NaN in a row
+        rows = [CalibrationRow(**{**r, "min_detectable_bias": math.nan if r["min_detectable_bias"] is None
+                                  else r["min_detectable_bias"]}) for r in data["rows"]]
     except (ValueError, KeyError, TypeError) as exc:
         raise ValueError(f"--json {path} exists but is not a calibration this command can resume ({exc}); "
                          f"give another path") from None
@@ -270,10 +276,3 @@ def _resumed_rows(path, config: dict, *, alpha: float) -> list:
             diff = ", ".join(x for x in (diff, f"alpha {data.get('alpha')} (now {alpha})") if x)
         raise ValueError(f"--json {path} holds a calibration with other settings: {diff}; give another path")
     return rows
-
-
-def _write_json(path, obj) -> None:
-    from reference_tracer.imageio import atomic_write
-
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    atomic_write(path, json.dumps(obj, indent=1, default=float) + "\n")

@@ -8,7 +8,6 @@ fewer than Mitsuba's rule, 1 otherwise, 2 on bad usage.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -112,6 +111,7 @@ def run(args) -> int:
     from benchmarks.commands._gate_tables import wide_console
     from benchmarks.gate.suite import names_of
     from benchmarks.selftest import CATALOGUE, run_selftest
+    from benchmarks.store import write_json
 
     if args.list:
         for m in CATALOGUE:
@@ -156,11 +156,11 @@ def run(args) -> int:
     for r in report.rows:
         if r["caught_by_mitsuba_rule"] and not r["caught"]:
             console.print(f"caught by Mitsuba's rule only: {r['mutant']}", highlight=False, markup=False)
-    for path, text in ((args.json, lambda: json.dumps(report.to_dict(), indent=1, default=float) + "\n"),
-                       (args.markdown, lambda: markdown(report, _command_line()))):
-        if path:
-            Path(path).parent.mkdir(parents=True, exist_ok=True)
-            Path(path).write_text(text())
+    if args.json:
+        write_json(args.json, report.to_dict())
+    if args.markdown:
+        Path(args.markdown).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.markdown).write_text(markdown(report, _command_line()))
     if report.passed:
         console.print(f"[green]self-test passed[/]: {summary_line(report)}")
         return 0
