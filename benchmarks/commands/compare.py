@@ -33,7 +33,6 @@ def run(args) -> int:
     from benchmarks.compare import compare_stores, estimator_knowledge
     from benchmarks.external import register_external
     from benchmarks.store import write_json
-    from benchmarks.tails import DEFAULT_TAIL_SPP
     from benchmarks.text import terminal, text_table
     from reports.compare import figures, write_compare_page
 
@@ -43,8 +42,7 @@ def run(args) -> int:
             raise ValueError(f"{p} is not a results store (no results.jsonl)")
     if args.tail_spp == 1:
         raise ValueError(f"--tail-spp must be 0 (none) or >= 2, got {args.tail_spp}")
-    if line := A.tail_spp_warning(args.tail_spp, default=DEFAULT_TAIL_SPP):
-        print(f"rtbench compare: warning: {line}", file=sys.stderr)
+    A.warn_tail_spp("compare", args.tail_spp)
     resolve_scenes(args)  # only files named here run; a store's scene_source never does
     externals = [register_external(cmd) for cmd in args.renderer]
     say = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))

@@ -68,23 +68,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     A.add_quiet_arg(parser)
 
 
-def _warn_tail_spp(args) -> None:
-    """One line on stderr where ``--tail-spp`` makes the verdicts uncalibrated (not with
-    ``--renderer`` or ``--write-reference``, which use no tail references)."""
-    from benchmarks.commands._args import tail_spp_warning
-    from benchmarks.tails import DEFAULT_TAIL_SPP
-
-    if args.tail_spp != 1 and not args.renderer and not args.write_reference:
-        line = tail_spp_warning(args.tail_spp, default=DEFAULT_TAIL_SPP)
-        if line:
-            print(f"rtbench gate: warning: {line}", file=sys.stderr)
-
-
 def run(args) -> int:
-    from benchmarks.commands._args import check
+    from benchmarks.commands._args import check, warn_tail_spp
 
     check(args)
-    _warn_tail_spp(args)
+    # --renderer and --write-reference use no tail references; 1 is refused (run_gate)
+    if args.tail_spp != 1 and not args.renderer and not args.write_reference:
+        warn_tail_spp("gate", args.tail_spp)
     if args.compare_pairs and not args.calibrate:
         raise ValueError("--compare-pairs goes with --calibrate (it measures compare's false-alarm rate)")
     if args.calibrate:
