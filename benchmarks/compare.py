@@ -25,7 +25,7 @@ from .gate.statistics import EstimatorKnowledge, judge
 from .gate.store_reference import pooled_image
 from .metrics import convergence_slope
 from .scenes import scene_at
-from .store import curve_of, read_records
+from .store import curve_label, curve_of, read_records
 from .tails import tail_reference
 
 BOOTSTRAP_RESAMPLES = 2000
@@ -62,8 +62,7 @@ class CurveComparison:
 
     @property
     def label(self) -> str:
-        who = self.strategy if self.renderer == "ours" else f"{self.renderer} {self.strategy}"
-        return f"{self.scene} {self.width}x{self.height} {who}"
+        return curve_label((self.scene, self.renderer, self.strategy, self.width, self.height))
 
     @property
     def speed(self) -> str:

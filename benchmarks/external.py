@@ -20,7 +20,7 @@ import numpy as np
 
 import reference_tracer as rt
 from mitsuba_scenes import to_xml
-from mitsuba_scenes.render import batch_seeds, split_spp
+from mitsuba_scenes.render import batch_estimate, batch_seeds, split_spp
 
 __all__ = ["PLACEHOLDERS", "STRATEGY", "ExternalRenderer", "register_external", "external", "registered_externals",
            "restore_externals", "clear_externals", "render_external", "render_external_batches"]
@@ -129,18 +129,13 @@ def render_external(renderer: ExternalRenderer, scene, *, spp: int, seed: int) -
 
 def render_external_batches(renderer: ExternalRenderer, scene, *, spp: int, seed: int, batches: int = 16) -> tuple:
     """``(mean, per-sample variance, seconds)`` from ``batches`` runs of the command with their
-    own seeds: the size-weighted between-batch variance times the batch size, as for Mitsuba
-    (docs/conventions.md)."""
+    own seeds (:func:`mitsuba_scenes.render.batch_estimate`, as for Mitsuba)."""
     sizes = split_spp(int(spp), int(batches))
     if len(sizes) < 2:
         raise ValueError(f"{renderer.name}: a variance needs at least 2 batches (spp {spp}, batches {batches})")
     means, seconds = [], 0.0
     for n, s in zip(sizes, batch_seeds(int(seed), len(sizes))):
         img, sec = render_external(renderer, scene, spp=n, seed=s)
-        means.append(img.astype(np.float64))
+        means.append(img)
         seconds += sec
-    n = np.asarray(sizes, dtype=np.float64)[:, None, None, None]
-    means = np.stack(means)
-    mean = (n * means).sum(axis=0) / n.sum()
-    var = (n * (means - mean) ** 2).sum(axis=0) / (len(sizes) - 1)
-    return mean.astype(np.float32), var.astype(np.float32), seconds
+    return (*batch_estimate(means, sizes), seconds)

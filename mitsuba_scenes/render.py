@@ -22,7 +22,7 @@ from .translate import to_mitsuba
 from .variants import select_variant
 
 __all__ = ["render_mitsuba", "MitsubaRender", "load_file", "film_sizes", "file_resolver_scope", "mesh_merge_safe",
-           "batch_seeds", "split_spp", "DEFAULT_BATCHES"]
+           "batch_seeds", "split_spp", "batch_estimate", "DEFAULT_BATCHES"]
 
 #: Batches used when ``batches=None`` (capped by ``spp``).
 DEFAULT_BATCHES = 16
@@ -105,6 +105,41 @@ def batch_seeds(seed: int, count: int) -> list:
         used.add(s)
         out.append(s)
     return out
+
+
+def batch_estimate(means, sizes) -> tuple:
+    """The mean and per-sample variance of a render from the means of its independent batches.
+
+    With batch means ``m_k`` of ``n_k`` samples each (``K`` batches), the mean is the
+    size-weighted ``sum_k n_k m_k / sum_k n_k`` and the per-sample variance the between-batch
+    ``sum_k n_k (m_k - mean)^2 / (K - 1)``, unbiased for batches of any sizes
+    (docs/conventions.md); NaN for one batch, whose spread is unknown.
+
+    Parameters
+    ----------
+    means : sequence of (H, W, C) array_like
+        The batch means, in the order of ``sizes``.
+    sizes : sequence of int
+        The samples per pixel of each batch.
+
+    Returns
+    -------
+    mean, variance : (H, W, C) float32
+
+    Examples
+    --------
+    >>> mean, var = batch_estimate([np.full((1, 1, 1), 1.0), np.full((1, 1, 1), 3.0)], [1, 1])
+    >>> float(mean[0, 0, 0]), float(var[0, 0, 0])
+    (2.0, 2.0)
+    """
+    means = np.asarray(means, dtype=np.float64)
+    n = np.asarray(sizes, dtype=np.float64)[:, None, None, None]
+    mean = (n * means).sum(axis=0) / n.sum()
+    if len(sizes) > 1:
+        variance = (n * (means - mean) ** 2).sum(axis=0) / (len(sizes) - 1)
+    else:
+        variance = np.full_like(mean, np.nan)
+    return mean.astype(np.float32), variance.astype(np.float32)
 
 
 def mesh_merge_safe(scene) -> bool:
@@ -220,10 +255,9 @@ def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None
     Returns
     -------
     MitsubaRender
-        ``mean`` is the size-weighted mean of the batch means; ``variance`` is the
-        per-sample variance ``sum_k n_k (m_k - mean)^2 / (K - 1)``, unbiased for
-        batches of any sizes; ``seconds`` excludes the warm-up render that JIT
-        variants get first (``compile_seconds`` reports it).
+        ``mean`` and ``variance``: :func:`batch_estimate` of the batches; ``seconds``
+        excludes the warm-up render that JIT variants get first (``compile_seconds``
+        reports it).
 
     Examples
     --------
@@ -298,13 +332,7 @@ def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None
             timed = [tk for tk, nk in zip(times, sizes) if nk == n]
             compile_seconds += max(0.0, tw - min(timed))
 
-    n = np.asarray(sizes, dtype=np.float64)[:, None, None, None]
-    mean = (n * means).sum(axis=0) / n.sum()
-    if len(sizes) > 1:
-        variance = (n * (means - mean) ** 2).sum(axis=0) / (len(sizes) - 1)
-    else:
-        variance = np.full_like(mean, np.nan)
-    return MitsubaRender(mean=mean.astype(np.float32), variance=variance.astype(np.float32),
-                         seconds=float(sum(times)), variant=chosen, spp=int(spp), seed=int(seed),
-                         threads=threads, compile_seconds=compile_seconds, load_seconds=load_seconds,
+    mean, variance = batch_estimate(means, sizes)
+    return MitsubaRender(mean=mean, variance=variance, seconds=float(sum(times)), variant=chosen, spp=int(spp),
+                         seed=int(seed), threads=threads, compile_seconds=compile_seconds, load_seconds=load_seconds,
                          batch_spp=sizes, batch_seeds=seeds)

@@ -66,27 +66,6 @@ def _fresnel_diffuse_reflectance(eta: float) -> float:
     return 0.919317 + x * (-3.4793 + x * (6.75335 + x * (-7.80989 + x * (4.98554 - 1.36881 * x))))
 
 
-def _validate_plastic(m, owner: str, *, rough: bool) -> None:
-    """The fields both plastics share, validated and normalised in place (frozen dataclass)."""
-    set_ = object.__setattr__
-    set_(m, "diffuse_reflectance", check_reflectance(f"{owner}.diffuse_reflectance", m.diffuse_reflectance))
-    set_(m, "specular_reflectance", colour(f"{owner}.specular_reflectance", m.specular_reflectance, upper=1.0))
-    int_ior = finite_scalar(f"{owner}.int_ior", m.int_ior, lo=0.0, lo_open=True)
-    ext_ior = finite_scalar(f"{owner}.ext_ior", m.ext_ior, lo=0.0, lo_open=True)
-    set_(m, "int_ior", int_ior)
-    set_(m, "ext_ior", ext_ior)
-    set_(m, "nonlinear", _flag(f"{owner}.nonlinear", m.nonlinear))
-    set_(m, "two_sided", _flag(f"{owner}.two_sided", m.two_sided))
-    # Mitsuba compares its single-precision values.
-    if rough and np.float32(int_ior) == np.float32(ext_ior):
-        raise ValueError(f"{owner}: int_ior and ext_ior must differ (got {int_ior} for both): a coating of "
-                         "relative index 1 has no rough interface (Mitsuba's roughplastic refuses it too)")
-    if not rough and _fresnel_diffuse_reflectance(ext_ior / int_ior) >= 1.0:
-        raise ValueError(f"{owner}: int_ior / ext_ior = {int_ior / ext_ior:.4g} is beyond Mitsuba's fit of the "
-                         "coating's internal reflectance (it reaches 1 near 3.7: the diffuse lobe would be "
-                         "negative or infinite)")
-
-
 class Material:
     """Base class of all materials (not instantiated directly)."""
 
@@ -316,8 +295,27 @@ class RoughConductor(Material):
         object.__setattr__(self, "k", k)
 
 
+@dataclass(frozen=True)
 class _Coated(Material):
-    """A diffuse base under a dielectric coating (plastic and rough plastic)."""
+    """A diffuse base under a dielectric coating: the fields plastic and rough plastic share,
+    validated and normalised (the parameters: :class:`Plastic`)."""
+
+    diffuse_reflectance: tuple
+    specular_reflectance: tuple = field(default=1.0, kw_only=True)
+    int_ior: float = field(default=PLASTIC_INT_IOR, kw_only=True)
+    ext_ior: float = field(default=PLASTIC_EXT_IOR, kw_only=True)
+    nonlinear: bool = field(default=False, kw_only=True)
+    two_sided: bool = field(default=False, kw_only=True)
+
+    def __post_init__(self):
+        owner, set_ = type(self).__name__, object.__setattr__
+        set_(self, "diffuse_reflectance", check_reflectance(f"{owner}.diffuse_reflectance", self.diffuse_reflectance))
+        set_(self, "specular_reflectance", colour(f"{owner}.specular_reflectance", self.specular_reflectance,
+                                                  upper=1.0))
+        set_(self, "int_ior", finite_scalar(f"{owner}.int_ior", self.int_ior, lo=0.0, lo_open=True))
+        set_(self, "ext_ior", finite_scalar(f"{owner}.ext_ior", self.ext_ior, lo=0.0, lo_open=True))
+        set_(self, "nonlinear", _flag(f"{owner}.nonlinear", self.nonlinear))
+        set_(self, "two_sided", _flag(f"{owner}.two_sided", self.two_sided))
 
     @property
     def relative_ior(self) -> float:
@@ -368,15 +366,12 @@ class Plastic(_Coated):
     1.5
     """
 
-    diffuse_reflectance: tuple
-    specular_reflectance: tuple = field(default=1.0, kw_only=True)
-    int_ior: float = field(default=PLASTIC_INT_IOR, kw_only=True)
-    ext_ior: float = field(default=PLASTIC_EXT_IOR, kw_only=True)
-    nonlinear: bool = field(default=False, kw_only=True)
-    two_sided: bool = field(default=False, kw_only=True)
-
     def __post_init__(self):
-        _validate_plastic(self, "Plastic", rough=False)
+        super().__post_init__()
+        if _fresnel_diffuse_reflectance(self.ext_ior / self.int_ior) >= 1.0:
+            raise ValueError(f"Plastic: int_ior / ext_ior = {self.relative_ior:.4g} is beyond Mitsuba's fit of the "
+                             "coating's internal reflectance (it reaches 1 near 3.7: the diffuse lobe would be "
+                             "negative or infinite)")
 
 
 @dataclass(frozen=True)
@@ -411,20 +406,19 @@ class RoughPlastic(_Coated):
     ValueError: RoughPlastic: int_ior and ext_ior must differ (got 1.5 for both): a coating of relative index 1 has no rough interface (Mitsuba's roughplastic refuses it too)
     """
 
-    diffuse_reflectance: tuple
     alpha: float = field(default=0.1, kw_only=True)
     distribution: str = field(default="beckmann", kw_only=True)
-    specular_reflectance: tuple = field(default=1.0, kw_only=True)
-    int_ior: float = field(default=PLASTIC_INT_IOR, kw_only=True)
-    ext_ior: float = field(default=PLASTIC_EXT_IOR, kw_only=True)
-    nonlinear: bool = field(default=False, kw_only=True)
-    two_sided: bool = field(default=False, kw_only=True)
 
     def __post_init__(self):
         object.__setattr__(self, "alpha", finite_scalar("RoughPlastic.alpha", self.alpha, lo=1e-4, hi=4.0))
         if self.distribution not in DISTRIBUTIONS:
             raise ValueError(f"RoughPlastic.distribution must be one of {DISTRIBUTIONS}, got {self.distribution!r}")
-        _validate_plastic(self, "RoughPlastic", rough=True)
+        super().__post_init__()
+        # Mitsuba compares its single-precision values.
+        if np.float32(self.int_ior) == np.float32(self.ext_ior):
+            raise ValueError(f"RoughPlastic: int_ior and ext_ior must differ (got {self.int_ior} for both): a "
+                             "coating of relative index 1 has no rough interface (Mitsuba's roughplastic refuses "
+                             "it too)")
 
 
 @dataclass(frozen=True)

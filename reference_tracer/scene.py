@@ -345,6 +345,19 @@ class Direct:
         return {"emitter_samples": self.emitter_samples, "bsdf_samples": self.bsdf_samples}
 
 
+def _sequence_of(name: str, value, kind: type, what: str, examples: str = "") -> tuple:
+    """``value`` as a tuple of ``kind`` instances; ``ValueError`` naming ``name`` and the first
+    item that is not one (``what``: the kind in words, ``examples`` after it in that message)."""
+    try:
+        items = tuple(value)
+    except TypeError:
+        raise ValueError(f"{name} must be a sequence of {what}s") from None
+    for i, item in enumerate(items):
+        if not isinstance(item, kind):
+            raise ValueError(f"{name}[{i}] must be a reference_tracer {what}{examples}, got {item!r}")
+    return items
+
+
 @dataclass(frozen=True, eq=False)
 class Scene:
     """A camera, a list of shapes and the integrator settings.
@@ -397,14 +410,7 @@ class Scene:
     def __post_init__(self):
         if not isinstance(self.camera, Camera):
             raise ValueError(f"Scene.camera must be a reference_tracer.Camera, got {self.camera!r}")
-        try:
-            shapes = tuple(self.shapes)
-        except TypeError:
-            raise ValueError("Scene.shapes must be a sequence of shapes") from None
-        for i, s in enumerate(shapes):
-            if not isinstance(s, Shape):
-                raise ValueError(f"Scene.shapes[{i}] must be a reference_tracer shape, got {s!r}")
-        object.__setattr__(self, "shapes", shapes)
+        object.__setattr__(self, "shapes", _sequence_of("Scene.shapes", self.shapes, Shape, "shape"))
         md = self.max_depth
         if isinstance(md, bool) or not isinstance(md, (int, np.integer)) or not (md == -1 or md >= 1):
             raise ValueError(f"Scene.max_depth must be an integer >= 1 or -1 (unlimited), got {md!r}")
@@ -417,14 +423,8 @@ class Scene:
         if isinstance(self.lights, (Light, str, bytes)):
             raise ValueError("Scene.lights must be a sequence of lights (EnvMap, PointLight, SpotLight, "
                              "DirectionalLight, ProjectorLight), not one")
-        try:
-            lights = tuple(self.lights)
-        except TypeError:
-            raise ValueError("Scene.lights must be a sequence of lights") from None
-        for i, light in enumerate(lights):
-            if not isinstance(light, Light):
-                raise ValueError(f"Scene.lights[{i}] must be a reference_tracer light (EnvMap, PointLight, SpotLight, "
-                                 f"DirectionalLight, ProjectorLight), got {light!r}")
+        lights = _sequence_of("Scene.lights", self.lights, Light, "light",
+                              " (EnvMap, PointLight, SpotLight, DirectionalLight, ProjectorLight)")
         envs = [i for i, light in enumerate(lights) if isinstance(light, EnvMap)]
         if len(envs) > 1:
             raise ValueError(f"Scene.lights holds {len(envs)} EnvMaps (at {envs}): a scene has one environment "

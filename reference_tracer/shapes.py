@@ -66,6 +66,11 @@ class Shape:
         object.__setattr__(self, "transform", tuple(map(tuple, m)))
         self._check_world()
 
+    def _set_vectors(self, *names) -> None:
+        """Each field of ``names`` as a finite 3-vector (:func:`vector3`), named ``Class.field`` in errors."""
+        for name in names:
+            object.__setattr__(self, name, vector3(f"{type(self).__name__}.{name}", getattr(self, name)))
+
     def _check_world(self) -> None:
         """Refuse geometry that the transform collapsed (zero area or volume): it would never
         be hit, and a light of it would render black. Shapes override it."""
@@ -156,7 +161,7 @@ class Sphere(Shape):
     transform: tuple = field(default=_IDENTITY, repr=False)
 
     def __post_init__(self):
-        object.__setattr__(self, "center", vector3("Sphere.center", self.center))
+        self._set_vectors("center")
         object.__setattr__(self, "radius", finite_scalar("Sphere.radius", self.radius, lo=0.0, lo_open=True))
         self._post()
         _check_similarity("Sphere.transform", self.matrix)
@@ -231,9 +236,7 @@ class Quad(Shape):
     transform: tuple = field(default=_IDENTITY, repr=False)
 
     def __post_init__(self):
-        object.__setattr__(self, "Q", vector3("Quad.Q", self.Q))
-        object.__setattr__(self, "u", vector3("Quad.u", self.u))
-        object.__setattr__(self, "v", vector3("Quad.v", self.v))
+        self._set_vectors("Q", "u", "v")
         n = np.cross(self.u, self.v)
         scale = max(np.linalg.norm(self.u) * np.linalg.norm(self.v), 1e-300)
         if np.linalg.norm(n) <= 1e-12 * scale:
@@ -283,8 +286,7 @@ class Box(Shape):
     transform: tuple = field(default=_IDENTITY, repr=False)
 
     def __post_init__(self):
-        object.__setattr__(self, "pmin", vector3("Box.pmin", self.pmin))
-        object.__setattr__(self, "pmax", vector3("Box.pmax", self.pmax))
+        self._set_vectors("pmin", "pmax")
         if any(a >= b for a, b in zip(self.pmin, self.pmax)):
             raise ValueError(f"Box.pmin must be < Box.pmax in every axis, got {self.pmin} and {self.pmax}")
         self._post()
@@ -336,8 +338,7 @@ class Triangle(Shape):
     transform: tuple = field(default=_IDENTITY, repr=False)
 
     def __post_init__(self):
-        for name in "abc":
-            object.__setattr__(self, name, vector3(f"Triangle.{name}", getattr(self, name)))
+        self._set_vectors("a", "b", "c")
         n = np.cross(np.subtract(self.b, self.a), np.subtract(self.c, self.a))
         if np.linalg.norm(n) == 0.0:
             raise ValueError(f"Triangle has zero area (collinear or repeated vertices): {self.a}, {self.b}, {self.c}")

@@ -215,22 +215,13 @@ def build_report(store, *, out=None, formats=("html",), metric: str = DEFAULT_ME
 
     Parameters
     ----------
-    store : str or Path
-        The results store folder (see :func:`reports.store.load_store`).
-    out : str or Path, optional
-        Folder to write into (created if needed); default: the store folder.
-    formats, metric : keyword-only
-        As for :func:`write_report`; ``html`` is always written.
+    store, out, formats, metric
+        As for :func:`write_report` (and raising as it does); ``html`` is always written.
 
     Returns
     -------
     Path
         The written ``index.html``.
-
-    Raises
-    ------
-    ValueError
-        If ``store`` is not a results store or ``out`` exists and is not a folder.
 
     Examples
     --------

@@ -12,9 +12,9 @@ import numpy as np
 import reference_tracer as rt
 
 from ..constants import LUMINANCE_WEIGHTS
-
+from ..optics import fresnel_dielectric
 from .pearson import DEFAULT_RESOLUTION
-from .probes import BsdfProbe, LightProbe, direction, frame, fresnel_exact, fresnel_schlick, warp
+from .probes import BsdfProbe, LightProbe, direction, frame, fresnel_schlick, warp
 from .runner import Routine
 
 __all__ = ["ROUTINES", "select"]
@@ -51,7 +51,8 @@ PLASTIC_ETA = 1.49 / 1.000277
 def _plastic(theta, *, coating=None, albedo=(0.8, 0.6, 0.4)):
     """The smooth plastic at incidence ``theta``: its diffuse samples against pdf(), its
     specular ones counted against Ps = F sw / (F sw + (1 - F)(1 - sw)), F from
-    :func:`fresnel_exact` and sw = mean(ks) / (mean(rho) + mean(ks)) (Mitsuba's weight)."""
+    :func:`benchmarks.optics.fresnel_dielectric` and sw = mean(ks) / (mean(rho) + mean(ks))
+    (Mitsuba's weight)."""
     coating = dict(coating or {})
     params = (("theta_o", theta),) + tuple((k, v) for k, v in coating.items())
 
@@ -59,7 +60,7 @@ def _plastic(theta, *, coating=None, albedo=(0.8, 0.6, 0.4)):
         wo = direction(theta, 40.0)
         eta = coating.get("eta", PLASTIC_ETA)
         ks = np.broadcast_to(np.asarray(coating.get("specular", 1.0), dtype=np.float64), (3,))
-        F = fresnel_exact(float(wo[2]), eta)
+        F = fresnel_dielectric(float(wo[2]), eta)
         sw = ks.mean() / (np.mean(albedo) + ks.mean())
         p_specular = F * sw / (F * sw + (1.0 - F) * (1.0 - sw))
         probe = BsdfProbe("plastic", wo, albedo=albedo, coating=coating)
@@ -78,7 +79,7 @@ def _lobes(material, ior, theta, inside=False):
 
     def make():
         wo = direction(180.0 - theta if inside else theta, 25.0)
-        fresnel = fresnel_schlick if material == "dielectric_schlick" else fresnel_exact
+        fresnel = fresnel_schlick if material == "dielectric_schlick" else fresnel_dielectric
         return {"probe": BsdfProbe(material, wo, param=ior), "F": fresnel(float(wo[2]), ior)}
     return Routine(f"lobes.{material}", params, "lobes", make)
 

@@ -1,7 +1,8 @@
 """Adapters from the tracer's sampling routines to ``sample(u)`` / ``pdf(points)`` callables:
 warps and BSDFs through the core's batch probes (:mod:`reference_tracer.probe`), light
 sampling through a compiled scene's ``sample_lights`` / ``light_pdf``. A failed sample is a
-row of NaN. The Fresnel formulas here are an independent statement, not the tracer's code.
+row of NaN. Schlick's Fresnel formula here, like the exact one
+(:func:`benchmarks.optics.fresnel_dielectric`), is an independent statement, not the tracer's code.
 """
 from __future__ import annotations
 
@@ -13,8 +14,9 @@ import numpy as np
 import reference_tracer as rt
 from reference_tracer import probe
 
-__all__ = ["direction", "frame", "warp", "BsdfProbe", "LightProbe", "fresnel_exact", "fresnel_schlick",
-           "refract_expected"]
+from ..optics import fresnel_dielectric
+
+__all__ = ["direction", "frame", "warp", "BsdfProbe", "LightProbe", "fresnel_schlick", "refract_expected"]
 
 
 def _c(a) -> np.ndarray:
@@ -125,23 +127,9 @@ class LightProbe:
         return self.core.light_pdf(self._refs(len(world)), world)
 
 
-def fresnel_exact(cos_i: float, ior: float) -> float:
-    """Unpolarised Fresnel reflectance of a smooth interface (index 1 outside, ``ior`` inside)
-    at cosine ``cos_i`` to the outward normal (negative: from inside)."""
-    n1, n2 = (1.0, ior) if cos_i >= 0 else (ior, 1.0)
-    ci = abs(cos_i)
-    sin_t2 = (n1 / n2) ** 2 * (1.0 - ci * ci)
-    if sin_t2 >= 1.0:
-        return 1.0
-    ct = math.sqrt(1.0 - sin_t2)
-    rs = (n1 * ci - n2 * ct) / (n1 * ci + n2 * ct)
-    rp = (n2 * ci - n1 * ct) / (n2 * ci + n1 * ct)
-    return 0.5 * (rs * rs + rp * rp)
-
-
 def fresnel_schlick(cos_i: float, ior: float) -> float:
     """Schlick's approximation R0 + (1 - R0)(1 - |cos_i|)^5, total internal reflection exact."""
-    if fresnel_exact(cos_i, ior) == 1.0:
+    if fresnel_dielectric(cos_i, ior) == 1.0:
         return 1.0
     r0 = ((1.0 - ior) / (1.0 + ior)) ** 2
     return r0 + (1.0 - r0) * (1.0 - abs(cos_i)) ** 5

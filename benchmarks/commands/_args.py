@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 
 #: options whose default a subcommand chooses (name, meaning and help text are still shared).
 PER_COMMAND_DEFAULTS = frozenset({
@@ -167,7 +168,8 @@ add_quiet_arg = _option("--quiet", action="store_true",
                         help="no progress output and no tables: only the final lines (files written, verdict)")
 add_out_arg = _option("--out", metavar="DIR", help="output folder (created if needed)")
 add_json_arg = _option("--json", metavar="PATH", default=None,
-                       help="also write every result row as JSON to PATH (default: none)")
+                       help="also write every result row as JSON to PATH, strict JSON: an undefined or infinite "
+                            "number (NaN, inf) is null (default: none)")
 add_list_arg = _option("--list", action="store_true",
                        help="list what this command can run (scenes, routines or mutants) and exit")
 add_metric_arg = _option("--metric", choices=METRICS, default=DEFAULT_METRIC,
@@ -237,24 +239,31 @@ def add_reference_spp_arg(parser, *, default: int | None, none_means: str = "") 
     parser.add_argument("--ref-spp", type=int, dest="reference_spp", help=argparse.SUPPRESS)
 
 
-def tail_spp_warning(tail_spp: int, *, default: int) -> str | None:
-    """The warning for a ``--tail-spp`` below the budget the false-alarm rates were measured at
-    (``benchmarks/STATISTICS.md``, "Known limits"), else None.
+def warn_tail_spp(command: str, tail_spp: int) -> None:
+    """One line on stderr, ``rtbench COMMAND: warning: ...``, where ``--tail-spp`` is below the
+    budget the false-alarm rates were measured at (``benchmarks/STATISTICS.md``, "Known limits").
 
-    >>> tail_spp_warning(1024, default=16384).split(":")[0]
-    '--tail-spp 1024 is below 16384'
+    >>> import contextlib, io
+    >>> with contextlib.redirect_stderr(io.StringIO()) as err:
+    ...     warn_tail_spp("gate", 1024)
+    >>> err.getvalue().split(":")[:3]
+    ['rtbench gate', ' warning', ' --tail-spp 1024 is below 16384']
     """
+    from benchmarks.tails import DEFAULT_TAIL_SPP as default
+
     if tail_spp >= default:
-        return None
+        return
     if tail_spp == 0:
-        return ("--tail-spp 0 turns the tail references off: verdicts on heavy-tailed strategies "
+        line = ("--tail-spp 0 turns the tail references off: verdicts on heavy-tailed strategies "
                 "(uniform, cosine) then rest on the render's own variance, too small where its rare "
                 "paths were missed, and can fail falsely (benchmarks/STATISTICS.md)")
-    return (f"--tail-spp {tail_spp} is below {default}: the false-alarm rates (benchmarks/STATISTICS.md) "
-            f"were measured at {default}, the default; below it a tail reference misses the rare paths "
-            f"of heavy-tailed strategies as the render does, and verdicts on them can fail falsely "
-            f"(measured: uniform on glossy_plates at 64 spp fails 20 of 20 seeds with --tail-spp 1024, "
-            f"1 of 20 with 4096, 0 of 100 with {default})")
+    else:
+        line = (f"--tail-spp {tail_spp} is below {default}: the false-alarm rates (benchmarks/STATISTICS.md) "
+                f"were measured at {default}, the default; below it a tail reference misses the rare paths "
+                f"of heavy-tailed strategies as the render does, and verdicts on them can fail falsely "
+                f"(measured: uniform on glossy_plates at 64 spp fails 20 of 20 seeds with --tail-spp 1024, "
+                f"1 of 20 with 4096, 0 of 100 with {default})")
+    print(f"rtbench {command}: warning: {line}", file=sys.stderr)
 
 
 def resolve_threads(threads) -> int:

@@ -1,4 +1,5 @@
-"""The regression gate's printed tables: a gate run's verdicts and the calibration."""
+"""The regression gate's printed tables (a gate run's verdicts and the calibration), and the
+wide console that the commands print their tables on."""
 from __future__ import annotations
 
 from benchmarks.constants import CLOSED_FORM
@@ -6,12 +7,13 @@ from benchmarks.constants import CLOSED_FORM
 __all__ = ["gate_table", "calibration_table", "wide_console"]
 
 
-def wide_console(width: int):
-    """A rich console, at least ``width`` wide where it is no terminal (logs: one row per line)."""
+def wide_console(width: int, *, soft_wrap: bool = False):
+    """A rich console on stdout, at least ``width`` wide where it is no terminal (logs and pipes:
+    one table row per line; ``soft_wrap``: no line cut at all)."""
     from rich.console import Console
 
     console = Console()
-    return console if console.is_terminal else Console(width=max(console.width, width))
+    return console if console.is_terminal else Console(width=max(console.width, width), soft_wrap=soft_wrap)
 
 
 def gate_table(report):

@@ -3,7 +3,6 @@ chi-square tests of every sampling routine (warps, BSDFs, glass lobes, light sam
 from __future__ import annotations
 
 import argparse
-import json
 
 HELP = "chi-square tests of every sampling routine against its pdf; observed-vs-expected images; exit 1 on a failure"
 
@@ -38,6 +37,7 @@ def run(args) -> int:
     from benchmarks.chi2.plot import file_name, save_histograms
     from benchmarks.chi2.runner import run_routine
     from benchmarks.commands._args import check
+    from benchmarks.store import write_json
     from benchmarks.text import terminal, text_table
 
     check(args)
@@ -64,8 +64,7 @@ def run(args) -> int:
             save_histograms(row.result, f"{args.out}/{file_name(r.label)}", title=r.label)
             images += 1
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump([row.to_json() for _, row in rows], fh, indent=1, default=float)
+        write_json(args.json, [row.to_json() for _, row in rows])
     if not args.quiet:
         print(f"rtbench chi2: {len(rows)} routines, {args.samples} samples each, alpha {args.alpha} for the run "
               f"({per_test:.2e} per routine)")

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -33,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     from benchmarks.compare import compare_stores, estimator_knowledge
     from benchmarks.external import register_external
-    from benchmarks.tails import DEFAULT_TAIL_SPP
+    from benchmarks.store import write_json
     from benchmarks.text import terminal, text_table
     from reports.compare import figures, write_compare_page
 
@@ -43,8 +42,7 @@ def run(args) -> int:
             raise ValueError(f"{p} is not a results store (no results.jsonl)")
     if args.tail_spp == 1:
         raise ValueError(f"--tail-spp must be 0 (none) or >= 2, got {args.tail_spp}")
-    if line := A.tail_spp_warning(args.tail_spp, default=DEFAULT_TAIL_SPP):
-        print(f"rtbench compare: warning: {line}", file=sys.stderr)
+    A.warn_tail_spp("compare", args.tail_spp)
     resolve_scenes(args)  # only files named here run; a store's scene_source never does
     externals = [register_external(cmd) for cmd in args.renderer]
     say = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
@@ -57,7 +55,7 @@ def run(args) -> int:
     page = write_compare_page(rows, args.out, name_a=str(args.store_a), name_b=str(args.store_b))
     print(f"page: {page.resolve()}")
     if args.json:
-        Path(args.json).write_text(json.dumps([c.to_dict() for c in rows], indent=1, default=float) + "\n")
+        write_json(args.json, [c.to_dict() for c in rows])
     failed = [c for c in rows if c.verdict == "fail"]
     for c in failed:
         print(terminal(f"rtbench compare: B differs from A in {c.label}: p = {c.p_value:.3g}, relative bias "

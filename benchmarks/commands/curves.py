@@ -54,18 +54,11 @@ def sweep_kwargs(args, groups) -> dict:
                 alpha=args.alpha / max(n, 1), progress=not args.quiet)
 
 
-def wide_console(width: int):
-    """A rich console on stdout; in logs and pipes at least ``width`` wide, lines never cut."""
-    from rich.console import Console
-
-    console = Console()
-    return console if console.is_terminal else Console(width=max(console.width, width), soft_wrap=True)
-
-
 def run(args) -> int:
     from pathlib import Path
 
     from reports import summary_table
+    from benchmarks.commands._gate_tables import wide_console
     from benchmarks.commands.parity import check_user_scenes
     from benchmarks.external import register_external
     from benchmarks.sweep import Group, run_sweep
@@ -87,7 +80,8 @@ def run(args) -> int:
                   externals=tuple(register_external(cmd).name for cmd in args.renderer))
     result = run_sweep([group], out=out, **sweep_kwargs(args, [group]))
     if not args.quiet:
-        wide_console(120).print(summary_table(result.store, metric=args.metric), highlight=False, markup=False)
+        console = wide_console(120, soft_wrap=True)
+        console.print(summary_table(result.store, metric=args.metric), highlight=False, markup=False)
     print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
           f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", flush=True)
     for label, why in result.failed[:10]:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -67,23 +68,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     A.add_quiet_arg(parser)
 
 
-def _warn_tail_spp(args) -> None:
-    """One line on stderr where ``--tail-spp`` makes the verdicts uncalibrated (not with
-    ``--renderer`` or ``--write-reference``, which use no tail references)."""
-    from benchmarks.commands._args import tail_spp_warning
-    from benchmarks.tails import DEFAULT_TAIL_SPP
-
-    if args.tail_spp != 1 and not args.renderer and not args.write_reference:
-        line = tail_spp_warning(args.tail_spp, default=DEFAULT_TAIL_SPP)
-        if line:
-            print(f"rtbench gate: warning: {line}", file=sys.stderr)
-
-
 def run(args) -> int:
-    from benchmarks.commands._args import check
+    from benchmarks.commands._args import check, warn_tail_spp
 
     check(args)
-    _warn_tail_spp(args)
+    # --renderer and --write-reference use no tail references; 1 is refused (run_gate)
+    if args.tail_spp != 1 and not args.renderer and not args.write_reference:
+        warn_tail_spp("gate", args.tail_spp)
     if args.compare_pairs and not args.calibrate:
         raise ValueError("--compare-pairs goes with --calibrate (it measures compare's false-alarm rate)")
     if args.calibrate:
@@ -93,8 +84,7 @@ def run(args) -> int:
 
     from benchmarks.commands._args import single_variant
     from benchmarks.commands._gate_tables import gate_table, wide_console
-    from benchmarks.gate import resolve_strategies, run_gate, write_p_images
-    from benchmarks.gate import resolve_scenes as resolve_gate_scenes
+    from benchmarks.gate import run_gate, write_p_images
 
     console = wide_console(160)
     err = Console(stderr=True, quiet=args.quiet)
@@ -112,19 +102,15 @@ def run(args) -> int:
         if len(args.renderer) > 1:
             raise ValueError("gate takes one --renderer at a time")
         external = register_external(args.renderer[0])
-    # validate everything before the first (possibly long) render
-    n_scenes = len(resolve_gate_scenes(scenes))
-    n_strategies = 1 if external is not None else len(resolve_strategies(strategies))
-    for name, v in (("--spp", args.spp), ("--reference-spp", args.reference_spp)):
-        if v < 2:
-            raise ValueError(f"{name} must be >= 2, got {v}")
-    if args.tail_spp == 1:
-        raise ValueError(f"--tail-spp must be 0 or >= 2, got {args.tail_spp}")
 
     progress = Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
                         TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(), console=err,
                         transient=True)
     state = {}
+
+    def on_start(names, strategies):  # run_gate has checked its inputs: nothing is rendered yet
+        state["refs"] = progress.add_task("references", total=len(names))
+        state["cases"] = progress.add_task(f"our renders ({args.spp} spp)", total=len(names) * len(strategies))
 
     def on_reference(name, phase, ref):
         if phase == "start":
@@ -139,12 +125,10 @@ def run(args) -> int:
         progress.update(state["cases"], description=f"rendered {case.scene} / {case.strategy}")
 
     with progress:
-        state["refs"] = progress.add_task("references", total=n_scenes)
-        state["cases"] = progress.add_task(f"our renders ({args.spp} spp)", total=n_scenes * n_strategies)
         report = run_gate(scenes, strategies=strategies, spp=args.spp, width=args.width, height=args.height,
                           ref_spp=args.reference_spp, alpha=args.alpha, seed=args.seed, threads=args.threads,
                           cache=args.cache, log=lambda line: progress.console.print(line, markup=False),
-                          on_reference=on_reference, on_case=on_case, tail_spp=args.tail_spp,
+                          on_start=on_start, on_reference=on_reference, on_case=on_case, tail_spp=args.tail_spp,
                           reference_store=args.reference, reference_build=args.reference_build,
                           renderer=external, variant=variant)
 
@@ -155,8 +139,10 @@ def run(args) -> int:
     for c in report.undetermined:
         console.print(f"undetermined: {c.scene} ({c.strategy}): {c.result.reason}", highlight=False, markup=False)
     if args.json:
+        from benchmarks.store import write_json
+
         verdicts = {v: sum(c.verdict == v for c in report.cases) for v in ("pass", "fail", "undetermined")}
-        _write_json(args.json, {"alpha": report.alpha, "case_alpha": report.case_alpha, "passed": report.passed,
+        write_json(args.json, {"alpha": report.alpha, "case_alpha": report.case_alpha, "passed": report.passed,
                                 "verdicts": verdicts, "cases": [c.to_dict() for c in report.cases]})
     if report.passed:
         n_und = len(report.undetermined)
@@ -208,11 +194,10 @@ def _calibrate(args) -> int:
     from benchmarks.constants import UNBIASED_STRATEGIES
     from benchmarks.gate import calibrate
     from benchmarks.gate import resolve_scenes as resolve_gate_scenes
+    from benchmarks.store import write_json
     from reference_tracer.build import build_id as rt_build_id
 
     spps = list(args.spps)
-    if min(spps) < 2:
-        raise ValueError(f"--spps must list budgets >= 2, got {','.join(map(str, spps))}")
     strategies = list(args.strategies) or list(UNBIASED_STRATEGIES)
     names = resolve_gate_scenes(resolve_scenes(args, suite_names=args.scenes or []) or None)
     console = wide_console(160)
@@ -234,7 +219,7 @@ def _calibrate(args) -> int:
         progress.console.print(f"{row.scene} {row.strategy} {row.spp} spp: pass {row.passed}, fail {row.failed}, "
                                f"undetermined {row.undetermined}", highlight=False, markup=False)
         if args.json:  # written after every row: an interrupted calibration keeps what it measured
-            _write_json(args.json, {"alpha": args.alpha, "config": config, "rows": [r.to_dict() for r in rows]})
+            write_json(args.json, {"alpha": args.alpha, "config": config, "rows": [r.to_dict() for r in rows]})
 
     with progress:
         task = progress.add_task("renders", total=todo * args.seeds)
@@ -266,7 +251,9 @@ def _resumed_rows(path, config: dict, *, alpha: float) -> list:
     try:
         data = json.loads(p.read_text())
         old = data["config"]
-        rows = [CalibrationRow(**r) for r in data["rows"]]
+        # an undetermined power is null in the file (strict JSON), NaN in a row
+        rows = [CalibrationRow(**{**r, "min_detectable_bias": math.nan if r["min_detectable_bias"] is None
+                                  else r["min_detectable_bias"]}) for r in data["rows"]]
     except (ValueError, KeyError, TypeError) as exc:
         raise ValueError(f"--json {path} exists but is not a calibration this command can resume ({exc}); "
                          f"give another path") from None
@@ -279,10 +266,3 @@ def _resumed_rows(path, config: dict, *, alpha: float) -> list:
             diff = ", ".join(x for x in (diff, f"alpha {data.get('alpha')} (now {alpha})") if x)
         raise ValueError(f"--json {path} holds a calibration with other settings: {diff}; give another path")
     return rows
-
-
-def _write_json(path, obj) -> None:
-    from reference_tracer.imageio import atomic_write
-
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    atomic_write(path, json.dumps(obj, indent=1, default=float) + "\n")

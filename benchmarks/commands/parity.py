@@ -6,9 +6,7 @@ and by us through ``from_mitsuba``; suite scenes and Python files reach Mitsuba 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from pathlib import Path
 
 from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
 
@@ -78,6 +76,7 @@ def run(args) -> int:
     from mitsuba_scenes import list_scenes
 
     from benchmarks.commands._args import check
+    from benchmarks.store import write_json
 
     check(args)
     names = resolve_scenes(args, suite_names=args.scenes, default=list_scenes())
@@ -94,8 +93,7 @@ def run(args) -> int:
             failed += 1
             _explain(report, args.out)
     if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(rows, indent=1) + "\n")
+        write_json(args.json, rows)
     if failed:
         print(f"rtbench parity: {failed} of {len(names)} scene(s) differ from Mitsuba", file=sys.stderr)
         return 1

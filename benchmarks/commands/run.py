@@ -46,7 +46,8 @@ def run(args) -> int:
 
     import reports
     from benchmarks.commands._args import check, name_list
-    from benchmarks.commands.curves import sweep_kwargs, wide_console
+    from benchmarks.commands._gate_tables import wide_console
+    from benchmarks.commands.curves import sweep_kwargs
     from benchmarks.sweep import run_sweep
     from benchmarks.sweep.presets import describe_preset, escalates_tails, preset_groups
     from benchmarks.sweep.progress import Progress, process_seconds
@@ -75,7 +76,7 @@ def run(args) -> int:
     finally:
         bar.stop()
     if not args.quiet:
-        _print_headline(result.store, console=wide_console(140))
+        _print_headline(result.store, console=wide_console(140, soft_wrap=True))
     if page is not None:
         print(f"report: {page.resolve()}", flush=True)
     total = process_seconds()

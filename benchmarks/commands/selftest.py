@@ -8,9 +8,7 @@ fewer than Mitsuba's rule, 1 otherwise, 2 on bad usage.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from pathlib import Path
 
 from benchmarks.text import markdown_table
 
@@ -108,10 +106,12 @@ def _command_line() -> str | None:
 
 
 def run(args) -> int:
-    from benchmarks.commands._args import check
+    from benchmarks.commands._args import check, warn_tail_spp
     from benchmarks.commands._gate_tables import wide_console
     from benchmarks.gate.suite import names_of
     from benchmarks.selftest import CATALOGUE, run_selftest
+    from benchmarks.store import write_json
+    from reference_tracer.imageio import atomic_write
 
     if args.list:
         for m in CATALOGUE:
@@ -120,11 +120,7 @@ def run(args) -> int:
         return 0
     check(args)
     names = names_of(",".join(args.mutants)) or None
-    from benchmarks.commands._args import tail_spp_warning
-    from benchmarks.tails import DEFAULT_TAIL_SPP
-
-    if line := tail_spp_warning(args.tail_spp, default=DEFAULT_TAIL_SPP):
-        print(f"rtbench selftest: warning: {line}", file=sys.stderr)
+    warn_tail_spp("selftest", args.tail_spp)
     if args.height is not None and args.height != args.width:
         raise ValueError("selftest renders square images: --height must equal --width")
     try:
@@ -156,11 +152,10 @@ def run(args) -> int:
     for r in report.rows:
         if r["caught_by_mitsuba_rule"] and not r["caught"]:
             console.print(f"caught by Mitsuba's rule only: {r['mutant']}", highlight=False, markup=False)
-    for path, text in ((args.json, lambda: json.dumps(report.to_dict(), indent=1, default=float) + "\n"),
-                       (args.markdown, lambda: markdown(report, _command_line()))):
-        if path:
-            Path(path).parent.mkdir(parents=True, exist_ok=True)
-            Path(path).write_text(text())
+    if args.json:
+        write_json(args.json, report.to_dict())
+    if args.markdown:
+        atomic_write(args.markdown, markdown(report, _command_line()))
     if report.passed:
         console.print(f"[green]self-test passed[/]: {summary_line(report)}")
         return 0

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 
 HELP = "run the hard-case suite (watertight meshes, grazing rays, degenerate input, scale, ...) and print a table"
 
@@ -20,6 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
+    from benchmarks.store import write_json
     from benchmarks.stress import run_cases
     from benchmarks.text import terminal, text_table
 
@@ -34,9 +34,8 @@ def run(args) -> int:
                          [[r.case, r.verdict, f"{r.seconds:.1f}", r.figure] for r in records]))
     print(f"rtbench stress: {sum(r.passed for r in records)} of {len(records)} case(s) passed")
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump([{"case": r.case, "figure": r.figure, "verdict": r.verdict, "seconds": r.seconds,
-                        "details": r.details} for r in records], fh, indent=1, default=str)
+        write_json(args.json, [{"case": r.case, "figure": r.figure, "verdict": r.verdict, "seconds": r.seconds,
+                                "details": r.details} for r in records])
     failed = [r.case for r in records if not r.passed]
     if failed:
         print(f"failed: {', '.join(failed)}")

@@ -181,7 +181,6 @@ def gate_reference(name: str, scene, *, ref_spp: int = DEFAULT_REF_SPP, threads=
     exact = closed_form_reference_of(name, scene.camera.width, scene.camera.height)
     if exact is not None:
         return exact
-    ref_spp = positive_int("ref_spp", ref_spp, minimum=2)
     return mitsuba_reference(scene, spp=ref_spp, threads=threads, cache=cache, log=log, variant=variant)
 
 
@@ -239,7 +238,7 @@ def resolve_strategies(strategies) -> list:
 
 def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int = DEFAULT_WIDTH,
              height: int | None = None, ref_spp: int = DEFAULT_REF_SPP, alpha: float = GATE_ALPHA,
-             seed: int = DEFAULT_SEED, threads: int | None = None, cache=None, log=None,
+             seed: int = DEFAULT_SEED, threads: int | None = None, cache=None, log=None, on_start=None,
              on_reference=None, on_case=None, tail_spp: int = DEFAULT_TAIL_SPP, reference_store=None,
              reference_build: str | None = None, renderer=None, variant: str | None = None) -> GateReport:
     """Render each scene with our tracer and compare it with its reference.
@@ -258,9 +257,11 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
     threads, cache, log : keyword-only
         Threads of both renderers (None: all cores), the reference cache root, and a callable
         taking a line of text.
-    on_reference, on_case : callable, keyword-only
-        ``on_reference(name, phase, reference)`` with phase ``'start'`` (reference None) and
-        ``'done'``; ``on_case(case)`` with each :class:`GateCase` as it completes.
+    on_start, on_reference, on_case : callable, keyword-only
+        ``on_start(scenes, strategies)`` once, with the resolved lists, after the inputs are
+        checked and before any render; ``on_reference(name, phase, reference)`` with phase
+        ``'start'`` (reference None) and ``'done'``; ``on_case(case)`` with each
+        :class:`GateCase` as it completes.
     tail_spp : int, keyword-only
         Samples per pixel of the tail references (:func:`benchmarks.tails.tail_reference`); 0
         compares without them (which cries wolf on heavy-tailed strategies).
@@ -291,9 +292,11 @@ def run_gate(scenes=None, *, strategies=(), spp: int = DEFAULT_SPP, width: int =
     if not (isinstance(alpha, (int, float)) and 0 < alpha < 1):
         raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
     case_alpha = alpha / (len(names) * len(strategies))
+    if on_start:
+        on_start(names, strategies)
 
     t_start = time.perf_counter()
-    scenes_built = {name: gate_scene(name, width=width, height=height) for name in names}
+    scenes_built = {name: scene_at(name, width, height) for name in names}
     refs, ref_seconds = {}, 0.0
     for name in names:
         if on_reference:

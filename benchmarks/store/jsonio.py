@@ -25,11 +25,13 @@ def store_path(path) -> Path:
 
 
 def json_safe(value):
-    """NaN/inf -> None and numpy scalars -> Python, recursively (JSON has no NaN)."""
+    """NaN/inf -> None and numpy scalars and arrays -> Python, recursively (JSON has no NaN)."""
     if isinstance(value, dict):
         return {str(k): json_safe(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [json_safe(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return json_safe(value.tolist())
     if isinstance(value, np.bool_):
         return bool(value)
     if isinstance(value, np.integer):
@@ -43,7 +45,8 @@ def json_safe(value):
 
 
 def write_json(path, obj) -> Path:
-    """Write ``obj`` as indented JSON atomically (temp file in the same folder + rename)."""
+    """Write ``obj`` as indented, strict JSON (:func:`json_safe`: NaN and infinity as null)
+    atomically (temp file in the same folder + rename; the folder created if needed)."""
     return atomic_write(path, json.dumps(json_safe(obj), indent=1, allow_nan=False) + "\n")
 
 

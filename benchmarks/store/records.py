@@ -202,6 +202,16 @@ def curve_of(record: dict) -> tuple:
     return tuple(record.get(k) for k in ("scene", "renderer", "strategy", "width", "height"))
 
 
+def curve_label(curve) -> str:
+    """A curve (:func:`curve_of`) in words: our strategy alone, another renderer's after its name.
+
+    >>> curve_label(("cornell_box", "ours", "mis", 32, 32)), curve_label(("furnace", "mitsuba", "path", 8, 4))
+    ('cornell_box 32x32 mis', 'furnace 8x4 mitsuba path')
+    """
+    scene, renderer, strategy, width, height = curve
+    return f"{scene} {width}x{height} {strategy if renderer == 'ours' else f'{renderer} {strategy}'}"
+
+
 def latest_builds(records) -> list:
     """Per curve (:func:`curve_of`), only the records of the build of its last record.
 

@@ -11,7 +11,7 @@ from .degenerate import degenerate_input, same_box_triangles
 from .exact import classify_rays, exact_intersection, quad_error_bound, triangle_error_bound
 from .fireflies import fireflies, firefly_counts, small_light_scene
 from .furnace import white_furnace
-from .glass import fresnel_dielectric, glass
+from .glass import glass
 from .grazing import grazing_rays
 from .lights import light_sampling, quad_solid_angle, triangle_solid_angle
 from .probes import count_escapes, creased_furnace_scene, edge_and_vertex_rays, icosphere, probe_scene, transform_scene
@@ -26,4 +26,4 @@ __all__ = ["StressRecord", "CASES", "run_cases", "watertight_mesh", "grazing_ray
            "icosphere", "edge_and_vertex_rays", "count_escapes", "probe_scene", "exact_intersection",
            "triangle_error_bound", "quad_error_bound", "classify_rays", "image_ztest", "constant_ztest",
            "transform_scene", "creased_furnace_scene", "triangle_solid_angle", "quad_solid_angle",
-           "fresnel_dielectric", "small_light_scene", "firefly_counts", "same_box_triangles"]
+           "small_light_scene", "firefly_counts", "same_box_triangles"]

@@ -8,27 +8,12 @@ import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.probe import camera_rays
+
+from ..optics import fresnel_dielectric
 from .record import StressRecord, make_record
 from .ztests import image_ztest
 
-__all__ = ["glass", "fresnel_dielectric"]
-
-
-def fresnel_dielectric(cos_i, eta):
-    """Unpolarised Fresnel reflectance for |cos_i| on the side given by its sign (numpy).
-
-    >>> round(float(fresnel_dielectric(1.0, 1.5)), 12)     # normal incidence: ((1.5 - 1) / (1.5 + 1))^2
-    0.04
-    """
-    cos_i = np.asarray(cos_i, dtype=np.float64)
-    eta_it = np.where(cos_i >= 0, eta, 1.0 / eta)
-    ci = np.abs(cos_i)
-    ct2 = 1.0 - (1.0 - ci * ci) / (eta_it * eta_it)
-    ct = np.sqrt(np.maximum(ct2, 0.0))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rs = (ci - eta_it * ct) / (ci + eta_it * ct)
-        rp = (eta_it * ci - ct) / (eta_it * ci + ct)
-    return np.where(ct2 <= 0, 1.0, 0.5 * (rs * rs + rp * rp))
+__all__ = ["glass"]
 
 
 def glass(*, width: int = 32, spp: int = 32, ior: float = 1.5, seed: int = 0, compare_spp: int = 128,

@@ -14,7 +14,7 @@ from ..constants import MITSUBA_DIRECT, MITSUBA_STRATEGY, STRATEGIES
 from ..external import STRATEGY as EXTERNAL
 from ..external import external, registered_externals
 from ..files import slug
-from ..store import KEY_FIELDS
+from ..store import KEY_FIELDS, curve_label
 
 
 @dataclass(frozen=True)
@@ -41,8 +41,7 @@ class Job:
 
     @property
     def label(self) -> str:
-        who = self.strategy if self.renderer == "ours" else f"{self.renderer} {self.strategy}"
-        return f"{self.scene} {self.width}x{self.height} {who} {self.spp} spp seed {self.seed}"
+        return f"{curve_label(self.curve)} {self.spp} spp seed {self.seed}"
 
     @property
     def cost(self) -> float:

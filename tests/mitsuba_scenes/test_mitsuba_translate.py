@@ -10,7 +10,7 @@ import pytest
 
 import reference_tracer as rt
 from mitsuba_scenes import get_scene, list_scenes, render_mitsuba, to_mitsuba, to_xml
-from mitsuba_scenes.render import batch_seeds, mesh_merge_safe, split_spp
+from mitsuba_scenes.render import batch_estimate, batch_seeds, mesh_merge_safe, split_spp
 from mitsuba_scenes.scenes.cornell_mesh import torus
 from mitsuba_scenes.translate import look_at_matrix, mitsuba_rr_depth
 from mitsuba_scenes.variants import (find_libllvm, import_mitsuba, llvm_target, select_variant, set_llvm_target,
@@ -98,6 +98,21 @@ def test_split_spp_and_seeds():
     s = batch_seeds(5, 100)
     assert len(set(s)) == 100 and min(np.diff(sorted(s))) > 1000
     assert batch_seeds(5, 3) == s[:3] and batch_seeds(6, 3) != s[:3]
+
+
+def test_batch_estimate_pools_batches_of_unequal_sizes():
+    # batches of 3, 3, 2, 2 samples: the mean is the mean of all ten samples, and the
+    # between-batch variance is unbiased for the per-sample variance (here over many pixels)
+    rng = np.random.default_rng(3)
+    sizes = split_spp(10, 4)
+    samples = rng.normal(1.0, 2.0, size=(10, 200, 100, 3))
+    groups = np.split(samples, np.cumsum(sizes)[:-1])
+    mean, var = batch_estimate([g.mean(axis=0) for g in groups], sizes)
+    assert mean.dtype == var.dtype == np.float32
+    np.testing.assert_allclose(mean, samples.mean(axis=0), rtol=1e-6, atol=1e-6)
+    assert float(var.mean()) == pytest.approx(4.0, rel=0.02)
+    one_mean, one_var = batch_estimate([samples[0]], [1])
+    assert np.array_equal(one_mean, samples[0].astype(np.float32)) and np.isnan(one_var).all()
 
 
 def test_render_mitsuba_result_and_spp_edge_cases():

@@ -21,7 +21,8 @@ import pytest
 from scipy import integrate
 
 import reference_tracer as rt
-from benchmarks.chi2.probes import BsdfProbe, direction, fresnel_exact
+from benchmarks.chi2.probes import BsdfProbe, direction
+from benchmarks.optics import fresnel_dielectric
 from reference_tracer.probe import rough_plastic_table
 
 ETA = 1.49 / 1.000277   # Mitsuba's default coating: polypropylene in air
@@ -39,7 +40,7 @@ def _fdr(e: float) -> float:
 def _escape(eta: float) -> float:
     """The integral of (1 - F(cos)) cos / pi over the hemisphere: the share of diffuse
     light that the smooth coating lets out."""
-    return integrate.quad(lambda c: (1.0 - fresnel_exact(c, eta)) * 2.0 * c, 0.0, 1.0, epsabs=1e-13)[0]
+    return integrate.quad(lambda c: (1.0 - fresnel_dielectric(c, eta)) * 2.0 * c, 0.0, 1.0, epsabs=1e-13)[0]
 
 
 def _smooth_albedo(cos_o, rho, ks, eta=ETA, nonlinear=False):
@@ -47,7 +48,7 @@ def _smooth_albedo(cos_o, rho, ks, eta=ETA, nonlinear=False):
     ks F + rho' (1 - F) / eta^2 * the escaping share, rho' = rho / (1 - Fi) (or / (1 - rho Fi))."""
     rho, ks = np.asarray(rho, float), np.asarray(ks, float)
     fi = _fdr(1.0 / eta)
-    F = fresnel_exact(cos_o, eta)
+    F = fresnel_dielectric(cos_o, eta)
     base = rho / (1.0 - (rho * fi if nonlinear else fi))
     return ks * F, base * (1.0 - F) / eta**2 * _escape(eta)
 
@@ -230,7 +231,7 @@ def test_smooth_plastic_sample_is_a_mirror_bounce_for_mis():
     low."""
     m = rt.Plastic(0.0, specular_reflectance=(0.9, 0.7, 0.4))
     r = rt.render(_facing_plastic(m, 50), spp=64, strategy="mis", seed=1, threads=1)
-    expected = np.array((0.9, 0.7, 0.4)) * fresnel_exact(math.cos(math.radians(50)), ETA)
+    expected = np.array((0.9, 0.7, 0.4)) * fresnel_dielectric(math.cos(math.radians(50)), ETA)
     np.testing.assert_allclose(r.mean[0, 0], expected, rtol=1e-4)
     assert np.all(np.sqrt(r.variance[0, 0]) < 1e-4 * expected)
 

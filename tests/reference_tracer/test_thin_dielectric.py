@@ -11,15 +11,8 @@ import pytest
 
 import reference_tracer as rt
 from benchmarks.gate.agreement import agreement
+from benchmarks.optics import fresnel_dielectric
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba
-
-
-def _fresnel(cos_i, eta):
-    sin_t2 = (1 - cos_i ** 2) / eta ** 2
-    cos_t = np.sqrt(1 - sin_t2)
-    rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
-    rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
-    return 0.5 * (rs ** 2 + rp ** 2)
 
 
 @pytest.mark.parametrize("side", [1.0, -1.0])
@@ -34,7 +27,7 @@ def test_pane_transmits_one_minus_its_reflectance_from_either_side(side):
     light = rt.Quad((-50, -50, -3), (100, 0, 0), (0, 100, 0), rt.DiffuseLight((2.0, 2.0, 2.0)))
     cam = rt.Camera(lookfrom=(0, 0, 4), lookat=(0, 0, 0), vup=(0, 1, 0), vfov=1.0, width=2, height=2)
     out = rt.render(rt.Scene(cam, [pane, light], max_depth=4), spp=20000, strategy="mis", seed=3, threads=1)
-    r = _fresnel(1.0, eta)
+    r = fresnel_dielectric(1.0, eta)
     expected = 2.0 * (1.0 - 2.0 * r / (1.0 + r))
     se = np.sqrt(out.variance / out.spp).max()
     assert abs(out.mean.mean() - expected) < 5 * se + 1e-9, (out.mean.mean(), expected, se)

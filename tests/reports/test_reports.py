@@ -19,6 +19,7 @@ from report_store import make_store
 
 import reports  # noqa: E402
 from benchmarks.metrics import view  # noqa: E402
+from reports.build import _chromium as find_chromium  # noqa: E402
 from reports.curves import curves, loglog_interp, loglog_slope, seed_comparison  # noqa: E402
 from benchmarks.display import reference_exposure  # noqa: E402
 from reports.images import error_map, pick_spps  # noqa: E402
@@ -520,18 +521,10 @@ window.addEventListener("load", function () {
 """
 
 
-def _find_chromium():
-    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
-        exe = shutil.which(name)
-        if exe:
-            return exe
-    return None
-
-
 @pytest.fixture(scope="session")
 def chromium():
     """Debian's chromium; installed with apt-get when missing and running as root, else the test is skipped."""
-    exe = _find_chromium()
+    exe = find_chromium()
     if exe is None and hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("apt-get") \
             and os.environ.get("RTBENCH_NO_APT") != "1":
         env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
@@ -543,7 +536,7 @@ def chromium():
                 subprocess.run(cmd, env=env, capture_output=True, timeout=900)
         except (OSError, subprocess.TimeoutExpired):
             pass
-        exe = _find_chromium()
+        exe = find_chromium()
     if exe is None:
         pytest.skip("no chromium: install it with `apt-get install -y --no-install-recommends chromium "
                     "fonts-liberation fonts-dejavu-core` (the test does so itself only "

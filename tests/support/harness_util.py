@@ -1,6 +1,7 @@
 """Shared helpers of the harness tests (``tests/benchmarks/**/test_harness_*.py`` and others that run ``rtbench``)."""
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -15,6 +16,15 @@ def cache_root(tmp_path_factory) -> Path:
     path = tmp_path_factory.getbasetemp() / "rtbench-cache"
     path.mkdir(exist_ok=True)
     return path
+
+
+def strict_json(text: str):
+    """``json.loads`` of a strict parser (``jq``, JavaScript's ``JSON.parse``): the tokens
+    ``NaN``, ``Infinity`` and ``-Infinity`` that Python's own parser takes are refused."""
+    def refuse(token):
+        raise ValueError(f"not JSON: {token}")
+
+    return json.loads(text, parse_constant=refuse)
 
 
 def comparable(record: dict, *, ignore=()) -> dict:

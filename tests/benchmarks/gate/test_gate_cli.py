@@ -13,7 +13,7 @@ from benchmarks.cli import main
 from benchmarks.constants import GATE_ALPHA
 from benchmarks.gate import compare, gate_reference, gate_scene, resolve_scenes, resolve_strategies, run_gate
 from benchmarks.references import CLOSED_FORM_REASONS, closed_form_reference_of
-from harness_util import cache_root
+from harness_util import cache_root, strict_json
 
 SMALL = dict(width=16, spp=64, ref_spp=256, threads=2)
 
@@ -92,6 +92,20 @@ def test_cli_failure_writes_images_and_message(cache, tmp_path, capsys, monkeypa
     assert [c["passed"] for c in data["cases"]] == [True, False] and data["passed"] is False
 
 
+def test_cli_json_is_strict_with_undefined_numbers_as_null(cache, tmp_path, monkeypatch):
+    # light sampling in the furnace is exact per sample (zero variance) and wrong, against a
+    # noiseless closed form: its t-statistic is infinite, written as null
+    monkeypatch.setenv("RTBENCH_CACHE", str(cache))
+    out = tmp_path / "gate.json"
+    code = main(["gate", "furnace", "--strategies", "light", "--width", "8", "--spp", "16", "--tail-spp", "64",
+                 "--threads", "2", "--out", str(tmp_path / "gate"), "--json", str(out), "--quiet"])
+    assert code == 1
+    cases = {c["strategy"]: c for c in strict_json(out.read_text())["cases"]}
+    assert cases["light"]["verdict"] == "fail" and cases["light"]["relative_bias_se"] == 0.0
+    assert cases["light"]["max_abs_t"] is None
+    assert cases["mis"]["verdict"] == "pass" and isinstance(cases["mis"]["max_abs_t"], float)
+
+
 def test_cli_pass_exits_zero(cache, tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("RTBENCH_CACHE", str(cache))
     code = main(["gate", "cornell_box", "furnace", "--width", "16", "--spp", "64", "--ref-spp", "256",
@@ -104,9 +118,10 @@ def test_cli_pass_exits_zero(cache, tmp_path, capsys, monkeypatch):
 @pytest.mark.parametrize("bad, words", [
     (["nope"], "unknown scene"),
     (["cornell_box", "--strategies", "mis,bogus"], "unknown strategy bogus"),
-    (["cornell_box", "--spp", "1"], "--spp must be >= 2"),
+    (["cornell_box", "--spp", "1"], "spp must be >= 2, got 1"),
     (["cornell_box", "--ref-spp", "0"], "--reference-spp must be >= 1"),
-    (["cornell_box", "--reference-spp", "1"], "--reference-spp must be >= 2"),
+    (["cornell_box", "--reference-spp", "1"], "ref_spp must be >= 2, got 1"),
+    (["cornell_box", "--tail-spp", "1"], "tail_spp must be 0 (no tail references) or >= 2"),
     (["cornell_box", "--alpha", "1.5"], "--alpha must be in (0, 1)"),
     (["cornell_box", "--width", "0"], "--width must be >= 1"),
     (["cornell_box", "--threads", "0"], "--threads must be >= 1"),

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-import json
 
 import numpy as np
 import pytest
@@ -18,7 +17,7 @@ import reference_tracer as rt
 from benchmarks.cli import main
 from benchmarks.selftest import (CATALOGUE, SELFTEST_SCENES, ladder, mutant_id, mutant_names, render_mutant,
                                  resolve_mutants, run_selftest, selftest_scene)
-from harness_util import cache_root
+from harness_util import cache_root, strict_json
 
 
 @pytest.fixture(scope="module")
@@ -107,7 +106,7 @@ def test_small_selftest_catches_three_mutants(cache, tmp_path):
                  "--tail-spp", "1024", "--threads", "2", "--cache", str(cache), "--json", str(out),
                  "--markdown", str(md)])
     assert code == 0
-    data = json.loads(out.read_text())
+    data = strict_json(out.read_text())
     rows = {r["mutant"]: r for r in data["rows"]}
     assert list(rows) == ["max_depth_off_by_one", "emitter_weight_one", "light_pdf_no_jacobian"]
     for r in rows.values():
@@ -120,6 +119,19 @@ def test_small_selftest_catches_three_mutants(cache, tmp_path):
     assert rows["emitter_weight_one"]["relative_bias"] > 0.2 and rows["light_pdf_no_jacobian"]["relative_bias"] < -0.2
     assert data["caught"] == 3 and data["passed"]
     assert "| max_depth_off_by_one | furnace | mis | fail | yes | 64 |" in md.read_text()
+
+
+def test_selftest_json_is_strict_with_undefined_numbers_as_null(cache, tmp_path):
+    # at 2 spp the image mean is too far from normal to test: the verdict is undetermined and
+    # the smallest bias it would catch is undefined (NaN), written as null
+    out = tmp_path / "selftest.json"
+    code = main(["selftest", "--mutants", "emitter_weight_one", "--spp", "2", "--spp-ladder", "2", "--width", "8",
+                 "--ref-spp", "1024", "--tail-spp", "1024", "--no-controls", "--threads", "2", "--cache", str(cache),
+                 "--json", str(out), "--quiet"])
+    assert code == 1   # a mutant missed
+    (row,) = strict_json(out.read_text())["rows"]
+    assert row["verdict"] == "undetermined" and row["min_detectable_bias"] is None
+    assert isinstance(row["relative_bias"], float)
 
 
 def test_selftest_cli_bad_usage(capsys):

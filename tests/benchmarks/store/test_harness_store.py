@@ -85,6 +85,11 @@ def test_meta_merge_and_atomic_json(tmp_path):
     assert read_json(tmp_path / "meta.json")["total_seconds"] is None
     write_json(tmp_path / "x.json", {"v": [1, 2]})
     assert read_json(tmp_path / "x.json") == {"v": [1, 2]}
+    # strict JSON (the commands' --json too): numpy values become Python's, NaN and infinity null
+    write_json(tmp_path / "sub" / "y.json", {"a": np.array([1.5, np.nan]), "b": np.float32(np.inf), "c": np.int64(3),
+                                            "d": (np.bool_(True), -math.inf)})
+    text = (tmp_path / "sub" / "y.json").read_text()
+    assert json.loads(text, parse_constant=pytest.fail) == {"a": [1.5, None], "b": None, "c": 3, "d": [True, None]}
     assert not list(tmp_path.glob(".*tmp"))  # no temporary files left behind
     assert read_json(tmp_path / "missing.json", default=7) == 7
 
