@@ -175,6 +175,8 @@ def render_notes(result):
               f"Embree inside keeps this CPU's); the {row['build']} build's ratios pair with it"
               for row in {r["label"]: r for r in result["summary"]
                           if r["renderer"] == "mitsuba" and r.get("build")}.values()]
+    lines += [f"Mitsuba with {b} kernels could not run here ({why}): the {b} build pairs with this CPU's kernels"
+              for b, why in result.get("mitsuba_targets_skipped", {}).items()]
     return lines + ["ratio = paths/s ours / Mitsuba, the median of the paired rounds' ratios (cpu: on CPU time); "
                     "rounds = the lowest and highest round's; spread = (max-min)/median of paths/s; 'rr_depth N' = "
                     "roulette from depth N in both; benchmarks/PERFORMANCE.md, Reading the ratios"]
@@ -218,7 +220,9 @@ def rays_note(result) -> str:
             f"t agree: relative difference <= {result['rows'][0].get('agree_t_rtol', 1e-4):g}"
             + "".join(f"; the {b} build's rows pair with Mitsuba's kernels compiled for {target} in its worker "
                       f"(Embree inside keeps this CPU's instruction set)"
-                      for b, target in result.get("mitsuba", {}).get("targets", {}).items()))
+                      for b, target in result.get("mitsuba", {}).get("targets", {}).items())
+            + "".join(f"; Mitsuba with {b} kernels could not run here ({why}): the {b} build's rows pair with this "
+                      f"CPU's kernels" for b, why in result.get("mitsuba", {}).get("targets_skipped", {}).items()))
 
 
 def scaling_tables(result):

@@ -13,12 +13,15 @@ import numpy as np
 import reference_tracer as rt
 from mitsuba_scenes import to_mitsuba
 from mitsuba_scenes.render import mesh_merge_safe
-from mitsuba_scenes.variants import select_variant, versions
+from mitsuba_scenes.variants import llvm_target, select_variant, set_llvm_target, versions
 from reference_tracer.cpus import default_threads
+
+from .builds import MITSUBA_TARGETS, mitsuba_isas
 
 __all__ = ["WALL_CLOCK_NOTE", "environment", "timed", "median", "spread", "median_order_interval",
            "median_coverage", "rounds_for_coverage", "name_list", "use_variant", "available_variants",
-           "check_jit_variant", "mitsuba_versions", "mitsuba_render_fn", "load_mitsuba"]
+           "check_jit_variant", "mitsuba_versions", "mitsuba_render_fn", "load_mitsuba", "use_mitsuba_kernels",
+           "mitsuba_kernel_workers"]
 
 #: printed under every table and stored in every JSON.
 WALL_CLOCK_NOTE = ("wall-clock figures are noisy when the machine is shared (other processes steal "
@@ -179,3 +182,35 @@ def load_mitsuba(variant, scene, threads, *, check_merge=True):
     kwargs = {"optimize": mesh_merge_safe(scene)} if check_merge else {}
     mscene, load, _ = timed(lambda: mi.load_dict(to_mitsuba(scene), **kwargs))
     return mscene, load
+
+
+def use_mitsuba_kernels(variant, isa, threads=None) -> dict:
+    """Select ``variant`` with its LLVM kernels compiled for ``isa`` (:data:`.builds.MITSUBA_TARGETS`), in a
+    :class:`.builds.CoreWorker`: the target holds for the worker's process, set before its first kernel; the target
+    (``llvm_target()``). ``RuntimeError`` where it cannot be set."""
+    use_variant(variant, threads)
+    cpu, features, width = MITSUBA_TARGETS[isa]
+    now = llvm_target()
+    if now is None or (now["cpu"], now["vector_width"]) != (cpu, width):
+        now = set_llvm_target(cpu, features, width)
+    return now
+
+
+def mitsuba_kernel_workers(workers, variant, log=None) -> tuple:
+    """The build workers in which Mitsuba ``variant`` also runs, with kernels for the build's ISA where this CPU's are
+    wider (:func:`.builds.mitsuba_isas`): ``({build: worker}, {build: target}, {build: why not})``. A worker where the
+    target cannot be set is left out with the reason (its build then pairs with this CPU's kernels), logged."""
+    chosen, targets, skipped = {}, {}, {}
+    if variant is None or not variant.startswith("llvm"):
+        return chosen, targets, skipped
+    for b in mitsuba_isas(workers, llvm_target()):
+        try:
+            target = workers[b]("benchmarks.speed.common.use_mitsuba_kernels", variant, b)
+        except RuntimeError as e:
+            skipped[b] = str(e).strip().splitlines()[-1]
+            if log:
+                log(f"Mitsuba {variant} with {b} kernels cannot run here ({skipped[b]}): the {b} build pairs with "
+                    f"this CPU's kernels")
+            continue
+        chosen[b], targets[b] = workers[b], f"{target['cpu']}, {target['vector_width']} lanes"
+    return chosen, targets, skipped

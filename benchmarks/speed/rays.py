@@ -20,12 +20,11 @@ import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.probe import camera_rays, core_scene
-from mitsuba_scenes.variants import llvm_target, set_llvm_target
 from reference_tracer.validation import positive_int
 
-from .builds import MITSUBA_TARGETS, CoreWorker, mitsuba_isas
-from .common import (check_jit_variant, environment, load_mitsuba, median, mitsuba_versions, name_list, timed,
-                     use_variant)
+from .builds import CoreWorker
+from .common import (check_jit_variant, environment, load_mitsuba, median, mitsuba_kernel_workers, mitsuba_versions,
+                     name_list, timed, use_mitsuba_kernels, use_variant)
 
 __all__ = ["ray_benchmark", "resident_mib", "torus_mesh", "mesh_scene", "primary_rays", "random_rays", "intersect_ours",
            "intersect_mitsuba", "hit_agreement", "query_torus", "query_torus_mitsuba", "torus_tree", "RAY_KINDS"]
@@ -135,13 +134,9 @@ def query_torus(triangles: int, *, kind: str, rays: int, seed: int = 0, threads:
 def query_torus_mitsuba(triangles: int, *, kind: str, rays: int, seed: int = 0, threads: int = 1,
                         variant: str = "llvm_ad_rgb", isa: str):
     """:func:`intersect_mitsuba` on the torus and rays of :func:`query_torus`, with Mitsuba's kernels compiled for
-    ``isa`` (:data:`.builds.MITSUBA_TARGETS`): run in a :class:`.builds.CoreWorker`, the target holding for its
-    process; the scene and rays kept for the next call."""
-    use_variant(variant, threads)
-    cpu, features, width = MITSUBA_TARGETS[isa]
-    now = llvm_target()
-    if now is None or (now["cpu"], now["vector_width"]) != (cpu, width):
-        set_llvm_target(cpu, features, width)
+    ``isa`` (:func:`.common.use_mitsuba_kernels`): run in a :class:`.builds.CoreWorker`, the scene and rays kept
+    for the next call."""
+    use_mitsuba_kernels(variant, isa, threads)
     key = ("mitsuba", variant, triangles, seed)
     if key not in _KEPT:
         _KEPT[key] = load_mitsuba(variant, mesh_scene(triangles, seed=seed), threads, check_merge=False)[0]
@@ -270,6 +265,10 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
             out["mitsuba"]["versions"] = mitsuba_versions()
     with contextlib.ExitStack() as stack:
         workers = {name: stack.enter_context(CoreWorker(module)) for name, module in builds.items()}
+        kernels = {}
+        if use_mi:
+            kernels, out["mitsuba"]["targets"], out["mitsuba"]["targets_skipped"] = mitsuba_kernel_workers(
+                workers, variant, log)
         for n_target in sizes:
             scene = mesh_scene(n_target, seed=seed)
             ntri = int(len(scene.shapes[0].faces))
@@ -295,12 +294,9 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
                 theirs = {}
                 if use_mi:
                     theirs[None] = functools.partial(_native_mitsuba, mscene, o, d, variant=variant, threads=threads)
-                    theirs.update({b: functools.partial(workers[b], "benchmarks.speed.rays.query_torus_mitsuba",
-                                                        n_target, kind=kind, rays=rays, seed=seed, threads=threads,
-                                                        variant=variant, isa=b)
-                                   for b in mitsuba_isas(workers, llvm_target())})
-                    out["mitsuba"]["targets"] = {b: "{}, {} lanes".format(*MITSUBA_TARGETS[b][::2])
-                                                 for b in theirs if b is not None}
+                    theirs.update({b: functools.partial(w, "benchmarks.speed.rays.query_torus_mitsuba", n_target,
+                                                        kind=kind, rays=rays, seed=seed, threads=threads,
+                                                        variant=variant, isa=b) for b, w in kernels.items()})
                 for row in _ray_rows(sides, theirs, len(o), repeats=repeats):
                     out["rows"].append({**base, "kind": kind, **built[row["build"]],
                                         "mitsuba_load_seconds": load,

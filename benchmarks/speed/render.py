@@ -18,7 +18,6 @@ import numpy as np
 import reference_tracer as rt
 from mitsuba_scenes import get_scene, known_scenes
 from mitsuba_scenes.render import batch_seeds
-from mitsuba_scenes.variants import llvm_target, set_llvm_target
 from reference_tracer import INTEGRATORS
 from reference_tracer.probe import core_scene
 from reference_tracer.validation import positive_int
@@ -28,9 +27,9 @@ from ..external import STRATEGY as EXTERNAL_STRATEGY
 from ..external import render_external
 from ..metrics import efficiency, mse, mse_corrected
 from ..references import reference
-from .builds import MITSUBA_TARGETS, CoreWorker, mitsuba_isas
-from .common import (available_variants, environment, load_mitsuba, median, mitsuba_render_fn, mitsuba_versions,
-                     name_list, spread, timed, use_variant)
+from .builds import CoreWorker
+from .common import (available_variants, environment, load_mitsuba, median, mitsuba_kernel_workers, mitsuba_render_fn,
+                     mitsuba_versions, name_list, spread, timed, use_mitsuba_kernels, use_variant)
 from .suite import suite_summary
 
 __all__ = ["DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT_RR_DEPTHS", "REFERENCE_KINDS", "render_benchmark",
@@ -87,7 +86,8 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
     -------
     dict
         ``config``, ``environment``, ``mitsuba``, ``skipped_variants``, ``available_variants``, ``references``,
-        ``mitsuba_targets`` (where Mitsuba also ran with kernels for a build's instruction set: ``{build: target}``),
+        ``mitsuba_targets`` (where Mitsuba also ran with kernels for a build's instruction set: ``{build: target}``)
+        and ``mitsuba_targets_skipped`` (``{build: why}`` where it could not),
         ``runs`` (one record a timed render), ``summary`` (a row per scene, configuration and renderer: medians over
         rounds and, against each variant ``v``, ``ratio_v``, ``cpu_ratio_v``, ``efficiency_ratio_v``,
         ``round_ratios_v``, ``round_efficiency_ratios_v``), ``suite`` (:func:`.suite_summary`) and ``build_suites``
@@ -107,9 +107,12 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
         raise ValueError(f"no Mitsuba variant of {config['variants']} works here ({skipped}); use reference='ours'")
     with contextlib.ExitStack() as stack:
         workers = {name: stack.enter_context(CoreWorker(module)) for name, module in builds.items()}
+        llvm = next((v for v in ok_variants if v.startswith("llvm")), None)
+        kernels, result["mitsuba_targets"], result["mitsuba_targets_skipped"] = mitsuba_kernel_workers(
+            workers, llvm, log)
         for name in config["scenes"]:
             _bench_scene(result, name, config, ok_variants, cache=cache, log=log, externals=tuple(externals),
-                         workers=workers)
+                         workers=workers, kernels=kernels)
     result["available_variants"] = ok_variants
     result["suite"] = suite_summary(result)
     result["build_suites"] = {b: suite_summary(result, build=b) for b in builds}
@@ -164,13 +167,10 @@ def render_timed(scene, *, key=None, **render_args):
 
 def mitsuba_timed(scene, *, variant, isa, key, spp, seed, threads):
     """``(image, wall seconds, process CPU seconds)`` of Mitsuba's render of ``scene`` with its kernels compiled for
-    ``isa`` (:data:`.builds.MITSUBA_TARGETS`). Run in a :class:`.builds.CoreWorker`: the target holds for the whole
-    process, and the worker keeps the loaded scene under ``key``."""
+    ``isa`` (:func:`.common.use_mitsuba_kernels`). Run in a :class:`.builds.CoreWorker`, which keeps the loaded scene
+    under ``key``."""
     mi, _ = use_variant(variant, threads)
-    cpu, features, width = MITSUBA_TARGETS[isa]
-    now = llvm_target()
-    if now is None or (now["cpu"], now["vector_width"]) != (cpu, width):
-        set_llvm_target(cpu, features, width)
+    use_mitsuba_kernels(variant, isa, threads)
     if key not in _KEPT:
         _KEPT[key] = load_mitsuba(variant, scene, threads)[0]
     return timed(mitsuba_render_fn(mi, _KEPT[key], spp, seed))
@@ -182,15 +182,7 @@ def _mitsuba_label(variant, build=None) -> str:
     return f"Mitsuba {variant}" + ("" if build is None else f", {build} kernels")
 
 
-def _same_isa_builds(workers, variants) -> dict:
-    """``{build: worker}`` of the builds against which Mitsuba also runs, in the build's worker, with kernels for
-    the build's ISA (:func:`.builds.mitsuba_isas`)."""
-    if not any(v.startswith("llvm") for v in variants):
-        return {}
-    return {b: workers[b] for b in mitsuba_isas(workers, llvm_target())}
-
-
-def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, workers):
+def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, workers, kernels):
     """Set up, time and summarise one scene in every Russian-roulette configuration."""
     width, height, spp, threads = config["width"], config["height"], config["spp"], config["threads"]
     base = _with_depths(get_scene(name).with_camera_size(width, height), config["max_depth"], "scene")
@@ -214,11 +206,8 @@ def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, wo
         mscenes, infos = _warm_mitsuba(scene, ok_variants, spp=spp, threads=threads, log=log)
         same_isa = {(v, b): functools.partial(w, "benchmarks.speed.render.mitsuba_timed", bare, variant=v, isa=b,
                                               key=("mitsuba", v, name, label), threads=threads)
-                    for b, w in _same_isa_builds(workers, ok_variants).items() for v in ok_variants
-                    if v.startswith("llvm")}
+                    for b, w in kernels.items() for v in ok_variants if v.startswith("llvm")}
         for (v, b), run in same_isa.items():   # load and compile, untimed
-            cpu_name, _, lanes = MITSUBA_TARGETS[b]
-            result.setdefault("mitsuba_targets", {})[b] = f"{cpu_name}, {lanes} lanes"
             _, warm, _ = run(spp=spp, seed=0x5EED)
             if log:
                 log(f"  {_mitsuba_label(v, b)} (in the {b} build's worker): warm-up render {warm:.2f} s")

@@ -105,6 +105,34 @@ def test_isa_build_has_its_own_rows_headline_and_verdicts(tmp_path, capsys, monk
         ("render", None), ("render", "avx2"), ("rays", None), ("rays", "avx2")]   # each build's after the installed
 
 
+def test_mitsuba_kernels_for_the_isa_only_where_narrower_and_settable(monkeypatch):
+    # Mitsuba runs with an ISA's kernels in the build's worker only where this CPU's kernels are
+    # wider; where the target cannot be set there (an old Dr.Jit), the build pairs with this
+    # CPU's kernels, and the run says why instead of stopping.
+    from benchmarks.speed import common
+
+    def worker_that_cannot(function, *args, **kwargs):
+        raise RuntimeError(f"{function} failed with the core x.so:\nTraceback ...\n"
+                           "RuntimeError: Dr.Jit 1.0 does not export jit_llvm_set_target")
+
+    def worker(function, *args, **kwargs):
+        assert (function, args) == ("benchmarks.speed.common.use_mitsuba_kernels", ("llvm_ad_rgb", "avx2"))
+        return {"cpu": "haswell", "vector_width": 8, "avx512": False}
+
+    monkeypatch.setattr(common, "llvm_target", lambda: {"cpu": "rocketlake", "vector_width": 16, "avx512": True})
+    said = []
+    assert common.mitsuba_kernel_workers({"avx2": worker_that_cannot}, "llvm_ad_rgb", said.append) == (
+        {}, {}, {"avx2": "RuntimeError: Dr.Jit 1.0 does not export jit_llvm_set_target"})
+    assert said == ["Mitsuba llvm_ad_rgb with avx2 kernels cannot run here (RuntimeError: Dr.Jit 1.0 does not export "
+                    "jit_llvm_set_target): the avx2 build pairs with this CPU's kernels"]
+    assert common.mitsuba_kernel_workers({"avx2": worker}, "llvm_ad_rgb") == (
+        {"avx2": worker}, {"avx2": "haswell, 8 lanes"}, {})
+    assert common.mitsuba_kernel_workers({"avx2": worker}, "scalar_rgb") == ({}, {}, {})
+    assert common.mitsuba_kernel_workers({"avx512": worker}, "llvm_ad_rgb") == ({}, {}, {})   # already 16 lanes
+    monkeypatch.setattr(common, "llvm_target", lambda: {"cpu": "znver3", "vector_width": 8, "avx512": False})
+    assert common.mitsuba_kernel_workers({"avx2": worker}, "llvm_ad_rgb") == ({}, {}, {})   # an AVX2 CPU's own
+
+
 def test_isa_the_cpu_cannot_run_or_a_build_that_fails(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(builds, "cpu_flags", frozenset)
     assert main(["speed", "--isa", "avx2", "--cache", str(tmp_path), "--quiet"]) == 2
