@@ -117,23 +117,8 @@ inline double pdf(double alpha, const Vec3& wo, const Vec3& wi) {
     return smith_g1<M>(wo, h, alpha) * ggx_d(h, alpha) / (4.0 * wo.z);
 }
 
-template <Mutant M = Mutant::None>
-inline BSDFSample sample(const Vec3& albedo, double alpha, const Vec3& wo, double u1, double u2) {
-    BSDFSample s;
-    if (wo.z <= 0.0) return s;
-    const Vec3 m = sample_visible_normal(wo, alpha, u1, u2);
-    const Vec3 wi = 2.0 * dot(wo, m) * m - wo;
-    if (wi.z <= 0.0) return s;
-    s.wi = wi;
-    s.pdf = pdf<M>(alpha, wo, wi);
-    if (!(s.pdf > 0.0)) return s;
-    s.weight = eval<M>(albedo, alpha, wo, wi) / s.pdf;
-    s.valid = true;
-    return s;
-}
-
-// The general conductor: any distribution, any Fresnel (plain GGX goes through the
-// functions above, unchanged).
+// The general conductor: any distribution, any Fresnel (plain GGX's value and density go
+// through the functions above, unchanged).
 template <Mutant M = Mutant::None>
 inline double d(const Params& p, const Vec3& m) {
     return p.distribution == Distribution::GGX ? ggx_d(m, p.alpha) : microfacet::beckmann_d(m, p.alpha);
@@ -167,9 +152,10 @@ inline double pdf(const Params& p, const Vec3& wo, const Vec3& wi) {
     return g1_wo * d<M>(p, h) / (4.0 * wo.z);
 }
 
+// One body for every distribution: plain GGX's density and value come from pdf() and
+// eval(), which take its own path.
 template <Mutant M = Mutant::None>
 inline BSDFSample sample(const Vec3& albedo, const Params& p, const Vec3& wo, double u1, double u2) {
-    if (p.plain_ggx()) return sample<M>(albedo, p.alpha, wo, u1, u2);
     BSDFSample s;
     if (wo.z <= 0.0) return s;
     const Vec3 m = p.distribution == Distribution::GGX ? sample_visible_normal(wo, p.alpha, u1, u2)
