@@ -897,9 +897,10 @@ def _shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
                                   "vertex's coordinates undefined)")
                     return None
             try:
-                mesh_obj = ctx.mi.load_dict({"type": name, "filename": fname,
-                                             "to_world": ctx.mi.ScalarTransform4f(m.tolist()),
-                                             "face_normals": face_normals, **extra})
+                with _one_thread():
+                    mesh_obj = ctx.mi.load_dict({"type": name, "filename": fname,
+                                                 "to_world": ctx.mi.ScalarTransform4f(m.tolist()),
+                                                 "face_normals": face_normals, **extra})
             except Exception as exc:  # Mitsuba raises RuntimeError with the reason
                 ctx.bad(node, f"{name} mesh could not be loaded: {exc}")
                 return None
@@ -950,6 +951,21 @@ def _obj_undefined_normal(fname, *, texcoords: bool = False):
         return obj_undefined_normal(decode_obj(Path(fname).read_bytes()), texcoords=texcoords)
     except (OSError, ValueError):
         return None
+
+
+@contextlib.contextmanager
+def _one_thread():
+    """Dr.Jit on one thread for the block: Mitsuba computes a mesh's missing vertex normals
+    with a parallel scatter-add, whose order of float32 additions (so the last bits of the
+    normals, and the scene's content hash) varies from run to run on several threads."""
+    import drjit as dr  # deferred: after the variant and libLLVM are chosen (select_variant)
+
+    threads = dr.thread_count()
+    dr.set_thread_count(1)
+    try:
+        yield
+    finally:
+        dr.set_thread_count(threads)
 
 
 def _mesh_normals(params, mesh, v, f):

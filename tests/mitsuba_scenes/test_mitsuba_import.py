@@ -99,6 +99,42 @@ def test_mesh_without_face_normals_gets_mitsubas_computed_normals(mi, tmp_path):
     np.testing.assert_allclose(vertex_normals(imported[0].vertices, imported[0].faces), theirs, atol=1e-5)
 
 
+def test_mesh_normals_mitsuba_computes_are_computed_on_one_thread(mi, tmp_path, monkeypatch):
+    """Mitsuba computes missing vertex normals with a parallel scatter-add: on several threads
+    the float32 sums, so the imported normals and the scene's content hash, vary from run to
+    run (a PLY bunny of mitsuba-data gave two hashes in four runs). The import loads each mesh
+    on one thread, then gives Dr.Jit its thread count back, also where the load fails."""
+    import drjit as dr
+
+    scene = get_scene("cornell_mesh", width=8, height=8)
+    path = to_xml(scene, tmp_path / "m.xml")
+    path.write_text(path.read_text().replace('name="face_normals" value="true"', 'name="face_normals" value="false"'))
+    threads_seen, load_dict = [], mi.load_dict
+
+    def spy(d, *args, **kwargs):
+        if isinstance(d, dict) and d.get("type") in ("ply", "obj"):
+            threads_seen.append(dr.thread_count())
+        return load_dict(d, *args, **kwargs)
+
+    monkeypatch.setattr(mi, "load_dict", spy)
+    before = dr.thread_count()
+    dr.set_thread_count(2)
+    try:
+        first, again = from_mitsuba(path), from_mitsuba(path)
+        assert threads_seen == [1, 1] and dr.thread_count() == 2
+        assert first.content_hash() == again.content_hash()
+
+        def fails(d, *args, **kwargs):
+            raise RuntimeError("a mesh Mitsuba cannot read")
+
+        monkeypatch.setattr(mi, "load_dict", fails)
+        with pytest.raises(ValueError, match="ply mesh could not be loaded: a mesh Mitsuba cannot read"):
+            from_mitsuba(path)
+        assert dr.thread_count() == 2
+    finally:
+        dr.set_thread_count(before)
+
+
 def test_dielectric_ior_ratio_and_defaults(mi):
     d = _mitsuba_cornell(mi)
     d["glass"] = {"type": "sphere", "radius": 0.3, "bsdf": {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.25}}
