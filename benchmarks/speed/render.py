@@ -221,11 +221,12 @@ def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, wo
                    functools.partial(_run_ours, core, spp=spp, strategy=s, integrator=i, seed=seed, threads=threads))
                   for b, core in cores.items() for s in config["strategies"] for i in config["integrators"]],
                  [(_mitsuba_label(v), {"renderer": "mitsuba", "strategy": MITSUBA_STRATEGY, "variant": v},
-                   functools.partial(_run_mitsuba, v, mscenes[v], spp=spp, seed=seed, threads=threads))
+                   functools.partial(_run_mitsuba, functools.partial(_mitsuba_here, v, mscenes[v], threads=threads),
+                                     spp=spp, seed=seed))
                   for v in ok_variants],
                  [(_mitsuba_label(v, b), {"renderer": "mitsuba", "strategy": MITSUBA_STRATEGY, "variant": v,
                                           "build": b},
-                   functools.partial(_run_mitsuba_elsewhere, run, spp=spp, seed=seed))
+                   functools.partial(_run_mitsuba, run, spp=spp, seed=seed))
                   for (v, b), run in same_isa.items()],
                  [(e.name, {"renderer": e.name, "strategy": EXTERNAL_STRATEGY, "variant": None},
                    functools.partial(_run_external, e, scene, spp=spp, seed=seed)) for e in externals])
@@ -283,14 +284,12 @@ def _run_ours(core, r, *, seed, **args):
             "nonfinite": res.nonfinite_samples}
 
 
-def _run_mitsuba(variant, mscene, r, *, spp, seed, threads):
+def _mitsuba_here(variant, mscene, *, spp, seed, threads):   # mitsuba_timed's answer, in this process
     mi, _ = use_variant(variant, threads)
-    s = batch_seeds(seed + r, 1)[0]
-    img, wall, cpu = timed(mitsuba_render_fn(mi, mscene, spp, s))
-    return {"mean": img, "secs": wall, "wall": wall, "cpu": cpu, "rays": None, "seed": s}
+    return timed(mitsuba_render_fn(mi, mscene, spp, seed))
 
 
-def _run_mitsuba_elsewhere(run, r, *, spp, seed):   # run: mitsuba_timed in a worker
+def _run_mitsuba(run, r, *, spp, seed):   # run: _mitsuba_here, or mitsuba_timed in a worker
     s = batch_seeds(seed + r, 1)[0]
     img, wall, cpu = run(spp=spp, seed=s)
     return {"mean": img, "secs": wall, "wall": wall, "cpu": cpu, "rays": None, "seed": s}
