@@ -41,9 +41,11 @@ MIN_EXPECTED = 5.0
 _LOBATTO_T = np.array([0.0, (1.0 - 1.0 / math.sqrt(5.0)) / 2.0, (1.0 + 1.0 / math.sqrt(5.0)) / 2.0, 1.0])
 _LOBATTO_W = np.array([1.0, 5.0, 5.0, 1.0]) / 12.0
 _PRECISION, _EDGE_PRECISION, _MAX_DEPTH = 0.05, 0.2, 12
-# Cells holding samples where the first level found no density are split this many levels
-# regardless (the nodes may have missed a sliver of support).
-_FORCE_DEPTH = 4
+# Cells holding samples where the first level's nodes found no density: a sliver of support
+# may lie between the nodes (the tip of a triangle light seen at a grazing angle is a line
+# covering 3e-5 of its cell, which no quadtree of nodes finds). Their integral is a stratified
+# Monte Carlo one of _SLIVER_SIDE^2 jittered points, seeded by the cell.
+_SLIVER_SIDE = 1024
 # Points handed to `sample` / `pdf` per call.
 _CHUNK = 1 << 20
 # Samples this close outside the grid's range (rounding) go to the edge cells; |d| may differ
@@ -139,10 +141,40 @@ def _rect_integrals(fn, grid: Grid, u0, du, p0, dp):
     return out, mixed, bad
 
 
+def _sliver_integrals(fn, grid: Grid, cells) -> tuple:
+    """Stratified Monte Carlo integrals of fn over ``cells`` of grid: one jittered point in
+    each of _SLIVER_SIDE^2 equal parts of a cell. ``(integrals, standard errors, bad values)``."""
+    du, dp = (grid.hi - grid.lo) / grid.n_u, 2.0 * math.pi / grid.n_phi
+    jac = 0.5 if grid.domain == "disk" else 1.0
+    k = np.arange(_SLIVER_SIDE)
+    rows = max(1, _CHUNK // _SLIVER_SIDE)
+    out, errs, bad = [], [], 0
+    for c in cells:
+        i, j = divmod(int(c), grid.n_phi)
+        rng = np.random.default_rng(int(c))
+        total = total_sq = 0.0
+        for r0 in range(0, _SLIVER_SIDE, rows):
+            r = k[r0:r0 + rows]
+            u = grid.lo + (i + (r[:, None] + rng.random((len(r), _SLIVER_SIDE))) / _SLIVER_SIDE) * du
+            ph = (j + (k[None, :] + rng.random((len(r), _SLIVER_SIDE))) / _SLIVER_SIDE) * dp
+            v = np.asarray(fn(np.ascontiguousarray(grid.points(u.ravel(), ph.ravel()))), dtype=np.float64)
+            wrong = ~np.isfinite(v) | (v < 0)
+            bad += int(wrong.sum())
+            v = np.where(wrong, 0.0, v)
+            total += float(v.sum())
+            total_sq += float((v * v).sum())
+        m = _SLIVER_SIDE * _SLIVER_SIDE
+        mean = total / m
+        out.append(mean * du * dp * jac)
+        errs.append(math.sqrt(max(total_sq / m - mean * mean, 0.0) / m) * du * dp * jac)
+    return np.array(out), np.array(errs), bad
+
+
 def integrate(fn: Callable[[np.ndarray], np.ndarray], grid: Grid, *, n: int = DEFAULT_N, observed=None):
     """Integral of ``fn`` (points -> values >= 0) over every cell of ``grid``, precise to a
     small fraction of the Poisson noise of ``n`` samples; cells with ``observed`` samples
-    but no density at the first level are refined regardless.
+    but no density at the first level's nodes are integrated by stratified Monte Carlo
+    (a sliver of support may lie between the nodes).
 
     Returns ``(integrals (n_u, n_phi), error_estimate, rectangles, bad_values)``
     (``bad_values``: non-finite or negative values of ``fn``).
@@ -156,10 +188,18 @@ def integrate(fn: Callable[[np.ndarray], np.ndarray], grid: Grid, *, n: int = DE
     dp = np.full(ncell, dp0)
     est, mixed, bad = _rect_integrals(fn, grid, u0, du, p0, dp)
     total = est.copy()
-    force = np.zeros(ncell, bool) if observed is None else (est == 0) & (np.asarray(observed).ravel() > 0)
     tol_cell = _PRECISION * np.sqrt(np.maximum(n * est, 1.0)) / n
     err = 0.0
     rects = ncell
+    if observed is not None:
+        sliver = np.nonzero((est == 0) & (np.asarray(observed).ravel() > 0))[0]
+        total[sliver], sliver_err, b = _sliver_integrals(fn, grid, sliver)
+        err += float(sliver_err.sum())
+        bad += b
+        # their nodes are all 0: the quadtree below has nothing to refine there
+        keep = np.ones(ncell, bool)
+        keep[sliver] = False
+        cell, u0, p0, du, dp, est, mixed = (x[keep] for x in (cell, u0, p0, du, dp, est, mixed))
     depth = 0
     while len(cell):
         depth += 1
@@ -173,7 +213,7 @@ def integrate(fn: Callable[[np.ndarray], np.ndarray], grid: Grid, *, n: int = DE
         sums = q.reshape(-1, 4).sum(axis=1)
         np.add.at(total, cell, sums - est)
         diff = np.abs(sums - est)
-        unconverged = (diff > tol_cell[cell] * 0.5 ** (depth - 1)) | (force & (depth < _FORCE_DEPTH))
+        unconverged = diff > tol_cell[cell] * 0.5 ** (depth - 1)
         qcell = np.repeat(cell, 4)
         edge = (qmixed | np.repeat(mixed, 4)) & (q > 0)
         edge_tol = _EDGE_PRECISION / _PRECISION * tol_cell[qcell] * 0.5 ** depth
@@ -183,7 +223,7 @@ def integrate(fn: Callable[[np.ndarray], np.ndarray], grid: Grid, *, n: int = DE
         err += float(diff[~unconverged].sum()) + float(q[edge & ~go].sum())
         if depth >= _MAX_DEPTH:
             err += float(diff[unconverged].sum())
-        cell, force = qcell[go], np.repeat(force, 4)[go]
+        cell = qcell[go]
         u0, p0, du, dp, est, mixed = qu0[go], qp0[go], qdu[go], qdp[go], q[go], qmixed[go]
     return total.reshape(grid.n_u, grid.n_phi), err, rects, bad
 
