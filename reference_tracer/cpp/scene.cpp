@@ -443,8 +443,11 @@ void Scene::intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interac
         // at a time; then the triangles, ray by ray, below the distance found.
         VPd t_max = VPd{} + kInf;
         VPl best = VPl{} - 1;
-        for (uint32_t s = 0; s < spheres_.size(); ++s)
-            best = spheres_[s].intersect_pack(p, t_max) ? VPl{} + int64_t(s) : best;
+        if (!spheres_.empty()) {
+            const VPd inv_a = Sphere::reciprocal_length_squared<VPd>({p.dx, p.dy, p.dz});
+            for (uint32_t s = 0; s < spheres_.size(); ++s)
+                best = spheres_[s].intersect_pack(p, inv_a, t_max) ? VPl{} + int64_t(s) : best;
+        }
         const PackSlabs slabs = pack_slabs_ ? PackSlabs(p) : PackSlabs();
         for (const QuadRun& run : quad_runs_) {
             if (run.boxed && slabs.may_hit(run.bounds, t_max) == 0) continue;  // no lane can meet its quads
@@ -487,8 +490,11 @@ void Scene::occluded_batch(size_t n, const Ray* const* rays, const double* t_max
         // Any hit answers, so a test's lowering of t_max changes no verdict.
         const unsigned all = (1u << m) - 1u;
         unsigned blocked = 0;
-        for (uint32_t s = 0; s < spheres_.size() && blocked != all; ++s)
-            blocked |= lane_mask(spheres_[s].intersect_pack(p, tm));
+        if (!spheres_.empty()) {
+            const VPd inv_a = Sphere::reciprocal_length_squared<VPd>({p.dx, p.dy, p.dz});
+            for (uint32_t s = 0; s < spheres_.size() && blocked != all; ++s)
+                blocked |= lane_mask(spheres_[s].intersect_pack(p, inv_a, tm));
+        }
         const PackSlabs slabs = pack_slabs_ ? PackSlabs(p) : PackSlabs();
         for (size_t i = 0; i < quad_runs_.size() && blocked != all; ++i) {
             const QuadRun& run = quad_runs_[i];

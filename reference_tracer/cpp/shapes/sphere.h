@@ -28,17 +28,28 @@ struct Sphere {
     // ray's operations in its order (the build forbids FMA contraction).
     template <typename F>
     [[gnu::always_inline]] MaskOf<F> hit(const F (&o)[3], const F (&d)[3], F t_min, F& t_max) const {
+        return hit(o, d, reciprocal_length_squared(d), t_min, t_max);
+    }
+    // 1 / |d|^2 of the rays, which a pack of rays shares across every sphere it meets: the
+    // test multiplies by it where it would divide by |d|^2 (a pack's divisions wait on the
+    // divider one after another, and most packs miss most spheres).
+    template <typename F>
+    static F reciprocal_length_squared(const F (&d)[3]) {
+        return 1.0 / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    }
+    template <typename F>
+    [[gnu::always_inline]] MaskOf<F> hit(const F (&o)[3], const F (&d)[3], F inv_a, F t_min, F& t_max) const {
         const F L[3] = {center.x - o[0], center.y - o[1], center.z - o[2]};
         const F a = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
         const F h = d[0] * L[0] + d[1] * L[1] + d[2] * L[2];
         // r^2 - |L - (h/a) d|^2 equals the discriminant / a, without catastrophic
         // cancellation when the sphere is small and far away.
-        const F ha = h / a;
+        const F ha = h * inv_a;
         const F f[3] = {L[0] - ha * d[0], L[1] - ha * d[1], L[2] - ha * d[2]};
         const F disc = radius * radius - (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
         const auto met = (disc < 0.0) == 0;
         // Lanes that all miss (most packs against a small light) skip the square root and
-        // the two divisions of the roots.
+        // the division of the roots.
         if (lane_mask(met) == 0) return MaskOf<F>{};
         const F c = (L[0] * L[0] + L[1] * L[1] + L[2] * L[2]) - radius * radius;
         // Lanes with disc < 0 take the square root of a negative number; they are masked
@@ -46,7 +57,7 @@ struct Sphere {
         const F q = h + copysign_lanes(sqrt_of(a * disc), h);
         const auto q_zero = q == 0.0;
         const F t0 = q_zero ? F{} : c / q;
-        const F t1 = q_zero ? F{} : q / a;
+        const F t1 = q_zero ? F{} : q * inv_a;
         const auto swap = t0 > t1;
         const F lo = swap ? t1 : t0, hi = swap ? t0 : t1;
         const MaskOf<F> hit0 = met & (lo > t_min) & (lo < t_max);
@@ -59,7 +70,10 @@ struct Sphere {
     bool intersect(const Ray& r, double t_min, double t_max, double& t_hit) const {
         return hit_one(*this, r, t_min, t_max, t_hit);
     }
-    VPl intersect_pack(const RayPack& r, VPd& t_max) const { return hit_pack(*this, r, t_max); }
+    VPl intersect_pack(const RayPack& r, VPd inv_a, VPd& t_max) const {
+        const VPd o[3] = {r.ox, r.oy, r.oz}, d[3] = {r.dx, r.dy, r.dz};
+        return hit(o, d, inv_a, VPd{}, t_max);
+    }
 
     // The exact point p on a sphere and its front-facing normal n, for a hit at p_approx:
     // the point is re-projected onto the surface to remove the error of o + t d. On lanes
