@@ -17,7 +17,7 @@ import numpy as np
 
 import reference_tracer as rt
 
-from .importer import _checked_film_size
+from .importer import checked_film_size
 from .translate import to_mitsuba
 from .variants import select_variant
 
@@ -208,7 +208,7 @@ def load_file(path, *, params=None, film_size=None):
         with file_resolver_scope():
             return mi.load_file(str(path), **params)
 
-    width, height = _checked_film_size(film_size)
+    width, height = checked_film_size(film_size)
     with file_resolver_scope(os.path.dirname(os.path.abspath(str(path)))):
         cfg = mi.parser.ParserConfig(mi.variant())
         state = mi.parser.parse_file(cfg, str(path), **params)

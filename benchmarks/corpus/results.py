@@ -43,7 +43,7 @@ def corpus_build() -> dict:
     h.update(info["build"].encode())
     here = Path(__file__).resolve().parent
     gate = here.parent / "gate"
-    for path in [*sorted((here.parent.parent / "mitsuba_scenes").glob("*.py")), *sorted(here.glob("*.py")),
+    for path in [*sorted((here.parent.parent / "mitsuba_scenes").rglob("*.py")), *sorted(here.glob("*.py")),
                  gate / "agreement.py", gate / "filtered.py"]:
         h.update(path.name.encode() + b"\0" + path.read_bytes())
     try:

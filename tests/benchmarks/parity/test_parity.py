@@ -60,9 +60,9 @@ def test_cli_passes_on_hand_written_files(capsys):
 def test_gate_stops_on_a_parity_failure_with_maps(tmp_path, capsys, monkeypatch):
     """A translation error in the importer (fov axis ignored): the gate renders nothing."""
     import benchmarks.gate.suite as suite
-    import mitsuba_scenes.importer as importer
+    import mitsuba_scenes.importer.sensor as sensor
 
-    monkeypatch.setattr(importer, "_vfov", lambda ctx, node, fov, axis, w, h: fov)
+    monkeypatch.setattr(sensor, "_vfov", lambda ctx, node, fov, axis, w, h: fov)
     monkeypatch.setattr(suite, "run_gate", lambda *a, **k: pytest.fail("the gate rendered despite parity"))
     code = main(["gate", "--scene", str(XML / "camera_axes.xml"), "--width", "8", "--spp", "4",
                  "--out", str(tmp_path)])
