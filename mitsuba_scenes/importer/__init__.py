@@ -40,4 +40,5 @@ from .load import MAX_XML_DEPTH, check_xml_depth, from_mitsuba
 from .sensor import checked_film_size
 from .values import IOR_TABLE, UnsupportedSceneError
 
-__all__ = ["from_mitsuba", "UnsupportedSceneError", "IOR_TABLE", "check_xml_depth", "MAX_XML_DEPTH", "checked_film_size"]
+__all__ = ["from_mitsuba", "UnsupportedSceneError", "IOR_TABLE", "check_xml_depth", "MAX_XML_DEPTH",
+           "checked_film_size"]

@@ -1,4 +1,6 @@
-"""Mitsuba BSDFs as our materials: diffuse, conductors, dielectrics, plastics, ``twosided`` and ``mask``."""
+"""Mitsuba BSDFs as our materials: diffuse, conductors, dielectrics, plastics, ``twosided`` and
+``mask``.
+"""
 from __future__ import annotations
 
 import math

@@ -1,4 +1,6 @@
-"""Mitsuba emitters as our lights: ``area``, ``constant``, ``envmap``, ``point``, ``spot``, ``directional`` and ``projector``."""
+"""Mitsuba emitters as our lights: ``area``, ``constant``, ``envmap``, ``point``, ``spot``,
+``directional`` and ``projector``.
+"""
 from __future__ import annotations
 
 import math

@@ -1,4 +1,6 @@
-""":func:`from_mitsuba`: parse a scene with Mitsuba's own parser, walk it, and return our scene or refuse it whole."""
+""":func:`from_mitsuba`: parse a scene with Mitsuba's own parser, walk it, and return our scene or
+refuse it whole.
+"""
 from __future__ import annotations
 
 import contextlib

@@ -1,4 +1,6 @@
-"""Mitsuba shapes as ours: ``sphere``, ``rectangle``, ``cube``, ``obj``, ``ply`` and mesh objects of a dict, with the vertex normals Mitsuba's loaders give."""
+"""Mitsuba shapes as ours: ``sphere``, ``rectangle``, ``cube``, ``obj``, ``ply`` and mesh objects
+of a dict, with the vertex normals Mitsuba's loaders give.
+"""
 from __future__ import annotations
 
 import contextlib

@@ -1,4 +1,6 @@
-"""Colours and textures of the importer: constant, ``checkerboard``, ``bitmap`` and ``mesh_attribute`` values, and where each may be used."""
+"""Colours and textures of the importer: constant, ``checkerboard``, ``bitmap`` and
+``mesh_attribute`` values, and where each may be used.
+"""
 from __future__ import annotations
 
 import numpy as np

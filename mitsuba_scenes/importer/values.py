@@ -1,4 +1,6 @@
-"""The importer's walk of a parsed scene: its context (problems found, files, textures) and the readers of plain values (numbers, booleans, spectra, indices of refraction, matrices)."""
+"""The importer's walk of a parsed scene: its context (problems found, files, textures) and the
+readers of plain values (numbers, booleans, spectra, indices of refraction, matrices).
+"""
 from __future__ import annotations
 
 import math
@@ -33,6 +35,9 @@ class UnsupportedSceneError(ValueError):
 
 
 class Context:
+    """The state of one import: Mitsuba's module and parser state, the problems found so far,
+    the textures made, and the folders where the scene's files are found."""
+
     def __init__(self, mi, state):
         self.mi, self.state, self.problems = mi, state, []
         self.textures = {}     # node index -> its texture (one object for every use), or None
