@@ -1,19 +1,29 @@
 """The regression gate's printed tables (a gate run's verdicts and the calibration), and the
-wide console that the commands print their tables on."""
+consoles and progress bars the commands print on."""
 from __future__ import annotations
 
 from benchmarks.constants import CLOSED_FORM
 
-__all__ = ["gate_table", "calibration_table", "wide_console"]
+__all__ = ["gate_table", "calibration_table", "wide_console", "progress_bar"]
 
 
-def wide_console(width: int, *, soft_wrap: bool = False):
+def wide_console(width: int, *, soft_wrap: bool = False, quiet: bool = False):
     """A rich console on stdout, at least ``width`` wide where it is no terminal (logs and pipes:
     one table row per line; ``soft_wrap``: no line cut at all)."""
     from rich.console import Console
 
-    console = Console()
-    return console if console.is_terminal else Console(width=max(console.width, width), soft_wrap=soft_wrap)
+    console = Console(quiet=quiet)
+    return console if console.is_terminal else Console(width=max(console.width, width), soft_wrap=soft_wrap,
+                                                       quiet=quiet)
+
+
+def progress_bar(args, label: str = "{task.description}", *, stderr: bool = True):
+    """A transient rich progress bar (spinner, ``label``, bar, done/total, time), silent with ``--quiet``."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    return Progress(SpinnerColumn(), TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                    console=Console(stderr=stderr, quiet=args.quiet), transient=True)
 
 
 def gate_table(report):
