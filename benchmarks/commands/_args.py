@@ -1,10 +1,10 @@
-"""The one vocabulary of ``rtbench``'s options (docs/rtbench.md, Options: one name, one meaning) and
-the checks the commands share; a subcommand chooses its own default only for :data:`PER_COMMAND_DEFAULTS`.
+"""The one vocabulary of ``rtbench``'s options (docs/rtbench.md, Options: one name, one meaning), and the
+checks and consoles the commands share; a subcommand chooses its own default only for :data:`PER_COMMAND_DEFAULTS`.
 
 >>> p = argparse.ArgumentParser(formatter_class=HelpFormatter)
 >>> add_size_args(p, width=32)
 >>> a = check(p.parse_args(["--width", "48"]))
->>> a.width, resolve_height(a)
+>>> a.width, a.height
 (48, 48)
 """
 from __future__ import annotations
@@ -91,40 +91,43 @@ class ListAction(argparse.Action):
         setattr(namespace, self.dest, (() if untouched else tuple(current)) + name_list(values))
 
 
-#: dest -> (option, smallest value) of the integer options :func:`check` range-checks.
-_MINIMUM = {"width": ("--width", 1), "height": ("--height", 1), "spp": ("--spp", 1), "seed": ("--seed", 0),
-            "seeds": ("--seeds", 1), "threads": ("--threads", 1), "reference_spp": ("--reference-spp", 1),
-            "tail_spp": ("--tail-spp", 0), "repeats": ("--repeats", 1), "batches": ("--batches", 1),
-            "ray_count": ("--ray-count", 1), "scaling_spp": ("--scaling-spp", 1), "samples": ("--samples", 1)}
-_INT_LISTS = {"spps": "--spps", "triangles": "--triangles", "resolutions": "--resolutions",
-              "scaling_depths": "--scaling-depths", "scaling_triangles": "--scaling-triangles"}
+#: dest -> smallest value of the integer options :func:`check` range-checks (the option is ``--dest``).
+_MINIMUM = {"width": 1, "height": 1, "spp": 1, "seed": 0, "seeds": 1, "threads": 1, "reference_spp": 1, "tail_spp": 0,
+            "repeats": 1, "batches": 1, "ray_count": 1, "scaling_spp": 1, "samples": 1}
+_INT_LISTS = ("spps", "triangles", "resolutions", "scaling_depths", "scaling_triangles")
 
 
 def check(args):
-    """Range-check and normalise the shared options of ``args`` in place (integer lists and
-    ``--variant`` become tuples); ``ValueError`` (exit 2) on bad input. Returns ``args``.
+    """Range-check and normalise the shared options of ``args`` in place (integer lists and ``--variant``
+    become tuples, ``--height`` defaults to ``--width``); ``ValueError`` (exit 2) on bad input. Returns ``args``.
 
     >>> check(argparse.Namespace(width=0))
     Traceback (most recent call last):
     ...
     ValueError: --width must be >= 1, got 0
     """
-    for dest, (option, low) in _MINIMUM.items():
+    for dest, low in _MINIMUM.items():
         v = getattr(args, dest, None)
         if v is not None and not isinstance(v, bool) and v < low:
-            raise ValueError(f"{option} must be >= {low}, got {v}")
-    for dest, option in _INT_LISTS.items():
+            raise ValueError(f"--{dest.replace('_', '-')} must be >= {low}, got {v}")
+    for dest in _INT_LISTS:
         if getattr(args, dest, None) is not None:
-            setattr(args, dest, int_list(getattr(args, dest), option=option))
+            setattr(args, dest, int_list(getattr(args, dest), option=f"--{dest.replace('_', '-')}"))
     if getattr(args, "height", None) is not None and getattr(args, "width", 0) is None:
         raise ValueError("--height needs --width")
+    if getattr(args, "height", 0) is None:
+        args.height = args.width
     alpha = getattr(args, "alpha", None)
     if alpha is not None and not 0 < alpha < 1:
         raise ValueError(f"--alpha must be in (0, 1), got {alpha:g}")
     if getattr(args, "variant", None) is not None:
         args.variant = name_list(args.variant)
     if getattr(args, "format", None) is not None:
-        args.format = formats(args.format)
+        args.format = name_list(args.format)
+        bad = [n for n in args.format if n not in FORMATS]
+        if bad or not args.format:
+            raise ValueError(f"--format: unknown format(s) {', '.join(bad) or '(none)'}; choose from "
+                             f"{', '.join(FORMATS)}")
     if getattr(args, "metric", None) is not None:
         from benchmarks.metrics import require_metric
 
@@ -192,11 +195,6 @@ def add_size_args(parser, *, width: int | None) -> None:
                         help="image width in pixels" + (" (default: the scene's own)" if width is None else ""))
     parser.add_argument("--height", type=int, default=None, metavar="PX",
                         help="image height in pixels (default: the width)")
-
-
-def resolve_height(args) -> int | None:
-    """``args.height``, or the width when no height was given."""
-    return args.width if args.height is None else args.height
 
 
 def add_spps_arg(parser, *, default) -> None:
@@ -272,20 +270,6 @@ def resolve_threads(threads) -> int:
     return int(threads) if threads else default_threads()
 
 
-def formats(text) -> tuple:
-    """``--format``'s value as a tuple of known formats; ``ValueError`` on an unknown one.
-
-    >>> formats("html, csv")
-    ('html', 'csv')
-    """
-    names = name_list(text)
-    bad = [n for n in names if n not in FORMATS]
-    if bad or not names:
-        raise ValueError(f"--format: unknown format(s) {', '.join(bad) or '(none)'}; choose from "
-                         f"{', '.join(FORMATS)}")
-    return names
-
-
 def add_scene_path_args(parser) -> None:
     """``--scene PATH`` and ``--param NAME=VALUE`` (both repeatable): user scenes beside the suite's, registered
     (:mod:`mitsuba_scenes.scene_files`) and then accepted wherever a suite name is."""
@@ -325,3 +309,22 @@ def resolve_scenes(args, *, suite_names=None, default=None, known=False, require
     if required and not names:
         raise ValueError("no scene: give suite scene names or --scene PATH")
     return list(dict.fromkeys(names or default or []))
+
+
+def wide_console(width: int, *, soft_wrap: bool = False, quiet: bool = False):
+    """A rich console on stdout, at least ``width`` wide where it is no terminal (logs and pipes:
+    one table row per line; ``soft_wrap``: no line cut at all)."""
+    from rich.console import Console
+
+    console = Console(quiet=quiet)
+    return console if console.is_terminal else Console(width=max(console.width, width), soft_wrap=soft_wrap,
+                                                       quiet=quiet)
+
+
+def progress_bar(args, label: str = "{task.description}", *, stderr: bool = True):
+    """A transient rich progress bar (spinner, ``label``, bar, done/total, time), silent with ``--quiet``."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    return Progress(SpinnerColumn(), TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                    console=Console(stderr=stderr, quiet=args.quiet), transient=True)

@@ -32,7 +32,6 @@ def run(args) -> int:
     from benchmarks.chi2.pearson import sidak
     from benchmarks.chi2.plot import file_name, save_histograms
     from benchmarks.chi2.runner import run_routine
-    from benchmarks.commands._gate_tables import progress_bar
     from benchmarks.store import write_json
     from benchmarks.text import terminal, text_table
 
@@ -42,7 +41,7 @@ def run(args) -> int:
         return 0
     per_test = sidak(args.alpha, len(routines))
     rows = []
-    with progress_bar(args, stderr=False) as progress:
+    with A.progress_bar(args, stderr=False) as progress:
         task = progress.add_task("chi2", total=len(routines))
         for r in routines:
             progress.update(task, description=f"chi2 {r.label}")

@@ -57,24 +57,22 @@ def run(args) -> int:
     from pathlib import Path
 
     from reports import summary_table
-    from benchmarks.commands._gate_tables import wide_console
     from benchmarks.commands.parity import check_user_scenes
     from benchmarks.external import register_external
     from benchmarks.sweep import Group, run_sweep
 
-    height = A.resolve_height(args)
     scenes = A.resolve_scenes(args, suite_names=args.scenes, required=True)
-    out = args.out if args.out != f"{DEFAULT_OUT}/SCENES_WxH" else default_out(scenes, args.width, height)
+    out = args.out if args.out != f"{DEFAULT_OUT}/SCENES_WxH" else default_out(scenes, args.width, args.height)
     # AOV parity of the scene files first: one that translates differently is not rendered (maps in out/parity)
     if not check_user_scenes(scenes, Path(out) / "parity", command="curves", skipped="nothing was rendered"):
         return 1
     ref_spp = args.reference_spp if args.reference_spp is not None else max(4096, 32 * max(args.spps))
     group = Group(scenes=tuple(scenes), strategies=tuple(args.strategies), spps=tuple(args.spps), seeds=args.seeds,
-                  width=args.width, height=height, mitsuba=not args.no_mitsuba, reference_spp=ref_spp,
+                  width=args.width, height=args.height, mitsuba=not args.no_mitsuba, reference_spp=ref_spp,
                   externals=tuple(register_external(cmd).name for cmd in args.renderer))
     result = run_sweep([group], out=out, **sweep_kwargs(args, [group]))
     if not args.quiet:
-        console = wide_console(120, soft_wrap=True)
+        console = A.wide_console(120, soft_wrap=True)
         console.print(summary_table(result.store, metric=args.metric), highlight=False, markup=False)
     print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
           f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", flush=True)

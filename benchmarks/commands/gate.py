@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from benchmarks.commands import _args as A
+from benchmarks.constants import CLOSED_FORM
 
 HELP = ("regression gate: render the suite with our tracer (mis always, plus any --strategies; light is biased "
         "on purpose and fails), test it against the cached Mitsuba references (pixel, tile, image and "
@@ -68,13 +69,12 @@ def run(args) -> int:
         raise ValueError("--compare-pairs goes with --calibrate (it measures compare's false-alarm rate)")
     if args.calibrate:
         return _calibrate(args)
-    from benchmarks.commands._gate_tables import gate_table, progress_bar, wide_console
     from benchmarks.commands.parity import check_user_scenes
     from benchmarks.external import register_external
     from benchmarks.gate import run_gate, write_p_images
     from benchmarks.store import write_json
 
-    console = wide_console(160)
+    console = A.wide_console(160)
     scenes = A.resolve_scenes(args, suite_names=args.scenes) or None
     if args.write_reference:
         return _write_reference(args, scenes)
@@ -85,7 +85,7 @@ def run(args) -> int:
     if len(args.renderer) > 1:
         raise ValueError("gate takes one --renderer at a time")
     external = register_external(args.renderer[0]) if args.renderer else None
-    progress = progress_bar(args)
+    progress = A.progress_bar(args)
     state = {}
 
     def on_start(names, strategies):  # run_gate has checked its inputs: nothing is rendered yet
@@ -153,7 +153,6 @@ def _write_reference(args, scenes) -> int:
 
 def _calibrate(args) -> int:
     """``rtbench gate --calibrate``: the false-alarm table (:func:`benchmarks.gate.calibrate`)."""
-    from benchmarks.commands._gate_tables import calibration_table, progress_bar, wide_console
     from benchmarks.constants import UNBIASED_STRATEGIES
     from benchmarks.gate import calibrate
     from benchmarks.gate import resolve_scenes as resolve_gate_scenes
@@ -163,10 +162,10 @@ def _calibrate(args) -> int:
     spps = list(args.spps)
     strategies = list(args.strategies) or list(UNBIASED_STRATEGIES)
     names = resolve_gate_scenes(A.resolve_scenes(args, suite_names=args.scenes) or None)
-    console = wide_console(160)
-    progress = progress_bar(args, "calibration")
+    console = A.wide_console(160)
+    progress = A.progress_bar(args, "calibration")
     config = {"scenes": list(names), "strategies": strategies, "spps": spps, "seeds": args.seeds,
-              "width": args.width, "height": args.height or args.width, "reference_spp": args.reference_spp,
+              "width": args.width, "height": args.height, "reference_spp": args.reference_spp,
               "tail_spp": args.tail_spp, "variant": A.single_variant(args), "build": rt_build_id(),
               "compare_pairs": bool(args.compare_pairs)}
     rows = _resumed_rows(args.json, config, alpha=args.alpha) if args.json else []
@@ -225,3 +224,51 @@ def _resumed_rows(path, config: dict, *, alpha: float) -> list:
     if diff:
         raise ValueError(f"--json {path} holds a calibration with other settings: {diff}; give another path")
     return rows
+
+
+def gate_table(report):
+    """The verdict of every comparison of a :class:`benchmarks.gate.GateReport`, as a rich table."""
+    from rich.markup import escape
+    from rich.table import Table
+
+    c0 = report.cases[0]
+    table = Table(title=f"rtbench gate: {c0.width}x{c0.height}, {c0.spp} spp, seed {c0.seed}; alpha {report.alpha:g} "
+                        f"for the run = {report.case_alpha:.3g} per comparison")
+    for col in ("scene", "strategy", "reference", "verdict", "p-value", "failed levels", "relative bias +- se",
+                "catches (global / 8x8 tile)", "where (strongest evidence)"):
+        table.add_column(col, overflow="fold")
+    for c in report.cases:
+        r = c.result
+        verdict = {"pass": "[green]pass[/]", "fail": "[bold red]FAIL[/]",
+                   "undetermined": f"[yellow]undetermined[/] (needs ~{r.spp_needed} spp)"}[r.verdict]
+        ref = (CLOSED_FORM if c.reference.source == CLOSED_FORM else
+               f"{c.reference.variant} {c.reference.spp} spp" if c.reference.source == "store" else
+               f"Mitsuba {c.reference.spp} spp")
+        table.add_row(c.scene, c.strategy, ref, verdict, f"{r.p_value:.3g}", ", ".join(r.failed_levels) or "-",
+                      f"{r.relative_bias:+.2%} +- {r.relative_bias_se:.2%}",
+                      f"{_pct(r.min_detectable_bias)} / {_pct(r.min_detectable_tile_bias)}",
+                      escape(c.where()) if c.failed else "-")
+    return table
+
+
+def _pct(v: float) -> str:
+    """A relative bias as a percentage; '-' where the level tests nothing."""
+    return f"{v:.2%}" if v == v else "-"
+
+
+def calibration_table(rows, *, alpha: float, pairs: bool = False):
+    """The false-alarm table of :func:`benchmarks.gate.calibrate`'s rows, as a rich table
+    (``pairs``: of ``rtbench compare``'s verdict on pairs of renders)."""
+    from rich.table import Table
+
+    what = "rtbench compare's verdicts on pairs of renders of this build" if pairs else "verdicts on unbiased renders"
+    table = Table(title=f"rtbench gate --calibrate: {what}, alpha {alpha:g} per comparison")
+    for col in ("scene", "strategy", "spp", "seeds", "pass", "fail", "undetermined", "false alarms (95% CI)",
+                "consistent", "undetermined needs ~spp", "catches (global)"):
+        table.add_column(col)
+    for r in rows:
+        table.add_row(r.scene, r.strategy, str(r.spp), str(r.seeds), str(r.passed), str(r.failed), str(r.undetermined),
+                      f"{r.false_alarm_rate:.3f} ({r.ci_low:.3f}-{r.ci_high:.3f})",
+                      "[green]yes[/]" if r.consistent else "[bold red]NO[/]",
+                      "-" if r.spp_needed is None else str(r.spp_needed), _pct(r.min_detectable_bias))
+    return table

@@ -41,7 +41,7 @@ def run(args) -> int:
     for scene_name in names:
         scene = get_scene(scene_name)
         w = args.width or scene.camera.width
-        h = args.height or (args.width or scene.camera.height)  # height defaults to the width
+        h = args.height or scene.camera.height
         scene = scene.with_camera_size(w, h)
         t0 = time.perf_counter()
         ref = reference(scene, spp=args.spp, seed=args.seed, variant=variant, threads=args.threads,

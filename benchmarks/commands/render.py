@@ -57,7 +57,7 @@ def run(args) -> int:
                          f"choose from {', '.join(rt.STRATEGIES)}")
     rt.imageio.check_exposure(args.exposure)  # before the render, not after it
     variant = A.single_variant(args)
-    params = {} if args.width is None else {"width": args.width, "height": A.resolve_height(args)}
+    params = {} if args.width is None else {"width": args.width, "height": args.height}
     names = A.resolve_scenes(args, suite_names=[args.scenes] if args.scenes else [])
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

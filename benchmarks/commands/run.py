@@ -43,7 +43,6 @@ def run(args) -> int:
     from rich.console import Console
 
     import reports
-    from benchmarks.commands._gate_tables import wide_console
     from benchmarks.commands.curves import sweep_kwargs
     from benchmarks.sweep import run_sweep
     from benchmarks.sweep.presets import describe_preset, escalates_tails, preset_groups
@@ -72,7 +71,7 @@ def run(args) -> int:
     finally:
         bar.stop()
     if not args.quiet:
-        _print_headline(result.store, console=wide_console(140, soft_wrap=True))
+        _print_headline(result.store, console=A.wide_console(140, soft_wrap=True))
     if page is not None:
         print(f"report: {page.resolve()}", flush=True)
     total = process_seconds()

@@ -88,7 +88,6 @@ def markdown(report) -> str:
 
 
 def run(args) -> int:
-    from benchmarks.commands._gate_tables import wide_console
     from benchmarks.gate.suite import names_of
     from benchmarks.selftest import CATALOGUE, run_selftest
     from benchmarks.store import write_json
@@ -101,7 +100,7 @@ def run(args) -> int:
         return 0
     names = names_of(",".join(args.mutants)) or None
     A.warn_tail_spp("selftest", args.tail_spp)
-    if args.height is not None and args.height != args.width:
+    if args.height != args.width:
         raise ValueError("selftest renders square images: --height must equal --width")
     spp_ladder = A.int_list(args.spp_ladder, option="--spp-ladder") if args.spp_ladder.strip() else []
     log = A.stderr_log(args)
@@ -114,7 +113,7 @@ def run(args) -> int:
     report = run_selftest(names, spp=args.spp, width=args.width, ref_spp=args.reference_spp, tail_spp=args.tail_spp,
                           spp_ladder=spp_ladder, seed=args.seed, controls=not args.no_controls,
                           threads=args.threads, cache=args.cache, on_row=on_row, log=log)
-    console = wide_console(200)
+    console = A.wide_console(200)
     if not args.quiet:
         console.print(selftest_table(report))
     console.print(summary_line(report) + f"; {report.seconds:.0f} s", highlight=False)

@@ -281,13 +281,12 @@ def scaling_svg(result) -> bytes:
 
 def run(args) -> int:
     from benchmarks import speed
-    from benchmarks.commands._gate_tables import wide_console
     from benchmarks.external import register_external
     from benchmarks.store.jsonio import write_json
     from mitsuba_scenes import list_scenes
 
-    height, threads = A.resolve_height(args), A.resolve_threads(args.threads)
-    console = wide_console(220, quiet=args.quiet)
+    threads = A.resolve_threads(args.threads)
+    console = A.wide_console(220, quiet=args.quiet)
     log = None if args.quiet else (lambda line: console.print(line, style="dim", markup=False, highlight=False))
     do_render = args.render or not (args.rays or args.scaling)
     for given, what in ((args.scenes or args.scene_files, "scenes are only used by the render benchmark"),
@@ -312,7 +311,7 @@ def run(args) -> int:
     out = {}
     if do_render:
         out["render"] = res = speed.render_benchmark(
-            scenes, width=args.width, height=height, spp=args.spp, threads=threads, repeats=args.repeats,
+            scenes, width=args.width, height=args.height, spp=args.spp, threads=threads, repeats=args.repeats,
             strategies=list(args.strategies), integrators=list(args.integrators), variants=list(args.variant),
             max_depth=args.max_depth, rr_depths=args.rr_depth, reference=args.reference_kind,
             reference_spp=args.reference_spp, seed=args.seed, cache=args.cache, log=log, externals=externals,
