@@ -1,8 +1,8 @@
 """``rtbench``: the command-line entry point, one module per subcommand in ``benchmarks.commands``.
 
-Errors are handled here once for every command: an exception becomes its exit status
-(:func:`benchmarks.errors.exit_code`) and one line on stderr (``--debug``: the traceback).
-Integer options are bounded here (:func:`bounded_int`), before a value reaches the C++ core.
+Here, once for every command: integer options are bounded before a value reaches the C++ core,
+the shared options checked (:func:`benchmarks.commands._args.check`), and an exception becomes
+its exit status (:func:`benchmarks.errors.exit_code`) and one line on stderr (``--debug``: the traceback).
 """
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import functools  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
 import traceback  # noqa: E402
@@ -20,7 +21,7 @@ from pathlib import Path  # noqa: E402
 
 from reference_tracer.validation import INT_MAX, SEED_MAX  # noqa: E402
 
-from benchmarks.commands._args import HelpFormatter  # noqa: E402  (every default shown in --help)
+from benchmarks.commands._args import HelpFormatter, check  # noqa: E402
 from benchmarks.errors import EXIT_CODES_HELP, EXIT_USAGE, exit_code, one_line  # noqa: E402
 from benchmarks.text import terminal  # noqa: E402
 
@@ -48,15 +49,7 @@ def bounded_int(text: str, *, maximum: int = INT_MAX) -> int:
     return value
 
 
-def _seed_int(text: str) -> int:
-    return bounded_int(text, maximum=SEED_MAX)
-
-
-def _bound_int_options(parser: argparse.ArgumentParser) -> None:
-    """Give every ``type=int`` option of ``parser`` a bounded type (seeds: 64 bits)."""
-    for action in parser._actions:  # noqa: SLF001 - argparse has no public walk over options
-        if action.type is int:
-            action.type = _seed_int if "seed" in action.dest else bounded_int
+_seed_int = functools.partial(bounded_int, maximum=SEED_MAX)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -80,7 +73,9 @@ def build_parser() -> argparse.ArgumentParser:
         module.add_arguments(p)
         p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                        help="show the traceback of an error (default: off; same as `rtbench --debug`)")
-        _bound_int_options(p)
+        for action in p._actions:  # every type=int option bounded (seeds: 64 bits)
+            if action.type is int:
+                action.type = _seed_int if "seed" in action.dest else bounded_int
         p.set_defaults(_run=module.run)
     return parser
 
@@ -92,6 +87,7 @@ def main(argv=None) -> int:
         parser.print_help()
         return EXIT_USAGE
     try:
+        check(args)
         _probe_output_files(args)
         return int(args._run(args) or 0)
     except KeyboardInterrupt as exc:

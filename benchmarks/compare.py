@@ -1,10 +1,6 @@
-"""A/B comparison of two results stores, curve by curve (``rtbench compare``; docs/rtbench.md,
-Comparing builds): both RMSE curves, the slope difference B - A and the efficiency ratio
-B / A with 95% percentile-bootstrap intervals (seeds resampled within each spp, a fixed
-generator seed), and the gate's verdict of B's top-spp images against A's, at a run-wide
-false-alarm rate split over the curves. The verdict borrows B's estimator at a high budget
-where it is known (:func:`estimator_knowledge`).
-"""
+"""A/B comparison of two results stores, curve by curve (``rtbench compare``; docs/rtbench.md, Comparing
+builds): the slope difference B - A and efficiency ratio B / A with 95% percentile-bootstrap intervals (seeds
+resampled within each spp), and the gate's verdict of B's top-spp images against A's (run-wide alpha)."""
 from __future__ import annotations
 
 import collections
@@ -96,9 +92,7 @@ def _slope(points: dict, pick) -> float | None:
         if m > 0:
             spps.append(spp)
             rmses.append(math.sqrt(m))
-    if len(spps) < 2:
-        return None
-    return convergence_slope(spps, rmses).slope
+    return convergence_slope(spps, rmses).slope if len(spps) >= 2 else None
 
 
 def _efficiency(pts, pick) -> float | None:

@@ -1,11 +1,6 @@
-"""Tone mapping: how a linear-radiance image becomes a display image, for SSIM and the report.
-
-:func:`exposure_from_reference` (SSIM's linear scale: the reference's 99th-percentile
-luminance to white, docs/conventions.md), :func:`reference_exposure` (the report's, in
-stops) and :func:`to_display`, the tracer's one tone curve (scale, clip, sRGB). The same
-exposure is applied to a test image and its reference, so a too-bright render is not
-normalised away.
-"""
+"""Tone mapping of linear radiance for SSIM and the report (docs/conventions.md): the same exposure,
+from the reference, is applied to a test image and its reference, so a too-bright render is not
+normalised away; :func:`to_display` is the tracer's one tone curve (scale, clip, sRGB)."""
 from __future__ import annotations
 
 import math

@@ -1,7 +1,5 @@
-"""The harness's error class and the exit status of each kind of failure (docs/rtbench.md,
-Exit status and errors): 0 pass; 1 a verdict failed; 2 usage or bad input (``ValueError``,
-:class:`InputError`, ``OverflowError``); 3 internal or I/O error (any other exception);
-130 interrupted. Codes 2 and 3 come with one line on stderr (:func:`one_line`).
+"""The harness's error class and the exit status of each kind of failure (docs/rtbench.md, Exit status and
+errors; :data:`EXIT_CODES_HELP`): usage or bad input (``ValueError``, ``OverflowError``) is 2, any other error 3.
 
 >>> exit_code(ValueError("--spp must be >= 1")), exit_code(OSError(28, "No space left on device"))
 (2, 3)

@@ -47,9 +47,9 @@ class ExternalRenderer:
         return "ext-" + hashlib.sha256(self.template.encode()).hexdigest()[:12]
 
 
-def register_external(template: str, name: str | None = None) -> ExternalRenderer:
-    """Check a command template and register it under ``name`` (default: ``ext-`` and the
-    program's file name); returns the :class:`ExternalRenderer`.
+def register_external(template: str) -> ExternalRenderer:
+    """Check a command template and register it under ``ext-`` and the program's file name (a
+    number added for another template of the same program); returns the :class:`ExternalRenderer`.
 
     >>> register_external("mitsuba -D spp={spp} -o {out} {scene_xml}").name
     'ext-mitsuba'
@@ -72,7 +72,7 @@ def register_external(template: str, name: str | None = None) -> ExternalRendere
     words = shlex.split(template)
     if not words:
         raise ValueError("--renderer is empty")
-    base = name or "ext-" + re.sub(r"[^A-Za-z0-9_.-]+", "_", os.path.basename(words[0]))
+    base = "ext-" + re.sub(r"[^A-Za-z0-9_.-]+", "_", os.path.basename(words[0]))
     entry = ExternalRenderer(base, template)
     k = 2
     while entry.name in _REGISTRY and _REGISTRY[entry.name].template != template:
@@ -93,8 +93,7 @@ def registered_externals() -> list:
 
 def restore_externals(entries) -> None:
     """Register ``entries`` as they are (Dask workers get the client's renderers this way)."""
-    for e in entries:
-        _REGISTRY[e.name] = e
+    _REGISTRY.update((e.name, e) for e in entries)
 
 
 def clear_externals() -> None:

@@ -1,13 +1,6 @@
-"""Files named by data: the one slug for file names, and paths confined to their folder.
-
-Everything read from disk is untrusted (``SECURITY.md``): a name read from it becomes a file
-name only through :func:`slug`, a path read from it is opened only through
-:func:`confined_file` and :func:`open_regular` (a regular file, nothing else: a FIFO would
-block a reader, a device feed it without end).
-
->>> slug("cornell_box", "32x32", "rmse"), slug("../../etc/passwd")
-('cornell_box_32x32_rmse', 'etc_passwd')
-"""
+"""Files named by data (untrusted, ``SECURITY.md``): a name read from disk becomes a file name only through
+:func:`slug`, a path read from it is opened only through :func:`confined_file` and :func:`open_regular`
+(a regular file, nothing else: a FIFO would block a reader, a device feed it without end)."""
 from __future__ import annotations
 
 import hashlib
@@ -35,8 +28,8 @@ def slug(*parts) -> str:
     go (no hidden files, no ``..``); a name over :data:`MAX_SLUG` is cut and ends with 8 hex
     digits of a hash of the whole; an empty result is ``"x"``.
 
-    >>> slug("a/b", None, 3), len(slug("s" * 300)) == MAX_SLUG
-    ('a_b_3', True)
+    >>> slug("a/b", None, 3), slug("../../etc/passwd"), len(slug("s" * 300)) == MAX_SLUG
+    ('a_b_3', 'etc_passwd', True)
     """
     text = "_".join(str(p) for p in parts if p is not None)
     name = _UNSAFE.sub("_", text).strip("._-") or "x"

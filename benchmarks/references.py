@@ -1,11 +1,6 @@
 """High-spp Mitsuba references (``path`` in independent batches, so with a per-sample variance
-that error figures subtract), and the closed forms that replace them where Mitsuba is wrong.
-
-The cache (docs/rtbench.md, The reference cache) keys an entry by the scene's content hash,
-Mitsuba's version and variant, spp, seed, batches and format: ``<key>.mean.exr``,
-``<key>.var.exr`` and, written last, ``<key>.json`` with their checksums. An entry that does
-not agree with its key and the scene's shape is rendered again, under a file lock.
-"""
+that error figures subtract), cached (docs/rtbench.md, The reference cache), and the closed forms
+that replace them where Mitsuba is wrong."""
 from __future__ import annotations
 
 import contextlib
@@ -49,12 +44,7 @@ CLOSED_FORM_REASONS = {
 class Reference(ImageEstimate):
     """A reference image: an :class:`reference_tracer.ImageEstimate` (``source`` ``"mitsuba"`` or
     :data:`CLOSED_FORM`) with its cache entry (``key``, the EXR ``path`` and ``variance_path``),
-    whether this call found it ``cached``, and a one-line ``description``.
-
-    >>> ref = closed_form_reference_of("furnace", 4, 4)
-    >>> ref.source, ref.description[:11], ref.spp == CLOSED_FORM_SPP
-    ('closed form', 'closed form', True)
-    """
+    whether this call found it ``cached``, and a one-line ``description``."""
 
     seed: int
     batches: int
@@ -90,13 +80,7 @@ def cache_dir(cache=None) -> Path:
 
 def reference_key(scene_hash: str, *, mitsuba_version: str, variant: str, spp: int, seed: int,
                   batches: int = DEFAULT_REFERENCE_BATCHES) -> str:
-    """Cache key of a reference: SHA-256 over its identity.
-
-    >>> k = reference_key("ab" * 32, mitsuba_version="3.9.1", variant="scalar_rgb", spp=64, seed=1)
-    >>> len(k), k == reference_key("ab" * 32, mitsuba_version="3.9.1", variant="scalar_rgb",
-    ...                            spp=65, seed=1)
-    (64, False)
-    """
+    """Cache key of a reference: SHA-256 over its identity."""
     ident = {"format": FORMAT_VERSION, "scene": scene_hash, "mitsuba": mitsuba_version,
              "variant": variant, "spp": int(spp), "seed": int(seed), "batches": int(batches)}
     return hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()
@@ -125,18 +109,54 @@ def cache_lock(path: Path):
         os.close(fd)  # releases the lock
 
 
+def load_or_render(load, render, *, lock: Path, sidecar: Path, force: bool = False, log=None, what: str = ""):
+    """A cache entry: ``load() -> (value or None, why)``'s value, else, under the lock (another process may
+    have rendered it meanwhile; a read-only cache serves valid entries without it) and with the ``sidecar``
+    removed first (a crash leaves no false hit), ``render()``'s; ``log`` is told when ``what`` was unusable."""
+    if not force:
+        value, _ = load()
+        if value is not None:
+            return value
+    with cache_lock(lock):
+        if not force:
+            value, why = load()
+            if value is not None:
+                return value
+            if why != "not cached" and log is not None:
+                log(f"{what} is unusable ({why}); re-rendering")
+        with contextlib.suppress(FileNotFoundError):
+            sidecar.unlink()
+        return render()
+
+
 def _paths(folder: Path, key: str):
     return folder / f"{key}.mean.exr", folder / f"{key}.var.exr", folder / f"{key}.json"
+
+
+def _key(scene_hash: str, *, spp: int, seed: int, variant, batches: int) -> tuple:
+    """``(variant chosen, Mitsuba's version, cache key)`` of a reference."""
+    chosen, mversion = mitsuba_identity(variant)
+    key = reference_key(scene_hash, mitsuba_version=mversion, variant=chosen, spp=spp, seed=seed,
+                        batches=min(batches, spp))
+    return chosen, mversion, key
 
 
 def is_cached(scene, *, spp: int, seed: int = DEFAULT_REFERENCE_SEED, variant: str | None = None,
               batches: int = DEFAULT_REFERENCE_BATCHES, cache=None) -> bool:
     """Whether :func:`reference` would find this reference in the cache (its sidecar exists;
     the files are checked when it is read). For planning a run's progress, nothing more."""
-    chosen, mversion = mitsuba_identity(variant)
-    key = reference_key(scene.content_hash(), mitsuba_version=mversion, variant=chosen, spp=spp, seed=seed,
-                        batches=min(batches, spp))
+    key = _key(scene.content_hash(), spp=spp, seed=seed, variant=variant, batches=batches)[2]
     return _paths(cache_dir(cache), key)[2].exists()
+
+
+def _reference(meta: dict, mean, var, folder: Path, *, cached: bool) -> Reference:
+    """The :class:`Reference` of a cache entry's sidecar ``meta`` and images."""
+    mean_path, var_path, _ = _paths(folder, meta["key"])
+    return Reference(mean=mean, variance=var, spp=int(meta["spp"]), seed=int(meta["seed"]),
+                     batches=int(meta["batches"]), variant=str(meta["variant"]),
+                     mitsuba_version=str(meta["mitsuba_version"]), key=meta["key"], path=mean_path,
+                     variance_path=var_path, seconds=float(meta.get("seconds", 0.0)), cached=cached,
+                     scene_hash=str(meta["scene_hash"]))
 
 
 def load_reference(key: str, *, shape=None, cache=None):
@@ -166,12 +186,7 @@ def load_reference(key: str, *, shape=None, cache=None):
         return None, f"shape {mean.shape} does not match the sidecar/scene"
     if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(var)) and np.all(var >= 0)):
         return None, "non-finite or negative values"
-    ref = Reference(mean=mean, variance=var, spp=int(meta["spp"]), seed=int(meta["seed"]),
-                    batches=int(meta["batches"]), variant=str(meta["variant"]),
-                    mitsuba_version=str(meta["mitsuba_version"]), key=key, path=mean_path,
-                    variance_path=var_path, seconds=float(meta.get("seconds", 0.0)), cached=True,
-                    scene_hash=str(meta["scene_hash"]))
-    return ref, None
+    return _reference(meta, mean, var, folder, cached=True), None
 
 
 def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, variant: str | None = None,
@@ -202,31 +217,15 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
     spp = positive_int("spp", spp, minimum=2)
     seed = positive_int("seed", seed, minimum=0, maximum=SEED_MAX)
     batches = positive_int("batches", batches, minimum=2)
-    batches = min(batches, spp)
-    chosen, mversion = mitsuba_identity(variant)
     scene_hash = scene.content_hash()
-    key = reference_key(scene_hash, mitsuba_version=mversion, variant=chosen, spp=spp, seed=seed,
-                        batches=batches)
+    chosen, mversion, key = _key(scene_hash, spp=spp, seed=seed, variant=variant, batches=batches)
     folder = cache_dir(cache)
-    shape = (scene.camera.height, scene.camera.width)
     mean_path, var_path, meta_path = _paths(folder, key)
-    if not force:  # a valid entry is read without the lock: a read-only cache serves it
-        ref, _ = load_reference(key, shape=shape, cache=cache)
-        if ref is not None:
-            return ref
-    with cache_lock(folder / f"{key}.lock"):
-        if not force:  # again under the lock: another process may have rendered it meanwhile
-            ref, why = load_reference(key, shape=shape, cache=cache)
-            if ref is not None:
-                return ref
-            if why != "not cached" and log is not None:
-                log(f"reference cache entry {key[:12]} is unusable ({why}); re-rendering")
 
-        # invalidate first: a crash from here on leaves no sidecar, hence no false hit
-        with contextlib.suppress(FileNotFoundError):
-            meta_path.unlink()
+    def render():
         t0 = time.perf_counter()
-        out = mitsuba_scenes.render_mitsuba(scene, spp=spp, seed=seed, variant=chosen, threads=threads, batches=batches)
+        out = mitsuba_scenes.render_mitsuba(scene, spp=spp, seed=seed, variant=chosen, threads=threads,
+                                            batches=min(batches, spp))
         wall = time.perf_counter() - t0
         mean = np.asarray(out.mean, dtype=np.float32)
         var = np.asarray(out.variance, dtype=np.float32)
@@ -241,10 +240,11 @@ def reference(scene, *, spp: int = 4096, seed: int = DEFAULT_REFERENCE_SEED, var
                 "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                 "mean_sha256": file_sha256(mean_path), "variance_sha256": file_sha256(var_path)}
         atomic_write(meta_path, json.dumps(meta, indent=1) + "\n")
-    return Reference(mean=mean, variance=var, spp=spp, seed=seed, batches=len(out.batch_spp),
-                     variant=chosen, mitsuba_version=mversion, key=key, path=mean_path,
-                     variance_path=var_path, seconds=float(out.seconds), cached=False,
-                     scene_hash=scene_hash)
+        return _reference(meta, mean, var, folder, cached=False)
+
+    return load_or_render(lambda: load_reference(key, shape=(scene.camera.height, scene.camera.width), cache=cache),
+                          render, lock=folder / f"{key}.lock", sidecar=meta_path, force=force, log=log,
+                          what=f"reference cache entry {key[:12]}")
 
 
 def closed_form_reference_of(name: str, width: int, height: int):

@@ -1,16 +1,6 @@
-"""Sidak's correction for a family of independent tests, written once for every check.
-
-``m`` independent tests at level ``a`` raise a false alarm with probability ``1 - (1 - a)^m``:
-:func:`sidak` gives the ``a`` that keeps the family at ``alpha``, :func:`sidak_p_value` the
-family's p-value from its smallest p-value; both through ``log1p``/``expm1`` for tiny levels.
-
-Examples
---------
->>> round(sidak(0.01, 100), 7)
-0.0001005
->>> round(sidak_p_value(sidak(0.01, 100), 100), 12)
-0.01
-"""
+"""Sidak's correction for a family of independent tests, written once for every check: ``m`` tests
+at level ``a`` raise a false alarm with probability ``1 - (1 - a)^m`` (through ``log1p``/``expm1``
+for tiny levels)."""
 from __future__ import annotations
 
 import math
@@ -24,8 +14,8 @@ def sidak(alpha: float, m: int) -> float:
 
     Examples
     --------
-    >>> sidak(0.05, 1)
-    0.05
+    >>> sidak(0.05, 1), round(sidak(0.01, 100), 7), round(sidak_p_value(sidak(0.01, 100), 100), 12)
+    (0.05, 0.0001005, 0.01)
     """
     if not 0.0 < alpha < 1.0:
         raise ValueError(f"alpha must be in (0, 1), got {alpha}")

@@ -1,14 +1,8 @@
-"""Tail references: our own estimator at a high budget, for the statistics of its noise.
-
-A verdict on a heavy-tailed estimator needs that estimator's own per-pixel variance and tail
-shape, not the render's (low where its rare paths were missed) nor Mitsuba's (another
-estimator). :func:`tail_reference` renders the scene with the same build and strategy at a
-high spp with the core's per-pixel moments, cached under ``$RTBENCH_CACHE`` by scene hash,
-build, strategy, spp and seed. See ``benchmarks/STATISTICS.md``.
-"""
+"""Tail references: our own estimator at a high budget with the core's per-pixel moments, cached: a verdict on
+a heavy-tailed estimator needs its own variance and tail shape, not the render's (low where its rare paths were
+missed) nor Mitsuba's (another estimator). See ``benchmarks/STATISTICS.md``."""
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import hashlib
 import io
@@ -23,11 +17,10 @@ from reference_tracer.estimate import ImageEstimate, SampleMoments
 from reference_tracer.imageio import atomic_write
 from reference_tracer.validation import positive_int
 
-from .references import cache_dir, cache_lock
+from .references import cache_dir, load_or_render
 
 __all__ = ["TailReference", "is_cached", "tail_reference", "tail_key", "sample_variance", "variance_is_lower_bound",
-           "variance_tail_reference",
-           "DEFAULT_TAIL_SPP", "DEFAULT_TAIL_SEED", "DEFAULT_MAX_TAIL_SAMPLES"]
+           "variance_tail_reference", "DEFAULT_TAIL_SPP", "DEFAULT_TAIL_SEED", "DEFAULT_MAX_TAIL_SAMPLES"]
 
 #: Samples per pixel of a tail reference: 4x the gate's default budget (STATISTICS.md, "Assumptions").
 DEFAULT_TAIL_SPP = 16384
@@ -61,6 +54,7 @@ def tail_key(scene_hash: str, *, build: str, strategy: str, spp: int, seed: int,
 
 
 def _load(path, meta_path, key, shape):
+    """``((seconds, arrays), None)`` of a valid entry, or ``(None, why)``."""
     if not meta_path.exists():
         return None, "not cached"
     try:
@@ -77,15 +71,7 @@ def _load(path, meta_path, key, shape):
         return None, f"unreadable ({exc})"
     if any(a.shape != tuple(shape) + (3,) for a in arrays.values()):
         return None, "shape does not match the scene"
-    return (meta, arrays), None
-
-
-def _save(path, meta_path, meta, arrays):
-    buf = io.BytesIO()
-    np.savez_compressed(buf, **arrays)
-    blob = buf.getvalue()
-    atomic_write(path, blob)
-    atomic_write(meta_path, json.dumps(dict(meta, sha256=hashlib.sha256(blob).hexdigest()), indent=1) + "\n")
+    return (float(meta["seconds"]), arrays), None
 
 
 def is_cached(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: int = DEFAULT_TAIL_SEED,
@@ -129,32 +115,32 @@ def tail_reference(scene, *, strategy: str, spp: int = DEFAULT_TAIL_SPP, seed: i
     folder = cache_dir(cache)
     path, meta_path = folder / f"{key}.tails.npz", folder / f"{key}.tails.json"
     shape = (scene.camera.height, scene.camera.width)
-    loaded, _ = _load(path, meta_path, key, shape)  # a valid entry needs no lock (read-only caches)
-    with contextlib.nullcontext() if loaded is not None else cache_lock(folder / f"{key}.lock"):
-        if loaded is None:  # again under the lock: another process may have rendered it meanwhile
-            loaded, why = _load(path, meta_path, key, shape)
-        if loaded is None:
-            if why != "not cached" and log is not None:
-                log(f"tail reference {key[:12]} is unusable ({why}); re-rendering")
-            elif log is not None:
-                log(f"rendering the tail reference of {what or f'{shape[1]}x{shape[0]}'} {strategy} at {spp} spp")
-            with contextlib.suppress(FileNotFoundError):
-                meta_path.unlink()
-            extra = {} if render is not None or progress is None else {"progress": progress}
-            res = (render or rt.render)(scene, spp=spp, strategy=strategy, seed=seed, threads=threads, moments=True,
-                                        **extra)
-            m = res.moments
-            arrays = {"mean": res.mean, "variance": res.variance, "m2": m.m2, "m3": m.m3, "m4": m.m4, "max": m.max}
-            meta = {"format": FORMAT_VERSION, "key": key, "strategy": strategy, "spp": spp, "seed": seed,
-                    "build": build, "variant": variant, "seconds": res.seconds,
-                    "created": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-            _save(path, meta_path, meta, arrays)
-            cached = False
-        else:
-            meta, arrays = loaded
-            cached = True
+
+    def render_entry():
+        if log is not None:
+            log(f"rendering the tail reference of {what or f'{shape[1]}x{shape[0]}'} {strategy} at {spp} spp")
+        extra = {} if render is not None or progress is None else {"progress": progress}
+        res = (render or rt.render)(scene, spp=spp, strategy=strategy, seed=seed, threads=threads, moments=True,
+                                    **extra)
+        m = res.moments
+        arrays = {"mean": res.mean, "variance": res.variance, "m2": m.m2, "m3": m.m3, "m4": m.m4, "max": m.max}
+        buf = io.BytesIO()
+        np.savez_compressed(buf, **arrays)
+        atomic_write(path, buf.getvalue())
+        meta = {"format": FORMAT_VERSION, "key": key, "strategy": strategy, "spp": spp, "seed": seed, "build": build,
+                "variant": variant, "seconds": res.seconds, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                "sha256": hashlib.sha256(buf.getvalue()).hexdigest()}
+        atomic_write(meta_path, json.dumps(meta, indent=1) + "\n")
+        return (res.seconds, arrays), False
+
+    def load():
+        loaded, why = _load(path, meta_path, key, shape)
+        return (None if loaded is None else (loaded, True)), why
+
+    (seconds, arrays), cached = load_or_render(load, render_entry, lock=folder / f"{key}.lock", sidecar=meta_path,
+                                               log=log, what=f"tail reference {key[:12]}")
     moments = SampleMoments(n=spp, m2=arrays["m2"], m3=arrays["m3"], m4=arrays["m4"], max=arrays["max"])
-    return TailReference(mean=arrays["mean"], variance=arrays["variance"], spp=spp, seconds=float(meta["seconds"]),
+    return TailReference(mean=arrays["mean"], variance=arrays["variance"], spp=spp, seconds=float(seconds),
                          moments=moments, strategy=strategy, seed=seed, build=build, key=key, cached=cached)
 
 

@@ -1,8 +1,5 @@
-"""Text for each medium: Markdown, a terminal, a CSV cell, each escaped for where it lands.
-
-Store fields are untrusted: a scene name can hold HTML, Markdown, terminal escapes or a
-spreadsheet formula. Text leaving the harness goes through its medium's function once, where
-it is written; the tables (:func:`markdown_table`, :func:`text_table`) escape every cell.
+"""Text for each medium (Markdown, a terminal, a CSV cell), escaped once where it is written: store fields are
+untrusted (a scene name can hold HTML, Markdown, terminal escapes or a spreadsheet formula).
 
 >>> markdown("<img src=x onerror=alert(1)> | *a* [b](c) _d_ cornell_box")
 '&lt;img src=x onerror=alert(1)&gt; \\\\| \\\\*a\\\\* \\\\[b\\\\](c) \\\\_d\\\\_ cornell_box'

@@ -1,12 +1,10 @@
-"""The one vocabulary of ``rtbench``'s options (docs/rtbench.md, Options: one name, one meaning).
-
-Each ``add_*`` adds one option with one name, meaning and help text; a subcommand chooses its
-own default only for :data:`PER_COMMAND_DEFAULTS`, and :class:`HelpFormatter` shows every one.
+"""The one vocabulary of ``rtbench``'s options (docs/rtbench.md, Options: one name, one meaning), and the
+checks and consoles the commands share; a subcommand chooses its own default only for :data:`PER_COMMAND_DEFAULTS`.
 
 >>> p = argparse.ArgumentParser(formatter_class=HelpFormatter)
 >>> add_size_args(p, width=32)
 >>> a = check(p.parse_args(["--width", "48"]))
->>> a.width, resolve_height(a)
+>>> a.width, a.height
 (48, 48)
 """
 from __future__ import annotations
@@ -14,6 +12,8 @@ from __future__ import annotations
 import argparse
 import re
 import sys
+
+from benchmarks.constants import GATE_ALPHA, STRATEGIES
 
 #: options whose default a subcommand chooses (name, meaning and help text are still shared).
 PER_COMMAND_DEFAULTS = frozenset({
@@ -24,8 +24,6 @@ METRICS = ("rmse", "relmse", "ssim", "flip")
 DEFAULT_METRIC = "relmse"
 #: what ``rtbench report --format`` can write.
 FORMATS = ("html", "svg", "pdf", "csv")
-#: the false-alarm rate of a whole run (``benchmarks.constants.GATE_ALPHA``).
-DEFAULT_ALPHA = 0.01
 
 _DEFAULT_CLAUSE = re.compile(r"\s*\(default:? [^()]*(\([^()]*\)[^()]*)*\)\s*$")
 
@@ -93,40 +91,43 @@ class ListAction(argparse.Action):
         setattr(namespace, self.dest, (() if untouched else tuple(current)) + name_list(values))
 
 
-#: dest -> (option, smallest value) of the integer options :func:`check` range-checks.
-_MINIMUM = {"width": ("--width", 1), "height": ("--height", 1), "spp": ("--spp", 1), "seed": ("--seed", 0),
-            "seeds": ("--seeds", 1), "threads": ("--threads", 1), "reference_spp": ("--reference-spp", 1),
-            "tail_spp": ("--tail-spp", 0), "repeats": ("--repeats", 1), "batches": ("--batches", 1),
-            "ray_count": ("--ray-count", 1), "scaling_spp": ("--scaling-spp", 1), "samples": ("--samples", 1)}
-_INT_LISTS = {"spps": "--spps", "triangles": "--triangles", "resolutions": "--resolutions",
-              "scaling_triangles": "--scaling-triangles"}
+#: dest -> smallest value of the integer options :func:`check` range-checks (the option is ``--dest``).
+_MINIMUM = {"width": 1, "height": 1, "spp": 1, "seed": 0, "seeds": 1, "threads": 1, "reference_spp": 1, "tail_spp": 0,
+            "repeats": 1, "batches": 1, "ray_count": 1, "scaling_spp": 1, "samples": 1}
+_INT_LISTS = ("spps", "triangles", "resolutions", "scaling_depths", "scaling_triangles")
 
 
 def check(args):
-    """Range-check and normalise the shared options of ``args`` in place (integer lists and
-    ``--variant`` become tuples); ``ValueError`` (exit 2) on bad input. Returns ``args``.
+    """Range-check and normalise the shared options of ``args`` in place (integer lists and ``--variant``
+    become tuples, ``--height`` defaults to ``--width``); ``ValueError`` (exit 2) on bad input. Returns ``args``.
 
     >>> check(argparse.Namespace(width=0))
     Traceback (most recent call last):
     ...
     ValueError: --width must be >= 1, got 0
     """
-    for dest, (option, low) in _MINIMUM.items():
+    for dest, low in _MINIMUM.items():
         v = getattr(args, dest, None)
         if v is not None and not isinstance(v, bool) and v < low:
-            raise ValueError(f"{option} must be >= {low}, got {v}")
-    for dest, option in _INT_LISTS.items():
+            raise ValueError(f"--{dest.replace('_', '-')} must be >= {low}, got {v}")
+    for dest in _INT_LISTS:
         if getattr(args, dest, None) is not None:
-            setattr(args, dest, int_list(getattr(args, dest), option=option))
+            setattr(args, dest, int_list(getattr(args, dest), option=f"--{dest.replace('_', '-')}"))
     if getattr(args, "height", None) is not None and getattr(args, "width", 0) is None:
         raise ValueError("--height needs --width")
+    if getattr(args, "height", 0) is None:
+        args.height = args.width
     alpha = getattr(args, "alpha", None)
     if alpha is not None and not 0 < alpha < 1:
         raise ValueError(f"--alpha must be in (0, 1), got {alpha:g}")
     if getattr(args, "variant", None) is not None:
         args.variant = name_list(args.variant)
     if getattr(args, "format", None) is not None:
-        args.format = formats(args.format)
+        args.format = name_list(args.format)
+        bad = [n for n in args.format if n not in FORMATS]
+        if bad or not args.format:
+            raise ValueError(f"--format: unknown format(s) {', '.join(bad) or '(none)'}; choose from "
+                             f"{', '.join(FORMATS)}")
     if getattr(args, "metric", None) is not None:
         from benchmarks.metrics import require_metric
 
@@ -153,7 +154,7 @@ add_threads_args = _option("--threads", type=int, default=None, metavar="N",
                            help="rendering threads, ours and Mitsuba's alike (default: all cores)")
 add_cache_arg = _option("--cache", default=None, metavar="DIR",
                         help="reference cache root (default: $RTBENCH_CACHE or ~/.cache/rtbench)")
-add_alpha_args = _option("--alpha", type=float, default=DEFAULT_ALPHA, metavar="A",
+add_alpha_args = _option("--alpha", type=float, default=GATE_ALPHA, metavar="A",
                          help="false-alarm rate of the whole run: the chance that any of its k tests fails on a "
                               "correct renderer; each test runs at about A/k")
 add_scheduler_arg = _option("--scheduler", metavar="ADDRESS", default=None,
@@ -182,11 +183,10 @@ add_format_arg = _option("--format", default="html", metavar="F[,F...]",
                               "summary, tidy)")
 
 
-def add_scene_args(parser, *, nargs: str = "+", what: str = "suite scene name(s)") -> None:
-    """Positional ``SCENE`` names (``scenes``)."""
-    kw = {"default": None} if nargs in ("*", "?") else {}
-    parser.add_argument("scenes", nargs=nargs, metavar="SCENE", help=f"{what} (`rtbench render --list` lists them)",
-                        **kw)
+def add_scene_args(parser, *, nargs: str = "*", what: str = "suite scene name(s)") -> None:
+    """Positional ``SCENE`` names (``scenes``, None when none is given)."""
+    parser.add_argument("scenes", nargs=nargs, default=None, metavar="SCENE",
+                        help=f"{what} (`rtbench render --list` lists them)")
 
 
 def add_size_args(parser, *, width: int | None) -> None:
@@ -197,11 +197,6 @@ def add_size_args(parser, *, width: int | None) -> None:
                         help="image height in pixels (default: the width)")
 
 
-def resolve_height(args) -> int | None:
-    """``args.height``, or the width when no height was given."""
-    return args.width if args.height is None else args.height
-
-
 def add_spps_arg(parser, *, default) -> None:
     """``--spps N[,N...]``: the budgets of a sweep."""
     parser.add_argument("--spps", default=",".join(map(str, default)), metavar="N[,N...]",
@@ -210,8 +205,6 @@ def add_spps_arg(parser, *, default) -> None:
 
 def add_strategy_args(parser, *, default, none_means: str = "") -> None:
     """``--strategies S[,S...]``; an empty ``default`` means the command chooses (``none_means`` says how)."""
-    from benchmarks.constants import STRATEGIES
-
     parser.add_argument("--strategies", action=ListAction, default=tuple(default), metavar="S[,S...]",
                         help=f"our sampling strategies, comma-separated or repeated: {', '.join(STRATEGIES)}"
                              + ("" if default else f" (default: {none_means})"))
@@ -240,8 +233,7 @@ def add_reference_spp_arg(parser, *, default: int | None, none_means: str = "") 
 
 
 def warn_tail_spp(command: str, tail_spp: int) -> None:
-    """One line on stderr, ``rtbench COMMAND: warning: ...``, where ``--tail-spp`` is below the
-    budget the false-alarm rates were measured at (``benchmarks/STATISTICS.md``, "Known limits").
+    """Warn on stderr where ``--tail-spp`` is below the budget of the measured false-alarm rates.
 
     >>> import contextlib, io
     >>> with contextlib.redirect_stderr(io.StringIO()) as err:
@@ -266,6 +258,11 @@ def warn_tail_spp(command: str, tail_spp: int) -> None:
     print(f"rtbench {command}: warning: {line}", file=sys.stderr)
 
 
+def stderr_log(args):
+    """``log(line)`` onto stderr (flushed), None with ``--quiet``."""
+    return None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+
+
 def resolve_threads(threads) -> int:
     """``--threads`` as a number: all cores when unset."""
     from reference_tracer.cpus import default_threads
@@ -273,15 +270,61 @@ def resolve_threads(threads) -> int:
     return int(threads) if threads else default_threads()
 
 
-def formats(text) -> tuple:
-    """``--format``'s value as a tuple of known formats; ``ValueError`` on an unknown one.
+def add_scene_path_args(parser) -> None:
+    """``--scene PATH`` and ``--param NAME=VALUE`` (both repeatable): user scenes beside the suite's, registered
+    (:mod:`mitsuba_scenes.scene_files`) and then accepted wherever a suite name is."""
+    group = parser.add_argument_group("scene files")
+    group.add_argument("--scene", dest="scene_files", action="append", default=[], metavar="PATH",
+                       help="a scene file, beside suite names (repeatable): a Mitsuba 3 XML file (imported "
+                            "by from_mitsuba; unsupported features are refused with file:line) or a Python "
+                            "file defining build(width, height) that returns a reference_tracer.Scene")
+    group.add_argument("--param", dest="scene_params", action="append", default=[], metavar="NAME=VALUE",
+                       help="a parameter of the scene files (repeatable): an XML $NAME value (overrides its "
+                            "<default>) or a keyword argument of build(); with several files, each gets the "
+                            "parameters it takes")
 
-    >>> formats("html, csv")
-    ('html', 'csv')
-    """
-    names = name_list(text)
-    bad = [n for n in names if n not in FORMATS]
-    if bad or not names:
-        raise ValueError(f"--format: unknown format(s) {', '.join(bad) or '(none)'}; choose from "
-                         f"{', '.join(FORMATS)}")
-    return names
+
+def resolve_scenes(args, *, suite_names=None, default=None, known=False, required=False) -> list:
+    """Register ``args.scene_files``; return ``suite_names`` then the files' names without repeats
+    (``default`` when there are neither). ``known``: refuse a suite name the suite lacks; ``required``: no scene."""
+    from mitsuba_scenes import list_scenes
+    from mitsuba_scenes.scene_files import params_used, parse_params, register_scene_file
+
+    unknown = [s for s in suite_names or [] if s not in list_scenes()] if known else []
+    if unknown:
+        raise ValueError(f"unknown scene(s) {unknown}; the suite has: {', '.join(list_scenes())}")
+    params = parse_params(args.scene_params)
+    files = args.scene_files
+    if params and not files:
+        raise ValueError("--param applies to scene files: give one with --scene PATH")
+    names = list(suite_names or [])
+    used = set()
+    for path in files:
+        mine = params_used(path, params) if len(files) > 1 else params
+        used.update(mine)
+        names.append(register_scene_file(path, mine).name)
+    unused = sorted(set(params) - used)
+    if unused:
+        raise ValueError(f"--param {', '.join(unused)}: no scene file takes it")
+    if required and not names:
+        raise ValueError("no scene: give suite scene names or --scene PATH")
+    return list(dict.fromkeys(names or default or []))
+
+
+def wide_console(width: int, *, soft_wrap: bool = False, quiet: bool = False):
+    """A rich console on stdout, at least ``width`` wide where it is no terminal (logs and pipes:
+    one table row per line; ``soft_wrap``: no line cut at all)."""
+    from rich.console import Console
+
+    console = Console(quiet=quiet)
+    return console if console.is_terminal else Console(width=max(console.width, width), soft_wrap=soft_wrap,
+                                                       quiet=quiet)
+
+
+def progress_bar(args, label: str = "{task.description}", *, stderr: bool = True):
+    """A transient rich progress bar (spinner, ``label``, bar, done/total, time), silent with ``--quiet``."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    return Progress(SpinnerColumn(), TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                    console=Console(stderr=stderr, quiet=args.quiet), transient=True)

@@ -2,7 +2,7 @@
 chi-square tests of every sampling routine (warps, BSDFs, glass lobes, light sampling)."""
 from __future__ import annotations
 
-import argparse
+from benchmarks.commands import _args as A
 
 HELP = "chi-square tests of every sampling routine against its pdf; observed-vs-expected images; exit 1 on a failure"
 
@@ -10,9 +10,8 @@ DEFAULT_SAMPLES = 1_000_000
 DEFAULT_OUT = "rtbench-out/chi2"
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
+def add_arguments(parser) -> None:
     from benchmarks.chi2.pearson import DEFAULT_ALPHA
-    from benchmarks.commands import _args as A
 
     parser.add_argument("--routine", action="append", metavar="PREFIX", default=[],
                         help="run only routines whose name starts with PREFIX (repeatable), e.g. bsdf.rough_conductor, "
@@ -29,26 +28,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
     from benchmarks.chi2.catalogue import select
     from benchmarks.chi2.pearson import sidak
     from benchmarks.chi2.plot import file_name, save_histograms
     from benchmarks.chi2.runner import run_routine
-    from benchmarks.commands._args import check
     from benchmarks.store import write_json
     from benchmarks.text import terminal, text_table
 
-    check(args)
     routines = select(args.routine)        # ValueError (exit 2) for a prefix that matches nothing
     if args.list:
         print("\n".join(r.label for r in routines))
         return 0
     per_test = sidak(args.alpha, len(routines))
     rows = []
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                  TimeElapsedColumn(), console=Console(quiet=args.quiet), transient=True) as progress:
+    with A.progress_bar(args, stderr=False) as progress:
         task = progress.add_task("chi2", total=len(routines))
         for r in routines:
             progress.update(task, description=f"chi2 {r.label}")

@@ -1,29 +1,26 @@
 """``rtbench compare STORE_A STORE_B``: did B (a new build, a new renderer) get faster, slower, or wrong?"""
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 from benchmarks.commands import _args as A
-from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
 
 HELP = ("compare two results stores curve by curve: both curves on one plot, slope and efficiency of B over A "
         "with bootstrap 95 percent intervals, the gate's verdict of B against A; exit 1 if a verdict fails")
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from benchmarks.constants import GATE_ALPHA
+def add_arguments(parser) -> None:
     from benchmarks.tails import DEFAULT_TAIL_SPP
 
     parser.add_argument("store_a", metavar="STORE_A", help="the baseline results store")
     parser.add_argument("store_b", metavar="STORE_B", help="the results store to judge")
-    A.add_alpha_args(parser, default=GATE_ALPHA)
+    A.add_alpha_args(parser)
     A.add_tail_spp_arg(parser, default=DEFAULT_TAIL_SPP)  # of ours when B is this build
     A.add_threads_args(parser)
     A.add_cache_arg(parser)
     A.add_renderer_arg(parser)  # external renderers whose B curves may be re-run for their variance
-    add_scene_path_args(parser)  # scene files B rendered: the store's own file is never loaded
+    A.add_scene_path_args(parser)  # scene files B rendered: the store's own file is never loaded
     A.add_out_arg(parser, default="rtbench-compare")  # the page: index.html, compare.md, plots
     A.add_json_arg(parser)  # one row per curve
     A.add_quiet_arg(parser)
@@ -36,18 +33,16 @@ def run(args) -> int:
     from benchmarks.text import terminal, text_table
     from reports.compare import figures, write_compare_page
 
-    A.check(args)
     for p in (args.store_a, args.store_b):
         if not (Path(p) / "results.jsonl").is_file():
             raise ValueError(f"{p} is not a results store (no results.jsonl)")
     if args.tail_spp == 1:
         raise ValueError(f"--tail-spp must be 0 (none) or >= 2, got {args.tail_spp}")
     A.warn_tail_spp("compare", args.tail_spp)
-    resolve_scenes(args)  # only files named here run; a store's scene_source never does
-    externals = [register_external(cmd) for cmd in args.renderer]
-    say = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    A.resolve_scenes(args)  # only files named here run; a store's scene_source never does
     knowledge = estimator_knowledge(tail_spp=args.tail_spp, threads=A.resolve_threads(args.threads),
-                                    cache=args.cache, externals=externals, log=say)
+                                    cache=args.cache, externals=[register_external(cmd) for cmd in args.renderer],
+                                    log=A.stderr_log(args))
     rows = compare_stores(args.store_a, args.store_b, alpha=args.alpha, estimator=knowledge)
     if not args.quiet:  # the page's table of each curve
         for c in rows:
@@ -61,4 +56,3 @@ def run(args) -> int:
         print(terminal(f"rtbench compare: B differs from A in {c.label}: p = {c.p_value:.3g}, relative bias "
                        f"{c.relative_bias:+.2%}"), file=sys.stderr)
     return 1 if failed else 0
-

@@ -1,14 +1,13 @@
 """``rtbench corpus DIR``: every Mitsuba scene of a folder, loaded, imported and judged
-(:mod:`benchmarks.corpus`; ``docs/mitsuba.md``). Writes ``corpus.json`` after every scene and
-``corpus.md`` into ``--out``; a rerun there reuses every verdict whose scene files, settings
-and build are unchanged. Exit 1 when a scene disagrees.
-"""
+(:mod:`benchmarks.corpus`; ``docs/mitsuba.md``); a rerun on the same ``--out`` reuses every verdict
+whose scene files, settings and build are unchanged."""
 from __future__ import annotations
 
-import argparse
 import subprocess
 import sys
 from pathlib import Path
+
+from benchmarks.commands import _args as A
 
 HELP = ("coverage of a folder of Mitsuba 3 scenes: which Mitsuba loads, which we import, which agree at a small "
         "film size (or what each still needs); table, corpus.json and corpus.md; exit 1 if one disagrees")
@@ -20,8 +19,7 @@ DEFAULT_SEED = 1
 DEFAULT_TIMEOUT_S = 300.0
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from benchmarks.commands import _args as A
+def add_arguments(parser) -> None:
     from benchmarks.references import DEFAULT_REFERENCE_BATCHES
 
     parser.add_argument("dir", metavar="DIR", help="folder of Mitsuba 3 XML scenes (searched recursively)")
@@ -74,14 +72,12 @@ def git_provenance(folder) -> dict | None:
 
 
 def run(args) -> int:
-    from benchmarks.commands import _args as A
     from benchmarks.corpus.results import corpus_build, markdown_report, save_results, summary_line, terminal_table
     from benchmarks.corpus.scan import display_path, printable, scan
     from benchmarks.store import store_path, writer_lock
     from benchmarks.text import terminal
     from reference_tracer.imageio import atomic_write
 
-    A.check(args)
     if not args.timeout > 0:
         raise ValueError(f"--timeout must be > 0, got {args.timeout:g}")
     root = Path(args.dir)
@@ -117,8 +113,7 @@ def run(args) -> int:
     disagree = sum(r["status"] == "disagrees" for r in records.values())
     if disagree:
         print(f"rtbench corpus: {disagree} scene(s) disagree with Mitsuba", file=sys.stderr)
-        return 1
-    return 0
+    return 1 if disagree else 0
 
 
 def _judge_all(scenes, *, root, out, settings, provenance, fragments, timeout, say) -> tuple:
@@ -143,9 +138,8 @@ def _judge_all(scenes, *, root, out, settings, provenance, fragments, timeout, s
                 records[rel] = prev
                 say(f"[{i}/{n}] {rel}: {prev['status']} (earlier run)")
                 continue
-            job = {"path": str(path), "root": str(root), "spp": settings["spp"], "batches": settings["batches"],
-                   "seed": settings["seed"], "width": settings["width"], "threads": settings["threads"]}
-            rec = worker.judge(job, timeout=timeout)
+            job = {k: settings[k] for k in ("spp", "batches", "seed", "width", "threads")}
+            rec = worker.judge({"path": str(path), "root": str(root), **job}, timeout=timeout)
             rec.update(path=rel, key=key)
             records[rel] = rec
             judged += 1

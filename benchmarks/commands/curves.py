@@ -5,7 +5,6 @@ import argparse
 import sys
 
 from benchmarks.commands import _args as A
-from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
 from benchmarks.errors import EXIT_ERROR
 
 HELP = "render error-vs-spp curves (our strategies + Mitsuba path) against cached references into a results store"
@@ -32,8 +31,8 @@ def add_sweep_options(parser: argparse.ArgumentParser) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    A.add_scene_args(parser, nargs="*")
-    add_scene_path_args(parser)
+    A.add_scene_args(parser)
+    A.add_scene_path_args(parser)
     A.add_strategy_args(parser, default=DEFAULT_STRATEGIES)
     A.add_spps_arg(parser, default=DEFAULT_SPPS)
     parser.add_argument("--spp", dest="spps", help=argparse.SUPPRESS)  # deprecated name of --spps
@@ -58,29 +57,22 @@ def run(args) -> int:
     from pathlib import Path
 
     from reports import summary_table
-    from benchmarks.commands._gate_tables import wide_console
     from benchmarks.commands.parity import check_user_scenes
     from benchmarks.external import register_external
     from benchmarks.sweep import Group, run_sweep
 
-    A.check(args)
-    height = A.resolve_height(args)
-    scenes = resolve_scenes(args, suite_names=args.scenes or [])
-    if not scenes:
-        raise ValueError("no scene: give suite scene names or --scene PATH")
-    out = args.out if args.out != f"{DEFAULT_OUT}/SCENES_WxH" else default_out(scenes, args.width, height)
+    scenes = A.resolve_scenes(args, suite_names=args.scenes, required=True)
+    out = args.out if args.out != f"{DEFAULT_OUT}/SCENES_WxH" else default_out(scenes, args.width, args.height)
     # AOV parity of the scene files first: one that translates differently is not rendered (maps in out/parity)
-    if not check_user_scenes(scenes, Path(out) / "parity", say=lambda line: print(line, file=sys.stderr)):
-        print("rtbench curves: the scene file(s) above translate differently in the two renderers; fix that first "
-              "(nothing was rendered)", file=sys.stderr)
+    if not check_user_scenes(scenes, Path(out) / "parity", command="curves", skipped="nothing was rendered"):
         return 1
     ref_spp = args.reference_spp if args.reference_spp is not None else max(4096, 32 * max(args.spps))
     group = Group(scenes=tuple(scenes), strategies=tuple(args.strategies), spps=tuple(args.spps), seeds=args.seeds,
-                  width=args.width, height=height, mitsuba=not args.no_mitsuba, reference_spp=ref_spp,
+                  width=args.width, height=args.height, mitsuba=not args.no_mitsuba, reference_spp=ref_spp,
                   externals=tuple(register_external(cmd).name for cmd in args.renderer))
     result = run_sweep([group], out=out, **sweep_kwargs(args, [group]))
     if not args.quiet:
-        console = wide_console(120, soft_wrap=True)
+        console = A.wide_console(120, soft_wrap=True)
         console.print(summary_table(result.store, metric=args.metric), highlight=False, markup=False)
     print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
           f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", flush=True)

@@ -1,35 +1,28 @@
-"""``rtbench gate [SCENE...]``: fail when our tracer's renders drift from their references.
-
-Runs :func:`benchmarks.gate.run_gate`, prints each comparison's verdict and power, writes
-p-value images of failures into ``--out`` and exits 1 when a comparison fails (undetermined
-ones do not). ``--calibrate`` measures the false-alarm rate instead
-(:func:`benchmarks.gate.calibrate`); ``--write-reference`` writes a store of our own references.
-"""
+"""``rtbench gate [SCENE...]``: fail when our tracer's renders drift from their references
+(:func:`benchmarks.gate.run_gate`); ``--calibrate`` measures the false-alarm rate instead."""
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
 from pathlib import Path
 
-from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+from benchmarks.commands import _args as A
+from benchmarks.constants import CLOSED_FORM
 
 HELP = ("regression gate: render the suite with our tracer (mis always, plus any --strategies; light is biased "
         "on purpose and fails), test it against the cached Mitsuba references (pixel, tile, image and "
         "neighbour-correlation tests), exit 1 on a significant difference")
 
-
 DEFAULT_OUT = "rtbench-out/gate"
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from benchmarks.commands import _args as A
+def add_arguments(parser) -> None:
     from benchmarks.gate import DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_WIDTH
     from benchmarks.gate.calibration import DEFAULT_CALIBRATION_SEEDS, DEFAULT_CALIBRATION_SPPS
     from benchmarks.tails import DEFAULT_TAIL_SPP
 
-    A.add_scene_args(parser, nargs="*", what="suite scenes (default: the whole quick suite)")
+    A.add_scene_args(parser, what="suite scenes (default: the whole quick suite)")
     A.add_spp_args(parser, default=DEFAULT_SPP)
     A.add_strategy_args(parser, default=(), none_means="mis only; with --calibrate every unbiased strategy")
     A.add_size_args(parser, width=DEFAULT_WIDTH)
@@ -53,7 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "reference, as compare judges two stores of one build); no Mitsuba reference")
     A.add_spps_arg(parser, default=DEFAULT_CALIBRATION_SPPS)
     A.add_seeds_arg(parser, default=DEFAULT_CALIBRATION_SEEDS)
-    add_scene_path_args(parser)
+    A.add_scene_path_args(parser)
     parser.add_argument("--reference", default=None, metavar="STORE",
                         help="gate against our own images in results store STORE (written by --write-reference "
                              "with a trusted build) instead of Mitsuba: for features Mitsuba cannot render "
@@ -69,43 +62,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from benchmarks.commands._args import check, warn_tail_spp
-
-    check(args)
     # --renderer and --write-reference use no tail references; 1 is refused (run_gate)
     if args.tail_spp != 1 and not args.renderer and not args.write_reference:
-        warn_tail_spp("gate", args.tail_spp)
+        A.warn_tail_spp("gate", args.tail_spp)
     if args.compare_pairs and not args.calibrate:
         raise ValueError("--compare-pairs goes with --calibrate (it measures compare's false-alarm rate)")
     if args.calibrate:
         return _calibrate(args)
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-
-    from benchmarks.commands._args import single_variant
-    from benchmarks.commands._gate_tables import gate_table, wide_console
+    from benchmarks.commands.parity import check_user_scenes
+    from benchmarks.external import register_external
     from benchmarks.gate import run_gate, write_p_images
+    from benchmarks.store import write_json
 
-    console = wide_console(160)
-    err = Console(stderr=True, quiet=args.quiet)
-    scenes = resolve_scenes(args, suite_names=args.scenes or []) or None
+    console = A.wide_console(160)
+    scenes = A.resolve_scenes(args, suite_names=args.scenes) or None
     if args.write_reference:
         return _write_reference(args, scenes)
-    if scenes and args.reference is None and not _parity_first(scenes, args.out):
+    if scenes and args.reference is None and not check_user_scenes(scenes, args.out, command="gate",
+                                                                   skipped="no statistics were computed"):
         return 1
-    strategies = list(args.strategies)
-    variant = single_variant(args)
-    external = None
-    if args.renderer:
-        from benchmarks.external import register_external
-
-        if len(args.renderer) > 1:
-            raise ValueError("gate takes one --renderer at a time")
-        external = register_external(args.renderer[0])
-
-    progress = Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
-                        TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(), console=err,
-                        transient=True)
+    variant = A.single_variant(args)
+    if len(args.renderer) > 1:
+        raise ValueError("gate takes one --renderer at a time")
+    external = register_external(args.renderer[0]) if args.renderer else None
+    progress = A.progress_bar(args)
     state = {}
 
     def on_start(names, strategies):  # run_gate has checked its inputs: nothing is rendered yet
@@ -125,8 +105,9 @@ def run(args) -> int:
         progress.update(state["cases"], description=f"rendered {case.scene} / {case.strategy}")
 
     with progress:
-        report = run_gate(scenes, strategies=strategies, spp=args.spp, width=args.width, height=args.height,
-                          ref_spp=args.reference_spp, alpha=args.alpha, seed=args.seed, threads=args.threads,
+        report = run_gate(scenes, strategies=list(args.strategies), spp=args.spp, width=args.width,
+                          height=args.height, ref_spp=args.reference_spp, alpha=args.alpha, seed=args.seed,
+                          threads=args.threads,
                           cache=args.cache, log=lambda line: progress.console.print(line, markup=False),
                           on_start=on_start, on_reference=on_reference, on_case=on_case, tail_spp=args.tail_spp,
                           reference_store=args.reference, reference_build=args.reference_build,
@@ -139,8 +120,6 @@ def run(args) -> int:
     for c in report.undetermined:
         console.print(f"undetermined: {c.scene} ({c.strategy}): {c.result.reason}", highlight=False, markup=False)
     if args.json:
-        from benchmarks.store import write_json
-
         verdicts = {v: sum(c.verdict == v for c in report.cases) for v in ("pass", "fail", "undetermined")}
         write_json(args.json, {"alpha": report.alpha, "case_alpha": report.case_alpha, "passed": report.passed,
                                 "verdicts": verdicts, "cases": [c.to_dict() for c in report.cases]})
@@ -172,25 +151,8 @@ def _write_reference(args, scenes) -> int:
     return 0
 
 
-def _parity_first(names, out) -> bool:
-    """AOV parity of the scene files among ``names`` before any render; False (after printing
-    the findings and writing the mismatch maps into ``out``) when one fails."""
-    from benchmarks.commands.parity import check_user_scenes
-
-    if check_user_scenes(names, out, say=lambda line: print(line, file=sys.stderr)):
-        return True
-    print("rtbench gate: the scene file(s) above translate differently in the two renderers; fix that first "
-          "(no statistics were computed)", file=sys.stderr)
-    return False
-
-
 def _calibrate(args) -> int:
     """``rtbench gate --calibrate``: the false-alarm table (:func:`benchmarks.gate.calibrate`)."""
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    from benchmarks.commands._args import single_variant
-    from benchmarks.commands._gate_tables import calibration_table, wide_console
     from benchmarks.constants import UNBIASED_STRATEGIES
     from benchmarks.gate import calibrate
     from benchmarks.gate import resolve_scenes as resolve_gate_scenes
@@ -199,13 +161,12 @@ def _calibrate(args) -> int:
 
     spps = list(args.spps)
     strategies = list(args.strategies) or list(UNBIASED_STRATEGIES)
-    names = resolve_gate_scenes(resolve_scenes(args, suite_names=args.scenes or []) or None)
-    console = wide_console(160)
-    progress = Progress(TextColumn("calibration"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                        console=Console(stderr=True, quiet=args.quiet), transient=True)
+    names = resolve_gate_scenes(A.resolve_scenes(args, suite_names=args.scenes) or None)
+    console = A.wide_console(160)
+    progress = A.progress_bar(args, "calibration")
     config = {"scenes": list(names), "strategies": strategies, "spps": spps, "seeds": args.seeds,
-              "width": args.width, "height": args.height or args.width, "reference_spp": args.reference_spp,
-              "tail_spp": args.tail_spp, "variant": single_variant(args), "build": rt_build_id(),
+              "width": args.width, "height": args.height, "reference_spp": args.reference_spp,
+              "tail_spp": args.tail_spp, "variant": A.single_variant(args), "build": rt_build_id(),
               "compare_pairs": bool(args.compare_pairs)}
     rows = _resumed_rows(args.json, config, alpha=args.alpha) if args.json else []
     if rows:
@@ -225,19 +186,17 @@ def _calibrate(args) -> int:
         task = progress.add_task("renders", total=todo * args.seeds)
         calibrate(names, strategies=strategies, spps=spps, seeds=args.seeds, width=args.width,
                   height=args.height, ref_spp=args.reference_spp, tail_spp=args.tail_spp, alpha=args.alpha,
-                  threads=args.threads, cache=args.cache, variant=single_variant(args),
+                  threads=args.threads, cache=args.cache, variant=config["variant"],
                   log=lambda line: progress.console.print(line, markup=False),
                   on_render=lambda: progress.advance(task), on_row=on_row, skip=skip, pairs=args.compare_pairs)
     if not args.quiet:
         console.print(calibration_table(rows, alpha=args.alpha, pairs=args.compare_pairs))
     bad = [r for r in rows if not r.consistent]
-    if bad:
-        for r in bad:
-            print(f"rtbench gate --calibrate: false-alarm rate {r.false_alarm_rate:.3f} "
-                  f"(95% CI {r.ci_low:.3f}-{r.ci_high:.3f}) exceeds alpha {args.alpha:g} on {r.scene} "
-                  f"({r.strategy}, {r.spp} spp)", file=sys.stderr)
-        return 1
-    return 0
+    for r in bad:
+        print(f"rtbench gate --calibrate: false-alarm rate {r.false_alarm_rate:.3f} "
+              f"(95% CI {r.ci_low:.3f}-{r.ci_high:.3f}) exceeds alpha {args.alpha:g} on {r.scene} "
+              f"({r.strategy}, {r.spp} spp)", file=sys.stderr)
+    return 1 if bad else 0
 
 
 def _resumed_rows(path, config: dict, *, alpha: float) -> list:
@@ -259,10 +218,57 @@ def _resumed_rows(path, config: dict, *, alpha: float) -> list:
                          f"give another path") from None
     same = {k: old.get(k) for k in ("seeds", "width", "height", "reference_spp", "tail_spp", "variant", "build")}
     same["compare_pairs"] = bool(old.get("compare_pairs", False))  # files before the option: the gate's
-    want = {k: config[k] for k in same}
-    if same != want or data.get("alpha") != alpha:
-        diff = ", ".join(f"{k} {same[k]} (now {want[k]})" for k in same if same[k] != want[k])
-        if data.get("alpha") != alpha:
-            diff = ", ".join(x for x in (diff, f"alpha {data.get('alpha')} (now {alpha})") if x)
+    same["alpha"] = data.get("alpha")
+    want = {**config, "alpha": alpha}
+    diff = ", ".join(f"{k} {same[k]} (now {want[k]})" for k in same if same[k] != want[k])
+    if diff:
         raise ValueError(f"--json {path} holds a calibration with other settings: {diff}; give another path")
     return rows
+
+
+def gate_table(report):
+    """The verdict of every comparison of a :class:`benchmarks.gate.GateReport`, as a rich table."""
+    from rich.markup import escape
+    from rich.table import Table
+
+    c0 = report.cases[0]
+    table = Table(title=f"rtbench gate: {c0.width}x{c0.height}, {c0.spp} spp, seed {c0.seed}; alpha {report.alpha:g} "
+                        f"for the run = {report.case_alpha:.3g} per comparison")
+    for col in ("scene", "strategy", "reference", "verdict", "p-value", "failed levels", "relative bias +- se",
+                "catches (global / 8x8 tile)", "where (strongest evidence)"):
+        table.add_column(col, overflow="fold")
+    for c in report.cases:
+        r = c.result
+        verdict = {"pass": "[green]pass[/]", "fail": "[bold red]FAIL[/]",
+                   "undetermined": f"[yellow]undetermined[/] (needs ~{r.spp_needed} spp)"}[r.verdict]
+        ref = (CLOSED_FORM if c.reference.source == CLOSED_FORM else
+               f"{c.reference.variant} {c.reference.spp} spp" if c.reference.source == "store" else
+               f"Mitsuba {c.reference.spp} spp")
+        table.add_row(c.scene, c.strategy, ref, verdict, f"{r.p_value:.3g}", ", ".join(r.failed_levels) or "-",
+                      f"{r.relative_bias:+.2%} +- {r.relative_bias_se:.2%}",
+                      f"{_pct(r.min_detectable_bias)} / {_pct(r.min_detectable_tile_bias)}",
+                      escape(c.where()) if c.failed else "-")
+    return table
+
+
+def _pct(v: float) -> str:
+    """A relative bias as a percentage; '-' where the level tests nothing."""
+    return f"{v:.2%}" if v == v else "-"
+
+
+def calibration_table(rows, *, alpha: float, pairs: bool = False):
+    """The false-alarm table of :func:`benchmarks.gate.calibrate`'s rows, as a rich table
+    (``pairs``: of ``rtbench compare``'s verdict on pairs of renders)."""
+    from rich.table import Table
+
+    what = "rtbench compare's verdicts on pairs of renders of this build" if pairs else "verdicts on unbiased renders"
+    table = Table(title=f"rtbench gate --calibrate: {what}, alpha {alpha:g} per comparison")
+    for col in ("scene", "strategy", "spp", "seeds", "pass", "fail", "undetermined", "false alarms (95% CI)",
+                "consistent", "undetermined needs ~spp", "catches (global)"):
+        table.add_column(col)
+    for r in rows:
+        table.add_row(r.scene, r.strategy, str(r.spp), str(r.seeds), str(r.passed), str(r.failed), str(r.undetermined),
+                      f"{r.false_alarm_rate:.3f} ({r.ci_low:.3f}-{r.ci_high:.3f})",
+                      "[green]yes[/]" if r.consistent else "[bold red]NO[/]",
+                      "-" if r.spp_needed is None else str(r.spp_needed), _pct(r.min_detectable_bias))
+    return table

@@ -1,29 +1,22 @@
 """``rtbench parity [SCENE...] [--scene PATH]``: first-hit AOVs at pixel centres, ours vs Mitsuba
-(:mod:`benchmarks.parity`). A Mitsuba XML file is loaded by Mitsuba itself (at its own size)
-and by us through ``from_mitsuba``; suite scenes and Python files reach Mitsuba through
-``to_mitsuba``. Mismatch maps of failing scenes go to ``--out``; exit 1 on a mismatch.
-"""
+(:mod:`benchmarks.parity`); a Mitsuba XML file is loaded by Mitsuba itself, at its own size."""
 from __future__ import annotations
 
-import argparse
 import sys
 
-from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+from benchmarks.commands import _args as A
 
 HELP = ("first-hit AOV parity at pixel centres (distance, normal, albedo, emission, shape), ours vs Mitsuba; "
         "exit 1 with mismatch maps on a difference")
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenes", nargs="*", metavar="SCENE",
-                        help="suite scenes (default: the whole suite, unless --scene is given)")
-    from benchmarks.commands import _args as A
-
+def add_arguments(parser) -> None:
+    A.add_scene_args(parser, what="suite scenes (default: the whole suite, unless --scene is given)")
     A.add_size_args(parser, width=64)  # suite and Python scenes; XML files keep their own size
     A.add_out_arg(parser, default="rtbench-parity")  # the mismatch maps of failing scenes
     A.add_json_arg(parser)  # one row per scene
     A.add_quiet_arg(parser)
-    add_scene_path_args(parser)
+    A.add_scene_path_args(parser)
 
 
 def parity_of(name: str, *, width: int | None = None, height: int | None = None):
@@ -42,9 +35,9 @@ def parity_of(name: str, *, width: int | None = None, height: int | None = None)
     return run_parity(scene, name=name)
 
 
-def check_user_scenes(names, out, *, say=print) -> bool:
-    """Parity of the scene files among ``names`` (``gate`` and ``curves`` run it first): True
-    when all pass; each failure's findings and mismatch maps are printed."""
+def check_user_scenes(names, out, *, command: str, skipped: str) -> bool:
+    """Parity of the scene files among ``names``, before ``command`` renders them: False, after printing
+    each failure's findings and mismatch maps and that ``command`` stops (``skipped``), when one fails."""
     from mitsuba_scenes.scene_files import scene_file
 
     ok = True
@@ -56,10 +49,13 @@ def check_user_scenes(names, out, *, say=print) -> bool:
         except ValueError as exc:  # e.g. Metal fuzz: no Mitsuba equivalent, no parity possible
             raise ValueError(f"{name}: no parity check possible, Mitsuba cannot load this scene: {exc} (gate such "
                              f"scenes against a store of ours: gate --reference STORE)") from None
-        say(report.summary())
+        print(report.summary(), file=sys.stderr)
         if not report.passed:
             ok = False
             _explain(report, out)
+    if not ok:
+        print(f"rtbench {command}: the scene file(s) above translate differently in the two renderers; fix that "
+              f"first ({skipped})", file=sys.stderr)
     return ok
 
 
@@ -75,14 +71,9 @@ def _explain(report, out) -> None:
 def run(args) -> int:
     from mitsuba_scenes import list_scenes
 
-    from benchmarks.commands._args import check
     from benchmarks.store import write_json
 
-    check(args)
-    names = resolve_scenes(args, suite_names=args.scenes, default=list_scenes())
-    unknown = [s for s in args.scenes if s not in list_scenes()]
-    if unknown:
-        raise ValueError(f"unknown scene(s) {unknown}; the suite has: {', '.join(list_scenes())}")
+    names = A.resolve_scenes(args, suite_names=args.scenes, default=list_scenes(), known=True)
     rows, failed = [], 0
     for name in names:
         report = parity_of(name, width=args.width, height=args.height)
@@ -96,5 +87,4 @@ def run(args) -> int:
         write_json(args.json, rows)
     if failed:
         print(f"rtbench parity: {failed} of {len(names)} scene(s) differ from Mitsuba", file=sys.stderr)
-        return 1
-    return 0
+    return 1 if failed else 0

@@ -1,23 +1,21 @@
 """``rtbench reference SCENE...``: render (or find in the cache) high-spp Mitsuba references."""
 from __future__ import annotations
 
-import argparse
 import shutil
 import time
 from pathlib import Path
 
-from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+from benchmarks.commands import _args as A
 from benchmarks.files import slug
 
 HELP = "render a high-spp Mitsuba reference (mean + per-sample variance) into the cache, or report the cached one"
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from benchmarks.commands import _args as A
+def add_arguments(parser) -> None:
     from benchmarks.references import DEFAULT_REFERENCE_BATCHES, DEFAULT_REFERENCE_SEED
 
-    A.add_scene_args(parser, nargs="*")
-    add_scene_path_args(parser)
+    A.add_scene_args(parser)
+    A.add_scene_path_args(parser)
     A.add_spp_args(parser, default=4096)
     A.add_seed_args(parser, default=DEFAULT_REFERENCE_SEED)
     A.add_size_args(parser, width=None)
@@ -34,30 +32,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from mitsuba_scenes import describe_scene, get_scene, list_scenes
+    from mitsuba_scenes import describe_scene, get_scene
 
-    from benchmarks.commands._args import check, single_variant
     from benchmarks.references import reference
 
-    check(args)
-    unknown = [s for s in args.scenes or [] if s not in list_scenes()]
-    if unknown:
-        raise ValueError(f"unknown scene(s) {unknown}; the suite has: {', '.join(list_scenes())}")
-    variant = single_variant(args)
-    names = resolve_scenes(args, suite_names=args.scenes or [])
-    if not names:
-        raise ValueError("no scene: give suite scene names or --scene PATH")
+    names = A.resolve_scenes(args, suite_names=args.scenes, known=True, required=True)
+    variant = A.single_variant(args)
     for scene_name in names:
         scene = get_scene(scene_name)
         w = args.width or scene.camera.width
-        h = args.height or (args.width or scene.camera.height)  # height defaults to the width
+        h = args.height or scene.camera.height
         scene = scene.with_camera_size(w, h)
         t0 = time.perf_counter()
         ref = reference(scene, spp=args.spp, seed=args.seed, variant=variant, threads=args.threads,
                         batches=args.batches, cache=args.cache, force=args.force,
                         log=None if args.quiet else print)
-        took = time.perf_counter() - t0
-        how = "cache hit" if ref.cached else f"rendered in {took:.1f} s"
+        how = "cache hit" if ref.cached else f"rendered in {time.perf_counter() - t0:.1f} s"
         print(f"{scene_name} {w}x{h}: {ref.spp} spp, seed {ref.seed}, Mitsuba {ref.mitsuba_version} "
               f"{ref.variant} ({how})")
         if not args.quiet:

@@ -4,7 +4,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+from benchmarks.commands import _args as A
+from benchmarks.files import slug
 
 HELP = ("render a suite scene (or --scene PATH) with our tracer (one image per --strategies) and, with --mitsuba, "
         "with Mitsuba too; writes <out>/<scene>_<W>x<H>_<renderer>_spp<N>_seed<S>.exr and .png")
@@ -12,9 +13,7 @@ HELP = ("render a suite scene (or --scene PATH) with our tracer (one image per -
 DEFAULT_OUT = "rtbench-out/render"
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    from benchmarks.commands import _args as A
-
+def add_arguments(p) -> None:
     A.add_scene_args(p, nargs="?", what="suite scene name")
     A.add_list_arg(p)
     A.add_spp_args(p, default=64)
@@ -30,7 +29,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--exposure", type=float, default=0.0, help="PNG exposure in stops")
     A.add_out_arg(p, default=DEFAULT_OUT)
     A.add_quiet_arg(p)
-    add_scene_path_args(p)
+    A.add_scene_path_args(p)
 
 
 def file_stem(scene: str, width: int, height: int, renderer: str, spp: int, seed: int) -> str:
@@ -39,8 +38,6 @@ def file_stem(scene: str, width: int, height: int, renderer: str, spp: int, seed
     >>> file_stem("cornell_box", 32, 32, "mis", 64, 0)
     'cornell_box_32x32_mis_spp64_seed0'
     """
-    from benchmarks.files import slug
-
     return slug(scene, f"{width}x{height}", renderer, f"spp{spp}", f"seed{seed}")
 
 
@@ -49,9 +46,6 @@ def run(args) -> int:
     from mitsuba_scenes import describe_scene, get_scene, list_scenes
     from rich.console import Console
 
-    from benchmarks.commands._args import check, resolve_height, single_variant
-
-    check(args)
     console = Console()
     if args.list or not (args.scenes or args.scene_files):
         for name in list_scenes():
@@ -62,15 +56,12 @@ def run(args) -> int:
         raise ValueError(f"unknown strateg{'y' if len(unknown) == 1 else 'ies'} {', '.join(unknown)}; "
                          f"choose from {', '.join(rt.STRATEGIES)}")
     rt.imageio.check_exposure(args.exposure)  # before the render, not after it
-    variant = single_variant(args)
-    params = {} if args.width is None else {"width": args.width, "height": resolve_height(args)}
-    names = resolve_scenes(args, suite_names=[args.scenes] if args.scenes else [])
+    variant = A.single_variant(args)
+    params = {} if args.width is None else {"width": args.width, "height": args.height}
+    names = A.resolve_scenes(args, suite_names=[args.scenes] if args.scenes else [])
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    worst = 0
-    for name in names:
-        worst = max(worst, _render_scene(name, get_scene(name, **params), args, variant, out, console))
-    return worst
+    return max(_render_scene(name, get_scene(name, **params), args, variant, out, console) for name in names)
 
 
 def _render_scene(name, scene, args, variant, out: Path, console) -> int:
@@ -90,15 +81,13 @@ def _render_scene(name, scene, args, variant, out: Path, console) -> int:
             task = bar.add_task(f"{name} {strategy} {args.spp} spp", total=1.0)
             result = rt.render(scene, spp=args.spp, strategy=strategy, seed=args.seed, threads=args.threads,
                                progress=lambda done, total: bar.update(task, completed=done / total))
-        stem = out / file_stem(name, w, h, strategy, args.spp, args.seed)
-        _write(rt, stem, result.mean, args.exposure)
         if not args.quiet:
             console.print(f"{name}: {w}x{h}, {args.spp} spp, {strategy}, seed {args.seed}: "
                           f"{result.seconds:.3f} s on {result.threads} threads, "
                           f"{result.paths_per_second / 1e6:.2f} M paths/s, {result.rays / 1e6:.2f} M rays, "
                           f"{result.nonfinite_samples} NaN/Inf samples, {result.overflow_pixels} overflowed pixels",
                           highlight=False)
-        print(f"wrote {stem}.exr and {stem}.png")
+        _write(out / file_stem(name, w, h, strategy, args.spp, args.seed), result.mean, args.exposure)
         bad += bool(result.nonfinite_samples or result.overflow_pixels)
     if args.mitsuba:
         from mitsuba_scenes import render_mitsuba
@@ -106,15 +95,16 @@ def _render_scene(name, scene, args, variant, out: Path, console) -> int:
 
         chosen = select_variant(variant)
         res = render_mitsuba(scene, spp=args.spp, seed=args.seed, variant=chosen, threads=args.threads, batches=1)
-        stem = out / file_stem(name, w, h, f"mitsuba-{chosen}", args.spp, args.seed)
-        _write(rt, stem, res.mean, args.exposure)
         if not args.quiet:
             console.print(f"{name}: Mitsuba {chosen} path, {args.spp} spp, seed {args.seed}: "
                           f"{res.seconds:.3f} s", highlight=False)
-        print(f"wrote {stem}.exr and {stem}.png")
+        _write(out / file_stem(name, w, h, f"mitsuba-{chosen}", args.spp, args.seed), res.mean, args.exposure)
     return 1 if bad else 0
 
 
-def _write(rt, stem: Path, mean, exposure: float) -> None:
+def _write(stem: Path, mean, exposure: float) -> None:
+    import reference_tracer as rt
+
     rt.write_exr(stem.with_suffix(".exr"), mean)
     rt.write_png(stem.with_suffix(".png"), mean, exposure=exposure)
+    print(f"wrote {stem}.exr and {stem}.png")

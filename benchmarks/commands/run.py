@@ -1,10 +1,9 @@
 """``rtbench run [--preset quick|full]``: references + curves for the suite + the report."""
 from __future__ import annotations
 
-import argparse
 import math
 
-from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+from benchmarks.commands import _args as A
 from benchmarks.constants import SEED_SCENE, SEED_SIZE, SEED_SPP
 from benchmarks.errors import EXIT_ERROR
 
@@ -14,8 +13,7 @@ HELP = "the main job: references and error-vs-spp curves for the whole suite, th
 REPORT_COST = 12.0
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from benchmarks.commands import _args as A
+def add_arguments(parser) -> None:
     from benchmarks.commands.curves import add_sweep_options
     from benchmarks.sweep.presets import PRESETS
 
@@ -29,7 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-report", action="store_true", help="skip the report")
     A.add_format_arg(parser)
     add_sweep_options(parser)
-    add_scene_path_args(parser)
+    A.add_scene_path_args(parser)
 
 
 def default_out(preset: str, scenes) -> str:
@@ -45,21 +43,18 @@ def run(args) -> int:
     from rich.console import Console
 
     import reports
-    from benchmarks.commands._args import check, name_list
-    from benchmarks.commands._gate_tables import wide_console
     from benchmarks.commands.curves import sweep_kwargs
     from benchmarks.sweep import run_sweep
     from benchmarks.sweep.presets import describe_preset, escalates_tails, preset_groups
     from benchmarks.sweep.progress import Progress, process_seconds
 
-    check(args)
-    names = resolve_scenes(args, suite_names=name_list(args.scenes) if args.scenes is not None else [])
-    out = args.out if args.out != "reports/out/PRESET[_SCENES]" else default_out(args.preset, names or None)
-    groups = preset_groups(args.preset, scenes=names or None)
+    names = A.resolve_scenes(args, suite_names=A.name_list(args.scenes or "")) or None
+    out = args.out if args.out != "reports/out/PRESET[_SCENES]" else default_out(args.preset, names)
+    groups = preset_groups(args.preset, scenes=names)
     err = Console(stderr=True, soft_wrap=True)
     if not args.quiet:
         err.print(f"rtbench run --preset {args.preset} -> {out}", highlight=False)
-        err.print(describe_preset(args.preset, scenes=names or None), highlight=False)
+        err.print(describe_preset(args.preset, scenes=names), highlight=False)
     kwargs = sweep_kwargs(args, groups)
     bar = Progress(enabled=kwargs.pop("progress"), console=err)
     if not args.no_report:
@@ -76,7 +71,7 @@ def run(args) -> int:
     finally:
         bar.stop()
     if not args.quiet:
-        _print_headline(result.store, console=wide_console(140, soft_wrap=True))
+        _print_headline(result.store, console=A.wide_console(140, soft_wrap=True))
     if page is not None:
         print(f"report: {page.resolve()}", flush=True)
     total = process_seconds()

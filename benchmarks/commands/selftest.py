@@ -1,23 +1,18 @@
-"""``rtbench selftest``: does the gate catch real bugs? Seeded bugs, gate vs Mitsuba's rule.
-
-Runs :func:`benchmarks.selftest.run_selftest` and prints one row per mutant (the gate's verdict
-at ``--spp``, the smallest spp caught, the same for Mitsuba's rule, and the unmutated tracer's
-verdicts as a control). Exit 0 when the gate catches at least 90% of the mutants and never
-fewer than Mitsuba's rule, 1 otherwise, 2 on bad usage.
-"""
+"""``rtbench selftest``: does the gate catch real bugs? Seeded bugs, gate vs Mitsuba's rule
+(:func:`benchmarks.selftest.run_selftest`), one row per mutant with the unmutated tracer as a control."""
 from __future__ import annotations
 
-import argparse
+import shlex
 import sys
 
+from benchmarks.commands import _args as A
 from benchmarks.text import markdown_table
 
 HELP = ("self-test: render seeded bugs of the tracer (mutants) and report which the gate and Mitsuba's rule "
         "catch, and from how many spp; exit 1 if the gate catches fewer than 90% or fewer than Mitsuba's rule")
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from benchmarks.commands import _args as A
+def add_arguments(parser) -> None:
     from benchmarks.gate import DEFAULT_REF_SPP, DEFAULT_SEED, DEFAULT_SPP, DEFAULT_WIDTH
     from benchmarks.selftest import CATALOGUE, DEFAULT_SPP_LADDER
     from benchmarks.tails import DEFAULT_TAIL_SPP
@@ -43,10 +38,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     A.add_quiet_arg(parser)
 
 
-def _spp(n) -> str:
-    return "-" if n is None else str(n)
-
-
 def _control(row) -> str:
     if row.get("control_verdict") is None:
         return "-"
@@ -59,8 +50,8 @@ COLUMNS = ("mutant", "scene", "strategy", "gate verdict", "caught", "smallest sp
 
 def _cells(row) -> list:
     return [row["mutant"], row["scene"], row["strategy"], row["verdict"], "yes" if row["caught"] else "NO",
-            _spp(row["smallest_spp_caught"]), "yes" if row["caught_by_mitsuba_rule"] else "no",
-            _spp(row["smallest_spp_caught_by_mitsuba_rule"]),
+            str(row["smallest_spp_caught"] or "-"), "yes" if row["caught_by_mitsuba_rule"] else "no",
+            str(row["smallest_spp_caught_by_mitsuba_rule"] or "-"),
             f"{row['relative_bias']:+.2%} +- {row['relative_bias_se']:.2%}", _control(row)]
 
 
@@ -84,11 +75,11 @@ def selftest_table(report):
     return t
 
 
-def markdown(report, command: str | None = None) -> str:
-    """The table as Markdown (with the command that produced it, when given)."""
+def markdown(report) -> str:
+    """The table as Markdown, after the command that produced it when run from the console script."""
     lines = []
-    if command:
-        lines += [f"`{command}`", ""]
+    if sys.argv[1:2] == ["selftest"]:  # not a test's main(argv)
+        lines += [f"`rtbench {shlex.join(sys.argv[1:])}`", ""]
     lines += [markdown_table(COLUMNS, [_cells(r) for r in report.rows])]
     lines += ["", summary_line(report) + "; gate level per comparison "
               f"{report.alpha:.3g} (a default quick-suite run), Mitsuba's rule at its own alpha 0.01 per image. "
@@ -96,18 +87,7 @@ def markdown(report, command: str | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _command_line() -> str | None:
-    """This command as typed, when run from the console script (not from a test's main(argv))."""
-    import shlex
-
-    if sys.argv[1:2] != ["selftest"]:
-        return None
-    return "rtbench " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-
-
 def run(args) -> int:
-    from benchmarks.commands._args import check, warn_tail_spp
-    from benchmarks.commands._gate_tables import wide_console
     from benchmarks.gate.suite import names_of
     from benchmarks.selftest import CATALOGUE, run_selftest
     from benchmarks.store import write_json
@@ -118,28 +98,22 @@ def run(args) -> int:
             print(f"{m.name} ({m.scene}, {m.strategy})\n  bug: {m.description}\n  breaks: {m.breaks}\n"
                   f"  why this scene: {m.why}")
         return 0
-    check(args)
     names = names_of(",".join(args.mutants)) or None
-    warn_tail_spp("selftest", args.tail_spp)
-    if args.height is not None and args.height != args.width:
+    A.warn_tail_spp("selftest", args.tail_spp)
+    if args.height != args.width:
         raise ValueError("selftest renders square images: --height must equal --width")
-    try:
-        spp_ladder = [int(s) for s in args.spp_ladder.split(",") if s.strip()]
-    except ValueError:
-        raise ValueError(f"--spp-ladder must be comma-separated integers, got {args.spp_ladder!r}") from None
-
-    def log(line):
-        if not args.quiet:
-            print(line, file=sys.stderr, flush=True)
+    spp_ladder = A.int_list(args.spp_ladder, option="--spp-ladder") if args.spp_ladder.strip() else []
+    log = A.stderr_log(args)
 
     def on_row(row):
-        log(f"{row['mutant']}: gate {row['verdict']}, Mitsuba's rule "
-            f"{'caught' if row['caught_by_mitsuba_rule'] else 'passed'} it ({row['seconds']:.0f} s)")
+        if log:
+            log(f"{row['mutant']}: gate {row['verdict']}, Mitsuba's rule "
+                f"{'caught' if row['caught_by_mitsuba_rule'] else 'passed'} it ({row['seconds']:.0f} s)")
 
     report = run_selftest(names, spp=args.spp, width=args.width, ref_spp=args.reference_spp, tail_spp=args.tail_spp,
                           spp_ladder=spp_ladder, seed=args.seed, controls=not args.no_controls,
                           threads=args.threads, cache=args.cache, on_row=on_row, log=log)
-    console = wide_console(200)
+    console = A.wide_console(200)
     if not args.quiet:
         console.print(selftest_table(report))
     console.print(summary_line(report) + f"; {report.seconds:.0f} s", highlight=False)
@@ -155,7 +129,7 @@ def run(args) -> int:
     if args.json:
         write_json(args.json, report.to_dict())
     if args.markdown:
-        atomic_write(args.markdown, markdown(report, _command_line()))
+        atomic_write(args.markdown, markdown(report))
     if report.passed:
         console.print(f"[green]self-test passed[/]: {summary_line(report)}")
         return 0

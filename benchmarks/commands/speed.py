@@ -1,16 +1,12 @@
-"""``rtbench speed [SCENES] [--rays] [--scaling] [--isa ISA] ...``: ours vs Mitsuba 3, paths/s, rays/s, efficiency.
-
-The render benchmark by default, ``--rays`` and ``--scaling`` instead (``--render`` adds it); ``--isa`` times a build
-of our core for that instruction set beside the installed one. The output ends with one verdict line per speed target;
-the exit status is 0 whatever they say, unless ``--require-targets``. benchmarks/PERFORMANCE.md, How to measure.
-"""
+"""``rtbench speed [SCENES] [--rays] [--scaling] [--isa ISA] ...``: ours vs Mitsuba 3, paths/s, rays/s, efficiency,
+ending with one verdict line per speed target (benchmarks/PERFORMANCE.md, How to measure)."""
 from __future__ import annotations
 
 import argparse
 import math
 from pathlib import Path
 
-from benchmarks.commands._scene_args import add_scene_path_args, resolve_scenes
+from benchmarks.commands import _args as A
 from benchmarks.errors import EXIT_FAIL
 
 HELP = "time ours vs Mitsuba (paired, interleaved): paths/s, rays/s, ms/spp, RMSE, efficiency; --rays, --scaling"
@@ -27,13 +23,12 @@ def _rr_depths(text):
     return out
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from benchmarks.commands import _args as A
+def add_arguments(parser) -> None:
     from benchmarks.speed import DEFAULT_RR_DEPTHS, DEFAULT_STRATEGIES, DEFAULT_VARIANTS, REFERENCE_KINDS
     from benchmarks.speed.builds import ISAS
 
     rr_default = ",".join("none" if v is None else str(v) for v in DEFAULT_RR_DEPTHS)
-    A.add_scene_args(parser, nargs="*", what="suite scene(s) of the render benchmark (default: the whole suite)")
+    A.add_scene_args(parser, what="suite scene(s) of the render benchmark (default: the whole suite)")
     A.add_size_args(parser, width=128)
     A.add_spp_args(parser, default=64)
     A.add_threads_args(parser)
@@ -73,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="exit 1 when a judged speed target is not met (else a target is reported only)")
     A.add_json_arg(parser)
     A.add_quiet_arg(parser)
-    add_scene_path_args(parser)
+    A.add_scene_path_args(parser)
 
 
 def _m(v):
@@ -170,8 +165,9 @@ def render_notes(result):
               for name, template in c.get("externals", {}).items()]
     lines += [f"ours ..., {name} build: our core built for {name} ({module}), in a worker process, in the same rounds"
               for name, module in c.get("builds", {}).items()]
+    targets = result.get("mitsuba_targets", {})
     lines += [f"{row['label']}: Mitsuba in the {row['build']} build's worker, Dr.Jit's kernels compiled for "
-              f"{result.get('mitsuba_targets', {}).get(row['build'], row['build'])} (what a CPU of that instruction set runs; "
+              f"{targets.get(row['build'], row['build'])} (what a CPU of that instruction set runs; "
               f"Embree inside keeps this CPU's); the {row['build']} build's ratios pair with it"
               for row in {r["label"]: r for r in result["summary"]
                           if r["renderer"] == "mitsuba" and r.get("build")}.values()]
@@ -284,19 +280,13 @@ def scaling_svg(result) -> bytes:
 
 
 def run(args) -> int:
-    from rich.console import Console
-
     from benchmarks import speed
-    from benchmarks.commands._args import check, int_list, resolve_height, resolve_threads
     from benchmarks.external import register_external
     from benchmarks.store.jsonio import write_json
     from mitsuba_scenes import list_scenes
 
-    check(args)
-    height, threads = resolve_height(args), resolve_threads(args.threads)
-    console = Console(quiet=args.quiet)
-    if not console.is_terminal:   # piped or captured: keep each table row on one line
-        console = Console(width=220, quiet=args.quiet)
+    threads = A.resolve_threads(args.threads)
+    console = A.wide_console(220, quiet=args.quiet)
     log = None if args.quiet else (lambda line: console.print(line, style="dim", markup=False, highlight=False))
     do_render = args.render or not (args.rays or args.scaling)
     for given, what in ((args.scenes or args.scene_files, "scenes are only used by the render benchmark"),
@@ -308,8 +298,7 @@ def run(args) -> int:
     if args.svg and not args.scaling:
         raise ValueError("--svg draws the --scaling curves: add --scaling")
     externals = [register_external(cmd) for cmd in args.renderer]
-    scenes = resolve_scenes(args, suite_names=args.scenes or [], default=list(list_scenes()))
-    depths = int_list(args.scaling_depths, option="--scaling-depths")
+    scenes = A.resolve_scenes(args, suite_names=args.scenes, default=list_scenes())
     builds = _build_isa(args.isa, log) if args.isa else {}
     jit = next((v for v in args.variant if not v.startswith("scalar")), None)
 
@@ -322,7 +311,7 @@ def run(args) -> int:
     out = {}
     if do_render:
         out["render"] = res = speed.render_benchmark(
-            scenes, width=args.width, height=height, spp=args.spp, threads=threads, repeats=args.repeats,
+            scenes, width=args.width, height=args.height, spp=args.spp, threads=threads, repeats=args.repeats,
             strategies=list(args.strategies), integrators=list(args.integrators), variants=list(args.variant),
             max_depth=args.max_depth, rr_depths=args.rr_depth, reference=args.reference_kind,
             reference_spp=args.reference_spp, seed=args.seed, cache=args.cache, log=log, externals=externals,
@@ -335,9 +324,9 @@ def run(args) -> int:
         show(rays_tables(res), [rays_note(res)])
     if args.scaling:
         out["scaling"] = res = speed.scaling_benchmark(
-            resolutions=list(args.resolutions), depths=depths, spp=args.scaling_spp, thread_counts=sorted({1, threads}),
-            triangles=list(args.scaling_triangles), variant=jit, threads=threads, repeats=min(args.repeats, 3),
-            seed=args.seed, log=log)
+            resolutions=list(args.resolutions), depths=list(args.scaling_depths), spp=args.scaling_spp,
+            thread_counts=sorted({1, threads}), triangles=list(args.scaling_triangles), variant=jit, threads=threads,
+            repeats=min(args.repeats, 3), seed=args.seed, log=log)
         if args.svg:
             with open(args.svg, "wb") as f:
                 f.write(scaling_svg(res))

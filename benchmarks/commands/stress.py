@@ -1,13 +1,12 @@
 """``rtbench stress [--quick] [--case NAME ...] [--json PATH]``: numerical stability on hard cases."""
 from __future__ import annotations
 
-import argparse
+from benchmarks.commands import _args as A
 
 HELP = "run the hard-case suite (watertight meshes, grazing rays, degenerate input, scale, ...) and print a table"
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from benchmarks.commands import _args as A
+def add_arguments(parser) -> None:
     from benchmarks.stress import CASES
 
     parser.add_argument("--quick", action="store_true",
@@ -39,5 +38,4 @@ def run(args) -> int:
     failed = [r.case for r in records if not r.passed]
     if failed:
         print(f"failed: {', '.join(failed)}")
-        return 1
-    return 0
+    return 1 if failed else 0
