@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ROOT", "ISAS", "MITSUBA_TARGETS", "mitsuba_isas", "AGREEMENT_SCRIPT", "cpu_flags", "build_core", "build_isa",
-           "run_with_core", "agreement_arrays", "build_target", "CoreWorker", "paired_times"]
+__all__ = ["ROOT", "ISAS", "MITSUBA_TARGETS", "mitsuba_isas", "AGREEMENT_SCRIPT", "cpu_flags", "build_core",
+           "build_isa", "run_with_core", "agreement_arrays", "build_target", "CoreWorker", "paired_times"]
 
 #: The repository's root (the CMake project).
 ROOT = Path(__file__).resolve().parents[2]

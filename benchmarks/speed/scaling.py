@@ -18,7 +18,7 @@ from reference_tracer.validation import positive_int
 
 from ..constants import STRATEGIES
 from ..metrics import convergence_slope
-from .common import check_jit_variant, environment, load_mitsuba, median, mitsuba_render_fn, spread, timed, use_variant
+from .common import check_jit_variant, environment, load_mitsuba, median, mitsuba_render_timed, spread, timed
 from .rays import intersect_mitsuba, intersect_ours, mesh_scene, random_rays
 
 __all__ = ["AXES", "scaling_benchmark", "fit_log_growth"]
@@ -108,7 +108,7 @@ def _measure(sc, *, spp, threads, strategy, seed, repeats, variant) -> dict:
                                                          threads=threads))}
     if variant is not None:
         mscene, _ = load_mitsuba(variant, sc, threads)
-        renders["mitsuba"] = lambda r: timed(mitsuba_render_fn(use_variant(variant, threads)[0], mscene, spp, 1000 + r))
+        renders["mitsuba"] = lambda r: mitsuba_render_timed(variant, mscene, spp=spp, seed=1000 + r, threads=threads)
     paths, got = sc.camera.width * sc.camera.height * spp, {who: [] for who in renders}
     for r in [repeats, *range(repeats)]:   # the first: the warm-up
         for who, render in renders.items():
