@@ -36,7 +36,6 @@ MITSUBA_TARGETS = {"avx2": ("haswell", _V3_LLVM, 8),
                    "avx512": ("skylake-avx512", _V3_LLVM + ",+avx512f,+avx512bw,+avx512cd,+avx512dq,+avx512vl", 16)}
 
 
-
 def mitsuba_isas(builds, native) -> list:
     """The ``builds`` (named by their ISA) whose Mitsuba kernels have another width than this CPU's (``native``:
     ``mitsuba_scenes.variants.llvm_target()``; None, no LLVM backend: none): against these, Mitsuba runs with

@@ -1,8 +1,6 @@
-"""The scaling benchmark: cost against work, ours beside Mitsuba, so a user sees where each one's cost grows.
-
-:func:`scaling_benchmark`: paths/s of a suite scene against image size, maximum depth and threads, and against
-triangle count on a lit torus, with build or load times and the cost a random ray, fitted as ``a + b ln n``
-(:func:`fit_log_growth`). ``rtbench speed --scaling`` prints the tables, ``--svg`` draws the curves."""
+"""The scaling benchmark (``rtbench speed --scaling``): paths/s of ours beside Mitsuba against image size, maximum
+depth, threads and a lit torus's triangle count, with build or load times and the cost a random ray fitted as
+``a + b ln n`` (:func:`fit_log_growth`), so a user sees where each one's cost grows."""
 from __future__ import annotations
 
 import dataclasses
