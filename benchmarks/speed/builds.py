@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ROOT", "ISAS", "MITSUBA_TARGETS", "mitsuba_isas", "AGREEMENT_SCRIPT", "cpu_flags", "build_core", "build_isa",
-           "run_with_core", "agreement_arrays", "build_target", "CoreWorker", "paired_times"]
+__all__ = ["ROOT", "ISAS", "MITSUBA_TARGETS", "mitsuba_isas", "AGREEMENT_SCRIPT", "cpu_flags", "build_core",
+           "build_isa", "run_with_core", "agreement_arrays", "build_target", "CoreWorker", "paired_times"]
 
 #: The repository's root (the CMake project).
 ROOT = Path(__file__).resolve().parents[2]
@@ -34,7 +34,6 @@ _V3_LLVM = "+avx,+avx2,+bmi,+bmi2,+cx16,+f16c,+fma,+lzcnt,+movbe,+popcnt,+sse,+s
 #: against Mitsuba as a machine of that ISA runs it.
 MITSUBA_TARGETS = {"avx2": ("haswell", _V3_LLVM, 8),
                    "avx512": ("skylake-avx512", _V3_LLVM + ",+avx512f,+avx512bw,+avx512cd,+avx512dq,+avx512vl", 16)}
-
 
 
 def mitsuba_isas(builds, native) -> list:

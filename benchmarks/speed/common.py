@@ -20,7 +20,7 @@ from .builds import MITSUBA_TARGETS, mitsuba_isas
 
 __all__ = ["WALL_CLOCK_NOTE", "environment", "timed", "median", "spread", "median_order_interval",
            "median_coverage", "rounds_for_coverage", "name_list", "use_variant", "available_variants",
-           "check_jit_variant", "mitsuba_versions", "mitsuba_render_fn", "load_mitsuba", "use_mitsuba_kernels",
+           "check_jit_variant", "mitsuba_versions", "mitsuba_render_timed", "load_mitsuba", "use_mitsuba_kernels",
            "mitsuba_kernel_workers"]
 
 #: printed under every table and stored in every JSON.
@@ -170,9 +170,10 @@ def mitsuba_versions() -> dict:
             "llvm_target": v["llvm_target"]}
 
 
-def mitsuba_render_fn(mi, mscene, spp, seed):
-    """A function rendering ``mscene`` once and returning the image as float64."""
-    return lambda: np.array(mi.render(mscene, spp=int(spp), seed=int(seed)), dtype=np.float64)   # waits for it
+def mitsuba_render_timed(variant, mscene, *, spp, seed, threads=None):
+    """:func:`timed` render of ``mscene`` in ``variant`` (selected first, untimed), the image as float64."""
+    mi, _ = use_variant(variant, threads)
+    return timed(lambda: np.array(mi.render(mscene, spp=int(spp), seed=int(seed)), dtype=np.float64))   # waits for it
 
 
 def load_mitsuba(variant, scene, threads, *, check_merge=True):

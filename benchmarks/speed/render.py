@@ -28,8 +28,8 @@ from ..external import render_external
 from ..metrics import efficiency, mse, mse_corrected
 from ..references import reference
 from .builds import CoreWorker
-from .common import (available_variants, environment, load_mitsuba, median, mitsuba_kernel_workers, mitsuba_render_fn,
-                     mitsuba_versions, name_list, spread, timed, use_mitsuba_kernels, use_variant)
+from .common import (available_variants, environment, load_mitsuba, median, mitsuba_kernel_workers,
+                     mitsuba_render_timed, mitsuba_versions, name_list, spread, timed, use_mitsuba_kernels)
 from .suite import suite_summary
 
 __all__ = ["DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT_RR_DEPTHS", "REFERENCE_KINDS", "render_benchmark",
@@ -146,12 +146,6 @@ def rr_label(rr_depth) -> str:
     return "no RR" if rr_depth is None else f"rr_depth {rr_depth}"
 
 
-def _with_depths(scene, max_depth, rr_depth):
-    """``scene`` with ``max_depth`` (None keeps) and ``rr_depth`` (``'scene'`` keeps) set."""
-    return dataclasses.replace(scene, max_depth=scene.max_depth if max_depth is None else max_depth,
-                               rr_depth=scene.rr_depth if rr_depth == "scene" else rr_depth)
-
-
 _KEPT = {}   # a worker's scenes, kept between calls: each tree is built once
 
 
@@ -166,14 +160,12 @@ def render_timed(scene, *, key=None, **render_args):
 
 
 def mitsuba_timed(scene, *, variant, isa, key, spp, seed, threads):
-    """``(image, wall seconds, process CPU seconds)`` of Mitsuba's render of ``scene`` with its kernels compiled for
-    ``isa`` (:func:`.common.use_mitsuba_kernels`). Run in a :class:`.builds.CoreWorker`, which keeps the loaded scene
-    under ``key``."""
-    mi, _ = use_variant(variant, threads)
+    """:func:`.common.mitsuba_render_timed` with kernels compiled for ``isa`` (:func:`.common.use_mitsuba_kernels`), in
+    a :class:`.builds.CoreWorker` which keeps the loaded scene under ``key``."""
     use_mitsuba_kernels(variant, isa, threads)
     if key not in _KEPT:
         _KEPT[key] = load_mitsuba(variant, scene, threads)[0]
-    return timed(mitsuba_render_fn(mi, _KEPT[key], spp, seed))
+    return mitsuba_render_timed(variant, _KEPT[key], spp=spp, seed=seed, threads=threads)
 
 
 def _mitsuba_label(variant, build=None) -> str:
@@ -185,7 +177,9 @@ def _mitsuba_label(variant, build=None) -> str:
 def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, workers, kernels):
     """Set up, time and summarise one scene in every Russian-roulette configuration."""
     width, height, spp, threads = config["width"], config["height"], config["spp"], config["threads"]
-    base = _with_depths(get_scene(name).with_camera_size(width, height), config["max_depth"], "scene")
+    base = get_scene(name).with_camera_size(width, height)
+    if config["max_depth"] is not None:
+        base = dataclasses.replace(base, max_depth=config["max_depth"])
     _, build_wall, _ = timed(lambda: core_scene(base))   # our tree, untimed
     ref, result["references"][name] = _reference(base, kind=config["reference"], spp=config["reference_spp"],
                                                  variant=(ok_variants or [None])[0], threads=threads, cache=cache,
@@ -193,7 +187,7 @@ def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, wo
     result.setdefault("ours", {})[name] = {"build_seconds": float(core_scene(base).build_seconds),
                                            "compile_and_build_seconds": build_wall}
     for rr in config["rr_depths"]:
-        scene = _with_depths(base, None, rr)
+        scene = dataclasses.replace(base, rr_depth=base.rr_depth if rr == "scene" else rr)
         label = rr_label(scene.rr_depth)
         if log:
             log(f"{name} {width}x{height}, {spp} spp, max_depth {scene.max_depth}, {label}, {threads} threads")
@@ -221,8 +215,8 @@ def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, wo
                    functools.partial(_run_ours, core, spp=spp, strategy=s, integrator=i, seed=seed, threads=threads))
                   for b, core in cores.items() for s in config["strategies"] for i in config["integrators"]],
                  [(_mitsuba_label(v), {"renderer": "mitsuba", "strategy": MITSUBA_STRATEGY, "variant": v},
-                   functools.partial(_run_mitsuba, functools.partial(_mitsuba_here, v, mscenes[v], threads=threads),
-                                     spp=spp, seed=seed))
+                   functools.partial(_run_mitsuba, functools.partial(mitsuba_render_timed, v, mscenes[v],
+                                                                     threads=threads), spp=spp, seed=seed))
                   for v in ok_variants],
                  [(_mitsuba_label(v, b), {"renderer": "mitsuba", "strategy": MITSUBA_STRATEGY, "variant": v,
                                           "build": b},
@@ -263,8 +257,7 @@ def _warm_mitsuba(scene, variants, *, spp, threads, log):
     mscenes, infos = {}, {}
     for v in variants:
         mscenes[v], load = load_mitsuba(v, scene, threads)
-        mi, _ = use_variant(v)
-        _, warm, _ = timed(mitsuba_render_fn(mi, mscenes[v], spp, 0x5EED))
+        _, warm, _ = mitsuba_render_timed(v, mscenes[v], spp=spp, seed=0x5EED)
         infos[v] = {"load_seconds": load, "warmup_seconds": warm}
         if log:
             log(f"  Mitsuba {v}: load {load:.2f} s, warm-up render {warm:.2f} s")
@@ -284,12 +277,7 @@ def _run_ours(core, r, *, seed, **args):
             "nonfinite": res.nonfinite_samples}
 
 
-def _mitsuba_here(variant, mscene, *, spp, seed, threads):   # mitsuba_timed's answer, in this process
-    mi, _ = use_variant(variant, threads)
-    return timed(mitsuba_render_fn(mi, mscene, spp, seed))
-
-
-def _run_mitsuba(run, r, *, spp, seed):   # run: _mitsuba_here, or mitsuba_timed in a worker
+def _run_mitsuba(run, r, *, spp, seed):   # run: mitsuba_render_timed, or mitsuba_timed in a worker
     s = batch_seeds(seed + r, 1)[0]
     img, wall, cpu = run(spp=spp, seed=s)
     return {"mean": img, "secs": wall, "wall": wall, "cpu": cpu, "rays": None, "seed": s}

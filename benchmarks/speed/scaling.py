@@ -1,8 +1,6 @@
-"""The scaling benchmark: cost against work, ours beside Mitsuba, so a user sees where each one's cost grows.
-
-:func:`scaling_benchmark`: paths/s of a suite scene against image size, maximum depth and threads, and against
-triangle count on a lit torus, with build or load times and the cost a random ray, fitted as ``a + b ln n``
-(:func:`fit_log_growth`). ``rtbench speed --scaling`` prints the tables, ``--svg`` draws the curves."""
+"""The scaling benchmark (``rtbench speed --scaling``): paths/s of ours beside Mitsuba against image size, maximum
+depth, threads and a lit torus's triangle count, with build or load times and the cost a random ray fitted as
+``a + b ln n`` (:func:`fit_log_growth`), so a user sees where each one's cost grows."""
 from __future__ import annotations
 
 import dataclasses
@@ -18,7 +16,7 @@ from reference_tracer.validation import positive_int
 
 from ..constants import STRATEGIES
 from ..metrics import convergence_slope
-from .common import check_jit_variant, environment, load_mitsuba, median, mitsuba_render_fn, spread, timed, use_variant
+from .common import check_jit_variant, environment, load_mitsuba, median, mitsuba_render_timed, spread, timed
 from .rays import intersect_mitsuba, intersect_ours, mesh_scene, random_rays
 
 __all__ = ["AXES", "scaling_benchmark", "fit_log_growth"]
@@ -108,7 +106,7 @@ def _measure(sc, *, spp, threads, strategy, seed, repeats, variant) -> dict:
                                                          threads=threads))}
     if variant is not None:
         mscene, _ = load_mitsuba(variant, sc, threads)
-        renders["mitsuba"] = lambda r: timed(mitsuba_render_fn(use_variant(variant, threads)[0], mscene, spp, 1000 + r))
+        renders["mitsuba"] = lambda r: mitsuba_render_timed(variant, mscene, spp=spp, seed=1000 + r, threads=threads)
     paths, got = sc.camera.width * sc.camera.height * spp, {who: [] for who in renders}
     for r in [repeats, *range(repeats)]:   # the first: the warm-up
         for who, render in renders.items():

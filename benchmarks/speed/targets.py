@@ -1,9 +1,7 @@
-"""The speed targets (issue 44, :data:`TARGETS`) and their verdicts, judged from a run's own results.
-
-A target is judged on the median of the paired rounds' ratios (the suite's geometric mean: of each round's) and its
-distribution-free 90% interval: ``met`` or ``not met``, ``clearly`` where the interval lies on that side of the
-threshold, ``within noise`` where it straddles it; ``not judged``, with the reason, where the run did not measure what
-it needs. Each build of the run is judged apart. PERFORMANCE.md, Targets and verdicts."""
+"""The speed targets (issue 44, :data:`TARGETS`) and their verdicts from a run's own results: the median of the paired
+rounds' ratios (the suite's: of each round's geometric mean) with its distribution-free 90% interval, ``met`` or ``not
+met``, ``clearly`` or ``within noise``; ``not judged`` with the reason where the run lacks what a target needs. Each
+build is judged apart. PERFORMANCE.md, Targets and verdicts."""
 from __future__ import annotations
 
 import dataclasses

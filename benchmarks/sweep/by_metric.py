@@ -1,8 +1,7 @@
-"""``by_metric`` of a summary row: slope, efficiency and time to target under every metric but
-RMSE (the row's own figures), so a report switches ``--metric`` without re-rendering
-(:func:`benchmarks.metrics.view`; docs/conventions.md, Metrics). An error at one spp is a mean
-over the seeds: sqrt of the corrected MSE, relMSE less the reference's own noise, 1 - SSIM, FLIP.
-"""
+"""``by_metric`` of a summary row: slope, efficiency and time to target under every metric but RMSE (the
+row's own), so a report switches ``--metric`` without re-rendering (docs/conventions.md, Metrics). An
+error at one spp is a mean over the seeds: sqrt of the corrected MSE, relMSE less the reference's own
+noise, 1 - SSIM, FLIP."""
 from __future__ import annotations
 
 import math

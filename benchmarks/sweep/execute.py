@@ -1,9 +1,6 @@
-"""One job, anywhere: render it, measure it against its reference, build its record.
-
-Nothing here touches a file, so a job runs the same locally and on a Dask worker; the
-caller stores what :func:`execute_job` returns. Also the versions and machine facts
-recorded with every job and in ``meta.json``.
-"""
+"""One job, anywhere: render it, measure it against its reference, build its record (nothing here
+touches a file, so a job runs the same locally and on a Dask worker); the versions and machine
+facts recorded with every job and in ``meta.json``."""
 from __future__ import annotations
 
 import dataclasses

@@ -18,11 +18,8 @@ PRESETS = ("quick", "full")
 
 
 def _ladder(top: int) -> tuple:
-    out, s = [], 1
-    while s <= top:
-        out.append(s)
-        s *= 2
-    return tuple(out)
+    """1, 2, 4, ... up to ``top``."""
+    return tuple(2 ** k for k in range(top.bit_length()))
 
 
 _SPECS = {

@@ -127,17 +127,6 @@ def _store_copy(store: Path, stem: str, ref, old_refs: dict) -> dict:
     return out
 
 
-def _check_arguments(groups, threads, alpha) -> tuple:
-    """``(groups as a list, threads as an int)``, or ``ValueError`` for a bad argument."""
-    groups = list(groups)
-    if not groups or not all(isinstance(g, Group) for g in groups):
-        raise ValueError(f"groups must be benchmarks.sweep.Group objects, got {groups!r:.200}")
-    threads = default_threads() if threads is None else positive_int("threads", threads)
-    if not 0 < alpha < 1:
-        raise ValueError(f"alpha must be in (0, 1), got {alpha}")
-    return groups, threads
-
-
 def _record_settings(store, groups, *, threads, scheduler, variant, preset, alpha) -> None:
     """The run's settings, machine and versions into ``meta.json`` (its first date is kept)."""
     meta = read_meta(store)
@@ -147,27 +136,21 @@ def _record_settings(store, groups, *, threads, scheduler, variant, preset, alph
                 scheduler=str(scheduler) if isinstance(scheduler, str) else (None if scheduler is None else "client"),
                 machine=machine_info(), versions=run_versions(variant), alpha=alpha,
                 target_relative_rmse=TARGET_RELATIVE_RMSE,
-                scene_files=_scene_files(groups),
+                scene_files={n: scene_file(n).to_dict() for n in dict.fromkeys(s for g in groups for s in g.scenes)
+                             if scene_file(n) is not None},
                 groups=[{"name": g.name, "scenes": list(g.scenes), "strategies": list(g.strategies),
                          "spps": list(g.spps), "seeds": g.seeds, "width": g.width, "height": g.height,
                          "mitsuba": g.mitsuba, "reference_spp": g.reference_spp,
                          "externals": {e: external(e).template for e in g.externals}} for g in groups])
 
 
-def _scene_files(groups) -> dict:
-    """``{name: path, kind, params, hash}`` of the scene files (``--scene``) among the groups' scenes."""
-    names = dict.fromkeys(s for g in groups for s in g.scenes)
-    return {n: scene_file(n).to_dict() for n in names if scene_file(n) is not None}
-
-
-def _plan(groups, builds=None) -> tuple:
+def _plan(groups, builds) -> tuple:
     """``(jobs without repeats in group order, {curve: its highest spp})``, each job given its
     renderer's build from ``builds``."""
     plan, top, seen = [], {}, set()
     for g in groups:
         for job in g.jobs():
-            if builds:
-                job = dataclasses.replace(job, build=builds.get(job.renderer))
+            job = dataclasses.replace(job, build=builds.get(job.renderer))
             if job.key in seen:
                 continue
             seen.add(job.key)
@@ -243,7 +226,12 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
     -------
     SweepResult
     """
-    groups, threads = _check_arguments(groups, threads, alpha)
+    groups = list(groups)
+    if not groups or not all(isinstance(g, Group) for g in groups):
+        raise ValueError(f"groups must be benchmarks.sweep.Group objects, got {groups!r:.200}")
+    threads = default_threads() if threads is None else positive_int("threads", threads)
+    if not 0 < alpha < 1:
+        raise ValueError(f"alpha must be in (0, 1), got {alpha}")
     store = store_path(out)
     variant, mitsuba_version = mitsuba_identity(variant)
     with writer_lock(store, say=lambda text: print(text, file=sys.stderr, flush=True)):

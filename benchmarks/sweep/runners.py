@@ -51,7 +51,7 @@ def run_local(todo, refs, store, *, threads, variant, keep, bar, say, failures, 
 def run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, tally, poll=2.0) -> None:
     """One job per worker, pinned to an idle one; ``address``: a scheduler address or a
     ``distributed.Client``; the rest as :func:`run_local`."""
-    from distributed import Client  # deferred: Dask's distributed takes about 1.5 s to import
+    from distributed import Client, wait  # deferred: Dask's distributed takes about 1.5 s to import
 
     client = address if not isinstance(address, str) else None
     own = client is None
@@ -60,102 +60,71 @@ def run_dask(todo, refs, store, *, address, variant, keep, bar, say, failures, t
             client = Client(address, timeout=DASK_CONNECT_TIMEOUT)
         except (OSError, TimeoutError) as exc:
             raise ValueError(f"cannot reach the Dask scheduler at {address!r}: {exc}") from exc
+    pending = collections.deque(todo)
+    running = {}  # future -> (job, worker)
     try:
-        _DaskQueue(client, store, address=address, variant=variant, keep=keep, bar=bar, say=say,
-                   failures=failures, poll=poll, tally=tally).run(todo, refs)
+        pool = _workers(client)
+        t_wait = time.monotonic()
+        while not pool:
+            if time.monotonic() - t_wait > 60:
+                raise ValueError(f"the Dask cluster at {address!r} has no workers")
+            time.sleep(1.0)
+            pool = _workers(client)
+        say(f"dask: {len(pool)} worker(s) at {client.scheduler.address}, one job per worker")
+        scattered = {k: client.scatter(ref, broadcast=True) for k, ref in refs.items()}
+        while pending or running:
+            busy = {addr for _, addr in running.values()}
+            for addr in [a for a in pool if a not in busy][:len(pending)]:  # the next job, pinned to an idle worker
+                job = pending.popleft()
+                fut = client.submit(execute_job, job, scattered[(job.scene, job.width, job.height)],
+                                    threads=pool[addr], variant=variant, **keep(job), scene_file=scene_file(job.scene),
+                                    external=external(job.renderer), workers=[addr], allow_other_workers=False,
+                                    pure=False, key=f"rtbench-{job.scene}-{job.renderer}-{job.strategy}-{job.spp}-"
+                                                    f"{job.seed}-{job.width}x{job.height}-{time.monotonic_ns()}")
+                running[fut] = (job, addr)
+                bar.current(job.label)
+            if not running:
+                time.sleep(poll)
+                pool = _workers(client)
+                continue
+            try:
+                finished, _ = wait(list(running), timeout=poll, return_when="FIRST_COMPLETED")
+            except TimeoutError:  # nothing finished within `poll`: look at the workers again
+                finished = []
+            for fut in finished:
+                _collect(fut, running.pop(fut)[0], store, bar=bar, say=say, failures=failures, tally=tally)
+            pool = _workers(client)
+            for fut, (job, addr) in list(running.items()):  # a worker left: requeue its job (else it waits forever)
+                if addr not in pool:
+                    fut.cancel()
+                    running.pop(fut)
+                    pending.appendleft(job)
+                    say(f"dask: worker {addr} left; requeued {job.label}")
     finally:
+        for fut in running:
+            fut.cancel()
         if own:
             client.close()
 
 
-class _DaskQueue:
-    """The jobs of one :func:`run_dask` call: pending, running (future -> (job, worker)), done."""
+def _workers(client) -> dict:
+    """{worker address: its thread count}."""
+    try:  # newer distributed lists only a few workers unless told
+        accepts = "n_workers" in inspect.signature(client.scheduler_info).parameters
+    except (TypeError, ValueError):
+        accepts = False
+    info = client.scheduler_info(**({"n_workers": -1} if accepts else {}))
+    return {addr: int(w.get("nthreads", 1) or 1) for addr, w in info.get("workers", {}).items()}
 
-    def __init__(self, client, store, *, address, variant, keep, bar, say, failures, poll, tally):
-        self.client, self.store, self.address = client, store, address
-        self.variant, self.keep, self.bar, self.say, self.failures, self.poll = variant, keep, bar, say, failures, poll
-        self.running, self.tally = {}, tally
 
-    def workers(self) -> dict:
-        """{worker address: its thread count}."""
-        try:  # newer distributed lists only a few workers unless told
-            accepts = "n_workers" in inspect.signature(self.client.scheduler_info).parameters
-        except (TypeError, ValueError):
-            accepts = False
-        info = self.client.scheduler_info(**({"n_workers": -1} if accepts else {}))
-        return {addr: int(w.get("nthreads", 1) or 1) for addr, w in info.get("workers", {}).items()}
-
-    def run(self, todo, refs) -> None:
-        from distributed import wait  # deferred: Dask's distributed takes about 1.5 s to import
-
-        pending = collections.deque(todo)
+def _collect(fut, job, store, *, bar, say, failures, tally) -> None:
+    if fut.status == "finished":
+        store_result(store, fut.result())
+        tally.done += 1
+    else:
         try:
-            pool = self._wait_for_workers()
-            self.say(f"dask: {len(pool)} worker(s) at {self.client.scheduler.address}, one job per worker")
-            scattered = {k: self.client.scatter(ref, broadcast=True) for k, ref in refs.items()}
-            while pending or self.running:
-                self._submit(pending, pool, scattered)
-                if not self.running:
-                    time.sleep(self.poll)
-                    pool = self.workers()
-                    continue
-                try:
-                    finished, _ = wait(list(self.running), timeout=self.poll, return_when="FIRST_COMPLETED")
-                except TimeoutError:  # nothing finished within `poll`: look at the workers again
-                    finished = []
-                for fut in finished:
-                    self._collect(fut)
-                pool = self.workers()
-                self._requeue_lost(pool, pending)
-        finally:
-            for fut in self.running:
-                fut.cancel()
-
-    def _wait_for_workers(self) -> dict:
-        pool = self.workers()
-        t_wait = time.monotonic()
-        while not pool:
-            if time.monotonic() - t_wait > 60:
-                raise ValueError(f"the Dask cluster at {self.address!r} has no workers")
-            time.sleep(1.0)
-            pool = self.workers()
-        return pool
-
-    def _submit(self, pending, pool, scattered) -> None:
-        """Give each idle worker the next pending job, pinned to it."""
-        busy = {addr for _, addr in self.running.values()}
-        for addr in list(pool):
-            if addr in busy or not pending:
-                continue
-            job = pending.popleft()
-            fut = self.client.submit(execute_job, job, scattered[(job.scene, job.width, job.height)],
-                                     threads=pool[addr], variant=self.variant, **self.keep(job),
-                                     scene_file=scene_file(job.scene), external=external(job.renderer),
-                                     workers=[addr], allow_other_workers=False, pure=False,
-                                     key=f"rtbench-{job.scene}-{job.renderer}-{job.strategy}-{job.spp}-"
-                                         f"{job.seed}-{job.width}x{job.height}-{time.monotonic_ns()}")
-            self.running[fut] = (job, addr)
-            self.bar.current(job.label)
-
-    def _collect(self, fut) -> None:
-        job, _ = self.running.pop(fut)
-        if fut.status == "finished":
-            store_result(self.store, fut.result())
-            self.tally.done += 1
-        else:
-            try:
-                exc = fut.exception()
-            except Exception as e:  # noqa: BLE001
-                exc = e
-            _failed(job, exc, failures=self.failures, say=self.say)
-        self.bar.advance(job.cost)
-
-    def _requeue_lost(self, pool, pending) -> None:
-        """A worker that left: requeue its job (its task would wait for it forever)."""
-        for fut, (job, addr) in list(self.running.items()):
-            if addr not in pool:
-                fut.cancel()
-                self.running.pop(fut)
-                pending.appendleft(job)
-                self.say(f"dask: worker {addr} left; requeued {job.label}")
-
+            exc = fut.exception()
+        except Exception as e:  # noqa: BLE001
+            exc = e
+        _failed(job, exc, failures=failures, say=say)
+    bar.advance(job.cost)

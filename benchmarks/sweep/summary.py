@@ -1,9 +1,6 @@
-"""The per-curve summary of a results store (``summary.json``): slope, bias, variance, cost.
-
-A curve is one (scene, renderer, strategy, width, height); its figures come from the store's
-records and images and the cached tail references, so :func:`summarize` can be rerun at any
-time. The fields are listed in ``benchmarks/STORE.md``, their statistics in ``STATISTICS.md``.
-"""
+"""The per-curve summary of a results store (``summary.json``): slope, bias, variance, cost of each
+(scene, renderer, strategy, width, height), from the store and the cached tail references alone, so
+:func:`summarize` can be rerun at any time. Fields: ``benchmarks/STORE.md``; statistics: ``STATISTICS.md``."""
 from __future__ import annotations
 
 import collections
