@@ -61,9 +61,6 @@ def prepare_references(groups, store: Path, *, variant, threads, cache, say, bar
         for scene in g.scenes:
             k = (scene, g.width, g.height)
             if k in refs:
-                if refs[k].spp != g.reference_spp:
-                    raise ValueError(f"{scene} {g.width}x{g.height} appears in two groups with different "
-                                     f"reference spp ({refs[k].spp} and {g.reference_spp})")
                 continue
             t0 = time.perf_counter()
             bar.current(f"reference {scene} {g.width}x{g.height} ({g.reference_spp} spp)")
@@ -90,6 +87,18 @@ def prepare_references(groups, store: Path, *, variant, threads, cache, say, bar
 def _reference_cost(g, cached: bool) -> float:
     """Planned seconds of one reference of group ``g`` (a cached one costs a read)."""
     return 0.05 if cached else render_cost(g.width * g.height, g.reference_spp, renderer="mitsuba", overhead=0.5)
+
+
+def _check_reference_spps(groups) -> None:
+    """``ValueError`` where two groups ask one scene at one size for references of different spp
+    (a scene and size has one reference), before anything is rendered."""
+    asked = {}
+    for g in groups:
+        for scene in g.scenes:
+            spp = asked.setdefault((scene, g.width, g.height), g.reference_spp)
+            if spp != g.reference_spp:
+                raise ValueError(f"{scene} {g.width}x{g.height} appears in two groups with different "
+                                 f"reference spp ({spp} and {g.reference_spp})")
 
 
 def _plan_progress(bar, groups, todo, *, variant, cache) -> dict:
@@ -232,6 +241,7 @@ def run_sweep(groups, *, out, threads: int | None = None, scheduler=None, varian
     threads = default_threads() if threads is None else positive_int("threads", threads)
     if not 0 < alpha < 1:
         raise ValueError(f"alpha must be in (0, 1), got {alpha}")
+    _check_reference_spps(groups)
     store = store_path(out)
     variant, mitsuba_version = mitsuba_identity(variant)
     with writer_lock(store, say=lambda text: print(text, file=sys.stderr, flush=True)):

@@ -160,3 +160,26 @@ def test_the_report_says_where_a_slope_was_fitted_from():
     assert cell.endswith("64–1024 spp") and "37" not in cell  # the budgets rendered, not a computed start
     steep = stats_table([view(dict(row, slope=-0.8, slope_ci=[-0.9, -0.7], slope_steep=True), "rmse")])[0][1]
     assert "steeper than -0.5" in steep
+
+
+def test_a_closed_form_scene_in_two_groups_of_one_size(tmp_path_factory):
+    """Two groups naming the furnace at one size and one reference spp share its closed-form
+    reference (whose spp is CLOSED_FORM_SPP, not the spp the groups ask for)."""
+    from harness_util import cache_root
+
+    from benchmarks.sweep import Group, run_sweep
+
+    groups = [Group(scenes=("furnace",), strategies=(s,), spps=(2,), seeds=1, width=8, height=8, mitsuba=False,
+                    name=s) for s in ("mis", "cosine")]
+    res = run_sweep(groups, out=tmp_path_factory.mktemp("two") / "s", threads=2, progress=False,
+                    cache=cache_root(tmp_path_factory))
+    assert sorted(row["strategy"] for row in res.rows) == ["cosine", "mis"]
+
+
+def test_one_scene_and_size_in_two_groups_asking_different_reference_spp(tmp_path_factory):
+    from benchmarks.sweep import Group, run_sweep
+
+    groups = [Group(scenes=("furnace",), strategies=("mis",), spps=(2,), seeds=1, width=8, height=8, mitsuba=False,
+                    reference_spp=r, name=f"r{r}") for r in (64, 128)]
+    with pytest.raises(ValueError, match="different reference spp"):
+        run_sweep(groups, out=tmp_path_factory.mktemp("clash") / "s", threads=2, progress=False)
