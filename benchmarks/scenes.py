@@ -7,11 +7,14 @@ from mitsuba_scenes.scene_files import scene_file
 
 
 def scene_at(name: str, width: int, height: int):
-    """Scene ``name`` (suite or registered file) with its camera resized to ``width`` x ``height``.
+    """Scene ``name`` (suite or registered file) at ``width`` x ``height``: a suite scene's camera
+    resized, a scene file built at that size (an XML file's field of view follows its ``fov_axis``).
 
     >>> scene_at("cornell_box", 16, 12).camera.height
     12
     """
+    if scene_file(name) is not None:
+        return get_scene(name, width=int(width), height=int(height))
     return get_scene(name).with_camera_size(int(width), int(height))
 
 

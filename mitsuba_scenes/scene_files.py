@@ -62,14 +62,18 @@ class SceneFile:
     content_hash: str = ""
 
     def build(self, width: int | None = None, height: int | None = None) -> rt.Scene:
-        """The scene, resized to ``width`` x ``height`` when given (height defaults to width)."""
+        """The scene, resized to ``width`` x ``height`` when given (height defaults to width).
+
+        An XML file is imported at that film size, so that its field of view follows its
+        ``fov_axis`` as in Mitsuba (resizing our camera afterwards keeps the vertical one).
+        """
         if height is not None and width is None:
             raise ValueError("height needs width")
         if width is not None and height is None:
             height = width
         if self.kind == "xml":
-            scene = load_scene_file(self.path, self.params)
-            return scene if width is None else scene.with_camera_size(int(width), int(height))
+            size = None if width is None else (int(width), int(height))
+            return from_mitsuba(self.path, params=self.params, film_size=size)
         return _build_python(self.path, self.params, width, height)
 
     def describe(self) -> str:

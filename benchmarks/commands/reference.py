@@ -35,14 +35,14 @@ def run(args) -> int:
     from mitsuba_scenes import describe_scene, get_scene
 
     from benchmarks.references import reference
+    from benchmarks.scenes import scene_at
 
     names = A.resolve_scenes(args, suite_names=args.scenes, known=True, required=True)
     variant = A.single_variant(args)
     for scene_name in names:
-        scene = get_scene(scene_name)
-        w = args.width or scene.camera.width
-        h = args.height or scene.camera.height
-        scene = scene.with_camera_size(w, h)
+        own = get_scene(scene_name).camera
+        w, h = args.width or own.width, args.height or own.height
+        scene = scene_at(scene_name, w, h)
         t0 = time.perf_counter()
         ref = reference(scene, spp=args.spp, seed=args.seed, variant=variant, threads=args.threads,
                         batches=args.batches, cache=args.cache, force=args.force,

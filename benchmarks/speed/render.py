@@ -16,7 +16,7 @@ import resource
 import numpy as np
 
 import reference_tracer as rt
-from mitsuba_scenes import get_scene, known_scenes
+from mitsuba_scenes import known_scenes
 from mitsuba_scenes.render import batch_seeds
 from reference_tracer import INTEGRATORS
 from reference_tracer.probe import core_scene
@@ -27,6 +27,7 @@ from ..external import STRATEGY as EXTERNAL_STRATEGY
 from ..external import render_external
 from ..metrics import efficiency, mse, mse_corrected
 from ..references import reference
+from ..scenes import scene_at
 from .builds import CoreWorker
 from .common import (available_variants, environment, load_mitsuba, median, mitsuba_kernel_workers,
                      mitsuba_render_timed, mitsuba_versions, name_list, spread, timed, use_mitsuba_kernels)
@@ -177,7 +178,7 @@ def _mitsuba_label(variant, build=None) -> str:
 def _bench_scene(result, name, config, ok_variants, *, cache, log, externals, workers, kernels):
     """Set up, time and summarise one scene in every Russian-roulette configuration."""
     width, height, spp, threads = config["width"], config["height"], config["spp"], config["threads"]
-    base = get_scene(name).with_camera_size(width, height)
+    base = scene_at(name, width, height)
     if config["max_depth"] is not None:
         base = dataclasses.replace(base, max_depth=config["max_depth"])
     _, build_wall, _ = timed(lambda: core_scene(base))   # our tree, untimed

@@ -47,6 +47,21 @@ def test_xml_file_registers_with_params_and_resizes():
     assert other.content_hash != entry.content_hash      # the parameters are part of the hash
 
 
+def test_xml_file_resized_keeps_its_fov_axis():
+    """fov_axis=x keeps the horizontal field of view at any size, as Mitsuba's film does: a
+    20x12 file with 50 degrees along x built square has 50 degrees vertically too, everywhere
+    the harness builds it (and the same camera as the file imported at that film size)."""
+    from mitsuba_scenes import from_mitsuba
+
+    from benchmarks.scenes import scene_at
+
+    entry = register_scene_file(XML / "camera_axes.xml", {"fov_axis": "x"})
+    assert get_scene(entry.name).camera.vfov == pytest.approx(31.26, abs=0.01)  # 50 degrees across 20 pixels
+    imported = from_mitsuba(XML / "camera_axes.xml", {"fov_axis": "x"}, film_size=(16, 16)).camera
+    for scene in (get_scene(entry.name, width=16, height=16), scene_at(entry.name, 16, 16)):
+        assert scene.camera.vfov == pytest.approx(50.0) and scene.camera == imported
+
+
 def test_python_file_build_and_params(py_scene):
     entry = register_scene_file(py_scene, {"light": "5"})
     scene = get_scene(entry.name, width=8, height=4)
