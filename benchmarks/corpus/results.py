@@ -80,15 +80,11 @@ def load_results(path, *, folder: str) -> dict:
 
 def save_results(path, *, provenance: dict, records: dict, fragments: dict) -> None:
     """Write ``corpus.json`` atomically (provenance, ``updated`` now, counts, records, fragments)."""
-    provenance["updated"] = _now()
+    provenance["updated"] = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     scenes = [records[k] for k in sorted(records)]
     write_json(path, {"format": FORMAT, **provenance, "counts": counts(scenes),
                       "fragment_count": len(fragments), "scenes": scenes,
                       "fragments": [{"path": k, "included_by": v} for k, v in sorted(fragments.items())]})
-
-
-def _now() -> str:
-    return _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
 
 
 def counts(records) -> dict:

@@ -84,8 +84,7 @@ class SceneWorker:
         self.conn.send(job)
         if self.conn.poll(timeout):
             try:
-                kind, rec = self.conn.recv()
-                return rec
+                return self.conn.recv()[1]
             except (EOFError, OSError):
                 pass
         elapsed = round(time.perf_counter() - t0, 3)
