@@ -171,11 +171,8 @@ def summary_line(records: dict, fragments: dict) -> str:
 def markdown_report(*, provenance: dict, records: dict, fragments: dict) -> str:
     """``corpus.md``: provenance, counts, the table, the features that block most, the fragments."""
     s = provenance["settings"]
-    src = provenance.get("source") or ""
     git = provenance.get("git") or {}
-    data = []
-    if src:
-        data.append(markdown(src))
+    data = [markdown(provenance["source"])] if provenance.get("source") else []
     if git.get("commit"):
         date = f" ({markdown(git['date'])})" if git.get("date") else ""
         data.append("git commit " + markdown(git["commit"]) + date)

@@ -125,8 +125,7 @@ def compare_aovs(scene: rt.Scene, ours: dict, theirs: dict, *, name: str = "scen
     ``pixel + (dx, dy)``, tells an edge from a real difference from Mitsuba's side too."""
     h, w = ours["t"].shape
     if theirs["t"].shape != (h, w):
-        mask = np.ones((h, w), dtype=bool)
-        masks = {k: mask for k in AOVS}
+        masks = dict.fromkeys(AOVS, np.ones((h, w), dtype=bool))
         return ParityReport(name, w, h, masks, [f"camera: image size {w}x{h} (ours) vs "
                                                 f"{theirs['t'].shape[1]}x{theirs['t'].shape[0]} (Mitsuba)"],
                             ours, theirs)
