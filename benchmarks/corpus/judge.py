@@ -111,10 +111,6 @@ def cut(text: str, n: int) -> str:
     return text if len(text) <= n else text[:n - 3] + "..."
 
 
-def _param_value(name: str, spp: int) -> str:
-    return str(spp) if "spp" in name.lower() or "sample" in name.lower() else "1"
-
-
 def setup(variant: str | None, threads: int | None) -> str:
     """Choose the Mitsuba variant (once per process) and the thread count; return the variant."""
     chosen = select_variant(variant)
@@ -164,8 +160,9 @@ def _judge(job, rec, seconds, mi, root, path) -> None:
             break
         except Exception as exc:  # noqa: BLE001 - Mitsuba's parser raises RuntimeError
             m = _UNDEFINED.search(str(exc))
-            if m and m.group(1) not in params:
-                params[m.group(1)] = _param_value(m.group(1), job["spp"])
+            if m and m.group(1) not in params:  # a sample count gets ours, anything else 1
+                name = m.group(1).lower()
+                params[m.group(1)] = str(job["spp"]) if "spp" in name or "sample" in name else "1"
                 continue
             parse_error = exc
             break

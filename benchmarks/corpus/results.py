@@ -80,15 +80,11 @@ def load_results(path, *, folder: str) -> dict:
 
 def save_results(path, *, provenance: dict, records: dict, fragments: dict) -> None:
     """Write ``corpus.json`` atomically (provenance, ``updated`` now, counts, records, fragments)."""
-    provenance["updated"] = _now()
+    provenance["updated"] = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     scenes = [records[k] for k in sorted(records)]
     write_json(path, {"format": FORMAT, **provenance, "counts": counts(scenes),
                       "fragment_count": len(fragments), "scenes": scenes,
                       "fragments": [{"path": k, "included_by": v} for k, v in sorted(fragments.items())]})
-
-
-def _now() -> str:
-    return _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
 
 
 def counts(records) -> dict:
@@ -175,11 +171,8 @@ def summary_line(records: dict, fragments: dict) -> str:
 def markdown_report(*, provenance: dict, records: dict, fragments: dict) -> str:
     """``corpus.md``: provenance, counts, the table, the features that block most, the fragments."""
     s = provenance["settings"]
-    src = provenance.get("source") or ""
     git = provenance.get("git") or {}
-    data = []
-    if src:
-        data.append(markdown(src))
+    data = [markdown(provenance["source"])] if provenance.get("source") else []
     if git.get("commit"):
         date = f" ({markdown(git['date'])})" if git.get("date") else ""
         data.append("git commit " + markdown(git["commit"]) + date)

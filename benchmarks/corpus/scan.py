@@ -21,10 +21,10 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from benchmarks.files import open_regular
+from ..files import open_regular
+from ..store import file_sha256
 
-__all__ = ["MAX_XML_BYTES", "Scan", "scan", "xml_files", "referenced_files", "content_hash", "display_path",
-           "printable"]
+__all__ = ["MAX_XML_BYTES", "Scan", "scan", "xml_files", "content_hash", "display_path", "printable"]
 
 #: larger XML files are not parsed here (Mitsuba still judges them as scenes).
 MAX_XML_BYTES = 16 << 20
@@ -60,14 +60,9 @@ def display_path(path, root) -> str:
 
 def xml_files(root) -> list:
     """Every regular ``*.xml`` file under ``root`` (recursive, symbolic links not followed), sorted."""
-    root = Path(root)
     out = []
-    for folder, dirs, files in os.walk(root, followlinks=False):
-        dirs.sort()
-        for name in files:
-            if not name.lower().endswith(".xml"):
-                continue
-            path = Path(folder) / name
+    for folder, _, files in os.walk(root, followlinks=False):
+        for path in (Path(folder) / name for name in files if name.lower().endswith(".xml")):
             try:
                 if stat.S_ISREG(os.lstat(path).st_mode):
                     out.append(path)
@@ -104,46 +99,35 @@ def _find(name, folders) -> Path | None:
     return None
 
 
-def _walk(path: Path, *, scene_dir: Path, search: list, defaults: dict, seen: set, depth: int,
-          includes: list, files: list) -> None:
-    path = path.resolve()
-    if path in seen or depth > MAX_INCLUDE_DEPTH:
-        return
-    seen.add(path)
-    root = _parse(path)
-    if root is None:
-        return
-    defaults = {**{d.get("name"): d.get("value") for d in root.iter("default")}, **defaults}
-    search = list(search)
-    for p in root.iter("path"):
-        value = _subst(p.get("value"), defaults)
-        if value:
-            search.insert(0, (path.parent / value))
-    folders = [path.parent, scene_dir] + search
-    for el in root.iter():
-        if el.tag == "include":
-            found = _find(_subst(el.get("filename"), defaults), folders)
-            if found is not None:
-                includes.append(found)
-                files.append(found)
-                _walk(found, scene_dir=scene_dir, search=search, defaults=defaults, seen=seen, depth=depth + 1,
-                      includes=includes, files=files)
-        elif el.get("name") == "filename" and el.get("value") is not None:
-            found = _find(_subst(el.get("value"), defaults), folders)
-            if found is not None:
-                files.append(found)
-
-
 def _references(path) -> tuple:
+    """``(includes, files)`` of ``path``: the files it includes and every file it names that can
+    be found (includes first met first), each once."""
     path = Path(path).resolve()
-    includes, files = [], []
-    _walk(path, scene_dir=path.parent, search=[], defaults={}, seen=set(), depth=0, includes=includes, files=files)
+    includes, files, seen = [], [], set()
+
+    def walk(p: Path, search: list, defaults: dict, depth: int) -> None:
+        p = p.resolve()
+        if p in seen or depth > MAX_INCLUDE_DEPTH:
+            return
+        seen.add(p)
+        root = _parse(p)
+        if root is None:
+            return
+        defaults = {**{d.get("name"): d.get("value") for d in root.iter("default")}, **defaults}
+        values = (_subst(e.get("value"), defaults) for e in root.iter("path"))
+        search = [p.parent / v for v in values if v][::-1] + search
+        for el in root.iter():
+            if el.tag == "include" or el.get("name") == "filename":
+                name = el.get("filename") if el.tag == "include" else el.get("value")
+                found = _find(_subst(name, defaults), [p.parent, path.parent] + search)
+                if found is not None:
+                    files.append(found)
+                    if el.tag == "include":
+                        includes.append(found)
+                        walk(found, search, defaults, depth + 1)
+
+    walk(path, [], {}, 0)
     return list(dict.fromkeys(includes)), list(dict.fromkeys(files))
-
-
-def referenced_files(path) -> list:
-    """The files ``path`` names that can be found (includes first met first), without repeats."""
-    return _references(path)[1]
 
 
 def scan(root) -> Scan:
@@ -171,12 +155,8 @@ def scan(root) -> Scan:
 
 def _file_digest(path: Path, cache: dict) -> str:
     if path not in cache:
-        h = hashlib.sha256()
         try:
-            with open_regular(path) as f:
-                for chunk in iter(lambda: f.read(1 << 20), b""):
-                    h.update(chunk)
-            cache[path] = h.hexdigest()
+            cache[path] = file_sha256(path)
         except (OSError, ValueError) as exc:
             cache[path] = f"unreadable: {type(exc).__name__}"
     return cache[path]
@@ -188,7 +168,7 @@ def content_hash(path, root, *, cache: dict | None = None) -> str:
     cache = {} if cache is None else cache
     path = Path(path).resolve()
     h = hashlib.sha256()
-    for f in [path] + sorted(set(referenced_files(path)) - {path}):
+    for f in [path] + sorted(set(_references(path)[1]) - {path}):
         h.update(os.path.relpath(f, Path(root).resolve()).encode("utf-8", "surrogateescape"))
         h.update(b"\0" + _file_digest(f, cache).encode() + b"\n")
     return h.hexdigest()

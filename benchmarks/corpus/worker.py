@@ -59,19 +59,19 @@ class SceneWorker:
         self.proc.start()
         child.close()
         self.conn = parent
-        if not self.conn.poll(START_TIMEOUT_S):
-            self.close()
-            raise RuntimeError(f"the corpus worker did not start within {START_TIMEOUT_S} s (log: {self.log_path})")
         try:
-            kind, value = self.conn.recv()
-        except EOFError:
-            code = self.proc.exitcode
+            if not self.conn.poll(START_TIMEOUT_S):
+                raise RuntimeError(f"the corpus worker did not start within {START_TIMEOUT_S} s (log: {self.log_path})")
+            try:
+                kind, value = self.conn.recv()
+            except EOFError:
+                raise RuntimeError(f"the corpus worker exited while starting (exit code {self.proc.exitcode}; "
+                                   f"log: {self.log_path})") from None
+            if kind != "ready":
+                raise RuntimeError(f"the corpus worker could not set up Mitsuba: {value}")
+        except RuntimeError:
             self.close()
-            raise RuntimeError(f"the corpus worker exited while starting (exit code {code}; log: "
-                               f"{self.log_path})") from None
-        if kind != "ready":
-            self.close()
-            raise RuntimeError(f"the corpus worker could not set up Mitsuba: {value}")
+            raise
         self.active_variant = value
 
     def judge(self, job: dict, *, timeout: float) -> dict:
@@ -84,8 +84,7 @@ class SceneWorker:
         self.conn.send(job)
         if self.conn.poll(timeout):
             try:
-                kind, rec = self.conn.recv()
-                return rec
+                return self.conn.recv()[1]
             except (EOFError, OSError):
                 pass
         elapsed = round(time.perf_counter() - t0, 3)

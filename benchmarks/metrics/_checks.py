@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from ..display import as_image  # noqa: F401 - one image check for metrics and display
+from ..display import as_image
 
 NAN_POLICIES = ("propagate", "omit", "raise")
 
@@ -54,3 +54,12 @@ def positive_spp(spp, name: str = "spp") -> float:
     if not (n > 0 and math.isfinite(n)):
         raise ValueError(f"{name} must be a positive finite number; got {spp!r}")
     return n
+
+
+def reference_noise(ref: np.ndarray, ref_var, ref_spp) -> np.ndarray:
+    """``ref_var / ref_spp``, the variance of the reference's pixel means, checked against ``ref``."""
+    v = as_image(ref_var, "ref_var")
+    same_shape(ref=ref, ref_var=v)
+    if np.any(v < 0):
+        raise ValueError("ref_var has negative entries")
+    return v / positive_spp(ref_spp, "ref_spp")

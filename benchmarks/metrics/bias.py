@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy import stats
 
-from ._checks import as_image, check_policy, positive_spp, same_shape
+from ._checks import as_image, check_policy, positive_spp, reference_noise
 
 __all__ = ["BiasVariance", "bias_variance"]
 
@@ -95,24 +95,30 @@ def bias_variance(images_k, ref, ref_var=None, ref_spp=None, var_k=None, spp=Non
     """
     if not 0 < alpha < 1:
         raise ValueError(f"alpha must be in (0, 1); got {alpha}")
-    imgs, r, rv, n_ref, vk, n = _checked_inputs(images_k, ref, ref_var, ref_spp, var_k, spp)
-    K = imgs.shape[0]
+    imgs, r, noise, vk, n = _checked_inputs(images_k, ref, ref_var, ref_spp, var_k, spp)
+    K, P = imgs.shape[0], r.shape[0] * r.shape[1]
     variance_source = _variance_source(variance_source, K, vk, n, var_ddof)
-    bad = _nan_pixels(nan_policy, r, [imgs, r[None]] + ([rv[None]] if rv is not None else [])
-                      + ([vk] if vk is not None else []))
+    check_policy(nan_policy)
+    # (K or 1, pixels, channels); a pixel with a NaN in any part, seed or channel is bad
+    X, R = imgs.reshape(K, P, -1), r.reshape(1, P, -1)
+    N, V = (None if a is None else a.reshape(-1, P, R.shape[2]) for a in (noise, vk))
+    bad = np.any([np.isnan(a).any(axis=(0, 2)) for a in (X, R, N, V) if a is not None], axis=0)
+    if bad.any() and nan_policy == "raise":
+        raise ValueError(f"NaN in inputs ({int(bad.sum())} pixels) with nan_policy='raise'")
     if bad.any() and nan_policy == "propagate":
         nanf = math.nan
         return BiasVariance(nanf, nanf, nanf, nanf, False, alpha, nanf, nanf, nanf, nanf,
-                            nanf, nanf, K, int(bad.size), variance_source)
-    keep = ~bad
-    if not keep.any():
+                            nanf, nanf, K, P, variance_source)
+    if bad.all():
         raise ValueError("no pixel left after omitting NaNs")
-    X, R, D, var_img, ref_noise = _pixel_terms(imgs, r, rv, n_ref, vk, n, var_ddof, keep, variance_source)
-    P = R.shape[0]
-    s2 = var_img / K
-    if rv is not None:
-        s2 = s2 + ref_noise
-    bias2, se, z, p = _one_sided_test((D * D - s2).mean(axis=1))  # per pixel, channels averaged
+    X, R = X[:, ~bad], R[0, ~bad]
+    D = X.mean(axis=0) - R
+    if variance_source == "seeds":
+        var_img = X.var(axis=0, ddof=1)  # variance of one image
+    else:  # ddof -> unbiased per-sample variance -> variance of one image's pixel mean
+        var_img = V[:, ~bad].mean(axis=0) * ((n - var_ddof) / (n - 1)) / n
+    ref_noise = np.zeros_like(R) if N is None else N[0, ~bad]
+    bias2, se, z, p = _one_sided_test((D * D - (var_img / K + ref_noise)).mean(axis=1))  # per pixel
     variance = float(var_img.mean())
     mse_k = float(((X - R[None]) ** 2).mean(axis=(1, 2)).mean())
     sum_r = float(R.sum())
@@ -120,13 +126,13 @@ def bias_variance(images_k, ref, ref_var=None, ref_spp=None, var_k=None, spp=Non
         bias2=bias2, bias2_se=se, z=float(z), p_value=p,
         bias_significant=bool(p < alpha), alpha=float(alpha),
         variance=variance, sample_variance=variance * n if n is not None else math.nan,
-        mse=mse_k, mse_corrected=mse_k - float(ref_noise.mean()) if rv is not None else math.nan,
+        mse=mse_k, mse_corrected=mse_k - float(ref_noise.mean()) if N is not None else math.nan,
         bias=float(D.mean()), relative_bias=float(D.sum() / sum_r) if sum_r != 0 else math.nan,
-        k=int(K), n_pixels=int(P), variance_source=variance_source)
+        k=int(K), n_pixels=int(R.shape[0]), variance_source=variance_source)
 
 
 def _checked_inputs(images_k, ref, ref_var, ref_spp, var_k, spp):
-    """``(imgs, r, rv, n_ref, vk, n)`` of :func:`bias_variance`, checked for shape and sign."""
+    """``(imgs, r, ref_var / ref_spp, vk, n)`` of :func:`bias_variance`, checked for shape and sign."""
     imgs = np.asarray(images_k, dtype=np.float64)
     r = as_image(ref, "ref")
     if imgs.ndim != r.ndim + 1 or imgs.shape[1:] != r.shape:
@@ -136,41 +142,13 @@ def _checked_inputs(images_k, ref, ref_var, ref_spp, var_k, spp):
         raise ValueError("images_k holds no image")
     if (ref_var is None) != (ref_spp is None):
         raise ValueError("give ref_var and ref_spp together (or neither)")
-    rv = n_ref = None
-    if ref_var is not None:
-        rv = as_image(ref_var, "ref_var")
-        same_shape(ref=r, ref_var=rv)
-        if np.any(rv < 0):
-            raise ValueError("ref_var has negative entries")
-        n_ref = positive_spp(ref_spp, "ref_spp")
-    vk = None
-    if var_k is not None:
-        vk = np.asarray(var_k, dtype=np.float64)
-        if vk.shape != imgs.shape:
-            raise ValueError(f"var_k shape {vk.shape} differs from images_k shape {imgs.shape}")
-        if np.any(vk < 0):
-            raise ValueError("var_k has negative entries")
-    n = positive_spp(spp) if spp is not None else None
-    return imgs, r, rv, n_ref, vk, n
-
-
-def _pixel_terms(imgs, r, rv, n_ref, vk, n, var_ddof, keep, variance_source):
-    """``(X, R, D, var_img, ref_noise)`` over the kept pixels, flattened to (K, P, C)."""
-    K = imgs.shape[0]
-    C = 1 if r.ndim == 2 else r.shape[2]
-    X = imgs.reshape(K, -1, C)[:, keep.ravel()]
-    R = r.reshape(-1, C)[keep.ravel()]
-    D = X.mean(axis=0) - R
-    if variance_source == "seeds":
-        var_img = X.var(axis=0, ddof=1)                      # variance of one image
-    else:
-        V = vk.reshape(K, -1, C)[:, keep.ravel()]
-        # ddof -> unbiased per-sample variance -> variance of one image's pixel mean
-        var_img = V.mean(axis=0) * ((n - var_ddof) / (n - 1)) / n
-    ref_noise = np.zeros_like(R)
-    if rv is not None:
-        ref_noise = rv.reshape(-1, C)[keep.ravel()] / n_ref
-    return X, R, D, var_img, ref_noise
+    noise = None if ref_var is None else reference_noise(r, ref_var, ref_spp)
+    vk = None if var_k is None else np.asarray(var_k, dtype=np.float64)
+    if vk is not None and vk.shape != imgs.shape:
+        raise ValueError(f"var_k shape {vk.shape} differs from images_k shape {imgs.shape}")
+    if vk is not None and np.any(vk < 0):
+        raise ValueError("var_k has negative entries")
+    return imgs, r, noise, vk, positive_spp(spp) if spp is not None else None
 
 
 def _variance_source(variance_source: str, K: int, vk, n, var_ddof: int) -> str:
@@ -187,18 +165,6 @@ def _variance_source(variance_source: str, K: int, vk, n, var_ddof: int) -> str:
     if variance_source not in ("seeds", "samples"):
         raise ValueError(f"variance_source must be 'auto', 'seeds' or 'samples'; got {variance_source!r}")
     return variance_source
-
-
-def _nan_pixels(nan_policy: str, r: np.ndarray, parts: list) -> np.ndarray:
-    """(H, W) mask of pixels with a NaN in any part (any seed or channel); raises for 'raise'."""
-    check_policy(nan_policy)
-    bad = np.zeros(r.shape[:2], dtype=bool)
-    for a in parts:
-        nan = np.isnan(a)
-        bad |= nan.reshape(nan.shape[0], r.shape[0], r.shape[1], -1).any(axis=(0, 3))
-    if bad.any() and nan_policy == "raise":
-        raise ValueError(f"NaN in inputs ({int(bad.sum())} pixels) with nan_policy='raise'")
-    return bad
 
 
 def _one_sided_test(T: np.ndarray) -> tuple[float, float, float, float]:

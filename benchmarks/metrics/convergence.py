@@ -144,18 +144,13 @@ def time_to_error(seconds, rmse, target: float) -> float:
     t, e = t[ok], e[ok]
     if np.any(t <= 0) or np.any(e < 0):
         raise ValueError("seconds must be > 0 and rmse >= 0")
-    if t.size == 0:
-        return math.nan
     order = np.argsort(t, kind="stable")
     t, e = t[order], e[order]
-    if e[0] <= target:
-        return float(t[0])
-    for i in range(1, t.size):
-        if e[i] <= target:
-            if e[i] == 0 or t[i] == t[i - 1]:
-                return float(t[i])
-            lt0, lt1 = math.log(t[i - 1]), math.log(t[i])
-            le0, le1 = math.log(e[i - 1]), math.log(e[i])
-            frac = (math.log(target) - le0) / (le1 - le0)
-            return float(math.exp(lt0 + frac * (lt1 - lt0)))
-    return math.nan
+    reached = np.flatnonzero(e <= target)
+    if reached.size == 0:
+        return math.nan
+    i = reached[0]
+    if i == 0 or e[i] == 0 or t[i] == t[i - 1]:
+        return float(t[i])
+    frac = (math.log(target) - math.log(e[i - 1])) / (math.log(e[i]) - math.log(e[i - 1]))
+    return float(math.exp(math.log(t[i - 1]) + frac * (math.log(t[i]) - math.log(t[i - 1]))))

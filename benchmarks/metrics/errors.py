@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from ..constants import RELMSE_EPS
-from ._checks import as_image, masked_mean, nan_mask, positive_spp, same_shape
+from ._checks import as_image, masked_mean, nan_mask, reference_noise, same_shape
 
 __all__ = ["mse", "rmse", "relmse", "mse_corrected", "relmse_corrected"]
 
@@ -59,19 +59,12 @@ def relmse(img, ref, *, eps: float = RELMSE_EPS, nan_policy: str = "propagate") 
     return masked_mean((x - r) ** 2 / (r * r + eps), mask)
 
 
-def _noise_of_means(v: np.ndarray, ref_spp) -> np.ndarray:
-    """``ref_var / ref_spp``, both checked."""
-    n = positive_spp(ref_spp, "ref_spp")
-    if np.any(v < 0):
-        raise ValueError("ref_var has negative entries")
-    return v / n
-
-
 def _corrected_terms(img, ref, ref_var, ref_spp, nan_policy) -> tuple:
     """``(r, (x - r)^2 - ref_var / ref_spp, mask)`` of the corrected metrics, inputs checked."""
-    x, r, v = as_image(img, "img"), as_image(ref, "ref"), as_image(ref_var, "ref_var")
-    same_shape(img=x, ref=r, ref_var=v)
-    return r, (x - r) ** 2 - _noise_of_means(v, ref_spp), nan_mask(nan_policy, img=x, ref=r, ref_var=v)
+    x, r = as_image(img, "img"), as_image(ref, "ref")
+    same_shape(img=x, ref=r)
+    noise = reference_noise(r, ref_var, ref_spp)
+    return r, (x - r) ** 2 - noise, nan_mask(nan_policy, img=x, ref=r, ref_var=noise)
 
 
 def mse_corrected(img, ref, ref_var, ref_spp, *, nan_policy: str = "propagate") -> float:

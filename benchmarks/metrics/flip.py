@@ -1,6 +1,7 @@
 """FLIP, NVIDIA's perceptual difference of two images, on the same display images as SSIM."""
 from __future__ import annotations
 
+import functools
 import math
 import os
 
@@ -14,27 +15,23 @@ __all__ = ["flip", "flip_available", "FLIP_PACKAGE"]
 #: the PyPI distribution that provides FLIP (``pip install flip-evaluator``).
 FLIP_PACKAGE = "flip-evaluator"
 
-_MODULE = None
 
-
+@functools.lru_cache(maxsize=1)
 def _module():
     """``flip_evaluator``, imported once with ``OMP_NUM_THREADS=1`` (its OpenMP runtime reads it on
     load; one thread is 15-20x faster on small images on a busy machine)."""
-    global _MODULE
-    if _MODULE is None:
-        before = os.environ.get("OMP_NUM_THREADS")
-        os.environ["OMP_NUM_THREADS"] = "1"
-        try:
-            import flip_evaluator  # deferred: FLIP's package only when the metric is asked for
-        except ImportError as exc:
-            raise ImportError(f"FLIP needs the {FLIP_PACKAGE} package: pip install {FLIP_PACKAGE}") from exc
-        finally:
-            if before is None:
-                os.environ.pop("OMP_NUM_THREADS", None)
-            else:
-                os.environ["OMP_NUM_THREADS"] = before
-        _MODULE = flip_evaluator
-    return _MODULE
+    before = os.environ.get("OMP_NUM_THREADS")
+    os.environ["OMP_NUM_THREADS"] = "1"
+    try:
+        import flip_evaluator  # deferred: FLIP's package only when the metric is asked for
+    except ImportError as exc:
+        raise ImportError(f"FLIP needs the {FLIP_PACKAGE} package: pip install {FLIP_PACKAGE}") from exc
+    finally:
+        if before is None:
+            os.environ.pop("OMP_NUM_THREADS", None)
+        else:
+            os.environ["OMP_NUM_THREADS"] = before
+    return flip_evaluator
 
 
 def flip_available() -> bool:

@@ -3,9 +3,8 @@
 :func:`run_parity` casts one ray through each pixel centre in our tracer
 (:func:`reference_tracer.probe.first_hit_aovs`) and in Mitsuba (:mod:`.mitsuba`) and compares
 hit distance, shading normal, diffuse albedo, emitted radiance and the shape hit
-(:mod:`.compare`): deterministic, it names a translation error (camera, winding, material,
-emitter) that a statistical gate would only see as a biased image. :mod:`.maps` writes the
-mismatch maps.
+(:mod:`.compare`, which also draws the mismatch maps): deterministic, it names a translation
+error (camera, winding, material, emitter) that a statistical gate would only see as a biased image.
 
 >>> from mitsuba_scenes import get_scene
 >>> run_parity(get_scene("cornell_box", width=8, height=8)).passed
@@ -15,8 +14,7 @@ from __future__ import annotations
 
 from reference_tracer.probe import first_hit_aovs
 
-from .compare import ParityReport, compare_aovs
-from .maps import write_mismatch_maps
+from .compare import ParityReport, compare_aovs, write_mismatch_maps
 from .mitsuba import mitsuba_aovs, mitsuba_scene_for
 
 __all__ = ["ParityReport", "run_parity", "write_mismatch_maps"]

@@ -1,19 +1,22 @@
-"""Compare two sets of first-hit AOVs with float tolerances (Mitsuba works in float32) and
-name what differs. A pixel at an edge of a shape or of a texture, where rounding alone may
-change what a ray sees, is forgiven when a ray a hundredth of a pixel away in one renderer
-sees what the other saw at the centre.
+"""Compare two sets of first-hit AOVs with float tolerances (Mitsuba works in float32), name
+what differs and draw the mismatch maps. A pixel at an edge of a shape or of a texture, where
+rounding alone may change what a ray sees, is forgiven when a ray a hundredth of a pixel away
+in one renderer sees what the other saw at the centre.
 """
 from __future__ import annotations
 
 import collections
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.probe import diffuse_albedo, first_hit_aovs
 
-__all__ = ["AOVS", "ParityReport", "compare_aovs", "shape_bounds"]
+from ..files import slug
+
+__all__ = ["AOVS", "ParityReport", "compare_aovs", "shape_bounds", "write_mismatch_maps"]
 
 #: the AOVs compared, in report order.
 AOVS = ("shape", "t", "normal", "albedo", "emitted")
@@ -92,10 +95,8 @@ def _classes(scene: rt.Scene) -> np.ndarray:
     b = shape_bounds(scene)
     extent = max(float(np.abs(b).max()) if b.size else 1.0, 1e-6)
     cls = np.arange(len(b))
-    for i in range(len(b)):
-        same = np.nonzero(np.abs(b[:i] - b[i]).max(axis=1) / extent <= 1e-4)[0] if i else []
-        if len(same):
-            cls[i] = cls[same[0]]
+    for i in range(len(b)):  # the class of the first shape with the same box (i itself if none before)
+        cls[i] = cls[np.argmax(np.abs(b - b[i]).max(axis=1) / extent <= 1e-4)]
     return cls
 
 
@@ -124,8 +125,7 @@ def compare_aovs(scene: rt.Scene, ours: dict, theirs: dict, *, name: str = "scen
     ``pixel + (dx, dy)``, tells an edge from a real difference from Mitsuba's side too."""
     h, w = ours["t"].shape
     if theirs["t"].shape != (h, w):
-        mask = np.ones((h, w), dtype=bool)
-        masks = {k: mask for k in AOVS}
+        masks = dict.fromkeys(AOVS, np.ones((h, w), dtype=bool))
         return ParityReport(name, w, h, masks, [f"camera: image size {w}x{h} (ours) vs "
                                                 f"{theirs['t'].shape[1]}x{theirs['t'].shape[0]} (Mitsuba)"],
                             ours, theirs)
@@ -193,3 +193,44 @@ def _findings(scene, ours, theirs, masks, cos) -> list:
     if any(s == -2 for s in np.unique(theirs["shape"])):
         out.append("Mitsuba has shape(s) with no counterpart among ours (by bounding box)")
     return out
+
+
+def _grey(report: ParityReport) -> np.ndarray:
+    """Our hit distance as a grey backdrop (near bright, misses dark)."""
+    t = report.ours["t"]
+    fin = np.isfinite(t)
+    if not fin.any():
+        return np.zeros(t.shape)
+    lo, hi = float(t[fin].min()), float(t[fin].max())
+    return 0.25 + 0.5 * np.where(fin, 1.0 - (t - lo) / (hi - lo + 1e-12), 0.0)
+
+
+def write_mismatch_maps(report: ParityReport, out) -> list:
+    """Write ``<scene>_parity.png`` (per AOV: mismatching pixels in red over our depth) and
+    ``<scene>_parity.exr`` (R: shape or distance, G: normal, B: albedo or emitted mismatch).
+    Returns the paths written."""
+    import matplotlib  # deferred: matplotlib only when plotting (0.5-1.5 s)
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # deferred: matplotlib only when plotting (0.5-1.5 s)
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    png, exr = out / f"{slug(report.scene)}_parity.png", out / f"{slug(report.scene)}_parity.exr"
+    m = report.masks
+    rt.write_exr(exr, np.stack([m["shape"] | m["t"], m["normal"], m["albedo"] | m["emitted"]], axis=-1)
+                 .astype(np.float32))
+    grey = _grey(report)
+    fig, axes = plt.subplots(1, len(AOVS), figsize=(2.6 * len(AOVS), 2.6 * report.height / report.width + 0.7), dpi=100)
+    for ax, aov in zip(np.atleast_1d(axes), AOVS):
+        img = np.repeat(grey[..., None], 3, axis=-1)
+        img[m[aov]] = (1.0, 0.1, 0.1)
+        ax.imshow(img, interpolation="nearest")
+        ax.set_title(f"{aov}: {int(m[aov].sum())}", fontsize=9)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    fig.suptitle(f"{report.scene}: pixel centres that differ from Mitsuba (red)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(png)
+    plt.close(fig)
+    return [png, exr]

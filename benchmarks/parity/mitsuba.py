@@ -34,12 +34,11 @@ def mitsuba_scene_for(scene: rt.Scene, source=None, *, params=None):
 def match_shapes(mscene, scene: rt.Scene) -> list:
     """Our shape index for each of Mitsuba's shapes (by bounding box), -2 where none matches."""
     ours = shape_bounds(scene)
-    extent = max(float(np.abs(ours).max()) if ours.size else 1.0, 1e-6)
+    if not len(ours):
+        return [-2] * len(mscene.shapes())
+    extent = max(float(np.abs(ours).max()), 1e-6)
     out = []
     for sh in mscene.shapes():
-        if not len(ours):
-            out.append(-2)
-            continue
         b = sh.bbox()
         box = np.concatenate([np.array(b.min, dtype=np.float64).ravel(), np.array(b.max, dtype=np.float64).ravel()])
         err = np.abs(ours - box).max(axis=1) / extent

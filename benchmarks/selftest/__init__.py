@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from reference_tracer.testing import mutant_id, mutant_names, render_mutant
 
-from .catalogue import CATALOGUE, SELFTEST_SCENES, Mutant, mutant, resolve_mutants, selftest_scene
+from .catalogue import CATALOGUE, SELFTEST_SCENES, Mutant, resolve_mutants, selftest_scene
 from .driver import DEFAULT_CASE_ALPHA, DEFAULT_SPP_LADDER, SelftestReport, ladder, run_selftest, scene_reference
 
-__all__ = ["CATALOGUE", "Mutant", "mutant", "resolve_mutants", "DEFAULT_CASE_ALPHA", "DEFAULT_SPP_LADDER",
+__all__ = ["CATALOGUE", "Mutant", "resolve_mutants", "DEFAULT_CASE_ALPHA", "DEFAULT_SPP_LADDER",
            "SelftestReport", "ladder", "run_selftest", "scene_reference", "mutant_id", "mutant_names",
            "render_mutant", "SELFTEST_SCENES", "selftest_scene"]

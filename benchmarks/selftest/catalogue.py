@@ -13,11 +13,8 @@ in a glass slab, for ``glass_no_eta_scale``).
 
 Examples
 --------
->>> from benchmarks.selftest.catalogue import CATALOGUE, mutant
->>> len(CATALOGUE) >= 10
-True
->>> mutant("max_depth_off_by_one").scene
-'furnace'
+>>> [m.scene for m in resolve_mutants("max_depth_off_by_one")]
+['furnace']
 >>> selftest_scene("cornell_box_rr3", width=8).rr_depth
 3
 """
@@ -31,7 +28,7 @@ from mitsuba_scenes.scenes.cornell_box import WHITE, camera, ceiling_light, room
 
 from ..gate.suite import gate_scene, names_of
 
-__all__ = ["Mutant", "CATALOGUE", "mutant", "resolve_mutants", "SELFTEST_SCENES", "selftest_scene", "is_suite_scene"]
+__all__ = ["Mutant", "CATALOGUE", "resolve_mutants", "SELFTEST_SCENES", "selftest_scene", "is_suite_scene"]
 
 
 @dataclass(frozen=True)
@@ -135,14 +132,6 @@ CATALOGUE = (
 _BY_NAME = {m.name: m for m in CATALOGUE}
 
 
-def mutant(name: str) -> Mutant:
-    """The catalogue entry of ``name`` (ValueError for an unknown name)."""
-    try:
-        return _BY_NAME[name]
-    except KeyError:
-        raise ValueError(f"unknown mutant {name!r}; the catalogue has: {', '.join(_BY_NAME)}") from None
-
-
 def resolve_mutants(mutants=None) -> list:
     """Catalogue entries by name (None: all; a string may be comma-separated), de-duplicated."""
     if mutants is None:
@@ -150,16 +139,10 @@ def resolve_mutants(mutants=None) -> list:
     names = names_of(mutants)
     if not names:
         raise ValueError("no mutant selected")
-    return [mutant(n) for n in names]
-
-
-#: height of the lowered light of ``hanging_lamp``; the diffuser plate hangs 2 units under it.
-HANGING_LIGHT_Y = 450.0
-PLATE_GAP = 2.0
-#: the glass slab of ``glass_lamp`` and the height of the light inside it.
-GLASS_SLAB = ((203.0, 535.0, 217.0), (353.0, 552.0, 342.0))
-GLASS_LIGHT_Y = 545.0
-GLASS_IOR = 1.5
+    for name in names:
+        if name not in _BY_NAME:
+            raise ValueError(f"unknown mutant {name!r}; the catalogue has: {', '.join(_BY_NAME)}")
+    return [_BY_NAME[n] for n in names]
 
 
 def _cornell_box_rr3(width: int, height: int) -> rt.Scene:
@@ -169,17 +152,17 @@ def _cornell_box_rr3(width: int, height: int) -> rt.Scene:
 def _hanging_lamp(width: int, height: int) -> rt.Scene:
     x, z = (213.0, 343.0), (227.0, 332.0)  # the cornell_box light's extent
     w, d = x[1] - x[0], z[1] - z[0]
-    plate = rt.Quad((x[0] + w / 4, HANGING_LIGHT_Y - PLATE_GAP, z[0] + d / 4), (w / 2, 0, 0), (0, 0, d / 2),
-                    rt.Lambertian(WHITE))  # normal u x v = -y: faces the room, like the light
+    plate = rt.Quad((x[0] + w / 4, 448.0, z[0] + d / 4), (w / 2, 0, 0), (0, 0, d / 2),
+                    rt.Lambertian(WHITE))  # 2 units under the light; normal u x v = -y: faces the room
     return rt.Scene(camera=camera(width, height),
-                    shapes=[*room(), ceiling_light(x=x, z=z, y=HANGING_LIGHT_Y), plate, tall_box(), short_box()],
+                    shapes=[*room(), ceiling_light(x=x, z=z, y=450.0), plate, tall_box(), short_box()],
                     max_depth=50)
 
 
 def _glass_lamp(width: int, height: int) -> rt.Scene:
-    slab = rt.Box(GLASS_SLAB[0], GLASS_SLAB[1], rt.Dielectric(GLASS_IOR))
+    slab = rt.Box((203.0, 535.0, 217.0), (353.0, 552.0, 342.0), rt.Dielectric(1.5))
     return rt.Scene(camera=camera(width, height),
-                    shapes=[*room(), ceiling_light(y=GLASS_LIGHT_Y), slab, tall_box(), short_box()],
+                    shapes=[*room(), ceiling_light(y=545.0), slab, tall_box(), short_box()],
                     max_depth=50)
 
 

@@ -160,15 +160,13 @@ def run_selftest(mutants=None, *, spp: int = DEFAULT_SPP, width: int = DEFAULT_W
         # keyed by the mutant and the build of the mutants module (rt.build_id() covers the tracer's only)
         tails = tail_reference(scene, strategy=mut.strategy, spp=tail_spp, threads=threads, cache=cache,
                                render=render, variant=f"{mut.name}@{mutants_build_id()}", log=say)
-        steps, final = [], None
-        for n in budgets:
+        steps = []
+        for n in budgets:  # the last is spp: the row's verdict
             say(f"{mut.name}: {mut.scene} / {mut.strategy} at {n} spp")
             out = render_mutant(scene, mut.name, spp=n, strategy=mut.strategy, seed=seed, threads=threads)
             g, m = _judge(out, n, ref, tails, alpha)
             steps.append({"spp": n, "verdict": g.verdict, "p_value": float(g.p_value),
                           "relative_bias": float(g.relative_bias), "caught_by_mitsuba_rule": not m.passed})
-            final = (g, m)
-        g, m = final
         row = {
             **mut.to_dict(), "mutant": mut.name, "width": width, "spp": spp, "seed": seed, "alpha": alpha,
             "verdict": g.verdict, "reason": g.reason, "caught": g.verdict == "fail", "p_value": float(g.p_value),

@@ -57,12 +57,11 @@ def read_json(path, default=None, *, problems: list | None = None):
         with open_regular(path, max_bytes=MAX_JSON_BYTES) as f:
             return json.loads(f.read())
     except FileNotFoundError:
-        if problems is not None:
-            problems.append(f"{path.name} is missing")
+        why = "is missing"
     except RecursionError:
-        if problems is not None:
-            problems.append(f"{path.name} could not be read: JSON nested too deeply")
+        why = "could not be read: JSON nested too deeply"
     except (OSError, ValueError) as exc:
-        if problems is not None:
-            problems.append(f"{path.name} could not be read: {exc}")
+        why = f"could not be read: {exc}"
+    if problems is not None:
+        problems.append(f"{path.name} {why}")
     return default

@@ -35,11 +35,27 @@ def _fits(value, kind) -> bool:
     return isinstance(value, kind)
 
 
-def _clean_entry(entry, fields: dict):
-    """A dict of known fields of the right type (others dropped), or None if ``entry`` is no dict."""
-    if not isinstance(entry, dict):
-        return None
+def _clean_entry(entry: dict, fields: dict) -> dict:
+    """The known fields of ``entry`` that have the right type."""
     return {k: v for k, v in entry.items() if k in fields and _fits(v, fields[k])}
+
+
+def _plain(v) -> bool:  # a plain value, or one level of them (llvm_target)
+    return _is_scalar(v) or _fits(v, "scalars")
+
+
+def _is_dict(v) -> bool:
+    return isinstance(v, dict)
+
+
+#: the type of each known key of ``meta.json`` (others: a plain value).
+_META_TYPES = {"date": str, "preset": str, "total_seconds": "number", "threads": "number", "runs": list,
+               "groups": list, **dict.fromkeys(("machine", "versions", "references", "references_by_size",
+                                               "scene_files", "target_rmse"), dict)}
+#: per dict-valued key: which entries are kept (the others dropped and said) and the fields kept of each.
+_ENTRIES = {"machine": (_plain, None), "versions": (_plain, None), "target_rmse": (_is_number, None),
+            "references": (_is_dict, _REFERENCE_FIELDS), "references_by_size": (_is_dict, _REFERENCE_FIELDS),
+            "scene_files": (_is_dict, _SCENE_FILE_FIELDS)}
 
 
 def _clean_meta(meta: dict, problems: list | None) -> dict:
@@ -53,41 +69,19 @@ def _clean_meta(meta: dict, problems: list | None) -> dict:
     """
     out, dropped = {}, []
     for key, value in meta.items():
-        if key in ("date", "preset"):
-            ok = isinstance(value, str)
-        elif key in ("total_seconds", "threads"):
-            ok = _is_number(value)
-        elif key in ("machine", "versions"):  # plain values, or one level of them (llvm_target)
-            ok = isinstance(value, dict)
-            if ok:
-                dropped += [f"{key}.{k}" for k, v in value.items() if not (_is_scalar(v) or _fits(v, "scalars"))]
-                value = {k: v for k, v in value.items() if _is_scalar(v) or _fits(v, "scalars")}
-        elif key in ("references", "references_by_size", "scene_files"):
-            ok = isinstance(value, dict)
-            if ok:
-                fields = _SCENE_FILE_FIELDS if key == "scene_files" else _REFERENCE_FIELDS
-                entries = {str(k): _clean_entry(v, fields) for k, v in value.items()}
-                dropped += [f"{key}.{k}" for k, v in entries.items() if v is None]
-                value = {k: v for k, v in entries.items() if v is not None}
-        elif key == "target_rmse":
-            ok = isinstance(value, dict)
-            if ok:
-                dropped += [f"{key}.{k}" for k, v in value.items() if not _is_number(v)]
-                value = {str(k): v for k, v in value.items() if _is_number(v)}
-        elif key == "runs":
-            ok = isinstance(value, list)
-            if ok:
-                value = [r for r in value if isinstance(r, dict) and all(_is_scalar(v) for v in r.values())]
-        elif key == "groups":  # the run's sweep groups, as written (nobody indexes them)
-            ok = isinstance(value, list)
-            if ok:
-                value = [g for g in value if isinstance(g, dict)]
-        else:
-            ok = _is_scalar(value)
-        if ok:
-            out[key] = value
-        else:
+        kind = _META_TYPES.get(key)
+        if not (_is_scalar(value) if kind is None else value is not None and _fits(value, kind)):
             dropped.append(key)
+            continue
+        out[key] = value
+        if key in _ENTRIES:
+            keep, fields = _ENTRIES[key]
+            dropped += [f"{key}.{k}" for k, v in value.items() if not keep(v)]
+            out[key] = {str(k): _clean_entry(v, fields) if fields else v for k, v in value.items() if keep(v)}
+        elif key == "runs":
+            out[key] = [r for r in value if _is_dict(r) and _fits(r, "scalars")]
+        elif key == "groups":  # the run's sweep groups, as written (nobody indexes them)
+            out[key] = [g for g in value if _is_dict(g)]
     if dropped and problems is not None:
         problems.append(f"{META}: {len(dropped)} field(s) of the wrong type ignored: {', '.join(dropped[:8])}"
                         + (", ..." if len(dropped) > 8 else ""))

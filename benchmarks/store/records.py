@@ -41,34 +41,17 @@ def record_key(record: dict, *, partial: bool = False) -> tuple:
     return tuple(record[k] for k in KEY_FIELDS) + (record.get(BUILD_FIELD),)
 
 
-def _last_line_start(f, size: int) -> int:
-    """Offset just after the last newline of an open file of ``size`` bytes (0 if none)."""
-    pos = size
-    while pos > 0:
-        start = max(0, pos - (1 << 16))
-        f.seek(start)
-        i = f.read(pos - start).rfind(b"\n")
-        if i >= 0:
-            return start + i + 1
-        pos = start
-    return 0
-
-
 def _repair_tail(fd: int) -> bytes:
     """Make the end of ``results.jsonl`` ready for an append (the file locked); return the bytes
     to write first: a newline after a complete last record, nothing after cutting off a torn one."""
     size = os.fstat(fd).st_size
-    if size == 0:
+    if size == 0 or os.pread(fd, 1, size - 1) == b"\n":
         return b""
     with open(fd, "rb", closefd=False) as f:
-        f.seek(size - 1)
-        if f.read(1) == b"\n":
-            return b""
-        cut = _last_line_start(f, size)
-        f.seek(cut)
-        tail = f.read()
+        data = f.read()  # only after a killed writer; every reader reads the whole file too
+    cut = data.rfind(b"\n") + 1
     try:
-        json.loads(tail)
+        json.loads(data[cut:])
     except (ValueError, UnicodeDecodeError):
         os.ftruncate(fd, cut)
         os.fsync(fd)
@@ -138,19 +121,14 @@ def result_lines(store) -> list:
     if not path.exists():
         return []
     with open_regular(path) as f:
-        lines = f.read().split(b"\n")
-    last = len(lines) - 1
-    while last >= 0 and not lines[last].strip():
-        last -= 1
+        lines = [(i + 1, raw) for i, raw in enumerate(f.read().split(b"\n")) if raw.strip()]
     out = []
-    for i, raw in enumerate(lines[:last + 1]):
-        if not raw.strip():
-            continue
+    for number, raw in lines:
         try:
             value, parsed = json.loads(raw), True
         except (ValueError, UnicodeDecodeError, RecursionError):  # nested too deeply: not a record
             value, parsed = None, False
-        out.append(ResultLine(i + 1, value, parsed, i == last))
+        out.append(ResultLine(number, value, parsed, number == lines[-1][0]))
     return out
 
 
