@@ -19,7 +19,7 @@ from reference_tracer.build import build_info
 from ..store import read_json, write_json
 from ..text import markdown, markdown_table, text_table
 
-from .judge import STATUSES, Z_LIMIT, compact_feature, cut
+from .judge import SHARE_LIMIT, STATUSES, Z_LIMIT, compact_feature, cut
 
 __all__ = ["FORMAT", "corpus_build", "scene_key", "load_results", "save_results", "counts", "feature_ranking",
            "needs_text", "table_rows", "terminal_table", "markdown_report", "summary_line"]
@@ -184,7 +184,7 @@ def markdown_report(*, provenance: dict, records: dict, fragments: dict) -> str:
         + f", Mitsuba {markdown(build['mitsuba'])} {markdown(s.get('variant_used') or s.get('variant') or '')}: "
         f"films at most {s['width']} pixels wide (aspect ratio kept), {s['spp']} spp ours (mis) against "
         f"{s['spp']} spp of Mitsuba in {s['batches']} batches; agrees when every channel's global |z| <= "
-        f"{Z_LIMIT:g} and at most 1% of pixel values have |z| > {Z_LIMIT:g}.",
+        f"{Z_LIMIT:g} and at most {SHARE_LIMIT:.0%} of pixel values have |z| > {Z_LIMIT:g}.",
         "",
         "**" + markdown(summary_line(records, fragments)) + "**",
         "",
