@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 
@@ -10,7 +9,7 @@ import reference_tracer as rt
 from reference_tracer.probe import core_scene
 
 from .probes import contiguous, probe_scene
-from .record import StressRecord, make_record
+from .record import stress_case
 from .ztests import image_ztest, z_check
 
 __all__ = ["light_sampling", "triangle_solid_angle", "quad_solid_angle"]
@@ -120,9 +119,7 @@ def _light_renders(width: int, spp: int, seed: int) -> tuple:
               rt.Sphere((0.4, 0.0, 0.6), 0.6, rt.DiffuseLight(3.0)),
               rt.Quad((-1.8, 0.0, -1.5), (0, 0, 1), (1, 0, 0), rt.DiffuseLight(5.0)),       # faces up, in-plane
               rt.Quad((-1.5, 2.0, 0.5), (1, 0, 0), (0, 0, 0.5), rt.DiffuseLight(2.0))]      # faces down
-    cam = rt.Camera(lookfrom=(0.0, 1.8, -2.0), lookat=(0.0, 0.0, 0.3), vup=(0, 1, 0), vfov=70.0,
-                    width=width, height=width)
-    scene = rt.Scene(camera=cam, shapes=shapes, max_depth=3)
+    scene = probe_scene(shapes, width=width, lookfrom=(0.0, 1.8, -2.0), lookat=(0.0, 0.0, 0.3), vfov=70.0, max_depth=3)
     renders = {s: rt.render(scene, spp=spp, strategy=s, seed=seed + 11 + i, threads=2)
                for i, s in enumerate(rt.STRATEGIES)}
     ref = renders["cosine"]
@@ -131,7 +128,8 @@ def _light_renders(width: int, spp: int, seed: int) -> tuple:
     return agree, sum(r.nonfinite_samples for r in renders.values())
 
 
-def light_sampling(*, samples: int = 100_000, seed: int = 0, width: int = 24, spp: int = 64) -> StressRecord:
+@stress_case
+def light_sampling(*, samples: int = 100_000, seed: int = 0, width: int = 24, spp: int = 64):
     """Light sampling where pdfs degenerate: finite everywhere, estimates unbiased.
 
     From points on, beside, behind and grazing a quad light and inside, on and outside a
@@ -140,7 +138,6 @@ def light_sampling(*, samples: int = 100_000, seed: int = 0, width: int = 24, sp
     (:func:`_check_point`); then every strategy agrees with ``cosine`` on a scene of such
     points (:func:`_light_renders`).
     """
-    t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
     jobs = _reference_points()
     cases, bad_pdf, worst_z = {}, 0, 0.0
@@ -156,4 +153,4 @@ def light_sampling(*, samples: int = 100_000, seed: int = 0, width: int = 24, sp
               f"floor-through-light renders agree with cosine: "
               f"{sum(a['passed'] for a in agree.values())}/{len(agree)}, NaN samples {render_nonfinite}")
     details = {"points": cases, "render_agreement": agree, "render_nonfinite": render_nonfinite, "samples": samples}
-    return make_record("light_sampling", figure, passed, details, t0)
+    return figure, passed, details
