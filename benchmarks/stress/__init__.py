@@ -1,10 +1,6 @@
-"""Numerical stability on hard cases: the measurements behind ``rtbench stress``.
-
-One module per case; each case function measures the tracer and returns a
-:class:`StressRecord`. :data:`CASES` holds their quick and full settings and
-:func:`run_cases` runs them; ``tests/benchmarks/stress/`` asserts on
-the same functions.
-"""
+"""Numerical stability on hard cases, behind ``rtbench stress``: one module per case, whose function
+returns a :class:`StressRecord`; :data:`CASES` holds their quick and full settings, :func:`run_cases`
+runs them."""
 from __future__ import annotations
 
 from .degenerate import degenerate_input, same_box_triangles

@@ -14,11 +14,6 @@ from .record import stress_case
 __all__ = ["grazing_rays"]
 
 
-def _random_cell(rng, scale_exp):
-    """Three points in [1, 2)^3 * 2^k: all differences are exact in float64 (Sterbenz)."""
-    return rng.uniform(1.0, 2.0, (3, 3)) * 2.0 ** scale_exp
-
-
 def _grazing_batch(rng, shape, verts, n_grazing, n_parallel):
     """Rays within 1e-7 rad of the plane of ``verts`` aimed around its boundary, plus
     rays exactly parallel to the plane (directions are exact in-plane differences)."""
@@ -90,7 +85,8 @@ def grazing_rays(*, shapes: int = 25, rays_per_shape: int = 80, seed: int = 0):
     for shape in ("triangle", "quad"):
         parts = []
         for _ in range(shapes):
-            P = _random_cell(rng, int(rng.integers(-20, 21)))
+            k = int(rng.integers(-20, 21))
+            P = rng.uniform(1.0, 2.0, (3, 3)) * 2.0 ** k   # in [1, 2)^3 2^k: differences exact (Sterbenz)
             verts = P if shape == "triangle" else np.array([P[0], P[1] - P[0], P[2] - P[0]])
             shp = rt.Triangle(*P, mat) if shape == "triangle" else rt.Quad(*verts, mat)
             o, d = _grazing_batch(rng, shape, verts, rays_per_shape - n_par, n_par)

@@ -63,8 +63,7 @@ def _reference_points() -> list:
     on_surface = r_s * np.array([0.6, 0.0, 0.8])
 
     def closed_sphere(ref, inward):
-        x, y, z = (float(c) for c in ref)
-        dc2 = x * x + y * y + z * z   # as the core computes it, to pick the same branch
+        dc2 = sum(c * c for c in map(float, ref))   # as the core computes it, to pick the same branch
         if dc2 <= r_s * r_s:   # the core's branch: inside or on the sphere -> area sampling
             return 4 * np.pi if inward else 0.0
         if inward:
@@ -86,9 +85,8 @@ def _reference_points() -> list:
 
 
 def _check_point(shape: rt.Shape, ref, exact: float, samples: int, rng) -> dict:
-    """``samples`` light samples of ``shape`` from ``ref``: E[valid / pdf] against ``exact``
-    (:func:`~benchmarks.stress.ztests.z_check`), non-finite pdfs, and ``light_pdf`` in
-    uniformly random directions against the probability of a valid sample."""
+    """E[valid / pdf] of light samples from ``ref`` against ``exact``, their pdfs' finiteness, and
+    ``light_pdf`` in uniformly random directions against the probability of a valid sample."""
     core = core_scene(probe_scene([shape]))
     refs = contiguous(np.repeat(ref[None], samples, axis=0))
     s = core.sample_lights(refs, contiguous(rng.random((samples, 3))))
@@ -96,10 +94,8 @@ def _check_point(shape: rt.Shape, ref, exact: float, samples: int, rng) -> dict:
     pdf = s["pdf"]
     nonfinite = int((~np.isfinite(pdf)).sum() + (~np.isfinite(s["pdf_all"])).sum()
                     + (~np.isfinite(s["wi"])).sum() + (valid & ~(pdf > 0)).sum())
-    est = np.where(valid, 1.0 / np.where(valid, pdf, 1.0), 0.0)
-    chk = z_check(est, exact)
-    dirs = rng.normal(size=(samples, 3))
-    lp = core.light_pdf(refs, contiguous(dirs))
+    chk = z_check(np.where(valid, 1.0 / np.where(valid, pdf, 1.0), 0.0), exact)
+    lp = core.light_pdf(refs, contiguous(rng.normal(size=(samples, 3))))
     nonfinite += int((~np.isfinite(lp)).sum() + (lp < 0).sum())
     # Only where uniform directions hit the light often enough to estimate the mass.
     mass = z_check(4 * np.pi * lp, float(valid.mean())) if exact * samples >= 400 * np.pi \
@@ -111,9 +107,8 @@ def _check_point(shape: rt.Shape, ref, exact: float, samples: int, rng) -> dict:
 
 
 def _light_renders(width: int, spp: int, seed: int) -> tuple:
-    """Every strategy against ``cosine`` (:func:`image_ztest` per strategy) and the NaN/Inf
-    samples: a floor inside an inward-facing sphere light, cut by a small sphere light,
-    a quad light lying in its plane and one above."""
+    """Every strategy against ``cosine`` (:func:`image_ztest`), and the NaN/Inf samples, on a floor
+    inside an inward-facing sphere light, cut by a small sphere light, with quad lights in and above it."""
     floor = rt.Quad((-2, 0, -2), (0, 0, 4), (4, 0, 0), rt.Lambertian(0.6))
     shapes = [floor, rt.Sphere((0, 0, 0), 3.0, rt.DiffuseLight(0.5), flip_normals=True),
               rt.Sphere((0.4, 0.0, 0.6), 0.6, rt.DiffuseLight(3.0)),

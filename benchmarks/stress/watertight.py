@@ -7,7 +7,7 @@ import numpy as np
 
 import reference_tracer as rt
 
-from .probes import contiguous, count_escapes, edge_and_vertex_rays, icosphere, probe_scene
+from .probes import count_escapes, edge_and_vertex_rays, icosphere, probe_scene
 from .record import stress_case
 
 __all__ = ["watertight_mesh"]
@@ -39,7 +39,6 @@ def watertight_mesh(*, rays: int = 100_000, subdivisions=(1, 2, 3, 4), seed: int
         origins = rng.normal(size=(per, 3))
         origins *= (0.6 * rng.random(per) ** (1 / 3) / np.linalg.norm(origins, axis=1))[:, None]
         origins[: per // 8] = 0.0
-        origins = contiguous(origins)
         dirs, kind = edge_and_vertex_rays(V, E, origins, rng)
         scene = probe_scene([rt.Mesh(V, F, rt.Lambertian(0.0))], background=1.0, lookfrom=(0.1, 0.05, -0.2),
                             lookat=(0.3, -0.2, 1.0), width=render_width)
