@@ -29,45 +29,33 @@ def _warp(name, domain, param=0.0, cos_range=None, params=()):
     return Routine(f"warp.{name}", tuple(params), "warp", make)
 
 
-def _bsdf(material, theta, alpha=None, resolution=DEFAULT_RESOLUTION, *, coating=None, albedo=(0.8, 0.6, 0.4),
-          domain="hemisphere"):
-    """``coating``: a plastic's options (``eta``, ``specular``, ``nonlinear``), or a rough
-    dielectric's ``eta``, also shown in the label. ``domain``: where the directions lie
-    (``'sphere'`` for a BSDF that transmits; ``theta`` > 90 puts wo below the surface)."""
-    coating = dict(coating or {})
-    params = (("theta_o", theta),) + ((("alpha", alpha),) if alpha is not None else ()) + tuple(coating.items())
-
-    def make():
-        probe = BsdfProbe(material, direction(theta, 40.0), param=alpha or 0.0, albedo=albedo, coating=coating)
-        return {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": domain, "dims": 3,
-                "resolution": resolution}
-    return Routine(f"bsdf.{material}", params, "bsdf", make)
-
-
 #: Mitsuba's default coating of its plastics: polypropylene in air.
 PLASTIC_ETA = 1.49 / 1.000277
 
 
-def _plastic(theta, *, coating=None, albedo=(0.8, 0.6, 0.4)):
-    """The smooth plastic at incidence ``theta``: its diffuse samples against pdf() (the
-    specular ones count as failed there: the density has no Dirac part), its
-    specular ones counted against Ps = F sw / (F sw + (1 - F)(1 - sw)), F from
-    :func:`benchmarks.optics.fresnel_dielectric` and sw = mean(ks) / (mean(rho) + mean(ks))
-    (Mitsuba's weight)."""
+def _bsdf(material, theta, alpha=None, resolution=DEFAULT_RESOLUTION, *, coating=None, albedo=(0.8, 0.6, 0.4),
+          domain="hemisphere"):
+    """``coating``: a plastic's options (``eta``, ``specular``, ``nonlinear``), or a rough
+    dielectric's ``eta``, also shown in the label. ``domain``: where the directions lie
+    (``'sphere'`` for a BSDF that transmits; ``theta`` > 90 puts wo below the surface).
+    The smooth ``plastic`` is a mixed routine: its diffuse samples against pdf() (its specular
+    ones count as failed there), its specular ones counted against Ps = F sw / (F sw + (1 - F)(1 - sw)),
+    F from :func:`benchmarks.optics.fresnel_dielectric`, sw = mean(ks) / (mean(rho) + mean(ks)) (Mitsuba's weight)."""
     coating = dict(coating or {})
-    params = (("theta_o", theta),) + tuple(coating.items())
+    params = (("theta_o", theta),) + ((("alpha", alpha),) if alpha is not None else ()) + tuple(coating.items())
 
     def make():
         wo = direction(theta, 40.0)
-        eta = coating.get("eta", PLASTIC_ETA)
-        ks = np.broadcast_to(np.asarray(coating.get("specular", 1.0), dtype=np.float64), (3,))
-        F = fresnel_dielectric(float(wo[2]), eta)
-        sw = ks.mean() / (np.mean(albedo) + ks.mean())
-        p_specular = F * sw / (F * sw + (1.0 - F) * (1.0 - sw))
-        probe = BsdfProbe("plastic", wo, albedo=albedo, coating=coating)
-        return {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": "hemisphere", "dims": 3,
-                "F": F, "p_specular": p_specular, "specular": ks}
-    return Routine("bsdf.plastic", params, "mixed", make)
+        probe = BsdfProbe(material, wo, param=alpha or 0.0, albedo=albedo, coating=coating)
+        spec = {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": domain, "dims": 3,
+                "resolution": resolution}
+        if material == "plastic":
+            ks = np.broadcast_to(np.asarray(coating.get("specular", 1.0), dtype=np.float64), (3,))
+            F = fresnel_dielectric(float(wo[2]), coating.get("eta", PLASTIC_ETA))
+            sw = ks.mean() / (np.mean(albedo) + ks.mean())
+            spec.update(F=F, p_specular=F * sw / (F * sw + (1.0 - F) * (1.0 - sw)), specular=ks)
+        return spec
+    return Routine(f"bsdf.{material}", params, "mixed" if material == "plastic" else "bsdf", make)
 
 
 def _lobes(material, ior, theta, inside=False):
@@ -190,10 +178,10 @@ def _catalogue() -> tuple:
     routines += [_bsdf("rough_dielectric", 60, 0.2, sphere_cells, coating={"eta": 0.7}, domain="sphere"),
                  _bsdf("rough_dielectric_beckmann", 130, 0.4, sphere_cells, coating={"eta": 0.7}, domain="sphere"),
                  _bsdf("rough_dielectric", 30, 1.0, sphere_cells, coating={"eta": 2.4}, domain="sphere")]
-    routines += [_plastic(theta) for theta in (0, 30, 60, 85)]
-    routines += [_plastic(45, coating={"nonlinear": True}),
-                 _plastic(60, coating={"eta": 1.9, "specular": (0.9, 0.5, 0.2)}),
-                 _plastic(30, coating={"eta": 0.75})]
+    routines += [_bsdf("plastic", theta) for theta in (0, 30, 60, 85)]
+    routines += [_bsdf("plastic", 45, coating={"nonlinear": True}),
+                 _bsdf("plastic", 60, coating={"eta": 1.9, "specular": (0.9, 0.5, 0.2)}),
+                 _bsdf("plastic", 30, coating={"eta": 0.75})]
     routines += [_lobes("dielectric", 1.5, theta) for theta in (0, 45, 80)]
     routines += [_lobes("dielectric", 1.5, theta, inside=True) for theta in (20, 60)]   # 60: total reflection
     routines += [_lobes("dielectric", 1.33, 60), _lobes("dielectric", 0.7, 30), _lobes("dielectric", 0.7, 50),

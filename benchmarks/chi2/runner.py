@@ -95,22 +95,18 @@ def _moments(wl: np.ndarray) -> dict:
     return {"w_sum": float(wl.sum()), "w_sq": float((wl * wl).sum())}
 
 
-def _weight_stats(t: Counter, n: int) -> tuple:
-    """Mean and standard error of ``n`` sample weights from their :func:`_moments`."""
-    mean = t["w_sum"] / n
-    return mean, math.sqrt(max(t["w_sq"] / n - mean * mean, 0.0) / max(n - 1, 1))
-
-
 def _mismatches(s: dict, rows, probe: BsdfProbe) -> dict:
     """Samples ``rows`` whose weight is not eval / pdf, and whose pdf is not pdf()."""
     ev = probe.eval_pdf(s["wi"][rows])
     return {"weight": _off(s["weight"][rows], ev["value"] / ev["pdf"][:, None]), "pdf": _off(s["pdf"][rows], ev["pdf"])}
 
 
-def _albedo_check(probe: BsdfProbe, grid: Grid, n: int, mean: float, se: float, level: float, *,
+def _albedo_check(probe: BsdfProbe, grid: Grid, n: int, t: Counter, level: float, *,
                   offset: float = 0.0, key: str = "expected") -> dict:
     """The integral of f cos (plus ``offset``, a Dirac lobe's share; reported as ``key``) against
-    the mean weight."""
+    the mean of ``n`` weights, from their :func:`_moments` in ``t``."""
+    mean = t["w_sum"] / n
+    se = math.sqrt(max(t["w_sq"] / n - mean * mean, 0.0) / max(n - 1, 1))
     integ, err, _, bad = integrate(lambda d: probe.eval_pdf(d)["value"] @ _LUM, grid, n=n)
     albedo = offset + float(integ.sum())
     p = excess_p_value(albedo - mean, err + _RTOL * abs(albedo), se)
@@ -133,7 +129,7 @@ def _bsdf_checks(probe: BsdfProbe, grid: Grid, n: int, seed: int, level: float) 
                  **_moments(s["weight"][valid] @ _LUM))    # failed samples weigh 0
     return {"weight_is_eval_over_pdf": _check(t["weight"], samples=t["samples"]),
             "sample_pdf_is_pdf": _check(t["pdf"]),
-            "albedo": _albedo_check(probe, grid, n, *_weight_stats(t, n), level, key="integral_f_cos")}
+            "albedo": _albedo_check(probe, grid, n, t, level, key="integral_f_cos")}
 
 
 def _mixed_checks(spec: dict, grid: Grid, n: int, seed: int, level: float) -> dict:
@@ -161,7 +157,7 @@ def _mixed_checks(spec: dict, grid: Grid, n: int, seed: int, level: float) -> di
         "diffuse_weight_is_eval_over_pdf": _check(t["weight"], samples=t["diffuse"]),
         "sample_pdf_is_pdf": _check(t["pdf"]),
         "every_sample_valid": _check(n - n_spec - t["diffuse"], "invalid"),
-        "albedo": _albedo_check(probe, grid, n, *_weight_stats(t, n), level, offset=float(ks @ _LUM) * F),
+        "albedo": _albedo_check(probe, grid, n, t, level, offset=float(ks @ _LUM) * F),
         "specular_share": _share(res, p_specular=p_specular, specular=n_spec, other=n - n_spec),
     }
 

@@ -22,9 +22,8 @@ def _grazing_batch(rng, shape, verts, n_grazing, n_parallel):
         P0, e1, e2 = a, b - a, c - a       # exact differences
         parallel_dirs = [e1, e2, c - b]
     else:
-        Q, u, v = verts
-        P0, e1, e2 = Q, u, v
-        parallel_dirs = [u, v, u - v]     # u - v = P1 - P2 exactly
+        P0, e1, e2 = verts
+        parallel_dirs = [e1, e2, e1 - e2]     # u - v = P1 - P2 exactly
     nrm = np.cross(e1, e2)
     nhat = nrm / np.linalg.norm(nrm)
     t1 = e1 / np.linalg.norm(e1)
@@ -57,7 +56,7 @@ def _grazing_batch(rng, shape, verts, n_grazing, n_parallel):
     inplane = rng.random(n_parallel) < 0.5
     h = rng.choice([-1.0, 1.0], n_parallel) * size * 10.0 ** rng.uniform(-6, -1, n_parallel)
     po = P0 + sp[:, :1] * e1 + sp[:, 1:] * e2 - 0.7 * dp + h[:, None] * nhat
-    corners = np.array([verts[0], verts[1], verts[2]]) if shape == "triangle" else np.array([Q, Q + u, Q + v])
+    corners = np.array(verts) if shape == "triangle" else np.array([P0, P0 + e1, P0 + e2])
     po[inplane] = corners[rng.integers(0, 3, inplane.sum())]
     return contiguous(np.vstack([o, po])), contiguous(np.vstack([d, dp]))
 
