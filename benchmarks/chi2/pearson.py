@@ -378,25 +378,16 @@ def chi2_test(sample: Callable[[np.ndarray], np.ndarray], pdf: Callable[[np.ndar
     sigma = math.sqrt(max(mass * (1.0 - mass), 0.0) / n) if 0 < mass < 1 else math.sqrt(frac * (1 - frac) / n)
     mass_p = excess_p_value(mass - frac, err + _MASS_RTOL * max(mass, frac), sigma)
 
-    problems = []
-    if nonunit:
-        problems.append(f"{nonunit} samples are not unit vectors")
-    if outside:
-        problems.append(f"{outside} samples outside the {domain}"
-                        + (f" range cos theta in [{grid.lo:g}, {grid.hi:g}]" if cos_range is not None else ""))
-    if bad:
-        problems.append(f"pdf gave {bad} non-finite or negative values")
-    if stray:
-        problems.append(f"{int(stray)} samples in cells where the pdf is 0")
-    if mass_p < level:
-        problems.append(f"pdf integrates to {mass:.6g} but {frac:.6g} of the samples are valid (p = {mass_p:.2e})")
-    if dof >= 1 and p < level:
-        problems.append(f"chi2 = {stat:.1f} on {dof} dof (p = {p:.2e})")
-    undetermined = None
-    if n_valid == 0:
-        undetermined = "no valid sample: nothing to test"
-    elif dof < 1:
-        undetermined = "all samples fall into one pooled bin: raise n or the resolution"
+    problems = [text for failed, text in (
+        (nonunit, f"{nonunit} samples are not unit vectors"),
+        (outside, f"{outside} samples outside the {domain}"
+                  + (f" range cos theta in [{grid.lo:g}, {grid.hi:g}]" if cos_range is not None else "")),
+        (bad, f"pdf gave {bad} non-finite or negative values"),
+        (stray, f"{int(stray)} samples in cells where the pdf is 0"),
+        (mass_p < level, f"pdf integrates to {mass:.6g} but {frac:.6g} of the samples are valid (p = {mass_p:.2e})"),
+        (dof >= 1 and p < level, f"chi2 = {stat:.1f} on {dof} dof (p = {p:.2e})")) if failed]
+    undetermined = ("no valid sample: nothing to test" if n_valid == 0 else
+                    "all samples fall into one pooled bin: raise n or the resolution" if dof < 1 else None)
     verdict, message = _verdict(problems, undetermined)
     return Chi2Result(
         verdict=verdict, p_value=p, statistic=stat, dof=dof, alpha=alpha, n=n, n_valid=n_valid, mass=mass,

@@ -133,10 +133,7 @@ def _bsdf_checks(probe: BsdfProbe, grid: Grid, n: int, seed: int, level: float) 
 
 
 def _mixed_checks(spec: dict, grid: Grid, n: int, seed: int, level: float) -> dict:
-    """The smooth plastic's samples: the specular ones in the mirror direction with weight
-    ks F / Ps, the diffuse ones with weight eval / pdf and pdf = pdf(); their counts against
-    Ps (a discrete test at ``level``); the mean weight against ks F plus the diffuse lobe's
-    albedo."""
+    """The smooth plastic's samples (README.md here, "What is tested"); the lobes' counts at ``level``."""
     probe: BsdfProbe = spec["probe"]
     wo, F, ks, p_specular = probe.wo, spec["F"], spec["specular"], spec["p_specular"]
     mirror = np.array([-wo[0], -wo[1], wo[2]])
@@ -176,8 +173,7 @@ def _light_checks(probe: LightProbe, single: bool, n: int, seed: int, reported=N
         lp = probe.core.light_pdf(np.ascontiguousarray(np.broadcast_to(probe.ref, wi.shape)), wi)
         if single:
             t.update(pdf=_off(pdf, lp, _LIGHT_RTOL))
-            if len(lp):
-                worst = max(worst, float(np.max(np.abs(pdf / np.where(lp > 0, lp, np.inf) - 1.0))))
+            worst = max(worst, float(np.max(np.abs(pdf / np.where(lp > 0, lp, np.inf) - 1.0), initial=0.0)))
         else:
             t.update(pdf=int((pdf > lp * (1 + _LIGHT_RTOL)).sum()))
         t.update(pdf_all=_off(s["pdf_all"][valid], lp), samples=int(valid.sum()),
