@@ -240,12 +240,10 @@ def _envmap_image(seed: int, shape, sun=None) -> np.ndarray:
 
 
 def _envmap_density(env):
-    """The density of an EnvMap's light sampling, stated independently of the tracer (see
-    ``sampling/environment.h``): the map's cells between texel centres (columns wrapping
-    around, rows from pole to pole), each of weight the mean luminance of its four corner
-    texels, chosen with probability weight times solid angle, uniform in solid angle within;
-    so the density at a direction is its cell's weight over the sum of weight times solid
-    angle. A function of (m, 3) world directions."""
+    """The density of an EnvMap's light sampling stated independently of the tracer (README.md here),
+    a function of (m, 3) world directions: the map's cells between texel centres (columns wrapping
+    around, rows from pole to pole) weigh their four corners' mean luminance; a direction's density
+    is its cell's weight over the sum of weight times solid angle."""
     px = np.asarray(env.pixels, dtype=np.float64)
     h, w = px.shape[:2]
     lum = px @ _LUM

@@ -160,9 +160,8 @@ def _mixed_checks(spec: dict, grid: Grid, n: int, seed: int, level: float) -> di
 
 
 def _light_checks(probe: LightProbe, single: bool, n: int, seed: int, reported=None) -> dict:
-    """A sample's pdf equals light_pdf in its direction (one emitter) or is at most it; with
-    ``reported`` (a function of world directions), light_pdf at every sample equals it.
-    Delta lights' samples have no density: :func:`_delta_checks` takes them."""
+    """Each sample's pdf against light_pdf, and light_pdf against ``reported`` (a function of world
+    directions) if given; delta lights' samples are :func:`_delta_checks`'s."""
     t = Counter()
     worst = 0.0
     for u in uniform_chunks(n, seed):
@@ -187,9 +186,8 @@ def _light_checks(probe: LightProbe, single: bool, n: int, seed: int, reported=N
 
 
 def _delta_checks(probe: LightProbe, expected: list, n: int, seed: int, alpha: float) -> dict:
-    """The delta lights' samples: each along one expected ``(name, wi, radiance, pmf)``
-    (catalogue.py states them independently), their counts against the pmfs (a discrete
-    test at ``alpha``, the other samples one outcome)."""
+    """The delta lights' samples against the ``expected`` ``(name, wi, radiance, pmf)`` of each, and
+    their counts against the pmfs at ``alpha`` (the other samples one outcome)."""
     wis = np.array([e[1] for e in expected], dtype=np.float64)
     counts = np.zeros(len(expected) + 1, dtype=np.int64)
     t = Counter()

@@ -135,13 +135,9 @@ def light_sampling(*, samples: int = 100_000, seed: int = 0, width: int = 24, sp
     """
     rng = np.random.default_rng(seed)
     jobs = _reference_points()
-    cases, bad_pdf, worst_z = {}, 0, 0.0
-    for name, shape, ref, exact in jobs:
-        chk = _check_point(shape, ref, exact, samples, rng)
-        cases[name] = chk
-        bad_pdf += chk["nonfinite"] + chk["pdf_all_mismatch"]
-        mass = chk["pdf_mass"]
-        worst_z = max(worst_z, abs(chk["z"]), abs(mass["z"]) if mass else 0.0)
+    cases = {name: _check_point(shape, ref, exact, samples, rng) for name, shape, ref, exact in jobs}
+    bad_pdf = sum(c["nonfinite"] + c["pdf_all_mismatch"] for c in cases.values())
+    worst_z = max(max(abs(c["z"]), abs(c["pdf_mass"]["z"]) if c["pdf_mass"] else 0.0) for c in cases.values())
     agree, render_nonfinite = _light_renders(width, spp, seed)
     passed = bad_pdf == 0 and worst_z <= 5.0 and render_nonfinite == 0 and all(a["passed"] for a in agree.values())
     figure = (f"{len(jobs)} reference points: max |z| {worst_z:.2f} (limit 5), Inf/NaN/mismatched pdfs {bad_pdf}; "

@@ -71,9 +71,6 @@ def z_check(samples, exact) -> dict:
     x = np.asarray(samples, dtype=np.float64)
     m, sd = float(x.mean()), float(x.std(ddof=1)) if len(x) > 1 else 0.0
     se = sd / math.sqrt(len(x))
-    floor = 1e-12 * abs(exact)
-    if max(se, floor) > 0:
-        z = (m - exact) / max(se, floor)
-    else:
-        z = 0.0 if m == exact else math.inf
+    scale = max(se, 1e-12 * abs(exact))
+    z = (m - exact) / scale if scale > 0 else (0.0 if m == exact else math.inf)
     return {"mean": m, "exact": float(exact), "z": float(z), "n": int(len(x)), "se": se}
