@@ -19,6 +19,8 @@ from .runner import Routine
 
 __all__ = ["ROUTINES", "select"]
 
+_LUM = np.asarray(LUMINANCE_WEIGHTS)
+
 
 def _warp(name, domain, param=0.0, cos_range=None, params=()):
     def make():
@@ -27,51 +29,33 @@ def _warp(name, domain, param=0.0, cos_range=None, params=()):
     return Routine(f"warp.{name}", tuple(params), "warp", make)
 
 
-def _bsdf(material, theta, alpha=None, resolution=DEFAULT_RESOLUTION, *, coating=None, albedo=None,
-          domain="hemisphere"):
-    """``coating``: a plastic's options (``eta``, ``specular``, ``nonlinear``), or a rough
-    dielectric's ``eta``, also shown in the label. ``domain``: where the directions lie
-    (``'sphere'`` for a BSDF that transmits; ``theta`` > 90 puts wo below the surface)."""
-    coating = dict(coating or {})
-    params = ((("theta_o", theta),) + ((("alpha", alpha),) if alpha is not None else ())
-              + tuple((k, v) for k, v in coating.items()))
-
-    def make():
-        probe = BsdfProbe(material, direction(theta, 40.0), param=alpha or 0.0, coating=coating,
-                          **({"albedo": albedo} if albedo is not None else {}))
-        return {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": domain, "dims": 3,
-                "resolution": resolution}
-    return Routine(f"bsdf.{material}", params, "bsdf", make)
-
-
 #: Mitsuba's default coating of its plastics: polypropylene in air.
 PLASTIC_ETA = 1.49 / 1.000277
 
 
-def _plastic(theta, *, coating=None, albedo=(0.8, 0.6, 0.4)):
-    """The smooth plastic at incidence ``theta``: its diffuse samples against pdf(), its
-    specular ones counted against Ps = F sw / (F sw + (1 - F)(1 - sw)), F from
-    :func:`benchmarks.optics.fresnel_dielectric` and sw = mean(ks) / (mean(rho) + mean(ks))
-    (Mitsuba's weight)."""
+def _bsdf(material, theta, alpha=None, resolution=DEFAULT_RESOLUTION, *, coating=None, albedo=(0.8, 0.6, 0.4),
+          domain="hemisphere"):
+    """``coating``: a plastic's options (``eta``, ``specular``, ``nonlinear``), or a rough
+    dielectric's ``eta``, also shown in the label. ``domain``: where the directions lie
+    (``'sphere'`` for a BSDF that transmits; ``theta`` > 90 puts wo below the surface).
+    The smooth ``plastic`` is a mixed routine: its diffuse samples against pdf() (its specular
+    ones count as failed there), its specular ones counted against Ps = F sw / (F sw + (1 - F)(1 - sw)),
+    F from :func:`benchmarks.optics.fresnel_dielectric`, sw = mean(ks) / (mean(rho) + mean(ks)) (Mitsuba's weight)."""
     coating = dict(coating or {})
-    params = (("theta_o", theta),) + tuple((k, v) for k, v in coating.items())
+    params = (("theta_o", theta),) + ((("alpha", alpha),) if alpha is not None else ()) + tuple(coating.items())
 
     def make():
         wo = direction(theta, 40.0)
-        eta = coating.get("eta", PLASTIC_ETA)
-        ks = np.broadcast_to(np.asarray(coating.get("specular", 1.0), dtype=np.float64), (3,))
-        F = fresnel_dielectric(float(wo[2]), eta)
-        sw = ks.mean() / (np.mean(albedo) + ks.mean())
-        p_specular = F * sw / (F * sw + (1.0 - F) * (1.0 - sw))
-        probe = BsdfProbe("plastic", wo, albedo=albedo, coating=coating)
-
-        def diffuse_samples(u):   # the specular samples count as failed here: the density has no Dirac part
-            s = probe.sample_full(u)
-            keep = s["valid"].astype(bool) & ~s["delta"].astype(bool)
-            return np.where(keep[:, None], s["wi"], np.nan)
-        return {"probe": probe, "sample": diffuse_samples, "pdf": probe.pdf, "domain": "hemisphere", "dims": 3,
-                "F": F, "p_specular": p_specular, "specular": ks}
-    return Routine("bsdf.plastic", params, "mixed", make)
+        probe = BsdfProbe(material, wo, param=alpha or 0.0, albedo=albedo, coating=coating)
+        spec = {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": domain, "dims": 3,
+                "resolution": resolution}
+        if material == "plastic":
+            ks = np.broadcast_to(np.asarray(coating.get("specular", 1.0), dtype=np.float64), (3,))
+            F = fresnel_dielectric(float(wo[2]), coating.get("eta", PLASTIC_ETA))
+            sw = ks.mean() / (np.mean(albedo) + ks.mean())
+            spec.update(F=F, p_specular=F * sw / (F * sw + (1.0 - F) * (1.0 - sw)), specular=ks)
+        return spec
+    return Routine(f"bsdf.{material}", params, "mixed" if material == "plastic" else "bsdf", make)
 
 
 def _lobes(material, ior, theta, inside=False):
@@ -84,36 +68,34 @@ def _lobes(material, ior, theta, inside=False):
     return Routine(f"lobes.{material}", params, "lobes", make)
 
 
-def _cap(ref, axis_point, boundary, margin=0.02):
-    """Rotation with +z from ``ref`` toward ``axis_point`` and the cos theta range of a cap
-    holding every direction toward ``boundary`` points (plus a margin)."""
-    rot = frame(np.asarray(axis_point, float) - ref)
-    d = np.asarray(boundary, float) - ref
-    cos = (d / np.linalg.norm(d, axis=1, keepdims=True)) @ rot[2]
-    return rot, (max(-1.0, float(cos.min()) - margin), 1.0)
+def _polygon_cap(corners, margin=0.02):
+    """A function (ref) -> (rotation with +z from ``ref`` toward the polygon's centre, the cos
+    theta range of a cap holding every direction toward its edges plus a margin)."""
+    v = np.asarray(corners, float)
+    t = np.linspace(0.0, 1.0, 400)[:, None]
+    boundary = np.concatenate([(1 - t) * v[i] + t * v[(i + 1) % len(v)] for i in range(len(v))])
+
+    def cap(ref):
+        rot = frame(v.mean(axis=0) - ref)
+        d = boundary - ref
+        cos = (d / np.linalg.norm(d, axis=1, keepdims=True)) @ rot[2]
+        return rot, (max(-1.0, float(cos.min()) - margin), 1.0)
+    return cap
 
 
-def _polygon_boundary(vertices, k=400):
-    v = np.asarray(vertices, float)
-    t = np.linspace(0.0, 1.0, k)[:, None]
-    return np.concatenate([(1 - t) * v[i] + t * v[(i + 1) % len(v)] for i in range(len(v))])
-
-
-def _light(label, shapes_fn, ref, *, background=0.0, cap=None, params=(), densities=None, lights_fn=None, deltas=None):
-    """``cap``: None (the whole sphere), or a function (ref) -> (rotation, cos_range).
+def _light(label, shapes, ref, *, background=0.0, cap=None, params=(), densities=None, lights=(), deltas=None):
+    """``shapes`` and ``lights`` (those that are not shapes: an EnvMap, delta lights) seen from ``ref``.
+    ``cap``: None (the whole sphere), or a function (ref) -> (rotation, cos_range).
     ``densities``: None (the directions' density is ``light_pdf``), or a function (ref) ->
     (true, reported): the density of the directions drawn and the one ``light_pdf`` must
     report, each a function of (m, 3) world directions (a smooth emitter's).
-    ``lights_fn``: the scene's lights that are not shapes (an EnvMap, delta lights).
     ``deltas``: a function (ref) -> the delta lights' expected samples, ``(name, wi,
-    radiance, pmf)`` each (:func:`_delta_checks`)."""
+    radiance, pmf)`` each (``runner._delta_checks``)."""
     def make():
         r = np.asarray(ref, float)
         rot, cos_range = cap(r) if cap else (np.eye(3), None)
-        shapes = shapes_fn()
-        lights = tuple(lights_fn()) if lights_fn else ()
-        probe = LightProbe(shapes, r, background=background, rotation=rot, lights=lights)
-        emitters = (sum(1 for s in shapes if s.material.emits) + (1 if background > 0 else 0) + len(lights))
+        probe = LightProbe(shapes, r, background=background, rotation=rot, lights=tuple(lights))
+        emitters = sum(1 for s in shapes if s.material.emits) + (1 if background > 0 else 0) + len(lights)
         spec = {"probe": probe, "sample": probe.sample, "pdf": probe.pdf, "domain": "sphere", "dims": 3,
                 "cos_range": cos_range, "single": emitters == 1}
         if deltas is not None:
@@ -196,72 +178,53 @@ def _catalogue() -> tuple:
     routines += [_bsdf("rough_dielectric", 60, 0.2, sphere_cells, coating={"eta": 0.7}, domain="sphere"),
                  _bsdf("rough_dielectric_beckmann", 130, 0.4, sphere_cells, coating={"eta": 0.7}, domain="sphere"),
                  _bsdf("rough_dielectric", 30, 1.0, sphere_cells, coating={"eta": 2.4}, domain="sphere")]
-    routines += [_plastic(theta) for theta in (0, 30, 60, 85)]
-    routines += [_plastic(45, coating={"nonlinear": True}),
-                 _plastic(60, coating={"eta": 1.9, "specular": (0.9, 0.5, 0.2)}),
-                 _plastic(30, coating={"eta": 0.75})]
+    routines += [_bsdf("plastic", theta) for theta in (0, 30, 60, 85)]
+    routines += [_bsdf("plastic", 45, coating={"nonlinear": True}),
+                 _bsdf("plastic", 60, coating={"eta": 1.9, "specular": (0.9, 0.5, 0.2)}),
+                 _bsdf("plastic", 30, coating={"eta": 0.75})]
     routines += [_lobes("dielectric", 1.5, theta) for theta in (0, 45, 80)]
     routines += [_lobes("dielectric", 1.5, theta, inside=True) for theta in (20, 60)]   # 60: total reflection
     routines += [_lobes("dielectric", 1.33, 60), _lobes("dielectric", 0.7, 30), _lobes("dielectric", 0.7, 50),
                  _lobes("dielectric_schlick", 1.5, 60)]                                 # ior 0.7 at 50: TIR
 
     light = rt.DiffuseLight(1.0)
-    quad_q, quad_u, quad_v = (-1.0, 1.0, -1.0), (2.0, 0.0, 0.0), (0.0, 0.0, 2.0)      # faces -y
-    quad_corners = [quad_q, (1.0, 1.0, -1.0), (1.0, 1.0, 1.0), (-1.0, 1.0, 1.0)]
+    quad = [rt.Quad((-1.0, 1.0, -1.0), (2.0, 0.0, 0.0), (0.0, 0.0, 2.0), light)]        # faces -y
+    quad_cap = _polygon_cap([(-1.0, 1.0, -1.0), (1.0, 1.0, -1.0), (1.0, 1.0, 1.0), (-1.0, 1.0, 1.0)])
     tri = [(-1.0, 1.0, -1.0), (1.0, 1.0, -1.0), (0.0, 1.0, 1.0)]                          # faces -y
-
-    def quad():
-        return [rt.Quad(quad_q, quad_u, quad_v, light)]
-
-    def triangle():
-        return [rt.Triangle(*tri, light)]
-
-    def sphere(flip=False):
-        return lambda: [rt.Sphere((0.0, 0.0, 0.0), 1.0, light, flip_normals=flip)]
+    sphere = [rt.Sphere((0.0, 0.0, 0.0), 1.0, light)]
+    inward = [rt.Sphere((0.0, 0.0, 0.0), 1.0, light, flip_normals=True)]
 
     def sphere_cap(r):  # the cone the unit sphere at the origin subtends, and a margin
         d = float(np.linalg.norm(r))
         cos_max = math.sqrt(1.0 - 1.0 / (d * d))
         return frame(-r), (cos_max - 0.02 * (1.0 - cos_max), 1.0)
 
-    def quad_cap(r):
-        return _cap(r, np.mean(quad_corners, axis=0), _polygon_boundary(quad_corners))
-
-    def tri_cap(r):
-        return _cap(r, np.mean(tri, axis=0), _polygon_boundary(tri))
-
     # vertex normals leaning up to ~40 degrees off the triangle's -y: seen from below, every
     # point faces the reference; from beside, part of the triangle faces away by its shading
     # normal (no samples there) while its geometry faces the point
     smooth_normals = [(0.6, -1.0, 0.0), (-0.3, -1.0, 0.5), (0.0, -1.0, -0.8)]
-
-    def smooth_triangle():
-        return [rt.Mesh(tri, [[0, 1, 2]], light, normals=smooth_normals)]
-
+    smooth_triangle = [rt.Mesh(tri, [[0, 1, 2]], light, normals=smooth_normals)]
     smooth_densities = _smooth_triangle_densities(tri, smooth_normals)
-
-    def mixed():
-        return [rt.Quad((-2.0, 1.5, -1.0), (1.5, 0.0, 0.0), (0.0, 0.0, 1.5), rt.DiffuseLight(2.0)),
-                rt.Triangle((1.0, -1.0, 1.5), (2.0, 1.0, 1.5), (0.5, 1.0, 1.5), rt.DiffuseLight((1.0, 3.0, 0.5))),
-                rt.Sphere((0.5, -1.2, -1.0), 0.4, rt.DiffuseLight(5.0))]
-
+    mixed = [rt.Quad((-2.0, 1.5, -1.0), (1.5, 0.0, 0.0), (0.0, 0.0, 1.5), rt.DiffuseLight(2.0)),
+             rt.Triangle((1.0, -1.0, 1.5), (2.0, 1.0, 1.5), (0.5, 1.0, 1.5), rt.DiffuseLight((1.0, 3.0, 0.5))),
+             rt.Sphere((0.5, -1.2, -1.0), 0.4, rt.DiffuseLight(5.0))]
     routines += [
         _light("quad", quad, (0.3, 0.4, -0.2), params=(("ref", "0.6 below"),)),
         _light("quad", quad, (2.0, 0.5, 0.3), cap=quad_cap, params=(("ref", "beside, 0.5 below"),)),
-        _light("triangle", triangle, (0.2, 0.3, 0.1), params=(("ref", "0.7 below"),)),
+        _light("triangle", [rt.Triangle(*tri, light)], (0.2, 0.3, 0.1), params=(("ref", "0.7 below"),)),
         _light("smooth_triangle", smooth_triangle, (0.2, 0.3, 0.1), densities=smooth_densities,
                params=(("ref", "0.7 below"), ("normals", "leaning"))),
-        _light("smooth_triangle", smooth_triangle, (-2.0, 0.85, 0.2), cap=tri_cap, densities=smooth_densities,
-               params=(("ref", "beside, 0.15 below"), ("normals", "leaning"))),
-        _light("sphere", sphere(), (0.9, -0.6, -1.0), cap=sphere_cap, params=(("ref", "outside, d=1.48 r"),)),
-        _light("sphere", sphere(), (2.4, 0.0, -3.2), cap=sphere_cap, params=(("ref", "outside, d=4 r"),)),
-        _light("sphere", sphere(True), (0.3, -0.2, 0.4), params=(("ref", "inside, inward normals"),)),
-        _light("sphere", sphere(True), (0.0, 0.0, 1.0), cap=lambda r: (frame(-r), (-0.02, 1.0)),
+        _light("smooth_triangle", smooth_triangle, (-2.0, 0.85, 0.2), cap=_polygon_cap(tri),
+               densities=smooth_densities, params=(("ref", "beside, 0.15 below"), ("normals", "leaning"))),
+        _light("sphere", sphere, (0.9, -0.6, -1.0), cap=sphere_cap, params=(("ref", "outside, d=1.48 r"),)),
+        _light("sphere", sphere, (2.4, 0.0, -3.2), cap=sphere_cap, params=(("ref", "outside, d=4 r"),)),
+        _light("sphere", inward, (0.3, -0.2, 0.4), params=(("ref", "inside, inward normals"),)),
+        _light("sphere", inward, (0.0, 0.0, 1.0), cap=lambda r: (frame(-r), (-0.02, 1.0)),
                params=(("ref", "on the surface, inward normals"),)),
         _light("scene", mixed, (0.0, 0.0, 0.0), background=0.2,
                params=(("emitters", "quad+sphere+background+triangle seen from behind"),)),
     ]
-    routines += _envmap_routines(rt)
+    routines += _envmap_routines()
     return tuple(routines)
 
 
@@ -277,15 +240,13 @@ def _envmap_image(seed: int, shape, sun=None) -> np.ndarray:
 
 
 def _envmap_density(env):
-    """The density of an EnvMap's light sampling, stated independently of the tracer (see
-    ``sampling/environment.h``): the map's cells between texel centres (columns wrapping
-    around, rows from pole to pole), each of weight the mean luminance of its four corner
-    texels, chosen with probability weight times solid angle, uniform in solid angle within;
-    so the density at a direction is its cell's weight over the sum of weight times solid
-    angle. A function of (m, 3) world directions."""
+    """The density of an EnvMap's light sampling stated independently of the tracer (README.md here),
+    a function of (m, 3) world directions: the map's cells between texel centres (columns wrapping
+    around, rows from pole to pole) weigh their four corners' mean luminance; a direction's density
+    is its cell's weight over the sum of weight times solid angle."""
     px = np.asarray(env.pixels, dtype=np.float64)
     h, w = px.shape[:2]
-    lum = px @ np.asarray(LUMINANCE_WEIGHTS)
+    lum = px @ _LUM
     cell = 0.25 * (lum[:-1] + np.roll(lum[:-1], -1, axis=1) + lum[1:] + np.roll(lum[1:], -1, axis=1))
     cos = np.cos(np.arange(h) * math.pi / (h - 1))
     total = float((cell * ((2 * math.pi / w) * (cos[:-1] - cos[1:]))[:, None]).sum())
@@ -301,46 +262,46 @@ def _envmap_density(env):
     return pdf
 
 
-def _envmap_routines(rt) -> list:
+def _lum(rgb) -> float:
+    return float(np.asarray(rgb) @ _LUM)
+
+
+def _envmap_routines() -> list:
     """The environment map alone (its distribution: cells of four texels, uniform in solid
-    angle; rotated, mirrored, a tiny padded map whose cells span quarter spheres), and a
-    scene of every kind of light: the map, a quad, a point, a spot and a directional light
-    (delta lights' samples checked by :func:`_delta_checks`, the rest by the chi-square test
-    against ``light_pdf``)."""
+    angle; rotated, mirrored, a tiny padded map whose cells span quarter spheres), and
+    scenes of every kind of light (delta lights' samples checked by ``runner._delta_checks``,
+    the rest by the chi-square test against ``light_pdf``)."""
     tilt = [[0.6, 0.0, 0.8], [0.64, 0.6, -0.48], [-0.48, 0.8, 0.36]]   # a rotation
     mirror = [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]     # a reflection
 
     def env(shape, sun=None, seed=3, to_world=None):
-        return lambda: [rt.EnvMap(_envmap_image(seed, shape, sun), to_world=to_world)]
+        return rt.EnvMap(_envmap_image(seed, shape, sun), to_world=to_world)
 
-    def stated(lights_fn):   # the independent density, as both the drawn and the reported one
-        def densities(ref):
-            pdf = _envmap_density(lights_fn()[0])
-            return pdf, pdf
-        return densities
+    def stated(e):   # the independent density, as both the drawn and the reported one
+        pdf = _envmap_density(e)
+        return lambda ref: (pdf, pdf)
 
     maps = [(env((12, 24), sun=(3, 17), to_world=tilt), (0.0, 0.0, 0.0),
              (("map", "12x24, a sun"), ("to_world", "rotation"))),
             (env((9, 16), seed=5, to_world=mirror), (0.3, -2.0, 5.0), (("map", "9x16"), ("to_world", "reflection"))),
-            (lambda: [rt.EnvMap([[[1.0, 0.2, 0.1], [0.1, 0.3, 2.0]]])], (0.0, 0.0, 0.0),
+            (rt.EnvMap([[[1.0, 0.2, 0.1], [0.1, 0.3, 2.0]]]), (0.0, 0.0, 0.0),
              (("map", "1x2, padded to 3x2: cells of quarter spheres, one across u = 0"),))]
 
     # Every light of the mixed scene, and what its delta lights' samples must be from ref.
     big = rt.Sphere((0.0, 0.0, 0.0), 3.0, rt.Lambertian(0.5))        # the scene's bounds: R = 3 sqrt(3)
     quad = rt.Quad((-1.0, 1.0, -1.0), (2.0, 0.0, 0.0), (0.0, 0.0, 2.0), rt.DiffuseLight((2.0, 1.0, 0.5)))
+    quad_weight = 4.0 * _lum(quad.material.radiance)
     point = rt.PointLight((1.0, 0.5, 1.5), (3.0, 2.0, 1.0))
     spot = rt.SpotLight((-1.0, -1.5, 0.5), (0.8, 1.0, -0.3), (40.0, 30.0, 20.0), cutoff_angle=50.0, beam_width=20.0)
     sun = rt.DirectionalLight((0.3, -1.0, 0.2), (1.5, 1.4, 1.2))
-    lum = np.asarray(LUMINANCE_WEIGHTS)
 
     def spot_power(light):   # lights.h: 2 pi (1 - (sin c - sin b) / (c - b)) luminance(I), over pi
         c, b = math.radians(light.cutoff_angle), math.radians(light.beam_width)
-        return 2.0 * float(np.asarray(light.intensity) @ lum) * (1.0 - (math.sin(c) - math.sin(b)) / (c - b))
+        return 2.0 * _lum(light.intensity) * (1.0 - (math.sin(c) - math.sin(b)) / (c - b))
 
     def mixed_deltas(ref):
-        weights = {"quad": 4.0 * float(np.asarray(quad.material.radiance) @ lum),
-                   "point": 4.0 * float(np.asarray(point.intensity) @ lum), "spot": spot_power(spot),
-                   "directional": 27.0 * float(np.asarray(sun.irradiance) @ lum)}
+        weights = {"quad": quad_weight, "point": 4.0 * _lum(point.intensity), "spot": spot_power(spot),
+                   "directional": 27.0 * _lum(sun.irradiance)}
         total = sum(weights.values())
         pmf = {k: 0.5 * w / total for k, w in weights.items()}   # the environment takes half
         out = []
@@ -369,9 +330,8 @@ def _envmap_routines(rt) -> list:
         def projector_weight(p):   # lights.h: luminance(scale E) mean(texture) 4 tan^2(x_fov / 2) / aspect
             e = (np.ones(3) if p.textured else np.asarray(p.irradiance)) * p.scale
             mean = p.irradiance.mean() if p.textured else 1.0
-            return float(e @ lum) * mean * p.image_area()
-        weights = {"quad": 4.0 * float(np.asarray(quad.material.radiance) @ lum),
-                   "projector_bitmap": projector_weight(projectors[0]),
+            return _lum(e) * mean * p.image_area()
+        weights = {"quad": quad_weight, "projector_bitmap": projector_weight(projectors[0]),
                    "projector_constant": projector_weight(projectors[1]),
                    "spot_texture": spot_power(tspot) * tspot.texture.mean()}
         total = sum(weights.values())
@@ -383,14 +343,11 @@ def _envmap_routines(rt) -> list:
         return out
 
     return [
-        *(_light("envmap", lambda: [], ref, lights_fn=fn, densities=stated(fn), params=params)
-          for fn, ref, params in maps),
-        _light("scene_projector", lambda: [big, quad], tuple(pref), lights_fn=lambda: [*projectors, tspot],
-               deltas=projector_deltas,
+        *(_light("envmap", [], ref, lights=[e], densities=stated(e), params=params) for e, ref, params in maps),
+        _light("scene_projector", [big, quad], tuple(pref), lights=[*projectors, tspot], deltas=projector_deltas,
                params=(("lights", "quad+projector(bitmap)+projector(constant)+spot(texture)"),)),
-        _light("scene_envmap", lambda: [big, quad], (0.2, -0.3, 0.1),
-               lights_fn=lambda: [*env((8, 16), sun=(2, 5), seed=7)(), point, spot, sun], deltas=mixed_deltas,
-               params=(("lights", "envmap+quad+point+spot+directional"),)),
+        _light("scene_envmap", [big, quad], tuple(pref), lights=[env((8, 16), sun=(2, 5), seed=7), point, spot, sun],
+               deltas=mixed_deltas, params=(("lights", "envmap+quad+point+spot+directional"),)),
     ]
 
 
@@ -400,11 +357,10 @@ ROUTINES: tuple = _catalogue()
 
 def select(patterns=None) -> tuple:
     """Routines whose label starts with any of ``patterns`` (all when None or empty)."""
-    routines = ROUTINES
     if not patterns:
-        return routines
-    chosen = tuple(r for r in routines if any(r.label.startswith(p) for p in patterns))
-    unknown = [p for p in patterns if not any(r.label.startswith(p) for r in routines)]
+        return ROUTINES
+    chosen = tuple(r for r in ROUTINES if any(r.label.startswith(p) for p in patterns))
+    unknown = [p for p in patterns if not any(r.label.startswith(p) for r in ROUTINES)]
     if unknown:
         raise ValueError(f"no routine matches {', '.join(map(repr, unknown))} "
                          f"(names start with warp., bsdf., lobes., light.)")

@@ -1,8 +1,6 @@
-"""Pearson's chi-square test of a sampling routine against its density (the method: README.md here).
-
-:func:`chi2_test` tests ``sample(u)`` against ``pdf(points)`` on an equal-area grid (and the
-density's mass against the share of valid samples); :func:`discrete_test` tests counts of a
-finite set of outcomes.
+"""Pearson's chi-square test (the method: README.md here): :func:`chi2_test` of ``sample(u)`` against
+``pdf(points)`` on an equal-area grid, with the density's mass against the share of valid samples;
+:func:`discrete_test` of the counts of a finite set of outcomes.
 """
 from __future__ import annotations
 
@@ -16,7 +14,7 @@ from scipy import stats
 from ..stats import sidak
 
 __all__ = ["DOMAINS", "DEFAULT_N", "DEFAULT_RESOLUTION", "DEFAULT_ALPHA", "MIN_EXPECTED", "Grid", "Chi2Result",
-           "sidak", "pearson", "integrate", "chi2_test", "discrete_test", "excess_p_value"]
+           "sidak", "pearson", "integrate", "chi2_test", "discrete_test", "excess_p_value", "uniform_chunks"]
 
 #: directions on the unit sphere or upper hemisphere, binned in (cos theta, phi); points of
 #: the unit disk, binned in (r^2, phi): equal-area grids
@@ -41,17 +39,12 @@ MIN_EXPECTED = 5.0
 _LOBATTO_T = np.array([0.0, (1.0 - 1.0 / math.sqrt(5.0)) / 2.0, (1.0 + 1.0 / math.sqrt(5.0)) / 2.0, 1.0])
 _LOBATTO_W = np.array([1.0, 5.0, 5.0, 1.0]) / 12.0
 _PRECISION, _EDGE_PRECISION, _MAX_DEPTH = 0.05, 0.2, 12
-# Cells holding samples where the first level's nodes found no density: a sliver of support
-# may lie between the nodes (the tip of a triangle light seen at a grazing angle is a line
-# covering 3e-5 of its cell, which no quadtree of nodes finds). Their integral is a stratified
-# Monte Carlo one of _SLIVER_SIDE^2 jittered points, seeded by the cell: for the
-# _SLIVER_CELLS of them holding the most samples (about a second each; more such cells are a
-# sampler drawing where its density is 0, which the test reports as such).
+# Cells holding samples where the first level's nodes found no density (README.md, step 4): stratified
+# Monte Carlo of _SLIVER_SIDE^2 jittered points, for the _SLIVER_CELLS of them holding the most samples
+# (about a second each; more such cells are a sampler drawing where its density is 0, reported as such).
 _SLIVER_SIDE, _SLIVER_CELLS = 1024, 64
-# Points handed to `sample` / `pdf` per call.
-_CHUNK = 1 << 20
-# Samples this close outside the grid's range (rounding) go to the edge cells; |d| may differ
-# from 1 by _UNIT_TOL.
+_CHUNK = 1 << 20   # points handed to `sample` / `pdf` per call
+# Samples this close outside the grid's range (rounding) go to the edge cells; |d| may differ from 1 by _UNIT_TOL.
 _EDGE_EPS, _UNIT_TOL = 1e-9, 1e-6
 # Relative tolerance of the mass check beyond the quadrature's error estimate: the errors
 # along a support's edges add up to about 1e-4 over the domain.
@@ -114,6 +107,13 @@ class Grid:
         return idx, int((~inside & ~nonunit).sum()), int(nonunit.sum())
 
 
+def uniform_chunks(n: int, seed: int, dims: int = 3):
+    """The uniform numbers of ``n`` samples of numpy's default generator, in chunks (bounded memory)."""
+    rng = np.random.default_rng(seed)
+    for start in range(0, n, _CHUNK):
+        yield rng.random((min(_CHUNK, n - start), dims))
+
+
 def _rect_integrals(fn, grid: Grid, u0, du, p0, dp):
     """Gauss-Lobatto integral of fn over each rectangle [u0, u0 + du] x [p0, p0 + dp] of grid
     coordinates; whether fn is 0 at some nodes and positive at others; the count of
@@ -129,11 +129,8 @@ def _rect_integrals(fn, grid: Grid, u0, du, p0, dp):
         e = slice(s, s + step)
         u = u0[e, None] + t[None, :] * du[e, None]
         ph = p0[e, None] + t[None, :] * dp[e, None]
-        m = len(u)
-        U = np.broadcast_to(u[:, :, None], (m, k, k))
-        PH = np.broadcast_to(ph[:, None, :], (m, k, k))
-        pts = np.ascontiguousarray(grid.points(U.reshape(-1), PH.reshape(-1)))
-        v = np.asarray(fn(pts), dtype=np.float64).reshape(m, k, k)
+        pts = np.ascontiguousarray(grid.points(np.repeat(u, k, axis=1).ravel(), np.tile(ph, k).ravel()))
+        v = np.asarray(fn(pts), dtype=np.float64).reshape(-1, k, k)
         wrong = ~np.isfinite(v) | (v < 0)
         bad += int(wrong.sum())
         v = np.where(wrong, 0.0, v)
@@ -144,31 +141,25 @@ def _rect_integrals(fn, grid: Grid, u0, du, p0, dp):
 
 
 def _sliver_integrals(fn, grid: Grid, cells) -> tuple:
-    """Stratified Monte Carlo integrals of fn over ``cells`` of grid: one jittered point in
-    each of _SLIVER_SIDE^2 equal parts of a cell. ``(integrals, standard errors, bad values)``."""
+    """Stratified Monte Carlo integrals of fn over ``cells`` of grid, one call of fn each: one jittered
+    point in each of _SLIVER_SIDE^2 equal parts of a cell. ``(integrals, standard errors, bad values)``."""
     du, dp = (grid.hi - grid.lo) / grid.n_u, 2.0 * math.pi / grid.n_phi
     jac = 0.5 if grid.domain == "disk" else 1.0
     k = np.arange(_SLIVER_SIDE)
-    rows = max(1, _CHUNK // _SLIVER_SIDE)
+    m = _SLIVER_SIDE * _SLIVER_SIDE
     out, errs, bad = [], [], 0
     for c in cells:
         i, j = divmod(int(c), grid.n_phi)
         rng = np.random.default_rng(int(c))
-        total = total_sq = 0.0
-        for r0 in range(0, _SLIVER_SIDE, rows):
-            r = k[r0:r0 + rows]
-            u = grid.lo + (i + (r[:, None] + rng.random((len(r), _SLIVER_SIDE))) / _SLIVER_SIDE) * du
-            ph = (j + (k[None, :] + rng.random((len(r), _SLIVER_SIDE))) / _SLIVER_SIDE) * dp
-            v = np.asarray(fn(np.ascontiguousarray(grid.points(u.ravel(), ph.ravel()))), dtype=np.float64)
-            wrong = ~np.isfinite(v) | (v < 0)
-            bad += int(wrong.sum())
-            v = np.where(wrong, 0.0, v)
-            total += float(v.sum())
-            total_sq += float((v * v).sum())
-        m = _SLIVER_SIDE * _SLIVER_SIDE
-        mean = total / m
+        u = grid.lo + (i + (k[:, None] + rng.random((_SLIVER_SIDE, _SLIVER_SIDE))) / _SLIVER_SIDE) * du
+        ph = (j + (k[None, :] + rng.random((_SLIVER_SIDE, _SLIVER_SIDE))) / _SLIVER_SIDE) * dp
+        v = np.asarray(fn(np.ascontiguousarray(grid.points(u.ravel(), ph.ravel()))), dtype=np.float64)
+        wrong = ~np.isfinite(v) | (v < 0)
+        bad += int(wrong.sum())
+        v = np.where(wrong, 0.0, v)
+        mean = float(v.sum()) / m
         out.append(mean * du * dp * jac)
-        errs.append(math.sqrt(max(total_sq / m - mean * mean, 0.0) / m) * du * dp * jac)
+        errs.append(math.sqrt(max(float((v * v).sum()) / m - mean * mean, 0.0) / m) * du * dp * jac)
     return np.array(out), np.array(errs), bad
 
 
@@ -201,9 +192,7 @@ def integrate(fn: Callable[[np.ndarray], np.ndarray], grid: Grid, *, n: int = DE
         err += float(sliver_err.sum())
         bad += b
         # their nodes are all 0: the quadtree below has nothing to refine there
-        keep = np.ones(ncell, bool)
-        keep[sliver] = False
-        cell, u0, p0, du, dp, est, mixed = (x[keep] for x in (cell, u0, p0, du, dp, est, mixed))
+        cell, u0, p0, du, dp, est, mixed = (np.delete(x, sliver) for x in (cell, u0, p0, du, dp, est, mixed))
     depth = 0
     while len(cell):
         depth += 1
@@ -221,9 +210,7 @@ def integrate(fn: Callable[[np.ndarray], np.ndarray], grid: Grid, *, n: int = DE
         qcell = np.repeat(cell, 4)
         edge = (qmixed | np.repeat(mixed, 4)) & (q > 0)
         edge_tol = _EDGE_PRECISION / _PRECISION * tol_cell[qcell] * 0.5 ** depth
-        go = np.repeat(unconverged, 4) | (edge & (0.5 * q > edge_tol))
-        if depth >= _MAX_DEPTH:
-            go[:] = False
+        go = (np.repeat(unconverged, 4) | (edge & (0.5 * q > edge_tol))) & (depth < _MAX_DEPTH)
         err += float(diff[~unconverged].sum()) + float(q[edge & ~go].sum())
         if depth >= _MAX_DEPTH:
             err += float(diff[unconverged].sum())
@@ -364,14 +351,12 @@ def chi2_test(sample: Callable[[np.ndarray], np.ndarray], pdf: Callable[[np.ndar
     grid = Grid.make(domain, resolution, cos_range)
     if n < 1:
         raise ValueError(f"n must be positive, got {n}")
-    rng = np.random.default_rng(seed)
     counts = np.zeros(grid.n_u * grid.n_phi, dtype=np.int64)
     n_valid = outside = nonunit = 0
-    for start in range(0, n, _CHUNK):
-        m = min(_CHUNK, n - start)
-        pts = np.asarray(sample(rng.random((m, dims))), dtype=np.float64)
-        if pts.shape != (m, grid.dims):
-            raise ValueError(f"sample returned shape {pts.shape}, expected {(m, grid.dims)}")
+    for u in uniform_chunks(n, seed, dims):
+        pts = np.asarray(sample(u), dtype=np.float64)
+        if pts.shape != (len(u), grid.dims):
+            raise ValueError(f"sample returned shape {pts.shape}, expected {(len(u), grid.dims)}")
         ok = np.isfinite(pts).all(axis=1)
         idx, out_, nonu = grid.bin(pts[ok])
         counts += np.bincount(idx, minlength=counts.size)
@@ -391,25 +376,16 @@ def chi2_test(sample: Callable[[np.ndarray], np.ndarray], pdf: Callable[[np.ndar
     sigma = math.sqrt(max(mass * (1.0 - mass), 0.0) / n) if 0 < mass < 1 else math.sqrt(frac * (1 - frac) / n)
     mass_p = excess_p_value(mass - frac, err + _MASS_RTOL * max(mass, frac), sigma)
 
-    problems = []
-    if nonunit:
-        problems.append(f"{nonunit} samples are not unit vectors")
-    if outside:
-        problems.append(f"{outside} samples outside the {domain}"
-                        + (f" range cos theta in [{grid.lo:g}, {grid.hi:g}]" if cos_range is not None else ""))
-    if bad:
-        problems.append(f"pdf gave {bad} non-finite or negative values")
-    if stray:
-        problems.append(f"{int(stray)} samples in cells where the pdf is 0")
-    if mass_p < level:
-        problems.append(f"pdf integrates to {mass:.6g} but {frac:.6g} of the samples are valid (p = {mass_p:.2e})")
-    if dof >= 1 and p < level:
-        problems.append(f"chi2 = {stat:.1f} on {dof} dof (p = {p:.2e})")
-    undetermined = None
-    if n_valid == 0:
-        undetermined = "no valid sample: nothing to test"
-    elif dof < 1:
-        undetermined = "all samples fall into one pooled bin: raise n or the resolution"
+    problems = [text for failed, text in (
+        (nonunit, f"{nonunit} samples are not unit vectors"),
+        (outside, f"{outside} samples outside the {domain}"
+                  + (f" range cos theta in [{grid.lo:g}, {grid.hi:g}]" if cos_range is not None else "")),
+        (bad, f"pdf gave {bad} non-finite or negative values"),
+        (stray, f"{int(stray)} samples in cells where the pdf is 0"),
+        (mass_p < level, f"pdf integrates to {mass:.6g} but {frac:.6g} of the samples are valid (p = {mass_p:.2e})"),
+        (dof >= 1 and p < level, f"chi2 = {stat:.1f} on {dof} dof (p = {p:.2e})")) if failed]
+    undetermined = ("no valid sample: nothing to test" if n_valid == 0 else
+                    "all samples fall into one pooled bin: raise n or the resolution" if dof < 1 else None)
     verdict, message = _verdict(problems, undetermined)
     return Chi2Result(
         verdict=verdict, p_value=p, statistic=stat, dof=dof, alpha=alpha, n=n, n_valid=n_valid, mass=mass,

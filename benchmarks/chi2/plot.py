@@ -41,21 +41,18 @@ def save_histograms(result: Chi2Result, path, title: str = "") -> Path:
     else:
         lo, hi = result.cos_range if result.cos_range else (0.0, 1.0)
         extent = (0.0, 2.0 * np.pi, lo, hi)
-        ylabel = "r^2" if result.domain == "disk" else "cos theta"
         vmax = max(float(result.observed.max()), float(np.max(result.expected)), 1.0)
-        fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), constrained_layout=True)
-        for ax, data, name in ((axes[0], result.observed, "observed"), (axes[1], result.expected, "expected")):
-            im = ax.imshow(data, origin="lower", aspect="auto", extent=extent, vmin=0, vmax=vmax, cmap="viridis")
-            ax.set_title(name)
-            fig.colorbar(im, ax=ax)
         res = result.residuals
         lim = max(3.0, float(np.abs(res).max()))
-        im = axes[2].imshow(res, origin="lower", aspect="auto", extent=extent, vmin=-lim, vmax=lim, cmap="RdBu_r")
-        axes[2].set_title("(observed - expected) / sqrt(expected)")
-        fig.colorbar(im, ax=axes[2])
-        for ax in axes:
+        fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), constrained_layout=True)
+        panels = ((result.observed, "observed", 0, vmax, "viridis"), (result.expected, "expected", 0, vmax, "viridis"),
+                  (res, "(observed - expected) / sqrt(expected)", -lim, lim, "RdBu_r"))
+        for ax, (data, name, vmin, top, cmap) in zip(axes, panels):
+            im = ax.imshow(data, origin="lower", aspect="auto", extent=extent, vmin=vmin, vmax=top, cmap=cmap)
+            ax.set_title(name)
+            fig.colorbar(im, ax=ax)
             ax.set_xlabel("phi")
-            ax.set_ylabel(ylabel)
+            ax.set_ylabel("r^2" if result.domain == "disk" else "cos theta")
         fig.suptitle(head, fontsize=9)
     fig.savefig(path, dpi=80)
     plt.close(fig)

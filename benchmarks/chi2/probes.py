@@ -1,11 +1,10 @@
-"""Adapters from the tracer's sampling routines to ``sample(u)`` / ``pdf(points)`` callables:
-warps and BSDFs through the core's batch probes (:mod:`reference_tracer.probe`), light
-sampling through a compiled scene's ``sample_lights`` / ``light_pdf``. A failed sample is a
-row of NaN. Schlick's Fresnel formula here, like the exact one
-(:func:`benchmarks.optics.fresnel_dielectric`), is an independent statement, not the tracer's code.
+"""Adapters from the tracer's sampling routines (:mod:`reference_tracer.probe`, a compiled scene's
+``sample_lights`` / ``light_pdf``) to ``sample(u)`` / ``pdf(points)`` callables; a failed sample is a
+row of NaN. Schlick's formula and Snell's law here are independent statements, not the tracer's code.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -21,6 +20,11 @@ __all__ = ["direction", "frame", "warp", "BsdfProbe", "LightProbe", "fresnel_sch
 
 def _c(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def _directions(s: dict) -> np.ndarray:
+    """Sampled directions, NaN rows for failed samples and for Dirac ones (no density to test)."""
+    return np.where((s["valid"].astype(bool) & ~s["delta"].astype(bool))[:, None], s["wi"], np.nan)
 
 
 def direction(theta_deg: float, phi_deg: float = 0.0) -> np.ndarray:
@@ -42,13 +46,8 @@ def frame(axis) -> np.ndarray:
 
 def warp(name: str, param: float = 0.0):
     """``(sample, pdf)`` of the warp ``name`` of sampling/warp.h (see sampling_probe.cpp)."""
-    def sample(u):
-        return probe.warp_sample(name, _c(u), float(param))
-
-    def pdf(points):
-        return probe.warp_pdf(name, _c(points), float(param))
-
-    return sample, pdf
+    return (lambda u: probe.warp_sample(name, _c(u), float(param)),
+            lambda points: probe.warp_pdf(name, _c(points), float(param)))
 
 
 @dataclass
@@ -64,8 +63,7 @@ class BsdfProbe:
     coating: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        self.wo = _c(self.wo)
-        self.wo = self.wo / np.linalg.norm(self.wo)
+        self.wo = _c(self.wo) / np.linalg.norm(self.wo)
         self._options = {k: (_c(v) if k == "specular" else v) for k, v in self.coating.items()}
 
     def sample_full(self, u) -> dict:
@@ -73,9 +71,8 @@ class BsdfProbe:
         return probe.bsdf_sample(self.material, self.wo, _c(u), _c(self.albedo), float(self.param), **self._options)
 
     def sample(self, u) -> np.ndarray:
-        """Directions of (n, 3) uniforms, NaN rows where the sampler failed."""
-        s = self.sample_full(u)
-        return np.where(s["valid"].astype(bool)[:, None], s["wi"], np.nan)
+        """Directions of (n, 3) uniforms, NaN rows where the sampler failed or drew a Dirac lobe."""
+        return _directions(self.sample_full(u))
 
     def eval_pdf(self, wi) -> dict:
         """``value`` (f * cos, (n, 3)) and ``pdf`` ((n,)) at directions wi."""
@@ -97,16 +94,12 @@ class LightProbe:
     background: float = 0.0
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     lights: tuple = ()
-    _core_scene: object = field(default=None, init=False, repr=False)
 
-    @property
+    @functools.cached_property
     def core(self):
-        if self._core_scene is None:
-            cam = rt.Camera(lookfrom=(0.0, 0.0, -10.0), lookat=(0.0, 0.0, 0.0), vup=(0, 1, 0), vfov=60.0,
-                            width=2, height=2)
-            self._core_scene = probe.core_scene(rt.Scene(camera=cam, shapes=list(self.shapes),
-                                                         background=self.background, lights=tuple(self.lights)))
-        return self._core_scene
+        cam = rt.Camera(lookfrom=(0.0, 0.0, -10.0), lookat=(0.0, 0.0, 0.0), vup=(0, 1, 0), vfov=60.0, width=2, height=2)
+        return probe.core_scene(rt.Scene(camera=cam, shapes=list(self.shapes), background=self.background,
+                                         lights=tuple(self.lights)))
 
     def _refs(self, m: int) -> np.ndarray:
         return _c(np.broadcast_to(np.asarray(self.ref, dtype=np.float64), (m, 3)))
@@ -117,10 +110,7 @@ class LightProbe:
         return self.core.sample_lights(self._refs(len(u)), u)
 
     def sample(self, u) -> np.ndarray:
-        s = self.sample_full(u)
-        keep = s["valid"].astype(bool) & ~s["delta"].astype(bool)
-        wi = np.where(keep[:, None], s["wi"], np.nan)
-        return wi @ self.rotation.T
+        return _directions(self.sample_full(u)) @ self.rotation.T
 
     def pdf(self, dirs) -> np.ndarray:
         world = _c(np.asarray(dirs) @ self.rotation)

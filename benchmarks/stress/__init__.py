@@ -1,15 +1,11 @@
-"""Numerical stability on hard cases: the measurements behind ``rtbench stress``.
-
-One module per case; each case function measures the tracer and returns a
-:class:`StressRecord`. :data:`CASES` holds their quick and full settings and
-:func:`run_cases` runs them; ``tests/benchmarks/stress/`` asserts on
-the same functions.
-"""
+"""Numerical stability on hard cases, behind ``rtbench stress``: one module per case, whose function
+returns a :class:`StressRecord`; :data:`CASES` holds their quick and full settings, :func:`run_cases`
+runs them."""
 from __future__ import annotations
 
 from .degenerate import degenerate_input, same_box_triangles
 from .exact import classify_rays, exact_intersection, quad_error_bound, triangle_error_bound
-from .fireflies import fireflies, firefly_counts, small_light_scene
+from .fireflies import fireflies, firefly_counts
 from .furnace import white_furnace
 from .glass import glass
 from .grazing import grazing_rays
@@ -26,4 +22,4 @@ __all__ = ["StressRecord", "CASES", "run_cases", "watertight_mesh", "grazing_ray
            "icosphere", "edge_and_vertex_rays", "count_escapes", "probe_scene", "exact_intersection",
            "triangle_error_bound", "quad_error_bound", "classify_rays", "image_ztest", "constant_ztest",
            "transform_scene", "creased_furnace_scene", "triangle_solid_angle", "quad_solid_angle",
-           "small_light_scene", "firefly_counts", "same_box_triangles"]
+           "firefly_counts", "same_box_triangles"]

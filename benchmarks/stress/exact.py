@@ -90,8 +90,7 @@ def classify_rays(shape: str, verts, origins, directions, hit_t, hit_prim) -> di
         size = max(np.linalg.norm(u), np.linalg.norm(v))
     n = len(origins)
     out = {k: np.full(n, np.nan) for k in ("margin", "delta", "t_exact", "plane_distance", "delta_plane")}
-    out["exact_hit"] = np.zeros(n, dtype=bool)
-    out["parallel"] = np.zeros(n, dtype=bool)
+    out.update(exact_hit=np.zeros(n, dtype=bool), parallel=np.zeros(n, dtype=bool))
     for i in range(n):
         o, d = origins[i], directions[i]
         ex = exact_intersection(o, d, p, e1, e2)

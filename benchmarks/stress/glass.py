@@ -2,22 +2,22 @@
 reflection traps the tangential ones) against closed forms, and ior 1.0 against no glass."""
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.probe import camera_rays
 
 from ..optics import fresnel_dielectric
-from .record import StressRecord, make_record
+from .probes import probe_scene
+from .record import stress_case
 from .ztests import image_ztest
 
 __all__ = ["glass"]
 
 
+@stress_case
 def glass(*, width: int = 32, spp: int = 32, ior: float = 1.5, seed: int = 0, compare_spp: int = 128,
-          compare_width: int = 24) -> StressRecord:
+          compare_width: int = 24):
     """Glass: rays starting inside, total internal reflection, ior 1.0 equals no glass.
 
     A camera at the centre of a glass sphere in a background of 1 sees exactly ``ior^2``
@@ -27,49 +27,42 @@ def glass(*, width: int = 32, spp: int = 32, ior: float = 1.5, seed: int = 0, co
     exactly ``ior^2``. A diffuse sphere inside an ior-1.0 glass sphere agrees with no
     glass (:func:`image_ztest`, ``cosine`` and ``mis``).
     """
-    t0 = time.perf_counter()
     g = rt.Dielectric(ior)
     expected = ior * ior
     nonfinite = 0
     # --- camera at the centre
-    cam = rt.Camera(lookfrom=(0, 0, 0), lookat=(0.3, 0.2, 1.0), vup=(0, 1, 0), vfov=100.0, width=width, height=width)
-    centre = rt.render(rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1.0, g)], background=1.0),
+    centre = rt.render(probe_scene([rt.Sphere((0, 0, 0), 1.0, g)], width=width, lookfrom=(0, 0, 0),
+                                   lookat=(0.3, 0.2, 1.0), vfov=100.0, background=1.0),
                        spp=spp, strategy="mis", seed=seed, threads=2)
     nonfinite += centre.nonfinite_samples
     centre_bad = int((centre.mean != np.float32(expected)).sum())
     # --- off-centre camera: TIR
     rho = 0.8
     max_depth = 50
-    cam2 = rt.Camera(lookfrom=(rho, 0, 0), lookat=(rho, 0, 1), vup=(0, 1, 0), vfov=100.0, width=width, height=width)
-    tir = rt.render(rt.Scene(camera=cam2, shapes=[rt.Sphere((0, 0, 0), 1.0, g)], background=1.0,
-                             max_depth=max_depth), spp=spp, strategy="mis", seed=seed + 1, threads=2)
+    off_centre = probe_scene([rt.Sphere((0, 0, 0), 1.0, g)], width=width, lookfrom=(rho, 0, 0), lookat=(rho, 0, 1),
+                             vfov=100.0, background=1.0, max_depth=max_depth)
+    tir = rt.render(off_centre, spp=spp, strategy="mis", seed=seed + 1, threads=2)
     nonfinite += tir.nonfinite_samples
-    grid = np.linspace(0.0, 1.0, 17)
-    ys, xs = np.meshgrid(np.arange(width), np.arange(width), indexing="ij")
-    px = xs[..., None, None] + grid[None, None, None, :]
-    py = ys[..., None, None] + grid[None, None, :, None]
-    px, py = np.broadcast_arrays(px, py)
-    d = camera_rays(cam2, px.ravel(), py.ravel())[1].reshape(px.shape + (3,))
-    o = np.array([rho, 0.0, 0.0])
-    sin_inc = np.linalg.norm(np.cross(o, d), axis=-1)        # R = 1
+    grid = np.linspace(0.0, 1.0, 17)   # each pixel's footprint: 17 x 17 rays
+    ys, xs, gy, gx = np.meshgrid(np.arange(width), np.arange(width), grid, grid, indexing="ij")
+    d = camera_rays(off_centre.camera, (xs + gx).ravel(), (ys + gy).ravel())[1].reshape(xs.shape + (3,))
+    sin_inc = np.linalg.norm(np.cross([rho, 0.0, 0.0], d), axis=-1)        # R = 1
     smin, smax = sin_inc.min(axis=(-1, -2)), sin_inc.max(axis=(-1, -2))
     margin = 1e-3
     critical = 1.0 / ior
     all_tir = smin > critical + margin
     cos_max = np.sqrt(1 - np.minimum(smax + margin, 1.0) ** 2)
     all_exit = (smax + margin < critical) & (fresnel_dielectric(-cos_max, ior) ** (max_depth - 1) < 1e-12)
-    lum = tir.mean.max(axis=-1)
-    tir_bad = int((lum[all_tir] != 0.0).sum())
+    tir_bad = int((tir.mean.max(axis=-1)[all_tir] != 0.0).sum())
     exit_bad = int((tir.mean[all_exit] != np.float32(expected)).sum())
     # --- ior 1.0 against no glass
     floor = rt.Quad((-4, -1.02, -4), (0, 0, 8), (8, 0, 0), rt.Lambertian(0.5))
     lamp = rt.Quad((-1, 2.5, -1), (2, 0, 0), (0, 0, 2), rt.DiffuseLight(6.0))
     inner = rt.Sphere((0.1, -0.4, 0.0), 0.55, rt.Lambertian((0.7, 0.4, 0.2)))
     shell = rt.Sphere((0.0, -0.05, 0.0), 0.95, rt.Dielectric(1.0))
-    cam3 = rt.Camera(lookfrom=(0.5, 1.0, -4.0), lookat=(0.0, -0.3, 0.0), vup=(0, 1, 0), vfov=40.0,
-                     width=compare_width, height=compare_width)
-    with_glass = rt.Scene(camera=cam3, shapes=[floor, lamp, inner, shell], background=0.3)
-    without = rt.Scene(camera=cam3, shapes=[floor, lamp, inner], background=0.3)
+    view = dict(width=compare_width, lookfrom=(0.5, 1.0, -4.0), lookat=(0.0, -0.3, 0.0), vfov=40.0, background=0.3)
+    with_glass = probe_scene([floor, lamp, inner, shell], **view)
+    without = probe_scene([floor, lamp, inner], **view)
     ior1 = {}
     for i, strategy in enumerate(("cosine", "mis")):
         a = rt.render(with_glass, spp=compare_spp, strategy=strategy, seed=seed + 20 + 2 * i, threads=2)
@@ -84,4 +77,4 @@ def glass(*, width: int = 32, spp: int = 32, ior: float = 1.5, seed: int = 0, co
     details = {"centre_pixels_wrong": centre_bad, "tir_pixels": int(all_tir.sum()), "tir_pixels_wrong": tir_bad,
                "exit_pixels": int(all_exit.sum()), "exit_pixels_wrong": exit_bad, "ior1_vs_none": ior1,
                "nonfinite_samples": nonfinite, "expected_inside": expected}
-    return make_record("glass", figure, passed, details, t0)
+    return figure, passed, details

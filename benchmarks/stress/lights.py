@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 
@@ -10,7 +9,7 @@ import reference_tracer as rt
 from reference_tracer.probe import core_scene
 
 from .probes import contiguous, probe_scene
-from .record import StressRecord, make_record
+from .record import stress_case
 from .ztests import image_ztest, z_check
 
 __all__ = ["light_sampling", "triangle_solid_angle", "quad_solid_angle"]
@@ -64,8 +63,7 @@ def _reference_points() -> list:
     on_surface = r_s * np.array([0.6, 0.0, 0.8])
 
     def closed_sphere(ref, inward):
-        x, y, z = (float(c) for c in ref)
-        dc2 = x * x + y * y + z * z   # as the core computes it, to pick the same branch
+        dc2 = sum(c * c for c in map(float, ref))   # as the core computes it, to pick the same branch
         if dc2 <= r_s * r_s:   # the core's branch: inside or on the sphere -> area sampling
             return 4 * np.pi if inward else 0.0
         if inward:
@@ -87,9 +85,8 @@ def _reference_points() -> list:
 
 
 def _check_point(shape: rt.Shape, ref, exact: float, samples: int, rng) -> dict:
-    """``samples`` light samples of ``shape`` from ``ref``: E[valid / pdf] against ``exact``
-    (:func:`~benchmarks.stress.ztests.z_check`), non-finite pdfs, and ``light_pdf`` in
-    uniformly random directions against the probability of a valid sample."""
+    """E[valid / pdf] of light samples from ``ref`` against ``exact``, their pdfs' finiteness, and
+    ``light_pdf`` in uniformly random directions against the probability of a valid sample."""
     core = core_scene(probe_scene([shape]))
     refs = contiguous(np.repeat(ref[None], samples, axis=0))
     s = core.sample_lights(refs, contiguous(rng.random((samples, 3))))
@@ -97,10 +94,8 @@ def _check_point(shape: rt.Shape, ref, exact: float, samples: int, rng) -> dict:
     pdf = s["pdf"]
     nonfinite = int((~np.isfinite(pdf)).sum() + (~np.isfinite(s["pdf_all"])).sum()
                     + (~np.isfinite(s["wi"])).sum() + (valid & ~(pdf > 0)).sum())
-    est = np.where(valid, 1.0 / np.where(valid, pdf, 1.0), 0.0)
-    chk = z_check(est, exact)
-    dirs = rng.normal(size=(samples, 3))
-    lp = core.light_pdf(refs, contiguous(dirs))
+    chk = z_check(np.where(valid, 1.0 / np.where(valid, pdf, 1.0), 0.0), exact)
+    lp = core.light_pdf(refs, contiguous(rng.normal(size=(samples, 3))))
     nonfinite += int((~np.isfinite(lp)).sum() + (lp < 0).sum())
     # Only where uniform directions hit the light often enough to estimate the mass.
     mass = z_check(4 * np.pi * lp, float(valid.mean())) if exact * samples >= 400 * np.pi \
@@ -112,17 +107,14 @@ def _check_point(shape: rt.Shape, ref, exact: float, samples: int, rng) -> dict:
 
 
 def _light_renders(width: int, spp: int, seed: int) -> tuple:
-    """Every strategy against ``cosine`` (:func:`image_ztest` per strategy) and the NaN/Inf
-    samples: a floor inside an inward-facing sphere light, cut by a small sphere light,
-    a quad light lying in its plane and one above."""
+    """Every strategy against ``cosine`` (:func:`image_ztest`), and the NaN/Inf samples, on a floor
+    inside an inward-facing sphere light, cut by a small sphere light, with quad lights in and above it."""
     floor = rt.Quad((-2, 0, -2), (0, 0, 4), (4, 0, 0), rt.Lambertian(0.6))
     shapes = [floor, rt.Sphere((0, 0, 0), 3.0, rt.DiffuseLight(0.5), flip_normals=True),
               rt.Sphere((0.4, 0.0, 0.6), 0.6, rt.DiffuseLight(3.0)),
               rt.Quad((-1.8, 0.0, -1.5), (0, 0, 1), (1, 0, 0), rt.DiffuseLight(5.0)),       # faces up, in-plane
               rt.Quad((-1.5, 2.0, 0.5), (1, 0, 0), (0, 0, 0.5), rt.DiffuseLight(2.0))]      # faces down
-    cam = rt.Camera(lookfrom=(0.0, 1.8, -2.0), lookat=(0.0, 0.0, 0.3), vup=(0, 1, 0), vfov=70.0,
-                    width=width, height=width)
-    scene = rt.Scene(camera=cam, shapes=shapes, max_depth=3)
+    scene = probe_scene(shapes, width=width, lookfrom=(0.0, 1.8, -2.0), lookat=(0.0, 0.0, 0.3), vfov=70.0, max_depth=3)
     renders = {s: rt.render(scene, spp=spp, strategy=s, seed=seed + 11 + i, threads=2)
                for i, s in enumerate(rt.STRATEGIES)}
     ref = renders["cosine"]
@@ -131,7 +123,8 @@ def _light_renders(width: int, spp: int, seed: int) -> tuple:
     return agree, sum(r.nonfinite_samples for r in renders.values())
 
 
-def light_sampling(*, samples: int = 100_000, seed: int = 0, width: int = 24, spp: int = 64) -> StressRecord:
+@stress_case
+def light_sampling(*, samples: int = 100_000, seed: int = 0, width: int = 24, spp: int = 64):
     """Light sampling where pdfs degenerate: finite everywhere, estimates unbiased.
 
     From points on, beside, behind and grazing a quad light and inside, on and outside a
@@ -140,20 +133,15 @@ def light_sampling(*, samples: int = 100_000, seed: int = 0, width: int = 24, sp
     (:func:`_check_point`); then every strategy agrees with ``cosine`` on a scene of such
     points (:func:`_light_renders`).
     """
-    t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
     jobs = _reference_points()
-    cases, bad_pdf, worst_z = {}, 0, 0.0
-    for name, shape, ref, exact in jobs:
-        chk = _check_point(shape, ref, exact, samples, rng)
-        cases[name] = chk
-        bad_pdf += chk["nonfinite"] + chk["pdf_all_mismatch"]
-        mass = chk["pdf_mass"]
-        worst_z = max(worst_z, abs(chk["z"]), abs(mass["z"]) if mass else 0.0)
+    cases = {name: _check_point(shape, ref, exact, samples, rng) for name, shape, ref, exact in jobs}
+    bad_pdf = sum(c["nonfinite"] + c["pdf_all_mismatch"] for c in cases.values())
+    worst_z = max(max(abs(c["z"]), abs(c["pdf_mass"]["z"]) if c["pdf_mass"] else 0.0) for c in cases.values())
     agree, render_nonfinite = _light_renders(width, spp, seed)
     passed = bad_pdf == 0 and worst_z <= 5.0 and render_nonfinite == 0 and all(a["passed"] for a in agree.values())
     figure = (f"{len(jobs)} reference points: max |z| {worst_z:.2f} (limit 5), Inf/NaN/mismatched pdfs {bad_pdf}; "
               f"floor-through-light renders agree with cosine: "
               f"{sum(a['passed'] for a in agree.values())}/{len(agree)}, NaN samples {render_nonfinite}")
     details = {"points": cases, "render_agreement": agree, "render_nonfinite": render_nonfinite, "samples": samples}
-    return make_record("light_sampling", figure, passed, details, t0)
+    return figure, passed, details

@@ -8,7 +8,7 @@ import reference_tracer as rt
 from reference_tracer.probe import core_scene
 
 __all__ = ["contiguous", "probe_scene", "icosphere", "edge_and_vertex_rays", "count_escapes", "transform_scene",
-           "white_furnace_scene", "creased_furnace_scene"]
+           "creased_furnace_scene"]
 
 
 def contiguous(a) -> np.ndarray:
@@ -16,11 +16,12 @@ def contiguous(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
-def probe_scene(shapes, *, background=0.0, width=4, height=4, lookfrom=(0.0, 0.0, -10.0),
-                lookat=(0.0, 0.0, 0.0)) -> rt.Scene:
-    """A scene holding ``shapes`` with a small camera, for ray queries and small renders."""
-    cam = rt.Camera(lookfrom=lookfrom, lookat=lookat, vup=(0, 1, 0), vfov=60.0, width=width, height=height)
-    return rt.Scene(camera=cam, shapes=list(shapes), background=background)
+def probe_scene(shapes, *, width=4, lookfrom=(0.0, 0.0, -10.0), lookat=(0.0, 0.0, 0.0), vfov=60.0,
+                **scene) -> rt.Scene:
+    """A scene holding ``shapes`` seen by a small square camera, for ray queries and small renders;
+    ``scene``: further arguments of ``rt.Scene`` (``background``, ``max_depth``)."""
+    cam = rt.Camera(lookfrom=lookfrom, lookat=lookat, vup=(0, 1, 0), vfov=vfov, width=width, height=width)
+    return rt.Scene(camera=cam, shapes=list(shapes), **scene)
 
 
 def icosphere(subdivisions: int, *, radius: float = 1.0):
@@ -28,8 +29,6 @@ def icosphere(subdivisions: int, *, radius: float = 1.0):
     import trimesh  # deferred: trimesh takes about 1.5 s to import
 
     ico = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
-    if not ico.is_watertight:  # pragma: no cover - trimesh guarantees it
-        raise RuntimeError("trimesh icosphere is not closed")
     return (np.asarray(ico.vertices, dtype=np.float64), np.asarray(ico.faces, dtype=np.int64),
             np.asarray(ico.edges_unique, dtype=np.int64))
 
@@ -69,12 +68,6 @@ def transform_scene(scene: rt.Scene, *, scale: float = 1.0, offset=(0.0, 0.0, 0.
                     background=scene.background, direct=scene.direct)
 
 
-def white_furnace_scene(*, width: int = 24) -> rt.Scene:
-    """An albedo-1 Lambertian unit sphere in a constant background of radiance 1."""
-    cam = rt.Camera(lookfrom=(0, 0, -4.0), lookat=(0, 0, 0), vup=(0, 1, 0), vfov=35.0, width=width, height=width)
-    return rt.Scene(camera=cam, shapes=[rt.Sphere((0, 0, 0), 1.0, rt.Lambertian(1.0))], background=1.0)
-
-
 def creased_furnace_scene(*, width: int = 24) -> rt.Scene:
     """A white furnace with creases: a sphere resting on a box, an icosphere mesh beside it
     touching the box too, all albedo 1, background 1, unlimited depth. With ``cosine``
@@ -85,7 +78,6 @@ def creased_furnace_scene(*, width: int = 24) -> rt.Scene:
     shapes = [rt.Box((-2.5, -1.0, -2.0), (2.5, 0.0, 2.0), white),
               rt.Sphere((0.0, 1.0, 0.0), 1.0, white),
               rt.Mesh(V + [1.45, 0.6, -0.7], F, white)]
-    cam = rt.Camera(lookfrom=(0.4, 2.2, -5.0), lookat=(0.3, 0.4, 0.0), vup=(0, 1, 0), vfov=40.0, width=width,
-                    height=width)
-    return rt.Scene(camera=cam, shapes=shapes, background=1.0, max_depth=-1)
+    return probe_scene(shapes, width=width, lookfrom=(0.4, 2.2, -5.0), lookat=(0.3, 0.4, 0.0), vfov=40.0,
+                       background=1.0, max_depth=-1)
 

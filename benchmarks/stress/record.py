@@ -1,10 +1,11 @@
 """The result of one hard case: :class:`StressRecord` (case, figure, verdict, details)."""
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 
-__all__ = ["StressRecord", "make_record"]
+__all__ = ["StressRecord", "stress_case"]
 
 
 @dataclass
@@ -27,7 +28,12 @@ class StressRecord:
         return "pass" if self.passed else "FAIL"
 
 
-def make_record(case: str, figure: str, passed, details: dict, t0: float) -> StressRecord:
-    """A :class:`StressRecord` timed from ``t0`` (a ``time.perf_counter()`` reading) to now."""
-    return StressRecord(case=case, figure=figure, passed=bool(passed), details=details,
-                        seconds=time.perf_counter() - t0)
+def stress_case(fn):
+    """Turn a case function returning ``(figure, passed, details)`` into one returning its
+    :class:`StressRecord`, named after the function and timed."""
+    @functools.wraps(fn)
+    def case(**kwargs) -> StressRecord:
+        t0 = time.perf_counter()
+        figure, passed, details = fn(**kwargs)
+        return StressRecord(fn.__name__, figure, bool(passed), details, time.perf_counter() - t0)
+    return case

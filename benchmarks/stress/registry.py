@@ -2,8 +2,6 @@
 the case ``suite_nonfinite``: every suite scene under every strategy renders no NaN/Inf sample."""
 from __future__ import annotations
 
-import time
-
 import reference_tracer as rt
 from mitsuba_scenes import get_scene, list_scenes
 
@@ -13,16 +11,16 @@ from .furnace import white_furnace
 from .glass import glass
 from .grazing import grazing_rays
 from .lights import light_sampling
-from .record import StressRecord, make_record
+from .record import stress_case
 from .scale import scale_invariance
 from .watertight import watertight_mesh
 
 __all__ = ["CASES", "run_cases", "suite_nonfinite"]
 
 
-def suite_nonfinite(*, width: int = 16, spp: int = 4, seed: int = 0) -> StressRecord:
+@stress_case
+def suite_nonfinite(*, width: int = 16, spp: int = 4, seed: int = 0):
     """Every suite scene under every strategy (and every triangle test for meshes): NaN/Inf samples."""
-    t0 = time.perf_counter()
     counts, renders = {}, 0
     for name in list_scenes():
         scene = get_scene(name, width=width, height=width)
@@ -34,7 +32,7 @@ def suite_nonfinite(*, width: int = 16, spp: int = 4, seed: int = 0) -> StressRe
                 renders += 1
     total = sum(counts.values())
     figure = f"{total} NaN/Inf samples in {renders} renders of {len(list_scenes())} suite scenes"
-    return make_record("suite_nonfinite", figure, total == 0, {"nonfinite": counts, "renders": renders}, t0)
+    return figure, total == 0, {"nonfinite": counts, "renders": renders}
 
 
 #: case -> (function, quick keyword arguments, full keyword arguments)

@@ -2,13 +2,11 @@
 away renders the same within noise; a creased white furnace is exactly 1 at every scale."""
 from __future__ import annotations
 
-import time
-
 import reference_tracer as rt
 from mitsuba_scenes import get_scene
 
 from .probes import creased_furnace_scene, transform_scene
-from .record import StressRecord, make_record
+from .record import stress_case
 from .ztests import image_ztest
 
 __all__ = ["scale_invariance"]
@@ -19,8 +17,9 @@ SCALES = (("scale 1e-4", 1e-4, (0.0, 0.0, 0.0)), ("scale 1e4", 1e4, (0.0, 0.0, 0
           ("translated 1e5", 1.0, (1e5, -1e5, 1e5)))
 
 
+@stress_case
 def scale_invariance(*, width: int = 32, spp: int = 64, strategies=("mis",), furnace_width: int = 24,
-                     furnace_spp: int = 8, seed: int = 0) -> StressRecord:
+                     furnace_spp: int = 8, seed: int = 0):
     """The same scene at scale 1e-4, 1 and 1e4, and translated 1e5 away, renders the same.
 
     The Cornell box at each scale against a scale-1 render of its own seed
@@ -29,7 +28,6 @@ def scale_invariance(*, width: int = 32, spp: int = 64, strategies=("mis",), fur
     beside the verdict: the smallest size / distance from the origin (1e-6 .. 1e-11) at
     which the creased furnace stays exact.
     """
-    t0 = time.perf_counter()
     base_scene = get_scene("cornell_box", width=width, height=width)
     comparisons, nonfinite = {}, 0
     passed = True
@@ -76,4 +74,4 @@ def scale_invariance(*, width: int = 32, spp: int = 64, strategies=("mis",), fur
                "size_over_distance_pixels_off": {str(r): n for r, n in limit.items()},
                "exact_down_to_size_over_distance": exact_down_to,
                "spp": spp, "width": width}
-    return make_record("scale_invariance", figure, passed, details, t0)
+    return figure, passed, details

@@ -2,20 +2,20 @@
 from __future__ import annotations
 
 import inspect
-import time
 
 import numpy as np
 
 import reference_tracer as rt
 
-from .probes import contiguous, count_escapes, edge_and_vertex_rays, icosphere, probe_scene
-from .record import StressRecord, make_record
+from .probes import count_escapes, edge_and_vertex_rays, icosphere, probe_scene
+from .record import stress_case
 
 __all__ = ["watertight_mesh"]
 
 
+@stress_case
 def watertight_mesh(*, rays: int = 100_000, subdivisions=(1, 2, 3, 4), seed: int = 0,
-                    render_width: int = 32) -> StressRecord:
+                    render_width: int = 32):
     """Rays from inside closed icospheres aimed exactly at shared edges and vertices.
 
     Counts the escapes of each triangle test of ``rt.TRIANGLE_TESTS``: the watertight test
@@ -29,7 +29,6 @@ def watertight_mesh(*, rays: int = 100_000, subdivisions=(1, 2, 3, 4), seed: int
     render_width : int
         Image size of the leak render (4 spp per level).
     """
-    t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
     per = max(1, rays // len(subdivisions))
     escapes = {t: 0 for t in rt.TRIANGLE_TESTS}
@@ -40,11 +39,9 @@ def watertight_mesh(*, rays: int = 100_000, subdivisions=(1, 2, 3, 4), seed: int
         origins = rng.normal(size=(per, 3))
         origins *= (0.6 * rng.random(per) ** (1 / 3) / np.linalg.norm(origins, axis=1))[:, None]
         origins[: per // 8] = 0.0
-        origins = contiguous(origins)
         dirs, kind = edge_and_vertex_rays(V, E, origins, rng)
-        scene = probe_scene([rt.Mesh(V, F, rt.Lambertian(0.0))], background=1.0,
-                            lookfrom=(0.1, 0.05, -0.2), lookat=(0.3, -0.2, 1.0),
-                            width=render_width, height=render_width)
+        scene = probe_scene([rt.Mesh(V, F, rt.Lambertian(0.0))], background=1.0, lookfrom=(0.1, 0.05, -0.2),
+                            lookat=(0.3, -0.2, 1.0), width=render_width)
         by_level[level] = {"faces": int(len(F))}
         for test in rt.TRIANGLE_TESTS:
             r = count_escapes(scene, origins, dirs, triangle_test=test)
@@ -65,4 +62,4 @@ def watertight_mesh(*, rays: int = 100_000, subdivisions=(1, 2, 3, 4), seed: int
               f" (default {default}); leak pixels {leak_pixels}")
     details = {"rays_per_test": total, "escapes": escapes, "by_level": by_level, "default": default,
                "nan": nan, "leak_pixels": leak_pixels, "nonfinite_samples": nonfinite}
-    return make_record("watertight_mesh", figure, passed, details, t0)
+    return figure, passed, details

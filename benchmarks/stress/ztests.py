@@ -31,8 +31,7 @@ def image_ztest(mean_a, var_a, n_a, mean_b, var_b=None, n_b=None, *, alpha: floa
     >>> image_ztest(a, np.ones_like(a), 16, a)["passed"], image_ztest(a + 1, np.ones_like(a), 16, a)["passed"]
     (True, False)
     """
-    a = np.asarray(mean_a, dtype=np.float64)
-    b = np.asarray(mean_b, dtype=np.float64)
+    a, b = (np.asarray(x, dtype=np.float64) for x in (mean_a, mean_b))
     s2 = np.asarray(var_a, dtype=np.float64) / n_a
     if var_b is not None:
         s2 = s2 + np.asarray(var_b, dtype=np.float64) / n_b
@@ -40,12 +39,11 @@ def image_ztest(mean_a, var_a, n_a, mean_b, var_b=None, n_b=None, *, alpha: floa
     d = a - b
     a3 = d.reshape(-1, d.shape[-1]) if d.ndim == 3 else d.reshape(-1, 1)
     v3 = s2.reshape(a3.shape)
-    channels = a3.shape[1]
     with np.errstate(divide="ignore", invalid="ignore"):
         sd = np.sqrt(v3.sum(axis=0))
         zg = np.where(sd > 0, a3.sum(axis=0) / sd, np.where(a3.sum(axis=0) == 0, 0.0, np.inf))
         z = np.where(v3 > 0, a3 / np.sqrt(v3), np.where(a3 == 0, 0.0, np.inf))
-    zg_limit = float(stats.norm.isf(alpha / 2 / channels / 2))
+    zg_limit = float(stats.norm.isf(alpha / 2 / a3.shape[1] / 2))
     z_pix = float(stats.norm.isf(PIXEL_ALPHA / 2))
     n = a3.size
     outliers = int((np.abs(z) > z_pix).sum())
@@ -73,9 +71,6 @@ def z_check(samples, exact) -> dict:
     x = np.asarray(samples, dtype=np.float64)
     m, sd = float(x.mean()), float(x.std(ddof=1)) if len(x) > 1 else 0.0
     se = sd / math.sqrt(len(x))
-    floor = 1e-12 * abs(exact)
-    if max(se, floor) > 0:
-        z = (m - exact) / max(se, floor)
-    else:
-        z = 0.0 if m == exact else math.inf
+    scale = max(se, 1e-12 * abs(exact))
+    z = (m - exact) / scale if scale > 0 else (0.0 if m == exact else math.inf)
     return {"mean": m, "exact": float(exact), "z": float(z), "n": int(len(x)), "se": se}

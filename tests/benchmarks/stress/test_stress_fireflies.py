@@ -8,11 +8,12 @@ import pytest
 
 import reference_tracer as rt
 from benchmarks import stress
+from mitsuba_scenes import get_scene
 
 
 def test_mis_has_orders_fewer_fireflies_than_uniform():
-    fc = stress.firefly_counts(stress.small_light_scene(width=64), strategies=("uniform", "mis"), renders=128,
-                               factor=100.0, seed=0)
+    fc = stress.firefly_counts(get_scene("small_light", width=64, height=64), strategies=("uniform", "mis"),
+                               renders=128, factor=100.0, seed=0)
     print(fc["counts"], fc["threshold"])
     assert fc["samples"]["uniform"] > 500_000
     assert fc["counts"]["uniform"] >= 100 * max(fc["counts"]["mis"], 1)
