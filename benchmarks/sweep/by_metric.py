@@ -11,7 +11,7 @@ import numpy as np
 from .. import metrics as M
 from ..constants import MIN_SLOPE_BUDGETS
 from ..metrics.specs import METRICS, SPECS
-from .coerce import as_float, finite_mean
+from ..numbers import as_float, finite_mean
 from .jobs import mitsuba_pairs
 
 

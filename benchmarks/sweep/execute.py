@@ -24,9 +24,9 @@ from reference_tracer.cpus import default_threads
 from .. import external as externals
 from .. import metrics as M
 from ..constants import MITSUBA_DIRECT, MITSUBA_STRATEGY
+from ..numbers import finite
 from ..scenes import scene_at, scene_info
 from ..store import KEY_FIELDS
-from .coerce import finite
 from .jobs import Job, image_paths, render_seed
 
 #: record fields that depend on timing, the machine or the checkout (ignore them to compare two runs).

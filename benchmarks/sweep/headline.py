@@ -21,8 +21,8 @@ from reference_tracer.estimate import ImageEstimate
 from .. import metrics as M
 from .. import tails as T
 from ..constants import BASELINE, RELMSE_EPS, VERDICT_STRATEGY
+from ..numbers import as_float
 from .by_metric import tail_variance_image
-from .coerce import as_float
 
 #: two-sided 95% normal quantile.
 Z95 = float(stats.norm.isf(0.025))

@@ -18,12 +18,12 @@ from .. import tails as T
 from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM
 from ..external import external
 from ..files import slug
+from ..numbers import finite
 from ..references import closed_form_reference_of, mitsuba_identity, reference
 from ..scenes import scene_at
 from ..store import (file_sha256, finished_keys, job_records, read_meta, read_records, record_key, store_path,
                      update_meta, write_image, writer_lock)
 from ..tails import DEFAULT_TAIL_SPP
-from .coerce import finite
 from .execute import machine_info, run_versions
 from .jobs import Group, renderer_builds
 from .progress import Phases, Progress, render_cost
