@@ -1,5 +1,6 @@
 """Numbers read from a store or measured, coerced before use, written once for the sweep, the speed benchmarks
-and the report: ``None`` (and NaN) is a figure not computed, a bool or a string is no number."""
+and the report: ``None`` (and NaN) is a figure not computed, a bool or a string is no number, and a ratio has
+a positive denominator."""
 from __future__ import annotations
 
 import math
@@ -7,7 +8,7 @@ import statistics
 
 import numpy as np
 
-__all__ = ["as_float", "finite", "is_finite", "finite_values", "finite_mean", "median"]
+__all__ = ["as_float", "finite", "is_finite", "finite_values", "finite_mean", "median", "ratio"]
 
 
 def as_float(v) -> float:
@@ -72,3 +73,12 @@ def median(xs) -> float:
     xs = finite_values(xs)
     return statistics.median(xs) if xs else float("nan")
 
+
+def ratio(a, b):
+    """``a / b`` over a positive denominator, both finite (each :func:`as_float`); None otherwise.
+
+    >>> ratio(3, 2), ratio(1.0, 0.0), ratio(1.0, -2.0), ratio(None, 2.0), ratio(1.0, float("inf"))
+    (1.5, None, None, None, None)
+    """
+    a, b = as_float(a), as_float(b)
+    return a / b if math.isfinite(a) and math.isfinite(b) and b > 0 else None

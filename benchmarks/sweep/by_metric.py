@@ -11,7 +11,7 @@ import numpy as np
 from .. import metrics as M
 from ..constants import MIN_SLOPE_BUDGETS
 from ..metrics.specs import METRICS, SPECS
-from ..numbers import as_float, finite_mean
+from ..numbers import as_float, finite_mean, ratio
 from .jobs import mitsuba_pairs
 
 
@@ -105,5 +105,4 @@ def add_metric_ratios(rows) -> None:
     for r, m in mitsuba_pairs(rows):
         for name, fig in (r.get("by_metric") or {}).items():
             other = ((m or {}).get("by_metric") or {}).get(name) or {}
-            a, b = as_float(fig.get("efficiency")), as_float(other.get("efficiency"))
-            fig["efficiency_vs_mitsuba"] = a / b if math.isfinite(a) and math.isfinite(b) and b > 0 else None
+            fig["efficiency_vs_mitsuba"] = ratio(fig.get("efficiency"), other.get("efficiency"))
