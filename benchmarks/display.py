@@ -1,6 +1,7 @@
 """Tone mapping of linear radiance for SSIM and the report (docs/conventions.md): the same exposure,
 from the reference, is applied to a test image and its reference, so a too-bright render is not
-normalised away; :func:`to_display` is the tracer's one tone curve (scale, clip, sRGB)."""
+normalised away; :func:`to_display` is the tracer's one tone curve (scale, clip, sRGB); :func:`pyplot` is how a
+plotting function gets matplotlib (Agg, files only)."""
 from __future__ import annotations
 
 import math
@@ -11,7 +12,7 @@ from reference_tracer.imageio import to_display
 
 from .constants import LUMINANCE_WEIGHTS
 
-__all__ = ["exposure_from_reference", "reference_exposure", "to_display", "MIDDLE_GREY"]
+__all__ = ["exposure_from_reference", "reference_exposure", "to_display", "pyplot", "MIDDLE_GREY"]
 
 #: linear display value the report maps the reference's median luminance to (photographic 18% grey).
 MIDDLE_GREY = 0.18
@@ -62,3 +63,13 @@ def reference_exposure(ref) -> float:
         return 0.0
     k = max(float(exposure_from_reference(r)), MIDDLE_GREY / float(np.median(y)))
     return float(np.clip(math.log2(k), -60.0, 60.0)) if math.isfinite(k) and k > 0 else 0.0
+
+
+def pyplot():
+    """``matplotlib.pyplot`` on the Agg backend (files only, no display), imported on the first call."""
+    import matplotlib  # deferred: matplotlib only when plotting (0.5-1.5 s)
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # deferred: matplotlib only when plotting (0.5-1.5 s)
+
+    return plt

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from reference_tracer.imageio import atomic_write
 
+from benchmarks.display import pyplot
 from benchmarks.text import markdown, markdown_table
 
 from .plots import plain_text
@@ -18,11 +19,7 @@ __all__ = ["plot_pair", "write_compare_page"]
 @plain_text
 def plot_pair(cmp, path, *, name_a: str = "A", name_b: str = "B") -> Path:
     """RMSE vs spp of A and B (log-log) for one :class:`benchmarks.compare.CurveComparison`."""
-    import matplotlib  # deferred: matplotlib only when plotting (0.5-1.5 s)
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # deferred: matplotlib only when plotting (0.5-1.5 s)
-
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(4.2, 3.2), dpi=100)
     for spps, rmse, label, style in ((cmp.spps_a, cmp.rmse_a, name_a, "o-"), (cmp.spps_b, cmp.rmse_b, name_b, "s--")):
         pts = [(s, r) for s, r in zip(spps, rmse) if r > 0]

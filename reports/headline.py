@@ -15,9 +15,8 @@ Examples
 """
 from __future__ import annotations
 
-import math
-
 from benchmarks.constants import BASELINE, STRATEGIES, VERDICT_STRATEGY
+from benchmarks.numbers import is_finite
 
 from .curves import curve_label
 from .store import Store, num
@@ -38,10 +37,6 @@ HEADLINE_NOTE = (
     f"light by design. Where {BASELINE} sampling is exact (the furnace) a strategy's own noise per sample is shown.")
 
 
-def _finite(v) -> bool:
-    return math.isfinite(num(v))
-
-
 def ratio_text(r, ci=None, *, exact: bool = False, lower_bound: bool = False) -> str:
     """A noise ratio with the half-width of its 95% interval in percent, ``×3.14 ±2.1%``: two
     decimals below 10, three digits above; ``exact`` for zero noise; ``≥`` for a lower bound.
@@ -51,12 +46,12 @@ def ratio_text(r, ci=None, *, exact: bool = False, lower_bound: bool = False) ->
     """
     if exact:
         return "exact"
-    if not _finite(r):
+    if not is_finite(r):
         return "–"
     x = num(r)
     out = f"{'≥' if lower_bound else '×'}" + (f"{x:.2f}" if abs(x) < 10 else f"{x:.3g}" if abs(x) < 1000
                                               else f"{x:.0f}")
-    if ci and all(_finite(c) for c in ci) and x > 0:
+    if ci and all(is_finite(c) for c in ci) and x > 0:
         half = max(num(ci[1]) / x - 1.0, 1.0 - num(ci[0]) / x)
         out += f" ±{100 * half:.2g}%"
     return out
@@ -68,10 +63,10 @@ def percent_text(value, ci=None) -> str:
     >>> percent_text(-0.2131, [-0.219, -0.2072])
     '−21.3% ±0.59'
     """
-    if not _finite(value):
+    if not is_finite(value):
         return "–"
     out = f"{100 * num(value):+.1f}%".replace("-", "−")
-    if ci and all(_finite(c) for c in ci):
+    if ci and all(is_finite(c) for c in ci):
         out += f" ±{100 * (num(ci[1]) - num(ci[0])) / 2:.2g}"
     return out
 
@@ -81,9 +76,9 @@ def verdict_text(entry: dict) -> str:
     and the smallest relative bias it would catch (or the budget that would decide)."""
     v = entry.get("verdict")
     word = VERDICT_WORDS.get(v, str(v))
-    if v in ("pass", "fail") and _finite(entry.get("min_detectable_bias")):
+    if v in ("pass", "fail") and is_finite(entry.get("min_detectable_bias")):
         word += f", catches ±{100 * num(entry['min_detectable_bias']):.2g}%"
-    elif v == "undetermined" and _finite(entry.get("verdict_spp_needed")):
+    elif v == "undetermined" and is_finite(entry.get("verdict_spp_needed")):
         word += f", needs ~{num(entry['verdict_spp_needed']):.0f} spp"
     return word
 
@@ -92,7 +87,7 @@ def headline_entries(store: Store) -> list:
     """The summary's headline entries (one per scene and size with noise figures: the sweep's
     main sections, not the seed's single-seed one), in section order; empty if none."""
     entries = [e for e in store.headline if isinstance(e, dict) and isinstance(e.get("scene"), str)
-               and any(_finite(c.get("noise")) for c in e.get("curves") or [])]  # sections without tails: none
+               and any(is_finite(c.get("noise")) for c in e.get("curves") or [])]  # sections without tails: none
     order = {k: i for i, k in enumerate(store.sections())}
     return sorted(entries, key=lambda e: order.get((e["scene"], e.get("width"), e.get("height")), 1e9))
 
@@ -104,7 +99,7 @@ def _columns(entries) -> list:
     # another renderer's curve only where it has a noise figure (Mitsuba's: from its reference,
     # the render of its own estimator)
     measured = {(c.get("renderer"), c.get("strategy")) for e in entries for c in e.get("curves") or []
-                if _finite(c.get("noise"))}
+                if is_finite(c.get("noise"))}
     return ours + sorted(k for k in seen if k[0] != "ours" and k in measured)
 
 
@@ -124,7 +119,7 @@ def pair_text(c: dict, *, interval: bool = True) -> str:
     tim = ratio_text(c.get("time_noise_vs_light"), None, lower_bound=lb)
     out = f"{spp} / {tim}"
     ci = c.get("noise_vs_light_ci")
-    if interval and ci and all(_finite(v) for v in ci) and _finite(c.get("noise_vs_light")):
+    if interval and ci and all(is_finite(v) for v in ci) and is_finite(c.get("noise_vs_light")):
         out += ratio_text(c["noise_vs_light"], ci)[len(spp):]
     return out
 
@@ -146,7 +141,7 @@ def headline_cells(entries, *, intervals: bool = True) -> list:
             c = by.get(key)
             if c is None:
                 row.append("–")
-            elif base_exact and not c.get("exact") and _finite(c.get("noise")):
+            elif base_exact and not c.get("exact") and is_finite(c.get("noise")):
                 # no ratio to a zero: the strategy's own noise per sample instead
                 row.append(f"{'≥' if c.get('noise_lower_bound') else ''}{num(c['noise']):.3g} per sample")
             else:

@@ -11,7 +11,6 @@ identifying keys) is an error.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,24 +18,9 @@ import numpy as np
 
 from benchmarks import store as results
 from benchmarks.constants import STRATEGIES
+from benchmarks.numbers import as_float as num
 
 __all__ = ["Store", "load_store", "curve_order", "num"]
-
-
-def num(value) -> float:
-    """A JSON value as float; ``None``, booleans and non-numbers become NaN.
-
-    Examples
-    --------
-    >>> num(None), num("x"), num(2)
-    (nan, nan, 2.0)
-    """
-    if isinstance(value, bool) or value is None:
-        return math.nan
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return math.nan
 
 
 @dataclass

@@ -23,7 +23,7 @@ LAYERS = {
     "scenes": ["mitsuba_scenes"],
     "harness base": ["benchmarks", "benchmarks.errors", "benchmarks.constants", "benchmarks.files",
                      "benchmarks.text", "benchmarks.stats", "benchmarks.optics", "benchmarks.display",
-                     "benchmarks.scenes", "benchmarks.store", "benchmarks.metrics"],
+                     "benchmarks.numbers", "benchmarks.scenes", "benchmarks.store", "benchmarks.metrics"],
     "sources": ["benchmarks.references", "benchmarks.tails", "benchmarks.external"],
     "runners": ["benchmarks.gate", "benchmarks.sweep", "benchmarks.compare", "benchmarks.selftest",
                 "benchmarks.corpus", "benchmarks.chi2", "benchmarks.parity", "benchmarks.speed",

@@ -328,3 +328,9 @@ def progress_bar(args, label: str = "{task.description}", *, stderr: bool = True
 
     return Progress(SpinnerColumn(), TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                     console=Console(stderr=stderr, quiet=args.quiet), transient=True)
+
+
+def print_failed_jobs(failed, *, limit: int = 10) -> None:
+    """The first ``limit`` of a sweep's failed jobs, ``  failed: LABEL: WHY`` each, on stderr (errors go there)."""
+    for label, why in failed[:limit]:
+        print(f"  failed: {label}: {why}", file=sys.stderr)

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 
 from benchmarks.commands import _args as A
 from benchmarks.errors import EXIT_ERROR
@@ -76,6 +75,5 @@ def run(args) -> int:
         console.print(summary_table(result.store, metric=args.metric), highlight=False, markup=False)
     print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already "
           f"there, {len(result.failed)} failed, {result.seconds:.1f} s)", flush=True)
-    for label, why in result.failed[:10]:
-        print(f"  failed: {label}: {why}", file=sys.stderr)
+    A.print_failed_jobs(result.failed)
     return EXIT_ERROR if result.failed else 0  # a job that raised: an internal error

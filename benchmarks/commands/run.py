@@ -79,8 +79,7 @@ def run(args) -> int:
     print(f"results: {result.store.resolve()}  ({result.done} jobs rendered, {result.skipped} already there, "
           f"{len(result.failed)} failed)", flush=True)
     print(f"time: start-up {startup:.0f} s, {result.phases.line(total)}", flush=True)
-    for label, why in result.failed[:10]:
-        print(f"  failed: {label}: {why}")
+    A.print_failed_jobs(result.failed)
     return EXIT_ERROR if result.failed else 0  # a job that raised: an internal error
 
 

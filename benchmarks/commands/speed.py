@@ -101,8 +101,15 @@ def _table(title, columns, rows, *, left=1, end_section=lambda r: False):
     return table
 
 
-def _ratio_cells(v):
-    return lambda r: "-" if r.get(f"ratio_{v}") is None else f"{_r(r[f'ratio_{v}'])} ({_r(r[f'cpu_ratio_{v}'])})"
+def _ratio_col(v, short):
+    """Against variant ``v`` (named ``short``): the ratio of paths/s with the ratio on CPU time in brackets."""
+    return (f"ratio {short} (cpu)",
+            lambda r: "-" if r.get(f"ratio_{v}") is None else f"{_r(r[f'ratio_{v}'])} ({_r(r[f'cpu_ratio_{v}'])})")
+
+
+def _efficiency_col(v, short):
+    """Against variant ``v`` (named ``short``): the efficiency ratio."""
+    return _col(f"eff. ratio {short}", f"efficiency_ratio_{v}", _r)
 
 
 def suite_table(result, build=None):
@@ -119,9 +126,8 @@ def suite_table(result, build=None):
     for v in suite["variants"]:
         against = suite.get("against", {}).get(v, f"Mitsuba {v}")   # e.g. "Mitsuba llvm_ad_rgb, avx2 kernels"
         short = v.split("_")[0] + against[len(f"Mitsuba {v}"):]
-        columns += [_col(f"{short} Mpaths/s", f"mitsuba_paths_per_second_{v}", _m), (f"ratio {short} (cpu)",
-                    _ratio_cells(v)), _col(f"rounds {short}", f"round_ratios_{v}", _range),
-                    (f"eff. ratio {short}", lambda r, v=v: _r(r[f"efficiency_ratio_{v}"]))]
+        columns += [_col(f"{short} Mpaths/s", f"mitsuba_paths_per_second_{v}", _m), _ratio_col(v, short),
+                    _col(f"rounds {short}", f"round_ratios_{v}", _range), _efficiency_col(v, short)]
     return _table(f"rtbench speed, suite: ours {ours} vs Mitsuba, {c['width']}x{c['height']}, {c['spp']} spp, "
                   f"{c['threads']} threads, median of {c['repeats']} paired rounds", columns, suite["rows"], left=2,
                   end_section=lambda r: r["scene"] == GEOMEAN)
@@ -135,9 +141,9 @@ def render_table(result):
                _col("Mrays/s", "rays_per_second", _m), _col("ms/spp", "ms_per_spp", "{:.3f}"),
                _col("spread", "paths_per_second_spread", lambda x: f"{100 * x:.0f}%" if math.isfinite(x) else "-"),
                _col("cpu/wall", "cpu_over_wall")]
-    columns += [(f"ratio {v.split('_')[0]} (cpu)", _ratio_cells(v)) for v in variants]
+    columns += [_ratio_col(v, v.split("_")[0]) for v in variants]
     columns += [_col("RMSE", "rmse", "{:.4f}")]
-    columns += [_col(f"eff. ratio {v.split('_')[0]}", f"efficiency_ratio_{v}", _r) for v in variants]
+    columns += [_efficiency_col(v, v.split("_")[0]) for v in variants]
     return _table(f"rtbench speed: {c['width']}x{c['height']}, {c['spp']} spp, {c['threads']} threads, median of "
                   f"{c['repeats']} paired rounds", columns, result["summary"], left=3)
 
@@ -335,7 +341,7 @@ def run(args) -> int:
     load = "/".join(f"{x:.1f}" for x in env["loadavg"]) if env["loadavg"] else "?"
     show([], [f"note: {speed.WALL_CLOCK_NOTE}. Load average at start {load} on {env['cpu_count']} cores."])
     verdicts = speed.speed_verdicts(out)
-    for line in verdict_lines(verdicts):   # final lines: printed with --quiet too
+    for line in speed.verdict_lines(verdicts):   # final lines: printed with --quiet too
         print(line, flush=True)
     if args.json:
         write_json(args.json, {**out, "verdicts": verdicts})
@@ -366,13 +372,3 @@ def _build_isa(isa, log) -> dict:
 #: the temporary folders of this process's --isa builds (removed at exit by their finalizers)
 _BUILD_FOLDERS = []
 
-
-def verdict_lines(verdicts) -> list:
-    """The closing lines of ``rtbench speed``: a heading, then one line per verdict."""
-    if not verdicts:
-        return ["speed targets: none applies to --scaling"]
-    counts = {s: sum(v["status"] == s for v in verdicts) for s in ("met", "not met", "not judged")}
-    renders = "; renders at rr_depth 5" if any(v["benchmark"] == "render" for v in verdicts) else ""
-    head = (f"speed targets (median of the paired rounds' ratios, its 90% interval from order statistics{renders}; "
-            f"benchmarks/PERFORMANCE.md, Targets and verdicts): " + ", ".join(f"{n} {s}" for s, n in counts.items()))
-    return [head] + [f"  {v['line']}" for v in verdicts]

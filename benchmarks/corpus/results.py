@@ -5,7 +5,6 @@ every scene; a record is reused while its :func:`scene_key` holds), its tables a
 from __future__ import annotations
 
 import collections
-import datetime as _dt
 import functools
 import hashlib
 import json
@@ -16,7 +15,7 @@ from pathlib import Path
 
 from reference_tracer.build import build_info
 
-from ..store import read_json, write_json
+from ..store import read_json, timestamp, write_json
 from ..text import markdown, markdown_table, text_table
 
 from .judge import SHARE_LIMIT, STATUSES, Z_LIMIT, compact_feature, cut
@@ -80,7 +79,7 @@ def load_results(path, *, folder: str) -> dict:
 
 def save_results(path, *, provenance: dict, records: dict, fragments: dict) -> None:
     """Write ``corpus.json`` atomically (provenance, ``updated`` now, counts, records, fragments)."""
-    provenance["updated"] = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
+    provenance["updated"] = timestamp(utc=True)
     scenes = [records[k] for k in sorted(records)]
     write_json(path, {"format": FORMAT, **provenance, "counts": counts(scenes),
                       "fragment_count": len(fragments), "scenes": scenes,

@@ -1,4 +1,5 @@
-"""Pixel-error metrics of one image against a reference: MSE, RMSE, relMSE, reference-noise correction."""
+"""Pixel-error metrics of one image against a reference: MSE, RMSE, relMSE, reference-noise correction, and the
+relative noise of a variance image (relMSE's weights applied to a variance)."""
 from __future__ import annotations
 
 import math
@@ -8,7 +9,7 @@ import numpy as np
 from ..constants import RELMSE_EPS
 from ._checks import as_image, masked_mean, nan_mask, reference_noise, same_shape
 
-__all__ = ["mse", "rmse", "relmse", "mse_corrected", "relmse_corrected"]
+__all__ = ["mse", "rmse", "relmse", "mse_corrected", "relmse_corrected", "relative_noise"]
 
 
 def mse(img, ref, *, nan_policy: str = "propagate") -> float:
@@ -57,6 +58,30 @@ def relmse(img, ref, *, eps: float = RELMSE_EPS, nan_policy: str = "propagate") 
     same_shape(img=x, ref=r)
     mask = nan_mask(nan_policy, img=x, ref=r)
     return masked_mean((x - r) ** 2 / (r * r + eps), mask)
+
+
+def relative_noise(var, ref, *, eps: float = RELMSE_EPS, nan_policy: str = "propagate") -> float:
+    r"""Relative noise: a per-pixel variance weighted as :func:`relmse` weights squared errors,
+
+    .. math:: \frac{1}{HWC} \sum_{p,c} \frac{v_{pc}}{r_{pc}^2 + \epsilon}, \qquad \epsilon = 0.01
+
+    the expected relMSE of an unbiased image whose pixels have the variance ``var`` (a
+    per-sample variance / N for an N-spp image; the per-sample variance itself gives the
+    noise of one sample). ``ref`` is the reference the weights are taken at. NaN in
+    ``var`` or ``ref`` follows ``nan_policy``; infinities propagate; negative variances
+    are not checked.
+
+    Examples
+    --------
+    >>> relative_noise([[0.5, 0.02]], [[0.0, 0.1]])  # (0.5/0.01 + 0.02/0.02) / 2
+    25.5
+    """
+    if not eps > 0:
+        raise ValueError(f"eps must be positive; got {eps}")
+    v, r = as_image(var, "var"), as_image(ref, "ref")
+    same_shape(var=v, ref=r)
+    mask = nan_mask(nan_policy, var=v, ref=r)
+    return masked_mean(v / (r * r + eps), mask)
 
 
 def _corrected_terms(img, ref, ref_var, ref_spp, nan_policy) -> tuple:

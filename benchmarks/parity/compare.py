@@ -14,6 +14,7 @@ import numpy as np
 import reference_tracer as rt
 from reference_tracer.probe import diffuse_albedo, first_hit_aovs
 
+from ..display import pyplot
 from ..files import slug
 
 __all__ = ["AOVS", "ParityReport", "compare_aovs", "shape_bounds", "write_mismatch_maps"]
@@ -209,11 +210,7 @@ def write_mismatch_maps(report: ParityReport, out) -> list:
     """Write ``<scene>_parity.png`` (per AOV: mismatching pixels in red over our depth) and
     ``<scene>_parity.exr`` (R: shape or distance, G: normal, B: albedo or emitted mismatch).
     Returns the paths written."""
-    import matplotlib  # deferred: matplotlib only when plotting (0.5-1.5 s)
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # deferred: matplotlib only when plotting (0.5-1.5 s)
-
+    plt = pyplot()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     png, exr = out / f"{slug(report.scene)}_parity.png", out / f"{slug(report.scene)}_parity.exr"

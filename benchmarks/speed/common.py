@@ -16,6 +16,7 @@ from mitsuba_scenes.render import mesh_merge_safe
 from mitsuba_scenes.variants import llvm_target, select_variant, set_llvm_target, versions
 from reference_tracer.cpus import default_threads
 
+from ..numbers import finite_values, median
 from .builds import MITSUBA_TARGETS, mitsuba_isas
 
 __all__ = ["WALL_CLOCK_NOTE", "environment", "timed", "median", "spread", "median_order_interval",
@@ -45,19 +46,9 @@ def name_list(name, values, allowed=None) -> list:
     return values
 
 
-def _finite(xs) -> list:   # None, NaN and infinities left out
-    return [x for x in xs if x is not None and math.isfinite(x)]
-
-
-def median(xs) -> float:
-    """Median of the finite values of ``xs`` (None skipped); NaN when none is left."""
-    xs = _finite(xs)
-    return statistics.median(xs) if xs else float("nan")
-
-
 def spread(xs) -> float:
     """(max - min) / median of the finite values; NaN for fewer than two."""
-    xs = _finite(xs)
+    xs = finite_values(xs)
     m = statistics.median(xs) if len(xs) > 1 else 0.0
     return (max(xs) - min(xs)) / m if m > 0 else float("nan")
 
@@ -100,7 +91,7 @@ def median_order_interval(values, *, coverage: float = 0.90) -> dict:
     (1.61, 1.52, 1.7, 0.9375, 5)
     """
     needed = rounds_for_coverage(coverage)
-    xs = sorted(float(x) for x in _finite(values))
+    xs = sorted(float(x) for x in finite_values(values))
     n = len(xs)
     out = {"median": statistics.median(xs) if xs else float("nan"), "rounds": n, "low": None, "high": None,
            "coverage": None, "rank": None, "rounds_needed": needed}

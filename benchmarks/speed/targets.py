@@ -13,7 +13,7 @@ from .common import median_order_interval
 from .suite import GEOMEAN, round_geometric_means
 
 __all__ = ["Target", "TARGETS", "SCENE_PATHS", "SCENE_EFFICIENCY", "SUITE_PATHS", "SUITE_EFFICIENCY", "RAYS",
-           "judge", "not_judged", "render_verdicts", "ray_verdicts", "speed_verdicts"]
+           "judge", "not_judged", "render_verdicts", "ray_verdicts", "speed_verdicts", "verdict_lines"]
 
 COVERAGE = 0.90
 #: what the render targets are set on: Mitsuba's variant and default roulette, our headline.
@@ -235,3 +235,19 @@ def speed_verdicts(out) -> list:
             for build in (None, *out[key]["config"].get("builds", {})):
                 verdicts += judge_it(out[key], build=build)
     return verdicts
+
+
+def verdict_lines(verdicts) -> list:
+    """The closing lines of ``rtbench speed``: a heading with the count of each status, then one line per verdict.
+
+    >>> verdict_lines([not_judged(RAYS, "r", "why")])[0].endswith("0 met, 0 not met, 1 not judged")
+    True
+    """
+    if not verdicts:
+        return ["speed targets: none applies to --scaling"]
+    counts = {s: sum(v["status"] == s for v in verdicts) for s in ("met", "not met", "not judged")}
+    renders = f"; renders at rr_depth {TARGET_RR_DEPTH}" if any(v["benchmark"] == "render" for v in verdicts) else ""
+    head = (f"speed targets (median of the paired rounds' ratios, its {100 * COVERAGE:g}% interval from order "
+            f"statistics{renders}; benchmarks/PERFORMANCE.md, Targets and verdicts): "
+            + ", ".join(f"{n} {s}" for s, n in counts.items()))
+    return [head] + [f"  {v['line']}" for v in verdicts]

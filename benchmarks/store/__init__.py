@@ -17,7 +17,7 @@ Examples
 from __future__ import annotations
 
 from .images import file_sha256, image_path, read_image, write_image
-from .jsonio import read_json, store_path, write_json
+from .jsonio import read_json, store_path, timestamp, write_json
 from .meta import META, SUMMARY, read_headline, read_meta, read_summary_rows, update_meta
 from .records import (BUILD_FIELD, KEY_FIELDS, RESULTS, WRITER_LOCK, append_record, check_identity, curve_label,
                       curve_of, dedupe_records, finished_keys, job_records, latest_builds, read_records, record_key,
@@ -26,5 +26,5 @@ from .records import (BUILD_FIELD, KEY_FIELDS, RESULTS, WRITER_LOCK, append_reco
 __all__ = ["BUILD_FIELD", "KEY_FIELDS", "META", "RESULTS", "SUMMARY", "WRITER_LOCK", "append_record",
            "check_identity", "curve_label", "curve_of", "dedupe_records", "file_sha256", "finished_keys", "image_path",
            "job_records", "latest_builds", "read_headline", "read_image", "read_json", "read_meta", "read_records",
-           "read_summary_rows", "record_key", "result_lines", "skipped_line", "store_path", "update_meta",
-           "write_image", "write_json"]
+           "read_summary_rows", "record_key", "result_lines", "skipped_line", "store_path", "timestamp",
+           "update_meta", "write_image", "write_json"]

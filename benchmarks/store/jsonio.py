@@ -1,6 +1,8 @@
-"""The store's folder and its JSON files: created on demand, written atomically (NaN as null), read defensively."""
+"""The store's folder and its JSON files: created on demand, written atomically (NaN as null), read defensively;
+the one way the harness and the report write the time (:func:`timestamp`)."""
 from __future__ import annotations
 
+import datetime as _dt
 import json
 import math
 from pathlib import Path
@@ -22,6 +24,17 @@ def store_path(path) -> Path:
         raise ValueError(f"results store {p} exists and is not a folder")
     p.mkdir(parents=True, exist_ok=True)
     return p
+
+
+def timestamp(*, utc: bool = False, offset: bool = True) -> str:
+    """Now as ISO 8601 to the second: local time with its UTC offset (the store's dates), in UTC with ``utc``,
+    the local wall time alone without ``offset``.
+
+    >>> len(timestamp()), timestamp(utc=True).endswith("+00:00"), len(timestamp(offset=False))
+    (25, True, 19)
+    """
+    now = _dt.datetime.now(_dt.timezone.utc) if utc else _dt.datetime.now().astimezone()
+    return (now if offset else now.replace(tzinfo=None)).isoformat(timespec="seconds")
 
 
 def json_safe(value):

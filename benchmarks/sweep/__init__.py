@@ -16,7 +16,7 @@ Examples
 from __future__ import annotations
 
 from ..constants import BIAS_TEST_ALPHA as DEFAULT_ALPHA
-from .coerce import finite
+from ..numbers import finite
 from .execute import TIMING_FIELDS, job_metrics
 from .jobs import Group, Job, make_jobs, render_seed
 from .run import run_sweep

@@ -9,9 +9,9 @@ import math
 import numpy as np
 
 from .. import metrics as M
-from ..constants import MIN_SLOPE_BUDGETS, RELMSE_EPS
+from ..constants import MIN_SLOPE_BUDGETS
 from ..metrics.specs import METRICS, SPECS
-from .coerce import as_float, finite_mean
+from ..numbers import as_float, finite_mean, ratio
 from .jobs import mitsuba_pairs
 
 
@@ -19,9 +19,7 @@ def relative_noise(ref) -> float:
     """The reference's own contribution to relMSE: mean(Var_ref / N_ref / (ref^2 + eps))."""
     if ref is None:
         return 0.0
-    mean = np.asarray(ref.mean, dtype=np.float64)
-    return float(np.mean(np.asarray(ref.variance, dtype=np.float64) / max(int(ref.spp), 1)
-                         / (mean * mean + RELMSE_EPS)))
+    return M.relative_noise(np.asarray(ref.variance, dtype=np.float64) / max(int(ref.spp), 1), ref.mean)
 
 
 def curve_errors(by_spp: dict, metric: str, *, rel_noise: float = 0.0) -> np.ndarray:
@@ -78,8 +76,7 @@ def metric_figures(metric: str, spps, errors, secs, *, target_rmse=None, unbiase
     fig["error_at_top"] = e_top = float(errors[-1]) if errors.size and ok[-1] else None
     expected = None
     if metric == "relmse" and unbiased and variance_image is not None and ref is not None and top >= 1:
-        mean = np.asarray(ref.mean, dtype=np.float64)
-        expected = float(np.mean(np.asarray(variance_image, dtype=np.float64) / (mean * mean + RELMSE_EPS))) / top
+        expected = M.relative_noise(variance_image, ref.mean) / top
     t_top = float(secs[-1]) if secs.size else math.nan
     if math.isfinite(t_top) and t_top > 0:
         if expected is not None and expected > 0:
@@ -108,5 +105,4 @@ def add_metric_ratios(rows) -> None:
     for r, m in mitsuba_pairs(rows):
         for name, fig in (r.get("by_metric") or {}).items():
             other = ((m or {}).get("by_metric") or {}).get(name) or {}
-            a, b = as_float(fig.get("efficiency")), as_float(other.get("efficiency"))
-            fig["efficiency_vs_mitsuba"] = a / b if math.isfinite(a) and math.isfinite(b) and b > 0 else None
+            fig["efficiency_vs_mitsuba"] = ratio(fig.get("efficiency"), other.get("efficiency"))

@@ -4,7 +4,6 @@ facts recorded with every job and in ``meta.json``."""
 from __future__ import annotations
 
 import dataclasses
-import datetime as _dt
 import math
 import platform
 import socket
@@ -24,9 +23,9 @@ from reference_tracer.cpus import default_threads
 from .. import external as externals
 from .. import metrics as M
 from ..constants import MITSUBA_DIRECT, MITSUBA_STRATEGY
+from ..numbers import finite
 from ..scenes import scene_at, scene_info
-from ..store import KEY_FIELDS
-from .coerce import finite
+from ..store import KEY_FIELDS, timestamp
 from .jobs import Job, image_paths, render_seed
 
 #: record fields that depend on timing, the machine or the checkout (ignore them to compare two runs).
@@ -142,7 +141,7 @@ def execute_job(job: Job, reference, *, threads: int, variant=None, keep_image: 
                    "reference_variant": reference.variant})
     record["wall_seconds"] = time.perf_counter() - t_job
     record["host"] = socket.gethostname()
-    record["finished"] = _dt.datetime.now().astimezone().isoformat(timespec="seconds")
+    record["finished"] = timestamp()
     return {"record": record, "images": images}
 
 

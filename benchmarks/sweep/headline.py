@@ -21,8 +21,8 @@ from reference_tracer.estimate import ImageEstimate
 from .. import metrics as M
 from .. import tails as T
 from ..constants import BASELINE, RELMSE_EPS, VERDICT_STRATEGY
+from ..numbers import as_float
 from .by_metric import tail_variance_image
-from .coerce import as_float
 
 #: two-sided 95% normal quantile.
 Z95 = float(stats.norm.isf(0.025))
@@ -97,7 +97,7 @@ def mitsuba_cost(row: dict, ref: ImageEstimate) -> None:
         return
     row.update(efficiency=M.efficiency(var / top, secs), efficiency_source="reference variance / spp")
     rel = row.get("by_metric", {}).get("relmse")
-    expected = float(np.mean(var_image / (ref.mean * ref.mean + RELMSE_EPS))) / top
+    expected = M.relative_noise(var_image, ref.mean) / top
     if rel is not None and expected > 0:
         rel.update(efficiency=M.efficiency(expected, secs), efficiency_source="reference variance / spp")
 

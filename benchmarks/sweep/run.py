@@ -3,7 +3,6 @@ stored (locally or on Dask), then ``summary.json``."""
 from __future__ import annotations
 
 import dataclasses
-import datetime as _dt
 import sys
 import time
 from dataclasses import dataclass, field
@@ -18,12 +17,12 @@ from .. import tails as T
 from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM
 from ..external import external
 from ..files import slug
+from ..numbers import finite
 from ..references import closed_form_reference_of, mitsuba_identity, reference
 from ..scenes import scene_at
 from ..store import (file_sha256, finished_keys, job_records, read_meta, read_records, record_key, store_path,
-                     update_meta, write_image, writer_lock)
+                     timestamp, update_meta, write_image, writer_lock)
 from ..tails import DEFAULT_TAIL_SPP
-from .coerce import finite
 from .execute import machine_info, run_versions
 from .jobs import Group, renderer_builds
 from .progress import Phases, Progress, render_cost
@@ -45,10 +44,6 @@ class SweepResult:
     rows: list = field(default_factory=list)
     interrupted: bool = False
     phases: Phases = field(default_factory=Phases)
-
-
-def _now() -> str:
-    return _dt.datetime.now().astimezone().isoformat(timespec="seconds")
 
 
 def prepare_references(groups, store: Path, *, variant, threads, cache, say, bar) -> dict:
@@ -139,7 +134,7 @@ def _store_copy(store: Path, stem: str, ref, old_refs: dict) -> dict:
 def _record_settings(store, groups, *, threads, scheduler, variant, preset, alpha) -> None:
     """The run's settings, machine and versions into ``meta.json`` (its first date is kept)."""
     meta = read_meta(store)
-    update_meta(store, date=meta.get("date") or _now(),
+    update_meta(store, date=meta.get("date") or timestamp(),
                 preset=preset if preset is not None else meta.get("preset", "custom"),
                 threads=None if scheduler is not None else int(threads),
                 scheduler=str(scheduler) if isinstance(scheduler, str) else (None if scheduler is None else "client"),
@@ -195,7 +190,7 @@ def _recorded(store) -> int:
 def _start_run(store) -> int:
     """Append this run to ``meta.json``'s ``runs`` (started now, nothing done yet); its index."""
     runs = read_meta(store).get("runs", [])
-    runs.append({"started": _now(), "ended": None, "seconds": None, "jobs_done": 0, "interrupted": None})
+    runs.append({"started": timestamp(), "ended": None, "seconds": None, "jobs_done": 0, "interrupted": None})
     update_meta(store, runs=runs)
     return len(runs) - 1
 
@@ -203,7 +198,7 @@ def _start_run(store) -> int:
 def _end_run(store, index: int, **fields) -> None:
     """Complete this run's entry in ``meta.json`` (end, seconds, jobs stored) and the total."""
     runs = read_meta(store).get("runs", [])
-    runs[index:index + 1] = [{**(runs[index] if index < len(runs) else {}), "ended": _now(), **fields}]
+    runs[index:index + 1] = [{**(runs[index] if index < len(runs) else {}), "ended": timestamp(), **fields}]
     update_meta(store, runs=runs, total_seconds=sum(finite(r.get("seconds")) or 0.0 for r in runs))
 
 

@@ -14,12 +14,12 @@ from reference_tracer.estimate import ImageEstimate
 from .. import metrics as M
 from .. import tails as T
 from ..constants import BIAS_TEST_ALPHA, CLOSED_FORM, MITSUBA_STRATEGY, STRATEGIES
+from ..numbers import as_float, finite_mean, ratio
 from ..scenes import scene_at
 from ..store import SUMMARY, read_image, read_meta, read_records, update_meta, write_json
 from ..tails import DEFAULT_MAX_TAIL_SAMPLES, DEFAULT_TAIL_SPP
 from .bias import bias_stats
 from .by_metric import add_metric_ratios, curve_metrics, tail_variance_image
-from .coerce import as_float, finite_mean
 from .headline import add_noise_ratios, exact, headline_rows, mitsuba_cost, tail_noise
 from .jobs import mitsuba_pairs
 from .progress import render_cost
@@ -148,8 +148,7 @@ def _add_mitsuba_ratios(rows) -> None:
     """``*_vs_mitsuba``: each curve against Mitsuba's curve of the same scene and size."""
     for r, m in mitsuba_pairs(rows):
         for field in ("efficiency", "samples_per_second"):
-            a, b = as_float(r.get(field)), as_float((m or {}).get(field))
-            r[f"{field}_vs_mitsuba"] = a / b if math.isfinite(a) and math.isfinite(b) and b != 0 else None
+            r[f"{field}_vs_mitsuba"] = ratio(r.get(field), (m or {}).get(field))
 
 
 def _curve_tails(scene, strategy, w, h, *, tail_spp, cache, threads, log, escalate=True):

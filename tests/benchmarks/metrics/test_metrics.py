@@ -52,7 +52,18 @@ def test_mse_corrected_by_hand():
     assert M.mse_corrected(img, ref, var, 100) == pytest.approx(2.0 - 0.2)
 
 
-@pytest.mark.parametrize("fn", [M.mse, M.rmse, M.relmse])
+def test_relative_noise_by_hand():
+    var = np.array([[0.5, 0.02], [4.0, 0.0]])
+    ref = np.array([[0.0, 0.1], [1.0, 3.0]])
+    assert M.relative_noise(var, ref) == pytest.approx((50.0 + 1.0 + 4.0 / 1.01 + 0.0) / 4, rel=1e-12)
+    assert M.relative_noise(var, ref, eps=1.0) == pytest.approx((0.5 + 0.02 / 1.01 + 2.0 + 0.0) / 4, rel=1e-12)
+    # the expected relMSE of an unbiased image of that variance: relMSE less its corrected value
+    img = ref + 0.3
+    assert M.relative_noise(var / 16, ref) == pytest.approx(
+        M.relmse(img, ref) - M.relmse_corrected(img, ref, var, 16), rel=1e-12)
+
+
+@pytest.mark.parametrize("fn", [M.mse, M.rmse, M.relmse, M.relative_noise])
 def test_shape_mismatch_is_loud(fn):
     with pytest.raises(ValueError, match="shapes differ"):
         fn(np.zeros((4, 5, 3)), np.zeros((5, 4, 3)))
@@ -60,7 +71,7 @@ def test_shape_mismatch_is_loud(fn):
         fn(np.zeros(7), np.zeros(7))
 
 
-@pytest.mark.parametrize("fn", [M.mse, M.relmse])
+@pytest.mark.parametrize("fn", [M.mse, M.relmse, M.relative_noise])
 def test_nan_policy(fn):
     img = np.array([[1.0, np.nan], [3.0, 4.0]])
     ref = np.array([[0.0, 1.0], [3.0, 2.0]])

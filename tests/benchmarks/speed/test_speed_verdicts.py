@@ -237,7 +237,7 @@ def test_ray_target_without_embree():
 
 
 def test_closing_lines_count_each_status():
-    from benchmarks.commands.speed import verdict_lines
+    from benchmarks.speed import verdict_lines
 
     met, missed = judge(SUITE_PATHS, "s", [2.0] * 5), judge(SUITE_PATHS, "s", [1.0] * 5)
     lines = verdict_lines([met, missed, not_judged(RAYS, "r", "why")])

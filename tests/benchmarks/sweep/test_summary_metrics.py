@@ -44,6 +44,21 @@ def test_reference_noise_is_removed_from_relmse():
     assert figs["relmse"]["slope"] == pytest.approx(-1.0)
 
 
+@pytest.mark.parametrize("theirs, expected", [(2.0, 2.0), (0.0, None), (-2.0, None), (None, None),
+                                              (float("nan"), None)])
+def test_ratios_to_mitsuba_need_a_positive_denominator(theirs, expected):
+    from benchmarks.sweep.summary import _add_mitsuba_ratios
+
+    rows = [{"scene": "s", "width": 8, "height": 8, "renderer": renderer, "strategy": strategy, "efficiency": eff,
+             "samples_per_second": eff, "by_metric": {"relmse": {"efficiency": eff}}}
+            for renderer, strategy, eff in (("ours", "mis", 4.0), ("mitsuba", "path", theirs))]
+    _add_mitsuba_ratios(rows)
+    add_metric_ratios(rows)
+    for got in (rows[0]["efficiency_vs_mitsuba"], rows[0]["samples_per_second_vs_mitsuba"],
+                rows[0]["by_metric"]["relmse"]["efficiency_vs_mitsuba"]):
+        assert got == expected
+
+
 def test_view_switches_the_summary_and_biased_rows_show_no_cost(tmp_path):
     rows = []
     for strategy, bias in (("mis", "pass"), ("light", "fail")):
