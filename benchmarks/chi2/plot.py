@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..display import pyplot
 from .pearson import Chi2Result
 
 __all__ = ["save_histograms", "file_name"]
@@ -21,11 +22,7 @@ def file_name(label: str) -> str:
 def save_histograms(result: Chi2Result, path, title: str = "") -> Path:
     """Write observed counts, expected counts and Pearson residuals side by side (a bar
     chart for discrete outcomes). Returns the path written."""
-    import matplotlib  # deferred: matplotlib only when plotting (0.5-1.5 s)
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # deferred: matplotlib only when plotting (0.5-1.5 s)
-
+    plt = pyplot()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     head = f"{title}\n{result.verdict}: p = {result.p_value:.3g}, chi2 = {result.statistic:.1f} on {result.dof} dof, " \

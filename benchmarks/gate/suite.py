@@ -7,8 +7,8 @@ cached high-spp Mitsuba render) and applies :func:`benchmarks.gate.compare` at `
 images of failures.
 
 The defaults (CI-sized): the quick suite at 32 x 32, ``mis`` at 4096 spp against 16384-spp
-references. Power chose the spp (six seeds, 8192-spp references): a 1% light move along x is
-caught 0/6 at 1024 spp and 6/6 at 4096 (along z 5/6); a 1% global scale 6/6 at 1024.
+references, roulette from depth 5. Power chose the spp (seeds 1-6, ``power_row``): a 1% light move
+along x is caught 0/6 at 1024 spp and 5/6 at 4096; a 1% global scale 6/6 at 1024.
 
 Examples
 --------
@@ -31,6 +31,7 @@ from mitsuba_scenes import known_scenes, list_scenes
 from reference_tracer.validation import SEED_MAX, positive_int
 
 from ..constants import GATE_ALPHA, STRATEGIES
+from ..display import pyplot
 from ..external import render_external_batches
 from ..files import slug
 from ..references import Reference, closed_form_reference_of
@@ -347,10 +348,7 @@ def write_p_images(case: GateCase, out) -> list:
     p = 0); ``..._p.png``: the same in false colour, the pixel level's failing threshold mid-bar
     and the worst tile boxed; ``..._ours.png`` and ``..._reference.png`` beside it.
     """
-    import matplotlib  # deferred: matplotlib only when plotting (0.5-1.5 s)
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # deferred: matplotlib only when plotting (0.5-1.5 s)
+    plt = pyplot()
     from matplotlib.patches import Rectangle  # deferred: matplotlib only when plotting (0.5-1.5 s)
 
     out = Path(out)

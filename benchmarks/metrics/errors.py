@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from ..constants import RELMSE_EPS
 from ._checks import as_image, masked_mean, nan_mask, reference_noise, same_shape
 
