@@ -202,18 +202,19 @@ def test_to_xml_refuses_symlinks_and_special_files(tmp_path):
 
 
 def test_to_xml_leaves_no_stray_file_on_error(tmp_path, monkeypatch):
-    from mitsuba_scenes import get_scene, to_xml, translate
+    from mitsuba_scenes import get_scene, to_xml
+    from mitsuba_scenes.translate import xml_file
 
     scene = get_scene("cornell_mesh", width=4, height=4)
 
-    real = translate.atomic_write
+    real = xml_file.atomic_write
 
     def fail(path, data):
         if str(path).endswith(".xml"):  # the meshes are written, then the disk fills
             raise OSError(28, "No space left on device", str(path))
         return real(path, data)
 
-    monkeypatch.setattr(translate, "atomic_write", fail)
+    monkeypatch.setattr(xml_file, "atomic_write", fail)
     with pytest.raises(OSError):
         to_xml(scene, tmp_path / "scene.xml")
     assert list(tmp_path.iterdir()) == []

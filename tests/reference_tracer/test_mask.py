@@ -262,9 +262,9 @@ def test_translation_to_a_mitsuba_dict():
     from mitsuba_scenes.variants import select_variant
 
     mi.set_variant(select_variant())
-    from mitsuba_scenes.translate import _mitsuba_values
+    from mitsuba_scenes.translate.dictionary import mitsuba_values
 
-    assert "Mask" in str(mi.load_dict(_mitsuba_values(mi, bsdf)))
+    assert "Mask" in str(mi.load_dict(mitsuba_values(mi, bsdf)))
 
 
 @pytest.mark.parametrize("opacity", [0.3, rt.Checkerboard(0.2, (0.9, 0.5, 0.7), to_uv=np.diag([3.0, 2.0, 1.0])),

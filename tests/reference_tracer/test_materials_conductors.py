@@ -43,13 +43,13 @@ def test_conductor_options_are_validated():
 
 
 def test_translation_gives_mitsuba_the_same_index():
-    from mitsuba_scenes.translate import _bsdf_record
+    from mitsuba_scenes.translate.bsdfs import bsdf_record
 
-    rec = _bsdf_record("x", rt.RoughConductor((0.9, 0.9, 0.9), alpha=0.2, distribution="beckmann", material="Cu"))
+    rec = bsdf_record("x", rt.RoughConductor((0.9, 0.9, 0.9), alpha=0.2, distribution="beckmann", material="Cu"))
     eta, k = conductor_ior("Cu")
     assert rec["distribution"] == "beckmann" and "material" not in rec
     assert np.allclose(rec["eta"]["value"], eta, rtol=1e-6) and np.allclose(rec["k"]["value"], k, rtol=1e-6)
-    assert _bsdf_record("x", rt.RoughConductor(1.0, alpha=0.2))["material"] == "none"
+    assert bsdf_record("x", rt.RoughConductor(1.0, alpha=0.2))["material"] == "none"
 
 
 @pytest.mark.parametrize("alpha", [0.1, 0.5, 1.0])

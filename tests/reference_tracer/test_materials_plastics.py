@@ -269,9 +269,9 @@ def test_smooth_plastic_takes_equal_indices_as_mitsuba_does():
 
 # ------------------------------------------------------------------ translation and import
 def test_translation_gives_mitsuba_every_parameter():
-    from mitsuba_scenes.translate import _bsdf_record
+    from mitsuba_scenes.translate.bsdfs import bsdf_record
 
-    rec = _bsdf_record("x", rt.RoughPlastic((0.1, 0.2, 0.3), alpha=0.25, distribution="ggx", int_ior=1.6,
+    rec = bsdf_record("x", rt.RoughPlastic((0.1, 0.2, 0.3), alpha=0.25, distribution="ggx", int_ior=1.6,
                                             ext_ior=1.1, specular_reflectance=0.8, nonlinear=True, two_sided=True))
     assert rec["type"] == "twosided"
     b = rec["bsdf"]
@@ -279,7 +279,7 @@ def test_translation_gives_mitsuba_every_parameter():
     assert b["alpha"] == pytest.approx(0.25) and (b["int_ior"], b["ext_ior"]) == pytest.approx((1.6, 1.1))
     np.testing.assert_allclose(b["diffuse_reflectance"]["value"], (0.1, 0.2, 0.3), rtol=1e-7)
     np.testing.assert_allclose(b["specular_reflectance"]["value"], (0.8, 0.8, 0.8), rtol=1e-7)
-    smooth = _bsdf_record("x", rt.Plastic(0.5))
+    smooth = bsdf_record("x", rt.Plastic(0.5))
     assert smooth["type"] == "plastic" and "alpha" not in smooth and smooth["int_ior"] == pytest.approx(1.49)
 
 
