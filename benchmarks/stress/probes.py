@@ -2,6 +2,8 @@
 meshes, aimed rays."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 import reference_tracer as rt
@@ -57,15 +59,30 @@ def count_escapes(scene: rt.Scene, origins, directions, *, triangle_test: str) -
 
 
 def transform_scene(scene: rt.Scene, *, scale: float = 1.0, offset=(0.0, 0.0, 0.0)) -> rt.Scene:
-    """The same scene scaled uniformly about the origin, then translated (camera too)."""
+    """The same scene scaled uniformly about the origin, then translated: its shapes and its camera
+    (every length of it: position, lens, view size, clip planes; its filter is in pixels).
+
+    Its image is the original's. A point, spot or projector light would not keep it (the
+    irradiance it gives falls with the squared distance): ``ValueError``. Directional and
+    environment lights, at infinity, stay as they are.
+    """
+    moving = [type(light).__name__ for light in scene.lights
+              if not isinstance(light, (rt.DirectionalLight, rt.EnvMap))]
+    if moving:
+        raise ValueError(f"transform_scene: a scaled scene with {', '.join(moving)} would not render the same image")
     off = np.asarray(offset, dtype=np.float64)
     c = scene.camera
-    cam = rt.Camera(lookfrom=tuple(np.asarray(c.lookfrom) * scale + off),
-                    lookat=tuple(np.asarray(c.lookat) * scale + off), vup=c.vup, vfov=c.vfov,
-                    width=c.width, height=c.height)
+
+    def length(v):
+        return None if v is None else v * scale
+
+    cam = dataclasses.replace(c, lookfrom=tuple(np.asarray(c.lookfrom) * scale + off),
+                              lookat=tuple(np.asarray(c.lookat) * scale + off),
+                              aperture_radius=c.aperture_radius * scale, focus_distance=length(c.focus_distance),
+                              view_height=length(c.view_height), view_width=length(c.view_width),
+                              near_clip=c.near_clip * scale, far_clip=c.far_clip * scale)
     shapes = [s.scale(scale).translate(tuple(off)) for s in scene.shapes]
-    return rt.Scene(camera=cam, shapes=shapes, max_depth=scene.max_depth, rr_depth=scene.rr_depth,
-                    background=scene.background, direct=scene.direct)
+    return dataclasses.replace(scene, camera=cam, shapes=shapes)
 
 
 def creased_furnace_scene(*, width: int = 24) -> rt.Scene:

@@ -45,6 +45,25 @@ def test_transform_scene_moves_everything():
     assert np.allclose(t.shapes[0].world_corners()[0], s.shapes[0].world_corners()[0] * 1e-4 + [1e5, 0, 0])
 
 
+def test_transform_scene_keeps_the_camera_and_refuses_lights_at_a_distance():
+    """Every length of the camera scales (a thin lens's aperture and focus, clip planes) and its
+    filter stays; a point light would change the image when scaled, so it is refused."""
+    import dataclasses
+
+    from mitsuba_scenes import get_scene
+
+    s = get_scene("cornell_box", width=8, height=8)
+    lens = dataclasses.replace(s.camera, aperture_radius=2.0, focus_distance=800.0, near_clip=1.0,
+                               filter=rt.Filter("tent"))
+    t = stress.transform_scene(dataclasses.replace(s, camera=lens), scale=1e-3, offset=(5, 0, 0))
+    assert t.camera.aperture_radius == pytest.approx(2e-3) and t.camera.focus_distance == pytest.approx(0.8)
+    assert t.camera.near_clip == pytest.approx(1e-3) and t.camera.filter.kind == "tent"
+    assert (t.max_depth, t.rr_depth, t.background) == (s.max_depth, s.rr_depth, s.background)
+    lit = dataclasses.replace(s, lights=(rt.PointLight((278, 500, 278), 1e5),))
+    with pytest.raises(ValueError, match="PointLight"):
+        stress.transform_scene(lit, scale=2.0)
+
+
 def test_image_ztest_false_positive_rate_on_synthetic_null():
     """Calibration of the decision rule on exactly normal data: at alpha = 0.01, 400
     null comparisons of 16x16x3 images reject about 4 times; more than 12 has
