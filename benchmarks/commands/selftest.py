@@ -62,13 +62,14 @@ def summary_line(report) -> str:
 
 def selftest_table(report):
     """The rich table of a :class:`benchmarks.selftest.SelftestReport`."""
+    from rich.markup import escape
     from rich.table import Table
 
     t = Table(title=f"self-test: seeded bugs at {report.spp} spp (gate level {report.alpha:.3g} per comparison)")
     for c in COLUMNS:
         t.add_column(c, justify="right" if "spp" in c or c == "image bias" else "left")
     for row in report.rows:
-        cells = _cells(row)
+        cells = [escape(str(cell)) for cell in _cells(row)]  # brackets in a name are text, not markup
         if not row["caught"]:
             cells[4] = "[bold red]NO[/]"
         t.add_row(*cells)

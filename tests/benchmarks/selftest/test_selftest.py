@@ -179,3 +179,23 @@ def test_correlation_level_catches_correlated_pixel_streams(cache):
     assert mutant.verdict == "fail" and "correlation" in mutant.failed_levels
     assert np.all(mutant.neighbour_correlation > 0.05)
     assert "correlate at" in mutant.reason
+
+
+def test_selftest_table_prints_brackets_as_text():
+    """A scene named with brackets (a user's file ``scene[v2]``) keeps them in the table: rich
+    would read ``[v2]`` as a style tag and drop it."""
+    import types
+
+    from rich.console import Console
+
+    from benchmarks.commands.selftest import selftest_table
+
+    row = {"mutant": "light.pdf[twice]", "scene": "scene[v2]", "strategy": "mis", "verdict": "fail", "caught": True,
+           "smallest_spp_caught": 64, "caught_by_mitsuba_rule": False, "smallest_spp_caught_by_mitsuba_rule": None,
+           "relative_bias": 0.01, "relative_bias_se": 0.001, "control_verdict": "pass",
+           "control_caught_by_mitsuba_rule": False}
+    report = types.SimpleNamespace(spp=64, alpha=0.00125, rows=[row])
+    console = Console(width=300, record=True)
+    console.print(selftest_table(report))
+    text = console.export_text()
+    assert "light.pdf[twice]" in text and "scene[v2]" in text
