@@ -244,7 +244,8 @@ def gate_table(report):
         ref = (CLOSED_FORM if c.reference.source == CLOSED_FORM else
                f"{c.reference.variant} {c.reference.spp} spp" if c.reference.source == "store" else
                f"Mitsuba {c.reference.spp} spp")
-        table.add_row(c.scene, c.strategy, ref, verdict, f"{r.p_value:.3g}", ", ".join(r.failed_levels) or "-",
+        table.add_row(escape(c.scene), escape(c.strategy), escape(ref), verdict, f"{r.p_value:.3g}",
+                      ", ".join(r.failed_levels) or "-",
                       f"{r.relative_bias:+.2%} +- {r.relative_bias_se:.2%}",
                       f"{_pct(r.min_detectable_bias)} / {_pct(r.min_detectable_tile_bias)}",
                       escape(c.where()) if c.failed else "-")
@@ -259,6 +260,7 @@ def _pct(v: float) -> str:
 def calibration_table(rows, *, alpha: float, pairs: bool = False):
     """The false-alarm table of :func:`benchmarks.gate.calibrate`'s rows, as a rich table
     (``pairs``: of ``rtbench compare``'s verdict on pairs of renders)."""
+    from rich.markup import escape
     from rich.table import Table
 
     what = "rtbench compare's verdicts on pairs of renders of this build" if pairs else "verdicts on unbiased renders"
@@ -267,7 +269,8 @@ def calibration_table(rows, *, alpha: float, pairs: bool = False):
                 "consistent", "undetermined needs ~spp", "catches (global)"):
         table.add_column(col)
     for r in rows:
-        table.add_row(r.scene, r.strategy, str(r.spp), str(r.seeds), str(r.passed), str(r.failed), str(r.undetermined),
+        table.add_row(escape(r.scene), escape(r.strategy), str(r.spp), str(r.seeds), str(r.passed), str(r.failed),
+                      str(r.undetermined),
                       f"{r.false_alarm_rate:.3f} ({r.ci_low:.3f}-{r.ci_high:.3f})",
                       "[green]yes[/]" if r.consistent else "[bold red]NO[/]",
                       "-" if r.spp_needed is None else str(r.spp_needed), _pct(r.min_detectable_bias))

@@ -91,13 +91,14 @@ def _col(heading, key, fmt="{:.2f}"):
 
 def _table(title, columns, rows, *, left=1, end_section=lambda r: False):
     """A ``rich`` table: ``columns`` are ``(heading, cell of a row)``, the first ``left`` left-aligned."""
+    from rich.markup import escape
     from rich.table import Table
 
     table = Table(title=title)
     for k, (heading, _) in enumerate(columns):
         table.add_column(heading, justify="left" if k < left else "right", no_wrap=k < left)
-    for r in rows:
-        table.add_row(*(cell(r) for _, cell in columns), end_section=end_section(r))
+    for r in rows:  # cells are text: a scene file's name may hold brackets
+        table.add_row(*(escape(str(cell(r))) for _, cell in columns), end_section=end_section(r))
     return table
 
 

@@ -65,3 +65,20 @@ def test_changed_scene_or_unknown_build_is_refused(fuzz_store, tmp_path, capsys)
     path.write_text(FUZZ_SCENE.replace("fuzz=0.3", "fuzz=0.2"))
     assert _gate(path, store, tmp_path) == 2
     assert "rendered from another scene description" in capsys.readouterr().err
+
+
+def test_a_store_build_name_is_printed_as_text_not_markup(fuzz_store, tmp_path, capsys):
+    """A results store is untrusted: a build name holding rich markup (``[bold]``, ``[link=...]``)
+    shows in the verdict table as written, never as styling or a terminal link."""
+    import json
+
+    path, store = fuzz_store
+    lines = (store / "results.jsonl").read_text().splitlines()
+    records = [json.loads(line) for line in lines]
+    for rec in records:
+        rec["build"] = "evil[bold]x[link=file:///etc/passwd]y"
+    (store / "results.jsonl").write_text("".join(json.dumps(rec) + "\n" for rec in records))
+    capsys.readouterr()
+    assert _gate(path, store, tmp_path) == 0, capsys.readouterr().err
+    out = capsys.readouterr().out
+    assert "evil[bold]x[link=file://" in out, out  # the table folds the rest of the cell onto its next line

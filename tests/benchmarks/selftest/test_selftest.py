@@ -182,8 +182,8 @@ def test_correlation_level_catches_correlated_pixel_streams(cache):
 
 
 def test_selftest_table_prints_brackets_as_text():
-    """A scene named with brackets (a user's file ``scene[v2]``) keeps them in the table: rich
-    would read ``[v2]`` as a style tag and drop it."""
+    """The table's cells are text: a bracketed part of a name stays, where rich would read it as a
+    style tag and drop it."""
     import types
 
     from rich.console import Console
