@@ -49,7 +49,7 @@ def run(args) -> int:
     console = Console()
     if args.list or not (args.scenes or args.scene_files):
         for name in list_scenes():
-            console.print(f"{name:16s} {describe_scene(name)}")
+            console.print(f"{name:16s} {describe_scene(name)}", markup=False)
         return 0 if args.list else 2
     unknown = [s for s in args.strategies if s not in rt.STRATEGIES]
     if unknown:
@@ -73,7 +73,8 @@ def _render_scene(name, scene, args, variant, out: Path, console) -> int:
 
     w, h = scene.camera.width, scene.camera.height
     if not args.quiet:
-        console.print(f"{name} ({describe_scene(name)}, content hash {scene.content_hash()[:16]})", highlight=False)
+        console.print(f"{name} ({describe_scene(name)}, content hash {scene.content_hash()[:16]})", highlight=False,
+                      markup=False)
     bad = 0
     for strategy in dict.fromkeys(args.strategies):
         with Progress("[progress.description]{task.description}", BarColumn(), "{task.percentage:>3.0f}%",
