@@ -22,8 +22,10 @@ import reference_tracer as rt
 
 from ..constants import GATE_ALPHA
 from ..stats import sidak
+from ..tails import DEFAULT_TAIL_SPP
 from .inputs import check_spp, image3
-from .suite import DEFAULT_REF_SPP, DEFAULT_SPP, DEFAULT_WIDTH, compare_render, gate_reference, gate_scene
+from .suite import (DEFAULT_REF_SPP, DEFAULT_SPP, DEFAULT_WIDTH, compare_render, gate_reference, gate_scene,
+                    gate_tails)
 
 __all__ = ["INJECTIONS", "QUICK_SUITE_COMPARISONS", "PowerRow", "injected_scene", "power_row", "MITSUBA_ALPHA",
            "MitsubaRuleResult", "mitsuba_rule"]
@@ -160,19 +162,23 @@ class PowerRow:
 
 def power_row(name: str, *, seed: int = 1, spp: int = DEFAULT_SPP, width: int = DEFAULT_WIDTH,
               ref_spp: int = DEFAULT_REF_SPP, case_alpha: float = GATE_ALPHA / QUICK_SUITE_COMPARISONS,
-              mitsuba_alpha: float = MITSUBA_ALPHA, threads=None, cache=None) -> PowerRow:
-    """Render injection ``name`` and test it with both rules."""
+              mitsuba_alpha: float = MITSUBA_ALPHA, tail_spp: int = DEFAULT_TAIL_SPP, threads=None,
+              cache=None) -> PowerRow:
+    """Render injection ``name`` and test it with both rules; ours as ``rtbench gate`` does by default
+    (with the tail reference of the unmutated scene's strategy; ``tail_spp`` 0: none). Caught: the
+    verdict fail (an undetermined verdict catches nothing)."""
     if name not in INJECTIONS:
         raise ValueError(f"unknown injection {name!r}; choose from {', '.join(INJECTIONS)}")
     scene_name, strategy, scale, edit = INJECTIONS[name]
     base = gate_scene(scene_name, width=width)
     ref = gate_reference(scene_name, base, ref_spp=ref_spp, threads=threads, cache=cache)
+    tails = gate_tails(base, strategy, tail_spp=tail_spp, threads=threads, cache=cache, log=None)
     out = rt.render(injected_scene(base, edit), spp=spp, strategy=strategy, seed=seed, threads=threads)
     mean = out.mean.astype(np.float64) * scale
     var = out.variance.astype(np.float64) * scale**2
-    g = compare_render(mean, var, spp, ref, alpha=case_alpha)
+    g = compare_render(mean, var, spp, ref, alpha=case_alpha, tails=tails)
     m = mitsuba_rule(mean, ref.mean, ref.variance, spp, alpha=mitsuba_alpha)
-    return PowerRow(injection=name, scene=scene_name, seed=seed, spp=spp, p_value=g.p_value, caught=not g.passed,
+    return PowerRow(injection=name, scene=scene_name, seed=seed, spp=spp, p_value=g.p_value, caught=g.failed,
                     failed_levels=list(g.failed_levels), relative_bias=g.relative_bias,
                     relative_bias_se=g.relative_bias_se, mitsuba_caught=not m.passed,
                     mitsuba_failed_fraction=1.0 - m.fraction_passed)

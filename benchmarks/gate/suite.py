@@ -7,8 +7,8 @@ cached high-spp Mitsuba render) and applies :func:`benchmarks.gate.compare` at `
 images of failures.
 
 The defaults (CI-sized): the quick suite at 32 x 32, ``mis`` at 4096 spp against 16384-spp
-references, roulette from depth 5. Power chose the spp (seeds 1-6, ``power_row``): a 1% light move
-along x is caught 0/6 at 1024 spp and 5/6 at 4096; a 1% global scale 6/6 at 1024.
+references and tail references, roulette from depth 5. Power chose the spp (seeds 1-6, ``power_row``): a
+1% light move along x is caught 1/6 at 1024 spp and 6/6 at 4096; a 1% global scale 6/6 at 1024.
 
 Examples
 --------
