@@ -41,10 +41,11 @@ def corpus_build() -> dict:
     info = build_info()
     h.update(info["build"].encode())
     here = Path(__file__).resolve().parent
-    gate = here.parent / "gate"
-    for path in [*sorted((here.parent.parent / "mitsuba_scenes").rglob("*.py")), *sorted(here.glob("*.py")),
+    root, gate = here.parent.parent, here.parent / "gate"
+    for path in [*sorted((root / "mitsuba_scenes").rglob("*.py")), *sorted(here.glob("*.py")),
                  gate / "agreement.py", gate / "filtered.py"]:
-        h.update(path.name.encode() + b"\0" + path.read_bytes())
+        # the path inside the repository: the importer and the translation both have a bsdfs.py
+        h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes())
     try:
         mitsuba = metadata.version("mitsuba")
     except metadata.PackageNotFoundError:
