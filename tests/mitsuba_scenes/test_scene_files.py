@@ -55,9 +55,15 @@ def test_xml_file_resized_keeps_its_fov_axis():
 
     from benchmarks.scenes import scene_at
 
+    from mitsuba_scenes.render import load_file
+    from mitsuba_scenes.variants import import_mitsuba
+
     entry = register_scene_file(XML / "camera_axes.xml", {"fov_axis": "x"})
     assert get_scene(entry.name).camera.vfov == pytest.approx(31.26, abs=0.01)  # 50 degrees across 20 pixels
     imported = from_mitsuba(XML / "camera_axes.xml", {"fov_axis": "x"}, film_size=(16, 16)).camera
+    mi = import_mitsuba("scalar_rgb")
+    sensor = load_file(XML / "camera_axes.xml", params={"fov_axis": "x"}, film_size=(16, 16)).sensors()[0]
+    assert float(mi.traverse(sensor)["x_fov"]) == pytest.approx(50.0, abs=1e-4)  # Mitsuba's own, square film
     for scene in (get_scene(entry.name, width=16, height=16), scene_at(entry.name, 16, 16)):
         assert scene.camera.vfov == pytest.approx(50.0) and scene.camera == imported
 
