@@ -45,12 +45,12 @@ def is_finite(v) -> bool:
 
 
 def finite_values(xs) -> list:
-    """The finite ones of the numbers ``xs``, as they are (None, NaN and infinities left out).
+    """The finite ones of ``xs``, each :func:`as_float` (None, bools, non-numbers, NaN and infinities left out).
 
-    >>> finite_values([1, None, float("nan"), 2.5, float("-inf")])
-    [1, 2.5]
+    >>> finite_values([1, None, float("nan"), "2.5", True, "x", float("-inf")])
+    [1.0, 2.5]
     """
-    return [x for x in xs if x is not None and math.isfinite(x)]
+    return [v for v in map(as_float, xs) if math.isfinite(v)]
 
 
 def finite_mean(values) -> float:

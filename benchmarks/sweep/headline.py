@@ -31,8 +31,8 @@ DEFAULT_BATCHES = 16
 
 
 def relative_noise_of(variance, ref_mean, *, n: int | None = None, m4=None, batches: int | None = None) -> dict:
-    """``{"noise", "noise_se"}``: mean of the per-pixel per-sample ``variance`` weighted by
-    ``1 / (ref^2 + eps)``, and its standard error from a tail reference's ``n`` samples and
+    """``{"noise", "noise_se"}``: :func:`benchmarks.metrics.relative_noise` of the per-pixel per-sample
+    ``variance`` against ``ref_mean``, and its standard error from a tail reference's ``n`` samples and
     fourth moment ``m4``, or from the ``batches`` of a Mitsuba reference.
 
     >>> v = np.full((2, 2, 3), 0.5); r = np.ones((2, 2, 3))
@@ -41,8 +41,8 @@ def relative_noise_of(variance, ref_mean, *, n: int | None = None, m4=None, batc
     """
     var = np.asarray(variance, dtype=np.float64)
     ref = np.asarray(ref_mean, dtype=np.float64)
+    noise = M.relative_noise(var, ref)
     w = 1.0 / (ref * ref + RELMSE_EPS)
-    noise = float(np.sum(w * var) / var.size)
     if m4 is not None and n:
         var_of_var = np.maximum(np.asarray(m4, dtype=np.float64) - var * var, 0.0) / n
     elif batches and batches > 1:
