@@ -16,9 +16,10 @@ from .imageio import write_exr, write_png, read_exr, read_hdr, to_display
 from .lights import DirectionalLight, EnvMap, Light, PointLight, ProjectorLight, SpotLight
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Mask, Material, Metal, Plastic,
                         RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric)
+from .mesh import Mesh
 from .render import INTEGRATORS, STRATEGIES, TRIANGLE_TESTS, RenderResult, render
 from .scene import FILTERS, MAX_DEPTH_CAP, Camera, Direct, Filter, Scene
-from .shapes import Box, Mesh, Quad, Shape, Sphere, Triangle
+from .shapes import Box, Quad, Shape, Sphere, Triangle
 from .textures import Bitmap, Checkerboard, MeshAttribute, Texture
 
 __version__ = "0.1.0"

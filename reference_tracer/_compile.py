@@ -20,8 +20,9 @@ import numpy as np
 from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Mask, Metal, Plastic, RoughConductor,
                         RoughDielectric, RoughPlastic, ThinDielectric, reflectance_of, textures_of)
 from .lights import DirectionalLight, PointLight, ProjectorLight, SpotLight
+from .mesh import Mesh
 from .scene import DEFAULT_VFOV, PROJECTIONS, Scene
-from .shapes import Box, Mesh, Quad, Sphere, Triangle
+from .shapes import Box, Quad, Sphere, Triangle
 from .textures import FILTER_TYPES, WRAP_MODES, Bitmap, Checkerboard, MeshAttribute, Texture
 
 # Material table columns; must match MaterialType and the material rows read in cpp/bindings.cpp.

@@ -64,7 +64,7 @@ def use_core(path) -> None:
 
 @functools.lru_cache(maxsize=1)
 def build_id() -> str:
-    """A 16-hex-digit hash of the compiled ``_core`` extension and ``reference_tracer/*.py``.
+    """A 16-hex-digit hash of the compiled ``_core`` extension and ``reference_tracer/**/*.py``.
 
     Examples
     --------
@@ -73,8 +73,13 @@ def build_id() -> str:
     """
     h = hashlib.sha256()
     here = Path(__file__).resolve().parent
-    for path in [core_path()] + sorted(here.glob("*.py")):
-        h.update(path.name.encode())
+    core = core_path()
+    h.update(core.name.encode())
+    h.update(core.read_bytes())
+    # the sub-packages' sources too (meshfile/), each by its path in the package: a
+    # sub-package has an __init__.py as the package has
+    for path in sorted(here.rglob("*.py")):
+        h.update(path.relative_to(here).as_posix().encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]
 

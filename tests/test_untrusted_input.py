@@ -285,13 +285,13 @@ def test_a_mesh_is_checked_before_anything_is_allocated(tmp_path, source):
 
 
 def test_a_mesh_too_large_for_memory_exits_3(tmp_path, monkeypatch):
-    from reference_tracer import meshfile
+    from reference_tracer.meshfile import checks
 
     mesh = tmp_path / "ok.ply"
     from mitsuba_scenes.translate import write_ply
 
     write_ply(mesh, np.eye(3), [[0, 1, 2]])
-    monkeypatch.setattr(meshfile, "_available_memory", lambda: 10)
+    monkeypatch.setattr(checks, "_available_memory", lambda: 10)
     with pytest.raises(MemoryError, match="GiB"):
         rt.Mesh.load(mesh, rt.Lambertian(0.5))
     from benchmarks.errors import exit_code

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.shapes import farthest_distance, surface_within
+from reference_tracer.distances import farthest_distance, surface_within
 
 from .values import check_params, read_film_size, read_matrix, read_scalar, rigid_scale
 

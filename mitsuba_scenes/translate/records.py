@@ -7,7 +7,7 @@ import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.materials import textures_of
-from reference_tracer.shapes import farthest_distance
+from reference_tracer.distances import farthest_distance
 
 from .bsdfs import bsdf_record, f32, is_textured, rgb, value_record
 

@@ -83,7 +83,7 @@ def test_unsupported_scene_lists_everything(mi):
 def test_mesh_without_face_normals_gets_mitsubas_computed_normals(mi, tmp_path):
     """A PLY without normals and face_normals=false: Mitsuba computes vertex normals (the
     angle-weighted face normals) and shades it smooth; the import takes the same normals."""
-    from reference_tracer.shapes import vertex_normals
+    from reference_tracer.mesh import vertex_normals
 
     scene = get_scene("cornell_mesh", width=8, height=8)
     path = to_xml(scene, tmp_path / "m.xml")

@@ -677,13 +677,13 @@ def test_float_stored_triangle_blocks_equal_brute_force(float_exact):
 
 def _within(shapes, point, distance):
     """surface_within just beyond and just short of ``distance``: (True, False) where it is the nearest."""
-    from reference_tracer.shapes import surface_within
+    from reference_tracer.distances import surface_within
 
     return surface_within(shapes, point, distance * (1 + 1e-9)), surface_within(shapes, point, distance * (1 - 1e-9))
 
 
 def test_surface_within_and_farthest_distance_by_hand():
-    from reference_tracer.shapes import farthest_distance
+    from reference_tracer.distances import farthest_distance
 
     quad = rt.Quad((0, 0, 0), (2, 0, 0), (0, 1, 0), MAT)
     assert _within([quad], (1.0, 0.5, 0.3), 0.3) == (True, False)            # over its inside: the plane

@@ -25,7 +25,7 @@ from mitsuba_scenes.variants import import_mitsuba
 from benchmarks.gate.agreement import agreement
 from reference_tracer._compile import compile_scene
 from reference_tracer.render import core_scene
-from reference_tracer.shapes import vertex_normals
+from reference_tracer.mesh import vertex_normals
 from repo_paths import FIXTURES
 
 NORMALS = FIXTURES / "normals"
