@@ -267,7 +267,10 @@ def locate(d, pix, tiles, tile_levels, level_p: dict) -> tuple:
 
 
 def relative_bias(d, worst_tile: tuple) -> tuple:
-    """``(relative bias, its standard error, per channel, inside worst_tile)``; finite pixels only."""
+    """``(relative bias, its standard error, per channel, inside worst_tile)``; finite pixels only.
+
+    The standard error assumes independent pixels and bounds the correlation of a pixel's three
+    channels from above (Cauchy-Schwarz): it is exact for a grey image and conservative otherwise."""
     good = ~d.bad
     d_all = np.where(good, d.x - d.r, 0.0)
     r_all = np.where(good, d.r, 0.0)
@@ -276,8 +279,11 @@ def relative_bias(d, worst_tile: tuple) -> tuple:
         rel_c = np.where(sum_r_c != 0, d_all.sum(axis=(0, 1)) / sum_r_c, np.nan)
     sr = float(r_all.sum())
     rel = float(d_all.sum() / sr) if sr != 0 else math.nan
-    se_sum = d.a + d.b if d.fa is None else np.maximum(d.a, d.fa) + d.b
-    rel_se = float(math.sqrt(se_sum[good].sum()) / abs(sr)) if sr != 0 else math.nan
+    var = np.where(good, d.a + d.b if d.fa is None else np.maximum(d.a, d.fa) + d.b, 0.0)
+    # a pixel's channels come from the same paths, so their errors correlate (fully in a grey
+    # scene): the variance of their sum is at most (sum of the channels' deviations)^2
+    pixel_var = np.sqrt(var).sum(axis=2) ** 2
+    rel_se = float(math.sqrt(pixel_var.sum()) / abs(sr)) if sr != 0 else math.nan
     y0, x0, y1, x1 = worst_tile
     srt = float(r_all[y0:y1, x0:x1].sum())
     rel_tile = float(d_all[y0:y1, x0:x1].sum() / srt) if srt != 0 else math.nan

@@ -403,3 +403,26 @@ def test_power_of_an_exact_comparison_is_its_equality_tolerance():
     assert res.min_detectable_bias == pytest.approx(1e-4, rel=1e-9)
     assert res.min_detectable_tile_bias == pytest.approx(1e-4, rel=1e-9)
     assert compare(img * (1 + 2e-4), zero, 64, img, zero, 1 << 20, zero_var_rtol=1e-4).verdict == "fail"
+
+
+@pytest.mark.parametrize("grey", [True, False])
+def test_relative_bias_se_covers_channel_correlation(grey):
+    """The relative bias's standard error against its spread over 300 fixed seeds of an unbiased
+    render: exact where the channels' errors are one (a grey scene), an upper bound where they are
+    independent. Counting the channels as independent gave sqrt(3) too small an error for grey.
+    The spread of 300 draws has a relative error of ~4%: the bounds sit 5 of those away."""
+    ref = np.full((16, 16, 3), 0.5)
+    var = np.full_like(ref, 0.25)
+    rng = np.random.default_rng(11)
+    rel, se = [], []
+    for _ in range(300):
+        z = rng.standard_normal((16, 16, 1 if grey else 3))
+        test = ref + np.broadcast_to(z, ref.shape) * np.sqrt(0.25 / 64)
+        g = compare(test, var, 64, ref, var, 4096)
+        rel.append(g.relative_bias)
+        se.append(g.relative_bias_se)
+    ratio = np.std(rel, ddof=1) / np.mean(se)
+    if grey:
+        assert 0.8 < ratio < 1.2, ratio
+    else:
+        assert ratio < 0.8, ratio          # independent channels: sqrt(1/3) = 0.58 of the bound
