@@ -14,8 +14,11 @@ from .build import build_id
 from .estimate import ImageEstimate, SampleMoments
 from .imageio import write_exr, write_png, read_exr, read_hdr, to_display
 from .lights import DirectionalLight, EnvMap, Light, PointLight, ProjectorLight, SpotLight
-from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Mask, Material, Metal, Plastic,
-                        RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric)
+from .conductors import Metal, RoughConductor
+from .dielectrics import Dielectric, RoughDielectric, ThinDielectric
+from .mask import Mask
+from .materials import DISTRIBUTIONS, DiffuseLight, Lambertian, Material
+from .plastics import Plastic, RoughPlastic
 from .mesh import Mesh
 from .render import INTEGRATORS, STRATEGIES, TRIANGLE_TESTS, RenderResult, render
 from .scene import FILTERS, MAX_DEPTH_CAP, Camera, Direct, Filter, Scene

@@ -17,8 +17,12 @@ import math
 
 import numpy as np
 
-from .materials import (DISTRIBUTIONS, Dielectric, DiffuseLight, Lambertian, Mask, Metal, Plastic, RoughConductor,
-                        RoughDielectric, RoughPlastic, ThinDielectric, reflectance_of, textures_of)
+from .conductors import Metal, RoughConductor
+from .dielectrics import Dielectric, RoughDielectric, ThinDielectric
+from .mask import Mask
+from .material_textures import reflectance_of, textures_of
+from .materials import DISTRIBUTIONS, DiffuseLight, Lambertian
+from .plastics import Plastic, RoughPlastic
 from .lights import DirectionalLight, PointLight, ProjectorLight, SpotLight
 from .mesh import Mesh
 from .scene import DEFAULT_VFOV, PROJECTIONS, Scene

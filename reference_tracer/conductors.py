@@ -1,8 +1,11 @@
-"""Mitsuba 3's named conductors as RGB complex indices of refraction ``eta + i k``.
+"""Conductors: :class:`Metal` (a mirror, optionally fuzzy), :class:`RoughConductor` (microfacets) and
+Mitsuba 3's named conductors as RGB complex indices of refraction ``eta + i k``.
 
-Mitsuba's ``conductor`` and ``roughconductor`` take ``material="Au"`` (and the others below):
-spectral data (``data/ior/<name>.eta.spd`` and ``.k.spd``) that its RGB variants turn into
-RGB by integrating against the CIE 1931 curves, negative values clamped to 0. This table
+Conductors reflect with Fresnel 1 unless given a complex index of refraction (``eta``,
+``k``) or one of Mitsuba's named materials. Mitsuba's ``conductor`` and ``roughconductor``
+take ``material="Au"`` (and the others below): spectral data (``data/ior/<name>.eta.spd``
+and ``.k.spd``) that its RGB variants turn into RGB by integrating against the CIE 1931
+curves, negative values clamped to 0. This table
 holds the values Mitsuba 3.9.1 uses in ``scalar_rgb`` and ``llvm_ad_rgb`` (the same in
 both), read from it with::
 
@@ -13,7 +16,13 @@ for every ``*.eta.spd`` file it ships, rounded to 9 decimals. ``"none"`` is Fres
 """
 from __future__ import annotations
 
-__all__ = ["CONDUCTORS", "conductor_ior"]
+from dataclasses import dataclass, field
+
+from .materials import Material, check_alpha, check_distribution
+from .textures import check_reflectance
+from .validation import colour, finite_scalar
+
+__all__ = ["CONDUCTORS", "conductor_ior", "Metal", "RoughConductor"]
 
 #: name -> ((eta R, G, B), (k R, G, B)), as Mitsuba 3.9.1's RGB variants use them.
 CONDUCTORS = {
@@ -106,3 +115,101 @@ def conductor_ior(name: str) -> tuple:
         raise ValueError(f"unknown conductor material {name!r}; Mitsuba's named materials are: "
                          f"{', '.join(sorted(CONDUCTORS, key=str.lower))}")
     return CONDUCTORS[name]
+
+
+def _complex_ior(owner: str, eta, k, material):
+    """``(eta, k)`` RGB triples, or ``(None, None)`` for Fresnel 1, from the conductor options.
+
+    As Mitsuba: ``material`` names a preset ("none": Fresnel 1); ``eta`` (with ``k``, which
+    defaults to 1) gives the index directly; both at once is an error.
+    """
+    if material is not None and (eta is not None or k is not None):
+        raise ValueError(f"{owner}: give material or eta and k, not both (got material={material!r})")
+    if material is not None:
+        if not isinstance(material, str):
+            raise ValueError(f"{owner}.material must be a name, got {material!r}")
+        if material == "none":
+            return None, None
+        return conductor_ior(material)
+    if eta is None:
+        if k is not None:
+            raise ValueError(f"{owner}: k needs eta (the real part of the index)")
+        return None, None
+    return (colour(f"{owner}.eta", eta, upper=None),
+            colour(f"{owner}.k", 1.0 if k is None else k, upper=None))
+
+
+@dataclass(frozen=True)
+class Metal(Material):
+    """Mirror reflector with optional fuzz (the book's metal).
+
+    ``fuzz=0`` is an ideal mirror, Mitsuba ``conductor`` with ``specular_reflectance=albedo``:
+    Fresnel 1 (``material='none'``) by default, or the Fresnel reflectance of a complex
+    index ``eta + i k`` (RGB; ``k`` defaults to 1) or of one of Mitsuba's named materials
+    (``material="Au"``). ``albedo`` may be a texture (Mitsuba's ``specular_reflectance``
+    given one). ``fuzz > 0`` perturbs the mirror direction by a point in a ball of
+    radius ``fuzz``; it has no Mitsuba equivalent (translation to Mitsuba refuses it; use
+    :class:`RoughConductor`) and no Fresnel.
+
+    Examples
+    --------
+    >>> Metal((0.8, 0.85, 0.88)).fuzz
+    0.0
+    >>> Metal(1.0, material="Au").eta[2] > 1.0
+    True
+    """
+
+    albedo: tuple
+    fuzz: float = 0.0
+    two_sided: bool = False
+    eta: tuple | None = field(default=None, kw_only=True)
+    k: tuple | None = field(default=None, kw_only=True)
+    material: str | None = field(default=None, kw_only=True)
+    is_specular = True
+
+    def __post_init__(self):
+        object.__setattr__(self, "albedo", check_reflectance("Metal.albedo", self.albedo))
+        object.__setattr__(self, "fuzz", finite_scalar("Metal.fuzz", self.fuzz, lo=0.0, hi=1.0))
+        object.__setattr__(self, "two_sided", bool(self.two_sided))
+        eta, k = _complex_ior("Metal", self.eta, self.k, self.material)
+        if eta is not None and self.fuzz > 0:
+            raise ValueError("Metal: a fuzzy metal (fuzz > 0) has no Fresnel; give eta, k or material only with "
+                             "fuzz=0 (or use RoughConductor)")
+        object.__setattr__(self, "eta", eta)
+        object.__setattr__(self, "k", k)
+
+
+@dataclass(frozen=True)
+class RoughConductor(Material):
+    """Microfacet conductor, scaled by ``albedo``: Mitsuba ``roughconductor``.
+
+    The same ``alpha`` as Mitsuba's (roughness = alpha, not alpha squared), isotropic;
+    ``distribution`` ``'ggx'`` (the default here) or ``'beckmann'`` (Mitsuba's default);
+    Fresnel 1 (``material='none'``) unless given a complex index ``eta + i k`` (RGB; ``k``
+    defaults to 1) or one of Mitsuba's named materials (``material="Cu"``); albedo is
+    Mitsuba's ``specular_reflectance`` (an RGB value or a texture).
+
+    Examples
+    --------
+    >>> RoughConductor((0.9, 0.9, 0.9), alpha=0.1).alpha
+    0.1
+    >>> RoughConductor(1.0, alpha=0.2, distribution="beckmann", material="Cu").distribution
+    'beckmann'
+    """
+
+    albedo: tuple
+    alpha: float
+    two_sided: bool = False
+    distribution: str = field(default="ggx", kw_only=True)
+    eta: tuple | None = field(default=None, kw_only=True)
+    k: tuple | None = field(default=None, kw_only=True)
+    material: str | None = field(default=None, kw_only=True)
+
+    def __post_init__(self):
+        object.__setattr__(self, "albedo", check_reflectance("RoughConductor.albedo", self.albedo))
+        object.__setattr__(self, "alpha", check_alpha("RoughConductor", self.alpha))
+        object.__setattr__(self, "two_sided", bool(self.two_sided))
+        check_distribution("RoughConductor", self.distribution)
+        eta, k = _complex_ior("RoughConductor", self.eta, self.k, self.material)
+        object.__setattr__(self, "eta", eta)
+        object.__setattr__(self, "k", k)

@@ -10,7 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .materials import Material, textures_of
+from .material_textures import textures_of
+from .materials import Material
 from .meshfile import read_mesh
 from .shapes import IDENTITY, Shape, spans_area
 

@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["finite_scalar", "vector3", "colour", "positive_int", "open_regular_file", "FLOAT32_MAX", "INT_MAX",
-           "SEED_MAX"]
+__all__ = ["finite_scalar", "flag", "vector3", "colour", "positive_int", "open_regular_file", "FLOAT32_MAX",
+           "INT_MAX", "SEED_MAX"]
 
 
 def finite_scalar(name: str, value, *, lo: float | None = None, hi: float | None = None,
@@ -70,6 +70,23 @@ def finite_scalar(name: str, value, *, lo: float | None = None, hi: float | None
     if hi is not None and x > hi:
         raise ValueError(f"{name} must be <= {hi}, got {x!r}")
     return x
+
+
+def flag(name: str, value) -> bool:
+    """``value`` as a bool: True, False (or 1, 0); anything else (a string, None) is refused.
+
+    Examples
+    --------
+    >>> flag("two_sided", 1)
+    True
+    >>> flag("two_sided", "false")
+    Traceback (most recent call last):
+    ...
+    ValueError: two_sided must be True or False, got 'false'
+    """
+    if isinstance(value, (bool, np.bool_)) or (isinstance(value, (int, np.integer)) and value in (0, 1)):
+        return bool(value)
+    raise ValueError(f"{name} must be True or False, got {value!r}")
 
 
 def vector3(name: str, value) -> tuple:

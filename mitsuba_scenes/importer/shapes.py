@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.materials import textures_of
+from reference_tracer.material_textures import textures_of
 from reference_tracer.meshfile import check_mesh_file, check_serialized_file, decode_obj, obj_undefined_normal
 
 from .bsdfs import read_bsdf

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.materials import textures_of
+from reference_tracer.material_textures import textures_of
 
 from .values import check_params, read_bool, read_matrix, read_scalar, read_spectrum
 

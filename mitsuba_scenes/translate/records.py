@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.materials import textures_of
+from reference_tracer.material_textures import textures_of
 from reference_tracer.distances import farthest_distance
 
 from .bsdfs import bsdf_record, f32, is_textured, rgb, value_record

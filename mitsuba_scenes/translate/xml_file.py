@@ -11,7 +11,7 @@ import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.imageio import atomic_write, write_exr
-from reference_tracer.materials import textures_of
+from reference_tracer.material_textures import textures_of
 
 from .ply import write_ply
 from .records import lower, sensor_params

@@ -33,6 +33,7 @@ from benchmarks.parity import run_parity
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
 from mitsuba_scenes.importer import UnsupportedSceneError
 from reference_tracer import probe
+from reference_tracer.material_textures import reflectance_of
 from reference_tracer.textures import read_image, srgb_to_linear
 
 pytestmark = pytest.mark.usefixtures("fresh_registries")
@@ -108,7 +109,7 @@ def test_parity_sees_a_shifted_texture(name):
     """The same scene in Mitsuba against ours with to_uv shifted by 0.1 in v: albedo differs."""
     scene = _scene(PARITY[name]())
     shape = scene.shapes[0]
-    tex = rt.materials.reflectance_of(shape.material)
+    tex = reflectance_of(shape.material)
     shifted = (tex.to_uv[0], (tex.to_uv[1][0], tex.to_uv[1][1], tex.to_uv[1][2] + 0.1))
     wrong = (rt.Checkerboard(tex.color0, tex.color1, to_uv=shifted) if isinstance(tex, rt.Checkerboard)
              else rt.Bitmap(tex.data, filter=tex.filter, wrap=tex.wrap, to_uv=shifted))
