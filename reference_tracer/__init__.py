@@ -10,20 +10,23 @@ Examples
 >>> result.mean.shape
 (16, 16, 3)
 """
+from .bitmap import Bitmap
 from .build import build_id
 from .estimate import ImageEstimate, SampleMoments
 from .imageio import write_exr, write_png, read_exr, read_hdr, to_display
-from .lights import DirectionalLight, EnvMap, Light, PointLight, ProjectorLight, SpotLight
+from .envmap import EnvMap
+from .lights import DirectionalLight, Light, PointLight, SpotLight
 from .conductors import Metal, RoughConductor
 from .dielectrics import Dielectric, RoughDielectric, ThinDielectric
 from .mask import Mask
 from .materials import DISTRIBUTIONS, DiffuseLight, Lambertian, Material
 from .plastics import Plastic, RoughPlastic
 from .mesh import Mesh
+from .projector import ProjectorLight
 from .render import INTEGRATORS, STRATEGIES, TRIANGLE_TESTS, RenderResult, render
 from .scene import FILTERS, MAX_DEPTH_CAP, Camera, Direct, Filter, Scene
 from .shapes import Box, Quad, Shape, Sphere, Triangle
-from .textures import Bitmap, Checkerboard, MeshAttribute, Texture
+from .textures import Checkerboard, MeshAttribute, Texture
 
 __version__ = "0.1.0"
 

@@ -17,17 +17,19 @@ import math
 
 import numpy as np
 
+from .bitmap import FILTER_TYPES, WRAP_MODES, Bitmap
 from .conductors import Metal, RoughConductor
 from .dielectrics import Dielectric, RoughDielectric, ThinDielectric
 from .mask import Mask
 from .material_textures import reflectance_of, textures_of
 from .materials import DISTRIBUTIONS, DiffuseLight, Lambertian
 from .plastics import Plastic, RoughPlastic
-from .lights import DirectionalLight, PointLight, ProjectorLight, SpotLight
+from .lights import DirectionalLight, PointLight, SpotLight
 from .mesh import Mesh
+from .projector import ProjectorLight
 from .scene import DEFAULT_VFOV, PROJECTIONS, Scene
 from .shapes import Box, Quad, Sphere, Triangle
-from .textures import FILTER_TYPES, WRAP_MODES, Bitmap, Checkerboard, MeshAttribute, Texture
+from .textures import Checkerboard, MeshAttribute, Texture
 
 # Material table columns; must match MaterialType and the material rows read in cpp/bindings.cpp.
 MATERIAL_CODES = {Lambertian: 0, Metal: 1, Dielectric: 2, RoughConductor: 3, DiffuseLight: 4, Plastic: 5,

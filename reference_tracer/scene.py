@@ -9,7 +9,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .lights import EnvMap, Light
+from .envmap import EnvMap
+from .lights import Light
 from .validation import colour, finite_scalar, positive_int, vector3
 from .shapes import Shape
 

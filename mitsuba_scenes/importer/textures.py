@@ -115,7 +115,7 @@ def _checkerboard(ctx, node):
 
 
 def _bitmap(ctx, node):
-    """Mitsuba's ``bitmap`` from its file (read by :func:`reference_tracer.textures.read_image`,
+    """Mitsuba's ``bitmap`` from its file (read by :func:`reference_tracer.image_files.read_image`,
     which checks the file and its header first), or None after recording a problem."""
     check_params(ctx, node, {"filename", "filter_type", "wrap_mode", "raw", "to_uv", "format", "accel"}, "texture")
     p = node.props

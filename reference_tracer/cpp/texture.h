@@ -2,7 +2,7 @@
 // up at a hit's texture coordinates (Scene::texture_uv) after the texture's to_uv map, and
 // Mitsuba's `mesh_attribute` (a mesh's per-vertex or per-face values, looked up by the hit's
 // triangle and barycentrics instead: Texture::attribute). The
-// Python layer (reference_tracer/textures.py) decodes image files into the linear texel
+// Python layer (reference_tracer/image_files.py, bitmap.py) decodes image files into the linear texel
 // values Mitsuba stores (8-bit sRGB texels decoded one by one, EXR as it is) and validates
 // every parameter; this is the lookup alone.
 #pragma once

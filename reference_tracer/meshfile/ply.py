@@ -9,7 +9,7 @@ import io
 
 import numpy as np
 
-from ..textures import srgb_to_linear
+from ..image_files import srgb_to_linear
 from .data import MeshData
 
 __all__ = ["parse_ply", "ply_attributes"]

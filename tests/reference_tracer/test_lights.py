@@ -187,15 +187,15 @@ def test_untrusted_image_files_are_refused_before_decoding(tmp_path):
         rt.EnvMap(not_rgbe)
     exr = tmp_path / "big.exr"
     rt.write_exr(exr, np.ones((4, 4, 3)))
-    from reference_tracer import lights
+    from reference_tracer import envmap
 
-    old = lights.MAX_ENVMAP_PIXELS
-    lights.MAX_ENVMAP_PIXELS = 8
+    old = envmap.MAX_ENVMAP_PIXELS
+    envmap.MAX_ENVMAP_PIXELS = 8
     try:
         with pytest.raises(ValueError, match="more than"):
             rt.EnvMap(exr)
     finally:
-        lights.MAX_ENVMAP_PIXELS = old
+        envmap.MAX_ENVMAP_PIXELS = old
     damaged = tmp_path / "damaged.exr"
     damaged.write_bytes(exr.read_bytes()[:60])
     with pytest.raises(ValueError, match="cannot be read|damaged"):

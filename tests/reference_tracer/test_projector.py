@@ -172,7 +172,7 @@ def test_bad_input_is_refused(make, needle):
 
 
 def test_a_missing_texture_file_is_named():
-    # Bitmap's own contract (textures.read_image): a file that cannot be opened is the OS's
+    # Bitmap's own contract (image_files.read_image): a file that cannot be opened is the OS's
     # error; the importer turns it into its ValueError with the place (test below)
     with pytest.raises(OSError, match="missing.png"):
         rt.ProjectorLight((0, 0, 0), (0, 0, 1), rt.Bitmap("/nonexistent/missing.png"))

@@ -33,8 +33,8 @@ from benchmarks.parity import run_parity
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
 from mitsuba_scenes.importer import UnsupportedSceneError
 from reference_tracer import probe
+from reference_tracer.image_files import read_image, srgb_to_linear
 from reference_tracer.material_textures import reflectance_of
-from reference_tracer.textures import read_image, srgb_to_linear
 
 pytestmark = pytest.mark.usefixtures("fresh_registries")
 
@@ -120,8 +120,8 @@ def test_parity_sees_a_shifted_texture(name):
     assert not report.passed and report.counts["albedo"] > 50, report.summary()
 
 
-@pytest.mark.parametrize("filter", rt.textures.FILTER_TYPES)
-@pytest.mark.parametrize("wrap", rt.textures.WRAP_MODES)
+@pytest.mark.parametrize("filter", rt.bitmap.FILTER_TYPES)
+@pytest.mark.parametrize("wrap", rt.bitmap.WRAP_MODES)
 def test_core_lookup_is_the_python_texture(filter, wrap):
     """The core's value at each hit is Bitmap.eval at the core's texture coordinates (the
     Python model the docs describe), across several periods of the image each way."""

@@ -14,7 +14,7 @@
 // column and the first) and the H rows at v = k / (H - 1) (the first row at the pole +y,
 // the last at -y, clamped beyond), times `scale`. Mitsuba pads an image narrower than 2
 // columns or shorter than 3 rows by repeating its last column / row first: the caller
-// passes the padded image (reference_tracer/lights.py).
+// passes the padded image (reference_tracer/envmap.py).
 //
 // Sampling (sample, pdf): piecewise constant in solid angle over the cells of that same
 // grid: cell (j, k) spans u in [(j + 1/2) / W, (j + 3/2) / W] (the last one wraps past
