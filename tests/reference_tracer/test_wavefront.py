@@ -5,6 +5,8 @@ their images must agree bit for bit, not only statistically: every suite scene a
 strategy, both Russian-roulette configurations, the tail moments, the ray counts. The
 batched intersection queries it relies on must equal the one-ray-at-a-time ones exactly.
 """
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -37,8 +39,6 @@ def test_wavefront_image_equals_scalar_bit_for_bit(name, strategy):
 @pytest.mark.parametrize("rr_depth", [None, 1, 5])
 @pytest.mark.parametrize("name", ["cornell_box", "glossy_plates", "cornell_mesh"])
 def test_wavefront_equals_scalar_with_and_without_roulette(name, rr_depth):
-    import dataclasses
-
     scene = dataclasses.replace(get_scene(name, width=16, height=16), rr_depth=rr_depth)
     a, b = (rt.render(scene, spp=8, strategy="mis", seed=5, threads=1, integrator=i)
             for i in ("scalar", "wavefront"))
@@ -97,18 +97,6 @@ def _mixed_vertices_scene():
                     camera=rt.Camera(lookfrom=(0.5, 2, 7), lookat=(0, 1, 0), vup=(0, 1, 0), vfov=60, width=24, height=18))
 
 
-@pytest.mark.parametrize("rr_depth", [None, 2])
-@pytest.mark.parametrize("strategy", rt.STRATEGIES)
-def test_wavefront_equals_scalar_on_mixed_vertices(strategy, rr_depth):
-    import dataclasses
-
-    scene = dataclasses.replace(_mixed_vertices_scene(), rr_depth=rr_depth)
-    a, b = (rt.render(scene, spp=8, strategy=strategy, seed=13, threads=2, moments=True, integrator=i)
-            for i in ("scalar", "wavefront"))
-    _assert_same_render(a, b)
-    assert a.mean.max() > 0
-
-
 def _plastics_scene():
     # Plastics run the scalar steps lane by lane in the wavefront integrator (its packs are
     # for Lambertian vertices): smooth plastic, whose samples are a Dirac lobe's or not, one
@@ -160,25 +148,18 @@ def _smooth_scene():
                                      height=18))
 
 
-@pytest.mark.parametrize("rr_depth", [None, 2])
-@pytest.mark.parametrize("strategy", rt.STRATEGIES)
-def test_wavefront_equals_scalar_with_plastics(strategy, rr_depth):
-    import dataclasses
-
-    scene = dataclasses.replace(_plastics_scene(), rr_depth=rr_depth)
-    a, b = (rt.render(scene, spp=8, strategy=strategy, seed=17, threads=2, moments=True, integrator=i)
-            for i in ("scalar", "wavefront"))
-    _assert_same_render(a, b)
-    assert a.mean.max() > 0
+#: Hand-made scenes whose vertices take the integrators' less common paths, and the seed each renders at.
+_CASES = {"mixed vertices": (_mixed_vertices_scene, 13), "plastics": (_plastics_scene, 17),
+          "shading normals": (_smooth_scene, 17)}
 
 
 @pytest.mark.parametrize("rr_depth", [None, 2])
 @pytest.mark.parametrize("strategy", rt.STRATEGIES)
-def test_wavefront_equals_scalar_with_shading_normals(strategy, rr_depth):
-    import dataclasses
-
-    scene = dataclasses.replace(_smooth_scene(), rr_depth=rr_depth)
-    a, b = (rt.render(scene, spp=8, strategy=strategy, seed=17, threads=2, moments=True, integrator=i)
+@pytest.mark.parametrize("case", _CASES)
+def test_wavefront_equals_scalar_on_hand_made_scenes(case, strategy, rr_depth):
+    build, seed = _CASES[case]
+    scene = dataclasses.replace(build(), rr_depth=rr_depth)
+    a, b = (rt.render(scene, spp=8, strategy=strategy, seed=seed, threads=2, moments=True, integrator=i)
             for i in ("scalar", "wavefront"))
     _assert_same_render(a, b)
     assert a.mean.max() > 0 and a.nonfinite_samples == 0
