@@ -14,6 +14,7 @@ from .material_textures import textures_of
 from .materials import Material
 from .meshfile import read_mesh
 from .shapes import IDENTITY, Shape, spans_area
+from .validation import not_directions
 
 __all__ = ["Mesh", "vertex_normals"]
 
@@ -181,7 +182,7 @@ class Mesh(Shape):
                              f"all {len(self.faces)} triangles are degenerate (collinear or repeated vertices)")
         if self.normals is not None:
             n = self._normal_directions()
-            bad = _not_directions(n)
+            bad = not_directions(n)
             if bad.any():
                 i = int(np.argmax(bad))
                 raise ValueError(f"Mesh.normals[{i}] = {self.normals[i].tolist()} vanishes under Mesh.transform "
@@ -260,11 +261,6 @@ def _per_vertex(field_name: str, value, n_vertices: int, width: int, bad_rows, r
     return a
 
 
-def _not_directions(n: np.ndarray) -> np.ndarray:
-    """The rows of ``n`` that are no direction: not finite, or zero."""
-    return ~(np.all(np.isfinite(n), axis=1) & np.any(n != 0.0, axis=1))
-
-
 def _check_uv(uv, n_vertices: int) -> np.ndarray:
     """Per-vertex texture coordinates as a read-only (N, 2) float64 array, finite.
 
@@ -335,7 +331,7 @@ def _check_normals(normals, n_vertices: int) -> np.ndarray:
     ...
     ValueError: Mesh.normals[0] is [0.0, 0.0, 0.0]: a vertex normal must be finite and non-zero
     """
-    return _per_vertex("normals", normals, n_vertices, 3, _not_directions,
+    return _per_vertex("normals", normals, n_vertices, 3, not_directions,
                        "a vertex normal must be finite and non-zero")
 
 

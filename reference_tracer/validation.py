@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["finite_scalar", "flag", "vector3", "colour", "positive_int", "open_regular_file", "FLOAT32_MAX",
+__all__ = ["finite_scalar", "flag", "not_directions", "vector3", "colour", "positive_int", "open_regular_file", "FLOAT32_MAX",
            "INT_MAX", "SEED_MAX"]
 
 
@@ -87,6 +87,18 @@ def flag(name: str, value) -> bool:
     if isinstance(value, (bool, np.bool_)) or (isinstance(value, (int, np.integer)) and value in (0, 1)):
         return bool(value)
     raise ValueError(f"{name} must be True or False, got {value!r}")
+
+
+def not_directions(rows) -> np.ndarray:
+    """Which rows of an (N, 3) array are no direction: not finite, or zero (a normal that
+    would shade as NaN).
+
+    Examples
+    --------
+    >>> not_directions(np.array([[0.0, 0.0, 2.0], [0.0, 0.0, 0.0], [np.nan, 1.0, 0.0]])).tolist()
+    [False, True, True]
+    """
+    return ~(np.all(np.isfinite(rows), axis=1) & np.any(rows != 0.0, axis=1))
 
 
 def vector3(name: str, value) -> tuple:

@@ -10,6 +10,7 @@ import io
 import numpy as np
 
 from ..image_files import srgb_to_linear
+from ..validation import not_directions
 from .data import MeshData
 
 __all__ = ["parse_ply", "ply_attributes"]
@@ -51,7 +52,7 @@ def _ply_normals(tm, faces: np.ndarray, name: str) -> np.ndarray | None:
     except (KeyError, ValueError, TypeError, IndexError):
         return None
     n = np.stack(columns, axis=1)
-    bad = ~(np.all(np.isfinite(n), axis=1) & np.any(n != 0.0, axis=1))
+    bad = not_directions(n)
     if bad.any():
         used = np.zeros(len(n), dtype=bool)
         used[faces[(faces >= 0) & (faces < len(n))]] = True
