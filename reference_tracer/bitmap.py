@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .image_files import MAX_TEXTURE_PIXELS, read_image
+from .image_files import MAX_TEXTURE_PIXELS, pad_to, read_image
 from .textures import LUMINANCE, Texture, check_to_uv, texture_uv
 
 __all__ = ["Bitmap", "FILTER_TYPES", "WRAP_MODES"]
@@ -90,11 +90,8 @@ class Bitmap(Texture):
             data = read_image(source, raw=self.raw)
         else:
             data = _image_array(source)
-        # Mitsuba's bitmap texture needs 2x2 texels at least: it repeats the last row and column.
-        if data.shape[0] < 2 or data.shape[1] < 2:
-            data = np.pad(data, ((0, max(0, 2 - data.shape[0])), (0, max(0, 2 - data.shape[1])), (0, 0)),
-                          mode="edge")
-        data = np.ascontiguousarray(data, dtype=np.float32)
+        # Mitsuba's bitmap texture needs 2x2 texels at least.
+        data = np.ascontiguousarray(pad_to(data, 2, 2), dtype=np.float32)
         data.setflags(write=False)
         object.__setattr__(self, "data", data)
         object.__setattr__(self, "image", self.filename if self.filename is not None else data)

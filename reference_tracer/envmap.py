@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .image_files import pad_to
 from .imageio import read_exr, read_hdr
 from .lights import Light
 from .validation import FLOAT32_MAX, finite_scalar, open_regular_file
@@ -97,14 +98,8 @@ def _pixels(image) -> np.ndarray:
     if np.any(a > FLOAT32_MAX):
         raise ValueError("EnvMap image values must be at most the largest float32")
     rgb = np.repeat(a, 3, axis=2) if a.shape[2] == 1 else a[..., :3]
-    # Mitsuba's Bitmap::pad_to((2, 3)): at least 2 columns and 3 rows, the last column and
-    # row repeated.
-    h, w = rgb.shape[:2]
-    if w < 2:
-        rgb = np.concatenate([rgb, np.repeat(rgb[:, -1:], 2 - w, axis=1)], axis=1)
-    if h < 3:
-        rgb = np.concatenate([rgb, np.repeat(rgb[-1:], 3 - h, axis=0)], axis=0)
-    out = np.ascontiguousarray(rgb, dtype=np.float32)
+    # Mitsuba's envmap pads to at least 2 columns and 3 rows.
+    out = np.ascontiguousarray(pad_to(rgb, 3, 2), dtype=np.float32)
     out.flags.writeable = False
     return out
 

@@ -16,7 +16,7 @@ import numpy as np
 from .imageio import read_exr
 from .validation import open_regular_file
 
-__all__ = ["read_image", "srgb_to_linear", "MAX_TEXTURE_PIXELS"]
+__all__ = ["read_image", "srgb_to_linear", "pad_to", "MAX_TEXTURE_PIXELS"]
 
 #: the most pixels an image file may declare (64 Mi, as :func:`reference_tracer.read_exr`).
 MAX_TEXTURE_PIXELS = 1 << 26
@@ -44,6 +44,19 @@ def srgb_to_linear(x) -> np.ndarray:
 #: 8-bit texel values decoded to linear (sRGB) and unscaled (raw), float32.
 _SRGB_TABLE = srgb_to_linear(np.arange(256, dtype=np.float32) * np.float32(1.0 / 255.0))
 _RAW_TABLE = (np.arange(256, dtype=np.float32) * np.float32(1.0 / 255.0)).astype(np.float32)
+
+
+def pad_to(image: np.ndarray, rows: int, columns: int) -> np.ndarray:
+    """``image`` (H, W, C) grown to at least ``rows`` x ``columns`` texels by repeating its last
+    row and column, as Mitsuba's ``Bitmap::pad_to``; itself where it is large enough.
+
+    >>> pad_to(np.arange(3.0).reshape(1, 3, 1), 2, 2)[..., 0].tolist()
+    [[0.0, 1.0, 2.0], [0.0, 1.0, 2.0]]
+    """
+    h, w = image.shape[:2]
+    if h >= rows and w >= columns:
+        return image
+    return np.pad(image, ((0, max(0, rows - h)), (0, max(0, columns - w)), (0, 0)), mode="edge")
 
 
 def _check_size(path, width: int, height: int, max_pixels: int) -> None:
