@@ -18,7 +18,14 @@ def firefly_counts(scene: rt.Scene, *, strategies=rt.STRATEGIES, renders: int = 
                    seed: int = 0) -> dict:
     """Per strategy, the samples of ``renders`` 1-spp renders above ``factor`` times the mean
     of ``mis``'s (``threshold``, ``samples``, ``counts``, ``means``, ``max``), pixels that
-    see an emitter directly and their neighbours left out (the light itself)."""
+    see an emitter directly and their neighbours left out (the light itself). ``ValueError``
+    where ``strategies`` leaves out ``mis`` (the threshold's measure) or ``renders`` < 1."""
+    strategies = tuple(strategies)
+    if "mis" not in strategies:
+        raise ValueError(f"firefly_counts needs 'mis' among the strategies (the threshold is {factor:g}x its "
+                         f"mean), got {', '.join(strategies) or 'none'}")
+    if renders < 1:
+        raise ValueError(f"renders must be at least 1, got {renders}")
     direct_scene = rt.Scene(camera=scene.camera, shapes=scene.shapes, max_depth=1, background=scene.background)
     direct = rt.render(direct_scene, spp=64, strategy="cosine", seed=seed, threads=2).mean.max(axis=-1) > 0
     grown = ndimage.maximum_filter(direct, size=3, mode="wrap")   # and the 8 neighbours, across the borders

@@ -20,6 +20,14 @@ def test_mis_has_orders_fewer_fireflies_than_uniform():
     assert fc["nonfinite_samples"] == 0
 
 
+@pytest.mark.parametrize("strategies, renders, message", [(("uniform", "cosine"), 2, "needs 'mis'"),
+                                                          (("mis",), 0, "renders must be at least 1")])
+def test_firefly_counts_refuses_what_it_cannot_measure(strategies, renders, message):
+    """The threshold is a multiple of mis's mean: without mis (or renders) a clear error, not a KeyError."""
+    with pytest.raises(ValueError, match=message):
+        stress.firefly_counts(get_scene("small_light", width=8, height=8), strategies=strategies, renders=renders)
+
+
 @pytest.mark.slow
 def test_fireflies_every_strategy():
     rec = stress.fireflies(width=64, renders=512, seed=1)
