@@ -23,6 +23,7 @@ from benchmarks.cli import main
 from benchmarks.store import RESULTS, SUMMARY, append_record, read_records, record_key, write_image
 
 from harness_util import ROOT
+from mitsuba_xml import scene_xml
 from report_store import make_store
 
 
@@ -260,12 +261,9 @@ HUGE_PLY = (b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\np
 
 def _xml_with_mesh(tmp_path, mesh: str, kind: str = "ply", face_normals: bool = True) -> Path:
     xml = tmp_path / "scene.xml"
-    xml.write_text(f"""<scene version="3.0.0">
-  <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>
-    <integer name="height" value="8"/><rfilter type="box"/></film></sensor>
-  <shape type="{kind}"><string name="filename" value="{mesh}"/><boolean name="face_normals" value="{str(face_normals).lower()}"/></shape>
-</scene>
-""")
+    xml.write_text(scene_xml(f'<shape type="{kind}"><string name="filename" value="{mesh}"/>'
+                             f'<boolean name="face_normals" value="{str(face_normals).lower()}"/></shape>',
+                             width=8, height=8))
     return xml
 
 

@@ -14,6 +14,7 @@ import pytest
 import reference_tracer as rt
 from benchmarks.gate.agreement import agreement
 from mitsuba_scenes import from_mitsuba, render_mitsuba
+from mitsuba_xml import path_integrator, scene_xml
 
 
 def _icosphere():
@@ -48,12 +49,7 @@ def _scene(tmp_path):
     write_serialized(tmp_path / "meshes.serialized", [("floor", floor_v, [(0, 1, 2), (0, 2, 3)], None),
                                                        ("ball", v, f, v)])
     xml = tmp_path / "scene.xml"
-    xml.write_text("""<scene version="3.0.0">
-    <integrator type="path"><integer name="max_depth" value="4"/></integrator>
-    <sensor type="perspective"><float name="fov" value="45"/>
-        <transform name="to_world"><lookat origin="0, 2.5, 5" target="0, 0.6, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="30"/>
-            <rfilter type="box"/></film></sensor>
+    xml.write_text(scene_xml("""
     <shape type="serialized"><string name="filename" value="meshes.serialized"/>
         <integer name="shape_index" value="0"/><bsdf type="diffuse"/></shape>
     <shape type="serialized"><string name="filename" value="meshes.serialized"/>
@@ -61,8 +57,8 @@ def _scene(tmp_path):
         <transform name="to_world"><translate y="1"/></transform>
         <bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.6, 0.3, 0.2"/></bsdf></shape>
     <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="90"/><translate y="3.5"/></transform>
-        <emitter type="area"><rgb name="radiance" value="5"/></emitter></shape>
-</scene>""")
+        <emitter type="area"><rgb name="radiance" value="5"/></emitter></shape>""",
+        integrator=path_integrator(4), fov=45, origin="0, 2.5, 5", target="0, 0.6, 0", width=40, height=30))
     return xml
 
 

@@ -16,6 +16,7 @@ import pytest
 import reference_tracer as rt
 from benchmarks.gate.agreement import agreement
 from mitsuba_scenes import from_mitsuba, get_scene, render_mitsuba, to_mitsuba, to_xml
+from mitsuba_xml import scene_xml
 
 SPP = 4096
 
@@ -98,12 +99,8 @@ def test_the_agreement_test_sees_missing_weights():
 
 def _xml(tmp_path, integrator: str) -> str:
     path = tmp_path / "s.xml"
-    path.write_text(f"""<scene version="3.0.0">
-    {integrator}
-    <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>
-        <integer name="height" value="8"/><rfilter type="box"/></film></sensor>
-    <shape type="sphere"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
-</scene>""")
+    light = '<shape type="sphere"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>'
+    path.write_text(scene_xml(light, integrator=integrator, width=8, height=8))
     return str(path)
 
 

@@ -33,6 +33,7 @@ from benchmarks.cli import main
 from benchmarks.gate.agreement import agreement
 from benchmarks.parity import run_parity
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
+from mitsuba_xml import diffuse_floor, path_integrator, scene_xml
 from reference_tracer import probe
 from reference_tracer.render import BLIND_TO_DELTA_LIGHTS
 from repo_paths import FIXTURES
@@ -285,7 +286,7 @@ def test_a_sweep_refuses_blind_strategies_before_rendering(tmp_path, capsys):
     """``rtbench curves`` with a strategy that cannot see a scene's delta lights: one line,
     exit 2 (bad input), nothing rendered or written."""
     xml = tmp_path / "point.xml"
-    xml.write_text(_SCENE.format(integrator=_PATH, emitters=_EMITTERS["point"][1]))
+    xml.write_text(_scene_xml(_PATH, _EMITTERS["point"][1]))
     out = tmp_path / "store"
     code = main(["curves", "--scene", str(xml), "--strategies", "cosine,mis", "--spps", "1", "--seeds", "1",
                  "--width", "8", "--out", str(out), "--reference-spp", "16"])
@@ -352,23 +353,18 @@ def test_direct_integrator_reproduces_mitsubas_delta_light_weighting():
 
 
 # --------------------------------------------------------------------------- agreement with Mitsuba
-_SCENE = """<scene version="3.0.0">
-    <default name="integrator" value="path"/>
-    {integrator}
-    <sensor type="perspective"><float name="fov" value="45"/>
-        <transform name="to_world"><lookat origin="0, 3, 5" target="0, 0.5, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="24"/>
-            <rfilter type="box"/></film></sensor>
-    <shape type="rectangle"><transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/></transform>
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.6, 0.5"/></bsdf></shape>
+def _scene_xml(integrator: str, emitters: str) -> str:
+    """A floor, a diffuse ball and a rough metal one, lit by ``emitters`` alone."""
+    return scene_xml(diffuse_floor(4) + """\
     <shape type="sphere"><point name="center" x="-0.6" y="0.6" z="0"/><float name="radius" value="0.6"/>
         <bsdf type="diffuse"><rgb name="reflectance" value="0.8"/></bsdf></shape>
     <shape type="sphere"><point name="center" x="0.8" y="0.5" z="0.4"/><float name="radius" value="0.5"/>
         <bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf></shape>
-    {emitters}
-</scene>
-"""
-_PATH = '<integrator type="path"><integer name="max_depth" value="4"/></integrator>'
+    """ + emitters, integrator='<default name="integrator" value="path"/>' + integrator, fov=45,
+                     origin="0, 3, 5", target="0, 0.5, 0", width=32, height=24)
+
+
+_PATH = path_integrator(4)
 _ENVMAP = """<emitter type="envmap"><string name="filename" value="{file}"/><float name="scale" value="0.8"/>
         <transform name="to_world"><rotate y="1" angle="70"/><rotate x="1" angle="20"/></transform></emitter>"""
 _EMITTERS = {
@@ -401,7 +397,7 @@ def test_lights_agree_with_mitsuba(tmp_path, mi, name):
     mi.Bitmap(img).write(str(tmp_path / "env.hdr"))
     integrator, emitters = _EMITTERS[name]
     xml = tmp_path / "scene.xml"
-    xml.write_text(_SCENE.format(integrator=integrator, emitters=emitters))
+    xml.write_text(_scene_xml(integrator, emitters))
     scene = from_mitsuba(xml)
     assert len(scene.lights) >= 1
     mit = render_mitsuba(xml, spp=SPP, seed=1, batches=16, threads=2)
@@ -466,7 +462,7 @@ def test_lights_round_trip_through_xml(tmp_path):
 def test_import_reads_emitter_parameters(tmp_path):
     rt.write_exr(tmp_path / "sky.exr", _env_image(shape=(4, 8)))
     xml = tmp_path / "s.xml"
-    xml.write_text(_SCENE.format(integrator=_PATH, emitters="""
+    xml.write_text(_scene_xml(_PATH, """
         <emitter type="envmap"><string name="filename" value="sky.exr"/><boolean name="mis_compensation" value="true"/>
             <float name="sampling_weight" value="2"/></emitter>
         <emitter type="point"><transform name="to_world"><translate x="1" y="2" z="3"/></transform></emitter>
@@ -515,7 +511,7 @@ def test_import_refuses_what_it_does_not_model_with_file_and_line(tmp_path, mi, 
     bad[1, 2, 0] = np.nan
     mi.Bitmap(bad).write(str(tmp_path / "nan.exr"))   # our writer refuses NaN; Mitsuba's does not
     xml = tmp_path / "s.xml"
-    xml.write_text(_SCENE.format(integrator=_PATH, emitters=emitters))
+    xml.write_text(_scene_xml(_PATH, emitters))
     with pytest.raises(ValueError) as err:
         from_mitsuba(xml)
     msg = str(err.value)

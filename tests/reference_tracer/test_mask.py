@@ -23,6 +23,7 @@ import pytest
 import reference_tracer as rt
 from benchmarks.gate.agreement import agreement
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
+from mitsuba_xml import diffuse_floor, path_integrator, scene_xml
 
 SPP = 4096
 
@@ -58,25 +59,16 @@ def _scene_xml(tmp_path, *, max_depth=6, integrator="path", name="scene.xml"):
         dict(x=1.65, rotate='<rotate y="1" angle="180"/>', opacity='<float name="opacity" value="0.6"/>',
              bsdf=diffuse.format("0.9, 0.9, 0.2")),
     ]
-    integ = (f'<integrator type="path"><integer name="max_depth" value="{max_depth}"/></integrator>'
-             if integrator == "path" else
+    integ = (path_integrator(max_depth) if integrator == "path" else
              '<integrator type="direct"><integer name="emitter_samples" value="1"/>'
              '<integer name="bsdf_samples" value="1"/></integrator>')
     xml = tmp_path / name
-    xml.write_text(f"""<scene version="3.0.0">
-    {integ}
-    <sensor type="perspective"><float name="fov" value="50"/>
-        <transform name="to_world"><lookat origin="0, 1.8, 4.5" target="0, 0.6, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="24"/>
-            <rfilter type="box"/></film></sensor>
-    <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.6, 0.5"/></bsdf></shape>
-{"".join(_PLANE.format(**p) for p in planes)}
+    xml.write_text(scene_xml(diffuse_floor() + "".join(_PLANE.format(**p) for p in planes) + """\
     <shape type="rectangle"><transform name="to_world"><scale value="0.8"/><rotate x="1" angle="90"/>
         <translate y="3"/></transform>
         <emitter type="area"><rgb name="radiance" value="8"/></emitter></shape>
-    <emitter type="constant"><rgb name="radiance" value="0.25"/></emitter>
-</scene>""")
+    <emitter type="constant"><rgb name="radiance" value="0.25"/></emitter>""",
+        integrator=integ, fov=50, origin="0, 1.8, 4.5", target="0, 0.6, 0", width=40, height=24))
     return xml
 
 
@@ -193,11 +185,7 @@ def test_bad_nested_material_is_refused():
 
 def _one_shape(tmp_path, bsdf, *, emitter=""):
     xml = tmp_path / "one.xml"
-    xml.write_text(f"""<scene version="3.0.0">
-    <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="4"/>
-        <integer name="height" value="4"/></film></sensor>
-    <shape type="rectangle">{bsdf}{emitter}</shape>
-</scene>""")
+    xml.write_text(scene_xml(f'<shape type="rectangle">{bsdf}{emitter}</shape>', width=4, height=4, rfilter=None))
     return xml
 
 

@@ -14,7 +14,6 @@ assertion (3.2e-5 one-sided); the seeds are fixed, so a result is reproducible.
 from __future__ import annotations
 
 import math
-import textwrap
 
 import numpy as np
 import pytest
@@ -23,6 +22,7 @@ from scipy import integrate
 import reference_tracer as rt
 from benchmarks.chi2.probes import BsdfProbe, direction
 from benchmarks.optics import fresnel_dielectric
+from mitsuba_xml import path_integrator, scene_xml
 from reference_tracer.probe import rough_plastic_table
 
 ETA = 1.49 / 1.000277   # Mitsuba's default coating: polypropylene in air
@@ -308,18 +308,8 @@ def test_xml_round_trip_keeps_every_parameter(tmp_path):
 
 
 def _xml(body: str) -> str:
-    return textwrap.dedent(f"""\
-        <scene version="3.0.0">
-            <integrator type="path"><integer name="max_depth" value="3"/></integrator>
-            <sensor type="perspective">
-                <float name="fov" value="40"/>
-                <transform name="to_world"><lookat origin="0, 0, -4" target="0, 0, 0" up="0, 1, 0"/></transform>
-                <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>
-                    <rfilter type="box"/></film>
-            </sensor>
-        {textwrap.indent(textwrap.dedent(body), "    ")}
-        </scene>
-        """)
+    return scene_xml(body, integrator=path_integrator(3), fov=40, origin="0, 0, -4", target="0, 0, 0",
+                     width=8, height=8)
 
 
 def test_import_reads_every_parameter(tmp_path):

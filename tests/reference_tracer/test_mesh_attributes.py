@@ -20,6 +20,7 @@ import pytest
 import reference_tracer as rt
 from benchmarks.gate.agreement import agreement
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
+from mitsuba_xml import path_integrator, scene_xml
 
 SPP = 4096
 _RNG = np.random.default_rng(46)
@@ -74,7 +75,7 @@ def _scene_xml(tmp_path, case, *, integrator="path", name="scene.xml"):
     _plys(tmp_path)
     ply, attr, scale = CASES[case]
     if integrator == "path":
-        integ = '<integrator type="path"><integer name="max_depth" value="5"/></integrator>'
+        integ = path_integrator(5)
         light = """<shape type="rectangle"><transform name="to_world"><scale value="0.7"/><rotate x="1" angle="180"/>
         <translate x="0.3" y="0.2" z="2.2"/></transform><emitter type="area"><rgb name="radiance" value="9"/></emitter>
     </shape>
@@ -85,18 +86,13 @@ def _scene_xml(tmp_path, case, *, integrator="path", name="scene.xml"):
         light = """<emitter type="directional"><vector name="direction" x="0.3" y="0.4" z="-1"/>
         <rgb name="irradiance" value="3"/></emitter>"""
     xml = tmp_path / name
-    xml.write_text(f"""<scene version="3.0.0">
-    {integ}
-    <sensor type="perspective"><float name="fov" value="45"/>
-        <transform name="to_world"><lookat origin="0.4, -2.6, 2.6" target="0, 0, 0" up="0, 0, 1"/></transform>
-        <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="24"/>
-            <rfilter type="box"/></film></sensor>
+    xml.write_text(scene_xml(f"""
     <shape type="ply"><string name="filename" value="{ply}"/>
         <bsdf type="twosided"><bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance">
             <string name="name" value="{attr}"/><float name="scale" value="{scale!r}"/></texture></bsdf></bsdf>
     </shape>
-    {light}
-</scene>""")
+    {light}""", integrator=integ, fov=45, origin="0.4, -2.6, 2.6", target="0, 0, 0", up="0, 0, 1",
+        width=32, height=24))
     return xml
 
 

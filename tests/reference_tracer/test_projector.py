@@ -21,6 +21,7 @@ import pytest
 import reference_tracer as rt
 from benchmarks.gate.agreement import agreement
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
+from mitsuba_xml import diffuse_floor, path_integrator, scene_xml
 from reference_tracer.render import BLIND_TO_DELTA_LIGHTS
 
 SPP = 4096
@@ -41,20 +42,15 @@ def _png(path, seed=2, shape=(6, 9)):
     return path
 
 
-_SCENE = """<scene version="3.0.0">
-    {integrator}
-    <sensor type="perspective"><float name="fov" value="50"/>
-        <transform name="to_world"><lookat origin="0, 2, 5" target="0, 0.8, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="18"/>
-            <rfilter type="box"/></film></sensor>
-    <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.6, 0.5"/></bsdf></shape>
+def _scene_xml(integrator: str, emitter: str) -> str:
+    """A floor and a back wall lit by ``emitter`` alone."""
+    return scene_xml(diffuse_floor() + """\
     <shape type="rectangle"><transform name="to_world"><scale value="3"/><translate y="1.5" z="-1.5"/></transform>
         <bsdf type="diffuse"><rgb name="reflectance" value="0.5, 0.6, 0.7"/></bsdf></shape>
-    {emitter}
-</scene>
-"""
-_PATH = '<integrator type="path"><integer name="max_depth" value="3"/></integrator>'
+    """ + emitter, integrator=integrator, fov=50, origin="0, 2, 5", target="0, 0.8, 0", width=24, height=18)
+
+
+_PATH = path_integrator(3)
 _DIRECT = '<integrator type="direct"/>'
 _EMITTERS = {
     "projector_constant": """<emitter type="projector"><rgb name="irradiance" value="2, 1.5, 1"/>
@@ -80,7 +76,7 @@ _EMITTERS = {
 def test_agrees_with_mitsuba(tmp_path, mi, name, integrator):
     _png(tmp_path / "tex.png")
     xml = tmp_path / "scene.xml"
-    xml.write_text(_SCENE.format(integrator=_PATH if integrator == "path" else _DIRECT, emitter=_EMITTERS[name]))
+    xml.write_text(_scene_xml(_PATH if integrator == "path" else _DIRECT, _EMITTERS[name]))
     scene = from_mitsuba(xml)
     assert len(scene.delta_lights) == 1
     mit = render_mitsuba(xml, spp=SPP, seed=1, batches=16, threads=2)
@@ -193,7 +189,7 @@ def test_import_refuses_a_constant_spot_texture_and_a_missing_file(tmp_path):
         ('<emitter type="projector"><float name="fov" value="30"/><string name="focal_length" value="20mm"/>'
          '</emitter>', "both fov and focal_length"),
     ]:
-        xml.write_text(_SCENE.format(integrator=_DIRECT, emitter=emitter))
+        xml.write_text(_scene_xml(_DIRECT, emitter))
         with pytest.raises(ValueError, match=needle):
             from_mitsuba(xml)
 
@@ -201,7 +197,7 @@ def test_import_refuses_a_constant_spot_texture_and_a_missing_file(tmp_path):
 def test_import_reads_the_projector(tmp_path):
     _png(tmp_path / "tex.png", shape=(4, 8))
     xml = tmp_path / "s.xml"
-    xml.write_text(_SCENE.format(integrator=_DIRECT, emitter="""<emitter type="projector">
+    xml.write_text(_scene_xml(_DIRECT, """<emitter type="projector">
         <texture type="bitmap" name="irradiance"><string name="filename" value="tex.png"/></texture>
         <string name="focal_length" value="35mm"/><float name="scale" value="3"/>
         <transform name="to_world"><lookat origin="0, 2, 2" target="0, 0, 0" up="0, 1, 0"/><scale value="2"/>

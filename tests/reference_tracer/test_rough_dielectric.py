@@ -28,6 +28,7 @@ from benchmarks.chi2.runner import run_routine
 from benchmarks.chi2.probes import BsdfProbe, direction
 from benchmarks.gate.agreement import agreement
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
+from mitsuba_xml import diffuse_floor, path_integrator, scene_xml
 from reference_tracer import probe
 
 ROUGH_GLASS = select(["bsdf.rough_dielectric"])
@@ -125,19 +126,16 @@ def test_white_furnace_sphere_is_no_brighter_than_its_sky(distribution):
 
 # --- agreement with Mitsuba --------------------------------------------------------------
 
-def _scene_xml(tmp_path, distribution):
+_DIRECT = ('<integrator type="direct"><integer name="emitter_samples" value="2"/>'
+           '<integer name="bsdf_samples" value="1"/></integrator>')
+
+
+def _scene_xml(tmp_path, distribution, *, integrator=path_integrator(8)):
     """A sphere and a tilted slab of rough glass (wo inside and outside, light refracted to
     the floor and reflected) over a diffuse floor, beside a diffuse ball; an area light
     above and a constant sky. int_ior as numbers and as a name, ext_ior Mitsuba's air."""
     xml = tmp_path / f"rough_glass_{distribution}.xml"
-    xml.write_text(f"""<scene version="3.0.0">
-    <integrator type="path"><integer name="max_depth" value="8"/></integrator>
-    <sensor type="perspective"><float name="fov" value="45"/>
-        <transform name="to_world"><lookat origin="0, 2, 5" target="0, 0.7, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="30"/>
-            <rfilter type="box"/></film></sensor>
-    <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.6, 0.5"/></bsdf></shape>
+    xml.write_text(scene_xml(diffuse_floor() + f"""
     <shape type="sphere"><point name="center" value="-0.8, 0.6, 0"/><float name="radius" value="0.6"/>
         <bsdf type="roughdielectric"><string name="distribution" value="{distribution}"/>
             <float name="alpha" value="0.15"/><float name="int_ior" value="1.5"/></bsdf></shape>
@@ -149,8 +147,8 @@ def _scene_xml(tmp_path, distribution):
         <bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.5, 0.8"/></bsdf></shape>
     <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="90"/><translate y="3.5"/></transform>
         <emitter type="area"><rgb name="radiance" value="6"/></emitter></shape>
-    <emitter type="constant"><rgb name="radiance" value="0.2"/></emitter>
-</scene>""")
+    <emitter type="constant"><rgb name="radiance" value="0.2"/></emitter>""",
+        integrator=integrator, fov=45, origin="0, 2, 5", target="0, 0.7, 0", width=40, height=30))
     return xml
 
 
@@ -170,11 +168,7 @@ def test_rough_glass_agrees_with_mitsuba(tmp_path, distribution, strategy):
 def test_rough_glass_agrees_with_mitsubas_direct_integrator(tmp_path, distribution):
     # Mitsuba's `direct`: light samples at the glass from both sides of its surface, weighed
     # against its BSDF samples, at the first hit only.
-    xml = _scene_xml(tmp_path, distribution)
-    xml.write_text(xml.read_text().replace(
-        '<integrator type="path"><integer name="max_depth" value="8"/></integrator>',
-        '<integrator type="direct"><integer name="emitter_samples" value="2"/>'
-        '<integer name="bsdf_samples" value="1"/></integrator>'))
+    xml = _scene_xml(tmp_path, distribution, integrator=_DIRECT)
     scene = from_mitsuba(xml)
     assert scene.direct is not None
     ours = rt.render(scene, spp=1024, strategy="mis", seed=1, threads=2)

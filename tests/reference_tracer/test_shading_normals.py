@@ -23,6 +23,7 @@ import reference_tracer as rt
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
 from mitsuba_scenes.variants import import_mitsuba
 from benchmarks.gate.agreement import agreement
+from mitsuba_xml import scene_xml
 from reference_tracer._compile import compile_scene
 from reference_tracer.render import core_scene
 from reference_tracer.mesh import vertex_normals
@@ -261,13 +262,9 @@ def test_importer_normals_are_mitsubas_under_any_transform(tmp_path, mi):
     matrix = np.array([[0.0, 2.0, 0.0, 1.0], [-0.5, 0.0, 0.3, 2.0], [0.0, 0.0, -1.5, 0.5], [0, 0, 0, 1]])
     xml = tmp_path / "s.xml"
     rows = " ".join(repr(float(x)) for x in matrix.ravel())
-    xml.write_text(f"""<scene version="3.0.0">
-  <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="4"/>
-    <integer name="height" value="4"/><rfilter type="box"/></film></sensor>
+    xml.write_text(scene_xml(f"""\
   <shape type="obj"><string name="filename" value="m.obj"/>
-    <transform name="to_world"><matrix value="{rows}"/></transform></shape>
-</scene>
-""")
+    <transform name="to_world"><matrix value="{rows}"/></transform></shape>""", width=4, height=4))
     imported = from_mitsuba(xml).shapes[0]
     _, _, n = _mitsuba_mesh(mi, path, to_world=mi.ScalarTransform4f(matrix.tolist()))
     np.testing.assert_allclose(imported.world_normals(), n, atol=1e-6)
@@ -281,11 +278,7 @@ def test_importer_face_normals_and_flip(tmp_path):
     shapes = "".join(f"""  <shape type="obj"><string name="filename" value="ico.obj"/>{extra}</shape>
 """ for extra in ("", '<boolean name="face_normals" value="true"/>', '<boolean name="flip_normals" value="true"/>'))
     xml = tmp_path / "s.xml"
-    xml.write_text(f"""<scene version="3.0.0">
-  <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="4"/>
-    <integer name="height" value="4"/><rfilter type="box"/></film></sensor>
-{shapes}</scene>
-""")
+    xml.write_text(scene_xml(shapes, width=4, height=4))
     smooth, flat, flipped = from_mitsuba(xml).shapes
     unit = smooth.vertices / np.linalg.norm(smooth.vertices, axis=1, keepdims=True)   # the file's vn
     assert len(smooth.vertices) == len(v)

@@ -32,6 +32,7 @@ from benchmarks.gate.agreement import agreement
 from benchmarks.parity import run_parity
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba, to_xml
 from mitsuba_scenes.importer import UnsupportedSceneError
+from mitsuba_xml import path_integrator, scene_xml
 from reference_tracer import probe
 from reference_tracer.image_files import read_image, srgb_to_linear
 from reference_tracer.material_textures import reflectance_of
@@ -157,21 +158,19 @@ def test_srgb_decoding_is_mitsubas():
 
 SPP = 4096
 
-_HEAD = """<scene version="3.0.0">
-    <integrator type="path"><integer name="max_depth" value="4"/></integrator>
-    <sensor type="perspective">
-        <float name="fov" value="40"/>
-        <transform name="to_world"><lookat origin="0.4, 1.6, -3.2" target="0, 0.1, 0" up="0, 1, 0"/></transform>
-        <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
-        <film type="hdrfilm"><integer name="width" value="28"/><integer name="height" value="24"/>
-            <rfilter type="box"/></film>
-    </sensor>
+
+def _scene_xml(body: str) -> str:
+    """A sky and a small sphere light, then ``body``; 28 x 24 pixels."""
+    return scene_xml("""\
     <emitter type="constant"><rgb name="radiance" value="0.8, 0.9, 1.0"/></emitter>
     <shape type="sphere">
         <point name="center" x="-1.5" y="2.5" z="-1"/><float name="radius" value="0.3"/>
         <emitter type="area"><rgb name="radiance" value="12, 11, 9"/></emitter>
     </shape>
-"""
+""" + body, integrator=path_integrator(4), fov=40, origin="0.4, 1.6, -3.2", target="0, 0.1, 0",
+                     sampler='<sampler type="independent"><integer name="sample_count" value="16"/></sampler>',
+                     width=28, height=24)
+
 
 # the floor: a rectangle in the xz plane, two units wide
 _FLOOR = """    <shape type="rectangle">
@@ -180,9 +179,10 @@ _FLOOR = """    <shape type="rectangle">
         {bsdf}
     </shape>
 """
+_GREY_FLOOR = _FLOOR.format(bsdf='<bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>')
 
 SCENES = {
-    "checkerboard quad": _HEAD + _FLOOR.format(bsdf="""<bsdf type="diffuse">
+    "checkerboard quad": _scene_xml(_FLOOR.format(bsdf="""<bsdf type="diffuse">
             <texture type="checkerboard" name="reflectance">
                 <rgb name="color0" value="0.1, 0.15, 0.2"/><rgb name="color1" value="0.85, 0.7, 0.5"/>
                 <transform name="to_uv"><scale x="5" y="3"/><translate x="0.1"/></transform>
@@ -191,10 +191,8 @@ SCENES = {
         <point name="center" x="0" y="0.5" z="0"/><float name="radius" value="0.5"/>
         <bsdf type="diffuse"><rgb name="reflectance" value="0.6"/></bsdf>
     </shape>
-</scene>
-""",
-    "checkerboard sphere": _HEAD + _FLOOR.format(bsdf='<bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>')
-    + """    <texture type="checkerboard" id="checks">
+"""),
+    "checkerboard sphere": _scene_xml(_GREY_FLOOR + """    <texture type="checkerboard" id="checks">
         <rgb name="color0" value="0.05, 0.3, 0.6"/><rgb name="color1" value="0.9, 0.8, 0.3"/>
         <transform name="to_uv"><scale x="8" y="4"/></transform>
     </texture>
@@ -211,11 +209,10 @@ SCENES = {
             <ref name="specular_reflectance" id="checks"/>
         </bsdf>
     </shape>
-</scene>
-""",
+"""),
 }
 
-_MESH_SCENE = _HEAD + _FLOOR.format(bsdf='<bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>') + """\
+_MESH_SCENE = _scene_xml(_GREY_FLOOR + """\
     <shape type="obj">
         <string name="filename" value="pyramid.obj"/>
         <transform name="to_world"><rotate x="1" angle="-90"/><translate y="0.5"/></transform>
@@ -228,8 +225,7 @@ _MESH_SCENE = _HEAD + _FLOOR.format(bsdf='<bsdf type="diffuse"><rgb name="reflec
             </texture>
         </bsdf></bsdf>
     </shape>
-</scene>
-"""
+""")
 
 
 def _write_png(path: Path, pixels: np.ndarray) -> None:

@@ -13,6 +13,7 @@ import reference_tracer as rt
 from benchmarks.gate.agreement import agreement
 from benchmarks.optics import fresnel_dielectric
 from mitsuba_scenes import from_mitsuba, render_mitsuba, to_mitsuba
+from mitsuba_xml import diffuse_floor, path_integrator, scene_xml
 
 
 @pytest.mark.parametrize("side", [1.0, -1.0])
@@ -59,14 +60,7 @@ def test_translation_and_import_round_trip(tmp_path):
 def _panes_xml(tmp_path):
     """Tilted panes (seen from both faces) between the camera, a diffuse floor and a light."""
     xml = tmp_path / "scene.xml"
-    xml.write_text("""<scene version="3.0.0">
-    <integrator type="path"><integer name="max_depth" value="6"/></integrator>
-    <sensor type="perspective"><float name="fov" value="45"/>
-        <transform name="to_world"><lookat origin="0, 2, 5" target="0, 0.7, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="30"/>
-            <rfilter type="box"/></film></sensor>
-    <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.6, 0.5"/></bsdf></shape>
+    xml.write_text(scene_xml(diffuse_floor() + """
     <shape type="rectangle"><transform name="to_world"><rotate y="1" angle="35"/><translate x="-0.6" y="0.8"/>
         </transform><bsdf type="thindielectric"/></shape>
     <shape type="rectangle"><transform name="to_world"><rotate y="1" angle="160"/><translate x="0.8" y="0.8"/>
@@ -75,8 +69,8 @@ def _panes_xml(tmp_path):
         <bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.5, 0.8"/></bsdf></shape>
     <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="90"/><translate y="3.5"/></transform>
         <emitter type="area"><rgb name="radiance" value="6"/></emitter></shape>
-    <emitter type="constant"><rgb name="radiance" value="0.2"/></emitter>
-</scene>""")
+    <emitter type="constant"><rgb name="radiance" value="0.2"/></emitter>""",
+        integrator=path_integrator(6), fov=45, origin="0, 2, 5", target="0, 0.7, 0", width=40, height=30))
     return xml
 
 
