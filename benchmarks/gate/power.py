@@ -143,6 +143,12 @@ def injected_scene(scene, edit):
     raise ValueError(f"unknown edit {edit!r}")
 
 
+def _scaled_moments(moments, scale: float):
+    """The moments of ``scale`` times the samples (``scale`` > 0)."""
+    return dataclasses.replace(moments, m2=moments.m2 * scale**2, m3=moments.m3 * scale**3,
+                               m4=moments.m4 * scale**4, max=moments.max * scale)
+
+
 @dataclass
 class PowerRow:
     """One injection: our gate's verdict and p-value, Mitsuba's rule's verdict."""
@@ -164,16 +170,20 @@ def power_row(name: str, *, seed: int = 1, spp: int = DEFAULT_SPP, width: int = 
               ref_spp: int = DEFAULT_REF_SPP, case_alpha: float = GATE_ALPHA / QUICK_SUITE_COMPARISONS,
               mitsuba_alpha: float = MITSUBA_ALPHA, tail_spp: int = DEFAULT_TAIL_SPP, threads=None,
               cache=None) -> PowerRow:
-    """Render injection ``name`` and test it with both rules; ours as ``rtbench gate`` does by default
-    (with the tail reference of the unmutated scene's strategy; ``tail_spp`` 0: none). Caught: the
-    verdict fail (an undetermined verdict catches nothing)."""
+    """Render injection ``name`` and test it with both rules; ours as ``rtbench gate`` does by default,
+    with the tail reference of the injected estimator (a build with the bug renders its own tails; a
+    scaled image's moments scale with it; ``tail_spp`` 0: none). Caught: the verdict fail (an
+    undetermined verdict catches nothing)."""
     if name not in INJECTIONS:
         raise ValueError(f"unknown injection {name!r}; choose from {', '.join(INJECTIONS)}")
     scene_name, strategy, scale, edit = INJECTIONS[name]
     base = gate_scene(scene_name, width=width)
     ref = gate_reference(scene_name, base, ref_spp=ref_spp, threads=threads, cache=cache)
-    tails = gate_tails(base, strategy, tail_spp=tail_spp, threads=threads, cache=cache, log=None)
-    out = rt.render(injected_scene(base, edit), spp=spp, strategy=strategy, seed=seed, threads=threads)
+    scene = injected_scene(base, edit)
+    tails = gate_tails(scene, strategy, tail_spp=tail_spp, threads=threads, cache=cache, log=None)
+    if tails is not None and scale != 1.0:
+        tails = dataclasses.replace(tails, moments=_scaled_moments(tails.moments, scale))
+    out = rt.render(scene, spp=spp, strategy=strategy, seed=seed, threads=threads)
     mean = out.mean.astype(np.float64) * scale
     var = out.variance.astype(np.float64) * scale**2
     g = compare_render(mean, var, spp, ref, alpha=case_alpha, tails=tails)

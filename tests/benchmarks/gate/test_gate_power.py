@@ -131,3 +131,42 @@ def test_mitsuba_rule_false_alarm_on_unbiased_glass():
     out = rt.render(scene, spp=DEFAULT_SPP, strategy="mis", seed=1, threads=THREADS)
     assert compare_render(out.mean, out.variance, DEFAULT_SPP, ref, alpha=CASE_ALPHA).passed
     assert not mitsuba_rule(out.mean, ref.mean, ref.variance, DEFAULT_SPP).passed
+
+
+@pytest.mark.parametrize("name", ["Schlick Fresnel", "scale 0.99"])
+def test_power_row_judges_with_the_injected_estimators_tails(monkeypatch, name):
+    """A build with the bug renders its own tail reference: power_row asks for the tails of the
+    injected scene, and scales their moments with a scaled image (m_k by scale^k, max by scale)."""
+    from dataclasses import dataclass
+
+    import benchmarks.gate.power as power
+    from reference_tracer.estimate import SampleMoments
+
+    @dataclass
+    class Tails:  # what compare_render reads of a tail reference
+        moments: SampleMoments
+
+    ones = np.ones((8, 8, 3))
+    seen = {}
+
+    def tails(scene, strategy, **_):
+        seen["scene"] = scene
+        return Tails(SampleMoments(n=4, m2=ones, m3=2 * ones, m4=3 * ones, max=4 * ones))
+
+    judge, reference = power.compare_render, power.gate_reference
+
+    def compare(mean, variance, spp, reference, *, alpha, tails):
+        seen["moments"] = tails.moments
+        return judge(mean, variance, spp, reference, alpha=alpha, tails=None)
+
+    monkeypatch.setattr(power, "gate_tails", tails)
+    monkeypatch.setattr(power, "compare_render", compare)
+    monkeypatch.setattr(power, "gate_reference", lambda scene_name, base, **kw: reference(
+        scene_name, base, ref_spp=16, threads=kw["threads"], cache=kw["cache"]))
+    power.power_row(name, spp=4, width=8, threads=THREADS)
+    scene_name, _, scale, edit = INJECTIONS[name]
+    injected = power.injected_scene(power.gate_scene(scene_name, width=8), edit)
+    assert seen["scene"].content_hash() == injected.content_hash()
+    m = seen["moments"]
+    for field, k, value in (("m2", 2, 1.0), ("m3", 3, 2.0), ("m4", 4, 3.0), ("max", 1, 4.0)):
+        np.testing.assert_allclose(getattr(m, field), value * scale**k, rtol=1e-12, err_msg=field)
