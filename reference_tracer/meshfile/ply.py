@@ -148,6 +148,8 @@ def _ply_element_attributes(kind: str, properties: list, data, rows: int, name: 
         for p in props:
             dtype = np.dtype(dict(properties)[p])
             column = np.asarray(data[p])
+            if column.shape == (rows, 1):  # trimesh reads an ASCII file's scalar property as a column
+                column = column[:, 0]
             if column.shape != (rows,):
                 raise ValueError(f"{name}: PLY property {kind} {p!r} holds {column.shape} values for {rows} "
                                  f"{kind}s: a mesh attribute needs one number per {kind}")
@@ -194,10 +196,15 @@ def ply_attributes(tm, n_vertices: int, n_faces: int, *, name: str = "PLY") -> d
         for p, t in properties.items():
             try:
                 dtype = np.dtype(t)
-            except TypeError:
+            except (TypeError, ValueError):  # a list property: trimesh's "<u1, ($LIST,)<i4", no numpy type
                 dtype = None
-            if dtype is None or dtype.kind not in "fiu" or dtype.shape != ():
-                continue  # a list (the faces' vertex indices): never an attribute
+            if dtype is None or dtype.shape != ():
+                if kind == "face" and p in ("vertex_indices", "vertex_index"):
+                    continue  # the faces' vertex indices: never an attribute
+                raise ValueError(f"{name}: PLY property {kind} {p!r} is a list: Mitsuba's ply reads a list only "
+                                 f"as a face's vertex_indices")
+            if dtype.kind not in "fiu":
+                continue
             scalar.append((str(p), dtype.str))
         count = int(element.get("length", rows) or 0)
         attrs = _ply_element_attributes(kind, scalar, data, count, name)

@@ -283,7 +283,7 @@ def test_bad_ply_colours_are_refused(tmp_path):
     quads = np.array([[0, 1, 5, 4], [1, 2, 6, 5]])
     quad = write_ply(tmp_path / "quad.ply", face_props=[(c, "<f4", [0.5, 0.5]) for c in "rgb"], faces=quads,
                      face_count=4)
-    for path, why in ((bad_list, "r"), (nan, "not finite"), (quad, "not all triangles")):
+    for path, why in ((bad_list, "property vertex 'r' is a list"), (nan, "not finite"), (quad, "not all triangles")):
         with pytest.raises(ValueError, match=why):
             rt.Mesh.load(path, rt.Lambertian(0.5))
 
@@ -324,3 +324,21 @@ def test_round_trip_through_mitsuba(tmp_path, case):
     a = rt.render(small, spp=4, seed=2, threads=2)
     b = rt.render(scene.with_camera_size(16, 12), spp=4, seed=2, threads=2)
     np.testing.assert_allclose(a.mean, b.mean, rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("extra", ["", "property uchar red\nproperty uchar green\nproperty uchar blue\n"])
+def test_ascii_ply_loads(tmp_path, extra):
+    """An ASCII PLY's face list (trimesh's "<u1, ($LIST,)<i4", which numpy 2.4 refuses with a
+    ValueError) is the faces, never an attribute; vertex colours beside it are read."""
+    colours = " 255 0 0" if extra else ""
+    path = tmp_path / "tri.ply"
+    path.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                    f"{extra}element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                    f"0 0 0{colours}\n1 0 0{colours}\n0 1 0{colours}\n3 0 1 2\n")
+    mesh = rt.Mesh.load(path, rt.Lambertian(0.5))
+    assert mesh.faces.tolist() == [[0, 1, 2]]
+    assert mesh.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    if extra:  # 8-bit colours as Mitsuba 3.9.1 reads them: not divided by 255 (it warns)
+        assert mesh.attributes["vertex_color"].tolist() == [[255.0, 0.0, 0.0]] * 3
+    else:
+        assert not mesh.attributes
