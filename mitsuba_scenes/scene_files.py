@@ -136,7 +136,8 @@ def params_used(path, params: dict) -> dict:
 
 
 def load_scene_file(path, params=None) -> rt.Scene:
-    """The scene of an XML or Python file at its own size (``ValueError`` if unsupported)."""
+    """The scene of an XML or Python file at its own size (a Python file's ``build`` defaults, else
+    :data:`PYTHON_DEFAULT_SIZE`); ``ValueError`` if unsupported."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"no such scene file: {path}")
@@ -166,24 +167,33 @@ def _load_module(path: str):
     return module
 
 
+#: the size a Python scene file's ``build`` gets where neither the caller nor its defaults give one
+#: (that of the suite's scenes).
+PYTHON_DEFAULT_SIZE = (64, 64)
+
+
 def _build_python(path: str, params: dict, width, height) -> rt.Scene:
     build = getattr(_load_module(path), "build", None)
     if not callable(build):
         raise ValueError(f"{path}: defines no build(width, height) function")
     accepted = inspect.signature(build).parameters
+    var_keyword = any(p.kind == p.VAR_KEYWORD for p in accepted.values())
+    if not var_keyword and not {"width", "height"} <= set(accepted):
+        raise ValueError(f"{path}: build() must accept (width, height); it accepts {list(accepted)}")
     kwargs = {k: _python_value(v) for k, v in params.items()}
-    unknown = sorted(k for k in kwargs if k not in accepted
-                     and not any(p.kind == p.VAR_KEYWORD for p in accepted.values()))
+    unknown = sorted(k for k in kwargs if k not in accepted and not var_keyword)
     if unknown:
         raise ValueError(f"{path}: build() takes no parameter(s) {unknown}; it accepts {sorted(accepted)}")
+    if width is None:  # the file's own size: its defaults, else the suite's
+        width, height = (None, None) if all(
+            k in accepted and accepted[k].default is not inspect.Parameter.empty for k in ("width", "height")
+        ) else PYTHON_DEFAULT_SIZE
     if width is not None:
         kwargs.update(width=int(width), height=int(height))
     try:
         scene = build(**kwargs)
-    except ValueError as exc:
-        raise ValueError(f"{path}: build(): {exc}") from exc
-    except TypeError as exc:
-        raise ValueError(f"{path}: build() must accept (width, height): {exc}") from exc
+    except Exception as exc:  # the user's file: any error is bad input
+        raise ValueError(f"{path}: build(): {type(exc).__name__}: {exc}") from exc
     if not isinstance(scene, rt.Scene):
         raise ValueError(f"{path}: build() returned {type(scene).__name__}, not a reference_tracer.Scene")
     if width is not None and (scene.camera.width, scene.camera.height) != (int(width), int(height)):

@@ -8,7 +8,7 @@ import pytest
 import reference_tracer as rt
 from benchmarks.cli import main
 from mitsuba_scenes import get_scene, known_scenes, list_scenes
-from mitsuba_scenes.scene_files import parse_params, register_scene_file, scene_file
+from mitsuba_scenes.scene_files import PYTHON_DEFAULT_SIZE, parse_params, register_scene_file, scene_file
 from repo_paths import FIXTURES
 
 XML = FIXTURES / "xml"
@@ -75,6 +75,35 @@ def test_python_file_build_and_params(py_scene):
     assert scene.shapes[1].material.radiance == (5.0, 5.0, 5.0)
     with pytest.raises(ValueError, match=r"build\(\) takes no parameter\(s\) \['bogus'\]"):
         register_scene_file(py_scene, {"bogus": "1"})
+
+
+def test_python_file_as_documented_needs_no_defaults(tmp_path, capsys):
+    """``build(width, height, **params)`` as docs/mitsuba.md writes it: registered at the suite's
+    size (PYTHON_DEFAULT_SIZE), rendered at the size asked for."""
+    path = tmp_path / "plain.py"
+    path.write_text(PY_SCENE.replace("def build(width=24, height=16, light=10.0):", "def build(width, height, light=5):"))
+    entry = register_scene_file(path)
+    scene = get_scene(entry.name)
+    assert (scene.camera.width, scene.camera.height) == PYTHON_DEFAULT_SIZE
+    assert main(["render", "--scene", str(path), "--spp", "1", "--width", "6", "--out", str(tmp_path)]) == 0, \
+        capsys.readouterr().err
+    assert rt.read_exr(tmp_path / "plain_6x6_mis_spp1_seed0.exr").shape[:2] == (6, 6)
+
+
+@pytest.mark.parametrize("body, message", [
+    ("def build(size):\n    return None", r"build\(\) must accept \(width, height\); it accepts \['size'\]"),
+    ("def build(width, height):\n    return [][1]", r"build\(\): IndexError: list index out of range"),
+    ("def build(width, height):\n    raise RuntimeError('boom')", r"build\(\): RuntimeError: boom"),
+    ("def build(width, height):\n    return len(3)", r"build\(\): TypeError: object of type 'int' has no len"),
+])
+def test_python_file_errors_are_bad_input(tmp_path, capsys, body, message):
+    """An error inside the user's build() is theirs: named as raised, exit 2, never 'internal error'."""
+    path = tmp_path / "broken.py"
+    path.write_text(body + "\n")
+    with pytest.raises(ValueError, match=message):
+        register_scene_file(path)
+    assert main(["render", "--scene", str(path), "--spp", "1", "--width", "4", "--out", str(tmp_path)]) == 2
+    assert "internal error" not in capsys.readouterr().err
 
 
 def test_unsupported_xml_is_refused_with_file_and_line(tmp_path):
