@@ -20,6 +20,7 @@
 
 #include "render.h"
 #include "sampling_probe.h"
+#include "threads.h"
 
 namespace nb = nanobind;
 using namespace nb::literals;
@@ -667,7 +668,9 @@ public:
         {
             nb::gil_scoped_release release;
             std::vector<std::thread> pool;
-            for (int k = 0; k < threads; ++k) pool.emplace_back(worker_loop, static_cast<size_t>(k));
+            // No more threads than chunks (at most n / size + 2 of them): the others would find no work.
+            const int workers = static_cast<int>(std::min<size_t>(size_t(threads), n / chunks.size + 2));
+            rt::start_threads(pool, workers, [&](int k) { worker_loop(static_cast<size_t>(k)); });
             for (std::thread& th : pool) th.join();
         }
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -7,6 +7,8 @@
 #include <mutex>
 #include <thread>
 
+#include "threads.h"
+
 namespace rt {
 
 // The render loop of one instantiation of the integrator (M: see mutants.h).
@@ -32,11 +34,13 @@ RenderOutput render_with(const RenderJob& job, Poll&& poll) {
     std::atomic<int> next_tile{0};
     std::atomic<uint64_t> pixels_done{0}, rays{0}, nonfinite{0};
     std::atomic<bool> cancel{false};
-    std::atomic<int> running{job.threads};
+    // A thread beyond the tiles would find no work.
+    const int threads = std::max(1, std::min(job.threads, n_tiles));
+    std::atomic<int> running{threads};
     std::mutex mutex;
     std::condition_variable finished;
 
-    auto worker = [&]() {
+    auto worker = [&](int) {
         uint64_t my_rays = 0, my_nonfinite = 0;
         bool scalar = true;
         // A filter splats across pixels: each worker into an image of its own, summed at the end.
@@ -69,8 +73,7 @@ RenderOutput render_with(const RenderJob& job, Poll&& poll) {
 
     const auto t0 = std::chrono::steady_clock::now();
     std::vector<std::thread> pool;
-    pool.reserve(job.threads);
-    for (int i = 0; i < job.threads; ++i) pool.emplace_back(worker);
+    running -= threads - start_threads(pool, threads, worker);  // the threads refused finish at once
     const uint64_t total = uint64_t(W) * H;
     {
         std::unique_lock<std::mutex> lock(mutex);

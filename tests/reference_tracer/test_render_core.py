@@ -40,6 +40,43 @@ def test_image_is_bit_identical_whatever_the_thread_count(cornell64, strategy):
         assert r.rays == images[0].rays
 
 
+def test_more_threads_than_work(cornell64):
+    """Threads beyond the work (a render's tiles, a query's chunks of rays) are not started:
+    100,000 of them once aborted the process when the system refused one (SIGABRT)."""
+    small = cornell64.with_camera_size(8, 8)
+    one = rt.render(small, spp=2, strategy="mis", seed=3, threads=1)
+    many = rt.render(small, spp=2, strategy="mis", seed=3, threads=100_000)
+    assert np.array_equal(many.mean, one.mean) and many.threads == 100_000
+    from reference_tracer.probe import core_scene
+
+    rng = np.random.default_rng(0)
+    origins, directions = np.zeros((100, 3)) + (278.0, 273.0, -800.0), rng.normal(size=(100, 3)) + (0, 0, 3)
+    scene = core_scene(small)
+    hits = [scene.intersect(origins, directions, threads=t) for t in (1, 100_000)]
+    assert np.array_equal(hits[0]["t"], hits[1]["t"]) and np.array_equal(hits[0]["prim"], hits[1]["prim"])
+
+
+_REFUSED_THREADS = """
+import resource, numpy as np
+import reference_tracer as rt
+from mitsuba_scenes import get_scene
+scene = get_scene("cornell_box", width=1024, height=1024)  # 4096 tiles of 16x16
+before = rt.render(scene, spp=1, seed=1, threads=2).mean
+vm = int(open("/proc/self/statm").read().split()[0]) * resource.getpagesize()
+resource.setrlimit(resource.RLIMIT_AS, (vm + (1 << 30), vm + (1 << 30)))  # stacks for some 100 threads
+print("same" if np.array_equal(rt.render(scene, spp=1, seed=1, threads=4096).mean, before) else "differs")
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS and /proc/self/statm are Linux's")
+def test_threads_the_system_refuses():
+    """Where the system refuses some of the threads asked for (here: too little address space
+    for their stacks), those started render the whole image: once std::terminate (SIGABRT)."""
+    done = subprocess.run([sys.executable, "-c", _REFUSED_THREADS], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split() == ["same"]
+
+
 def test_seeds_give_independent_images(cornell64):
     small = cornell64.with_camera_size(16, 16)
     a = rt.render(small, spp=4, strategy="mis", seed=1).mean
