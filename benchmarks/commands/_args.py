@@ -53,42 +53,70 @@ def base_help(text: str) -> str:
     return _DEFAULT_CLAUSE.sub("", text or "")
 
 
+def comma_list(text, *, option: str, item=None) -> tuple:
+    """The one parser of every comma-separated list option: ``"a, b"`` (or a sequence) -> ``('a', 'b')``,
+    blanks around and between commas dropped, each value converted by ``item`` (a ``ValueError`` of it
+    propagates). An empty list (``""``, ``","``) is refused with a ``ValueError`` naming ``option``: an
+    explicitly empty list is a mistake, never "all" or "none".
+
+    >>> comma_list(" a, ,b", option="--x")
+    ('a', 'b')
+    >>> comma_list("", option="--strategies")
+    Traceback (most recent call last):
+    ...
+    ValueError: --strategies is an empty list: give at least one value
+    """
+    parts = text if isinstance(text, (list, tuple)) else str(text).split(",")
+    values = tuple(s for s in (str(p).strip() for p in parts) if s)
+    if not values:
+        raise ValueError(f"{option} is an empty list: give at least one value")
+    return values if item is None else tuple(item(v) for v in values)
+
+
 def int_list(text, *, option: str = "value") -> tuple:
-    """``"1,2,4"`` (or a sequence) -> ``(1, 2, 4)``, every value >= 1; ``ValueError`` naming ``option``.
+    """``"1,2,4"`` (or a sequence) -> ``(1, 2, 4)``, every value >= 1 (:func:`comma_list`); ``ValueError``
+    naming ``option``.
 
     >>> int_list("1, 2,4")
     (1, 2, 4)
     """
     if isinstance(text, (list, tuple)):
         text = ",".join(map(str, text))
+    names = comma_list(text, option=option)
     try:
-        values = tuple(int(v) for v in str(text).split(",") if v.strip())
+        values = tuple(int(v) for v in names)
     except ValueError:
         raise ValueError(f"{option} must be comma-separated integers, got {text!r}") from None
-    if not values:
-        raise ValueError(f"{option} is empty")
     if min(values) < 1:
         raise ValueError(f"{option} values must be >= 1, got {text!r}")
     return values
 
 
-def name_list(text) -> tuple:
-    """``"a, b"`` (or a sequence) -> ``('a', 'b')``.
+def name_list(text, *, option: str = "value") -> tuple:
+    """``"a, b"`` (or a sequence) -> ``('a', 'b')`` (:func:`comma_list`); an empty list is a ``ValueError``.
 
     >>> name_list("uniform, mis")
     ('uniform', 'mis')
     """
-    parts = text if isinstance(text, (list, tuple)) else str(text).split(",")
-    return tuple(str(s).strip() for s in parts if str(s).strip())
+    return comma_list(text, option=option)
 
 
 class ListAction(argparse.Action):
-    """Comma-separated names, the option also repeatable: the first use replaces the default, later ones extend."""
+    """Comma-separated values (:func:`comma_list`, each converted by ``item=``), the option also repeatable:
+    the first use replaces the default, later ones extend; an empty list is a usage error naming the option."""
+
+    def __init__(self, option_strings, dest, *, item=None, **kwargs):
+        self.item = item
+        super().__init__(option_strings, dest, **kwargs)
 
     def __call__(self, parser, namespace, values, option_string=None):
+        try:
+            new = comma_list(values, option=option_string or self.dest, item=self.item)
+        except ValueError as exc:  # argparse's usage error: `rtbench COMMAND: error: ...`, exit 2
+            raise argparse.ArgumentError(None, str(exc)) from None
         current = getattr(namespace, self.dest, None)
         untouched = current is None or current is self.default or current is parser.get_default(self.dest)
-        setattr(namespace, self.dest, (() if untouched else tuple(current)) + name_list(values))
+        setattr(namespace, self.dest, (() if untouched else tuple(current)) + new)
 
 
 #: dest -> smallest value of the integer options :func:`check` range-checks (the option is ``--dest``).
@@ -98,8 +126,9 @@ _INT_LISTS = ("spps", "triangles", "resolutions", "scaling_depths", "scaling_tri
 
 
 def check(args):
-    """Range-check and normalise the shared options of ``args`` in place (integer lists and ``--variant``
-    become tuples, ``--height`` defaults to ``--width``); ``ValueError`` (exit 2) on bad input. Returns ``args``.
+    """Range-check and normalise the shared options of ``args`` in place (integer lists, ``--variant`` and
+    ``--format`` become tuples, :func:`comma_list` refusing an empty one; ``--height`` defaults to ``--width``);
+    ``ValueError`` (exit 2) on bad input. Returns ``args``.
 
     >>> check(argparse.Namespace(width=0))
     Traceback (most recent call last):
@@ -113,6 +142,9 @@ def check(args):
     for dest in _INT_LISTS:
         if getattr(args, dest, None) is not None:
             setattr(args, dest, int_list(getattr(args, dest), option=f"--{dest.replace('_', '-')}"))
+    ladder = getattr(args, "spp_ladder", None)
+    if isinstance(ladder, str):  # selftest's budgets below --spp: 'none' is none, an empty list a mistake
+        args.spp_ladder = () if ladder.strip().lower() == "none" else int_list(ladder, option="--spp-ladder")
     if getattr(args, "height", None) is not None and getattr(args, "width", 0) is None:
         raise ValueError("--height needs --width")
     if getattr(args, "height", 0) is None:
@@ -121,13 +153,12 @@ def check(args):
     if alpha is not None and not 0 < alpha < 1:
         raise ValueError(f"--alpha must be in (0, 1), got {alpha:g}")
     if getattr(args, "variant", None) is not None:
-        args.variant = name_list(args.variant)
+        args.variant = name_list(args.variant, option="--variant")
     if getattr(args, "format", None) is not None:
-        args.format = name_list(args.format)
+        args.format = name_list(args.format, option="--format")
         bad = [n for n in args.format if n not in FORMATS]
-        if bad or not args.format:
-            raise ValueError(f"--format: unknown format(s) {', '.join(bad) or '(none)'}; choose from "
-                             f"{', '.join(FORMATS)}")
+        if bad:
+            raise ValueError(f"--format: unknown format(s) {', '.join(bad)}; choose from {', '.join(FORMATS)}")
     if getattr(args, "metric", None) is not None:
         from benchmarks.metrics import require_metric
 

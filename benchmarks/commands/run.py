@@ -21,9 +21,9 @@ def add_arguments(parser) -> None:
                         help="quick (32x32 images, the whole suite in under three minutes on 2 cores from an "
                              "empty cache) or full (report quality: 256x256, spp to 1024, 4 seeds; hours)")
     A.add_out_arg(parser, default="reports/out/PRESET[_SCENES]")
-    parser.add_argument("--scenes", default=None, metavar="SCENE[,SCENE...]",
-                        help="only these suite scenes, comma-separated (default: the whole suite; with --scene "
-                             "and no --scenes: only the scene files)")
+    parser.add_argument("--scenes", action=A.ListAction, default=None, metavar="SCENE[,SCENE...]",
+                        help="only these suite scenes, comma-separated or repeated (default: the whole suite; with "
+                             "--scene and no --scenes: only the scene files)")
     parser.add_argument("--no-report", action="store_true", help="skip the report")
     A.add_format_arg(parser)
     add_sweep_options(parser)
@@ -48,7 +48,7 @@ def run(args) -> int:
     from benchmarks.sweep.presets import describe_preset, escalates_tails, preset_groups
     from benchmarks.sweep.progress import Progress, process_seconds
 
-    names = A.resolve_scenes(args, suite_names=A.name_list(args.scenes or "")) or None
+    names = A.resolve_scenes(args, suite_names=list(args.scenes or ())) or None
     out = args.out if args.out != "reports/out/PRESET[_SCENES]" else default_out(args.preset, names)
     groups = preset_groups(args.preset, scenes=names)
     err = Console(stderr=True, soft_wrap=True)

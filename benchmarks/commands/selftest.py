@@ -17,13 +17,14 @@ def add_arguments(parser) -> None:
     from benchmarks.selftest import CATALOGUE, DEFAULT_SPP_LADDER
     from benchmarks.tails import DEFAULT_TAIL_SPP
 
-    parser.add_argument("--mutants", action="append", default=[], metavar="M[,M...]",
-                        help=f"mutants to test (default: all): {', '.join(m.name for m in CATALOGUE)}")
+    parser.add_argument("--mutants", action=A.ListAction, default=(), metavar="M[,M...]",
+                        help=f"mutants to test, comma-separated or repeated (default: all): "
+                             f"{', '.join(m.name for m in CATALOGUE)}")
     A.add_list_arg(parser)
     A.add_spp_args(parser, default=DEFAULT_SPP)
     parser.add_argument("--spp-ladder", default=",".join(map(str, DEFAULT_SPP_LADDER)), metavar="N[,N...]",
                         help="budgets below --spp at which each mutant is judged too, for the smallest spp "
-                             "that catches it")
+                             "that catches it; 'none': at --spp only")
     A.add_size_args(parser, width=DEFAULT_WIDTH)
     A.add_reference_spp_arg(parser, default=DEFAULT_REF_SPP)
     A.add_tail_spp_arg(parser, default=DEFAULT_TAIL_SPP)
@@ -103,7 +104,7 @@ def run(args) -> int:
     A.warn_tail_spp("selftest", args.tail_spp)
     if args.height != args.width:
         raise ValueError("selftest renders square images: --height must equal --width")
-    spp_ladder = A.int_list(args.spp_ladder, option="--spp-ladder") if args.spp_ladder.strip() else []
+    spp_ladder = list(args.spp_ladder)  # parsed by A.check: () for 'none'
     log = A.stderr_log(args)
 
     def on_row(row):

@@ -12,15 +12,15 @@ from benchmarks.errors import EXIT_FAIL
 HELP = "time ours vs Mitsuba (paired, interleaved): paths/s, rays/s, ms/spp, RMSE, efficiency; --rays, --scaling"
 
 
-def _rr_depths(text):
-    """``--rr-depth``: comma-separated depths, ``none`` for no Russian roulette (``[5, None]``)."""
+def _rr_depth(text: str):
+    """One value of ``--rr-depth`` (a list, :class:`benchmarks.commands._args.ListAction`): a depth, or None
+    for ``none`` (no Russian roulette)."""
+    if text.lower() == "none":
+        return None
     try:
-        out = [None if x.strip().lower() == "none" else int(x) for x in text.split(",") if x.strip()]
+        return int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected depths or 'none', comma-separated, got {text!r}") from None
-    if not out:
-        raise argparse.ArgumentTypeError("expected at least one configuration")
-    return out
+        raise ValueError(f"--rr-depth: expected depths or 'none', comma-separated, got {text!r}") from None
 
 
 def add_arguments(parser) -> None:
@@ -40,7 +40,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--variants", dest="variant", help=argparse.SUPPRESS)  # older name
     parser.add_argument("--max-depth", type=int, default=None,
                         help="override the scene's max_depth (default: the scene's, 50 in the suite)")
-    parser.add_argument("--rr-depth", type=_rr_depths, default=list(DEFAULT_RR_DEPTHS), metavar="DEPTHS",
+    parser.add_argument("--rr-depth", action=A.ListAction, item=_rr_depth, default=tuple(DEFAULT_RR_DEPTHS),
+                        metavar="DEPTHS",
                         help=f"Russian-roulette configurations, each its own rows: depths roulette starts at, "
                              f"'none' for none (default {rr_default}: Mitsuba's default, then the seed's)")
     parser.add_argument("--reference", dest="reference_kind", choices=REFERENCE_KINDS,

@@ -112,11 +112,17 @@ NAME = st.text(st.characters(blacklist_characters=",", blacklist_categories=("Zs
 
 
 @PROPERTY
-@given(names=st.lists(NAME, max_size=6))
+@given(names=st.lists(NAME, min_size=1, max_size=6))
 def test_name_lists_round_trip(names):
     assert name_list(",".join(names)) == tuple(names)
     assert name_list(" , ".join(names)) == tuple(names)
     assert name_list(names) == tuple(names)
+
+
+@pytest.mark.parametrize("text", ["", ",", " , ", [], [" "]])
+def test_empty_name_lists_are_refused(text):
+    with pytest.raises(ValueError, match="--strategies is an empty list"):
+        name_list(text, option="--strategies")
 
 
 @pytest.mark.parametrize("text", ["0", "1,0", "-3", "1,,x", ",", ""])

@@ -189,3 +189,101 @@ def test_all_cores_respects_affinity_and_the_cgroup_quota(monkeypatch):
     monkeypatch.setattr(jobs, "cgroup_cpu_limit", lambda: 16.0)  # a quota above the affinity mask
     assert jobs.default_threads() == 8
     assert A.resolve_threads(None) == 8 and A.resolve_threads(3) == 3
+
+
+#: (command line, the list option it empties) for every comma-separated list option of every command:
+#: ``test_every_list_option_is_checked_for_emptiness`` fails when an option is added without a row here.
+EMPTY_LISTS = [
+    (["render", "cornell_box", "--strategies", ""], "--strategies"),
+    (["render", "cornell_box", "--strategy", ","], "--strategy"),
+    (["render", "cornell_box", "--variant", ""], "--variant"),
+    (["run", "--scenes", "", "--no-report"], "--scenes"),
+    (["run", "--format", ""], "--format"),
+    (["run", "--variant", " , "], "--variant"),
+    (["curves", "cornell_box", "--strategies", ""], "--strategies"),
+    (["curves", "cornell_box", "--spps", ""], "--spps"),
+    (["curves", "cornell_box", "--spp", ","], "--spps"),
+    (["curves", "cornell_box", "--variant", ""], "--variant"),
+    (["reference", "cornell_box", "--variant", ""], "--variant"),
+    (["report", "STORE", "--format", ""], "--format"),
+    (["gate", "--strategies", ""], "--strategies"),
+    (["gate", "--calibrate", "--spps", ""], "--spps"),
+    (["gate", "--variant", ""], "--variant"),
+    (["corpus", "DIR", "--variant", ""], "--variant"),
+    (["speed", "--strategies", ""], "--strategies"),
+    (["speed", "--integrators", ""], "--integrators"),
+    (["speed", "--variant", ""], "--variant"),
+    (["speed", "--variants", ""], "--variant"),
+    (["speed", "--rr-depth", ""], "--rr-depth"),
+    (["speed", "--rays", "--triangles", ""], "--triangles"),
+    (["speed", "--scaling", "--resolutions", ""], "--resolutions"),
+    (["speed", "--scaling", "--scaling-depths", ""], "--scaling-depths"),
+    (["speed", "--scaling", "--scaling-triangles", ""], "--scaling-triangles"),
+    (["selftest", "--mutants", ""], "--mutants"),
+    (["selftest", "--spp-ladder", ""], "--spp-ladder"),
+]
+
+
+def _list_options():
+    """(command, option string) of every comma-separated list option, hidden aliases included: a
+    :class:`~benchmarks.commands._args.ListAction`, a ``X[,X...]`` metavar or an integer list of ``check``."""
+    out = set()
+    for cmd, p in _subparsers().items():
+        for a in p._actions:
+            if (isinstance(a, A.ListAction) or "[," in str(a.metavar or "") or a.dest in A._INT_LISTS
+                    or a.dest == "variant"):
+                out.update((cmd, o) for o in a.option_strings)
+    return out
+
+
+def test_every_list_option_is_checked_for_emptiness():
+    tested = {(argv[0], next(a for a in argv if a.startswith("--") and a not in ("--rays", "--scaling",
+                                                                                   "--calibrate", "--no-report")))
+              for argv, _ in EMPTY_LISTS}
+    assert _list_options() <= tested, sorted(_list_options() - tested)
+
+
+@pytest.mark.parametrize("argv, option", EMPTY_LISTS, ids=[" ".join(a) for a, _ in EMPTY_LISTS])
+def test_an_empty_list_is_a_usage_error_naming_the_option(argv, option, capsys, monkeypatch):
+    """``--strategies ""`` rendered nothing and exited 0, ``run --scenes ""`` ran the whole suite:
+    an explicitly empty list is refused (exit 2) before the command starts, in one line."""
+    import importlib
+
+    module = importlib.import_module(f"benchmarks.commands.{argv[0]}")
+    monkeypatch.setattr(module, "run", lambda args: pytest.fail(f"{argv[0]} ran with an empty {option}"))
+    try:
+        code = main(argv)
+    except SystemExit as exc:   # refused while parsing (ListAction)
+        code = exc.code
+    assert code == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert len(err) == 1 and err[0].startswith(f"rtbench {argv[0]}: error: {option} is an empty list"), err
+
+
+def test_list_values_still_parse():
+    parsers = _subparsers()
+    assert parsers["run"].parse_args(["--scenes", "furnace, cornell_box", "--scenes", "small_light"]).scenes == (
+        "furnace", "cornell_box", "small_light")
+    assert parsers["run"].parse_args([]).scenes is None
+    assert parsers["speed"].parse_args(["--rr-depth", "5,none"]).rr_depth == (5, None)
+    assert parsers["selftest"].parse_args(["--mutants", "a,b", "--mutants", "c"]).mutants == ("a", "b", "c")
+    assert A.check(parsers["gate"].parse_args(["--variant", "scalar_rgb"])).variant == ("scalar_rgb",)
+    with pytest.raises(SystemExit):
+        parsers["speed"].parse_args(["--rr-depth", "5,x"])
+
+
+def test_selftest_spp_ladder_none_is_no_ladder(monkeypatch):
+    import benchmarks.selftest
+
+    seen = {}
+
+    def fake_selftest(names, **kwargs):
+        seen.update(kwargs)
+        raise KeyboardInterrupt  # stop here: only the arguments matter
+
+    monkeypatch.setattr(benchmarks.selftest, "run_selftest", fake_selftest)
+    assert main(["selftest", "--spp-ladder", "none", "--quiet"]) == 130
+    assert seen["spp_ladder"] == []
+    assert main(["selftest", "--spp-ladder", "2,4", "--quiet"]) == 130
+    assert seen["spp_ladder"] == [2, 4]
+

@@ -181,12 +181,15 @@ def test_suite_table_has_one_row_per_scene_and_a_geometric_mean_per_configuratio
 
 
 def test_rr_depth_option_and_its_validation(capsys):
-    from benchmarks.commands.speed import _rr_depths
+    from benchmarks.cli import build_parser
 
-    assert _rr_depths("none,3") == [None, 3]
-    with pytest.raises(SystemExit) as exc:   # argparse rejects it
-        main(["speed", "--rr-depth", "x", "--quiet"])
-    assert exc.value.code == 2
+    speed_parser = next(a for a in build_parser()._actions if a.dest == "command").choices["speed"]
+    assert speed_parser.parse_args(["--rr-depth", "none,3"]).rr_depth == (None, 3)
+    for bad in ("x", ""):
+        with pytest.raises(SystemExit) as exc:   # argparse rejects it
+            main(["speed", "--rr-depth", bad, "--quiet"])
+        assert exc.value.code == 2
+        assert "rtbench speed: error: --rr-depth" in capsys.readouterr().err
     assert main(["speed", "--rr-depth", "0", "--quiet", "--variants", "scalar_rgb", "--reference", "ours"]) == 2
     assert "rr_depth must be >= 1" in capsys.readouterr().err
     with pytest.raises(ValueError, match="duplicates"):
