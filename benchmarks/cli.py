@@ -59,12 +59,24 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see `{self.prog} --help`)\n")
 
 
+class _CommandParser(_Parser):
+    """A subcommand's parser (prog ``rtbench COMMAND``): an argument it does not know is its own usage error,
+    ``rtbench COMMAND: error: unrecognized arguments: ...``. argparse would hand such arguments up to the
+    top-level parser, whose error names no command."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        namespace, extras = super().parse_known_args(args, namespace)
+        if extras:
+            self.error(f"unrecognized arguments: {' '.join(extras)}")
+        return namespace, extras
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="rtbench", description="Validate and benchmark the reference path tracer against Mitsuba 3.",
         epilog=EXIT_CODES_HELP)
     parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_CommandParser)
     for name in COMMANDS:
         module = importlib.import_module(f"benchmarks.commands.{name}")
         # help is %-formatted by argparse, the description is not

@@ -107,6 +107,29 @@ def test_exceptions_map_to_one_line_and_a_code(monkeypatch, capsys, exc, code, w
     assert words in _one_error_line(capsys, "report")
 
 
+@pytest.mark.parametrize("argv, unknown", [
+    (["stress", "--bogus"], "--bogus"),
+    (["parity", "--threads", "2"], "--threads"),        # parity has no --threads ('2' is a scene name)
+    (["render", "cornell_box", "--spp", "1", "--nope"], "--nope"),
+])
+def test_an_unknown_option_is_the_subcommands_usage_error(argv, unknown, capsys):
+    """argparse hands a subcommand's unknown arguments up to the top-level parser, which said
+    `rtbench: error: ...`; the documented form names the command."""
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    assert exc.value.code == 2
+    line = _one_error_line(capsys, argv[0])
+    assert f"unrecognized arguments: {unknown}" in line and f"`rtbench {argv[0]} --help`" in line
+
+
+def test_an_unknown_top_level_option_stays_the_top_levels(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["--bogus", "render"])
+    assert exc.value.code == 2
+    lines = _err_lines(capsys)
+    assert len(lines) == 1 and lines[0].startswith("rtbench: error: unrecognized arguments: --bogus"), lines
+
+
 def test_every_help_documents_the_exit_codes(capsys):
     for name in ("run", "render", "reference", "report", "gate", "stress", "chi2", "selftest", "speed", "curves"):
         with pytest.raises(SystemExit) as exc:
