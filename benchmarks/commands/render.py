@@ -48,15 +48,21 @@ def run(args) -> int:
 
     console = Console()
     if args.list or not (args.scenes or args.scene_files):
-        for name in list_scenes():
+        for name in list_scenes():  # on stdout: the answer of --list, the choices of a command without a scene
             console.print(f"{name:16s} {describe_scene(name)}", markup=False)
-        return 0 if args.list else 2
+        if args.list:
+            return 0
+        raise ValueError("no scene: give a suite scene name (`rtbench render --list` lists them) or --scene PATH")
     unknown = [s for s in args.strategies if s not in rt.STRATEGIES]
     if unknown:
         raise ValueError(f"unknown strateg{'y' if len(unknown) == 1 else 'ies'} {', '.join(unknown)}; "
                          f"choose from {', '.join(rt.STRATEGIES)}")
     rt.imageio.check_exposure(args.exposure)  # before the render, not after it
     variant = A.single_variant(args)
+    if args.mitsuba:  # a variant that does not exist or work here: refused before anything is rendered
+        from mitsuba_scenes.variants import select_variant
+
+        variant = select_variant(variant)
     params = {} if args.width is None else {"width": args.width, "height": args.height}
     names = A.resolve_scenes(args, suite_names=[args.scenes] if args.scenes else [])
     out = Path(args.out)
@@ -65,7 +71,8 @@ def run(args) -> int:
 
 
 def _render_scene(name, scene, args, variant, out: Path, console) -> int:
-    """Render one scene with every strategy (and Mitsuba), write EXR and PNG, print one line each;
+    """Render one scene with every strategy (and, with ``--mitsuba``, Mitsuba in ``variant``, the one
+    :func:`~mitsuba_scenes.variants.select_variant` chose), write EXR and PNG, print one line each;
     1 when samples were NaN/Inf or pixels overflowed."""
     import reference_tracer as rt
     from mitsuba_scenes import describe_scene
@@ -92,14 +99,12 @@ def _render_scene(name, scene, args, variant, out: Path, console) -> int:
         bad += bool(result.nonfinite_samples or result.overflow_pixels)
     if args.mitsuba:
         from mitsuba_scenes import render_mitsuba
-        from mitsuba_scenes.variants import select_variant
 
-        chosen = select_variant(variant)
-        res = render_mitsuba(scene, spp=args.spp, seed=args.seed, variant=chosen, threads=args.threads, batches=1)
+        res = render_mitsuba(scene, spp=args.spp, seed=args.seed, variant=variant, threads=args.threads, batches=1)
         if not args.quiet:
-            console.print(f"{name}: Mitsuba {chosen} path, {args.spp} spp, seed {args.seed}: "
+            console.print(f"{name}: Mitsuba {variant} path, {args.spp} spp, seed {args.seed}: "
                           f"{res.seconds:.3f} s", highlight=False)
-        _write(out / file_stem(name, w, h, f"mitsuba-{chosen}", args.spp, args.seed), res.mean, args.exposure)
+        _write(out / file_stem(name, w, h, f"mitsuba-{variant}", args.spp, args.seed), res.mean, args.exposure)
     return 1 if bad else 0
 
 

@@ -287,3 +287,25 @@ def test_selftest_spp_ladder_none_is_no_ladder(monkeypatch):
     assert main(["selftest", "--spp-ladder", "2,4", "--quiet"]) == 130
     assert seen["spp_ladder"] == [2, 4]
 
+
+def test_render_without_a_scene_says_so_on_stderr(capsys):
+    """It printed the suite and exited 2 with nothing on stderr."""
+    assert main(["render"]) == 2
+    out, err = capsys.readouterr()
+    assert "cornell_box" in out                     # the suite, to choose from
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("rtbench render: error: no scene"), lines
+    assert main(["render", "--list"]) == 0 and capsys.readouterr().err == ""
+
+
+def test_render_refuses_a_bad_variant_before_rendering(tmp_path, capsys, monkeypatch):
+    """``--variant foo --mitsuba`` rendered ours (and wrote its files) and only then refused the variant."""
+    import reference_tracer as rt
+
+    monkeypatch.setattr(rt, "render", lambda *a, **k: pytest.fail("rendered before checking --variant"))
+    code = main(["render", "cornell_box", "--width", "8", "--spp", "1", "--mitsuba", "--variant", "foo",
+                 "--out", str(tmp_path / "out"), "--quiet"])
+    assert code == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert len(err) == 1 and err[0].startswith("rtbench render: error: Mitsuba variant") and "'foo'" in err[0]
+    assert not (tmp_path / "out").exists()
