@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .validation import finite_scalar
+from .validation import finite_scalar, open_regular_file
 
 __all__ = ["write_exr", "read_exr", "read_hdr", "write_png", "to_display", "atomic_write", "new_file_mode"]
 
@@ -151,17 +151,41 @@ def _os_error(exc: Exception, path) -> Exception:
 
 #: most pixels :func:`read_exr` decodes by default: a file may declare any size in its header.
 MAX_READ_PIXELS = 1 << 26
+#: the first four bytes of every OpenEXR file.
+EXR_MAGIC = b"\x76\x2f\x31\x01"
 
 
 def read_exr(path, *, max_pixels: int = MAX_READ_PIXELS) -> np.ndarray:
     """Read an EXR written by :func:`write_exr` (or Mitsuba) as an (H, W, C) float32 array.
 
-    The header is read first: an image of more than ``max_pixels`` pixels (64 Mi by
-    default) is refused with ``ValueError`` before its pixels are decoded, so a small
-    compressed file cannot make the reader allocate gigabytes.
+    The file is opened and its magic number checked here, before the EXR library sees it
+    (which would print its own error line on stderr and raise a bare ``RuntimeError``). The
+    header is read first: an image of more than ``max_pixels`` pixels (64 Mi by default) is
+    refused with ``ValueError`` before its pixels are decoded, so a small compressed file
+    cannot make the reader allocate gigabytes.
+
+    Raises
+    ------
+    FileNotFoundError, PermissionError (OSError)
+        The file cannot be opened (``filename``: the path).
+    ValueError
+        Not a regular file, not an OpenEXR file (by its first bytes), or too large an image.
+    RuntimeError
+        The EXR library cannot decode it (a truncated or corrupt file).
+
+    Examples
+    --------
+    >>> read_exr("/nonexistent/x.exr")
+    Traceback (most recent call last):
+    ...
+    FileNotFoundError: [Errno 2] No such file or directory: '/nonexistent/x.exr'
     """
     import OpenEXR  # deferred: OpenEXR only when an EXR file is read or written
 
+    with open_regular_file(path, "an OpenEXR file") as fh:
+        head = fh.read(len(EXR_MAGIC))
+    if head != EXR_MAGIC:
+        raise ValueError(f"{Path(path)}: not an OpenEXR file ({'empty' if not head else 'no EXR magic number'})")
     with OpenEXR.File(str(path), header_only=True) as f:
         lo, hi = (np.asarray(v, dtype=np.int64) for v in f.header()["dataWindow"])
     pixels = int(np.prod(hi - lo + 1))

@@ -38,17 +38,19 @@ def image_path(store, relpath) -> Path:
 def read_image(store, relpath, *, rgb: bool = False, sha256: str | None = None) -> np.ndarray:
     """An EXR image of the store (:func:`image_path`) as (H, W, C) float32; (H, W, 3) with ``rgb``.
 
-    With ``sha256``, a file whose bytes do not match raises :class:`benchmarks.errors.InputError`
-    instead of being decoded (flipped bytes can decode to finite garbage).
+    A record names the image, so a missing file is a store that is not what it should be
+    (copied without its images, pruned by hand): :class:`benchmarks.errors.InputError` (exit 2),
+    as is a file that is no readable EXR. With ``sha256``, a file whose bytes do not match
+    raises ``InputError`` too instead of being decoded (flipped bytes can decode to finite garbage).
     """
     path = image_path(store, relpath)
+    if not path.exists():
+        raise InputError(f"{path}: missing, though the store names it (a store copied without its images?)")
     if sha256 is not None and file_sha256(path) != sha256:
         raise InputError(f"{path}: checksum mismatch, the file is corrupt (not used)")
     try:
         a = imageio.read_exr(path)
-    except (OSError, RuntimeError) as exc:
-        if not path.exists():
-            raise
+    except (OSError, RuntimeError) as exc:  # the EXR library cannot decode it
         raise InputError(f"{path}: not a readable EXR image ({exc})") from exc
     if rgb:
         if a.shape[2] == 1:

@@ -110,3 +110,20 @@ def _records(store):
 def test_tail_spp_is_validated(store_a, capsys):
     assert main(["compare", str(store_a), str(store_a), "--tail-spp", "1", "--quiet"]) == 2
     assert "--tail-spp" in capsys.readouterr().err
+
+
+def test_a_store_without_its_images_is_bad_input(tmp_path, capfd):
+    """B's results.jsonl names images that are not there: compare printed the EXR library's line and
+    ``internal error: RuntimeError`` (exit 3); now one line naming the image, exit 2."""
+    import shutil
+
+    small = dict(GROUP, spps=(1, 2), reference_spp=16)
+    run_sweep([Group(**small)], out=tmp_path / "a", threads=1, progress=False)
+    shutil.copytree(tmp_path / "a", tmp_path / "b")
+    shutil.rmtree(tmp_path / "b" / "images")
+    capfd.readouterr()
+    code = main(["compare", str(tmp_path / "a"), str(tmp_path / "b"), "--out", str(tmp_path / "page"), "--quiet"])
+    err = [ln for ln in capfd.readouterr().err.splitlines() if ln.strip()]
+    assert code == 2
+    assert len(err) == 1 and err[0].startswith("rtbench compare: error: ") and "internal error" not in err[0], err
+    assert str(tmp_path / "b" / "images") in err[0] and "missing, though the store names it" in err[0]

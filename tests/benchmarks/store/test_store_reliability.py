@@ -95,6 +95,18 @@ def test_corrupt_store_reference_is_never_used(tmp_path):
         read_image(tmp_path, rel, sha256=digest)
 
 
+def test_a_missing_image_the_store_names_is_bad_input(tmp_path, capfd):
+    """It re-raised the EXR library's RuntimeError (``internal error``, exit 3), after the library's own
+    ``(EXR_ERR_FILE_ACCESS)`` line on stderr."""
+    with pytest.raises(InputError, match=r"images/gone\.exr: missing, though the store names it"):
+        read_image(tmp_path, "images/gone.exr")
+    (tmp_path / "images").mkdir()
+    (tmp_path / "images" / "png.exr").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(32))
+    with pytest.raises(ValueError, match="not an OpenEXR file"):
+        read_image(tmp_path, "images/png.exr")
+    assert capfd.readouterr().err == ""
+
+
 def test_report_refuses_a_corrupt_reference_copy(tmp_path):
     import reports
     from report_store import make_store
