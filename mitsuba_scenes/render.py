@@ -190,8 +190,9 @@ def film_sizes(path, *, params=None) -> list:
              int(n.props["height"]) if "height" in n.props.keys() else 576) for n in _film_nodes(mi, state)]
 
 
-def load_file(path, *, params=None, film_size=None):
-    """``mi.load_file(path, **params)``, with every film's width and height set to ``film_size``.
+def load_file(path, *, params=None, film_size=None, optimize: bool = True):
+    """``mi.load_file(path, optimize=optimize, **params)``, with every film's width and height set to
+    ``film_size``.
 
     With ``film_size=(width, height)`` the file is loaded by the steps of ``mi.load_file``
     (parse with the file's folder first on the file resolver, transform, instantiate), the
@@ -199,18 +200,20 @@ def load_file(path, *, params=None, film_size=None):
     includes and relative paths resolved as Mitsuba resolves them, no file written. The
     thread's file resolver is restored afterwards (``<path>`` entries do not leak into the
     next load). ``ValueError`` when the scene has no ``<film>`` to resize; Mitsuba's own
-    errors (``RuntimeError``) pass through. The active variant is used.
+    errors (``RuntimeError``) pass through. The active variant is used. ``optimize=False`` turns
+    Mitsuba's merging of meshes and of equal objects off, as ``mi.load_file`` does.
     """
     import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     params = {str(k): str(v) for k, v in (params or {}).items()}
     if film_size is None:
         with file_resolver_scope():
-            return mi.load_file(str(path), **params)
+            return mi.load_file(str(path), optimize=optimize, **params)
 
     width, height = checked_film_size(film_size)
     with file_resolver_scope(os.path.dirname(os.path.abspath(str(path)))):
         cfg = mi.parser.ParserConfig(mi.variant())
+        cfg.merge_equivalent = cfg.merge_meshes = bool(optimize)
         state = mi.parser.parse_file(cfg, str(path), **params)
         films = _film_nodes(mi, state)
         if not films:

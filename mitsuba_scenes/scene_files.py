@@ -139,8 +139,10 @@ def load_scene_file(path, params=None) -> rt.Scene:
     """The scene of an XML or Python file at its own size (a Python file's ``build`` defaults, else
     :data:`PYTHON_DEFAULT_SIZE`); ``ValueError`` if unsupported."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise ValueError(f"no such scene file: {path}")
+    if not path.is_file():
+        raise ValueError(f"scene file {path} is not {'a file but a directory' if path.is_dir() else 'a regular file'}")
     if path.suffix.lower() == ".xml":
         return from_mitsuba(path, params=params or {})
     if path.suffix.lower() == ".py":

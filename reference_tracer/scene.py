@@ -14,7 +14,7 @@ from .lights import Light
 from .validation import colour, finite_scalar, positive_int, vector3
 from .shapes import Shape
 
-__all__ = ["Camera", "Direct", "Filter", "FILTERS", "PROJECTIONS", "Scene", "MAX_DEPTH_CAP"]
+__all__ = ["Camera", "Direct", "Filter", "FILTERS", "PROJECTIONS", "Scene", "MAX_DEPTH_CAP", "integrator_depths"]
 
 #: Safety cap on path length when ``max_depth=-1`` (unlimited). A path that survives
 #: this many segments carries a throughput so small (or Russian roulette has long ended
@@ -346,6 +346,27 @@ class Direct:
         return {"emitter_samples": self.emitter_samples, "bsdf_samples": self.bsdf_samples}
 
 
+def integrator_depths(max_depth, rr_depth) -> tuple:
+    """``(max_depth, rr_depth)`` as :class:`Scene` holds them: ``max_depth`` an integer >= 1 or
+    -1 (unlimited), ``rr_depth`` None (no Russian roulette) or an integer >= 1; else
+    ``ValueError`` naming the field. The scene's own check, for a reader of the integrator's
+    settings (the Mitsuba importer) to apply where they are written.
+
+    Examples
+    --------
+    >>> integrator_depths(8, 5)
+    (8, 5)
+    >>> integrator_depths(-5, None)
+    Traceback (most recent call last):
+    ...
+    ValueError: Scene.max_depth must be an integer >= 1 or -1 (unlimited), got -5
+    """
+    md = max_depth
+    if isinstance(md, bool) or not isinstance(md, (int, np.integer)) or not (md == -1 or md >= 1):
+        raise ValueError(f"Scene.max_depth must be an integer >= 1 or -1 (unlimited), got {md!r}")
+    return int(md), None if rr_depth is None else positive_int("Scene.rr_depth", rr_depth)
+
+
 def _sequence_of(name: str, value, kind: type, what: str, examples: str = "") -> tuple:
     """``value`` as a tuple of ``kind`` instances; ``ValueError`` naming ``name`` and the first
     item that is not one (``what``: the kind in words, ``examples`` after it in that message)."""
@@ -412,12 +433,9 @@ class Scene:
         if not isinstance(self.camera, Camera):
             raise ValueError(f"Scene.camera must be a reference_tracer.Camera, got {self.camera!r}")
         object.__setattr__(self, "shapes", _sequence_of("Scene.shapes", self.shapes, Shape, "shape"))
-        md = self.max_depth
-        if isinstance(md, bool) or not isinstance(md, (int, np.integer)) or not (md == -1 or md >= 1):
-            raise ValueError(f"Scene.max_depth must be an integer >= 1 or -1 (unlimited), got {md!r}")
-        object.__setattr__(self, "max_depth", int(md))
-        if self.rr_depth is not None:
-            object.__setattr__(self, "rr_depth", positive_int("Scene.rr_depth", self.rr_depth))
+        max_depth, rr_depth = integrator_depths(self.max_depth, self.rr_depth)
+        object.__setattr__(self, "max_depth", max_depth)
+        object.__setattr__(self, "rr_depth", rr_depth)
         object.__setattr__(self, "background", colour("Scene.background", self.background, upper=None))
         if self.direct is not None and not isinstance(self.direct, Direct):
             raise ValueError(f"Scene.direct must be a reference_tracer.Direct or None, got {self.direct!r}")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 import threading
@@ -295,6 +296,72 @@ def test_a_mesh_too_large_for_memory_exits_3(tmp_path, monkeypatch):
     from benchmarks.errors import exit_code
 
     assert exit_code(MemoryError()) == 3
+
+
+def _mesh_with_face(tmp_path, kind: str, face) -> Path:
+    """A mesh file of 3 vertices and the one triangle ``face``, in the format ``kind``."""
+    import struct
+    import zlib
+
+    from mitsuba_scenes.translate import write_ply
+
+    if kind == "ply_ascii":
+        mesh = tmp_path / "tri.ply"
+        mesh.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                        "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                        "0 0 0\n1 0 0\n0 1 0\n3 " + " ".join(map(str, face)) + "\n")
+    elif kind == "ply_binary":
+        mesh = tmp_path / "tri.ply"
+        write_ply(mesh, [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [face])
+    else:
+        mesh = tmp_path / "tri.serialized"
+        body = (struct.pack("<I", 0x1000) + b"tri\x00" + struct.pack("<QQ", 3, 1)
+                + np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], "<f4").tobytes() + np.array(face, "<u4").tobytes())
+        mesh.write_bytes(struct.pack("<HH", 0x041C, 4) + zlib.compress(body) + struct.pack("<QI", 0, 1))
+    return mesh
+
+
+@pytest.mark.parametrize("kind, face", [("ply_ascii", [0, 1, 7]), ("ply_ascii", [0, 1, -1]),
+                                        ("ply_binary", [0, 1, 7]), ("serialized", [0, 1, 3])])
+def test_a_face_index_past_the_vertices_is_refused_before_mitsuba_loads_the_mesh(tmp_path, kind, face):
+    """Mitsuba 3.9.1's ply and serialized loaders take a triangle's vertex indices unchecked and
+    compute vertex normals through them, outside their buffers (a heap corruption, then an
+    abort); its obj loader checks them. The importer reads the triangles first and refuses the
+    file: ValueError naming the mesh file, the face and the shape's line (was an IndexError from
+    the normals, after Mitsuba had loaded it)."""
+    from mitsuba_scenes import from_mitsuba
+
+    mesh = _mesh_with_face(tmp_path, kind, face)
+    xml = _xml_with_mesh(tmp_path, str(mesh), kind=kind.split("_")[0], face_normals=False)
+    with pytest.raises(ValueError, match=rf"{re.escape(str(mesh))}: (mesh 0's )?face 0 is "
+                                         rf"{re.escape(str(face))}, a vertex index out of range \[0, 3\) .*"
+                                         rf"\({re.escape(str(xml))} \(line \d+, col \d+\)\)"):
+        from_mitsuba(xml)
+    if kind == "ply_ascii" and face[-1] == 7:   # the command a user runs: exit 2, one line naming the file
+        proc = _rtbench("render", "--scene", xml, "--spp", "1", "--width", "8", "--out", tmp_path / "r")
+        assert proc.returncode == 2, proc.stderr
+        assert "internal error" not in proc.stderr and "tri.ply: face 0 is [0, 1, 7]" in proc.stderr, proc.stderr
+        assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_a_mesh_object_whose_face_index_is_past_its_vertices_is_refused_at_its_node():
+    """A mi.Mesh in a scene dict (Mitsuba checks none of its indices): refused with the dict's
+    key, as every other problem of a mesh object is (was a ValueError of Mesh without it)."""
+    from mitsuba_scenes import from_mitsuba
+    from mitsuba_scenes.variants import import_mitsuba
+
+    mi = import_mitsuba()
+    mesh = mi.Mesh("tri", vertex_count=3, face_count=1, has_vertex_normals=False)
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0], dtype=np.float32)
+    params["faces"] = np.array([0, 1, 7], dtype=np.uint32)
+    params.update()
+    scene = {"type": "scene", "tri": mesh,
+             "sensor": {"type": "perspective", "film": {"type": "hdrfilm", "width": 4, "height": 4,
+                                                        "rfilter": {"type": "box"}}}}
+    with pytest.raises(ValueError, match=r"mesh object whose face 0 is \[0, 1, 7\], a vertex index out of range "
+                                         r'\[0, 3\) \(dictionary node "tri"\)'):
+        from_mitsuba(scene)
 
 
 # ---------------------------------------------------------------------------------- 8. user errors, said as such

@@ -220,10 +220,12 @@ def add_scene_args(parser, *, nargs: str = "*", what: str = "suite scene name(s)
                         help=f"{what} (`rtbench render --list` lists them)")
 
 
-def add_size_args(parser, *, width: int | None) -> None:
-    """``--width`` (None: the scene's own) and ``--height`` (default: the width)."""
+def add_size_args(parser, *, width: int | None, default_help: str | None = None) -> None:
+    """``--width`` (None: the scene's own, or what ``default_help`` says) and ``--height`` (default: the width)."""
+    if default_help is None and width is None:
+        default_help = "the scene's own"
     parser.add_argument("--width", type=int, default=width, metavar="PX",
-                        help="image width in pixels" + (" (default: the scene's own)" if width is None else ""))
+                        help="image width in pixels" + (f" (default: {default_help})" if default_help else ""))
     parser.add_argument("--height", type=int, default=None, metavar="PX",
                         help="image height in pixels (default: the width)")
 

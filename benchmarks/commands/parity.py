@@ -1,5 +1,6 @@
 """``rtbench parity [SCENE...] [--scene PATH]``: first-hit AOVs at pixel centres, ours vs Mitsuba
-(:mod:`benchmarks.parity`); a Mitsuba XML file is loaded by Mitsuba itself, at its own size."""
+(:mod:`benchmarks.parity`); a Mitsuba XML file is loaded by Mitsuba itself, at its own size or at
+``--width`` x ``--height`` (both renderers' films resized, as ``rtbench render`` resizes it)."""
 from __future__ import annotations
 
 import sys
@@ -9,10 +10,14 @@ from benchmarks.commands import _args as A
 HELP = ("first-hit AOV parity at pixel centres (distance, normal, albedo, emission, shape), ours vs Mitsuba; "
         "exit 1 with mismatch maps on a difference")
 
+#: the width of suite and Python scenes without ``--width`` (an XML file keeps its own film).
+DEFAULT_WIDTH = 64
+
 
 def add_arguments(parser) -> None:
     A.add_scene_args(parser, what="suite scenes (default: the whole suite, unless --scene is given)")
-    A.add_size_args(parser, width=64)  # suite and Python scenes; XML files keep their own size
+    A.add_size_args(parser, width=None,
+                    default_help=f"{DEFAULT_WIDTH} for suite and Python scenes, an XML file's own film size")
     A.add_out_arg(parser, default="rtbench-parity")  # the mismatch maps of failing scenes
     A.add_json_arg(parser)  # one row per scene
     A.add_quiet_arg(parser)
@@ -20,18 +25,26 @@ def add_arguments(parser) -> None:
 
 
 def parity_of(name: str, *, width: int | None = None, height: int | None = None):
-    """The :class:`benchmarks.parity.ParityReport` of scene ``name`` (suite or registered file)."""
+    """The :class:`benchmarks.parity.ParityReport` of scene ``name`` (suite or registered file) at
+    ``width`` x ``height`` (height defaults to width). Without a width a suite or Python scene
+    is checked at its own size and an XML file at its film's; with one, an XML file's films are
+    resized in both renderers (``from_mitsuba(..., film_size=)`` and
+    :func:`mitsuba_scenes.render.load_file`), its field of view following its ``fov_axis``."""
     from mitsuba_scenes import get_scene
     from mitsuba_scenes.scene_files import scene_file
 
     from benchmarks.parity import run_parity
 
+    if width is None and height is not None:
+        raise ValueError("--height needs --width")
+    size = None if width is None else (width, height or width)
     entry = scene_file(name)
     if entry is not None and entry.kind == "xml":
-        return run_parity(get_scene(name), mitsuba=entry.path, params=entry.params, name=name)
+        scene = get_scene(name) if size is None else get_scene(name, width=size[0], height=size[1])
+        return run_parity(scene, mitsuba=entry.path, params=entry.params, name=name, film_size=size)
     scene = get_scene(name)
-    if width is not None:
-        scene = scene.with_camera_size(width, height or width)
+    if size is not None:
+        scene = scene.with_camera_size(*size)
     return run_parity(scene, name=name)
 
 
@@ -70,13 +83,16 @@ def _explain(report, out) -> None:
 
 def run(args) -> int:
     from mitsuba_scenes import list_scenes
+    from mitsuba_scenes.scene_files import scene_file
 
     from benchmarks.store import write_json
 
     names = A.resolve_scenes(args, suite_names=args.scenes, default=list_scenes(), known=True)
     rows, failed = [], 0
     for name in names:
-        report = parity_of(name, width=args.width, height=args.height)
+        xml = getattr(scene_file(name), "kind", None) == "xml"
+        width = args.width if args.width is not None or xml else DEFAULT_WIDTH
+        report = parity_of(name, width=width, height=args.height)
         if not args.quiet or not report.passed:
             print(report.summary(), flush=True)
         rows.append(report.to_dict())

@@ -20,7 +20,7 @@ from .mitsuba import mitsuba_aovs, mitsuba_scene_for
 __all__ = ["ParityReport", "run_parity", "write_mismatch_maps"]
 
 
-def run_parity(scene, *, mitsuba=None, name: str = "scene", params=None) -> ParityReport:
+def run_parity(scene, *, mitsuba=None, name: str = "scene", params=None, film_size=None) -> ParityReport:
     """Compare the first-hit AOVs of ``scene`` in our tracer and in Mitsuba.
 
     Parameters
@@ -33,11 +33,14 @@ def run_parity(scene, *, mitsuba=None, name: str = "scene", params=None) -> Pari
         The scene's name in messages and file names.
     params : dict or None
         ``$name`` values of an XML file.
+    film_size : (int, int) or None
+        ``(width, height)`` replacing the films of an XML file (``scene`` must have been
+        imported at that size: ``from_mitsuba(path, film_size=...)``).
 
     Returns
     -------
     ParityReport
     """
-    mscene = mitsuba_scene_for(scene, mitsuba, params=params)
+    mscene = mitsuba_scene_for(scene, mitsuba, params=params, film_size=film_size)
     return compare_aovs(scene, first_hit_aovs(scene), mitsuba_aovs(mscene, scene), name=name,
                         theirs_at=lambda off: mitsuba_aovs(mscene, scene, offset=off))

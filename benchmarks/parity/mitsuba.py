@@ -11,6 +11,7 @@ import numpy as np
 
 import reference_tracer as rt
 from mitsuba_scenes import to_mitsuba
+from mitsuba_scenes.render import load_file
 from mitsuba_scenes.variants import select_variant
 
 from .compare import shape_bounds
@@ -21,13 +22,17 @@ __all__ = ["mitsuba_scene_for", "mitsuba_aovs", "match_shapes"]
 BOX_RTOL = 1e-4
 
 
-def mitsuba_scene_for(scene: rt.Scene, source=None, *, params=None):
-    """The loaded Mitsuba scene: ``source`` (dict or XML path) or ``to_mitsuba(scene)``; no mesh merging."""
+def mitsuba_scene_for(scene: rt.Scene, source=None, *, params=None, film_size=None):
+    """The loaded Mitsuba scene: ``source`` (dict or XML path, its films resized to
+    ``film_size`` when given: :func:`mitsuba_scenes.render.load_file`) or ``to_mitsuba(scene)``;
+    no mesh merging."""
     select_variant(None)
     import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
 
     if isinstance(source, (str, os.PathLike)):
-        return mi.load_file(str(source), optimize=False, **{str(k): str(v) for k, v in (params or {}).items()})
+        return load_file(source, params=params, film_size=film_size, optimize=False)
+    if film_size is not None:
+        raise ValueError("film_size applies to Mitsuba XML files only")
     return mi.load_dict(to_mitsuba(scene) if source is None else source, optimize=False)
 
 

@@ -9,21 +9,11 @@ import reference_tracer as rt
 from reference_tracer.conductors import CONDUCTORS
 
 from .textures import read_colour, read_reflectance
-from .values import check_params, param_names, read_bool, read_ior, read_scalar
+from .values import check_params, located, param_names, read_bool, read_ior, read_scalar
 
 
 # Mitsuba defaults that matter here.
 _DEFAULT_DIFFUSE = 0.5
-
-
-def _material(ctx, node, factory, *args, **kwargs):
-    """``factory(*args, **kwargs)``, or None after recording its ``ValueError`` (a value
-    Mitsuba takes and we do not, such as a texture beyond [0, 1]) with the place."""
-    try:
-        return factory(*args, **kwargs)
-    except ValueError as exc:
-        ctx.bad(node, f"{node.props.plugin_name()}: {exc}")
-        return None
 
 
 def _plastic(ctx, node, name, two_sided):
@@ -49,13 +39,9 @@ def _plastic(ctx, node, name, two_sided):
             kw = {"alpha": max(alpha, 1e-4), "distribution": dist}  # Mitsuba clamps alpha to 1e-4 too
     if not ok or None in (diffuse, specular, int_ior, ext_ior, nonlinear):
         return None
-    try:
-        return (rt.RoughPlastic if rough else rt.Plastic)(
-            diffuse, specular_reflectance=specular, int_ior=int_ior, ext_ior=ext_ior, nonlinear=nonlinear,
-            two_sided=two_sided, **kw)
-    except ValueError as exc:  # values Mitsuba takes and we do not (or neither does), with the place
-        ctx.bad(node, f"{name}: {exc}")
-        return None
+    return (rt.RoughPlastic if rough else rt.Plastic)(
+        diffuse, specular_reflectance=specular, int_ior=int_ior, ext_ior=ext_ior, nonlinear=nonlinear,
+        two_sided=two_sided, **kw)
 
 
 #: BSDFs with a transmission component (a mask's and null's pass-through is one): Mitsuba's
@@ -63,8 +49,10 @@ def _plastic(ctx, node, name, two_sided):
 _TRANSMITTING = ("dielectric", "thindielectric", "roughdielectric", "mask", "null")
 
 
+@located
 def read_bsdf(ctx, node, *, two_sided=False, emitter=None):
-    """Material for BSDF ``node``.
+    """Material for BSDF ``node`` (None after recording a problem; a value our material
+    refuses is recorded at the node by :func:`~.values.located`).
 
     None (no ``<bsdf>``): Mitsuba's default diffuse 0.5 on a plain shape, but *black* on an
     emitter shape - Mitsuba gives an area emitter without a BSDF a black diffuse BSDF
@@ -108,8 +96,8 @@ def read_bsdf(ctx, node, *, two_sided=False, emitter=None):
             return None
         if emitter is not None:
             black = not isinstance(albedo, rt.Texture) and max(albedo) == 0
-            return _material(ctx, node, rt.DiffuseLight, emitter, albedo=None if black else albedo)
-        return _material(ctx, node, rt.Lambertian, albedo, two_sided=two_sided)
+            return rt.DiffuseLight(emitter, albedo=None if black else albedo)
+        return rt.Lambertian(albedo, two_sided=two_sided)
     if emitter is not None:
         ctx.bad(node, f"an area emitter on a '{name}' BSDF (our emitters reflect as diffuse only)")
         return None
@@ -121,7 +109,7 @@ def read_bsdf(ctx, node, *, two_sided=False, emitter=None):
         albedo = read_reflectance(ctx, node, "specular_reflectance", 1.0)
         if ior is None or albedo is None:
             return None
-        return _material(ctx, node, rt.Metal, albedo, fuzz=0.0, two_sided=two_sided, **ior)
+        return rt.Metal(albedo, fuzz=0.0, two_sided=two_sided, **ior)
     if name == "roughconductor":
         check_params(ctx, node, {"material", "specular_reflectance", "distribution", "alpha", "alpha_u", "alpha_v",
                            "sample_visible", "eta", "k"}, "bsdf")
@@ -132,8 +120,7 @@ def read_bsdf(ctx, node, *, two_sided=False, emitter=None):
         albedo = read_reflectance(ctx, node, "specular_reflectance", 1.0)
         if not ok or alpha is None or ior is None or albedo is None:
             return None
-        return _material(ctx, node, rt.RoughConductor, albedo, alpha=alpha, distribution=dist, two_sided=two_sided,
-                         **ior)
+        return rt.RoughConductor(albedo, alpha=alpha, distribution=dist, two_sided=two_sided, **ior)
     if name in ("plastic", "roughplastic"):
         return _plastic(ctx, node, name, two_sided)
     if name in ("dielectric", "thindielectric", "roughdielectric"):
@@ -201,7 +188,7 @@ def _mask(ctx, node, two_sided):
     if isinstance(inner, rt.Mask):
         ctx.bad(node, "a mask around a mask (one mask only)")
         return None
-    return _material(ctx, node, rt.Mask, inner, opacity, clip=True)
+    return rt.Mask(inner, opacity, clip=True)
 
 
 def _distribution(ctx, node, name: str):

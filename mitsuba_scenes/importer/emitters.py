@@ -8,9 +8,10 @@ import math
 import numpy as np
 
 import reference_tracer as rt
+from reference_tracer.validation import colour
 
 from .textures import read_colour, read_reflectance
-from .values import check_params, read_matrix, read_scalar, rigid_scale
+from .values import check_params, located, read_matrix, read_scalar, rigid_scale
 
 
 #: Parameters every emitter may have that change Mitsuba's variance, never its image: the
@@ -65,75 +66,97 @@ def _envmap(ctx, node):
             ctx.bad(node, "envmap without a filename")
             return None
         return rt.EnvMap(image, scale=float(scale), to_world=m)
-    except (ValueError, OSError) as exc:
+    except OSError as exc:   # (a ValueError is placed by read_emitter, the reader of the node)
         ctx.bad(node, f"envmap: {exc}")
         return None
 
 
+@located
+def read_area_emitter(ctx, node):
+    """The radiance of an ``area`` emitter (on a shape, or declared at the top level and
+    referenced), checked here as our :class:`reference_tracer.DiffuseLight` checks it, so
+    that a value it refuses is placed at the emitter; None after recording a problem."""
+    check_params(ctx, node, {"radiance"}, "emitter")
+    radiance = read_colour(ctx, node, "radiance", 1.0)
+    if radiance is None:
+        return None
+    return rt.DiffuseLight(radiance, albedo=None).radiance
+
+
+@located
+def read_constant(ctx, node):
+    """The radiance of a ``constant`` emitter, which becomes the scene's background, checked as
+    :class:`reference_tracer.Scene` checks its background (at the emitter, not the scene); None
+    after recording a problem."""
+    check_params(ctx, node, {"radiance"} | EMITTER_ANY, "emitter")
+    radiance = read_colour(ctx, node, "radiance", 1.0)
+    if radiance is None:
+        return None
+    return colour("Scene.background", radiance, upper=None)
+
+
+@located
 def read_emitter(ctx, node):
     """Our light for a top-level Mitsuba emitter other than ``area`` and ``constant``: an
-    EnvMap, PointLight, SpotLight or DirectionalLight; None after recording a problem."""
+    EnvMap, PointLight, SpotLight or DirectionalLight; None after recording a problem (a value
+    our light refuses is recorded at the node by :func:`~.values.located`)."""
     name = node.props.plugin_name()
     keys = node.props.keys()
     if name == "envmap":
         return _envmap(ctx, node)
-    try:
-        if name == "point":
-            check_params(ctx, node, {"position", "to_world", "intensity"} | EMITTER_ANY, "emitter")
-            if "position" in keys and "to_world" in keys:
-                ctx.bad(node, "point light with both position and to_world (Mitsuba refuses it too)")
+    if name == "point":
+        check_params(ctx, node, {"position", "to_world", "intensity"} | EMITTER_ANY, "emitter")
+        if "position" in keys and "to_world" in keys:
+            ctx.bad(node, "point light with both position and to_world (Mitsuba refuses it too)")
+            return None
+        position = _point3(ctx, node, "position") if "position" in keys else read_matrix(ctx, node)[:3, 3]
+        intensity = read_colour(ctx, node, "intensity", 1.0)
+        if position is None or intensity is None:
+            return None
+        return rt.PointLight(position, intensity)
+    if name == "spot":
+        check_params(ctx, node, {"to_world", "intensity", "cutoff_angle", "beam_width", "texture"} | EMITTER_ANY,
+                     "emitter")
+        m = read_matrix(ctx, node)
+        axis = _conformal_axis(ctx, node, m)
+        intensity = read_colour(ctx, node, "intensity", 1.0)
+        cutoff = read_scalar(ctx, node, "cutoff_angle", 20.0)
+        beam = read_scalar(ctx, node, "beam_width", None)
+        texture = None
+        if "texture" in keys:
+            texture = read_reflectance(ctx, node, "texture", 1.0)
+            if texture is None:
                 return None
-            position = _point3(ctx, node, "position") if "position" in keys else read_matrix(ctx, node)[:3, 3]
-            intensity = read_colour(ctx, node, "intensity", 1.0)
-            if position is None or intensity is None:
+            if not isinstance(texture, rt.Texture):
+                ctx.bad(node, "spot texture must be a checkerboard or bitmap (Mitsuba refuses a constant one: "
+                              "the intensity is the constant)")
                 return None
-            return rt.PointLight(position, intensity)
-        if name == "spot":
-            check_params(ctx, node, {"to_world", "intensity", "cutoff_angle", "beam_width", "texture"} | EMITTER_ANY,
-                   "emitter")
+        if axis is None or intensity is None:
+            return None
+        return rt.SpotLight(m[:3, 3], axis, intensity, cutoff_angle=cutoff,
+                            beam_width=None if beam is None else beam, texture=texture,
+                            up=_axis_up(m))
+    if name == "projector":
+        return _projector(ctx, node)
+    if name == "directional":
+        check_params(ctx, node, {"direction", "to_world", "irradiance"} | EMITTER_ANY, "emitter")
+        if "direction" in keys and "to_world" in keys:
+            ctx.bad(node, "directional light with both direction and to_world (Mitsuba refuses it too)")
+            return None
+        if "direction" in keys:
+            direction = _point3(ctx, node, "direction")
+        else:
             m = read_matrix(ctx, node)
-            axis = _conformal_axis(ctx, node, m)
-            intensity = read_colour(ctx, node, "intensity", 1.0)
-            cutoff = read_scalar(ctx, node, "cutoff_angle", 20.0)
-            beam = read_scalar(ctx, node, "beam_width", None)
-            texture = None
-            if "texture" in keys:
-                texture = read_reflectance(ctx, node, "texture", 1.0)
-                if texture is None:
-                    return None
-                if not isinstance(texture, rt.Texture):
-                    ctx.bad(node, "spot texture must be a checkerboard or bitmap (Mitsuba refuses a constant one: "
-                                  "the intensity is the constant)")
-                    return None
-            if axis is None or intensity is None:
+            direction = m[:3, :3] @ np.array([0.0, 0.0, 1.0])
+            if not abs(np.linalg.norm(direction) - 1.0) < 1e-5:
+                # Mitsuba uses to_world's +z axis as the light's direction without
+                # normalising it: a scaled axis would scale its light
+                ctx.bad(node, "directional to_world scales its +z axis (Mitsuba would not normalise it)")
                 return None
-            return rt.SpotLight(m[:3, 3], axis, intensity, cutoff_angle=cutoff,
-                                beam_width=None if beam is None else beam, texture=texture,
-                                up=_axis_up(m))
-        if name == "projector":
-            return _projector(ctx, node)
-        if name == "directional":
-            check_params(ctx, node, {"direction", "to_world", "irradiance"} | EMITTER_ANY, "emitter")
-            if "direction" in keys and "to_world" in keys:
-                ctx.bad(node, "directional light with both direction and to_world (Mitsuba refuses it too)")
-                return None
-            if "direction" in keys:
-                direction = _point3(ctx, node, "direction")
-            else:
-                m = read_matrix(ctx, node)
-                direction = m[:3, :3] @ np.array([0.0, 0.0, 1.0])
-                if not abs(np.linalg.norm(direction) - 1.0) < 1e-5:
-                    # Mitsuba uses to_world's +z axis as the light's direction without
-                    # normalising it: a scaled axis would scale its light
-                    ctx.bad(node, "directional to_world scales its +z axis (Mitsuba would not normalise it)")
-                    return None
-            irradiance = read_colour(ctx, node, "irradiance", 1.0)
-            if direction is None or irradiance is None:
-                return None
-            return rt.DirectionalLight(direction, irradiance)
-    except ValueError as exc:   # a value Mitsuba takes and we do not (or neither does), with the place
-        ctx.bad(node, f"{name}: {exc}")
-        return None
+        irradiance = read_colour(ctx, node, "irradiance", 1.0)
+        if direction is None or irradiance is None:
+            return None
+        return rt.DirectionalLight(direction, irradiance)
     ctx.bad(node, f"emitter '{name}' (area on shapes, constant, envmap, point, spot, directional and projector "
                   "are supported)")
     return None
@@ -179,6 +202,6 @@ def _projector(ctx, node):
     try:
         return rt.ProjectorLight(m[:3, 3], axis, irradiance, up=_axis_up(m), fov=fov, fov_axis=fov_axis,
                                  scale=float(scale) * s)
-    except (TypeError, ValueError) as exc:
+    except TypeError as exc:   # (a ValueError is placed by read_emitter, the reader of the node)
         ctx.bad(node, f"projector: {exc}")
         return None

@@ -6,19 +6,20 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+from collections.abc import Mapping
 from pathlib import Path
 from xml.parsers import expat
 
 import numpy as np
 
 import reference_tracer as rt
+from reference_tracer.scene import integrator_depths
 
 from ..variants import import_mitsuba
-from .emitters import EMITTER_ANY, read_emitter
+from .emitters import read_constant, read_emitter
 from .sensor import checked_film_size, read_camera, read_sampler, without_idle_clip_planes
 from .shapes import mesh_object, read_shape
-from .textures import read_colour
-from .values import Context, UnsupportedSceneError, check_params, read_scalar
+from .values import Context, UnsupportedSceneError, check_params, located, read_scalar
 
 
 #: deepest element nesting of an XML file handed to Mitsuba's parser (which recurses and
@@ -78,8 +79,8 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
     ----------
     source : dict or str or os.PathLike
         A ``mi.load_dict`` dictionary, or the path of a Mitsuba 3 XML file.
-    params : dict, optional
-        XML only: values of the file's ``$name`` parameters (overriding its
+    params : mapping, optional
+        XML only: values of the file's ``$name`` parameters by name (overriding its
         ``<default>`` values), as ``mi.load_file(path, **params)`` takes them.
     film_size : (int, int), optional
         ``(width, height)`` in pixels replacing the film's own, as if the file said so (the
@@ -97,7 +98,8 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
         docstring): one error (a ``ValueError``) listing every unsupported plugin or
         parameter with its location (file, line and column, or dictionary path).
     ValueError
-        A file that is missing or malformed, or an unknown ``$name``.
+        A file that is missing, not a file (a directory) or malformed, an unknown ``$name``,
+        or ``params`` that is not a mapping.
 
     Notes
     -----
@@ -125,6 +127,9 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
     >>> len(scene.shapes), scene.max_depth
     (8, 8)
     """
+    if params is not None and not isinstance(params, Mapping):
+        raise ValueError(f"from_mitsuba: params must be a mapping of $name names to values (a dict such as "
+                         f"{{'spp': 16}}), got {type(params).__name__}")
     mi = import_mitsuba()
     cfg = mi.parser.ParserConfig(mi.variant())
     params = {str(k): str(v) for k, v in (params or {}).items()}
@@ -139,8 +144,11 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
             state = mi.parser.parse_dict(cfg, source)
     elif isinstance(source, (str, os.PathLike)):
         path = Path(source)
-        if not path.is_file():
+        if not path.exists():
             raise ValueError(f"from_mitsuba: no such file {path}")
+        if not path.is_file():
+            what = "a file but a directory" if path.is_dir() else "a regular file"
+            raise ValueError(f"from_mitsuba: {path} is not {what} (give a Mitsuba 3 XML file)")
         check_xml_depth(path)
         with _as_value_error(f"from_mitsuba: {path}"):  # a malformed file or an unknown $name
             state, search = _parse_with_search_paths(mi, lambda: mi.parser.parse_file(cfg, str(path), **params))
@@ -165,7 +173,7 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
         if t == T.Object:
             obj = root.props[key]
             if isinstance(obj, mi.Mesh):
-                shape = mesh_object(ctx, root, key, obj)
+                shape = mesh_object(ctx, f'dictionary node "{key}"', obj)
                 if shape is not None:
                     shapes.append(shape)
             else:
@@ -192,8 +200,7 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
             if name in ("constant", "envmap"):
                 environments.append(node)
             if name == "constant":
-                check_params(ctx, node, {"radiance"} | EMITTER_ANY, "emitter")
-                c = read_colour(ctx, node, "radiance", 1.0)
+                c = read_constant(ctx, node)
                 if c is not None:
                     background = background + np.asarray(c)
             elif name != "area":  # an area emitter declared here is used by reference: checked on its shape
@@ -211,7 +218,6 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
         ctx.bad(environments[1], f"a second environment emitter ({environments[1].props.plugin_name()} after "
                                  f"{environments[0].props.plugin_name()}; Mitsuba allows one)")
     camera = read_camera(ctx, sensor)
-    max_depth, rr_depth, direct = -1, 5, None
     if integrator is not None and integrator.props.plugin_name() == "moment":
         # `moment` adds the second moment of the wrapped integrator's samples as extra
         # channels; the image (the mean) is the wrapped integrator's own
@@ -221,30 +227,50 @@ def from_mitsuba(source, params=None, *, film_size=None) -> rt.Scene:
             integrator = None
         else:
             integrator = inner[0]
-    if integrator is not None:
-        iname = integrator.props.plugin_name()
-        if iname not in ("path", "direct"):
-            ctx.bad(integrator, f"integrator '{iname}' (only 'path' and 'direct')")
-        elif "hide_emitters" in integrator.props.keys() and bool(integrator.props["hide_emitters"]):
-            ctx.bad(integrator, f"{iname} hide_emitters=true")
-        if iname == "path":
-            check_params(ctx, integrator, {"max_depth", "rr_depth", "hide_emitters"}, "integrator")
-            max_depth = int(read_scalar(ctx, integrator, "max_depth", -1))
-            rr_depth = int(read_scalar(ctx, integrator, "rr_depth", 5))
-        elif iname == "direct":
-            direct = read_direct(ctx, integrator)
+    settings = read_integrator(ctx, integrator) if integrator is not None else (-1, 5, None)
+    scene = None
+    if not ctx.problems:
+        scene = _scene(ctx, root, camera=without_idle_clip_planes(camera, shapes), shapes=shapes,
+                       max_depth=settings[0], rr_depth=settings[1], direct=settings[2],
+                       background=tuple(background), lights=lights)
     if ctx.problems:
         raise UnsupportedSceneError(ctx.problems, [ctx.features.get(p, p) for p in ctx.problems])
+    return scene
+
+
+@located
+def _scene(ctx, root, **fields):
+    """``rt.Scene(**fields)`` of parts each checked at its own node; anything the scene as a
+    whole refuses is placed at the ``<scene>`` element."""
+    return rt.Scene(**fields)
+
+
+@located
+def read_integrator(ctx, node):
+    """``(max_depth, rr_depth, direct)`` of a ``path`` or ``direct`` integrator as our scene
+    takes them (:func:`reference_tracer.scene.integrator_depths`, checked here so that a value
+    it refuses is placed at the integrator); None after recording a problem."""
+    iname = node.props.plugin_name()
+    if iname not in ("path", "direct"):
+        ctx.bad(node, f"integrator '{iname}' (only 'path' and 'direct')")
+        return None
+    if "hide_emitters" in node.props.keys() and bool(node.props["hide_emitters"]):
+        ctx.bad(node, f"{iname} hide_emitters=true")
+    if iname == "direct":
+        return -1, 5, read_direct(ctx, node)
+    check_params(ctx, node, {"max_depth", "rr_depth", "hide_emitters"}, "integrator")
+    max_depth = int(read_scalar(ctx, node, "max_depth", -1))
+    rr_depth = int(read_scalar(ctx, node, "rr_depth", 5))
     if max_depth != -1 and rr_depth > max_depth:
         rr = None
     elif max_depth == -1 and rr_depth >= rt.MAX_DEPTH_CAP:
         rr = None
     else:
         rr = rr_depth
-    return rt.Scene(camera=without_idle_clip_planes(camera, shapes), shapes=shapes, max_depth=max_depth,
-                    rr_depth=rr, background=tuple(background), direct=direct, lights=lights)
+    return (*integrator_depths(max_depth, rr), None)
 
 
+@located
 def read_direct(ctx, node):
     """Mitsuba's ``direct``: ``shading_samples`` (default 1) sets both counts, which
     ``emitter_samples`` and ``bsdf_samples`` override."""
@@ -254,11 +280,7 @@ def read_direct(ctx, node):
     if any(isinstance(c, str) or not float(c).is_integer() for c in counts):
         ctx.bad(node, f"direct sample counts must be whole numbers, got {counts}")
         return None
-    try:
-        return rt.Direct(*(int(c) for c in counts))
-    except ValueError as e:
-        ctx.bad(node, f"direct: {e}")
-        return None
+    return rt.Direct(*(int(c) for c in counts))
 
 
 #: A ``<path value="...">`` element of a Mitsuba XML file.

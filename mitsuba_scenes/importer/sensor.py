@@ -9,7 +9,7 @@ import numpy as np
 import reference_tracer as rt
 from reference_tracer.distances import farthest_distance, surface_within
 
-from .values import check_params, read_film_size, read_matrix, read_scalar, rigid_scale
+from .values import check_params, located, read_film_size, read_matrix, read_scalar, rigid_scale
 
 
 _SENSOR_OK = {"fov", "fov_axis", "to_world", "near_clip", "far_clip", "focus_distance", "film", "sampler",
@@ -71,7 +71,10 @@ def _focal_length_fov(ctx, sensor):
     return math.degrees(2.0 * math.atan(math.hypot(36.0, 24.0) / (2.0 * value)))
 
 
+@located
 def read_camera(ctx, sensor):
+    """Our camera for the ``sensor`` node (None after recording a problem; a value our camera
+    refuses is recorded at the sensor by :func:`~.values.located`)."""
     if sensor is None:
         ctx.problems.append("no sensor (a perspective, thinlens or orthographic sensor is required)")
         return None
@@ -211,6 +214,7 @@ def read_sampler(ctx, node):
                       "sampler's expected image)")
 
 
+@located
 def _rfilter(ctx, node):
     """Our :class:`reference_tracer.Filter` of a film's rfilter (Mitsuba's default: gaussian), or None."""
     if node is None:

@@ -10,14 +10,20 @@ import numpy as np
 
 import reference_tracer as rt
 from reference_tracer.material_textures import textures_of
-from reference_tracer.meshfile import check_mesh_file, check_serialized_file, decode_obj, obj_undefined_normal
+from reference_tracer.meshfile import (check_mesh_file, check_ply_faces, check_serialized_file, decode_obj,
+                                      obj_undefined_normal)
 
 from .bsdfs import read_bsdf
-from .textures import mesh_attributes, read_colour
-from .values import check_params, read_matrix, read_scalar, rigid_scale
+from .emitters import read_area_emitter
+from .textures import mesh_attributes
+from .values import check_params, located, read_matrix, read_scalar, rigid_scale
 
 
+@located
 def read_shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
+    """Our shape for the shape ``node`` with its BSDF and area emitter nodes (None after
+    recording a problem; a value our shape refuses is recorded at the node by
+    :func:`~.values.located`, one of its emitter or BSDF at theirs)."""
     name = node.props.plugin_name() if node is not None else "mesh"
     emitter = None
     if emitter_node is not None:
@@ -25,8 +31,7 @@ def read_shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
         if ename != "area":
             ctx.bad(emitter_node, f"emitter '{ename}' attached to a shape (only 'area')")
             return None
-        check_params(ctx, emitter_node, {"radiance"}, "emitter")
-        emitter = read_colour(ctx, emitter_node, "radiance", 1.0)
+        emitter = read_area_emitter(ctx, emitter_node)
         if emitter is None:
             return None
     mat = read_bsdf(ctx, bsdf_node, emitter=emitter)
@@ -82,7 +87,9 @@ def read_shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
                                "flip_tex_coords", "shape_index"}, "shape")
             fname = ctx.resolve(str(node.props["filename"]))
             extra = {}
-            try:  # before Mitsuba allocates what a header declares: a regular file, counts it can hold
+            try:  # before Mitsuba allocates what a header declares: a regular file, counts it can hold;
+                # and before it computes normals through the faces: every vertex index in range
+                # (Mitsuba's obj loader checks its indices, its ply and serialized loaders do not)
                 if name == "serialized":
                     index = read_scalar(ctx, node, "shape_index", 0)
                     if isinstance(index, str) or not float(index).is_integer() or index < 0:
@@ -95,6 +102,8 @@ def read_shape(ctx, node, bsdf_node, emitter_node, mesh_obj=None):
                     if "flip_tex_coords" in node.props.keys():
                         extra = {"flip_tex_coords": bool(node.props["flip_tex_coords"])}
                     check_mesh_file(fname)
+                    if name == "ply":
+                        check_ply_faces(fname)
             except (ValueError, OSError) as exc:
                 ctx.bad(node, f"{name} mesh {fname} cannot be used: {exc}")
                 return None
@@ -195,7 +204,12 @@ def _mesh_normals(params, mesh, v, f):
     not a unit vector is refused: Mitsuba normalises every normal it reads or computes, so
     another value is one it left undefined (an OBJ face corner without a normal index in a
     file with normals) or a zero or non-number normal of a PLY file (Mitsuba's shading
-    there is NaN)."""
+    there is NaN). A face whose vertex index is outside the vertices is refused first (a
+    mesh object of a dict: files are checked before Mitsuba loads them)."""
+    bad = np.any((f < 0) | (f >= len(v)), axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        return f"face {i} is {f[i].tolist()}, a vertex index out of range [0, {len(v)})"
     if not mesh.has_vertex_normals():
         return None
     n = np.array(params["vertex_normals"], dtype=np.float64).reshape(-1, 3)
@@ -235,9 +249,11 @@ def _normals_are_flat(params, v, f, *, tol: float = 1e-5) -> bool:
     return True
 
 
-def mesh_object(ctx, root, key, mesh):
-    """A ``mi.Mesh`` given as an object in the dict (as :func:`to_mitsuba` makes them)."""
-    where = f'dictionary node "{key}"'
+@located
+def mesh_object(ctx, where, mesh):
+    """A ``mi.Mesh`` given as an object in the dict (as :func:`to_mitsuba` makes them), at
+    ``where`` (``dictionary node "key"``: it has no node of its own); None after recording a
+    problem."""
     params = ctx.mi.traverse(mesh)
     keys = set(params.keys())
     bsdf = mesh.bsdf()
@@ -245,8 +261,8 @@ def mesh_object(ctx, root, key, mesh):
     refl = [k for k in keys if k.startswith("bsdf.") and k.endswith("reflectance.value")]
     if bsdf is None or refl != ["bsdf.reflectance.value"] or any(
             k.startswith("bsdf.") and k != "bsdf.reflectance.value" for k in keys):
-        ctx.problems.append(f"mesh object whose BSDF is not a plain diffuse ({cls}); write the scene "
-                            f"with to_xml and import the XML instead ({where})")
+        ctx.bad(where, f"mesh object whose BSDF is not a plain diffuse ({cls}); write the scene with to_xml and "
+                       "import the XML instead")
         return None
     albedo = tuple(float(x) for x in np.array(params["bsdf.reflectance.value"]).ravel()[:3])
     if len(albedo) == 1:
@@ -255,7 +271,7 @@ def mesh_object(ctx, root, key, mesh):
     if em is not None:
         rad = [k for k in keys if k.startswith("emitter.")]
         if rad != ["emitter.radiance.value"]:
-            ctx.problems.append(f"mesh object with an emitter other than a constant area light ({where})")
+            ctx.bad(where, "mesh object with an emitter other than a constant area light")
             return None
         L = tuple(float(x) for x in np.array(params["emitter.radiance.value"]).ravel()[:3])
         mat = rt.DiffuseLight(L * (3 if len(L) == 1 else 1), albedo=None if max(albedo) == 0 else albedo)
@@ -265,7 +281,7 @@ def mesh_object(ctx, root, key, mesh):
     f = np.array(params["faces"], dtype=np.int64).reshape(-1, 3)
     normals = _mesh_normals(params, mesh, v, f)
     if isinstance(normals, str):
-        ctx.problems.append(f"mesh object whose {normals} ({where})")
+        ctx.bad(where, f"mesh object whose {normals}")
         return None
     flip = bool(mesh.has_flipped_normals())
     return rt.Mesh(v, f, mat, flip_normals=flip, normals=normals)

@@ -8,7 +8,7 @@ import numpy as np
 import reference_tracer as rt
 from reference_tracer.material_textures import textures_of
 
-from .values import check_params, read_bool, read_matrix, read_scalar, read_spectrum
+from .values import check_params, located, read_bool, read_matrix, read_scalar, read_spectrum
 
 
 def read_colour(ctx, node, key, default):
@@ -69,6 +69,7 @@ def _to_uv(ctx, node):
     return read_matrix(ctx, node, "to_uv") if "to_uv" in node.props.keys() else None
 
 
+@located
 def _mesh_attribute(ctx, node):
     """Mitsuba's ``mesh_attribute`` (its ``name`` and ``scale``); the values are the mesh's,
     read where the shape is (:func:`mesh_attributes`). None after recording a problem."""
@@ -79,7 +80,7 @@ def _mesh_attribute(ctx, node):
     scale = read_scalar(ctx, node, "scale", 1.0)
     try:
         return rt.MeshAttribute(str(node.props["name"]), float(scale))
-    except (TypeError, ValueError) as exc:
+    except TypeError as exc:   # (a ValueError is placed at the node by located)
         ctx.bad(node, f"mesh_attribute: {exc}")
         return None
 
@@ -102,18 +103,16 @@ def mesh_attributes(params, mat) -> dict | None:
     return out
 
 
+@located
 def _checkerboard(ctx, node):
     check_params(ctx, node, {"color0", "color1", "to_uv"}, "texture")
     c0, c1 = read_colour(ctx, node, "color0", 0.4), read_colour(ctx, node, "color1", 0.2)
     if c0 is None or c1 is None:
         return None
-    try:
-        return rt.Checkerboard(c0, c1, to_uv=_to_uv(ctx, node))
-    except ValueError as exc:
-        ctx.bad(node, f"checkerboard: {exc}")
-        return None
+    return rt.Checkerboard(c0, c1, to_uv=_to_uv(ctx, node))
 
 
+@located
 def _bitmap(ctx, node):
     """Mitsuba's ``bitmap`` from its file (read by :func:`reference_tracer.image_files.read_image`,
     which checks the file and its header first), or None after recording a problem."""

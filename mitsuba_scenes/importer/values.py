@@ -1,8 +1,10 @@
-"""The importer's walk of a parsed scene: its context (problems found, files, textures) and the
-readers of plain values (numbers, booleans, spectra, indices of refraction, matrices).
+"""The importer's walk of a parsed scene: its context (problems found, files, textures), the
+decorator that places a reader's errors (:func:`located`) and the readers of plain values
+(numbers, booleans, spectra, indices of refraction, matrices).
 """
 from __future__ import annotations
 
+import functools
 import math
 import os
 
@@ -73,6 +75,10 @@ class Context:
         return None
 
     def where(self, node) -> str:
+        """The node's location: ``file (line L, col C)``, or ``dictionary node "key"`` in a
+        dict; a string is a location already (a mesh object of a dict, which has no node)."""
+        if isinstance(node, str):
+            return node
         return self.mi.parser.file_location(self.state, node)
 
     def bad(self, node, what: str) -> None:
@@ -94,6 +100,32 @@ class Context:
     def children(self, node) -> list:
         p, T = node.props, self.mi.Properties.Type
         return [self.node(p[k]) for k in p.keys() if p.type(k) == T.ResolvedReference]
+
+
+def located(reader):
+    """Decorate ``reader(ctx, node, ...)``, the reader of one node of the parsed scene: a
+    ``ValueError`` raised while it reads (a value that a ``reference_tracer`` constructor or
+    one of its checks refuses: a negative radius or radiance, an index of refraction below
+    the least) is recorded at that node, ``"<plugin>: <message> (<file> (line L, col C))"``
+    (:meth:`Context.bad`), and the reader returns None, as for any problem it records
+    itself; the import then refuses the scene with every problem listed. The one place where
+    a constructor's error gets its location: every reader that builds objects is decorated.
+    ``node`` may be a location string (a dict's mesh object, labelled ``mesh object``); a
+    reader given no node (None: Mitsuba's default) lets the error through to its caller's.
+    """
+    @functools.wraps(reader)
+    def read(ctx, node, *args, **kwargs):
+        if node is None:
+            return reader(ctx, node, *args, **kwargs)
+        try:
+            return reader(ctx, node, *args, **kwargs)
+        except UnsupportedSceneError:
+            raise
+        except ValueError as exc:
+            label = "mesh object" if isinstance(node, str) else node.props.plugin_name()
+            ctx.bad(node, f"{label}: {' '.join(str(exc).split())}")
+            return None
+    return read
 
 
 def param_names(node) -> list:

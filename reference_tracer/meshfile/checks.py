@@ -3,16 +3,21 @@
 whose header declares more elements than its bytes can hold, and a mesh that would not fit
 in the memory available (``MemoryError``); :func:`check_serialized_file` does the same for a
 Mitsuba ``.serialized`` mesh, whose compressed arrays may declare a huge mesh in a few bytes.
+:func:`check_ply_faces` and :func:`check_serialized_file` also read a file's triangles as
+Mitsuba's loader lays them out and refuse a vertex index past the vertices: Mitsuba does not
+check them, and computes vertex normals (and reads positions) through them, outside its buffers.
 """
 from __future__ import annotations
 
 import os
 from pathlib import Path
 
-from ..validation import open_regular_file
-from .serialized import serialized_header
+import numpy as np
 
-__all__ = ["check_mesh_file", "check_serialized_file", "ply_header_counts"]
+from ..validation import open_regular_file
+from .serialized import serialized_faces, serialized_header
+
+__all__ = ["check_mesh_file", "check_serialized_file", "check_ply_faces", "ply_faces", "ply_header_counts"]
 
 #: bytes a PLY scalar type takes in a binary file.
 _PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
@@ -146,4 +151,139 @@ def check_serialized_file(path, shape_index: int = 0) -> dict:
         raise MemoryError(f"{path}: mesh {shape_index} declares {header['vertices']} vertices and "
                           f"{header['triangles']} triangles, about {memory / 2**30:.1f} GiB to read; "
                           f"{available / 2**30:.1f} GiB of memory is available")
+    _check_face_indices(path, serialized_faces(path, header), header["vertices"], f"mesh {shape_index}'s ")
     return header
+
+
+def _check_face_indices(path, faces: np.ndarray, vertices: int, whose: str = "") -> None:
+    """``ValueError`` naming the first triangle of ``faces`` (M, 3) with a vertex index outside
+    ``[0, vertices)`` (a fractional one, from a PLY list of floats, counts as its next integer;
+    one that is not a number is outside)."""
+    bad = ~np.all((faces >= 0) & (np.ceil(faces) < vertices), axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(f"{path}: {whose}face {i} is {faces[i].tolist()}, a vertex index out of range "
+                         f"[0, {vertices}) (the file declares {vertices} vertices)")
+
+
+#: numpy types of the PLY scalar types Mitsuba's ``ply`` plugin reads (src/shapes/ply.h).
+_PLY_TYPES = {"char": "i1", "uchar": "u1", "short": "i2", "ushort": "u2", "int": "i4", "uint": "u4",
+              "float": "f4", "double": "f8", "int8": "i1", "uint8": "u1", "int16": "i2", "uint16": "u2",
+              "int32": "i4", "uint32": "u4", "long": "i8", "ulong": "u8", "half": "f2", "float16": "f2",
+              "float32": "f4", "float64": "f8"}
+
+
+def _ply_layout(head: bytes):
+    """``(format, header_bytes, [(element, count, [(field, numpy type), ...]), ...])`` of a PLY
+    header as Mitsuba's ``ply`` plugin lays its records out: a scalar property is one field, a
+    list property its count (which must be 3) and three items, ``<name>.count`` and
+    ``<name>.0``-``.2``. None where Mitsuba's parser would refuse the header (it says why)."""
+    end = head.find(b"end_header")
+    if end < 0:
+        return None
+    nl = head.find(b"\n", end)
+    size = len(head) if nl < 0 else nl + 1
+    fmt, elements = None, []
+    for raw in head[:end].decode("ascii", "replace").splitlines()[1:]:
+        words = raw.split()
+        if not words or words[0] in ("comment", "obj_info"):
+            continue
+        if words[0] == "format" and len(words) > 1:
+            fmt = words[1]
+        elif words[0] == "element" and len(words) > 2 and words[2].isdigit():
+            elements.append((words[1], int(words[2]), []))
+        elif words[0] == "property" and elements:
+            if words[1:2] == ["list"] and len(words) == 5 and {words[2], words[3]} <= _PLY_TYPES.keys():
+                elements[-1][2].extend([(f"{words[4]}.count", _PLY_TYPES[words[2]])]
+                                       + [(f"{words[4]}.{k}", _PLY_TYPES[words[3]]) for k in range(3)])
+            elif len(words) == 3 and words[1] in _PLY_TYPES:
+                elements[-1][2].append((words[2], _PLY_TYPES[words[1]]))
+            else:
+                return None
+        else:
+            return None
+    if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
+        return None
+    return fmt, size, elements
+
+
+def ply_faces(data: bytes):
+    """``(vertices, faces)`` of a PLY file's bytes as Mitsuba's ``ply`` plugin reads them: the
+    count of its last ``vertex`` element and the (M, 3) vertex indices of its last ``face``
+    element (``vertex_indices`` or ``vertex_index``), every face a triangle: int64, or float64
+    where a list of floats holds one that is not a whole number. Records
+    are of fixed size there (a list's count must be 3), token by token in an ASCII file.
+    None where Mitsuba's loader refuses the file itself (a header it does not parse, no face
+    list, a face that is not a triangle, too few bytes or tokens, a token that is no number).
+
+    Examples
+    --------
+    >>> head = (b"ply\\nformat ascii 1.0\\nelement vertex 3\\nproperty float x\\nproperty float y\\n"
+    ...         b"property float z\\nelement face 1\\nproperty list uchar int vertex_indices\\nend_header\\n")
+    >>> n, f = ply_faces(head + b"0 0 0\\n1 0 0\\n0 1 0\\n3 0 1 7\\n")
+    >>> n, f.tolist()
+    (3, [[0, 1, 7]])
+    >>> ply_faces(head + b"0 0 0\\n1 0 0\\n0 1 0\\n4 0 1 2 1\\n") is None   # a quad: Mitsuba refuses it
+    True
+    """
+    layout = _ply_layout(data[:_PLY_HEADER_MAX])
+    if layout is None:
+        return None
+    fmt, size, elements = layout
+    vertices = next((count for name, count, _ in reversed(elements) if name == "vertex"), 0)
+    last = next((i for i in reversed(range(len(elements))) if elements[i][0] == "face"), None)
+    if last is None:
+        return vertices, np.zeros((0, 3), dtype=np.int64)
+    _, count, fields = elements[last]
+    names = [f for f, _ in fields]
+    key = next((k for k in ("vertex_index", "vertex_indices") if f"{k}.count" in names), None)
+    if key is None:
+        return None
+    columns = [names.index(f"{key}.{k}") for k in ("count", 0, 1, 2)]
+    if fmt == "ascii":
+        before = sum(n * len(f) for _, n, f in elements[:last])
+        tokens = data[size:].split()[before:before + count * len(fields)]
+        if len(tokens) < count * len(fields):
+            return None
+        try:
+            table = np.array(tokens, dtype=np.bytes_).reshape(count, len(fields))[:, columns].astype(np.float64)
+        except ValueError:
+            return None
+    else:
+        order = "<" if fmt == "binary_little_endian" else ">"
+        dtypes = [np.dtype([(f"f{j}", order + t) for j, (_, t) in enumerate(f)]) for _, _, f in elements]
+        offset = size + sum(n * dt.itemsize for (_, n, _), dt in zip(elements[:last], dtypes[:last]))
+        if offset + count * dtypes[last].itemsize > len(data):
+            return None
+        records = np.frombuffer(data, dtype=dtypes[last], count=count, offset=offset)
+        table = np.stack([records[f"f{j}"].astype(np.float64) for j in columns], axis=1) if count else \
+            np.zeros((0, 4))
+    if np.any(table[:, 0] != 3):
+        return None
+    faces = table[:, 1:]
+    whole = np.all(np.isfinite(faces) & (faces == np.round(faces)))
+    return vertices, faces.astype(np.int64) if whole else faces
+
+
+def check_ply_faces(path) -> None:
+    """Refuse a PLY file (after :func:`check_mesh_file`) whose triangles, as Mitsuba's ``ply``
+    plugin reads them (:func:`ply_faces`), use a vertex index outside its vertices: Mitsuba's
+    loader takes such an index as it comes and computes vertex normals through it, writing
+    outside its buffers (a crash or a corrupted process). A file Mitsuba refuses itself, or
+    one that is not a PLY file, passes: its loader says why.
+
+    Raises
+    ------
+    ValueError
+        The first such face, its index in the file and the vertex count.
+    OSError
+        The file cannot be read.
+    """
+    path = Path(path)
+    with open_regular_file(path, "a mesh file") as f:
+        data = f.read()
+    if not data.startswith(b"ply"):
+        return
+    found = ply_faces(data)
+    if found is not None:
+        _check_face_indices(path, found[1], found[0])

@@ -1,7 +1,7 @@
 """Mitsuba's ``.serialized`` mesh format: the header of one of a file's sub-meshes
 (:func:`serialized_header`), read without decompressing its arrays, so that
 :func:`reference_tracer.meshfile.check_serialized_file` can size the mesh before Mitsuba
-loads it.
+loads it, and its triangles (:func:`serialized_faces`), whose vertex indices it checks.
 """
 from __future__ import annotations
 
@@ -10,7 +10,9 @@ import struct
 import zlib
 from pathlib import Path
 
-__all__ = ["serialized_header"]
+import numpy as np
+
+__all__ = ["serialized_header", "serialized_faces"]
 
 #: Mitsuba's serialized format: identifier, versions, flags (src/shapes/serialized.cpp).
 _SERIALIZED_ID, _SERIALIZED_VERSIONS = 0x041C, (3, 4)
@@ -19,8 +21,10 @@ _SER_NORMALS, _SER_TEXCOORDS, _SER_COLORS, _SER_DOUBLE = 0x0001, 0x0002, 0x0008,
 
 def serialized_header(path, shape_index: int = 0) -> dict:
     """The header of sub-mesh ``shape_index`` of a Mitsuba ``.serialized`` file, read without
-    decompressing its arrays: ``flags``, ``name``, ``vertices``, ``triangles`` and
-    ``data_bytes`` (the size of its decompressed arrays).
+    decompressing its arrays: ``flags``, ``name``, ``vertices``, ``triangles``,
+    ``data_bytes`` (the size of its decompressed arrays), ``offset`` (where its compressed
+    stream starts in the file), ``header_bytes`` (the decompressed bytes before its arrays)
+    and ``index_bytes`` (the size of one vertex index).
 
     Raises
     ------
@@ -49,7 +53,7 @@ def serialized_header(path, shape_index: int = 0) -> dict:
         version = struct.unpack("<H", head[2:4])[0]
         if version not in _SERIALIZED_VERSIONS:
             raise ValueError(f"{path}: serialized format version {version} (Mitsuba reads 3 and 4)")
-        offset = 0
+        offset, start = 0, 4
         if shape_index > 0:
             wide = 8 if version == 4 else 4
             if size < 4 + wide:
@@ -66,6 +70,7 @@ def serialized_header(path, shape_index: int = 0) -> dict:
             if struct.unpack("<H", f.read(2))[0] != _SERIALIZED_ID:
                 raise ValueError(f"{path}: mesh {shape_index} has no 0x041C identifier at byte {offset}")
             f.read(2)
+            start = offset + 4
         compressed = f.read(1 << 16)
     inflate = zlib.decompressobj()
     try:
@@ -82,4 +87,39 @@ def serialized_header(path, shape_index: int = 0) -> dict:
     per_vertex = 3 + 3 * bool(flags & _SER_NORMALS) + 2 * bool(flags & _SER_TEXCOORDS) + 3 * bool(flags & _SER_COLORS)
     index = 8 if vertices > 0xFFFFFFFF else 4
     return {"flags": flags, "name": name, "vertices": vertices, "triangles": triangles,
-            "data_bytes": vertices * per_vertex * real + triangles * 3 * index}
+            "data_bytes": vertices * per_vertex * real + triangles * 3 * index, "offset": start,
+            "header_bytes": end + 17, "index_bytes": index}
+
+
+def serialized_faces(path, header: dict) -> np.ndarray:
+    """The (M, 3) int64 vertex indices of the sub-mesh of ``header`` (:func:`serialized_header`
+    of the same file), decompressed: the last array of its stream, little-endian. Size the
+    mesh first (``header["data_bytes"]`` are decompressed here).
+
+    Raises
+    ------
+    ValueError
+        A stream that does not decompress, or ends before its indices (Mitsuba's loader
+        refuses both too).
+    """
+    path = Path(path)
+    need = header["header_bytes"] + header["data_bytes"]
+    inflate, parts, got = zlib.decompressobj(), [], 0
+    try:
+        with open(path, "rb") as f:
+            f.seek(header["offset"])
+            while got < need and not inflate.eof:
+                chunk = inflate.unconsumed_tail or f.read(1 << 20)
+                if not chunk:
+                    break
+                parts.append(inflate.decompress(chunk, need - got))
+                got += len(parts[-1])
+    except zlib.error as exc:
+        raise ValueError(f"{path}: a mesh's arrays do not decompress ({exc})") from None
+    raw = b"".join(parts)
+    if len(raw) < need:
+        raise ValueError(f"{path}: a mesh's stream ends after {len(raw)} of its {need} bytes (truncated)")
+    count = header["triangles"] * 3
+    dtype = "<u8" if header["index_bytes"] == 8 else "<u4"
+    faces = np.frombuffer(raw, dtype=dtype, count=count, offset=need - count * header["index_bytes"])
+    return faces.astype(np.int64).reshape(-1, 3)

@@ -303,3 +303,83 @@ def test_twosided_around_a_bsdf_that_only_reflects_imports(mi, tmp_path, inner, 
     mi.load_file(str(path))
     (shape,) = from_mitsuba(path).shapes
     assert type(shape.material) is kind and shape.material.two_sided
+
+
+@pytest.mark.parametrize("body, element, message", [
+    ('<shape type="sphere">\n<float name="radius" value="-1"/>\n</shape>', '<shape type="sphere">',
+     "sphere: Sphere.radius must be > 0.0, got -1.0"),
+    ('<shape type="sphere">\n<emitter type="area">\n<rgb name="radiance" value="-5"/>\n</emitter>\n</shape>',
+     '<emitter type="area">', "area: DiffuseLight.radiance must be >= 0, got (-5.0, -5.0, -5.0)"),
+    ('<shape type="sphere">\n<bsdf type="dielectric">\n<float name="int_ior" value="-1"/>\n</bsdf>\n</shape>',
+     '<bsdf type="dielectric">', "dielectric: Dielectric.ior must be >= 0.001"),
+    ('<integrator type="path">\n<integer name="max_depth" value="-5"/>\n</integrator>\n<shape type="sphere"/>',
+     '<integrator type="path">', "path: Scene.max_depth must be an integer >= 1 or -1 (unlimited), got -5"),
+    ('<integrator type="path">\n<integer name="rr_depth" value="-3"/>\n</integrator>\n<shape type="sphere"/>',
+     '<integrator type="path">', "path: Scene.rr_depth must be >= 1, got -3"),
+    ('<emitter type="constant">\n<rgb name="radiance" value="-1"/>\n</emitter>\n<shape type="sphere"/>',
+     '<emitter type="constant">', "constant: Scene.background must be >= 0"),
+    ('<shape type="sphere"/>\n<sensor type="perspective">\n<float name="fov" value="-10"/>\n<film type="hdrfilm">'
+     '<rfilter type="box"/></film>\n</sensor>', '<sensor type="perspective">', "perspective: Camera.vfov must be > 0.0"),
+    ('<shape type="sphere"/>\n<sensor type="perspective">\n<film type="hdrfilm">\n<rfilter type="tent">\n'
+     '<float name="radius" value="-1"/>\n</rfilter>\n</film>\n</sensor>', '<rfilter type="tent">',
+     "tent: Filter.radius must be > 0.0, got -1.0"),
+])
+def test_a_value_our_objects_refuse_is_placed_at_its_element(tmp_path, body, element, message):
+    """Every ValueError of a reference_tracer constructor (or of the scene's own checks) is one
+    problem of the listing, with the file and line of the element whose value it refuses (was
+    a bare ValueError without either). Mitsuba itself takes the negative radius and radiances,
+    and refuses the index of refraction, the depths and the field of view."""
+    path = tmp_path / "bad.xml"
+    text = f'<scene version="3.0.0">\n{body}\n</scene>' if "<sensor" in body else _scene_xml(f"\n{body}\n")
+    path.write_text(text)
+    line = next(i for i, x in enumerate(text.splitlines(), 1) if x.startswith(element))
+    with pytest.raises(ValueError, match=rf"the supported subset \(1 found\):\n  - {re.escape(message)}.* "
+                                         rf"\({re.escape(str(path))} \(line {line}, col \d+\)\)$"):
+        from_mitsuba(path)
+
+
+def test_a_directory_or_params_that_are_no_mapping_are_said_to_be_so(tmp_path):
+    path = tmp_path / "s.xml"
+    path.write_text(_scene_xml('<shape type="sphere"/>'))
+    with pytest.raises(ValueError, match=rf"^from_mitsuba: {re.escape(str(tmp_path))} is not a file but a directory"):
+        from_mitsuba(tmp_path)
+    with pytest.raises(ValueError, match=r"^from_mitsuba: no such file"):
+        from_mitsuba(tmp_path / "none.xml")
+    for params in ([1, 2], "spp=4", 3):
+        with pytest.raises(ValueError, match=r"^from_mitsuba: params must be a mapping of \$name names to values "
+                                             rf".*got {type(params).__name__}$"):
+            from_mitsuba(path, params=params)
+    assert len(from_mitsuba(path, params={}).shapes) == 1
+
+
+def test_every_reference_tracer_object_the_importer_builds_is_built_under_located():
+    """The one mechanism that gives a constructor's ValueError its file and line: each call of a
+    reference_tracer class (``rt.Name(...)``) in the importer lies in a reader decorated with
+    ``located``, or in a helper that only such readers call (a new reader cannot forget it)."""
+    import ast
+
+    from repo_paths import ROOT
+
+    functions, calls = {}, {}
+    for path in sorted((ROOT / "mitsuba_scenes" / "importer").glob("*.py")):
+        for fn in ast.parse(path.read_text()).body:
+            if isinstance(fn, ast.FunctionDef):
+                functions[fn.name] = (path.name, fn)
+    for name, (_, fn) in functions.items():
+        for node in ast.walk(fn):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in functions:
+                calls.setdefault(node.func.id, set()).add(name)
+
+    def covered(name, seen=frozenset()):
+        fn = functions[name][1]
+        if any(isinstance(d, ast.Name) and d.id == "located" for d in fn.decorator_list):
+            return True
+        callers = calls.get(name, set()) - seen
+        return bool(callers) and all(covered(c, seen | {name}) for c in callers)
+
+    builders = {name for name, (_, fn) in functions.items() for node in ast.walk(fn)
+                if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                and isinstance(node.func.value, ast.Name) and node.func.value.id == "rt" and node.func.attr[0].isupper()}
+    assert builders >= {"read_shape", "read_bsdf", "read_emitter", "read_camera", "_scene"}, builders
+    bare = sorted(f"{functions[n][0]}:{n}" for n in builders if not covered(n))
+    assert not bare, f"reference_tracer objects built outside a located reader: {bare}"

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import pytest
 
@@ -55,6 +56,20 @@ def test_cli_passes_on_hand_written_files(capsys):
     assert main(["parity", "--scene", str(XML / "two_sided.xml"), "--scene", str(XML / "camera_axes.xml"),
                  "--param", "fov_axis=diagonal"]) == 0, capsys.readouterr().err
     assert "camera_axes+fov_axis=diagonal: parity ok" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("size, want", [([], (20, 12)), (["--width", "24"], (24, 24)),
+                                        (["--width", "24", "--height", "10"], (24, 10))])
+def test_cli_resizes_an_xml_file_with_width_and_height(tmp_path, capsys, size, want):
+    """--width / --height resize a --scene XML file in both renderers (the films of the file
+    Mitsuba loads too), as rtbench render resizes it; without them the file's own film (20x12).
+    A diagonal fov_axis on a film of another aspect: the field of view follows the axis in both."""
+    out = tmp_path / "rows.json"
+    assert main(["parity", "--scene", str(XML / "camera_axes.xml"), "--param", "fov_axis=diagonal", *size,
+                 "--json", str(out)]) == 0, capsys.readouterr().err
+    (row,) = json.loads(out.read_text())
+    assert (row["width"], row["height"]) == want and row["passed"]
+    assert f"{want[0]}x{want[1]} pixel centres" in capsys.readouterr().out
 
 
 def test_gate_stops_on_a_parity_failure_with_maps(tmp_path, capsys, monkeypatch):
