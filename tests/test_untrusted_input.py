@@ -344,6 +344,15 @@ def test_a_face_index_past_the_vertices_is_refused_before_mitsuba_loads_the_mesh
         assert len(proc.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize("kind, face", [("ply_ascii", [0, 1, 7]), ("ply_binary", [0, 1, 7])])
+def test_mesh_load_refuses_a_face_index_past_the_vertices(tmp_path, kind, face):
+    """rt.Mesh.load checks the faces before computing normals through them (was an IndexError)."""
+    mesh = _mesh_with_face(tmp_path, kind, face)
+    with pytest.raises(ValueError, match=rf"Mesh.load: {re.escape(str(mesh))}: faces index out of range \[0, 3\): "
+                                         r"face 0 is \[0, 1, 7\]"):
+        rt.Mesh.load(mesh, rt.Lambertian(0.5))
+
+
 def test_a_mesh_object_whose_face_index_is_past_its_vertices_is_refused_at_its_node():
     """A mi.Mesh in a scene dict (Mitsuba checks none of its indices): refused with the dict's
     key, as every other problem of a mesh object is (was a ValueError of Mesh without it)."""
