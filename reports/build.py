@@ -89,7 +89,7 @@ def plot_file_stem(sec: Section, kind: str) -> str:
 
 def _vector_files(dest: Path, sections: list[Section], seed_fig, fmt_: str) -> list[Path]:
     folder = dest / "plots"
-    folder.mkdir(parents=True, exist_ok=True)
+    folder.mkdir(exist_ok=True)
     out = []
     figs = [(plot_file_stem(sec, kind), fig) for sec in sections for kind, fig in sec.figures.items()]
     if seed_fig is not None:
@@ -183,6 +183,12 @@ def write_report(store, *, out=None, formats=("html",), metric: str = DEFAULT_ME
     dest = Path(out).expanduser() if out is not None else st.path
     if dest.exists() and not dest.is_dir():
         raise ValueError(f"report output {str(dest)!r} exists and is not a folder")
+    plots_folder = dest / "plots"
+    if {"svg", "pdf"} & set(formats) and (plots_folder.is_symlink() or (plots_folder.exists()
+                                                                        and not plots_folder.is_dir())):
+        # A store received from elsewhere may hold a link here: writing through it would leave the output folder.
+        raise ValueError(f"report output {str(plots_folder)!r} is a symbolic link or not a folder: remove it, or "
+                         "give another output folder with --out")
     sections, cmp, seed_fig, problems = _collect(st, metric)
     dest.mkdir(parents=True, exist_ok=True)
     written = {}

@@ -201,6 +201,19 @@ def test_build_report_rejects_a_file_as_output(store, tmp_path):
         reports.build_report(store, out=f)
 
 
+@pytest.mark.parametrize("fmt", ["svg", "pdf"])
+def test_build_report_refuses_a_plots_link_out_of_its_folder(store, tmp_path, fmt):
+    """A received store's plots/ may be a link elsewhere: the report refuses it before writing
+    anything (was: the plot files written into the link's target)."""
+    out, elsewhere = tmp_path / "out", tmp_path / "elsewhere"
+    out.mkdir()
+    elsewhere.mkdir()
+    (out / "plots").symlink_to(elsewhere)
+    with pytest.raises(ValueError, match="is a symbolic link or not a folder"):
+        reports.build_report(store, out=out, formats=("html", fmt))
+    assert list(elsewhere.iterdir()) == [] and not (out / "index.html").exists()
+
+
 # ----------------------------------------------------------------------------------------- numerics
 
 def test_seed_comparison_matches_power_laws(store):
