@@ -11,10 +11,10 @@ import numpy as np
 
 from .envmap import EnvMap
 from .lights import Light
-from .validation import colour, finite_scalar, positive_int, vector3
+from .validation import colour, finite_scalar, integrator_depths, positive_int, vector3
 from .shapes import Shape
 
-__all__ = ["Camera", "Direct", "Filter", "FILTERS", "PROJECTIONS", "Scene", "MAX_DEPTH_CAP", "integrator_depths"]
+__all__ = ["Camera", "Direct", "Filter", "FILTERS", "PROJECTIONS", "Scene", "MAX_DEPTH_CAP"]
 
 #: Safety cap on path length when ``max_depth=-1`` (unlimited). A path that survives
 #: this many segments carries a throughput so small (or Russian roulette has long ended
@@ -344,27 +344,6 @@ class Direct:
 
     def describe(self) -> dict:
         return {"emitter_samples": self.emitter_samples, "bsdf_samples": self.bsdf_samples}
-
-
-def integrator_depths(max_depth, rr_depth) -> tuple:
-    """``(max_depth, rr_depth)`` as :class:`Scene` holds them: ``max_depth`` an integer >= 1 or
-    -1 (unlimited), ``rr_depth`` None (no Russian roulette) or an integer >= 1; else
-    ``ValueError`` naming the field. The scene's own check, for a reader of the integrator's
-    settings (the Mitsuba importer) to apply where they are written.
-
-    Examples
-    --------
-    >>> integrator_depths(8, 5)
-    (8, 5)
-    >>> integrator_depths(-5, None)
-    Traceback (most recent call last):
-    ...
-    ValueError: Scene.max_depth must be an integer >= 1 or -1 (unlimited), got -5
-    """
-    md = max_depth
-    if isinstance(md, bool) or not isinstance(md, (int, np.integer)) or not (md == -1 or md >= 1):
-        raise ValueError(f"Scene.max_depth must be an integer >= 1 or -1 (unlimited), got {md!r}")
-    return int(md), None if rr_depth is None else positive_int("Scene.rr_depth", rr_depth)
 
 
 def _sequence_of(name: str, value, kind: type, what: str, examples: str = "") -> tuple:

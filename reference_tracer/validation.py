@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["finite_scalar", "flag", "not_directions", "vector3", "colour", "positive_int", "open_regular_file", "FLOAT32_MAX",
-           "INT_MAX", "SEED_MAX"]
+__all__ = ["finite_scalar", "flag", "not_directions", "vector3", "colour", "positive_int", "integrator_depths",
+           "open_regular_file", "FLOAT32_MAX", "INT_MAX", "SEED_MAX"]
 
 
 def finite_scalar(name: str, value, *, lo: float | None = None, hi: float | None = None,
@@ -239,6 +239,27 @@ def positive_int(name: str, value, *, minimum: int = 1, maximum: int = INT_MAX) 
     if value > maximum:
         raise ValueError(f"{name} must be <= {maximum}, got {value}")
     return int(value)
+
+
+def integrator_depths(max_depth, rr_depth) -> tuple:
+    """``(max_depth, rr_depth)`` as :class:`Scene` holds them: ``max_depth`` an integer >= 1 or
+    -1 (unlimited), ``rr_depth`` None (no Russian roulette) or an integer >= 1; else
+    ``ValueError`` naming the field. The scene's own check, for a reader of the integrator's
+    settings (the Mitsuba importer) to apply where they are written.
+
+    Examples
+    --------
+    >>> integrator_depths(8, 5)
+    (8, 5)
+    >>> integrator_depths(-5, None)
+    Traceback (most recent call last):
+    ...
+    ValueError: Scene.max_depth must be an integer >= 1 or -1 (unlimited), got -5
+    """
+    md = max_depth
+    if isinstance(md, bool) or not isinstance(md, (int, np.integer)) or not (md == -1 or md >= 1):
+        raise ValueError(f"Scene.max_depth must be an integer >= 1 or -1 (unlimited), got {md!r}")
+    return int(md), None if rr_depth is None else positive_int("Scene.rr_depth", rr_depth)
 
 
 def open_regular_file(path, what: str):

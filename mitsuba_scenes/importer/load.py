@@ -13,7 +13,7 @@ from xml.parsers import expat
 import numpy as np
 
 import reference_tracer as rt
-from reference_tracer.scene import integrator_depths
+from reference_tracer.validation import integrator_depths
 
 from ..variants import import_mitsuba
 from .emitters import read_constant, read_emitter
@@ -248,7 +248,7 @@ def _scene(ctx, root, **fields):
 @located
 def read_integrator(ctx, node):
     """``(max_depth, rr_depth, direct)`` of a ``path`` or ``direct`` integrator as our scene
-    takes them (:func:`reference_tracer.scene.integrator_depths`, checked here so that a value
+    takes them (:func:`reference_tracer.validation.integrator_depths`, checked here so that a value
     it refuses is placed at the integrator); None after recording a problem."""
     iname = node.props.plugin_name()
     if iname not in ("path", "direct"):
