@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import collections
 import math
+import warnings
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -20,6 +21,7 @@ from .external import render_external_batches
 from .gate.statistics import EstimatorKnowledge, judge
 from .gate.store_reference import pooled_image
 from .metrics import convergence_slope
+from .numbers import finite
 from .scenes import scene_at
 from .store import curve_label, curve_of, read_records
 from .tails import tail_reference
@@ -74,13 +76,32 @@ class CurveComparison:
         return d
 
 
-def curve_points(records) -> dict:
-    """``{spp: [(corrected MSE (else plain), seconds), ...]}`` over the seeds of one curve's records."""
+def curve_points(records, *, where: str = "") -> dict:
+    """``{spp: [(corrected MSE (else plain), seconds), ...]}`` over the seeds of one curve's records.
+
+    Values are read as the report reads them (:func:`benchmarks.numbers.finite`): a record whose MSE or
+    seconds is null is not measured and left out; one whose value is there but no finite number (NaN,
+    infinity, a string, a list) is left out with a ``RuntimeWarning`` naming ``where``, never fatal, and
+    takes only its own point, not its spp budget.
+
+    >>> curve_points([{"spp": 2, "mse": 0.5, "seconds": 1.0}, {"spp": 2, "mse": 0.3, "mse_corrected": 0.25,
+    ...                "seconds": 2}, {"spp": 4, "mse": None, "seconds": 1}])
+    {2: [(0.5, 1.0), (0.25, 2.0)]}
+    """
     out = collections.defaultdict(list)
+    bad = collections.Counter()
     for r in records:
-        if r.get("mse") is not None and r.get("seconds") is not None:
-            mse = r["mse"] if r.get("mse_corrected") is None else r["mse_corrected"]
-            out[int(r["spp"])].append((float(mse), float(r["seconds"])))
+        if r.get("mse") is None or r.get("seconds") is None:
+            continue
+        field = "mse" if r.get("mse_corrected") is None else "mse_corrected"
+        mse, secs = finite(r[field]), finite(r["seconds"])
+        if mse is None or secs is None:
+            bad[field if mse is None else "seconds"] += 1
+            continue
+        out[int(r["spp"])].append((mse, secs))
+    if bad:
+        warnings.warn(f"{where or 'compare'}: {sum(bad.values())} record(s) left out, "
+                      f"{' / '.join(sorted(bad))} not a finite number", RuntimeWarning, stacklevel=2)
     return dict(sorted(out.items()))
 
 
@@ -218,7 +239,8 @@ def compare_stores(store_a, store_b, *, alpha: float = GATE_ALPHA, seed: int = 0
     out = []
     for key in curves:
         ra, rb = by_a[key], by_b[key]
-        pa, pb = curve_points(ra), curve_points(rb)
+        pa, pb = (curve_points(rs, where=f"{store / 'results.jsonl'}: {curve_label(key)}")
+                  for store, rs in ((a, ra), (b, rb)))
         rmse = [[math.sqrt(max(np.mean([p[0] for p in v]), 0)) for v in pts.values()] for pts in (pa, pb)]
         cmp = CurveComparison(*key, build_a=ra[-1].get("build"), build_b=rb[-1].get("build"),
                               spps_a=list(pa), rmse_a=rmse[0], spps_b=list(pb), rmse_b=rmse[1])

@@ -34,8 +34,8 @@ class Store:
     meta : dict
         ``meta.json`` (empty when missing).
     records : list of dict
-        ``results.jsonl`` records, deduplicated by job key (last wins, at the position of
-        the first; :func:`benchmarks.store.dedupe_records`).
+        ``results.jsonl`` records, deduplicated by job key (last wins, in file order;
+        :func:`benchmarks.store.dedupe_records`), each curve's latest build only.
     rows : list of dict
         ``summary.json`` rows (empty when missing).
     headline : list of dict
@@ -145,10 +145,10 @@ def load_store(store) -> Store:
     Raises
     ------
     ValueError
-        If ``store`` is not a folder, holds neither ``results.jsonl`` nor ``summary.json``,
-        or a summary row lacks ``scene``, ``renderer`` or ``strategy``
-        (:func:`benchmarks.store.check_identity`). A line of ``results.jsonl`` that is not
-        a job record (:func:`benchmarks.store.skipped_line`) is skipped and listed in
+        If ``store`` is not a folder or holds neither ``results.jsonl`` nor ``summary.json``.
+        A summary row without ``scene``, ``renderer`` or ``strategy``
+        (:func:`benchmarks.store.read_summary_rows`) and a line of ``results.jsonl`` that is not
+        a job record (:func:`benchmarks.store.skipped_line`) are skipped and listed in
         :attr:`Store.problems` (the page shows them), as the harness's own reader skips it.
     """
     path = Path(store).expanduser()
@@ -176,8 +176,6 @@ def load_store(store) -> Store:
                             f"({', '.join(old)}) not shown: each curve shows its latest build only")
     out.rows = results.read_summary_rows(path, problems=out.problems)
     out.headline = results.read_headline(path, problems=out.problems)
-    for i, row in enumerate(out.rows):
-        results.check_identity(row, f"{results.SUMMARY} row {i}", need_spp=False)
     return out
 
 

@@ -36,6 +36,9 @@ def run(args) -> int:
     for p in (args.store_a, args.store_b):
         if not (Path(p) / "results.jsonl").is_file():
             raise ValueError(f"{p} is not a results store (no results.jsonl)")
+    out = Path(args.out).expanduser()
+    if out.exists() and not out.is_dir():  # before any rendering, as report checks it
+        raise ValueError(f"compare output {str(out)!r} exists and is not a folder")
     if args.tail_spp == 1:
         raise ValueError(f"--tail-spp must be 0 (none) or >= 2, got {args.tail_spp}")
     A.warn_tail_spp("compare", args.tail_spp)

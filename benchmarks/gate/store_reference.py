@@ -18,7 +18,7 @@ from reference_tracer.validation import positive_int
 from ..files import slug
 from ..references import DEFAULT_REFERENCE_SEED, Reference
 from ..scenes import scene_at, scene_info
-from ..store import (append_record, dedupe_records, finished_keys, read_image, read_records, result_lines,
+from ..store import (append_record, dedupe_records, finished_keys, read_image, read_records,
                      write_image, writer_lock)
 
 __all__ = ["write_reference_store", "store_reference", "pooled_image"]
@@ -59,10 +59,16 @@ def write_reference_store(names, store, *, spp: int, width: int, height: int | N
     return out
 
 
+def _image_name(record, key):
+    """An image field of a record: a file name, else None (null, or no string: absent, never fatal)."""
+    v = record.get(key)
+    return v if isinstance(v, str) and v else None
+
+
 def _records(store, build):
     if build is None:
         return read_records(store)
-    raw = [line.value for line in result_lines(store) if line.parsed and isinstance(line.value, dict)]
+    raw = read_records(store, dedupe=False)  # the job records of every build, lines that are none skipped
     recs = dedupe_records([r for r in raw if r.get("build") == build])
     if not recs:
         builds = sorted({str(r.get("build")) for r in raw})
@@ -79,7 +85,8 @@ def store_reference(store, name: str, scene, *, build: str | None = None) -> Ref
         raise ValueError(f"--reference {store} is not a results store (no results.jsonl)")
     w, h = scene.camera.width, scene.camera.height
     recs = [r for r in _records(store, build) if r.get("scene") == name and r.get("renderer") == "ours"
-            and (r.get("width"), r.get("height")) == (w, h) and r.get("stats_image") and r.get("stats_variance_image")]
+            and (r.get("width"), r.get("height")) == (w, h) and _image_name(r, "stats_image")
+            and _image_name(r, "stats_variance_image")]
     if not recs:
         raise ValueError(f"reference store {store} has no image of ours for {name} at {w}x{h}"
                          + (f" by build {build}" if build else "") + " (write one with gate --write-reference)")
@@ -110,11 +117,12 @@ def store_reference(store, name: str, scene, *, build: str | None = None) -> Ref
 def pooled_image(store, records, spp: int):
     """``(mean, per-sample variance, total spp)`` of a curve's stored images at ``spp``, or None: the
     seeds' mean, and the stored variance images' mean, else ``spp`` x the between-seed variance."""
-    recs = [r for r in records if int(r["spp"]) == spp and (r.get("stats_image") or r.get("image"))]
+    recs = [r for r in records if int(r["spp"]) == spp and (_image_name(r, "stats_image") or _image_name(r, "image"))]
     if not recs:
         return None
-    means = np.stack([read_image(store, r.get("stats_image") or r["image"], rgb=True) for r in recs])
-    var_paths = [r.get("stats_variance_image") for r in recs]
+    means = np.stack([read_image(store, _image_name(r, "stats_image") or _image_name(r, "image"), rgb=True)
+                      for r in recs])
+    var_paths = [_image_name(r, "stats_variance_image") for r in recs]
     if all(var_paths):
         var = np.mean([read_image(store, p, rgb=True) for p in var_paths], axis=0)
     elif len(recs) >= 2:

@@ -11,7 +11,7 @@ import numpy as np
 
 from reference_tracer.imageio import atomic_write
 
-from ..files import open_regular
+from ..files import confined_file, open_regular
 
 #: largest ``meta.json`` / ``summary.json`` read (a store's are kilobytes).
 MAX_JSON_BYTES = 64 << 20
@@ -63,18 +63,36 @@ def write_json(path, obj) -> Path:
     return atomic_write(path, json.dumps(json_safe(obj), indent=1, allow_nan=False) + "\n")
 
 
-def read_json(path, default=None, *, problems: list | None = None):
-    """A JSON file's value; ``default`` if it is missing or does not parse (said in ``problems``)."""
-    path = Path(path)
+def store_file(store, name: str) -> Path:
+    """The file ``name`` of a store, confined to the store folder (:func:`benchmarks.files.confined_file`, the one
+    rule of every file a store reads, images too): a symbolic link may point elsewhere in the store, never out of
+    it (``SECURITY.md``); :class:`~benchmarks.errors.InputError` otherwise."""
+    return confined_file(store, name, what="store file")
+
+
+def read_json(path, default=None, *, problems: list | None = None, store=None):
+    """A JSON file's value; ``default`` if it is missing or does not parse (said in ``problems``).
+    With ``store``, ``path`` is a file name in that store, refused alike when it leaves it (:func:`store_file`).
+
+    >>> import os, tempfile
+    >>> d, out = tempfile.mkdtemp(), tempfile.mkdtemp()
+    >>> _ = write_json(os.path.join(out, "x.json"), {"a": 1})
+    >>> os.symlink(os.path.join(out, "x.json"), os.path.join(d, "meta.json"))
+    >>> problems = []
+    >>> read_json("meta.json", {}, problems=problems, store=d), problems
+    ({}, ["meta.json could not be read: store file path 'meta.json' leaves its folder through a symbolic link"])
+    """
+    name = Path(path).name
     try:
+        path = store_file(store, str(path)) if store is not None else Path(path)
         with open_regular(path, max_bytes=MAX_JSON_BYTES) as f:
             return json.loads(f.read())
     except FileNotFoundError:
         why = "is missing"
     except RecursionError:
         why = "could not be read: JSON nested too deeply"
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError) as exc:  # InputError too: not confined, not a regular file
         why = f"could not be read: {exc}"
     if problems is not None:
-        problems.append(f"{path.name} {why}")
+        problems.append(f"{name} {why}")
     return default

@@ -2,9 +2,9 @@
 may index what it reads."""
 from __future__ import annotations
 
-from pathlib import Path
 
 from .jsonio import read_json, store_path, write_json
+from .records import check_identity
 
 META = "meta.json"
 SUMMARY = "summary.json"
@@ -90,7 +90,7 @@ def _clean_meta(meta: dict, problems: list | None) -> dict:
 
 def read_meta(store, *, problems: list | None = None) -> dict:
     """A store's ``meta.json`` checked by :func:`_clean_meta` (empty when missing or no object)."""
-    meta = read_json(Path(store) / META, problems=problems)
+    meta = read_json(META, problems=problems, store=store)
     if meta is not None and not isinstance(meta, dict):
         if problems is not None:
             problems.append(f"{META} is not a JSON object; ignored")
@@ -99,10 +99,10 @@ def read_meta(store, *, problems: list | None = None) -> dict:
 
 
 def read_summary_rows(store, *, problems: list | None = None) -> list:
-    """The ``rows`` of a store's ``summary.json`` (empty when missing); ``ValueError`` for a row
-    that is not a JSON object."""
-    path = Path(store) / SUMMARY
-    summ = read_json(path, problems=problems)
+    """The ``rows`` of a store's ``summary.json`` (empty when missing): each a JSON object with
+    ``scene``, ``renderer`` and ``strategy`` (:func:`benchmarks.store.check_identity`); any other row
+    (STORE.md: any value may be null) is skipped and said in ``problems``, never fatal."""
+    summ = read_json(SUMMARY, problems=problems, store=store)
     if summ is None:
         return []
     rows = summ.get("rows") if isinstance(summ, dict) else None
@@ -110,16 +110,24 @@ def read_summary_rows(store, *, problems: list | None = None) -> list:
         if problems is not None:
             problems.append(f"{SUMMARY} has no 'rows' list; ignored")
         return []
+    good = []
     for i, row in enumerate(rows):
-        if not isinstance(row, dict):
-            raise ValueError(f"{path}: row {i} is not a JSON object")
-    return rows
+        try:
+            if not isinstance(row, dict):
+                raise ValueError(f"{SUMMARY} row {i} is not a JSON object")
+            check_identity(row, f"{SUMMARY} row {i}", need_spp=False)
+        except ValueError as exc:
+            if problems is not None:
+                problems.append(f"{exc}; skipped")
+            continue
+        good.append(row)
+    return good
 
 
 def read_headline(store, *, problems: list | None = None) -> list:
     """The ``headline`` entries of a store's ``summary.json`` (one per scene and size; empty
     when missing): each a JSON object with a string ``scene``; others are dropped and said."""
-    summ = read_json(Path(store) / SUMMARY)
+    summ = read_json(SUMMARY, store=store)
     entries = summ.get("headline") if isinstance(summ, dict) else None
     if not isinstance(entries, list):
         return []
@@ -142,7 +150,7 @@ def update_meta(store, **fields) -> dict:
     {'a': {'spp': 4}, 'b': {'spp': 8}}
     """
     path = store_path(store) / META
-    meta = read_json(path, default={})
+    meta = read_json(META, default={}, store=store)
     if not isinstance(meta, dict):
         meta = {}
     for k, v in fields.items():

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import json
+import math
 import os
 import socket
 import warnings
@@ -12,7 +13,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ..files import open_regular
-from .jsonio import json_safe, store_path
+from .jsonio import json_safe, store_file, store_path
 
 #: fields that identify a job; the build (:data:`BUILD_FIELD`) ends its key.
 KEY_FIELDS = ("scene", "renderer", "strategy", "spp", "seed", "width", "height")
@@ -63,7 +64,7 @@ def append_record(store, record: dict) -> None:
     """Append one job record (holding :data:`KEY_FIELDS`) to ``results.jsonl`` durably: one
     locked write, then fsync; NaN and inf are written as null. The store is created if missing."""
     record_key(record)
-    path = store_path(store) / RESULTS
+    path = store_file(store_path(store), RESULTS)  # never written through a link that leaves the store
     data = (json.dumps(json_safe(record), sort_keys=False, allow_nan=False) + "\n").encode()
     fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o666)  # 0o666 less the umask
     try:
@@ -81,7 +82,7 @@ def append_record(store, record: dict) -> None:
 def writer_lock(store, *, say=None):
     """Hold the store's writer lock (``flock`` on :data:`WRITER_LOCK`): a second run waits here
     (``say`` is told who holds it), then resumes. ``OSError`` when the store is not writable."""
-    path = store_path(store) / WRITER_LOCK
+    path = store_file(store_path(store), WRITER_LOCK)
     fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
     try:
         try:
@@ -100,12 +101,15 @@ def writer_lock(store, *, say=None):
 
 class ResultLine(NamedTuple):
     """One non-blank line of ``results.jsonl`` as read: its 1-based ``number``, its ``value``
-    (None unless ``parsed``) and whether it is the ``last`` (where a killed writer leaves a torn one)."""
+    (None unless ``parsed``) and whether it is the ``last`` (where a killed writer leaves a torn one).
+    A file the store may not read (:func:`benchmarks.store.jsonio.store_file`) is one line 0 whose
+    ``refused`` says why."""
 
     number: int
     value: object
     parsed: bool
     last: bool
+    refused: str | None = None
 
 
 def result_lines(store) -> list:
@@ -117,7 +121,10 @@ def result_lines(store) -> list:
     >>> [(ln.number, ln.value, ln.parsed, ln.last) for ln in result_lines(d)]
     [(1, {'a': 1}, True, False), (3, None, False, True)]
     """
-    path = Path(store) / RESULTS
+    try:
+        path = store_file(store, RESULTS)
+    except ValueError as exc:  # leaves the store, or no regular file: refused, never read
+        return [ResultLine(0, None, False, False, f"the file is not read ({exc})")]
     if not path.exists():
         return []
     with open_regular(path) as f:
@@ -141,6 +148,8 @@ def skipped_line(line: ResultLine, *, partial: bool = False) -> str | None:
     >>> skipped_line(ResultLine(4, None, False, True))
     'last line 4 is truncated (interrupted run?)'
     """
+    if line.refused:
+        return line.refused
     if not line.parsed:
         return (f"last line {line.number} is truncated (interrupted run?)" if line.last
                 else f"line {line.number} is not valid JSON")
@@ -150,7 +159,7 @@ def skipped_line(line: ResultLine, *, partial: bool = False) -> str | None:
     if missing:
         return f"line {line.number} is not a job record (no {', '.join(missing)})"
     try:
-        check_identity(line.value, f"line {line.number} is not a job record:")
+        check_identity(line.value, f"line {line.number} is not a job record:", key=True)
     except ValueError as exc:
         return str(exc).replace(":: ", ": ")
     return None
@@ -191,7 +200,7 @@ def curve_label(curve) -> str:
 
 
 def latest_builds(records) -> list:
-    """Per curve (:func:`curve_of`), only the records of the build of its last record.
+    """Per curve (:func:`curve_of`), only the records of the build of its last record in file order.
 
     >>> rs = [{"scene": "a", "spp": 1, "build": "old"}, {"scene": "a", "spp": 2, "build": "old"},
     ...       {"scene": "a", "spp": 1, "build": "new"}]
@@ -204,36 +213,55 @@ def latest_builds(records) -> list:
 
 
 def dedupe_records(records) -> list:
-    """One record per job key without the build (missing fields None): the last, at the first's position.
+    """One record per job key, build included (:func:`record_key`, missing fields None): the last, at its own
+    position, so the result keeps file order and a curve's last record stays last (:func:`latest_builds`). A
+    record of one build never replaces one of another build: which build a curve shows is
+    :func:`latest_builds`'s choice alone.
 
     >>> rs = [{"scene": "a", "spp": 1, "v": 1}, {"scene": "b", "spp": 1, "v": 2},
-    ...       {"scene": "a", "spp": 1, "v": 3}]
+    ...       {"scene": "a", "spp": 1, "v": 3}, {"scene": "a", "spp": 1, "build": "x", "v": 4}]
     >>> [r["v"] for r in dedupe_records(rs)]
-    [3, 2]
+    [2, 3, 4]
     """
-    by_key: dict = {}
-    for rec in records:
-        # a dict keeps the first position, takes the last value; a later build replaces an earlier one
-        by_key[record_key(rec, partial=True)[:len(KEY_FIELDS)]] = rec
-    return list(by_key.values())
+    records = list(records)
+    last = {record_key(rec, partial=True): i for i, rec in enumerate(records)}
+    return [rec for i, rec in enumerate(records) if last[record_key(rec, partial=True)] == i]
 
 
-def check_identity(record: dict, where: str, *, need_spp: bool = True) -> None:
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def check_identity(record: dict, where: str, *, need_spp: bool = True, key: bool = False) -> None:
     """``ValueError`` (message starting with ``where``) unless ``scene``, ``renderer`` and
-    ``strategy`` are non-empty strings and, with ``need_spp``, ``spp`` a positive number.
+    ``strategy`` are non-empty strings and, with ``need_spp``, ``spp`` a finite positive number.
+    With ``key`` (a job record), also ``seed``, ``width`` and ``height`` finite numbers or null
+    where present and ``build`` a string or null: after this a record's key (:func:`record_key`)
+    can be hashed and its numbers converted.
 
     >>> check_identity({"scene": "a", "renderer": "ours", "strategy": "mis", "spp": 0}, "line 1")
     Traceback (most recent call last):
     ...
     ValueError: line 1: 'spp' must be a positive number, got 0
+    >>> check_identity({"scene": "a", "renderer": "ours", "strategy": "mis", "spp": 1, "width": [8]}, "line 2",
+    ...                key=True)
+    Traceback (most recent call last):
+    ...
+    ValueError: line 2: 'width' must be a number or null, got [8]
     """
     for k in ("scene", "renderer", "strategy"):
         if not isinstance(record.get(k), str) or not record[k]:
             raise ValueError(f"{where}: missing or non-string {k!r}")
     if need_spp:
         spp = record.get("spp")
-        if isinstance(spp, bool) or not isinstance(spp, (int, float)) or not spp > 0:
-            raise ValueError(f"{where}: 'spp' must be a positive number, got {spp!r}")
+        if not _is_number(spp) or not spp > 0:
+            raise ValueError(f"{where}: 'spp' must be a positive number, got {spp!r:.80}")
+    if key:
+        for k in ("seed", "width", "height"):
+            if record.get(k) is not None and not _is_number(record[k]):
+                raise ValueError(f"{where}: {k!r} must be a number or null, got {record[k]!r:.80}")
+        if record.get(BUILD_FIELD) is not None and not isinstance(record[BUILD_FIELD], str):
+            raise ValueError(f"{where}: {BUILD_FIELD!r} must be a string or null, got {record[BUILD_FIELD]!r:.80}")
 
 
 def finished_keys(store) -> set:

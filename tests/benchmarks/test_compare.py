@@ -127,3 +127,72 @@ def test_a_store_without_its_images_is_bad_input(tmp_path, capfd):
     assert code == 2
     assert len(err) == 1 and err[0].startswith("rtbench compare: error: ") and "internal error" not in err[0], err
     assert str(tmp_path / "b" / "images") in err[0] and "missing, though the store names it" in err[0]
+
+
+# ------------------------------------------------------------ synthetic stores: how compare reads records
+
+def _write_store(path, records):
+    from benchmarks.store import append_record
+
+    for r in records:
+        append_record(path, {"scene": "cornell_box", "renderer": "ours", "strategy": "mis", "seed": 0, "width": 8,
+                             "height": 8, "build": "0ld0ld0ld0ld0ld0", **r})
+    return path
+
+
+def _curve(path, extra=(), **kw):
+    """spp 1, 2, 4 with seeds 0 and 1 (MSE 1/spp), then ``extra`` records."""
+    recs = [{"spp": s, "seed": seed, "mse": 1.0 / s, "seconds": 0.01 * s, **kw} for s in (1, 2, 4) for seed in (0, 1)]
+    return _write_store(path, recs + list(extra))
+
+
+def test_compare_shows_the_newest_build_of_a_curve(tmp_path):
+    """B's newest build (spp 1 only, appended last) was read as older and hidden; B's old build lost spp 1."""
+    new = [{"spp": 1, "seed": seed, "mse": 1.0, "seconds": 0.01, "build": "feedfacefeedface"} for seed in (0, 1)]
+    (row,) = compare_stores(_curve(tmp_path / "a"), _curve(tmp_path / "b", new))
+    assert row.build_b == "feedfacefeedface" and row.spps_b == [1]
+    assert row.build_a == "0ld0ld0ld0ld0ld0" and row.spps_a == [1, 2, 4]
+
+
+@pytest.mark.parametrize("bad", [{"seconds": "x"}, {"seconds": [1]}, {"mse": "x"}, {"mse_corrected": float("nan")},
+                                 {"mse_corrected": float("inf")}])
+def test_compare_leaves_out_a_bad_value_with_a_warning_never_fatal(tmp_path, bad):
+    """``"seconds": "x"`` was a bare "could not convert string to float", ``[1]`` an internal TypeError, and one
+    NaN ``mse_corrected`` silently dropped its whole spp budget from the slope: now that record alone is left
+    out, with a warning naming the store and the curve."""
+    import math
+    import warnings
+
+    b = _curve(tmp_path / "b", [{"spp": 2, "seed": 2, "mse": 0.5, "seconds": 0.02, **bad}])
+    with open(b / "results.jsonl") as f:    # NaN and infinity reach the file as a foreign writer writes them
+        assert f.read().count("\n") == 7
+    if any(isinstance(v, float) for v in bad.values()):
+        lines = (b / "results.jsonl").read_text().splitlines()
+        last = json.loads(lines[-1])
+        last.update(bad)
+        (b / "results.jsonl").write_text("\n".join(lines[:-1] + [json.dumps(last)]) + "\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        (row,) = compare_stores(_curve(tmp_path / "a"), b)
+    said = [str(w.message) for w in caught if "left out" in str(w.message)]
+    assert len(said) == 1 and str(b / "results.jsonl") in said[0] and "cornell_box 8x8 mis" in said[0], said
+    assert row.spps_b == [1, 2, 4] and all(math.isfinite(x) for x in row.rmse_b)
+    assert row.slope_b == pytest.approx(row.slope_a)
+
+
+def test_compare_takes_an_image_field_that_is_no_file_name_as_absent(tmp_path):
+    """``"stats_image": 5`` was fatal (read as a path); now the curve has no images and says so."""
+    (row,) = compare_stores(_curve(tmp_path / "a"), _curve(tmp_path / "b", stats_image=5, image=[1]))
+    assert row.verdict is None and "no images" in row.reason
+
+
+def test_compare_refuses_an_output_that_is_a_file_before_any_work(tmp_path, capsys, monkeypatch):
+    """``--out FILE`` rendered everything, then failed with exit 3; now exit 2 up front, as report does."""
+    import benchmarks.compare as cmp
+
+    a, b = _curve(tmp_path / "a"), _curve(tmp_path / "b")
+    (tmp_path / "page").write_text("not a folder")
+    monkeypatch.setattr(cmp, "compare_stores", lambda *a, **k: pytest.fail("compared before checking --out"))
+    assert main(["compare", str(a), str(b), "--out", str(tmp_path / "page"), "--quiet", "--tail-spp", "0"]) == 2
+    assert "exists and is not a folder" in capsys.readouterr().err
+    assert (tmp_path / "page").read_text() == "not a folder"

@@ -55,11 +55,13 @@ def test_corrupt_middle_line_warns_and_is_skipped(tmp_path):
         assert [r["spp"] for r in read_records(tmp_path)] == [1, 2]
 
 
-def test_dedupe_last_record_wins_at_first_position(tmp_path):
+def test_dedupe_last_record_wins_in_file_order(tmp_path):
+    """The last record of a job stays where it is in the file (it was moved to the first's position, which made
+    a newer build's record look older than the records after it: :func:`latest_builds` read the wrong build)."""
     append_record(tmp_path, rec(spp=1, mse=1.0))
     append_record(tmp_path, rec(spp=2, mse=2.0))
     append_record(tmp_path, rec(spp=1, mse=3.0))
-    assert [(r["spp"], r["mse"]) for r in read_records(tmp_path)] == [(1, 3.0), (2, 2.0)]
+    assert [(r["spp"], r["mse"]) for r in read_records(tmp_path)] == [(2, 2.0), (1, 3.0)]
     assert len(read_records(tmp_path, dedupe=False)) == 3
 
 
