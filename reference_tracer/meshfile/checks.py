@@ -34,6 +34,17 @@ _PLY_MEMORY_PER_ELEMENT = 96
 _SERIALIZED_MEMORY_PER_BYTE = 6
 
 
+def _header_lines(head: bytes):
+    """``(header_bytes, [words of each line])`` of a PLY header, the first line (``ply``),
+    comments and empty lines left out; None where no ``end_header`` is found."""
+    end = head.find(b"end_header")
+    if end < 0:
+        return None
+    nl = head.find(b"\n", end)
+    lines = [raw.split() for raw in head[:end].decode("ascii", "replace").splitlines()[1:]]
+    return (len(head) if nl < 0 else nl + 1), [w for w in lines if w and w[0] not in ("comment", "obj_info")]
+
+
 def ply_header_counts(head: bytes, *, name: str = "PLY") -> tuple:
     """``(format, header_bytes, [(element, count, min_bytes_each), ...])`` of a PLY header.
 
@@ -52,16 +63,12 @@ def ply_header_counts(head: bytes, *, name: str = "PLY") -> tuple:
     ...                   b"property float x\\nproperty float y\\nproperty float z\\nend_header\\n")
     ('binary_little_endian', 115, [('vertex', 3, 12)])
     """
-    end = head.find(b"end_header")
-    if end < 0:
+    split = _header_lines(head)
+    if split is None:
         raise ValueError(f"{name} is not a PLY mesh: no end_header in its first {_PLY_HEADER_MAX} bytes")
-    nl = head.find(b"\n", end)
-    size = len(head) if nl < 0 else nl + 1
+    size, lines = split
     fmt, elements = None, []
-    for raw in head[:end].decode("ascii", "replace").splitlines()[1:]:
-        words = raw.split()
-        if not words or words[0] in ("comment", "obj_info"):
-            continue
+    for words in lines:
         try:
             if words[0] == "format":
                 fmt = words[1]
@@ -72,7 +79,7 @@ def ply_header_counts(head: bytes, *, name: str = "PLY") -> tuple:
                 kind = words[2] if words[1] == "list" else words[1]
                 elements[-1][2] += _PLY_SIZES.get(kind, 1) if binary else 2
         except (IndexError, ValueError):
-            raise ValueError(f"{name} is not a PLY mesh: header line {raw.strip()[:80]!r} does not parse") from None
+            raise ValueError(f"{name} is not a PLY mesh: header line {' '.join(words)[:80]!r} does not parse") from None
     if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
         raise ValueError(f"{name} is not a PLY mesh: format {fmt!r}")
     for e in elements:
@@ -178,16 +185,12 @@ def _ply_layout(head: bytes):
     header as Mitsuba's ``ply`` plugin lays its records out: a scalar property is one field, a
     list property its count (which must be 3) and three items, ``<name>.count`` and
     ``<name>.0``-``.2``. None where Mitsuba's parser would refuse the header (it says why)."""
-    end = head.find(b"end_header")
-    if end < 0:
+    split = _header_lines(head)
+    if split is None:
         return None
-    nl = head.find(b"\n", end)
-    size = len(head) if nl < 0 else nl + 1
+    size, lines = split
     fmt, elements = None, []
-    for raw in head[:end].decode("ascii", "replace").splitlines()[1:]:
-        words = raw.split()
-        if not words or words[0] in ("comment", "obj_info"):
-            continue
+    for words in lines:
         if words[0] == "format" and len(words) > 1:
             fmt = words[1]
         elif words[0] == "element" and len(words) > 2 and words[2].isdigit():
