@@ -10,6 +10,8 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
+import signal
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -26,6 +28,58 @@ __all__ = ["render_mitsuba", "MitsubaRender", "load_file", "film_sizes", "file_r
 
 #: Batches used when ``batches=None`` (capped by ``spp``).
 DEFAULT_BATCHES = 16
+
+
+class _CtrlC:
+    """Ctrl-C during a Mitsuba render, as ``KeyboardInterrupt``.
+
+    Mitsuba installs its own C-level SIGINT handler for each ``mi.render`` call: it cancels
+    the render ("Received interrupt signal, winding down.."), which then either returns a
+    partial image or raises a ``RuntimeError`` (Dr.Jit's), and hands the signal on to
+    Python, whose handler runs once the call is back in Python code, possibly inside
+    Mitsuba's own Python wrappers that turn it into another error. So while :func:`render_mitsuba`
+    runs, SIGINT only sets :attr:`hit` while a Mitsuba call is under way (and raises
+    ``KeyboardInterrupt`` at once outside one); :meth:`call` raises ``KeyboardInterrupt``
+    after a call during which SIGINT arrived, whatever the call returned or raised. A
+    Mitsuba error with no SIGINT is raised as it is. Installed in the main thread only, and
+    only where SIGINT has Python's default handler (an ignored SIGINT stays ignored, a
+    caller's own handler is left alone).
+    """
+
+    def __init__(self):
+        self.hit = False
+        self.in_call = False
+        self.previous = None
+
+    def _handler(self, signum, frame):
+        self.hit = True
+        if not self.in_call:
+            raise KeyboardInterrupt
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread() \
+                and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            self.previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def __exit__(self, *exc):
+        if self.previous is not None:
+            signal.signal(signal.SIGINT, self.previous)
+        return False
+
+    def call(self, fn, *args, **kwargs):
+        self.in_call = True
+        try:
+            out = fn(*args, **kwargs)
+        except Exception as exc:
+            if self.hit:
+                raise KeyboardInterrupt from exc
+            raise
+        finally:
+            self.in_call = False
+        if self.hit:  # a cancelled render may return a partial image: never use it
+            raise KeyboardInterrupt
+        return out
 
 
 @dataclass(kw_only=True)
@@ -287,6 +341,13 @@ def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None
                                 or threads < 1):
         raise ValueError(f"threads must be an integer >= 1 or None, got {threads!r}")
 
+    with _CtrlC() as guard:
+        return _render_batches(scene, spp=spp, seed=seed, variant=variant, threads=threads, batches=batches,
+                               params=params, film_size=film_size, guard=guard)
+
+
+def _render_batches(scene, *, spp, seed, variant, threads, batches, params, film_size, guard: _CtrlC):
+    """:func:`render_mitsuba` after its checks; every Mitsuba call through ``guard.call``."""
     chosen = select_variant(variant)
     import drjit as dr  # deferred: after the variant and libLLVM are chosen (select_variant)
     import mitsuba as mi  # deferred: after the variant and libLLVM are chosen (select_variant)
@@ -295,18 +356,18 @@ def render_mitsuba(scene, *, spp: int, seed: int = 0, variant: str | None = None
         dr.set_thread_count(int(threads))
     t0 = time.perf_counter()
     if isinstance(scene, (str, os.PathLike)):
-        mscene = load_file(scene, params=params, film_size=film_size)
+        mscene = guard.call(load_file, scene, params=params, film_size=film_size)
     else:
-        mscene = mi.load_dict(to_mitsuba(scene) if isinstance(scene, rt.Scene) else scene,
-                              optimize=mesh_merge_safe(scene))
+        mscene = guard.call(mi.load_dict, to_mitsuba(scene) if isinstance(scene, rt.Scene) else scene,
+                            optimize=mesh_merge_safe(scene))
     load_seconds = time.perf_counter() - t0
 
     sizes = split_spp(int(spp), int(batches))
     seeds = batch_seeds(int(seed), len(sizes))
 
     def run(n, s):
-        img = mi.render(mscene, spp=int(n), seed=int(s))
-        return np.array(img, dtype=np.float64)   # forces evaluation (and waits for it)
+        # np.array forces evaluation (and waits for it): inside the guarded call
+        return guard.call(lambda: np.array(mi.render(mscene, spp=int(n), seed=int(s)), dtype=np.float64))
 
     compile_seconds = 0.0
     jit = not chosen.startswith("scalar")
