@@ -17,6 +17,7 @@ import functools  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
 import traceback  # noqa: E402
+import warnings  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 from reference_tracer.validation import INT_MAX, SEED_MAX  # noqa: E402
@@ -99,9 +100,12 @@ def main(argv=None) -> int:
         parser.print_help()
         return EXIT_USAGE
     try:
-        check(args)
-        _probe_output_files(args)
-        return int(args._run(args) or 0)
+        with warnings.catch_warnings():
+            if not args.debug:  # a warning is one line, as an error is (--debug: Python's, with its source line)
+                warnings.showwarning = functools.partial(_warning_line, args.command)
+            check(args)
+            _probe_output_files(args)
+            return int(args._run(args) or 0)
     except KeyboardInterrupt as exc:
         print("\ninterrupted", file=sys.stderr)
         return exit_code(exc)
@@ -111,6 +115,12 @@ def main(argv=None) -> int:
         # the message may quote input (a store field, a file name): no terminal escapes from it
         print(terminal(f"rtbench {args.command}: error: {one_line(exc)}"), file=sys.stderr, flush=True)
         return exit_code(exc)
+
+
+def _warning_line(command: str, message, category, filename, lineno, file=None, line=None) -> None:
+    """``warnings.showwarning`` for a command: ``rtbench COMMAND: warning: ...`` on one line of stderr."""
+    text = " ".join(str(message).split())
+    print(terminal(f"rtbench {command}: warning: {text}"), file=file or sys.stderr, flush=True)
 
 
 def _probe_output_files(args) -> None:

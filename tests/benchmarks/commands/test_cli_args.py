@@ -309,3 +309,21 @@ def test_render_refuses_a_bad_variant_before_rendering(tmp_path, capsys, monkeyp
     err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
     assert len(err) == 1 and err[0].startswith("rtbench render: error: Mitsuba variant") and "'foo'" in err[0]
     assert not (tmp_path / "out").exists()
+
+
+def test_a_warning_is_one_line_naming_the_command(tmp_path, capsys):
+    """A store's skipped lines (a Python warning) print as ``rtbench compare: warning: ...`` on one
+    line of stderr, as errors do: not Python's two-line form with the warning call's source."""
+    from report_store import make_store
+
+    from benchmarks.cli import main
+
+    stores = [make_store(tmp_path / name, scenes=("cornell_box",), strategies=("uniform",), spps=(1, 4, 16),
+                         seeds=(0, 1), size=8, mitsuba=False) for name in ("a", "b")]
+    results = stores[1] / "results.jsonl"
+    lines = results.read_text().splitlines()
+    results.write_text("\n".join(lines[:2] + ["{not json"] + lines[2:]) + "\n")
+    assert main(["compare", str(stores[0]), str(stores[1]), "--out", str(tmp_path / "cmp"), "--quiet"]) in (0, 1)
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert any(line.startswith("rtbench compare: warning: ") and "line(s) skipped" in line for line in err), err
+    assert not any("Warning:" in line or "warnings.warn" in line for line in err), err
