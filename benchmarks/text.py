@@ -38,11 +38,16 @@ def terminal(text) -> str:
 
 
 def csv_cell(value):
-    """A CSV cell a spreadsheet shows as text: a string starting a formula gets a leading ``'``;
-    numbers pass unchanged."""
-    if isinstance(value, str) and value.startswith(_FORMULA_START):
-        return "'" + value
-    return value
+    """A CSV cell a spreadsheet shows as text: a string starting a formula gets a leading ``'``,
+    and its control characters (but newline and tab) become visible ``\\xNN``, as :func:`terminal`
+    writes them (a CSV is also read with ``cat``); numbers pass unchanged.
+
+    >>> csv_cell("a\\x1b[2Jb"), csv_cell(0.5)
+    ('a\\\\x1b[2Jb', 0.5)
+    """
+    if not isinstance(value, str):
+        return value
+    return ("'" if value.startswith(_FORMULA_START) else "") + terminal(value)
 
 
 def markdown_table(header, rows) -> str:

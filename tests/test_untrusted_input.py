@@ -188,6 +188,7 @@ def test_text_outputs_escape_store_fields(tmp_path, capsys):
         assert rows[1:], name
         for row in rows[1:]:
             assert not any(cell.startswith(("=", "+", "@")) for cell in row), (name, row)
+        assert "\x1b" not in (out / name).read_text() and "\\x1b[2J" in (out / name).read_text(), name
 
 
 def test_error_lines_carry_no_terminal_escapes(tmp_path):
