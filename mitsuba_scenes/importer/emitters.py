@@ -95,6 +95,14 @@ def read_constant(ctx, node):
     return colour("Scene.background", radiance, upper=None)
 
 
+def _placed_once(ctx, node, key: str, light: str) -> bool:
+    """False after recording a ``light`` given both ``key`` and ``to_world``, which Mitsuba refuses too."""
+    if key in node.props.keys() and "to_world" in node.props.keys():
+        ctx.bad(node, f"{light} light with both {key} and to_world (Mitsuba refuses it too)")
+        return False
+    return True
+
+
 @located
 def read_emitter(ctx, node):
     """Our light for a top-level Mitsuba emitter other than ``area`` and ``constant``: an
@@ -106,8 +114,7 @@ def read_emitter(ctx, node):
         return _envmap(ctx, node)
     if name == "point":
         check_params(ctx, node, {"position", "to_world", "intensity"} | EMITTER_ANY, "emitter")
-        if "position" in keys and "to_world" in keys:
-            ctx.bad(node, "point light with both position and to_world (Mitsuba refuses it too)")
+        if not _placed_once(ctx, node, "position", "point"):
             return None
         position = _point3(ctx, node, "position") if "position" in keys else read_matrix(ctx, node)[:3, 3]
         intensity = read_colour(ctx, node, "intensity", 1.0)
@@ -140,8 +147,7 @@ def read_emitter(ctx, node):
         return _projector(ctx, node)
     if name == "directional":
         check_params(ctx, node, {"direction", "to_world", "irradiance"} | EMITTER_ANY, "emitter")
-        if "direction" in keys and "to_world" in keys:
-            ctx.bad(node, "directional light with both direction and to_world (Mitsuba refuses it too)")
+        if not _placed_once(ctx, node, "direction", "directional"):
             return None
         if "direction" in keys:
             direction = _point3(ctx, node, "direction")

@@ -383,3 +383,18 @@ def test_every_reference_tracer_object_the_importer_builds_is_built_under_locate
     assert builders >= {"read_shape", "read_bsdf", "read_emitter", "read_camera", "_scene"}, builders
     bare = sorted(f"{functions[n][0]}:{n}" for n in builders if not covered(n))
     assert not bare, f"reference_tracer objects built outside a located reader: {bare}"
+
+
+@pytest.mark.parametrize("light, placement", [("point", '<point name="position" value="0, 1, 0"/>'),
+                                              ("directional", '<vector name="direction" value="0, -1, 0"/>')])
+def test_a_light_placed_twice_is_refused_at_its_element(tmp_path, light, placement):
+    """A point light's position (a directional light's direction) and a to_world besides: Mitsuba refuses both."""
+    path = tmp_path / "twice.xml"
+    path.write_text('<scene version="3.0.0">\n<sensor type="perspective"><film type="hdrfilm">'
+                    '<integer name="width" value="4"/><integer name="height" value="4"/></film></sensor>\n'
+                    f'<emitter type="{light}">{placement}<transform name="to_world"><translate x="1"/></transform>'
+                    '</emitter>\n</scene>\n')
+    key = "position" if light == "point" else "direction"
+    with pytest.raises(ValueError, match=rf"{light} light with both {key} and to_world \(Mitsuba refuses it too\) "
+                                         rf"\(.*twice\.xml \(line 3, col \d+\)\)"):
+        from_mitsuba(path)
