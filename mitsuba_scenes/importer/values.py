@@ -23,7 +23,8 @@ IOR_TABLE = {
 
 
 class UnsupportedSceneError(ValueError):
-    """``from_mitsuba``'s refusal of a scene that uses things outside the supported subset.
+    """``from_mitsuba``'s refusal of a scene: things outside the supported subset, values our
+    objects refuse (a negative radius), files that cannot be used (a mesh's broken faces).
 
     A ``ValueError`` whose message lists every item with its location; ``problems`` holds
     the same lines, ``features`` each one without its location (what the scene needs, e.g.
@@ -32,8 +33,9 @@ class UnsupportedSceneError(ValueError):
 
     def __init__(self, problems, features):
         self.problems, self.features = list(problems), list(features)
-        super().__init__("from_mitsuba: the scene uses things outside the supported subset "
-                         f"({len(self.problems)} found):\n  - " + "\n  - ".join(self.problems))
+        super().__init__("from_mitsuba: the scene cannot be imported: what it uses outside the supported subset, "
+                         f"or values and files it refuses ({len(self.problems)} found):\n  - "
+                         + "\n  - ".join(self.problems))
 
 
 class Context:

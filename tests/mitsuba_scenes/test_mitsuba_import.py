@@ -333,7 +333,7 @@ def test_a_value_our_objects_refuse_is_placed_at_its_element(tmp_path, body, ele
     text = f'<scene version="3.0.0">\n{body}\n</scene>' if "<sensor" in body else _scene_xml(f"\n{body}\n")
     path.write_text(text)
     line = next(i for i, x in enumerate(text.splitlines(), 1) if x.startswith(element))
-    with pytest.raises(ValueError, match=rf"the supported subset \(1 found\):\n  - {re.escape(message)}.* "
+    with pytest.raises(ValueError, match=rf"values and files it refuses \(1 found\):\n  - {re.escape(message)}.* "
                                          rf"\({re.escape(str(path))} \(line {line}, col \d+\)\)$"):
         from_mitsuba(path)
 
