@@ -14,7 +14,7 @@ from .material_textures import textures_of
 from .materials import Material
 from .meshfile import read_mesh
 from .shapes import IDENTITY, Shape, spans_area
-from .validation import not_directions
+from .validation import check_face_indices, not_directions
 
 __all__ = ["Mesh", "vertex_normals"]
 
@@ -88,7 +88,7 @@ class Mesh(Shape):
             else:
                 raise ValueError(f"Mesh.faces must hold integer vertex indices, got dtype {f.dtype}")
         f = f.astype(np.int64)
-        _check_face_range(f, v.shape[0], "Mesh.faces")
+        check_face_indices(f, v.shape[0], "Mesh.faces")
         v.setflags(write=False)
         f.setflags(write=False)
         object.__setattr__(self, "vertices", v)
@@ -141,7 +141,7 @@ class Mesh(Shape):
         m = read_mesh(path, normals=not face_normals)
         if len(m.faces) == 0:
             raise ValueError(f"Mesh.load: {path!s} holds no triangles")
-        _check_face_range(m.faces, len(m.vertices), f"Mesh.load: {path!s}: faces")  # before normals use them
+        check_face_indices(m.faces, len(m.vertices), f"Mesh.load: {path!s}")  # before normals use them
         normals = None
         if not face_normals:
             normals = m.normals if m.normals is not None else vertex_normals(m.vertices, m.faces)
@@ -340,14 +340,6 @@ def _unit_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     plus = np.linalg.norm(a + b, axis=1)
     minus = np.linalg.norm(a - b, axis=1)
     return np.where(d < 0, np.pi - 2.0 * np.arcsin(np.minimum(plus / 2, 1.0)), 2.0 * np.arcsin(np.minimum(minus / 2, 1.0)))
-
-
-def _check_face_range(faces: np.ndarray, n_vertices: int, what: str) -> None:
-    """``ValueError`` naming the first face of ``faces`` (M, 3 integers) with an index outside ``[0, n_vertices)``."""
-    bad = (faces < 0) | (faces >= n_vertices)
-    if bad.any():
-        k = int(np.argwhere(bad)[0][0])
-        raise ValueError(f"{what} index out of range [0, {n_vertices}): face {k} is {faces[k].tolist()}")
 
 
 def vertex_normals(vertices, faces) -> np.ndarray:

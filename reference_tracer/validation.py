@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["finite_scalar", "flag", "not_directions", "vector3", "colour", "positive_int", "integrator_depths",
+__all__ = ["finite_scalar", "flag", "not_directions", "face_index_problem", "check_face_indices", "vector3", "colour", "positive_int", "integrator_depths",
            "open_regular_file", "FLOAT32_MAX", "INT_MAX", "SEED_MAX"]
 
 
@@ -87,6 +87,30 @@ def flag(name: str, value) -> bool:
     if isinstance(value, (bool, np.bool_)) or (isinstance(value, (int, np.integer)) and value in (0, 1)):
         return bool(value)
     raise ValueError(f"{name} must be True or False, got {value!r}")
+
+
+def face_index_problem(faces, n_vertices: int) -> str | None:
+    """``"face i is [a, b, c], a vertex index out of range [0, n)"`` for the first row of
+    ``faces`` (M, 3) with an index outside ``[0, n_vertices)`` (negative, not a number, or a
+    fraction whose next integer is past the last vertex: a PLY list of floats), else None.
+    The one test of every mesh's faces (``Mesh``, its files, the importer's meshes).
+
+    >>> face_index_problem(np.array([[0, 1, 2], [0, 2, 7]]), 3)
+    'face 1 is [0, 2, 7], a vertex index out of range [0, 3)'
+    """
+    faces = np.asarray(faces)
+    bad = ~np.all((faces >= 0) & (np.ceil(faces) < n_vertices), axis=1)
+    if not bad.any():
+        return None
+    i = int(np.argmax(bad))
+    return f"face {i} is {faces[i].tolist()}, a vertex index out of range [0, {n_vertices})"
+
+
+def check_face_indices(faces, n_vertices: int, where: str) -> None:
+    """``ValueError`` ``"{where}: "`` and :func:`face_index_problem` where it finds one."""
+    problem = face_index_problem(faces, n_vertices)
+    if problem is not None:
+        raise ValueError(f"{where}: {problem}")
 
 
 def not_directions(rows) -> np.ndarray:

@@ -2,7 +2,6 @@
 may index what it reads."""
 from __future__ import annotations
 
-
 from .jsonio import read_json, store_path, write_json
 from .records import check_identity
 

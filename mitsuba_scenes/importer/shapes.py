@@ -12,6 +12,7 @@ import reference_tracer as rt
 from reference_tracer.material_textures import textures_of
 from reference_tracer.meshfile import (check_mesh_file, check_ply_faces, check_serialized_file, decode_obj,
                                       obj_undefined_normal)
+from reference_tracer.validation import face_index_problem
 
 from .bsdfs import read_bsdf
 from .emitters import read_area_emitter
@@ -206,10 +207,9 @@ def _mesh_normals(params, mesh, v, f):
     file with normals) or a zero or non-number normal of a PLY file (Mitsuba's shading
     there is NaN). A face whose vertex index is outside the vertices is refused first (a
     mesh object of a dict: files are checked before Mitsuba loads them)."""
-    bad = np.any((f < 0) | (f >= len(v)), axis=1)
-    if bad.any():
-        i = int(np.argmax(bad))
-        return f"face {i} is {f[i].tolist()}, a vertex index out of range [0, {len(v)})"
+    problem = face_index_problem(f, len(v))
+    if problem is not None:
+        return problem
     if not mesh.has_vertex_normals():
         return None
     n = np.array(params["vertex_normals"], dtype=np.float64).reshape(-1, 3)

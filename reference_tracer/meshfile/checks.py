@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..validation import open_regular_file
+from ..validation import check_face_indices, open_regular_file
 from .serialized import serialized_faces, serialized_header
 
 __all__ = ["check_mesh_file", "check_serialized_file", "check_ply_faces", "ply_faces", "ply_header_counts"]
@@ -158,19 +158,8 @@ def check_serialized_file(path, shape_index: int = 0) -> dict:
         raise MemoryError(f"{path}: mesh {shape_index} declares {header['vertices']} vertices and "
                           f"{header['triangles']} triangles, about {memory / 2**30:.1f} GiB to read; "
                           f"{available / 2**30:.1f} GiB of memory is available")
-    _check_face_indices(path, serialized_faces(path, header), header["vertices"], f"mesh {shape_index}'s ")
+    check_face_indices(serialized_faces(path, header), header["vertices"], f"{path}: mesh {shape_index}")
     return header
-
-
-def _check_face_indices(path, faces: np.ndarray, vertices: int, whose: str = "") -> None:
-    """``ValueError`` naming the first triangle of ``faces`` (M, 3) with a vertex index outside
-    ``[0, vertices)`` (a fractional one, from a PLY list of floats, counts as its next integer;
-    one that is not a number is outside)."""
-    bad = ~np.all((faces >= 0) & (np.ceil(faces) < vertices), axis=1)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise ValueError(f"{path}: {whose}face {i} is {faces[i].tolist()}, a vertex index out of range "
-                         f"[0, {vertices}) (the file declares {vertices} vertices)")
 
 
 #: numpy types of the PLY scalar types Mitsuba's ``ply`` plugin reads (src/shapes/ply.h).
@@ -289,4 +278,4 @@ def check_ply_faces(path) -> None:
         return
     found = ply_faces(data)
     if found is not None:
-        _check_face_indices(path, found[1], found[0])
+        check_face_indices(found[1], found[0], str(path))
