@@ -891,7 +891,8 @@ public:
                     ui[a][l] = u(i, a);
                 }
             }
-            const rt::LightSampleLanes<F> pack = scene_->lights().sample_pack(ref, ui, (1u << m) - 1u);
+            rt::LightSampleLanes<F> pack;
+            scene_->lights().sample_pack(ref, ui, (1u << m) - 1u, pack);
             for (int l = 0; l < m; ++l) out[size_t(base + l)] = pack.lane(l);
         }
     }

@@ -435,43 +435,62 @@ void Scene::intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interac
         for (size_t i = 0; i < n; ++i) hit[i] = intersect(*rays[i], *it[i]);
         return;
     }
-    for (size_t base = 0; base < n; base += kPackWidth) {
-        const size_t m = std::min<size_t>(kPackWidth, n - base);
-        const Ray* const* r = rays + base;
-        const RayPack p = pack_rays(r, m);
-        // Every sphere and quad in id order, as Scene::intersect's direct loop, a pack of rays
-        // at a time; then the triangles, ray by ray, below the distance found.
-        VPd t_max = VPd{} + kInf;
-        VPl best = VPl{} - 1;
-        if (!spheres_.empty()) {
-            const VPd inv_a = Sphere::reciprocal_length_squared<VPd>({p.dx, p.dy, p.dz});
-            for (uint32_t s = 0; s < spheres_.size(); ++s)
-                best = spheres_[s].intersect_pack(p, inv_a, t_max) ? VPl{} + int64_t(s) : best;
+    // kOverlapPacks packs are tested before any is filled (simd.h).
+    struct Tested {
+        RayPack p;
+        VPd t_max;
+        VPl best;
+        unsigned mesh;
+    };
+    constexpr size_t kGroup = kOverlapPacks;
+    for (size_t group = 0; group < n; group += kGroup * kPackWidth) {
+        Tested tested[kGroup];
+        const size_t packs = std::min(kGroup, (n - group + kPackWidth - 1) / kPackWidth);
+        for (size_t k = 0; k < packs; ++k) {
+            const size_t base = group + k * kPackWidth;
+            const size_t m = std::min<size_t>(kPackWidth, n - base);
+            // The pack's state where the fill below reads it (a copy a pack otherwise).
+            Tested& x = tested[k];
+            const RayPack& p = x.p = pack_rays(rays + base, m);
+            // Every sphere and quad in id order, as Scene::intersect's direct loop, a pack of
+            // rays at a time; then the triangles, ray by ray, below the distance found.
+            VPd& t_max = x.t_max = VPd{} + kInf;
+            VPl& best = x.best = VPl{} - 1;
+            if (!spheres_.empty()) {
+                const VPd inv_a = Sphere::reciprocal_length_squared<VPd>({p.dx, p.dy, p.dz});
+                for (uint32_t s = 0; s < spheres_.size(); ++s)
+                    best = spheres_[s].intersect_pack(p, inv_a, t_max) ? VPl{} + int64_t(s) : best;
+            }
+            const PackSlabs slabs = pack_slabs_ ? PackSlabs(p) : PackSlabs();
+            for (const QuadRun& run : quad_runs_) {
+                if (run.boxed && slabs.may_hit(run.bounds, t_max) == 0) continue;  // no lane can meet its quads
+                for (uint32_t q = run.first; q < run.first + run.count; ++q)
+                    best = quads_[q].intersect_pack(p, t_max) ? VPl{} + int64_t(quad_base_ + q) : best;
+            }
+            x.mesh = mesh_bvh_.empty() ? 0u : slabs.may_hit(mesh_bounds_, t_max);
         }
-        const PackSlabs slabs = pack_slabs_ ? PackSlabs(p) : PackSlabs();
-        for (const QuadRun& run : quad_runs_) {
-            if (run.boxed && slabs.may_hit(run.bounds, t_max) == 0) continue;  // no lane can meet its quads
-            for (uint32_t q = run.first; q < run.first + run.count; ++q)
-                best = quads_[q].intersect_pack(p, t_max) ? VPl{} + int64_t(quad_base_ + q) : best;
-        }
-        const unsigned mesh = mesh_bvh_.empty() ? 0u : slabs.may_hit(mesh_bounds_, t_max);
-        // Packs whose every hit is a sphere's (every vertex of `furnace`) take their hit
-        // points a pack at a time: a lane's square root and division otherwise wait on the
-        // divider one lane after another.
-        const unsigned present = (1u << m) - 1u;
-        const unsigned found = lane_mask(best >= 0) & present;
-        if (mesh == 0 && found != 0 && (lane_mask(best < int64_t(quad_base_)) & found) == found) {
-            fill_sphere_pack(p, t_max, best, found, it + base);
-            for (size_t l = 0; l < m; ++l) hit[base + l] = (found >> l) & 1u;
-            continue;
-        }
-        for (size_t l = 0; l < m; ++l) {
-            double t = t_max[l];
-            uint32_t prim = static_cast<uint32_t>(best[l]);
-            bool found = best[l] >= 0;
-            if ((mesh >> l) & 1u) found |= closest_mesh_hit(*r[l], t, prim);
-            hit[base + l] = found;
-            if (found) fill_interaction(*r[l], t, prim, *it[base + l]);
+        for (size_t k = 0; k < packs; ++k) {
+            const size_t base = group + k * kPackWidth;
+            const size_t m = std::min<size_t>(kPackWidth, n - base);
+            const Tested& x = tested[k];
+            // Packs whose every hit is a sphere's (every vertex of `furnace`) take their hit
+            // points a pack at a time: a lane's square root and division otherwise wait on the
+            // divider one lane after another.
+            const unsigned present = (1u << m) - 1u;
+            const unsigned found = lane_mask(x.best >= 0) & present;
+            if (x.mesh == 0 && found != 0 && (lane_mask(x.best < int64_t(quad_base_)) & found) == found) {
+                fill_sphere_pack(x.p, x.t_max, x.best, found, it + base);
+                for (size_t l = 0; l < m; ++l) hit[base + l] = (found >> l) & 1u;
+                continue;
+            }
+            for (size_t l = 0; l < m; ++l) {
+                double t = x.t_max[l];
+                uint32_t prim = static_cast<uint32_t>(x.best[l]);
+                bool hit_l = x.best[l] >= 0;
+                if ((x.mesh >> l) & 1u) hit_l |= closest_mesh_hit(*rays[base + l], t, prim);
+                hit[base + l] = hit_l;
+                if (hit_l) fill_interaction(*rays[base + l], t, prim, *it[base + l]);
+            }
         }
     }
 }

@@ -37,6 +37,12 @@ using V4l = decltype(V4d{} < V4d{});
 
 constexpr int kPackWidth = RT_PACK;
 static_assert(kPackWidth == 4 || kPackWidth == 8, "RT_PACK_WIDTH must be 4 or 8");
+// Packs of a batch that one step works on before it stores any of their results
+// (Scene::intersect_batch, WavefrontIntegrator::next_events): their chains of divisions
+// and square roots then overlap, where a pack's stores would keep the next pack out of
+// reach of out-of-order execution. Four, for packs of eight and of four alike
+// (PERFORMANCE.md, Ideas tried).
+constexpr int kOverlapPacks = 4;
 
 // Lanes of doubles by width, the lane type F of the core's routines written once for a
 // scalar and a pack (pbrt-v4's and Dr.Jit's Float): double for one lane, V4d (one AVX2

@@ -200,53 +200,68 @@ void WavefrontIntegrator::draw_queued(VertexQueue& q, int n) const {
 
 int WavefrontIntegrator::next_events(VertexQueue& q, int n, Lane** shadowed, const Ray** rays_out, double* t_max,
                                      uint64_t& rays) const {
+    // kOverlapPacks packs' light samples and estimates, then their lanes' shadow rays (simd.h).
+    struct Estimated {
+        LightSamplePack ls;
+        VPd ref[3], value[3], t_far;
+        unsigned light, diffuse, shadow;
+    };
+    constexpr int kGroup = kOverlapPacks;
     int n_shadow = 0;
-    for (int base = 0; base < n; base += kPackWidth) {
-        const unsigned present = (1u << std::min(kPackWidth, n - base)) - 1u;
-        const unsigned light = lane_mask(load_pack(q.light + base) != 0.0) & present;
-        if (light == 0) continue;
-        VPd p[3], nv[3], ref[3], u[3];
-        for (int a = 0; a < 3; ++a) {
-            p[a] = load_pack(q.p[a] + base);
-            nv[a] = load_pack(q.n[a] + base);
-            u[a] = load_pack(q.u[a] + base);
+    for (int group = 0; group < n; group += kGroup * kPackWidth) {
+        Estimated packs[kGroup];
+        const int end = std::min(n, group + kGroup * kPackWidth);
+        for (int base = group, k = 0; base < end; base += kPackWidth, ++k) {
+            Estimated& e = packs[k];
+            const unsigned present = (1u << std::min(kPackWidth, n - base)) - 1u;
+            e.light = lane_mask(load_pack(q.light + base) != 0.0) & present;
+            if (e.light == 0) continue;
+            VPd p[3], nv[3], u[3];
+            for (int a = 0; a < 3; ++a) {
+                p[a] = load_pack(q.p[a] + base);
+                nv[a] = load_pack(q.n[a] + base);
+                u[a] = load_pack(q.u[a] + base);
+            }
+            if (smooth_) {
+                VPd g[3];
+                for (int a = 0; a < 3; ++a) g[a] = load_pack(q.g[a] + base);
+                offset_toward(p, g, nv, offset_epsilon(p), e.ref);  // Integrator::reference_point
+            } else {
+                offset_toward(p, nv, nv, offset_epsilon(p), e.ref);
+            }
+            scene_.lights().sample_pack(e.ref, u, e.light, e.ls);
+            e.diffuse = lane_mask(load_pack(q.diffuse + base) != 0.0) & e.light;
+            e.shadow = e.diffuse != 0 ? estimate_diffuse(q, base, e.ls, e.diffuse, e.value, e.t_far) : 0u;
         }
-        if (smooth_) {
-            VPd g[3];
-            for (int a = 0; a < 3; ++a) g[a] = load_pack(q.g[a] + base);
-            offset_toward(p, g, nv, offset_epsilon(p), ref);  // Integrator::reference_point
-        } else {
-            offset_toward(p, nv, nv, offset_epsilon(p), ref);
-        }
-        const LightSamplePack ls = scene_.lights().sample_pack(ref, u, light);
-        const unsigned diffuse = lane_mask(load_pack(q.diffuse + base) != 0.0) & light;
-        VPd value[3], t_far;
-        const unsigned shadow = diffuse != 0 ? estimate_diffuse(q, base, ls, diffuse, value, t_far) : 0u;
-        // The diffuse vertices with a shadow ray, then the other vertices lane by lane: a
-        // loop over each set's bits, not a test of each lane's verdict, which the CPU
-        // cannot predict. (The order of the batch's shadow rays changes no result.)
-        rays += uint64_t(__builtin_popcount(shadow));
-        for (unsigned left = shadow; left != 0; left &= left - 1) {
-            const int l = __builtin_ctz(left);
-            Lane& lane = *q.lanes[base + l];
-            // What estimate_ld does after its checks: count the shadow ray (above) and queue it.
-            const Vec3 wi(ls.wi[0][l], ls.wi[1][l], ls.wi[2][l]);
-            lane.shadow_ray = Ray{Vec3(ref[0][l], ref[1][l], ref[2][l]), wi};
-            if (smooth_ && q.smooth[base + l] != 0.0)  // Integrator::shadow_origin
-                lane.shadow_ray.o = offset_origin(lane.it.p, lane.it.n, wi);
-            lane.shadow_t_max = t_far[l];
-            lane.shadow_value = Vec3(value[0][l], value[1][l], value[2][l]);
-            shadowed[n_shadow] = &lane;
-            rays_out[n_shadow] = &lane.shadow_ray;
-            t_max[n_shadow++] = lane.shadow_t_max;
-        }
-        for (unsigned left = light & ~diffuse; left != 0; left &= left - 1) {
-            const int l = __builtin_ctz(left);
-            Lane& lane = *q.lanes[base + l];
-            if (!next_event(lane, ls.lane(l), rays)) continue;
-            shadowed[n_shadow] = &lane;
-            rays_out[n_shadow] = &lane.shadow_ray;
-            t_max[n_shadow++] = lane.shadow_t_max;
+        for (int base = group, k = 0; base < end; base += kPackWidth, ++k) {
+            const Estimated& e = packs[k];
+            if (e.light == 0) continue;
+            // The diffuse vertices with a shadow ray, then the other vertices lane by lane: a
+            // loop over each set's bits, not a test of each lane's verdict, which the CPU
+            // cannot predict. (The order of the batch's shadow rays changes no result.)
+            rays += uint64_t(__builtin_popcount(e.shadow));
+            for (unsigned left = e.shadow; left != 0; left &= left - 1) {
+                const int l = __builtin_ctz(left);
+                Lane& lane = *q.lanes[base + l];
+                // What estimate_ld does after its checks: count the shadow ray (above) and queue it.
+                const Vec3 wi(e.ls.wi[0][l], e.ls.wi[1][l], e.ls.wi[2][l]);
+                lane.shadow_ray = Ray{Vec3(e.ref[0][l], e.ref[1][l], e.ref[2][l]), wi};
+                if (smooth_ && q.smooth[base + l] != 0.0)  // Integrator::shadow_origin
+                    lane.shadow_ray.o = offset_origin(lane.it.p, lane.it.n, wi);
+                lane.shadow_t_max = e.t_far[l];
+                lane.shadow_value = Vec3(e.value[0][l], e.value[1][l], e.value[2][l]);
+                shadowed[n_shadow] = &lane;
+                rays_out[n_shadow] = &lane.shadow_ray;
+                t_max[n_shadow++] = lane.shadow_t_max;
+            }
+            for (unsigned left = e.light & ~e.diffuse; left != 0; left &= left - 1) {
+                const int l = __builtin_ctz(left);
+                Lane& lane = *q.lanes[base + l];
+                if (!next_event(lane, e.ls.lane(l), rays)) continue;
+                shadowed[n_shadow] = &lane;
+                rays_out[n_shadow] = &lane.shadow_ray;
+                t_max[n_shadow++] = lane.shadow_t_max;
+            }
         }
     }
     return n_shadow;

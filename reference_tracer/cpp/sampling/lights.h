@@ -290,7 +290,9 @@ public:
     bool packed_sampling() const { return single_quad() || only_spheres(); }
 
     // sample() for lanes of reference points (simd.h: F a pack of doubles, V4d or V8d), the
-    // lanes of `lanes` (bits; the others' values are not used and their results are any).
+    // lanes of `lanes` (bits; the others' values are not used and their results are any),
+    // into `out`, as constructed (the caller's storage: a returned pack was built and
+    // copied again where the caller keeps several).
     // Where packed_sampling() holds, the lanes run the bodies sample() runs (Quad::point,
     // sphere_point, area_sample) on the pack, so that every lane is sample()'s result bit for
     // bit (lane-wise square root and division are IEEE like the scalar ones; a failed sample
@@ -298,9 +300,8 @@ public:
     // Always inline: out of line, the pack went back through memory (+0.5% instructions
     // on cornell_box).
     template <typename F>
-    [[gnu::always_inline]] inline LightSampleLanes<F> sample_pack(const F (&ref)[3], const F (&u)[3],
-                                                                  unsigned lanes) const {
-        LightSampleLanes<F> out;
+    [[gnu::always_inline]] inline void sample_pack(const F (&ref)[3], const F (&u)[3], unsigned lanes,
+                                                   LightSampleLanes<F>& out) const {
         if (single_quad()) {
             const Emitter& e = emitters_[0];
             const Quad& q = (*quads_)[e.index];
@@ -321,7 +322,6 @@ public:
                 out.set_lane(l, sample(Vec3(ref[0][l], ref[1][l], ref[2][l]), u[0][l], u[1][l], u[2][l]));
             }
         }
-        return out;
     }
 
     // Density of sample() for the emitter `prim` in direction wi from ref, where the ray
