@@ -11,7 +11,8 @@ build of a change:
         --scenes cornell_box glossy_plates --rounds 60
 
 Each render: 128x128 (``--size``), ``--spp`` spp, ``mis``, the wavefront integrator, Russian
-roulette from depth 5 (Mitsuba's default), 1 thread. With ``--rays`` the builds cast rays
+roulette from depth 5 (Mitsuba's default), 1 thread. ``--meshes 10000 1000000`` adds renders of
+the lit torus of ``benchmarks.speed.rays.mesh_scene`` with those triangle counts (64x64, 8 segments). With ``--rays`` the builds cast rays
 instead, as ``rtbench speed --rays`` does (closest hits, distance and primitive), 1 thread,
 ``--ray-count`` rays a query on the torus of each ``--triangles`` size, random and primary
 rays (``--kinds``):
@@ -44,6 +45,9 @@ def main(argv=None) -> int:
     parser.add_argument("--rounds", type=int, default=40)
     parser.add_argument("--spp", type=int, default=16)
     parser.add_argument("--size", type=int, default=128, help="image width and height")
+    parser.add_argument("--meshes", type=int, nargs="+", default=[], metavar="TRIANGLES",
+                        help="also render the lit torus of benchmarks.speed.rays.mesh_scene with these triangle "
+                             "counts (64x64, --spp, max_depth 8)")
     parser.add_argument("--rays", action="store_true", help="time ray queries instead of renders")
     parser.add_argument("--triangles", type=int, nargs="+", default=[1_000_000], help="--rays: mesh sizes")
     parser.add_argument("--kinds", nargs="+", default=["random", "primary"], choices=["random", "primary"],
@@ -53,8 +57,8 @@ def main(argv=None) -> int:
     for flag in ("rounds", "spp", "size", "ray_count"):
         if getattr(opts, flag) < 1:
             parser.error(f"--{flag.replace('_', '-')} must be at least 1")
-    if any(t < 32 for t in opts.triangles):
-        parser.error("--triangles must be at least 32")
+    if any(t < 32 for t in opts.triangles + opts.meshes):
+        parser.error("--triangles and --meshes must be at least 32")
     unknown = [s for s in opts.scenes if s not in SUITE]
     if unknown:
         parser.error(f"unknown scene(s) {', '.join(unknown)}; the suite has {', '.join(SUITE)}")
@@ -86,6 +90,13 @@ def main(argv=None) -> int:
                          {"scene": get_scene(scene, width=opts.size, height=opts.size, max_depth=50, rr_depth=5),
                           "key": scene, "spp": opts.spp, "strategy": "mis", "seed": 1, "threads": 1})
                  for scene in opts.scenes}
+        if opts.meshes:
+            from benchmarks.speed.rays import mesh_scene
+
+            cases.update({f"torus {t}": ("benchmarks.speed.render.render_timed",
+                                         {"scene": mesh_scene(t, lit=True), "key": f"torus {t}", "spp": opts.spp,
+                                          "strategy": "mis", "seed": 1, "threads": 1})
+                          for t in opts.meshes})
         seconds = lambda answer: answer[1]  # noqa: E731 - the render's wall time
         print(f"{'scene':16s} {'A s/render':>11s} {'B s/render':>11s} {'B speed-up':>11s} {'90% interval':>16s}")
     for label, request in cases.items():

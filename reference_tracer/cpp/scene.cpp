@@ -1,6 +1,7 @@
 #include "scene.h"
 
 #include <cstddef>
+#include <memory>
 #include <stdexcept>
 
 namespace rt {
@@ -421,6 +422,95 @@ bool Scene::closest_mesh_hit(const Ray& ray, double& t_max, uint32_t& best) cons
         [&](uint32_t block) { prefetch_mesh_block(block); });
 }
 
+void Scene::closest_mesh_hits(size_t count, const size_t* index, const Ray* const* rays, double* t_max,
+                              uint32_t* best, bool* found) const {
+    struct Query {
+        const Scene& scene;
+        const size_t* index;
+        const Ray* const* rays;
+        double* t_max;
+        uint32_t* best;
+        bool* found;
+        struct Slot {
+            const Ray* ray;
+            WatertightRay wray;
+            uint32_t best;
+        } slots[kWidth];
+
+        const Ray& begin(int s, size_t k) {
+            Slot& slot = slots[s];
+            slot.ray = rays[index[k]];
+            slot.wray = WatertightRay(slot.ray->d);
+            slot.best = best[index[k]];
+            return *slot.ray;
+        }
+        double t_start(size_t k) const { return t_max[index[k]]; }
+        bool test(int s, uint32_t prim, double& t) {
+            return scene.hit_primitive(prim, *slots[s].ray, slots[s].wray, t, slots[s].best);
+        }
+        bool test_block(int s, uint32_t block, double& t) {
+            return scene.hit_mesh_block(block, *slots[s].ray, slots[s].wray, t, slots[s].best) >= 0;
+        }
+        void prefetch_block(uint32_t block) { scene.prefetch_mesh_block(block); }
+        void finish(int s, size_t k, bool hit, double t) {
+            if (!hit) return;
+            t_max[index[k]] = t;
+            best[index[k]] = slots[s].best;
+            found[index[k]] = true;
+        }
+    } query{*this, index, rays, t_max, best, found, {}};
+    mesh_bvh_.traverse_interleaved<kWidth, true>(count, query);
+}
+
+template <bool kMesh>
+void Scene::occlusions(size_t count, const size_t* index, const Ray* const* rays, const double* t_max,
+                       bool* occluded) const {
+    struct Query {
+        const Scene& scene;
+        const size_t* index;
+        const Ray* const* rays;
+        const double* t_max;
+        bool* occluded;
+        struct Slot {
+            const Ray* ray;
+            WatertightRay wray;
+        } slots[kWidth];
+        uint32_t unused = 0;
+
+        size_t at(size_t k) const { return index != nullptr ? index[k] : k; }
+        const Ray& begin(int s, size_t k) {
+            const Ray* ray = rays[at(k)];
+            slots[s] = {ray, scene.triangles_.empty() ? WatertightRay() : WatertightRay(ray->d)};
+            return *ray;
+        }
+        double t_start(size_t k) const { return t_max[at(k)]; }
+        bool test(int s, uint32_t prim, double& t) {
+            return scene.hit_primitive(prim, *slots[s].ray, slots[s].wray, t, unused);
+        }
+        bool test_block(int s, uint32_t block, double& t) {
+            const Slot& slot = slots[s];
+            return (kMesh ? scene.hit_mesh_block(block, *slot.ray, slot.wray, t, unused)
+                          : scene.hit_block(block, *slot.ray, slot.wray, t, unused)) >= 0;
+        }
+        void prefetch_block(uint32_t block) {
+            if (kMesh) {
+                scene.prefetch_mesh_block(block);
+            } else {
+                scene.prefetch_block(block);
+            }
+        }
+        void finish(int, size_t k, bool hit, double) {
+            if (hit) occluded[at(k)] = true;
+        }
+    } query{*this, index, rays, t_max, occluded, {}};
+    const WideBVH& tree = kMesh ? mesh_bvh_ : bvh_;
+    if (kMesh || tree_bytes() <= kCachedTreeBytes) {
+        tree.traverse_interleaved<kWidth, true, true>(count, query);
+    } else {
+        tree.traverse_interleaved<kWidth, false, true>(count, query);
+    }
+}
+
 bool Scene::mesh_occludes(const Ray& ray, double t_max) const {
     const WatertightRay wray(ray.d);
     uint32_t unused = 0;
@@ -432,7 +522,12 @@ bool Scene::mesh_occludes(const Ray& ray, double t_max) const {
 
 void Scene::intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interaction* const* it) const {
     if (!batch_direct_) {
-        for (size_t i = 0; i < n; ++i) hit[i] = intersect(*rays[i], *it[i]);
+        intersect_stream(
+            n, [rays](size_t i) -> const Ray& { return *rays[i]; },
+            [hit, it](size_t i, bool found, const Interaction& x) {
+                hit[i] = found;
+                if (found) *it[i] = x;
+            });
         return;
     }
     // kOverlapPacks packs are tested before any is filled (simd.h).
@@ -467,7 +562,30 @@ void Scene::intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interac
                 for (uint32_t q = run.first; q < run.first + run.count; ++q)
                     best = quads_[q].intersect_pack(p, t_max) ? VPl{} + int64_t(quad_base_ + q) : best;
             }
-            x.mesh = mesh_bvh_.empty() ? 0u : slabs.may_hit(mesh_bounds_, t_max);
+            // Present lanes only: the others repeat ray 0 (pack_rays).
+            x.mesh = mesh_bvh_.empty() ? 0u : slabs.may_hit(mesh_bounds_, t_max) & ((1u << m) - 1u);
+        }
+        // The rays that may meet the mesh go through its tree together, interleaved: one
+        // ray after another, each waited on its nodes' loads and its branches' outcomes.
+        constexpr size_t kRays = kGroup * kPackWidth;
+        double t_of[kRays];
+        uint32_t prim_of[kRays];
+        bool found_of[kRays];
+        size_t meshed[kRays];
+        if (!mesh_bvh_.empty()) {
+            size_t n_meshed = 0;
+            for (size_t k = 0; k < packs; ++k) {
+                const Tested& x = tested[k];
+                for (unsigned left = x.mesh; left != 0; left &= left - 1) {
+                    const int l = __builtin_ctz(left);
+                    const size_t r = k * kPackWidth + size_t(l);
+                    t_of[r] = x.t_max[l];
+                    prim_of[r] = static_cast<uint32_t>(x.best[l]);
+                    found_of[r] = x.best[l] >= 0;
+                    meshed[n_meshed++] = r;
+                }
+            }
+            if (n_meshed > 0) closest_mesh_hits(n_meshed, meshed, rays + group, t_of, prim_of, found_of);
         }
         for (size_t k = 0; k < packs; ++k) {
             const size_t base = group + k * kPackWidth;
@@ -487,7 +605,12 @@ void Scene::intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interac
                 double t = x.t_max[l];
                 uint32_t prim = static_cast<uint32_t>(x.best[l]);
                 bool hit_l = x.best[l] >= 0;
-                if ((x.mesh >> l) & 1u) hit_l |= closest_mesh_hit(*rays[base + l], t, prim);
+                if ((x.mesh >> l) & 1u) {
+                    const size_t r = k * kPackWidth + l;
+                    t = t_of[r];
+                    prim = prim_of[r];
+                    hit_l = found_of[r];
+                }
                 hit[base + l] = hit_l;
                 if (hit_l) fill_interaction(*rays[base + l], t, prim, *it[base + l]);
             }
@@ -497,9 +620,17 @@ void Scene::intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interac
 
 void Scene::occluded_batch(size_t n, const Ray* const* rays, const double* t_max, bool* occluded) const {
     if (!batch_direct_) {
-        for (size_t i = 0; i < n; ++i) occluded[i] = this->occluded(*rays[i], t_max[i]);
+        for (size_t i = 0; i < n; ++i) occluded[i] = false;
+        occlusions<false>(n, nullptr, rays, t_max, occluded);
         return;
     }
+    // The rays that may meet the mesh, by index: on this call's stack for the wavefront
+    // integrator's batches.
+    constexpr size_t kInline = 64;
+    size_t meshed_inline[kInline];
+    const std::unique_ptr<size_t[]> meshed_heap(n > kInline ? new size_t[n] : nullptr);
+    size_t* const meshed = n > kInline ? meshed_heap.get() : meshed_inline;
+    size_t n_meshed = 0;
     for (size_t base = 0; base < n; base += kPackWidth) {
         const size_t m = std::min<size_t>(kPackWidth, n - base);
         const Ray* const* r = rays + base;
@@ -523,10 +654,14 @@ void Scene::occluded_batch(size_t n, const Ray* const* rays, const double* t_max
                 blocked |= lane_mask(quads_[q].intersect_pack(p, tm));
             }
         }
-        const unsigned mesh = (mesh_bvh_.empty() || blocked == all) ? 0u : slabs.may_hit(mesh_bounds_, tm) & ~blocked;
-        for (size_t l = 0; l < m; ++l)
-            occluded[base + l] = ((blocked >> l) & 1u) || (((mesh >> l) & 1u) && mesh_occludes(*r[l], t_max[base + l]));
+        const unsigned mesh =
+            (mesh_bvh_.empty() || blocked == all) ? 0u : slabs.may_hit(mesh_bounds_, tm) & all & ~blocked;
+        for (size_t l = 0; l < m; ++l) occluded[base + l] = (blocked >> l) & 1u;
+        for (unsigned left = mesh; left != 0; left &= left - 1) meshed[n_meshed++] = base + size_t(__builtin_ctz(left));
     }
+    // The rays that may meet the mesh go through its tree together, interleaved (as in
+    // intersect_batch).
+    if (n_meshed > 0) occlusions<true>(n_meshed, meshed, rays, t_max, occluded);
 }
 
 bool Scene::intersect_brute_force(const Ray& ray, Interaction& it, double t_max) const {

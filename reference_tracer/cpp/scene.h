@@ -508,6 +508,17 @@ private:
     // The part of a batched query after the direct tests: the triangles of mesh_bvh_ for a
     // ray whose closest hit so far is (t_max, best); the same for a shadow ray.
     bool closest_mesh_hit(const Ray& ray, double& t_max, uint32_t& best) const;
+    // closest_mesh_hit for the rays rays[index[0 .. count)) at once, interleaved
+    // (WideBVH::traverse_interleaved): t_max, best and found at index[k] as that ray's
+    // (t_max, best) in and out, found set where the mesh holds its closest hit.
+    void closest_mesh_hits(size_t count, const size_t* index, const Ray* const* rays, double* t_max,
+                           uint32_t* best, bool* found) const;
+    // Whether something of the main tree (kMesh false: as occluded()) or of mesh_bvh_ (true:
+    // as mesh_occludes()) lies on each ray rays[i], t in (0, t_max[i]), for i = index[0 ..
+    // count) (index null: 0 .. count), the rays interleaved: occluded[i] set where it does.
+    template <bool kMesh>
+    void occlusions(size_t count, const size_t* index, const Ray* const* rays, const double* t_max,
+                    bool* occluded) const;
     bool mesh_occludes(const Ray& ray, double t_max) const;
     // The BVH's block leaves (watertight test only), in block order: in float when every
     // triangle vertex is exactly a float (float_blocks_), else in double.
@@ -621,6 +632,7 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preli
         const size_t* index;
 
         const Ray& begin(int s, size_t k) { return begin_fn(this->ctx[s], ray_at(index[k])); }
+        double t_start(size_t) const { return kInf; }
         void finish(int s, size_t k, bool hit, double t) { finish_fn(this->ctx[s], index[k], hit, t); }
     };
     Context interleaved_ctx[kLanes];

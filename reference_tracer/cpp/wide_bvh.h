@@ -524,8 +524,9 @@ public:
     // Each ray's result is exactly what traverse<false> returns for it.
     //
     // `query` provides: begin(slot, i) -> ray i, called before its traversal in slot;
-    // test(slot, prim, t_max), test_block(slot, block, t_max) as for traverse;
-    // prefetch_block(block); finish(slot, i, hit, t).
+    // t_start(i), the distance below which ray i's hits count (kInf, or a closest hit
+    // found outside this tree); test(slot, prim, t_max), test_block(slot, block, t_max) as
+    // for traverse; prefetch_block(block); finish(slot, i, hit, t).
     //
     // `kPrefetchPushed`: whether the children pushed on a lane's stack are prefetched when
     // pushed, as well as when popped (the next item of a lane is prefetched either way,
@@ -537,7 +538,9 @@ public:
     // triangles 1.17x; 100k triangles (6.5 MB) 0.95x and 0.98x (PERFORMANCE.md, Ideas tried).
     // A template parameter: as a run-time flag tested in the push loop, the build lost the
     // gain (0.84x of the build without the prefetches).
-    template <int kLanes, bool kPrefetchPushed, typename Query>
+    //
+    // `kAnyHit`: a ray's traversal ends at its first hit (shadow rays), as traverse<true>.
+    template <int kLanes, bool kPrefetchPushed, bool kAnyHit = false, typename Query>
     void traverse_interleaved(size_t count, Query& query) const {
         struct Lane {
             RaySlabs slabs;
@@ -556,10 +559,19 @@ public:
         }
         // One stack per lane, as deep as this tree can need, in structure-of-arrays form
         // (far_to_near_hits writes eight entries at once: kWidth more of headroom).
+        // On the call's own stack where they fit (trees up to depth 12), as they do for the
+        // wavefront integrator's small batches, which would otherwise allocate every bounce.
         const int stack_size = (depth_ + 1) * (kWidth - 1) + 1 + kWidth;
-        std::vector<int32_t> stack_refs(static_cast<size_t>(stack_size) * kLanes);
-        std::vector<int32_t> stack_counts(static_cast<size_t>(stack_size) * kLanes);
-        std::vector<float> stack_t(static_cast<size_t>(stack_size) * kLanes);
+        constexpr int kInlineStack = 13 * (kWidth - 1) + 1 + kWidth;
+        const bool inline_stack = stack_size <= kInlineStack;
+        const size_t heap_size = inline_stack ? 0 : static_cast<size_t>(stack_size) * kLanes;
+        std::vector<int32_t> heap_refs(heap_size), heap_counts(heap_size);
+        std::vector<float> heap_t(heap_size);
+        int32_t inline_refs[kInlineStack * kLanes], inline_counts[kInlineStack * kLanes];
+        float inline_t[kInlineStack * kLanes];
+        int32_t* const stack_refs = inline_stack ? inline_refs : heap_refs.data();
+        int32_t* const stack_counts = inline_stack ? inline_counts : heap_counts.data();
+        float* const stack_t = inline_stack ? inline_t : heap_t.data();
         Lane lanes[kLanes];
         size_t next_ray = 0;
         auto prefetch_block = [&](uint32_t block) { query.prefetch_block(block); };
@@ -568,7 +580,7 @@ public:
             if (next_ray == count) { l.active = false; return; }
             l.ray = next_ray++;
             l.slabs = RaySlabs(query.begin(s, l.ray));
-            l.t_max = kInf;
+            l.t_max = query.t_start(l.ray);
             l.t_max_f = RaySlabs::max_float(l.t_max);
             l.hit = false;
             l.top = 0;
@@ -586,9 +598,9 @@ public:
                 Lane& l = lanes[s];
                 if (!l.active) continue;
                 const size_t base = static_cast<size_t>(s) * stack_size;
-                int32_t* refs = stack_refs.data() + base;
-                int32_t* counts = stack_counts.data() + base;
-                float* t_near = stack_t.data() + base;
+                int32_t* refs = stack_refs + base;
+                int32_t* counts = stack_counts + base;
+                float* t_near = stack_t + base;
                 bool have_next = false;
                 if (l.ref >= 0) {
                     // The children met go on the stack, the nearest on top, and the pop
@@ -603,9 +615,10 @@ public:
                 } else {
                     auto test = [&](uint32_t prim, double& t) { return query.test(s, prim, t); };
                     auto test_block = [&](uint32_t block, double& t) { return query.test_block(s, block, t); };
-                    if (test_leaf<false>(l.ref, l.leaf_count, l.t_max, test, test_block)) {
+                    if (test_leaf<kAnyHit>(l.ref, l.leaf_count, l.t_max, test, test_block)) {
                         l.hit = true;
                         l.t_max_f = RaySlabs::max_float(l.t_max);
+                        if (kAnyHit) l.top = 0;  // answered: nothing left to visit
                     }
                 }
                 while (l.top > 0) {

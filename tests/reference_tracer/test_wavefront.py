@@ -55,6 +55,27 @@ def test_wavefront_on_images_smaller_than_its_batch(size, spp):
     _assert_same_render(a, b)
 
 
+
+@pytest.mark.parametrize("triangles", [3000, 300_000])
+@pytest.mark.parametrize("size", [(3, 2), (24, 16)])
+def test_wavefront_equals_scalar_on_mesh_renders(triangles, size):
+    # A torus lit by the background: 3000 triangles go through the mesh's own tree behind
+    # the packs' box test, 300,000 (over 2^18) through the scene's tree; either way the
+    # batch's rays that may meet the mesh are traced together, interleaved, closest hits
+    # and shadow rays. 3x2 pixels leave most packs partly empty.
+    from benchmarks.speed.rays import torus_mesh
+
+    v, f = torus_mesh(triangles)
+    camera = rt.Camera(lookfrom=(0.0, -3.0, 2.0), lookat=(0.0, 0.0, 0.0), vup=(0.0, 0.0, 1.0), vfov=40.0,
+                       width=size[0], height=size[1])
+    scene = rt.Scene(camera=camera, shapes=[rt.Mesh(v, f, rt.Lambertian(0.5))], max_depth=8,
+                     background=(1.0, 1.0, 1.0))
+    for strategy in ("cosine", "mis"):
+        a, b = (rt.render(scene, spp=3, strategy=strategy, seed=4, threads=2, integrator=i)
+                for i in ("scalar", "wavefront"))
+        _assert_same_render(a, b)
+        assert 0.0 < a.mean.min() < a.mean.max()  # the torus in front of a lit background
+
 def test_wavefront_beyond_the_batched_primitive_limit():
     # 80 quads and 10 spheres: more than the scene tests four rays at a time against
     # (kBatchTestLimit 32), so the batches go ray by ray through the tree.
