@@ -220,7 +220,8 @@ public:
     // gives them (of two primitives hit at exactly the same distance, either may be
     // reported). Scenes of a few dozen spheres and quads test a pack of rays (simd.h: 4,
     // or 8 with AVX-512) at a time against every primitive (the wavefront integrator's
-    // batches), then any mesh through a tree of its own; others go ray by ray. Rays and
+    // batches), then any mesh through a tree of its own, the rays that may meet it
+    // interleaved; others go through the scene's tree as intersect_stream. Rays and
     // hits by pointer: the wavefront integrator's lanes hold them, and copying them into
     // arrays and back cost 3% of its instructions (PERFORMANCE.md, Ideas tried).
     void intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interaction* const* it) const;
