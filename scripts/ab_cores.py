@@ -57,8 +57,9 @@ def main(argv=None) -> int:
     for flag in ("rounds", "spp", "size", "ray_count"):
         if getattr(opts, flag) < 1:
             parser.error(f"--{flag.replace('_', '-')} must be at least 1")
-    if any(t < 32 for t in opts.triangles + opts.meshes):
-        parser.error("--triangles and --meshes must be at least 32")
+    for flag in ("triangles", "meshes"):
+        if any(t < 32 for t in getattr(opts, flag)):
+            parser.error(f"--{flag} must be at least 32")
     unknown = [s for s in opts.scenes if s not in SUITE]
     if unknown:
         parser.error(f"unknown scene(s) {', '.join(unknown)}; the suite has {', '.join(SUITE)}")

@@ -29,6 +29,7 @@ def _run(*args, script=SCRIPT, timeout=900):
     (AB_SCRIPT, ["installed", "installed", "--rounds", "0"], "--rounds must be at least 1"),
     (AB_SCRIPT, ["installed", "installed", "--spp", "0"], "--spp must be at least 1"),
     (AB_SCRIPT, ["installed", "installed", "--rays", "--triangles", "10"], "--triangles must be at least 32"),
+    (AB_SCRIPT, ["installed", "installed", "--meshes", "1000", "10"], "--meshes must be at least 32"),
     (AB_SCRIPT, ["installed", "installed", "--rays", "--ray-count", "0"], "--ray-count must be at least 1"),
     (AB_SCRIPT, ["installed", "installed", "--rays", "--kinds", "diffuse"], "invalid choice: 'diffuse'"),
 ])
