@@ -97,7 +97,8 @@ Scene::Scene(Camera camera, std::vector<Material> materials, std::vector<Sphere>
             fill_blocks(mesh_bvh_, mesh_tri4_);
         }
     }
-    // Triangles that the packs cannot reach (too many for a second tree): ray by ray.
+    // Triangles that the packs cannot reach (too many for a second tree): through the main
+    // tree, a batch's rays interleaved.
     batch_direct_ = batch_direct_ && (triangles_.empty() || !mesh_bvh_.empty());
     if (batch_direct_) choose_quad_runs(world);
     pack_slabs_ = !mesh_bvh_.empty() ||
@@ -459,7 +460,11 @@ void Scene::closest_mesh_hits(size_t count, const size_t* index, const Ray* cons
             found[index[k]] = true;
         }
     } query{*this, index, rays, t_max, best, found, {}};
-    mesh_bvh_.traverse_interleaved<kWidth, true>(count, query);
+    if (mesh_tree_bytes() <= kCachedTreeBytes) {
+        mesh_bvh_.traverse_interleaved<kWidth, true>(count, query);
+    } else {
+        mesh_bvh_.traverse_interleaved<kWidth, false>(count, query);
+    }
 }
 
 template <bool kMesh>
@@ -504,7 +509,7 @@ void Scene::occlusions(size_t count, const size_t* index, const Ray* const* rays
         }
     } query{*this, index, rays, t_max, occluded, {}};
     const WideBVH& tree = kMesh ? mesh_bvh_ : bvh_;
-    if (kMesh || tree_bytes() <= kCachedTreeBytes) {
+    if ((kMesh ? mesh_tree_bytes() : tree_bytes()) <= kCachedTreeBytes) {
         tree.traverse_interleaved<kWidth, true, true>(count, query);
     } else {
         tree.traverse_interleaved<kWidth, false, true>(count, query);
@@ -522,12 +527,15 @@ bool Scene::mesh_occludes(const Ray& ray, double t_max) const {
 
 void Scene::intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interaction* const* it) const {
     if (!batch_direct_) {
+        // Interleaved only: a packet may break an exact tie between two blocks' triangles
+        // otherwise than intersect() (intersect_stream).
         intersect_stream(
             n, [rays](size_t i) -> const Ray& { return *rays[i]; },
             [hit, it](size_t i, bool found, const Interaction& x) {
                 hit[i] = found;
                 if (found) *it[i] = x;
-            });
+            },
+            false, false);
         return;
     }
     // kOverlapPacks packs are tested before any is filled (simd.h).
@@ -548,7 +556,7 @@ void Scene::intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interac
             Tested& x = tested[k];
             const RayPack& p = x.p = pack_rays(rays + base, m);
             // Every sphere and quad in id order, as Scene::intersect's direct loop, a pack of
-            // rays at a time; then the triangles, ray by ray, below the distance found.
+            // rays at a time; then the triangles, below the distance found (after the loop).
             VPd& t_max = x.t_max = VPd{} + kInf;
             VPl& best = x.best = VPl{} - 1;
             if (!spheres_.empty()) {

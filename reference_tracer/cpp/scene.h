@@ -197,11 +197,15 @@ public:
     // Closest hits (t in (0, inf)) of rays ray_at(0 .. n-1), for throughput on large
     // meshes: runs of coherent rays as packets (WideBVH::traverse_packet), the others
     // interleaved (WideBVH::traverse_interleaved). done(i, hit, it) receives each result,
-    // the same as intersect(ray_at(i), it) gives; with `preliminary`, only it.t and it.prim
-    // are filled in (what Mitsuba's ray_intersect_preliminary returns), not the point,
-    // normal and material. Returns how many rays went in packets.
+    // the same as intersect(ray_at(i), it) gives, but that of two triangles of the tree's
+    // blocks hit at exactly one distance, a packet may report the other one (it orders a
+    // node's children by the packet's nearest entry, not the ray's own); with `packets`
+    // false every ray is interleaved, ties included as intersect(). With `preliminary`,
+    // only it.t and it.prim are filled in (what Mitsuba's ray_intersect_preliminary
+    // returns), not the point, normal and material. Returns how many rays went in packets.
     template <typename RayAt, typename Done>
-    size_t intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preliminary = false) const;
+    size_t intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preliminary = false,
+                            bool packets = true) const;
     // The order in which intersect_stream gathers rays ray_at(0 .. n-1) into packets: tiles
     // of an image's rows where the rays come row after row (packet_order.h).
     template <typename RayAt>
@@ -481,8 +485,8 @@ private:
     // (batch_direct_), and then any triangles through a tree of their own (mesh_bvh_, with
     // its blocks in mesh_tri4_ / mesh_tri4f_), built where there are at most
     // kMeshTreeLimit (a second tree costs memory: about 100 bytes a triangle); batch_direct_
-    // is false where either limit is passed, and the queries then go ray by ray through the
-    // tree of all primitives.
+    // is false where either limit is passed, and the queries then go through the tree of
+    // all primitives, the batch's rays interleaved.
     // 32: callgrind, cornell_box plus n small boxes, 32x32, 16 spp, `mis`: with 36 quads
     // the packs and the tree cost the same (131 M vs 133 M instructions), with 48 the packs
     // 17% more, with 18 (cornell_box) 28% less.
@@ -514,6 +518,12 @@ private:
     // (t_max, best) in and out, found set where the mesh holds its closest hit.
     void closest_mesh_hits(size_t count, const size_t* index, const Ray* const* rays, double* t_max,
                            uint32_t* best, bool* found) const;
+    // Bytes of mesh_bvh_ and its blocks (as tree_bytes for the main tree: whether its
+    // traversals prefetch pushed entries).
+    size_t mesh_tree_bytes() const {
+        return mesh_bvh_.node_count() * sizeof(WideNode) + mesh_tri4f_.size() * sizeof(Triangle4f) +
+               mesh_tri4_.size() * sizeof(Triangle4);
+    }
     // Whether something of the main tree (kMesh false: as occluded()) or of mesh_bvh_ (true:
     // as mesh_occludes()) lies on each ray rays[i], t in (0, t_max[i]), for i = index[0 ..
     // count) (index null: 0 .. count), the rays interleaved: occluded[i] set where it does.
@@ -535,7 +545,7 @@ private:
 };
 
 template <typename RayAt, typename Done>
-size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preliminary) const {
+size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preliminary, bool packets) const {
     constexpr int kLanes = kWidth;
     // Per lane: the ray and what intersect() keeps in locals.
     struct Context {
@@ -575,55 +585,58 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preli
     Context packet_ctx[kPacketRays];
     LaneTests packet{*this, packet_ctx};
     // The rays traced one per lane, by index: written in place, left uninitialised until
-    // then (push_back was left out of line, a call per ray).
-    const std::unique_ptr<size_t[]> scattered(new size_t[n]);
-    size_t n_scattered = 0;
+    // then (push_back was left out of line, a call per ray). Without packets, all of them
+    // in order (no index).
+    const std::unique_ptr<size_t[]> scattered(packets ? new size_t[n] : nullptr);
+    size_t n_scattered = packets ? 0 : n;
     size_t in_packets = 0;
-    const PacketOrder order = packet_order(n, ray_at);
-    // Traces the rays ray_at(order[k .. k + m)) as one packet if they are coherent (and
-    // returns kCoherent); otherwise traces nothing and says why.
-    auto trace_packet = [&](size_t k, int m) [[gnu::always_inline]] {
-        Ray rays[kPacketRays];
-        for (int r = 0; r < m; ++r) rays[r] = ray_at(order[k + r]);
-        RayPacket packet_rays;
-        const Coherence why = packet_coherence(rays, m, packet_rays);
-        if (why != Coherence::kCoherent) return why;
-        // The per-ray constants four rays at a time (PacketSlabs, WatertightRays4).
-        const PacketSlabs slabs(packet_rays);
-        double t_max[kPacketRays];
-        bool hit[kPacketRays] = {};
-        for (int q = 0; q < RayPacket::kQuads; ++q) {
-            const Ray* four = rays + 4 * q;
-            const WatertightRays4 wrays =
-                triangles_.empty() ? WatertightRays4()
-                                   : WatertightRays4(packet_rays.d[0][q], packet_rays.d[1][q], packet_rays.d[2][q]);
-            for (int i = 0; i < 4; ++i) {
-                Context& c = packet_ctx[4 * q + i];
-                c.ray = four[i];
-                c.wray = wrays.lane(i);
-                c.best = ClosestHit{};
-                t_max[4 * q + i] = kInf;
+    if (packets) {
+        const PacketOrder order = packet_order(n, ray_at);
+        // Traces the rays ray_at(order[k .. k + m)) as one packet if they are coherent (and
+        // returns kCoherent); otherwise traces nothing and says why.
+        auto trace_packet = [&](size_t k, int m) [[gnu::always_inline]] {
+            Ray rays[kPacketRays];
+            for (int r = 0; r < m; ++r) rays[r] = ray_at(order[k + r]);
+            RayPacket packet_rays;
+            const Coherence why = packet_coherence(rays, m, packet_rays);
+            if (why != Coherence::kCoherent) return why;
+            // The per-ray constants four rays at a time (PacketSlabs, WatertightRays4).
+            const PacketSlabs slabs(packet_rays);
+            double t_max[kPacketRays];
+            bool hit[kPacketRays] = {};
+            for (int q = 0; q < RayPacket::kQuads; ++q) {
+                const Ray* four = rays + 4 * q;
+                const WatertightRays4 wrays =
+                    triangles_.empty() ? WatertightRays4()
+                                       : WatertightRays4(packet_rays.d[0][q], packet_rays.d[1][q], packet_rays.d[2][q]);
+                for (int i = 0; i < 4; ++i) {
+                    Context& c = packet_ctx[4 * q + i];
+                    c.ray = four[i];
+                    c.wray = wrays.lane(i);
+                    c.best = ClosestHit{};
+                    t_max[4 * q + i] = kInf;
+                }
             }
-        }
-        bvh_.traverse_packet(slabs, (1u << m) - 1u, t_max, hit, packet);
-        for (int r = 0; r < m; ++r) lane_finish(packet_ctx[r], order[k + r], hit[r], t_max[r]);
-        in_packets += static_cast<size_t>(m);
-        return Coherence::kCoherent;
-    };
-    order.for_each_packet([&](size_t k, int m) {
-        const Coherence whole = trace_packet(k, m);
-        if (whole == Coherence::kCoherent) return;
-        // Sixteen rays in one octant but not coherent as a whole (camera rays across the
-        // end of an image row, say) may be as two halves of eight, each a packet of its
-        // own. Random rays, which mostly fail at the octants, are not tried again.
-        constexpr int kHalf = kPacketRays / 2;
-        const bool halves = kPacketRays > 8 && m > kHalf && whole == Coherence::kIncoherent;
-        for (int h = 0; h < m; h += kHalf) {
-            const int mh = std::min(kHalf, m - h);
-            if (halves && trace_packet(k + h, mh) == Coherence::kCoherent) continue;
-            for (int r = 0; r < mh; ++r) scattered[n_scattered++] = order[k + h + r];
-        }
-    });
+            bvh_.traverse_packet(slabs, (1u << m) - 1u, t_max, hit, packet);
+            for (int r = 0; r < m; ++r) lane_finish(packet_ctx[r], order[k + r], hit[r], t_max[r]);
+            in_packets += static_cast<size_t>(m);
+            return Coherence::kCoherent;
+        };
+        order.for_each_packet([&](size_t k, int m) {
+            const Coherence whole = trace_packet(k, m);
+            if (whole == Coherence::kCoherent) return;
+            // Sixteen rays in one octant but not coherent as a whole (camera rays across the
+            // end of an image row, say) may be as two halves of eight, each a packet of its
+            // own. Random rays, which mostly fail at the octants, are not tried again.
+            constexpr int kHalf = kPacketRays / 2;
+            const bool halves = kPacketRays > 8 && m > kHalf && whole == Coherence::kIncoherent;
+            for (int h = 0; h < m; h += kHalf) {
+                const int mh = std::min(kHalf, m - h);
+                if (halves && trace_packet(k + h, mh) == Coherence::kCoherent) continue;
+                for (int r = 0; r < mh; ++r) scattered[n_scattered++] = order[k + h + r];
+            }
+        });
+    }
     if (n_scattered == 0) return in_packets;
 
     struct InterleavedQuery : LaneTests {
@@ -632,9 +645,10 @@ size_t Scene::intersect_stream(size_t n, RayAt&& ray_at, Done&& done, bool preli
         RayAt& ray_at;
         const size_t* index;
 
-        const Ray& begin(int s, size_t k) { return begin_fn(this->ctx[s], ray_at(index[k])); }
+        size_t at(size_t k) const { return index != nullptr ? index[k] : k; }
+        const Ray& begin(int s, size_t k) { return begin_fn(this->ctx[s], ray_at(at(k))); }
         double t_start(size_t) const { return kInf; }
-        void finish(int s, size_t k, bool hit, double t) { finish_fn(this->ctx[s], index[k], hit, t); }
+        void finish(int s, size_t k, bool hit, double t) { finish_fn(this->ctx[s], at(k), hit, t); }
     };
     Context interleaved_ctx[kLanes];
     InterleavedQuery query{{*this, interleaved_ctx}, lane_begin, lane_finish, ray_at, scattered.get()};

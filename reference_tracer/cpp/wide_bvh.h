@@ -516,7 +516,7 @@ public:
         }
     }
 
-    // Closest hits of many rays, traversed kLanes at a time in round robin. Each step of
+    // Closest hits (or, kAnyHit, any hits) of many rays, traversed kLanes at a time in round robin. Each step of
     // a ray visits one node or one leaf and prefetches what it visits next, so the cache
     // miss of one ray's next step is served while the other rays take theirs: on large
     // meshes single-ray traversal waits on one miss after another, and this keeps
@@ -539,7 +539,8 @@ public:
     // A template parameter: as a run-time flag tested in the push loop, the build lost the
     // gain (0.84x of the build without the prefetches).
     //
-    // `kAnyHit`: a ray's traversal ends at its first hit (shadow rays), as traverse<true>.
+    // `kAnyHit`: a ray's traversal ends at its first hit (shadow rays): whether it hits is
+    // traverse<true>'s answer, the distance reported may be another hit's.
     template <int kLanes, bool kPrefetchPushed, bool kAnyHit = false, typename Query>
     void traverse_interleaved(size_t count, Query& query) const {
         struct Lane {

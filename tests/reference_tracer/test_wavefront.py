@@ -76,9 +76,50 @@ def test_wavefront_equals_scalar_on_mesh_renders(triangles, size):
         _assert_same_render(a, b)
         assert 0.0 < a.mean.min() < a.mean.max()  # the torus in front of a lit background
 
+
+def _coplanar_grids(spheres):
+    """Two coplanar square meshes triangulated differently (3x3 and 16x16 cells, their
+    triangles' edges crossing), so that many rays meet two triangles at exactly one
+    distance, and `spheres` far-away spheres (over 32 primitives: beyond the packs' limit)."""
+    def grid(n, flip):
+        xs = np.linspace(-1.0, 1.0, n + 1)
+        v = np.array([(x, y, 0.0) for y in xs for x in xs])
+        faces = []
+        for j in range(n):
+            for i in range(n):
+                a = j * (n + 1) + i
+                b, c, d = a + 1, a + n + 1, a + n + 2
+                faces += [(a, b, c), (b, d, c)] if flip else [(a, b, d), (a, d, c)]
+        return v, np.array(faces)
+    camera = rt.Camera(lookfrom=(0.02, 0.03, 1.0), lookat=(0.0, 0.0, 0.0), vup=(0, 1, 0), vfov=60.0, width=32,
+                       height=32)
+    shapes = [rt.Mesh(*grid(3, False), rt.Lambertian(0.2)), rt.Mesh(*grid(16, True), rt.Lambertian(0.8))]
+    shapes += [rt.Sphere((100.0 + 3 * i, 100.0, 100.0), 0.5, rt.Lambertian(0.5)) for i in range(spheres)]
+    return rt.Scene(camera=camera, shapes=shapes, max_depth=2, background=(1.0, 1.0, 1.0))
+
+
+@pytest.mark.parametrize("spheres", [10, 40])
+def test_exact_ties_between_triangles_go_as_in_the_scalar_integrator(spheres):
+    # Of two triangles hit at one distance, the batches report the one Scene::intersect
+    # does, through the mesh's own tree (10 spheres) and beyond the packs' limit (40),
+    # where packets of coherent rays would order a node's children otherwise.
+    scene = _coplanar_grids(spheres)
+    side = np.linspace(-0.9, 0.9, 128)
+    ys, xs = np.meshgrid(side, side, indexing="ij")
+    origins = np.ascontiguousarray(np.stack([xs.ravel(), ys.ravel(), np.ones(xs.size)], axis=1))
+    dirs = np.ascontiguousarray(np.tile([0.01, 0.02, -1.0], (xs.size, 1)))
+    c = core_scene(scene)
+    one, batch = (c.intersect(origins, dirs, wavefront=w, batch=False) for w in (False, True))
+    assert (one["prim"] >= 0).all()
+    for key in ("t", "prim", "point", "normal"):
+        assert np.array_equal(one[key], batch[key]), key
+    a, b = (rt.render(scene, spp=1, strategy="cosine", seed=4, threads=1, integrator=i)
+            for i in ("scalar", "wavefront"))
+    _assert_same_render(a, b)
+
 def test_wavefront_beyond_the_batched_primitive_limit():
     # 80 quads and 10 spheres: more than the scene tests four rays at a time against
-    # (kBatchTestLimit 32), so the batches go ray by ray through the tree.
+    # (kBatchTestLimit 32), so the batches go through the scene's tree, interleaved.
     rng = np.random.default_rng(3)
     shapes = [rt.Quad(Q=tuple(rng.uniform(-2, 2, 3)), u=tuple(rng.uniform(-1, 1, 3)), v=tuple(rng.uniform(-1, 1, 3)),
                       material=rt.Lambertian(albedo=(0.6, 0.5, 0.4))) for _ in range(80)]
