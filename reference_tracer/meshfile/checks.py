@@ -10,6 +10,7 @@ check them, and computes vertex normals (and reads positions) through them, outs
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -199,6 +200,69 @@ def _ply_layout(head: bytes):
     return fmt, size, elements
 
 
+#: bytes of an ASCII PLY body tokenised at a time: the body's tokens (Python objects of
+#: several times a token's bytes) are never all held at once.
+_ASCII_CHUNK = 1 << 18
+#: the bytes ``bytes.split()`` separates tokens at (ASCII whitespace), as a lookup table.
+_WHITESPACE = np.zeros(256, dtype=bool)
+_WHITESPACE[list(b" \t\n\r\x0b\x0c")] = True
+_WHITESPACE_RE = re.compile(rb"[ \t\n\r\x0b\x0c]")
+
+
+def _chunk_end(data: bytes, pos: int) -> int:
+    """End of the chunk of ``data`` from ``pos``: about :data:`_ASCII_CHUNK` bytes on, at a
+    whitespace byte (or the end), so that no token is cut in two."""
+    end = pos + _ASCII_CHUNK
+    if end >= len(data):
+        return len(data)
+    found = _WHITESPACE_RE.search(data, end)
+    return len(data) if found is None else found.start()
+
+
+def _token_start(data: bytes, pos: int, skip: int):
+    """Offset in ``data`` of token ``skip`` (from 0) of ``data[pos:].split()``, counted a chunk
+    at a time without making the tokens; None where there are no more than ``skip``."""
+    while pos < len(data):
+        end = _chunk_end(data, pos)
+        space = _WHITESPACE[np.frombuffer(data, dtype=np.uint8, count=end - pos, offset=pos)]
+        # a token begins at a byte that is not whitespace after one that is (or at the
+        # chunk's start, which is the body's start or a whitespace byte)
+        begins = ~space
+        begins[1:] &= space[:-1]
+        starts = np.flatnonzero(begins)
+        if skip < len(starts):
+            return pos + int(starts[skip])
+        skip -= len(starts)
+        pos = end
+    return None
+
+
+def _ascii_records(data: bytes, pos: int, count: int, width: int, columns: list):
+    """The ``columns`` of ``count`` records of ``width`` tokens each from ``data[pos:]`` as a
+    float64 table, tokenised a chunk at a time; None where there are too few tokens, a
+    selected token is no number or a record's list count (its first selected column) is not 3."""
+    need, got, pending, parts = count * width, 0, [], []
+    while got < need and pos < len(data):
+        end = _chunk_end(data, pos)
+        tokens = data[pos:end].split()[:need - got]
+        pos = end
+        got += len(tokens)
+        tokens = pending + tokens
+        whole = len(tokens) // width * width
+        pending = tokens[whole:]
+        if whole:
+            try:
+                block = np.array(tokens[:whole], dtype=np.bytes_).reshape(-1, width)[:, columns].astype(np.float64)
+            except ValueError:
+                return None
+            if np.any(block[:, 0] != 3):
+                return None
+            parts.append(block)
+    if got < need:
+        return None
+    return np.concatenate(parts) if parts else np.zeros((0, len(columns)))
+
+
 def ply_faces(data: bytes):
     """``(vertices, faces)`` of a PLY file's bytes as Mitsuba's ``ply`` plugin reads them: the
     count of its last ``vertex`` element and the (M, 3) vertex indices of its last ``face``
@@ -207,6 +271,8 @@ def ply_faces(data: bytes):
     are of fixed size there (a list's count must be 3), token by token in an ASCII file.
     None where Mitsuba's loader refuses the file itself (a header it does not parse, no face
     list, a face that is not a triangle, too few bytes or tokens, a token that is no number).
+    An ASCII body is tokenised a chunk at a time: the tokens before the face element are
+    counted without being made, so the memory taken is that of a chunk and the faces.
 
     Examples
     --------
@@ -233,13 +299,10 @@ def ply_faces(data: bytes):
         return None
     columns = [names.index(f"{key}.{k}") for k in ("count", 0, 1, 2)]
     if fmt == "ascii":
-        before = sum(n * len(f) for _, n, f in elements[:last])
-        tokens = data[size:].split()[before:before + count * len(fields)]
-        if len(tokens) < count * len(fields):
-            return None
-        try:
-            table = np.array(tokens, dtype=np.bytes_).reshape(count, len(fields))[:, columns].astype(np.float64)
-        except ValueError:
+        need = count * len(fields)
+        start = _token_start(data, size, sum(n * len(f) for _, n, f in elements[:last])) if need else size
+        table = None if start is None else _ascii_records(data, start, count, len(fields), columns)
+        if table is None:
             return None
     else:
         order = "<" if fmt == "binary_little_endian" else ">"
