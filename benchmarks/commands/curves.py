@@ -63,7 +63,8 @@ def run(args) -> int:
     scenes = A.resolve_scenes(args, suite_names=args.scenes, required=True)
     out = args.out if args.out != f"{DEFAULT_OUT}/SCENES_WxH" else default_out(scenes, args.width, args.height)
     # AOV parity of the scene files first: one that translates differently is not rendered (maps in out/parity)
-    if not check_user_scenes(scenes, Path(out) / "parity", command="curves", skipped="nothing was rendered"):
+    if not check_user_scenes(scenes, Path(out) / "parity", command="curves", skipped="nothing was rendered",
+                             width=args.width, height=args.height):
         return 1
     ref_spp = args.reference_spp if args.reference_spp is not None else max(4096, 32 * max(args.spps))
     group = Group(scenes=tuple(scenes), strategies=tuple(args.strategies), spps=tuple(args.spps), seeds=args.seeds,

@@ -78,8 +78,9 @@ def run(args) -> int:
     scenes = A.resolve_scenes(args, suite_names=args.scenes) or None
     if args.write_reference:
         return _write_reference(args, scenes)
-    if scenes and args.reference is None and not check_user_scenes(scenes, args.out, command="gate",
-                                                                   skipped="no statistics were computed"):
+    if scenes and args.reference is None and not check_user_scenes(
+            scenes, args.out, command="gate", skipped="no statistics were computed", width=args.width,
+            height=args.height):
         return 1
     variant = A.single_variant(args)
     if len(args.renderer) > 1:

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import sys
+import warnings
 
 from benchmarks.commands import _args as A
 
@@ -48,17 +49,25 @@ def parity_of(name: str, *, width: int | None = None, height: int | None = None)
     return run_parity(scene, name=name)
 
 
-def check_user_scenes(names, out, *, command: str, skipped: str) -> bool:
-    """Parity of the scene files among ``names``, before ``command`` renders them: False, after printing
-    each failure's findings and mismatch maps and that ``command`` stops (``skipped``), when one fails."""
+def check_user_scenes(names, out, *, command: str, skipped: str, width: int, height: int) -> bool:
+    """Parity of the scene files among ``names`` at ``width`` x ``height``, the size ``command`` renders
+    them at (:func:`parity_of`), before it renders them: False, after printing each failure's findings
+    and mismatch maps and that ``command`` stops (``skipped``), when one fails. An XML file without a
+    ``<film>`` is checked at Mitsuba's default film size, with a warning: Mitsuba cannot load it at
+    another size without a film to resize (:func:`mitsuba_scenes.render.load_file`)."""
     from mitsuba_scenes.scene_files import scene_file
 
     ok = True
     for name in names:
-        if scene_file(name) is None:
+        entry = scene_file(name)
+        if entry is None:
             continue
         try:
-            report = parity_of(name)
+            size = (width, height) if entry.kind != "xml" or _has_film(entry) else (None, None)
+            if size[0] is None:
+                warnings.warn(f"{name}: the file has no <film>, so its parity is checked at Mitsuba's default "
+                              f"film size (768x576), not at {width}x{height}")
+            report = parity_of(name, width=size[0], height=size[1])
         except ValueError as exc:  # e.g. Metal fuzz: no Mitsuba equivalent, no parity possible
             raise ValueError(f"{name}: no parity check possible, Mitsuba cannot load this scene: {exc} (gate such "
                              f"scenes against a store of ours: gate --reference STORE)") from None
@@ -70,6 +79,15 @@ def check_user_scenes(names, out, *, command: str, skipped: str) -> bool:
         print(f"rtbench {command}: the scene file(s) above translate differently in the two renderers; fix that "
               f"first ({skipped})", file=sys.stderr)
     return ok
+
+
+def _has_film(entry) -> bool:
+    """Whether Mitsuba XML scene file ``entry`` declares a ``<film>`` (with its parameters)."""
+    from mitsuba_scenes.render import film_sizes
+    from mitsuba_scenes.variants import select_variant
+
+    select_variant(None)
+    return bool(film_sizes(entry.path, params=entry.params))
 
 
 def _explain(report, out) -> None:

@@ -73,18 +73,75 @@ def test_cli_resizes_an_xml_file_with_width_and_height(tmp_path, capsys, size, w
 
 
 def test_gate_stops_on_a_parity_failure_with_maps(tmp_path, capsys, monkeypatch):
-    """A translation error in the importer (fov axis ignored): the gate renders nothing."""
-    import benchmarks.gate.suite as suite
+    """A translation error in the importer (fov axis ignored, seen on a film that is not square):
+    the gate renders nothing."""
+    import benchmarks.gate
     import mitsuba_scenes.importer.sensor as sensor
 
     monkeypatch.setattr(sensor, "_vfov", lambda ctx, node, fov, axis, w, h: fov)
-    monkeypatch.setattr(suite, "run_gate", lambda *a, **k: pytest.fail("the gate rendered despite parity"))
-    code = main(["gate", "--scene", str(XML / "camera_axes.xml"), "--width", "8", "--spp", "4",
+    monkeypatch.setattr(benchmarks.gate, "run_gate", lambda *a, **k: pytest.fail("the gate rendered despite parity"))
+    code = main(["gate", "--scene", str(XML / "camera_axes.xml"), "--width", "8", "--height", "6", "--spp", "4",
                  "--out", str(tmp_path)])
     err = capsys.readouterr().err
     assert code == 1, err
     assert "parity FAILED" in err and "camera:" in err
     assert (tmp_path / "camera_axes_parity.png").is_file() and (tmp_path / "camera_axes_parity.exr").is_file()
+
+
+class _Stop(ValueError):
+    """Raised by a runner patched in place of the render: the command ends with exit 2 there."""
+
+
+def _stop_at_render(monkeypatch, command: str) -> dict:
+    """Patch the runner ``command`` calls after its parity check: it records its keywords and stops."""
+    import benchmarks.gate
+    import benchmarks.sweep
+
+    seen = {}
+
+    def runner(*args, **kwargs):
+        seen.update(kwargs, args=args)
+        raise _Stop("stopped where the render would start")
+
+    module, attr = (benchmarks.gate, "run_gate") if command == "gate" else (benchmarks.sweep, "run_sweep")
+    monkeypatch.setattr(module, attr, runner)
+    return seen
+
+
+@pytest.mark.parametrize("command", ["gate", "curves"])
+def test_gate_and_curves_check_an_xml_files_parity_at_their_size(tmp_path, capsys, monkeypatch, command):
+    """The parity check before gate and curves render an XML file is at their --width x --height
+    (the size they render it at), not at the file's own film (camera_axes.xml: 20x12)."""
+    seen = _stop_at_render(monkeypatch, command)
+    code = main([command, "--scene", str(XML / "camera_axes.xml"), "--width", "8", "--height", "6",
+                 "--spp" if command == "gate" else "--spps", "4", "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 2 and "stopped where the render would start" in err, err
+    assert "camera_axes: parity ok (8x6 pixel centres" in err, err
+    assert "20x12" not in err and "warning" not in err, err
+    size = (seen["width"], seen["height"]) if command == "gate" else (seen["args"][0][0].width,
+                                                                      seen["args"][0][0].height)
+    assert size == (8, 6)
+
+
+@pytest.mark.parametrize("command", ["gate", "curves"])
+def test_an_xml_file_without_a_film_is_checked_at_mitsubas_default_size(tmp_path, capsys, monkeypatch, command):
+    """Mitsuba cannot load a film-less XML file at another size (there is no film to resize):
+    its parity is checked at Mitsuba's default 768x576, one warning line says so, and the
+    command goes on to render it at the size asked for."""
+    text = (XML / "two_sided.xml").read_text()
+    start, end = text.index("<film"), text.index("</film>") + len("</film>")
+    path = tmp_path / "no_film.xml"
+    path.write_text(text[:start] + text[end:])
+    seen = _stop_at_render(monkeypatch, command)
+    code = main([command, "--scene", str(path), "--width", "8", "--spp" if command == "gate" else "--spps", "4",
+                 "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2 and "stopped where the render would start" in err, err
+    assert (f"rtbench {command}: warning: no_film: the file has no <film>, so its parity is checked at "
+            f"Mitsuba's default film size (768x576), not at 8x8\n") in err, err
+    assert "no_film: parity ok (768x576 pixel centres" in err, err
+    assert seen
 
 
 @pytest.mark.parametrize("size", [(48, 32), (33, 17)])
