@@ -307,6 +307,8 @@ def run(args) -> int:
         raise ValueError("--svg draws the --scaling curves: add --scaling")
     externals = [register_external(cmd) for cmd in args.renderer]
     scenes = A.resolve_scenes(args, suite_names=args.scenes, default=list_scenes())
+    if do_render:
+        _check_render_options(args, scenes, threads)
     builds = _build_isa(args.isa, log) if args.isa else {}
     jit = next((v for v in args.variant if not v.startswith("scalar")), None)
 
@@ -350,6 +352,29 @@ def run(args) -> int:
         print(f"  JSON: {args.json}", flush=True)
     missed = any(v["status"] == "not met" for v in verdicts)
     return EXIT_FAIL if args.require_targets and missed else 0
+
+
+def _check_render_options(args, scenes, threads: int) -> None:
+    """Refuse a bad option of the render benchmark before anything is built (an ``--isa`` build takes
+    minutes) or rendered, in the command's words (``ValueError`` naming the option); the rest as
+    :func:`benchmarks.speed.render_config` checks it (names of scenes, strategies, integrators)."""
+    from benchmarks import speed
+
+    if args.max_depth is not None and not (args.max_depth == -1 or args.max_depth >= 1):
+        raise ValueError(f"--max-depth must be >= 1 or -1, got {args.max_depth}")
+    if args.reference_spp <= args.spp:
+        raise ValueError(f"--reference-spp ({args.reference_spp}) must exceed --spp ({args.spp})")
+    labels = ["none" if v is None else str(v) for v in args.rr_depth]
+    bad = [v for v in args.rr_depth if v is not None and v < 1]
+    if bad:
+        raise ValueError(f"--rr-depth: a depth must be >= 1, got {bad[0]}")
+    twice = sorted({v for v in labels if labels.count(v) > 1})
+    if twice:
+        raise ValueError(f"--rr-depth: {', '.join(twice)} given more than once")
+    speed.render_config(scenes, width=args.width, height=args.height, spp=args.spp, threads=threads,
+                        repeats=args.repeats, strategies=list(args.strategies), integrators=list(args.integrators),
+                        variants=list(args.variant), max_depth=args.max_depth, rr_depths=args.rr_depth,
+                        reference=args.reference_kind, reference_spp=args.reference_spp, seed=args.seed)
 
 
 def _build_isa(isa, log) -> dict:

@@ -34,7 +34,7 @@ from .common import (available_variants, environment, load_mitsuba, median, mits
 from .suite import suite_summary
 
 __all__ = ["DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT_RR_DEPTHS", "REFERENCE_KINDS", "render_benchmark",
-           "rr_label", "render_timed", "mitsuba_timed"]
+           "render_config", "rr_label", "render_timed", "mitsuba_timed"]
 
 #: our strategies in run order: the unbiased ones from ``mis`` (matched to Mitsuba's ``path``) down to the plainest,
 #: then the biased ``light``.
@@ -94,7 +94,7 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
         ``round_ratios_v``, ``round_efficiency_ratios_v``), ``suite`` (:func:`.suite_summary`) and ``build_suites``
         (of each build).
     """
-    config = _render_config(scenes, width=width, height=height, spp=spp, threads=threads, repeats=repeats,
+    config = render_config(scenes, width=width, height=height, spp=spp, threads=threads, repeats=repeats,
                             strategies=strategies, integrators=integrators, variants=variants, max_depth=max_depth,
                             rr_depths=rr_depths, reference=reference, reference_spp=reference_spp, seed=seed)
     builds = config["builds"] = {str(k): str(v) for k, v in (builds or {}).items()}
@@ -105,7 +105,10 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
     if ok_variants:
         result["mitsuba"]["versions"] = mitsuba_versions()
     elif reference == "mitsuba":
-        raise ValueError(f"no Mitsuba variant of {config['variants']} works here ({skipped}); use reference='ours'")
+        reasons = "; ".join(f"{v}: {why}" for v, why in skipped.items())
+        raise ValueError(f"no Mitsuba variant of {', '.join(config['variants'])} works here ({reasons}): give one "
+                         f"that works (--variant), or time ours alone against a reference of ours "
+                         f"(--reference-kind ours, reference='ours')")
     with contextlib.ExitStack() as stack:
         workers = {name: stack.enter_context(CoreWorker(module)) for name, module in builds.items()}
         llvm = next((v for v in ok_variants if v.startswith("llvm")), None)
@@ -121,9 +124,10 @@ def render_benchmark(scenes=("cornell_box",), *, width: int = 128, height: int =
     return result
 
 
-def _render_config(scenes, *, spp, strategies, integrators, variants, max_depth, rr_depths, reference, reference_spp,
-                   seed, **sizes) -> dict:
-    """The validated settings, as stored under ``config``; ``ValueError`` names a bad one."""
+def render_config(scenes, *, spp, strategies, integrators, variants, max_depth, rr_depths, reference, reference_spp,
+                  seed, **sizes) -> dict:
+    """The validated settings of :func:`render_benchmark` (its keywords, ``sizes`` the integer ones such as
+    ``width``), as stored under ``config``; ``ValueError`` names a bad one. Nothing is loaded or rendered."""
     spp, reference_spp = positive_int("spp", spp), positive_int("reference_spp", reference_spp, minimum=2)
     if reference not in REFERENCE_KINDS:
         raise ValueError(f"reference must be one of {REFERENCE_KINDS}, got {reference!r}")

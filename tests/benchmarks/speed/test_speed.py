@@ -191,7 +191,7 @@ def test_rr_depth_option_and_its_validation(capsys):
         assert exc.value.code == 2
         assert "rtbench speed: error: --rr-depth" in capsys.readouterr().err
     assert main(["speed", "--rr-depth", "0", "--quiet", "--variants", "scalar_rgb", "--reference", "ours"]) == 2
-    assert "rr_depth must be >= 1" in capsys.readouterr().err
+    assert "rtbench speed: error: --rr-depth: a depth must be >= 1, got 0" in capsys.readouterr().err
     with pytest.raises(ValueError, match="duplicates"):
         speed.render_benchmark(["cornell_box"], rr_depths=(5, 5))
 
@@ -202,13 +202,44 @@ def test_cli_rejects_bad_input(capsys):
     assert main(["speed", "--strategies", "mis,bogus", "--quiet"]) == 2
     assert "unknown strategies ['bogus']" in capsys.readouterr().err
     assert main(["speed", "--spp", "8", "--reference-spp", "8", "--quiet", "--variants", "scalar_rgb"]) == 2
-    assert "must exceed spp" in capsys.readouterr().err
+    assert "--reference-spp (8) must exceed --spp (8)" in capsys.readouterr().err
     with pytest.raises(ValueError, match="unknown scenes"):
         speed.render_benchmark(["no_such_scene"])
     with pytest.raises(ValueError, match="reference must be one of"):
         speed.render_benchmark(reference="both")
     with pytest.raises(ValueError, match="JIT Mitsuba variant"):
         speed.ray_benchmark(variant="scalar_rgb")
+
+
+@pytest.mark.parametrize("bad, message", [
+    (["--strategies", "mis,bogus"], "unknown strategies ['bogus']"),
+    (["--integrators", "simd"], "unknown integrators ['simd']"),
+    (["no_such_scene"], "unknown scenes ['no_such_scene']"),
+    (["--max-depth", "0"], "--max-depth must be >= 1 or -1, got 0"),
+    (["--spp", "8", "--reference-spp", "8"], "--reference-spp (8) must exceed --spp (8)"),
+    (["--rr-depth", "0"], "--rr-depth: a depth must be >= 1, got 0"),
+    (["--rr-depth", "5,none,5"], "--rr-depth: 5 given more than once"),
+])
+def test_render_options_are_refused_before_an_isa_build(monkeypatch, capsys, bad, message):
+    """A bad option of the render benchmark is one error line naming the option (exit 2) before
+    the --isa build of our core (minutes) starts, not after it."""
+    from benchmarks.commands import speed as command
+
+    monkeypatch.setattr(command, "_build_isa", lambda *a: pytest.fail("built the core before checking the options"))
+    monkeypatch.setattr(speed, "render_benchmark", lambda *a, **k: pytest.fail("rendered before the refusal"))
+    assert main(["speed", *bad, "--isa", "avx2", "--quiet"]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"rtbench speed: error: {message}"), lines
+
+
+def test_no_working_variant_names_the_options_that_help(capsys):
+    """Where no --variant works the refusal says which and why, and names --variant and
+    --reference-kind ours (it named the Python keyword alone, reference='ours')."""
+    assert main(["speed", "cornell_box", "--variant", "bogus_rgb", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rtbench speed: error: no Mitsuba variant of bogus_rgb works here "
+                                               "(bogus_rgb: "), err
+    assert "(--variant)" in err[0] and "--reference-kind ours" in err[0] and "{" not in err[0], err
 
 
 def test_torus_mesh_is_closed_and_consistently_wound():
