@@ -18,8 +18,8 @@ import importlib  # noqa: E402
 import sys  # noqa: E402
 import traceback  # noqa: E402
 import warnings  # noqa: E402
-from pathlib import Path  # noqa: E402
 
+from reference_tracer.imageio import check_writable  # noqa: E402
 from reference_tracer.validation import INT_MAX, SEED_MAX  # noqa: E402
 
 from benchmarks.commands._args import HelpFormatter, check  # noqa: E402
@@ -124,16 +124,19 @@ def _warning_line(command: str, message, category, filename, lineno, file=None, 
 
 
 def _probe_output_files(args) -> None:
-    """``OSError`` now, not after the run, when an output file (``--json``, ``--markdown``) cannot
-    be written: opened for appending (its folder created) and removed again if it was new."""
-    for value in (getattr(args, "json", None), getattr(args, "markdown", None)):
+    """Refuse now, not after the run, an output file (``--json``, ``--markdown``, ``--svg``) that
+    cannot be written as :func:`reference_tracer.imageio.atomic_write` writes it: ``OSError``
+    (its folder cannot be made or written) or ``ValueError`` (a link, a folder or a special file
+    there), naming the option. The file itself is left as it is."""
+    for option in ("json", "markdown", "svg"):
+        value = getattr(args, option, None)
         if isinstance(value, str) and value and value != "-":
-            path = Path(value)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            existed = path.exists()
-            path.open("a").close()
-            if not existed:
-                path.unlink()
+            try:
+                check_writable(value)
+            except OSError as exc:
+                raise OSError(exc.errno, f"--{option} {value} cannot be written: {exc.strerror or exc}") from None
+            except ValueError as exc:
+                raise ValueError(f"--{option}: {exc}") from None
 
 
 if __name__ == "__main__":

@@ -17,7 +17,8 @@ import numpy as np
 
 from .validation import finite_scalar, open_regular_file
 
-__all__ = ["write_exr", "read_exr", "read_hdr", "write_png", "to_display", "atomic_write", "new_file_mode"]
+__all__ = ["write_exr", "read_exr", "read_hdr", "write_png", "to_display", "atomic_write", "check_writable",
+           "new_file_mode"]
 
 
 def new_file_mode() -> int:
@@ -100,6 +101,29 @@ def atomic_write(path, data) -> Path:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+    return path
+
+
+def check_writable(path) -> Path:
+    """Raise now what :func:`atomic_write` would raise for ``path``, without writing it: its
+    folder is created if needed, a path that is a symbolic link, a folder or a special file
+    is refused (``ValueError``), and a temporary file is made in the folder and removed
+    (``OSError`` where the folder cannot be written). The path itself is never opened: a
+    FIFO would block, and a link would be written through.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> check_writable(folder / "a.json") == folder / "a.json", (folder / "a.json").exists()
+    (True, False)
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    _check_target(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name[:200]}.", suffix=".tmp")
+    os.close(fd)
+    os.unlink(tmp)
     return path
 
 

@@ -78,6 +78,47 @@ def test_unwritable_output_file_fails_before_the_run(command, capsys, monkeypatc
     assert "/proc/rtbench-no-such-file" in _one_error_line(capsys, command[0])
 
 
+@pytest.mark.parametrize("kind", ["fifo", "link"])
+def test_an_output_path_that_is_no_regular_file_is_refused_and_left_as_it_is(tmp_path, capsys, monkeypatch, kind):
+    """--json on a FIFO or a symbolic link is refused before the run (exit 2, naming the option),
+    as the atomic write at the end would refuse it, and left as it was: the FIFO is not opened
+    (an open for appending blocks until a reader comes), no file is made through the link and
+    the link stays."""
+    import os
+    import stat
+
+    import benchmarks.commands.gate as gate
+
+    monkeypatch.setattr(gate, "run", lambda args: pytest.fail("ran before checking its output file"))
+    path, target = tmp_path / "out.json", tmp_path / "target.json"
+    reader = None
+    if kind == "fifo":
+        os.mkfifo(path)
+        reader = os.open(path, os.O_RDONLY | os.O_NONBLOCK)   # so that an open of it cannot hang the test
+    else:
+        path.symlink_to(target)
+    try:
+        assert cli.main(["gate", "cornell_box", "--json", str(path)]) == 2
+    finally:
+        if reader is not None:
+            os.close(reader)
+    what = "a special file" if kind == "fifo" else "a symbolic link"
+    assert f"--json: {path} is {what}; refusing to replace it" in _one_error_line(capsys, "gate")
+    mode = os.lstat(path).st_mode
+    assert (stat.S_ISFIFO(mode) if kind == "fifo" else stat.S_ISLNK(mode)) and not target.exists()
+
+
+def test_an_unwritable_svg_path_fails_before_the_scaling_run(capsys, monkeypatch):
+    """rtbench speed --scaling --svg PATH: an unwritable PATH is an I/O error (exit 3) before the
+    scaling benchmark runs, not after it, with the option named."""
+    import benchmarks.commands.speed as speed
+
+    monkeypatch.setattr(speed, "run", lambda args: pytest.fail("ran before checking its output file"))
+    assert cli.main(["speed", "--scaling", "--svg", "/proc/rtbench-no-such-file.svg"]) == 3
+    line = _one_error_line(capsys, "speed")
+    assert "--svg /proc/rtbench-no-such-file.svg cannot be written" in line, line
+
+
 def test_debug_adds_the_traceback_before_or_after_the_command(tmp_path, capsys):
     f = tmp_path / "FILE"
     f.write_text("x")

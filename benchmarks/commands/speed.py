@@ -292,6 +292,7 @@ def run(args) -> int:
     from benchmarks.external import register_external
     from benchmarks.store.jsonio import write_json
     from mitsuba_scenes import list_scenes
+    from reference_tracer.imageio import atomic_write
 
     threads = A.resolve_threads(args.threads)
     console = A.wide_console(220, quiet=args.quiet)
@@ -338,8 +339,7 @@ def run(args) -> int:
             thread_counts=sorted({1, threads}), triangles=list(args.scaling_triangles), variant=jit, threads=threads,
             repeats=min(args.repeats, 3), seed=args.seed, log=log)
         if args.svg:
-            with open(args.svg, "wb") as f:
-                f.write(scaling_svg(res))
+            atomic_write(args.svg, scaling_svg(res))
         show(scaling_tables(res), scaling_notes(res) + ([f"SVG: {args.svg}"] if args.svg else []))
     env = next(iter(out.values()))["environment"]
     load = "/".join(f"{x:.1f}" for x in env["loadavg"]) if env["loadavg"] else "?"
