@@ -310,6 +310,7 @@ def run(args) -> int:
     scenes = A.resolve_scenes(args, suite_names=args.scenes, default=list_scenes())
     if do_render:
         _check_render_options(args, scenes, threads)
+    _check_mesh_sizes(args)
     builds = _build_isa(args.isa, log) if args.isa else {}
     jit = next((v for v in args.variant if not v.startswith("scalar")), None)
 
@@ -375,6 +376,21 @@ def _check_render_options(args, scenes, threads: int) -> None:
                         repeats=args.repeats, strategies=list(args.strategies), integrators=list(args.integrators),
                         variants=list(args.variant), max_depth=args.max_depth, rr_depths=args.rr_depth,
                         reference=args.reference_kind, reference_spp=args.reference_spp, seed=args.seed)
+
+
+def _check_mesh_sizes(args) -> None:
+    """Refuse the mesh sizes of ``--rays`` (``--triangles``) and ``--scaling`` (``--scaling-triangles``, two
+    sizes at least) before any benchmark runs, naming the option (``ValueError``)."""
+    from benchmarks.speed.rays import MIN_TRIANGLES
+
+    for given, option in ((args.rays, "--triangles"), (args.scaling, "--scaling-triangles")):
+        sizes = getattr(args, option[2:].replace("-", "_"))
+        small = [n for n in sizes if n < MIN_TRIANGLES]
+        if given and small:
+            raise ValueError(f"{option}: a mesh has at least {MIN_TRIANGLES} triangles, got {small[0]}")
+    if args.scaling and len(set(args.scaling_triangles)) < 2:
+        raise ValueError(f"--scaling-triangles: the mesh sweep needs two different sizes at least, got "
+                         f"{','.join(map(str, args.scaling_triangles))}")
 
 
 def _build_isa(isa, log) -> dict:

@@ -27,17 +27,20 @@ from .common import (check_jit_variant, environment, load_mitsuba, median, mitsu
                      name_list, timed, use_mitsuba_kernels, use_variant)
 
 __all__ = ["ray_benchmark", "resident_mib", "torus_mesh", "mesh_scene", "primary_rays", "random_rays", "intersect_ours",
-           "intersect_mitsuba", "hit_agreement", "query_torus", "query_torus_mitsuba", "torus_tree", "RAY_KINDS"]
+           "intersect_mitsuba", "hit_agreement", "query_torus", "query_torus_mitsuba", "torus_tree", "RAY_KINDS",
+           "MIN_TRIANGLES"]
 
+#: the fewest triangles of a :func:`torus_mesh` (4 x 4 quads, two triangles each)
+MIN_TRIANGLES = 32
 #: the ray sets: camera rays toward the torus, and incoherent rays around it.
 RAY_KINDS = ("primary", "random")
 
 
 def torus_mesh(triangles: int, *, seed: int = 0):
-    """A closed, bumpy torus of about ``triangles`` (>= 32) triangles: ``(vertices (V, 3) float64, faces (F, 3)
-    int64)``, radii 1 and 0.35 with smooth bumps and jitter, faces counter-clockwise seen from outside, vertices
-    rounded to float32 so that ours and Mitsuba see the very same geometry."""
-    triangles = positive_int("triangles", triangles, minimum=32)
+    """A closed, bumpy torus of about ``triangles`` (>= :data:`MIN_TRIANGLES`) triangles: ``(vertices (V, 3)
+    float64, faces (F, 3) int64)``, radii 1 and 0.35 with smooth bumps and jitter, faces counter-clockwise seen from
+    outside, vertices rounded to float32 so that ours and Mitsuba see the very same geometry."""
+    triangles = positive_int("triangles", triangles, minimum=MIN_TRIANGLES)
     n = max(4, int(round(math.sqrt(triangles / 4.0))))
     m = max(4, int(round(triangles / (2.0 * n))))
     rng = np.random.default_rng(seed)
@@ -247,7 +250,7 @@ def ray_benchmark(*, triangles=(100_000, 1_000_000), rays: int = 1 << 20, thread
         (``mitsuba_rss_growth_mib``: the mesh and Embree's tree), with the process's peak (``peak_rss_mib``).
         Memory freed by the previous mesh may be reused, so the growths are lower bounds.
     """
-    sizes = [positive_int("triangles", t, minimum=32)
+    sizes = [positive_int("triangles", t, minimum=MIN_TRIANGLES)
              for t in (triangles if not isinstance(triangles, (int, np.integer)) else [triangles])]
     if not sizes:
         raise ValueError("triangles must name at least one mesh size")

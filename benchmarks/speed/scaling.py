@@ -17,7 +17,7 @@ from reference_tracer.validation import positive_int
 from ..constants import STRATEGIES
 from ..metrics import convergence_slope
 from .common import check_jit_variant, environment, load_mitsuba, median, mitsuba_render_timed, spread, timed
-from .rays import intersect_mitsuba, intersect_ours, mesh_scene, random_rays
+from .rays import MIN_TRIANGLES, intersect_mitsuba, intersect_ours, mesh_scene, random_rays
 
 __all__ = ["AXES", "scaling_benchmark", "fit_log_growth"]
 
@@ -61,7 +61,7 @@ def scaling_benchmark(*, scene: str = "cornell_box", resolutions=(32, 64, 128, 2
     resolutions, depths, thread_counts, sizes = (
         sorted({positive_int(what, x, minimum=low) for x in xs}) for what, xs, low in (
             ("resolution", resolutions, 1), ("max depth", depths, 1), ("thread count", thread_counts, 1),
-            ("triangles", triangles, 32)))
+            ("triangles", triangles, MIN_TRIANGLES)))
     if len(sizes) < 2:
         raise ValueError("the mesh sweep needs at least two triangle counts")
     spp, mesh_spp, rays = positive_int("spp", spp), positive_int("mesh_spp", mesh_spp), positive_int("rays", rays)

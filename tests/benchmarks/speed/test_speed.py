@@ -232,6 +232,28 @@ def test_render_options_are_refused_before_an_isa_build(monkeypatch, capsys, bad
     assert len(lines) == 1 and lines[0].startswith(f"rtbench speed: error: {message}"), lines
 
 
+@pytest.mark.parametrize("bad, message", [
+    (["--rays", "--triangles", "10"], "--triangles: a mesh has at least 32 triangles, got 10"),
+    (["--render", "--rays", "--triangles", "100,10"], "--triangles: a mesh has at least 32 triangles, got 10"),
+    (["--rays", "--isa", "avx2", "--triangles", "10"], "--triangles: a mesh has at least 32 triangles, got 10"),
+    (["--scaling", "--scaling-triangles", "10,1000"], "--scaling-triangles: a mesh has at least 32 triangles, got 10"),
+    (["--render", "--scaling", "--scaling-triangles", "1000,1000"],
+     "--scaling-triangles: the mesh sweep needs two different sizes at least, got 1000,1000"),
+])
+def test_mesh_sizes_are_refused_before_any_benchmark_naming_the_option(monkeypatch, capsys, bad, message):
+    """--triangles and --scaling-triangles are checked before anything is built or timed (they
+    were checked inside the ray and scaling benchmarks, after the render benchmark and an --isa
+    build, as 'triangles must be >= 32' whichever option it was)."""
+    from benchmarks.commands import speed as command
+
+    monkeypatch.setattr(command, "_build_isa", lambda *a: pytest.fail("built the core before checking the options"))
+    for name in ("render_benchmark", "ray_benchmark", "scaling_benchmark"):
+        monkeypatch.setattr(speed, name, lambda *a, **k: pytest.fail("a benchmark ran before the refusal"))
+    assert main(["speed", *bad, "--quiet"]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == [f"rtbench speed: error: {message}"], lines
+
+
 def test_no_working_variant_names_the_options_that_help(capsys):
     """Where no --variant works the refusal says which and why, and names --variant and
     --reference-kind ours (it named the Python keyword alone, reference='ours')."""
