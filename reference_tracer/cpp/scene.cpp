@@ -415,14 +415,6 @@ struct PackSlabs {
 
 }  // namespace
 
-bool Scene::closest_mesh_hit(const Ray& ray, double& t_max, uint32_t& best) const {
-    const WatertightRay wray(ray.d);
-    return mesh_bvh_.traverse<false>(
-        ray, t_max, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, best); },
-        [&](uint32_t block, double& tm) { return hit_mesh_block(block, ray, wray, tm, best) >= 0; },
-        [&](uint32_t block) { prefetch_mesh_block(block); });
-}
-
 void Scene::closest_mesh_hits(size_t count, const size_t* index, const Ray* const* rays, double* t_max,
                               uint32_t* best, bool* found) const {
     struct Query {
@@ -514,15 +506,6 @@ void Scene::occlusions(size_t count, const size_t* index, const Ray* const* rays
     } else {
         tree.traverse_interleaved<kWidth, false, true>(count, query);
     }
-}
-
-bool Scene::mesh_occludes(const Ray& ray, double t_max) const {
-    const WatertightRay wray(ray.d);
-    uint32_t unused = 0;
-    return mesh_bvh_.traverse<true>(
-        ray, t_max, [&](uint32_t prim, double& tm) { return hit_primitive(prim, ray, wray, tm, unused); },
-        [&](uint32_t block, double& tm) { return hit_mesh_block(block, ray, wray, tm, unused) >= 0; },
-        [&](uint32_t block) { prefetch_mesh_block(block); });
 }
 
 void Scene::intersect_batch(size_t n, const Ray* const* rays, bool* hit, Interaction* const* it) const {

@@ -510,12 +510,11 @@ private:
     AABB mesh_bounds_;  // of mesh_bvh_'s triangles, padded (culls its descents a pack at a time)
     std::vector<Triangle4> mesh_tri4_;
     std::vector<Triangle4f> mesh_tri4f_;
-    // The part of a batched query after the direct tests: the triangles of mesh_bvh_ for a
-    // ray whose closest hit so far is (t_max, best); the same for a shadow ray.
-    bool closest_mesh_hit(const Ray& ray, double& t_max, uint32_t& best) const;
-    // closest_mesh_hit for the rays rays[index[0 .. count)) at once, interleaved
-    // (WideBVH::traverse_interleaved): t_max, best and found at index[k] as that ray's
-    // (t_max, best) in and out, found set where the mesh holds its closest hit.
+    // The part of a batched query after the direct tests: the triangles of mesh_bvh_ for
+    // the rays rays[index[0 .. count)), interleaved (WideBVH::traverse_interleaved), each
+    // below its closest hit so far: t_max and best at index[k] that ray's distance and
+    // primitive, in and out, found set where the mesh holds a closer hit. Shadow rays:
+    // occlusions<true>.
     void closest_mesh_hits(size_t count, const size_t* index, const Ray* const* rays, double* t_max,
                            uint32_t* best, bool* found) const;
     // Bytes of mesh_bvh_ and its blocks (as tree_bytes for the main tree: whether its
@@ -524,13 +523,12 @@ private:
         return mesh_bvh_.node_count() * sizeof(WideNode) + mesh_tri4f_.size() * sizeof(Triangle4f) +
                mesh_tri4_.size() * sizeof(Triangle4);
     }
-    // Whether something of the main tree (kMesh false: as occluded()) or of mesh_bvh_ (true:
-    // as mesh_occludes()) lies on each ray rays[i], t in (0, t_max[i]), for i = index[0 ..
-    // count) (index null: 0 .. count), the rays interleaved: occluded[i] set where it does.
+    // Whether something of the main tree (kMesh false: as occluded()) or of mesh_bvh_ (true)
+    // lies on each ray rays[i], t in (0, t_max[i]), for i = index[0 .. count) (index null:
+    // 0 .. count), the rays interleaved: occluded[i] set where it does.
     template <bool kMesh>
     void occlusions(size_t count, const size_t* index, const Ray* const* rays, const double* t_max,
                     bool* occluded) const;
-    bool mesh_occludes(const Ray& ray, double t_max) const;
     // The BVH's block leaves (watertight test only), in block order: in float when every
     // triangle vertex is exactly a float (float_blocks_), else in double.
     std::vector<Triangle4> tri4_;
