@@ -127,10 +127,14 @@ def _probe_output_files(args) -> None:
     """Refuse now, not after the run, an output file (``--json``, ``--markdown``, ``--svg``) that
     cannot be written as :func:`reference_tracer.imageio.atomic_write` writes it: ``OSError``
     (its folder cannot be made or written) or ``ValueError`` (a link, a folder or a special file
-    there), naming the option. The file itself is left as it is."""
+    there; ``-``, which names no file here), naming the option. The file itself is left as it is."""
     for option in ("json", "markdown", "svg"):
         value = getattr(args, option, None)
-        if isinstance(value, str) and value and value != "-":
+        if value == "-":
+            example = {"json": "rows.json", "markdown": "report.md", "svg": "scaling.svg"}[option]
+            raise ValueError(f"--{option} -: these outputs go to files, not to standard output (the command's "
+                             f"tables go there); give a path, e.g. --{option} {example}")
+        if isinstance(value, str) and value:
             try:
                 check_writable(value)
             except OSError as exc:

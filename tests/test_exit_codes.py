@@ -78,6 +78,19 @@ def test_unwritable_output_file_fails_before_the_run(command, capsys, monkeypatc
     assert "/proc/rtbench-no-such-file" in _one_error_line(capsys, command[0])
 
 
+@pytest.mark.parametrize("option", ["--json", "--markdown"])
+def test_a_dash_for_an_output_file_is_refused_before_the_run(tmp_path, capsys, monkeypatch, option):
+    """`--json -` names no file: refused before the run (exit 2, naming the option), where it
+    once wrote a file called '-' in the working folder."""
+    import benchmarks.commands.selftest as selftest
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(selftest, "run", lambda args: pytest.fail("ran before checking its output file"))
+    assert cli.main(["selftest", option, "-"]) == 2
+    assert f"{option} -: these outputs go to files, not to standard output" in _one_error_line(capsys, "selftest")
+    assert not (tmp_path / "-").exists()
+
+
 @pytest.mark.parametrize("kind", ["fifo", "link"])
 def test_an_output_path_that_is_no_regular_file_is_refused_and_left_as_it_is(tmp_path, capsys, monkeypatch, kind):
     """--json on a FIFO or a symbolic link is refused before the run (exit 2, naming the option),
