@@ -220,6 +220,21 @@ public:
         only_spheres_ = !emitters_.empty() && p_background_ == 0.0 &&
                            std::all_of(emitters_.begin(), emitters_.end(),
                                        [](const Emitter& e) { return e.kind == EmitterKind::Sphere; });
+        if (only_spheres_)
+            for (size_t i = 0; i < emitters_.size(); ++i) {
+                const Sphere& s = (*spheres_)[emitters_[i].index];
+                const double fields[kSphereFields] = {s.center.x,
+                                                      s.center.y,
+                                                      s.center.z,
+                                                      s.radius,
+                                                      s.normal_sign,
+                                                      select_.pmf(i) * (1.0 - p_background_),
+                                                      s.area(),
+                                                      emitters_[i].radiance.x,
+                                                      emitters_[i].radiance.y,
+                                                      emitters_[i].radiance.z};
+                for (int f = 0; f < kSphereFields; ++f) sphere_fields_[f].push_back(fields[f]);
+            }
     }
 
     bool empty() const { return emitters_.empty() && p_background_ == 0.0; }
@@ -447,18 +462,26 @@ private:
             area = broadcast<F>(sphere.area());
             broadcast_radiance(emitters_[0], radiance);
         } else {
-            for (int l = 0; l < kLanesOf<F>; ++l) {  // every lane: the others' values are not used
-                const size_t i = select_.sample(std::min(u[0][l], std::nextafter(1.0, 0.0)));
-                const Sphere& sphere = (*spheres_)[emitters_[i].index];
-                for (int a = 0; a < 3; ++a) {
-                    s.center[a][l] = sphere.center[a];
-                    radiance[a][l] = emitters_[i].radiance[a];
-                }
-                s.radius[l] = sphere.radius;
-                s.normal_sign[l] = sphere.normal_sign;
-                sel[l] = select_.pmf(i) * (1.0 - p_background_);
-                area[l] = sphere.area();
+            // Each lane's emitter (every lane: the others' values are not used), then its
+            // parameters read from the tables by emitter, a field at a time (glossy_plates
+            // 1.012x, 1.035x in the AVX2 build, against each lane's sphere and emitter read in
+            // turn; PERFORMANCE.md, Ideas tried).
+            size_t index[kLanesOf<F>];
+            for (int l = 0; l < kLanesOf<F>; ++l)
+                index[l] = select_.sample(std::min(u[0][l], std::nextafter(1.0, 0.0)));
+            const auto field = [&](int f) {
+                F lanes{};
+                for (int l = 0; l < kLanesOf<F>; ++l) lanes[l] = sphere_fields_[f][index[l]];
+                return lanes;
+            };
+            for (int a = 0; a < 3; ++a) {
+                s.center[a] = field(kCenterX + a);
+                radiance[a] = field(kRadianceR + a);
             }
+            s.radius = field(kRadius);
+            s.normal_sign = field(kNormalSign);
+            sel = field(kSelection);
+            area = field(kArea);
         }
         F d[3], n[3], pdf_dir;
         // Where every lane sampled by area (each vertex of `furnace`), the density's zero is
@@ -669,6 +692,13 @@ private:
     const EnvironmentMap* environment_ = nullptr;           // the environment map, if any
     Vec3 background_;
     DiscreteDistribution select_;
+    // Where only_spheres(): each emitter's sphere as sample_spheres reads it, a table a
+    // field, by emitter (the selection share is select_.pmf(i) (1 - p_background_)).
+    enum SphereField {
+        kCenterX, kCenterY, kCenterZ, kRadius, kNormalSign, kSelection, kArea, kRadianceR, kRadianceG, kRadianceB,
+        kSphereFields
+    };
+    std::vector<double> sphere_fields_[kSphereFields];
     std::vector<int32_t> prim_to_emitter_;
     double p_background_ = 0.0;
     bool only_spheres_ = false;  // only_spheres(), decided once
