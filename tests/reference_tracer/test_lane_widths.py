@@ -181,3 +181,29 @@ def test_rough_conductor_samples_at_every_width_equal_width_one(alpha, width):
         assert ok.any() == (wo[2] > 0)
         for key in ("wi", "weight", "pdf"):
             assert np.array_equal(one[key][ok], wide[key][ok]), key
+
+
+@pytest.mark.parametrize("width", PACK_WIDTHS)
+@pytest.mark.parametrize("count", [3, 5, 20])
+def test_several_sphere_lights_choose_as_width_one(count, width):
+    """Packs of light samples among several sphere lights choose each lane's light by counting
+    the cumulative powers below its uniform (DiscreteDistribution::sample_lanes), up to 16
+    lights, and by sample()'s search beyond: the same light as width 1 in every lane, the
+    uniforms that land exactly on a boundary between two lights' shares, a light of zero
+    radiance and u0 just below 1 included."""
+    shapes = [rt.Sphere((2.0 * i, 0.0, 0.0), 0.5, rt.DiffuseLight(0.0 if i == 1 else 1.0)) for i in range(count)]
+    shapes.append(rt.Quad((-5, -1, -5), (40, 0, 0), (0, 0, 10), rt.Lambertian(0.5)))
+    camera = rt.Camera(lookfrom=(0, 5, 12), lookat=(0, 0, 0), vup=(0, 1, 0), vfov=60.0, width=8, height=8)
+    core = core_scene(rt.Scene(camera=camera, shapes=shapes))
+    rng = np.random.default_rng(11)
+    n = 3001
+    refs = np.column_stack([rng.uniform(-2, 2 * count, n), rng.uniform(0.6, 4, n), rng.uniform(-3, 3, n)])
+    u = rng.random((n, 3))
+    u[:257, 0] = np.concatenate([np.arange(256) / 256.0, [np.nextafter(1.0, 0.0)]])  # boundaries of equal shares
+    one, wide = core.sample_lights(refs, u, width=1), core.sample_lights(refs, u, width=width)
+    valid = one["valid"].astype(bool)
+    points = refs[valid] + one["wi"][valid] * one["dist"][valid][:, None]
+    chosen = set(np.round(points[:, 0] / 2.0).astype(int))  # the sampled point's sphere
+    assert len(chosen) == count - 1 and 1 not in chosen  # every light but the dark one
+    for key in ("valid", "wi", "pdf", "dist", "pdf_all", "radiance"):
+        assert np.array_equal(one[key], wide[key]), key

@@ -467,8 +467,8 @@ private:
             // 1.012x, 1.035x in the AVX2 build, against each lane's sphere and emitter read in
             // turn; PERFORMANCE.md, Ideas tried).
             size_t index[kLanesOf<F>];
-            for (int l = 0; l < kLanesOf<F>; ++l)
-                index[l] = select_.sample(std::min(u[0][l], std::nextafter(1.0, 0.0)));
+            const F below_one = broadcast<F>(std::nextafter(1.0, 0.0));
+            select_.sample_lanes(below_one < u[0] ? below_one : u[0], index);  // std::min(u0, below_one)
             const auto field = [&](int f) {
                 F lanes{};
                 for (int l = 0; l < kLanesOf<F>; ++l) lanes[l] = sphere_fields_[f][index[l]];

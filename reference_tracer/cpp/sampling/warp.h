@@ -145,6 +145,12 @@ public:
         total_ = cdf_.back();
         pmf_.resize(weights.size());
         for (size_t i = 0; i < weights.size(); ++i) pmf_[i] = total_ > 0 ? weights[i] / total_ : 0.0;
+        first_nonzero_.resize(weights.size());
+        for (size_t i = 0; i < weights.size(); ++i) {
+            size_t j = i;
+            while (pmf_[j] == 0.0 && j + 1 < pmf_.size()) ++j;
+            first_nonzero_[i] = j;
+        }
     }
     bool empty() const { return pmf_.empty() || !(total_ > 0); }
     size_t size() const { return pmf_.size(); }
@@ -166,8 +172,27 @@ public:
         return lo;
     }
 
+    // sample(u[l]) for every lane l of a pack, into index[l]. Up to kCountedItems items, by
+    // counting the cumulative sums at or below each lane's target (the first i with
+    // cdf_[i + 1] > target, as sample()'s search finds it: the sums never decrease) and the
+    // next item of non-zero weight (first_nonzero_), without the search's branches on each
+    // lane's random target; beyond, sample() lane by lane (PERFORMANCE.md, Ideas tried).
+    static constexpr size_t kCountedItems = 16;
+    template <typename F>
+    void sample_lanes(F u, size_t (&index)[kLanesOf<F>]) const {
+        if (pmf_.size() > kCountedItems) {
+            for (int l = 0; l < kLanesOf<F>; ++l) index[l] = sample(u[l]);
+            return;
+        }
+        const F target = u * total_;
+        MaskOf<F> count{};
+        for (size_t i = 0; i + 1 < pmf_.size(); ++i) count -= cdf_[i + 1] <= target;  // true lanes are -1
+        for (int l = 0; l < kLanesOf<F>; ++l) index[l] = first_nonzero_[size_t(count[l])];
+    }
+
 private:
     std::vector<double> cdf_, pmf_;
+    std::vector<size_t> first_nonzero_;  // sample()'s skip of zero-weight items, from each i
     double total_ = 0.0;
 };
 
