@@ -496,8 +496,11 @@ private:
     // A point on sphere s (lane by lane) for the reference point ref, as d = p - ref with
     // the sphere's normal n there, from the uniforms u1, u2. From inside or on the sphere,
     // uniform by area (pdf_dir 0); from outside, uniform in the subtended cone (pdf_dir its
-    // solid-angle density), the point where the sampled direction meets the sphere
-    // following from the law of cosines. A pack runs each of the two only where one of
+    // solid-angle density), the point where the sampled direction first meets the sphere
+    // found by its angle at the centre (pbrt-v4's and Mitsuba's formula: no division but
+    // by sin^2 theta_max, and the azimuth's own sine and cosine for the point's, where
+    // intersecting the direction with the sphere took three divisions and two square
+    // roots more; PERFORMANCE.md, Ideas tried). A pack runs each of the two only where one of
     // `lanes` needs it. Returns the lanes sampled by area (bits). One body for sample()
     // (F double) and the packs.
     template <typename F>
@@ -528,17 +531,21 @@ private:
         for (int a = 0; a < 3; ++a) axis[a] = to_c[a] * inv_dc;
         F fs[3], ft[3];
         frame_tangents(axis, fs, ft);
-        const F omc = cone_one_minus_cos(r2, dc2);
-        F local[3];
-        square_to_uniform_cone(u1, u2, omc, local);
-        const F sin2 = local[0] * local[0] + local[1] * local[1];
-        const F ds = dc * local[2] - safe_sqrt_of(r2 - dc2 * sin2);
-        const F cos_raw = (dc2 + r2 - ds * ds) / (2.0 * dc * s.radius);
+        const F sin2_max = cone_sin2(r2, dc2);
+        const F omc = cone_one_minus_cos(sin2_max);
+        // The direction at angle theta from the axis, 1 - cos theta uniform in [0, omc]
+        // (square_to_uniform_cone), and alpha, the angle at the centre between ref and the
+        // point where it first meets the sphere: cos alpha = sin^2 theta / sin theta_max
+        // + cos theta sqrt(1 - sin^2 theta / sin^2 theta_max).
+        const F omc_theta = u1 * omc;
+        const F cos_theta = 1.0 - omc_theta;
+        const F q = omc_theta * (2.0 - omc_theta) / sin2_max;  // sin^2 theta / sin^2 theta_max
+        const F cos_raw = mul_add(q, s.radius * inv_dc, cos_theta * safe_sqrt_of(1.0 - q));
         const F one = as_lanes(1.0, dc), minus_one = as_lanes(-1.0, dc);
         const F cos_a = cos_raw < -1.0 ? minus_one : (1.0 < cos_raw ? one : cos_raw);  // std::clamp
         const F sin_a = safe_sqrt_of(1.0 - cos_a * cos_a);
-        const F len = sqrt_of(sin2);
-        const F cx = len > 0.0 ? local[0] / len : one, cy = len > 0.0 ? local[1] / len : F{};
+        F cy, cx;
+        sincos_turn(u2, cy, cx);
         // Normal at the point, outward from the centre, on the side facing ref.
         const F v[3] = {sin_a * cx, sin_a * cy, -cos_a};
         for (int a = 0; a < 3; ++a) {
@@ -551,12 +558,16 @@ private:
         return by_area;
     }
 
-    // 1 - cos of the half-angle of the cone that a sphere of squared radius r2 subtends at
-    // squared distance dc2 from its centre, without cancellation.
+    // sin^2 of the half-angle of the cone that a sphere of squared radius r2 subtends at
+    // squared distance dc2 from its centre (at most 1), and 1 - cos of that angle from it,
+    // without cancellation.
     template <typename F>
-    static F cone_one_minus_cos(F r2, F dc2) {
+    static F cone_sin2(F r2, F dc2) {
         const F ratio = r2 / dc2;
-        const F sin2 = ratio < 1.0 ? ratio : as_lanes(1.0, ratio);  // std::min(1.0, ratio)
+        return ratio < 1.0 ? ratio : as_lanes(1.0, ratio);  // std::min(1.0, ratio)
+    }
+    template <typename F>
+    static F cone_one_minus_cos(F sin2) {
         const F cos_max = safe_sqrt_of(1.0 - sin2);
         return sin2 / (1.0 + cos_max);  // 1 - cos_max
     }
@@ -645,7 +656,7 @@ private:
         if (e.kind == EmitterKind::Sphere) {
             const Sphere& s = (*spheres_)[e.index];
             const double dc2 = length_squared(s.center - ref);
-            if (dc2 > s.radius * s.radius) return uniform_cone_pdf(cone_one_minus_cos(s.radius * s.radius, dc2));
+            if (dc2 > s.radius * s.radius) return uniform_cone_pdf(cone_one_minus_cos(cone_sin2(s.radius * s.radius, dc2)));
         }
         const double dist2 = length_squared(p - ref);
         const double pdf = dist2 / (cos_l * area(e));
