@@ -66,10 +66,11 @@ std::optional<Vec3> Integrator<M>::estimate_ld(const Vertex& v, const Vec3& beta
     constexpr double eps = M == Mutant::ShadowEpsilonLeak ? kLeakyShadowEpsilon : kShadowEpsilon;
     const double t_max = ls.background ? kInf : ls.dist * (1.0 - eps);
     if (occluded(Ray{shadow_origin(v, ref, ls.wi), ls.wi}, t_max)) return std::nullopt;
-    // A delta light's sample is weighted 1: no BSDF sample can meet it (Mitsuba's ds.delta).
-    const double w = ls.delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf<M>(v.m, v.wo, local));
+    // The MIS weight over the density; a delta light's sample is weighted 1: no BSDF sample
+    // can meet it (Mitsuba's ds.delta).
+    const double scale = ls.delta ? 1.0 / ls.pdf : power_heuristic_over(ls.pdf, bsdf_pdf<M>(v.m, v.wo, local));
     // beta enters the product first, as it always has: the order fixes the rounding.
-    return beta * f * ls.radiance * (w / ls.pdf);
+    return beta * f * ls.radiance * scale;
 }
 
 template <Mutant M>

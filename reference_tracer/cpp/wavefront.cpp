@@ -286,10 +286,9 @@ unsigned WavefrontIntegrator::estimate_diffuse(const VertexQueue& q, int base, c
     // The segment ends just short of the sampled point (kShadowEpsilon), at infinity for
     // the background.
     t_max = lanes_of_bits(ls.background) ? splat(kInf) : ls.dist * (1.0 - kShadowEpsilon);
-    VPd w = power_heuristic(ls.pdf, lambertian::pdf_z(wo_z, cos_i));
-    if (ls.delta != 0) w = lanes_of_bits(ls.delta) ? splat(1.0) : w;  // a delta light's: 1
-    // beta * f * radiance * (w / pdf), in estimate_ld's order.
-    const VPd scale = w / ls.pdf;
+    VPd scale = power_heuristic_over(ls.pdf, lambertian::pdf_z(wo_z, cos_i));
+    if (ls.delta != 0) scale = lanes_of_bits(ls.delta) ? 1.0 / ls.pdf : scale;  // a delta light's: weight 1
+    // beta * f * radiance * (weight / pdf), in estimate_ld's order.
     for (int c = 0; c < 3; ++c) value[c] = ((beta[c] * f[c]) * ls.radiance[c]) * scale;
     return shadow;
 }

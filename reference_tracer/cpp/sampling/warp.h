@@ -205,4 +205,13 @@ inline F power_heuristic(F pdf_a, F pdf_b) {
     return finite_lanes(w) ? w : as_lanes(0.0, w);
 }
 
+// power_heuristic(pdf_a, pdf_b) / pdf_a, the factor of a sample of density pdf_a in an MIS
+// estimate, as pdf_a / (pdf_a^2 + pdf_b^2): one division where the weight and then the
+// quotient took two in a chain. Not finite (both densities 0 or infinite): 0.
+template <typename F>
+inline F power_heuristic_over(F pdf_a, F pdf_b) {
+    const F s = pdf_a / (pdf_a * pdf_a + pdf_b * pdf_b);
+    return finite_lanes(s) ? s : as_lanes(0.0, s);
+}
+
 }  // namespace rt
