@@ -355,23 +355,19 @@ def run(args) -> int:
     return EXIT_FAIL if args.require_targets and missed else 0
 
 
+#: how :func:`benchmarks.speed.check_depths` names the settings it refuses: by this command's options
+_DEPTH_OPTIONS = {"spp": "--spp", "reference_spp": "--reference-spp", "max_depth": "--max-depth",
+                  "rr_depths": "--rr-depth"}
+
+
 def _check_render_options(args, scenes, threads: int) -> None:
     """Refuse a bad option of the render benchmark before anything is built (an ``--isa`` build takes
     minutes) or rendered, in the command's words (``ValueError`` naming the option); the rest as
     :func:`benchmarks.speed.render_config` checks it (names of scenes, strategies, integrators)."""
     from benchmarks import speed
 
-    if args.max_depth is not None and not (args.max_depth == -1 or args.max_depth >= 1):
-        raise ValueError(f"--max-depth must be >= 1 or -1, got {args.max_depth}")
-    if args.reference_spp <= args.spp:
-        raise ValueError(f"--reference-spp ({args.reference_spp}) must exceed --spp ({args.spp})")
-    labels = ["none" if v is None else str(v) for v in args.rr_depth]
-    bad = [v for v in args.rr_depth if v is not None and v < 1]
-    if bad:
-        raise ValueError(f"--rr-depth: a depth must be >= 1, got {bad[0]}")
-    twice = sorted({v for v in labels if labels.count(v) > 1})
-    if twice:
-        raise ValueError(f"--rr-depth: {', '.join(twice)} given more than once")
+    speed.check_depths(spp=args.spp, reference_spp=args.reference_spp, max_depth=args.max_depth,
+                       rr_depths=args.rr_depth, names=_DEPTH_OPTIONS)
     speed.render_config(scenes, width=args.width, height=args.height, spp=args.spp, threads=threads,
                         repeats=args.repeats, strategies=list(args.strategies), integrators=list(args.integrators),
                         variants=list(args.variant), max_depth=args.max_depth, rr_depths=args.rr_depth,

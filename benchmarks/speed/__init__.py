@@ -9,12 +9,12 @@ from .common import WALL_CLOCK_NOTE
 from .rays import (hit_agreement, intersect_mitsuba, intersect_ours, mesh_scene, primary_rays, random_rays,
                    ray_benchmark, torus_mesh)
 from .render import (DEFAULT_RR_DEPTHS, DEFAULT_STRATEGIES, DEFAULT_VARIANTS, REFERENCE_KINDS, render_benchmark,
-                     render_config, rr_label)
+                     check_depths, render_config, rr_label)
 from .scaling import fit_log_growth, scaling_benchmark
 from .suite import GEOMEAN, suite_summary
 from .targets import speed_verdicts, verdict_lines
 
 __all__ = ["WALL_CLOCK_NOTE", "DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT_RR_DEPTHS", "REFERENCE_KINDS",
-           "render_benchmark", "render_config", "rr_label", "suite_summary", "GEOMEAN", "ray_benchmark",
+           "render_benchmark", "render_config", "check_depths", "rr_label", "suite_summary", "GEOMEAN", "ray_benchmark",
            "scaling_benchmark", "torus_mesh", "mesh_scene", "primary_rays", "random_rays", "intersect_ours",
            "intersect_mitsuba", "hit_agreement", "fit_log_growth", "speed_verdicts", "verdict_lines"]

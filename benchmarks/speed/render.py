@@ -34,7 +34,7 @@ from .common import (available_variants, environment, load_mitsuba, median, mits
 from .suite import suite_summary
 
 __all__ = ["DEFAULT_STRATEGIES", "DEFAULT_VARIANTS", "DEFAULT_RR_DEPTHS", "REFERENCE_KINDS", "render_benchmark",
-           "render_config", "rr_label", "render_timed", "mitsuba_timed"]
+           "render_config", "check_depths", "rr_label", "render_timed", "mitsuba_timed"]
 
 #: our strategies in run order: the unbiased ones from ``mis`` (matched to Mitsuba's ``path``) down to the plainest,
 #: then the biased ``light``.
@@ -131,19 +131,50 @@ def render_config(scenes, *, spp, strategies, integrators, variants, max_depth, 
     spp, reference_spp = positive_int("spp", spp), positive_int("reference_spp", reference_spp, minimum=2)
     if reference not in REFERENCE_KINDS:
         raise ValueError(f"reference must be one of {REFERENCE_KINDS}, got {reference!r}")
-    if reference_spp <= spp:
-        raise ValueError(f"reference_spp ({reference_spp}) must exceed spp ({spp})")
-    if max_depth is not None and not (int(max_depth) == -1 or int(max_depth) >= 1):
-        raise ValueError(f"max_depth must be >= 1 or -1, got {max_depth}")
-    rr_depths = [v if v in ("scene", None) else positive_int("rr_depth", v) for v in rr_depths]
-    if not rr_depths or len(set(map(str, rr_depths))) != len(rr_depths):
-        raise ValueError(f"rr_depths must name configurations without duplicates, got {rr_depths}")
+    rr_depths = check_depths(spp=spp, reference_spp=reference_spp, max_depth=max_depth, rr_depths=rr_depths)
     return {"scenes": name_list("scenes", scenes, known_scenes()), **{k: positive_int(k, v) for k, v in sizes.items()},
             "spp": spp, "strategies": name_list("strategies", strategies, STRATEGIES),
             "integrators": name_list("integrators", integrators, INTEGRATORS),
             "variants": name_list("variants", variants), "max_depth": None if max_depth is None else int(max_depth),
             "rr_depths": rr_depths, "reference": reference, "reference_spp": reference_spp,
             "seed": positive_int("seed", seed, minimum=0)}
+
+
+def check_depths(*, spp, reference_spp, max_depth, rr_depths, names=None) -> list:
+    """Check the settings :func:`render_benchmark` and ``rtbench speed`` share beyond plain ranges: ``reference_spp``
+    above ``spp``, ``max_depth`` None (the scenes' own), -1 or >= 1, and ``rr_depths`` distinct Russian-roulette
+    configurations (a depth >= 1, None for none, ``'scene'`` for the scene's own). ``names`` maps a keyword to the
+    word an error uses for it (``rtbench speed`` passes its options); ``ValueError`` names the first bad one.
+    Returns ``rr_depths`` as a list, each depth an ``int``.
+
+    >>> check_depths(spp=8, reference_spp=64, max_depth=None, rr_depths=[5, None])
+    [5, None]
+    >>> check_depths(spp=8, reference_spp=64, max_depth=None, rr_depths=[5, 5], names={"rr_depths": "--rr-depth"})
+    Traceback (most recent call last):
+    ...
+    ValueError: --rr-depth: 5 given more than once
+    """
+    name = {"spp": "spp", "reference_spp": "reference_spp", "max_depth": "max_depth", "rr_depths": "rr_depths",
+            **(names or {})}
+    if reference_spp <= spp:
+        raise ValueError(f"{name['reference_spp']} ({reference_spp}) must exceed {name['spp']} ({spp})")
+    if max_depth is not None and not (int(max_depth) == -1 or int(max_depth) >= 1):
+        raise ValueError(f"{name['max_depth']} must be >= 1 or -1, got {max_depth}")
+    rr_depths = list(rr_depths)
+    if not rr_depths:
+        raise ValueError(f"{name['rr_depths']} must name at least one configuration")
+    for v in rr_depths:
+        if v in ("scene", None):
+            continue
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+            raise ValueError(f"{name['rr_depths']}: a depth must be an integer, None or 'scene', got {v!r}")
+        if v < 1:
+            raise ValueError(f"{name['rr_depths']}: a depth must be >= 1, got {v}")
+    labels = ["none" if v is None else str(v) for v in rr_depths]
+    twice = sorted({v for v in labels if labels.count(v) > 1})
+    if twice:
+        raise ValueError(f"{name['rr_depths']}: {', '.join(twice)} given more than once")
+    return [v if v in ("scene", None) else int(v) for v in rr_depths]
 
 
 def rr_label(rr_depth) -> str:

@@ -192,8 +192,10 @@ def test_rr_depth_option_and_its_validation(capsys):
         assert "rtbench speed: error: --rr-depth" in capsys.readouterr().err
     assert main(["speed", "--rr-depth", "0", "--quiet", "--variants", "scalar_rgb", "--reference", "ours"]) == 2
     assert "rtbench speed: error: --rr-depth: a depth must be >= 1, got 0" in capsys.readouterr().err
-    with pytest.raises(ValueError, match="duplicates"):
+    with pytest.raises(ValueError, match="rr_depths: 5 given more than once"):
         speed.render_benchmark(["cornell_box"], rr_depths=(5, 5))
+    with pytest.raises(ValueError, match="rr_depths: a depth must be an integer, None or 'scene', got 2.5"):
+        speed.render_benchmark(["cornell_box"], rr_depths=(2.5,))
 
 
 def test_cli_rejects_bad_input(capsys):
