@@ -69,7 +69,8 @@ std::optional<Vec3> Integrator<M>::estimate_ld(const Vertex& v, const Vec3& beta
     // The MIS weight over the density; a delta light's sample is weighted 1: no BSDF sample
     // can meet it (Mitsuba's ds.delta).
     const double scale = ls.delta ? 1.0 / ls.pdf : power_heuristic_over(ls.pdf, bsdf_pdf<M>(v.m, v.wo, local));
-    // beta enters the product first, as it always has: the order fixes the rounding.
+    // beta enters the product first: the order fixes the rounding, which the wavefront
+    // integrator's packs repeat (estimate_diffuse).
     return beta * f * ls.radiance * scale;
 }
 

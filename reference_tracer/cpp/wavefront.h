@@ -183,7 +183,7 @@ private:
 #endif
     void draw_queued(VertexQueue& q, int n) const;
     // Integrator::estimate_ld at the diffuse vertices (bits `lanes`) of the queue's pack at
-    // `base`, given their light samples: lambertian::eval_z, pdf_z and power_heuristic, the
+    // `base`, given their light samples: lambertian::eval_z, pdf_z and power_heuristic_over, the
     // scalar code's own bodies, on the pack. Returns the lanes with a shadow ray; `value`
     // holds what each adds to L when unoccluded, t_max where its shadow ray ends.
     static unsigned estimate_diffuse(const VertexQueue& q, int base, const LightSamplePack& ls, unsigned lanes,

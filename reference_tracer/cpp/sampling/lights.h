@@ -498,9 +498,9 @@ private:
     // uniform by area (pdf_dir 0); from outside, uniform in the subtended cone (pdf_dir its
     // solid-angle density), the point where the sampled direction first meets the sphere
     // found by its angle at the centre (pbrt-v4's and Mitsuba's formula: no division but
-    // by sin^2 theta_max, and the azimuth's own sine and cosine for the point's, where
-    // intersecting the direction with the sphere took three divisions and two square
-    // roots more; PERFORMANCE.md, Ideas tried). A pack runs each of the two only where one of
+    // by sin^2 theta_max, and the azimuth's own sine and cosine for the point's; three
+    // divisions and two square roots fewer than intersecting the sampled direction with
+    // the sphere, PERFORMANCE.md, Ideas tried). A pack runs each of the two only where one of
     // `lanes` needs it. Returns the lanes sampled by area (bits). One body for sample()
     // (F double) and the packs.
     template <typename F>
